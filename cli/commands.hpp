@@ -1,0 +1,16 @@
+#pragma once
+// Each subcommand registers itself on the app and returns the exit status
+// through the callback slot it is given.
+
+#include <CLI/CLI.hpp>
+
+namespace chromo::cli {
+
+// Exit statuses shared by every command.
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitFailure = 1;     // something went wrong inside
+inline constexpr int kExitBadInput = 2;    // the command line or an input file was wrong
+
+void add_model_command(CLI::App& app, int& exit_status);
+
+}  // namespace chromo::cli
