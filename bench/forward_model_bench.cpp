@@ -2,17 +2,23 @@
 // second, one thread against two, and the closed-form multipole sum against
 // the explicit term-by-term sum (MODEL.md's definition) per wavelength.
 //
-//   build/release/bin/forward_model_bench [--benchmark_out=FILE --benchmark_out_format=json]
+//   build/release/bin/forward_model_bench [google-benchmark flags]
+//
+// Prints the figures, the ratios (2 threads / 1 thread, closed form /
+// explicit sum) and writes bench/results/forward_model.png.
 //
 // Target (issue "Foundation"): >= 1e7 wavelength evaluations/s per core,
 // aim 5e7.
 #include <benchmark/benchmark.h>
 
+#include <cstdio>
+#include <map>
 #include <random>
 #include <vector>
 
 #include "chromo/estimation/layer_optics.hpp"
 #include "chromo/estimation/skin_model.hpp"
+#include "chart.hpp"
 
 using namespace chromo::estimation;
 using chromo::spectral::kGridSize;
@@ -87,4 +93,43 @@ BENCHMARK(BM_SlabExplicitSum);
 
 }  // namespace
 
-BENCHMARK_MAIN();
+// Keeps each run's counters so main() can form ratios and draw the chart.
+class RecordingReporter : public benchmark::ConsoleReporter {
+ public:
+  void ReportRuns(const std::vector<Run>& runs) override {
+    for (const Run& run : runs)
+      for (const auto& [name, counter] : run.counters) figures[run.benchmark_name()][name] = counter.value;
+    ConsoleReporter::ReportRuns(runs);
+  }
+  std::map<std::string, std::map<std::string, double>> figures;
+};
+
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  RecordingReporter reporter;
+  benchmark::RunSpecifiedBenchmarks(&reporter);
+  benchmark::Shutdown();
+
+  auto& f = reporter.figures;
+  const double single = f["BM_SingleSpectrum"]["wavelengths_per_s"];
+  const double one = f["BM_Batch/threads:1/real_time"]["wavelengths_per_s"];
+  const double two = f["BM_Batch/threads:2/real_time"]["wavelengths_per_s"];
+  const double closed = f["BM_SlabClosedForm"]["slabs_per_s"];
+  const double explicit_sum = f["BM_SlabExplicitSum"]["slabs_per_s"];
+  if (one > 0 && two > 0) {
+    std::printf("\nforward model: %.1f M wavelengths/s on 1 thread (%.2f us per spectrum), %.1f M on 2 threads\n",
+                one / 1e6, 81e6 / one, two / 1e6);
+    std::printf("  2 threads / 1 thread = %.2fx; target >= 10 M/s per core: %s; aim 50 M/s per core\n", two / one,
+                one >= 1e7 ? "met" : "MISSED");
+  }
+  if (closed > 0 && explicit_sum > 0)
+    std::printf("  multipole slab: closed form / explicit sum = %.2fx faster (scalar, one wavelength)\n",
+                closed / explicit_sum);
+  if (single > 0 && one > 0 && two > 0) {
+    chromo::bench::write_bar_chart("bench/results/forward_model.png", "Skin forward model throughput (81-sample spectra)",
+                                   "million wavelength evaluations / s",
+                                   {{"single call", single / 1e6}, {"batch, 1 thread", one / 1e6},
+                                    {"batch, 2 threads", two / 1e6}, {"target per core", 10.0}});
+  }
+  return 0;
+}
