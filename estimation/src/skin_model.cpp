@@ -14,13 +14,15 @@ using spectral::Spectrum;
 
 namespace {
 
-// Vectorised form of layer_optics.cpp's pole_family_sum over the grid.
-// q = exp(-σtr·period) is shared by the four families of a slab, and
-// q/x = exp(-σtr·(period - z0)) is formed by a division (x ≥ q > 0 wherever q
-// does not underflow), so each family costs one exponential.
-GridArray pole_family_sum(const GridArray& sigma_tr, const GridArray& period, const GridArray& q,
-                          const GridArray& one_minus_q_inverse, const GridArray& c) {
-  const GridArray z0 = (-c / period).ceil() * period + c;
+// Vectorised form of layer_optics.cpp's pole_family_sum over the grid, for
+// the epidermis' geometry. z0 is the family's first non-negative pole,
+// x = exp(-σtr·z0) and q = exp(-σtr·P) is shared by the four families;
+// q/x = exp(-σtr·(P - z0)) is formed by a division (x ≥ q, and q does not
+// underflow for any parameters in MODEL.md's ranges), so each family costs
+// one exponential. A pole exactly at z = 0 contributes sgn(0) = 0 and the
+// lattice is then antisymmetric about it: the family sums to 0.
+GridArray pole_family_sum(const GridArray& sigma_tr, const GridArray& q, const GridArray& one_minus_q_inverse,
+                          const GridArray& z0) {
   const GridArray x = (-sigma_tr * z0).exp().max(std::numeric_limits<double>::min());
   return (z0 == 0.0).select(GridArray::Zero(), (x - q / x) * one_minus_q_inverse);
 }
@@ -45,9 +47,17 @@ Evaluation evaluate(const ChromophoreSpectra& k, double skin_air_a, const SkinPa
   const GridArray half_alpha = 0.5 * sigma_s_epi * l;
   const GridArray q = (-sigma_tr * period).exp();
   const GridArray one_minus_q_inverse = (1.0 - q).inverse();
-  auto family = [&](const GridArray& c) { return pole_family_sum(sigma_tr, period, q, one_minus_q_inverse, c); };
-  e.r1 = half_alpha * (family(l) - family(-l - 2.0 * zb0));
-  e.t1 = half_alpha * (family(d - l) - family(d + l + 2.0 * zb0));
+  auto family = [&](const GridArray& z0) { return pole_family_sum(sigma_tr, q, one_minus_q_inverse, z0); };
+  // First non-negative pole of each family (layer_optics.cpp finds it with a
+  // ceil; here it is known): with the exit index-matched, z_bd = (2/3)·l, so
+  // P = 2d + 2z_b0 + (4/3)l, and
+  //   R, real  (c = l):             z0 = l
+  //   R, image (c = -l - 2z_b0):    z0 = P - l - 2z_b0 = 2d + l/3 > 0
+  //   T, real  (c = d - l):         z0 = d - l, or P + d - l when l > d
+  //   T, image (c = d + l + 2z_b0): z0 = c < P
+  const GridArray d_minus_l = d - l;
+  e.r1 = half_alpha * (family(l) - family(period - l - 2.0 * zb0));
+  e.t1 = half_alpha * (family((d_minus_l < 0.0).select(period + d_minus_l, d_minus_l)) - family(d + l + 2.0 * zb0));
 
   // Dermis: semi-infinite dipole with an index-matched top.
   const GridArray sigma_a_derm = p.ch * k.sigma_a_blood.values() + (1.0 - p.ch) * k.sigma_a_baseline.values();

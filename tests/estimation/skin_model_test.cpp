@@ -1,5 +1,7 @@
 #include "chromo/estimation/skin_model.hpp"
 
+#include "chromo/estimation/layer_optics.hpp"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -35,6 +37,28 @@ TEST(SkinModel, MatchesAnIndependentTermByTermEvaluation) {
     EXPECT_NEAR(layers.epidermis_transmittance[i], r.t1, 1e-10) << r.nm;
     EXPECT_NEAR(layers.dermis_reflectance[i], r.r2, 1e-10) << r.nm;
     EXPECT_NEAR(layers.albedo[i], r.albedo, 1e-10) << r.nm;
+  }
+}
+
+TEST(SkinModel, VectorisedModelEqualsTheScalarLayerOpticsAtEveryWavelength) {
+  // The grid-wide Eigen evaluation against layer_optics.hpp's scalar slab,
+  // dipole and combination (which find each pole family's sign change with a
+  // general ceil), over the corners and middle of the parameter box.
+  const SkinModel model;
+  const ChromophoreSpectra& k = chromophore_spectra();
+  const double a_skin = boundary_coefficient(kSkinRefractiveIndex);
+  for (const SkinParameters p : {SkinParameters{0.001, 0.001, 0.0, 0.0}, SkinParameters{0.5, 0.32, 1.0, 0.1},
+                                 SkinParameters{0.12, 0.05, 0.4, 0.06}, SkinParameters{0.5, 0.001, 0.0, 0.1}}) {
+    const Spectrum albedo = model.albedo(p);
+    for (int i = 0; i < kGridSize; ++i) {
+      const double sa_epi = p.cm * (p.bm * k.sigma_a_eumelanin[i] + (1 - p.bm) * k.sigma_a_pheomelanin[i]) +
+                            p.che * k.sigma_a_blood[i] + (1 - p.cm - p.che) * k.sigma_a_baseline[i];
+      const double sa_derm = p.ch * k.sigma_a_blood[i] + (1 - p.ch) * k.sigma_a_baseline[i];
+      const SlabReflectance epi =
+          multipole_slab(sa_epi, k.sigma_s_reduced_epidermis[i], kEpidermisThicknessMm, a_skin, kIndexMatchedA);
+      const double r2 = dipole_semi_infinite(sa_derm, k.sigma_s_reduced_dermis[i]);
+      EXPECT_NEAR(albedo[i], combine_two_layers(epi.reflectance, epi.transmittance, r2), 1e-13) << i;
+    }
   }
 }
 
