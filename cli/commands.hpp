@@ -12,5 +12,6 @@ inline constexpr int kExitFailure = 1;     // something went wrong inside
 inline constexpr int kExitBadInput = 2;    // the command line or an input file was wrong
 
 void add_model_command(CLI::App& app, int& exit_status);
+void add_profiles_command(CLI::App& app, int& exit_status);
 
 }  // namespace chromo::cli

@@ -8,6 +8,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   int exit_status = chromo::cli::kExitOk;
   chromo::cli::add_model_command(app, exit_status);
+  chromo::cli::add_profiles_command(app, exit_status);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

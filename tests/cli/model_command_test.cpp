@@ -1,36 +1,20 @@
 // Runs the real chromo binary and checks its output and exit status.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
-#include <array>
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "run_chromo.hpp"
+
 using testing::HasSubstr;
 
 namespace {
 
-struct Result {
-  int exit_status;
-  std::string output;  // stdout and stderr together
-};
-
-Result run(const std::string& arguments) {
-  const std::string command = std::string(CHROMO_CLI) + " " + arguments + " 2>&1";
-  FILE* pipe = popen(command.c_str(), "r");
-  if (!pipe) return {-1, "popen failed"};
-  std::string output;
-  std::array<char, 4096> buffer{};
-  while (std::size_t n = fread(buffer.data(), 1, buffer.size(), pipe)) output.append(buffer.data(), n);
-  const int status = pclose(pipe);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, output};
-}
-
 TEST(ChromoModel, JsonHasTheDocumentedKeysAndConsistentValues) {
-  const Result r = run("model --cm 0.05 --ch 0.03 --bm 0.7 --che 0.01 --json");
+  const Result r = run_chromo("model --cm 0.05 --ch 0.03 --bm 0.7 --che 0.01 --json");
   ASSERT_EQ(r.exit_status, 0) << r.output;
   const auto j = nlohmann::json::parse(r.output);
   ASSERT_EQ(j["wavelength_nm"].size(), 81u);
@@ -46,7 +30,7 @@ TEST(ChromoModel, JsonHasTheDocumentedKeysAndConsistentValues) {
 }
 
 TEST(ChromoModel, TextOutputListsTheSpectrumAndColour) {
-  const Result r = run("model --cm 0.05 --ch 0.03 --illuminant a");
+  const Result r = run_chromo("model --cm 0.05 --ch 0.03 --illuminant a");
   ASSERT_EQ(r.exit_status, 0) << r.output;
   EXPECT_THAT(r.output, HasSubstr("\n380 "));
   EXPECT_THAT(r.output, HasSubstr("\n780 "));
@@ -55,26 +39,26 @@ TEST(ChromoModel, TextOutputListsTheSpectrumAndColour) {
 }
 
 TEST(ChromoModel, OutOfRangeParametersAreRefusedWithExitStatus2) {
-  Result r = run("model --cm 0.7 --ch 0.03");
+  Result r = run_chromo("model --cm 0.7 --ch 0.03");
   EXPECT_EQ(r.exit_status, 2);
   EXPECT_THAT(r.output, HasSubstr("Cm = 0.7 is outside its range 0.001-0.5"));
-  r = run("model --cm 0.05 --ch 0.5");
+  r = run_chromo("model --cm 0.05 --ch 0.5");
   EXPECT_EQ(r.exit_status, 2);
   EXPECT_THAT(r.output, HasSubstr("Ch = 0.5 is outside its range 0.001-0.32"));
-  r = run("model --cm 0.05 --ch 0.03 --bm -0.1");
+  r = run_chromo("model --cm 0.05 --ch 0.03 --bm -0.1");
   EXPECT_EQ(r.exit_status, 2);
   EXPECT_THAT(r.output, HasSubstr("βm = -0.1 is outside its range 0-1"));
-  r = run("model --cm 0.05 --ch 0.03 --che 0.2");
+  r = run_chromo("model --cm 0.05 --ch 0.03 --che 0.2");
   EXPECT_EQ(r.exit_status, 2);
   EXPECT_THAT(r.output, HasSubstr("Che = 0.2 is outside its range 0-0.1"));
 }
 
 TEST(ChromoModel, MalformedCommandLinesAreRefusedWithExitStatus2) {
-  EXPECT_EQ(run("model --cm abc --ch 0.03").exit_status, 2);
-  EXPECT_EQ(run("model --ch 0.03").exit_status, 2);  // --cm is required
-  EXPECT_EQ(run("model --cm 0.05 --ch 0.03 --frobnicate").exit_status, 2);
-  EXPECT_EQ(run("").exit_status, 2);  // no subcommand
-  const Result r = run("model --cm 0.05 --ch 0.03 --illuminant d75");
+  EXPECT_EQ(run_chromo("model --cm abc --ch 0.03").exit_status, 2);
+  EXPECT_EQ(run_chromo("model --ch 0.03").exit_status, 2);  // --cm is required
+  EXPECT_EQ(run_chromo("model --cm 0.05 --ch 0.03 --frobnicate").exit_status, 2);
+  EXPECT_EQ(run_chromo("").exit_status, 2);  // no subcommand
+  const Result r = run_chromo("model --cm 0.05 --ch 0.03 --illuminant d75");
   EXPECT_EQ(r.exit_status, 2);
   EXPECT_THAT(r.output, HasSubstr("unknown illuminant 'd75'"));
 }
@@ -82,14 +66,14 @@ TEST(ChromoModel, MalformedCommandLinesAreRefusedWithExitStatus2) {
 TEST(ChromoModel, IlluminantFromCsvFile) {
   const std::string good = testing::TempDir() + "/flat.csv";
   std::ofstream(good) << "# equal-energy\nwavelength_nm,value\n300,1\n900,1\n";
-  Result r = run("model --cm 0.05 --ch 0.03 --json --illuminant " + good);
+  Result r = run_chromo("model --cm 0.05 --ch 0.03 --json --illuminant " + good);
   ASSERT_EQ(r.exit_status, 0) << r.output;
   const auto j = nlohmann::json::parse(r.output);
   EXPECT_NEAR(j["xyz"]["Y"].get<double>(), 15.9, 1.0);
 
   const std::string bad = testing::TempDir() + "/bad.csv";
   std::ofstream(bad) << "wavelength_nm,value\n400,1\n700,oops\n";
-  r = run("model --cm 0.05 --ch 0.03 --illuminant " + bad);
+  r = run_chromo("model --cm 0.05 --ch 0.03 --illuminant " + bad);
   EXPECT_EQ(r.exit_status, 2);
   EXPECT_THAT(r.output, HasSubstr("'oops' is not a finite number"));
   std::remove(good.c_str());

@@ -1,0 +1,24 @@
+#pragma once
+// Runs the real chromo binary (path compiled in as CHROMO_CLI) with a shell
+// command line and collects its exit status and output.
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <string>
+
+struct Result {
+  int exit_status;
+  std::string output;  // stdout and stderr together
+};
+
+inline Result run_chromo(const std::string& arguments) {
+  const std::string command = std::string(CHROMO_CLI) + " " + arguments + " 2>&1";
+  FILE* pipe = popen(command.c_str(), "r");
+  if (!pipe) return {-1, "popen failed"};
+  std::string output;
+  std::array<char, 4096> buffer{};
+  while (std::size_t n = fread(buffer.data(), 1, buffer.size(), pipe)) output.append(buffer.data(), n);
+  const int status = pclose(pipe);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, output};
+}
