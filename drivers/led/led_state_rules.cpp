@@ -1,0 +1,58 @@
+#include "led_state_rules.hpp"
+
+#include <cmath>
+
+#include "chromo/drivers/device_error.hpp"
+
+namespace chromo::drivers::detail {
+
+void validate_state(const LedState& state, const LedControllerInfo& info, const std::string& device) {
+  auto refuse = [&](const std::string& why) {
+    throw DeviceError(DeviceError::Kind::kInvalidRequest, device, "set state", why);
+  };
+  for (LedType type : spectral::kAllLedTypes) {
+    double level = state.drive[led_type_index(type)];
+    if (!std::isfinite(level) || level < 0.0 || level > 1.0)
+      refuse("drive level of " + std::string(led_type_name(type)) + " is " + std::to_string(level) +
+             ", outside [0, 1]");
+  }
+  if (state.zone && (*state.zone < 0 || *state.zone >= info.zone_count))
+    refuse("zone " + std::to_string(*state.zone) + " does not exist (device has " +
+           std::to_string(info.zone_count) + ")");
+  if (state.pwm_frequency_hz != 0.0) {
+    if (info.drive_mode != DriveMode::kPwmDuty)
+      refuse("PWM frequency given to a constant-current device");
+    if (!(state.pwm_frequency_hz >= info.min_pwm_frequency_hz && state.pwm_frequency_hz <= info.max_pwm_frequency_hz))
+      refuse("PWM frequency " + std::to_string(state.pwm_frequency_hz) + " Hz outside [" +
+             std::to_string(info.min_pwm_frequency_hz) + ", " + std::to_string(info.max_pwm_frequency_hz) + "] Hz");
+  }
+}
+
+std::string describe_faults(std::uint32_t faults) {
+  std::string text;
+  auto add = [&](std::uint32_t bit, const char* name) {
+    if (faults & bit) text += (text.empty() ? "" : "+") + std::string(name);
+  };
+  add(kLedFaultOverTemperature, "over-temperature");
+  add(kLedFaultOpenCircuit, "open circuit");
+  add(kLedFaultShortCircuit, "short circuit");
+  add(kLedFaultSupply, "supply");
+  if (faults & ~0xFu) text += (text.empty() ? "" : "+") + std::string("unknown bits");
+  return text.empty() ? "none" : text;
+}
+
+void check_applied_state(const LedState& requested, const LedStatus& status, const std::string& device) {
+  std::string faults;
+  if (status.controller_faults != kLedFaultNone)
+    faults += "controller: " + describe_faults(status.controller_faults);
+  for (LedType type : spectral::kAllLedTypes) {
+    int i = led_type_index(type);
+    if (requested.drive[i] > 0.0 && status.channel_faults[i] != kLedFaultNone)
+      faults += (faults.empty() ? "" : "; ") + std::string(led_type_name(type)) + ": " +
+                describe_faults(status.channel_faults[i]);
+  }
+  if (!faults.empty())
+    throw DeviceError(DeviceError::Kind::kFault, device, "set state", "applied, but the device reports " + faults);
+}
+
+}  // namespace chromo::drivers::detail

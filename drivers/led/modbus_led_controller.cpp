@@ -1,0 +1,245 @@
+// LED controller over Modbus TCP or RTU (libmodbus), register map in
+// docs/protocols/led-modbus.md and led/led_modbus_map.hpp.
+//
+// Every command is one "write multiple registers" of the staging block ending
+// with a fresh command sequence number; the device acts on it and publishes the
+// sequence number and a result code in input registers, which the driver reads
+// back: set_state returns only once the device has acknowledged that sequence.
+
+#include <modbus/modbus.h>
+
+#include <cerrno>
+#include <cmath>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "chromo/drivers/device_error.hpp"
+#include "chromo/drivers/led/led_modbus_map.hpp"
+#include "chromo/drivers/led_controller_factory.hpp"
+#include "led_state_rules.hpp"
+
+namespace chromo::drivers {
+namespace {
+
+namespace map = led_modbus;
+using Kind = DeviceError::Kind;
+
+struct ModbusDeleter {
+  void operator()(modbus_t* ctx) const {
+    modbus_close(ctx);
+    modbus_free(ctx);
+  }
+};
+using ModbusPtr = std::unique_ptr<modbus_t, ModbusDeleter>;
+
+Kind kind_of_errno(int error) {
+  if (error == ETIMEDOUT) return Kind::kTimeout;
+  if (error >= EMBXILFUN && error <= EMBXGTAR) return Kind::kRefused;  // Modbus exception replies
+  if (error == EMBBADCRC || error == EMBBADDATA || error == EMBBADEXC || error == EMBMDATA ||
+      error == EMBBADSLAVE)
+    return Kind::kProtocol;
+  if (error == ECONNREFUSED || error == ECONNRESET || error == EPIPE || error == ENOTCONN || error == EBADF)
+    return Kind::kDisconnected;
+  return Kind::kProtocol;
+}
+
+std::uint16_t level_to_register(double level) {
+  return static_cast<std::uint16_t>(std::lround(level * map::kDriveFullScale));
+}
+double register_to_level(std::uint16_t value) { return value / double(map::kDriveFullScale); }
+std::uint32_t join32(std::uint16_t high, std::uint16_t low) { return (std::uint32_t(high) << 16) | low; }
+
+std::string registers_to_ascii(const std::uint16_t* registers, int count) {
+  std::string text;
+  for (int i = 0; i < count; ++i)
+    for (int shift : {8, 0}) {
+      char c = static_cast<char>((registers[i] >> shift) & 0xFF);
+      if (c == '\0') return text;
+      text += c;
+    }
+  return text;
+}
+
+class ModbusLedController final : public LedController {
+ public:
+  ModbusLedController(ModbusPtr ctx, std::string device) : ctx_(std::move(ctx)), device_(std::move(device)) {
+    read_info();
+    std::uint16_t last_sequence = 0;
+    call("read command sequence", modbus_read_registers(ctx_.get(), map::kHoldCommandSequence, 1, &last_sequence));
+    sequence_ = last_sequence;
+  }
+
+  LedControllerInfo info() const override { return info_; }
+
+  void set_state(const LedState& state) override {
+    detail::validate_state(state, info_, device_);
+    std::vector<std::uint16_t> block(map::kHoldCommandSequence + 1, 0);
+    put_state(state, block.data());
+    LedStatus status = run_command(map::kCommandApplyState, block, "set state");
+    detail::check_applied_state(state, status, device_);
+  }
+
+  LedStatus read_status() override {
+    std::uint16_t regs[map::kInStatusCount];
+    call("read status", modbus_read_input_registers(ctx_.get(), map::kInStatusFirst, map::kInStatusCount, regs));
+    auto at = [&](int address) { return regs[address - map::kInStatusFirst]; };
+    LedStatus status;
+    for (int i = 0; i < kLedTypeCount; ++i) {
+      status.applied.drive[i] = register_to_level(at(map::kInAppliedDrive0 + i));
+      status.temperature_C[i] = static_cast<std::int16_t>(at(map::kInTemperature0 + i)) / 100.0;
+      status.channel_faults[i] = at(map::kInChannelFaults0 + i);
+    }
+    if (at(map::kInAppliedZone) != map::kAllZones) status.applied.zone = at(map::kInAppliedZone);
+    status.applied.pwm_frequency_hz = join32(at(map::kInAppliedPwmHzHigh), at(map::kInAppliedPwmHzHigh + 1));
+    std::uint16_t position = at(map::kInSequencePosition);
+    status.sequence_position = position == 0xFFFF ? -1 : position;
+    status.controller_faults = at(map::kInControllerFaults);
+    last_ack_ = at(map::kInAckSequence);
+    last_result_ = at(map::kInCommandResult);
+    std::uint8_t coil = 0;
+    call("read output enable", modbus_read_bits(ctx_.get(), map::kCoilOutputEnable, 1, &coil));
+    status.output_enabled = coil != 0;
+    return status;
+  }
+
+  void set_output_enabled(bool enabled) override {
+    call(enabled ? "enable output" : "disable output",
+         modbus_write_bit(ctx_.get(), map::kCoilOutputEnable, enabled ? 1 : 0));
+  }
+
+  void arm_sequence(std::span<const LedState> states, SequenceTrigger trigger) override {
+    if (states.empty() || static_cast<int>(states.size()) > info_.sequence_capacity)
+      throw DeviceError(Kind::kInvalidRequest, device_, "arm sequence",
+                        std::to_string(states.size()) + " states, device holds 1.." +
+                            std::to_string(info_.sequence_capacity));
+    for (const LedState& state : states) detail::validate_state(state, info_, device_);
+    constexpr int kStatesPerWrite = 12;  // 120 registers, under Modbus' 123 per write
+    for (std::size_t first = 0; first < states.size(); first += kStatesPerWrite) {
+      std::size_t count = std::min<std::size_t>(kStatesPerWrite, states.size() - first);
+      std::vector<std::uint16_t> table(count * map::kSequenceStride, 0);
+      for (std::size_t k = 0; k < count; ++k) put_state(states[first + k], &table[k * map::kSequenceStride]);
+      int address = map::kHoldSequenceTable + static_cast<int>(first) * map::kSequenceStride;
+      call("write sequence table",
+           modbus_write_registers(ctx_.get(), address, static_cast<int>(table.size()), table.data()));
+    }
+    std::vector<std::uint16_t> block{0, 0, static_cast<std::uint16_t>(states.size()),
+                                     static_cast<std::uint16_t>(trigger == SequenceTrigger::kSoftware ? 1 : 0)};
+    run_command(map::kCommandArmSequence, block, "arm sequence", map::kHoldCommandCode);
+  }
+
+  void advance_sequence() override {
+    std::vector<std::uint16_t> block(2, 0);
+    run_command(map::kCommandAdvance, block, "advance sequence", map::kHoldCommandCode);
+  }
+
+  void disarm_sequence() override {
+    std::vector<std::uint16_t> block(2, 0);
+    run_command(map::kCommandDisarm, block, "disarm sequence", map::kHoldCommandCode);
+  }
+
+ private:
+  // Writes drive[6], zone, PWM high, PWM low at `out`.
+  static void put_state(const LedState& state, std::uint16_t* out) {
+    for (int i = 0; i < kLedTypeCount; ++i) out[i] = level_to_register(state.drive[i]);
+    out[6] = state.zone ? static_cast<std::uint16_t>(*state.zone) : map::kAllZones;
+    auto hz = static_cast<std::uint32_t>(std::lround(state.pwm_frequency_hz));
+    out[7] = static_cast<std::uint16_t>(hz >> 16);
+    out[8] = static_cast<std::uint16_t>(hz & 0xFFFF);
+  }
+
+  // `block` starts at register `first` and reaches at least the command
+  // sequence register; the command code and a fresh sequence number are put in.
+  LedStatus run_command(std::uint16_t code, std::vector<std::uint16_t>& block, const std::string& request,
+                        int first = 0) {
+    sequence_ = static_cast<std::uint16_t>(sequence_ == 0xFFFF ? 1 : sequence_ + 1);
+    block[map::kHoldCommandCode - first] = code;
+    block[map::kHoldCommandSequence - first] = sequence_;
+    call(request, modbus_write_registers(ctx_.get(), first, static_cast<int>(block.size()), block.data()));
+    LedStatus status = read_status();
+    if (last_ack_ != sequence_)
+      throw DeviceError(Kind::kProtocol, device_, request,
+                        "not acknowledged: command sequence " + std::to_string(sequence_) + ", device reports " +
+                            std::to_string(last_ack_));
+    switch (last_result_) {
+      case map::kResultOk: return status;
+      case map::kResultFault:
+        throw DeviceError(Kind::kFault, device_, request,
+                          "refused: controller fault " + detail::describe_faults(status.controller_faults));
+      case map::kResultOutOfRange: throw DeviceError(Kind::kRefused, device_, request, "refused: out of range");
+      case map::kResultBadState: throw DeviceError(Kind::kRefused, device_, request, "refused: not in a state to do it");
+      case map::kResultUnknownCommand: throw DeviceError(Kind::kRefused, device_, request, "refused: unknown command");
+      default:
+        throw DeviceError(Kind::kProtocol, device_, request, "unknown result code " + std::to_string(last_result_));
+    }
+  }
+
+  void read_info() {
+    std::uint16_t regs[map::kInInfoCount];
+    call("read info", modbus_read_input_registers(ctx_.get(), 0, map::kInInfoCount, regs));
+    if (regs[map::kInProtocolVersion] != map::kProtocolVersion)
+      throw DeviceError(Kind::kProtocol, device_, "read info",
+                        "protocol version " + std::to_string(regs[map::kInProtocolVersion]) + ", expected " +
+                            std::to_string(map::kProtocolVersion));
+    if (regs[map::kInDriveMode] > 1)
+      throw DeviceError(Kind::kProtocol, device_, "read info", "unknown drive mode " + std::to_string(regs[map::kInDriveMode]));
+    info_.drive_mode = regs[map::kInDriveMode] == 0 ? DriveMode::kPwmDuty : DriveMode::kConstantCurrent;
+    info_.zone_count = regs[map::kInZoneCount];
+    info_.sequence_capacity = std::min<int>(regs[map::kInSequenceCapacity], map::kMaxSequenceStates);
+    info_.min_pwm_frequency_hz = join32(regs[map::kInMinPwmHzHigh], regs[map::kInMinPwmHzHigh + 1]);
+    info_.max_pwm_frequency_hz = join32(regs[map::kInMaxPwmHzHigh], regs[map::kInMaxPwmHzHigh + 1]);
+    int firmware = regs[map::kInFirmwareVersion];
+    info_.firmware_version = std::to_string(firmware >> 8) + "." + std::to_string(firmware & 0xFF);
+    info_.serial = registers_to_ascii(&regs[map::kInSerial], 8);
+    info_.model = registers_to_ascii(&regs[map::kInModel], 8);
+    if (info_.zone_count < 1)
+      throw DeviceError(Kind::kProtocol, device_, "read info", "zone count " + std::to_string(info_.zone_count));
+  }
+
+  void call(const std::string& request, int result) {
+    if (result != -1) return;
+    int error = errno;
+    Kind kind = kind_of_errno(error);
+    if (kind == Kind::kTimeout) modbus_flush(ctx_.get());  // drop a late answer before the next request
+    throw DeviceError(kind, device_, request,
+                      kind == Kind::kTimeout ? std::string("no answer in time (") + modbus_strerror(error) + ")"
+                                             : modbus_strerror(error));
+  }
+
+  ModbusPtr ctx_;
+  std::string device_;
+  LedControllerInfo info_;
+  std::uint16_t sequence_ = 0;
+  std::uint16_t last_ack_ = 0;
+  std::uint16_t last_result_ = 0;
+};
+
+std::unique_ptr<LedController> connect(modbus_t* raw, const std::string& device, const ModbusLinkOptions& options) {
+  if (!raw) throw DeviceError(Kind::kNotFound, device, "create Modbus context", modbus_strerror(errno));
+  ModbusPtr ctx(raw);
+  if (modbus_set_slave(ctx.get(), options.unit_id) == -1)
+    throw DeviceError(Kind::kInvalidRequest, device, "set unit id " + std::to_string(options.unit_id),
+                      modbus_strerror(errno));
+  auto us = options.response_timeout.count() * 1000;
+  modbus_set_response_timeout(ctx.get(), static_cast<std::uint32_t>(us / 1000000),
+                              static_cast<std::uint32_t>(us % 1000000));
+  if (modbus_connect(ctx.get()) == -1) throw DeviceError(Kind::kNotFound, device, "connect", modbus_strerror(errno));
+  return std::make_unique<ModbusLedController>(std::move(ctx), device);
+}
+
+}  // namespace
+
+std::unique_ptr<LedController> make_modbus_tcp_led_controller(const std::string& host, int port,
+                                                              ModbusLinkOptions options) {
+  std::string device = "Modbus TCP LED controller " + host + ":" + std::to_string(port) + " unit " +
+                       std::to_string(options.unit_id);
+  return connect(modbus_new_tcp_pi(host.c_str(), std::to_string(port).c_str()), device, options);
+}
+
+std::unique_ptr<LedController> make_modbus_rtu_led_controller(const std::string& device_path, int baud,
+                                                              ModbusLinkOptions options) {
+  std::string device = "Modbus RTU LED controller " + device_path + " unit " + std::to_string(options.unit_id);
+  return connect(modbus_new_rtu(device_path.c_str(), baud, 'N', 8, 1), device, options);
+}
+
+}  // namespace chromo::drivers

@@ -1,0 +1,129 @@
+#pragma once
+// LedLab: the simulated LED controller's firmware state and the physical
+// truth of what the sphere emits, in one thread-safe object.
+//
+// - Device side: the protocol front-ends (ModbusLedServer, HidLedDevice) turn
+//   requests into apply()/arm()/advance()/... and publish status()/info().
+//   The lab speaks the drivers' vocabulary (LedState, LedStatus) but never
+//   their encoders or parsers.
+// - Truth side (SphereIllumination): irradiance at the sample plane from the
+//   applied drive levels (mean over zones: zones are equal parts of the
+//   sphere's wall), the output enable, junction temperatures (first-order
+//   warm-up toward ambient + junction_rise_full_K·level, time constant
+//   thermal_time_constant_s of *lab* time, which runs time_scale times faster
+//   than the wall clock), the drive mode's physics (true_leds.hpp) and the
+//   injected faults.
+// - Hardware trigger: trigger() is the trigger input's rising edge (the camera
+//   simulator calls it on exposure-active); it advances an armed
+//   kHardwareRisingEdge sequence.
+//
+// Faults on demand (all reversible):
+//   inject_flux_loss / inject_peak_shift  — a degraded LED type (truth only:
+//                                           the controller cannot see it)
+//   set_dead_channel      — emits nothing; the controller flags open circuit
+//                           on the channel whenever it drives it
+//   set_over_temperature  — the channel reads limit + 10 °C, channel and
+//                           controller flag over-temperature, the channel is
+//                           switched off, and new states that drive anything
+//                           are refused (kFault) until it clears
+//   set_unresponsive      — the protocol front-ends stop answering
+//
+// Thread rules: every method may be called from any thread.
+
+#include <chrono>
+#include <mutex>
+#include <optional>
+#include <vector>
+
+#include "chromo/drivers/led_controller.hpp"
+#include "chromo/simulators/leds/true_leds.hpp"
+#include "chromo/simulators/sphere_illumination.hpp"
+
+namespace chromo::simulators {
+
+struct LedLabOptions {
+  drivers::DriveMode drive_mode = drivers::DriveMode::kPwmDuty;
+  int zone_count = 1;
+  int sequence_capacity = 64;
+  double min_pwm_frequency_hz = 100;
+  double max_pwm_frequency_hz = 40000;
+  double initial_pwm_frequency_hz = 1000;
+  double ambient_C = 25;
+  double thermal_time_constant_s = 60;
+  double time_scale = 1;             // lab seconds per wall-clock second
+  bool start_warm = false;           // junctions start at the full-drive reference temperature
+  double over_temperature_limit_C = 85;
+  std::string model = "CHROMO-LED6-SIM";
+  std::string serial = "SIM-LED-0001";
+  int firmware_major = 1, firmware_minor = 0;
+  TrueLedSet leds = default_true_leds();
+};
+
+// What the firmware answers to a request (the front-ends translate it into
+// their protocol's result codes).
+enum class LabResult { kOk, kOutOfRange, kBadState, kFault };
+
+class LedLab final : public SphereIllumination {
+ public:
+  explicit LedLab(LedLabOptions options = {});
+
+  // ---- device side ----
+  drivers::LedControllerInfo info() const;
+  drivers::LedStatus status() const;
+  LabResult apply(const drivers::LedState& state);
+  void set_output_enabled(bool enabled);
+  bool output_enabled() const;
+  LabResult arm(const std::vector<drivers::LedState>& states, drivers::SequenceTrigger trigger);
+  LabResult advance();   // software trigger
+  void disarm();
+  void trigger();        // hardware trigger input, rising edge
+  int trigger_count() const;
+
+  // ---- faults ----
+  void inject_flux_loss(spectral::LedType type, double fraction);  // 0.05 = 5 % less flux
+  void inject_peak_shift(spectral::LedType type, double shift_nm);
+  void set_dead_channel(spectral::LedType type, bool dead);
+  void set_over_temperature(spectral::LedType type, bool over);
+  void set_unresponsive(bool unresponsive);
+  bool unresponsive() const;
+
+  // ---- truth ----
+  spectral::Spectrum irradiance_now() const override;
+  double irradiance_at_nm(double wavelength_nm) const override;
+  double junction_temperature_C(spectral::LedType type) const;
+  // Jumps every junction to its equilibrium for the present drive (a warm-up
+  // without waiting).
+  void settle_thermal();
+  const LedLabOptions& options() const { return options_; }
+
+ private:
+  struct Emission {  // one LED type in one zone, as it emits now
+    double scale = 0;
+    double shift_nm = 0;
+  };
+  using Clock = std::chrono::steady_clock;
+  void update_thermal_locked() const;
+  LabResult apply_locked(const drivers::LedState& state);
+  std::vector<Emission> emissions_locked(int type) const;
+  double target_temperature_locked(int type) const;
+  bool channel_emits_locked(int type) const;
+
+  LedLabOptions options_;
+  std::array<FineSpectrum, spectral::kLedTypeCount> reference_;
+  mutable std::mutex mutex_;
+  std::vector<drivers::DriveLevels> zone_drive_;
+  drivers::LedState last_applied_;
+  double pwm_frequency_hz_ = 0;
+  bool output_enabled_ = false;
+  std::vector<drivers::LedState> sequence_;
+  drivers::SequenceTrigger sequence_trigger_ = drivers::SequenceTrigger::kHardwareRisingEdge;
+  int sequence_position_ = -1;
+  int trigger_count_ = 0;
+  std::array<double, spectral::kLedTypeCount> flux_loss_{}, peak_shift_nm_{};
+  std::array<bool, spectral::kLedTypeCount> dead_{}, over_temperature_{};
+  bool unresponsive_ = false;
+  mutable std::array<double, spectral::kLedTypeCount> temperature_C_{};
+  mutable Clock::time_point last_update_;
+};
+
+}  // namespace chromo::simulators

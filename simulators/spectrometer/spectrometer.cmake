@@ -1,0 +1,3 @@
+# Spectrometer simulator: Ocean Optics USB2000+ behind the UsbTransport seam.
+target_sources(simulators PRIVATE
+)
