@@ -1,5 +1,6 @@
-// The Modbus LED driver against the LED simulator over real Modbus TCP on
-// 127.0.0.1 and Modbus RTU over a pseudo-terminal pair.
+// The LED controller drivers against the LED simulator over each real
+// protocol: Modbus TCP on 127.0.0.1, Modbus RTU over a pseudo-terminal pair,
+// and HID reports over the HidTransport seam. Every scenario runs on all three.
 
 #include <gtest/gtest.h>
 
@@ -24,11 +25,11 @@ LedState state_of(std::initializer_list<double> levels, double pwm_hz = 0) {
   return state;
 }
 
-enum class Link { kTcp, kRtu };
+enum class Link { kTcp, kRtu, kHid };
 
-class ModbusLedTest : public ::testing::TestWithParam<Link> {
+class LedControllerTest : public ::testing::TestWithParam<Link> {
  protected:
-  ModbusLedTest() : sim_(options()) {}
+  LedControllerTest() : sim_(options()) {}
   static simulators::LedLabOptions options() {
     simulators::LedLabOptions o;
     o.zone_count = 2;
@@ -36,6 +37,11 @@ class ModbusLedTest : public ::testing::TestWithParam<Link> {
     return o;
   }
   std::unique_ptr<drivers::LedController> connect(std::chrono::milliseconds timeout = std::chrono::milliseconds(300)) {
+    if (GetParam() == Link::kHid) {
+      drivers::HidLinkOptions hid;
+      hid.reply_timeout = timeout;
+      return drivers::make_hid_led_controller(sim_.make_hid_transport(), hid);
+    }
     drivers::ModbusLinkOptions link;
     link.response_timeout = timeout;
     if (GetParam() == Link::kTcp) return drivers::make_modbus_tcp_led_controller("127.0.0.1", sim_.start_modbus_tcp(), link);
@@ -44,7 +50,7 @@ class ModbusLedTest : public ::testing::TestWithParam<Link> {
   simulators::LedControllerSimulator sim_;
 };
 
-TEST_P(ModbusLedTest, ReadsTheDeviceInformation) {
+TEST_P(LedControllerTest, ReadsTheDeviceInformation) {
   auto led = connect();
   drivers::LedControllerInfo info = led->info();
   EXPECT_EQ(info.model, "CHROMO-LED6-SIM");
@@ -57,7 +63,7 @@ TEST_P(ModbusLedTest, ReadsTheDeviceInformation) {
   EXPECT_EQ(info.max_pwm_frequency_hz, 40000);
 }
 
-TEST_P(ModbusLedTest, SetsAndReadsBackAState) {
+TEST_P(LedControllerTest, SetsAndReadsBackAState) {
   auto led = connect();
   led->set_output_enabled(true);
   LedState state = state_of({0.5, 0.25, 0, 0.125, 1.0, 0.75}, 2000);
@@ -81,7 +87,7 @@ TEST_P(ModbusLedTest, SetsAndReadsBackAState) {
   EXPECT_EQ(sim_.lab().irradiance_now().max(), 0.0);
 }
 
-TEST_P(ModbusLedTest, SetsOneZone) {
+TEST_P(LedControllerTest, SetsOneZone) {
   auto led = connect();
   LedState state = state_of({0.2, 0, 0, 0, 0, 0});
   state.zone = 1;
@@ -91,7 +97,7 @@ TEST_P(ModbusLedTest, SetsOneZone) {
   EXPECT_EQ(*status.applied.zone, 1);
 }
 
-TEST_P(ModbusLedTest, RefusesOutOfLimitRequestsWithoutSendingThem) {
+TEST_P(LedControllerTest, RefusesOutOfLimitRequestsWithoutSendingThem) {
   auto led = connect();
   led->set_state(state_of({0.1, 0, 0, 0, 0, 0}));
   auto expect_invalid = [&](const LedState& state) {
@@ -111,7 +117,7 @@ TEST_P(ModbusLedTest, RefusesOutOfLimitRequestsWithoutSendingThem) {
   EXPECT_NEAR(led->read_status().applied.drive[0], 0.1, 1e-4);  // nothing changed
 }
 
-TEST_P(ModbusLedTest, HardwareSequenceAdvancesOnTheTriggerInput) {
+TEST_P(LedControllerTest, HardwareSequenceAdvancesOnTheTriggerInput) {
   auto led = connect();
   std::vector<LedState> states;
   for (int k = 0; k < 15; ++k) states.push_back(state_of({k / 20.0, 0, 0, 0, 0, 0}));  // spans two table writes
@@ -129,7 +135,7 @@ TEST_P(ModbusLedTest, HardwareSequenceAdvancesOnTheTriggerInput) {
   EXPECT_EQ(led->read_status().sequence_position, -1);
 }
 
-TEST_P(ModbusLedTest, SoftwareSequenceAdvancesOnCommand) {
+TEST_P(LedControllerTest, SoftwareSequenceAdvancesOnCommand) {
   auto led = connect();
   std::vector<LedState> states{state_of({0, 0, 0, 0.1, 0, 0}), state_of({0, 0, 0, 0.2, 0, 0})};
   led->arm_sequence(states, drivers::SequenceTrigger::kSoftware);
@@ -141,7 +147,7 @@ TEST_P(ModbusLedTest, SoftwareSequenceAdvancesOnCommand) {
   EXPECT_NEAR(status.applied.drive[3], 0.2, 1e-4);
 }
 
-TEST_P(ModbusLedTest, ControllerThatStopsAnsweringTimesOut) {
+TEST_P(LedControllerTest, ControllerThatStopsAnsweringTimesOut) {
   auto led = connect(std::chrono::milliseconds(100));
   led->set_state(state_of({0.3, 0, 0, 0, 0, 0}));
   sim_.lab().set_unresponsive(true);
@@ -150,7 +156,7 @@ TEST_P(ModbusLedTest, ControllerThatStopsAnsweringTimesOut) {
     FAIL() << "no timeout";
   } catch (const DeviceError& e) {
     EXPECT_EQ(e.kind(), DeviceError::Kind::kTimeout) << e.what();
-    EXPECT_NE(std::string(e.what()).find("Modbus"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("set state"), std::string::npos) << e.what();
   }
   EXPECT_THROW(led->read_status(), DeviceError);
   sim_.lab().set_unresponsive(false);  // it comes back: the same link works again
@@ -159,7 +165,7 @@ TEST_P(ModbusLedTest, ControllerThatStopsAnsweringTimesOut) {
   EXPECT_NEAR(led->read_status().applied.drive[0], 0.4, 1e-4);
 }
 
-TEST_P(ModbusLedTest, OverTemperatureIsReportedAndRefused) {
+TEST_P(LedControllerTest, OverTemperatureIsReportedAndRefused) {
   auto led = connect();
   sim_.lab().set_over_temperature(LedType::kRed, true);
   drivers::LedStatus status = led->read_status();
@@ -176,7 +182,7 @@ TEST_P(ModbusLedTest, OverTemperatureIsReportedAndRefused) {
   EXPECT_EQ(led->read_status().applied.drive[0], 0.0);  // refused: nothing changed
 }
 
-TEST_P(ModbusLedTest, DeadChannelIsAnOpenCircuitFault) {
+TEST_P(LedControllerTest, DeadChannelIsAnOpenCircuitFault) {
   auto led = connect();
   led->set_output_enabled(true);
   sim_.lab().set_dead_channel(LedType::kGreen, true);
@@ -191,8 +197,10 @@ TEST_P(ModbusLedTest, DeadChannelIsAnOpenCircuitFault) {
   EXPECT_EQ(led->read_status().channel_faults[4], drivers::kLedFaultOpenCircuit);
 }
 
-INSTANTIATE_TEST_SUITE_P(Links, ModbusLedTest, ::testing::Values(Link::kTcp, Link::kRtu),
-                         [](const auto& info) { return info.param == Link::kTcp ? "Tcp" : "Rtu"; });
+INSTANTIATE_TEST_SUITE_P(Links, LedControllerTest, ::testing::Values(Link::kTcp, Link::kRtu, Link::kHid),
+                         [](const auto& info) {
+                           return info.param == Link::kTcp ? "ModbusTcp" : info.param == Link::kRtu ? "ModbusRtu" : "Hid";
+                         });
 
 TEST(ModbusLedConnect, NothingListeningIsNotFound) {
   try {
