@@ -1,7 +1,7 @@
-// Golden byte sequences of the Ocean Optics USB2000+ command set, written
-// from the vendor's published command table (USB2000+ Data Sheet, "USB
-// Command Summary"; the same layout is used by python-seabreeze's OOI
-// protocol), not from our simulator; and the parsers' rejection of bad input.
+// Golden byte sequences of the Ocean Optics USB2000+ command set, written by
+// hand from the vendor's command table (as implemented by python-seabreeze
+// and printed in the OOI data sheets; sources in docs/protocols/spectrometer.md),
+// not from our simulator; and the parsers' rejection of bad input.
 
 #include <gtest/gtest.h>
 

@@ -8,7 +8,7 @@
 // convention: byte 0 is the report id). Multi-byte fields are little endian.
 //
 // Command (host → device, output report kCommandReportId):
-//   [0] report id  [1] sequence  [2] command  [3] payload length n (≤ kMaxPayload)
+//   [0] report id  [1] sequence  [2] command  [3] payload length n (≤ 60)
 //   [4 .. 4+n) payload   [4+n .. 64) zero
 // Reply (device → host, input report kReplyReportId), one per command:
 //   [0] report id  [1] sequence echoed  [2] command echoed  [3] status
