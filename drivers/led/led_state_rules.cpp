@@ -30,14 +30,16 @@ void validate_state(const LedState& state, const LedControllerInfo& info, const 
 
 std::string describe_faults(std::uint32_t faults) {
   std::string text;
-  auto add = [&](std::uint32_t bit, const char* name) {
-    if (faults & bit) text += (text.empty() ? "" : "+") + std::string(name);
+  auto add = [&](bool present, const char* name) {
+    if (!present) return;
+    if (!text.empty()) text += '+';
+    text += name;
   };
-  add(kLedFaultOverTemperature, "over-temperature");
-  add(kLedFaultOpenCircuit, "open circuit");
-  add(kLedFaultShortCircuit, "short circuit");
-  add(kLedFaultSupply, "supply");
-  if (faults & ~0xFu) text += (text.empty() ? "" : "+") + std::string("unknown bits");
+  add(faults & kLedFaultOverTemperature, "over-temperature");
+  add(faults & kLedFaultOpenCircuit, "open circuit");
+  add(faults & kLedFaultShortCircuit, "short circuit");
+  add(faults & kLedFaultSupply, "supply");
+  add(faults & ~0xFu, "unknown bits");
   return text.empty() ? "none" : text;
 }
 
@@ -47,9 +49,10 @@ void check_applied_state(const LedState& requested, const LedStatus& status, con
     faults += "controller: " + describe_faults(status.controller_faults);
   for (LedType type : spectral::kAllLedTypes) {
     int i = led_type_index(type);
-    if (requested.drive[i] > 0.0 && status.channel_faults[i] != kLedFaultNone)
-      faults += (faults.empty() ? "" : "; ") + std::string(led_type_name(type)) + ": " +
-                describe_faults(status.channel_faults[i]);
+    if (requested.drive[i] <= 0.0 || status.channel_faults[i] == kLedFaultNone) continue;
+    if (!faults.empty()) faults += "; ";
+    faults += led_type_name(type);
+    faults += ": " + describe_faults(status.channel_faults[i]);
   }
   if (!faults.empty())
     throw DeviceError(DeviceError::Kind::kFault, device, "set state", "applied, but the device reports " + faults);
