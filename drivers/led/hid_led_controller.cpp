@@ -45,11 +45,7 @@ class HidLedController final : public LedController {
   }
 
   void arm_sequence(std::span<const LedState> states, SequenceTrigger trigger) override {
-    if (states.empty() || static_cast<int>(states.size()) > info_.sequence_capacity)
-      throw DeviceError(Kind::kInvalidRequest, device_, "arm sequence",
-                        std::to_string(states.size()) + " states, device holds 1.." +
-                            std::to_string(info_.sequence_capacity));
-    for (const LedState& state : states) detail::validate_state(state, info_, device_);
+    detail::validate_sequence(states, info_, device_);
     auto count = static_cast<std::uint16_t>(states.size());
     std::vector<std::uint8_t> begin{static_cast<std::uint8_t>(count & 0xFF), static_cast<std::uint8_t>(count >> 8),
                                     static_cast<std::uint8_t>(trigger == SequenceTrigger::kSoftware ? 1 : 0)};

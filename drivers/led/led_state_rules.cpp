@@ -28,6 +28,14 @@ void validate_state(const LedState& state, const LedControllerInfo& info, const 
   }
 }
 
+void validate_sequence(std::span<const LedState> states, const LedControllerInfo& info, const std::string& device) {
+  if (states.empty() || static_cast<int>(states.size()) > info.sequence_capacity)
+    throw DeviceError(DeviceError::Kind::kInvalidRequest, device, "arm sequence",
+                      std::to_string(states.size()) + " states, device holds 1.." +
+                          std::to_string(info.sequence_capacity));
+  for (const LedState& state : states) validate_state(state, info, device);
+}
+
 std::string describe_faults(std::uint32_t faults) {
   std::string text;
   auto add = [&](bool present, const char* name) {

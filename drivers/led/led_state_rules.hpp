@@ -3,6 +3,7 @@
 // send (kInvalidRequest) and what it reports after a state was applied
 // (kFault when the device reports a fault on a driven channel).
 
+#include <span>
 #include <string>
 
 #include "chromo/drivers/led_controller.hpp"
@@ -10,6 +11,8 @@
 namespace chromo::drivers::detail {
 
 void validate_state(const LedState& state, const LedControllerInfo& info, const std::string& device);
+// 1..sequence_capacity states, each valid.
+void validate_sequence(std::span<const LedState> states, const LedControllerInfo& info, const std::string& device);
 // After set_state: throws DeviceError(kFault) if the controller reports a
 // controller fault, or a fault on a channel the state drives above zero.
 void check_applied_state(const LedState& requested, const LedStatus& status, const std::string& device);

@@ -109,11 +109,7 @@ class ModbusLedController final : public LedController {
   }
 
   void arm_sequence(std::span<const LedState> states, SequenceTrigger trigger) override {
-    if (states.empty() || static_cast<int>(states.size()) > info_.sequence_capacity)
-      throw DeviceError(Kind::kInvalidRequest, device_, "arm sequence",
-                        std::to_string(states.size()) + " states, device holds 1.." +
-                            std::to_string(info_.sequence_capacity));
-    for (const LedState& state : states) detail::validate_state(state, info_, device_);
+    detail::validate_sequence(states, info_, device_);
     constexpr int kStatesPerWrite = 12;  // 120 registers, under Modbus' 123 per write
     for (std::size_t first = 0; first < states.size(); first += kStatesPerWrite) {
       std::size_t count = std::min<std::size_t>(kStatesPerWrite, states.size() - first);

@@ -114,7 +114,16 @@ TEST_P(LedControllerTest, RefusesOutOfLimitRequestsWithoutSendingThem) {
   LedState bad_zone = state_of({0.5, 0, 0, 0, 0, 0});
   bad_zone.zone = 2;
   expect_invalid(bad_zone);
-  EXPECT_NEAR(led->read_status().applied.drive[0], 0.1, 1e-4);  // nothing changed
+  try {
+    led->arm_sequence(std::vector<LedState>(21, state_of({0.5, 0, 0, 0, 0, 0})),
+                      drivers::SequenceTrigger::kSoftware);  // capacity 20
+    ADD_FAILURE() << "accepted";
+  } catch (const DeviceError& e) {
+    EXPECT_EQ(e.kind(), DeviceError::Kind::kInvalidRequest) << e.what();
+  }
+  drivers::LedStatus status = led->read_status();
+  EXPECT_NEAR(status.applied.drive[0], 0.1, 1e-4);  // nothing changed
+  EXPECT_EQ(status.sequence_position, -1);
 }
 
 TEST_P(LedControllerTest, HardwareSequenceAdvancesOnTheTriggerInput) {
