@@ -88,14 +88,23 @@ TEST(LedLab, ColdLedsAreBrighterAndBlueShiftedAndWarmUpWithTheTimeConstant) {
   options.time_scale = 60.0 / 0.05;  // the 60 s time constant lasts 50 ms of wall time
   LedLab lab(options);
   ASSERT_EQ(lab.apply(only(LedType::kRed, 1.0)), LabResult::kOk);
+  auto before_on = std::chrono::steady_clock::now();
   lab.set_output_enabled(true);
+  auto after_on = std::chrono::steady_clock::now();
   spectral::Spectrum cold = lab.irradiance_now();
   EXPECT_NEAR(lab.junction_temperature_C(LedType::kRed), 25.0, 1.0);
   std::this_thread::sleep_for(std::chrono::milliseconds(50));  // about one time constant of lab time
+  auto before_read = std::chrono::steady_clock::now();
   double t1 = lab.junction_temperature_C(LedType::kRed);
-  // 1 − e^−1 = 63 % of the 30 K rise after one time constant (sleep overshoot allowed).
-  EXPECT_GT(t1, 25.0 + 0.55 * 30);
-  EXPECT_LT(t1, 25.0 + 0.90 * 30);
+  auto after_read = std::chrono::steady_clock::now();
+  // First order: T = 25 + 30·(1 − exp(−t/τ)), t in lab time, bracketed by the wall-clock readings.
+  auto rise = [&](auto from, auto to) {
+    double lab_s = std::chrono::duration<double>(to - from).count() * options.time_scale;
+    return 30.0 * (1.0 - std::exp(-lab_s / options.thermal_time_constant_s));
+  };
+  EXPECT_GE(t1, 25.0 + rise(after_on, before_read) - 1e-9);
+  EXPECT_LE(t1, 25.0 + rise(before_on, after_read) + 1e-9);
+  EXPECT_GT(t1, 25.0 + 0.5 * 30);  // at least most of a time constant has passed
   lab.settle_thermal();
   spectral::Spectrum hot = lab.irradiance_now();
   EXPECT_NEAR(lab.junction_temperature_C(LedType::kRed), 55.0, 1e-6);
