@@ -40,7 +40,7 @@ inline constexpr int kMaxNonlinearityOrder = 7;
 // USB2000+ properties.
 inline constexpr int kUsb2000PlusPixelCount = 2048;
 inline constexpr std::uint32_t kUsb2000PlusMinIntegrationUs = 1000;
-inline constexpr std::uint32_t kUsb2000PlusMaxIntegrationUs = 655350000;
+inline constexpr std::uint32_t kUsb2000PlusMaxIntegrationUs = 65000000;  // data sheet: 1 ms to 65 s
 inline constexpr double kUsb2000PlusSaturationCounts = 65535;
 
 // Status reply byte offsets.
