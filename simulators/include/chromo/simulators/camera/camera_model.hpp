@@ -1,0 +1,70 @@
+#pragma once
+// CameraModel: the virtual lab's sensor. From the spectral irradiance on the
+// sample E(λ) (SphereIllumination units) and a scene's albedo a(λ) to 12-bit
+// digital numbers, with shot noise, read noise, full-well saturation, analog
+// gain and ADC clipping.
+//
+//   response_c  = Σ_λ S_c(λ)·E(λ)·a(λ)·Δλ / Σ_λ S_G(λ)·Δλ      (c = R, G, B; mono = mean of R, G, B)
+//   electrons   = quantum_scale_e_per_us · exposure_us · response_c
+//   read out    = min(Poisson(electrons), full_well_e)  + Normal(0, read_noise_e)
+//   DN          = clamp(round(black_level_dn + read_out / e_per_dn), 0, 2^adc_bits − 1)
+//   e_per_dn    = gain_e_per_dn / 10^(gain_db / 20)
+//
+// With the defaults, a white of albedo 1 under the W57 LED alone at full drive
+// (irradiance peak ≈ 1) and 10 ms gives roughly half the full well in green.
+// Layouts: Bayer RGGB (R at even row, even column of the *sensor*, so an ROI
+// offset shifts the phase), three channels per pixel, or mono.
+// Thread rules: immutable after construction; expose() may run concurrently.
+
+#include <opencv2/core.hpp>
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <string>
+
+#include "chromo/spectral/camera.hpp"
+#include "chromo/spectral/spectrum.hpp"
+
+namespace chromo::simulators {
+
+enum class SensorLayout { kMono, kBayerRGGB, kThreeChannel };
+
+struct CameraModelOptions {
+  spectral::CameraSensitivity sensitivity = spectral::builtin_camera("nikon_d5100");
+  double quantum_scale_e_per_us = 2.0;
+  double full_well_e = 20000;
+  double read_noise_e = 6;
+  double gain_e_per_dn = 20000.0 / 4095.0;  // at 0 dB: full well ≈ full ADC scale
+  int adc_bits = 12;
+  double black_level_dn = 16;
+  std::uint64_t seed = 1;  // frame k's noise is a function of (seed, k) only
+
+  bool IsValid(std::string* error) const;
+};
+
+class CameraModel {
+ public:
+  explicit CameraModel(CameraModelOptions options);
+  const CameraModelOptions& options() const { return options_; }
+  int max_dn() const { return (1 << options_.adc_bits) - 1; }
+
+  // Rows R, G, B: response = weights · albedo (see the formula above).
+  Eigen::Matrix<double, 3, spectral::kGridSize> weights(const spectral::Spectrum& irradiance) const;
+
+  // Noise-free expectation and standard deviation of one pixel's DN (12-bit scale)
+  // for a channel response; the mean includes full-well and ADC clipping only as hard clamps.
+  double expected_dn(double response, double exposure_us, double gain_db) const;
+  double noise_sigma_dn(double response, double exposure_us, double gain_db) const;
+
+  // Reads out a sensor window. response_rgb: CV_32FC3 (R, G, B) of the window;
+  // phase_x/phase_y: the window's offset on the sensor (Bayer phase).
+  // Returns CV_16U (mono, Bayer) or CV_16UC3 (three-channel) DN in 0..max_dn().
+  cv::Mat expose(const cv::Mat& response_rgb, SensorLayout layout, int phase_x, int phase_y, double exposure_us,
+                 double gain_db, std::uint64_t frame_index) const;
+
+ private:
+  CameraModelOptions options_;
+  double green_norm_;  // Σ S_G Δλ
+};
+
+}  // namespace chromo::simulators

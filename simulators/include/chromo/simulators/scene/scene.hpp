@@ -1,0 +1,97 @@
+#pragma once
+// Scene: what the virtual lab's camera looks at, as ground truth.
+//
+// A scene is a grid of pixels, each with a diffuse albedo spectrum on the
+// project grid (stored as float, width·height·81), a region label and the
+// skin parameters (Cm, Ch, βm, Che) it was built from. Skin albedo comes
+// directly from estimation::SkinModel (albedo_batch, all cores), never from an
+// estimator's table; the regions the model cannot (or only partly) explain
+// modify that albedo as documented in make_skin_scene() and docs/camera.md.
+//
+// Resolution: scenes are kept modest (default 512×512, 85 MB of float
+// spectra); the camera simulator renders the response at scene resolution and
+// resamples it (bilinear) to the sensor. Immutable after construction, safe to
+// share between threads.
+
+#include <opencv2/core.hpp>
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "chromo/spectral/spectrum.hpp"
+
+namespace chromo::simulators {
+
+// Region labels (CV_8U values in Scene::regions()). Everything but kSkin and
+// kWhiteTarget is something the skin model cannot, or only partly, explain.
+enum class SceneRegion : std::uint8_t {
+  kSkin = 0,
+  kVein = 1,         // deeper deoxygenated blood: partly explainable (Ch rises, plus an extra deoxy term)
+  kTattoo = 2,       // ink reflectance mixed in: not explainable
+  kMarker = 3,       // a dye stroke on the surface (double-pass transmission): not explainable
+  kHair = 4,         // dark strands over the skin: not explainable
+  kSpecular = 5,     // surface reflection added (flat spectrum): not explainable
+  kWhiteTarget = 6,  // the white reference target, reflectance white_target_reflectance()
+};
+const char* region_name(SceneRegion region);
+
+// The white reference target's known reflectance ρ_white: flat 0.99 (a
+// sintered-PTFE target is flat within about ±1% over 400-780 nm).
+inline constexpr double kWhiteTargetReflectance = 0.99;
+spectral::Spectrum white_target_reflectance();
+
+class Scene {
+ public:
+  Scene(int width, int height);
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+
+  spectral::Spectrum albedo_at(int x, int y) const;
+  void set_albedo(int x, int y, const spectral::Spectrum& albedo);
+  const float* albedo_data() const { return albedo_.data(); }  // row-major pixels, 81 floats each
+
+  // CV_8U labels (SceneRegion values) and CV_32F truth maps of the skin parameters
+  // underneath every pixel (also under tattoos, hair... where they are not observable).
+  cv::Mat& regions() { return regions_; }
+  const cv::Mat& regions() const { return regions_; }
+  cv::Mat& cm() { return cm_; }
+  const cv::Mat& cm() const { return cm_; }
+  cv::Mat& ch() { return ch_; }
+  const cv::Mat& ch() const { return ch_; }
+  cv::Mat& bm() { return bm_; }
+  const cv::Mat& bm() const { return bm_; }
+  cv::Mat& che() { return che_; }
+  const cv::Mat& che() const { return che_; }
+
+  // Σ_λ weights(c, λ)·albedo(λ) for every pixel: CV_32FC(n) at scene
+  // resolution, n = weights.rows() (1-4). The camera model supplies the weights.
+  cv::Mat render(const Eigen::Matrix<double, Eigen::Dynamic, spectral::kGridSize>& weights) const;
+
+ private:
+  int width_, height_;
+  std::vector<float> albedo_;
+  cv::Mat regions_, cm_, ch_, bm_, che_;
+};
+
+struct SkinSceneOptions {
+  int width = 512;
+  int height = 512;
+  std::uint64_t seed = 1;
+  bool white_patch = true;  // a white target strip along the right edge (1/10 of the width)
+  int threads = 0;          // for SkinModel::albedo_batch; 0 = all cores
+
+  bool IsValid(std::string* error) const;
+};
+
+// A forearm-like skin patch: smooth Cm, Ch, βm, Che fields (seeded), a few
+// moles (high Cm, explainable), a vein, a tattoo, a marker stroke, hair, a
+// specular highlight and (optionally) the white target strip.
+Scene make_skin_scene(const SkinSceneOptions& options);
+
+// A scene that is all white target (for white-reference captures).
+Scene make_white_target_scene(int width, int height);
+
+}  // namespace chromo::simulators

@@ -1,0 +1,7 @@
+# Skin scene and white reference target of the virtual lab (OpenCV core).
+find_package(OpenCVModules REQUIRED COMPONENTS core imgproc)
+target_sources(simulators PRIVATE
+  ${CMAKE_CURRENT_LIST_DIR}/scene.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/skin_scene.cpp
+)
+target_link_libraries(simulators PUBLIC OpenCV::imgproc OpenCV::core PRIVATE OpenMP::OpenMP_CXX)

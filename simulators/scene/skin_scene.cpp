@@ -1,0 +1,203 @@
+// make_skin_scene: the virtual lab's skin patch. Every number here is a
+// modelling choice of the virtual lab, documented in docs/camera.md.
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <span>
+#include <vector>
+
+#include "chromo/estimation/chromophores.hpp"
+#include "chromo/estimation/skin_model.hpp"
+#include "chromo/simulators/scene/scene.hpp"
+#include "chromo/spectral/grid.hpp"
+
+namespace chromo::simulators {
+namespace {
+
+using spectral::grid_wavelength_nm;
+using spectral::kGridSize;
+using spectral::Spectrum;
+
+// A smooth random field in [-1, 1]: a few seeded plane waves.
+class SmoothField {
+ public:
+  SmoothField(std::mt19937_64& rng, double min_period, double max_period) {
+    std::uniform_real_distribution<double> angle(0, 2 * M_PI), period(min_period, max_period);
+    for (auto& wave : waves_) wave = {angle(rng), 2 * M_PI / period(rng), angle(rng)};
+  }
+  double operator()(double x, double y) const {
+    double sum = 0;
+    for (const auto& w : waves_) sum += std::sin(w.k * (x * std::cos(w.direction) + y * std::sin(w.direction)) + w.phase);
+    return sum / static_cast<double>(waves_.size());
+  }
+
+ private:
+  struct Wave { double direction, k, phase; };
+  std::array<Wave, 4> waves_{};
+};
+
+double distance_to_segment(double px, double py, double ax, double ay, double bx, double by) {
+  const double vx = bx - ax, vy = by - ay;
+  const double t = std::clamp(((px - ax) * vx + (py - ay) * vy) / (vx * vx + vy * vy + 1e-12), 0.0, 1.0);
+  return std::hypot(px - ax - t * vx, py - ay - t * vy);
+}
+
+Spectrum gaussian_band(double centre_nm, double width_nm) {
+  Spectrum s;
+  for (int i = 0; i < kGridSize; ++i) s[i] = std::exp(-std::pow((grid_wavelength_nm(i) - centre_nm) / width_nm, 2));
+  return s;
+}
+
+}  // namespace
+
+bool SkinSceneOptions::IsValid(std::string* error) const {
+  if (width < 16 || height < 16 || width > 4096 || height > 4096) {
+    if (error != nullptr) *error = "scene width and height must be 16-4096 pixels";
+    return false;
+  }
+  return true;
+}
+
+Scene make_white_target_scene(int width, int height) {
+  Scene scene(width, height);
+  const Spectrum white = white_target_reflectance();
+  scene.regions().setTo(cv::Scalar(static_cast<int>(SceneRegion::kWhiteTarget)));
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) scene.set_albedo(x, y, white);
+  return scene;
+}
+
+Scene make_skin_scene(const SkinSceneOptions& options) {
+  std::string error;
+  if (!options.IsValid(&error)) throw std::invalid_argument("SkinSceneOptions: " + error);
+  const int w = options.width, h = options.height;
+  const double scale = w / 512.0;  // geometry is laid out for 512 px and scaled
+  Scene scene(w, h);
+  std::mt19937_64 rng(options.seed);
+  const SmoothField f_cm(rng, 120 * scale, 400 * scale), f_ch(rng, 80 * scale, 300 * scale),
+      f_bm(rng, 150 * scale, 500 * scale), f_che(rng, 100 * scale, 400 * scale);
+  std::uniform_real_distribution<double> unit(0, 1);
+
+  // Moles: small dark spots (high Cm), explainable skin.
+  struct Spot { double x, y, r; };
+  std::vector<Spot> moles;
+  for (int i = 0; i < 4; ++i) moles.push_back({unit(rng) * w * 0.85, unit(rng) * h, (3 + 4 * unit(rng)) * scale});
+
+  // Vein: a gentle S-curve across the upper third; profile p in [0, 1].
+  const double vein_y = 0.3 * h, vein_amplitude = 0.06 * h, vein_sigma = 6 * scale;
+  auto vein_profile = [&](double x, double y) {
+    const double centre = vein_y + vein_amplitude * std::sin(2 * M_PI * x / (0.9 * w));
+    return std::exp(-std::pow((y - centre) / vein_sigma, 2));
+  };
+
+  // 1) Skin parameters everywhere (the truth maps).
+  std::vector<estimation::SkinParameters> parameters(static_cast<std::size_t>(w) * h);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      estimation::SkinParameters p;
+      p.cm = 0.05 + 0.03 * f_cm(x, y);
+      p.ch = 0.025 + 0.015 * f_ch(x, y);
+      p.bm = 0.7 + 0.1 * f_bm(x, y);
+      p.che = 0.006 + 0.005 * f_che(x, y);
+      for (const auto& m : moles) {
+        const double d = std::hypot(x - m.x, y - m.y);
+        if (d < m.r * 1.5) p.cm += 0.2 * std::exp(-std::pow(d / m.r, 2));
+      }
+      p.ch += 0.04 * vein_profile(x, y);  // the explainable part of the vein
+      parameters[static_cast<std::size_t>(y) * w + x] = p;
+      scene.cm().at<float>(y, x) = static_cast<float>(p.cm);
+      scene.ch().at<float>(y, x) = static_cast<float>(p.ch);
+      scene.bm().at<float>(y, x) = static_cast<float>(p.bm);
+      scene.che().at<float>(y, x) = static_cast<float>(p.che);
+    }
+
+  // 2) Albedo straight from the forward model, in chunks (Spectrum is 648 bytes).
+  const estimation::SkinModel model;
+  constexpr std::size_t kChunk = 8192;
+  std::vector<Spectrum> albedo(kChunk);
+  for (std::size_t start = 0; start < parameters.size(); start += kChunk) {
+    const std::size_t n = std::min(kChunk, parameters.size() - start);
+    model.albedo_batch(std::span(parameters).subspan(start, n), std::span(albedo).first(n), options.threads);
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto index = static_cast<int>(start + i);
+      scene.set_albedo(index % w, index / w, albedo[i]);
+    }
+  }
+
+  // 3) What the model cannot (fully) explain, painted over the skin albedo.
+  // A pixel any of these touches carries that region's label (the last one
+  // painted wins), so every kSkin pixel is exactly the model's albedo.
+  const auto& chromophores = estimation::chromophore_spectra();
+  Spectrum deoxy_attenuation;  // deeper deoxygenated blood: extra absorption the model (γ = 0.75) lacks
+  for (int i = 0; i < kGridSize; ++i) {
+    const double s = chromophores.sigma_a_deoxy_blood[i];
+    deoxy_attenuation[i] = s / (s + 1.0);
+  }
+  Spectrum ink;  // blue-black tattoo ink
+  const Spectrum ink_band = gaussian_band(470, 40);
+  for (int i = 0; i < kGridSize; ++i) ink[i] = 0.04 + 0.08 * ink_band[i];
+  const Spectrum dye_absorption = gaussian_band(590, 45);  // gentian-violet surgical marker
+  Spectrum dye_double_pass;
+  for (int i = 0; i < kGridSize; ++i) dye_double_pass[i] = std::pow(1.0 - 0.75 * dye_absorption[i], 2);
+  Spectrum hair;  // dark brown strands
+  for (int i = 0; i < kGridSize; ++i) hair[i] = 0.03 + 0.07 * (grid_wavelength_nm(i) - 380.0) / 400.0;
+
+  // Tattoo: a disk in the lower left; marker: a stroke across the lower right;
+  // hair strands: random segments; specular: an ellipse in the upper right.
+  const double tattoo_x = 0.25 * w, tattoo_y = 0.7 * h, tattoo_r = 0.1 * w;
+  const double marker[4] = {0.5 * w, 0.85 * h, 0.85 * w, 0.6 * h};
+  const double marker_half_width = 4 * scale;
+  struct Strand { double ax, ay, bx, by; };
+  std::vector<Strand> strands;
+  for (int i = 0; i < 12; ++i) {
+    const double ax = unit(rng) * 0.85 * w, ay = unit(rng) * h, angle = unit(rng) * 2 * M_PI, length = (40 + 60 * unit(rng)) * scale;
+    strands.push_back({ax, ay, ax + length * std::cos(angle), ay + length * std::sin(angle)});
+  }
+  const double hair_half_width = std::max(1.5 * scale, 1.0);
+  const double spec_x = 0.65 * w, spec_y = 0.2 * h, spec_rx = 0.08 * w, spec_ry = 0.04 * h;
+  const Spectrum white = white_target_reflectance();
+  const int white_x0 = options.white_patch ? w - w / 10 : w;
+
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      Spectrum a = scene.albedo_at(x, y);
+      SceneRegion region = SceneRegion::kSkin;
+      const double vein = vein_profile(x, y);
+      if (vein > 0.05) {
+        for (int i = 0; i < kGridSize; ++i) a[i] *= 1.0 - 0.45 * vein * deoxy_attenuation[i];
+        region = SceneRegion::kVein;
+      }
+      const double tattoo = std::clamp((tattoo_r - std::hypot(x - tattoo_x, y - tattoo_y)) / (3 * scale), 0.0, 1.0) * 0.85;
+      if (tattoo > 0) {
+        a = (1 - tattoo) * a + tattoo * ink;
+        region = SceneRegion::kTattoo;
+      }
+      const double marker_d = distance_to_segment(x, y, marker[0], marker[1], marker[2], marker[3]);
+      const double marker_cover = std::clamp(marker_half_width + 1 - marker_d, 0.0, 1.0);
+      if (marker_cover > 0) {
+        for (int i = 0; i < kGridSize; ++i) a[i] *= 1 - marker_cover + marker_cover * dye_double_pass[i];
+        region = SceneRegion::kMarker;
+      }
+      double hair_cover = 0;
+      for (const auto& s : strands)
+        hair_cover = std::max(hair_cover, std::clamp(hair_half_width - distance_to_segment(x, y, s.ax, s.ay, s.bx, s.by), 0.0, 1.0) * 0.9);
+      if (hair_cover > 0) {
+        a = (1 - hair_cover) * a + hair_cover * hair;
+        region = SceneRegion::kHair;
+      }
+      const double spec = std::exp(-(std::pow((x - spec_x) / spec_rx, 2) + std::pow((y - spec_y) / spec_ry, 2)));
+      if (spec > 0.02) {
+        a += Spectrum::constant(0.3 * spec);  // surface reflection: flat, on top of the diffuse albedo
+        region = SceneRegion::kSpecular;
+      }
+      if (x >= white_x0) {
+        a = white;
+        region = SceneRegion::kWhiteTarget;
+      }
+      scene.set_albedo(x, y, a);
+      scene.regions().at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(region);
+    }
+  return scene;
+}
+
+}  // namespace chromo::simulators

@@ -1,0 +1,123 @@
+// chromo-sim: the whole virtual lab in one process, for hardware-in-the-loop
+// use. Starts the device simulators on their real protocols, prints where
+// each one listens, and runs until Ctrl-C (SIGINT) or SIGTERM.
+//
+// Devices: the GigE Vision camera simulator (127.0.0.1:3956). The light it
+// renders under is a fixed spectrum (--illuminant) until the LED controller
+// simulator of the virtual lab is wired in here.
+#include <CLI/CLI.hpp>
+
+#include <csignal>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+
+#include "chromo/simulators/camera/camera_simulator.hpp"
+#include "chromo/simulators/camera/fixed_illumination.hpp"
+#include "chromo/simulators/scene/scene.hpp"
+#include "chromo/spectral/camera.hpp"
+#include "chromo/spectral/cie.hpp"
+#include "chromo/spectral/table.hpp"
+
+namespace {
+
+using namespace chromo;
+
+struct SimArguments {
+  std::string camera_serial = "CHROMO-SIM-CAM";
+  int sensor_width = 1024, sensor_height = 1024;
+  int scene_size = 512;
+  std::uint64_t seed = 1;
+  std::string illuminant = "D65";
+  double irradiance_peak = 1.0;
+  bool white_target = false;
+  double packet_loss = 0;
+  std::string camera_sensitivity = "nikon_d5100";
+};
+
+int run(const SimArguments& args) {
+  // Block the stop signals before any thread starts, then wait for them here.
+  sigset_t stop_signals;
+  sigemptyset(&stop_signals);
+  sigaddset(&stop_signals, SIGINT);
+  sigaddset(&stop_signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
+
+  spectral::Spectrum light = spectral::illuminant_by_name_or_file(args.illuminant);
+  light *= args.irradiance_peak / light.max();
+  auto illumination = std::make_shared<simulators::FixedSpectrumIllumination>(light);
+  const spectral::CameraSensitivity sensitivity =
+      args.camera_sensitivity.ends_with(".csv") ? spectral::read_camera_sensitivity(args.camera_sensitivity)
+                                                : spectral::builtin_camera(args.camera_sensitivity);
+
+  std::cout << "chromo-sim: building the " << (args.white_target ? "white target" : "skin") << " scene ("
+            << args.scene_size << "x" << args.scene_size << ")..." << std::endl;
+  std::shared_ptr<const simulators::Scene> scene;
+  if (args.white_target) {
+    scene = std::make_shared<const simulators::Scene>(
+        simulators::make_white_target_scene(args.scene_size, args.scene_size));
+  } else {
+    simulators::SkinSceneOptions scene_options;
+    scene_options.width = scene_options.height = args.scene_size;
+    scene_options.seed = args.seed;
+    scene = std::make_shared<const simulators::Scene>(simulators::make_skin_scene(scene_options));
+  }
+
+  simulators::CameraSimulatorOptions camera_options;
+  camera_options.serial = args.camera_serial;
+  camera_options.sensor_width = args.sensor_width;
+  camera_options.sensor_height = args.sensor_height;
+  camera_options.camera_model.seed = args.seed;
+  camera_options.camera_model.sensitivity = sensitivity;
+  simulators::CameraSimulator camera(camera_options, illumination, scene);
+  camera.set_packet_loss_ratio(args.packet_loss);
+
+  std::cout << "camera: GigE Vision on " << camera_options.interface_address << ":"
+            << simulators::CameraSimulator::kGvcpPort << " serial " << camera_options.serial << " (sensor "
+            << camera_options.sensor_width << "x" << camera_options.sensor_height
+            << ", Bayer RG / mono / RGB8 formats, packet loss " << args.packet_loss << ")\n";
+  std::cout << "light: fixed " << args.illuminant << " spectrum, peak " << args.irradiance_peak
+            << " (LED controller simulator not attached)\n";
+  std::cout << "chromo-sim: running; Ctrl-C stops" << std::endl;
+
+  int signal_number = 0;
+  sigwait(&stop_signals, &signal_number);
+  std::cout << "chromo-sim: " << (signal_number == SIGINT ? "SIGINT" : "SIGTERM") << ", stopping ("
+            << camera.frames_rendered() << " camera frames rendered)" << std::endl;
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"chromo-sim: the Chromosphere virtual lab (device simulators on their real protocols)"};
+  SimArguments args;
+  app.add_option("--camera-serial", args.camera_serial, "GigE Vision serial number of the camera simulator")
+      ->capture_default_str();
+  app.add_option("--sensor-width", args.sensor_width, "Sensor width, pixels")->check(CLI::Range(16, 4096))->capture_default_str();
+  app.add_option("--sensor-height", args.sensor_height, "Sensor height, pixels")->check(CLI::Range(16, 4096))->capture_default_str();
+  app.add_option("--scene-size", args.scene_size, "Scene resolution (square), pixels")->check(CLI::Range(16, 2048))->capture_default_str();
+  app.add_option("--seed", args.seed, "Seed of the scene and of the camera noise")->capture_default_str();
+  app.add_option("--illuminant", args.illuminant, "Fixed light: D65, D50, A, or a CSV spectrum file")->capture_default_str();
+  app.add_option("--irradiance-peak", args.irradiance_peak, "Peak of the fixed light (W57 at full drive ~ 1)")
+      ->check(CLI::PositiveNumber)->capture_default_str();
+  app.add_option("--camera-sensitivity", args.camera_sensitivity,
+                 "Camera spectral sensitivity: nikon_d5100, canon_eos_5d_mark_ii, sony_ilce_7m3 or a CSV "
+                 "(wavelength_nm,R,G,B)")
+      ->capture_default_str();
+  app.add_flag("--white-target", args.white_target, "Show the white reference target instead of skin");
+  app.add_option("--packet-loss", args.packet_loss, "Fraction of GVSP packets dropped")->check(CLI::Range(0.0, 1.0))->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  try {
+    return run(args);
+  } catch (const spectral::DataError& e) {
+    std::cerr << "chromo-sim: " << e.what() << "\n";
+    return 2;
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "chromo-sim: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "chromo-sim: " << e.what() << "\n";
+    return 1;
+  }
+}

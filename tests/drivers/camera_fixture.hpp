@@ -1,0 +1,119 @@
+#pragma once
+// A camera simulator on 127.0.0.1 and the driver opened on it, for the camera
+// tests. The GVCP port is fixed (3956): these tests hold the ctest resource
+// lock "gige_loopback".
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <condition_variable>
+#include <memory>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "chromo/drivers/camera/aravis_camera.hpp"
+#include "chromo/simulators/camera/camera_simulator.hpp"
+#include "chromo/simulators/camera/fixed_illumination.hpp"
+#include "chromo/spectral/cie.hpp"
+
+namespace chromo::testing {
+
+// Collects frames from the stream thread; the test thread waits on it.
+class FrameSink {
+ public:
+  void operator()(drivers::Frame&& frame) {
+    std::lock_guard lock(mutex_);
+    frames_.push_back(std::move(frame));
+    cv_.notify_all();
+  }
+  drivers::FrameCallback callback() {
+    return [this](drivers::Frame&& frame) { (*this)(std::move(frame)); };
+  }
+  bool wait_for_count(std::size_t count, std::chrono::milliseconds timeout) {
+    std::unique_lock lock(mutex_);
+    return cv_.wait_for(lock, timeout, [&] { return frames_.size() >= count; });
+  }
+  std::vector<drivers::Frame> take() {
+    std::lock_guard lock(mutex_);
+    return std::move(frames_);
+  }
+  std::size_t size() {
+    std::lock_guard lock(mutex_);
+    return frames_.size();
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  std::vector<drivers::Frame> frames_;
+};
+
+// D65 scaled to a peak of 1: a smooth stand-in for the sphere's light.
+inline spectral::Spectrum test_irradiance(double peak = 1.0) {
+  const spectral::Spectrum d65 = spectral::illuminant_d65();
+  return d65 * (peak / d65.max());
+}
+
+inline std::shared_ptr<const simulators::Scene> small_skin_scene() {
+  static const auto scene = [] {
+    simulators::SkinSceneOptions options;
+    options.width = 128;
+    options.height = 128;
+    return std::make_shared<const simulators::Scene>(simulators::make_skin_scene(options));
+  }();
+  return scene;
+}
+
+class CameraOnLoopback : public ::testing::Test {
+ protected:
+  static constexpr const char* kSerial = "CHROMO-TEST";
+
+  void SetUp() override {
+    illumination_ = std::make_shared<simulators::FixedSpectrumIllumination>(test_irradiance());
+    simulators::CameraSimulatorOptions sim_options;
+    sim_options.serial = kSerial;
+    sim_options.sensor_width = 256;
+    sim_options.sensor_height = 256;
+    simulator_ = std::make_unique<simulators::CameraSimulator>(sim_options, illumination_, small_skin_scene());
+    drivers::AravisCameraOptions options;
+    options.serial = kSerial;
+    options.socket_buffer_bytes = 4u << 20;
+    options.watchdog_period_ms = 200;
+    options.reconnect_retry_ms = 200;
+    options.on_warning = [this](const std::string& message) {
+      std::lock_guard lock(warnings_mutex_);
+      warnings_.push_back(message);
+    };
+    camera_ = drivers::AravisCamera::open(options);
+  }
+  void TearDown() override {
+    camera_.reset();
+    simulator_.reset();
+  }
+
+  static drivers::CameraSettings settings(drivers::PixelFormat format, drivers::Roi roi = {}) {
+    drivers::CameraSettings s;
+    s.exposure_us = 10000;
+    s.gain_db = 0;
+    s.pixel_format = format;
+    s.roi = roi;
+    s.trigger_mode = drivers::TriggerMode::kSoftware;
+    return s;
+  }
+
+  // Triggers one frame and waits for it (false if none came within the timeout).
+  bool trigger_and_wait(FrameSink& sink, std::chrono::milliseconds timeout = std::chrono::milliseconds(2000)) {
+    const std::size_t before = sink.size();
+    camera_->software_trigger();
+    return sink.wait_for_count(before + 1, timeout);
+  }
+
+  std::shared_ptr<simulators::FixedSpectrumIllumination> illumination_;
+  std::unique_ptr<simulators::CameraSimulator> simulator_;
+  std::unique_ptr<drivers::AravisCamera> camera_;
+  std::mutex warnings_mutex_;
+  std::vector<std::string> warnings_;
+};
+
+}  // namespace chromo::testing
