@@ -2,9 +2,13 @@
 // use. Starts the device simulators on their real protocols, prints where
 // each one listens, and runs until Ctrl-C (SIGINT) or SIGTERM.
 //
-// Devices: the GigE Vision camera simulator (127.0.0.1:3956). The light it
-// renders under is a fixed spectrum (--illuminant) until the LED controller
-// simulator of the virtual lab is wired in here.
+// Devices: the LED controller simulator (Modbus TCP on 127.0.0.1 and Modbus
+// RTU on a pseudo-terminal; its HID device side and the spectrometer sit
+// behind in-process seams and cannot be reached from another process), and
+// the GigE Vision camera simulator (127.0.0.1:3956), which renders the scene
+// under what the LED lab emits and raises the LED controller's hardware
+// trigger input on every exposure. --fixed-light replaces the LED lab's light
+// by a fixed spectrum (the LED controller still runs).
 #include <CLI/CLI.hpp>
 
 #include <csignal>
@@ -14,6 +18,7 @@
 
 #include "chromo/simulators/camera/camera_simulator.hpp"
 #include "chromo/simulators/camera/fixed_illumination.hpp"
+#include "chromo/simulators/leds/led_controller_simulator.hpp"
 #include "chromo/simulators/scene/scene.hpp"
 #include "chromo/spectral/camera.hpp"
 #include "chromo/spectral/cie.hpp"
@@ -28,7 +33,8 @@ struct SimArguments {
   int sensor_width = 1024, sensor_height = 1024;
   int scene_size = 512;
   std::uint64_t seed = 1;
-  std::string illuminant = "D65";
+  std::string fixed_light;  // empty: the LED lab's light
+  int modbus_port = 0;
   double irradiance_peak = 1.0;
   bool white_target = false;
   double packet_loss = 0;
@@ -43,9 +49,12 @@ int run(const SimArguments& args) {
   sigaddset(&stop_signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
 
-  spectral::Spectrum light = spectral::illuminant_by_name_or_file(args.illuminant);
-  light *= args.irradiance_peak / light.max();
-  auto illumination = std::make_shared<simulators::FixedSpectrumIllumination>(light);
+  std::shared_ptr<const simulators::SphereIllumination> fixed_light;
+  if (!args.fixed_light.empty()) {
+    spectral::Spectrum light = spectral::illuminant_by_name_or_file(args.fixed_light);
+    light *= args.irradiance_peak / light.max();
+    fixed_light = std::make_shared<simulators::FixedSpectrumIllumination>(light);
+  }
   const spectral::CameraSensitivity sensitivity =
       args.camera_sensitivity.ends_with(".csv") ? spectral::read_camera_sensitivity(args.camera_sensitivity)
                                                 : spectral::builtin_camera(args.camera_sensitivity);
@@ -69,15 +78,28 @@ int run(const SimArguments& args) {
   camera_options.sensor_height = args.sensor_height;
   camera_options.camera_model.seed = args.seed;
   camera_options.camera_model.sensitivity = sensitivity;
-  simulators::CameraSimulator camera(camera_options, illumination, scene);
+  simulators::LedControllerSimulator leds;
+  const int modbus_port = leds.start_modbus_tcp(args.modbus_port);
+  const std::string modbus_pty = leds.start_modbus_rtu();
+  // The lab outlives the camera simulator (declared first): a non-owning pointer.
+  const std::shared_ptr<const simulators::SphereIllumination> lab_light(std::shared_ptr<void>(), &leds.lab());
+  simulators::CameraSimulator camera(camera_options, fixed_light ? fixed_light : lab_light, scene);
   camera.set_packet_loss_ratio(args.packet_loss);
+  camera.set_exposure_hook([&leds] { leds.trigger(); });
+  const auto led_info = leds.lab().info();
 
   std::cout << "camera: GigE Vision on " << camera_options.interface_address << ":"
             << simulators::CameraSimulator::kGvcpPort << " serial " << camera_options.serial << " (sensor "
             << camera_options.sensor_width << "x" << camera_options.sensor_height
             << ", Bayer RG / mono / RGB8 formats, packet loss " << args.packet_loss << ")\n";
-  std::cout << "light: fixed " << args.illuminant << " spectrum, peak " << args.irradiance_peak
-            << " (LED controller simulator not attached)\n";
+  std::cout << "led controller: Modbus TCP on 127.0.0.1:" << modbus_port << " unit 1; Modbus RTU on "
+            << modbus_pty << " unit 1 (model " << led_info.model << ", serial " << led_info.serial
+            << "); hardware trigger input wired to the camera's exposures\n";
+  std::cout << "light: "
+            << (fixed_light ? "fixed " + args.fixed_light + " spectrum (--fixed-light), not the LEDs"
+                            : std::string("the LED lab (true LED spectra, drift, warm-up)"))
+            << "\n";
+  std::cout << "spectrometer, LED HID: in-process only (libusb / hidapi transport seams)\n";
   std::cout << "chromo-sim: running; Ctrl-C stops" << std::endl;
 
   int signal_number = 0;
@@ -98,8 +120,11 @@ int main(int argc, char** argv) {
   app.add_option("--sensor-height", args.sensor_height, "Sensor height, pixels")->check(CLI::Range(16, 4096))->capture_default_str();
   app.add_option("--scene-size", args.scene_size, "Scene resolution (square), pixels")->check(CLI::Range(16, 2048))->capture_default_str();
   app.add_option("--seed", args.seed, "Seed of the scene and of the camera noise")->capture_default_str();
-  app.add_option("--illuminant", args.illuminant, "Fixed light: D65, D50, A, or a CSV spectrum file")->capture_default_str();
-  app.add_option("--irradiance-peak", args.irradiance_peak, "Peak of the fixed light (W57 at full drive ~ 1)")
+  app.add_option("--modbus-port", args.modbus_port, "Modbus TCP port of the LED controller (0 = any free port)")
+      ->check(CLI::Range(0, 65535))->capture_default_str();
+  app.add_option("--fixed-light", args.fixed_light,
+                 "Render under a fixed spectrum instead of the LEDs: D65, D50, A or a CSV spectrum file");
+  app.add_option("--irradiance-peak", args.irradiance_peak, "Peak of the --fixed-light spectrum (W57 at full drive ~ 1)")
       ->check(CLI::PositiveNumber)->capture_default_str();
   app.add_option("--camera-sensitivity", args.camera_sensitivity,
                  "Camera spectral sensitivity: nikon_d5100, canon_eos_5d_mark_ii, sony_ilce_7m3 or a CSV "
@@ -107,7 +132,12 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_flag("--white-target", args.white_target, "Show the white reference target instead of skin");
   app.add_option("--packet-loss", args.packet_loss, "Fraction of GVSP packets dropped")->check(CLI::Range(0.0, 1.0))->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int status = app.exit(e);
+    return status == 0 ? 0 : 2;  // --help is not an error; anything else is bad input
+  }
   try {
     return run(args);
   } catch (const spectral::DataError& e) {

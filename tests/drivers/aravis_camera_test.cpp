@@ -6,6 +6,8 @@
 
 #include "camera_fixture.hpp"
 #include "chromo/drivers/device_error.hpp"
+#include "chromo/drivers/led_controller_factory.hpp"
+#include "chromo/simulators/leds/led_controller_simulator.hpp"
 
 namespace chromo::testing {
 namespace {
@@ -138,6 +140,46 @@ TEST_F(CameraOnLoopback, SoftwareTriggeredFramesMatchTheRenderedScene) {
   EXPECT_EQ(stats.completed, 3u);
   EXPECT_EQ(stats.failed, 0u);
   EXPECT_EQ(stats.lost_before_driver, 0u);
+}
+
+TEST_F(CameraOnLoopback, FramesMatchTheSceneUnderTheLedStateSetOverModbus) {
+  // The virtual lab's LEDs instead of the fixed light: the LED driver sets a
+  // state over Modbus TCP, the camera simulator renders under the lab's truth.
+  camera_.reset();
+  simulator_.reset();
+  simulators::LedLabOptions lab_options;
+  lab_options.start_warm = true;
+  lab_options.time_scale = 1e-4;  // freeze warm-up drift for the length of the test
+  simulators::LedControllerSimulator leds(lab_options);
+  auto led_driver = drivers::make_modbus_tcp_led_controller("127.0.0.1", leds.start_modbus_tcp());
+  drivers::LedState state;
+  state.drive[spectral::led_type_index(spectral::LedType::kW57)] = 0.8;
+  state.drive[spectral::led_type_index(spectral::LedType::kBlue)] = 0.4;
+  led_driver->set_state(state);
+  led_driver->set_output_enabled(true);
+
+  simulators::CameraSimulatorOptions sim_options;
+  sim_options.serial = kSerial;
+  sim_options.sensor_width = sim_options.sensor_height = 256;
+  const std::shared_ptr<const simulators::SphereIllumination> lab_light(std::shared_ptr<void>(), &leds.lab());
+  simulator_ = std::make_unique<simulators::CameraSimulator>(sim_options, lab_light, small_skin_scene());
+  drivers::AravisCameraOptions options;
+  options.serial = kSerial;
+  options.on_warning = [](const std::string&) {};
+  camera_ = drivers::AravisCamera::open(options);
+  camera_->configure(settings(PixelFormat::kBayerRG16));
+  FrameSink sink;
+  camera_->start_stream(sink.callback());
+  ASSERT_TRUE(trigger_and_wait(sink));
+  camera_->stop_stream();
+  const auto frames = sink.take();
+  ASSERT_EQ(frames[0].status, FrameStatus::kComplete);
+  const ZStats z = bayer_z_scores(frames[0], simulator_->sensor_response(leds.lab().irradiance_now()), 0, 0,
+                                  simulator_->camera_model(), 10000, 0);
+  EXPECT_NEAR(z.mean, 0.0, 0.05);
+  EXPECT_NEAR(z.mean_square, 1.0, 0.08);
+  camera_.reset();
+  simulator_.reset();  // before the LED lab it renders under
 }
 
 TEST_F(CameraOnLoopback, RoiGainExposureAndIlluminationChangesReachThePixels) {

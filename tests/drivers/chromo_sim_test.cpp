@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "camera_fixture.hpp"
+#include "chromo/drivers/led_controller_factory.hpp"
 
 extern char** environ;
 
@@ -67,11 +68,28 @@ class ChromoSimProcess {
   FILE* out_ = nullptr;
 };
 
-TEST(ChromoSim, PrintsWhereTheCameraListensServesFramesAndStopsOnCtrlC) {
+// The Modbus TCP port chromo-sim printed ("... Modbus TCP on 127.0.0.1:<port> ...").
+int printed_modbus_port(const std::string& banner) {
+  const std::string key = "Modbus TCP on 127.0.0.1:";
+  const auto at = banner.find(key);
+  return at == std::string::npos ? -1 : std::stoi(banner.substr(at + key.size()));
+}
+
+double mean_of(const drivers::Frame& frame) {
+  double sum = 0;
+  for (auto v : frame.data) sum += v;
+  return sum / static_cast<double>(frame.data.size());
+}
+
+TEST(ChromoSim, PrintsWhereDevicesListenServesThemAndStopsOnCtrlC) {
   ChromoSimProcess sim({"--camera-serial", "CHROMO-SIMTEST", "--sensor-width", "128", "--sensor-height", "128",
                         "--scene-size", "64"});
   const std::string banner = sim.read_until("running");
   EXPECT_NE(banner.find("camera: GigE Vision on 127.0.0.1:3956 serial CHROMO-SIMTEST"), std::string::npos) << banner;
+  EXPECT_NE(banner.find("Modbus RTU on /dev/pts/"), std::string::npos) << banner;
+  const int modbus_port = printed_modbus_port(banner);
+  ASSERT_GT(modbus_port, 0) << banner;
+  auto leds = drivers::make_modbus_tcp_led_controller("127.0.0.1", modbus_port);
   {
     drivers::AravisCameraOptions options;
     options.serial = "CHROMO-SIMTEST";
@@ -84,20 +102,44 @@ TEST(ChromoSim, PrintsWhereTheCameraListensServesFramesAndStopsOnCtrlC) {
     camera->configure(settings);
     FrameSink sink;
     camera->start_stream(sink.callback());
+    // LEDs off: a black frame (black level 16 DN of 4095 = 1 DN in 8 bits).
     camera->software_trigger();
     ASSERT_TRUE(sink.wait_for_count(1, std::chrono::milliseconds(3000)));
+    // A hardware-timed LED sequence over the LED controller's Modbus TCP: the
+    // camera's exposures are its trigger input, so frame k shows state k.
+    std::vector<drivers::LedState> sequence(3);
+    sequence[1].drive[spectral::led_type_index(spectral::LedType::kW57)] = 1.0;
+    sequence[2].drive[spectral::led_type_index(spectral::LedType::kW57)] = 0.3;
+    leds->arm_sequence(sequence, drivers::SequenceTrigger::kHardwareRisingEdge);
+    leds->set_output_enabled(true);
+    for (std::size_t k = 2; k <= 3; ++k) {
+      camera->software_trigger();
+      ASSERT_TRUE(sink.wait_for_count(k, std::chrono::milliseconds(3000)));
+    }
     camera->stop_stream();
     const auto frames = sink.take();
-    EXPECT_EQ(frames[0].status, drivers::FrameStatus::kComplete);
-    EXPECT_EQ(frames[0].data.size(), 128u * 128u);
+    ASSERT_EQ(frames.size(), 3u);
+    for (const auto& frame : frames) {
+      EXPECT_EQ(frame.status, drivers::FrameStatus::kComplete);
+      EXPECT_EQ(frame.data.size(), 128u * 128u);
+    }
+    EXPECT_LT(mean_of(frames[0]), 2.0);
+    EXPECT_GT(mean_of(frames[1]), 20.0);
+    // PWM duty keeps the spectrum: 30% drive, 30% signal (above the 1 DN black).
+    EXPECT_NEAR((mean_of(frames[2]) - 1.0) / (mean_of(frames[1]) - 1.0), 0.3, 0.04);
+    EXPECT_EQ(leds->read_status().sequence_position, 2);
   }
   EXPECT_EQ(sim.stop_with(SIGINT), 0);
 }
 
 TEST(ChromoSim, BadArgumentsExitWithStatusTwo) {
-  ChromoSimProcess sim({"--illuminant", "no-such-light"});
-  sim.read_until("never printed");
-  EXPECT_EQ(sim.stop_with(0), 2);  // signal 0: just wait for the exit
+  for (std::vector<std::string> args : {std::vector<std::string>{"--fixed-light", "no-such-light"},
+                                        std::vector<std::string>{"--sensor-width", "5"},
+                                        std::vector<std::string>{"--no-such-option"}}) {
+    ChromoSimProcess sim(args);
+    sim.read_until("never printed");
+    EXPECT_EQ(sim.stop_with(0), 2) << args[0];  // signal 0: just wait for the exit
+  }
 }
 
 }  // namespace
