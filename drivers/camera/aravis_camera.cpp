@@ -13,11 +13,11 @@
 #include <iostream>
 #include <mutex>
 #include <optional>
-#include <set>
 #include <stdexcept>
 #include <thread>
 
 #include "chromo/drivers/device_error.hpp"
+#include "lost_frame_counter.hpp"
 
 namespace chromo::drivers {
 namespace {
@@ -94,67 +94,6 @@ FrameStatus to_frame_status(ArvBufferStatus status) {
   }
 }
 
-// How many block ids `current` is ahead of `previous` (1 = the next frame),
-// or nullopt when it is behind (a late frame) or the camera restarted. GigE
-// Vision 1.x block ids are 16 bits and skip 0 when they wrap.
-std::optional<std::uint64_t> frames_ahead(std::uint64_t previous, std::uint64_t current) {
-  if (current > previous) return current - previous;
-  if (previous >= 0xF000 && previous <= 0xFFFF && current < 0x1000 && current >= 1)
-    return (0xFFFF - previous) + current;
-  return std::nullopt;
-}
-std::uint64_t next_block_id(std::uint64_t id) { return id == 0xFFFF ? 1 : id + 1; }
-
-// Counts the frames the link lost before the driver saw them, from the gaps
-// in the camera's block ids. A gap is provisional: Aravis may deliver a frame
-// late (after a newer one, when it waited for resends); it is then taken back.
-class LostFrameCounter {
- public:
-  void reset() {
-    last_.reset();
-    provisional_.clear();
-  }
-  // A failed buffer can come back from Aravis with the block id (and
-  // timestamps) of the frame it held before (seen with Aravis 0.8.26 when a
-  // frame's leader packet was lost): an id behind the newest one that is not
-  // a gap we are waiting for.
-  bool is_stale(std::uint64_t id) const {
-    return id == 0 || (last_ && !frames_ahead(*last_, id) && provisional_.count(id) == 0);
-  }
-  // Returns the change in the lost count for a delivered frame (may be -1).
-  std::int64_t on_frame(std::uint64_t id) {
-    if (!last_) {
-      last_ = id;
-      return 0;
-    }
-    const auto ahead = frames_ahead(*last_, id);
-    if (!ahead) return provisional_.erase(id) > 0 ? -1 : 0;
-    std::uint64_t skipped = *ahead - 1;
-    for (std::uint64_t k = 0, missing = next_block_id(*last_); k < skipped && k < kRemembered; ++k) {
-      provisional_.insert(missing);
-      missing = next_block_id(missing);
-    }
-    while (provisional_.size() > kRemembered) provisional_.erase(provisional_.begin());
-    last_ = id;
-    return static_cast<std::int64_t>(skipped);
-  }
-  // A failed frame without a trustworthy id: it is the oldest frame still
-  // counted as missing, if any, else the next one.
-  std::int64_t on_frame_without_id() {
-    if (!provisional_.empty()) {
-      provisional_.erase(provisional_.begin());
-      return -1;
-    }
-    if (last_) last_ = next_block_id(*last_);
-    return 0;
-  }
-
- private:
-  static constexpr std::size_t kRemembered = 256;
-  std::optional<std::uint64_t> last_;
-  std::set<std::uint64_t> provisional_;
-};
-
 }  // namespace
 
 bool AravisCameraOptions::IsValid(std::string* error) const {
@@ -210,7 +149,7 @@ struct AravisCamera::Impl {
 
   // Owned by the (single) running stream thread.
   std::uint64_t next_sequence = 0;
-  LostFrameCounter lost_frames;
+  detail::LostFrameCounter lost_frames;
 
   mutable std::mutex stats_mutex;
   StreamStatistics stats;
