@@ -44,20 +44,45 @@ std::optional<FaceSolution> solve_face(const QuadraticProgram& qp, const Eigen::
     else free_vars.push_back(i);
   }
   const int k = static_cast<int>(free_vars.size());
-  Eigen::MatrixXd kkt = Eigen::MatrixXd::Zero(k + m, k + m);
-  Eigen::VectorXd rhs(k + m);
-  const Eigen::VectorXd g_fixed = qp.G * x + qp.a;  // gradient contribution of the fixed part
-  const Eigen::VectorXd e_fixed = qp.E * x;
+  // Null-space method on the free variables: x_f = x_p + Z·y with E_f x_p =
+  // f − E_F x_F and E_f Z = 0; y minimises the reduced (positive definite)
+  // quadratic. Better conditioned than the full KKT matrix when G's entries
+  // dwarf E's.
+  Eigen::MatrixXd g_ff(k, k), e_f(m, k);
+  Eigen::VectorXd gradient_fixed(k);  // of ½xᵀGx + aᵀx w.r.t. x_f, at x_f = 0
+  const Eigen::VectorXd g_fixed = qp.G * x + qp.a;
   for (int r = 0; r < k; ++r) {
-    for (int c = 0; c < k; ++c) kkt(r, c) = qp.G(free_vars[r], free_vars[c]);
-    for (int j = 0; j < m; ++j) kkt(r, k + j) = -qp.E(j, free_vars[r]), kkt(k + j, r) = qp.E(j, free_vars[r]);
-    rhs[r] = -g_fixed[free_vars[r]];
+    for (int c = 0; c < k; ++c) g_ff(r, c) = qp.G(free_vars[r], free_vars[c]);
+    for (int j = 0; j < m; ++j) e_f(j, r) = qp.E(j, free_vars[r]);
+    gradient_fixed[r] = g_fixed[free_vars[r]];
   }
-  for (int j = 0; j < m; ++j) rhs[k + j] = qp.f[j] - e_fixed[j];
+  const Eigen::VectorXd e_rhs = qp.f - qp.E * x;
+  Eigen::VectorXd x_f = Eigen::VectorXd::Zero(k);
+  Eigen::MatrixXd null_space = Eigen::MatrixXd::Identity(k, k);
+  if (m > 0) {
+    if (k == 0) {
+      if (e_rhs.lpNorm<Eigen::Infinity>() > 1e-9 * (1.0 + qp.f.lpNorm<Eigen::Infinity>())) return std::nullopt;
+      null_space.resize(0, 0);
+    } else {
+      const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr_t(e_f.transpose());  // E_fᵀ = Q R Pᵀ
+      const Eigen::Index rank = qr_t.rank();
+      x_f = Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd>(e_f).solve(e_rhs);
+      if ((e_f * x_f - e_rhs).norm() > 1e-9 * (1.0 + e_rhs.norm())) return std::nullopt;  // inconsistent
+      const Eigen::MatrixXd q = qr_t.householderQ() * Eigen::MatrixXd::Identity(k, k);
+      null_space = q.rightCols(k - rank);
+    }
+  }
+  if (null_space.cols() > 0) {
+    const Eigen::MatrixXd reduced = null_space.transpose() * g_ff * null_space;
+    const Eigen::LLT<Eigen::MatrixXd> llt(reduced);
+    if (llt.info() != Eigen::Success) return std::nullopt;
+    x_f -= null_space * llt.solve(null_space.transpose() * (g_ff * x_f + gradient_fixed));
+  }
+  for (int r = 0; r < k; ++r) x[free_vars[r]] = x_f[r];
+  // Multipliers: least squares on the stationarity of the free variables.
   Eigen::VectorXd solution = Eigen::VectorXd::Zero(k + m);
-  if (k + m > 0) solution = Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd>(kkt).solve(rhs);
-  if ((kkt * solution - rhs).norm() > 1e-9 * (1.0 + rhs.norm())) return std::nullopt;  // inconsistent
-  for (int r = 0; r < k; ++r) x[free_vars[r]] = solution[r];
+  if (m > 0 && k > 0)
+    solution.tail(m) = Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd>(e_f.transpose()).solve(g_ff * x_f + gradient_fixed);
   FaceSolution face{x, solution.tail(m), Eigen::VectorXd::Zero(n)};
   const Eigen::VectorXd stationarity = qp.G * x + qp.a - qp.E.transpose() * face.equality_multiplier;
   for (int i = 0; i < n; ++i)
