@@ -9,6 +9,7 @@ int main(int argc, char** argv) {
   int exit_status = chromo::cli::kExitOk;
   chromo::cli::add_model_command(app, exit_status);
   chromo::cli::add_profiles_command(app, exit_status);
+  chromo::cli::add_leds_command(app, exit_status);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -62,7 +62,10 @@ SolveOutcome solve_once(const SpectraArray& spectra, const DriveArray& max_drive
       if (w > 0) scale = std::min(scale, max_drive[i] / w);
     }
   }
-  for (int i = 0; i < kLeds; ++i) out.weights[i] = std::max(0.0, qp.x[i] * problem.drive_per_variable[i] * scale);
+  for (int i = 0; i < kLeds; ++i) {
+    const double w = qp.x[i] * problem.drive_per_variable[i] * scale;
+    out.weights[i] = w > 1e-12 * max_drive[i] ? w : 0.0;  // rounding residue of a weight at its zero bound
+  }
   out.target = problem.target * scale;
   out.objective_value = qp.objective * scale * scale + 0.0;
   out.termination = MixTermination::kOptimal;

@@ -1,0 +1,39 @@
+#pragma once
+// Shared by the `chromo leds` subcommands: which library to use and the
+// solve options that `solve` and `plot` both take.
+
+#include <optional>
+#include <string>
+
+#include "chromo/calibration/led_library.hpp"
+#include "chromo/calibration/mix_solver.hpp"
+
+namespace chromo::cli {
+
+struct LedsSolveArguments {
+  std::string target = "d65";
+  std::string objective = "camera";
+  bool hold_chromaticity = false;
+  std::string library_path;  // empty: latest measured, else nominal
+  std::string camera = "nikon_d5100";
+  int stability_trials = 32;
+  double spectrometer_noise = 0.01;
+  bool json = false;
+  std::string out_png = "leds-plot.png";  // plot only
+};
+
+struct SolvedMix {
+  calibration::LedLibrary library;
+  std::string library_description;  // "nominal (built-in ...)" or the file path
+  calibration::MixSummary summary;
+};
+
+// Resolves the library and target, validates, solves. On bad input prints a
+// message naming the option to stderr and returns nullopt with exit_status set.
+std::optional<SolvedMix> solve_from_arguments(const LedsSolveArguments& arguments, const char* command, int& exit_status);
+
+// PNG of target vs mix spectra and the per-patch camera ΔE00, via gnuplot.
+// Returns an exit status (0, or 1 with a message when gnuplot fails).
+int plot_mix(const SolvedMix& solved, const std::string& out_png);
+
+}  // namespace chromo::cli
