@@ -1,10 +1,8 @@
 // Runs the real chromo binary: chromo leds solve / compare / plot.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <array>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -12,27 +10,11 @@
 
 #include "chromo/calibration/led_library.hpp"
 #include "chromo/calibration/led_library_io.hpp"
+#include "run_chromo.hpp"
 
 using testing::HasSubstr;
 
 namespace {
-
-struct Result {
-  int exit_status;
-  std::string output;  // stdout and stderr together
-};
-
-// Every run gets its own CHROMO_HOME so a library on this machine never leaks in.
-Result run(const std::string& arguments, const std::filesystem::path& home) {
-  const std::string command = "CHROMO_HOME='" + home.string() + "' " + std::string(CHROMO_CLI) + " " + arguments + " 2>&1";
-  FILE* pipe = popen(command.c_str(), "r");
-  if (!pipe) return {-1, "popen failed"};
-  std::string output;
-  std::array<char, 4096> buffer{};
-  while (std::size_t n = fread(buffer.data(), 1, buffer.size(), pipe)) output.append(buffer.data(), n);
-  const int status = pclose(pipe);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, output};
-}
 
 class ChromoLeds : public testing::Test {
  protected:
@@ -43,7 +25,10 @@ class ChromoLeds : public testing::Test {
     std::filesystem::create_directories(home_);
   }
   void TearDown() override { std::filesystem::remove_all(home_); }
-  Result run(const std::string& arguments) const { return ::run(arguments, home_); }
+  // Every run gets its own CHROMO_HOME so a library on this machine never leaks in.
+  Result run(const std::string& arguments) const {
+    return run_chromo(arguments, "CHROMO_HOME='" + home_.string() + "'");
+  }
   std::filesystem::path home_;
 };
 

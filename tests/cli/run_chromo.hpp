@@ -12,8 +12,10 @@ struct Result {
   std::string output;  // stdout and stderr together
 };
 
-inline Result run_chromo(const std::string& arguments) {
-  const std::string command = std::string(CHROMO_CLI) + " " + arguments + " 2>&1";
+// `environment`, when given, is prepended to the command ("CHROMO_HOME=/tmp/x").
+inline Result run_chromo(const std::string& arguments, const std::string& environment = {}) {
+  const std::string command =
+      environment + (environment.empty() ? "" : " ") + std::string(CHROMO_CLI) + " " + arguments + " 2>&1";
   FILE* pipe = popen(command.c_str(), "r");
   if (!pipe) return {-1, "popen failed"};
   std::string output;
