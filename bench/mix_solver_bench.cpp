@@ -102,7 +102,7 @@ int main(int argc, char** argv) {
   csv.close();
   std::printf("solve_us: solve_mix with all figures of merit (CRI, ColorChecker dE00); QP_us: the QP alone (dual active set);\n"
               "enum_us: the same QP by face enumeration (independent check); ratio = enum/dual; rel_diff: |objective difference|/objective.\n"
-              "stab32_us: solve_mix with 32 noisy re-solves for the weight std; unreach%: target power the mix lacks in bands it cannot fill.\n");
+              "stab32_us: solve_mix with 32 noisy re-solves for the weight std; unreach%%: target power the mix lacks in bands it cannot fill.\n");
 
   const std::string png = (out_dir / "mix_solver.png").string();
   const std::string data = (out_dir / "mix_solver.csv").string();

@@ -4,6 +4,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <initializer_list>
 #include <limits>
 #include <random>
 
@@ -11,6 +12,19 @@ namespace chromo::calibration {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Dynamic-size literals (fixed-size 2-vectors trip a false -Warray-bounds in GCC 12 with AVX).
+Eigen::VectorXd vec(std::initializer_list<double> values) {
+  Eigen::VectorXd v(static_cast<Eigen::Index>(values.size()));
+  Eigen::Index i = 0;
+  for (double x : values) v[i++] = x;
+  return v;
+}
+Eigen::MatrixXd mat2(double a, double b, double c, double d) {
+  Eigen::MatrixXd m(2, 2);
+  m << a, b, c, d;
+  return m;
+}
 
 // A random strictly convex QP shaped like the mix problem: least squares on
 // `rows` samples of 6 nearly collinear columns, bounds [0, upper], m equalities
@@ -75,18 +89,18 @@ TEST(QuadraticProgram, DualActiveSetMatchesEnumerationOnRandomProblems) {
 
 TEST(QuadraticProgram, UnconstrainedMinimumNeedsNoSteps) {
   QuadraticProgram qp;
-  qp.G = Eigen::Matrix2d{{2, 0}, {0, 4}};
-  qp.a = Eigen::Vector2d{-2, -4};  // minimum at (1, 1)
+  qp.G = mat2(2, 0, 0, 4);
+  qp.a = vec({-2, -4});  // minimum at (1, 1)
   qp.E.resize(0, 2);
   qp.f.resize(0);
-  qp.lower = Eigen::Vector2d{0, 0};
-  qp.upper = Eigen::Vector2d{2, 2};
+  qp.lower = vec({0, 0});
+  qp.upper = vec({2, 2});
   const QpResult r = solve_dual_active_set(qp);
   ASSERT_EQ(r.termination, QpTermination::kOptimal);
   EXPECT_NEAR(r.x[0], 1.0, 1e-12);
   EXPECT_NEAR(r.x[1], 1.0, 1e-12);
   EXPECT_EQ(r.iterations, 0);
-  qp.upper = Eigen::Vector2d{0.5, 2};  // now x0 sits at its upper bound with multiplier G·x+a = -1
+  qp.upper = vec({0.5, 2});  // now x0 sits at its upper bound with multiplier G·x+a = -1
   const QpResult bounded = solve_dual_active_set(qp);
   EXPECT_NEAR(bounded.x[0], 0.5, 1e-12);
   EXPECT_EQ(bounded.active_bound[0], 1);
@@ -95,22 +109,22 @@ TEST(QuadraticProgram, UnconstrainedMinimumNeedsNoSteps) {
 
 TEST(QuadraticProgram, ReportsInfeasibleAndNonConvexProblems) {
   QuadraticProgram qp;
-  qp.G = Eigen::Matrix2d::Identity();
-  qp.a = Eigen::Vector2d::Zero();
-  qp.E = Eigen::RowVector2d{1, 1};
+  qp.G = Eigen::MatrixXd::Identity(2, 2);
+  qp.a = Eigen::VectorXd::Zero(2);
+  qp.E = mat2(1, 1, 0, 0).topRows(1);
   qp.f = Eigen::VectorXd::Constant(1, 5.0);  // x0 + x1 = 5 with both in [0, 2]: impossible
-  qp.lower = Eigen::Vector2d::Zero();
-  qp.upper = Eigen::Vector2d::Constant(2);
+  qp.lower = Eigen::VectorXd::Zero(2);
+  qp.upper = Eigen::VectorXd::Constant(2, 2.0);
   EXPECT_EQ(solve_dual_active_set(qp).termination, QpTermination::kInfeasible);
   EXPECT_EQ(solve_by_enumeration(qp).termination, QpTermination::kInfeasible);
-  qp.E = Eigen::Matrix2d{{1, 1}, {2, 2}};  // contradictory parallel equalities
-  qp.f = Eigen::Vector2d{1, 3};
+  qp.E = mat2(1, 1, 2, 2);  // contradictory parallel equalities
+  qp.f = vec({1, 3});
   EXPECT_EQ(solve_dual_active_set(qp).termination, QpTermination::kInfeasible);
-  qp.f = Eigen::Vector2d{1, 2};  // consistent but redundant: fine
+  qp.f = vec({1, 2});  // consistent but redundant: fine
   const QpResult redundant = solve_dual_active_set(qp);
   ASSERT_EQ(redundant.termination, QpTermination::kOptimal);
   EXPECT_NEAR(redundant.x[0], 0.5, 1e-12);
-  qp.G = Eigen::Matrix2d{{1, 1}, {1, 1}};  // singular
+  qp.G = mat2(1, 1, 1, 1);  // singular
   EXPECT_EQ(solve_dual_active_set(qp).termination, QpTermination::kNotConvex);
   qp.upper[0] = -1;  // below the lower bound
   EXPECT_THROW(solve_dual_active_set(qp), std::invalid_argument);
