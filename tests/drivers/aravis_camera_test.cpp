@@ -94,6 +94,7 @@ TEST_F(CameraOnLoopback, WarnsWhenTheSocketBufferIsTooSmallForTheStream) {
   camera_.reset();
   drivers::AravisCameraOptions options;
   options.serial = kSerial;
+  options.frame_retention_ms = kTestFrameRetentionMs;
   options.socket_buffer_bytes = 65536;  // below four 128 KiB frames whatever rmem_max is
   options.on_warning = [this](const std::string& message) {
     std::lock_guard lock(warnings_mutex_);
@@ -165,6 +166,7 @@ TEST_F(CameraOnLoopback, FramesMatchTheSceneUnderTheLedStateSetOverModbus) {
   simulator_ = std::make_unique<simulators::CameraSimulator>(sim_options, lab_light, small_skin_scene());
   drivers::AravisCameraOptions options;
   options.serial = kSerial;
+  options.frame_retention_ms = kTestFrameRetentionMs;
   options.on_warning = [](const std::string&) {};
   camera_ = drivers::AravisCamera::open(options);
   camera_->configure(settings(PixelFormat::kBayerRG16));
@@ -237,11 +239,11 @@ TEST_F(CameraOnLoopback, FreeRunDeliversConsecutiveFramesAtTheFrameRateAcrossThe
   // Aravis' fake camera starts its 16-bit block ids at 65401: 150 frames cross 65535 -> 1.
   auto s = settings(PixelFormat::kMono8, {0, 0, 64, 64});
   s.trigger_mode = drivers::TriggerMode::kFreeRun;
-  s.frame_rate_hz = 200;
+  s.frame_rate_hz = 100;
   camera_->configure(s);
   FrameSink sink;
   camera_->start_stream(sink.callback());
-  ASSERT_TRUE(sink.wait_for_count(150, milliseconds(5000)));
+  ASSERT_TRUE(sink.wait_for_count(150, milliseconds(15000)));
   camera_->stop_stream();
   const auto frames = sink.take();
   bool wrapped = false;
@@ -258,7 +260,10 @@ TEST_F(CameraOnLoopback, FreeRunDeliversConsecutiveFramesAtTheFrameRateAcrossThe
   // Mean period from the camera's timestamps, skipping the first (unaligned) frame.
   const double period_ms =
       (frames.back().camera_timestamp_ns - frames[1].camera_timestamp_ns) / 1e6 / static_cast<double>(frames.size() - 2);
-  EXPECT_NEAR(period_ms, 5.0, 0.5);
+  // The fake camera paces itself with its own thread's sleeps: on a loaded
+  // machine periods stretch, they do not shrink.
+  EXPECT_GE(period_ms, 9.5);
+  EXPECT_LT(period_ms, 15.0);
   EXPECT_EQ(camera_->statistics().lost_before_driver, 0u);
 }
 
