@@ -14,5 +14,7 @@ inline constexpr int kExitBadInput = 2;    // the command line or an input file 
 void add_model_command(CLI::App& app, int& exit_status);
 void add_profiles_command(CLI::App& app, int& exit_status);
 void add_leds_command(CLI::App& app, int& exit_status);
+void add_fit_spectrum_command(CLI::App& app, int& exit_status);
+void add_estimate_command(CLI::App& app, int& exit_status);
 
 }  // namespace chromo::cli

@@ -10,6 +10,8 @@ int main(int argc, char** argv) {
   chromo::cli::add_model_command(app, exit_status);
   chromo::cli::add_profiles_command(app, exit_status);
   chromo::cli::add_leds_command(app, exit_status);
+  chromo::cli::add_fit_spectrum_command(app, exit_status);
+  chromo::cli::add_estimate_command(app, exit_status);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -1,0 +1,424 @@
+// Estimation: speed against accuracy for every inverter on the same synthetic
+// frames (known truth), noise-free and with the camera noise model; where each
+// method fails (noise level, distance outside the gamut, Ch against Che);
+// table build time and interpolation error; anomaly and vein flag shares.
+//
+//   build/release/bin/estimation_bench [--pixels N] [--exhaustive-pixels N] [--full] [--out DIR]
+//
+// Default: a 256×192 frame (49,152 pixels) for the fast and 2D inverters, the
+// exhaustive search on a fixed subsample of its first 5,000 pixels (the
+// issue's 20,000 with --exhaustive-pixels 20000: about 4 min more on 2 cores),
+// --full: a 5-megapixel frame (2592×1944) for fast and 2D. Writes
+// DIR/estimation_bench.json, *.csv and two PNG charts (gnuplot), DIR
+// defaults to bench/results. Synthetic frames come from estimation's
+// synthetic.hpp (the virtual lab's scene can replace them).
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "chromo/estimation/estimator.hpp"
+#include "chromo/estimation/lab_illuminants.hpp"
+#include "chromo/estimation/reconstruction.hpp"
+#include "chromo/estimation/skin_model.hpp"
+#include "chromo/estimation/synthetic.hpp"
+#include "chromo/spectral/cie.hpp"
+#include "chromo/spectral/delta_e.hpp"
+
+using namespace chromo;
+using namespace chromo::estimation;
+namespace fs = std::filesystem;
+
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+MeasurementSet method_set() {
+  return method_measurement_set(spectral::builtin_camera("nikon_d5100"), led_d65_metamer(),
+                                led_spectrum(spectral::LedType::kBlue));
+}
+
+// Lab of many albedos under the relight illuminants, computed once per set.
+struct Relit {
+  std::vector<std::vector<spectral::Lab>> lab;  // [illuminant][pixel]
+};
+Relit relight(std::span<const SkinParameters> p) {
+  static const SkinModel model;
+  std::vector<spectral::Spectrum> albedo(p.size());
+  model.albedo_batch(p, albedo);
+  Relit r;
+  for (const NamedIlluminant& i : relight_illuminants()) {
+    const spectral::Xyz white = spectral::white_point(i.spectrum);
+    std::vector<spectral::Lab> lab(p.size());
+    for (std::size_t k = 0; k < p.size(); ++k)
+      lab[k] = spectral::lab_from_xyz(spectral::xyz_of_reflectance(albedo[k], i.spectrum), white);
+    r.lab.push_back(std::move(lab));
+  }
+  return r;
+}
+
+struct Accuracy {
+  double de_all = 0, de_d65 = 0;   // mean relit ΔE94: over six LEDs + D65, and D65 alone
+  double de_led[7] = {};
+  double log_cm = 0, log_ch = 0, bm = 0, che = 0;  // mean |error| (log10 for Cm, Ch)
+  std::size_t pixels = 0;
+};
+
+// Accuracy over pixels where mask is set and the estimate is explained.
+Accuracy accuracy(const Relit& truth, std::span<const SkinParameters> truth_p, std::span<const PixelEstimate> e,
+                  const std::vector<bool>& mask) {
+  std::vector<SkinParameters> est;
+  std::vector<std::size_t> index;
+  for (std::size_t i = 0; i < e.size(); ++i)
+    if (mask[i] && e[i].flag == PixelFlag::kExplained) est.push_back(e[i].parameters), index.push_back(i);
+  Accuracy a;
+  a.pixels = est.size();
+  if (est.empty()) return a;
+  const Relit r = relight(est);
+  for (std::size_t l = 0; l < r.lab.size(); ++l) {
+    double sum = 0;
+    for (std::size_t k = 0; k < est.size(); ++k) sum += spectral::delta_e94(truth.lab[l][index[k]], r.lab[l][k]);
+    a.de_led[l] = sum / est.size();
+    a.de_all += a.de_led[l] / r.lab.size();
+  }
+  a.de_d65 = a.de_led[6];
+  for (std::size_t k = 0; k < est.size(); ++k) {
+    const SkinParameters& t = truth_p[index[k]];
+    a.log_cm += std::abs(std::log10(est[k].cm / t.cm)) / est.size();
+    a.log_ch += std::abs(std::log10(est[k].ch / t.ch)) / est.size();
+    a.bm += std::abs(est[k].bm - t.bm) / est.size();
+    a.che += std::abs(est[k].che - t.che) / est.size();
+  }
+  return a;
+}
+
+struct RunResult {
+  std::string method, model, noise;
+  double pixels_per_second = 0;
+  std::size_t pixels = 0, flagged = 0, order2 = 0, order4 = 0;
+  Accuracy acc;
+};
+
+nlohmann::ordered_json to_json(const RunResult& r) {
+  return {{"method", r.method},       {"model", r.model},
+          {"noise", r.noise},         {"pixels", r.pixels},
+          {"pixels_per_second", r.pixels_per_second},
+          {"flagged", r.flagged},     {"order2", r.order2},
+          {"order4", r.order4},       {"de94_relit_mean", r.acc.de_all},
+          {"de94_d65", r.acc.de_d65}, {"de94_per_illuminant", std::vector<double>(r.acc.de_led, r.acc.de_led + 7)},
+          {"abs_log10_cm", r.acc.log_cm}, {"abs_log10_ch", r.acc.log_ch},
+          {"abs_bm", r.acc.bm},       {"abs_che", r.acc.che}};
+}
+
+int gnuplot(const fs::path& script) {
+  const std::string command = "gnuplot " + script.string() + " 2>&1";
+  return std::system(command.c_str());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int width = 256, height = 192, exhaustive_pixels = 5000;
+  fs::path out = fs::path(CHROMO_SOURCE_DIR) / "bench" / "results";
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--full") width = 2592, height = 1944;
+    else if (a == "--pixels" && i + 1 < argc) width = std::atoi(argv[++i]), height = 1;
+    else if (a == "--exhaustive-pixels" && i + 1 < argc) exhaustive_pixels = std::atoi(argv[++i]);
+    else if (a == "--out" && i + 1 < argc) out = argv[++i];
+    else {
+      std::fprintf(stderr, "usage: estimation_bench [--pixels N] [--exhaustive-pixels N] [--full] [--out DIR]\n");
+      return 2;
+    }
+  }
+  fs::create_directories(out);
+  const int pixels = width * height;
+  exhaustive_pixels = std::min(exhaustive_pixels, pixels);
+  nlohmann::ordered_json report;
+  report["frame"] = {{"width", width}, {"height", height}, {"pixels", pixels}, {"exhaustive_pixels", exhaustive_pixels}};
+  report["threads"] = 2;
+
+  // Table: build time (2 threads, full grid) and cache load time.
+  MeasurementSet set = method_set();
+  auto t = std::chrono::steady_clock::now();
+  auto table = std::make_shared<const ForwardTable>(ForwardTable::build(set, TableGrid{}, 2));
+  const double build_s = seconds_since(t);
+  const fs::path cache = fs::temp_directory_path() / "chromo_bench_cache";
+  fs::remove_all(cache);
+  ForwardTable::load_or_build(set, TableGrid{}, cache, nullptr, 2);
+  t = std::chrono::steady_clock::now();
+  bool rebuilt = true;
+  ForwardTable::load_or_build(set, TableGrid{}, cache, &rebuilt, 2);
+  const double load_s = seconds_since(t);
+  fs::remove_all(cache);
+  std::printf("table: %zu nodes, build %.3f s on 2 threads (target <= 2 s), cache load %.3f s (rebuilt=%d)\n",
+              TableGrid{}.node_count(), build_s, load_s, rebuilt);
+  report["table"] = {{"nodes", TableGrid{}.node_count()}, {"build_s", build_s}, {"cache_load_s", load_s}};
+
+  // Interpolation error of the grid in colour (XYZ table under D65 vs direct model).
+  {
+    const spectral::Observer& o = spectral::cie1931_observer();
+    const MeasurementSet xyz = rgb_measurement_set({"cie1931", {o.x_bar, o.y_bar, o.z_bar}}, spectral::illuminant_d65());
+    const ForwardTable xt = ForwardTable::build(xyz, TableGrid{}, 2);
+    const auto p = random_skin_parameters(20000, {0.001, 0.001, 0, 0}, {0.5, 0.32, 1, 0.1}, 3);
+    std::vector<spectral::Spectrum> albedo(p.size());
+    SkinModel().albedo_batch(p, albedo, 2);
+    const spectral::Xyz white = spectral::white_point(spectral::illuminant_d65());
+    std::vector<double> de;
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      double v[3];
+      xt.predict(xt.to_grid(p[i]), v);
+      de.push_back(spectral::delta_e94(
+          spectral::lab_from_xyz(spectral::xyz_of_reflectance(albedo[i], spectral::illuminant_d65()), white),
+          spectral::lab_from_xyz({v[0] * white.X, v[1] * white.Y, v[2] * white.Z}, white)));
+    }
+    const DeltaEStats s = delta_e_stats(de);
+    std::printf("table interpolation error under D65 (20,000 random parameter sets, full range): mean ΔE94 %.4f "
+                "(target <= 0.02), median %.4f, p95 %.4f, max %.3f\n", s.mean, s.median, s.p95, s.max);
+    report["interpolation_de94_d65"] = {{"mean", s.mean}, {"median", s.median}, {"p95", s.p95}, {"max", s.max}};
+  }
+
+  // Speed/accuracy: in-gamut skin, noise-free and noisy.
+  std::vector<RunResult> runs;
+  std::ofstream speed_csv(out / "estimation_speed_accuracy.csv");
+  speed_csv << "# method model noise pixels_per_second de94_relit_mean de94_d65 abs_log10_cm abs_log10_ch abs_bm abs_che\n";
+  for (double noise : {0.0, 1.0}) {
+    SyntheticOptions o;
+    o.pixels = pixels;
+    o.noise.noise_scale = noise;
+    o.threads = 2;
+    MeasurementSet s = method_set();
+    const SyntheticFrame f = make_synthetic_frame(s, o);
+    const Relit truth = relight(f.truth);
+    const std::vector<bool> all(f.pixels(), true);
+    // Noise floor: ΔE94 (D65, via the camera→XYZ matrix) of the noisy broadband input against the clean one.
+    double floor = 0;
+    if (noise > 0) {
+      std::vector<Eigen::Vector3d> clean(f.pixels()), noisy(f.pixels());
+      for (std::size_t i = 0; i < f.pixels(); ++i)
+        for (int c = 0; c < 3; ++c) clean[i][c] = f.clean[i * 4 + c], noisy[i][c] = f.noisy[i * 4 + c];
+      floor = photo_delta_e94(clean, noisy, s.camera, s.channels[0].illuminant).mean;
+      std::printf("noise floor (ΔE94 of noisy broadband input vs noise-free, D65'): %.3f\n", floor);
+      report["noise_floor_de94"] = floor;
+    }
+    struct Config {
+      InverterMethod method;
+      ModelChoice model;
+    };
+    for (const Config c : {Config{InverterMethod::kFast, ModelChoice::k4d}, Config{InverterMethod::kFast, ModelChoice::kAuto},
+                           Config{InverterMethod::k2d, ModelChoice::k2d},
+                           Config{InverterMethod::kExhaustive, ModelChoice::k4d}}) {
+      EstimatorOptions eo;
+      eo.method = c.method;
+      eo.model = c.model;
+      eo.threads = 2;
+      const Estimator estimator(table, s, eo);
+      const std::size_t n = c.method == InverterMethod::kExhaustive ? exhaustive_pixels : f.pixels();
+      std::vector<PixelEstimate> e(n);
+      const EstimateSummary summary =
+          estimator.estimate(std::span(noise > 0 ? f.noisy : f.clean).first(n * 4), e);
+      RunResult r{std::string(method_name(c.method)), std::string(model_name(c.model)), noise > 0 ? "noisy" : "noise-free"};
+      r.pixels = n;
+      r.pixels_per_second = n / summary.seconds;
+      r.flagged = n - summary.flag_counts[0];
+      r.order2 = summary.order2, r.order4 = summary.order4;
+      Relit truth_n;
+      for (const auto& l : truth.lab) truth_n.lab.emplace_back(l.begin(), l.begin() + n);
+      r.acc = accuracy(truth_n, std::span(f.truth).first(n), e, std::vector<bool>(n, true));
+      std::printf("%-10s %-4s %-10s %9zu px %11.0f px/s  relit ΔE94 %.4f (D65 %.4f)%s  |Δlog10 Cm| %.4f |Δlog10 Ch| "
+                  "%.4f |ΔβM| %.3f |ΔChe| %.4f  flagged %.2f%%\n",
+                  r.method.c_str(), r.model.c_str(), r.noise.c_str(), n, r.pixels_per_second, r.acc.de_all,
+                  r.acc.de_d65, noise > 0 ? (" = " + std::to_string(r.acc.de_all / floor).substr(0, 5) + "× floor").c_str() : "",
+                  r.acc.log_cm, r.acc.log_ch, r.acc.bm, r.acc.che, 100.0 * r.flagged / n);
+      speed_csv << r.method << "/" << r.model << " " << r.model << " " << r.noise << " " << r.pixels_per_second << " "
+                << r.acc.de_all << " " << r.acc.de_d65 << " " << r.acc.log_cm << " " << r.acc.log_ch << " " << r.acc.bm
+                << " " << r.acc.che << "\n";
+      runs.push_back(r);
+      report["runs"].push_back(to_json(r));
+    }
+  }
+  // Ratios.
+  auto find = [&](const std::string& m, const std::string& model, const std::string& noise) -> const RunResult* {
+    for (const RunResult& r : runs)
+      if (r.method == m && r.model == model && r.noise == noise) return &r;
+    return nullptr;
+  };
+  for (const char* noise : {"noise-free", "noisy"}) {
+    const RunResult *fast = find("fast", "4d", noise), *ex = find("exhaustive", "4d", noise), *two = find("2d", "2d", noise);
+    std::printf("%s: fast/exhaustive speed ×%.0f, D65 ΔE94 fast − exhaustive %+.4f (target ≤ 0.1); fast vs 2D speed "
+                "×%.2f, relit ΔE94 2D/fast ×%.1f; fast 4D %.2f MP/s (target ≥ 10)\n",
+                noise, fast->pixels_per_second / ex->pixels_per_second, fast->acc.de_d65 - ex->acc.de_d65,
+                fast->pixels_per_second / two->pixels_per_second, two->acc.de_all / fast->acc.de_all,
+                fast->pixels_per_second / 1e6);
+  }
+
+  // Failure behaviour 1: error against noise level (fast 4D, 2D; exhaustive on 1,000 pixels).
+  std::ofstream noise_csv(out / "estimation_error_vs_noise.csv");
+  noise_csv << "# noise_scale fast_de94 2d_de94 exhaustive_de94 noise_floor\n";
+  for (double noise : {0.0, 0.25, 0.5, 1.0, 2.0, 4.0}) {
+    SyntheticOptions o;
+    o.pixels = 8000;
+    o.noise.noise_scale = noise;
+    o.seed = 7;
+    MeasurementSet s = method_set();
+    const SyntheticFrame f = make_synthetic_frame(s, o);
+    double floor = 0;
+    if (noise > 0) {
+      std::vector<Eigen::Vector3d> clean(f.pixels()), noisy(f.pixels());
+      for (std::size_t i = 0; i < f.pixels(); ++i)
+        for (int c = 0; c < 3; ++c) clean[i][c] = f.clean[i * 4 + c], noisy[i][c] = f.noisy[i * 4 + c];
+      floor = photo_delta_e94(clean, noisy, s.camera, s.channels[0].illuminant).mean;
+    }
+    noise_csv << noise;
+    for (InverterMethod m : {InverterMethod::kFast, InverterMethod::k2d, InverterMethod::kExhaustive}) {
+      EstimatorOptions eo;
+      eo.method = m;
+      eo.model = m == InverterMethod::k2d ? ModelChoice::k2d : ModelChoice::k4d;
+      eo.threads = 2;
+      const std::size_t n = m == InverterMethod::kExhaustive ? 1000 : f.pixels();
+      std::vector<PixelEstimate> e(n);
+      Estimator(table, s, eo).estimate(std::span(f.noisy).first(n * 4), e);
+      const Relit truth = relight(std::span(f.truth).first(n));
+      noise_csv << " " << accuracy(truth, std::span(f.truth).first(n), e, std::vector<bool>(n, true)).de_all;
+    }
+    noise_csv << " " << floor << "\n";
+  }
+
+  // Failure behaviour 2: distance outside the gamut. In-gamut pixels pushed
+  // out by scaling the blue-only channel by (1 + d): share flagged, and the
+  // relit error of those left unflagged.
+  std::ofstream gamut_csv(out / "estimation_error_vs_gamut.csv");
+  gamut_csv << "# blue_channel_excess flagged_share_fast de94_unflagged_fast flagged_share_exhaustive\n";
+  {
+    SyntheticOptions o;
+    o.pixels = 4000;
+    o.noise.noise_scale = 1.0;
+    o.seed = 9;
+    MeasurementSet s = method_set();
+    const SyntheticFrame f = make_synthetic_frame(s, o);
+    for (double d : {0.0, 0.02, 0.05, 0.1, 0.2, 0.4}) {
+      std::vector<float> pushed = f.noisy;
+      for (std::size_t i = 0; i < f.pixels(); ++i) pushed[i * 4 + 3] *= static_cast<float>(1 + d);
+      gamut_csv << d;
+      for (InverterMethod m : {InverterMethod::kFast, InverterMethod::kExhaustive}) {
+        EstimatorOptions eo;
+        eo.method = m;
+        eo.model = ModelChoice::k4d;
+        eo.threads = 2;
+        const std::size_t n = m == InverterMethod::kExhaustive ? 500 : f.pixels();
+        std::vector<PixelEstimate> e(n);
+        const EstimateSummary sum = Estimator(table, s, eo).estimate(std::span(pushed).first(n * 4), e);
+        gamut_csv << " " << 1.0 - double(sum.flag_counts[0]) / n;
+        if (m == InverterMethod::kFast) {
+          const Relit truth = relight(f.truth);
+          gamut_csv << " " << accuracy(truth, f.truth, e, std::vector<bool>(n, true)).de_all;
+        }
+      }
+      gamut_csv << "\n";
+    }
+  }
+
+  // Failure behaviour 3: Ch against Che, binned by the true Che.
+  std::ofstream chche_csv(out / "estimation_ch_vs_che.csv");
+  chche_csv << "# true_che fast_abs_log10_ch fast_abs_che fast_noisy_abs_log10_ch fast_noisy_abs_che\n";
+  {
+    SyntheticOptions o;
+    o.pixels = 20000;
+    o.noise.noise_scale = 1.0;
+    o.seed = 11;
+    MeasurementSet s = method_set();
+    const SyntheticFrame f = make_synthetic_frame(s, o);
+    EstimatorOptions eo;
+    eo.model = ModelChoice::k4d;
+    eo.threads = 2;
+    const Estimator estimator(table, s, eo);
+    std::vector<PixelEstimate> clean(f.pixels()), noisy(f.pixels());
+    estimator.estimate(f.clean, clean);
+    estimator.estimate(f.noisy, noisy);
+    for (int bin = 0; bin < 10; ++bin) {
+      double sums[4] = {};
+      int count = 0;
+      for (std::size_t i = 0; i < f.pixels(); ++i) {
+        if (static_cast<int>(f.truth[i].che / 0.01) != bin) continue;
+        ++count;
+        sums[0] += std::abs(std::log10(clean[i].parameters.ch / f.truth[i].ch));
+        sums[1] += std::abs(clean[i].parameters.che - f.truth[i].che);
+        sums[2] += std::abs(std::log10(noisy[i].parameters.ch / f.truth[i].ch));
+        sums[3] += std::abs(noisy[i].parameters.che - f.truth[i].che);
+      }
+      chche_csv << (bin + 0.5) * 0.01;
+      for (double v : sums) chche_csv << " " << v / std::max(count, 1);
+      chche_csv << "\n";
+    }
+  }
+
+  // Anomalies and veins: share flagged per kind (fast, auto, noisy).
+  {
+    SyntheticOptions o;
+    o.pixels = 40000;
+    o.noise.noise_scale = 1.0;
+    o.seed = 13;
+    for (int k = 1; k < kSyntheticKindCount; ++k) o.share[k] = 0.08;
+    MeasurementSet s = method_set();
+    const SyntheticFrame f = make_synthetic_frame(s, o);
+    EstimatorOptions eo;
+    eo.threads = 2;
+    std::vector<PixelEstimate> e(f.pixels());
+    Estimator(table, s, eo).estimate(f.noisy, e);
+    std::size_t total[kSyntheticKindCount] = {}, flagged[kSyntheticKindCount] = {};
+    for (std::size_t i = 0; i < f.pixels(); ++i) {
+      ++total[static_cast<int>(f.kind[i])];
+      flagged[static_cast<int>(f.kind[i])] += e[i].flag != PixelFlag::kExplained;
+    }
+    std::printf("flagged share per kind (fast, auto, noisy):");
+    for (int k = 0; k < kSyntheticKindCount; ++k) {
+      const double share = double(flagged[k]) / std::max<std::size_t>(total[k], 1);
+      std::printf(" %s %.1f%%", synthetic_kind_name(static_cast<SyntheticKind>(k)), 100 * share);
+      report["flagged_share"][synthetic_kind_name(static_cast<SyntheticKind>(k))] = share;
+    }
+    std::printf("\nveins: %.1f%% flagged, %.1f%% fitted by the model\n",
+                100.0 * flagged[1] / std::max<std::size_t>(total[1], 1),
+                100.0 - 100.0 * flagged[1] / std::max<std::size_t>(total[1], 1));
+  }
+
+  std::ofstream(out / "estimation_bench.json") << report.dump(2) << "\n";
+  for (std::ofstream* f : {&speed_csv, &noise_csv, &gamut_csv, &chche_csv}) f->close();  // gnuplot reads them next
+
+  // Charts.
+  const fs::path script1 = out / "estimation_speed_accuracy.gp";
+  std::ofstream(script1) << "set terminal pngcairo size 900,600\nset output '" << (out / "estimation_speed_accuracy.png").string()
+                         << "'\nset title 'Inverters on " << pixels << "-pixel synthetic frames, 2 threads'\n"
+                         << "set xlabel 'pixels per second'\nset ylabel 'mean relit ΔE94 (six LEDs + D65)'\n"
+                         << "set logscale xy\nset grid\nset key outside right\n"
+                         << "plot '" << (out / "estimation_speed_accuracy.csv").string()
+                         << "' using 4:(stringcolumn(3) eq 'noise-free' ? $5 : 1/0):1 with labels point pt 7 offset 1,0.5 "
+                            "notitle, '' using 4:(stringcolumn(3) eq 'noisy' ? $5 : 1/0):1 with labels point pt 5 "
+                            "offset 1,-0.5 tc rgb 'red' notitle\n";
+  const fs::path script2 = out / "estimation_failures.gp";
+  std::ofstream(script2) << "set terminal pngcairo size 1400,450\nset output '" << (out / "estimation_failures.png").string()
+                         << "'\nset multiplot layout 1,3\nset grid\n"
+                         << "set title 'error vs noise'\nset xlabel 'noise scale (1 = camera model)'\nset ylabel 'relit ΔE94'\n"
+                         << "plot '" << (out / "estimation_error_vs_noise.csv").string()
+                         << "' u 1:2 w lp t 'fast 4D', '' u 1:3 w lp t '2D', '' u 1:4 w lp t 'exhaustive 4D', '' u 1:5 w l "
+                            "dt 2 t 'noise floor'\n"
+                         << "set title 'outside the gamut'\nset xlabel 'blue channel excess'\nset ylabel 'share flagged'\n"
+                         << "plot '" << (out / "estimation_error_vs_gamut.csv").string()
+                         << "' u 1:2 w lp t 'fast: flagged', '' u 1:4 w lp t 'exhaustive: flagged', '' u 1:3 w lp axes x1y2 "
+                            "t 'fast: ΔE94 unflagged (right)'\n"
+                         << "set y2tics\nset title 'Ch against Che'\nset xlabel 'true Che'\nset ylabel '|Δlog10 Ch|'\n"
+                            "set y2label '|ΔChe|'\n"
+                         << "plot '" << (out / "estimation_ch_vs_che.csv").string()
+                         << "' u 1:2 w lp t 'Ch, noise-free', '' u 1:4 w lp t 'Ch, noisy', '' u 1:3 w lp axes x1y2 t 'Che, "
+                            "noise-free', '' u 1:5 w lp axes x1y2 t 'Che, noisy'\nunset multiplot\n";
+  gnuplot(script1);
+  gnuplot(script2);
+  std::printf("wrote %s\n", out.string().c_str());
+  return 0;
+}

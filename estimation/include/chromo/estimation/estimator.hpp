@@ -1,0 +1,137 @@
+#pragma once
+// Estimator: measurement images → per-pixel (Cm, Ch, βm, Che), residual,
+// model order and flag. The API the daemon's pipeline and the offline CLI call.
+//
+// Input layout: pixel-major float albedo, channels() values per pixel in the
+// order of the MeasurementSet (for the method's set: R, G, B under D65', then
+// the blue-only B). Registration of the captures happens before (registration.hpp).
+//
+// Per pixel:
+//  1. NaN/inf → kNonFinite; any channel ≥ its saturation_albedo → kSaturated;
+//     every channel < dark_albedo → kDark. Parameters 0, order 0.
+//  2. Weights 1/σ_c, σ_c² = camera noise (measurement.hpp) + (model_sigma_relative·a_c)².
+//  3. Model order. model = k4d or k2d: that order. kAuto: fit both; choose 4
+//     only when χ²₂ − χ²₄ exceeds the (1 − order_significance) quantile of χ²
+//     with (min(C, 4) − 2) degrees of freedom (C channels): the likelihood-ratio
+//     test of the nested models under Gaussian camera noise. At the default
+//     significance 0.01 a pixel of a 2D-model scene is given order 4 by noise
+//     alone 1% of the time.
+//  4. Explained? The chosen fit's χ² is compared with the (1 −
+//     flag_significance) quantile of χ² with max(C − free parameters, 1)
+//     degrees of freedom (with as many channels as parameters a pixel inside
+//     the gamut fits exactly and χ² measures its distance outside the gamut
+//     along one direction). Default 0.001: ≤ 0.1% of skin pixels flagged by noise.
+//  5. If not explained: subtract a white surface reflection s (s scanned in
+//     eight steps up to the smallest channel) and refit in 4D; if some s ≥
+//     min_specular explains it → kSpecular with those parameters. Otherwise
+//     kUnexplainedAbsorber when the pixel is darker than the best fit in every
+//     channel, else kUnexplainedColour; the best-fit parameters are kept.
+//  Limits (measured in bench/, docs/estimation.md): a specular reflection that
+//  leaves the pixel looking like paler skin, or ink over dark skin that looks
+//  like more melanin, IS explained by some parameters and cannot be told from
+//  skin one pixel at a time; those pixels pass unflagged.
+//
+// Thread rules: an Estimator is immutable after construction. estimate_tile()
+// may be called concurrently from any number of threads on disjoint outputs
+// (the daemon runs one tile per core as frames arrive). estimate() splits an
+// image into tiles over options.threads threads itself; its progress callback
+// is called under a lock (never concurrently) after each tile, and cancel is
+// polled before each tile: a cancelled run returns with summary.cancelled and
+// the pixels of tiles not started left untouched.
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <span>
+#include <string>
+
+#include "chromo/estimation/forward_table.hpp"
+#include "chromo/estimation/inverter.hpp"
+#include "chromo/estimation/measurement.hpp"
+#include "chromo/estimation/pixel_flags.hpp"
+
+namespace chromo::estimation {
+
+enum class InverterMethod { kExhaustive, kFast, k2d };
+enum class ModelChoice { kAuto, k2d, k4d };
+std::string_view method_name(InverterMethod method);
+std::string_view model_name(ModelChoice model);
+
+struct PixelEstimate {
+  SkinParameters parameters{0, 0, 0, 0};
+  float residual = 0;   // RMS of predicted − measured over the channels, albedo units
+  float chi2 = 0;       // noise-weighted residual of the chosen fit
+  std::uint8_t order = 0;   // 2 or 4; 0 for pixels flagged before fitting
+  PixelFlag flag = PixelFlag::kExplained;
+};
+
+struct EstimatorOptions {
+  InverterMethod method = InverterMethod::kFast;
+  ModelChoice model = ModelChoice::kAuto;
+  double order_significance = 0.01;
+  double flag_significance = 0.001;
+  double dark_albedo = 0.01;
+  double min_specular = 0.01;     // smallest white surface reflection called specular
+  // Model error added to the camera noise in quadrature: the table's
+  // interpolation error and float storage (σ = model_sigma_relative · albedo);
+  // without it a noise-free pixel would fail the χ² test on interpolation error alone.
+  double model_sigma_relative = 0.003;
+  int threads = 0;                // estimate(): 0 = all cores
+  int tile_pixels = 16384;        // estimate(): pixels per tile
+  bool IsValid(std::string* error) const;
+};
+
+struct EstimateSummary {
+  std::size_t pixels = 0;
+  std::size_t processed = 0;      // < pixels when cancelled
+  bool cancelled = false;
+  double seconds = 0;
+  std::size_t flag_counts[kPixelFlagCount] = {};
+  std::size_t order2 = 0, order4 = 0;
+  void merge(const EstimateSummary& other);
+};
+
+struct EstimateCallbacks {
+  std::function<void(std::size_t done_pixels, std::size_t total_pixels)> progress;  // optional
+  std::function<bool()> cancel;                                                     // optional: true = stop
+};
+
+// Inverse χ² CDF (quantile) for k degrees of freedom, p in (0, 1).
+double chi_squared_quantile(double p, int degrees_of_freedom);
+
+class Estimator {
+ public:
+  // Throws std::invalid_argument for invalid options or a table whose channel
+  // count differs from the set's.
+  Estimator(std::shared_ptr<const ForwardTable> table, MeasurementSet set, EstimatorOptions options);
+
+  int channels() const { return set_.size(); }
+  const EstimatorOptions& options() const { return options_; }
+  const Inverter& inverter() const { return *inverter_; }
+  const ForwardTable& table() const { return *table_; }
+
+  // One pixel (channels() values).
+  PixelEstimate estimate_pixel(const float* measured) const;
+  // measured.size() == out.size() · channels(); std::invalid_argument otherwise.
+  EstimateSummary estimate_tile(std::span<const float> measured, std::span<PixelEstimate> out) const;
+  // The whole image on options().threads threads, tile by tile.
+  EstimateSummary estimate(std::span<const float> measured, std::span<PixelEstimate> out,
+                           const EstimateCallbacks& callbacks = {}) const;
+
+  // Predicted measurement of parameters through the table (for residual maps).
+  void predict(const SkinParameters& p, double* out) const;
+
+ private:
+  std::shared_ptr<const ForwardTable> table_;
+  MeasurementSet set_;
+  EstimatorOptions options_;
+  std::unique_ptr<Inverter> inverter_;
+  std::unique_ptr<Inverter> inverter_2d_;
+  double order_threshold_ = 0;
+  double flag_threshold_[5] = {};  // by free parameters (index 2 and 4)
+  double weight(int channel, double albedo) const;
+};
+
+std::unique_ptr<Inverter> make_inverter(InverterMethod method, std::shared_ptr<const ForwardTable> table);
+
+}  // namespace chromo::estimation

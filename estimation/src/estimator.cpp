@@ -1,0 +1,260 @@
+#include "chromo/estimation/estimator.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <mutex>
+#include <stdexcept>
+
+namespace chromo::estimation {
+
+std::string_view method_name(InverterMethod method) {
+  switch (method) {
+    case InverterMethod::kExhaustive: return "exhaustive";
+    case InverterMethod::kFast: return "fast";
+    case InverterMethod::k2d: return "2d";
+  }
+  return "?";
+}
+
+std::string_view model_name(ModelChoice model) {
+  switch (model) {
+    case ModelChoice::kAuto: return "auto";
+    case ModelChoice::k2d: return "2d";
+    case ModelChoice::k4d: return "4d";
+  }
+  return "?";
+}
+
+namespace {
+
+// Regularised lower incomplete gamma P(a, x) by its series / continued fraction.
+double regularized_gamma_p(double a, double x) {
+  if (x <= 0) return 0;
+  if (x < a + 1) {
+    double sum = 1 / a, term = sum;
+    for (int n = 1; n < 500; ++n) {
+      term *= x / (a + n);
+      sum += term;
+      if (term < sum * 1e-15) break;
+    }
+    return sum * std::exp(-x + a * std::log(x) - std::lgamma(a));
+  }
+  // Lentz continued fraction for Q.
+  double b = x + 1 - a, c = 1e300, d = 1 / b, h = d;
+  for (int i = 1; i < 500; ++i) {
+    const double an = -i * (i - a);
+    b += 2;
+    d = an * d + b;
+    if (std::abs(d) < 1e-300) d = 1e-300;
+    c = b + an / c;
+    if (std::abs(c) < 1e-300) c = 1e-300;
+    d = 1 / d;
+    const double delta = d * c;
+    h *= delta;
+    if (std::abs(delta - 1) < 1e-15) break;
+  }
+  return 1 - std::exp(-x + a * std::log(x) - std::lgamma(a)) * h;
+}
+
+}  // namespace
+
+double chi_squared_quantile(double p, int k) {
+  if (!(p > 0 && p < 1) || k < 1) throw std::invalid_argument("chi_squared_quantile: p in (0,1), k >= 1");
+  double lo = 0, hi = std::max(10.0 * k, 100.0);
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (regularized_gamma_p(0.5 * k, 0.5 * mid) < p ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+bool EstimatorOptions::IsValid(std::string* error) const {
+  auto fail = [&](const std::string& m) {
+    if (error) *error = m;
+    return false;
+  };
+  if (!(order_significance > 0 && order_significance < 1)) return fail("order_significance must be in (0, 1)");
+  if (!(flag_significance > 0 && flag_significance < 1)) return fail("flag_significance must be in (0, 1)");
+  if (!(dark_albedo >= 0)) return fail("dark_albedo must be >= 0");
+  if (!(min_specular > 0)) return fail("min_specular must be > 0");
+  if (!(model_sigma_relative >= 0)) return fail("model_sigma_relative must be >= 0");
+  if (threads < 0) return fail("threads must be >= 0");
+  if (tile_pixels < 1) return fail("tile_pixels must be >= 1");
+  return true;
+}
+
+void EstimateSummary::merge(const EstimateSummary& o) {
+  pixels += o.pixels;
+  processed += o.processed;
+  for (int i = 0; i < kPixelFlagCount; ++i) flag_counts[i] += o.flag_counts[i];
+  order2 += o.order2;
+  order4 += o.order4;
+}
+
+std::unique_ptr<Inverter> make_inverter(InverterMethod method, std::shared_ptr<const ForwardTable> table) {
+  switch (method) {
+    case InverterMethod::kExhaustive: return std::make_unique<ExhaustiveInverter>(std::move(table));
+    case InverterMethod::kFast: return std::make_unique<FastInverter>(std::move(table));
+    case InverterMethod::k2d: return std::make_unique<TwoDInverter>(std::move(table));
+  }
+  throw std::invalid_argument("unknown inverter method");
+}
+
+Estimator::Estimator(std::shared_ptr<const ForwardTable> table, MeasurementSet set, EstimatorOptions options)
+    : table_(std::move(table)), set_(std::move(set)), options_(options) {
+  std::string error;
+  if (!options_.IsValid(&error)) throw std::invalid_argument("estimator options: " + error);
+  set_.validate();
+  if (!table_ || table_->channels() != set_.size())
+    throw std::invalid_argument("estimator: the table's channel count does not match the measurement set's");
+  if (options_.method == InverterMethod::k2d) options_.model = ModelChoice::k2d;
+  inverter_ = make_inverter(options_.method, table_);
+  // The 2D fit of the auto test: the fast inverter's own order-2 path, or the
+  // exhaustive slice search for the exhaustive reference.
+  const int c = set_.size();
+  order_threshold_ = std::min(c, 4) > 2 ? chi_squared_quantile(1 - options_.order_significance, std::min(c, 4) - 2) : 0;
+  for (int free : {2, 4}) flag_threshold_[free] = chi_squared_quantile(1 - options_.flag_significance, std::max(c - free, 1));
+}
+
+double Estimator::weight(int channel, double albedo) const {
+  const double model = options_.model_sigma_relative * std::max(albedo, 0.0);
+  return 1.0 / std::sqrt(set_.channels[channel].noise.variance(albedo) + model * model);
+}
+
+void Estimator::predict(const SkinParameters& p, double* out) const { table_->predict(table_->to_grid(p), out); }
+
+PixelEstimate Estimator::estimate_pixel(const float* m) const {
+  PixelEstimate out;
+  const int c_count = channels();
+  double measured[kMaxChannels], weight[kMaxChannels];
+  bool dark = true;
+  for (int c = 0; c < c_count; ++c) {
+    if (!std::isfinite(m[c])) {
+      out.flag = PixelFlag::kNonFinite;
+      return out;
+    }
+  }
+  for (int c = 0; c < c_count; ++c) {
+    if (m[c] >= set_.channels[c].noise.saturation_albedo) {
+      out.flag = PixelFlag::kSaturated;
+      return out;
+    }
+    if (m[c] >= options_.dark_albedo) dark = false;
+    measured[c] = m[c];
+    weight[c] = this->weight(c, m[c]);
+  }
+  if (dark) {
+    out.flag = PixelFlag::kDark;
+    return out;
+  }
+  const Inverter& inv = *inverter_;
+  Fit chosen;
+  int order = 4;
+  if (options_.model == ModelChoice::k2d) {
+    chosen = inv.fit(measured, weight, 2);
+    order = 2;
+  } else {
+    chosen = inv.fit(measured, weight, 4);
+    if (options_.model == ModelChoice::kAuto && order_threshold_ > 0) {
+      const Fit fit2 = inv.fit(measured, weight, 2);
+      if (fit2.chi2 - chosen.chi2 <= order_threshold_) chosen = fit2, order = 2;
+    }
+  }
+  out.order = static_cast<std::uint8_t>(order);
+  out.parameters = table_->from_grid(chosen.x);
+  out.chi2 = static_cast<float>(chosen.chi2);
+  double predicted[kMaxChannels];
+  table_->predict(chosen.x, predicted);
+  double sum = 0;
+  bool darker_everywhere = true;
+  for (int c = 0; c < c_count; ++c) {
+    sum += (predicted[c] - measured[c]) * (predicted[c] - measured[c]);
+    if (measured[c] >= predicted[c]) darker_everywhere = false;
+  }
+  out.residual = static_cast<float>(std::sqrt(sum / c_count));
+  if (chosen.chi2 <= flag_threshold_[order]) return out;
+
+  // Not explained: is it skin under a white surface reflection?
+  double smallest = measured[0];
+  for (int c = 1; c < c_count; ++c) smallest = std::min(smallest, measured[c]);
+  Fit best_specular;
+  best_specular.chi2 = std::numeric_limits<double>::infinity();
+  double best_s = 0;
+  for (int step = 1; step <= 8; ++step) {
+    const double s = smallest * step / 9.0;
+    if (s < options_.min_specular) continue;
+    double diffuse[kMaxChannels], w[kMaxChannels];
+    for (int c = 0; c < c_count; ++c) {
+      diffuse[c] = measured[c] - s;
+      w[c] = weight[c];
+    }
+    const Fit f = inv.fit(diffuse, w, 4);
+    if (f.chi2 < best_specular.chi2) best_specular = f, best_s = s;
+  }
+  if (best_specular.chi2 <= flag_threshold_[4]) {
+    out.flag = PixelFlag::kSpecular;
+    out.order = 4;
+    out.parameters = table_->from_grid(best_specular.x);
+    out.chi2 = static_cast<float>(best_specular.chi2);
+    (void)best_s;
+    return out;
+  }
+  out.flag = darker_everywhere ? PixelFlag::kUnexplainedAbsorber : PixelFlag::kUnexplainedColour;
+  return out;
+}
+
+EstimateSummary Estimator::estimate_tile(std::span<const float> measured, std::span<PixelEstimate> out) const {
+  if (measured.size() != out.size() * static_cast<std::size_t>(channels()))
+    throw std::invalid_argument("estimate_tile: " + std::to_string(measured.size()) + " values for " +
+                                std::to_string(out.size()) + " pixels of " + std::to_string(channels()) + " channels");
+  EstimateSummary s;
+  s.pixels = s.processed = out.size();
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    out[i] = estimate_pixel(measured.data() + i * channels());
+    ++s.flag_counts[static_cast<int>(out[i].flag)];
+    if (out[i].order == 2) ++s.order2;
+    if (out[i].order == 4) ++s.order4;
+  }
+  return s;
+}
+
+EstimateSummary Estimator::estimate(std::span<const float> measured, std::span<PixelEstimate> out,
+                                    const EstimateCallbacks& callbacks) const {
+  if (measured.size() != out.size() * static_cast<std::size_t>(channels()))
+    throw std::invalid_argument("estimate: measurement size does not match the output size");
+  const auto start = std::chrono::steady_clock::now();
+  const std::size_t tile = static_cast<std::size_t>(options_.tile_pixels);
+  const std::ptrdiff_t tiles = static_cast<std::ptrdiff_t>((out.size() + tile - 1) / tile);
+  EstimateSummary total;
+  total.pixels = out.size();
+  std::mutex mutex;
+  std::atomic<bool> cancelled{false};
+  const int threads = options_.threads > 0 ? options_.threads : omp_get_num_procs();
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
+  for (std::ptrdiff_t t = 0; t < tiles; ++t) {
+    if (cancelled.load(std::memory_order_relaxed)) continue;
+    if (callbacks.cancel) {
+      std::lock_guard lock(mutex);
+      if (callbacks.cancel()) {
+        cancelled = true;
+        continue;
+      }
+    }
+    const std::size_t first = static_cast<std::size_t>(t) * tile;
+    const std::size_t count = std::min(tile, out.size() - first);
+    EstimateSummary s = estimate_tile(measured.subspan(first * channels(), count * channels()), out.subspan(first, count));
+    s.pixels = 0;
+    std::lock_guard lock(mutex);
+    total.merge(s);
+    if (callbacks.progress) callbacks.progress(total.processed, total.pixels);
+  }
+  total.cancelled = cancelled;
+  total.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return total;
+}
+
+}  // namespace chromo::estimation

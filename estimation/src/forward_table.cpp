@@ -1,0 +1,249 @@
+#include "chromo/estimation/forward_table.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <stdexcept>
+#include <system_error>
+#include <unistd.h>
+
+#include "chromo/estimation/skin_model.hpp"
+
+namespace chromo::estimation {
+
+namespace {
+
+constexpr char kMagic[8] = {'C', 'H', 'R', 'O', 'M', 'O', 'F', 'T'};
+constexpr std::uint32_t kFormatVersion = 1;
+
+struct Axis {
+  double min, max;
+  bool log;
+};
+constexpr std::array<Axis, 4> kAxes{Axis{kCmRange.min, kCmRange.max, true}, Axis{kChRange.min, kChRange.max, true},
+                                    Axis{kBmRange.min, kBmRange.max, false},
+                                    Axis{kCheRange.min, kCheRange.max, false}};
+
+double axis_value(int axis, double x, int nodes) {
+  const Axis& a = kAxes[axis];
+  const double t = x / (nodes - 1);
+  if (a.log) return a.min * std::pow(a.max / a.min, t);
+  return a.min + (a.max - a.min) * t;
+}
+
+double axis_coordinate(int axis, double value, int nodes) {
+  const Axis& a = kAxes[axis];
+  double t = a.log ? std::log(std::max(value, 1e-12) / a.min) / std::log(a.max / a.min) : (value - a.min) / (a.max - a.min);
+  if (!std::isfinite(t)) t = 0;
+  return std::clamp(t, 0.0, 1.0) * (nodes - 1);
+}
+
+struct Fnv1a {
+  std::uint64_t h = 1469598103934665603ull;
+  void add(const void* data, std::size_t n) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (std::size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 1099511628211ull;
+  }
+  template <class T>
+  void add(const T& v) { add(&v, sizeof v); }
+};
+
+}  // namespace
+
+bool TableGrid::IsValid(std::string* error) const {
+  auto fail = [&](const std::string& m) {
+    if (error) *error = m;
+    return false;
+  };
+  if (cm_nodes < 2 || ch_nodes < 2 || bm_nodes < 2 || che_nodes < 2) return fail("every table axis needs >= 2 nodes");
+  if ((bm_nodes - 1) % 10 != 0) return fail("bm_nodes must be 10k+1 so that the 2D model's βm = 0.7 is a node");
+  if (node_count() > 50'000'000) return fail("table of " + std::to_string(node_count()) + " nodes is too large");
+  return true;
+}
+
+double ForwardTable::node_value(int axis, int index) const { return axis_value(axis, index, nodes()[axis]); }
+
+GridPoint ForwardTable::to_grid(const SkinParameters& p) const {
+  const auto n = nodes();
+  return {axis_coordinate(0, p.cm, n[0]), axis_coordinate(1, p.ch, n[1]), axis_coordinate(2, p.bm, n[2]),
+          axis_coordinate(3, p.che, n[3])};
+}
+
+SkinParameters ForwardTable::from_grid(const GridPoint& x) const {
+  const auto n = nodes();
+  SkinParameters p;
+  p.cm = axis_value(0, std::clamp(x[0], 0.0, n[0] - 1.0), n[0]);
+  p.ch = axis_value(1, std::clamp(x[1], 0.0, n[1] - 1.0), n[1]);
+  p.bm = axis_value(2, std::clamp(x[2], 0.0, n[2] - 1.0), n[2]);
+  p.che = axis_value(3, std::clamp(x[3], 0.0, n[3] - 1.0), n[3]);
+  return p;
+}
+
+void ForwardTable::predict(const GridPoint& x, double* value, double* jacobian) const {
+  const auto n = nodes();
+  int base[4];
+  double f[4];
+  for (int k = 0; k < 4; ++k) {
+    const double xc = std::clamp(std::isfinite(x[k]) ? x[k] : 0.0, 0.0, n[k] - 1.0);
+    base[k] = std::min(static_cast<int>(xc), n[k] - 2);
+    f[k] = xc - base[k];
+  }
+  const int c_count = channels_;
+  for (int c = 0; c < c_count; ++c) value[c] = 0;
+  if (jacobian)
+    for (int i = 0; i < 4 * c_count; ++i) jacobian[i] = 0;
+  for (int corner = 0; corner < 16; ++corner) {
+    double w[4];
+    for (int k = 0; k < 4; ++k) w[k] = (corner >> k & 1) ? f[k] : 1.0 - f[k];
+    const float* v = node(base[0] + (corner & 1), base[1] + (corner >> 1 & 1), base[2] + (corner >> 2 & 1),
+                          base[3] + (corner >> 3 & 1));
+    const double weight = w[0] * w[1] * w[2] * w[3];
+    for (int c = 0; c < c_count; ++c) value[c] += weight * v[c];
+    if (jacobian) {
+      for (int k = 0; k < 4; ++k) {
+        double dw = (corner >> k & 1) ? 1.0 : -1.0;
+        for (int j = 0; j < 4; ++j)
+          if (j != k) dw *= w[j];
+        for (int c = 0; c < c_count; ++c) jacobian[c * 4 + k] += dw * v[c];
+      }
+    }
+  }
+}
+
+std::uint64_t ForwardTable::cache_key(const MeasurementSet& set, const TableGrid& grid) {
+  Fnv1a h;
+  h.add(kMagic, sizeof kMagic);
+  h.add(kFormatVersion);
+  h.add(grid.cm_nodes), h.add(grid.ch_nodes), h.add(grid.bm_nodes), h.add(grid.che_nodes);
+  for (const Axis& a : kAxes) h.add(a.min), h.add(a.max), h.add(a.log);
+  const Eigen::MatrixXd w = set.weights();
+  h.add(w.data(), sizeof(double) * w.size());
+  // The model itself: its albedo at probe parameters changes with any change
+  // to its code, constants or data.
+  const SkinModel model;
+  for (const SkinParameters& p : {SkinParameters{0.01, 0.01, 0.3, 0.02}, SkinParameters{0.2, 0.1, 0.9, 0.08}}) {
+    const spectral::Spectrum a = model.albedo(p);
+    h.add(a.values().data(), sizeof(double) * spectral::kGridSize);
+  }
+  return h.h;
+}
+
+ForwardTable ForwardTable::build(const MeasurementSet& set, const TableGrid& grid, int threads) {
+  std::string error;
+  if (!grid.IsValid(&error)) throw std::invalid_argument("table grid: " + error);
+  set.validate();
+  ForwardTable t;
+  t.grid_ = grid;
+  t.channels_ = set.size();
+  t.key_ = cache_key(set, grid);
+  t.values_.assign(grid.node_count() * t.channels_, 0.0f);
+  const Eigen::MatrixXd weights = set.weights();  // C × 81
+  const SkinModel model;
+
+  // Dermis: one dipole evaluation per Ch node (epidermis parameters do not matter).
+  Eigen::MatrixXd r2(spectral::kGridSize, grid.ch_nodes);
+  for (int i = 0; i < grid.ch_nodes; ++i)
+    r2.col(i) = model.layers({0.01, t.node_value(1, i), 0.5, 0.0}).dermis_reflectance.values().matrix();
+
+  const int epi_count = grid.cm_nodes * grid.bm_nodes * grid.che_nodes;
+  const int thread_count = threads > 0 ? threads : omp_get_num_procs();
+#pragma omp parallel num_threads(thread_count)
+  {
+    Eigen::MatrixXd albedo(spectral::kGridSize, grid.ch_nodes);
+    Eigen::MatrixXd projected(t.channels_, grid.ch_nodes);
+#pragma omp for schedule(dynamic, 8)
+    for (int e = 0; e < epi_count; ++e) {
+      const int i_cm = e % grid.cm_nodes;
+      const int i_che = (e / grid.cm_nodes) % grid.che_nodes;
+      const int i_bm = e / (grid.cm_nodes * grid.che_nodes);
+      const LayerSpectra layers =
+          model.layers({t.node_value(0, i_cm), 0.01, t.node_value(2, i_bm), t.node_value(3, i_che)});
+      const spectral::GridArray& r1 = layers.epidermis_reflectance.values();
+      const spectral::GridArray& t1 = layers.epidermis_transmittance.values();
+      for (int i = 0; i < grid.ch_nodes; ++i) {
+        const spectral::GridArray r2i = r2.col(i).array();
+        albedo.col(i) = (r1 + t1 * r2i * t1 / (1.0 - r1 * r2i)).matrix();
+      }
+      projected.noalias() = weights.lazyProduct(albedo);  // coefficient-wise: no GEMM packing for a 4×81 by 81×n product
+      float* out = t.values_.data() + t.node_offset(i_cm, 0, i_bm, i_che);
+      for (int i = 0; i < grid.ch_nodes; ++i)
+        for (int c = 0; c < t.channels_; ++c) out[i * t.channels_ + c] = static_cast<float>(projected(c, i));
+    }
+  }
+  return t;
+}
+
+std::filesystem::path ForwardTable::default_cache_dir() {
+  if (const char* d = std::getenv("CHROMO_CACHE_DIR"); d && *d) return d;
+  if (const char* d = std::getenv("XDG_CACHE_HOME"); d && *d) return std::filesystem::path(d) / "chromosphere";
+  if (const char* d = std::getenv("HOME"); d && *d) return std::filesystem::path(d) / ".cache" / "chromosphere";
+  return std::filesystem::temp_directory_path() / "chromosphere-cache";
+}
+
+std::shared_ptr<const ForwardTable> ForwardTable::load_or_build(const MeasurementSet& set, const TableGrid& grid,
+                                                                 const std::filesystem::path& cache_dir, bool* rebuilt,
+                                                                 int threads) {
+  std::string error;
+  if (!grid.IsValid(&error)) throw std::invalid_argument("table grid: " + error);
+  set.validate();
+  const std::uint64_t key = cache_key(set, grid);
+  char name[64];
+  std::snprintf(name, sizeof name, "forward_table_%016llx.bin", static_cast<unsigned long long>(key));
+  const std::filesystem::path file = cache_dir / name;
+  {
+    std::ifstream in(file, std::ios::binary);
+    char magic[8];
+    std::uint32_t version = 0;
+    std::uint64_t stored_key = 0;
+    std::int32_t dims[5] = {};
+    if (in.read(magic, 8) && std::memcmp(magic, kMagic, 8) == 0 &&
+        in.read(reinterpret_cast<char*>(&version), sizeof version) && version == kFormatVersion &&
+        in.read(reinterpret_cast<char*>(&stored_key), sizeof stored_key) && stored_key == key &&
+        in.read(reinterpret_cast<char*>(dims), sizeof dims) && dims[0] == grid.cm_nodes &&
+        dims[1] == grid.ch_nodes && dims[2] == grid.bm_nodes && dims[3] == grid.che_nodes && dims[4] == set.size()) {
+      auto t = std::make_shared<ForwardTable>();
+      t->grid_ = grid;
+      t->channels_ = set.size();
+      t->key_ = key;
+      t->values_.resize(grid.node_count() * t->channels_);
+      const auto bytes = static_cast<std::streamsize>(t->values_.size() * sizeof(float));
+      if (in.read(reinterpret_cast<char*>(t->values_.data()), bytes) && in.gcount() == bytes &&
+          in.peek() == std::char_traits<char>::eof()) {
+        if (rebuilt) *rebuilt = false;
+        return t;
+      }
+    }
+  }
+  auto t = std::make_shared<ForwardTable>(build(set, grid, threads));
+  if (rebuilt) *rebuilt = true;
+  std::error_code ec;
+  std::filesystem::create_directories(cache_dir, ec);
+  const std::filesystem::path temporary =
+      cache_dir / (std::string(name) + ".tmp" + std::to_string(static_cast<long long>(::getpid())));
+  {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    const std::int32_t dims[5] = {grid.cm_nodes, grid.ch_nodes, grid.bm_nodes, grid.che_nodes, set.size()};
+    out.write(kMagic, 8);
+    out.write(reinterpret_cast<const char*>(&kFormatVersion), sizeof kFormatVersion);
+    out.write(reinterpret_cast<const char*>(&key), sizeof key);
+    out.write(reinterpret_cast<const char*>(dims), sizeof dims);
+    out.write(reinterpret_cast<const char*>(t->values_.data()),
+              static_cast<std::streamsize>(t->values_.size() * sizeof(float)));
+    if (!out) {
+      // A cache that cannot be written is not an error: the table is in memory.
+      out.close();
+      std::filesystem::remove(temporary, ec);
+      return t;
+    }
+  }
+  std::filesystem::rename(temporary, file, ec);
+  if (ec) std::filesystem::remove(temporary, ec);
+  return t;
+}
+
+}  // namespace chromo::estimation

@@ -1,0 +1,25 @@
+#pragma once
+// Shared by the estimation tests: the method's measurement set (D65' mixed from
+// the six LEDs, blue LED as "mix − W57", Nikon D5100) and its table, built
+// once per test program.
+
+#include <memory>
+
+#include "chromo/estimation/forward_table.hpp"
+#include "chromo/estimation/lab_illuminants.hpp"
+#include "chromo/estimation/measurement.hpp"
+
+namespace chromo::estimation::testing {
+
+inline MeasurementSet method_set() {
+  return method_measurement_set(spectral::builtin_camera("nikon_d5100"), led_d65_metamer(),
+                                led_spectrum(spectral::LedType::kBlue));
+}
+
+inline std::shared_ptr<const ForwardTable> method_table() {
+  static const std::shared_ptr<const ForwardTable> table =
+      std::make_shared<const ForwardTable>(ForwardTable::build(method_set(), TableGrid{}));
+  return table;
+}
+
+}  // namespace chromo::estimation::testing

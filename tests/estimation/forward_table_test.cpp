@@ -1,0 +1,124 @@
+#include "chromo/estimation/forward_table.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <unistd.h>
+
+#include "chromo/estimation/skin_model.hpp"
+#include "chromo/estimation/synthetic.hpp"
+#include "chromo/spectral/cie.hpp"
+#include "chromo/spectral/delta_e.hpp"
+#include "estimation_fixture.hpp"
+
+namespace chromo::estimation {
+namespace {
+
+TEST(ForwardTable, NodesEqualTheDirectModel) {
+  const MeasurementSet set = testing::method_set();
+  const auto table = testing::method_table();
+  const Eigen::MatrixXd w = set.weights();
+  const SkinModel model;
+  for (const auto& [i_cm, i_ch, i_bm, i_che] : {std::array{0, 0, 0, 0}, std::array{40, 40, 20, 20},
+                                                std::array{12, 30, 14, 0}, std::array{25, 3, 7, 11}}) {
+    const SkinParameters p{table->node_value(0, i_cm), table->node_value(1, i_ch), table->node_value(2, i_bm),
+                           table->node_value(3, i_che)};
+    const Eigen::VectorXd direct = w * model.albedo(p).values().matrix();
+    double interpolated[kMaxChannels];
+    table->predict(table->to_grid(p), interpolated);
+    for (int c = 0; c < set.size(); ++c) {
+      EXPECT_NEAR(table->node(i_cm, i_ch, i_bm, i_che)[c], direct[c], 1e-6 * std::max(1.0, direct[c]));
+      EXPECT_NEAR(interpolated[c], direct[c], 1e-5);
+    }
+  }
+}
+
+TEST(ForwardTable, TwoDModelIsASliceOfNodes) {
+  const auto table = testing::method_table();
+  EXPECT_DOUBLE_EQ(table->node_value(2, 14), 0.7);
+  EXPECT_DOUBLE_EQ(table->node_value(3, 0), 0.0);
+}
+
+// The grid's interpolation error, measured in colour: a table of CIE XYZ under
+// D65 (the observer as "camera") against the direct model at random
+// parameters over the whole MODEL.md box. Target ≤ 0.02 mean ΔE94.
+TEST(ForwardTable, InterpolationErrorUnderD65IsBelowTwoHundredthsDeltaE94) {
+  const spectral::Observer& o = spectral::cie1931_observer();
+  const MeasurementSet xyz_set = rgb_measurement_set({"cie1931", {o.x_bar, o.y_bar, o.z_bar}}, spectral::illuminant_d65());
+  const ForwardTable table = ForwardTable::build(xyz_set, TableGrid{});
+  const auto parameters = random_skin_parameters(4000, {0.001, 0.001, 0, 0}, {0.5, 0.32, 1, 0.1}, 11);
+  const SkinModel model;
+  const spectral::Xyz white = spectral::white_point(spectral::illuminant_d65());
+  double sum = 0;
+  for (const SkinParameters& p : parameters) {
+    double v[3];
+    table.predict(table.to_grid(p), v);
+    const spectral::Lab direct =
+        spectral::lab_from_xyz(spectral::xyz_of_reflectance(model.albedo(p), spectral::illuminant_d65()), white);
+    sum += spectral::delta_e94(direct, spectral::lab_from_xyz({v[0] * white.X, v[1] * white.Y, v[2] * white.Z}, white));
+  }
+  const double mean = sum / parameters.size();
+  EXPECT_LE(mean, 0.02);
+  EXPECT_GT(mean, 0.0);
+}
+
+TEST(ForwardTable, JacobianMatchesFiniteDifferences) {
+  const auto table = testing::method_table();
+  const GridPoint x{12.3, 20.7, 5.4, 3.2};
+  double v[kMaxChannels], jac[kMaxChannels * 4];
+  table->predict(x, v, jac);
+  for (int k = 0; k < 4; ++k) {
+    GridPoint a = x, b = x;
+    a[k] -= 1e-4, b[k] += 1e-4;
+    double va[kMaxChannels], vb[kMaxChannels];
+    table->predict(a, va), table->predict(b, vb);
+    for (int c = 0; c < table->channels(); ++c) EXPECT_NEAR(jac[c * 4 + k], (vb[c] - va[c]) / 2e-4, 1e-6);
+  }
+}
+
+TEST(ForwardTable, CacheIsReusedAndRebuiltWhenAnInputChanges) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("chromo_table_cache_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  const TableGrid small{9, 9, 11, 5};
+  MeasurementSet set = testing::method_set();
+  bool rebuilt = false;
+  const auto first = ForwardTable::load_or_build(set, small, dir, &rebuilt);
+  EXPECT_TRUE(rebuilt);
+  const auto second = ForwardTable::load_or_build(set, small, dir, &rebuilt);
+  EXPECT_FALSE(rebuilt);
+  EXPECT_EQ(first->values(), second->values());
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir), {}), 1);
+
+  // Another illuminant → another key → a new file.
+  set.channels[3].illuminant *= 0.5;
+  set.channels[3].illuminant += led_spectrum(spectral::LedType::kGreen) * 0.1;
+  const auto third = ForwardTable::load_or_build(set, small, dir, &rebuilt);
+  EXPECT_TRUE(rebuilt);
+  EXPECT_NE(third->key(), first->key());
+
+  // A truncated file is rebuilt, never read as a table.
+  MeasurementSet original = testing::method_set();
+  const std::uint64_t key = ForwardTable::cache_key(original, small);
+  char name[64];
+  std::snprintf(name, sizeof name, "forward_table_%016llx.bin", static_cast<unsigned long long>(key));
+  ASSERT_TRUE(std::filesystem::exists(dir / name));
+  std::filesystem::resize_file(dir / name, 100);
+  const auto fourth = ForwardTable::load_or_build(original, small, dir, &rebuilt);
+  EXPECT_EQ(fourth->key(), key);
+  EXPECT_TRUE(rebuilt);
+  EXPECT_EQ(fourth->values(), first->values());
+  EXPECT_GT(std::filesystem::file_size(dir / name), 100u);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(ForwardTable, RejectsAGridWithoutTheTwoDSlice) {
+  std::string error;
+  EXPECT_FALSE((TableGrid{9, 9, 12, 5}.IsValid(&error)));
+  EXPECT_NE(error.find("0.7"), std::string::npos);
+  EXPECT_THROW(ForwardTable::build(testing::method_set(), TableGrid{9, 9, 12, 5}), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace chromo::estimation
