@@ -224,7 +224,7 @@ int main(int argc, char** argv) {
       std::vector<PixelEstimate> e(n);
       const EstimateSummary summary =
           estimator.estimate(std::span(noise > 0 ? f.noisy : f.clean).first(n * 4), e);
-      RunResult r{std::string(method_name(c.method)), std::string(model_name(c.model)), noise > 0 ? "noisy" : "noise-free"};
+      RunResult r{std::string(method_name(c.method)), std::string(model_name(c.model)), noise > 0 ? "noisy" : "noise-free", 0, 0, 0, 0, 0, {}};
       r.pixels = n;
       r.pixels_per_second = n / summary.seconds;
       r.flagged = n - summary.flag_counts[0];

@@ -94,9 +94,15 @@ TEST(Estimator, FlagsAnomaliesAndNotSkin) {
     const int kind = static_cast<int>(r.frame.kind[i]);
     ++total[kind];
     flagged[kind] += e.flag != PixelFlag::kExplained;
-    if (r.frame.kind[i] == SyntheticKind::kNaN) EXPECT_EQ(e.flag, PixelFlag::kNonFinite);
-    if (r.frame.kind[i] == SyntheticKind::kSaturated) EXPECT_EQ(e.flag, PixelFlag::kSaturated);
-    if (r.frame.kind[i] == SyntheticKind::kDark) EXPECT_EQ(e.flag, PixelFlag::kDark);
+    if (r.frame.kind[i] == SyntheticKind::kNaN) {
+      EXPECT_EQ(e.flag, PixelFlag::kNonFinite);
+    }
+    if (r.frame.kind[i] == SyntheticKind::kSaturated) {
+      EXPECT_EQ(e.flag, PixelFlag::kSaturated);
+    }
+    if (r.frame.kind[i] == SyntheticKind::kDark) {
+      EXPECT_EQ(e.flag, PixelFlag::kDark);
+    }
   }
   auto share = [&](SyntheticKind k) {
     return static_cast<double>(flagged[static_cast<int>(k)]) / std::max<std::size_t>(1, total[static_cast<int>(k)]);
