@@ -409,10 +409,11 @@ int main(int argc, char** argv) {
                          << "' u 1:2 w lp t 'fast 4D', '' u 1:3 w lp t '2D', '' u 1:4 w lp t 'exhaustive 4D', '' u 1:5 w l "
                             "dt 2 t 'noise floor'\n"
                          << "set title 'outside the gamut'\nset xlabel 'blue channel excess'\nset ylabel 'share flagged'\n"
+                         << "set y2tics\nset y2label 'relit ΔE94 of unflagged pixels'\n"
                          << "plot '" << (out / "estimation_error_vs_gamut.csv").string()
                          << "' u 1:2 w lp t 'fast: flagged', '' u 1:4 w lp t 'exhaustive: flagged', '' u 1:3 w lp axes x1y2 "
                             "t 'fast: ΔE94 unflagged (right)'\n"
-                         << "set y2tics\nset title 'Ch against Che'\nset xlabel 'true Che'\nset ylabel '|Δlog10 Ch|'\n"
+                         << "set title 'Ch against Che'\nset xlabel 'true Che'\nset xtics 0.02\nset ylabel '|Δlog10 Ch|'\n"
                             "set y2label '|ΔChe|'\n"
                          << "plot '" << (out / "estimation_ch_vs_che.csv").string()
                          << "' u 1:2 w lp t 'Ch, noise-free', '' u 1:4 w lp t 'Ch, noisy', '' u 1:3 w lp axes x1y2 t 'Che, "
