@@ -159,6 +159,21 @@ TEST_F(EstimateCommand, WritesMapsPreviewsAndSummary) {
   EXPECT_LT(relative_sum / checked, 0.05);
 }
 
+TEST_F(EstimateCommand, TwoDMethodGivesOrderTwoOnly) {
+  const Result r = run("estimate " + args("--method 2d --out " + (dir / "out2d").string()));
+  ASSERT_EQ(r.exit_status, 0) << r.output;
+  nlohmann::json s = nlohmann::json::parse(std::ifstream(dir / "out2d" / "summary.json"));
+  EXPECT_EQ(s["method"], "2d");
+  EXPECT_EQ(s["order_counts"]["4"], 0);
+  EXPECT_GT(s["order_counts"]["2"].get<int>(), 0);
+  // The table built by the first run of this fixture's cache is not rebuilt.
+  const Result again = run("estimate " + args("--method 2d --out " + (dir / "out2d_again").string()));
+  ASSERT_EQ(again.exit_status, 0) << again.output;
+  nlohmann::json s2 = nlohmann::json::parse(std::ifstream(dir / "out2d_again" / "summary.json"));
+  EXPECT_EQ(s2["table"]["rebuilt"], false);
+  EXPECT_EQ(s2["table"]["key"], s["table"]["key"]);
+}
+
 TEST_F(EstimateCommand, BadInputExitsTwoAndWritesNothing) {
   // A missing image file.
   std::ofstream(dir / "bad.json") << R"({"camera": "builtin:nikon_d5100", "images": [{"file": "missing.exr",
