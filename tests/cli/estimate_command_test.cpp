@@ -22,6 +22,7 @@
 #include "chromo/estimation/measurement.hpp"
 #include "chromo/estimation/skin_model.hpp"
 #include "chromo/spectral/grid.hpp"
+#include "run_chromo.hpp"
 
 namespace {
 
@@ -29,20 +30,7 @@ namespace fs = std::filesystem;
 using namespace chromo;
 using testing::HasSubstr;
 
-struct Result {
-  int exit_status;
-  std::string output;
-};
-
-Result run(const std::string& arguments) {
-  const std::string command = std::string(CHROMO_CLI) + " " + arguments + " 2>&1";
-  FILE* pipe = popen(command.c_str(), "r");
-  std::string output;
-  std::array<char, 4096> buffer{};
-  while (std::size_t n = fread(buffer.data(), 1, buffer.size(), pipe)) output.append(buffer.data(), n);
-  const int status = pclose(pipe);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, output};
-}
+Result run(const std::string& arguments) { return run_chromo(arguments); }
 
 void write_exr(const fs::path& path, int w, int h, const std::array<std::vector<float>, 3>& rgb) {
   Imf::Header header(w, h);
