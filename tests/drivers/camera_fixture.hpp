@@ -83,9 +83,14 @@ class CameraOnLoopback : public ::testing::Test {
     sim_options.sensor_width = 256;
     sim_options.sensor_height = 256;
     simulator_ = std::make_unique<simulators::CameraSimulator>(sim_options, illumination_, small_skin_scene());
+    open_camera(kTestFrameRetentionMs);
+  }
+  // (Re)opens the driver on the simulator with the given frame retention.
+  void open_camera(int frame_retention_ms) {
+    camera_.reset();
     drivers::AravisCameraOptions options;
     options.serial = kSerial;
-    options.frame_retention_ms = kTestFrameRetentionMs;
+    options.frame_retention_ms = frame_retention_ms;
     options.socket_buffer_bytes = 4u << 20;
     options.watchdog_period_ms = 200;
     options.reconnect_retry_ms = 200;
