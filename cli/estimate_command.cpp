@@ -14,13 +14,19 @@
 #include "chromo/spectral/resample.hpp"
 #include "chromo/spectral/table.hpp"
 #include "commands.hpp"
-#include "image_io.hpp"
+#include "chromo/estimation/image_files.hpp"
 
 namespace chromo::cli {
 namespace {
 
 namespace fs = std::filesystem;
+using estimation::FloatImage;
+using estimation::ImageError;
 using estimation::PixelFlag;
+using estimation::read_exr;
+using estimation::write_category_png;
+using estimation::write_exr;
+using estimation::write_map_png;
 
 struct EstimateOptions {
   std::string input;

@@ -7,7 +7,6 @@
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
-#include <ImfInputFile.h>
 #include <ImfOutputFile.h>
 #include <algorithm>
 #include <atomic>
@@ -16,6 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
+#include "chromo/estimation/image_files.hpp"
 #include "chromo/estimation/skin_parameters.hpp"
 
 namespace chromo::estimation {
@@ -176,31 +176,15 @@ void write_profile_table(const std::filesystem::path& directory, const ProfileTa
 
 ParameterMaps read_parameter_maps(const std::filesystem::path& maps_exr) {
   if (!std::filesystem::exists(maps_exr)) throw std::runtime_error(maps_exr.string() + ": no such file");
-  try {
-    Imf::InputFile file(maps_exr.c_str());
-    const Imath::Box2i window = file.header().dataWindow();
-    ParameterMaps maps;
-    maps.width = window.max.x - window.min.x + 1;
-    maps.height = window.max.y - window.min.y + 1;
-    const std::size_t pixels = static_cast<std::size_t>(maps.width) * maps.height;
-    Imf::FrameBuffer frame;
-    const std::pair<const char*, std::vector<float>*> channels[] = {
-        {"Cm", &maps.cm}, {"Ch", &maps.ch}, {"Bm", &maps.bm}, {"Che", &maps.che}, {"flags", &maps.flags}};
-    for (const auto& [name, storage] : channels) {
-      if (!file.header().channels().findChannel(name))
-        throw std::runtime_error(maps_exr.string() + ": no channel '" + name + "' (expected Cm, Ch, Bm, Che, flags)");
-      storage->assign(pixels, 0.0f);
-      char* base = reinterpret_cast<char*>(storage->data()) -
-                   (static_cast<std::ptrdiff_t>(window.min.x) + static_cast<std::ptrdiff_t>(window.min.y) * maps.width) *
-                       static_cast<std::ptrdiff_t>(sizeof(float));
-      frame.insert(name, Imf::Slice(Imf::FLOAT, base, sizeof(float), sizeof(float) * maps.width));
+  const FloatImage image = read_exr(maps_exr);
+  auto channel = [&](const char* name) {
+    try {
+      return image.channel(name);
+    } catch (const ImageError&) {
+      throw std::runtime_error(maps_exr.string() + ": no channel '" + name + "' (expected Cm, Ch, Bm, Che, flags)");
     }
-    file.setFrameBuffer(frame);
-    file.readPixels(window.min.y, window.max.y);
-    return maps;
-  } catch (const Iex::BaseExc& e) {
-    throw std::runtime_error(maps_exr.string() + ": not a readable OpenEXR file (" + e.what() + ")");
-  }
+  };
+  return {image.width, image.height, channel("Cm"), channel("Ch"), channel("Bm"), channel("Che"), channel("flags")};
 }
 
 std::vector<std::uint32_t> nearest_entry_indices(const ProfileTable& table, const ParameterMaps& maps) {

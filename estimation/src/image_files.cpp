@@ -1,4 +1,4 @@
-#include "image_io.hpp"
+#include "chromo/estimation/image_files.hpp"
 
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
@@ -11,7 +11,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-namespace chromo::cli {
+namespace chromo::estimation {
 
 const std::vector<float>& FloatImage::channel(const std::string& name) const {
   for (std::size_t i = 0; i < channel_names.size(); ++i)
@@ -129,4 +129,4 @@ void write_category_png(const std::filesystem::path& path, const std::vector<flo
   save(path, canvas);
 }
 
-}  // namespace chromo::cli
+}  // namespace chromo::estimation

@@ -1,5 +1,5 @@
 #pragma once
-// Image files of the offline commands: OpenEXR float images (read any
+// Image files of the estimator, the offline commands and the daemon: OpenEXR float images (read any
 // channels, half or float, as float; write float channels) and preview PNGs
 // with a colour bar (OpenCV). Errors throw ImageError naming the file.
 
@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-namespace chromo::cli {
+namespace chromo::estimation {
 
 class ImageError : public std::runtime_error {
  public:
@@ -35,4 +35,4 @@ void write_map_png(const std::filesystem::path& path, const std::vector<float>& 
 void write_category_png(const std::filesystem::path& path, const std::vector<float>& codes, int width, int height,
                         const std::vector<std::string>& names);
 
-}  // namespace chromo::cli
+}  // namespace chromo::estimation
