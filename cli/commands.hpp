@@ -16,5 +16,7 @@ void add_profiles_command(CLI::App& app, int& exit_status);
 void add_leds_command(CLI::App& app, int& exit_status);
 void add_fit_spectrum_command(CLI::App& app, int& exit_status);
 void add_estimate_command(CLI::App& app, int& exit_status);
+// `chromo leds measure`, under the `leds` subcommand (leds_measure.cpp).
+void add_leds_measure_command(CLI::App* leds, int& exit_status);
 
 }  // namespace chromo::cli

@@ -3,8 +3,7 @@
 //                       [--hold-chromaticity] [--library FILE] [--json]
 //   chromo leds compare OLD NEW [--json]
 //   chromo leds plot    (solve's options) [--out FILE.png]
-// `chromo leds measure` needs the LED controller and spectrometer drivers and
-// is not here yet.
+//   chromo leds measure [--out FILE] [--json]          (leds_measure.cpp)
 #include <fmt/format.h>
 
 #include <cmath>
@@ -162,7 +161,8 @@ void add_solve_options(CLI::App* cmd, LedsSolveArguments& a) {
   cmd->add_option("--objective", a.objective, "spectral, xyz or camera")->capture_default_str();
   cmd->add_flag("--hold-chromaticity", a.hold_chromaticity, "camera objective: hold the mix's chromaticity at the target's");
   cmd->add_option("--library", a.library_path,
-                  "LED library JSON (default: the latest in $CHROMO_HOME/leds, else the built-in nominal library)");
+                  "LED library JSON, or 'nominal' for the built-in one (default: the latest measured in the "
+                  "library directory, else one measured at once on the virtual lab)");
   cmd->add_option("--camera", a.camera, "built-in camera of the camera objective and ΔE00 report")->capture_default_str();
   cmd->add_option("--stability-trials", a.stability_trials, "re-solves with perturbed spectra for the weight std (0: off)")
       ->capture_default_str();
@@ -199,19 +199,33 @@ std::optional<SolvedMix> solve_from_arguments(const LedsSolveArguments& a, const
     return bad(flag + ": " + error);
   }
   try {
-    if (!a.library_path.empty()) {
+    if (a.library_path == "nominal") {
+      solved.library = calibration::nominal_led_library();
+      solved.library_description = "nominal (built-in, --library nominal)";
+    } else if (!a.library_path.empty()) {
       solved.library = calibration::load_led_library(a.library_path);
       solved.library_description = a.library_path;
     } else if (const auto latest = calibration::latest_led_library_path(); !latest.empty()) {
       solved.library = calibration::load_led_library(latest);
       solved.library_description = latest.string() + " (latest measured)";
     } else {
-      solved.library = calibration::nominal_led_library();
-      solved.library_description = "nominal (built-in; no measured library in " +
-                                   calibration::led_library_directory().string() + ")";
+      std::cerr << command << ": no measured library in " << calibration::led_library_directory().string()
+                << "; measuring one now on the virtual lab\n";
+      const MeasuredOnVirtualLab measured = measure_on_virtual_lab({}, !a.json);
+      if (!measured.summary.IsLibraryUsable()) {
+        std::cerr << command << ": virtual-lab measurement failed: " << measured.summary.message << "\n";
+        exit_status = kExitFailure;
+        return std::nullopt;
+      }
+      solved.library = measured.summary.library;
+      solved.library_description = measured.path.string() + " (measured now on the virtual lab)";
     }
   } catch (const spectral::DataError& e) {
     return bad(std::string("--library: ") + e.what());
+  } catch (const std::exception& e) {
+    std::cerr << command << ": " << e.what() << "\n";
+    exit_status = kExitFailure;
+    return std::nullopt;
   }
   calibration::MixTarget target;
   try {
@@ -243,6 +257,8 @@ void add_leds_command(CLI::App& app, int& exit_status) {
   add_solve_options(solve, *solve_args);
   solve->add_flag("--json", solve_args->json, "print one JSON object");
   solve->callback([solve_args, &exit_status] { exit_status = run_solve(*solve_args); });
+
+  add_leds_measure_command(leds, exit_status);
 
   auto compare_paths = std::make_shared<std::array<std::string, 2>>();
   auto compare_json = std::make_shared<bool>(false);

@@ -2,9 +2,11 @@
 // Shared by the `chromo leds` subcommands: which library to use and the
 // solve options that `solve` and `plot` both take.
 
+#include <filesystem>
 #include <optional>
 #include <string>
 
+#include "chromo/calibration/calibration_run.hpp"
 #include "chromo/calibration/led_library.hpp"
 #include "chromo/calibration/mix_solver.hpp"
 
@@ -14,7 +16,7 @@ struct LedsSolveArguments {
   std::string target = "d65";
   std::string objective = "camera";
   bool hold_chromaticity = false;
-  std::string library_path;  // empty: latest measured, else nominal
+  std::string library_path;  // empty: latest measured, else measured at once on the virtual lab; "nominal": built-in
   std::string camera = "nikon_d5100";
   int stability_trials = 32;
   double spectrometer_noise = 0.01;
@@ -31,6 +33,14 @@ struct SolvedMix {
 // Resolves the library and target, validates, solves. On bad input prints a
 // message naming the option to stderr and returns nullopt with exit_status set.
 std::optional<SolvedMix> solve_from_arguments(const LedsSolveArguments& arguments, const char* command, int& exit_status);
+
+// A calibration run on the in-process virtual lab, saved to out_path (empty:
+// a new file in the library directory). DeviceError/DataError propagate.
+struct MeasuredOnVirtualLab {
+  calibration::CalibrationSummary summary;
+  std::filesystem::path path;  // where it was saved; empty when the run failed
+};
+MeasuredOnVirtualLab measure_on_virtual_lab(const std::filesystem::path& out_path, bool progress_bar);
 
 // PNG of target vs mix spectra and the per-patch camera ΔE00, via gnuplot.
 // Returns an exit status (0, or 1 with a message when gnuplot fails).

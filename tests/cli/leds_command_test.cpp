@@ -33,7 +33,7 @@ class ChromoLeds : public testing::Test {
 };
 
 TEST_F(ChromoLeds, SolveJsonHasTheDocumentedKeysAndMeetsTheD65Targets) {
-  const Result r = run("leds solve --target d65 --objective camera --hold-chromaticity --json");
+  const Result r = run("leds solve --library nominal --target d65 --objective camera --hold-chromaticity --json");
   ASSERT_EQ(r.exit_status, 0) << r.output;
   const auto j = nlohmann::json::parse(r.output);
   ASSERT_EQ(j["weights"].size(), 6u);
@@ -59,9 +59,9 @@ TEST_F(ChromoLeds, SolveJsonHasTheDocumentedKeysAndMeetsTheD65Targets) {
 }
 
 TEST_F(ChromoLeds, SolveTextNamesTheLibraryAndTheUnreachableBand) {
-  const Result r = run("leds solve --target cct:5000 --objective xyz --stability-trials 0");
+  const Result r = run("leds solve --library nominal --target cct:5000 --objective xyz --stability-trials 0");
   ASSERT_EQ(r.exit_status, 0) << r.output;
-  EXPECT_THAT(r.output, HasSubstr("library: nominal (built-in; no measured library in"));
+  EXPECT_THAT(r.output, HasSubstr("library: nominal (built-in, --library nominal)"));
   EXPECT_THAT(r.output, HasSubstr("UNREACHABLE 380-"));
   EXPECT_THAT(r.output, HasSubstr("camera ColorChecker dE00 mean"));
 }
@@ -81,11 +81,46 @@ TEST_F(ChromoLeds, WithoutLibraryTheLatestMeasuredOneIsUsed) {
   EXPECT_LE(j["weights"]["W57"].get<double>(), 0.4 + 1e-12);
 }
 
+TEST_F(ChromoLeds, WithoutAnyLibraryOneIsMeasuredOnTheVirtualLabAndKept) {
+  Result r = run("leds solve --target d65 --objective camera --hold-chromaticity --stability-trials 0");
+  ASSERT_EQ(r.exit_status, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("no measured library in " + (home_ / "leds").string() + "; measuring one now on the virtual lab"));
+  EXPECT_THAT(r.output, HasSubstr("(measured now on the virtual lab)"));
+  EXPECT_THAT(r.output, HasSubstr("] 100% done"));  // the progress bar
+  int libraries = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(home_ / "leds")) {
+    ++libraries;
+    const auto lib = chromo::calibration::load_led_library(entry.path());
+    EXPECT_EQ(lib.source, "measured");
+    EXPECT_TRUE(lib.instrument.response_calibration.has_value());
+    EXPECT_EQ(lib.leds[0].ladder.size(), 4u);
+  }
+  EXPECT_EQ(libraries, 1);
+  // The next solve uses it.
+  r = run("leds solve --target d65 --objective spectral --stability-trials 0");
+  ASSERT_EQ(r.exit_status, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("(latest measured)"));
+}
+
+TEST_F(ChromoLeds, MeasureWritesTheLibraryWhereAsked) {
+  const auto out = home_ / "measured.json";
+  const Result r = run("leds measure --json --out " + out.string());
+  ASSERT_EQ(r.exit_status, 0) << r.output;
+  const auto j = nlohmann::json::parse(r.output.substr(r.output.find("{\n")));
+  EXPECT_EQ(j["termination"], "completed");
+  EXPECT_EQ(j["library"], out.string());
+  EXPECT_EQ(j["spectra_measured"], 25);
+  EXPECT_TRUE(j["linearity_ok"].get<bool>());
+  const auto lib = chromo::calibration::load_led_library(out);
+  EXPECT_EQ(lib.instrument.spectrometer_model.empty(), false);
+  EXPECT_NE(lib.conditions.notes.find("virtual lab"), std::string::npos);
+}
+
 TEST_F(ChromoLeds, BadInputExitsWith2NamingTheField) {
   Result r = run("leds solve --objective fastest");
   EXPECT_EQ(r.exit_status, 2);
   EXPECT_THAT(r.output, HasSubstr("--objective: unknown objective 'fastest'"));
-  r = run("leds solve --target w57+blue:abc");
+  r = run("leds solve --library nominal --target w57+blue:abc");
   EXPECT_EQ(r.exit_status, 2);
   EXPECT_THAT(r.output, HasSubstr("--target: target 'w57+blue:abc': blue ratio R 'abc' is not a positive number"));
   r = run("leds solve --objective spectral --hold-chromaticity");
@@ -123,7 +158,7 @@ TEST_F(ChromoLeds, CompareReportsPerLedDrift) {
 
 TEST_F(ChromoLeds, PlotWritesAPng) {
   const std::filesystem::path png = home_ / "mix.png";
-  const Result r = run("leds plot --target d65 --objective camera --hold-chromaticity --stability-trials 0 --out " + png.string());
+  const Result r = run("leds plot --library nominal --target d65 --objective camera --hold-chromaticity --stability-trials 0 --out " + png.string());
   ASSERT_EQ(r.exit_status, 0) << r.output;
   std::ifstream file(png, std::ios::binary);
   std::array<char, 8> magic{};

@@ -1,0 +1,48 @@
+#pragma once
+// The in-process virtual lab with the real drivers connected (Modbus TCP on
+// loopback, USB2000+ behind the USB seam), shared by the measurement-run and
+// closed-loop tests. The library is measured once per test program.
+
+#include <memory>
+
+#include "chromo/calibration/calibration_run.hpp"
+#include "chromo/drivers/led_controller_factory.hpp"
+#include "chromo/drivers/spectrometer_factory.hpp"
+#include "chromo/simulators/calibration_lab.hpp"
+
+namespace chromo::calibration::testing {
+
+struct ConnectedLab {
+  simulators::CalibrationLab lab;
+  std::unique_ptr<drivers::LedController> leds;
+  std::unique_ptr<drivers::Spectrometer> spectrometer;
+
+  ConnectedLab() {
+    leds = drivers::make_modbus_tcp_led_controller("127.0.0.1", lab.start_modbus_tcp());
+    spectrometer = drivers::make_usb_spectrometer(lab.make_spectrometer_transport());
+  }
+};
+
+// Fast run options: 1 s warm-up (5 thermal time constants of lab time), four rungs.
+inline CalibrationRunOptions fast_run_options() {
+  CalibrationRunOptions options;
+  options.warm_up_s = 1.0;
+  options.settle_s = 0.1;
+  return options;
+}
+
+// The lab's true spectrum of one LED type alone at full drive, warmed up
+// (truth, read from the LedLab, never through the drivers).
+inline spectral::Spectrum true_full_drive_spectrum(simulators::LedLab& lab, LedType type) {
+  drivers::LedState state;
+  state.drive.fill(0);
+  state.drive[spectral::led_type_index(type)] = 1.0;
+  lab.apply(state);
+  lab.set_output_enabled(true);
+  lab.settle_thermal();
+  spectral::Spectrum s = lab.irradiance_now();
+  lab.set_output_enabled(false);
+  return s;
+}
+
+}  // namespace chromo::calibration::testing
