@@ -41,6 +41,11 @@ std::string channel_fault_text(std::uint32_t faults) {
 
 }  // namespace
 
+void switch_led_output(drivers::LedController& leds, bool on) {
+  leds.set_output_enabled(on);
+  (void)leds.read_status();
+}
+
 std::string utc_timestamp_now() {
   const std::time_t now = std::time(nullptr);
   std::tm tm{};
@@ -121,7 +126,7 @@ CalibrationSummary CalibrationRun::run(const CalibrationProgress& progress, cons
     // 1. The spectrometer's relative spectral response against the lamp.
     report(fmt::format("reference lamp ({:.0f} K): spectrometer response", options_.lamp_temperature_K));
     leds_.set_state(off_state());
-    leds_.set_output_enabled(false);
+    switch_led_output(leds_, false);
     lamp_(true);
     drivers::SpectrometerMeasurement lamp_measurement;
     try {
@@ -155,7 +160,7 @@ CalibrationSummary CalibrationRun::run(const CalibrationProgress& progress, cons
         drivers::LedState state = off_state();
         state.drive[led] = level;
         leds_.set_state(state);
-        leds_.set_output_enabled(true);
+        switch_led_output(leds_, true);
       };
       auto check_faults = [&]() -> drivers::LedStatus {
         const drivers::LedStatus status = leds_.read_status();
@@ -177,7 +182,7 @@ CalibrationSummary CalibrationRun::run(const CalibrationProgress& progress, cons
         sleep_s(options_.settle_s);
         const drivers::LedStatus status = check_faults();
         const drivers::SpectrometerMeasurement m =
-            reader.measure([this](bool on) { leds_.set_output_enabled(on); });
+            reader.measure([this](bool on) { switch_led_output(leds_, on); });
         ++summary.spectra_measured;
         if (signal_fraction(m, spectrometer_info.saturation_counts) < options_.min_peak_fraction)
           throw drivers::DeviceError(drivers::DeviceError::Kind::kFault, "LED controller", "drive " + name,

@@ -245,18 +245,27 @@ MixSummary solve_mix(const LedLibrary& library, const MixTarget& target, const M
     summary.at_drive_limit[i] = outcome.weights[i] >= max_drive[i] * (1.0 - 1e-9);
   }
   const spectral::Spectrum& t = summary.target;
-  summary.rmse = std::sqrt((summary.mix.values() - t.values()).square().mean()) / t.max();
-  const spectral::UvPrime uv_mix = spectral::uv_prime(spectral::xyz_of_light(summary.mix));
-  const spectral::UvPrime uv_target = spectral::uv_prime(spectral::xyz_of_light(t));
-  summary.delta_uv_prime = std::hypot(uv_mix.u - uv_target.u, uv_mix.v - uv_target.v);
+  const MixFigures figures = mix_figures(t, summary.mix, options);
+  summary.rmse = figures.rmse;
+  summary.delta_uv_prime = figures.delta_uv_prime;
+  summary.camera_de00 = figures.camera_de00;
   summary.rendering = colour_rendering_index(summary.mix);
   summary.target_ra = colour_rendering_index(t).ra;
-  summary.camera_de00 = camera_chart_delta_e00(options.camera, options.chart, t, summary.mix);
   summary.unreachable = unreachable_bands(t, summary.mix);
   for (const auto& band : summary.unreachable) summary.unreachable_deficit_fraction += band.deficit_power_fraction;
   if (options.stability_trials > 0)
     summary.stability = weight_stability(spectra, max_drive, target.spectrum, options, summary.weights);
   return summary;
+}
+
+MixFigures mix_figures(const spectral::Spectrum& target, const spectral::Spectrum& mix, const MixSolverOptions& options) {
+  MixFigures figures;
+  figures.rmse = std::sqrt((mix.values() - target.values()).square().mean()) / target.max();
+  const spectral::UvPrime uv_mix = spectral::uv_prime(spectral::xyz_of_light(mix));
+  const spectral::UvPrime uv_target = spectral::uv_prime(spectral::xyz_of_light(target));
+  figures.delta_uv_prime = std::hypot(uv_mix.u - uv_target.u, uv_mix.v - uv_target.v);
+  figures.camera_de00 = camera_chart_delta_e00(options.camera, options.chart, target, mix);
+  return figures;
 }
 
 std::string MixSummary::BriefReport() const {

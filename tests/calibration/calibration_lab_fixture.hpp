@@ -4,6 +4,9 @@
 // closed-loop tests. The library is measured once per test program.
 
 #include <memory>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "chromo/calibration/calibration_run.hpp"
 #include "chromo/drivers/led_controller_factory.hpp"
@@ -43,6 +46,26 @@ inline spectral::Spectrum true_full_drive_spectrum(simulators::LedLab& lab, LedT
   spectral::Spectrum s = lab.irradiance_now();
   lab.set_output_enabled(false);
   return s;
+}
+
+// A library measured once per test program on one ConnectedLab (tests that
+// inject faults into that lab must clear them), and the lab's truth.
+struct MeasuredOnce {
+  ConnectedLab connected;
+  CalibrationSummary summary;
+  std::vector<std::pair<double, std::string>> progress;
+  std::array<spectral::Spectrum, spectral::kLedTypeCount> truth;
+  MeasuredOnce() {
+    CalibrationRun run(*connected.leds, *connected.spectrometer, connected.lab.lamp_switch(), fast_run_options());
+    summary = run.run([this](double f, const std::string& s) { progress.emplace_back(f, s); });
+    for (int i = 0; i < spectral::kLedTypeCount; ++i)
+      truth[i] = true_full_drive_spectrum(connected.lab.lab(), static_cast<LedType>(i));
+  }
+};
+
+inline MeasuredOnce& measured() {
+  static MeasuredOnce once;
+  return once;
 }
 
 }  // namespace chromo::calibration::testing

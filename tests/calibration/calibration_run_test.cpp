@@ -16,24 +16,7 @@ namespace chromo::calibration {
 namespace {
 
 using testing::ConnectedLab;
-
-struct MeasuredOnce {
-  ConnectedLab connected;
-  CalibrationSummary summary;
-  std::vector<std::pair<double, std::string>> progress;
-  std::array<spectral::Spectrum, spectral::kLedTypeCount> truth;
-  MeasuredOnce() {
-    CalibrationRun run(*connected.leds, *connected.spectrometer, connected.lab.lamp_switch(), testing::fast_run_options());
-    summary = run.run([this](double f, const std::string& s) { progress.emplace_back(f, s); });
-    for (int i = 0; i < spectral::kLedTypeCount; ++i)
-      truth[i] = testing::true_full_drive_spectrum(connected.lab.lab(), static_cast<LedType>(i));
-  }
-};
-
-MeasuredOnce& measured() {
-  static MeasuredOnce once;
-  return once;
-}
+using testing::measured;
 
 TEST(CalibrationRun, CompletesWithLadderTemperaturesAndResponse) {
   const auto& m = measured();

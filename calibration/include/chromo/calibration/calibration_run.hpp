@@ -106,6 +106,14 @@ class CalibrationRun {
   CalibrationRunOptions options_;
 };
 
+// The light switch the spectrometer reader uses for the dark: switches the
+// controller's output and then reads its status. Some controllers (the
+// simulator's Modbus front-end among them) acknowledge a coil write before
+// acting on it; the next request is served only after the previous one was
+// acted on, so the status read is the barrier that makes "returned" mean
+// "switched".
+void switch_led_output(drivers::LedController& leds, bool on);
+
 // "2026-11-22T16:00:00Z" for now (UTC).
 std::string utc_timestamp_now();
 

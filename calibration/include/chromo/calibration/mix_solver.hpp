@@ -127,6 +127,17 @@ struct MixSummary {
 
 MixSummary solve_mix(const LedLibrary& library, const MixTarget& target, const MixSolverOptions& options);
 
+// The figures of merit of any mix spectrum (predicted or measured) against a
+// target at the brightness it should have: RMSE of (mix − target) over the
+// grid / max(target), Δu'v', camera ColorChecker ΔE00 (options' camera and
+// chart). solve_mix and the closed loop (closed_loop.hpp) both use it.
+struct MixFigures {
+  double rmse = 0;
+  double delta_uv_prime = 0;
+  ChartDeltaE camera_de00;
+};
+MixFigures mix_figures(const spectral::Spectrum& target, const spectral::Spectrum& mix, const MixSolverOptions& options);
+
 // The QP solve_mix poses, exposed so that tests and the bench can hand the
 // same problem to an independent solver. Variables are drive levels scaled
 // by each LED's peak (v_i = w_i·peak_i) for conditioning; `drive_per_variable`
