@@ -34,14 +34,14 @@ void draw_progress_bar(double fraction, const std::string& step) {
 
 MeasuredOnVirtualLab measure_on_virtual_lab(const std::filesystem::path& out_path, bool progress_bar) {
   simulators::CalibrationLabOptions lab_options;
-  lab_options.leds.time_scale = 600;  // lab seconds per wall-clock second
+  lab_options.leds.time_scale = 3000;  // lab seconds per wall-clock second
   simulators::CalibrationLab lab(lab_options);
   auto leds = drivers::make_modbus_tcp_led_controller("127.0.0.1", lab.start_modbus_tcp());
   auto spectrometer = drivers::make_usb_spectrometer(lab.make_spectrometer_transport());
 
   calibration::CalibrationRunOptions options;
-  options.warm_up_s = 0.5;  // 300 s of lab time: 5 thermal time constants
-  options.settle_s = 0.05;
+  options.warm_up_s = 0.1;  // 300 s of lab time: 5 thermal time constants
+  options.settle_s = 0.01;  // 30 s of lab time
   options.lamp_temperature_K = lab_options.lamp_temperature_K;
   options.lamp_description = fmt::format("virtual-lab tungsten halogen (Planckian, {:.0f} K)", lab_options.lamp_temperature_K);
   options.ambient_temperature_C = lab_options.leds.ambient_C;

@@ -15,8 +15,16 @@
 
 namespace chromo::calibration::testing {
 
+// Lab time runs 1500x the wall clock (the LEDs' thermal time constant is 60 s
+// of lab time), so warm-ups and settling cost milliseconds of test time.
+inline simulators::CalibrationLabOptions fast_lab_options() {
+  simulators::CalibrationLabOptions options;
+  options.leds.time_scale = 1500;
+  return options;
+}
+
 struct ConnectedLab {
-  simulators::CalibrationLab lab;
+  simulators::CalibrationLab lab{fast_lab_options()};
   std::unique_ptr<drivers::LedController> leds;
   std::unique_ptr<drivers::Spectrometer> spectrometer;
 
@@ -26,11 +34,12 @@ struct ConnectedLab {
   }
 };
 
-// Fast run options: 1 s warm-up (5 thermal time constants of lab time), four rungs.
+// Fast run options: 0.2 s warm-up (300 s of lab time, 5 thermal time
+// constants), 0.02 s settling (30 s of lab time), four rungs.
 inline CalibrationRunOptions fast_run_options() {
   CalibrationRunOptions options;
-  options.warm_up_s = 1.0;
-  options.settle_s = 0.1;
+  options.warm_up_s = 0.2;
+  options.settle_s = 0.02;
   return options;
 }
 
