@@ -1,6 +1,6 @@
 // Camera sensitivity from ColorChecker captures under the virtual lab's six
 // LED types alone and D65' (their mix), against the true Nikon D5100 curve,
-// and what the error costs a 2D skin estimate in relit ΔE94.
+// and what the error costs the estimator's 2D inversion in relit ΔE94.
 
 #include <gtest/gtest.h>
 
@@ -14,6 +14,9 @@
 #include "calibration_lab_fixture.hpp"
 #include "chromo/calibration/camera_sensitivity_estimation.hpp"
 #include "chromo/calibration/mix_solver.hpp"
+#include "chromo/estimation/forward_table.hpp"
+#include "chromo/estimation/inverter.hpp"
+#include "chromo/estimation/measurement.hpp"
 #include "chromo/estimation/skin_model.hpp"
 #include "chromo/spectral/cie.hpp"
 #include "chromo/spectral/colorimetry.hpp"
@@ -63,56 +66,22 @@ std::vector<ChartCapture> capture_chart(const spectral::CameraSensitivity& camer
   return captures;
 }
 
-// White-normalised camera RGB of an albedo under a light (what the estimator sees).
-Eigen::Vector3d seen(const spectral::CameraSensitivity& camera, const spectral::Spectrum& light, const spectral::Spectrum& albedo) {
-  return spectral::camera_response(camera, light, albedo);
-}
-
-// 2D (Cm, Ch) inversion by Gauss-Newton in log space with the skin model and
-// a given sensitivity: a stand-in for the estimator's 2D inverter.
-estimation::SkinParameters invert_2d(const estimation::SkinModel& model, const spectral::CameraSensitivity& camera,
-                                     const spectral::Spectrum& light, const Eigen::Vector3d& rgb) {
-  Eigen::Vector2d x(std::log(0.05), std::log(0.03));
-  auto f = [&](const Eigen::Vector2d& v) {
-    estimation::SkinParameters p;
-    p.cm = std::clamp(std::exp(v[0]), 0.001, 0.5);
-    p.ch = std::clamp(std::exp(v[1]), 0.001, 0.32);
-    return Eigen::Vector3d(seen(camera, light, model.albedo(p)) - rgb);
-  };
-  // Start from the best node of a coarse log grid (the fit has local minima at the range bounds).
-  double best = std::numeric_limits<double>::infinity();
-  for (int i = 0; i < 15; ++i)
-    for (int k = 0; k < 15; ++k) {
-      const Eigen::Vector2d v(std::log(0.001) + (std::log(0.5) - std::log(0.001)) * i / 14.0,
-                              std::log(0.001) + (std::log(0.32) - std::log(0.001)) * k / 14.0);
-      if (const double e = f(v).norm(); e < best) best = e, x = v;
-    }
-  double damping = 1e-3;
-  Eigen::Vector3d r = f(x);
-  for (int it = 0; it < 100 && r.norm() > 1e-12; ++it) {  // Levenberg-Marquardt
-    Eigen::Matrix<double, 3, 2> j;
-    for (int k = 0; k < 2; ++k) {
-      Eigen::Vector2d h = x;
-      h[k] += 1e-6;
-      j.col(k) = (f(h) - r) / 1e-6;
-    }
-    const Eigen::Matrix2d jtj = j.transpose() * j;
-    const Eigen::Vector2d step =
-        (jtj + damping * Eigen::Matrix2d(jtj.diagonal().asDiagonal())).ldlt().solve(-j.transpose() * r);
-    Eigen::Vector2d next = x + step;
-    next[0] = std::clamp(next[0], std::log(0.001), std::log(0.5));
-    next[1] = std::clamp(next[1], std::log(0.001), std::log(0.32));
-    const Eigen::Vector3d r_next = f(next);
-    if (r_next.norm() < r.norm()) {
-      x = next, r = r_next, damping = std::max(damping / 10, 1e-9);
-      if (step.norm() < 1e-9) break;
-    } else {
-      damping *= 10;
-      if (damping > 1e9) break;
-    }
+// The estimator's 2D inversion (ForwardTable + TwoDInverter, estimation/)
+// with a table built from `camera` under `light`: measured white-normalised
+// RGB → (Cm, Ch) with βm = 0.7, Che = 0.
+class Estimator2d {
+ public:
+  Estimator2d(const spectral::CameraSensitivity& camera, const spectral::Spectrum& light)
+      : inverter_(std::make_shared<const estimation::ForwardTable>(estimation::ForwardTable::build(
+            estimation::rgb_measurement_set(camera, light), estimation::TableGrid{41, 41, 11, 2}, 1))) {}
+  estimation::SkinParameters fit(const Eigen::Vector3d& rgb) const {
+    const double weight[3] = {1, 1, 1};
+    return inverter_.table().from_grid(inverter_.fit(rgb.data(), weight, 2).x);
   }
-  return {std::exp(x[0]), std::exp(x[1]), 0.7, 0.0};
-}
+
+ private:
+  estimation::TwoDInverter inverter_;
+};
 
 TEST(CameraSensitivityEstimation, RecoversTheD5100AndCostsLittleRelitDeltaE94) {
   const spectral::CameraSensitivity truth = spectral::builtin_camera("nikon_d5100");
@@ -133,34 +102,36 @@ TEST(CameraSensitivityEstimation, RecoversTheD5100AndCostsLittleRelitDeltaE94) {
     EXPECT_TRUE((estimate.sensitivity.rgb[c].values() >= 0).all());
   }
 
-  // The cost: skin captured by the TRUE camera under D65', inverted (2D
-  // model) with the estimated sensitivity, relit under D65, ΔE94 against the
-  // truth relit under D65. With the true sensitivity the same inversion is exact.
+  // The cost: skin captured by the TRUE camera under D65' (white-normalised
+  // RGB), inverted by the estimator (2D) with a table built from the
+  // ESTIMATED sensitivity, relit under D65, ΔE94 against the truth relit
+  // under D65; the same with a table from the true sensitivity is the
+  // baseline (table interpolation only).
   const estimation::SkinModel model;
   const spectral::Spectrum& d65_prime = lights.list.back().second;
   const spectral::Spectrum d65 = spectral::illuminant_d65();
   const spectral::Xyz white = spectral::xyz_of_light(d65);
+  const Estimator2d with_estimate(estimate.sensitivity, d65_prime), with_truth(truth, d65_prime);
   double sum = 0, worst = 0, sum_true = 0;
   int n = 0;
   for (double cm : {0.01, 0.03, 0.08, 0.2})
     for (double ch : {0.005, 0.02, 0.06}) {
-      const estimation::SkinParameters p{cm, ch, 0.7, 0.0};
-      const spectral::Spectrum albedo = model.albedo(p);
-      const Eigen::Vector3d rgb = seen(truth, d65_prime, albedo);
+      const spectral::Spectrum albedo = model.albedo({cm, ch, 0.7, 0.0});
+      const Eigen::Vector3d rgb = spectral::camera_response(truth, d65_prime, albedo);
       const auto lab_truth = spectral::lab_from_xyz(spectral::xyz_of_reflectance(albedo, d65), white);
-      const auto relit = [&](const spectral::CameraSensitivity& camera) {
-        const auto q = invert_2d(model, camera, d65_prime, rgb);
-        return spectral::delta_e94(lab_truth, spectral::lab_from_xyz(spectral::xyz_of_reflectance(model.albedo(q), d65), white));
+      const auto relit = [&](const Estimator2d& estimator) {
+        const spectral::Spectrum recovered = model.albedo(estimator.fit(rgb));
+        return spectral::delta_e94(lab_truth, spectral::lab_from_xyz(spectral::xyz_of_reflectance(recovered, d65), white));
       };
-      const double de = relit(estimate.sensitivity);
+      const double de = relit(with_estimate);
       sum += de;
       worst = std::max(worst, de);
-      sum_true += relit(truth);
+      sum_true += relit(with_truth);
       ++n;
     }
   std::printf("relit dE94 with the estimated sensitivity: mean %.3f max %.3f (true sensitivity: mean %.4f)\n", sum / n,
               worst, sum_true / n);
-  EXPECT_LT(sum_true / n, 0.01);
+  EXPECT_LT(sum_true / n, 0.02);
   EXPECT_LT(sum / n, 0.05);
   EXPECT_LT(worst, 0.1);
 }
