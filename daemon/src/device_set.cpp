@@ -10,7 +10,9 @@ NamedDevice<Interface>* find_device(std::vector<std::unique_ptr<NamedDevice<Inte
                                     const std::string& name, const char* kind, std::string* error) {
   if (name.empty()) {
     if (devices.size() == 1) return devices.front().get();
-    if (error) *error = std::string("there are ") + std::to_string(devices.size()) + " " + kind + "s: name one";
+    if (error)
+      *error = devices.empty() ? std::string("no ") + kind + " is configured"
+                               : std::string("there are ") + std::to_string(devices.size()) + " " + kind + "s: name one";
     return nullptr;
   }
   for (auto& device : devices)
