@@ -206,6 +206,7 @@ void Daemon::run_session(std::string id, SessionPlan plan, std::shared_ptr<Journ
     context.led = devices_.led_controller("", nullptr);
     for (auto& camera : devices_.cameras) context.cameras.push_back(camera.get());
     context.resolve_mix = [this](const std::string& mix) { return resolve_mix(mix); };
+    context.place_in_sphere = devices_.place_in_sphere;
     context.frame_timeout_ms = config_.frame_timeout_ms;
     context.frame_attempts = config_.frame_attempts;
     try {

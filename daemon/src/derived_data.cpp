@@ -57,7 +57,10 @@ std::string illumination_key(const Step& step) {
     case Illumination::Kind::kMix: return step.illumination.mix;
     case Illumination::Kind::kWeights: {
       std::string key = "weights";
-      for (double w : step.illumination.weights) key += "_" + std::to_string(static_cast<int>(std::lround(w * 1000)));
+      for (double w : step.illumination.weights) {
+        key += '_';
+        key += std::to_string(static_cast<int>(std::lround(w * 1000)));
+      }
       return key;
     }
   }

@@ -1,10 +1,20 @@
 #include "chromo/daemon/frame_pipeline.hpp"
 
+#include <time.h>
+
 #include <cstdio>
 
 #include "chromo/daemon/image_files.hpp"
 
 namespace chromo::daemon {
+
+namespace {
+double thread_cpu_ms() {
+  timespec now{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &now);
+  return static_cast<double>(now.tv_sec) * 1e3 + static_cast<double>(now.tv_nsec) * 1e-6;
+}
+}  // namespace
 
 FramePipeline::FramePipeline(std::filesystem::path folder, Journal& journal, StorageBudget* budget, Options options,
                              FrameConsumer* estimator, std::function<void(const StoredFrame&)> on_stored)
@@ -127,6 +137,7 @@ void FramePipeline::storage_loop() {
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - captured.trigger_time).count();
 
     lock.lock();
+    counters_.storage_cpu_ms = thread_cpu_ms();
     storing_ = false;
     if (failed_before || !error.empty()) {
       if (storage_error_.empty()) storage_error_ = error;
@@ -178,6 +189,7 @@ void FramePipeline::estimator_loop() {
       ok = false;
     }
     lock.lock();
+    counters_.estimator_cpu_ms = thread_cpu_ms();
     estimating_ = false;
     if (ok) {
       ++counters_.estimated;

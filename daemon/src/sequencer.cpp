@@ -85,6 +85,7 @@ class Run {
         if (!pause_point("paused by the operator before step " + step.name)) return cancelled();
       }
       if (c_.control->cancel_requested()) return cancelled();
+      if (c_.place_in_sphere) c_.place_in_sphere(step.role);
       DriveLevels levels = resolve(step);
       nlohmann::json led;
       if (!hardware) {

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "chromo/daemon/config.hpp"
+#include "chromo/daemon/session_plan.hpp"
 #include "chromo/drivers/camera.hpp"
 #include "chromo/drivers/led_controller.hpp"
 #include "chromo/drivers/spectrometer.hpp"
@@ -40,6 +41,10 @@ struct DeviceSet {
   std::vector<std::unique_ptr<NamedDevice<drivers::Spectrometer>>> spectrometers;
   // Keeps in-process simulators (the virtual lab) alive as long as the devices.
   std::vector<std::shared_ptr<void>> keep_alive;
+  // The virtual lab's stand-in for the operator placing the white target or
+  // the subject in the sphere: called by the sequencer before each step with
+  // its role. Empty with real devices (the plan's prompts ask the operator).
+  std::function<void(StepRole role)> place_in_sphere;
 
   // By name; empty name = the only one of its kind. nullptr when not found
   // (or ambiguous); `error` says which.

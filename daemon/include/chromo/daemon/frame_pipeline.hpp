@@ -60,6 +60,7 @@ struct PipelineCounters {
   std::uint64_t received = 0, stored = 0, estimated = 0, estimator_skipped = 0, lost = 0, resent_packets = 0;
   std::map<std::string, std::uint64_t> lost_reasons, skipped_reasons;
   double max_trigger_to_stored_ms = 0, mean_trigger_to_stored_ms = 0;
+  double storage_cpu_ms = 0, estimator_cpu_ms = 0;  // CPU time of the pipeline's own threads
 };
 
 // The on-line estimator's side of the pipeline (estimation plugs in here).

@@ -50,6 +50,7 @@ struct SequencerContext {
   std::vector<NamedDevice<drivers::Camera>*> cameras;
   // Drive levels of a named mix; throws std::invalid_argument when unknown.
   std::function<drivers::DriveLevels(const std::string& mix)> resolve_mix;
+  std::function<void(StepRole)> place_in_sphere;  // optional (DeviceSet::place_in_sphere)
   std::uint32_t frame_timeout_ms = 3000;
   std::uint32_t frame_attempts = 3;
 };
