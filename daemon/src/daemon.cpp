@@ -247,6 +247,13 @@ void Daemon::run_session(std::string id, SessionPlan plan, std::shared_ptr<Journ
     // stays valid; the next start reports the session as interrupted.
     if (outcome.error.empty()) outcome = {OperationState::kFailed, error.what()};
   }
+  {
+    // Before the record turns final: start_session() joins this thread under
+    // run_mutex_ once it sees no active operation, so nothing after the final
+    // update may take run_mutex_.
+    std::lock_guard lock(run_mutex_);
+    running_id_.clear();
+  }
   operations_.update(id, [&](OperationRecord& r) {
     r.state = outcome.state;
     r.error = outcome.error;
@@ -255,8 +262,6 @@ void Daemon::run_session(std::string id, SessionPlan plan, std::shared_ptr<Journ
     if (outcome.state == OperationState::kSucceeded) r.progress = 1;
     r.eta_seconds = 0;
   });
-  std::lock_guard lock(run_mutex_);
-  running_id_.clear();
 }
 
 std::optional<SessionInfo> Daemon::session(const std::string& id) const {
