@@ -18,5 +18,11 @@ void add_fit_spectrum_command(CLI::App& app, int& exit_status);
 void add_estimate_command(CLI::App& app, int& exit_status);
 // `chromo leds measure`, under the `leds` subcommand (leds_measure.cpp).
 void add_leds_measure_command(CLI::App* leds, int& exit_status);
+// Operator commands talking to chromod (daemon_client.hpp).
+void add_status_command(CLI::App& app, int& exit_status);
+void add_led_command(CLI::App& app, int& exit_status);
+void add_session_command(CLI::App& app, int& exit_status);
+void add_results_command(CLI::App& app, int& exit_status);
+void add_solve_command(CLI::App& app, int& exit_status);
 
 }  // namespace chromo::cli

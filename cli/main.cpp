@@ -12,6 +12,11 @@ int main(int argc, char** argv) {
   chromo::cli::add_leds_command(app, exit_status);
   chromo::cli::add_fit_spectrum_command(app, exit_status);
   chromo::cli::add_estimate_command(app, exit_status);
+  chromo::cli::add_status_command(app, exit_status);
+  chromo::cli::add_led_command(app, exit_status);
+  chromo::cli::add_session_command(app, exit_status);
+  chromo::cli::add_results_command(app, exit_status);
+  chromo::cli::add_solve_command(app, exit_status);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -1,0 +1,206 @@
+// chromo session run|watch|list|show|cancel|pause|resume: capture sessions on chromod.
+#include <unistd.h>
+
+#include <fstream>
+#include <iostream>
+
+#include <fmt/format.h>
+#include <google/protobuf/util/time_util.h>
+
+#include "chromo/daemon/api_conversions.hpp"
+#include "chromosphere/v1/operations.grpc.pb.h"
+#include "chromosphere/v1/sessions.grpc.pb.h"
+#include "commands.hpp"
+#include "daemon_client.hpp"
+
+namespace chromo::cli {
+
+namespace pb = chromosphere::v1;
+
+namespace {
+
+struct SessionOptions {
+  DaemonAddress address;
+  std::string plan_file, subject, name, id;
+  bool hardware = false, prompts = false, detach = false, frames = false;
+  double exposure_us = 0;
+  unsigned frames_per_camera = 0;
+};
+
+// Streams the operation to its end with a live progress line (redrawn in
+// place on a terminal, one line per change otherwise). Exit 0 only on success.
+int watch(const DaemonConnection& daemon, const std::string& id) {
+  auto context = daemon.context(true);
+  pb::WatchOperationRequest request;
+  request.set_id(id);
+  auto reader = pb::OperationService::NewStub(daemon.channel())->WatchOperation(context.get(), request);
+  const bool terminal = ::isatty(STDOUT_FILENO);
+  pb::Operation operation, last;
+  std::string previous;
+  while (reader->Read(&operation)) {
+    last = operation;
+    std::string line = progress_line(operation);
+    if (line == previous) continue;
+    previous = line;
+    if (terminal)
+      std::cout << "\r\033[K" << line << std::flush;
+    else
+      std::cout << line << "\n";
+  }
+  if (terminal) std::cout << "\n";
+  auto status = reader->Finish();
+  if (!status.ok()) return report_failure("watch " + id, status);
+  std::cout << fmt::format("session {} {}", last.id(), state_text(last.state()));
+  if (!last.error().empty()) std::cout << ": " << last.error();
+  std::cout << fmt::format("\nframes: {} stored, {} lost, {} estimated, {} skipped by the estimator\nfolder: {}\n",
+                           last.counters().stored(), last.counters().lost(), last.counters().estimated(),
+                           last.counters().estimator_skipped(), last.folder());
+  for (const auto& [reason, count] : last.counters().lost_reasons()) std::cout << "  lost (" << reason << "): " << count << "\n";
+  return last.state() == pb::OPERATION_STATE_SUCCEEDED ? kExitOk : kExitFailure;
+}
+
+void run(SessionOptions& options, int& exit_status) {
+  DaemonConnection daemon(options.address);
+  pb::StartSessionRequest request;
+  if (!options.plan_file.empty()) {
+    std::ifstream in(options.plan_file);
+    auto json = nlohmann::json::parse(in, nullptr, false);
+    if (!in || json.is_discarded()) {
+      std::cerr << "chromo: --plan " << options.plan_file << ": not a readable JSON file\n";
+      exit_status = kExitBadInput;
+      return;
+    }
+    try {
+      daemon::to_proto(daemon::plan_from_json(json), request.mutable_plan());
+    } catch (const std::invalid_argument& error) {
+      std::cerr << "chromo: --plan " << options.plan_file << ": " << error.what() << "\n";
+      exit_status = kExitBadInput;
+      return;
+    }
+  } else {
+    request.set_standard(true);
+    request.set_timing(options.hardware ? pb::TIMING_HARDWARE : pb::TIMING_SOFTWARE);
+    request.set_exposure_us(options.exposure_us);
+    request.set_frames_per_camera(options.frames_per_camera);
+    request.set_operator_prompts(options.prompts);
+  }
+  request.set_subject(options.subject);
+  request.set_name(options.name);
+  pb::Operation started;
+  auto status = pb::SessionService::NewStub(daemon.channel())->StartSession(daemon.context().get(), request, &started);
+  if (!status.ok()) {
+    exit_status = report_failure("session run", status);
+    return;
+  }
+  std::cout << "session " << started.id() << " started\n";
+  if (options.detach) return;
+  exit_status = watch(daemon, started.id());
+}
+
+template <typename Request, typename Call>
+void control(SessionOptions& options, int& exit_status, const char* verb, Call call) {
+  DaemonConnection daemon(options.address);
+  Request request;
+  request.set_id(options.id);
+  pb::Operation operation;
+  auto stub = pb::OperationService::NewStub(daemon.channel());
+  auto status = call(*stub, daemon.context().get(), request, &operation);
+  if (!status.ok()) {
+    exit_status = report_failure(std::string("session ") + verb, status);
+    return;
+  }
+  std::cout << operation.id() << "  " << progress_line(operation) << "\n";
+}
+
+void show(SessionOptions& options, int& exit_status) {
+  DaemonConnection daemon(options.address);
+  pb::GetSessionRequest request;
+  request.set_id(options.id);
+  request.set_include_frames(options.frames);
+  pb::SessionDetail detail;
+  auto status = pb::SessionService::NewStub(daemon.channel())->GetSession(daemon.context().get(), request, &detail);
+  if (!status.ok()) {
+    exit_status = report_failure("session show", status);
+    return;
+  }
+  const auto& operation = detail.summary().operation();
+  std::cout << fmt::format("session {}  ({})\nstate    {}{}\nsubject  {}\nfolder   {}\n", detail.summary().id(),
+                           detail.summary().name(), state_text(operation.state()),
+                           operation.error().empty() ? (operation.message().empty() ? "" : ": " + operation.message())
+                                                     : ": " + operation.error(),
+                           detail.subject(), detail.summary().folder());
+  std::cout << fmt::format("frames   {} stored, {} lost\nsteps:\n", operation.counters().stored(), operation.counters().lost());
+  for (const auto& step : detail.steps())
+    std::cout << fmt::format("  {:2} {:<20} {:<8} {:>4} frames  {}\n", step.index(), step.name(),
+                             pb::StepRole_Name(step.role()).substr(std::string("STEP_ROLE_").size()), step.frames_stored(),
+                             step.completed() ? "completed" : "not completed");
+  for (const auto& frame : detail.frames())
+    std::cout << fmt::format("  frame {:4} {:<18} {:<6} seq {:<5} {} exposure {} us\n", frame.index(), frame.step(),
+                             frame.camera(), frame.sequence(), frame.file(), frame.exposure_us());
+}
+
+}  // namespace
+
+void add_session_command(CLI::App& app, int& exit_status) {
+  auto* session = app.add_subcommand("session", "capture sessions on chromod");
+  session->require_subcommand(1);
+  auto options = std::make_shared<SessionOptions>();
+
+  auto* run_command = session->add_subcommand("run", "start a session (the standard one unless --plan) and follow it");
+  add_daemon_options(*run_command, options->address);
+  run_command->add_option("--plan", options->plan_file, "session plan JSON (docs/formats/session.md, \"plan\")");
+  run_command->add_option("--subject", options->subject, "free text stored with the session");
+  run_command->add_option("--name", options->name, "session name ([A-Za-z0-9_+.-])");
+  run_command->add_option("--exposure-us", options->exposure_us, "standard plan: exposure (default 20000)");
+  run_command->add_option("--frames", options->frames_per_camera, "standard plan: frames per camera and step (default 1)");
+  run_command->add_flag("--hardware-timed", options->hardware, "standard plan: the controller advances on the camera's exposure");
+  run_command->add_flag("--prompts", options->prompts, "standard plan: pause for the operator before white and subject");
+  run_command->add_flag("--detach", options->detach, "print the id and return at once");
+  run_command->callback([&exit_status, options] { run(*options, exit_status); });
+
+  auto* watch_command = session->add_subcommand("watch", "follow a session's progress to its end");
+  add_daemon_options(*watch_command, options->address);
+  watch_command->add_option("id", options->id, "session id")->required();
+  watch_command->callback([&exit_status, options] { exit_status = watch(DaemonConnection(options->address), options->id); });
+
+  auto* list = session->add_subcommand("list", "sessions known to the daemon, newest first");
+  add_daemon_options(*list, options->address);
+  list->callback([&exit_status, options] {
+    DaemonConnection daemon(options->address);
+    pb::ListSessionsResponse response;
+    auto status = pb::SessionService::NewStub(daemon.channel())->ListSessions(daemon.context().get(), {}, &response);
+    if (!status.ok()) {
+      exit_status = report_failure("session list", status);
+      return;
+    }
+    for (const auto& s : response.sessions())
+      std::cout << fmt::format("{:<40} {:<12} {:>5} frames  {}\n", s.id(), state_text(s.operation().state()),
+                               s.operation().counters().stored(), s.folder());
+  });
+
+  auto* show_command = session->add_subcommand("show", "a session's state, steps and (with --frames) every frame");
+  add_daemon_options(*show_command, options->address);
+  show_command->add_option("id", options->id, "session id")->required();
+  show_command->add_flag("--frames", options->frames, "list every stored frame");
+  show_command->callback([&exit_status, options] { show(*options, exit_status); });
+
+  auto add_control = [&](const char* verb, const char* help, auto call, auto request_tag) {
+    auto* command = session->add_subcommand(verb, help);
+    add_daemon_options(*command, options->address);
+    command->add_option("id", options->id, "session id")->required();
+    command->callback([&exit_status, options, verb, call] {
+      control<typename decltype(request_tag)::type>(*options, exit_status, verb, call);
+    });
+  };
+  add_control("cancel", "abandon the step in progress; stored frames stay; LEDs off",
+              [](auto& stub, auto* context, const auto& request, auto* out) { return stub.CancelOperation(context, request, out); },
+              std::type_identity<pb::CancelOperationRequest>{});
+  add_control("pause", "finish the current step, then wait",
+              [](auto& stub, auto* context, const auto& request, auto* out) { return stub.PauseOperation(context, request, out); },
+              std::type_identity<pb::PauseOperationRequest>{});
+  add_control("resume", "continue a paused session (retries a step a device interrupted)",
+              [](auto& stub, auto* context, const auto& request, auto* out) { return stub.ResumeOperation(context, request, out); },
+              std::type_identity<pb::ResumeOperationRequest>{});
+}
+
+}  // namespace chromo::cli

@@ -1,0 +1,64 @@
+// chromo solve TARGET and chromo calibrate: the daemon's mix solver and
+// calibration runs (the offline versions are `chromo leds ...`).
+#include <iostream>
+
+#include <fmt/format.h>
+
+#include "chromosphere/v1/calibration.grpc.pb.h"
+#include "commands.hpp"
+#include "daemon_client.hpp"
+
+namespace chromo::cli {
+
+namespace pb = chromosphere::v1;
+
+void add_solve_command(CLI::App& app, int& exit_status) {
+  struct Options {
+    DaemonAddress address;
+    std::string target;
+    std::string controller, spectrometer;
+    std::vector<double> levels;
+  };
+  auto options = std::make_shared<Options>();
+  auto* solve = app.add_subcommand("solve", "the LED weights chromod uses for a mix (d65, w57, w57+blue[:R])");
+  add_daemon_options(*solve, options->address);
+  solve->add_option("target", options->target, "mix name")->required();
+  solve->callback([&exit_status, options] {
+    DaemonConnection daemon(options->address);
+    pb::SolveMixRequest request;
+    request.set_target(options->target);
+    pb::SolveMixResponse response;
+    auto status = pb::CalibrationService::NewStub(daemon.channel())->SolveMix(daemon.context().get(), request, &response);
+    if (!status.ok()) {
+      exit_status = report_failure("solve", status);
+      return;
+    }
+    const auto& w = response.weights();
+    std::cout << fmt::format("{}: W57 {:.4f}  W40 {:.4f}  W27 {:.4f}  R {:.4f}  G {:.4f}  B {:.4f}\n{}\n", options->target,
+                             w.w57(), w.w40(), w.w27(), w.red(), w.green(), w.blue(), response.summary());
+    for (const auto& [name, value] : response.figures()) std::cout << fmt::format("  {} = {:.4g}\n", name, value);
+  });
+
+  auto* calibrate = app.add_subcommand("calibrate", "measure the LED library on chromod's spectrometer");
+  add_daemon_options(*calibrate, options->address);
+  calibrate->add_option("--controller", options->controller, "LED controller (default: the only one)");
+  calibrate->add_option("--spectrometer", options->spectrometer, "spectrometer (default: the only one)");
+  calibrate->add_option("--levels", options->levels, "drive-level ladder, each in (0, 1]");
+  calibrate->callback([&exit_status, options] {
+    DaemonConnection daemon(options->address);
+    pb::StartCalibrationRequest request;
+    request.set_controller(options->controller);
+    request.set_spectrometer(options->spectrometer);
+    for (double level : options->levels) request.add_drive_levels(level);
+    pb::Operation operation;
+    auto status =
+        pb::CalibrationService::NewStub(daemon.channel())->StartCalibration(daemon.context().get(), request, &operation);
+    if (!status.ok()) {
+      exit_status = report_failure("calibrate", status);
+      return;
+    }
+    std::cout << "calibration " << operation.id() << " started; follow it with chromo session watch " << operation.id() << "\n";
+  });
+}
+
+}  // namespace chromo::cli

@@ -1,0 +1,87 @@
+"""A small Python client of chromod (the Chromosphere daemon).
+
+The gRPC stubs are generated at build time (protoc + Debian's
+grpc_python_plugin) into build/<preset>/clients/python/gen; this module finds
+them there, or wherever CHROMO_PY_STUBS points. Needs Debian's python3-grpcio
+and python3-protobuf.
+
+    client = Client("unix:/tmp/chromod.sock")             # or ("host:7443", token="...")
+    op = client.start_standard_session(subject="forearm")
+    final = client.wait(op.id, on_update=print)           # streams progress
+    print(client.results(op.id).folder)
+"""
+import os
+import pathlib
+import sys
+
+_here = pathlib.Path(__file__).resolve().parent
+_stubs = os.environ.get("CHROMO_PY_STUBS")
+_candidates = [pathlib.Path(_stubs)] if _stubs else []
+_candidates += [_here.parents[1] / "build" / preset / "clients" / "python" / "gen" for preset in ("release", "debug")]
+for _candidate in _candidates:
+    if (_candidate / "chromosphere" / "v1" / "sessions_pb2.py").exists():
+        sys.path.insert(0, str(_candidate))
+        break
+
+import grpc  # noqa: E402
+from chromosphere.v1 import (devices_pb2, devices_pb2_grpc, estimation_pb2, estimation_pb2_grpc,  # noqa: E402
+                             leds_pb2, leds_pb2_grpc, operations_pb2, operations_pb2_grpc,
+                             sessions_pb2, sessions_pb2_grpc)
+
+FINAL_STATES = {
+    operations_pb2.OPERATION_STATE_SUCCEEDED,
+    operations_pb2.OPERATION_STATE_FAILED,
+    operations_pb2.OPERATION_STATE_CANCELLED,
+    operations_pb2.OPERATION_STATE_INTERRUPTED,
+}
+
+
+def state_name(state):
+    return operations_pb2.OperationState.Name(state).replace("OPERATION_STATE_", "").lower()
+
+
+class Client:
+    """One connection to chromod. target: "unix:/path" or "host:port" (TCP needs the token)."""
+
+    def __init__(self, target, token=None, root_certificates=None):
+        if token is not None:
+            call_credentials = grpc.access_token_call_credentials(token)
+            if root_certificates is not None:
+                channel_credentials = grpc.ssl_channel_credentials(root_certificates)
+            else:
+                channel_credentials = grpc.local_channel_credentials()
+            credentials = grpc.composite_channel_credentials(channel_credentials, call_credentials)
+            self.channel = grpc.secure_channel(target, credentials)
+        else:
+            self.channel = grpc.insecure_channel(target)
+        self.devices = devices_pb2_grpc.DeviceServiceStub(self.channel)
+        self.leds = leds_pb2_grpc.LedServiceStub(self.channel)
+        self.operations = operations_pb2_grpc.OperationServiceStub(self.channel)
+        self.sessions = sessions_pb2_grpc.SessionServiceStub(self.channel)
+        self.results_service = estimation_pb2_grpc.ResultsServiceStub(self.channel)
+
+    def list_devices(self):
+        return self.devices.ListDevices(devices_pb2.ListDevicesRequest()).devices
+
+    def start_standard_session(self, subject="", exposure_us=0.0, frames_per_camera=0):
+        request = sessions_pb2.StartSessionRequest(standard=True, subject=subject, exposure_us=exposure_us,
+                                                   frames_per_camera=frames_per_camera)
+        return self.sessions.StartSession(request)
+
+    def wait(self, operation_id, on_update=None):
+        """Streams the operation's updates until it ends; returns the final Operation."""
+        last = None
+        for operation in self.operations.WatchOperation(operations_pb2.WatchOperationRequest(id=operation_id)):
+            last = operation
+            if on_update:
+                on_update(operation)
+            if operation.state in FINAL_STATES:
+                return operation
+        # The stream ended early (daemon stopping): ask once more.
+        return self.operations.GetOperation(operations_pb2.GetOperationRequest(id=operation_id)) if last else None
+
+    def results(self, session_id):
+        return self.results_service.GetResults(estimation_pb2.GetResultsRequest(session_id=session_id))
+
+    def close(self):
+        self.channel.close()

@@ -1,0 +1,61 @@
+#pragma once
+// DaemonConfig: chromod's one configuration file (JSON), documented in
+// docs/config.md. Every field has a default; with no file at all the daemon
+// listens on its default Unix socket and starts the built-in virtual lab.
+
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "chromo/drivers/led_controller.hpp"
+
+namespace chromo::daemon {
+
+enum class DeviceKind { kLedController, kCamera, kSpectrometer };
+std::string device_kind_name(DeviceKind kind);
+
+struct DeviceConfig {
+  std::string name;     // unique, [A-Za-z0-9_+.-]{1,64}
+  DeviceKind kind = DeviceKind::kLedController;
+  std::string backend;  // "modbus-tcp", "modbus-rtu", "hid", "usb", "aravis", "loopback", "virtual"
+  std::string address;  // host:port, device path, serial: meaning per backend (docs/config.md)
+  nlohmann::json settings = nlohmann::json::object();  // backend-specific
+};
+
+struct DaemonConfig {
+  // Listening. unix_socket empty = no Unix socket.
+  std::string unix_socket = "/tmp/chromod.sock";
+  std::uint32_t unix_socket_mode = 0660;  // file permissions decide who may connect
+  std::string tcp_address;                // e.g. "0.0.0.0:7443"; empty = no TCP
+  std::string token;                      // required on TCP: "authorization: Bearer <token>"
+  std::string tls_certificate_file;       // PEM; both set = TLS on TCP
+  std::string tls_private_key_file;
+
+  std::filesystem::path sessions_dir = "chromod-sessions";
+  std::uint64_t storage_limit_bytes = 0;  // 0 = the disk is the limit (see durable_file.hpp)
+  std::size_t storage_queue_frames = 64;  // bounded queue between cameras and storage
+  std::size_t estimator_queue_frames = 8;
+
+  std::uint32_t frame_timeout_ms = 3000;  // after exposure, per frame
+  std::uint32_t frame_attempts = 3;       // triggers per wanted frame before pausing
+
+  std::vector<DeviceConfig> devices;      // empty = the built-in virtual lab
+  // Mixes sessions may name, as drive levels, used when no LED library and
+  // solver are available (the calibration's solved weights otherwise).
+  std::map<std::string, drivers::DriveLevels> mixes;
+
+  bool IsValid(std::string* error) const;
+};
+
+// Parses and validates; throws std::invalid_argument naming the file and field.
+DaemonConfig parse_config(const nlohmann::json& json, const std::string& origin = "config");
+DaemonConfig read_config_file(const std::filesystem::path& path);
+
+// Drive levels for the virtual lab's mixes before any calibration (d65, w57, w57+blue).
+std::map<std::string, drivers::DriveLevels> default_virtual_lab_mixes();
+
+}  // namespace chromo::daemon

@@ -1,0 +1,79 @@
+#pragma once
+// Daemon: everything chromod runs, without the network. The gRPC service
+// (service.hpp) is a thin translation of the API onto these calls, and tests
+// can drive a Daemon directly.
+//
+// Owns the devices, the operation registry and event bus, the session store.
+// One session or calibration runs at a time (on its own thread); starting a
+// second gets FAILED_PRECONDITION from the API (std::logic_error here).
+//
+// Lifetime: the destructor cancels a running session and joins its thread;
+// the session then ends CANCELLED on disk. Thread-safe.
+
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "chromo/daemon/config.hpp"
+#include "chromo/daemon/device_set.hpp"
+#include "chromo/daemon/durable_file.hpp"
+#include "chromo/daemon/operations.hpp"
+#include "chromo/daemon/session_store.hpp"
+
+namespace chromo::daemon {
+
+struct DeviceReport {
+  std::string name, backend, address;
+  DeviceKind kind;
+  enum class Health { kOk, kUnreachable, kFault } health = Health::kOk;
+  std::string detail;
+  std::map<std::string, std::string> info;
+};
+
+// Supplies the LED state of a named mix (the calibration's solver when it is
+// built in; the configuration's "mixes" otherwise).
+using MixResolver = std::function<drivers::DriveLevels(const std::string& mix)>;
+
+class Daemon {
+ public:
+  // Opens the devices (config.devices, or `devices` when given: the caller's
+  // virtual lab), recovers the sessions folder.
+  Daemon(DaemonConfig config, DeviceSet devices, FrameConsumer* estimator = nullptr);
+  ~Daemon();
+
+  const DaemonConfig& config() const { return config_; }
+  DeviceSet& devices() { return devices_; }
+  OperationRegistry& operations() { return operations_; }
+  EventBus& events() { return events_; }
+  SessionStore& store() { return store_; }
+
+  std::vector<DeviceReport> probe_devices();
+  // Validated plan; throws std::invalid_argument (naming the field),
+  // std::logic_error (another operation runs), std::runtime_error (devices).
+  OperationRecord start_session(SessionPlan plan, const std::string& subject);
+  drivers::DriveLevels resolve_mix(const std::string& mix) const;
+  // Session folder of an id known to the registry; nullopt when unknown.
+  std::optional<SessionInfo> session(const std::string& id) const;
+  // Throws std::logic_error while a session runs.
+  void ensure_idle() const;
+
+ private:
+  void run_session(std::string id, SessionPlan plan, std::shared_ptr<Journal> journal, std::filesystem::path folder,
+                   std::shared_ptr<OperationControl> control);
+
+  DaemonConfig config_;
+  DeviceSet devices_;
+  FrameConsumer* estimator_;
+  StorageBudget budget_;
+  EventBus events_;
+  OperationRegistry operations_{events_};
+  SessionStore store_;
+  std::mutex run_mutex_;
+  std::thread worker_;
+  std::string running_id_;
+};
+
+}  // namespace chromo::daemon

@@ -1,0 +1,79 @@
+#pragma once
+// DeviceSet: the daemon's named devices, opened from the configuration
+// through backend factories, so that real backends, the simulators and test
+// devices plug in the same way.
+//
+// BackendRegistry maps a backend name ("modbus-tcp", "aravis", ...) to a
+// factory. Drivers and simulators register theirs in backends.cpp when they
+// are built in; an unknown backend is a configuration error naming it.
+//
+// Thread rules: a DeviceSet is built once and its members never change. Each
+// device is used under its own mutex (lock()); the drivers' one-thread-at-a-
+// time rule is kept that way. A device that could not be opened stays in the
+// set with `open_error` set and is reported UNREACHABLE.
+
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "chromo/daemon/config.hpp"
+#include "chromo/daemon/session_plan.hpp"
+#include "chromo/drivers/camera.hpp"
+#include "chromo/drivers/led_controller.hpp"
+#include "chromo/drivers/spectrometer.hpp"
+
+namespace chromo::daemon {
+
+template <typename Interface>
+struct NamedDevice {
+  DeviceConfig config;
+  std::unique_ptr<Interface> device;  // null when open_error is set
+  std::string open_error;
+  std::mutex mutex;  // hold while calling the device
+};
+
+struct DeviceSet {
+  std::vector<std::unique_ptr<NamedDevice<drivers::LedController>>> led_controllers;
+  std::vector<std::unique_ptr<NamedDevice<drivers::Camera>>> cameras;
+  std::vector<std::unique_ptr<NamedDevice<drivers::Spectrometer>>> spectrometers;
+  // Keeps in-process simulators (the virtual lab) alive as long as the devices.
+  std::vector<std::shared_ptr<void>> keep_alive;
+  // The virtual lab's stand-in for the operator placing the white target or
+  // the subject in the sphere: called by the sequencer before each step with
+  // its role. Empty with real devices (the plan's prompts ask the operator).
+  std::function<void(StepRole role)> place_in_sphere;
+
+  // By name; empty name = the only one of its kind. nullptr when not found
+  // (or ambiguous); `error` says which.
+  NamedDevice<drivers::LedController>* led_controller(const std::string& name, std::string* error);
+  NamedDevice<drivers::Spectrometer>* spectrometer(const std::string& name, std::string* error);
+};
+
+class BackendRegistry {
+ public:
+  using LedFactory = std::function<std::unique_ptr<drivers::LedController>(const DeviceConfig&)>;
+  using CameraFactory = std::function<std::unique_ptr<drivers::Camera>(const DeviceConfig&)>;
+  using SpectrometerFactory = std::function<std::unique_ptr<drivers::Spectrometer>(const DeviceConfig&)>;
+
+  void add_led_controller(const std::string& backend, LedFactory factory);
+  void add_camera(const std::string& backend, CameraFactory factory);
+  void add_spectrometer(const std::string& backend, SpectrometerFactory factory);
+
+  // Every configured device; a factory's exception becomes that device's
+  // open_error. Throws std::invalid_argument for a backend nobody registered.
+  DeviceSet open(const std::vector<DeviceConfig>& devices) const;
+  std::vector<std::string> backends(DeviceKind kind) const;
+
+ private:
+  std::map<std::string, LedFactory> led_;
+  std::map<std::string, CameraFactory> camera_;
+  std::map<std::string, SpectrometerFactory> spectrometer_;
+};
+
+// The registry with every backend built into this daemon (backends.cpp).
+BackendRegistry builtin_backends();
+
+}  // namespace chromo::daemon

@@ -1,0 +1,66 @@
+#pragma once
+// Sequencer: runs one session plan on the devices.
+//
+// Software timing, per step: (prompt: pause until resumed) → resolve the LED
+// state (explicit weights, a mix, or dark) → LedController::set_state, which
+// returns once the controller acknowledged it → read its status (drive levels
+// and temperatures go into the step's journal record and every frame's) →
+// settle_ms → configure exposure → for each frame: trigger every camera and
+// wait for one frame from each.
+//
+// Hardware timing: the whole sequence (one state per frame) is armed on the
+// controller before the first step; it advances on the camera's
+// exposure-active edge, so the daemon only triggers the cameras. After a lost
+// frame the rest of the sequence is armed again from that frame.
+//
+// Faults:
+//  - the LED controller does not answer (DeviceError kTimeout/kDisconnected):
+//    the operation is PAUSED with a message naming the controller and the
+//    request; resume retries the step; cancel ends it.
+//  - a camera delivers a failed frame or none within exposure +
+//    frame_timeout_ms: counted lost with its reason, triggered again up to
+//    frame_attempts times, then PAUSED (message names the camera); resume retries.
+//  - storage fails (disk full): the session ends FAILED at once, with the
+//    reason; frames already stored stay intact.
+// Cancel is honoured at every frame boundary and during waits; the LEDs are
+// switched to dark at the end whatever the outcome.
+//
+// Thread rules: run() on the session's own thread; everything else it talks
+// to (registry, control, pipeline) is thread-safe.
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "chromo/daemon/device_set.hpp"
+#include "chromo/daemon/frame_pipeline.hpp"
+#include "chromo/daemon/operations.hpp"
+#include "chromo/daemon/session_plan.hpp"
+
+namespace chromo::daemon {
+
+struct SequencerContext {
+  std::string id;
+  SessionPlan plan;
+  Journal* journal = nullptr;
+  FramePipeline* pipeline = nullptr;
+  OperationRegistry* operations = nullptr;
+  OperationControl* control = nullptr;
+  NamedDevice<drivers::LedController>* led = nullptr;
+  std::vector<NamedDevice<drivers::Camera>*> cameras;
+  // Drive levels of a named mix; throws std::invalid_argument when unknown.
+  std::function<drivers::DriveLevels(const std::string& mix)> resolve_mix;
+  std::function<void(StepRole)> place_in_sphere;  // optional (DeviceSet::place_in_sphere)
+  std::uint32_t frame_timeout_ms = 3000;
+  std::uint32_t frame_attempts = 3;
+};
+
+struct SequencerOutcome {
+  OperationState state = OperationState::kSucceeded;
+  std::string error;
+};
+
+// Runs the plan to its end, a cancel, or a failure; never throws.
+SequencerOutcome run_sequence(SequencerContext& context);
+
+}  // namespace chromo::daemon

@@ -1,0 +1,48 @@
+#pragma once
+// The gRPC server of chromod: the services of proto/chromosphere/v1 over a
+// Daemon, plus the standard health service and server reflection.
+//
+// Listening: the Unix socket (config.unix_socket; its file mode is set to
+// config.unix_socket_mode so that file permissions decide who may connect)
+// and, when config.tcp_address is set, TCP with TLS when a certificate and key
+// are configured. Every call arriving over TCP must carry
+// "authorization: Bearer <config.token>" (UNAUTHENTICATED otherwise); calls on
+// the Unix socket need none. The check runs at the top of every handler of
+// our services (the peer address tells the transport); the health and
+// reflection services, which reveal nothing but liveness and the schema, are
+// open.
+//
+// Lifetime: the Server must not outlive the Daemon. shutdown() ends streams
+// (Watch/Subscribe notice within 200 ms) and waits for the handlers.
+
+#include <memory>
+#include <string>
+
+#include "chromo/daemon/daemon.hpp"
+
+namespace grpc {
+class Server;
+}
+
+namespace chromo::daemon {
+
+class Server {
+ public:
+  // Throws std::runtime_error when a port cannot be opened or TLS files read.
+  explicit Server(Daemon& daemon);
+  ~Server();
+  void shutdown();
+  void wait();
+  // The TCP port actually bound (useful with tcp_address "127.0.0.1:0"); 0 without TCP.
+  int tcp_port() const { return tcp_port_; }
+
+  struct Services;
+
+ private:
+  Daemon& daemon_;
+  std::unique_ptr<Services> services_;
+  std::unique_ptr<grpc::Server> server_;
+  int tcp_port_ = 0;
+};
+
+}  // namespace chromo::daemon

@@ -1,0 +1,263 @@
+#include "chromo/daemon/api_conversions.hpp"
+
+#include <google/protobuf/util/time_util.h>
+
+#include <fstream>
+#include <sstream>
+
+namespace chromo::daemon {
+
+namespace pb = chromosphere::v1;
+using grpc::Status;
+using grpc::StatusCode;
+
+namespace {
+google::protobuf::Timestamp timestamp(std::chrono::system_clock::time_point time) {
+  return google::protobuf::util::TimeUtil::NanosecondsToTimestamp(
+      std::chrono::duration_cast<std::chrono::nanoseconds>(time.time_since_epoch()).count());
+}
+pb::StepRole role_to_proto(StepRole role) {
+  switch (role) {
+    case StepRole::kDark: return pb::STEP_ROLE_DARK;
+    case StepRole::kWhite: return pb::STEP_ROLE_WHITE;
+    case StepRole::kSubject: return pb::STEP_ROLE_SUBJECT;
+  }
+  return pb::STEP_ROLE_UNSPECIFIED;
+}
+}  // namespace
+
+void to_proto(const drivers::DriveLevels& levels, pb::DriveLevels* out) {
+  out->set_w57(levels[0]);
+  out->set_w40(levels[1]);
+  out->set_w27(levels[2]);
+  out->set_red(levels[3]);
+  out->set_green(levels[4]);
+  out->set_blue(levels[5]);
+}
+
+drivers::DriveLevels from_proto(const pb::DriveLevels& levels) {
+  return {levels.w57(), levels.w40(), levels.w27(), levels.red(), levels.green(), levels.blue()};
+}
+
+namespace {
+Status check_levels(const drivers::DriveLevels& levels, const std::string& field) {
+  static const char* kNames[] = {"w57", "w40", "w27", "red", "green", "blue"};
+  for (std::size_t i = 0; i < levels.size(); ++i)
+    if (!(levels[i] >= 0 && levels[i] <= 1))
+      return {StatusCode::INVALID_ARGUMENT, field + "." + kNames[i] + ": must be in [0, 1], got " + std::to_string(levels[i])};
+  return Status::OK;
+}
+}  // namespace
+
+void to_proto(const DeviceReport& report, pb::Device* out) {
+  out->set_name(report.name);
+  out->set_kind(report.kind == DeviceKind::kLedController ? pb::DEVICE_KIND_LED_CONTROLLER
+                : report.kind == DeviceKind::kCamera      ? pb::DEVICE_KIND_CAMERA
+                                                          : pb::DEVICE_KIND_SPECTROMETER);
+  out->set_backend(report.backend);
+  out->set_address(report.address);
+  out->set_health(report.health == DeviceReport::Health::kOk            ? pb::DEVICE_HEALTH_OK
+                  : report.health == DeviceReport::Health::kUnreachable ? pb::DEVICE_HEALTH_UNREACHABLE
+                                                                        : pb::DEVICE_HEALTH_FAULT);
+  out->set_detail(report.detail);
+  for (const auto& [key, value] : report.info) (*out->mutable_info())[key] = value;
+}
+
+void to_proto(const std::string& controller, const drivers::LedStatus& status, pb::LedStatus* out) {
+  out->set_controller(controller);
+  to_proto(status.applied.drive, out->mutable_applied()->mutable_drive());
+  out->mutable_applied()->set_pwm_frequency_hz(status.applied.pwm_frequency_hz);
+  if (status.applied.zone) out->mutable_applied()->set_zone(*status.applied.zone);
+  out->set_output_enabled(status.output_enabled);
+  for (double t : status.temperature_C) out->add_temperature_c(t);
+  for (auto f : status.channel_faults) out->add_channel_faults(f);
+  out->set_controller_faults(status.controller_faults);
+  out->set_sequence_position(status.sequence_position);
+}
+
+Status from_proto(const pb::LedState& state, const std::string& field, drivers::LedState* out) {
+  out->drive = from_proto(state.drive());
+  if (Status s = check_levels(out->drive, field + ".drive"); !s.ok()) return s;
+  if (!(state.pwm_frequency_hz() >= 0 && state.pwm_frequency_hz() <= 1e7))
+    return {StatusCode::INVALID_ARGUMENT, field + ".pwm_frequency_hz: must be in [0, 10000000]"};
+  out->pwm_frequency_hz = state.pwm_frequency_hz();
+  if (state.has_zone()) {
+    if (state.zone() < 0 || state.zone() > 255) return {StatusCode::INVALID_ARGUMENT, field + ".zone: must be in [0, 255]"};
+    out->zone = state.zone();
+  }
+  return Status::OK;
+}
+
+void to_proto(const OperationRecord& record, pb::Operation* out) {
+  out->set_id(record.id);
+  out->set_kind(record.kind == OperationKind::kSession ? pb::OPERATION_KIND_SESSION : pb::OPERATION_KIND_CALIBRATION);
+  out->set_name(record.name);
+  out->set_state(static_cast<pb::OperationState>(static_cast<int>(record.state) + 1));
+  out->set_progress(record.progress);
+  out->set_eta_seconds(record.eta_seconds);
+  out->set_message(record.message);
+  out->set_error(record.error);
+  *out->mutable_created() = timestamp(record.created);
+  *out->mutable_updated() = timestamp(record.updated);
+  out->set_folder(record.folder);
+  out->set_step_index(record.step_index);
+  out->set_step_count(record.step_count);
+  auto* counters = out->mutable_counters();
+  counters->set_expected(record.expected_frames);
+  counters->set_received(record.counters.received);
+  counters->set_stored(record.counters.stored);
+  counters->set_estimated(record.counters.estimated);
+  counters->set_estimator_skipped(record.counters.estimator_skipped);
+  counters->set_lost(record.counters.lost);
+  counters->set_resent_packets(record.counters.resent_packets);
+  for (const auto& [reason, count] : record.counters.lost_reasons) (*counters->mutable_lost_reasons())[reason] = count;
+  for (const auto& [reason, count] : record.counters.skipped_reasons) (*counters->mutable_skipped_reasons())[reason] = count;
+}
+
+Status from_proto(const pb::SessionPlan& plan, const std::string& field, SessionPlan* out) {
+  if (!pb::Timing_IsValid(plan.timing())) return {StatusCode::INVALID_ARGUMENT, field + ".timing: unknown value"};
+  if (plan.steps_size() > static_cast<int>(kMaxSteps))
+    return {StatusCode::INVALID_ARGUMENT, field + ".steps: more than " + std::to_string(kMaxSteps) + " steps"};
+  out->name = plan.name();
+  out->timing = plan.timing() == pb::TIMING_HARDWARE ? Timing::kHardware : Timing::kSoftware;
+  for (int i = 0; i < plan.steps_size(); ++i) {
+    const auto& s = plan.steps(i);
+    const std::string step_field = field + ".steps[" + std::to_string(i) + "]";
+    if (!pb::StepRole_IsValid(s.role())) return {StatusCode::INVALID_ARGUMENT, step_field + ".role: unknown value"};
+    Step step;
+    step.name = s.name();
+    step.role = s.role() == pb::STEP_ROLE_DARK ? StepRole::kDark : s.role() == pb::STEP_ROLE_WHITE ? StepRole::kWhite : StepRole::kSubject;
+    switch (s.illumination_case()) {
+      case pb::Step::kDark: step.illumination.kind = Illumination::Kind::kDark; break;
+      case pb::Step::kWeights:
+        step.illumination.kind = Illumination::Kind::kWeights;
+        step.illumination.weights = from_proto(s.weights());
+        if (Status st = check_levels(step.illumination.weights, step_field + ".weights"); !st.ok()) return st;
+        break;
+      case pb::Step::kMix:
+        step.illumination.kind = Illumination::Kind::kMix;
+        step.illumination.mix = s.mix();
+        break;
+      default:
+        return {StatusCode::INVALID_ARGUMENT, step_field + ".illumination: set one of dark, weights, mix"};
+    }
+    step.settle_ms = s.settle_ms();
+    step.exposure_us = s.exposure_us();
+    step.frames_per_camera = s.frames_per_camera();
+    step.prompt = s.prompt();
+    out->steps.push_back(std::move(step));
+  }
+  std::string error;
+  if (!out->IsValid(&error)) return {StatusCode::INVALID_ARGUMENT, field + "." + error};
+  return Status::OK;
+}
+
+void to_proto(const SessionPlan& plan, pb::SessionPlan* out) {
+  out->set_name(plan.name);
+  out->set_timing(plan.timing == Timing::kHardware ? pb::TIMING_HARDWARE : pb::TIMING_SOFTWARE);
+  for (const auto& step : plan.steps) {
+    auto* s = out->add_steps();
+    s->set_name(step.name);
+    s->set_role(role_to_proto(step.role));
+    switch (step.illumination.kind) {
+      case Illumination::Kind::kDark: s->set_dark(true); break;
+      case Illumination::Kind::kWeights: to_proto(step.illumination.weights, s->mutable_weights()); break;
+      case Illumination::Kind::kMix: s->set_mix(step.illumination.mix); break;
+    }
+    s->set_settle_ms(step.settle_ms);
+    s->set_exposure_us(step.exposure_us);
+    s->set_frames_per_camera(step.frames_per_camera);
+    s->set_prompt(step.prompt);
+  }
+}
+
+void to_proto(const SessionInfo& info, bool include_frames, pb::SessionDetail* out) {
+  auto* summary = out->mutable_summary();
+  summary->set_id(info.record.id);
+  summary->set_name(info.record.name);
+  summary->set_folder(info.record.folder);
+  to_proto(info.record, summary->mutable_operation());
+  to_proto(info.plan, out->mutable_plan());
+  out->set_subject(info.subject);
+  for (std::size_t i = 0; i < info.steps.size(); ++i) {
+    auto* step = out->add_steps();
+    step->set_index(static_cast<int>(i));
+    step->set_name(info.steps[i].name);
+    step->set_role(role_to_proto(info.steps[i].role));
+    step->set_completed(info.steps[i].completed);
+    step->set_frames_stored(info.steps[i].frames_stored);
+  }
+  if (!include_frames) return;
+  for (const auto& frame : info.frames) {
+    auto* f = out->add_frames();
+    f->set_index(frame.value("index", 0ull));
+    f->set_step(frame.value("step", ""));
+    f->set_camera(frame.value("camera", ""));
+    f->set_sequence(frame.value("sequence", 0ull));
+    f->set_camera_frame_id(frame.value("camera_frame_id", 0ull));
+    f->set_camera_timestamp_ns(frame.value("camera_timestamp_ns", 0ull));
+    f->set_file(frame.value("file", ""));
+    f->set_status("complete");
+    f->set_exposure_us(frame.value("exposure_us", 0.0));
+    if (frame.contains("led")) {
+      const auto& led = frame.at("led");
+      if (led.contains("drive")) {
+        drivers::DriveLevels levels{};
+        for (auto type : spectral::kAllLedTypes)
+          levels[static_cast<std::size_t>(spectral::led_type_index(type))] =
+              led.at("drive").value(std::string(spectral::led_type_name(type)), 0.0);
+        to_proto(levels, f->mutable_drive());
+      }
+      if (led.contains("temperature_C"))
+        for (const auto& t : led.at("temperature_C")) f->add_temperature_c(t.get<double>());
+    }
+  }
+}
+
+void results_to_proto(const SessionInfo& info, pb::Results* out) {
+  out->set_session_id(info.record.id);
+  out->set_folder(info.record.folder);
+  for (const auto& frame : info.frames) out->add_frame_files(frame.value("file", ""));
+  if (!is_final(info.record.state)) {
+    out->set_state(pb::RESULTS_STATE_PENDING);
+    out->set_reason("the session is " + state_name(info.record.state));
+    return;
+  }
+  const std::filesystem::path folder = info.record.folder;
+  if (!info.results.is_null() && info.results.value("state", "") == "available") {
+    out->set_state(pb::RESULTS_STATE_AVAILABLE);
+    out->set_maps_file((folder / info.results.value("maps_file", "")).string());
+    out->set_report_file((folder / info.results.value("report_file", "")).string());
+    std::ifstream in(out->report_file());
+    std::stringstream buffer;
+    buffer << in.rdbuf();
+    if (buffer.str().size() <= (1u << 20)) out->set_summary_json(buffer.str());
+    return;
+  }
+  out->set_state(pb::RESULTS_STATE_UNAVAILABLE);
+  if (info.record.state != OperationState::kSucceeded)
+    out->set_reason("the session ended " + state_name(info.record.state) +
+                    (info.record.error.empty() ? "" : ": " + info.record.error) + "; its stored frames are in the folder");
+  else
+    out->set_reason(info.results.is_null() ? "no on-line estimator in this daemon: frames and derived albedo are stored"
+                                           : info.results.value("reason", "estimation did not produce maps"));
+}
+
+void to_proto(const Event& event, pb::Event* out) {
+  out->set_sequence(event.sequence);
+  *out->mutable_time() = timestamp(event.time);
+  switch (event.kind) {
+    case Event::Kind::kOperation: to_proto(event.operation, out->mutable_operation()); break;
+    case Event::Kind::kLog: out->set_log(event.log); break;
+    case Event::Kind::kFrame: {
+      auto* frame = out->mutable_frame();
+      frame->set_session_id(event.session_id);
+      frame->set_step(event.step);
+      frame->set_camera(event.camera);
+      frame->set_index(event.frame_index);
+      break;
+    }
+  }
+}
+
+}  // namespace chromo::daemon

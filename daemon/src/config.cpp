@@ -1,0 +1,142 @@
+#include "chromo/daemon/config.hpp"
+
+#include <fstream>
+#include <set>
+#include <stdexcept>
+
+#include "chromo/daemon/session_plan.hpp"
+
+namespace chromo::daemon {
+
+std::string device_kind_name(DeviceKind kind) {
+  switch (kind) {
+    case DeviceKind::kLedController: return "led_controller";
+    case DeviceKind::kCamera: return "camera";
+    case DeviceKind::kSpectrometer: return "spectrometer";
+  }
+  return "unknown";
+}
+
+bool DaemonConfig::IsValid(std::string* error) const {
+  auto fail = [&](const std::string& message) {
+    if (error) *error = message;
+    return false;
+  };
+  if (unix_socket.empty() && tcp_address.empty()) return fail("listen: neither unix_socket nor tcp_address is set");
+  if (!tcp_address.empty() && token.size() < 16)
+    return fail("token: TCP listening needs a bearer token of at least 16 characters");
+  if (tls_certificate_file.empty() != tls_private_key_file.empty())
+    return fail("tls: tls_certificate_file and tls_private_key_file go together");
+  if (storage_queue_frames < 1 || storage_queue_frames > 100000) return fail("storage_queue_frames: must be in [1, 100000]");
+  if (estimator_queue_frames > 100000) return fail("estimator_queue_frames: must be at most 100000");
+  if (frame_attempts < 1 || frame_attempts > 100) return fail("frame_attempts: must be in [1, 100]");
+  std::set<std::string> names;
+  for (std::size_t i = 0; i < devices.size(); ++i) {
+    const auto field = "devices[" + std::to_string(i) + "].";
+    if (!is_valid_name(devices[i].name)) return fail(field + "name: must match [A-Za-z0-9_+.-]{1,64}");
+    if (!names.insert(devices[i].name).second) return fail(field + "name: \"" + devices[i].name + "\" is used twice");
+    if (devices[i].backend.empty()) return fail(field + "backend: missing");
+  }
+  for (const auto& [name, levels] : mixes) {
+    if (!is_valid_mix(name)) return fail("mixes." + name + ": not a mix name (d65, w57, w57+blue[:R])");
+    for (double level : levels)
+      if (!(level >= 0 && level <= 1)) return fail("mixes." + name + ": levels must be in [0, 1]");
+  }
+  return true;
+}
+
+namespace {
+drivers::DriveLevels parse_levels(const nlohmann::json& json, const std::string& field) {
+  drivers::DriveLevels levels{};
+  for (const auto& [key, value] : json.items()) {
+    auto type = spectral::parse_led_type(key);
+    if (!type) throw std::invalid_argument(field + "." + key + ": not an LED type (W57, W40, W27, R, G, B)");
+    levels[static_cast<std::size_t>(spectral::led_type_index(*type))] = value.get<double>();
+  }
+  return levels;
+}
+}  // namespace
+
+DaemonConfig parse_config(const nlohmann::json& json, const std::string& origin) {
+  DaemonConfig config;
+  static const std::set<std::string> known{"unix_socket", "unix_socket_mode", "tcp_address", "token",
+                                           "tls_certificate_file", "tls_private_key_file", "sessions_dir",
+                                           "storage_limit_bytes", "storage_queue_frames", "estimator_queue_frames",
+                                           "frame_timeout_ms", "frame_attempts", "devices", "mixes"};
+  if (!json.is_object()) throw std::invalid_argument(origin + ": must be a JSON object");
+  std::string field;
+  try {
+    for (const auto& [key, value] : json.items())
+      if (!known.count(key)) throw std::invalid_argument(origin + ": unknown key \"" + key + "\" (see docs/config.md)");
+    auto get = [&](const char* key, auto& target) {
+      field = key;
+      if (json.contains(key)) target = json.at(key).get<std::remove_reference_t<decltype(target)>>();
+    };
+    get("unix_socket", config.unix_socket);
+    if (json.contains("unix_socket_mode")) {
+      field = "unix_socket_mode";
+      config.unix_socket_mode = static_cast<std::uint32_t>(std::stoul(json.at("unix_socket_mode").get<std::string>(), nullptr, 8));
+    }
+    get("tcp_address", config.tcp_address);
+    get("token", config.token);
+    get("tls_certificate_file", config.tls_certificate_file);
+    get("tls_private_key_file", config.tls_private_key_file);
+    std::string sessions_dir = config.sessions_dir.string();
+    get("sessions_dir", sessions_dir);
+    config.sessions_dir = sessions_dir;
+    get("storage_limit_bytes", config.storage_limit_bytes);
+    get("storage_queue_frames", config.storage_queue_frames);
+    get("estimator_queue_frames", config.estimator_queue_frames);
+    get("frame_timeout_ms", config.frame_timeout_ms);
+    get("frame_attempts", config.frame_attempts);
+    if (json.contains("devices")) {
+      std::size_t index = 0;
+      for (const auto& device : json.at("devices")) {
+        field = "devices[" + std::to_string(index++) + "]";
+        DeviceConfig d;
+        d.name = device.at("name").get<std::string>();
+        std::string kind = device.at("kind").get<std::string>();
+        if (kind == "led_controller") d.kind = DeviceKind::kLedController;
+        else if (kind == "camera") d.kind = DeviceKind::kCamera;
+        else if (kind == "spectrometer") d.kind = DeviceKind::kSpectrometer;
+        else throw std::invalid_argument(origin + ": " + field + ".kind: \"" + kind +
+                                         "\" is not led_controller, camera or spectrometer");
+        d.backend = device.at("backend").get<std::string>();
+        d.address = device.value("address", "");
+        d.settings = device.value("settings", nlohmann::json::object());
+        config.devices.push_back(std::move(d));
+      }
+    }
+    if (json.contains("mixes"))
+      for (const auto& [name, levels] : json.at("mixes").items()) {
+        field = "mixes." + name;
+        config.mixes[name] = parse_levels(levels, field);
+      }
+  } catch (const nlohmann::json::exception& error) {
+    throw std::invalid_argument(origin + ": " + field + ": " + error.what());
+  } catch (const std::logic_error& error) {
+    if (dynamic_cast<const std::invalid_argument*>(&error) && std::string(error.what()).rfind(origin, 0) == 0) throw;
+    throw std::invalid_argument(origin + ": " + field + ": " + error.what());
+  }
+  std::string error;
+  if (!config.IsValid(&error)) throw std::invalid_argument(origin + ": " + error);
+  return config;
+}
+
+DaemonConfig read_config_file(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) throw std::invalid_argument(path.string() + ": cannot be read");
+  auto json = nlohmann::json::parse(in, nullptr, false);
+  if (json.is_discarded()) throw std::invalid_argument(path.string() + ": not valid JSON");
+  return parse_config(json, path.string());
+}
+
+std::map<std::string, drivers::DriveLevels> default_virtual_lab_mixes() {
+  // Order: W57 W40 W27 R G B. Placeholders for sessions before a calibration
+  // has solved the real mixes; replaced by the solver's weights when available.
+  return {{"d65", {0.80, 0.0, 0.0, 0.05, 0.10, 0.25}},
+          {"w57", {0.80, 0.0, 0.0, 0.0, 0.0, 0.0}},
+          {"w57+blue", {0.80, 0.0, 0.0, 0.0, 0.0, 0.40}}};
+}
+
+}  // namespace chromo::daemon

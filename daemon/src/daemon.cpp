@@ -1,0 +1,276 @@
+#include "chromo/daemon/daemon.hpp"
+
+#include <stdexcept>
+
+#include "chromo/daemon/derived_data.hpp"
+#include "chromo/daemon/sequencer.hpp"
+#include "chromo/drivers/device_error.hpp"
+
+namespace chromo::daemon {
+
+Daemon::Daemon(DaemonConfig config, DeviceSet devices, FrameConsumer* estimator)
+    : config_(std::move(config)),
+      devices_(std::move(devices)),
+      estimator_(estimator),
+      budget_(config_.storage_limit_bytes),
+      store_(config_.sessions_dir, &budget_) {
+  for (auto& info : store_.recover()) operations_.add_past(std::move(info.record));
+}
+
+Daemon::~Daemon() {
+  std::thread worker;
+  {
+    std::lock_guard lock(run_mutex_);
+    if (!running_id_.empty())
+      if (auto control = operations_.control(running_id_)) control->request_cancel();
+    worker = std::move(worker_);
+  }
+  if (worker.joinable()) worker.join();
+}
+
+std::vector<DeviceReport> Daemon::probe_devices() {
+  std::vector<DeviceReport> reports;
+  auto base = [](const DeviceConfig& config) {
+    DeviceReport report;
+    report.name = config.name;
+    report.backend = config.backend;
+    report.address = config.address;
+    report.kind = config.kind;
+    return report;
+  };
+  auto failed = [](DeviceReport& report, const std::exception& error) {
+    report.health = DeviceReport::Health::kUnreachable;
+    if (auto* device = dynamic_cast<const drivers::DeviceError*>(&error);
+        device && device->kind() == drivers::DeviceError::Kind::kFault)
+      report.health = DeviceReport::Health::kFault;
+    report.detail = error.what();
+  };
+  for (auto& led : devices_.led_controllers) {
+    auto report = base(led->config);
+    if (!led->device) {
+      report.health = DeviceReport::Health::kUnreachable;
+      report.detail = led->open_error;
+    } else {
+      try {
+        std::lock_guard lock(led->mutex);
+        auto info = led->device->info();
+        report.info = {{"model", info.model}, {"serial", info.serial}, {"firmware", info.firmware_version},
+                       {"drive_mode", info.drive_mode == drivers::DriveMode::kPwmDuty ? "pwm_duty" : "constant_current"}};
+        auto status = led->device->read_status();
+        if (status.controller_faults != 0) {
+          report.health = DeviceReport::Health::kFault;
+          report.detail = "controller faults 0x" + std::to_string(status.controller_faults);
+        }
+        for (std::size_t i = 0; i < status.channel_faults.size(); ++i)
+          if (status.channel_faults[i] != 0) {
+            report.health = DeviceReport::Health::kFault;
+            report.detail += std::string(report.detail.empty() ? "" : "; ") + "channel " +
+                             std::string(spectral::led_type_name(spectral::kAllLedTypes[i])) + " faults " +
+                             std::to_string(status.channel_faults[i]);
+          }
+      } catch (const std::exception& error) {
+        failed(report, error);
+      }
+    }
+    reports.push_back(std::move(report));
+  }
+  for (auto& camera : devices_.cameras) {
+    auto report = base(camera->config);
+    if (!camera->device) {
+      report.health = DeviceReport::Health::kUnreachable;
+      report.detail = camera->open_error;
+    } else {
+      try {
+        std::lock_guard lock(camera->mutex);
+        auto info = camera->device->info();
+        report.info = {{"vendor", info.vendor}, {"model", info.model}, {"serial", info.serial},
+                       {"sensor", std::to_string(info.sensor_width) + "x" + std::to_string(info.sensor_height)}};
+      } catch (const std::exception& error) {
+        failed(report, error);
+      }
+    }
+    reports.push_back(std::move(report));
+  }
+  for (auto& spectrometer : devices_.spectrometers) {
+    auto report = base(spectrometer->config);
+    if (!spectrometer->device) {
+      report.health = DeviceReport::Health::kUnreachable;
+      report.detail = spectrometer->open_error;
+    } else {
+      try {
+        std::lock_guard lock(spectrometer->mutex);
+        auto info = spectrometer->device->info();
+        report.info = {{"model", info.model}, {"serial", info.serial}, {"pixels", std::to_string(info.pixel_count)}};
+        spectrometer->device->read_status();
+      } catch (const std::exception& error) {
+        failed(report, error);
+      }
+    }
+    reports.push_back(std::move(report));
+  }
+  return reports;
+}
+
+drivers::DriveLevels Daemon::resolve_mix(const std::string& mix) const {
+  auto found = config_.mixes.find(mix);
+  if (found != config_.mixes.end()) return found->second;
+  // "w57+blue:R": the blue level scaled by R relative to the configured w57+blue.
+  const std::string prefix = "w57+blue:";
+  if (mix.rfind(prefix, 0) == 0) {
+    auto base = config_.mixes.find("w57+blue");
+    if (base != config_.mixes.end()) {
+      auto levels = base->second;
+      auto& blue = levels[static_cast<std::size_t>(spectral::led_type_index(spectral::LedType::kBlue))];
+      blue = std::min(1.0, blue * std::stod(mix.substr(prefix.size())));
+      return levels;
+    }
+  }
+  throw std::invalid_argument("mix \"" + mix + "\": no weights for it (configure \"mixes\" or run a calibration)");
+}
+
+void Daemon::ensure_idle() const {
+  if (operations_.any_active()) throw std::logic_error("another session or calibration is running");
+}
+
+OperationRecord Daemon::start_session(SessionPlan plan, const std::string& subject) {
+  std::string error;
+  if (!plan.IsValid(&error)) throw std::invalid_argument("plan." + error);
+  if (subject.size() > kMaxTextBytes) throw std::invalid_argument("subject: longer than 4096 bytes");
+  for (std::size_t i = 0; i < plan.steps.size(); ++i)
+    if (plan.steps[i].illumination.kind == Illumination::Kind::kMix) {
+      try {
+        resolve_mix(plan.steps[i].illumination.mix);
+      } catch (const std::invalid_argument& failure) {
+        throw std::invalid_argument("plan.steps[" + std::to_string(i) + "].mix: " + failure.what());
+      }
+    }
+  std::string led_error;
+  auto* led = devices_.led_controller("", &led_error);
+  if (!led) throw std::runtime_error("LED controller: " + led_error);
+  if (devices_.cameras.empty()) throw std::runtime_error("no camera configured");
+  if (plan.timing == Timing::kHardware && devices_.cameras.size() != 1)
+    throw std::invalid_argument("plan.timing: hardware timing needs exactly one camera wired to the controller's trigger input");
+
+  std::lock_guard lock(run_mutex_);
+  ensure_idle();
+  if (worker_.joinable()) worker_.join();
+
+  nlohmann::json devices = nlohmann::json::array();
+  for (auto& d : devices_.led_controllers) devices.push_back({{"name", d->config.name}, {"kind", "led_controller"}, {"backend", d->config.backend}});
+  for (auto& d : devices_.cameras) devices.push_back({{"name", d->config.name}, {"kind", "camera"}, {"backend", d->config.backend}});
+  auto created = store_.create(plan, subject, devices);
+  const std::uint64_t expected = plan.frames_per_camera_total() * devices_.cameras.size();
+  created.journal->append({{"type", "session_started"}, {"expected_frames", expected}});
+
+  OperationRecord record;
+  record.id = created.id;
+  record.kind = OperationKind::kSession;
+  record.name = plan.name;
+  record.state = OperationState::kPending;
+  record.folder = std::filesystem::absolute(created.folder).string();
+  record.step_count = static_cast<int>(plan.steps.size());
+  record.expected_frames = expected;
+  auto control = operations_.add(record);
+  running_id_ = created.id;
+  std::shared_ptr<Journal> journal(std::move(created.journal));
+  worker_ = std::thread([this, id = created.id, plan = std::move(plan), journal, folder = created.folder, control] {
+    run_session(id, plan, journal, folder, control);
+  });
+  auto started = operations_.get(record.id);
+  if (!started) throw std::runtime_error("session " + record.id + " vanished from the registry");
+  return *started;
+}
+
+void Daemon::run_session(std::string id, SessionPlan plan, std::shared_ptr<Journal> journal,
+                         std::filesystem::path folder, std::shared_ptr<OperationControl> control) {
+  SequencerOutcome outcome;
+  PipelineCounters counters;
+  {
+    FramePipeline pipeline(folder, *journal, &budget_, {config_.storage_queue_frames, config_.estimator_queue_frames},
+                           estimator_, [&](const StoredFrame& stored) {
+                             Event event;
+                             event.kind = Event::Kind::kFrame;
+                             event.session_id = id;
+                             event.step = stored.frame->step;
+                             event.camera = stored.frame->camera;
+                             event.frame_index = stored.index;
+                             events_.publish(std::move(event));
+                           });
+    SequencerContext context;
+    context.id = id;
+    context.plan = plan;
+    context.journal = journal.get();
+    context.pipeline = &pipeline;
+    context.operations = &operations_;
+    context.control = control.get();
+    context.led = devices_.led_controller("", nullptr);
+    for (auto& camera : devices_.cameras) context.cameras.push_back(camera.get());
+    context.resolve_mix = [this](const std::string& mix) { return resolve_mix(mix); };
+    context.place_in_sphere = devices_.place_in_sphere;
+    context.frame_timeout_ms = config_.frame_timeout_ms;
+    context.frame_attempts = config_.frame_attempts;
+    try {
+      journal->append({{"type", "state"}, {"state", "running"}});
+      outcome = run_sequence(context);
+    } catch (const std::exception& error) {
+      outcome = {OperationState::kFailed, error.what()};
+    }
+    pipeline.drain();
+    counters = pipeline.counters();
+  }
+  std::string derived_error;
+  if (outcome.state == OperationState::kSucceeded) {
+    operations_.update(id, [](OperationRecord& r) { r.message = "writing derived data"; });
+    try {
+      write_derived_data(folder, *journal, &budget_);
+    } catch (const std::exception& error) {
+      outcome = {OperationState::kFailed, std::string("derived data: ") + error.what()};
+    }
+  }
+  try {
+    journal->append({{"type", "counters"},
+                     {"received", counters.received},
+                     {"stored", counters.stored},
+                     {"estimated", counters.estimated},
+                     {"estimator_skipped", counters.estimator_skipped},
+                     {"lost", counters.lost},
+                     {"resent_packets", counters.resent_packets},
+                     {"lost_reasons", counters.lost_reasons},
+                     {"skipped_reasons", counters.skipped_reasons},
+                     {"mean_trigger_to_stored_ms", counters.mean_trigger_to_stored_ms},
+                     {"max_trigger_to_stored_ms", counters.max_trigger_to_stored_ms}});
+    nlohmann::json final_state{{"type", "state"}, {"state", state_name(outcome.state)}};
+    if (!outcome.error.empty()) final_state["error"] = outcome.error;
+    journal->append(final_state);
+  } catch (const std::exception& error) {
+    // The disk is full: the final record could not be written. The folder
+    // stays valid; the next start reports the session as interrupted.
+    if (outcome.error.empty()) outcome = {OperationState::kFailed, error.what()};
+  }
+  {
+    // Before the record turns final: start_session() joins this thread under
+    // run_mutex_ once it sees no active operation, so nothing after the final
+    // update may take run_mutex_.
+    std::lock_guard lock(run_mutex_);
+    running_id_.clear();
+  }
+  operations_.update(id, [&](OperationRecord& r) {
+    r.state = outcome.state;
+    r.error = outcome.error;
+    r.message = outcome.state == OperationState::kSucceeded ? "done" : state_name(outcome.state);
+    r.counters = counters;
+    if (outcome.state == OperationState::kSucceeded) r.progress = 1;
+    r.eta_seconds = 0;
+  });
+}
+
+std::optional<SessionInfo> Daemon::session(const std::string& id) const {
+  if (!is_valid_name(id)) return std::nullopt;
+  auto folder = store_.root() / id;
+  if (!std::filesystem::exists(folder / "session.json")) return std::nullopt;
+  SessionInfo info = store_.read_session(folder);
+  if (auto live = operations_.get(id)) info.record = *live;
+  return info;
+}
+
+}  // namespace chromo::daemon

@@ -1,0 +1,345 @@
+#include "chromo/daemon/sequencer.hpp"
+
+#include <condition_variable>
+#include <thread>
+
+#include "chromo/drivers/device_error.hpp"
+
+namespace chromo::daemon {
+
+using drivers::DeviceError;
+using drivers::DriveLevels;
+using drivers::LedState;
+
+namespace {
+
+nlohmann::json levels_json(const DriveLevels& levels) {
+  nlohmann::json json;
+  for (auto type : spectral::kAllLedTypes)
+    json[std::string(spectral::led_type_name(type))] = levels[static_cast<std::size_t>(spectral::led_type_index(type))];
+  return json;
+}
+
+std::string frame_status_reason(drivers::FrameStatus status) {
+  switch (status) {
+    case drivers::FrameStatus::kMissingPackets: return "missing_packets";
+    case drivers::FrameStatus::kTimeout: return "timeout";
+    case drivers::FrameStatus::kAborted: return "aborted";
+    case drivers::FrameStatus::kError: return "error";
+    case drivers::FrameStatus::kComplete: return "complete";
+  }
+  return "error";
+}
+
+bool is_unanswered(const DeviceError& error) {
+  return error.kind() == DeviceError::Kind::kTimeout || error.kind() == DeviceError::Kind::kDisconnected;
+}
+
+// One camera's frames as they arrive, routed to the pipeline with the
+// metadata of the frame being taken.
+struct CameraCollector {
+  NamedDevice<drivers::Camera>* camera = nullptr;
+  std::mutex mutex;
+  std::condition_variable arrived;
+  std::uint64_t delivered = 0;  // frames (complete or not) since start
+  drivers::FrameStatus last_status = drivers::FrameStatus::kComplete;
+  std::string step;
+  int step_index = 0;
+  nlohmann::json metadata;
+  std::chrono::steady_clock::time_point trigger_time;
+};
+
+class Run {
+ public:
+  explicit Run(SequencerContext& context) : c_(context) {}
+
+  SequencerOutcome run() {
+    start_ = std::chrono::steady_clock::now();
+    expected_ = c_.plan.frames_per_camera_total() * c_.cameras.size();
+    try {
+      set_state(OperationState::kRunning, "starting");
+      start_cameras();
+      SequencerOutcome outcome = steps();
+      finish_devices();
+      return outcome;
+    } catch (const std::exception& error) {
+      finish_devices();
+      return {OperationState::kFailed, error.what()};
+    }
+  }
+
+ private:
+  SequencerOutcome steps() {
+    const bool hardware = c_.plan.timing == Timing::kHardware;
+    if (hardware && !arm_from(0, 0)) return cancelled();
+    for (std::size_t index = 0; index < c_.plan.steps.size(); ++index) {
+      const Step& step = c_.plan.steps[index];
+      update([&](OperationRecord& r) {
+        r.step_index = static_cast<int>(index);
+        r.message = "step " + step.name;
+      });
+      if (!step.prompt.empty()) {
+        c_.control->pause_by_daemon();
+        if (!pause_point(step.prompt)) return cancelled();
+      } else if (c_.control->pause_requested()) {
+        if (!pause_point("paused by the operator before step " + step.name)) return cancelled();
+      }
+      if (c_.control->cancel_requested()) return cancelled();
+      if (c_.place_in_sphere) c_.place_in_sphere(step.role);
+      DriveLevels levels = resolve(step);
+      nlohmann::json led;
+      if (!hardware) {
+        LedState state;
+        state.drive = levels;
+        if (!with_led("set_state", [&](drivers::LedController& device) { device.set_state(state); })) return cancelled();
+      }
+      drivers::LedStatus status;
+      if (!with_led("read_status", [&](drivers::LedController& device) { status = device.read_status(); }))
+        return cancelled();
+      led = {{"drive", levels_json(status.applied.drive)},
+             {"requested_drive", levels_json(levels)},
+             {"temperature_C", status.temperature_C},
+             {"channel_faults", status.channel_faults},
+             {"controller_faults", status.controller_faults},
+             {"sequence_position", status.sequence_position}};
+      c_.journal->append({{"type", "step_started"}, {"step", step.name}, {"index", index}, {"led", led},
+                          {"exposure_us", step.exposure_us}, {"settle_ms", step.settle_ms},
+                          {"timing", timing_name(c_.plan.timing)}});
+      if (!c_.control->sleep_unless_cancelled(std::chrono::milliseconds(step.settle_ms))) return cancelled();
+      configure_cameras(step.exposure_us);
+      for (std::uint32_t frame = 0; frame < step.frames_per_camera; ++frame) {
+        if (c_.control->cancel_requested()) return cancelled();
+        nlohmann::json metadata{{"exposure_us", step.exposure_us}, {"led", led}, {"frame_in_step", frame},
+                                {"role", role_name(step.role)}};
+        if (!take_frame(step, static_cast<int>(index), frame, metadata)) return cancelled();
+        if (auto error = c_.pipeline->storage_error(); !error.empty()) return {OperationState::kFailed, error};
+        frames_done_ += c_.cameras.size();
+        report_progress();
+      }
+      c_.pipeline->drain();
+      if (auto error = c_.pipeline->storage_error(); !error.empty()) return {OperationState::kFailed, error};
+      c_.journal->append({{"type", "step_completed"}, {"step", step.name}, {"index", index},
+                          {"frames", step.frames_per_camera * c_.cameras.size()}});
+    }
+    return {OperationState::kSucceeded, ""};
+  }
+
+  // Triggers every camera and waits for one complete frame from each;
+  // retries failed frames. False when cancelled.
+  bool take_frame(const Step& step, int index, std::uint32_t frame_in_step, const nlohmann::json& metadata) {
+    for (auto& collector : collectors_) {
+      std::uint32_t attempts = 0;
+      while (true) {
+        if (c_.control->cancel_requested()) return false;
+        std::uint64_t before;
+        {
+          std::lock_guard lock(collector->mutex);
+          collector->step = step.name;
+          collector->step_index = index;
+          collector->metadata = metadata;
+          collector->trigger_time = std::chrono::steady_clock::now();
+          before = collector->delivered;
+        }
+        std::string failure;
+        try {
+          std::lock_guard device_lock(collector->camera->mutex);
+          collector->camera->device->software_trigger();
+        } catch (const DeviceError& error) {
+          failure = error.what();
+        }
+        if (failure.empty()) {
+          std::unique_lock lock(collector->mutex);
+          auto deadline = std::chrono::steady_clock::now() + std::chrono::microseconds(static_cast<long long>(step.exposure_us)) +
+                          std::chrono::milliseconds(c_.frame_timeout_ms);
+          bool got = collector->arrived.wait_until(lock, deadline, [&] { return collector->delivered > before; });
+          if (got && collector->last_status == drivers::FrameStatus::kComplete) break;
+          failure = got ? frame_status_reason(collector->last_status) : "no frame within the timeout";
+          if (!got) {
+            lock.unlock();
+            c_.pipeline->record_lost("timeout");
+            c_.journal->append({{"type", "frame_lost"}, {"step", step.name}, {"camera", collector->camera->config.name},
+                                {"reason", "timeout"}});
+          }
+        } else {
+          c_.pipeline->record_lost("camera_unreachable");
+          c_.journal->append({{"type", "frame_lost"}, {"step", step.name}, {"camera", collector->camera->config.name},
+                              {"reason", "camera_unreachable"}, {"detail", failure}});
+        }
+        report_progress();
+        if (++attempts < c_.frame_attempts) {
+          if (c_.plan.timing == Timing::kHardware && !arm_from(static_cast<std::size_t>(index), frame_in_step)) return false;
+          continue;
+        }
+        c_.control->pause_by_daemon();
+        if (!pause_point("camera \"" + collector->camera->config.name + "\" delivered no complete frame in " +
+                         std::to_string(attempts) + " attempts (last: " + failure + "); resume to retry"))
+          return false;
+        attempts = 0;
+        if (c_.plan.timing == Timing::kHardware && !arm_from(static_cast<std::size_t>(index), frame_in_step)) return false;
+      }
+    }
+    return true;
+  }
+
+  // Calls the LED controller; when it does not answer, pauses with a clear
+  // message and retries after resume. False when cancelled.
+  bool with_led(const char* request, const std::function<void(drivers::LedController&)>& call) {
+    while (true) {
+      if (c_.control->cancel_requested()) return false;
+      if (!c_.led->device) throw std::runtime_error("LED controller \"" + c_.led->config.name + "\" is not open: " + c_.led->open_error);
+      try {
+        std::lock_guard lock(c_.led->mutex);
+        call(*c_.led->device);
+        return true;
+      } catch (const DeviceError& error) {
+        if (!is_unanswered(error)) throw;
+        c_.journal->append({{"type", "device_error"}, {"device", c_.led->config.name}, {"request", request},
+                            {"error", error.what()}});
+        c_.control->pause_by_daemon();
+        if (!pause_point("LED controller \"" + c_.led->config.name + "\" stopped answering (" + request + ": " +
+                         error.answer() + "); resume to retry"))
+          return false;
+      }
+    }
+  }
+
+  // Arms the hardware sequence from (step, frame) to the end.
+  bool arm_from(std::size_t step_index, std::uint32_t frame) {
+    std::vector<LedState> states;
+    for (std::size_t s = step_index; s < c_.plan.steps.size(); ++s) {
+      LedState state;
+      state.drive = resolve(c_.plan.steps[s]);
+      for (std::uint32_t f = (s == step_index ? frame : 0); f < c_.plan.steps[s].frames_per_camera; ++f)
+        states.push_back(state);
+    }
+    return with_led("arm_sequence", [&](drivers::LedController& device) {
+      device.arm_sequence(states, drivers::SequenceTrigger::kHardwareRisingEdge);
+    });
+  }
+
+  bool pause_point(const std::string& message) {
+    set_state(OperationState::kPaused, message);
+    c_.journal->append({{"type", "state"}, {"state", "paused"}, {"message", message}});
+    bool resumed = c_.control->wait_while_paused();
+    if (!resumed) return false;
+    set_state(OperationState::kRunning, "resumed");
+    c_.journal->append({{"type", "state"}, {"state", "running"}, {"message", "resumed"}});
+    return true;
+  }
+
+  DriveLevels resolve(const Step& step) {
+    switch (step.illumination.kind) {
+      case Illumination::Kind::kDark: return DriveLevels{};
+      case Illumination::Kind::kWeights: return step.illumination.weights;
+      case Illumination::Kind::kMix: return c_.resolve_mix(step.illumination.mix);
+    }
+    return DriveLevels{};
+  }
+
+  void start_cameras() {
+    for (auto* camera : c_.cameras) {
+      if (!camera->device) throw std::runtime_error("camera \"" + camera->config.name + "\" is not open: " + camera->open_error);
+      auto collector = std::make_unique<CameraCollector>();
+      collector->camera = camera;
+      CameraCollector* raw = collector.get();
+      collectors_.push_back(std::move(collector));
+      std::lock_guard lock(camera->mutex);
+      camera->device->start_stream([this, raw](drivers::Frame&& frame) { on_frame(*raw, std::move(frame)); });
+    }
+  }
+
+  void on_frame(CameraCollector& collector, drivers::Frame&& frame) {
+    CapturedFrame captured;
+    const bool complete = frame.status == drivers::FrameStatus::kComplete;
+    {
+      std::lock_guard lock(collector.mutex);
+      captured.camera = collector.camera->config.name;
+      captured.step = collector.step;
+      captured.step_index = collector.step_index;
+      captured.metadata = collector.metadata;
+      captured.trigger_time = collector.trigger_time;
+    }
+    if (complete) {
+      captured.frame = std::move(frame);
+      c_.pipeline->submit(std::move(captured));
+    } else {
+      const std::string reason = frame_status_reason(frame.status);
+      c_.pipeline->record_lost(reason);
+      try {
+        c_.journal->append({{"type", "frame_lost"}, {"step", captured.step}, {"camera", captured.camera},
+                            {"reason", reason}, {"sequence", frame.sequence}});
+      } catch (const std::exception&) {
+        // Storage is failing: the pipeline reports it and the sequencer stops.
+      }
+    }
+    std::lock_guard lock(collector.mutex);
+    collector.last_status = complete ? drivers::FrameStatus::kComplete : frame.status;
+    ++collector.delivered;
+    collector.arrived.notify_all();
+  }
+
+  void configure_cameras(double exposure_us) {
+    for (auto* camera : c_.cameras) {
+      drivers::CameraSettings settings;
+      settings.exposure_us = exposure_us;
+      settings.trigger_mode = drivers::TriggerMode::kSoftware;
+      settings.pixel_format = camera->device->info().pixel_formats.empty() ? drivers::PixelFormat::kMono8
+                                                                           : camera->device->info().pixel_formats.front();
+      std::lock_guard lock(camera->mutex);
+      camera->device->configure(settings);
+    }
+  }
+
+  void finish_devices() {
+    for (auto& collector : collectors_) {
+      try {
+        std::lock_guard lock(collector->camera->mutex);
+        collector->camera->device->stop_stream();
+        c_.pipeline->add_resent_packets(collector->camera->device->statistics().resent_packets);
+      } catch (const std::exception&) {
+      }
+    }
+    if (c_.led && c_.led->device) {
+      try {
+        std::lock_guard lock(c_.led->mutex);
+        if (c_.plan.timing == Timing::kHardware) c_.led->device->disarm_sequence();
+        c_.led->device->set_state(LedState{});
+      } catch (const std::exception&) {
+        // The controller is gone; nothing more to switch off from here.
+      }
+    }
+    c_.pipeline->drain();
+  }
+
+  SequencerOutcome cancelled() { return {OperationState::kCancelled, ""}; }
+
+  void report_progress() {
+    auto elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    double progress = expected_ ? static_cast<double>(frames_done_) / static_cast<double>(expected_) : 1.0;
+    update([&](OperationRecord& r) {
+      r.progress = progress;
+      r.eta_seconds = progress > 0 ? elapsed * (1 - progress) / progress : -1;
+      r.counters = c_.pipeline->counters();
+    });
+  }
+
+  void set_state(OperationState state, const std::string& message) {
+    update([&](OperationRecord& r) {
+      r.state = state;
+      r.message = message;
+    });
+  }
+
+  void update(const std::function<void(OperationRecord&)>& change) { c_.operations->update(c_.id, change); }
+
+  SequencerContext& c_;
+  std::vector<std::unique_ptr<CameraCollector>> collectors_;
+  std::chrono::steady_clock::time_point start_;
+  std::uint64_t expected_ = 0, frames_done_ = 0;
+};
+
+}  // namespace
+
+SequencerOutcome run_sequence(SequencerContext& context) { return Run(context).run(); }
+
+}  // namespace chromo::daemon

@@ -1,0 +1,324 @@
+// The socket API over real gRPC channels: the Unix socket, TCP with the bearer
+// token, TLS; validation of hostile input; health.
+#include <sys/stat.h>
+
+#include <fstream>
+#include <future>
+#include <sstream>
+
+#include <grpcpp/generic/generic_stub.h>
+#include <grpcpp/grpcpp.h>
+
+#include "chromo/daemon/server.hpp"
+#include "chromosphere/v1/estimation.grpc.pb.h"
+#include "chromosphere/v1/events.grpc.pb.h"
+#include "chromosphere/v1/leds.grpc.pb.h"
+#include "chromosphere/v1/operations.grpc.pb.h"
+#include "chromosphere/v1/sessions.grpc.pb.h"
+#include "test_lab.hpp"
+
+namespace chromo::daemon {
+namespace {
+
+namespace pb = chromosphere::v1;
+using grpc::StatusCode;
+
+constexpr const char* kToken = "test-token-0123456789";
+
+struct ApiFixture : ::testing::Test {
+  testing::TestLab lab{"api"};
+  std::unique_ptr<Daemon> daemon;
+  std::unique_ptr<Server> server;
+  std::shared_ptr<grpc::Channel> channel;
+
+  void start() {
+    daemon = lab.daemon();
+    server = std::make_unique<Server>(*daemon);
+    channel = grpc::CreateChannel("unix:" + lab.config.unix_socket, grpc::InsecureChannelCredentials());
+  }
+  void SetUp() override {
+    lab.config.tcp_address = "127.0.0.1:0";
+    lab.config.token = kToken;
+  }
+  void TearDown() override {
+    if (server) server->shutdown();
+  }
+  pb::Operation watch_to_end(const std::string& id) {
+    auto stub = pb::OperationService::NewStub(channel);
+    grpc::ClientContext context;
+    pb::WatchOperationRequest request;
+    request.set_id(id);
+    auto reader = stub->WatchOperation(&context, request);
+    pb::Operation operation, last;
+    while (reader->Read(&operation)) last = operation;
+    EXPECT_TRUE(reader->Finish().ok());
+    return last;
+  }
+};
+
+grpc::Status start_session(grpc::Channel& channel, const pb::StartSessionRequest& request, pb::Operation* out) {
+  grpc::ClientContext context;
+  return pb::SessionService::NewStub(std::shared_ptr<grpc::Channel>(&channel, [](auto*) {}))->StartSession(&context, request, out);
+}
+
+TEST_F(ApiFixture, StandardSessionStreamsProgressAndResultsAreFetchedById) {
+  start();
+  pb::StartSessionRequest request;
+  request.set_standard(true);
+  request.set_exposure_us(1000);
+  request.set_subject("api test");
+  pb::Operation started;
+  ASSERT_TRUE(start_session(*channel, request, &started).ok());
+  EXPECT_FALSE(started.id().empty());
+  auto final = watch_to_end(started.id());
+  EXPECT_EQ(final.state(), pb::OPERATION_STATE_SUCCEEDED) << final.error();
+  EXPECT_EQ(final.counters().stored(), 7u);
+  EXPECT_EQ(final.counters().expected(), 7u);
+  EXPECT_DOUBLE_EQ(final.progress(), 1.0);
+
+  // From a new connection: the session, its frames and its results by id.
+  auto other = grpc::CreateChannel("unix:" + lab.config.unix_socket, grpc::InsecureChannelCredentials());
+  grpc::ClientContext context;
+  pb::GetSessionRequest get;
+  get.set_id(started.id());
+  get.set_include_frames(true);
+  pb::SessionDetail detail;
+  ASSERT_TRUE(pb::SessionService::NewStub(other)->GetSession(&context, get, &detail).ok());
+  EXPECT_EQ(detail.frames_size(), 7);
+  EXPECT_EQ(detail.subject(), "api test");
+  EXPECT_EQ(detail.steps(6).name(), "subject_w57+blue");
+  EXPECT_TRUE(detail.steps(6).completed());
+  EXPECT_EQ(detail.frames(0).temperature_c_size(), 6);
+
+  grpc::ClientContext results_context;
+  pb::GetResultsRequest results_request;
+  results_request.set_session_id(started.id());
+  pb::Results results;
+  ASSERT_TRUE(pb::ResultsService::NewStub(other)->GetResults(&results_context, results_request, &results).ok());
+  EXPECT_EQ(results.frame_files_size(), 7);
+  EXPECT_EQ(results.folder(), final.folder());
+}
+
+TEST_F(ApiFixture, UnixSocketCarriesTheConfiguredPermissions) {
+  lab.config.unix_socket_mode = 0600;
+  start();
+  struct stat info {};
+  ASSERT_EQ(::stat(lab.config.unix_socket.c_str(), &info), 0);
+  EXPECT_EQ(info.st_mode & 0777, 0600u);
+}
+
+TEST_F(ApiFixture, HostileInputIsRefusedWithTheFieldNamedAndNothingChanges) {
+  start();
+  auto sessions = pb::SessionService::NewStub(channel);
+  auto operations = pb::OperationService::NewStub(channel);
+  auto leds = pb::LedService::NewStub(channel);
+  auto expect = [](const grpc::Status& status, StatusCode code, const std::string& field) {
+    EXPECT_EQ(status.error_code(), code) << status.error_message();
+    EXPECT_NE(status.error_message().find(field), std::string::npos) << status.error_message();
+  };
+  pb::Operation out;
+  {  // Out-of-range value inside a plan.
+    pb::StartSessionRequest request;
+    auto* plan = request.mutable_plan();
+    plan->set_name("p");
+    auto* step = plan->add_steps();
+    step->set_name("s");
+    step->set_dark(true);
+    step->set_exposure_us(-5);
+    step->set_frames_per_camera(1);
+    expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.steps[0].exposure_us");
+    step->set_exposure_us(std::nan(""));
+    expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.steps[0].exposure_us");
+    step->set_exposure_us(1000);
+    step->mutable_weights()->set_blue(1.5);
+    expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.steps[0].weights.blue");
+    step->set_mix("d65; rm -rf /");
+    expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.steps[0].mix");
+    step->clear_illumination();
+    expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.steps[0].illumination");
+    step->set_dark(true);
+    plan->set_timing(static_cast<pb::Timing>(99));  // an enum value the schema does not know
+    expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.timing");
+    plan->set_timing(pb::TIMING_SOFTWARE);
+    plan->set_name(std::string(5000, 'n'));
+    expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.name");
+  }
+  {  // Huge strings: over the field's bound, and over the message size limit.
+    pb::StartSessionRequest request;
+    request.set_standard(true);
+    request.set_subject(std::string(5000, 's'));
+    expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "subject");
+    request.set_subject(std::string(2 << 20, 's'));
+    EXPECT_EQ(start_session(*channel, request, &out).error_code(), StatusCode::RESOURCE_EXHAUSTED);
+    pb::StartSessionRequest none;
+    expect(start_session(*channel, none, &out), StatusCode::INVALID_ARGUMENT, "plan_source");
+  }
+  {  // Unknown and malformed ids.
+    grpc::ClientContext c1, c2, c3, c4;
+    pb::GetOperationRequest get;
+    get.set_id("20261122T000000Z-nothing-000000");
+    expect(operations->GetOperation(&c1, get, &out), StatusCode::NOT_FOUND, "id");
+    get.set_id("../../etc/passwd");
+    expect(operations->GetOperation(&c2, get, &out), StatusCode::INVALID_ARGUMENT, "id");
+    pb::CancelOperationRequest cancel;
+    expect(operations->CancelOperation(&c3, cancel, &out), StatusCode::INVALID_ARGUMENT, "id");
+    pb::GetSessionRequest session;
+    session.set_id(std::string(300, 'a'));
+    pb::SessionDetail detail;
+    expect(sessions->GetSession(&c4, session, &detail), StatusCode::INVALID_ARGUMENT, "id");
+  }
+  {  // LED state out of range; unknown controller.
+    grpc::ClientContext c1, c2, c3;
+    pb::SetLedStateRequest set;
+    set.mutable_state()->mutable_drive()->set_red(2.0);
+    pb::LedStatus status;
+    expect(leds->SetLedState(&c1, set, &status), StatusCode::INVALID_ARGUMENT, "state.drive.red");
+    set.mutable_state()->mutable_drive()->set_red(0.5);
+    set.set_controller("nobody");
+    expect(leds->SetLedState(&c2, set, &status), StatusCode::NOT_FOUND, "controller");
+    pb::SetLedStateRequest empty;
+    expect(leds->SetLedState(&c3, empty, &status), StatusCode::INVALID_ARGUMENT, "state");
+  }
+  EXPECT_EQ(lab.lab->emitted(), drivers::DriveLevels{});  // no refused request touched the LEDs
+  {  // Wrong types: bytes that are not a StartSessionRequest.
+    grpc::GenericStub generic(channel);
+    grpc::ClientContext context;
+    std::string garbage = "\xff\xff\xff\xff\x0f this is not protobuf";
+    grpc::Slice slice(garbage);
+    grpc::ByteBuffer request(&slice, 1), response;
+    std::promise<grpc::Status> done;
+    generic.UnaryCall(&context, "/chromosphere.v1.SessionService/StartSession", grpc::StubOptions(), &request, &response,
+                      [&](grpc::Status status) { done.set_value(status); });
+    EXPECT_FALSE(done.get_future().get().ok());
+  }
+  EXPECT_TRUE(std::filesystem::is_empty(lab.config.sessions_dir));  // nothing was started
+  {  // The daemon still serves.
+    grpc::ClientContext context;
+    pb::ListSessionsRequest list;
+    pb::ListSessionsResponse sessions_list;
+    EXPECT_TRUE(sessions->ListSessions(&context, list, &sessions_list).ok());
+  }
+}
+
+TEST_F(ApiFixture, LedStateIsSetAndReadBackButNotDuringASession) {
+  start();
+  auto leds = pb::LedService::NewStub(channel);
+  grpc::ClientContext c1;
+  pb::SetLedStateRequest set;
+  set.mutable_state()->mutable_drive()->set_w57(0.25);
+  pb::LedStatus status;
+  ASSERT_TRUE(leds->SetLedState(&c1, set, &status).ok());
+  EXPECT_DOUBLE_EQ(status.applied().drive().w57(), 0.25);
+  EXPECT_DOUBLE_EQ(lab.lab->emitted()[0], 0.25);
+
+  pb::StartSessionRequest request;
+  request.set_standard(true);
+  request.set_exposure_us(2000);
+  request.set_frames_per_camera(20);
+  pb::Operation started;
+  ASSERT_TRUE(start_session(*channel, request, &started).ok());
+  grpc::ClientContext c2;
+  EXPECT_EQ(leds->SetLedState(&c2, set, &status).error_code(), StatusCode::FAILED_PRECONDITION);
+  EXPECT_EQ(start_session(*channel, request, &started).error_code(), StatusCode::FAILED_PRECONDITION);
+  grpc::ClientContext c3;
+  pb::CancelOperationRequest cancel;
+  cancel.set_id(started.id());
+  pb::Operation cancelled;
+  ASSERT_TRUE(pb::OperationService::NewStub(channel)->CancelOperation(&c3, cancel, &cancelled).ok());
+  EXPECT_EQ(watch_to_end(started.id()).state(), pb::OPERATION_STATE_CANCELLED);
+  grpc::ClientContext c4;
+  EXPECT_EQ(pb::OperationService::NewStub(channel)->CancelOperation(&c4, cancel, &cancelled).error_code(),
+            StatusCode::FAILED_PRECONDITION);
+}
+
+grpc::Status list_over_tcp(std::shared_ptr<grpc::Channel> channel, const char* authorization) {
+  grpc::ClientContext context;
+  if (authorization) context.AddMetadata("authorization", authorization);
+  pb::ListOperationsRequest request;
+  pb::ListOperationsResponse response;
+  return pb::OperationService::NewStub(channel)->ListOperations(&context, request, &response);
+}
+
+TEST_F(ApiFixture, TcpNeedsTheBearerTokenOnEveryCall) {
+  start();
+  ASSERT_GT(server->tcp_port(), 0);
+  auto tcp = grpc::CreateChannel("127.0.0.1:" + std::to_string(server->tcp_port()), grpc::InsecureChannelCredentials());
+  EXPECT_EQ(list_over_tcp(tcp, nullptr).error_code(), StatusCode::UNAUTHENTICATED);
+  EXPECT_EQ(list_over_tcp(tcp, "Bearer wrong-token-0123456789").error_code(), StatusCode::UNAUTHENTICATED);
+  EXPECT_EQ(list_over_tcp(tcp, "Bearer test-token-012345678").error_code(), StatusCode::UNAUTHENTICATED);
+  EXPECT_EQ(list_over_tcp(tcp, "test-token-0123456789").error_code(), StatusCode::UNAUTHENTICATED);
+  EXPECT_TRUE(list_over_tcp(tcp, "Bearer test-token-0123456789").ok());
+}
+
+TEST_F(ApiFixture, TlsWithTokenWhenCertificatesAreConfigured) {
+  const auto key = lab.directory / "key.pem", cert = lab.directory / "cert.pem";
+  const std::string command = "openssl req -x509 -newkey rsa:2048 -nodes -days 1 -subj /CN=localhost "
+                              "-addext subjectAltName=DNS:localhost -keyout " + key.string() + " -out " +
+                              cert.string() + " >/dev/null 2>&1";
+  ASSERT_EQ(std::system(command.c_str()), 0);
+  lab.config.tls_certificate_file = cert.string();
+  lab.config.tls_private_key_file = key.string();
+  start();
+  std::ifstream in(cert);
+  std::stringstream pem;
+  pem << in.rdbuf();
+  grpc::SslCredentialsOptions options;
+  options.pem_root_certs = pem.str();
+  grpc::ChannelArguments arguments;
+  arguments.SetSslTargetNameOverride("localhost");
+  auto tls = grpc::CreateCustomChannel("127.0.0.1:" + std::to_string(server->tcp_port()), grpc::SslCredentials(options), arguments);
+  EXPECT_TRUE(list_over_tcp(tls, "Bearer test-token-0123456789").ok());
+  EXPECT_EQ(list_over_tcp(tls, nullptr).error_code(), StatusCode::UNAUTHENTICATED);
+  // A plaintext client cannot talk to the TLS port at all.
+  auto plain = grpc::CreateChannel("127.0.0.1:" + std::to_string(server->tcp_port()), grpc::InsecureChannelCredentials());
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(2));
+  context.AddMetadata("authorization", "Bearer test-token-0123456789");
+  pb::ListOperationsResponse response;
+  EXPECT_FALSE(pb::OperationService::NewStub(plain)->ListOperations(&context, {}, &response).ok());
+}
+
+TEST_F(ApiFixture, HealthServiceAnswersServing) {
+  start();
+  grpc::GenericStub generic(channel);
+  grpc::ClientContext context;
+  grpc::Slice empty("");  // HealthCheckRequest{service: ""} encodes to no bytes
+  grpc::ByteBuffer request(&empty, 1), response;
+  std::promise<grpc::Status> done;
+  generic.UnaryCall(&context, "/grpc.health.v1.Health/Check", grpc::StubOptions(), &request, &response,
+                    [&](grpc::Status status) { done.set_value(status); });
+  ASSERT_TRUE(done.get_future().get().ok());
+  std::vector<grpc::Slice> slices;
+  ASSERT_TRUE(response.Dump(&slices).ok());
+  std::string bytes;
+  for (const auto& s : slices) bytes += std::string(reinterpret_cast<const char*>(s.begin()), s.size());
+  EXPECT_EQ(bytes, std::string("\x08\x01", 2));  // status: SERVING
+}
+
+TEST_F(ApiFixture, EventStreamCarriesOperationUpdates) {
+  start();
+  auto events = pb::EventService::NewStub(channel);
+  grpc::ClientContext context;
+  pb::SubscribeRequest subscribe;
+  subscribe.set_include_frames(true);
+  auto reader = events->Subscribe(&context, subscribe);
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  pb::StartSessionRequest request;
+  request.set_standard(true);
+  request.set_exposure_us(1000);
+  pb::Operation started;
+  ASSERT_TRUE(start_session(*channel, request, &started).ok());
+  int frames = 0;
+  bool ended = false;
+  pb::Event event;
+  while (!ended && reader->Read(&event)) {
+    if (event.has_frame()) ++frames;
+    if (event.has_operation() && event.operation().state() == pb::OPERATION_STATE_SUCCEEDED) ended = true;
+  }
+  context.TryCancel();
+  EXPECT_TRUE(ended);
+  EXPECT_EQ(frames, 7);
+}
+
+}  // namespace
+}  // namespace chromo::daemon

@@ -1,0 +1,122 @@
+// kill -9 of chromod in the middle of a session, then a restart: the folder is
+// intact, says which steps completed, and the session is reported interrupted.
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <grpcpp/grpcpp.h>
+
+#include "chromo/daemon/image_files.hpp"
+#include "chromo/daemon/session_store.hpp"
+#include "chromosphere/v1/operations.grpc.pb.h"
+#include "chromosphere/v1/sessions.grpc.pb.h"
+#include "test_lab.hpp"
+
+namespace chromo::daemon {
+namespace {
+
+namespace pb = chromosphere::v1;
+
+// posix_spawn, not fork: this process has gRPC threads, and a forked child
+// must not touch locks they may hold.
+pid_t spawn_chromod(const std::filesystem::path& directory) {
+  const std::string log = (directory / "chromod.log").string(), socket = (directory / "s.sock").string(),
+                    sessions = (directory / "sessions").string();
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  // Never keep the test runner's pipes open in the child (ctest waits for them).
+  posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+  posix_spawn_file_actions_adddup2(&actions, 1, 2);
+  std::vector<std::string> arguments{CHROMOD, "--socket", socket, "--sessions-dir", sessions};
+  std::vector<char*> argv;
+  for (auto& argument : arguments) argv.push_back(argument.data());
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  int result = posix_spawn(&pid, CHROMOD, &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  EXPECT_EQ(result, 0);
+  return pid;
+}
+
+std::shared_ptr<grpc::Channel> connect(const std::filesystem::path& directory) {
+  // A local subchannel pool: a new channel must not reuse the dead daemon's connection.
+  grpc::ChannelArguments arguments;
+  arguments.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
+  auto channel = grpc::CreateCustomChannel("unix:" + (directory / "s.sock").string(), grpc::InsecureChannelCredentials(),
+                                           arguments);
+  EXPECT_TRUE(channel->WaitForConnected(std::chrono::system_clock::now() + std::chrono::seconds(10)));
+  return channel;
+}
+
+TEST(Crash, KillNineMidSessionThenRestartReportsInterruptedAndTheFolderIsIntact) {
+  auto directory = testing::fresh_directory("crash");
+  pid_t pid = spawn_chromod(directory);
+  struct KillOnExit {
+    pid_t& pid;
+    ~KillOnExit() {
+      if (pid > 0 && ::kill(pid, SIGKILL) == 0) ::waitpid(pid, nullptr, 0);
+    }
+  } kill_on_exit{pid};
+  auto channel = connect(directory);
+  pb::StartSessionRequest request;
+  request.set_standard(true);
+  request.set_exposure_us(2000);
+  request.set_frames_per_camera(30);
+  pb::Operation started;
+  {
+    grpc::ClientContext context;
+    ASSERT_TRUE(pb::SessionService::NewStub(channel)->StartSession(&context, request, &started).ok());
+  }
+  // Wait until the session is well into its second step, then kill -9.
+  auto operations = pb::OperationService::NewStub(channel);
+  for (int i = 0; i < 400; ++i) {
+    grpc::ClientContext context;
+    pb::GetOperationRequest get;
+    get.set_id(started.id());
+    pb::Operation now;
+    ASSERT_TRUE(operations->GetOperation(&context, get, &now).ok());
+    if (now.counters().stored() >= 45) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ASSERT_EQ(::kill(pid, SIGKILL), 0);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFSIGNALED(status));
+
+  pid = spawn_chromod(directory);
+  channel = connect(directory);
+  grpc::ClientContext context;
+  pb::GetSessionRequest get;
+  get.set_id(started.id());
+  get.set_include_frames(true);
+  pb::SessionDetail detail;
+  auto got = pb::SessionService::NewStub(channel)->GetSession(&context, get, &detail);
+  ASSERT_TRUE(got.ok()) << got.error_message();
+  EXPECT_EQ(detail.summary().operation().state(), pb::OPERATION_STATE_INTERRUPTED);
+  EXPECT_TRUE(detail.steps(0).completed());
+  EXPECT_EQ(detail.steps(0).frames_stored(), 30u);
+  EXPECT_FALSE(detail.steps(6).completed());
+  EXPECT_GE(detail.frames_size(), 45);
+  // Every acknowledged frame reads back in full.
+  const std::filesystem::path folder = detail.summary().folder();
+  for (const auto& frame : detail.frames()) {
+    auto image = read_tiff(folder / frame.file());
+    EXPECT_EQ(image.data.size(), static_cast<std::size_t>(image.width * image.height * 2)) << frame.file();
+  }
+  // No temporary files left, and the journal holds the interruption record.
+  for (const auto& file : std::filesystem::recursive_directory_iterator(folder))
+    EXPECT_EQ(file.path().string().find(".tmp-"), std::string::npos);
+  auto journal = read_journal(folder / "journal.jsonl");
+  EXPECT_EQ(journal.records.back()["state"], "interrupted");
+
+  ::kill(pid, SIGTERM);
+  ::waitpid(pid, &status, 0);
+  pid = 0;
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  std::filesystem::remove_all(directory);
+}
+
+}  // namespace
+}  // namespace chromo::daemon

@@ -1,0 +1,40 @@
+#!/usr/bin/env bash
+# Runs a client against a live chromod (the built-in virtual lab) in a fresh
+# folder, and checks what it printed and what the session folder holds.
+#   live_daemon_test.sh CHROMOD CHROMO PYTHON_STUBS_DIR SOURCE_DIR python|cli
+set -euo pipefail
+chromod=$1 chromo=$2 stubs=$3 source=$4 mode=$5
+work=$(mktemp -d /tmp/chromo-live-XXXXXX)
+"$chromod" --socket "$work/s.sock" --sessions-dir "$work/sessions" >"$work/chromod.log" 2>&1 &
+daemon_pid=$!
+cleanup() { kill -9 "$daemon_pid" 2>/dev/null || true; wait "$daemon_pid" 2>/dev/null || true; rm -rf "$work"; }
+trap cleanup EXIT
+for _ in $(seq 50); do [[ -S "$work/s.sock" ]] && break; sleep 0.1; done
+
+# Every client call is bounded: a hung daemon fails the test instead of hanging ctest.
+t() { timeout -s KILL 60 "$@"; }
+fail() { echo "FAIL: $*"; cat "$work/out"; exit 1; }
+case "$mode" in
+  python)
+    CHROMO_PY_STUBS="$stubs" t /usr/bin/python3 "$source/clients/python/run_session_example.py" "unix:$work/s.sock" \
+      --subject "ctest" >"$work/out" 2>&1 || fail "example exited $?"
+    grep -q "succeeded" "$work/out" || fail "no success reported"
+    grep -q "frames stored: 7" "$work/out" || fail "not 7 frames"
+    ;;
+  cli)
+    export CHROMO_DAEMON="unix:$work/s.sock"
+    t "$chromo" status >"$work/out" 2>&1 || fail "status exited $?"
+    grep -q "cam0.*OK" "$work/out" || fail "camera not OK"
+    t "$chromo" session run --exposure-us 1000 --frames 2 --subject cli >"$work/out" 2>&1 || fail "session run exited $?"
+    grep -q "frames: 14 stored, 0 lost" "$work/out" || fail "counters"
+    id=$(sed -n 's/^session \([^ ]*\) started$/\1/p' "$work/out")
+    t "$chromo" session show "$id" --frames >"$work/out" 2>&1 || fail "show exited $?"
+    [[ $(grep -c "completed$" "$work/out") == 7 ]] || fail "not 7 completed steps"
+    [[ $(grep -c "^  frame" "$work/out") == 14 ]] || fail "not 14 frames listed"
+    set +e
+    t "$chromo" session show no-such-session >"$work/out" 2>&1; [[ $? == 2 ]] || fail "unknown id not exit 2"
+    t "$chromo" led set --blue 7 >"$work/out" 2>&1; [[ $? == 2 ]] || fail "out-of-range level not exit 2"
+    grep -q "state.drive.blue" "$work/out" || fail "field not named"
+    ;;
+esac
+echo "ok ($mode)"
