@@ -139,14 +139,37 @@ namespace {
 // channel loop unrolls and the row loop vectorises.
 template <int C>
 void scan_row(const float* row, int count, int stride, const float* m, const float* w, float& best, int& best_index) {
-  for (int i = 0; i < count; i += stride) {
-    const float* node = row + static_cast<std::size_t>(i) * C;
-    float chi2 = 0;
-    for (int c = 0; c < C; ++c) {
-      const float r = (node[c] - m[c]) * w[c];
-      chi2 += r * r;
+  if (stride != 1) {
+    for (int i = 0; i < count; i += stride) {
+      const float* node = row + static_cast<std::size_t>(i) * C;
+      float chi2 = 0;
+      for (int c = 0; c < C; ++c) {
+        const float r = (node[c] - m[c]) * w[c];
+        chi2 += r * r;
+      }
+      if (chi2 < best) best = chi2, best_index = i;
     }
-    if (chi2 < best) best = chi2, best_index = i;
+    return;
+  }
+  // Contiguous nodes: χ² of a block without branches (vectorised), then its minimum.
+  constexpr int kBlock = 64;
+  float chi2[kBlock];
+  for (int first = 0; first < count; first += kBlock) {
+    const int n = std::min(kBlock, count - first);
+    const float* block = row + static_cast<std::size_t>(first) * C;
+    for (int i = 0; i < n; ++i) {
+      float sum = 0;
+      for (int c = 0; c < C; ++c) {
+        const float r = (block[i * C + c] - m[c]) * w[c];
+        sum += r * r;
+      }
+      chi2[i] = sum;
+    }
+    float block_best = best;
+    int block_index = -1;
+    for (int i = 0; i < n; ++i)
+      if (chi2[i] < block_best) block_best = chi2[i], block_index = i;
+    if (block_index >= 0) best = block_best, best_index = first + block_index;
   }
 }
 
