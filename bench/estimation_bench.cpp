@@ -126,7 +126,7 @@ nlohmann::ordered_json to_json(const RunResult& r) {
 
 // One line of a previous run's estimation_speed_accuracy.csv.
 struct BaselineRun {
-  std::string label, noise;
+  std::string label, model, noise;
   double pixels_per_second = 0, de_all = 0, de_d65 = 0;
 };
 
@@ -138,8 +138,7 @@ std::vector<BaselineRun> read_baseline(const fs::path& file) {
     if (line.empty() || line[0] == '#') continue;
     std::istringstream fields(line);
     BaselineRun r;
-    std::string model;
-    if (fields >> r.label >> model >> r.noise >> r.pixels_per_second >> r.de_all >> r.de_d65) runs.push_back(r);
+    if (fields >> r.label >> r.model >> r.noise >> r.pixels_per_second >> r.de_all >> r.de_d65) runs.push_back(r);
   }
   return runs;
 }
@@ -300,7 +299,7 @@ int main(int argc, char** argv) {
     std::ofstream old_csv(out / "estimation_speed_accuracy_baseline.csv");
     old_csv << "# runs of the baseline (" << baseline.filename().string() << "), same columns as estimation_speed_accuracy.csv\n";
     for (const BaselineRun& b : old_runs) {
-      old_csv << "old_" << b.label << " " << b.noise << " " << b.noise << " " << b.pixels_per_second << " " << b.de_all
+      old_csv << "old:" << b.label << " " << b.model << " " << b.noise << " " << b.pixels_per_second << " " << b.de_all
               << " " << b.de_d65 << "\n";
       for (const RunResult& r : runs) {
         if (r.method + "/" + r.model != b.label || r.noise != b.noise) continue;
@@ -454,7 +453,7 @@ int main(int argc, char** argv) {
 
   // Charts.
   const fs::path script1 = out / "estimation_speed_accuracy.gp";
-  std::ofstream(script1) << "set terminal pngcairo size 900,600\nset output '" << (out / "estimation_speed_accuracy.png").string()
+  std::ofstream(script1) << "set terminal pngcairo noenhanced size 900,600\nset output '" << (out / "estimation_speed_accuracy.png").string()
                          << "'\nset title 'Inverters on " << pixels << "-pixel synthetic frames, 2 threads (circles noise-free, squares noisy"
                          << (old_runs.empty() ? "" : "; grey open: baseline run") << ")'\n"
                          << "set xlabel 'pixels per second'\nset ylabel 'mean relit ΔE94 (six LEDs + D65)'\n"
@@ -466,9 +465,9 @@ int main(int argc, char** argv) {
                          << (old_runs.empty()
                                  ? std::string()
                                  : ", '" + (out / "estimation_speed_accuracy_baseline.csv").string() +
-                                       "' using 4:(stringcolumn(3) eq 'noise-free' ? $5 : 1/0):1 with labels point pt 6 "
-                                       "offset 1,0.5 tc rgb 'gray40' notitle, '' using 4:(stringcolumn(3) eq 'noisy' ? $5 "
-                                       ": 1/0):1 with labels point pt 4 offset 1,-0.5 tc rgb 'gray40' notitle")
+                                       "' using 4:(stringcolumn(3) eq 'noise-free' ? $5 : 1/0):1 with labels right point pt 6 "
+                                       "offset -1,-0.8 tc rgb 'gray40' notitle, '' using 4:(stringcolumn(3) eq 'noisy' ? $5 "
+                                       ": 1/0):1 with labels right point pt 4 offset -1,0.8 tc rgb 'gray40' notitle")
                          << "\n";
   const fs::path script2 = out / "estimation_failures.gp";
   std::ofstream(script2) << "set terminal pngcairo size 1400,450\nset output '" << (out / "estimation_failures.png").string()
