@@ -217,7 +217,8 @@ GridPoint Inverter::node_search(const double* measured, const double* weight, in
   return best_x;
 }
 
-GridPoint Inverter::node_descent(const double* measured, const double* weight, int order, GridPoint start) const {
+GridPoint Inverter::node_descent(const double* measured, const double* weight, int order, GridPoint start,
+                                 bool diagonal_moves) const {
   const auto n = table_->nodes();
   const int channels = table_->channels();
   int at[4] = {static_cast<int>(std::lround(start[0])), static_cast<int>(std::lround(start[1])),
@@ -248,6 +249,7 @@ GridPoint Inverter::node_descent(const double* measured, const double* weight, i
         if (chi2 < best) best = chi2, std::copy(candidate, candidate + 4, best_move);
       }
     if (std::equal(best_move, best_move + 4, at)) {
+      if (!diagonal_moves) break;
       for (int k = 0; k < full; ++k) {
         int candidate[4] = {at[0], at[1], at[2], at[3]};
         int code = k;
@@ -362,7 +364,8 @@ GridPoint FastInverter::seed_point(std::uint32_t node) const {
 Fit FastInverter::fit(const double* measured, const double* weight, int order) const {
   const long cell = cell_of(measured);
   GridPoint start;
-  if (cell >= 0 && buckets_[cell].count) {
+  const bool in_table = cell >= 0 && buckets_[cell].count;
+  if (in_table) {
     // The best node by χ² among the nodes whose predicted values fall in the
     // pixel's cell: the nodes of every branch of the (non-unique) inverse there.
     const Bucket& b = buckets_[cell];
@@ -377,7 +380,7 @@ Fit FastInverter::fit(const double* measured, const double* weight, int order) c
   } else {
     start = node_search(measured, weight, 4, 4);  // outside the inverse table: coarse search
   }
-  return refine(measured, weight, order, node_descent(measured, weight, order, start), 20);
+  return refine(measured, weight, order, node_descent(measured, weight, order, start, !in_table), 20);
 }
 
 }  // namespace chromo::estimation
