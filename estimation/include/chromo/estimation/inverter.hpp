@@ -19,7 +19,7 @@
 //    pixel scans the nodes of its cell for the best χ² (every branch of the
 //    non-unique inverse that reaches the cell competes, so the seed is the
 //    exhaustive search's answer restricted to the cell), descends over
-//    neighbouring nodes (the best node may lie in the next cell), then runs a
+//    neighbouring nodes along the axes (the best node may lie in the next cell), then runs a
 //    few bounded LM steps. Cells just outside the gamut share a neighbour's
 //    bucket; a pixel outside those falls back to a coarse node search. Order
 //    2 starts from the 4D seed projected onto the 2D slice. Construction
