@@ -293,7 +293,10 @@ FastInverter::FastInverter(std::shared_ptr<const ForwardTable> table) : Inverter
     for (int k = 0; k < key_dims_; ++k) keys[i * key_dims_ + k] = static_cast<float>(key_value(v[i * channels + k]));
   for (int k = 0; k < key_dims_; ++k) {
     float lo = std::numeric_limits<float>::infinity(), hi = -lo;
-    for (std::size_t i = 0; i < node_count; ++i) lo = std::min(lo, keys[i * key_dims_ + k]), hi = std::max(hi, keys[i * key_dims_ + k]);
+    for (std::size_t i = 0; i < node_count; ++i) {
+      const float key = keys[i * key_dims_ + k];
+      lo = std::min(lo, key), hi = std::max(hi, key);
+    }
     key_min_[k] = lo;
     key_scale_[k] = (kBins - 1e-6) / std::max(double(hi) - lo, 1e-9);
   }
