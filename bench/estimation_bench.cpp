@@ -4,6 +4,7 @@
 // table build time and interpolation error; anomaly and vein flag shares.
 //
 //   build/release/bin/estimation_bench [--pixels N] [--exhaustive-pixels N] [--full] [--out DIR]
+//                                      [--baseline FILE]
 //
 // Default: a 256×192 frame (49,152 pixels) for the fast and 2D inverters, the
 // exhaustive search on a fixed subsample of its first 5,000 pixels (the
@@ -12,6 +13,10 @@
 // DIR/estimation_bench.json, *.csv and two PNG charts (gnuplot), DIR
 // defaults to bench/results. Synthetic frames come from estimation's
 // synthetic.hpp (the virtual lab's scene can replace them).
+// --baseline FILE: the estimation_speed_accuracy.csv of another build's run
+// (e.g. the previous version of the inverters, run just before on the same
+// machine): its points go on the speed/accuracy chart next to this run's,
+// labelled "old ...", and the run prints new/old ratios per configuration.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -20,7 +25,9 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include "chromo/estimation/estimator.hpp"
 #include "chromo/estimation/lab_illuminants.hpp"
@@ -117,6 +124,25 @@ nlohmann::ordered_json to_json(const RunResult& r) {
           {"abs_bm", r.acc.bm},       {"abs_che", r.acc.che}};
 }
 
+// One line of a previous run's estimation_speed_accuracy.csv.
+struct BaselineRun {
+  std::string label, model, noise;
+  double pixels_per_second = 0, de_all = 0, de_d65 = 0;
+};
+
+std::vector<BaselineRun> read_baseline(const fs::path& file) {
+  std::vector<BaselineRun> runs;
+  std::ifstream in(file);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream fields(line);
+    BaselineRun r;
+    if (fields >> r.label >> r.model >> r.noise >> r.pixels_per_second >> r.de_all >> r.de_d65) runs.push_back(r);
+  }
+  return runs;
+}
+
 int gnuplot(const fs::path& script) {
   const std::string command = "gnuplot " + script.string() + " 2>&1";
   return std::system(command.c_str());
@@ -127,14 +153,17 @@ int gnuplot(const fs::path& script) {
 int main(int argc, char** argv) {
   int width = 256, height = 192, exhaustive_pixels = 5000;
   fs::path out = fs::path(CHROMO_SOURCE_DIR) / "bench" / "results";
+  fs::path baseline;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--full") width = 2592, height = 1944;
     else if (a == "--pixels" && i + 1 < argc) width = std::atoi(argv[++i]), height = 1;
     else if (a == "--exhaustive-pixels" && i + 1 < argc) exhaustive_pixels = std::atoi(argv[++i]);
     else if (a == "--out" && i + 1 < argc) out = argv[++i];
+    else if (a == "--baseline" && i + 1 < argc) baseline = argv[++i];
     else {
-      std::fprintf(stderr, "usage: estimation_bench [--pixels N] [--exhaustive-pixels N] [--full] [--out DIR]\n");
+      std::fprintf(stderr, "usage: estimation_bench [--pixels N] [--exhaustive-pixels N] [--full] [--out DIR] "
+                           "[--baseline FILE]\n");
       return 2;
     }
   }
@@ -257,6 +286,37 @@ int main(int argc, char** argv) {
                 noise, fast->pixels_per_second / ex->pixels_per_second, fast->acc.de_d65 - ex->acc.de_d65,
                 fast->pixels_per_second / two->pixels_per_second, two->acc.de_all / fast->acc.de_all,
                 fast->pixels_per_second / 1e6);
+  }
+
+  // Previous version's run, side by side.
+  std::vector<BaselineRun> old_runs;
+  if (!baseline.empty()) {
+    old_runs = read_baseline(baseline);
+    if (old_runs.empty()) {
+      std::fprintf(stderr, "baseline %s: no runs read\n", baseline.string().c_str());
+      return 2;
+    }
+    std::ofstream old_csv(out / "estimation_speed_accuracy_baseline.csv");
+    old_csv << "# runs of the baseline (" << baseline.filename().string() << "), same columns as estimation_speed_accuracy.csv\n";
+    for (const BaselineRun& b : old_runs) {
+      old_csv << "old:" << b.label << " " << b.model << " " << b.noise << " " << b.pixels_per_second << " " << b.de_all
+              << " " << b.de_d65 << "\n";
+      for (const RunResult& r : runs) {
+        if (r.method + "/" + r.model != b.label || r.noise != b.noise) continue;
+        std::printf("%-14s %-10s old %9.0f px/s -> new %9.0f px/s (x%.2f); relit ΔE94 %.4f -> %.4f, D65 %.4f -> %.4f\n",
+                    b.label.c_str(), b.noise.c_str(), b.pixels_per_second, r.pixels_per_second,
+                    r.pixels_per_second / b.pixels_per_second, b.de_all, r.acc.de_all, b.de_d65, r.acc.de_d65);
+        report["versus_baseline"].push_back({{"run", b.label},
+                                             {"noise", b.noise},
+                                             {"old_pixels_per_second", b.pixels_per_second},
+                                             {"new_pixels_per_second", r.pixels_per_second},
+                                             {"speedup", r.pixels_per_second / b.pixels_per_second},
+                                             {"old_de94_relit_mean", b.de_all},
+                                             {"new_de94_relit_mean", r.acc.de_all},
+                                             {"old_de94_d65", b.de_d65},
+                                             {"new_de94_d65", r.acc.de_d65}});
+      }
+    }
   }
 
   // Failure behaviour 1: error against noise level (fast 4D, 2D; exhaustive on 1,000 pixels).
@@ -393,14 +453,22 @@ int main(int argc, char** argv) {
 
   // Charts.
   const fs::path script1 = out / "estimation_speed_accuracy.gp";
-  std::ofstream(script1) << "set terminal pngcairo size 900,600\nset output '" << (out / "estimation_speed_accuracy.png").string()
-                         << "'\nset title 'Inverters on " << pixels << "-pixel synthetic frames, 2 threads'\n"
+  std::ofstream(script1) << "set terminal pngcairo noenhanced size 900,600\nset output '" << (out / "estimation_speed_accuracy.png").string()
+                         << "'\nset title 'Inverters on " << pixels << "-pixel synthetic frames, 2 threads (circles noise-free, squares noisy"
+                         << (old_runs.empty() ? "" : "; grey open: baseline run") << ")'\n"
                          << "set xlabel 'pixels per second'\nset ylabel 'mean relit ΔE94 (six LEDs + D65)'\n"
                          << "set logscale xy\nset grid\nset key outside right\n"
                          << "plot '" << (out / "estimation_speed_accuracy.csv").string()
                          << "' using 4:(stringcolumn(3) eq 'noise-free' ? $5 : 1/0):1 with labels point pt 7 offset 1,0.5 "
                             "notitle, '' using 4:(stringcolumn(3) eq 'noisy' ? $5 : 1/0):1 with labels point pt 5 "
-                            "offset 1,-0.5 tc rgb 'red' notitle\n";
+                            "offset 1,-0.5 tc rgb 'red' notitle"
+                         << (old_runs.empty()
+                                 ? std::string()
+                                 : ", '" + (out / "estimation_speed_accuracy_baseline.csv").string() +
+                                       "' using 4:(stringcolumn(3) eq 'noise-free' ? $5 : 1/0):1 with labels right point pt 6 "
+                                       "offset -1,-0.8 tc rgb 'gray40' notitle, '' using 4:(stringcolumn(3) eq 'noisy' ? $5 "
+                                       ": 1/0):1 with labels right point pt 4 offset -1,0.8 tc rgb 'gray40' notitle")
+                         << "\n";
   const fs::path script2 = out / "estimation_failures.gp";
   std::ofstream(script2) << "set terminal pngcairo size 1400,450\nset output '" << (out / "estimation_failures.png").string()
                          << "'\nset multiplot layout 1,3\nset grid\n"

@@ -84,6 +84,34 @@ SkinParameters ForwardTable::from_grid(const GridPoint& x) const {
   return p;
 }
 
+namespace {
+
+// Sums the 16 corners of a cell with precomputed weights: value = Σ w·v and,
+// when jacobian is set, d value/d x_k = Σ dw_k·v. C is the channel count when
+// known at compile time (the loops unroll and vectorise), 0 for any count.
+template <int C>
+void accumulate_corners(const float* const* corner_values, const double* weight, const double (*dweight)[16],
+                        int channels, double* value, double* jacobian) {
+  const int count = C > 0 ? C : channels;
+  for (int c = 0; c < count; ++c) {
+    double v = 0, d0 = 0, d1 = 0, d2 = 0, d3 = 0;
+    for (int corner = 0; corner < 16; ++corner) {
+      const double node = corner_values[corner][c];
+      v += weight[corner] * node;
+      if (jacobian) {
+        d0 += dweight[0][corner] * node;
+        d1 += dweight[1][corner] * node;
+        d2 += dweight[2][corner] * node;
+        d3 += dweight[3][corner] * node;
+      }
+    }
+    value[c] = v;
+    if (jacobian) jacobian[c * 4] = d0, jacobian[c * 4 + 1] = d1, jacobian[c * 4 + 2] = d2, jacobian[c * 4 + 3] = d3;
+  }
+}
+
+}  // namespace
+
 void ForwardTable::predict(const GridPoint& x, double* value, double* jacobian) const {
   const auto n = nodes();
   int base[4];
@@ -93,25 +121,35 @@ void ForwardTable::predict(const GridPoint& x, double* value, double* jacobian) 
     base[k] = std::min(static_cast<int>(xc), n[k] - 2);
     f[k] = xc - base[k];
   }
-  const int c_count = channels_;
-  for (int c = 0; c < c_count; ++c) value[c] = 0;
-  if (jacobian)
-    for (int i = 0; i < 4 * c_count; ++i) jacobian[i] = 0;
+  // Corner weights as products of per-axis factors (1 − f, f), and their
+  // derivatives along each axis (the factor of that axis replaced by ∓1).
+  double weight[16], dweight[4][16];
+  const float* corner_values[16];
+  const std::size_t step[4] = {node_offset(1, 0, 0, 0), node_offset(0, 1, 0, 0), node_offset(0, 0, 1, 0),
+                               node_offset(0, 0, 0, 1)};
+  const float* origin = node(base[0], base[1], base[2], base[3]);
   for (int corner = 0; corner < 16; ++corner) {
-    double w[4];
-    for (int k = 0; k < 4; ++k) w[k] = (corner >> k & 1) ? f[k] : 1.0 - f[k];
-    const float* v = node(base[0] + (corner & 1), base[1] + (corner >> 1 & 1), base[2] + (corner >> 2 & 1),
-                          base[3] + (corner >> 3 & 1));
-    const double weight = w[0] * w[1] * w[2] * w[3];
-    for (int c = 0; c < c_count; ++c) value[c] += weight * v[c];
-    if (jacobian) {
-      for (int k = 0; k < 4; ++k) {
-        double dw = (corner >> k & 1) ? 1.0 : -1.0;
-        for (int j = 0; j < 4; ++j)
-          if (j != k) dw *= w[j];
-        for (int c = 0; c < c_count; ++c) jacobian[c * 4 + k] += dw * v[c];
-      }
+    double w[4], s[4];
+    std::size_t offset = 0;
+    for (int k = 0; k < 4; ++k) {
+      const bool upper = corner >> k & 1;
+      w[k] = upper ? f[k] : 1.0 - f[k];
+      s[k] = upper ? 1.0 : -1.0;
+      if (upper) offset += step[k];
     }
+    corner_values[corner] = origin + offset;
+    const double w01 = w[0] * w[1], w23 = w[2] * w[3];
+    weight[corner] = w01 * w23;
+    dweight[0][corner] = s[0] * w[1] * w23;
+    dweight[1][corner] = s[1] * w[0] * w23;
+    dweight[2][corner] = s[2] * w[3] * w01;
+    dweight[3][corner] = s[3] * w[2] * w01;
+  }
+  switch (channels_) {
+    case 3: return accumulate_corners<3>(corner_values, weight, dweight, 3, value, jacobian);
+    case 4: return accumulate_corners<4>(corner_values, weight, dweight, 4, value, jacobian);
+    case 6: return accumulate_corners<6>(corner_values, weight, dweight, 6, value, jacobian);
+    default: return accumulate_corners<0>(corner_values, weight, dweight, channels_, value, jacobian);
   }
 }
 

@@ -18,6 +18,40 @@ double Inverter::chi2_at(const double* measured, const double* weight, const Gri
   return chi2;
 }
 
+namespace {
+
+// Solves a·x = b for the symmetric positive definite 4×4 LM matrix by an
+// unrolled Cholesky factorisation (Eigen's pivoting LDLT is a library call
+// that cost as much as the table interpolation). A non-positive pivot (a
+// singular direction) gives a zero step along it.
+Eigen::Vector4d solve_spd(const Eigen::Matrix4d& a, const Eigen::Vector4d& b) {
+  double l[4][4] = {};
+  for (int j = 0; j < 4; ++j) {
+    double d = a(j, j);
+    for (int k = 0; k < j; ++k) d -= l[j][k] * l[j][k];
+    l[j][j] = d > 1e-300 ? std::sqrt(d) : 0.0;
+    for (int i = j + 1; i < 4; ++i) {
+      double v = a(i, j);
+      for (int k = 0; k < j; ++k) v -= l[i][k] * l[j][k];
+      l[i][j] = l[j][j] > 0 ? v / l[j][j] : 0.0;
+    }
+  }
+  double y[4], x[4];
+  for (int i = 0; i < 4; ++i) {
+    double v = b[i];
+    for (int k = 0; k < i; ++k) v -= l[i][k] * y[k];
+    y[i] = l[i][i] > 0 ? v / l[i][i] : 0.0;
+  }
+  for (int i = 3; i >= 0; --i) {
+    double v = y[i];
+    for (int k = i + 1; k < 4; ++k) v -= l[k][i] * x[k];
+    x[i] = l[i][i] > 0 ? v / l[i][i] : 0.0;
+  }
+  return {x[0], x[1], x[2], x[3]};
+}
+
+}  // namespace
+
 Fit Inverter::refine(const double* measured, const double* weight, int order, GridPoint x, int max_iterations) const {
   const int channels = table_->channels();
   const auto nodes = table_->nodes();
@@ -69,7 +103,7 @@ Fit Inverter::refine(const double* measured, const double* weight, int order, Gr
       Eigen::Vector4d g = jtr;
       for (int k = 0; k < 4; ++k)
         if (!active[k]) g[k] = 0;
-      const Eigen::Vector4d step = -a.ldlt().solve(g);
+      const Eigen::Vector4d step = -solve_spd(a, g);
       GridPoint candidate = fit.x;
       for (int k = 0; k < dims; ++k) {
         // At most two nodes per step: the interpolant is only piecewise linear.
@@ -105,14 +139,37 @@ namespace {
 // channel loop unrolls and the row loop vectorises.
 template <int C>
 void scan_row(const float* row, int count, int stride, const float* m, const float* w, float& best, int& best_index) {
-  for (int i = 0; i < count; i += stride) {
-    const float* node = row + static_cast<std::size_t>(i) * C;
-    float chi2 = 0;
-    for (int c = 0; c < C; ++c) {
-      const float r = (node[c] - m[c]) * w[c];
-      chi2 += r * r;
+  if (stride != 1) {
+    for (int i = 0; i < count; i += stride) {
+      const float* node = row + static_cast<std::size_t>(i) * C;
+      float chi2 = 0;
+      for (int c = 0; c < C; ++c) {
+        const float r = (node[c] - m[c]) * w[c];
+        chi2 += r * r;
+      }
+      if (chi2 < best) best = chi2, best_index = i;
     }
-    if (chi2 < best) best = chi2, best_index = i;
+    return;
+  }
+  // Contiguous nodes: χ² of a block without branches (vectorised), then its minimum.
+  constexpr int kBlock = 64;
+  float chi2[kBlock];
+  for (int first = 0; first < count; first += kBlock) {
+    const int n = std::min(kBlock, count - first);
+    const float* block = row + static_cast<std::size_t>(first) * C;
+    for (int i = 0; i < n; ++i) {
+      float sum = 0;
+      for (int c = 0; c < C; ++c) {
+        const float r = (block[i * C + c] - m[c]) * w[c];
+        sum += r * r;
+      }
+      chi2[i] = sum;
+    }
+    float block_best = best;
+    int block_index = -1;
+    for (int i = 0; i < n; ++i)
+      if (chi2[i] < block_best) block_best = chi2[i], block_index = i;
+    if (block_index >= 0) best = block_best, best_index = first + block_index;
   }
 }
 
@@ -160,7 +217,8 @@ GridPoint Inverter::node_search(const double* measured, const double* weight, in
   return best_x;
 }
 
-GridPoint Inverter::node_descent(const double* measured, const double* weight, int order, GridPoint start) const {
+GridPoint Inverter::node_descent(const double* measured, const double* weight, int order, GridPoint start,
+                                 bool diagonal_moves) const {
   const auto n = table_->nodes();
   const int channels = table_->channels();
   int at[4] = {static_cast<int>(std::lround(start[0])), static_cast<int>(std::lround(start[1])),
@@ -191,6 +249,7 @@ GridPoint Inverter::node_descent(const double* measured, const double* weight, i
         if (chi2 < best) best = chi2, std::copy(candidate, candidate + 4, best_move);
       }
     if (std::equal(best_move, best_move + 4, at)) {
+      if (!diagonal_moves) break;
       for (int k = 0; k < full; ++k) {
         int candidate[4] = {at[0], at[1], at[2], at[3]};
         int code = k;
@@ -228,52 +287,64 @@ FastInverter::FastInverter(std::shared_ptr<const ForwardTable> table) : Inverter
   const std::size_t node_count = t.grid().node_count();
   const int channels = t.channels();
   const std::vector<float>& v = t.values();
+  // Keys (log albedo of the first key_dims_ channels) once per node.
+  std::vector<float> keys(node_count * key_dims_);
+  for (std::size_t i = 0; i < node_count; ++i)
+    for (int k = 0; k < key_dims_; ++k) keys[i * key_dims_ + k] = static_cast<float>(key_value(v[i * channels + k]));
   for (int k = 0; k < key_dims_; ++k) {
-    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    float lo = std::numeric_limits<float>::infinity(), hi = -lo;
     for (std::size_t i = 0; i < node_count; ++i) {
-      const double key = key_value(v[i * channels + k]);
+      const float key = keys[i * key_dims_ + k];
       lo = std::min(lo, key), hi = std::max(hi, key);
     }
     key_min_[k] = lo;
-    key_scale_[k] = (kBins - 1e-9) / std::max(hi - lo, 1e-9);
+    key_scale_[k] = (kBins - 1e-6) / std::max(double(hi) - lo, 1e-9);
   }
   long cells = 1;
   for (int k = 0; k < key_dims_; ++k) cells *= kBins;
-  seeds_.assign(cells, kEmpty);
-  std::vector<float> distance(cells, std::numeric_limits<float>::infinity());
-  double measured[kMaxChannels];
+  // Bucket every node into its cell (counting sort), its values copied next to
+  // each other so that a pixel's scan of its cell reads contiguous memory.
+  std::vector<std::uint32_t> cell_of_node(node_count);
+  std::vector<std::uint32_t> count(cells + 1, 0);
   for (std::size_t i = 0; i < node_count; ++i) {
-    for (int c = 0; c < channels; ++c) measured[c] = v[i * channels + c];
-    const long cell = cell_of(measured);
-    if (cell < 0) continue;
-    float d = 0;
-    for (int k = 0; k < key_dims_; ++k) {
-      const double position = (key_value(measured[k]) - key_min_[k]) * key_scale_[k];
-      const double off = position - std::floor(position) - 0.5;
-      d += static_cast<float>(off * off);
+    long cell = 0, stride = 1;
+    for (int k = 0; k < key_dims_; ++k, stride *= kBins) {
+      const double position = (keys[i * key_dims_ + k] - key_min_[k]) * key_scale_[k];
+      cell += std::clamp(static_cast<long>(position), 0L, long(kBins) - 1) * stride;
     }
-    if (d < distance[cell]) distance[cell] = d, seeds_[cell] = static_cast<std::uint32_t>(i);
+    cell_of_node[i] = static_cast<std::uint32_t>(cell);
+    ++count[cell + 1];
   }
-  // Two dilation passes: cells next to the gamut's surface get a neighbour's
-  // seed (a pixel just outside the gamut, or in a cell no node fell into).
+  for (long cell = 0; cell < cells; ++cell) count[cell + 1] += count[cell];
+  buckets_.assign(cells, Bucket{});
+  for (long cell = 0; cell < cells; ++cell) buckets_[cell] = {count[cell], count[cell + 1] - count[cell]};
+  bucket_nodes_.resize(node_count);
+  bucket_values_.resize(node_count * channels);
+  for (std::size_t i = 0; i < node_count; ++i) {
+    const std::uint32_t slot = count[cell_of_node[i]]++;
+    bucket_nodes_[slot] = static_cast<std::uint32_t>(i);
+    std::copy_n(v.data() + i * channels, channels, bucket_values_.data() + std::size_t(slot) * channels);
+  }
+  // Two dilation passes: cells next to the gamut's surface share a
+  // neighbour's bucket (a pixel just outside the gamut).
   for (int pass = 0; pass < 2; ++pass) {
-    std::vector<std::uint32_t> next = seeds_;
+    std::vector<Bucket> next = buckets_;
     for (long cell = 0; cell < cells; ++cell) {
-      if (seeds_[cell] != kEmpty) continue;
+      if (buckets_[cell].count) continue;
       long stride = 1;
       for (int k = 0; k < key_dims_; ++k, stride *= kBins) {
         const long coordinate = cell / stride % kBins;
-        if (coordinate > 0 && seeds_[cell - stride] != kEmpty) { next[cell] = seeds_[cell - stride]; break; }
-        if (coordinate < kBins - 1 && seeds_[cell + stride] != kEmpty) { next[cell] = seeds_[cell + stride]; break; }
+        if (coordinate > 0 && buckets_[cell - stride].count) { next[cell] = buckets_[cell - stride]; break; }
+        if (coordinate < kBins - 1 && buckets_[cell + stride].count) { next[cell] = buckets_[cell + stride]; break; }
       }
     }
-    seeds_.swap(next);
+    buckets_.swap(next);
   }
 }
 
 double FastInverter::filled_share() const {
-  return static_cast<double>(std::count_if(seeds_.begin(), seeds_.end(), [](auto s) { return s != kEmpty; })) /
-         static_cast<double>(seeds_.size());
+  return static_cast<double>(std::count_if(buckets_.begin(), buckets_.end(), [](const Bucket& b) { return b.count; })) /
+         static_cast<double>(buckets_.size());
 }
 
 long FastInverter::cell_of(const double* measured) const {
@@ -296,12 +367,23 @@ GridPoint FastInverter::seed_point(std::uint32_t node) const {
 Fit FastInverter::fit(const double* measured, const double* weight, int order) const {
   const long cell = cell_of(measured);
   GridPoint start;
-  if (cell >= 0 && seeds_[cell] != kEmpty) {
-    start = seed_point(seeds_[cell]);
+  const bool in_table = cell >= 0 && buckets_[cell].count;
+  if (in_table) {
+    // The best node by χ² among the nodes whose predicted values fall in the
+    // pixel's cell: the nodes of every branch of the (non-unique) inverse there.
+    const Bucket& b = buckets_[cell];
+    const int channels = table_->channels();
+    float m[kMaxChannels], w[kMaxChannels];
+    for (int c = 0; c < channels; ++c) m[c] = static_cast<float>(measured[c]), w[c] = static_cast<float>(weight[c]);
+    float best = std::numeric_limits<float>::infinity();
+    int best_index = 0;
+    scan_row_any(channels, bucket_values_.data() + std::size_t(b.begin) * channels, static_cast<int>(b.count), 1, m, w,
+                 best, best_index);
+    start = seed_point(bucket_nodes_[b.begin + best_index]);
   } else {
     start = node_search(measured, weight, 4, 4);  // outside the inverse table: coarse search
   }
-  return refine(measured, weight, order, node_descent(measured, weight, order, start), 20);
+  return refine(measured, weight, order, node_descent(measured, weight, order, start, !in_table), 20);
 }
 
 }  // namespace chromo::estimation
