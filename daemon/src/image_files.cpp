@@ -2,10 +2,8 @@
 
 #include <tiffio.h>
 
-#include <ImfChannelList.h>
-#include <ImfFrameBuffer.h>
-#include <ImfHeader.h>
-#include <ImfOutputFile.h>
+#include "chromo/estimation/image_files.hpp"
+
 
 #include <memory>
 #include <stdexcept>
@@ -116,23 +114,17 @@ void write_float_exr(const std::filesystem::path& path, int width, int height,
     if (channel.values.size() != pixels)
       throw std::invalid_argument("EXR channel " + channel.name + ": " + std::to_string(channel.values.size()) +
                                   " values for " + std::to_string(pixels) + " pixels");
-  commit_file_durably(path, budget, [&](const std::filesystem::path& temporary) {
-    Imf::Header header(width, height);
-    header.compression() = Imf::ZIP_COMPRESSION;
-    Imf::FrameBuffer buffer;
-    for (const auto& channel : channels) {
-      header.channels().insert(channel.name, Imf::Channel(Imf::FLOAT));
-      buffer.insert(channel.name, Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(const_cast<float*>(channel.values.data())),
-                                             sizeof(float), sizeof(float) * static_cast<std::size_t>(width)));
-    }
-    try {
-      Imf::OutputFile file(temporary.c_str(), header);
-      file.setFrameBuffer(buffer);
-      file.writePixels(height);
-    } catch (const std::exception& error) {
-      throw std::runtime_error("OpenEXR could not write " + temporary.string() + ": " + error.what());
-    }
-  });
+  // estimation::write_exr writes FLOAT channels with OpenEXR's default (ZIP)
+  // compression; here it fills the temporary file of the durable commit.
+  estimation::FloatImage image;
+  image.width = width;
+  image.height = height;
+  for (const auto& channel : channels) {
+    image.channel_names.push_back(channel.name);
+    image.channels.push_back(channel.values);
+  }
+  commit_file_durably(path, budget,
+                      [&](const std::filesystem::path& temporary) { estimation::write_exr(temporary, image); });
 }
 
 }  // namespace chromo::daemon
