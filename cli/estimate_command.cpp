@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "chromo/estimation/estimator.hpp"
+#include "chromo/estimation/spatial_flags.hpp"
 #include "chromo/estimation/registration.hpp"
 #include "chromo/spectral/resample.hpp"
 #include "chromo/spectral/table.hpp"
@@ -35,6 +36,7 @@ struct EstimateOptions {
   std::string model = "auto";
   std::string cache_dir;
   int threads = 0;
+  bool neighbourhood = true;
 };
 
 class InputError : public std::runtime_error {
@@ -246,7 +248,14 @@ int run_estimate(const EstimateOptions& options) {
   const estimation::Estimator estimator(table, set, eo);
   const double inverter_setup_seconds = seconds_since(t);
   std::vector<estimation::PixelEstimate> out(pixels);
-  const estimation::EstimateSummary summary = estimator.estimate(measured, out);
+  estimation::EstimateSummary summary = estimator.estimate(measured, out);
+  estimation::NeighbourhoodSummary neighbourhood;
+  double neighbourhood_seconds = 0;
+  if (options.neighbourhood) {
+    t = std::chrono::steady_clock::now();
+    neighbourhood = estimation::refine_with_neighbourhood(estimator, measured, m.width, m.height, out, summary);
+    neighbourhood_seconds = seconds_since(t);
+  }
 
   // Maps.
   FloatImage maps;
@@ -284,7 +293,12 @@ int run_estimate(const EstimateOptions& options) {
   s["registration"] = registration;
   s["timings_s"] = {{"load", load_seconds},          {"registration", registration_seconds},
                     {"table", table_seconds},        {"inverter_setup", inverter_setup_seconds},
-                    {"estimate", summary.seconds}};
+                    {"estimate", summary.seconds},   {"neighbourhood", neighbourhood_seconds}};
+  s["neighbourhood"] = {{"enabled", options.neighbourhood},
+                        {"flagged_touching_flagged_regions", neighbourhood.flagged_touching},
+                        {"flagged_enclosed", neighbourhood.flagged_holes},
+                        {"order_changed_to_4", neighbourhood.order_to_4},
+                        {"order_changed_to_2", neighbourhood.order_to_2}};
   s["pixels"] = pixels;
   s["pixels_per_second"] = summary.seconds > 0 ? pixels / summary.seconds : 0.0;
   s["residual"] = {{"unit", "albedo RMS over channels"},
@@ -344,9 +358,12 @@ void add_estimate_command(CLI::App& app, int& exit_status) {
   cmd->add_option("--method", options->method, "inverter")
       ->check(CLI::IsMember({"exhaustive", "fast", "2d"}))
       ->capture_default_str();
-  cmd->add_option("--model", options->model, "model order: auto (χ² test per pixel), 2d or 4d")
+  cmd->add_option("--model", options->model, "model order: auto (χ² likelihood-ratio test, pooled over 7×7 windows unless --no-neighbourhood), 2d or 4d")
       ->check(CLI::IsMember({"auto", "2d", "4d"}))
       ->capture_default_str();
+  cmd->add_flag("!--no-neighbourhood", options->neighbourhood,
+                "skip the spatial second pass (flags from the neighbourhood, model order pooled over 7×7 windows; "
+                "estimation/spatial_flags.hpp)");
   cmd->add_option("--cache-dir", options->cache_dir, "table cache (default $CHROMO_CACHE_DIR or ~/.cache/chromosphere)");
   cmd->add_option("--threads", options->threads, "threads (0 = all cores)")->capture_default_str();
   cmd->callback([options, &exit_status] { exit_status = run_estimate(*options); });

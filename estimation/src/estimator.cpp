@@ -127,7 +127,7 @@ double Estimator::weight(int channel, double albedo) const {
 
 void Estimator::predict(const SkinParameters& p, double* out) const { table_->predict(table_->to_grid(p), out); }
 
-PixelEstimate Estimator::estimate_pixel(const float* m) const {
+PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const {
   PixelEstimate out;
   const int c_count = channels();
   double measured[kMaxChannels], weight[kMaxChannels];
@@ -154,13 +154,14 @@ PixelEstimate Estimator::estimate_pixel(const float* m) const {
   const Inverter& inv = *inverter_;
   Fit chosen;
   int order = 4;
-  if (options_.model == ModelChoice::k2d) {
+  if (model == ModelChoice::k2d || options_.method == InverterMethod::k2d) {
     chosen = inv.fit(measured, weight, 2);
     order = 2;
   } else {
     chosen = inv.fit(measured, weight, 4);
-    if (options_.model == ModelChoice::kAuto && order_threshold_ > 0) {
+    if (model == ModelChoice::kAuto && order_threshold_ > 0) {
       const Fit fit2 = inv.fit(measured, weight, 2);
+      out.order_statistic = static_cast<float>(std::max(fit2.chi2 - chosen.chi2, 0.0));
       if (fit2.chi2 - chosen.chi2 <= order_threshold_) chosen = fit2, order = 2;
     }
   }

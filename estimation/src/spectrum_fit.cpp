@@ -50,11 +50,35 @@ std::array<double, 3> delta_e94_components(const spectral::Lab& ref, const spect
   return {s.L - ref.L, (c2 - c1) / (1 + 0.045 * c1), big_dh / (1 + 0.015 * c1)};
 }
 
+// Per-wavelength weight of the spectral residual, divided by σ and normalised
+// so that the mean squared weight is 1/(σ²·81) as for the flat weighting.
+std::array<double, spectral::kGridSize> spectral_weights(const SpectrumFitOptions& options) {
+  // The reporting illuminants' mean relative power (D65, A, six LED types, each to unit sum).
+  spectral::Spectrum power = spectral::illuminant_d65() / spectral::illuminant_d65().values().sum() +
+                             spectral::illuminant_a() / spectral::illuminant_a().values().sum();
+  for (spectral::LedType t : spectral::kAllLedTypes) power = power + led_spectrum(t) / led_spectrum(t).values().sum();
+  const spectral::Observer& o = spectral::cie1931_observer();
+  std::array<double, spectral::kGridSize> w{};
+  double sum_squares = 0;
+  for (int i = 0; i < spectral::kGridSize; ++i) {
+    const double l = spectral::grid_wavelength_nm(i);
+    const double band = options.spectral_weighting == SpectralWeighting::kColourBand
+                            ? std::sqrt((o.x_bar[i] + o.y_bar[i] + o.z_bar[i]) * power[i])
+                            : 1.0;
+    w[i] = l >= options.spectral_min_nm && l <= options.spectral_max_nm ? band : 0.0;
+    sum_squares += band * band;
+  }
+  const double scale = std::sqrt(spectral::kGridSize / sum_squares) / (options.spectral_sigma * std::sqrt(spectral::kGridSize));
+  for (double& v : w) v *= scale;
+  return w;
+}
+
 struct Residual {
   const spectral::Spectrum* measured;
   spectral::Lab measured_lab;
   const SpectrumFitOptions* options;
   double specular;
+  std::array<double, spectral::kGridSize> weight;
   SkinParameters to_parameters(const double* x) const {
     return options->order == 4 ? SkinParameters{x[0], x[1], x[2], x[3]}
                                : SkinParameters{x[0], x[1], kModel2dBm, kModel2dChe};
@@ -62,11 +86,9 @@ struct Residual {
   bool operator()(const double* x, double* residual) const {
     const double surface = options->free_specular ? x[options->order] : specular;
     const spectral::Spectrum a = model().albedo(to_parameters(x)) + spectral::Spectrum::constant(surface);
-    const double scale = 1.0 / (options->spectral_sigma * std::sqrt(double(spectral::kGridSize)));
     for (int i = 0; i < spectral::kGridSize; ++i) {
-      const double l = spectral::grid_wavelength_nm(i);
-      const double w = (l >= options->spectral_min_nm && l <= options->spectral_max_nm) ? scale : 0.0;
-      residual[i] = (a[i] - (*measured)[i]) * w;
+      const double difference = a[i] - (*measured)[i];
+      residual[i] = weight[i] * difference;
     }
     const auto lab = delta_e94_components(measured_lab, lab_under(a, spectral::illuminant_d65()));
     for (int k = 0; k < 3; ++k) residual[spectral::kGridSize + k] = lab[k] / options->lab_sigma;
@@ -88,7 +110,8 @@ SpectrumFitResult fit_spectrum(const spectral::Spectrum& measured, const Spectru
   if (!options.IsValid(&error)) throw std::invalid_argument("fit options: " + error);
   if (!measured.values().allFinite()) throw std::invalid_argument("measured spectrum has non-finite values");
   const double specular = options.specular_included ? surface_reflectance() : 0.0;
-  Residual residual{&measured, lab_under(measured, spectral::illuminant_d65()), &options, specular};
+  Residual residual{&measured, lab_under(measured, spectral::illuminant_d65()), &options, specular,
+                    spectral_weights(options)};
 
   // Coarse grid of starting points (log-spaced Cm, Ch).
   struct Start {

@@ -193,15 +193,19 @@ TEST(FitSpectrumCommand, FitsTheNistForearmsAsJson) {
   ASSERT_EQ(r.exit_status, 0) << r.output.substr(0, 400);
   const nlohmann::json a = nlohmann::json::parse(r.output);
   ASSERT_EQ(a.size(), 50u);
-  double d65 = 0;
+  double d65 = 0, a_mean = 0, leds = 0;
   for (const auto& o : a) {
     for (const char* key : {"sample", "cm", "ch", "bm", "che", "specular", "de94_d65", "de94_a", "rms"})
       EXPECT_TRUE(o.contains(key)) << key;
     EXPECT_EQ(o["specular"].get<double>(), 0.0);
-    d65 += o["de94_d65"].get<double>();
+    d65 += o["de94_d65"].get<double>() / a.size();
+    a_mean += o["de94_a"].get<double>() / a.size();
+    leds += o["de94_led_mean"].get<double>() / a.size();
   }
-  // Measured 0.082 (docs/estimation.md).
-  EXPECT_LE(d65 / a.size(), 0.2);
+  // Issue 6 targets for the 4D fit; measured 0.195, 0.248, 0.473 (docs/estimation.md).
+  EXPECT_LE(d65, 0.2);
+  EXPECT_LE(a_mean, 0.25);
+  EXPECT_LE(leds, 0.5);
 }
 
 TEST(FitSpectrumCommand, RejectsAFileWithoutWavelengths) {

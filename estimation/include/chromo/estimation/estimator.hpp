@@ -61,6 +61,9 @@ struct PixelEstimate {
   SkinParameters parameters{0, 0, 0, 0};
   float residual = 0;   // RMS of predicted − measured over the channels, albedo units
   float chi2 = 0;       // noise-weighted residual of the chosen fit
+  // χ²₂ − χ²₄ when the auto model fitted both orders (the likelihood-ratio
+  // statistic; spatial_flags.hpp pools it over regions), else 0.
+  float order_statistic = 0;
   std::uint8_t order = 0;   // 2 or 4; 0 for pixels flagged before fitting
   PixelFlag flag = PixelFlag::kExplained;
 };
@@ -110,8 +113,9 @@ class Estimator {
   const Inverter& inverter() const { return *inverter_; }
   const ForwardTable& table() const { return *table_; }
 
-  // One pixel (channels() values).
-  PixelEstimate estimate_pixel(const float* measured) const;
+  // One pixel (channels() values), with the options' model or a given one.
+  PixelEstimate estimate_pixel(const float* measured) const { return estimate_pixel(measured, options_.model); }
+  PixelEstimate estimate_pixel(const float* measured, ModelChoice model) const;
   // measured.size() == out.size() · channels(); std::invalid_argument otherwise.
   EstimateSummary estimate_tile(std::span<const float> measured, std::span<PixelEstimate> out) const;
   // The whole image on options().threads threads, tile by tile.
@@ -120,6 +124,10 @@ class Estimator {
 
   // Predicted measurement of parameters through the table (for residual maps).
   void predict(const SkinParameters& p, double* out) const;
+  // 1/σ_c of a channel at an albedo (camera noise and model error), as the fits use it.
+  double weight(int channel, double albedo) const;
+  // χ² above which a fit with `free_parameters` (2 or 4) free leaves a pixel unexplained.
+  double flag_threshold(int free_parameters) const { return flag_threshold_[free_parameters == 2 ? 2 : 4]; }
 
  private:
   std::shared_ptr<const ForwardTable> table_;
@@ -129,7 +137,6 @@ class Estimator {
   std::unique_ptr<Inverter> inverter_2d_;
   double order_threshold_ = 0;
   double flag_threshold_[5] = {};  // by free parameters (index 2 and 4)
-  double weight(int channel, double albedo) const;
 };
 
 std::unique_ptr<Inverter> make_inverter(InverterMethod method, std::shared_ptr<const ForwardTable> table);

@@ -1,7 +1,8 @@
 #pragma once
 // Per-pixel flag codes of the estimator's output (maps.exr "flags" channel,
 // summary.json "flag_counts"). 0: the model explains the pixel. Otherwise one
-// code saying why not, checked in this order:
+// code saying why not, checked in this order (1-6 per pixel by Estimator, 7 by
+// the spatial second pass of spatial_flags.hpp):
 
 #include <cstdint>
 #include <string_view>
@@ -18,12 +19,17 @@ enum class PixelFlag : std::uint8_t {
   kUnexplainedAbsorber = 5,  // no parameters explain it and it is darker than the best fit in
                              // every channel: tattoo ink, dark veins, dirt (best-fit parameters kept)
   kUnexplainedColour = 6,    // no parameters explain it otherwise: marker pen, paint, dye
+  kNeighbourhood = 7,        // explained alone, but part of a region that deviates from the skin
+                             // around it and either touches a flagged region or differs from it
+                             // by more than a Cm/Ch change (spatial_flags.hpp): weak tattoo or
+                             // marker rims, weak highlights (fitted parameters kept, not to be trusted)
 };
-inline constexpr int kPixelFlagCount = 7;
+inline constexpr int kPixelFlagCount = 8;
 
 constexpr std::string_view pixel_flag_name(PixelFlag flag) {
   constexpr std::string_view kNames[kPixelFlagCount] = {
-      "explained", "non_finite", "saturated", "dark", "specular", "unexplained_absorber", "unexplained_colour"};
+      "explained", "non_finite", "saturated", "dark", "specular", "unexplained_absorber", "unexplained_colour",
+      "neighbourhood"};
   return kNames[static_cast<int>(flag)];
 }
 

@@ -3,8 +3,9 @@
 // spectrophotometer), for `chromo fit-spectrum` and model validation.
 //
 // Objective (weights justified in docs/estimation.md):
-//   cost = Σ_λ ((model_λ + specular − measured_λ) / spectral_sigma)² / 81
+//   cost = Σ_λ w_λ² ((model_λ + specular − measured_λ) / spectral_sigma)² / Σ_λ w_λ²
 //        + (ΔE94(measured, model) under D65 / lab_sigma)²
+// with w_λ from SpectralWeighting (default: the colour-forming band).
 // minimised with Ceres (bounded trust region, numeric derivatives of the pinned
 // forward model) from the best few of a coarse grid of starting points. The
 // spectral term keeps the spectrum's shape (so the fit carries over to other
@@ -24,13 +25,24 @@
 
 namespace chromo::estimation {
 
+// How the spectral term weighs wavelengths. kFlat: every 5 nm sample alike.
+// kColourBand (default): sample λ's squared error weighted by
+// (x̄ + ȳ + z̄)(λ) · Ē(λ), Ē the mean relative power of the illuminants the fit
+// is reported under (D65, A, the six LED types, each scaled to unit sum): an
+// error counts as much as it can move a colour under those lights, so the fit
+// does not spend its freedom on 380-400 or 700-780 nm where no reported colour
+// is formed (docs/estimation.md). Normalised to a mean squared weight of 1,
+// so that spectral_sigma keeps its meaning.
+enum class SpectralWeighting { kFlat, kColourBand };
+
 struct SpectrumFitOptions {
   int order = 4;                   // 4 or 2 (βm = 0.7, Che = 0)
   bool specular_included = false;
   bool free_specular = false;      // fit the surface constant (0-0.1) instead of fixing it
   double spectral_sigma = 0.01;    // reflectance units
-  double lab_sigma = 0.1;          // ΔE94 units
+  double lab_sigma = 0.55;         // ΔE94 units (docs/estimation.md: the weights and what they give)
   double spectral_min_nm = 380, spectral_max_nm = 780;  // wavelengths of the spectral term
+  SpectralWeighting spectral_weighting = SpectralWeighting::kColourBand;
   int starts = 3;                  // Ceres runs from the best coarse-grid nodes
   bool IsValid(std::string* error) const;
 };

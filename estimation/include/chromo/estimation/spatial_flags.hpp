@@ -1,0 +1,93 @@
+#pragma once
+// Second, spatial pass of the estimator: decisions one pixel cannot make.
+//
+// One pixel is ambiguous: tattoo ink over light skin at low coverage looks like
+// more melanin, a weak surface reflection looks like paler skin, and a pixel of
+// a 4D-model region whose βm/Che effect is below its own noise passes the 2D
+// test. Skin varies smoothly (Cm, βm, Che over centimetres; only moles and
+// vessels change faster), so a pixel is judged against its neighbourhood:
+//
+// Flags (refine_flags_with_neighbourhood), PixelFlag::kNeighbourhood:
+//  1. Background: for every pixel, the skin its neighbours predict: per
+//     channel a local quadratic fit (normalised convolution of order 2,
+//     Gaussian σ = background_sigma_px) of the measured values of explained,
+//     non-deviating pixels at least exclusion_px away from any flagged pixel
+//     (a flagged region's weak rim must not serve as its own background).
+//  2. Deviation: z_c = (measured − background)/σ_c (camera noise plus
+//     background_sigma_relative·albedo), averaged with Gaussian weights g
+//     (σ = deviation_sigma_px) over the neighbours of the same class
+//     (deviating or not, so neither bleeds into the other). The average's
+//     statistic T = Σ_c z̄_c² · (Σg)²/Σg² is χ² with C degrees of freedom for
+//     skin; T above its (1 − significance) quantile makes a pixel deviating.
+//     The deviating set is iterated (it leaves the background) until it
+//     settles.
+//  3. 8-connected regions of deviating pixels that touch a flagged pixel
+//     (first pass or this one) are flagged: the weak rim of a tattoo or a
+//     marker stroke, the part of a highlight that looks like paler skin.
+//     Deviating regions that touch nothing stay explained: a mole or a
+//     vessel's explainable part deviates from its surroundings too, and one
+//     region's mean cannot tell a surface reflection from a Cm/Ch change
+//     (tried: a Cm/Ch jump test passed highlights and failed a mole).
+//  4. Repeated until no region joins (at most max_passes).
+//  5. Holes: explained regions of at most max_hole_px enclosed by flagged
+//     pixels (not reaching the image border) are flagged.
+//  Limits (docs/estimation.md): skin next to a flagged vein whose explainable
+//  part (higher Ch) deviates joins it, so some skin is flagged there.
+//
+// Model order (pool_model_order): the likelihood-ratio statistic χ²₂ − χ²₄ of
+// the explained pixels is summed over a square window of order_window_px;
+// under the 2D model the sum of N pixels' statistics is χ² with 2N degrees of
+// freedom (independent noise), so the window test keeps the single pixel
+// test's significance while the 4D effect of a region adds up N times.
+// A pixel whose window decides 4 but that chose 2 is refitted in 4D; one whose
+// window decides 2 but chose 4 is refitted in 2D unless its own 2D fit is not
+// explained (then it stays 4).
+//
+// Thread rules: free functions over caller-owned buffers; reentrant. They use
+// OpenCV (single call, OpenCV's own threads).
+
+#include <span>
+#include <string>
+
+#include "chromo/estimation/estimator.hpp"
+
+namespace chromo::estimation {
+
+struct NeighbourhoodOptions {
+  double background_sigma_px = 6;
+  int exclusion_px = 6;  // the background ignores pixels this close to a flagged one
+  double deviation_sigma_px = 0.7;
+  double background_sigma_relative = 0.004;  // background model error, relative to albedo
+  double significance = 1e-5;
+  double jump_significance = 1e-3;
+  double touching_jump_significance = 0.05;  // for a region touching a flagged one
+  double jump_sigma_relative = 0.004;
+  int max_passes = 20;
+  int max_hole_px = 1024;  // explained regions enclosed by flagged pixels up to this size are flagged
+  int order_window_px = 7;
+  bool IsValid(std::string* error) const;
+};
+
+struct NeighbourhoodSummary {
+  std::size_t flagged_touching = 0;   // pixels flagged because their region touches a flagged one
+  std::size_t flagged_holes = 0;      // explained pixels enclosed by flagged ones
+  std::size_t order_to_4 = 0, order_to_2 = 0;
+  int passes = 0;
+};
+
+// measured: width·height·channels (the estimator's input), estimates: width·height,
+// the first pass's output, updated in place (flags, and for changed orders the
+// refitted pixel). Throws std::invalid_argument on size mismatch.
+NeighbourhoodSummary refine_flags_with_neighbourhood(const Estimator& estimator, std::span<const float> measured,
+                                                     int width, int height, std::span<PixelEstimate> estimates,
+                                                     const NeighbourhoodOptions& options = {});
+// Both, flags first (so that flagged pixels do not vote on the order), then
+// the order; summary's flag and order counts are recounted from estimates.
+NeighbourhoodSummary refine_with_neighbourhood(const Estimator& estimator, std::span<const float> measured, int width,
+                                               int height, std::span<PixelEstimate> estimates, EstimateSummary& summary,
+                                               const NeighbourhoodOptions& options = {});
+NeighbourhoodSummary pool_model_order(const Estimator& estimator, std::span<const float> measured, int width,
+                                      int height, std::span<PixelEstimate> estimates,
+                                      const NeighbourhoodOptions& options = {});
+
+}  // namespace chromo::estimation
