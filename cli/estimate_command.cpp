@@ -36,7 +36,8 @@ struct EstimateOptions {
   std::string model = "auto";
   std::string cache_dir;
   int threads = 0;
-  bool neighbourhood = true;
+  bool neighbourhood_flags = false;
+  bool order_pooling = true;
 };
 
 class InputError : public std::runtime_error {
@@ -251,9 +252,12 @@ int run_estimate(const EstimateOptions& options) {
   estimation::EstimateSummary summary = estimator.estimate(measured, out);
   estimation::NeighbourhoodSummary neighbourhood;
   double neighbourhood_seconds = 0;
-  if (options.neighbourhood) {
+  if (options.neighbourhood_flags || options.order_pooling) {
+    estimation::NeighbourhoodOptions no;
+    no.flags = options.neighbourhood_flags;
+    no.pool_order = options.order_pooling;
     t = std::chrono::steady_clock::now();
-    neighbourhood = estimation::refine_with_neighbourhood(estimator, measured, m.width, m.height, out, summary);
+    neighbourhood = estimation::refine_with_neighbourhood(estimator, measured, m.width, m.height, out, summary, no);
     neighbourhood_seconds = seconds_since(t);
   }
 
@@ -294,7 +298,8 @@ int run_estimate(const EstimateOptions& options) {
   s["timings_s"] = {{"load", load_seconds},          {"registration", registration_seconds},
                     {"table", table_seconds},        {"inverter_setup", inverter_setup_seconds},
                     {"estimate", summary.seconds},   {"neighbourhood", neighbourhood_seconds}};
-  s["neighbourhood"] = {{"enabled", options.neighbourhood},
+  s["neighbourhood"] = {{"flags", options.neighbourhood_flags},
+                        {"order_pooling", options.order_pooling},
                         {"flagged_touching_flagged_regions", neighbourhood.flagged_touching},
                         {"flagged_enclosed", neighbourhood.flagged_holes},
                         {"order_changed_to_4", neighbourhood.order_to_4},
@@ -358,12 +363,15 @@ void add_estimate_command(CLI::App& app, int& exit_status) {
   cmd->add_option("--method", options->method, "inverter")
       ->check(CLI::IsMember({"exhaustive", "fast", "2d"}))
       ->capture_default_str();
-  cmd->add_option("--model", options->model, "model order: auto (χ² likelihood-ratio test, pooled over 7×7 windows unless --no-neighbourhood), 2d or 4d")
+  cmd->add_option("--model", options->model, "model order: auto (χ² likelihood-ratio test, pooled over 7×7 windows unless --no-order-pooling), 2d or 4d")
       ->check(CLI::IsMember({"auto", "2d", "4d"}))
       ->capture_default_str();
-  cmd->add_flag("!--no-neighbourhood", options->neighbourhood,
-                "skip the spatial second pass (flags from the neighbourhood, model order pooled over 7×7 windows; "
-                "estimation/spatial_flags.hpp)");
+  cmd->add_flag("--neighbourhood-flags", options->neighbourhood_flags,
+                "also flag pixels from their neighbourhood (code 7: weak rims of flagged regions, weak highlights; "
+                "assumes skin varies slowly over ~20 px, see docs/estimation.md)");
+  cmd->add_flag("!--no-order-pooling", options->order_pooling,
+                "with --model auto, decide the order per pixel only (default: the likelihood-ratio statistic pooled "
+                "over 7×7 windows)");
   cmd->add_option("--cache-dir", options->cache_dir, "table cache (default $CHROMO_CACHE_DIR or ~/.cache/chromosphere)");
   cmd->add_option("--threads", options->threads, "threads (0 = all cores)")->capture_default_str();
   cmd->callback([options, &exit_status] { exit_status = run_estimate(*options); });

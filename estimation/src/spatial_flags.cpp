@@ -206,20 +206,15 @@ NeighbourhoodSummary refine_flags_with_neighbourhood(const Estimator& estimator,
         if (r == 0) continue;
         if (flagged_near.at<std::uint8_t>(y, x)) touches[r] = 1;
       }
-    std::vector<char> flag_region(regions, 0);
     std::size_t added = 0;
-    for (int r = 1; r < regions; ++r) {
-      if (!touches[r]) continue;
-      flag_region[r] = 1;
-      const auto n = static_cast<std::size_t>(stats.at<int>(r, cv::CC_STAT_AREA));
-      summary.flagged_touching += n;
-      added += n;
-    }
+    for (int r = 1; r < regions; ++r)
+      if (touches[r]) added += static_cast<std::size_t>(stats.at<int>(r, cv::CC_STAT_AREA));
     if (added == 0) break;
+    summary.flagged_touching += added;
     for (std::size_t p = 0; p < pixels; ++p) {
       const int y = static_cast<int>(p / width), x = static_cast<int>(p % width);
       const int r = labels.at<int>(y, x);
-      if (r > 0 && flag_region[r]) estimates[p].flag = PixelFlag::kNeighbourhood, candidate.at<std::uint8_t>(y, x) = 0;
+      if (r > 0 && touches[r]) estimates[p].flag = PixelFlag::kNeighbourhood, candidate.at<std::uint8_t>(y, x) = 0;
     }
   }
   // Holes: explained pixels enclosed by flagged ones (not reaching the image
@@ -290,9 +285,12 @@ NeighbourhoodSummary pool_model_order(const Estimator& estimator, std::span<cons
 NeighbourhoodSummary refine_with_neighbourhood(const Estimator& estimator, std::span<const float> measured, int width,
                                                int height, std::span<PixelEstimate> estimates, EstimateSummary& summary,
                                                const NeighbourhoodOptions& options) {
-  NeighbourhoodSummary s = refine_flags_with_neighbourhood(estimator, measured, width, height, estimates, options);
-  const NeighbourhoodSummary order = pool_model_order(estimator, measured, width, height, estimates, options);
-  s.order_to_2 = order.order_to_2, s.order_to_4 = order.order_to_4;
+  NeighbourhoodSummary s;
+  if (options.flags) s = refine_flags_with_neighbourhood(estimator, measured, width, height, estimates, options);
+  if (options.pool_order) {
+    const NeighbourhoodSummary order = pool_model_order(estimator, measured, width, height, estimates, options);
+    s.order_to_2 = order.order_to_2, s.order_to_4 = order.order_to_4;
+  }
   std::fill(std::begin(summary.flag_counts), std::end(summary.flag_counts), 0);
   summary.order2 = summary.order4 = 0;
   for (const PixelEstimate& e : estimates) {

@@ -65,6 +65,9 @@ struct NeighbourhoodOptions {
   int max_passes = 20;
   int max_hole_px = 1024;  // explained regions enclosed by flagged pixels up to this size are flagged
   int order_window_px = 7;
+  // refine_with_neighbourhood(): which of the two parts to run.
+  bool flags = true;
+  bool pool_order = true;
   bool IsValid(std::string* error) const;
 };
 
@@ -81,8 +84,9 @@ struct NeighbourhoodSummary {
 NeighbourhoodSummary refine_flags_with_neighbourhood(const Estimator& estimator, std::span<const float> measured,
                                                      int width, int height, std::span<PixelEstimate> estimates,
                                                      const NeighbourhoodOptions& options = {});
-// Both, flags first (so that flagged pixels do not vote on the order), then
-// the order; summary's flag and order counts are recounted from estimates.
+// Both (as options.flags / options.pool_order say), flags first so that
+// flagged pixels do not vote on the order; summary's flag and order counts
+// are recounted from estimates.
 NeighbourhoodSummary refine_with_neighbourhood(const Estimator& estimator, std::span<const float> measured, int width,
                                                int height, std::span<PixelEstimate> estimates, EstimateSummary& summary,
                                                const NeighbourhoodOptions& options = {});
