@@ -19,7 +19,8 @@ bool NeighbourhoodOptions::IsValid(std::string* error) const {
   if (!(background_sigma_px >= 1 && background_sigma_px <= 100)) return fail("background_sigma_px must be 1-100");
   if (!(deviation_sigma_px >= 0.3 && deviation_sigma_px <= 20)) return fail("deviation_sigma_px must be 0.3-20");
   if (!(background_sigma_relative >= 0)) return fail("background_sigma_relative must be >= 0");
-  if (!(significance > 0 && significance < 1)) return fail("significance must be in (0, 1)");
+  if (!(significance > 0 && significance < 1) || !(rim_significance > 0 && rim_significance < 1))
+    return fail("significance and rim_significance must be in (0, 1)");
   if (exclusion_px < 0 || exclusion_px > 100) return fail("exclusion_px must be 0-100");
   if (max_hole_px < 0) return fail("max_hole_px must be >= 0");
   if (max_passes < 1) return fail("max_passes must be >= 1");
@@ -120,6 +121,7 @@ NeighbourhoodSummary refine_flags_with_neighbourhood(const Estimator& estimator,
   const std::size_t pixels = estimates.size();
   NeighbourhoodSummary summary;
   const double deviation_threshold = chi_squared_quantile(1 - options.significance, channels);
+  const double rim_threshold = chi_squared_quantile(1 - options.rim_significance, channels);
   const cv::Mat h = kernel(options.deviation_sigma_px, 0);
   cv::Mat h2;
   cv::multiply(h, h, h2);
@@ -168,7 +170,8 @@ NeighbourhoodSummary refine_flags_with_neighbourhood(const Estimator& estimator,
           z[c].at<float>(y, x) = static_cast<float>((m - b) / sigma);
         }
     }
-    cv::Mat next(height, width, CV_8U, cv::Scalar(0));
+    cv::Mat next(height, width, CV_8U, cv::Scalar(0)), rim;
+    cv::dilate(good == 0, rim, cv::Mat::ones(3, 3, CV_8U));
     for (const cv::Mat* cls : {&steady, &deviating}) {
       const cv::Mat sum_g = filter(*cls, h, h), sum_g2 = filter(*cls, h2, h2);
       std::vector<cv::Mat> z_mean(channels);
@@ -181,7 +184,7 @@ NeighbourhoodSummary refine_flags_with_neighbourhood(const Estimator& estimator,
           double t = 0;
           for (int c = 0; c < channels; ++c) t += std::pow(z_mean[c].at<float>(y, x) / sg, 2);
           t *= sg * sg / sg2;
-          if (t > deviation_threshold) next.at<std::uint8_t>(y, x) = 1;
+          if (t > (rim.at<std::uint8_t>(y, x) ? rim_threshold : deviation_threshold)) next.at<std::uint8_t>(y, x) = 1;
         }
     }
     const bool changed = cv::countNonZero(next != candidate) > 0;

@@ -18,7 +18,9 @@
 //     (σ = deviation_sigma_px) over the neighbours of the same class
 //     (deviating or not, so neither bleeds into the other). The average's
 //     statistic T = Σ_c z̄_c² · (Σg)²/Σg² is χ² with C degrees of freedom for
-//     skin; T above its (1 − significance) quantile makes a pixel deviating.
+//     skin; T above its (1 − significance) quantile makes a pixel deviating
+//     (1 − rim_significance next to a flagged pixel: a hysteresis, as an edge
+//     detector lowers its threshold next to a known edge).
 //     The deviating set is iterated (it leaves the background) until it
 //     settles.
 //  3. 8-connected regions of deviating pixels that touch a flagged pixel
@@ -55,13 +57,11 @@ namespace chromo::estimation {
 
 struct NeighbourhoodOptions {
   double background_sigma_px = 6;
-  int exclusion_px = 6;  // the background ignores pixels this close to a flagged one
+  int exclusion_px = 6;                      // the background ignores pixels this close to a flagged one
   double deviation_sigma_px = 0.7;
   double background_sigma_relative = 0.004;  // background model error, relative to albedo
-  double significance = 1e-5;
-  double jump_significance = 1e-3;
-  double touching_jump_significance = 0.05;  // for a region touching a flagged one
-  double jump_sigma_relative = 0.004;
+  double significance = 1e-5;                // per pixel test of the averaged deviation
+  double rim_significance = 1e-3;            // the same for pixels next to a flagged one (hysteresis)
   int max_passes = 20;
   int max_hole_px = 1024;  // explained regions enclosed by flagged pixels up to this size are flagged
   int order_window_px = 7;
