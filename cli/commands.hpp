@@ -16,6 +16,12 @@ void add_profiles_command(CLI::App& app, int& exit_status);
 void add_leds_command(CLI::App& app, int& exit_status);
 void add_fit_spectrum_command(CLI::App& app, int& exit_status);
 void add_estimate_command(CLI::App& app, int& exit_status);
+// What the maps are for (docs/maps.md); import-maps also registers make-maps-test-data.
+void add_relight_command(CLI::App& app, int& exit_status);
+void add_flush_command(CLI::App& app, int& exit_status);
+void add_import_maps_command(CLI::App& app, int& exit_status);
+// Runs a map operation: std::invalid_argument → kExitBadInput, other errors → kExitFailure (message on stderr).
+int run_map_operation(const char* command, const std::function<void()>& operation);
 // `chromo leds measure`, under the `leds` subcommand (leds_measure.cpp).
 void add_leds_measure_command(CLI::App* leds, int& exit_status);
 // Operator commands talking to chromod (daemon_client.hpp).

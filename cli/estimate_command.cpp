@@ -10,8 +10,9 @@
 #include <nlohmann/json.hpp>
 
 #include "chromo/estimation/estimator.hpp"
+#include "chromo/estimation/measurement_file.hpp"
+#include "chromo/estimation/output_batch.hpp"
 #include "chromo/estimation/spatial_flags.hpp"
-#include "chromo/estimation/registration.hpp"
 #include "chromo/spectral/resample.hpp"
 #include "chromo/spectral/table.hpp"
 #include "commands.hpp"
@@ -24,7 +25,6 @@ namespace fs = std::filesystem;
 using estimation::FloatImage;
 using estimation::ImageError;
 using estimation::PixelFlag;
-using estimation::read_exr;
 using estimation::write_category_png;
 using estimation::write_exr;
 using estimation::write_map_png;
@@ -40,120 +40,6 @@ struct EstimateOptions {
   bool order_pooling = true;
 };
 
-class InputError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
-
-struct LoadedImage {
-  std::string name;
-  FloatImage pixels;
-  std::vector<std::string> channels;  // camera channels used: R, G, B
-  spectral::Spectrum illuminant;
-  estimation::ChannelNoise noise;
-};
-
-struct Measurement {
-  spectral::CameraSensitivity camera;
-  std::vector<LoadedImage> images;
-  int width = 0, height = 0;
-};
-
-estimation::ChannelNoise parse_noise(const nlohmann::json& j, estimation::ChannelNoise base, const std::string& where) {
-  if (j.is_null()) return base;
-  if (!j.is_object()) throw InputError(where + ": 'noise' must be an object");
-  for (const auto& [key, value] : j.items()) {
-    if (!value.is_number()) throw InputError(where + ": noise." + key + " must be a number");
-    if (key == "read_sigma") base.read_sigma = value.get<double>();
-    else if (key == "shot_coefficient") base.shot_coefficient = value.get<double>();
-    else if (key == "saturation_albedo") base.saturation_albedo = value.get<double>();
-    else throw InputError(where + ": unknown noise key '" + key + "' (read_sigma, shot_coefficient, saturation_albedo)");
-  }
-  return base;
-}
-
-Measurement load_measurement(const fs::path& file) {
-  std::ifstream in(file);
-  if (!in) throw InputError(file.string() + ": cannot open");
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw InputError(file.string() + ": not valid JSON: " + e.what());
-  }
-  const fs::path base = file.parent_path();
-  auto resolve = [&](const std::string& p) { return fs::path(p).is_absolute() ? fs::path(p) : base / p; };
-  auto need_string = [&](const nlohmann::json& o, const char* key, const std::string& where) {
-    if (!o.contains(key) || !o[key].is_string()) throw InputError(where + ": missing string '" + key + "'");
-    return o[key].get<std::string>();
-  };
-  Measurement m;
-  const std::string camera = need_string(j, "camera", file.string());
-  try {
-    m.camera = camera.rfind("builtin:", 0) == 0 ? spectral::builtin_camera(camera.substr(8))
-                                                : spectral::read_camera_sensitivity(resolve(camera));
-  } catch (const spectral::DataError& e) {
-    throw InputError(std::string("camera: ") + e.what());
-  }
-  const estimation::ChannelNoise default_noise = parse_noise(j.value("noise", nlohmann::json()), {}, file.string());
-  if (!j.contains("images") || !j["images"].is_array() || j["images"].empty())
-    throw InputError(file.string() + ": 'images' must be a non-empty array");
-  for (std::size_t k = 0; k < j["images"].size(); ++k) {
-    const nlohmann::json& o = j["images"][k];
-    const std::string where = fmt::format("{}: images[{}]", file.string(), k);
-    if (!o.is_object()) throw InputError(where + " must be an object");
-    LoadedImage image;
-    image.name = o.value("name", fmt::format("image{}", k));
-    try {
-      image.pixels = read_exr(resolve(need_string(o, "file", where)));
-      image.illuminant = spectral::read_spectrum_file(resolve(need_string(o, "illuminant", where)));
-    } catch (const ImageError& e) {
-      throw InputError(where + ": " + e.what());
-    } catch (const spectral::DataError& e) {
-      throw InputError(where + ": illuminant: " + e.what());
-    }
-    if (!o.contains("channels") || !o["channels"].is_array() || o["channels"].empty())
-      throw InputError(where + ": 'channels' must be a non-empty array of \"R\", \"G\", \"B\"");
-    for (const auto& c : o["channels"]) {
-      if (!c.is_string() || (c != "R" && c != "G" && c != "B"))
-        throw InputError(where + ": channel " + c.dump() + " is not \"R\", \"G\" or \"B\"");
-      try {
-        image.pixels.channel(c.get<std::string>());
-      } catch (const ImageError& e) {
-        throw InputError(where + ": " + e.what());
-      }
-      image.channels.push_back(c.get<std::string>());
-    }
-    image.noise = parse_noise(o.value("noise", nlohmann::json()), default_noise, where);
-    if (k == 0) m.width = image.pixels.width, m.height = image.pixels.height;
-    if (image.pixels.width != m.width || image.pixels.height != m.height)
-      throw InputError(fmt::format("{}: {}×{} pixels, but images[0] has {}×{}", where, image.pixels.width,
-                                   image.pixels.height, m.width, m.height));
-    m.images.push_back(std::move(image));
-  }
-  return m;
-}
-
-int channel_index(const std::string& name) { return name == "R" ? 0 : name == "G" ? 1 : 2; }
-
-struct OutputFiles {
-  fs::path dir;
-  std::vector<std::pair<fs::path, fs::path>> pending;  // temporary → final
-  fs::path temporary(const std::string& name) {
-    const fs::path t = dir / (".tmp-" + name), f = dir / name;
-    pending.emplace_back(t, f);
-    return t;
-  }
-  void commit() {
-    for (const auto& [t, f] : pending) fs::rename(t, f);
-    pending.clear();
-  }
-  ~OutputFiles() {
-    std::error_code ec;
-    for (const auto& [t, f] : pending) fs::remove(t, ec);
-  }
-};
-
 int run_estimate(const EstimateOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   auto seconds_since = [](auto t) { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count(); };
@@ -163,10 +49,10 @@ int run_estimate(const EstimateOptions& options) {
                  "build does not read yet. Give a MEASUREMENT.json (docs/formats/measurement.md).\n";
     return kExitBadInput;
   }
-  Measurement m;
+  estimation::MeasurementFile m;
   try {
-    m = load_measurement(options.input);
-  } catch (const InputError& e) {
+    m = estimation::read_measurement_file(options.input);
+  } catch (const estimation::MeasurementFileError& e) {
     std::cerr << "chromo estimate: " << e.what() << "\n";
     return kExitBadInput;
   }
@@ -175,43 +61,24 @@ int run_estimate(const EstimateOptions& options) {
   // Register every further image to images[0] on the first channel both use.
   auto t = std::chrono::steady_clock::now();
   nlohmann::ordered_json registration = nlohmann::ordered_json::array();
-  for (std::size_t k = 1; k < m.images.size(); ++k) {
-    LoadedImage& image = m.images[k];
-    std::string shared;
-    for (const auto& c : image.channels)
-      if (std::find(m.images[0].channels.begin(), m.images[0].channels.end(), c) != m.images[0].channels.end()) {
-        shared = c;
-        break;
-      }
-    if (shared.empty()) shared = image.channels.front();
-    try {
-      const estimation::RegistrationResult r = estimation::register_channel(
-          m.images[0].pixels.channel(shared), image.pixels.channel(shared), m.width, m.height);
-      for (auto& channel : image.pixels.channels) channel = estimation::warp_channel(channel, m.width, m.height, r);
-      registration.push_back({{"image", image.name},
-                              {"reference", m.images[0].name},
-                              {"channel", shared},
-                              {"shift_x_px", r.shift_x_px},
-                              {"shift_y_px", r.shift_y_px},
-                              {"rotation_deg", r.rotation_deg},
-                              {"correlation", r.correlation},
-                              {"residual_motion_px", r.residual_motion_px}});
-    } catch (const estimation::RegistrationError& e) {
-      std::cerr << "chromo estimate: registering " << image.name << " to " << m.images[0].name << ": " << e.what()
-                << "\n";
-      return kExitBadInput;
-    }
+  try {
+    for (const estimation::ImageRegistration& r : estimation::register_images(m))
+      registration.push_back({{"image", r.image},
+                              {"reference", r.reference},
+                              {"channel", r.channel},
+                              {"shift_x_px", r.result.shift_x_px},
+                              {"shift_y_px", r.result.shift_y_px},
+                              {"rotation_deg", r.result.rotation_deg},
+                              {"correlation", r.result.correlation},
+                              {"residual_motion_px", r.result.residual_motion_px}});
+  } catch (const estimation::RegistrationError& e) {
+    std::cerr << "chromo estimate: " << e.what() << "\n";
+    return kExitBadInput;
   }
   const double registration_seconds = seconds_since(t);
 
   // Measurement set and the pixel-major measurement vector.
-  estimation::MeasurementSet set{m.camera, {}};
-  std::vector<const std::vector<float>*> planes;
-  for (const LoadedImage& image : m.images)
-    for (const auto& c : image.channels) {
-      set.channels.push_back({image.name + "." + c, image.illuminant, channel_index(c), image.noise});
-      planes.push_back(&image.pixels.channel(c));
-    }
+  estimation::MeasurementSet set = m.measurement_set();
   try {
     set.validate();
   } catch (const std::invalid_argument& e) {
@@ -220,9 +87,7 @@ int run_estimate(const EstimateOptions& options) {
   }
   const std::size_t pixels = static_cast<std::size_t>(m.width) * m.height;
   const int channels = set.size();
-  std::vector<float> measured(pixels * channels);
-  for (std::size_t i = 0; i < pixels; ++i)
-    for (int c = 0; c < channels; ++c) measured[i * channels + c] = (*planes[c])[i];
+  const std::vector<float> measured = m.pixel_major();
 
   t = std::chrono::steady_clock::now();
   bool rebuilt = false;
@@ -319,8 +184,7 @@ int run_estimate(const EstimateOptions& options) {
 
   // Write everything under temporary names, then rename.
   try {
-    fs::create_directories(options.out);
-    OutputFiles files{options.out, {}};
+    estimation::OutputBatch files(options.out);
     write_exr(files.temporary("maps.exr"), maps);
     struct Preview {
       const char* file;
@@ -340,7 +204,7 @@ int run_estimate(const EstimateOptions& options) {
     write_category_png(files.temporary("flags.png"), maps.channels[6], m.width, m.height, flag_names);
     write_category_png(files.temporary("order.png"), maps.channels[5], m.width, m.height, {"none", "", "2D", "", "4D"});
     s["timings_s"]["total"] = seconds_since(start);
-    std::ofstream(files.temporary("summary.json")) << s.dump(2) << "\n";
+    files.write_text("summary.json", s.dump(2) + "\n");
     files.commit();
   } catch (const std::exception& e) {
     std::cerr << "chromo estimate: writing " << options.out << ": " << e.what() << "\n";

@@ -12,6 +12,9 @@ int main(int argc, char** argv) {
   chromo::cli::add_leds_command(app, exit_status);
   chromo::cli::add_fit_spectrum_command(app, exit_status);
   chromo::cli::add_estimate_command(app, exit_status);
+  chromo::cli::add_relight_command(app, exit_status);
+  chromo::cli::add_flush_command(app, exit_status);
+  chromo::cli::add_import_maps_command(app, exit_status);
   chromo::cli::add_status_command(app, exit_status);
   chromo::cli::add_led_command(app, exit_status);
   chromo::cli::add_session_command(app, exit_status);

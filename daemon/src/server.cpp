@@ -11,6 +11,7 @@
 #include <grpcpp/health_check_service_interface.h>
 
 #include "chromo/daemon/api_conversions.hpp"
+#include "chromo/daemon/maps_service.hpp"
 #include "chromo/drivers/device_error.hpp"
 #include "chromosphere/v1/calibration.grpc.pb.h"
 #include "chromosphere/v1/devices.grpc.pb.h"
@@ -406,6 +407,7 @@ struct Server::Services {
   CalibrationServiceImpl calibration;
   ResultsServiceImpl results;
   EventServiceImpl events;
+  std::unique_ptr<grpc::Service> maps;  // maps_service.cpp
   Services(Daemon& daemon)
       : guard(daemon.config(), stopping),
         devices(daemon, guard),
@@ -414,7 +416,8 @@ struct Server::Services {
         sessions(daemon, guard),
         calibration(daemon, guard),
         results(daemon, guard),
-        events(daemon, guard) {}
+        events(daemon, guard),
+        maps(make_maps_service(daemon, [this](ServerContext* c, const std::function<Status()>& body) { return guard(c, body); })) {}
 };
 
 Server::Server(Daemon& daemon) : daemon_(daemon), services_(std::make_unique<Services>(daemon)) {
@@ -439,7 +442,7 @@ Server::Server(Daemon& daemon) : daemon_(daemon), services_(std::make_unique<Ser
   }
   for (grpc::Service* service : std::initializer_list<grpc::Service*>{
            &services_->devices, &services_->leds, &services_->operations, &services_->sessions,
-           &services_->calibration, &services_->results, &services_->events})
+           &services_->calibration, &services_->results, &services_->events, services_->maps.get()})
     builder.RegisterService(service);
   server_ = builder.BuildAndStart();
   if (!server_) throw std::runtime_error("could not listen on the configured addresses (unix:" + config.unix_socket + " " +

@@ -2,6 +2,8 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include "chromo/estimation/skin_model.hpp"
@@ -84,23 +86,32 @@ Eigen::Matrix3d camera_to_xyz_matrix(const spectral::CameraSensitivity& camera, 
   return rtr.ldlt().solve(rtx).transpose();
 }
 
-DeltaEStats photo_delta_e94(std::span<const Eigen::Vector3d> photograph, std::span<const Eigen::Vector3d> reconstruction,
-                            const spectral::CameraSensitivity& camera, const spectral::Spectrum& illuminant,
-                            std::span<const bool> include) {
-  if (photograph.size() != reconstruction.size() || (!include.empty() && include.size() != photograph.size()))
-    throw std::invalid_argument("photo_delta_e94: image sizes differ");
+std::vector<double> photo_delta_e94_map(std::span<const Eigen::Vector3d> photograph,
+                                        std::span<const Eigen::Vector3d> reconstruction,
+                                        const spectral::CameraSensitivity& camera, const spectral::Spectrum& illuminant) {
+  if (photograph.size() != reconstruction.size()) throw std::invalid_argument("photo_delta_e94: image sizes differ");
   const Eigen::Matrix3d m = camera_to_xyz_matrix(camera, illuminant);
   const spectral::Xyz white = spectral::white_point(illuminant);
   auto lab = [&](const Eigen::Vector3d& rgb) {
     const Eigen::Vector3d x = m * rgb;
     return spectral::lab_from_xyz({x[0], x[1], x[2]}, white);
   };
+  std::vector<double> de(photograph.size(), std::numeric_limits<double>::quiet_NaN());
+  for (std::size_t i = 0; i < photograph.size(); ++i)
+    if (photograph[i].allFinite() && reconstruction[i].allFinite())
+      de[i] = spectral::delta_e94(lab(photograph[i]), lab(reconstruction[i]));
+  return de;
+}
+
+DeltaEStats photo_delta_e94(std::span<const Eigen::Vector3d> photograph, std::span<const Eigen::Vector3d> reconstruction,
+                            const spectral::CameraSensitivity& camera, const spectral::Spectrum& illuminant,
+                            std::span<const bool> include) {
+  if (!include.empty() && include.size() != photograph.size())
+    throw std::invalid_argument("photo_delta_e94: image sizes differ");
+  const std::vector<double> map = photo_delta_e94_map(photograph, reconstruction, camera, illuminant);
   std::vector<double> de;
-  for (std::size_t i = 0; i < photograph.size(); ++i) {
-    if (!include.empty() && !include[i]) continue;
-    if (!photograph[i].allFinite() || !reconstruction[i].allFinite()) continue;
-    de.push_back(spectral::delta_e94(lab(photograph[i]), lab(reconstruction[i])));
-  }
+  for (std::size_t i = 0; i < map.size(); ++i)
+    if ((include.empty() || include[i]) && std::isfinite(map[i])) de.push_back(map[i]);
   return delta_e_stats(std::move(de));
 }
 

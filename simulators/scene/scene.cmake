@@ -1,7 +1,8 @@
 # Skin scene and white reference target of the virtual lab (OpenCV core).
-find_package(OpenCVModules REQUIRED COMPONENTS core imgproc)
+find_package(OpenCVModules REQUIRED COMPONENTS core imgproc imgcodecs)
 target_sources(simulators PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/scene.cpp
   ${CMAKE_CURRENT_LIST_DIR}/skin_scene.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/external_maps_scene.cpp
 )
-target_link_libraries(simulators PUBLIC OpenCV::imgproc OpenCV::core PRIVATE OpenMP::OpenMP_CXX)
+target_link_libraries(simulators PUBLIC OpenCV::imgproc OpenCV::core PRIVATE OpenMP::OpenMP_CXX OpenCV::imgcodecs)

@@ -45,8 +45,14 @@ std::vector<Eigen::Vector3d> relit_camera_rgb(std::span<const SkinParameters> pa
 // Camera RGB (white = 1) → XYZ (white Y = 100) for this camera and illuminant.
 Eigen::Matrix3d camera_to_xyz_matrix(const spectral::CameraSensitivity& camera, const spectral::Spectrum& illuminant);
 
-// ΔE94 of reconstruction against a photograph (both camera RGB, white = 1,
-// under `illuminant`), over the pixels where include[i] (or all if empty).
+// Per pixel ΔE94 of reconstruction against a photograph (both camera RGB,
+// white = 1, under `illuminant`); NaN where either is not finite.
+std::vector<double> photo_delta_e94_map(std::span<const Eigen::Vector3d> photograph,
+                                        std::span<const Eigen::Vector3d> reconstruction,
+                                        const spectral::CameraSensitivity& camera, const spectral::Spectrum& illuminant);
+
+// Statistics of photo_delta_e94_map over the pixels where include[i] (or all
+// if empty) and the value is finite.
 DeltaEStats photo_delta_e94(std::span<const Eigen::Vector3d> photograph, std::span<const Eigen::Vector3d> reconstruction,
                             const spectral::CameraSensitivity& camera, const spectral::Spectrum& illuminant,
                             std::span<const bool> include = {});

@@ -1,0 +1,61 @@
+#include "chromo/estimation/output_batch.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <fstream>
+#include <stdexcept>
+
+namespace chromo::estimation {
+namespace fs = std::filesystem;
+namespace {
+void fsync_path(const fs::path& path, int flags) {
+  const int fd = ::open(path.c_str(), flags);
+  if (fd < 0) throw std::runtime_error(path.string() + ": cannot open to fsync");
+  const int result = ::fsync(fd);
+  ::close(fd);
+  if (result != 0) throw std::runtime_error(path.string() + ": fsync failed");
+}
+}  // namespace
+
+OutputBatch::OutputBatch(fs::path directory) : directory_(std::move(directory)) {
+  if (directory_.empty()) throw std::runtime_error("output directory: empty path");
+  if (fs::exists(directory_) && !fs::is_directory(directory_))
+    throw std::runtime_error(directory_.string() + ": exists and is not a directory");
+  std::error_code ec;
+  if (!fs::exists(directory_)) {
+    created_directory_ = fs::create_directories(directory_, ec);
+    if (ec) throw std::runtime_error(directory_.string() + ": cannot create (" + ec.message() + ")");
+  }
+}
+
+OutputBatch::~OutputBatch() {
+  std::error_code ec;
+  for (const auto& [temporary, final_path] : pending_) fs::remove(temporary, ec);
+  if (created_directory_ && fs::is_empty(directory_, ec)) fs::remove(directory_, ec);
+}
+
+fs::path OutputBatch::temporary(const std::string& name) {
+  const fs::path t = directory_ / (".tmp-" + name), f = directory_ / name;
+  pending_.emplace_back(t, f);
+  return t;
+}
+
+void OutputBatch::write_text(const std::string& name, const std::string& text) {
+  const fs::path path = temporary(name);
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+  out.close();
+  if (!out) throw std::runtime_error(path.string() + ": cannot write");
+}
+
+std::vector<fs::path> OutputBatch::commit() {
+  for (const auto& [temporary, final_path] : pending_) fsync_path(temporary, O_RDONLY);
+  std::vector<fs::path> written;
+  for (const auto& [temporary, final_path] : pending_) fs::rename(temporary, final_path), written.push_back(final_path);
+  pending_.clear();
+  fsync_path(directory_, O_RDONLY | O_DIRECTORY);
+  return written;
+}
+
+}  // namespace chromo::estimation
