@@ -32,7 +32,7 @@ void add_relight_command(CLI::App& app, int& exit_status) {
   cmd->add_option("--out", options->out, "output directory")->required();
   cmd->add_option("--photo", options->photograph, "photograph: OpenEXR camera RGB albedo under the illuminant");
   cmd->add_option("--camera", options->camera, "the photograph's camera: builtin:<name> or a CSV")->capture_default_str();
-  cmd->add_option("--heat-max", options->heat_map_max, "ΔE94 at the top of the colour bar (0 = max(1, p95))");
+  cmd->add_option("--heat-max", options->heat_map_max, "ΔE94 at the top of the colour bar (0 = the p95 clamped to 1-5)");
   cmd->add_option("--threads", options->threads, "threads (0 = all cores)");
   cmd->callback([options, &exit_status] {
     exit_status = run_map_operation("relight", [&] {

@@ -69,7 +69,11 @@ std::string stats_caption(const DeltaEStats& s) {
   return "mean " + number(s.mean) + "  median " + number(s.median) + "  p95 " + number(s.p95);
 }
 
-double heat_max(double requested, const DeltaEStats& s) { return requested > 0 ? requested : std::max(1.0, s.p95); }
+// Automatic colour-bar top: the p95, between 1 and 5 ΔE94 (pixels no
+// parameters explain would otherwise stretch the bar and hide skin errors).
+double heat_max(double requested, const DeltaEStats& s) {
+  return requested > 0 ? requested : std::clamp(s.p95, 1.0, 5.0);
+}
 
 // Camera RGB → XYZ (Ohta-chart fit) → linear sRGB, for showing photographs and
 // camera reconstructions the same way.
@@ -150,6 +154,7 @@ RelightSummary relight_to_files(const RelightOptions& options) {
   ordered_json j;
   j["maps"] = options.maps.string();
   j["illuminant"] = illuminant.name;
+  j["illuminant_given_as"] = options.illuminant;
   j["width"] = w, j["height"] = h;
   j["relit_pixels"] = summary.relit_pixels;
   j["colour_space"] = "linear sRGB (relit.exr), encoded sRGB (relit.png); white albedo = 1";
@@ -281,6 +286,10 @@ FlushSummary flush_to_files(const FlushOptions& options) {
   j["change_delta_e94"] = stats_json(summary.change_delta_e94);
   summary.json = j.dump(2) + "\n";
 
+  std::string factors;
+  for (const auto& [name, factor] : {std::pair{"Cm", options.scale.cm}, std::pair{"Ch", options.scale.ch},
+                                     std::pair{"Bm", options.scale.bm}, std::pair{"Che", options.scale.che}})
+    if (factor != 1.0) factors += std::string(factors.empty() ? "" : " ") + name + " x" + number(factor);
   const std::vector<std::uint8_t> valid = xyz_before.valid;
   cv::Mat after_preview = srgb_preview(srgb_after, w, h, valid);
   cv::Mat mask8;
@@ -295,9 +304,8 @@ FlushSummary flush_to_files(const FlushOptions& options) {
       {{"before (" + illuminant.name + ")", srgb_preview(srgb_before, w, h, valid)},
        {"after (mask outline)", after_outlined},
        {"dE94 of the change", heat_map_with_bar(change, w, h, std::max(1.0, summary.change_delta_e94.max), "dE94")}},
-      "scale Cm x" + number(options.scale.cm) + " Ch x" + number(options.scale.ch) + " Bm x" + number(options.scale.bm) +
-          " Che x" + number(options.scale.che) + "; clamped " + number(100 * summary.edit.clamped_share, 1) +
-          "% of edited values; change dE94 " + stats_caption(summary.change_delta_e94));
+      factors + "; clamped " + number(100 * summary.edit.clamped_share, 1) + "%; change dE94 " +
+          stats_caption(summary.change_delta_e94));
 
   OutputBatch files(options.out);
   write_exr(files.temporary("maps.exr"), edited);
@@ -411,8 +419,7 @@ ImportMapsSummary import_maps_to_files(const ImportMapsOptions& options) {
   j["seconds"] = {{"2D mapping", r.seconds_2d}, {"augmented", r.seconds_augmented}, {"4D search", r.seconds_4d}};
   summary.json = j.dump(2) + "\n";
 
-  double top = 1.0;
-  for (const MethodResult* m : {&r.mapped_2d, &r.augmented, &r.search_4d}) top = std::max(top, m->stats.p95);
+  const double top = heat_max(0, r.mapped_2d.stats);
   auto preview = [&](const std::vector<float>& camera_rgb) {
     return srgb_preview(camera_to_linear_srgb(camera_rgb, measurement.camera, photo.illuminant), w, h, r.compared);
   };

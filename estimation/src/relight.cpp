@@ -4,6 +4,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <stdexcept>
 
 #include "chromo/estimation/lab_illuminants.hpp"
@@ -44,7 +45,7 @@ NamedSpectrum resolve_illuminant(const std::string& text) {
   try {
     spectral::Spectrum s = spectral::read_spectrum_file(text);
     if (!(s.max() > 0)) throw std::invalid_argument("illuminant \"" + text + "\": the spectrum has no power");
-    return {text, s};
+    return {std::filesystem::path(text).stem().string(), s};
   } catch (const spectral::DataError& e) {
     throw std::invalid_argument("illuminant \"" + text +
                                 "\": not W57, W40, W27, R, G, B, D65, D50, A or a CCT like 4000K, and not a readable "

@@ -37,7 +37,7 @@ struct RelightOptions {
   std::filesystem::path out;
   std::filesystem::path photograph;  // optional: camera RGB albedo (R, G, B) under the illuminant, maps' size
   std::string camera = "builtin:nikon_d5100";  // the photograph's camera: builtin:<name> or a CSV
-  double heat_map_max = 0;           // ΔE94 at the top of the colour bar; 0 = max(1, p95)
+  double heat_map_max = 0;           // ΔE94 at the top of the colour bar; 0 = the p95 clamped to [1, 5]
   int threads = 0;
 };
 struct RelightSummary {

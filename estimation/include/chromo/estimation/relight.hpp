@@ -35,7 +35,7 @@
 namespace chromo::estimation {
 
 struct NamedSpectrum {
-  std::string name;  // canonical: "W57", "D65", "4000K", or the file path
+  std::string name;  // canonical: "W57", "D65", "4000K", or the file's stem ("d65prime")
   spectral::Spectrum spectrum;
 };
 
