@@ -19,6 +19,7 @@ void add_import_maps_command(CLI::App& app, int& exit_status) {
   cmd->add_option("--hemoglobin", options->hemoglobin, "relative hemoglobin map, same size")->required();
   cmd->add_option("--albedo", options->measurement, "MEASUREMENT.json (or its folder) of the same subject")->required();
   cmd->add_option("--out", options->out, "output directory")->required();
+  cmd->add_option("--stats-mask", options->statistics_mask, "grey image: only pixels > 50% enter the statistics");
   cmd->add_option("--prior-sigma", options->import.prior_sigma_log10,
                   "augmented fit: σ of the (Cm, Ch) prior in log10")->capture_default_str();
   cmd->add_option("--search", *method, "4D search: fast or exhaustive")
@@ -56,7 +57,7 @@ void add_import_maps_command(CLI::App& app, int& exit_status) {
   data->callback([scene, out, &exit_status] {
     exit_status = run_map_operation("make-maps-test-data", [&] {
       simulators::write_external_maps_scene(*out, *scene);
-      fmt::print("{}x{} test scene → {} (MEASUREMENT.json, melanin.png, hemoglobin.png, truth.exr)\n", scene->width,
+      fmt::print("{}x{} test scene → {} (MEASUREMENT.json, melanin.png, hemoglobin.png, skin_mask.png, truth.exr)\n", scene->width,
                  scene->height, *out);
     });
   });

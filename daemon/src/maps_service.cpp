@@ -28,7 +28,7 @@ std::string api_message(const std::string& message) {
       {"maps: ", "maps_file: "},         {"photograph: ", "photograph_file: "},
       {"mask: ", "mask_file: "},         {"melanin: ", "melanin_file: "},
       {"hemoglobin: ", "hemoglobin_file: "}, {"measurement: ", "measurement_file: "},
-      {"out: ", "out_dir: "}};
+      {"out: ", "out_dir: "},           {"statistics_mask: ", "statistics_mask_file: "}};
   for (const auto& [library, api] : kNames)
     if (message.rfind(library, 0) == 0) return api + message.substr(std::string(library).size());
   return message;
@@ -173,6 +173,7 @@ class MapsServiceImpl final : public pb::MapsService::Service {
       o.hemoglobin = files.resolve("hemoglobin_file", request->hemoglobin_file(), true);
       o.measurement = files.resolve("measurement_file", request->measurement_file(), true);
       o.out = files.resolve("out_dir", request->out_dir(), true);
+      o.statistics_mask = files.resolve("statistics_mask_file", request->statistics_mask_file(), false);
       if (request->prior_sigma_log10() != 0) o.import.prior_sigma_log10 = request->prior_sigma_log10();
       const std::string& search = request->search_4d();
       if (search == "exhaustive") o.import.search_4d = estimation::InverterMethod::kExhaustive;

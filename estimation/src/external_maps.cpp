@@ -323,6 +323,8 @@ ImportResult import_external_maps(const ExternalMaps& external, const Measuremen
     throw std::invalid_argument("melanin/hemoglobin maps are " + std::to_string(external.width) + "x" +
                                 std::to_string(external.height) + " but the measurement is " +
                                 std::to_string(m.width) + "x" + std::to_string(m.height));
+  if (!options.statistics_mask.empty() && options.statistics_mask.size() != static_cast<std::size_t>(m.width) * m.height)
+    throw std::invalid_argument("statistics_mask: not the measurement's size");
   const MeasurementImage& photo = m.images.front();
   for (const char* c : {"R", "G", "B"})
     if (std::find(photo.channels.begin(), photo.channels.end(), c) == photo.channels.end())
@@ -459,8 +461,9 @@ ImportResult import_external_maps(const ExternalMaps& external, const Measuremen
                               : Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
     method->delta_e94 = photo_delta_e94_map(photograph, reconstruction, m.camera, photo.illuminant);
     std::vector<double> finite;
-    for (double v : method->delta_e94)
-      if (std::isfinite(v)) finite.push_back(v);
+    for (std::size_t i = 0; i < pixels; ++i)
+      if (std::isfinite(method->delta_e94[i]) && (options.statistics_mask.empty() || options.statistics_mask[i]))
+        finite.push_back(method->delta_e94[i]);
     method->stats = delta_e_stats(std::move(finite));
   }
   return result;

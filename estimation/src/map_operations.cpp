@@ -386,9 +386,22 @@ ImportMapsSummary import_maps_to_files(const ImportMapsOptions& options) {
     throw field_error("melanin", options.melanin.string() + " is " + std::to_string(external.width) + "x" +
                                      std::to_string(external.height) + " but the measurement is " +
                                      std::to_string(measurement.width) + "x" + std::to_string(measurement.height));
+  ImportOptions import = options.import;
+  if (!options.statistics_mask.empty()) {
+    cv::Mat mask;
+    try {
+      mask = read_mask_image(options.statistics_mask, measurement.width, measurement.height, 0.0);
+    } catch (const std::exception& e) {
+      throw field_error("statistics_mask", e.what());
+    }
+    import.statistics_mask.resize(mask.total());
+    for (std::size_t i = 0; i < mask.total(); ++i) import.statistics_mask[i] = mask.ptr<float>()[i] > 0.5f;
+    if (std::count(import.statistics_mask.begin(), import.statistics_mask.end(), 1) == 0)
+      throw field_error("statistics_mask", "selects no pixel");
+  }
   ImportMapsSummary summary;
   try {
-    summary.result = import_external_maps(external, measurement, options.import);
+    summary.result = import_external_maps(external, measurement, import);
   } catch (const MeasurementFileError& e) {
     throw field_error("measurement", e.what());
   }
@@ -400,6 +413,7 @@ ImportMapsSummary import_maps_to_files(const ImportMapsOptions& options) {
   j["melanin"] = options.melanin.string();
   j["hemoglobin"] = options.hemoglobin.string();
   j["measurement"] = measurement_file.string();
+  j["statistics_mask"] = options.statistics_mask.string();
   j["photograph"] = r.photograph_name;
   j["prior_sigma_log10"] = options.import.prior_sigma_log10;
   j["search_4d"] = std::string(method_name(options.import.search_4d));
@@ -432,7 +446,8 @@ ImportMapsSummary import_maps_to_files(const ImportMapsOptions& options) {
        {"dE94 augmented", heat_map_with_bar(r.augmented.delta_e94, w, h, top, "dE94")},
        {"dE94 4D search", heat_map_with_bar(r.search_4d.delta_e94, w, h, top, "dE94")}},
       "mean dE94: 2D mapping " + number(r.mapped_2d.stats.mean) + ", augmented " + number(r.augmented.stats.mean) +
-          ", 4D search " + number(r.search_4d.stats.mean) + "  (" + std::to_string(r.search_4d.stats.pixels) + " px)");
+          ", 4D search " + number(r.search_4d.stats.mean) + "  (" + std::to_string(r.search_4d.stats.pixels) + " px" +
+          (options.statistics_mask.empty() ? "" : " in the statistics mask") + ")");
   const cv::Mat plots = side_by_side({{"melanin -> Cm", mapping_plot(r.cm_mapping, "log10 Cm")},
                                       {"hemoglobin -> Ch", mapping_plot(r.ch_mapping, "log10 Ch")}});
 

@@ -52,7 +52,7 @@ void write_external_maps_scene(const std::filesystem::path& directory, const Ext
 
   estimation::FloatImage truth{w, h, {"Cm", "Ch", "Bm", "Che", "flags", "region"},
                                std::vector<std::vector<float>>(6, std::vector<float>(pixels, 0.0f))};
-  cv::Mat melanin(h, w, CV_16U), hemoglobin(h, w, CV_16U);
+  cv::Mat melanin(h, w, CV_16U), hemoglobin(h, w, CV_16U), skin(h, w, CV_8U);
   auto to_u16 = [](double v) { return static_cast<std::uint16_t>(std::lround(std::clamp(v, 0.0, 65535.0))); };
   for (std::size_t i = 0; i < pixels; ++i) {
     const int idx = static_cast<int>(i);
@@ -61,6 +61,7 @@ void write_external_maps_scene(const std::filesystem::path& directory, const Ext
     truth.channels[0][i] = static_cast<float>(cm), truth.channels[1][i] = static_cast<float>(ch);
     truth.channels[2][i] = static_cast<float>(bm), truth.channels[3][i] = static_cast<float>(che);
     truth.channels[5][i] = scene.regions().at<std::uint8_t>(idx);
+    skin.at<std::uint8_t>(idx) = scene.regions().at<std::uint8_t>(idx) == static_cast<std::uint8_t>(SceneRegion::kSkin) ? 255 : 0;
     const double noise = 60000.0 * options.map_noise_fraction;
     melanin.at<std::uint16_t>(idx) = to_u16(60000.0 * std::pow(1.0 - std::exp(-cm / 0.06), 0.7) + noise * gauss(rng));
     hemoglobin.at<std::uint16_t>(idx) =
@@ -93,6 +94,7 @@ void write_external_maps_scene(const std::filesystem::path& directory, const Ext
   estimation::write_exr(files.temporary("truth.exr"), truth);
   estimation::write_png(files.temporary("melanin.png").string(), melanin);
   estimation::write_png(files.temporary("hemoglobin.png").string(), hemoglobin);
+  estimation::write_png(files.temporary("skin_mask.png").string(), skin);
   files.write_text("d65prime.csv", spectrum_csv(d65_prime));
   files.write_text("blue.csv", spectrum_csv(blue));
   files.write_text("MEASUREMENT.json", measurement);

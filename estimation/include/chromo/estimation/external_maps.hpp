@@ -88,6 +88,9 @@ struct ImportOptions {
   // where something the model cannot explain, such as a vein, dominates one end).
   MonotoneDirection direction = MonotoneDirection::kIncreasing;
   int threads = 0;                      // 0 = all cores
+  // Optional, width × height: only pixels with a non-zero value enter the
+  // statistics (e.g. skin only); fitting and the ΔE94 maps use every pixel.
+  std::vector<std::uint8_t> statistics_mask;
   std::filesystem::path cache_dir;      // forward-table cache; empty = ForwardTable::default_cache_dir()
   bool IsValid(std::string* error) const;
 };

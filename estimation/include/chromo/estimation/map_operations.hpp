@@ -79,6 +79,7 @@ FlushSummary flush_to_files(const FlushOptions& options);
 struct ImportMapsOptions {
   std::filesystem::path melanin, hemoglobin;
   std::filesystem::path measurement;  // MEASUREMENT.json, or a folder holding one
+  std::filesystem::path statistics_mask;  // optional grey image: > 50% = in the statistics
   std::filesystem::path out;
   ImportOptions import;
 };

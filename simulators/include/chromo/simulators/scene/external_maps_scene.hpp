@@ -16,7 +16,8 @@
 // Files written into the directory (crash-safe through OutputBatch):
 //   MEASUREMENT.json, d65prime.exr (R, G, B under a D65 metamer of the six
 //   LEDs), blue.exr (B under the blue LED), d65prime.csv, blue.csv,
-//   truth.exr (Cm, Ch, Bm, Che, flags = 0, region), melanin.png, hemoglobin.png.
+//   truth.exr (Cm, Ch, Bm, Che, flags = 0, region), melanin.png, hemoglobin.png,
+//   skin_mask.png (255 where the region is plain skin: import-maps --stats-mask).
 // Camera: builtin:nikon_d5100; noise: Gaussian with synthetic.hpp's camera
 // model variance (σ² = read² + shot·albedo + step²/12) times
 // camera_noise_scale² (0 = noise-free). MEASUREMENT.json states the nominal
