@@ -100,10 +100,9 @@ class PriorFit {
         const double cost = this->cost(x, measured, weight, prior_x0, prior_x1);
         if (cost < best_cost) best_cost = cost, best = x;
       }
-    using Residuals = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxChannels + 2, 1>;
-    using Jacobian = Eigen::Matrix<double, Eigen::Dynamic, 4, 0, kMaxChannels + 2, 4>;
-    Residuals r(channels + 2);
-    Jacobian J(channels + 2, 4);
+    // Fixed size: rows past channels + 2 stay zero and add nothing.
+    Eigen::Matrix<double, kMaxChannels + 2, 1> r = Eigen::Matrix<double, kMaxChannels + 2, 1>::Zero();
+    Eigen::Matrix<double, kMaxChannels + 2, 4> J;
     double value[kMaxChannels], jacobian[kMaxChannels * 4];
     double lambda = 1e-3;
     GridPoint x = best;

@@ -102,12 +102,6 @@ FloatImage maps_image(const ParameterMaps& maps) {
   return {maps.width, maps.height, {"Cm", "Ch", "Bm", "Che", "flags"}, {maps.cm, maps.ch, maps.bm, maps.che, maps.flags}};
 }
 
-std::vector<std::uint8_t> to_valid(const std::vector<double>& values) {
-  std::vector<std::uint8_t> valid(values.size());
-  for (std::size_t i = 0; i < values.size(); ++i) valid[i] = std::isfinite(values[i]);
-  return valid;
-}
-
 }  // namespace
 
 // ---------------------------------------------------------------- relight

@@ -44,7 +44,9 @@ TEST_F(FlushFixture, FeatheringRampsTheScaleLinearlyAcrossTheOutline) {
   for (int x = 40; x < 60; ++x) {
     EXPECT_LE(m_at(x + 1), m_at(x) + 1e-6) << x;  // monotone
     if (m_at(x) > 1e-6 && m_at(x) < 1 - 1e-6) ++ramp;
-    if (m_at(x + 1) > 1e-6 && m_at(x) < 1 - 1e-6) EXPECT_NEAR(m_at(x) - m_at(x + 1), 1.0 / 8, 0.01) << x;  // linear
+    if (m_at(x + 1) > 1e-6 && m_at(x) < 1 - 1e-6) {
+      EXPECT_NEAR(m_at(x) - m_at(x + 1), 1.0 / 8, 0.01) << x;  // linear
+    }
   }
   EXPECT_EQ(ramp, 8);  // 2·feather pixels
   EXPECT_NEAR(edited.che[30 * 80 + 30], 0.03, 1e-6);
