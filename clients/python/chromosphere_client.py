@@ -25,8 +25,8 @@ for _candidate in _candidates:
 
 import grpc  # noqa: E402
 from chromosphere.v1 import (devices_pb2, devices_pb2_grpc, estimation_pb2, estimation_pb2_grpc,  # noqa: E402
-                             leds_pb2, leds_pb2_grpc, operations_pb2, operations_pb2_grpc,
-                             sessions_pb2, sessions_pb2_grpc)
+                             leds_pb2, leds_pb2_grpc, maps_pb2, maps_pb2_grpc, operations_pb2,
+                             operations_pb2_grpc, sessions_pb2, sessions_pb2_grpc)
 
 FINAL_STATES = {
     operations_pb2.OPERATION_STATE_SUCCEEDED,
@@ -59,6 +59,8 @@ class Client:
         self.operations = operations_pb2_grpc.OperationServiceStub(self.channel)
         self.sessions = sessions_pb2_grpc.SessionServiceStub(self.channel)
         self.results_service = estimation_pb2_grpc.ResultsServiceStub(self.channel)
+        # Relight, Flush, ImportMaps, ExportProfiles (docs/maps.md); synchronous calls.
+        self.maps = maps_pb2_grpc.MapsServiceStub(self.channel)
 
     def list_devices(self):
         return self.devices.ListDevices(devices_pb2.ListDevicesRequest()).devices
@@ -82,6 +84,12 @@ class Client:
 
     def results(self, session_id):
         return self.results_service.GetResults(estimation_pb2.GetResultsRequest(session_id=session_id))
+
+    def relight(self, maps_file, illuminant, out_dir, photograph_file="", session_id="", timeout=120):
+        """Relit albedo (and a panel against the photograph) written to out_dir; returns RelightResponse."""
+        request = maps_pb2.RelightRequest(session_id=session_id, maps_file=maps_file, illuminant=illuminant,
+                                          out_dir=out_dir, photograph_file=photograph_file)
+        return self.maps.Relight(request, timeout=timeout)
 
     def close(self):
         self.channel.close()

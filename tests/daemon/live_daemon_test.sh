@@ -20,6 +20,19 @@ case "$mode" in
       --subject "ctest" >"$work/out" 2>&1 || fail "example exited $?"
     grep -q "succeeded" "$work/out" || fail "no success reported"
     grep -q "frames stored: 7" "$work/out" || fail "not 7 frames"
+    # The Maps service through the Python client (docs/maps.md).
+    t "$chromo" make-maps-test-data --out "$work/scene" --width 32 --height 24 >"$work/out" 2>&1 || fail "test data"
+    t "$chromo" estimate "$work/scene/MEASUREMENT.json" --out "$work/est" --cache-dir "$work/cache" >"$work/out" 2>&1 ||
+      fail "estimate"
+    CHROMO_PY_STUBS="$stubs" t /usr/bin/python3 -c "
+import sys
+sys.path.insert(0, '$source/clients/python')
+from chromosphere_client import Client
+client = Client('unix:$work/s.sock')
+print('relit', client.relight('$work/est/maps.exr', 'W40', '$work/relit').relit_pixels)
+" >"$work/out" 2>&1 || fail "relight exited $?"
+    grep -Eq "^relit [1-7][0-9]{2}$" "$work/out" || fail "relight did not relight most of the 32x24 pixels"
+    [[ -f "$work/relit/relit.png" ]] || fail "no relit.png"
     ;;
   cli)
     export CHROMO_DAEMON="unix:$work/s.sock"
