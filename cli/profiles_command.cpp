@@ -4,11 +4,8 @@
 
 #include <filesystem>
 #include <iostream>
-#include <sstream>
 
-#include "chromo/estimation/profile_table.hpp"
-#include "chromo/spectral/cie.hpp"
-#include "chromo/spectral/table.hpp"
+#include "chromo/estimation/map_operations.hpp"
 #include "commands.hpp"
 
 namespace chromo::cli {
@@ -23,57 +20,40 @@ struct ProfilesOptions {
 };
 
 int run_profiles(const ProfilesOptions& options) {
-  auto bad_input = [](const std::string& message) {
-    std::cerr << "chromo profiles: " << message << "\n";
-    return kExitBadInput;
+  estimation::ExportProfilesOptions o;
+  o.illuminant = options.illuminant;
+  o.out = options.out;
+  o.maps = options.maps;
+  if (!options.cm.empty()) o.axes.cm = options.cm;
+  if (!options.ch.empty()) o.axes.ch = options.ch;
+  if (!options.bm.empty()) o.axes.bm = options.bm;
+  if (!options.che.empty()) o.axes.che = options.che;
+  o.threads = options.threads;
+  o.progress = [](double done) {
+    std::cerr << fmt::format("\rprofiles {:5.1f}%", 100 * done);
+    return true;
   };
-  // Everything is checked before anything is written.
-  spectral::Spectrum illuminant;
   try {
-    illuminant = spectral::illuminant_by_name_or_file(options.illuminant);
-  } catch (const spectral::DataError& e) {
-    return bad_input(std::string("--illuminant: ") + e.what());
+    // Everything is checked before anything is written (map_operations.hpp).
+    const estimation::ExportProfilesSummary s = estimation::export_profiles_to_files(o);
+    std::cerr << "\n";
+    fmt::print("{} profiles × {} radii under {} → {}/profiles.json, profiles.f32\n", s.entries, s.radii,
+               options.illuminant, options.out.string());
+    fmt::print("worst plane-integral error against the forward-model albedo: {:.3f}%\n",
+               100 * s.worst_plane_integral_error);
+    if (!options.maps.empty())
+      fmt::print("index map → {}/index.exr ({} flagged or invalid pixels have no entry)\n", options.out.string(),
+                 s.unmapped_pixels);
+    return kExitOk;
+  } catch (const std::invalid_argument& e) {
+    // The library names fields ("maps: ..."); the command line names options.
+    const std::string message = e.what();
+    std::cerr << "chromo profiles: " << (message.rfind("axes: ", 0) == 0 ? message.substr(6) : "--" + message) << "\n";
+    return kExitBadInput;
+  } catch (const std::exception& e) {
+    std::cerr << "chromo profiles: " << e.what() << "\n";
+    return kExitFailure;
   }
-  estimation::ProfileTableAxes axes = estimation::ProfileTableAxes::Default();
-  if (!options.cm.empty()) axes.cm = options.cm;
-  if (!options.ch.empty()) axes.ch = options.ch;
-  if (!options.bm.empty()) axes.bm = options.bm;
-  if (!options.che.empty()) axes.che = options.che;
-  std::string error;
-  if (!axes.IsValid(&error)) return bad_input(error);
-  std::optional<estimation::ParameterMaps> maps;
-  if (!options.maps.empty()) {
-    try {
-      maps = estimation::read_parameter_maps(options.maps);
-    } catch (const std::runtime_error& e) {
-      return bad_input(std::string("--maps: ") + e.what());
-    }
-  }
-  if (std::filesystem::exists(options.out) && !std::filesystem::is_directory(options.out))
-    return bad_input("--out: " + options.out.string() + " exists and is not a directory");
-
-  const estimation::SkinModel model;
-  const estimation::RadialProfileModel profile_model(model, illuminant);
-  const auto table = estimation::build_profile_table(profile_model, axes, options.illuminant, options.threads,
-                                                     [](double done) {
-                                                       std::cerr << fmt::format("\rprofiles {:5.1f}%", 100 * done);
-                                                       return true;
-                                                     });
-  std::cerr << "\n";
-  estimation::write_profile_table(options.out, table);
-  fmt::print("{} profiles × {} radii ({:.4g}-{:.4g} mm) under {} → {}/profiles.json, profiles.f32\n",
-             axes.entry_count(), table.radius_mm.size(), table.radius_mm.front(), table.radius_mm.back(),
-             options.illuminant, options.out.string());
-  fmt::print("worst plane-integral error against the forward-model albedo: {:.3f}%\n",
-             100 * table.worst_plane_integral_error);
-  if (maps) {
-    const auto indices = estimation::nearest_entry_indices(table, *maps);
-    estimation::write_index_map(options.out, *maps, indices);
-    const auto unmapped = std::count(indices.begin(), indices.end(), estimation::kNoProfileEntry);
-    fmt::print("index map {}x{} → {}/index.exr ({} flagged or invalid pixels have no entry)\n", maps->width,
-               maps->height, options.out.string(), unmapped);
-  }
-  return kExitOk;
 }
 
 }  // namespace
@@ -81,7 +61,8 @@ int run_profiles(const ProfilesOptions& options) {
 void add_profiles_command(CLI::App& app, int& exit_status) {
   auto options = std::make_shared<ProfilesOptions>();
   CLI::App* cmd = app.add_subcommand("profiles", "Radial reflectance profile tables for renderers (+ index maps)");
-  cmd->add_option("--illuminant", options->illuminant, "d65, d50, a, or a CSV file (wavelength_nm,value)")
+  cmd->add_option("--illuminant", options->illuminant,
+                  "W57, W40, W27, R, G, B, D65, D50, A, a CCT like 4000K, or a CSV file (wavelength_nm,value)")
       ->capture_default_str();
   cmd->add_option("--out", options->out, "output directory")->required();
   cmd->add_option("--maps", options->maps, "maps.exr from chromo estimate: also write index.exr");

@@ -38,6 +38,7 @@ struct LoadedMaps {
 };
 LoadedMaps load_maps(const fs::path& path) {
   if (path.empty()) throw field_error("maps", "required");
+  if (!fs::exists(path)) throw field_error("maps", path.string() + ": no such file");
   try {
     LoadedMaps loaded{read_exr(path), read_parameter_maps(path)};
     if (loaded.maps.width <= 0 || loaded.maps.height <= 0) throw field_error("maps", path.string() + ": empty image");
