@@ -3,6 +3,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <filesystem>
 
 #include "run_chromo.hpp"
@@ -13,7 +15,10 @@ namespace fs = std::filesystem;
 namespace {
 
 struct MapsCommands : ::testing::Test {
-  fs::path dir = fs::path(testing::TempDir()) / "chromo-maps-commands";
+  // One folder per test and process: ctest runs the tests of this file in parallel.
+  fs::path dir = fs::path(testing::TempDir()) /
+                 ("chromo-maps-" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) + "-" +
+                  std::to_string(::getpid()));
   std::string d(const std::string& name) const { return (dir / name).string(); }
   void SetUp() override {
     fs::remove_all(dir);
