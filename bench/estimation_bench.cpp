@@ -17,6 +17,8 @@
 // (e.g. the previous version of the inverters, run just before on the same
 // machine): its points go on the speed/accuracy chart next to this run's,
 // labelled "old ...", and the run prints new/old ratios per configuration.
+#include <time.h>
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -30,6 +32,7 @@
 #include <vector>
 
 #include "chromo/estimation/estimator.hpp"
+#include "chromo/estimation/inverse_table.hpp"
 #include "chromo/estimation/lab_illuminants.hpp"
 #include "chromo/estimation/reconstruction.hpp"
 #include "chromo/estimation/skin_model.hpp"
@@ -154,6 +157,8 @@ int main(int argc, char** argv) {
   int width = 256, height = 192, exhaustive_pixels = 5000;
   fs::path out = fs::path(CHROMO_SOURCE_DIR) / "bench" / "results";
   fs::path baseline;
+  std::string methods = "fast,2d,exhaustive";
+  bool speed_only = false, diagnose = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--full") width = 2592, height = 1944;
@@ -161,9 +166,12 @@ int main(int argc, char** argv) {
     else if (a == "--exhaustive-pixels" && i + 1 < argc) exhaustive_pixels = std::atoi(argv[++i]);
     else if (a == "--out" && i + 1 < argc) out = argv[++i];
     else if (a == "--baseline" && i + 1 < argc) baseline = argv[++i];
+    else if (a == "--methods" && i + 1 < argc) methods = argv[++i];
+    else if (a == "--speed-only") speed_only = true;
+    else if (a == "--diagnose") diagnose = true;
     else {
       std::fprintf(stderr, "usage: estimation_bench [--pixels N] [--exhaustive-pixels N] [--full] [--out DIR] "
-                           "[--baseline FILE]\n");
+                           "[--baseline FILE] [--methods fast,2d,exhaustive] [--speed-only]\n");
       return 2;
     }
   }
@@ -190,9 +198,35 @@ int main(int argc, char** argv) {
   std::printf("table: %zu nodes, build %.3f s on 2 threads (target <= 2 s), cache load %.3f s (rebuilt=%d)\n",
               TableGrid{}.node_count(), build_s, load_s, rebuilt);
   report["table"] = {{"nodes", TableGrid{}.node_count()}, {"build_s", build_s}, {"cache_load_s", load_s}};
+  {
+    // The fast inverter's inverse table: build (2 threads) and write, then a
+    // load from the file (another directory: the process-wide registry only
+    // shares tables of the same file).
+    fs::remove_all(cache);
+    t = std::chrono::steady_clock::now();
+    bool inverse_rebuilt = false;
+    const auto inverse = InverseTable::load_or_build(table, cache, &inverse_rebuilt, nullptr, 2);
+    const double inverse_build_s = seconds_since(t);
+    const fs::path copy = cache.string() + "_copy";
+    fs::remove_all(copy);
+    fs::copy(cache, copy);
+    t = std::chrono::steady_clock::now();
+    InverseTable::load_or_build(table, copy, &inverse_rebuilt);
+    const double inverse_load_s = seconds_since(t);
+    std::printf("inverse table: %zu occupied cells, %zu branches (%.2f per cell), %.1f%% of the key box reached; build "
+                "%.2f s on 2 threads, cache load %.3f s (rebuilt=%d), file %.1f MB\n",
+                inverse->occupied_cells(), inverse->branch_count(),
+                double(inverse->branch_count()) / inverse->occupied_cells(), 100 * inverse->filled_share(),
+                inverse_build_s, inverse_load_s, inverse_rebuilt,
+                fs::file_size(copy / InverseTable::file_name(InverseTable::cache_key(*table))) / 1e6);
+    report["inverse_table"] = {{"occupied_cells", inverse->occupied_cells()}, {"branches", inverse->branch_count()},
+                               {"build_s", inverse_build_s}, {"cache_load_s", inverse_load_s}};
+    fs::remove_all(copy);
+    fs::remove_all(cache);
+  }
 
   // Interpolation error of the grid in colour (XYZ table under D65 vs direct model).
-  {
+  if (!speed_only) {
     const spectral::Observer& o = spectral::cie1931_observer();
     const MeasurementSet xyz = rgb_measurement_set({"cie1931", {o.x_bar, o.y_bar, o.z_bar}}, spectral::illuminant_d65());
     const ForwardTable xt = ForwardTable::build(xyz, TableGrid{}, 2);
@@ -237,6 +271,83 @@ int main(int argc, char** argv) {
       std::printf("noise floor (ΔE94 of noisy broadband input vs noise-free, D65'): %.3f\n", floor);
       report["noise_floor_de94"] = floor;
     }
+    if (diagnose) {
+      // One thread, CPU time: how the fast inverter's fits end, and their cost.
+      const FastInverter fast(table);
+      const std::size_t n = std::min<std::size_t>(f.pixels(), 50000);
+      std::size_t counts[2] = {}, no_cell = 0, iteration_sum = 0;
+      double chi2_sum = 0;
+      timespec t0, t1;
+      clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t0);
+      for (std::size_t i = 0; i < n; ++i) {
+        double m[4], w[4];
+        const std::vector<float>& v = noise > 0 ? f.noisy : f.clean;
+        for (int c = 0; c < 4; ++c) {
+          m[c] = v[i * 4 + c];
+          const double model = 0.003 * std::max(m[c], 0.0);
+          w[c] = 1 / std::sqrt(s.channels[c].noise.variance(m[c]) + model * model);
+        }
+        FastPath path;
+        const float mf[4] = {float(m[0]), float(m[1]), float(m[2]), float(m[3])};
+        no_cell += fast.inverse_table().cell_of(mf) == InverseTable::kNoCell;
+        const Fit fit = fast.fit(m, w, 4, &path);
+        chi2_sum += fit.chi2;
+        iteration_sum += fit.iterations;
+        ++counts[static_cast<int>(path)];
+      }
+      clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t1);
+      const double cpu = (t1.tv_sec - t0.tv_sec) + 1e-9 * (t1.tv_nsec - t0.tv_nsec);
+      {
+        // The same 256 pixels again and again: the tables' lines stay in cache.
+        timespec h0, h1;
+        clock_gettime(CLOCK_THREAD_CPUTIME_ID, &h0);
+        double sink = 0;
+        const int hot_repeats = std::getenv("HOT_REPEATS") ? std::atoi(std::getenv("HOT_REPEATS")) : 100;
+        for (int repeat = 0; repeat < hot_repeats; ++repeat)
+          for (std::size_t i = 0; i < 256; ++i) {
+            double m[4], w[4];
+            const std::vector<float>& v = noise > 0 ? f.noisy : f.clean;
+            for (int c = 0; c < 4; ++c) {
+              m[c] = v[i * 4 + c];
+              const double model = 0.003 * std::max(m[c], 0.0);
+              w[c] = 1 / std::sqrt(s.channels[c].noise.variance(m[c]) + model * model);
+            }
+            sink += fast.fit(m, w, 4).chi2;
+          }
+        clock_gettime(CLOCK_THREAD_CPUTIME_ID, &h1);
+        {
+          timespec q0, q1;
+          float acc = 0;
+          clock_gettime(CLOCK_THREAD_CPUTIME_ID, &q0);
+          for (int i = 0; i < 1000000; ++i) {
+            const float x[4] = {float(i % 37) + 0.3f, float(i % 29) + 0.6f, float(i % 13) + 0.2f, float(i % 7) + 0.5f};
+            float v[4], j[16];
+            fast.predict4(x, v, (i & 1) ? j : nullptr);
+            acc += v[0] + ((i & 1) ? j[5] : 0);
+          }
+          clock_gettime(CLOCK_THREAD_CPUTIME_ID, &q1);
+          std::printf("predict4: %.1f ns per call (%g)\n", 1e9 * ((q1.tv_sec - q0.tv_sec) + 1e-9 * (q1.tv_nsec - q0.tv_nsec)) / 1e6, acc);
+        }
+        std::printf("diagnose: hot cache %.0f ns/px (%g)\n", 1e9 * ((h1.tv_sec - h0.tv_sec) + 1e-9 * (h1.tv_nsec - h0.tv_nsec)) / (256.0 * hot_repeats), sink);
+      }
+      {
+        EstimatorOptions eo;
+        eo.method = InverterMethod::kFast;
+        eo.model = ModelChoice::k4d;
+        eo.threads = 1;
+        const Estimator estimator(table, s, eo);
+        std::vector<PixelEstimate> e(n);
+        timespec e0, e1;
+        clock_gettime(CLOCK_THREAD_CPUTIME_ID, &e0);
+        estimator.estimate_tile(std::span(noise > 0 ? f.noisy : f.clean).first(n * 4), e);
+        clock_gettime(CLOCK_THREAD_CPUTIME_ID, &e1);
+        std::printf("diagnose: Estimator::estimate_tile (4d, one thread) %.0f ns/px CPU\n",
+                    1e9 * ((e1.tv_sec - e0.tv_sec) + 1e-9 * (e1.tv_nsec - e0.tv_nsec)) / n);
+      }
+      std::printf("diagnose %s: %zu px, %.0f ns/px CPU (one thread), presolved %.2f%% searched %.2f%%, "
+                  "mean chi2 %.4f, outside the inverse table %.2f%%, mean iterations %.2f\n", noise > 0 ? "noisy" : "noise-free", n, 1e9 * cpu / n, 100.0 * counts[0] / n,
+                  100.0 * counts[1] / n, chi2_sum / n, 100.0 * no_cell / n, double(iteration_sum) / n);
+    }
     struct Config {
       InverterMethod method;
       ModelChoice model;
@@ -244,6 +355,7 @@ int main(int argc, char** argv) {
     for (const Config c : {Config{InverterMethod::kFast, ModelChoice::k4d}, Config{InverterMethod::kFast, ModelChoice::kAuto},
                            Config{InverterMethod::k2d, ModelChoice::k2d},
                            Config{InverterMethod::kExhaustive, ModelChoice::k4d}}) {
+      if (methods.find(method_name(c.method)) == std::string::npos) continue;
       EstimatorOptions eo;
       eo.method = c.method;
       eo.model = c.model;
@@ -281,6 +393,7 @@ int main(int argc, char** argv) {
   };
   for (const char* noise : {"noise-free", "noisy"}) {
     const RunResult *fast = find("fast", "4d", noise), *ex = find("exhaustive", "4d", noise), *two = find("2d", "2d", noise);
+    if (!fast || !ex || !two) continue;
     std::printf("%s: fast/exhaustive speed ×%.0f, D65 ΔE94 fast − exhaustive %+.4f (target ≤ 0.1); fast vs 2D speed "
                 "×%.2f, relit ΔE94 2D/fast ×%.1f; fast 4D %.2f MP/s (target ≥ 10)\n",
                 noise, fast->pixels_per_second / ex->pixels_per_second, fast->acc.de_d65 - ex->acc.de_d65,
@@ -319,6 +432,7 @@ int main(int argc, char** argv) {
     }
   }
 
+  if (speed_only) return 0;
   // Failure behaviour 1: error against noise level (fast 4D, 2D; exhaustive on 1,000 pixels).
   std::ofstream noise_csv(out / "estimation_error_vs_noise.csv");
   noise_csv << "# noise_scale fast_de94 2d_de94 exhaustive_de94 noise_floor\n";

@@ -169,7 +169,8 @@ PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const
   out.parameters = table_->from_grid(chosen.x);
   out.chi2 = static_cast<float>(chosen.chi2);
   double predicted[kMaxChannels];
-  table_->predict(chosen.x, predicted);
+  if (chosen.has_prediction) std::copy_n(chosen.predicted, c_count, predicted);
+  else table_->predict(chosen.x, predicted);
   double sum = 0;
   bool darker_everywhere = true;
   for (int c = 0; c < c_count; ++c) {
