@@ -672,7 +672,7 @@ int main(int argc, char** argv) {
   // Charts.
   const fs::path script1 = out / "estimation_speed_accuracy.gp";
   std::ofstream(script1) << "set terminal pngcairo noenhanced size 900,600\nset output '" << (out / "estimation_speed_accuracy.png").string()
-                         << "'\nset title 'Inverters on " << pixels << "-pixel synthetic frames, 2 threads (circles noise-free, squares noisy"
+                         << "'\nset title 'Inverters on " << pixels << "-pixel synthetic frames and the virtual-lab scene (scene:), 2 threads (circles noise-free, squares noisy"
                          << (old_runs.empty() ? "" : "; grey open: baseline run") << ")'\n"
                          << "set xlabel 'pixels per second'\nset ylabel 'mean relit ΔE94 (six LEDs + D65)'\n"
                          << "set logscale xy\nset grid\nset key outside right\n"
