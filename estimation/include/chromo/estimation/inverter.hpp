@@ -21,7 +21,7 @@
 //    step overshoots); then bounded Gauss-Newton from the best of them on the
 //    interpolated table (Newton where no bound is active) until χ² ≤
 //    kConvergedChi2 or the step stalls, at most kNewtonSteps. A converged fit
-//    with χ² ≤ kPresolvedAcceptChi2 is the answer (99.6% of noise-free and
+//    with χ² ≤ kPresolvedAcceptChi2 is the answer (99.7% of noise-free and
 //    ~91% of noisy in-gamut skin pixels). Otherwise (far outside the gamut,
 //    several bounded local minima, no convergence) the search path too, and
 //    the smaller χ² wins: the best χ² node of the cell's node bucket (every
@@ -116,7 +116,7 @@ class FastInverter : public Inverter {
  public:
   static constexpr int kNewtonSteps = 16;
   static constexpr double kConvergedChi2 = 0.01;     // Gauss-Newton stops below this χ² (0.1σ per channel)
-  static constexpr double kPresolvedAcceptChi2 = 10.8;  // above this (the flag test's χ²₁ 0.999 quantile): the search path too
+  static constexpr double kPresolvedAcceptChi2 = 4;  // above this: the search path too (see fit())
   // Loads or builds the inverse table in cache_dir (empty: ForwardTable::default_cache_dir()).
   explicit FastInverter(std::shared_ptr<const ForwardTable> table, const std::filesystem::path& cache_dir = {});
   FastInverter(std::shared_ptr<const ForwardTable> table, std::shared_ptr<const InverseTable> inverse);
