@@ -110,6 +110,7 @@ int run_estimate(const EstimateOptions& options) {
              : options.model == "4d" ? estimation::ModelChoice::k4d
                                      : estimation::ModelChoice::kAuto;
   eo.threads = options.threads;
+  eo.cache_dir = options.cache_dir;  // the fast method's inverse table next to the forward table
   t = std::chrono::steady_clock::now();
   const estimation::Estimator estimator(table, set, eo);
   const double inverter_setup_seconds = seconds_since(t);

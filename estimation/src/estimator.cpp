@@ -95,10 +95,11 @@ void EstimateSummary::merge(const EstimateSummary& o) {
   order4 += o.order4;
 }
 
-std::unique_ptr<Inverter> make_inverter(InverterMethod method, std::shared_ptr<const ForwardTable> table) {
+std::unique_ptr<Inverter> make_inverter(InverterMethod method, std::shared_ptr<const ForwardTable> table,
+                                        const std::filesystem::path& cache_dir) {
   switch (method) {
     case InverterMethod::kExhaustive: return std::make_unique<ExhaustiveInverter>(std::move(table));
-    case InverterMethod::kFast: return std::make_unique<FastInverter>(std::move(table));
+    case InverterMethod::kFast: return std::make_unique<FastInverter>(std::move(table), cache_dir);
     case InverterMethod::k2d: return std::make_unique<TwoDInverter>(std::move(table));
   }
   throw std::invalid_argument("unknown inverter method");
@@ -112,7 +113,7 @@ Estimator::Estimator(std::shared_ptr<const ForwardTable> table, MeasurementSet s
   if (!table_ || table_->channels() != set_.size())
     throw std::invalid_argument("estimator: the table's channel count does not match the measurement set's");
   if (options_.method == InverterMethod::k2d) options_.model = ModelChoice::k2d;
-  inverter_ = make_inverter(options_.method, table_);
+  inverter_ = make_inverter(options_.method, table_, options_.cache_dir);
   // The 2D fit of the auto test: the fast inverter's own order-2 path, or the
   // exhaustive slice search for the exhaustive reference.
   const int c = set_.size();
@@ -169,7 +170,8 @@ PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const
   out.parameters = table_->from_grid(chosen.x);
   out.chi2 = static_cast<float>(chosen.chi2);
   double predicted[kMaxChannels];
-  table_->predict(chosen.x, predicted);
+  if (chosen.has_prediction) std::copy_n(chosen.predicted, c_count, predicted);
+  else table_->predict(chosen.x, predicted);
   double sum = 0;
   bool darker_everywhere = true;
   for (int c = 0; c < c_count; ++c) {

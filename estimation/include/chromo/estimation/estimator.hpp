@@ -40,6 +40,7 @@
 // the pixels of tiles not started left untouched.
 
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <memory>
 #include <span>
@@ -81,6 +82,8 @@ struct EstimatorOptions {
   double model_sigma_relative = 0.003;
   int threads = 0;                // estimate(): 0 = all cores
   int tile_pixels = 16384;        // estimate(): pixels per tile
+  // Where the fast method's inverse table is cached (empty: ForwardTable::default_cache_dir()).
+  std::filesystem::path cache_dir;
   bool IsValid(std::string* error) const;
 };
 
@@ -139,6 +142,7 @@ class Estimator {
   double flag_threshold_[5] = {};  // by free parameters (index 2 and 4)
 };
 
-std::unique_ptr<Inverter> make_inverter(InverterMethod method, std::shared_ptr<const ForwardTable> table);
+std::unique_ptr<Inverter> make_inverter(InverterMethod method, std::shared_ptr<const ForwardTable> table,
+                                        const std::filesystem::path& cache_dir = {});
 
 }  // namespace chromo::estimation

@@ -13,18 +13,22 @@
 //    table (4D) or of the 2D slice, then polishes the best node with bounded
 //    Levenberg-Marquardt on the interpolated table (as the paper's "4D search"
 //    plus a sub-node refinement, so its accuracy is not limited by node spacing).
-//  - FastInverter: an inverse table in measurement space: the log of up to
-//    four channels, kBins bins each, every table node bucketed into the cell
-//    its predicted values fall in (nodes of one cell stored contiguously). A
-//    pixel scans the nodes of its cell for the best χ² (every branch of the
-//    non-unique inverse that reaches the cell competes, so the seed is the
-//    exhaustive search's answer restricted to the cell), descends over
-//    neighbouring nodes along the axes (the best node may lie in the next cell), then runs a
-//    few bounded LM steps. Cells just outside the gamut share a neighbour's
-//    bucket; a pixel outside those falls back to a coarse node search. Order
-//    2 starts from the 4D seed projected onto the 2D slice. Construction
-//    takes ~0.3 s and ~57 MB for the default table (42 MB of it the
-//    cell index; not cached on disk).
+//  - FastInverter: a pre-solved inverse table in measurement space
+//    (inverse_table.hpp, cached on disk next to the forward table). For a
+//    4-channel set in 4D a pixel costs one cell lookup; per branch of the
+//    non-unique inverse stored for its cell, a linear step x0 + J⁺·(m − m0)
+//    and one float interpolation for its χ² (and the branch's own x0 when the
+//    step overshoots); then bounded Gauss-Newton from the best of them on the
+//    interpolated table (Newton where no bound is active) until χ² ≤
+//    kConvergedChi2 or the step stalls, at most kNewtonSteps. A converged fit
+//    with χ² ≤ kPresolvedAcceptChi2 is the answer (99.7% of noise-free and
+//    ~91% of noisy in-gamut skin pixels). Otherwise (far outside the gamut,
+//    several bounded local minima, no convergence) the search path too, and
+//    the smaller χ² wins: the best χ² node of the cell's node bucket (every
+//    branch reaching the cell competes), descent over neighbouring nodes,
+//    ≤ 20 bounded LM steps; outside the table a coarse node search seeds it.
+//    Order 2, and sets of other than four channels, use the search path
+//    only (order 2 from the 4D seed projected onto the 2D slice).
 //  - TwoDInverter: ExhaustiveInverter restricted to the 2D slice for every
 //    order (the 2D model of Jimenez et al. as the seed uses it).
 //
@@ -33,6 +37,7 @@
 // the table.
 
 #include <cstdint>
+#include <filesystem>
 #include <memory>
 #include <string_view>
 #include <vector>
@@ -45,6 +50,10 @@ struct Fit {
   GridPoint x{};       // grid coordinates of the fitted parameters
   double chi2 = 0;     // weighted residual
   int iterations = 0;  // LM iterations used
+  // The table's prediction at x when the inverter has it at hand (callers
+  // need not interpolate again); channels() values.
+  bool has_prediction = false;
+  double predicted[kMaxChannels] = {};
 };
 
 class Inverter {
@@ -77,6 +86,10 @@ class Inverter {
   GridPoint node_descent(const double* measured, const double* weight, int order, GridPoint start,
                          bool diagonal_moves = true) const;
 
+  // χ² of `count` contiguous nodes' values; updates best/best_index (index in 0..count-1).
+  static void scan_nodes(int channels, const float* values, int count, const float* measured, const float* weight,
+                         float& best, int& best_index);
+
   std::shared_ptr<const ForwardTable> table_;
 };
 
@@ -94,25 +107,40 @@ class TwoDInverter : public Inverter {
   Fit fit(const double* measured, const double* weight, int order) const override;
 };
 
+class InverseTable;
+
+// How FastInverter's fit of a pixel ended (counted by fit_path_counts()).
+enum class FastPath { kPresolved, kSearched, kCount };
+
 class FastInverter : public Inverter {
  public:
-  static constexpr int kBins = 48;
-  explicit FastInverter(std::shared_ptr<const ForwardTable> table);
+  static constexpr int kNewtonSteps = 16;
+  static constexpr double kConvergedChi2 = 0.01;     // Gauss-Newton stops below this χ² (0.1σ per channel)
+  static constexpr double kPresolvedAcceptChi2 = 4;  // above this: the search path too (see fit())
+  // Loads or builds the inverse table in cache_dir (empty: ForwardTable::default_cache_dir()).
+  explicit FastInverter(std::shared_ptr<const ForwardTable> table, const std::filesystem::path& cache_dir = {});
+  FastInverter(std::shared_ptr<const ForwardTable> table, std::shared_ptr<const InverseTable> inverse);
   std::string_view name() const override { return "fast"; }
   Fit fit(const double* measured, const double* weight, int order) const override;
+  // As fit(), and says which path ended it.
+  Fit fit(const double* measured, const double* weight, int order, FastPath* path) const;
+  const InverseTable& inverse_table() const { return *inverse_; }
   // Share of inverse-table cells holding a seed (for reports).
   double filled_share() const;
+  // The table's interpolation for 4-channel tables in float, AVX-friendly
+  // (x: grid coordinates; value: 4; jacobian: 16 row-major, or null). Public
+  // for the bench's cost breakdown.
+  void predict4(const float* x, float* value, float* jacobian) const;
 
  private:
-  int key_dims_ = 0;
-  double key_min_[4] = {}, key_scale_[4] = {};
-  struct Bucket {
-    std::uint32_t begin = 0, count = 0;  // range in bucket_nodes_ (count 0: empty cell)
-  };
-  std::vector<Bucket> buckets_;               // per cell
-  std::vector<std::uint32_t> bucket_nodes_;   // node indices, grouped by cell
-  std::vector<float> bucket_values_;          // their values, same order
-  long cell_of(const double* measured) const;  // -1 when outside the key box
+  std::shared_ptr<const InverseTable> inverse_;
+  std::vector<float> bucket_values_;  // table values of inverse_->bucket_nodes(), same order
+  std::size_t step_[4] = {};          // floats between neighbouring nodes along each axis
+  bool presolved_ = false;            // 4 channels: the linear-step path is available
+  void init();
+  // Linear step + bounded Gauss-Newton; false when not converged (fit holds the best point reached).
+  bool fit_presolved(const double* measured, const double* weight, Fit& fit) const;
+  Fit fit_by_search(const double* measured, const double* weight, int order) const;
   GridPoint seed_point(std::uint32_t node) const;
 };
 

@@ -1,0 +1,512 @@
+#include "chromo/estimation/inverse_table.hpp"
+
+#include <omp.h>
+#include <unistd.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <mutex>
+#include <numeric>
+#include <stdexcept>
+#include <system_error>
+
+#include "chromo/estimation/inverter.hpp"
+
+namespace chromo::estimation {
+
+namespace {
+
+constexpr char kMagic[8] = {'C', 'H', 'R', 'O', 'M', 'O', 'I', 'T'};
+constexpr std::uint32_t kFormatVersion = 2;
+// Build settings (part of the cache key).
+constexpr int kMaxSeedsPerCell = 12;     // LM solves per cell, best groups first
+constexpr int kBranchIterations = 40;    // LM iterations per solve
+constexpr double kSameBranch = 0.25;     // solutions closer than this (node units) are one branch
+constexpr double kBranchChi2Margin = 1;  // keep branches with χ² ≤ best + this (σ = 1% of the value)
+constexpr double kMaxCondition = 1e4;    // pseudo-inverse: singular values below σ_max / this dropped
+// Fill reach (bins) per key axis, widest axis first: about three times the
+// camera noise (σ ≈ 2% at albedo 0.3) in bins of that axis.
+constexpr int kFillReach[4] = {2, 4, 16, 48};
+
+// 64-bit FNV-1a over 8-byte words (a checksum, not a cryptographic hash).
+struct WordHash {
+  std::uint64_t h = 1469598103934665603ull;
+  void add(const void* data, std::size_t n) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    std::size_t i = 0;
+    for (; i + 8 <= n; i += 8) {
+      std::uint64_t w;
+      std::memcpy(&w, p + i, 8);
+      h = (h ^ w) * 1099511628211ull;
+    }
+    for (; i < n; ++i) h = (h ^ p[i]) * 1099511628211ull;
+  }
+  template <class T>
+  void add_value(const T& v) { add(&v, sizeof v); }
+};
+
+// Inverse of inverse_table_key: a value whose key is `key`.
+float value_of_key(float key) {
+  const float bits_f = (key + 127.0f) * 8388608.0f;
+  const auto bits = static_cast<std::uint32_t>(std::clamp(bits_f, 0.0f, 2139095039.0f));
+  float v;
+  std::memcpy(&v, &bits, sizeof v);
+  return v;
+}
+
+struct NodeIndex {
+  int n[4];  // nodes along Cm, Ch, βm, Che
+  // Node index i of the table's layout (values + i·C): ((bm·Nche + che)·Ncm + cm)·Nch + ch.
+  void decode(std::uint32_t i, int* at) const {
+    at[1] = static_cast<int>(i % n[1]);
+    at[0] = static_cast<int>(i / n[1] % n[0]);
+    at[3] = static_cast<int>(i / (n[1] * n[0]) % n[3]);
+    at[2] = static_cast<int>(i / (n[1] * n[0] * n[3]));
+  }
+  std::uint32_t encode(const int* at) const {
+    return static_cast<std::uint32_t>(((at[2] * n[3] + at[3]) * n[0] + at[0]) * n[1] + at[1]);
+  }
+};
+
+int find_root(std::vector<int>& parent, int i) {
+  while (parent[i] != i) i = parent[i] = parent[parent[i]];
+  return i;
+}
+
+// Branches of one cell: LM from the best node of each grid-connected group of
+// the cell's bucket towards the measurement at the cell centre.
+std::vector<InverseTable::Branch> solve_cell(const Inverter& solver, const NodeIndex& index,
+                                             const std::uint32_t* nodes, std::uint32_t count, const double* centre) {
+  const ForwardTable& table = solver.table();
+  const int channels = table.channels();
+  double weight[kMaxChannels];
+  for (int c = 0; c < channels; ++c) weight[c] = 1.0 / (0.01 * std::max(centre[c], 1e-4));
+  // Groups: union of axis neighbours within the bucket (nodes are sorted).
+  std::vector<int> parent(count);
+  std::iota(parent.begin(), parent.end(), 0);
+  for (std::uint32_t k = 0; k < count; ++k) {
+    int at[4];
+    index.decode(nodes[k], at);
+    for (int axis = 0; axis < 4; ++axis) {
+      if (at[axis] + 1 >= index.n[axis]) continue;
+      int next[4] = {at[0], at[1], at[2], at[3]};
+      ++next[axis];
+      const std::uint32_t neighbour = index.encode(next);
+      const std::uint32_t* found = std::lower_bound(nodes, nodes + count, neighbour);
+      if (found != nodes + count && *found == neighbour) {
+        const int a = find_root(parent, static_cast<int>(k)), b = find_root(parent, static_cast<int>(found - nodes));
+        if (a != b) parent[std::max(a, b)] = std::min(a, b);
+      }
+    }
+  }
+  // Best node of each group by χ² at the centre.
+  std::map<int, std::pair<double, std::uint32_t>> best_of_group;
+  for (std::uint32_t k = 0; k < count; ++k) {
+    const float* v = table.values().data() + static_cast<std::size_t>(nodes[k]) * channels;
+    double chi2 = 0;
+    for (int c = 0; c < channels; ++c) chi2 += std::pow((v[c] - centre[c]) * weight[c], 2);
+    auto [it, inserted] = best_of_group.try_emplace(find_root(parent, static_cast<int>(k)), chi2, nodes[k]);
+    if (!inserted && chi2 < it->second.first) it->second = {chi2, nodes[k]};
+  }
+  std::vector<std::pair<double, std::uint32_t>> seeds;
+  for (const auto& [group, seed] : best_of_group) seeds.push_back(seed);
+  std::sort(seeds.begin(), seeds.end());
+  if (seeds.size() > kMaxSeedsPerCell) seeds.resize(kMaxSeedsPerCell);
+
+  std::vector<Fit> solutions;
+  for (const auto& [chi2, node] : seeds) {
+    int at[4];
+    index.decode(node, at);
+    const Fit f = solver.refine(centre, weight, 4, {double(at[0]), double(at[1]), double(at[2]), double(at[3])},
+                                kBranchIterations);
+    bool known = false;
+    for (Fit& s : solutions) {
+      double distance = 0;
+      for (int k = 0; k < 4; ++k) distance = std::max(distance, std::abs(s.x[k] - f.x[k]));
+      if (distance < kSameBranch) {
+        known = true;
+        if (f.chi2 < s.chi2) s = f;
+        break;
+      }
+    }
+    if (!known) solutions.push_back(f);
+  }
+  std::sort(solutions.begin(), solutions.end(), [](const Fit& a, const Fit& b) { return a.chi2 < b.chi2; });
+  std::vector<InverseTable::Branch> branches;
+  for (const Fit& s : solutions) {
+    if (s.chi2 > solutions.front().chi2 + kBranchChi2Margin) break;
+    if (static_cast<int>(branches.size()) == InverseTable::kMaxBranches) break;
+    InverseTable::Branch b{};
+    double m0[kMaxChannels], jacobian[kMaxChannels * 4];
+    table.predict(s.x, m0, jacobian);
+    for (int k = 0; k < 4; ++k) b.x0[k] = static_cast<float>(s.x[k]);
+    for (int c = 0; c < std::min(channels, 4); ++c) b.m0[c] = static_cast<float>(m0[c]);
+    if (channels == 4) {
+      // Pseudo-inverse without the directions the channels barely see (a
+      // parameter that hardly changes the colour there): the linear step
+      // leaves them to Gauss-Newton.
+      const Eigen::Matrix4d j = Eigen::Map<const Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(jacobian);
+      const Eigen::JacobiSVD<Eigen::Matrix4d> svd(j, Eigen::ComputeFullU | Eigen::ComputeFullV);
+      const auto& sv = svd.singularValues();
+      Eigen::Vector4d inverse_sv = Eigen::Vector4d::Zero();
+      for (int k = 0; k < 4; ++k)
+        if (sv[k] > sv[0] / kMaxCondition) inverse_sv[k] = 1 / sv[k];
+      const Eigen::Matrix<double, 4, 4, Eigen::RowMajor> inverse =
+          svd.matrixV() * inverse_sv.asDiagonal() * svd.matrixU().transpose();
+      if (sv[0] > 0)
+        for (int k = 0; k < 16; ++k) b.jinv[k] = static_cast<float>(inverse.data()[k]);
+    }
+    branches.push_back(b);
+  }
+  return branches;
+}
+
+}  // namespace
+
+std::uint64_t InverseTable::cache_key(const ForwardTable& table) {
+  WordHash h;
+  h.add(kMagic, sizeof kMagic);
+  h.add_value(kFormatVersion);
+  h.add_value(table.key());
+  h.add_value(table.channels());
+  const auto n = table.nodes();
+  h.add(n.data(), sizeof n);
+  h.add(table.values().data(), table.values().size() * sizeof(float));
+  for (double setting : {double(kBins), double(kMaxBranches), double(kMaxSeedsPerCell), double(kBranchIterations),
+                         kSameBranch, kBranchChi2Margin, kMaxCondition, double(kFillReach[0]), double(kFillReach[1]),
+                         double(kFillReach[2]), double(kFillReach[3])})
+    h.add_value(setting);
+  return h.h;
+}
+
+std::string InverseTable::file_name(std::uint64_t key) {
+  char name[64];
+  std::snprintf(name, sizeof name, "inverse_table_%016llx.bin", static_cast<unsigned long long>(key));
+  return name;
+}
+
+void InverseTable::key_of(const float* values, float* key) const {
+  float centred[4];
+  for (int k = 0; k < key_dims_; ++k) centred[k] = inverse_table_key(values[k]) - key_mean_[k];
+  for (int a = 0; a < key_dims_; ++a) {
+    float sum = 0;
+    for (int k = 0; k < key_dims_; ++k) sum += key_axes_[a * 4 + k] * centred[k];
+    key[a] = sum;
+  }
+}
+
+std::uint32_t InverseTable::cell_of(const float* measured) const {
+  float key[4];
+  key_of(measured, key);
+  std::uint32_t box = 0, stride = 1;
+  for (int k = 0; k < key_dims_; ++k, stride *= kBins) {
+    // Beyond the box's edge: the edge cell (its fill points at the nearest
+    // branch); a non-finite key: no cell.
+    const float position = (key[k] - key_min_[k]) * key_scale_[k];
+    if (!std::isfinite(position)) return kNoCell;
+    box += static_cast<std::uint32_t>(std::clamp(position, 0.0f, kBins - 1.0f)) * stride;
+  }
+  return cell_index_[box];
+}
+
+double InverseTable::filled_share() const {
+  const auto filled = std::count_if(cell_index_.begin(), cell_index_.end(), [](std::uint32_t c) { return c != kNoCell; });
+  return static_cast<double>(filled) / static_cast<double>(cell_index_.size());
+}
+
+InverseTable InverseTable::build(std::shared_ptr<const ForwardTable> table_ptr, int threads) {
+  if (!table_ptr || table_ptr->values().empty()) throw std::invalid_argument("inverse table: empty forward table");
+  const ForwardTable& table = *table_ptr;
+  InverseTable t;
+  t.key_ = cache_key(table);
+  const int channels = table.channels();
+  t.key_dims_ = std::min(channels, 4);
+  const std::size_t node_count = table.grid().node_count();
+  const std::vector<float>& v = table.values();
+  const int dims = t.key_dims_;
+  // Principal axes of the nodes' pseudo-log keys.
+  {
+    Eigen::Vector4d mean = Eigen::Vector4d::Zero();
+    Eigen::Matrix4d second = Eigen::Matrix4d::Zero();
+    for (std::size_t i = 0; i < node_count; ++i) {
+      Eigen::Vector4d k = Eigen::Vector4d::Zero();
+      for (int d = 0; d < dims; ++d) k[d] = inverse_table_key(v[i * channels + d]);
+      mean += k;
+      second += k * k.transpose();
+    }
+    mean /= double(node_count);
+    const Eigen::Matrix4d covariance = second / double(node_count) - mean * mean.transpose();
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> solver(covariance.topLeftCorner(dims, dims));
+    for (int d = 0; d < dims; ++d) t.key_mean_[d] = static_cast<float>(mean[d]);
+    for (int a = 0; a < dims; ++a)  // largest variance first
+      for (int d = 0; d < dims; ++d) t.key_axes_[a * 4 + d] = static_cast<float>(solver.eigenvectors()(d, dims - 1 - a));
+  }
+  std::vector<float> keys(node_count * dims);
+  for (std::size_t i = 0; i < node_count; ++i) {
+    float values[4] = {};
+    for (int k = 0; k < dims; ++k) values[k] = v[i * channels + k];
+    t.key_of(values, keys.data() + i * dims);
+  }
+  for (int k = 0; k < dims; ++k) {
+    float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+    for (std::size_t i = 0; i < node_count; ++i) lo = std::min(lo, keys[i * dims + k]), hi = std::max(hi, keys[i * dims + k]);
+    t.key_min_[k] = lo;
+    t.key_scale_[k] = static_cast<float>((kBins - 1e-3) / std::max(double(hi) - lo, 1e-9));
+  }
+  std::uint32_t box_cells = 1;
+  for (int k = 0; k < dims; ++k) box_cells *= kBins;
+  // Box cell of every node, then occupied cells numbered in box order and
+  // the nodes sorted by cell (counting sort: ascending node index per cell).
+  std::vector<std::uint32_t> box_of_node(node_count);
+  t.cell_index_.assign(box_cells, kNoCell);
+  std::vector<std::uint32_t> count_of_box(box_cells, 0);
+  for (std::size_t i = 0; i < node_count; ++i) {
+    std::uint32_t box = 0, stride = 1;
+    for (int k = 0; k < dims; ++k, stride *= kBins) {
+      const float position = (keys[i * dims + k] - t.key_min_[k]) * t.key_scale_[k];
+      box += static_cast<std::uint32_t>(std::clamp(static_cast<int>(position), 0, kBins - 1)) * stride;
+    }
+    box_of_node[i] = box;
+    ++count_of_box[box];
+  }
+  std::uint32_t begin = 0;
+  for (std::uint32_t box = 0; box < box_cells; ++box) {
+    if (!count_of_box[box]) continue;
+    t.cell_index_[box] = static_cast<std::uint32_t>(t.cells_.size());
+    Cell c;
+    c.bucket_begin = begin;
+    c.bucket_count = count_of_box[box];
+    begin += c.bucket_count;
+    t.cells_.push_back(c);
+  }
+  t.bucket_nodes_.resize(node_count);
+  {
+    std::vector<std::uint32_t> fill(t.cells_.size(), 0);
+    for (std::size_t i = 0; i < node_count; ++i) {
+      const std::uint32_t cell = t.cell_index_[box_of_node[i]];
+      t.bucket_nodes_[t.cells_[cell].bucket_begin + fill[cell]++] = static_cast<std::uint32_t>(i);
+    }
+  }
+  const std::size_t occupied = t.cells_.size();
+
+  // Branches per occupied cell, in parallel; then concatenated in cell order.
+  const ExhaustiveInverter solver(table_ptr);
+  const NodeIndex index{{table.nodes()[0], table.nodes()[1], table.nodes()[2], table.nodes()[3]}};
+  std::vector<std::vector<Branch>> per_cell(occupied);
+  std::vector<std::uint32_t> box_of_cell(occupied);
+  for (std::uint32_t box = 0; box < box_cells; ++box)
+    if (t.cell_index_[box] != kNoCell) box_of_cell[t.cell_index_[box]] = box;
+  const int thread_count = threads > 0 ? threads : omp_get_num_procs();
+#pragma omp parallel for num_threads(thread_count) schedule(dynamic, 64)
+  for (std::ptrdiff_t cell = 0; cell < static_cast<std::ptrdiff_t>(occupied); ++cell) {
+    double centre[kMaxChannels] = {};
+    std::uint32_t box = box_of_cell[cell];
+    float rotated[4] = {};
+    for (int k = 0; k < dims; ++k, box /= kBins)
+      rotated[k] = t.key_min_[k] + (static_cast<float>(box % kBins) + 0.5f) / t.key_scale_[k];
+    for (int d = 0; d < dims; ++d) {
+      float key = t.key_mean_[d];
+      for (int a = 0; a < dims; ++a) key += t.key_axes_[a * 4 + d] * rotated[a];
+      centre[d] = value_of_key(key);
+    }
+    // Channels beyond the key (tables of more than four channels): the mean of the bucket's nodes.
+    const Cell& c = t.cells_[cell];
+    for (int ch = dims; ch < channels; ++ch) {
+      double sum = 0;
+      for (std::uint32_t k = 0; k < c.bucket_count; ++k) sum += v[std::size_t(t.bucket_nodes_[c.bucket_begin + k]) * channels + ch];
+      centre[ch] = sum / c.bucket_count;
+    }
+    per_cell[cell] = solve_cell(solver, index, t.bucket_nodes_.data() + c.bucket_begin, c.bucket_count, centre);
+  }
+  for (std::size_t cell = 0; cell < occupied; ++cell) {
+    t.cells_[cell].branch_begin = static_cast<std::uint32_t>(t.branches_.size());
+    t.cells_[cell].branch_count = static_cast<std::uint32_t>(per_cell[cell].size());
+    t.branches_.insert(t.branches_.end(), per_cell[cell].begin(), per_cell[cell].end());
+  }
+
+  // Empty cells point at the nearest occupied cell along one axis: up to
+  // kFillReach[a] bins along axis a, thinnest axis first (a noisy pixel lies
+  // off the thin gamut sheet by many bins of its thin axes; Gauss-Newton from
+  // the neighbouring branches then finds its bounded least-squares fit).
+  std::uint32_t stride = 1;
+  for (int k = 0; k < dims; ++k) stride *= kBins;
+  for (int axis = dims - 1; axis >= 0; --axis) {
+    stride /= kBins;
+    const int reach = kFillReach[axis];
+    std::vector<std::uint32_t> next = t.cell_index_;
+    for (std::uint32_t line = 0; line < box_cells; ++line) {
+      if (line / stride % kBins != 0) continue;  // first cell of a line along this axis
+      int last = -1000;
+      for (int i = 0; i < kBins; ++i) {  // forward: nearest occupied before
+        const std::uint32_t box = line + i * stride;
+        if (t.cell_index_[box] != kNoCell) last = i;
+        else if (i - last <= reach) next[box] = t.cell_index_[line + last * stride];
+      }
+      last = 1000;
+      for (int i = kBins - 1; i >= 0; --i) {  // backward: nearer occupied after
+        const std::uint32_t box = line + i * stride;
+        if (t.cell_index_[box] != kNoCell) {
+          last = i;
+          continue;
+        }
+        if (last - i > reach) continue;
+        int before = -1000;
+        for (int j = i - 1; j >= 0 && i - j <= reach; --j)
+          if (t.cell_index_[line + j * stride] != kNoCell) { before = j; break; }
+        if (last - i < i - before) next[box] = t.cell_index_[line + last * stride];
+      }
+    }
+    t.cell_index_.swap(next);
+  }
+  return t;
+}
+
+namespace {
+
+template <class T>
+void write_array(std::ofstream& out, WordHash& h, const std::vector<T>& a) {
+  const std::uint64_t n = a.size();
+  out.write(reinterpret_cast<const char*>(&n), sizeof n);
+  out.write(reinterpret_cast<const char*>(a.data()), static_cast<std::streamsize>(n * sizeof(T)));
+  h.add_value(n);
+  h.add(a.data(), n * sizeof(T));
+}
+
+template <class T>
+bool read_array(std::ifstream& in, WordHash& h, std::vector<T>& a, std::uint64_t max_size) {
+  std::uint64_t n = 0;
+  if (!in.read(reinterpret_cast<char*>(&n), sizeof n) || n > max_size) return false;
+  a.resize(n);
+  const auto bytes = static_cast<std::streamsize>(n * sizeof(T));
+  if (!in.read(reinterpret_cast<char*>(a.data()), bytes) || in.gcount() != bytes) return false;
+  h.add_value(n);
+  h.add(a.data(), n * sizeof(T));
+  return true;
+}
+
+}  // namespace
+
+bool InverseTable::write(const std::filesystem::path& file) const {
+  std::ofstream out(file, std::ios::binary | std::ios::trunc);
+  WordHash h;
+  out.write(kMagic, 8);
+  out.write(reinterpret_cast<const char*>(&kFormatVersion), sizeof kFormatVersion);
+  out.write(reinterpret_cast<const char*>(&key_), sizeof key_);
+  const std::int32_t dims = key_dims_, bins = kBins;
+  out.write(reinterpret_cast<const char*>(&dims), sizeof dims);
+  out.write(reinterpret_cast<const char*>(&bins), sizeof bins);
+  out.write(reinterpret_cast<const char*>(key_mean_), sizeof key_mean_);
+  out.write(reinterpret_cast<const char*>(key_axes_), sizeof key_axes_);
+  out.write(reinterpret_cast<const char*>(key_min_), sizeof key_min_);
+  out.write(reinterpret_cast<const char*>(key_scale_), sizeof key_scale_);
+  h.add_value(key_), h.add_value(dims), h.add_value(bins), h.add(key_mean_, sizeof key_mean_),
+      h.add(key_axes_, sizeof key_axes_), h.add(key_min_, sizeof key_min_), h.add(key_scale_, sizeof key_scale_);
+  write_array(out, h, cell_index_);
+  write_array(out, h, cells_);
+  write_array(out, h, bucket_nodes_);
+  write_array(out, h, branches_);
+  out.write(reinterpret_cast<const char*>(&h.h), sizeof h.h);
+  return static_cast<bool>(out);
+}
+
+bool InverseTable::read(const std::filesystem::path& file, std::uint64_t key, std::string* why) {
+  std::ifstream in(file, std::ios::binary);
+  auto fail = [&](const char* reason) {
+    *why = reason;
+    return false;
+  };
+  char magic[8];
+  std::uint32_t version = 0;
+  std::int32_t dims = 0, bins = 0;
+  if (!in.read(magic, 8) || std::memcmp(magic, kMagic, 8) != 0) return fail("not an inverse table file");
+  if (!in.read(reinterpret_cast<char*>(&version), sizeof version) || version != kFormatVersion)
+    return fail("another format version");
+  WordHash h;
+  if (!in.read(reinterpret_cast<char*>(&key_), sizeof key_) || key_ != key) return fail("another key");
+  if (!in.read(reinterpret_cast<char*>(&dims), sizeof dims) || !in.read(reinterpret_cast<char*>(&bins), sizeof bins) ||
+      dims < 1 || dims > 4 || bins != kBins)
+    return fail("bad header");
+  key_dims_ = dims;
+  if (!in.read(reinterpret_cast<char*>(key_mean_), sizeof key_mean_) ||
+      !in.read(reinterpret_cast<char*>(key_axes_), sizeof key_axes_) ||
+      !in.read(reinterpret_cast<char*>(key_min_), sizeof key_min_) ||
+      !in.read(reinterpret_cast<char*>(key_scale_), sizeof key_scale_))
+    return fail("truncated header");
+  h.add_value(key_), h.add_value(dims), h.add_value(bins), h.add(key_mean_, sizeof key_mean_),
+      h.add(key_axes_, sizeof key_axes_), h.add(key_min_, sizeof key_min_), h.add(key_scale_, sizeof key_scale_);
+  std::uint64_t box_cells = 1;
+  for (int k = 0; k < dims; ++k) box_cells *= kBins;
+  if (!read_array(in, h, cell_index_, box_cells) || cell_index_.size() != box_cells ||
+      !read_array(in, h, cells_, box_cells) || !read_array(in, h, bucket_nodes_, 1ull << 32) ||
+      !read_array(in, h, branches_, cells_.size() * kMaxBranches))
+    return fail("truncated or inconsistent sizes");
+  std::uint64_t checksum = 0;
+  if (!in.read(reinterpret_cast<char*>(&checksum), sizeof checksum) || in.peek() != std::char_traits<char>::eof())
+    return fail("truncated or trailing bytes");
+  if (checksum != h.h) return fail("checksum mismatch");
+  // Indices in range (a file written by another build with the same key cannot point outside its arrays).
+  for (std::uint32_t c : cell_index_)
+    if (c != kNoCell && c >= cells_.size()) return fail("cell index out of range");
+  for (const Cell& c : cells_)
+    if (std::uint64_t(c.bucket_begin) + c.bucket_count > bucket_nodes_.size() ||
+        std::uint64_t(c.branch_begin) + c.branch_count > branches_.size() || c.branch_count > kMaxBranches)
+      return fail("cell range out of range");
+  return true;
+}
+
+std::shared_ptr<const InverseTable> InverseTable::load_or_build(std::shared_ptr<const ForwardTable> table,
+                                                                const std::filesystem::path& cache_dir, bool* rebuilt,
+                                                                std::string* warning, int threads) {
+  if (!table || table->values().empty()) throw std::invalid_argument("inverse table: empty forward table");
+  if (warning) warning->clear();
+  const std::uint64_t key = cache_key(*table);
+  const std::filesystem::path file = cache_dir / file_name(key);
+  // One table per key and process while anyone holds it; the lock also keeps
+  // two threads of one process from building the same table twice.
+  static std::mutex registry_mutex;
+  static std::map<std::pair<std::uint64_t, std::string>, std::weak_ptr<const InverseTable>> registry;
+  std::lock_guard lock(registry_mutex);
+  auto& slot = registry[{key, file.string()}];
+  if (auto shared = slot.lock()) {
+    if (rebuilt) *rebuilt = false;
+    return shared;
+  }
+  for (auto it = registry.begin(); it != registry.end();) it = it->second.expired() && &it->second != &slot ? registry.erase(it) : std::next(it);
+
+  std::error_code ec;
+  if (std::filesystem::exists(file, ec)) {
+    auto loaded = std::make_shared<InverseTable>();
+    std::string why;
+    if (loaded->read(file, key, &why) && loaded->bucket_nodes_.size() == table->grid().node_count()) {
+      if (rebuilt) *rebuilt = false;
+      slot = loaded;
+      return loaded;
+    }
+    if (why.empty()) why = "bucket size does not match the table";
+    const std::string message = "inverse table cache " + file.string() + " is unusable (" + why + "); rebuilding it";
+    if (warning) *warning = message;
+    std::fprintf(stderr, "warning: %s\n", message.c_str());
+  }
+  auto built = std::make_shared<InverseTable>(build(table, threads));
+  if (rebuilt) *rebuilt = true;
+  slot = built;
+  std::filesystem::create_directories(cache_dir, ec);
+  const std::filesystem::path temporary =
+      cache_dir / (file_name(key) + ".tmp" + std::to_string(static_cast<long long>(::getpid())));
+  if (built->write(temporary)) {
+    std::filesystem::rename(temporary, file, ec);  // a cache that cannot be written is not an error
+    if (ec) std::filesystem::remove(temporary, ec);
+  } else {
+    std::filesystem::remove(temporary, ec);
+  }
+  return built;
+}
+
+}  // namespace chromo::estimation

@@ -1,0 +1,215 @@
+#include "chromo/estimation/inverse_table.hpp"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <vector>
+
+#include "chromo/estimation/inverter.hpp"
+#include "chromo/estimation/reconstruction.hpp"
+#include "chromo/estimation/skin_model.hpp"
+#include "chromo/estimation/synthetic.hpp"
+#include "chromo/spectral/cie.hpp"
+#include "chromo/spectral/delta_e.hpp"
+#include "estimation_fixture.hpp"
+
+namespace chromo::estimation {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::shared_ptr<const InverseTable> method_inverse_table() {
+  return InverseTable::load_or_build(testing::method_table(), ForwardTable::default_cache_dir());
+}
+
+// Weights as the Estimator gives them: camera noise plus 0.3% model error.
+void estimator_weights(const MeasurementSet& set, const double* m, double* w) {
+  for (int c = 0; c < set.size(); ++c) {
+    const double model = 0.003 * std::max(m[c], 0.0);
+    w[c] = 1 / std::sqrt(set.channels[c].noise.variance(m[c]) + model * model);
+  }
+}
+
+double mean_d65_delta_e(const ForwardTable& table, const std::vector<GridPoint>& a, const std::vector<GridPoint>& b) {
+  const SkinModel model;
+  const spectral::Spectrum& d65 = spectral::illuminant_d65();
+  const spectral::Xyz white = spectral::white_point(d65);
+  double sum = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const auto lab = [&](const GridPoint& x) {
+      return spectral::lab_from_xyz(spectral::xyz_of_reflectance(model.albedo(table.from_grid(x)), d65), white);
+    };
+    sum += spectral::delta_e94(lab(a[i]), lab(b[i]));
+  }
+  return sum / a.size();
+}
+
+// In-gamut skin, noise-free and with the camera noise model: the pre-solved
+// path explains almost every pixel itself, noise-free it reaches the
+// exhaustive search's χ² (noisy, a fifth of the pixels stop in another
+// bounded local minimum below the acceptance χ²), and the relit colour under
+// D65 stays within a few hundredths of ΔE94 of the exhaustive search's (the
+// issue's bound: 0.1).
+TEST(FastInverter, PresolvedPathMatchesTheExhaustiveSearchOnInGamutSkin) {
+  const auto table = testing::method_table();
+  const FastInverter fast(table, method_inverse_table());
+  const ExhaustiveInverter exhaustive(table);
+  for (const double noise : {0.0, 1.0}) {
+    MeasurementSet set = testing::method_set();
+    SyntheticOptions o;
+    o.pixels = 300;
+    o.noise.noise_scale = noise;
+    o.seed = 21;
+    const SyntheticFrame f = make_synthetic_frame(set, o);
+    int presolved = 0, close = 0;
+    std::vector<GridPoint> fast_x, exhaustive_x;
+    for (std::size_t i = 0; i < f.pixels(); ++i) {
+      double m[4], w[4];
+      for (int c = 0; c < 4; ++c) m[c] = (noise > 0 ? f.noisy : f.clean)[i * 4 + c];
+      estimator_weights(set, m, w);
+      FastPath path;
+      const Fit a = fast.fit(m, w, 4, &path), b = exhaustive.fit(m, w, 4);
+      presolved += path == FastPath::kPresolved;
+      close += a.chi2 <= b.chi2 + 0.05;  // noisy: pixels off the gamut's thin sheet end on a bounded face, where
+                                         // several local minima compete
+      fast_x.push_back(a.x), exhaustive_x.push_back(b.x);
+    }
+    SCOPED_TRACE(noise);
+    EXPECT_GE(presolved, noise > 0 ? 255 : 291);  // ≥ 85% noisy (89% here, bench 91%), ≥ 97% noise-free (99.7%)
+    EXPECT_GE(close, noise > 0 ? 225 : 291);      // at the exhaustive χ²: ≥ 75% noisy (79%), ≥ 97% noise-free
+    EXPECT_LT(mean_d65_delta_e(*table, fast_x, exhaustive_x), noise > 0 ? 0.1 : 0.03);
+  }
+}
+
+// The non-unique inverse: cells with several branches exist, and a
+// measurement at any branch's stored solution is fitted to within the
+// convergence χ² (0.1σ per channel) by the pre-solved path (whichever branch
+// it picks explains it).
+TEST(InverseTable, EveryStoredBranchIsFittedExactly) {
+  const auto table = testing::method_table();
+  const auto inverse = method_inverse_table();
+  const FastInverter fast(table, inverse);
+  EXPECT_GT(inverse->branch_count(), inverse->occupied_cells());  // some cells hold more than one branch
+  const std::vector<double> w(4, 100.0);
+  int multi = 0, exact = 0, presolved = 0;
+  for (std::size_t cell = 0; cell < inverse->occupied_cells() && multi < 200; cell += 7) {
+    const InverseTable::Cell& c = inverse->cell(static_cast<std::uint32_t>(cell));
+    if (c.branch_count < 2) continue;
+    ++multi;
+    const InverseTable::Branch& b = inverse->branches(c)[c.branch_count - 1];  // not the best branch at the centre
+    double m[4];
+    table->predict({b.x0[0], b.x0[1], b.x0[2], b.x0[3]}, m);
+    FastPath path;
+    const Fit f = fast.fit(m, w.data(), 4, &path);
+    exact += f.chi2 <= FastInverter::kConvergedChi2;
+    presolved += path == FastPath::kPresolved;
+  }
+  ASSERT_EQ(multi, 200);
+  EXPECT_GE(exact, 198);
+  EXPECT_GE(presolved, 190);
+}
+
+TEST(InverseTable, NonFiniteOrFarOutsideMeasurementsDoNotCrash) {
+  const auto table = testing::method_table();
+  const FastInverter fast(table, method_inverse_table());
+  const std::vector<double> w(4, 100.0);
+  for (const auto& m : std::vector<std::array<double, 4>>{
+           {NAN, 0.2, 0.2, 0.2}, {1e9, 1e9, 1e9, 1e9}, {0, 0, 0, 0}, {-1, 0.5, 0.1, 0.3}, {0.9, 0.01, 0.9, 0.01}}) {
+    const Fit f = fast.fit(m.data(), w.data(), 4);
+    for (double x : f.x) EXPECT_TRUE(std::isfinite(x));
+  }
+  const float nan_pixel[4] = {NAN, 0.2f, 0.2f, 0.2f};
+  EXPECT_EQ(method_inverse_table()->cell_of(nan_pixel), InverseTable::kNoCell);
+}
+
+class InverseTableCache : public ::testing::Test {
+ protected:
+  fs::path dir = fs::temp_directory_path() / ("chromo_inverse_cache_" + std::to_string(::getpid()));
+  const TableGrid small{9, 9, 11, 5};
+  void SetUp() override { fs::remove_all(dir); }
+  void TearDown() override { fs::remove_all(dir); }
+  std::shared_ptr<const ForwardTable> small_table(const MeasurementSet& set) {
+    return std::make_shared<const ForwardTable>(ForwardTable::build(set, small, 2));
+  }
+};
+
+TEST_F(InverseTableCache, IsReusedAndRebuiltWhenTheForwardTableChanges) {
+  const MeasurementSet set = testing::method_set();
+  const auto table = small_table(set);
+  bool rebuilt = false;
+  std::string warning = "x";
+  std::size_t branches = 0, cells = 0;
+  {
+    const auto first = InverseTable::load_or_build(table, dir, &rebuilt, &warning, 2);
+    EXPECT_TRUE(rebuilt);
+    EXPECT_TRUE(warning.empty());
+    branches = first->branch_count(), cells = first->occupied_cells();
+    EXPECT_GT(branches, 0u);
+    // Held: the same object, no file read.
+    EXPECT_EQ(InverseTable::load_or_build(table, dir, &rebuilt).get(), first.get());
+    EXPECT_FALSE(rebuilt);
+  }
+  // Released: read back from the file, identical.
+  const auto second = InverseTable::load_or_build(table, dir, &rebuilt, &warning, 2);
+  EXPECT_FALSE(rebuilt);
+  EXPECT_TRUE(warning.empty());
+  EXPECT_EQ(second->branch_count(), branches);
+  EXPECT_EQ(second->occupied_cells(), cells);
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), {}), 1);
+
+  // Another illuminant → another forward table → another key and file.
+  MeasurementSet other = set;
+  other.channels[3].illuminant *= 0.5;
+  other.channels[3].illuminant += led_spectrum(spectral::LedType::kGreen) * 0.1;
+  const auto third = InverseTable::load_or_build(small_table(other), dir, &rebuilt, &warning, 2);
+  EXPECT_TRUE(rebuilt);
+  EXPECT_NE(InverseTable::cache_key(*small_table(other)), InverseTable::cache_key(*table));
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), {}), 2);
+}
+
+TEST_F(InverseTableCache, ACorruptOrTruncatedFileIsRebuiltWithAWarning) {
+  const auto table = small_table(testing::method_set());
+  const fs::path file = dir / InverseTable::file_name(InverseTable::cache_key(*table));
+  std::size_t branches = 0;
+  bool rebuilt = false;
+  std::string warning;
+  { branches = InverseTable::load_or_build(table, dir, &rebuilt, &warning, 2)->branch_count(); }
+  ASSERT_TRUE(fs::exists(file));
+  const auto size = fs::file_size(file);
+  {
+    // One byte flipped in the middle (the branch data): the checksum catches it.
+    std::fstream f(file, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekg(static_cast<std::streamoff>(size - 200));
+    char byte = 0;
+    f.read(&byte, 1);
+    byte = static_cast<char>(byte ^ 0x5a);
+    f.seekp(static_cast<std::streamoff>(size - 200));
+    f.write(&byte, 1);
+  }
+  {
+    const auto again = InverseTable::load_or_build(table, dir, &rebuilt, &warning, 2);
+    EXPECT_TRUE(rebuilt);
+    EXPECT_NE(warning.find("checksum"), std::string::npos) << warning;
+    EXPECT_NE(warning.find(file.string()), std::string::npos) << warning;
+    EXPECT_EQ(again->branch_count(), branches);
+  }
+  // The rebuilt file was written back: it loads without a warning.
+  { InverseTable::load_or_build(table, dir, &rebuilt, &warning, 2); }
+  EXPECT_FALSE(rebuilt);
+  EXPECT_TRUE(warning.empty());
+  // Truncated, then garbage: rebuilt with a warning each time, never read.
+  fs::resize_file(file, 1000);
+  { InverseTable::load_or_build(table, dir, &rebuilt, &warning, 2); }
+  EXPECT_TRUE(rebuilt);
+  EXPECT_NE(warning.find("truncated"), std::string::npos) << warning;
+  std::ofstream(file, std::ios::trunc) << "not a table";
+  { InverseTable::load_or_build(table, dir, &rebuilt, &warning, 2); }
+  EXPECT_TRUE(rebuilt);
+  EXPECT_NE(warning.find("not an inverse table"), std::string::npos) << warning;
+  EXPECT_GT(fs::file_size(file), 1000u);
+}
+
+}  // namespace
+}  // namespace chromo::estimation
