@@ -43,5 +43,8 @@ int report_failure(const std::string& what, const grpc::Status& status);
 std::string state_text(chromosphere::v1::OperationState state);
 // "[#########.........]  45%  eta 12 s  stored 31/70  lost 0  step white_w57"
 std::string progress_line(const chromosphere::v1::Operation& operation);
+// Streams an operation (session or calibration) to its end with a live
+// progress line, then its outcome. Exit status 0 only on success.
+int watch_operation(const DaemonConnection& daemon, const std::string& id);
 
 }  // namespace chromo::cli

@@ -27,37 +27,6 @@ struct SessionOptions {
   unsigned frames_per_camera = 0;
 };
 
-// Streams the operation to its end with a live progress line (redrawn in
-// place on a terminal, one line per change otherwise). Exit 0 only on success.
-int watch(const DaemonConnection& daemon, const std::string& id) {
-  auto context = daemon.context(true);
-  pb::WatchOperationRequest request;
-  request.set_id(id);
-  auto reader = pb::OperationService::NewStub(daemon.channel())->WatchOperation(context.get(), request);
-  const bool terminal = ::isatty(STDOUT_FILENO);
-  pb::Operation operation, last;
-  std::string previous;
-  while (reader->Read(&operation)) {
-    last = operation;
-    std::string line = progress_line(operation);
-    if (line == previous) continue;
-    previous = line;
-    if (terminal)
-      std::cout << "\r\033[K" << line << std::flush;
-    else
-      std::cout << line << "\n";
-  }
-  if (terminal) std::cout << "\n";
-  auto status = reader->Finish();
-  if (!status.ok()) return report_failure("watch " + id, status);
-  std::cout << fmt::format("session {} {}", last.id(), state_text(last.state()));
-  if (!last.error().empty()) std::cout << ": " << last.error();
-  std::cout << fmt::format("\nframes: {} stored, {} lost, {} estimated, {} skipped by the estimator\nfolder: {}\n",
-                           last.counters().stored(), last.counters().lost(), last.counters().estimated(),
-                           last.counters().estimator_skipped(), last.folder());
-  for (const auto& [reason, count] : last.counters().lost_reasons()) std::cout << "  lost (" << reason << "): " << count << "\n";
-  return last.state() == pb::OPERATION_STATE_SUCCEEDED ? kExitOk : kExitFailure;
-}
 
 void run(SessionOptions& options, int& exit_status) {
   DaemonConnection daemon(options.address);
@@ -94,7 +63,7 @@ void run(SessionOptions& options, int& exit_status) {
   }
   std::cout << "session " << started.id() << " started\n";
   if (options.detach) return;
-  exit_status = watch(daemon, started.id());
+  exit_status = watch_operation(daemon, started.id());
 }
 
 template <typename Request, typename Call>
@@ -141,6 +110,43 @@ void show(SessionOptions& options, int& exit_status) {
 
 }  // namespace
 
+// Streams the operation to its end with a live progress line (redrawn in
+// place on a terminal, one line per change otherwise). Exit 0 only on success.
+int watch_operation(const DaemonConnection& daemon, const std::string& id) {
+  auto context = daemon.context(true);
+  pb::WatchOperationRequest request;
+  request.set_id(id);
+  auto reader = pb::OperationService::NewStub(daemon.channel())->WatchOperation(context.get(), request);
+  const bool terminal = ::isatty(STDOUT_FILENO);
+  pb::Operation operation, last;
+  std::string previous;
+  while (reader->Read(&operation)) {
+    last = operation;
+    std::string line = progress_line(operation);
+    if (line == previous) continue;
+    previous = line;
+    if (terminal)
+      std::cout << "\r\033[K" << line << std::flush;
+    else
+      std::cout << line << "\n";
+  }
+  if (terminal) std::cout << "\n";
+  auto status = reader->Finish();
+  if (!status.ok()) return report_failure("watch " + id, status);
+  const bool calibration = last.kind() == pb::OPERATION_KIND_CALIBRATION;
+  std::cout << fmt::format("{} {} {}", calibration ? "calibration" : "session", last.id(), state_text(last.state()));
+  if (!last.error().empty()) std::cout << ": " << last.error();
+  if (calibration) {
+    std::cout << fmt::format("\n{}\nfolder: {}\n", last.message(), last.folder());
+    return last.state() == pb::OPERATION_STATE_SUCCEEDED ? kExitOk : kExitFailure;
+  }
+  std::cout << fmt::format("\nframes: {} stored, {} lost, {} estimated, {} skipped by the estimator\nfolder: {}\n",
+                           last.counters().stored(), last.counters().lost(), last.counters().estimated(),
+                           last.counters().estimator_skipped(), last.folder());
+  for (const auto& [reason, count] : last.counters().lost_reasons()) std::cout << "  lost (" << reason << "): " << count << "\n";
+  return last.state() == pb::OPERATION_STATE_SUCCEEDED ? kExitOk : kExitFailure;
+}
+
 void add_session_command(CLI::App& app, int& exit_status) {
   auto* session = app.add_subcommand("session", "capture sessions on chromod");
   session->require_subcommand(1);
@@ -161,7 +167,7 @@ void add_session_command(CLI::App& app, int& exit_status) {
   auto* watch_command = session->add_subcommand("watch", "follow a session's progress to its end");
   add_daemon_options(*watch_command, options->address);
   watch_command->add_option("id", options->id, "session id")->required();
-  watch_command->callback([&exit_status, options] { exit_status = watch(DaemonConnection(options->address), options->id); });
+  watch_command->callback([&exit_status, options] { exit_status = watch_operation(DaemonConnection(options->address), options->id); });
 
   auto* list = session->add_subcommand("list", "sessions known to the daemon, newest first");
   add_daemon_options(*list, options->address);

@@ -62,7 +62,7 @@ DaemonConfig parse_config(const nlohmann::json& json, const std::string& origin)
   static const std::set<std::string> known{"unix_socket", "unix_socket_mode", "tcp_address", "token",
                                            "tls_certificate_file", "tls_private_key_file", "sessions_dir",
                                            "storage_limit_bytes", "storage_queue_frames", "estimator_queue_frames",
-                                           "frame_timeout_ms", "frame_attempts", "devices", "mixes"};
+                                           "frame_timeout_ms", "frame_attempts", "led_library", "devices", "mixes"};
   if (!json.is_object()) throw std::invalid_argument(origin + ": must be a JSON object");
   std::string field;
   try {
@@ -89,11 +89,21 @@ DaemonConfig parse_config(const nlohmann::json& json, const std::string& origin)
     get("estimator_queue_frames", config.estimator_queue_frames);
     get("frame_timeout_ms", config.frame_timeout_ms);
     get("frame_attempts", config.frame_attempts);
+    std::string led_library;
+    get("led_library", led_library);
+    config.led_library = led_library;
     if (json.contains("devices")) {
       std::size_t index = 0;
       for (const auto& device : json.at("devices")) {
         field = "devices[" + std::to_string(index++) + "]";
         DeviceConfig d;
+        if (!device.is_object()) throw std::invalid_argument(origin + ": " + field + ": must be a JSON object");
+        for (const auto& [key, value] : device.items())
+          if (key != "name" && key != "kind" && key != "backend" && key != "address" && key != "settings")
+            throw std::invalid_argument(origin + ": " + field + "." + key +
+                                        ": unknown key (name, kind, backend, address, settings)");
+        if (device.contains("settings") && !device.at("settings").is_object())
+          throw std::invalid_argument(origin + ": " + field + ".settings: must be a JSON object");
         d.name = device.at("name").get<std::string>();
         std::string kind = device.at("kind").get<std::string>();
         if (kind == "led_controller") d.kind = DeviceKind::kLedController;

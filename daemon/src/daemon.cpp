@@ -15,6 +15,9 @@ Daemon::Daemon(DaemonConfig config, DeviceSet devices, FrameConsumer* estimator)
       budget_(config_.storage_limit_bytes),
       store_(config_.sessions_dir, &budget_) {
   for (auto& info : store_.recover()) operations_.add_past(std::move(info.record));
+  calibrations_ = std::make_unique<Calibrations>(config_.sessions_dir / "calibrations", config_.led_library, devices_,
+                                                 operations_, &budget_);
+  for (auto& record : calibrations_->recover()) operations_.add_past(std::move(record));
 }
 
 Daemon::~Daemon() {
@@ -112,6 +115,7 @@ std::vector<DeviceReport> Daemon::probe_devices() {
 }
 
 drivers::DriveLevels Daemon::resolve_mix(const std::string& mix) const {
+  if (auto solved = calibrations_->solved_mix(mix)) return *solved;
   auto found = config_.mixes.find(mix);
   if (found != config_.mixes.end()) return found->second;
   // "w57+blue:R": the blue level scaled by R relative to the configured w57+blue.
@@ -126,6 +130,12 @@ drivers::DriveLevels Daemon::resolve_mix(const std::string& mix) const {
     }
   }
   throw std::invalid_argument("mix \"" + mix + "\": no weights for it (configure \"mixes\" or run a calibration)");
+}
+
+OperationRecord Daemon::start_calibration(const CalibrationRequest& request) {
+  std::lock_guard lock(run_mutex_);
+  ensure_idle();
+  return calibrations_->start(request);
 }
 
 void Daemon::ensure_idle() const {

@@ -32,6 +32,9 @@ void open_into(std::vector<std::unique_ptr<NamedDevice<Interface>>>& out, const 
   named->config = config;
   try {
     named->device = factory->second(config);
+  } catch (const std::invalid_argument& error) {
+    // A setting the backend refuses: a configuration error, not a device that is away.
+    throw std::invalid_argument("device \"" + config.name + "\" (" + config.backend + "): " + error.what());
   } catch (const std::exception& error) {
     named->open_error = error.what();
   }

@@ -47,6 +47,7 @@ struct CameraCollector {
   int step_index = 0;
   nlohmann::json metadata;
   std::chrono::steady_clock::time_point trigger_time;
+  bool streaming = false;  // sequencer thread only
 };
 
 class Run {
@@ -58,7 +59,7 @@ class Run {
     expected_ = c_.plan.frames_per_camera_total() * c_.cameras.size();
     try {
       set_state(OperationState::kRunning, "starting");
-      start_cameras();
+      create_collectors();
       SequencerOutcome outcome = steps();
       finish_devices();
       return outcome;
@@ -71,6 +72,10 @@ class Run {
  private:
   SequencerOutcome steps() {
     const bool hardware = c_.plan.timing == Timing::kHardware;
+    // Controllers keep their output stage off until told (the LED state is
+    // applied but nothing is emitted): switch it on for the session.
+    if (!with_led("set_output_enabled", [](drivers::LedController& device) { device.set_output_enabled(true); }))
+      return cancelled();
     if (hardware && !arm_from(0, 0)) return cancelled();
     for (std::size_t index = 0; index < c_.plan.steps.size(); ++index) {
       const Step& step = c_.plan.steps[index];
@@ -96,7 +101,10 @@ class Run {
       drivers::LedStatus status;
       if (!with_led("read_status", [&](drivers::LedController& device) { status = device.read_status(); }))
         return cancelled();
-      led = {{"drive", levels_json(status.applied.drive)},
+      // Hardware timing: the controller moves to this step's state on the
+      // first exposure edge, so before it the status still shows the state
+      // of the previous frame; the frames were taken under the armed levels.
+      led = {{"drive", levels_json(hardware ? levels : status.applied.drive)},
              {"requested_drive", levels_json(levels)},
              {"temperature_C", status.temperature_C},
              {"channel_faults", status.channel_faults},
@@ -106,7 +114,7 @@ class Run {
                           {"exposure_us", step.exposure_us}, {"settle_ms", step.settle_ms},
                           {"timing", timing_name(c_.plan.timing)}});
       if (!c_.control->sleep_unless_cancelled(std::chrono::milliseconds(step.settle_ms))) return cancelled();
-      configure_cameras(step.exposure_us);
+      if (!ensure_exposure(step.exposure_us)) return cancelled();
       for (std::uint32_t frame = 0; frame < step.frames_per_camera; ++frame) {
         if (c_.control->cancel_requested()) return cancelled();
         nlohmann::json metadata{{"exposure_us", step.exposure_us}, {"led", led}, {"frame_in_step", frame},
@@ -203,9 +211,11 @@ class Run {
     }
   }
 
-  // Arms the hardware sequence from (step, frame) to the end.
+  // Arms the hardware sequence from (step, frame) to the end. State 0 is the
+  // resting state (LEDs dark) shown until the first exposure: the controller
+  // advances on each exposure's rising edge, so frame k is taken under state k.
   bool arm_from(std::size_t step_index, std::uint32_t frame) {
-    std::vector<LedState> states;
+    std::vector<LedState> states(1);
     for (std::size_t s = step_index; s < c_.plan.steps.size(); ++s) {
       LedState state;
       state.drive = resolve(c_.plan.steps[s]);
@@ -236,15 +246,55 @@ class Run {
     return DriveLevels{};
   }
 
-  void start_cameras() {
+  void create_collectors() {
     for (auto* camera : c_.cameras) {
       if (!camera->device) throw std::runtime_error("camera \"" + camera->config.name + "\" is not open: " + camera->open_error);
       auto collector = std::make_unique<CameraCollector>();
       collector->camera = camera;
-      CameraCollector* raw = collector.get();
       collectors_.push_back(std::move(collector));
-      std::lock_guard lock(camera->mutex);
-      camera->device->start_stream([this, raw](drivers::Frame&& frame) { on_frame(*raw, std::move(frame)); });
+    }
+  }
+
+  // Cameras take settings only while they do not stream (AravisCamera): when
+  // a step's exposure differs from the one configured, the streams stop, the
+  // cameras are configured, the streams start again. A camera that does not
+  // answer pauses the session naming it; resume retries. False when cancelled.
+  bool ensure_exposure(double exposure_us) {
+    if (exposure_us == configured_exposure_us_) return true;
+    while (true) {
+      if (c_.control->cancel_requested()) return false;
+      std::string failing, failure;
+      try {
+        stop_streams();
+        for (auto& collector : collectors_) {
+          failing = collector->camera->config.name;
+          configure_camera(*collector->camera, exposure_us);
+        }
+        for (auto& collector : collectors_) {
+          failing = collector->camera->config.name;
+          CameraCollector* raw = collector.get();
+          std::lock_guard lock(collector->camera->mutex);
+          collector->camera->device->start_stream([this, raw](drivers::Frame&& frame) { on_frame(*raw, std::move(frame)); });
+          collector->streaming = true;
+        }
+        configured_exposure_us_ = exposure_us;
+        return true;
+      } catch (const DeviceError& error) {
+        if (!is_unanswered(error)) throw;
+        failure = error.what();
+      }
+      c_.journal->append({{"type", "device_error"}, {"device", failing}, {"request", "configure"}, {"error", failure}});
+      c_.control->pause_by_daemon();
+      if (!pause_point("camera \"" + failing + "\" does not answer (" + failure + "); resume to retry")) return false;
+    }
+  }
+
+  void stop_streams() {
+    for (auto& collector : collectors_) {
+      if (!collector->streaming) continue;
+      std::lock_guard lock(collector->camera->mutex);
+      collector->streaming = false;
+      collector->camera->device->stop_stream();
     }
   }
 
@@ -278,23 +328,25 @@ class Run {
     collector.arrived.notify_all();
   }
 
-  void configure_cameras(double exposure_us) {
-    for (auto* camera : c_.cameras) {
-      drivers::CameraSettings settings;
-      settings.exposure_us = exposure_us;
-      settings.trigger_mode = drivers::TriggerMode::kSoftware;
-      settings.pixel_format = camera->device->info().pixel_formats.empty() ? drivers::PixelFormat::kMono8
-                                                                           : camera->device->info().pixel_formats.front();
-      std::lock_guard lock(camera->mutex);
-      camera->device->configure(settings);
-    }
+  // The configuration's pixel format, ROI and gain (validated when the
+  // device was opened; the device's first format when none is configured),
+  // this exposure, software trigger.
+  void configure_camera(NamedDevice<drivers::Camera>& camera, double exposure_us) {
+    drivers::CameraSettings settings = camera_capture_settings(camera.config);
+    settings.exposure_us = exposure_us;
+    settings.trigger_mode = drivers::TriggerMode::kSoftware;
+    std::lock_guard lock(camera.mutex);
+    if (!camera.config.settings.contains("pixel_format") && !camera.device->info().pixel_formats.empty())
+      settings.pixel_format = camera.device->info().pixel_formats.front();
+    camera.device->configure(settings);
   }
 
   void finish_devices() {
     for (auto& collector : collectors_) {
       try {
         std::lock_guard lock(collector->camera->mutex);
-        collector->camera->device->stop_stream();
+        if (collector->streaming) collector->camera->device->stop_stream();
+        collector->streaming = false;
         c_.pipeline->add_resent_packets(collector->camera->device->statistics().resent_packets);
       } catch (const std::exception&) {
       }
@@ -336,6 +388,7 @@ class Run {
   std::vector<std::unique_ptr<CameraCollector>> collectors_;
   std::chrono::steady_clock::time_point start_;
   std::uint64_t expected_ = 0, frames_done_ = 0;
+  double configured_exposure_us_ = -1;
 };
 
 }  // namespace

@@ -8,7 +8,6 @@
 
 namespace chromo::daemon {
 
-namespace {
 std::string new_session_id(const std::string& name) {
   auto now = std::chrono::system_clock::now();
   auto seconds = std::chrono::system_clock::to_time_t(now);
@@ -21,6 +20,8 @@ std::string new_session_id(const std::string& name) {
   std::snprintf(suffix, sizeof suffix, "%06x", static_cast<unsigned>(random() & 0xffffff));
   return std::string(stamp) + "-" + name.substr(0, 32) + "-" + suffix;
 }
+
+namespace {
 
 std::chrono::system_clock::time_point parse_time(const std::string& text) {
   std::tm tm{};

@@ -4,12 +4,17 @@
 
 #include <fstream>
 #include <future>
+#include <set>
+
+#include <google/protobuf/descriptor.pb.h>
+#include <google/protobuf/dynamic_message.h>
 #include <sstream>
 
 #include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/grpcpp.h>
 
 #include "chromo/daemon/server.hpp"
+#include "chromosphere/v1/calibration.grpc.pb.h"
 #include "chromosphere/v1/estimation.grpc.pb.h"
 #include "chromosphere/v1/events.grpc.pb.h"
 #include "chromosphere/v1/leds.grpc.pb.h"
@@ -179,7 +184,7 @@ TEST_F(ApiFixture, HostileInputIsRefusedWithTheFieldNamedAndNothingChanges) {
     pb::SetLedStateRequest empty;
     expect(leds->SetLedState(&c3, empty, &status), StatusCode::INVALID_ARGUMENT, "state");
   }
-  EXPECT_EQ(lab.lab->emitted(), drivers::DriveLevels{});  // no refused request touched the LEDs
+  EXPECT_EQ(lab.emitted(), drivers::DriveLevels{});  // no refused request touched the LEDs
   {  // Wrong types: bytes that are not a StartSessionRequest.
     grpc::GenericStub generic(channel);
     grpc::ClientContext context;
@@ -208,8 +213,8 @@ TEST_F(ApiFixture, LedStateIsSetAndReadBackButNotDuringASession) {
   set.mutable_state()->mutable_drive()->set_w57(0.25);
   pb::LedStatus status;
   ASSERT_TRUE(leds->SetLedState(&c1, set, &status).ok());
-  EXPECT_DOUBLE_EQ(status.applied().drive().w57(), 0.25);
-  EXPECT_DOUBLE_EQ(lab.lab->emitted()[0], 0.25);
+  EXPECT_NEAR(status.applied().drive().w57(), 0.25, 1e-3);  // as the controller quantised it
+  EXPECT_NEAR(lab.emitted()[0], 0.25, 1e-3);                 // what the simulator's firmware holds
 
   pb::StartSessionRequest request;
   request.set_standard(true);
@@ -318,6 +323,168 @@ TEST_F(ApiFixture, EventStreamCarriesOperationUpdates) {
   context.TryCancel();
   EXPECT_TRUE(ended);
   EXPECT_EQ(frames, 7);
+}
+
+TEST_F(ApiFixture, CalibrationRunAndMixSolveOverTheApi) {
+  start();
+  auto calibration = pb::CalibrationService::NewStub(channel);
+  {  // No library yet: the solver cannot run.
+    grpc::ClientContext context;
+    pb::SolveMixRequest solve;
+    solve.set_target("d65");
+    pb::SolveMixResponse response;
+    EXPECT_EQ(calibration->SolveMix(&context, solve, &response).error_code(), StatusCode::FAILED_PRECONDITION);
+  }
+  {  // Invalid requests name the field and start nothing.
+    grpc::ClientContext c1, c2;
+    pb::StartCalibrationRequest bad;
+    bad.add_drive_levels(0.5);
+    bad.add_drive_levels(1.5);
+    pb::Operation out;
+    auto status = calibration->StartCalibration(&c1, bad, &out);
+    EXPECT_EQ(status.error_code(), StatusCode::INVALID_ARGUMENT);
+    EXPECT_NE(status.error_message().find("drive_levels[1]"), std::string::npos) << status.error_message();
+    bad.clear_drive_levels();
+    bad.set_warmup_ms(700000);
+    status = calibration->StartCalibration(&c2, bad, &out);
+    EXPECT_EQ(status.error_code(), StatusCode::INVALID_ARGUMENT);
+    EXPECT_NE(status.error_message().find("warmup_ms"), std::string::npos) << status.error_message();
+  }
+  grpc::ClientContext context;
+  pb::StartCalibrationRequest request;
+  request.add_drive_levels(0.5);
+  request.add_drive_levels(1.0);
+  request.set_warmup_ms(100);
+  pb::Operation started;
+  ASSERT_TRUE(calibration->StartCalibration(&context, request, &started).ok());
+  EXPECT_EQ(started.kind(), pb::OPERATION_KIND_CALIBRATION);
+  auto final = watch_to_end(started.id());
+  ASSERT_EQ(final.state(), pb::OPERATION_STATE_SUCCEEDED) << final.error();
+  EXPECT_TRUE(std::filesystem::exists(std::filesystem::path(final.folder()) / "led-library.json"));
+
+  grpc::ClientContext solve_context;
+  pb::SolveMixRequest solve;
+  solve.set_target("w57+blue");
+  solve.set_objective(pb::MIX_OBJECTIVE_SPECTRAL);
+  pb::SolveMixResponse solved;
+  auto status = calibration->SolveMix(&solve_context, solve, &solved);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_GT(solved.weights().w57(), 0.0);
+  EXPECT_GT(solved.weights().blue(), 0.0);
+  EXPECT_EQ(solved.library(), (std::filesystem::path(final.folder()) / "led-library.json").string());
+  EXPECT_TRUE(solved.figures().contains("rmse"));
+  EXPECT_FALSE(solved.summary().empty());
+  grpc::ClientContext bad_context;
+  solve.set_target("/etc/passwd.csv");
+  auto refused = calibration->SolveMix(&bad_context, solve, &solved);
+  EXPECT_EQ(refused.error_code(), StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(refused.error_message().find("target"), std::string::npos);
+}
+
+// A client of gRPC's server reflection protocol (ServerReflectionInfo, a
+// bidirectional stream). Debian ships no reflection client, grpc_cli or
+// reflection .proto; the message types are the ones libgrpc++_reflection
+// registered in protobuf's generated pool (the server's own definitions),
+// used through protobuf reflection, and the call is a generic stream.
+class ReflectionClient {
+ public:
+  explicit ReflectionClient(std::shared_ptr<grpc::Channel> channel) : stub_(std::move(channel)) {
+    const auto* pool = google::protobuf::DescriptorPool::generated_pool();
+    request_type_ = pool->FindMessageTypeByName("grpc.reflection.v1alpha.ServerReflectionRequest");
+    response_type_ = pool->FindMessageTypeByName("grpc.reflection.v1alpha.ServerReflectionResponse");
+    if (!request_type_ || !response_type_) throw std::runtime_error("reflection messages not in the generated pool");
+    call_ = stub_.PrepareCall(&context_, "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo", &queue_);
+    call_->StartCall(this);
+    wait();
+  }
+  ~ReflectionClient() {
+    call_->WritesDone(this);
+    wait();
+    grpc::Status status;
+    call_->Finish(&status, this);
+    wait();
+  }
+  // Sends a request with one string field set; returns the response.
+  std::unique_ptr<google::protobuf::Message> ask(const std::string& field, const std::string& value) {
+    std::unique_ptr<google::protobuf::Message> request(factory_.GetPrototype(request_type_)->New());
+    request->GetReflection()->SetString(request.get(), request_type_->FindFieldByName(field), value);
+    std::string bytes;
+    request->SerializeToString(&bytes);
+    grpc::Slice slice(bytes);
+    grpc::ByteBuffer out(&slice, 1), in;
+    call_->Write(out, this);
+    if (!wait()) throw std::runtime_error("reflection: write failed");
+    call_->Read(&in, this);
+    if (!wait()) throw std::runtime_error("reflection: the stream ended");
+    std::vector<grpc::Slice> slices;
+    (void)in.Dump(&slices);
+    std::string answer;
+    for (const auto& s : slices) answer += std::string(reinterpret_cast<const char*>(s.begin()), s.size());
+    std::unique_ptr<google::protobuf::Message> response(factory_.GetPrototype(response_type_)->New());
+    if (!response->ParseFromString(answer)) throw std::runtime_error("reflection: unparsable response");
+    return response;
+  }
+  // The message-typed field `name` of `message` (reflection), or null when unset.
+  static const google::protobuf::Message* field(const google::protobuf::Message& message, const std::string& name) {
+    const auto* descriptor = message.GetDescriptor()->FindFieldByName(name);
+    if (!descriptor || !message.GetReflection()->HasField(message, descriptor)) return nullptr;
+    return &message.GetReflection()->GetMessage(message, descriptor);
+  }
+
+ private:
+  bool wait() {
+    void* tag = nullptr;
+    bool ok = false;
+    return queue_.Next(&tag, &ok) && ok;
+  }
+  grpc::GenericStub stub_;
+  grpc::ClientContext context_;
+  grpc::CompletionQueue queue_;
+  std::unique_ptr<grpc::GenericClientAsyncReaderWriter> call_;
+  google::protobuf::DynamicMessageFactory factory_;
+  const google::protobuf::Descriptor* request_type_ = nullptr;
+  const google::protobuf::Descriptor* response_type_ = nullptr;
+};
+
+TEST_F(ApiFixture, ReflectionListsTheServicesAndServesTheirSchema) {
+  start();
+  ReflectionClient client(channel);
+  using Message = google::protobuf::Message;
+  auto listed = client.ask("list_services", "");
+  const Message* list = ReflectionClient::field(*listed, "list_services_response");
+  ASSERT_NE(list, nullptr) << listed->DebugString();
+  std::set<std::string> services;
+  const auto* service_field = list->GetDescriptor()->FindFieldByName("service");
+  for (int i = 0; i < list->GetReflection()->FieldSize(*list, service_field); ++i) {
+    const Message& service = list->GetReflection()->GetRepeatedMessage(*list, service_field, i);
+    services.insert(service.GetReflection()->GetString(service, service.GetDescriptor()->FindFieldByName("name")));
+  }
+  for (const char* name : {"chromosphere.v1.SessionService", "chromosphere.v1.CalibrationService",
+                           "chromosphere.v1.OperationService", "chromosphere.v1.LedService",
+                           "chromosphere.v1.DeviceService", "chromosphere.v1.EventService",
+                           "chromosphere.v1.ResultsService", "grpc.health.v1.Health"})
+    EXPECT_TRUE(services.count(name)) << name << " not listed";
+
+  // The file declaring a service comes back as a FileDescriptorProto.
+  auto described = client.ask("file_containing_symbol", "chromosphere.v1.SessionService");
+  const Message* files = ReflectionClient::field(*described, "file_descriptor_response");
+  ASSERT_NE(files, nullptr) << described->DebugString();
+  const auto* bytes_field = files->GetDescriptor()->FindFieldByName("file_descriptor_proto");
+  ASSERT_GT(files->GetReflection()->FieldSize(*files, bytes_field), 0);
+  google::protobuf::FileDescriptorProto file;
+  ASSERT_TRUE(file.ParseFromString(files->GetReflection()->GetRepeatedString(*files, bytes_field, 0)));
+  EXPECT_EQ(file.name(), "chromosphere/v1/sessions.proto");
+  EXPECT_EQ(file.package(), "chromosphere.v1");
+  bool found = false;
+  for (const auto& service : file.service()) found = found || service.name() == "SessionService";
+  EXPECT_TRUE(found);
+
+  // An unknown symbol: an error response, NOT_FOUND.
+  auto unknown = client.ask("file_containing_symbol", "no.such.Service");
+  const Message* error = ReflectionClient::field(*unknown, "error_response");
+  ASSERT_NE(error, nullptr) << unknown->DebugString();
+  EXPECT_EQ(error->GetReflection()->GetInt32(*error, error->GetDescriptor()->FindFieldByName("error_code")),
+            static_cast<int>(StatusCode::NOT_FOUND));
 }
 
 }  // namespace

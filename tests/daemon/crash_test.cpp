@@ -1,15 +1,20 @@
-// kill -9 of chromod in the middle of a session, then a restart: the folder is
-// intact, says which steps completed, and the session is reported interrupted.
+// kill -9 of chromod (on its built-in virtual lab: real protocols) in the
+// middle of a session or a calibration run, then a restart: the folder is
+// intact, says which steps completed, and the operation is reported
+// interrupted.
 #include <fcntl.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <fstream>
+
 #include <grpcpp/grpcpp.h>
 
 #include "chromo/daemon/image_files.hpp"
 #include "chromo/daemon/session_store.hpp"
+#include "chromosphere/v1/calibration.grpc.pb.h"
 #include "chromosphere/v1/operations.grpc.pb.h"
 #include "chromosphere/v1/sessions.grpc.pb.h"
 #include "test_lab.hpp"
@@ -46,7 +51,8 @@ std::shared_ptr<grpc::Channel> connect(const std::filesystem::path& directory) {
   arguments.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
   auto channel = grpc::CreateCustomChannel("unix:" + (directory / "s.sock").string(), grpc::InsecureChannelCredentials(),
                                            arguments);
-  EXPECT_TRUE(channel->WaitForConnected(std::chrono::system_clock::now() + std::chrono::seconds(10)));
+  // chromod starts the virtual lab (scene, camera simulator, Aravis discovery) before it listens.
+  EXPECT_TRUE(channel->WaitForConnected(std::chrono::system_clock::now() + std::chrono::seconds(30)));
   return channel;
 }
 
@@ -71,7 +77,7 @@ TEST(Crash, KillNineMidSessionThenRestartReportsInterruptedAndTheFolderIsIntact)
   }
   // Wait until the session is well into its second step, then kill -9.
   auto operations = pb::OperationService::NewStub(channel);
-  for (int i = 0; i < 400; ++i) {
+  for (int i = 0; i < 1500; ++i) {
     grpc::ClientContext context;
     pb::GetOperationRequest get;
     get.set_id(started.id());
@@ -111,6 +117,58 @@ TEST(Crash, KillNineMidSessionThenRestartReportsInterruptedAndTheFolderIsIntact)
   auto journal = read_journal(folder / "journal.jsonl");
   EXPECT_EQ(journal.records.back()["state"], "interrupted");
 
+  ::kill(pid, SIGTERM);
+  ::waitpid(pid, &status, 0);
+  pid = 0;
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  std::filesystem::remove_all(directory);
+}
+
+TEST(Crash, KillNineMidCalibrationThenRestartReportsItInterrupted) {
+  auto directory = testing::fresh_directory("crash-calibration");
+  pid_t pid = spawn_chromod(directory);
+  struct KillOnExit {
+    pid_t& pid;
+    ~KillOnExit() {
+      if (pid > 0 && ::kill(pid, SIGKILL) == 0) ::waitpid(pid, nullptr, 0);
+    }
+  } kill_on_exit{pid};
+  auto channel = connect(directory);
+  pb::StartCalibrationRequest request;
+  request.set_warmup_ms(2000);  // long enough to be killed in the middle
+  pb::Operation started;
+  {
+    grpc::ClientContext context;
+    ASSERT_TRUE(pb::CalibrationService::NewStub(channel)->StartCalibration(&context, request, &started).ok());
+  }
+  auto operations = pb::OperationService::NewStub(channel);
+  auto get = [&](pb::Operation* now) {
+    grpc::ClientContext context;
+    pb::GetOperationRequest request;
+    request.set_id(started.id());
+    return operations->GetOperation(&context, request, now);
+  };
+  pb::Operation now;
+  for (int i = 0; i < 1500; ++i) {
+    ASSERT_TRUE(get(&now).ok());
+    if (now.progress() > 0.1) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ASSERT_EQ(now.state(), pb::OPERATION_STATE_RUNNING);
+  ASSERT_EQ(::kill(pid, SIGKILL), 0);
+  ::waitpid(pid, nullptr, 0);
+
+  pid = spawn_chromod(directory);
+  channel = connect(directory);
+  operations = pb::OperationService::NewStub(channel);
+  ASSERT_TRUE(get(&now).ok());
+  EXPECT_EQ(now.state(), pb::OPERATION_STATE_INTERRUPTED);
+  EXPECT_EQ(now.kind(), pb::OPERATION_KIND_CALIBRATION);
+  const std::filesystem::path folder = now.folder();
+  EXPECT_FALSE(std::filesystem::exists(folder / "led-library.json"));
+  std::ifstream in(folder / "calibration.json");
+  EXPECT_EQ(nlohmann::json::parse(in)["state"], "interrupted");
+  int status = 0;
   ::kill(pid, SIGTERM);
   ::waitpid(pid, &status, 0);
   pid = 0;

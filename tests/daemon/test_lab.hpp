@@ -1,6 +1,10 @@
 #pragma once
-// Helpers of the daemon tests: a Daemon on loopback devices whose faults the
-// test switches, in a fresh temporary sessions folder.
+// Helpers of the daemon tests: a Daemon on the virtual lab (the device
+// simulators on their real protocols: Modbus TCP LED controller, GigE Vision
+// camera on 127.0.0.1:3956, simulated USB2000+, all through the real
+// drivers), with small frames, in a fresh temporary sessions folder. Faults
+// are switched on the simulators (TestLab::simulators). Every test using it
+// holds the ctest lock "gige_loopback" (tests/CMakeLists.txt).
 
 #include <chrono>
 #include <filesystem>
@@ -11,7 +15,11 @@
 #include <gtest/gtest.h>
 
 #include "chromo/daemon/daemon.hpp"
-#include "chromo/daemon/loopback_lab.hpp"
+#include "chromo/daemon/image_files.hpp"
+#include "chromo/daemon/virtual_lab.hpp"
+#include "chromo/drivers/camera/aravis_camera.hpp"
+#include "chromo/simulators/camera/camera_simulator.hpp"
+#include "chromo/simulators/leds/led_lab.hpp"
 
 namespace chromo::daemon::testing {
 
@@ -23,37 +31,56 @@ inline std::filesystem::path fresh_directory(const std::string& name) {
   return path;
 }
 
+// Small frames keep the suite fast: 160x120 BayerRG12 (16-bit containers).
+inline VirtualLabOptions small_lab_options() {
+  VirtualLabOptions options;
+  options.sensor_width = 160;
+  options.sensor_height = 120;
+  options.scene_size = 64;
+  options.scene_threads = 1;
+  options.camera_serial = "CHROMO-TEST-CAM";
+  return options;
+}
+
 struct TestLab {
-  std::shared_ptr<LoopbackLab> lab = std::make_shared<LoopbackLab>();
   std::filesystem::path directory;
   DaemonConfig config;
+  VirtualLabOptions lab_options = small_lab_options();
+  // The simulators of the last daemon() (faults, truth).
+  std::shared_ptr<VirtualLabSimulators> simulators;
 
   explicit TestLab(const std::string& name) : directory(fresh_directory(name)) {
     config.unix_socket = (directory / "chromod.sock").string();
     config.sessions_dir = directory / "sessions";
     config.mixes = default_virtual_lab_mixes();
-    config.frame_timeout_ms = 300;
-    config.devices = loopback_lab_devices();
+    // A loaded 2-core machine renders, sends and receives in this one
+    // process: a late frame must not read as a lost one.
+    config.frame_timeout_ms = 2000;
   }
   ~TestLab() {
     std::error_code ignored;
     std::filesystem::remove_all(directory, ignored);
   }
-  DeviceSet devices(nlohmann::json camera_settings = {{"width", 32}, {"height", 24}}) {
-    BackendRegistry registry;
-    registry.add_led_controller("loopback", [this](const DeviceConfig& c) { return make_loopback_led_controller(lab, c); });
-    registry.add_camera("loopback", [this](const DeviceConfig& c) { return make_loopback_camera(lab, c); });
-    auto configs = config.devices;
-    for (auto& c : configs)
-      if (c.kind == DeviceKind::kCamera) c.settings = camera_settings;
-    return registry.open(configs);
+  // A new virtual lab (the previous daemon must be gone: one camera
+  // simulator per machine) and a Daemon on its devices.
+  std::unique_ptr<Daemon> daemon() {
+    simulators.reset();
+    auto lab = start_virtual_lab(lab_options);
+    simulators = lab.simulators;
+    config.devices = lab.devices;
+    for (auto& camera : lab.device_set.cameras)
+      EXPECT_TRUE(camera->open_error.empty()) << camera->open_error;
+    return std::make_unique<Daemon>(config, std::move(lab.device_set));
   }
-  std::unique_ptr<Daemon> daemon(nlohmann::json camera_settings = {{"width", 32}, {"height", 24}}) {
-    return std::make_unique<Daemon>(config, devices(camera_settings));
-  }
+  drivers::DriveLevels emitted() const { return simulators->leds().status().applied.drive; }
 };
 
-inline SessionPlan quick_standard_plan(std::uint32_t frames = 1, double exposure_us = 1000) {
+// The AravisCamera of a daemon's camera "cam0".
+inline drivers::AravisCamera& aravis(Daemon& daemon) {
+  return dynamic_cast<drivers::AravisCamera&>(*daemon.devices().cameras.front()->device);
+}
+
+inline SessionPlan quick_standard_plan(std::uint32_t frames = 1, double exposure_us = 2000) {
   StandardPlanOptions options;
   options.exposure_us = exposure_us;
   options.frames_per_camera = frames;
@@ -61,10 +88,26 @@ inline SessionPlan quick_standard_plan(std::uint32_t frames = 1, double exposure
   return standard_plan(options);
 }
 
+// Mean of one site of the RGGB mosaic (0 R, 1 and 2 G, 3 B) of a stored
+// 16-bit frame, in DN of the 12-bit ADC.
+inline double bayer_site_mean(const std::filesystem::path& tiff, int site) {
+  const auto image = read_tiff(tiff);
+  const int dx = site % 2, dy = site / 2;
+  double sum = 0;
+  std::size_t count = 0;
+  for (int y = dy; y < image.height; y += 2)
+    for (int x = dx; x < image.width; x += 2) {
+      const std::size_t i = (static_cast<std::size_t>(y) * image.width + x) * 2;
+      sum += static_cast<double>(image.data[i] | (image.data[i + 1] << 8));
+      ++count;
+    }
+  return count ? sum / static_cast<double>(count) : 0.0;
+}
+
 // Waits until `predicate(record)` or the timeout; returns the last record.
 template <typename Predicate>
 OperationRecord wait_for(Daemon& daemon, const std::string& id, Predicate predicate,
-                         std::chrono::milliseconds timeout = std::chrono::seconds(20)) {
+                         std::chrono::milliseconds timeout = std::chrono::seconds(60)) {
   auto deadline = std::chrono::steady_clock::now() + timeout;
   std::uint64_t version = 0;
   while (true) {

@@ -21,7 +21,7 @@ std::string device_kind_name(DeviceKind kind);
 struct DeviceConfig {
   std::string name;     // unique, [A-Za-z0-9_+.-]{1,64}
   DeviceKind kind = DeviceKind::kLedController;
-  std::string backend;  // "modbus-tcp", "modbus-rtu", "hid", "usb", "aravis", "loopback", "virtual"
+  std::string backend;  // "modbus-tcp", "modbus-rtu", "hid", "usb", "aravis" (docs/config.md)
   std::string address;  // host:port, device path, serial: meaning per backend (docs/config.md)
   nlohmann::json settings = nlohmann::json::object();  // backend-specific
 };
@@ -43,9 +43,11 @@ struct DaemonConfig {
   std::uint32_t frame_timeout_ms = 3000;  // after exposure, per frame
   std::uint32_t frame_attempts = 3;       // triggers per wanted frame before pausing
 
+  std::filesystem::path led_library;      // LED library file until a calibration run measured one; empty = none
+
   std::vector<DeviceConfig> devices;      // empty = the built-in virtual lab
-  // Mixes sessions may name, as drive levels, used when no LED library and
-  // solver are available (the calibration's solved weights otherwise).
+  // Mixes sessions may name, as drive levels, used while the daemon has no
+  // LED library (the mix solver's weights from the library otherwise).
   std::map<std::string, drivers::DriveLevels> mixes;
 
   bool IsValid(std::string* error) const;

@@ -17,6 +17,7 @@
 #include <thread>
 #include <vector>
 
+#include "chromo/daemon/calibrations.hpp"
 #include "chromo/daemon/config.hpp"
 #include "chromo/daemon/device_set.hpp"
 #include "chromo/daemon/durable_file.hpp"
@@ -33,8 +34,8 @@ struct DeviceReport {
   std::map<std::string, std::string> info;
 };
 
-// Supplies the LED state of a named mix (the calibration's solver when it is
-// built in; the configuration's "mixes" otherwise).
+// Supplies the LED state of a named mix (the mix solver on the daemon's LED
+// library when it has one; the configuration's "mixes" otherwise).
 using MixResolver = std::function<drivers::DriveLevels(const std::string& mix)>;
 
 class Daemon {
@@ -55,6 +56,9 @@ class Daemon {
   // std::logic_error (another operation runs), std::runtime_error (devices).
   OperationRecord start_session(SessionPlan plan, const std::string& subject);
   drivers::DriveLevels resolve_mix(const std::string& mix) const;
+  // A calibration run (calibrations.hpp); same errors as start_session.
+  OperationRecord start_calibration(const CalibrationRequest& request);
+  Calibrations& calibrations() { return *calibrations_; }
   // Session folder of an id known to the registry; nullopt when unknown.
   std::optional<SessionInfo> session(const std::string& id) const;
   // Throws std::logic_error while a session runs.
@@ -74,6 +78,8 @@ class Daemon {
   std::mutex run_mutex_;
   std::thread worker_;
   std::string running_id_;
+  // Last: its destructor joins a running calibration, which uses the members above.
+  std::unique_ptr<Calibrations> calibrations_;
 };
 
 }  // namespace chromo::daemon

@@ -4,8 +4,11 @@
 // devices plug in the same way.
 //
 // BackendRegistry maps a backend name ("modbus-tcp", "aravis", ...) to a
-// factory. Drivers and simulators register theirs in backends.cpp when they
-// are built in; an unknown backend is a configuration error naming it.
+// factory. The real drivers register theirs in backends.cpp; the virtual lab
+// adds its in-process spectrometer seam (virtual_lab.cpp). An unknown backend
+// is a configuration error naming it; so is an unknown or invalid setting (a
+// factory throws std::invalid_argument for it, which open() passes on with
+// the device named, instead of recording an open_error).
 //
 // Thread rules: a DeviceSet is built once and its members never change. Each
 // device is used under its own mutex (lock()); the drivers' one-thread-at-a-
@@ -36,15 +39,26 @@ struct NamedDevice {
 };
 
 struct DeviceSet {
+  // Keeps in-process simulators (the virtual lab) alive as long as the
+  // devices: declared first, so it is destroyed last, after the drivers that
+  // talk to the simulators have closed their connections.
+  std::vector<std::shared_ptr<void>> keep_alive;
   std::vector<std::unique_ptr<NamedDevice<drivers::LedController>>> led_controllers;
   std::vector<std::unique_ptr<NamedDevice<drivers::Camera>>> cameras;
   std::vector<std::unique_ptr<NamedDevice<drivers::Spectrometer>>> spectrometers;
-  // Keeps in-process simulators (the virtual lab) alive as long as the devices.
-  std::vector<std::shared_ptr<void>> keep_alive;
   // The virtual lab's stand-in for the operator placing the white target or
   // the subject in the sphere: called by the sequencer before each step with
-  // its role. Empty with real devices (the plan's prompts ask the operator).
+  // its role (the camera simulator's scene is switched). Empty with real
+  // devices (the plan's prompts ask the operator).
   std::function<void(StepRole role)> place_in_sphere;
+  // Switches the spectrometer's reference lamp (calibration runs need it:
+  // calibration_run.hpp), returning once its output is stable. The virtual
+  // lab's lamp; empty with real devices unless one is wired (then a
+  // calibration run is refused, naming the missing lamp).
+  std::function<void(bool on)> reference_lamp;
+  // Lab seconds per wall-clock second of the LED simulator (1 for real
+  // devices); calibration runs shorten their waits by it.
+  double lab_time_scale = 1;
 
   // By name; empty name = the only one of its kind. nullptr when not found
   // (or ambiguous); `error` says which.
@@ -73,7 +87,15 @@ class BackendRegistry {
   std::map<std::string, SpectrometerFactory> spectrometer_;
 };
 
-// The registry with every backend built into this daemon (backends.cpp).
+// The registry with every backend built into this daemon (backends.cpp):
+// modbus-tcp, modbus-rtu, hid (LED controllers), usb (spectrometer), aravis
+// (camera); settings in docs/config.md.
 BackendRegistry builtin_backends();
+
+// What a camera's configuration fixes for every capture: settings
+// pixel_format, roi {x, y, width, height}, gain_db (the sequencer adds the
+// exposure and the trigger mode per step). std::invalid_argument naming
+// "settings.<key>" when one is invalid.
+drivers::CameraSettings camera_capture_settings(const DeviceConfig& config);
 
 }  // namespace chromo::daemon

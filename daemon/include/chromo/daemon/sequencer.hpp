@@ -1,17 +1,25 @@
 #pragma once
 // Sequencer: runs one session plan on the devices.
 //
-// Software timing, per step: (prompt: pause until resumed) → resolve the LED
+// At the start the LED controller's output stage is switched on (states are
+// applied but not emitted while it is off). Software timing, per step: (prompt: pause until resumed) → resolve the LED
 // state (explicit weights, a mix, or dark) → LedController::set_state, which
 // returns once the controller acknowledged it → read its status (drive levels
 // and temperatures go into the step's journal record and every frame's) →
-// settle_ms → configure exposure → for each frame: trigger every camera and
-// wait for one frame from each.
+// settle_ms → configure exposure (cameras take settings only while not
+// streaming: when the exposure changes the streams stop, the cameras are
+// configured with the configuration's pixel format/ROI/gain and the step's
+// exposure, and the streams start again) → for each frame: trigger every
+// camera and wait for one frame from each.
 //
 // Hardware timing: the whole sequence (one state per frame) is armed on the
 // controller before the first step; it advances on the camera's
-// exposure-active edge, so the daemon only triggers the cameras. After a lost
-// frame the rest of the sequence is armed again from that frame.
+// exposure-active edge, so the daemon only triggers the cameras. State 0 of
+// the armed sequence is a dark resting state; exposure k's rising edge moves
+// the controller to state k, so frame k is taken under it. The frames'
+// "led.drive" is the armed state (the status read at the step's start still
+// shows the previous frame's). After a lost frame the rest of the sequence is
+// armed again from that frame.
 //
 // Faults:
 //  - the LED controller does not answer (DeviceError kTimeout/kDisconnected):
@@ -20,6 +28,7 @@
 //  - a camera delivers a failed frame or none within exposure +
 //    frame_timeout_ms: counted lost with its reason, triggered again up to
 //    frame_attempts times, then PAUSED (message names the camera); resume retries.
+//    A camera that does not answer while being configured pauses likewise.
 //  - storage fails (disk full): the session ends FAILED at once, with the
 //    reason; frames already stored stay intact.
 // Cancel is honoured at every frame boundary and during waits; the LEDs are

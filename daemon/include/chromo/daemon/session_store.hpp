@@ -45,6 +45,10 @@ struct SessionInfo {
   bool torn_journal_tail = false;
 };
 
+// "20261122T183000Z-<name>-<6 hex>": ids of sessions and calibration runs
+// (sortable by creation time, unique in practice, a valid folder name).
+std::string new_session_id(const std::string& name);
+
 class SessionStore {
  public:
   SessionStore(std::filesystem::path root, StorageBudget* budget);

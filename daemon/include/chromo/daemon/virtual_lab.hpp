@@ -1,25 +1,93 @@
 #pragma once
-// The built-in virtual lab chromod runs without a configuration. Today it is
-// the loopback devices (loopback_lab.hpp) because the protocol simulators of
-// simulators/ are not built in yet; when they are, this starts them in-process
-// (Modbus TCP LED controller, GigE Vision camera on loopback) and returns
-// devices connected to them through the real drivers.
+// The built-in virtual lab chromod runs without a configuration: the device
+// simulators of simulators/ started in this process on their real protocols,
+// exactly as chromo-sim starts them, and devices connected to them through
+// the real drivers:
+//
+//   LED controller "sphere"  LedControllerSimulator on Modbus TCP 127.0.0.1:<free port>
+//                            ← drivers' Modbus TCP LedController (backend "modbus-tcp")
+//   camera "cam0"            CameraSimulator, GigE Vision on 127.0.0.1:3956 (Aravis fake
+//                            camera) rendering the scene under the LEDs' light; its
+//                            exposures are the controller's hardware trigger input
+//                            ← AravisCamera (backend "aravis")
+//   spectrometer "spec0"     simulated USB2000+ behind the USB transport seam, looking
+//                            into the sphere (LEDs + the reference lamp)
+//                            ← drivers' USB2000+ driver (backend "virtual-usb": the real
+//                            driver over the simulator's in-process transport)
+//
+// The scene is the skin patch; DeviceSet::place_in_sphere switches it to the
+// white target for white-reference steps and back for subject steps (the
+// operator's job in the real sphere). DeviceSet::reference_lamp switches the
+// lamp calibration runs measure first.
+//
+// Only one camera simulator may run per machine (GigE Vision's fixed port
+// 3956): start_virtual_lab throws std::runtime_error when the port is taken.
+// Tests that start one hold the ctest lock "gige_loopback".
+//
+// Lifetime: the simulators live in VirtualLab::simulators, which the
+// DeviceSet also keeps alive (destroyed after the drivers). Thread rules:
+// the fault switches of VirtualLabSimulators (tests) may be called from any
+// one thread while sessions run on theirs.
 
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "chromo/daemon/device_set.hpp"
 
+namespace chromo::simulators {
+class CalibrationLab;
+class CameraSimulator;
+class LedLab;
+}  // namespace chromo::simulators
+
 namespace chromo::daemon {
+
+struct VirtualLabOptions {
+  int sensor_width = 640;          // camera sensor, pixels (small: the pipeline stores every frame)
+  int sensor_height = 480;
+  int scene_size = 256;            // skin and white-target scenes (square), resampled to the sensor
+  std::string pixel_format = "BayerRG12";
+  std::string camera_serial = "CHROMO-VLAB-CAM";
+  double led_time_scale = 300;     // lab seconds per wall-clock second (LED warm-up, drift)
+  std::uint64_t seed = 1;          // scene and camera noise
+  int scene_threads = 0;           // building the skin scene (0 = all cores)
+
+  bool IsValid(std::string* error) const;
+};
+
+// The running simulators, for the daemon's wiring and for tests' faults.
+class VirtualLabSimulators {
+ public:
+  explicit VirtualLabSimulators(const VirtualLabOptions& options);
+  ~VirtualLabSimulators();
+
+  simulators::LedLab& leds();                   // truth + faults (set_unresponsive, dead channel...)
+  simulators::CameraSimulator& camera();        // faults: set_packet_loss_ratio, power_off/power_on
+  simulators::CalibrationLab& calibration_lab();
+  int modbus_port() const { return modbus_port_; }
+  // Shows the white target (kWhite) or the skin patch (kSubject); kDark leaves the scene.
+  void place_in_sphere(StepRole role);
+  bool showing_white_target() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  int modbus_port_ = 0;
+};
 
 struct VirtualLab {
   std::vector<DeviceConfig> devices;
   DeviceSet device_set;
-  std::map<std::string, drivers::DriveLevels> mixes;
+  std::map<std::string, drivers::DriveLevels> mixes;  // placeholders until a calibration solved them
   std::string description;
+  std::shared_ptr<VirtualLabSimulators> simulators;
 };
 
-VirtualLab start_virtual_lab();
+// Throws std::invalid_argument for invalid options, std::runtime_error when a
+// simulator cannot start (GigE port taken); a driver that cannot connect
+// leaves its device with an open_error, as with configured devices.
+VirtualLab start_virtual_lab(const VirtualLabOptions& options = {});
 
 }  // namespace chromo::daemon

@@ -1,0 +1,111 @@
+#pragma once
+// Calibrations: the daemon's LED library, its calibration runs (the
+// calibration library's CalibrationRun on the configured LED controller and
+// spectrometer) and the mix solver on that library (calibration::solve_mix,
+// the same solver as `chromo leds solve`).
+//
+// A calibration run is an observable operation (kind kCalibration) like a
+// session: start() returns at once with its id; the run reports progress
+// (0-1), the estimated time left and the step being measured; cancel is
+// honoured between measurements. Its folder is
+//
+//   <sessions_dir>/calibrations/<id>/calibration.json   request, state, summary (crash-safe rewrite)
+//                                    led-library.json   the measured library (docs/formats/led-library.md)
+//
+// calibration.json is written when the run starts (state "running") and when
+// it ends (final state and summary); recover() reads every folder back at
+// start-up, so a finished run is fetched by id after a restart and one that
+// was in flight is reported INTERRUPTED (and rewritten so). The newest
+// SUCCEEDED run's library is the daemon's LED library; without one the
+// configured `led_library` file (docs/config.md), if any.
+//
+// Mixes: with a library, solved_mix() solves d65 / w57 / w57+blue[:R]
+// (camera objective, the Nikon D5100 sensitivity, as `chromo leds solve`'s
+// defaults) and caches the weights until the library changes.
+//
+// Thread rules: thread-safe. start() must be called by the Daemon under its
+// run lock after checking that nothing else runs. The destructor cancels a
+// running calibration and joins its thread. The devices' mutexes are held
+// per call, not for the whole run (status queries stay answered).
+
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "chromo/daemon/device_set.hpp"
+#include "chromo/daemon/durable_file.hpp"
+#include "chromo/daemon/operations.hpp"
+
+namespace chromo::calibration {
+struct LedLibrary;
+}
+
+namespace chromo::daemon {
+
+struct CalibrationRequest {
+  std::string controller;             // empty: the only one
+  std::string spectrometer;           // empty: the only one
+  std::vector<double> drive_levels;   // strictly increasing, each in (0, 1]; empty: 0.25 0.5 0.75 1
+  // Wall-clock warm-up per LED type, at most 600000; 0: the default, 2 s on
+  // real devices, 300 s of LED time on the virtual lab (1 s at 300x).
+  // Settling after each drive change: 0.2 s, or 30 s of LED time on the lab.
+  std::uint32_t warmup_ms = 0;
+};
+
+struct SolvedMix {
+  drivers::DriveLevels weights{};
+  std::map<std::string, double> figures;  // rmse, delta_uv_prime, ra, camera_de00_mean, camera_de00_max
+  std::string summary;                    // MixSummary::BriefReport()
+  std::string library;                    // the library file used
+};
+
+class Calibrations {
+ public:
+  // root: <sessions_dir>/calibrations (created by the first run). configured_library: the
+  // configuration's led_library (may be empty).
+  Calibrations(std::filesystem::path root, std::filesystem::path configured_library, DeviceSet& devices,
+               OperationRegistry& operations, StorageBudget* budget);
+  ~Calibrations();
+
+  // Every run in the folder, in-flight ones marked interrupted on disk; also
+  // loads the newest succeeded run's library.
+  std::vector<OperationRecord> recover();
+
+  // Validates (std::invalid_argument naming the field; std::runtime_error
+  // when a device is missing or there is no reference lamp), writes the
+  // folder, starts the run's thread.
+  OperationRecord start(const CalibrationRequest& request);
+
+  // std::invalid_argument naming "target"/"objective" for a bad request;
+  // std::logic_error (FAILED_PRECONDITION) when there is no library.
+  SolvedMix solve(const std::string& target, const std::string& objective, bool hold_chromaticity) const;
+  // The weights of a session mix from the library; nullopt without a library.
+  std::optional<drivers::DriveLevels> solved_mix(const std::string& mix) const;
+  // The library file in use ("" when none).
+  std::string library_path() const;
+
+ private:
+  void run(std::string id, CalibrationRequest request, std::filesystem::path folder,
+           std::shared_ptr<OperationControl> control, NamedDevice<drivers::LedController>* led,
+           NamedDevice<drivers::Spectrometer>* spectrometer);
+  void use_library(const std::filesystem::path& path);
+
+  std::filesystem::path root_;
+  DeviceSet& devices_;
+  OperationRegistry& operations_;
+  StorageBudget* budget_;
+
+  mutable std::mutex mutex_;  // library, cache, worker
+  std::shared_ptr<const calibration::LedLibrary> library_;
+  std::filesystem::path library_path_;
+  mutable std::map<std::string, drivers::DriveLevels> mix_cache_;
+  std::thread worker_;
+  std::string running_id_;
+};
+
+}  // namespace chromo::daemon

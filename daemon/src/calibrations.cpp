@@ -1,0 +1,347 @@
+#include "chromo/daemon/calibrations.hpp"
+
+#include <fstream>
+#include <stdexcept>
+
+#include <nlohmann/json.hpp>
+
+#include "chromo/calibration/calibration_run.hpp"
+#include "chromo/calibration/led_library_io.hpp"
+#include "chromo/calibration/mix_solver.hpp"
+#include "chromo/daemon/session_plan.hpp"
+#include "chromo/daemon/session_store.hpp"
+#include "chromo/spectral/camera.hpp"
+
+namespace chromo::daemon {
+
+namespace {
+
+constexpr const char* kRecordFile = "calibration.json";
+constexpr const char* kLibraryFile = "led-library.json";
+
+// Calls a named device under its mutex (one call at a time).
+template <typename Interface>
+class LockedCalls {
+ protected:
+  explicit LockedCalls(NamedDevice<Interface>& d) : d_(d) {}
+  template <typename F>
+  auto call(F&& f) const -> decltype(f()) {
+    std::lock_guard lock(d_.mutex);
+    return f();
+  }
+  Interface& device() const { return *d_.device; }
+
+ private:
+  NamedDevice<Interface>& d_;
+};
+
+// The devices' own interfaces, each call under the device's mutex: the run
+// holds no lock between calls, so status queries are answered meanwhile.
+class LockedLeds final : public drivers::LedController, LockedCalls<drivers::LedController> {
+ public:
+  explicit LockedLeds(NamedDevice<drivers::LedController>& d) : LockedCalls(d) {}
+  drivers::LedControllerInfo info() const override { return call([&] { return device().info(); }); }
+  void set_state(const drivers::LedState& state) override { call([&] { device().set_state(state); }); }
+  drivers::LedStatus read_status() override { return call([&] { return device().read_status(); }); }
+  void set_output_enabled(bool enabled) override { call([&] { device().set_output_enabled(enabled); }); }
+  void arm_sequence(std::span<const drivers::LedState> states, drivers::SequenceTrigger trigger) override {
+    call([&] { device().arm_sequence(states, trigger); });
+  }
+  void advance_sequence() override { call([&] { device().advance_sequence(); }); }
+  void disarm_sequence() override { call([&] { device().disarm_sequence(); }); }
+};
+
+class LockedSpectrometer final : public drivers::Spectrometer, LockedCalls<drivers::Spectrometer> {
+ public:
+  explicit LockedSpectrometer(NamedDevice<drivers::Spectrometer>& d) : LockedCalls(d) {}
+  drivers::SpectrometerInfo info() const override { return call([&] { return device().info(); }); }
+  void set_integration_time_us(std::uint32_t us) override { call([&] { device().set_integration_time_us(us); }); }
+  drivers::RawSpectrum read_raw_spectrum() override { return call([&] { return device().read_raw_spectrum(); }); }
+  drivers::SpectrometerStatus read_status() override { return call([&] { return device().read_status(); }); }
+};
+
+std::string state_for_disk(OperationState state) { return state_name(state); }
+
+nlohmann::json request_json(const CalibrationRequest& r) {
+  return {{"controller", r.controller}, {"spectrometer", r.spectrometer}, {"drive_levels", r.drive_levels},
+          {"warmup_ms", r.warmup_ms}};
+}
+
+OperationRecord record_from_json(const nlohmann::json& j, const std::filesystem::path& folder) {
+  OperationRecord record;
+  record.id = j.at("id").get<std::string>();
+  record.kind = OperationKind::kCalibration;
+  record.name = "calibration";
+  record.state = parse_state(j.at("state").get<std::string>()).value_or(OperationState::kFailed);
+  record.message = j.value("message", "");
+  record.error = j.value("error", "");
+  record.progress = record.state == OperationState::kSucceeded ? 1.0 : j.value("progress", 0.0);
+  record.eta_seconds = 0;
+  record.folder = std::filesystem::absolute(folder).string();
+  record.created = record.updated = std::chrono::system_clock::time_point(
+      std::chrono::seconds(j.value("created_unix_s", std::int64_t{0})));
+  return record;
+}
+
+}  // namespace
+
+Calibrations::Calibrations(std::filesystem::path root, std::filesystem::path configured_library, DeviceSet& devices,
+                           OperationRegistry& operations, StorageBudget* budget)
+    : root_(std::move(root)), devices_(devices), operations_(operations), budget_(budget) {
+  if (!configured_library.empty()) use_library(configured_library);  // DataError naming the file
+}
+
+Calibrations::~Calibrations() {
+  std::thread worker;
+  {
+    std::lock_guard lock(mutex_);
+    if (!running_id_.empty())
+      if (auto control = operations_.control(running_id_)) control->request_cancel();
+    worker = std::move(worker_);
+  }
+  if (worker.joinable()) worker.join();
+}
+
+void Calibrations::use_library(const std::filesystem::path& path) {
+  auto library = std::make_shared<const calibration::LedLibrary>(calibration::load_led_library(path));
+  std::lock_guard lock(mutex_);
+  library_ = std::move(library);
+  library_path_ = std::filesystem::absolute(path);
+  mix_cache_.clear();
+}
+
+std::vector<OperationRecord> Calibrations::recover() {
+  std::vector<OperationRecord> records;
+  std::filesystem::path newest_library;
+  std::string newest_id;
+  if (!std::filesystem::is_directory(root_)) return records;  // made by the first run
+  for (const auto& entry : std::filesystem::directory_iterator(root_)) {
+    const auto file = entry.path() / kRecordFile;
+    if (!entry.is_directory() || !std::filesystem::exists(file)) continue;
+    for (const auto& leftover : std::filesystem::directory_iterator(entry.path()))
+      if (leftover.path().filename().string().find(".tmp") != std::string::npos) std::filesystem::remove(leftover.path());
+    nlohmann::json j;
+    try {
+      std::ifstream in(file);
+      j = nlohmann::json::parse(in);
+      auto record = record_from_json(j, entry.path());
+      if (!is_final(record.state)) {
+        record.state = OperationState::kInterrupted;
+        record.message = "the daemon stopped while this calibration was running";
+        j["state"] = state_name(record.state);
+        j["message"] = record.message;
+        write_file_durably(file, j.dump(2) + "\n", budget_);
+      }
+      if (record.state == OperationState::kSucceeded && std::filesystem::exists(entry.path() / kLibraryFile) &&
+          record.id > newest_id) {
+        newest_id = record.id;
+        newest_library = entry.path() / kLibraryFile;
+      }
+      records.push_back(std::move(record));
+    } catch (const std::exception&) {
+      continue;  // not a readable calibration record (e.g. a crash before its first write)
+    }
+  }
+  if (!newest_library.empty()) use_library(newest_library);
+  return records;
+}
+
+OperationRecord Calibrations::start(const CalibrationRequest& request) {
+  calibration::CalibrationRunOptions options;
+  if (!request.drive_levels.empty()) options.drive_levels = request.drive_levels;
+  for (std::size_t i = 0; i < options.drive_levels.size(); ++i) {
+    const double level = options.drive_levels[i];
+    if (!(level > 0 && level <= 1))
+      throw std::invalid_argument("drive_levels[" + std::to_string(i) + "]: must be in (0, 1]");
+    if (i > 0 && !(level > options.drive_levels[i - 1]))
+      throw std::invalid_argument("drive_levels[" + std::to_string(i) + "]: must be greater than the one before");
+  }
+  if (request.warmup_ms > 600000) throw std::invalid_argument("warmup_ms: at most 600000");
+  std::string error;
+  auto* led = devices_.led_controller(request.controller, &error);
+  if (!led) throw std::invalid_argument("controller: " + error);
+  auto* spectrometer = devices_.spectrometer(request.spectrometer, &error);
+  if (!spectrometer) throw std::invalid_argument("spectrometer: " + error);
+  if (!led->device) throw std::runtime_error("controller: \"" + led->config.name + "\" is not open: " + led->open_error);
+  if (!spectrometer->device)
+    throw std::runtime_error("spectrometer: \"" + spectrometer->config.name + "\" is not open: " + spectrometer->open_error);
+  if (!devices_.reference_lamp)
+    throw std::logic_error("no reference lamp is wired to this daemon: a calibration run measures the spectrometer's "
+                           "response against it first (the virtual lab has one)");
+
+  std::lock_guard lock(mutex_);
+  if (worker_.joinable()) worker_.join();
+  const std::string id = new_session_id("calibration");
+  const auto folder = root_ / id;
+  std::filesystem::create_directories(folder);
+  const auto now = std::chrono::system_clock::now();
+  write_file_durably(folder / kRecordFile,
+                     nlohmann::json{{"id", id},
+                                    {"state", "running"},
+                                    {"request", request_json(request)},
+                                    {"controller", led->config.name},
+                                    {"spectrometer", spectrometer->config.name},
+                                    {"created_unix_s", std::chrono::duration_cast<std::chrono::seconds>(now.time_since_epoch()).count()}}
+                             .dump(2) + "\n",
+                     budget_);
+  OperationRecord record;
+  record.id = id;
+  record.kind = OperationKind::kCalibration;
+  record.name = "calibration";
+  record.state = OperationState::kRunning;
+  record.message = "starting";
+  record.folder = std::filesystem::absolute(folder).string();
+  auto control = operations_.add(record);
+  running_id_ = id;
+  worker_ = std::thread([this, id, request, folder, control, led, spectrometer] {
+    run(id, request, folder, control, led, spectrometer);
+  });
+  return *operations_.get(id);
+}
+
+void Calibrations::run(std::string id, CalibrationRequest request, std::filesystem::path folder,
+                       std::shared_ptr<OperationControl> control, NamedDevice<drivers::LedController>* led,
+                       NamedDevice<drivers::Spectrometer>* spectrometer) {
+  calibration::CalibrationRunOptions options;
+  if (!request.drive_levels.empty()) options.drive_levels = request.drive_levels;
+  const double scale = devices_.lab_time_scale;
+  if (scale > 1) {
+    options.warm_up_s = 300.0 / scale;
+    options.settle_s = 30.0 / scale;
+    options.notes = "virtual lab: LED time runs " + std::to_string(static_cast<int>(scale)) + "x the wall clock";
+  }
+  if (request.warmup_ms > 0) options.warm_up_s = request.warmup_ms / 1000.0;
+  options.notes += (options.notes.empty() ? "" : "; ") + std::string("chromod calibration ") + id;
+
+  LockedLeds leds(*led);
+  LockedSpectrometer meter(*spectrometer);
+  const auto start = std::chrono::steady_clock::now();
+  calibration::CalibrationSummary summary;
+  try {
+    calibration::CalibrationRun run(leds, meter, devices_.reference_lamp, options);
+    summary = run.run(
+        [&](double fraction, const std::string& step) {
+          const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+          operations_.update(id, [&](OperationRecord& r) {
+            r.progress = fraction;
+            r.eta_seconds = fraction > 0 ? elapsed * (1 - fraction) / fraction : -1;
+            r.message = step;
+          });
+        },
+        [&] { return control->cancel_requested(); });
+  } catch (const std::exception& e) {
+    summary.termination = calibration::CalibrationTermination::kDeviceError;
+    summary.message = e.what();
+  }
+  OperationState state = OperationState::kFailed;
+  switch (summary.termination) {
+    case calibration::CalibrationTermination::kCompleted: state = OperationState::kSucceeded; break;
+    case calibration::CalibrationTermination::kCancelled: state = OperationState::kCancelled; break;
+    default: state = OperationState::kFailed;
+  }
+  std::string error = state == OperationState::kFailed ? summary.message : "";
+  nlohmann::json record;
+  try {
+    if (state == OperationState::kSucceeded) {
+      // save_led_library writes crash-safe (temporary, fsync, rename).
+      calibration::save_led_library(summary.library, folder / kLibraryFile);
+      use_library(folder / kLibraryFile);
+    }
+    std::ifstream in(folder / kRecordFile);
+    record = nlohmann::json::parse(in);
+    record["state"] = state_for_disk(state);
+    record["message"] = summary.message;
+    if (!error.empty()) record["error"] = error;
+    record["summary"] = {{"termination", calibration::calibration_termination_name(summary.termination)},
+                         {"spectra_measured", summary.spectra_measured},
+                         {"elapsed_s", summary.elapsed_s},
+                         {"linearity_ok", summary.linearity_ok}};
+    if (state == OperationState::kSucceeded) {
+      record["library"] = kLibraryFile;
+      for (const auto& lin : summary.linearity)
+        record["summary"]["linearity_max_deviation_percent"][std::string(spectral::led_type_name(lin.type))] =
+            lin.max_deviation_percent;
+    }
+    write_file_durably(folder / kRecordFile, record.dump(2) + "\n", budget_);
+  } catch (const std::exception& e) {
+    state = OperationState::kFailed;
+    error = std::string("writing the calibration result: ") + e.what();
+  }
+  {
+    std::lock_guard lock(mutex_);
+    running_id_.clear();
+  }
+  operations_.update(id, [&](OperationRecord& r) {
+    r.state = state;
+    r.message = summary.message;
+    r.error = error;
+    if (state == OperationState::kSucceeded) r.progress = 1;
+    r.eta_seconds = 0;
+  });
+}
+
+SolvedMix Calibrations::solve(const std::string& target, const std::string& objective, bool hold_chromaticity) const {
+  calibration::MixSolverOptions options;
+  const auto parsed = calibration::parse_mix_objective(objective);
+  if (!parsed) throw std::invalid_argument("objective: \"" + objective.substr(0, 64) + "\" is not spectral, xyz or camera");
+  options.objective = *parsed;
+  options.hold_chromaticity = hold_chromaticity;
+  if (std::string error; !options.IsValid(&error)) throw std::invalid_argument(error);
+  std::shared_ptr<const calibration::LedLibrary> library;
+  std::string path;
+  {
+    std::lock_guard lock(mutex_);
+    library = library_;
+    path = library_path_.string();
+  }
+  if (!library)
+    throw std::logic_error("no LED library: run a calibration (chromo calibrate) or configure led_library");
+  // "w57" is W57 alone at the level it has in w57+blue, so that the method's
+  // blue-only response (W57+blue) − W57 holds exactly.
+  const bool w57_alone = target == "w57";
+  calibration::MixTarget mix_target;
+  try {
+    mix_target = calibration::parse_mix_target(w57_alone ? "w57+blue" : target, *library, options.camera);
+  } catch (const std::exception& e) {
+    throw std::invalid_argument("target: " + std::string(e.what()));
+  }
+  const auto summary = calibration::solve_mix(*library, mix_target, options);
+  if (!summary.IsSolutionUsable())
+    throw std::invalid_argument("target \"" + target.substr(0, 64) + "\": " +
+                                std::string(calibration::mix_termination_name(summary.termination)) + ": " + summary.message);
+  SolvedMix solved;
+  for (std::size_t i = 0; i < solved.weights.size(); ++i) solved.weights[i] = summary.weights[i];
+  if (w57_alone) {
+    for (std::size_t i = 0; i < solved.weights.size(); ++i)
+      if (i != static_cast<std::size_t>(spectral::led_type_index(spectral::LedType::kW57))) solved.weights[i] = 0;
+  }
+  solved.figures = {{"rmse", summary.rmse},
+                    {"delta_uv_prime", summary.delta_uv_prime},
+                    {"ra", summary.rendering.ra},
+                    {"cct_K", summary.rendering.cct_K},
+                    {"camera_de00_mean", summary.camera_de00.mean},
+                    {"camera_de00_max", summary.camera_de00.max}};
+  solved.summary = (w57_alone ? std::string("w57: the W57 level of the w57+blue solve, other LEDs off. ") : std::string()) +
+                   summary.BriefReport();
+  solved.library = path;
+  return solved;
+}
+
+std::optional<drivers::DriveLevels> Calibrations::solved_mix(const std::string& mix) const {
+  {
+    std::lock_guard lock(mutex_);
+    if (!library_) return std::nullopt;
+    if (auto found = mix_cache_.find(mix); found != mix_cache_.end()) return found->second;
+  }
+  auto levels = solve(mix, "camera", false).weights;
+  std::lock_guard lock(mutex_);
+  mix_cache_[mix] = levels;
+  return levels;
+}
+
+std::string Calibrations::library_path() const {
+  std::lock_guard lock(mutex_);
+  return library_path_.string();
+}
+
+}  // namespace chromo::daemon
