@@ -54,6 +54,9 @@ int main(int argc, char** argv) {
       if (!led->open_error.empty()) std::cerr << "chromod: " << led->config.name << ": " << led->open_error << "\n";
     for (auto& camera : devices.cameras)
       if (!camera->open_error.empty()) std::cerr << "chromod: " << camera->config.name << ": " << camera->open_error << "\n";
+    for (auto& spectrometer : devices.spectrometers)
+      if (!spectrometer->open_error.empty())
+        std::cerr << "chromod: " << spectrometer->config.name << ": " << spectrometer->open_error << "\n";
     Daemon daemon(config, std::move(devices));
     Server server(daemon);
     if (!config.unix_socket.empty()) std::cout << "chromod: listening on unix:" << config.unix_socket << "\n";

@@ -160,6 +160,19 @@ OperationRecord Daemon::start_session(SessionPlan plan, const std::string& subje
   if (devices_.cameras.empty()) throw std::runtime_error("no camera configured");
   if (plan.timing == Timing::kHardware && devices_.cameras.size() != 1)
     throw std::invalid_argument("plan.timing: hardware timing needs exactly one camera wired to the controller's trigger input");
+  if (plan.timing == Timing::kHardware && led->device) {
+    // The controller holds the whole sequence: a resting state plus one state per frame.
+    int capacity = 0;
+    {
+      std::lock_guard device_lock(led->mutex);
+      capacity = led->device->info().sequence_capacity;
+    }
+    const auto states = plan.frames_per_camera_total() + 1;
+    if (capacity > 0 && states > static_cast<std::uint64_t>(capacity))
+      throw std::invalid_argument("plan.timing: hardware timing needs " + std::to_string(states) +
+                                  " sequence states (one per frame and a resting state); controller \"" +
+                                  led->config.name + "\" holds " + std::to_string(capacity));
+  }
 
   std::lock_guard lock(run_mutex_);
   ensure_idle();

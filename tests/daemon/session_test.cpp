@@ -92,6 +92,16 @@ TEST(Session, HardwareTimedSequenceAdvancesOnTheCameraExposure) {
   const double w57_plus_blue_blue = bayer_site_mean(frame_of(*info, "white_w57+blue", 0), kBlue);
   EXPECT_GT(w57_plus_blue_blue, 1.04 * w57_blue);
   EXPECT_EQ(lab.simulators->leds().status().sequence_position, -1);  // disarmed at the end
+  // A sequence longer than the controller holds is refused before anything runs.
+  auto long_plan = quick_standard_plan(10);
+  long_plan.timing = Timing::kHardware;
+  try {
+    daemon->start_session(long_plan, "");
+    FAIL() << "accepted 71 states for a 64-state controller";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_NE(std::string(error.what()).find("plan.timing: hardware timing needs 71 sequence states"), std::string::npos)
+        << error.what();
+  }
 }
 
 TEST(Session, CancelInTheMiddleKeepsStoredFramesAndEndsCancelled) {
