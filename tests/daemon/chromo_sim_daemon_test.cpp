@@ -103,6 +103,18 @@ TEST(ChromoSimDaemon, ConfiguredRealBackendsRunASessionAgainstChromoSim) {
     EXPECT_LT(bayer_site_mean(folder / info->frames[0]["file"].get<std::string>(), 1), 40.0);
     EXPECT_GT(bayer_site_mean(folder / info->frames[1]["file"].get<std::string>(), 1), 100.0);
   }
+  // The same controller over its other front-end: Modbus RTU on the pty chromo-sim printed.
+  const std::string rtu_key = "Modbus RTU on ";
+  const auto rtu_at = banner.find(rtu_key);
+  ASSERT_NE(rtu_at, std::string::npos) << banner;
+  const std::string pty = banner.substr(rtu_at + rtu_key.size(), banner.find(' ', rtu_at + rtu_key.size()) - rtu_at - rtu_key.size());
+  auto rtu_config = parse_config({{"devices", {{{"name", "sphere-rtu"}, {"kind", "led_controller"}, {"backend", "modbus-rtu"},
+                                               {"address", pty}, {"settings", {{"baud", 115200}, {"unit_id", 1}}}}}}},
+                                 "rtu config");
+  DeviceSet rtu = builtin_backends().open(rtu_config.devices);
+  ASSERT_NE(rtu.led_controllers.front()->device, nullptr) << pty << ": " << rtu.led_controllers.front()->open_error;
+  EXPECT_EQ(rtu.led_controllers.front()->device->info().model, "CHROMO-LED6-SIM");
+  EXPECT_EQ(rtu.led_controllers.front()->device->read_status().applied.drive, drivers::DriveLevels{});  // dark after the session
   std::filesystem::remove_all(directory);
 }
 
