@@ -162,9 +162,10 @@ OperationRecord Calibrations::start(const CalibrationRequest& request) {
   if (!led) throw std::invalid_argument("controller: " + error);
   auto* spectrometer = devices_.spectrometer(request.spectrometer, &error);
   if (!spectrometer) throw std::invalid_argument("spectrometer: " + error);
-  if (!led->device) throw std::runtime_error("controller: \"" + led->config.name + "\" is not open: " + led->open_error);
+  // logic_error: FAILED_PRECONDITION over the API (the device is configured but away).
+  if (!led->device) throw std::logic_error("controller: \"" + led->config.name + "\" is not open: " + led->open_error);
   if (!spectrometer->device)
-    throw std::runtime_error("spectrometer: \"" + spectrometer->config.name + "\" is not open: " + spectrometer->open_error);
+    throw std::logic_error("spectrometer: \"" + spectrometer->config.name + "\" is not open: " + spectrometer->open_error);
   if (!devices_.reference_lamp)
     throw std::logic_error("no reference lamp is wired to this daemon: a calibration run measures the spectrometer's "
                            "response against it first (the virtual lab has one)");

@@ -76,9 +76,9 @@ class Calibrations {
   // loads the newest succeeded run's library.
   std::vector<OperationRecord> recover();
 
-  // Validates (std::invalid_argument naming the field; std::runtime_error
-  // when a device is missing or there is no reference lamp), writes the
-  // folder, starts the run's thread.
+  // Validates (std::invalid_argument naming the field; std::logic_error when
+  // a device is not open or there is no reference lamp), writes the folder,
+  // starts the run's thread.
   OperationRecord start(const CalibrationRequest& request);
 
   // std::invalid_argument naming "target"/"objective" for a bad request;
