@@ -308,15 +308,18 @@ int main(int argc, char** argv) {
   std::vector<RunResult> results;
   if (short_run) {
     // The suite's version: 1 MP Mono8 at 23 fps for 2 s over the pattern
-    // camera. Passes when every frame the driver received complete was
-    // stored (acknowledged) and the link delivered at least 90% of the
-    // camera's frames (a loaded 2-core machine drops some).
+    // camera. Passes when the link lost none of the frames the camera sent
+    // (no failed frame, no frame-id gap), every frame received complete was
+    // stored (acknowledged), and the camera sent at least half the frames
+    // due (its frame clock falls behind on a loaded machine: those frames
+    // are never sent, so they are not the link's loss).
     results.push_back(run({"1MP_23fps_pattern", Source::kPattern, 1024, 1024, 23, 2}, dir, serial));
     print(results.back());
     std::filesystem::remove_all(dir);
     const auto& r = results.back();
-    const bool ok = r.triggered > 0 && r.unacknowledged == 0 && r.stored == r.received && r.received * 10 >= r.triggered * 9;
-    if (!ok) std::cout << "FAILED: frames unacknowledged, or the link delivered under 90%\n";
+    const bool ok = r.failed == 0 && r.gaps == 0 && r.unacknowledged == 0 && r.stored == r.received &&
+                    r.received * 2 >= r.triggered;
+    if (!ok) std::cout << "FAILED: frames lost by the link or unacknowledged, or the camera sent under half the frames due\n";
     return ok ? 0 : 1;
   }
   // 1 Gb/s carries ~119 MB/s of payload: a 2448x2048 (5 MP) Mono8 frame is
