@@ -46,7 +46,8 @@ CaptureSources resolve_capture_sources(const std::string& led_library, const std
   return sources;
 }
 
-std::unique_ptr<OnlineEstimator> make_online_estimator(const EstimationConfig& config, StorageBudget* budget) {
+std::unique_ptr<OnlineEstimator> make_online_estimator(const EstimationConfig& config, StorageBudget* budget,
+                                                       std::function<std::string()> daemon_led_library) {
   OnlineEstimatorOptions options;
   auto& e = options.estimation.estimator;
   e.method = config.method == "exhaustive" ? estimation::InverterMethod::kExhaustive
@@ -57,8 +58,10 @@ std::unique_ptr<OnlineEstimator> make_online_estimator(const EstimationConfig& c
                                    : estimation::ModelChoice::kAuto;
   e.threads = config.threads;
   options.estimation.cache_dir = config.cache_dir;
-  options.sources = [config] {
-    return resolve_capture_sources(config.led_library, config.camera_sensitivity, config.white_reflectance);
+  options.sources = [config, daemon_led_library] {
+    std::string library = config.led_library;
+    if (library.empty() && daemon_led_library) library = daemon_led_library();
+    return resolve_capture_sources(library, config.camera_sensitivity, config.white_reflectance);
   };
   options.budget = budget;
   return std::make_unique<OnlineEstimator>(std::move(options));

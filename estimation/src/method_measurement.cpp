@@ -70,7 +70,15 @@ Reference reference_of(const IlluminatedCapture& capture, const RgbImage& dark) 
     const auto &w = capture.white.planes[c], &d = dark.planes[c];
     auto& ws = out.white_signal[c];
     ws.resize(n);
-    for (std::size_t i = 0; i < n; ++i) ws[i] = w[i] - d[i];
+    std::size_t clipped = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      ws[i] = w[i] - d[i];
+      if (w[i] >= kRawSaturated) ++clipped;
+    }
+    if (clipped > n / 1000)
+      throw std::invalid_argument("white reference under " + capture.name + ": channel " + kChannelNames[c] + " is at full scale on " +
+                                  std::to_string(100.0 * static_cast<double>(clipped) / static_cast<double>(n)) +
+                                  "% of its pixels (saturated): shorten the exposure or dim the mix");
     out.white_mean[c] = mean_of(ws);
     out.white_variance[c] = flat_noise_variance(w, dark.width, dark.height);
     if (!(out.white_mean[c] > 1e-3))

@@ -69,8 +69,12 @@ CaptureSources resolve_capture_sources(const std::string& led_library, const std
 class OnlineEstimator;
 // chromod's estimator from its configuration (config.estimation); sources are
 // resolved at each session start, so a bad led_library or camera file makes
-// that session's results "unavailable" naming the file.
-std::unique_ptr<OnlineEstimator> make_online_estimator(const EstimationConfig& config, StorageBudget* budget);
+// that session's results "unavailable" naming the file. daemon_led_library
+// (optional): the daemon's own LED library file at that moment ("" when it
+// has none), used unless config.led_library overrides it.
+std::unique_ptr<OnlineEstimator> make_online_estimator(
+    const EstimationConfig& config, StorageBudget* budget,
+    std::function<std::string()> daemon_led_library = {});
 
 class OnlineEstimator final : public FrameConsumer {
  public:

@@ -39,7 +39,8 @@
 // (so the estimator flags it kSaturated); saturation_albedo = ρ·(1 − dark)/W.
 //
 // Errors: std::invalid_argument naming the capture (sizes differ, a white no
-// brighter than the dark, no blue left in W57+blue − W57); RegistrationError
+// brighter than the dark or saturated on more than 0.1% of its pixels, no
+// blue left in W57+blue − W57); RegistrationError
 // when a capture cannot be registered. Thread rules: a pure function.
 
 #include <Eigen/Core>
