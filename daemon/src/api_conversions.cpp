@@ -253,6 +253,8 @@ void results_to_proto(const SessionInfo& info, pb::Results* out) {
         s.set_mean(stats.value("mean", 0.0));
         s.set_median(stats.value("median", 0.0));
         s.set_p95(stats.value("p95", 0.0));
+        s.set_max(stats.value("max", 0.0));
+        s.set_pixels(stats.value("pixels", std::uint64_t{0}));
         (*summary->mutable_relit_delta_e94())[name] = s;
       }
     return;

@@ -169,7 +169,11 @@ nlohmann::json OnlineEstimator::end_session(const SessionEnd& end) {
     flags[std::string(estimation::pixel_flag_name(static_cast<estimation::PixelFlag>(f)))] = r.summary.flag_counts[f];
   nlohmann::json relit = nlohmann::json::object();
   for (const auto& c : r.relit)
-    relit[c.illuminant] = {{"mean", c.delta_e94.mean}, {"median", c.delta_e94.median}, {"p95", c.delta_e94.p95}};
+    relit[c.illuminant] = {{"mean", c.delta_e94.mean},
+                           {"median", c.delta_e94.median},
+                           {"p95", c.delta_e94.p95},
+                           {"max", c.delta_e94.max},
+                           {"pixels", c.delta_e94.pixels}};
   return {{"type", "results"},
           {"state", "available"},
           {"maps_file", "results/maps.exr"},
