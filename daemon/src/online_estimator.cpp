@@ -101,9 +101,14 @@ void OnlineEstimator::consume(const CapturedFrame& captured, const StoredFrame& 
       const auto t = std::chrono::steady_clock::now();
       const auto set = estimation::method_set_from_references(builder_->captures());
       const auto& e = options_.estimation;
-      estimation::ForwardTable::load_or_build(
+      auto table = estimation::ForwardTable::load_or_build(
           set, e.grid, e.cache_dir.empty() ? estimation::ForwardTable::default_cache_dir() : e.cache_dir, nullptr,
           e.estimator.threads);
+      // The fast inverter's inverse table is cached beside it: building an
+      // Estimator now puts it there too.
+      estimation::EstimatorOptions estimator_options = e.estimator;
+      if (estimator_options.cache_dir.empty()) estimator_options.cache_dir = e.cache_dir;
+      estimation::Estimator(table, set, estimator_options);
       table_prepared_ = true;
       table_prepare_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
     }

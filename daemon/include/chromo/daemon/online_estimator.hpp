@@ -7,7 +7,8 @@
 // (session_captures.hpp). Once the dark and the three white references are
 // in — before the subject is captured — it knows the measurement set
 // (illuminants from the LED library and the applied drive levels, noise from
-// the references) and builds or loads the forward table into the disk cache.
+// the references) and builds or loads the forward table and the fast
+// inverter's inverse table into the disk cache.
 // When the subject's last frame is in it estimates the maps tile by tile on
 // options.estimation.estimator.threads threads (0 = all cores) and writes
 // <session>/results/ (estimate_report.hpp: maps.exr, previews, summary.json),

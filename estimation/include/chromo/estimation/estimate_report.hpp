@@ -79,7 +79,7 @@ struct MethodEstimationOptions {
     return o;
   }();
   TableGrid grid;
-  std::filesystem::path cache_dir; // empty: ForwardTable::default_cache_dir()
+  std::filesystem::path cache_dir; // forward (and, unless estimator.cache_dir, inverse) tables; empty: default
   RegistrationOptions registration;
 };
 
