@@ -1,7 +1,11 @@
 // chromo estimate: offline chromophore estimation from a measurement
-// description (docs/formats/measurement.md) to parameter maps, previews and a
-// summary. Everything is read and checked before anything is written; outputs
-// are written under temporary names and renamed into place at the end.
+// description (docs/formats/measurement.md) or a stored session folder
+// (docs/formats/session.md) to parameter maps, previews and a summary
+// (estimation/estimate_report.hpp). Everything is read and checked before
+// anything is written; outputs are written under temporary names and renamed
+// into place at the end (OutputBatch). A session folder goes through the
+// daemon's own SessionCaptureBuilder and estimate_method_captures(), so the
+// maps equal the on-line estimator's for the same frames and LED library.
 #include <fmt/format.h>
 
 #include <chrono>
@@ -9,6 +13,9 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
+#include "chromo/daemon/online_estimator.hpp"
+#include "chromo/daemon/session_captures.hpp"
+#include "chromo/estimation/estimate_report.hpp"
 #include "chromo/estimation/estimator.hpp"
 #include "chromo/estimation/measurement_file.hpp"
 #include "chromo/estimation/output_batch.hpp"
@@ -22,12 +29,6 @@ namespace chromo::cli {
 namespace {
 
 namespace fs = std::filesystem;
-using estimation::FloatImage;
-using estimation::ImageError;
-using estimation::PixelFlag;
-using estimation::write_category_png;
-using estimation::write_exr;
-using estimation::write_map_png;
 
 struct EstimateOptions {
   std::string input;
@@ -38,17 +39,87 @@ struct EstimateOptions {
   int threads = 0;
   bool neighbourhood_flags = false;
   bool order_pooling = true;
+  // Session folders only.
+  std::string led_library;  // empty: <session>/results/led_library.json, else as chromod (newest measured, nominal)
+  std::string camera = "builtin:nikon_d5100";
+  double white_reflectance = 0.99;
 };
+
+// Stages a report's files in an OutputBatch (renamed into place by commit()).
+estimation::FileCommit stage_in(estimation::OutputBatch& batch) {
+  return [&batch](const fs::path& path, const std::function<void(const fs::path&)>& produce) {
+    produce(batch.temporary(path.filename().string()));
+  };
+}
+
+estimation::EstimatorOptions estimator_options(const EstimateOptions& options) {
+  estimation::EstimatorOptions eo;
+  eo.method = options.method == "exhaustive" ? estimation::InverterMethod::kExhaustive
+              : options.method == "2d"       ? estimation::InverterMethod::k2d
+                                             : estimation::InverterMethod::kFast;
+  eo.model = options.model == "2d"   ? estimation::ModelChoice::k2d
+             : options.model == "4d" ? estimation::ModelChoice::k4d
+                                     : estimation::ModelChoice::kAuto;
+  eo.threads = options.threads;
+  eo.cache_dir = options.cache_dir;  // the fast method's inverse table next to the forward table
+  return eo;
+}
+
+// A stored session folder: the same captures and estimation as chromod's on-line estimator.
+int run_estimate_session(const EstimateOptions& options) {
+  const fs::path folder = options.input;
+  daemon::CaptureSources sources;
+  estimation::MethodCaptures captures;
+  try {
+    std::string library = options.led_library;
+    if (library.empty() && fs::exists(folder / "results" / "led_library.json"))
+      library = (folder / "results" / "led_library.json").string();
+    sources = daemon::resolve_capture_sources(library, options.camera, options.white_reflectance);
+    captures = daemon::read_session_captures(folder, sources);
+  } catch (const std::exception& e) {
+    std::cerr << "chromo estimate: " << e.what() << "\n";
+    return kExitBadInput;
+  }
+  estimation::MethodEstimationOptions eo;
+  eo.estimator = estimator_options(options);
+  eo.neighbourhood.flags = options.neighbourhood_flags;
+  eo.neighbourhood.pool_order = options.order_pooling;
+  if (!options.cache_dir.empty()) eo.cache_dir = options.cache_dir;
+  nlohmann::ordered_json extra{{"session", fs::absolute(folder).string()},
+                               {"source", "chromo estimate SESSION_DIR"},
+                               {"led_library", sources.led_library_source},
+                               {"camera_sensitivity", sources.camera_source},
+                               {"white_reflectance", sources.white_reflectance}};
+  estimation::MethodEstimationResult result;
+  try {
+    estimation::OutputBatch files(options.out);  // removed again (with the directory it made) unless committed
+    try {
+      result = estimation::estimate_method_captures(captures, eo, options.out, stage_in(files), {}, extra.dump());
+    } catch (const std::invalid_argument& e) {
+      std::cerr << "chromo estimate: " << folder.string() << ": " << e.what() << "\n";
+      return kExitBadInput;
+    } catch (const estimation::RegistrationError& e) {
+      std::cerr << "chromo estimate: " << folder.string() << ": " << e.what() << "\n";
+      return kExitBadInput;
+    }
+    files.commit();
+  } catch (const std::exception& e) {
+    std::cerr << "chromo estimate: writing " << options.out << ": " << e.what() << "\n";
+    return kExitFailure;
+  }
+  fmt::print("{} pixels, method {} model {}: {:.3f} s ({:.0f} pixels/s); {} explained, {} flagged\n",
+             result.summary.pixels, options.method, options.model, result.summary.seconds, result.pixels_per_second,
+             result.summary.flag_counts[0], result.summary.pixels - result.summary.flag_counts[0]);
+  for (const auto& r : result.relit)
+    fmt::print("relit ΔE94 against the photograph under {}: mean {:.3f}, median {:.3f}, p95 {:.3f}\n", r.illuminant,
+               r.delta_e94.mean, r.delta_e94.median, r.delta_e94.p95);
+  return kExitOk;
+}
 
 int run_estimate(const EstimateOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   auto seconds_since = [](auto t) { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count(); };
-  if (fs::is_directory(options.input)) {
-    std::cerr << "chromo estimate: " << options.input
-              << " is a directory; estimating a stored session needs the daemon's session format, which this "
-                 "build does not read yet. Give a MEASUREMENT.json (docs/formats/measurement.md).\n";
-    return kExitBadInput;
-  }
+  if (fs::is_directory(options.input)) return run_estimate_session(options);
   estimation::MeasurementFile m;
   try {
     m = estimation::read_measurement_file(options.input);
@@ -102,15 +173,7 @@ int run_estimate(const EstimateOptions& options) {
   }
   const double table_seconds = seconds_since(t);
 
-  estimation::EstimatorOptions eo;
-  eo.method = options.method == "exhaustive" ? estimation::InverterMethod::kExhaustive
-              : options.method == "2d"       ? estimation::InverterMethod::k2d
-                                             : estimation::InverterMethod::kFast;
-  eo.model = options.model == "2d" ? estimation::ModelChoice::k2d
-             : options.model == "4d" ? estimation::ModelChoice::k4d
-                                     : estimation::ModelChoice::kAuto;
-  eo.threads = options.threads;
-  eo.cache_dir = options.cache_dir;  // the fast method's inverse table next to the forward table
+  const estimation::EstimatorOptions eo = estimator_options(options);
   t = std::chrono::steady_clock::now();
   const estimation::Estimator estimator(table, set, eo);
   const double inverter_setup_seconds = seconds_since(t);
@@ -127,85 +190,29 @@ int run_estimate(const EstimateOptions& options) {
     neighbourhood_seconds = seconds_since(t);
   }
 
-  // Maps.
-  FloatImage maps;
-  maps.width = m.width, maps.height = m.height;
-  maps.channel_names = {"Cm", "Ch", "Bm", "Che", "residual", "order", "flags"};
-  maps.channels.assign(7, std::vector<float>(pixels));
-  std::vector<std::uint8_t> hide(pixels);
-  std::vector<double> residuals;
-  for (std::size_t i = 0; i < pixels; ++i) {
-    const auto& e = out[i];
-    const float values[7] = {float(e.parameters.cm), float(e.parameters.ch), float(e.parameters.bm),
-                             float(e.parameters.che), e.residual, float(e.order), float(static_cast<int>(e.flag))};
-    for (int c = 0; c < 7; ++c) maps.channels[c][i] = values[c];
-    hide[i] = e.flag != PixelFlag::kExplained && e.flag != PixelFlag::kSpecular;
-    if (e.order > 0) residuals.push_back(e.residual);
-  }
-  std::sort(residuals.begin(), residuals.end());
-  auto quantile = [&](double q) {
-    return residuals.empty() ? 0.0 : residuals[std::min(residuals.size() - 1, std::size_t(q * (residuals.size() - 1) + 0.5))];
-  };
-  double residual_sum = 0;
-  for (double r : residuals) residual_sum += r;
-
-  nlohmann::ordered_json s;
-  s["input"] = options.input;
-  s["method"] = options.method;
-  s["model"] = options.model;
-  s["width"] = m.width;
-  s["height"] = m.height;
-  s["channels"] = nlohmann::json::array();
-  for (const auto& c : set.channels) s["channels"].push_back(c.name);
-  s["table"] = {{"key", fmt::format("{:016x}", table->key())},
-                {"nodes", table->grid().node_count()},
-                {"rebuilt", rebuilt}};
-  s["registration"] = registration;
-  s["timings_s"] = {{"load", load_seconds},          {"registration", registration_seconds},
-                    {"table", table_seconds},        {"inverter_setup", inverter_setup_seconds},
-                    {"estimate", summary.seconds},   {"neighbourhood", neighbourhood_seconds}};
-  s["neighbourhood"] = {{"flags", options.neighbourhood_flags},
-                        {"order_pooling", options.order_pooling},
-                        {"flagged_touching_flagged_regions", neighbourhood.flagged_touching},
-                        {"flagged_enclosed", neighbourhood.flagged_holes},
-                        {"order_changed_to_4", neighbourhood.order_to_4},
-                        {"order_changed_to_2", neighbourhood.order_to_2}};
-  s["pixels"] = pixels;
-  s["pixels_per_second"] = summary.seconds > 0 ? pixels / summary.seconds : 0.0;
-  s["residual"] = {{"unit", "albedo RMS over channels"},
-                   {"mean", residuals.empty() ? 0.0 : residual_sum / residuals.size()},
-                   {"median", quantile(0.5)},
-                   {"p95", quantile(0.95)},
-                   {"max", residuals.empty() ? 0.0 : residuals.back()}};
-  s["order_counts"] = {{"2", summary.order2}, {"4", summary.order4}};
-  nlohmann::ordered_json flags;
-  for (int f = 0; f < estimation::kPixelFlagCount; ++f)
-    flags[std::string(estimation::pixel_flag_name(static_cast<PixelFlag>(f)))] = summary.flag_counts[f];
-  s["flag_counts"] = flags;
-
-  // Write everything under temporary names, then rename.
+  estimation::EstimateReport report;
+  report.method = options.method;
+  report.model = options.model;
+  report.width = m.width, report.height = m.height;
+  for (const auto& c : set.channels) report.channel_names.push_back(c.name);
+  report.estimates = out;
+  report.summary = summary;
+  report.timings_s = {{"load", load_seconds},
+                      {"registration", registration_seconds},
+                      {"table", table_seconds},
+                      {"inverter_setup", inverter_setup_seconds},
+                      {"neighbourhood", neighbourhood_seconds}};
+  nlohmann::ordered_json extra{{"input", options.input},
+                               {"table", {{"key", fmt::format("{:016x}", table->key())},
+                                          {"nodes", table->grid().node_count()},
+                                          {"rebuilt", rebuilt}}},
+                               {"registration", registration},
+                               {"neighbourhood", nlohmann::ordered_json::parse(estimation::neighbourhood_report_json(
+                                                     options.neighbourhood_flags, options.order_pooling, neighbourhood))}};
+  report.extra_json = extra.dump();
   try {
     estimation::OutputBatch files(options.out);
-    write_exr(files.temporary("maps.exr"), maps);
-    struct Preview {
-      const char* file;
-      int channel;
-      double low, high;
-      bool log;
-    };
-    for (const Preview& p : {Preview{"cm.png", 0, estimation::kCmRange.min, estimation::kCmRange.max, true},
-                             Preview{"ch.png", 1, estimation::kChRange.min, estimation::kChRange.max, true},
-                             Preview{"bm.png", 2, 0.0, 1.0, false}, Preview{"che.png", 3, 0.0, 0.1, false},
-                             Preview{"residual.png", 4, 0.0, std::max(quantile(0.99), 1e-6), false}})
-      write_map_png(files.temporary(p.file), maps.channels[p.channel], m.width, m.height, p.low, p.high, p.log,
-                    maps.channel_names[p.channel], hide);
-    std::vector<std::string> flag_names;
-    for (int f = 0; f < estimation::kPixelFlagCount; ++f)
-      flag_names.emplace_back(estimation::pixel_flag_name(static_cast<PixelFlag>(f)));
-    write_category_png(files.temporary("flags.png"), maps.channels[6], m.width, m.height, flag_names);
-    write_category_png(files.temporary("order.png"), maps.channels[5], m.width, m.height, {"none", "", "2D", "", "4D"});
-    s["timings_s"]["total"] = seconds_since(start);
-    files.write_text("summary.json", s.dump(2) + "\n");
+    estimation::write_estimate_report(options.out, report, stage_in(files));
     files.commit();
   } catch (const std::exception& e) {
     std::cerr << "chromo estimate: writing " << options.out << ": " << e.what() << "\n";
@@ -222,8 +229,11 @@ int run_estimate(const EstimateOptions& options) {
 
 void add_estimate_command(CLI::App& app, int& exit_status) {
   auto options = std::make_shared<EstimateOptions>();
-  CLI::App* cmd = app.add_subcommand("estimate", "Estimate chromophore maps from a measurement (MEASUREMENT.json)");
-  cmd->add_option("measurement", options->input, "MEASUREMENT.json (docs/formats/measurement.md)")->required();
+  CLI::App* cmd = app.add_subcommand(
+      "estimate", "Estimate chromophore maps from a measurement (MEASUREMENT.json) or a stored session folder");
+  cmd->add_option("measurement", options->input,
+                  "MEASUREMENT.json (docs/formats/measurement.md) or SESSION_DIR (docs/formats/session.md)")
+      ->required();
   cmd->add_option("--out", options->out, "output directory (maps.exr, previews, summary.json)")->required();
   cmd->add_option("--method", options->method, "inverter")
       ->check(CLI::IsMember({"exhaustive", "fast", "2d"}))
@@ -239,6 +249,12 @@ void add_estimate_command(CLI::App& app, int& exit_status) {
                 "over 7×7 windows)");
   cmd->add_option("--cache-dir", options->cache_dir, "table cache (default $CHROMO_CACHE_DIR or ~/.cache/chromosphere)");
   cmd->add_option("--threads", options->threads, "threads (0 = all cores)")->capture_default_str();
+  cmd->add_option("--led-library", options->led_library,
+                  "SESSION_DIR only: LED library (default: the session's results/led_library.json, else as chromod)");
+  cmd->add_option("--camera", options->camera, "SESSION_DIR only: camera sensitivity, builtin:NAME or a CSV")
+      ->capture_default_str();
+  cmd->add_option("--white-reflectance", options->white_reflectance, "SESSION_DIR only: ρ of the white target")
+      ->capture_default_str();
   cmd->callback([options, &exit_status] { exit_status = run_estimate(*options); });
 }
 

@@ -25,7 +25,15 @@ id=$(sed -n 's/^session \([^ ]*\) started$/\1/p' <<<"$output")
 echo
 "$bin/chromo" session show "$id"
 echo
-# Results: maps and report when the on-line estimator is built in; otherwise
-# the command says why and the stored frames and albedo are the result.
+# Results: chromod's on-line estimator wrote the maps and the report into the
+# session folder; `chromo results` says where, with the headline numbers
+# (estimator speed, flag counts, relit ΔE94 against the captured photographs).
+# When there are no maps it says why (e.g. a camera without colour).
+echo "== results of session $id"
 "$bin/chromo" results "$id" || true
 echo "derived albedo: $(ls "$sessions/$id"/derived/albedo-*.exr | tr '\n' ' ')"
+if [[ -f "$sessions/$id/results/maps.exr" ]]; then
+  echo "maps:    $sessions/$id/results/maps.exr (Cm, Ch, Bm, Che, residual, order, flags)"
+  echo "report:  $sessions/$id/results/summary.json"
+  echo "previews: $(cd "$sessions/$id/results" && ls *.png | tr '\n' ' ')"
+fi

@@ -4,7 +4,8 @@
 # The main job shows the system end to end as far as it is built (README,
 # "Quick start"): the skin model, an LED library measured on the virtual lab
 # through the real drivers, the D65' mix solved from it, and the daemon's
-# standard capture session over its socket API.
+# standard capture session over its socket API, ending in chromophore maps and
+# a report (chromod's on-line estimator) whose place and headline numbers it prints.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
@@ -21,5 +22,5 @@ echo "== 2. LED library measured on the virtual lab (Modbus TCP + USB2000+ proto
 echo "== 3. D65' from the measured library (camera objective, chromaticity held)"
 "$bin/chromo" leds solve --target d65 --objective camera --hold-chromaticity
 
-echo "== 4. the standard capture session through chromod"
+echo "== 4. the standard capture session through chromod, estimated on line into maps and a report"
 scripts/demo-session.sh "$CHROMO_HOME/sessions"

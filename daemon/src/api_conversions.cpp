@@ -110,6 +110,9 @@ void to_proto(const OperationRecord& record, pb::Operation* out) {
   counters->set_estimator_skipped(record.counters.estimator_skipped);
   counters->set_lost(record.counters.lost);
   counters->set_resent_packets(record.counters.resent_packets);
+  counters->set_estimator_queue_depth(record.counters.estimator_queue_depth);
+  counters->set_max_estimator_queue_depth(record.counters.max_estimator_queue_depth);
+  counters->set_estimator_read_back(record.counters.estimator_read_back);
   for (const auto& [reason, count] : record.counters.lost_reasons) (*counters->mutable_lost_reasons())[reason] = count;
   for (const auto& [reason, count] : record.counters.skipped_reasons) (*counters->mutable_skipped_reasons())[reason] = count;
 }
@@ -232,6 +235,28 @@ void results_to_proto(const SessionInfo& info, pb::Results* out) {
     std::stringstream buffer;
     buffer << in.rdbuf();
     if (buffer.str().size() <= (1u << 20)) out->set_summary_json(buffer.str());
+    // Headline numbers: from the results record (written with the report).
+    const auto& r = info.results;
+    auto* summary = out->mutable_summary();
+    summary->set_method(r.value("method", ""));
+    summary->set_model(r.value("model", ""));
+    summary->set_pixels(r.value("pixels", std::uint64_t{0}));
+    summary->set_pixels_per_second(r.value("pixels_per_second", 0.0));
+    summary->set_estimate_seconds(r.value("estimate_seconds", 0.0));
+    summary->set_frames_read_back(r.value("frames_read_back", std::uint64_t{0}));
+    if (r.contains("flag_counts") && r["flag_counts"].is_object())
+      for (const auto& [name, count] : r["flag_counts"].items())
+        if (count.is_number_unsigned()) (*summary->mutable_flag_counts())[name] = count.get<std::uint64_t>();
+    if (r.contains("relit_delta_e94") && r["relit_delta_e94"].is_object())
+      for (const auto& [name, stats] : r["relit_delta_e94"].items()) {
+        pb::DeltaEStatistics s;
+        s.set_mean(stats.value("mean", 0.0));
+        s.set_median(stats.value("median", 0.0));
+        s.set_p95(stats.value("p95", 0.0));
+        s.set_max(stats.value("max", 0.0));
+        s.set_pixels(stats.value("pixels", std::uint64_t{0}));
+        (*summary->mutable_relit_delta_e94())[name] = s;
+      }
     return;
   }
   out->set_state(pb::RESULTS_STATE_UNAVAILABLE);

@@ -37,6 +37,13 @@ bool DaemonConfig::IsValid(std::string* error) const {
     if (!names.insert(devices[i].name).second) return fail(field + "name: \"" + devices[i].name + "\" is used twice");
     if (devices[i].backend.empty()) return fail(field + "backend: missing");
   }
+  if (estimation.method != "fast" && estimation.method != "exhaustive" && estimation.method != "2d")
+    return fail("estimation.method: \"" + estimation.method + "\" is not fast, exhaustive or 2d");
+  if (estimation.model != "auto" && estimation.model != "2d" && estimation.model != "4d")
+    return fail("estimation.model: \"" + estimation.model + "\" is not auto, 2d or 4d");
+  if (!(estimation.white_reflectance > 0 && estimation.white_reflectance <= 1))
+    return fail("estimation.white_reflectance: must be in (0, 1]");
+  if (estimation.threads < 0 || estimation.threads > 256) return fail("estimation.threads: must be in [0, 256]");
   for (const auto& [name, levels] : mixes) {
     if (!is_valid_mix(name)) return fail("mixes." + name + ": not a mix name (d65, w57, w57+blue[:R])");
     for (double level : levels)
@@ -62,7 +69,8 @@ DaemonConfig parse_config(const nlohmann::json& json, const std::string& origin)
   static const std::set<std::string> known{"unix_socket", "unix_socket_mode", "tcp_address", "token",
                                            "tls_certificate_file", "tls_private_key_file", "sessions_dir",
                                            "storage_limit_bytes", "storage_queue_frames", "estimator_queue_frames",
-                                           "frame_timeout_ms", "frame_attempts", "led_library", "devices", "mixes"};
+                                           "frame_timeout_ms", "frame_attempts", "led_library", "devices", "mixes",
+                                           "estimation"};
   if (!json.is_object()) throw std::invalid_argument(origin + ": must be a JSON object");
   std::string field;
   try {
@@ -122,6 +130,29 @@ DaemonConfig parse_config(const nlohmann::json& json, const std::string& origin)
         field = "mixes." + name;
         config.mixes[name] = parse_levels(levels, field);
       }
+    if (json.contains("estimation")) {
+      field = "estimation";
+      const auto& e = json.at("estimation");
+      if (!e.is_object()) throw std::invalid_argument(origin + ": estimation: must be an object");
+      static const std::set<std::string> known_estimation{"enabled", "method", "model", "led_library",
+                                                          "camera_sensitivity", "white_reflectance", "cache_dir",
+                                                          "threads"};
+      for (const auto& [key, value] : e.items())
+        if (!known_estimation.count(key))
+          throw std::invalid_argument(origin + ": estimation: unknown key \"" + key + "\" (see docs/config.md)");
+      auto get_estimation = [&](const char* key, auto& target) {
+        field = std::string("estimation.") + key;
+        if (e.contains(key)) target = e.at(key).get<std::remove_reference_t<decltype(target)>>();
+      };
+      get_estimation("enabled", config.estimation.enabled);
+      get_estimation("method", config.estimation.method);
+      get_estimation("model", config.estimation.model);
+      get_estimation("led_library", config.estimation.led_library);
+      get_estimation("camera_sensitivity", config.estimation.camera_sensitivity);
+      get_estimation("white_reflectance", config.estimation.white_reflectance);
+      get_estimation("cache_dir", config.estimation.cache_dir);
+      get_estimation("threads", config.estimation.threads);
+    }
   } catch (const nlohmann::json::exception& error) {
     throw std::invalid_argument(origin + ": " + field + ": " + error.what());
   } catch (const std::logic_error& error) {

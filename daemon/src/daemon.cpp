@@ -3,6 +3,7 @@
 #include <stdexcept>
 
 #include "chromo/daemon/derived_data.hpp"
+#include "chromo/daemon/online_estimator.hpp"
 #include "chromo/daemon/sequencer.hpp"
 #include "chromo/drivers/device_error.hpp"
 
@@ -18,6 +19,11 @@ Daemon::Daemon(DaemonConfig config, DeviceSet devices, FrameConsumer* estimator)
   calibrations_ = std::make_unique<Calibrations>(config_.sessions_dir / "calibrations", config_.led_library, devices_,
                                                  operations_, &budget_);
   for (auto& record : calibrations_->recover()) operations_.add_past(std::move(record));
+  if (!estimator_ && config_.estimation.enabled) {
+    owned_estimator_ = make_online_estimator(config_.estimation, &budget_,
+                                             [this] { return calibrations_->library_path(); });
+    estimator_ = owned_estimator_.get();
+  }
 }
 
 Daemon::~Daemon() {
@@ -208,17 +214,36 @@ void Daemon::run_session(std::string id, SessionPlan plan, std::shared_ptr<Journ
                          std::filesystem::path folder, std::shared_ptr<OperationControl> control) {
   SequencerOutcome outcome;
   PipelineCounters counters;
+  auto log_event = [&](const std::string& text) {
+    Event event;
+    event.kind = Event::Kind::kLog;
+    event.session_id = id;
+    event.log = text;
+    events_.publish(std::move(event));
+  };
+  if (estimator_)
+    estimator_->begin_session({id, folder, to_json(plan), [&, id](double fraction, const std::string& message) {
+                                 operations_.update(id, [&](OperationRecord& r) {
+                                   r.message = message + " " + std::to_string(static_cast<int>(fraction * 100)) + "%";
+                                 });
+                               }});
   {
-    FramePipeline pipeline(folder, *journal, &budget_, {config_.storage_queue_frames, config_.estimator_queue_frames},
-                           estimator_, [&](const StoredFrame& stored) {
-                             Event event;
-                             event.kind = Event::Kind::kFrame;
-                             event.session_id = id;
-                             event.step = stored.frame->step;
-                             event.camera = stored.frame->camera;
-                             event.frame_index = stored.index;
-                             events_.publish(std::move(event));
-                           });
+    FramePipeline pipeline(
+        folder, *journal, &budget_, {config_.storage_queue_frames, config_.estimator_queue_frames}, estimator_,
+        [&](const StoredFrame& stored) {
+          Event event;
+          event.kind = Event::Kind::kFrame;
+          event.session_id = id;
+          event.step = stored.frame->step;
+          event.camera = stored.frame->camera;
+          event.frame_index = stored.index;
+          events_.publish(std::move(event));
+        },
+        [&](std::uint64_t skipped) {
+          log_event("session " + id + ": the on-line estimator is behind (its queue of " +
+                    std::to_string(config_.estimator_queue_frames) + " frames is full; " + std::to_string(skipped) +
+                    " frames skipped so far, read back from storage at the end; storage is not delayed)");
+        });
     SequencerContext context;
     context.id = id;
     context.plan = plan;
@@ -250,6 +275,21 @@ void Daemon::run_session(std::string id, SessionPlan plan, std::shared_ptr<Journ
       outcome = {OperationState::kFailed, std::string("derived data: ") + error.what()};
     }
   }
+  if (estimator_) {
+    // The maps: catches up on skipped frames, estimates if not done yet, and
+    // says whether results are available (before the final state record).
+    nlohmann::json results = estimator_->end_session({outcome.state == OperationState::kSucceeded});
+    if (!results.is_null()) {
+      counters.estimator_read_back = results.value("frames_read_back", std::uint64_t{0});
+      try {
+        journal->append(results);
+      } catch (const std::exception& error) {
+        outcome = {OperationState::kFailed, std::string("results record: ") + error.what()};
+      }
+      log_event("session " + id + ": results " + results.value("state", "") +
+                (results.contains("reason") ? ": " + results.value("reason", "") : ""));
+    }
+  }
   try {
     journal->append({{"type", "counters"},
                      {"received", counters.received},
@@ -259,6 +299,8 @@ void Daemon::run_session(std::string id, SessionPlan plan, std::shared_ptr<Journ
                      {"lost", counters.lost},
                      {"resent_packets", counters.resent_packets},
                      {"lost_reasons", counters.lost_reasons},
+                     {"max_estimator_queue_depth", counters.max_estimator_queue_depth},
+                     {"estimator_read_back", counters.estimator_read_back},
                      {"skipped_reasons", counters.skipped_reasons},
                      {"mean_trigger_to_stored_ms", counters.mean_trigger_to_stored_ms},
                      {"max_trigger_to_stored_ms", counters.max_trigger_to_stored_ms}});

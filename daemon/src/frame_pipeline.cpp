@@ -17,13 +17,15 @@ double thread_cpu_ms() {
 }  // namespace
 
 FramePipeline::FramePipeline(std::filesystem::path folder, Journal& journal, StorageBudget* budget, Options options,
-                             FrameConsumer* estimator, std::function<void(const StoredFrame&)> on_stored)
+                             FrameConsumer* estimator, std::function<void(const StoredFrame&)> on_stored,
+                             std::function<void(std::uint64_t)> on_estimator_behind)
     : folder_(std::move(folder)),
       journal_(journal),
       budget_(budget),
       options_(options),
       estimator_(estimator),
-      on_stored_(std::move(on_stored)) {
+      on_stored_(std::move(on_stored)),
+      on_estimator_behind_(std::move(on_estimator_behind)) {
   storage_thread_ = std::thread([this] { storage_loop(); });
   if (estimator_) estimator_thread_ = std::thread([this] { estimator_loop(); });
 }
@@ -158,10 +160,21 @@ void FramePipeline::storage_loop() {
         ++counters_.skipped_reasons["no_estimator"];
       } else if (estimator_queue_.size() >= options_.estimator_queue_frames) {
         ++counters_.estimator_skipped;
-        ++counters_.skipped_reasons["queue_full"];
+        const std::uint64_t skipped = ++counters_.skipped_reasons["queue_full"];
+        if (!behind_ && on_estimator_behind_) {
+          behind_ = true;
+          lock.unlock();
+          on_estimator_behind_(skipped);
+          lock.lock();
+        }
+        behind_ = true;
       } else {
+        behind_ = false;
         stored.frame = nullptr;
         estimator_queue_.emplace_back(std::move(captured), stored);
+        counters_.estimator_queue_depth = estimator_queue_.size();
+        counters_.max_estimator_queue_depth =
+            std::max(counters_.max_estimator_queue_depth, counters_.estimator_queue_depth);
         estimator_wake_.notify_one();
       }
     }
@@ -179,6 +192,7 @@ void FramePipeline::estimator_loop() {
     }
     auto item = std::move(estimator_queue_.front());
     estimator_queue_.pop_front();
+    counters_.estimator_queue_depth = estimator_queue_.size();
     estimating_ = true;
     lock.unlock();
     item.second.frame = &item.first;

@@ -104,6 +104,8 @@ SessionInfo SessionStore::read_session(const std::filesystem::path& folder) cons
       info.record.counters.estimated = record.value("estimated", 0ull);
       info.record.counters.estimator_skipped = record.value("estimator_skipped", 0ull);
       info.record.counters.resent_packets = record.value("resent_packets", 0ull);
+      info.record.counters.max_estimator_queue_depth = record.value("max_estimator_queue_depth", 0ull);
+      info.record.counters.estimator_read_back = record.value("estimator_read_back", 0ull);
       const auto skipped = record.value("skipped_reasons", nlohmann::json::object());
       for (const auto& [reason, count] : skipped.items())
         info.record.counters.skipped_reasons[reason] = count.get<std::uint64_t>();

@@ -26,6 +26,18 @@ struct DeviceConfig {
   nlohmann::json settings = nlohmann::json::object();  // backend-specific
 };
 
+// The on-line estimator (docs/config.md "Estimation"; daemon/online_estimator.hpp).
+struct EstimationConfig {
+  bool enabled = true;
+  std::string method = "fast";   // inverter: fast, exhaustive, 2d
+  std::string model = "auto";    // auto (χ² test per pixel), 2d, 4d
+  std::string led_library;       // LED library file; empty = newest measured one, else the nominal one
+  std::string camera_sensitivity = "builtin:nikon_d5100";  // or a CSV wavelength_nm,R,G,B
+  double white_reflectance = 0.99;  // ρ of the white reference target
+  std::string cache_dir;         // forward tables; empty = $CHROMO_CACHE_DIR or ~/.cache/chromosphere
+  int threads = 0;               // 0 = all cores
+};
+
 struct DaemonConfig {
   // Listening. unix_socket empty = no Unix socket.
   std::string unix_socket = "/tmp/chromod.sock";
@@ -49,6 +61,7 @@ struct DaemonConfig {
   // Mixes sessions may name, as drive levels, used while the daemon has no
   // LED library (the mix solver's weights from the library otherwise).
   std::map<std::string, drivers::DriveLevels> mixes;
+  EstimationConfig estimation;
 
   bool IsValid(std::string* error) const;
 };

@@ -41,7 +41,9 @@ using MixResolver = std::function<drivers::DriveLevels(const std::string& mix)>;
 class Daemon {
  public:
   // Opens the devices (config.devices, or `devices` when given: the caller's
-  // virtual lab), recovers the sessions folder.
+  // virtual lab), recovers the sessions folder. Without an `estimator`, the
+  // daemon runs its own on-line estimator (online_estimator.hpp) unless
+  // config.estimation.enabled is false.
   Daemon(DaemonConfig config, DeviceSet devices, FrameConsumer* estimator = nullptr);
   ~Daemon();
 
@@ -72,6 +74,7 @@ class Daemon {
   DeviceSet devices_;
   FrameConsumer* estimator_;
   StorageBudget budget_;
+  std::unique_ptr<FrameConsumer> owned_estimator_;
   EventBus events_;
   OperationRegistry operations_{events_};
   SessionStore store_;

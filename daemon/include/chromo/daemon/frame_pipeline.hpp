@@ -13,8 +13,10 @@
 //
 // The estimator may fall behind: a frame offered to a full estimator queue is
 // counted as skipped with reason "queue_full" (the estimator reads it back
-// from storage later); without an estimator, every frame is skipped with
-// reason "no_estimator".
+// from storage later, FrameConsumer::end_session) and on_estimator_behind is
+// called (once per run of skipped frames, with the count so far); the
+// counters show the queue's depth now and at most. Without an estimator,
+// every frame is skipped with reason "no_estimator".
 //
 // When storage fails (disk or budget full), the pipeline stops storing:
 // storage_error() is set, further frames are refused (counted lost with reason
@@ -61,14 +63,36 @@ struct PipelineCounters {
   std::map<std::string, std::uint64_t> lost_reasons, skipped_reasons;
   double max_trigger_to_stored_ms = 0, mean_trigger_to_stored_ms = 0;
   double storage_cpu_ms = 0, estimator_cpu_ms = 0;  // CPU time of the pipeline's own threads
+  // Frames waiting for the estimator now and at most; frames it read back
+  // from storage after skipping them (set by the daemon after end_session).
+  std::uint64_t estimator_queue_depth = 0, max_estimator_queue_depth = 0, estimator_read_back = 0;
 };
 
-// The on-line estimator's side of the pipeline (estimation plugs in here).
+// The on-line estimator's side of the pipeline (estimation plugs in here;
+// daemon/online_estimator.hpp). One session at a time: the daemon calls
+// begin_session() on the session's thread before the first frame, the
+// pipeline calls consume() on its estimator thread for every stored frame
+// that fits in the estimator queue, and the daemon calls end_session() on the
+// session's thread once every frame is stored and the queue is drained.
 class FrameConsumer {
  public:
+  struct SessionStart {
+    std::string id;
+    std::filesystem::path folder;
+    nlohmann::json plan;  // session.json's plan
+    // Progress of the consumer's own work (0-1) with a short message; any thread.
+    std::function<void(double fraction, const std::string& message)> progress;
+  };
+  struct SessionEnd {
+    bool succeeded = false;  // the plan ran to its end (else results are not attempted)
+  };
   virtual ~FrameConsumer() = default;
+  virtual void begin_session(const SessionStart&) {}
   // Called on the estimator thread, one frame at a time.
   virtual void consume(const CapturedFrame& frame, const StoredFrame& stored) = 0;
+  // Catches up on frames the queue skipped (from storage), finishes, and
+  // returns the journal's "results" record (docs/formats/session.md; null: none).
+  virtual nlohmann::json end_session(const SessionEnd&) { return nullptr; }
 };
 
 class FramePipeline {
@@ -78,7 +102,8 @@ class FramePipeline {
     std::size_t estimator_queue_frames = 8;
   };
   FramePipeline(std::filesystem::path folder, Journal& journal, StorageBudget* budget, Options options,
-                FrameConsumer* estimator, std::function<void(const StoredFrame&)> on_stored);
+                FrameConsumer* estimator, std::function<void(const StoredFrame&)> on_stored,
+                std::function<void(std::uint64_t skipped_so_far)> on_estimator_behind = {});
   ~FramePipeline();  // drains, then stops the threads
   FramePipeline(const FramePipeline&) = delete;
   FramePipeline& operator=(const FramePipeline&) = delete;
@@ -105,6 +130,8 @@ class FramePipeline {
   Options options_;
   FrameConsumer* estimator_;
   std::function<void(const StoredFrame&)> on_stored_;
+  std::function<void(std::uint64_t)> on_estimator_behind_;
+  bool behind_ = false;  // the last frame offered to the estimator was skipped
 
   mutable std::mutex mutex_;
   std::condition_variable storage_wake_, space_free_, idle_, estimator_wake_;

@@ -1,0 +1,104 @@
+#pragma once
+// OnlineEstimator: chromod's on-line chromophore estimator, the pipeline's
+// FrameConsumer (frame_pipeline.hpp).
+//
+// As a standard session's frames arrive (dark, the white reference and the
+// subject under D65', W57, W57+blue) it accumulates them
+// (session_captures.hpp). Once the dark and the three white references are
+// in — before the subject is captured — it knows the measurement set
+// (illuminants from the LED library and the applied drive levels, noise from
+// the references) and builds or loads the forward table and the fast
+// inverter's inverse table into the disk cache.
+// When the subject's last frame is in it estimates the maps tile by tile on
+// options.estimation.estimator.threads threads (0 = all cores) and writes
+// <session>/results/ (estimate_report.hpp: maps.exr, previews, summary.json),
+// every file crash-safe (durable_file.hpp, charged to the storage budget).
+//
+// Falling behind: the pipeline's estimator queue is bounded; a frame that
+// does not fit is skipped by the pipeline (counted "queue_full", an event
+// says the estimator is behind) and never delays storage. end_session() reads
+// every skipped frame back from the session folder before finishing, so the
+// maps always use every stored frame; summary.json and the results record
+// say how many were read back.
+//
+// end_session() returns the journal's results record:
+//   {"type": "results", "state": "available", "maps_file": "results/maps.exr",
+//    "report_file": "results/summary.json", "method", "model", "pixels",
+//    "pixels_per_second", "estimate_seconds", "frames_read_back",
+//    "flag_counts": {...}, "relit_delta_e94": {"D65'": {"mean", "median", "p95"}, ...}}
+// or {"type": "results", "state": "unavailable", "reason": "..."} (not the
+// method's plan, mono frames, unusable references, a write that failed).
+// A session that did not succeed gets no record.
+//
+// The same computation runs offline on a stored session (`chromo estimate
+// SESSION_DIR`): read_session_captures() + estimate_method_captures().
+//
+// Thread rules: begin_session/end_session on the session's thread, consume on
+// the pipeline's estimator thread; the daemon runs one session at a time and
+// the pipeline's drain() orders them. Options are fixed at construction.
+
+#include <functional>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+
+#include "chromo/daemon/config.hpp"
+#include "chromo/daemon/durable_file.hpp"
+#include "chromo/daemon/frame_pipeline.hpp"
+#include "chromo/daemon/session_captures.hpp"
+#include "chromo/estimation/estimate_report.hpp"
+
+namespace chromo::daemon {
+
+struct OnlineEstimatorOptions {
+  estimation::MethodEstimationOptions estimation;  // method fast, model auto by default
+  // The LED library and camera sensitivity, resolved at each session start
+  // (a new calibration applies to the next session).
+  std::function<CaptureSources()> sources;
+  StorageBudget* budget = nullptr;
+  bool IsValid(std::string* error) const;
+};
+
+// The sources chromod uses: the LED library at `led_library` (empty: the
+// newest measured one in calibration::led_library_directory(), else the
+// nominal built-in one), the camera "builtin:NAME" or a CSV of
+// wavelength_nm,R,G,B, ρ_white. Throws std::invalid_argument naming the file.
+CaptureSources resolve_capture_sources(const std::string& led_library, const std::string& camera,
+                                       double white_reflectance);
+
+class OnlineEstimator;
+// chromod's estimator from its configuration (config.estimation); sources are
+// resolved at each session start, so a bad led_library or camera file makes
+// that session's results "unavailable" naming the file. daemon_led_library
+// (optional): the daemon's own LED library file at that moment ("" when it
+// has none), used unless config.led_library overrides it.
+std::unique_ptr<OnlineEstimator> make_online_estimator(
+    const EstimationConfig& config, StorageBudget* budget,
+    std::function<std::string()> daemon_led_library = {});
+
+class OnlineEstimator final : public FrameConsumer {
+ public:
+  explicit OnlineEstimator(OnlineEstimatorOptions options);  // std::invalid_argument if !IsValid
+
+  void begin_session(const SessionStart& start) override;
+  void consume(const CapturedFrame& frame, const StoredFrame& stored) override;
+  nlohmann::json end_session(const SessionEnd& end) override;
+
+ private:
+  void estimate_now();
+  nlohmann::json unavailable(const std::string& reason) const;
+
+  OnlineEstimatorOptions options_;
+  SessionStart session_;
+  std::optional<CaptureSources> sources_;
+  std::unique_ptr<SessionCaptureBuilder> builder_;
+  std::set<std::uint64_t> consumed_;      // storage indices already added
+  std::string error_;                     // first reason this session cannot be estimated
+  bool table_prepared_ = false;
+  double table_prepare_seconds_ = 0;
+  std::optional<estimation::MethodEstimationResult> result_;
+  std::size_t read_back_ = 0;
+};
+
+}  // namespace chromo::daemon

@@ -1,0 +1,196 @@
+#include "chromo/daemon/online_estimator.hpp"
+
+#include <chrono>
+
+#include "chromo/calibration/led_library_io.hpp"
+#include "chromo/daemon/image_files.hpp"
+#include "chromo/spectral/table.hpp"
+
+namespace chromo::daemon {
+
+bool OnlineEstimatorOptions::IsValid(std::string* error) const {
+  if (!sources) {
+    if (error) *error = "sources: no LED library / camera resolver";
+    return false;
+  }
+  return estimation.estimator.IsValid(error) && estimation.grid.IsValid(error);
+}
+
+CaptureSources resolve_capture_sources(const std::string& led_library, const std::string& camera,
+                                       double white_reflectance) {
+  CaptureSources sources;
+  try {
+    std::filesystem::path path = led_library;
+    if (path.empty()) path = calibration::latest_led_library_path();
+    if (path.empty()) {
+      sources.led_library = calibration::nominal_led_library();
+      sources.led_library_source = "nominal (built-in; no measured library in " +
+                                   calibration::led_library_directory().string() + ")";
+    } else {
+      sources.led_library = calibration::load_led_library(path);
+      sources.led_library_source = path.string();
+    }
+  } catch (const spectral::DataError& error) {
+    throw std::invalid_argument(std::string("estimation.led_library: ") + error.what());
+  }
+  try {
+    sources.camera = camera.rfind("builtin:", 0) == 0 ? spectral::builtin_camera(camera.substr(8))
+                                                      : spectral::read_camera_sensitivity(camera);
+  } catch (const std::exception& error) {
+    throw std::invalid_argument("estimation.camera_sensitivity: " + camera + ": " + error.what());
+  }
+  sources.camera_source = camera;
+  if (!(white_reflectance > 0 && white_reflectance <= 1))
+    throw std::invalid_argument("estimation.white_reflectance: must be in (0, 1]");
+  sources.white_reflectance = white_reflectance;
+  return sources;
+}
+
+std::unique_ptr<OnlineEstimator> make_online_estimator(const EstimationConfig& config, StorageBudget* budget,
+                                                       std::function<std::string()> daemon_led_library) {
+  OnlineEstimatorOptions options;
+  auto& e = options.estimation.estimator;
+  e.method = config.method == "exhaustive" ? estimation::InverterMethod::kExhaustive
+             : config.method == "2d"       ? estimation::InverterMethod::k2d
+                                           : estimation::InverterMethod::kFast;
+  e.model = config.model == "2d"   ? estimation::ModelChoice::k2d
+            : config.model == "4d" ? estimation::ModelChoice::k4d
+                                   : estimation::ModelChoice::kAuto;
+  e.threads = config.threads;
+  options.estimation.cache_dir = config.cache_dir;
+  options.sources = [config, daemon_led_library] {
+    std::string library = config.led_library;
+    if (library.empty() && daemon_led_library) library = daemon_led_library();
+    return resolve_capture_sources(library, config.camera_sensitivity, config.white_reflectance);
+  };
+  options.budget = budget;
+  return std::make_unique<OnlineEstimator>(std::move(options));
+}
+
+OnlineEstimator::OnlineEstimator(OnlineEstimatorOptions options) : options_(std::move(options)) {
+  std::string error;
+  if (!options_.IsValid(&error)) throw std::invalid_argument("on-line estimator: " + error);
+}
+
+void OnlineEstimator::begin_session(const SessionStart& start) {
+  session_ = start;
+  builder_.reset();
+  consumed_.clear();
+  error_.clear();
+  table_prepared_ = false;
+  table_prepare_seconds_ = 0;
+  result_.reset();
+  read_back_ = 0;
+  try {
+    sources_ = options_.sources();
+    builder_ = std::make_unique<SessionCaptureBuilder>(plan_from_json(start.plan), *sources_);
+  } catch (const std::exception& e) {
+    error_ = e.what();
+  }
+}
+
+void OnlineEstimator::consume(const CapturedFrame& captured, const StoredFrame& stored) {
+  if (!builder_ || !error_.empty() || result_) return;
+  try {
+    builder_->add_frame(captured.step, captured.camera, pixel_format_name(captured.frame.pixel_format),
+                        captured.frame.width, captured.frame.height, captured.frame.data,
+                        captured.metadata.value("led", nlohmann::json::object()));
+    consumed_.insert(stored.index);
+    if (!table_prepared_ && builder_->references_complete()) {
+      // The subject is not captured yet: build (or load) the table now.
+      const auto t = std::chrono::steady_clock::now();
+      const auto set = estimation::method_set_from_references(builder_->captures());
+      const auto& e = options_.estimation;
+      auto table = estimation::ForwardTable::load_or_build(
+          set, e.grid, e.cache_dir.empty() ? estimation::ForwardTable::default_cache_dir() : e.cache_dir, nullptr,
+          e.estimator.threads);
+      // The fast inverter's inverse table is cached beside it: building an
+      // Estimator now puts it there too.
+      estimation::EstimatorOptions estimator_options = e.estimator;
+      if (estimator_options.cache_dir.empty()) estimator_options.cache_dir = e.cache_dir;
+      estimation::Estimator(table, set, estimator_options);
+      table_prepared_ = true;
+      table_prepare_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+    }
+    if (builder_->complete()) estimate_now();
+  } catch (const std::exception& e) {
+    error_ = e.what();
+  }
+}
+
+void OnlineEstimator::estimate_now() {
+  const auto captures = builder_->captures();
+  nlohmann::ordered_json extra{{"session_id", session_.id},
+                               {"source", "chromod on-line estimator"},
+                               {"camera", builder_->camera()},
+                               {"led_library", sources_->led_library_source},
+                               {"camera_sensitivity", sources_->camera_source},
+                               {"white_reflectance", sources_->white_reflectance},
+                               {"frames_read_back_from_storage", read_back_},
+                               {"table_prepared_during_capture_s", table_prepare_seconds_}};
+  const std::filesystem::path results = session_.folder / "results";
+  std::filesystem::create_directories(results);
+  // The LED library the illuminants came from, so that `chromo estimate
+  // SESSION_DIR` reproduces these maps from the folder alone.
+  write_file_durably(results / "led_library.json", calibration::led_library_to_json(sources_->led_library),
+                     options_.budget);
+  estimation::EstimateCallbacks callbacks;
+  if (session_.progress)
+    callbacks.progress = [this](std::size_t done, std::size_t total) {
+      session_.progress(total ? static_cast<double>(done) / static_cast<double>(total) : 1.0, "estimating maps");
+    };
+  result_ = estimation::estimate_method_captures(
+      captures, options_.estimation, results,
+      [this](const std::filesystem::path& path, const std::function<void(const std::filesystem::path&)>& produce) {
+        commit_file_durably(path, options_.budget, produce);
+      },
+      callbacks, extra.dump());
+}
+
+nlohmann::json OnlineEstimator::unavailable(const std::string& reason) const {
+  return {{"type", "results"}, {"state", "unavailable"}, {"reason", reason}};
+}
+
+nlohmann::json OnlineEstimator::end_session(const SessionEnd& end) {
+  if (!end.succeeded) return nullptr;
+  if (!builder_ && error_.empty()) return nullptr;
+  if (error_.empty() && !result_) {
+    // Catch up: the frames the pipeline skipped are in storage.
+    try {
+      read_back_ = add_stored_frames(*builder_, session_.folder, consumed_);
+      if (!builder_->complete()) {
+        error_ = "frames missing: " + builder_->missing();
+      } else {
+        estimate_now();
+      }
+    } catch (const std::exception& e) {
+      error_ = e.what();
+    }
+  }
+  if (!error_.empty()) return unavailable(error_);
+  const auto& r = *result_;
+  nlohmann::json flags = nlohmann::json::object();
+  for (int f = 0; f < estimation::kPixelFlagCount; ++f)
+    flags[std::string(estimation::pixel_flag_name(static_cast<estimation::PixelFlag>(f)))] = r.summary.flag_counts[f];
+  nlohmann::json relit = nlohmann::json::object();
+  for (const auto& c : r.relit)
+    relit[c.illuminant] = {{"mean", c.delta_e94.mean},
+                           {"median", c.delta_e94.median},
+                           {"p95", c.delta_e94.p95},
+                           {"max", c.delta_e94.max},
+                           {"pixels", c.delta_e94.pixels}};
+  return {{"type", "results"},
+          {"state", "available"},
+          {"maps_file", "results/maps.exr"},
+          {"report_file", "results/summary.json"},
+          {"method", std::string(estimation::method_name(options_.estimation.estimator.method))},
+          {"model", std::string(estimation::model_name(options_.estimation.estimator.model))},
+          {"pixels", r.summary.pixels},
+          {"pixels_per_second", r.pixels_per_second},
+          {"estimate_seconds", r.summary.seconds},
+          {"frames_read_back", read_back_},
+          {"flag_counts", flags},
+          {"relit_delta_e94", relit}};
+}
+
+}  // namespace chromo::daemon
