@@ -58,7 +58,7 @@ struct RelitComparison {
   std::string illuminant;  // "D65'", "W57", "W57+blue"
   DeltaEStats delta_e94;
 };
-// Over pixels with flag kExplained or kSpecular and a finite photograph.
+// Over explained pixels (flag kExplained) with a finite photograph.
 std::vector<RelitComparison> compare_with_photographs(std::span<const PixelEstimate> estimates,
                                                       const std::vector<Photograph>& photographs,
                                                       const spectral::CameraSensitivity& camera, int threads = 0);
