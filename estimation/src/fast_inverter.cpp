@@ -7,6 +7,7 @@
 
 #include "chromo/estimation/inverse_table.hpp"
 #include "chromo/estimation/inverter.hpp"
+#include "spd_solve.hpp"
 
 namespace chromo::estimation {
 
@@ -87,37 +88,6 @@ void FastInverter::predict4(const float* x, float* value, float* jacobian) const
     }
 }
 
-namespace {
-
-// Solves a·x = b (4×4 symmetric positive semi-definite, row-major) by
-// Cholesky; a non-positive pivot (a singular direction) gives a zero step
-// along it.
-void solve_normal(const double* a, const double* b, double* x) {
-  double l[4][4] = {}, y[4];
-  for (int j = 0; j < 4; ++j) {
-    double d = a[j * 4 + j];
-    for (int k = 0; k < j; ++k) d -= l[j][k] * l[j][k];
-    l[j][j] = d > 1e-300 ? std::sqrt(d) : 0.0;
-    for (int i = j + 1; i < 4; ++i) {
-      double v = a[i * 4 + j];
-      for (int k = 0; k < j; ++k) v -= l[i][k] * l[j][k];
-      l[i][j] = l[j][j] > 0 ? v / l[j][j] : 0.0;
-    }
-  }
-  for (int i = 0; i < 4; ++i) {
-    double v = b[i];
-    for (int k = 0; k < i; ++k) v -= l[i][k] * y[k];
-    y[i] = l[i][i] > 0 ? v / l[i][i] : 0.0;
-  }
-  for (int i = 3; i >= 0; --i) {
-    double v = y[i];
-    for (int k = i + 1; k < 4; ++k) v -= l[k][i] * x[k];
-    x[i] = l[i][i] > 0 ? v / l[i][i] : 0.0;
-  }
-}
-
-}  // namespace
-
 bool FastInverter::fit_presolved(const double* measured, const double* weight, Fit& fit) const {
   float m[4];
   for (int c = 0; c < 4; ++c) m[c] = static_cast<float>(measured[c]);
@@ -185,7 +155,7 @@ bool FastInverter::fit_presolved(const double* measured, const double* weight, F
       }
     }
     double step[4];
-    solve_normal(jtj, gradient, step);
+    detail::solve_spd4(jtj, gradient, step);
     bool improved = false;
     for (float scale = 1.0f; scale > 0.005f && !improved; scale *= 0.5f) {
       float moved = 0;

@@ -1,4 +1,5 @@
 #include "chromo/estimation/inverter.hpp"
+#include "spd_solve.hpp"
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -20,34 +21,10 @@ double Inverter::chi2_at(const double* measured, const double* weight, const Gri
 
 namespace {
 
-// Solves a·x = b for the symmetric positive definite 4×4 LM matrix by an
-// unrolled Cholesky factorisation (Eigen's pivoting LDLT is a library call
-// that cost as much as the table interpolation). A non-positive pivot (a
-// singular direction) gives a zero step along it.
 Eigen::Vector4d solve_spd(const Eigen::Matrix4d& a, const Eigen::Vector4d& b) {
-  double l[4][4] = {};
-  for (int j = 0; j < 4; ++j) {
-    double d = a(j, j);
-    for (int k = 0; k < j; ++k) d -= l[j][k] * l[j][k];
-    l[j][j] = d > 1e-300 ? std::sqrt(d) : 0.0;
-    for (int i = j + 1; i < 4; ++i) {
-      double v = a(i, j);
-      for (int k = 0; k < j; ++k) v -= l[i][k] * l[j][k];
-      l[i][j] = l[j][j] > 0 ? v / l[j][j] : 0.0;
-    }
-  }
-  double y[4], x[4];
-  for (int i = 0; i < 4; ++i) {
-    double v = b[i];
-    for (int k = 0; k < i; ++k) v -= l[i][k] * y[k];
-    y[i] = l[i][i] > 0 ? v / l[i][i] : 0.0;
-  }
-  for (int i = 3; i >= 0; --i) {
-    double v = y[i];
-    for (int k = i + 1; k < 4; ++k) v -= l[k][i] * x[k];
-    x[i] = l[i][i] > 0 ? v / l[i][i] : 0.0;
-  }
-  return {x[0], x[1], x[2], x[3]};
+  Eigen::Vector4d x;
+  detail::solve_spd4(a.data(), b.data(), x.data());
+  return x;
 }
 
 }  // namespace
