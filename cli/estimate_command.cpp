@@ -54,12 +54,9 @@ estimation::FileCommit stage_in(estimation::OutputBatch& batch) {
 
 estimation::EstimatorOptions estimator_options(const EstimateOptions& options) {
   estimation::EstimatorOptions eo;
-  eo.method = options.method == "exhaustive" ? estimation::InverterMethod::kExhaustive
-              : options.method == "2d"       ? estimation::InverterMethod::k2d
-                                             : estimation::InverterMethod::kFast;
-  eo.model = options.model == "2d"   ? estimation::ModelChoice::k2d
-             : options.model == "4d" ? estimation::ModelChoice::k4d
-                                     : estimation::ModelChoice::kAuto;
+  // CLI11 has checked both names against the same lists.
+  eo.method = estimation::parse_method_name(options.method).value_or(estimation::InverterMethod::kFast);
+  eo.model = estimation::parse_model_name(options.model).value_or(estimation::ModelChoice::kAuto);
   eo.threads = options.threads;
   eo.cache_dir = options.cache_dir;  // the fast method's inverse table next to the forward table
   return eo;

@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "chromo/daemon/session_plan.hpp"
+#include "chromo/estimation/estimator.hpp"
 
 namespace chromo::daemon {
 
@@ -37,9 +38,9 @@ bool DaemonConfig::IsValid(std::string* error) const {
     if (!names.insert(devices[i].name).second) return fail(field + "name: \"" + devices[i].name + "\" is used twice");
     if (devices[i].backend.empty()) return fail(field + "backend: missing");
   }
-  if (estimation.method != "fast" && estimation.method != "exhaustive" && estimation.method != "2d")
+  if (!chromo::estimation::parse_method_name(estimation.method))
     return fail("estimation.method: \"" + estimation.method + "\" is not fast, exhaustive or 2d");
-  if (estimation.model != "auto" && estimation.model != "2d" && estimation.model != "4d")
+  if (!chromo::estimation::parse_model_name(estimation.model))
     return fail("estimation.model: \"" + estimation.model + "\" is not auto, 2d or 4d");
   if (!(estimation.white_reflectance > 0 && estimation.white_reflectance <= 1))
     return fail("estimation.white_reflectance: must be in (0, 1]");

@@ -50,12 +50,9 @@ std::unique_ptr<OnlineEstimator> make_online_estimator(const EstimationConfig& c
                                                        std::function<std::string()> daemon_led_library) {
   OnlineEstimatorOptions options;
   auto& e = options.estimation.estimator;
-  e.method = config.method == "exhaustive" ? estimation::InverterMethod::kExhaustive
-             : config.method == "2d"       ? estimation::InverterMethod::k2d
-                                           : estimation::InverterMethod::kFast;
-  e.model = config.model == "2d"   ? estimation::ModelChoice::k2d
-            : config.model == "4d" ? estimation::ModelChoice::k4d
-                                   : estimation::ModelChoice::kAuto;
+  // The configuration's loader has checked both names (config.cpp).
+  e.method = estimation::parse_method_name(config.method).value_or(estimation::InverterMethod::kFast);
+  e.model = estimation::parse_model_name(config.model).value_or(estimation::ModelChoice::kAuto);
   e.threads = config.threads;
   options.estimation.cache_dir = config.cache_dir;
   options.sources = [config, daemon_led_library] {

@@ -29,6 +29,18 @@ std::string_view model_name(ModelChoice model) {
   return "?";
 }
 
+std::optional<InverterMethod> parse_method_name(std::string_view name) {
+  for (InverterMethod m : {InverterMethod::kExhaustive, InverterMethod::kFast, InverterMethod::k2d})
+    if (method_name(m) == name) return m;
+  return std::nullopt;
+}
+
+std::optional<ModelChoice> parse_model_name(std::string_view name) {
+  for (ModelChoice m : {ModelChoice::kAuto, ModelChoice::k2d, ModelChoice::k4d})
+    if (model_name(m) == name) return m;
+  return std::nullopt;
+}
+
 namespace {
 
 // Regularised lower incomplete gamma P(a, x) by its series / continued fraction.

@@ -47,6 +47,9 @@
 #include <string>
 
 #include "chromo/estimation/forward_table.hpp"
+#include <optional>
+#include <string_view>
+
 #include "chromo/estimation/inverter.hpp"
 #include "chromo/estimation/measurement.hpp"
 #include "chromo/estimation/pixel_flags.hpp"
@@ -57,6 +60,10 @@ enum class InverterMethod { kExhaustive, kFast, k2d };
 enum class ModelChoice { kAuto, k2d, k4d };
 std::string_view method_name(InverterMethod method);
 std::string_view model_name(ModelChoice model);
+// The inverses of method_name / model_name ("exhaustive", "fast", "2d";
+// "auto", "2d", "4d"); std::nullopt for any other name.
+std::optional<InverterMethod> parse_method_name(std::string_view name);
+std::optional<ModelChoice> parse_model_name(std::string_view name);
 
 struct PixelEstimate {
   SkinParameters parameters{0, 0, 0, 0};
