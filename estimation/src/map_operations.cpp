@@ -470,18 +470,18 @@ ExportProfilesSummary export_profiles_to_files(const ExportProfilesOptions& opti
   const RadialProfileModel profile_model(model, illuminant.spectrum);
   const ProfileTable table =
       build_profile_table(profile_model, options.axes, illuminant.name, options.threads, options.progress);
-  write_profile_table(options.out, table);
+  OutputBatch files(options.out);
+  write_profile_table(files, table);
   ExportProfilesSummary summary;
   summary.entries = options.axes.entry_count();
   summary.radii = table.radius_mm.size();
   summary.worst_plane_integral_error = table.worst_plane_integral_error;
-  summary.files = {options.out / "profiles.json", options.out / "profiles.f32"};
   if (maps) {
     const auto indices = nearest_entry_indices(table, *maps);
-    write_index_map(options.out, *maps, indices);
+    write_index_map(files, *maps, indices);
     summary.unmapped_pixels = static_cast<std::size_t>(std::count(indices.begin(), indices.end(), kNoProfileEntry));
-    summary.files.push_back(options.out / "index.exr");
   }
+  summary.files = files.commit();
   return summary;
 }
 

@@ -1,8 +1,6 @@
 #include "chromo/estimation/profile_table.hpp"
 
-#include <fcntl.h>
 #include <omp.h>
-#include <unistd.h>
 
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
@@ -58,29 +56,6 @@ std::size_t nearest(const std::vector<double>& axis, double x, Transform f) {
   return best;
 }
 
-// Writes bytes to path through path + ".tmp", fsync, rename and directory fsync.
-void write_file_atomically(const std::filesystem::path& path, const std::function<void(const std::string&)>& writer) {
-  const std::string temporary = path.string() + ".tmp";
-  try {
-    writer(temporary);
-    const int fd = ::open(temporary.c_str(), O_RDONLY);
-    if (fd < 0 || ::fsync(fd) != 0) {
-      if (fd >= 0) ::close(fd);
-      throw std::runtime_error(temporary + ": cannot fsync");
-    }
-    ::close(fd);
-    std::filesystem::rename(temporary, path);
-    const int dir = ::open(path.parent_path().empty() ? "." : path.parent_path().c_str(), O_RDONLY | O_DIRECTORY);
-    if (dir >= 0) {
-      ::fsync(dir);
-      ::close(dir);
-    }
-  } catch (...) {
-    std::error_code ignored;
-    std::filesystem::remove(temporary, ignored);
-    throw;
-  }
-}
 
 }  // namespace
 
@@ -145,8 +120,7 @@ ProfileTable build_profile_table(const RadialProfileModel& model, const ProfileT
   return table;
 }
 
-void write_profile_table(const std::filesystem::path& directory, const ProfileTable& table) {
-  std::filesystem::create_directories(directory);
+void write_profile_table(OutputBatch& files, const ProfileTable& table) {
   nlohmann::ordered_json header;
   header["format"] = "chromosphere-radial-profiles";
   header["version"] = 1;
@@ -161,17 +135,14 @@ void write_profile_table(const std::filesystem::path& directory, const ProfileTa
   header["entries"] = table.axes.entry_count();
   header["albedo_rgb"] = table.albedo_rgb;
   header["worst_plane_integral_error"] = table.worst_plane_integral_error;
-  write_file_atomically(directory / "profiles.f32", [&](const std::string& path) {
+  {
+    const std::filesystem::path path = files.temporary("profiles.f32");
     std::ofstream out(path, std::ios::binary);
     out.write(reinterpret_cast<const char*>(table.profiles_rgb_per_mm2.data()),
               static_cast<std::streamsize>(table.profiles_rgb_per_mm2.size() * sizeof(float)));
-    if (!out) throw std::runtime_error(path + ": write failed");
-  });
-  write_file_atomically(directory / "profiles.json", [&](const std::string& path) {
-    std::ofstream out(path);
-    out << header.dump(1) << "\n";
-    if (!out) throw std::runtime_error(path + ": write failed");
-  });
+    if (!out.flush()) throw std::runtime_error(path.string() + ": write failed");
+  }
+  files.write_text("profiles.json", header.dump(1) + "\n");
 }
 
 ParameterMaps read_parameter_maps(const std::filesystem::path& maps_exr) {
@@ -204,12 +175,11 @@ std::vector<std::uint32_t> nearest_entry_indices(const ProfileTable& table, cons
   return indices;
 }
 
-void write_index_map(const std::filesystem::path& directory, const ParameterMaps& maps,
-                     const std::vector<std::uint32_t>& indices) {
+void write_index_map(OutputBatch& files, const ParameterMaps& maps, const std::vector<std::uint32_t>& indices) {
   if (indices.size() != static_cast<std::size_t>(maps.width) * maps.height)
     throw std::invalid_argument("index map size does not match the maps");
-  std::filesystem::create_directories(directory);
-  write_file_atomically(directory / "index.exr", [&](const std::string& path) {
+  {
+    const std::string path = files.temporary("index.exr").string();
     Imf::Header header(maps.width, maps.height);
     header.channels().insert("entry", Imf::Channel(Imf::UINT));
     Imf::OutputFile file(path.c_str(), header);
@@ -218,7 +188,7 @@ void write_index_map(const std::filesystem::path& directory, const ParameterMaps
                                      sizeof(std::uint32_t), sizeof(std::uint32_t) * maps.width));
     file.setFrameBuffer(frame);
     file.writePixels(maps.height);
-  });
+  }
 }
 
 }  // namespace chromo::estimation

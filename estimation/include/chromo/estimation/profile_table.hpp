@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "chromo/estimation/output_batch.hpp"
 #include "chromo/estimation/radial_profile.hpp"
 
 namespace chromo::estimation {
@@ -49,9 +50,9 @@ ProfileTable build_profile_table(const RadialProfileModel& model, const ProfileT
                                  const std::string& illuminant_name, int threads = 0,
                                  const TableProgress& progress = {});
 
-// Writes DIR/profiles.json and DIR/profiles.f32, each through a temporary
-// file, fsync and rename: a reader never sees a half-written file.
-void write_profile_table(const std::filesystem::path& directory, const ProfileTable& table);
+// Adds profiles.json and profiles.f32 to `files` (written to temporaries;
+// they appear in the batch's directory, crash-safe, at files.commit()).
+void write_profile_table(OutputBatch& files, const ProfileTable& table);
 
 // Estimator maps as `chromo estimate` writes them (maps.exr: float channels
 // Cm, Ch, Bm, Che and flags).
@@ -66,8 +67,7 @@ inline constexpr std::uint32_t kNoProfileEntry = 0xFFFFFFFFu;
 // Nearest table entry per pixel (in log space for Cm and Ch, linear for βm
 // and Che); kNoProfileEntry where the pixel is flagged or not finite.
 std::vector<std::uint32_t> nearest_entry_indices(const ProfileTable& table, const ParameterMaps& maps);
-// DIR/index.exr: one UINT channel "entry", same size as the maps; crash-safe.
-void write_index_map(const std::filesystem::path& directory, const ParameterMaps& maps,
-                     const std::vector<std::uint32_t>& indices);
+// index.exr in `files`: one UINT channel "entry", same size as the maps.
+void write_index_map(OutputBatch& files, const ParameterMaps& maps, const std::vector<std::uint32_t>& indices);
 
 }  // namespace chromo::estimation
