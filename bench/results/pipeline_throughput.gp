@@ -1,5 +1,5 @@
 set terminal pngcairo size 900,500 font 'DejaVu Sans,10'
-set output '/work/wt/daemon-lab/bench/results/pipeline_throughput.png'
+set output '/work/main/bench/results/pipeline_throughput.png'
 set title '5 MP Mono8 over loopback GigE Vision: MB/s received complete'
 set ylabel 'MB/s'
 set style fill solid 0.8 border -1
@@ -7,4 +7,4 @@ set boxwidth 0.6
 set grid ytics
 set xtics rotate by -20
 set yrange [0:*]
-plot '/work/wt/daemon-lab/bench/results/pipeline_throughput.dat' using 0:2:xtic(1) with boxes notitle lc rgb '#4477aa', '' using 0:2:(sprintf('%.3g', $2)) with labels offset 0,1 notitle
+plot '/work/main/bench/results/pipeline_throughput.dat' using 0:2:xtic(1) with boxes notitle lc rgb '#4477aa', '' using 0:2:(sprintf('%.3g', $2)) with labels offset 0,1 notitle
