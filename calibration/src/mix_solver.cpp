@@ -1,5 +1,6 @@
 #include "chromo/calibration/mix_solver.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -64,7 +65,9 @@ SolveOutcome solve_once(const SpectraArray& spectra, const DriveArray& max_drive
   }
   for (int i = 0; i < kLeds; ++i) {
     const double w = qp.x[i] * problem.drive_per_variable[i] * scale;
-    out.weights[i] = w > 1e-12 * max_drive[i] ? w : 0.0;  // rounding residue of a weight at its zero bound
+    // Rounding residue at either bound: below 1e-12 of the range is zero, and
+    // w · (max/w) may come out one ulp above max (a controller refuses that).
+    out.weights[i] = w > 1e-12 * max_drive[i] ? std::min(w, max_drive[i]) : 0.0;
   }
   out.target = problem.target * scale;
   out.objective_value = qp.objective * scale * scale + 0.0;
