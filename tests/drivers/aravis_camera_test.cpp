@@ -172,11 +172,20 @@ TEST_F(CameraOnLoopback, FramesMatchTheSceneUnderTheLedStateSetOverModbus) {
   camera_->configure(settings(PixelFormat::kBayerRG16));
   FrameSink sink;
   camera_->start_stream(sink.callback());
-  ASSERT_TRUE(trigger_and_wait(sink));
+  // This test is about the pixels. Aravis' fake camera ignores resend
+  // requests, so a datagram dropped on loopback ends that frame as kTimeout
+  // (delivery and its statuses are PacketLoss... and FreeRun...'s business):
+  // up to three triggers for one complete frame, every frame accounted for.
+  std::vector<drivers::Frame> frames;
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    ASSERT_TRUE(trigger_and_wait(sink));
+    for (auto& f : sink.take()) frames.push_back(std::move(f));
+    if (frames.back().status == FrameStatus::kComplete) break;
+  }
   camera_->stop_stream();
-  const auto frames = sink.take();
-  ASSERT_EQ(frames[0].status, FrameStatus::kComplete);
-  const ZStats z = bayer_z_scores(frames[0], simulator_->sensor_response(leds.lab().irradiance_now()), 0, 0,
+  ASSERT_EQ(frames.back().status, FrameStatus::kComplete) << frames.size() << " triggers, none complete";
+  for (std::size_t i = 0; i + 1 < frames.size(); ++i) EXPECT_EQ(frames[i].status, FrameStatus::kTimeout);
+  const ZStats z = bayer_z_scores(frames.back(), simulator_->sensor_response(leds.lab().irradiance_now()), 0, 0,
                                   simulator_->camera_model(), 10000, 0);
   EXPECT_NEAR(z.mean, 0.0, 0.05);
   EXPECT_NEAR(z.mean_square, 1.0, 0.08);
