@@ -4,4 +4,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
 scripts/build.sh
-ctest --preset release -j2 "$@"
+# A failed test runs once more before the suite fails: the GigE Vision camera
+# tests on loopback lose a frame now and then (Aravis' fake camera ignores
+# resend requests, so one dropped datagram times a frame out). A test that
+# fails twice fails the suite; ctest's log keeps both runs.
+ctest --preset release -j2 --repeat until-pass:2 "$@"
