@@ -56,15 +56,18 @@ std::shared_ptr<grpc::Channel> connect(const std::filesystem::path& directory) {
   return channel;
 }
 
+// Kills the spawned chromod (if still running) when a test ends, even by a failed ASSERT.
+struct KillOnExit {
+  pid_t& pid;
+  ~KillOnExit() {
+    if (pid > 0 && ::kill(pid, SIGKILL) == 0) ::waitpid(pid, nullptr, 0);
+  }
+};
+
 TEST(Crash, KillNineMidSessionThenRestartReportsInterruptedAndTheFolderIsIntact) {
   auto directory = testing::fresh_directory("crash");
   pid_t pid = spawn_chromod(directory);
-  struct KillOnExit {
-    pid_t& pid;
-    ~KillOnExit() {
-      if (pid > 0 && ::kill(pid, SIGKILL) == 0) ::waitpid(pid, nullptr, 0);
-    }
-  } kill_on_exit{pid};
+  KillOnExit kill_on_exit{pid};
   auto channel = connect(directory);
   pb::StartSessionRequest request;
   request.set_standard(true);
@@ -127,12 +130,7 @@ TEST(Crash, KillNineMidSessionThenRestartReportsInterruptedAndTheFolderIsIntact)
 TEST(Crash, KillNineMidCalibrationThenRestartReportsItInterrupted) {
   auto directory = testing::fresh_directory("crash-calibration");
   pid_t pid = spawn_chromod(directory);
-  struct KillOnExit {
-    pid_t& pid;
-    ~KillOnExit() {
-      if (pid > 0 && ::kill(pid, SIGKILL) == 0) ::waitpid(pid, nullptr, 0);
-    }
-  } kill_on_exit{pid};
+  KillOnExit kill_on_exit{pid};
   auto channel = connect(directory);
   pb::StartCalibrationRequest request;
   request.set_warmup_ms(2000);  // long enough to be killed in the middle
