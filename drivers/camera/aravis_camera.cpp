@@ -18,6 +18,7 @@
 
 #include "chromo/drivers/device_error.hpp"
 #include "lost_frame_counter.hpp"
+#include "stream_socket_buffer.hpp"
 
 namespace chromo::drivers {
 namespace {
@@ -364,6 +365,9 @@ struct AravisCamera::Impl {
                  static_cast<gint>(std::min<std::size_t>(socket_buffer_locked(false), G_MAXINT)), "frame-retention",
                  static_cast<guint>(options.frame_retention_ms * 1000), "packet-resend",
                  ARV_GV_STREAM_PACKET_RESEND_ALWAYS, nullptr);
+    // Aravis applies that size only once the first frame arrives; the first
+    // frame would meet the kernel's default buffer (stream_socket_buffer.hpp).
+    detail::size_udp_receive_buffer(arv_gv_stream_get_port(ARV_GV_STREAM(stream)), socket_buffer_locked(false));
     const std::size_t payload = payload_locked();
     for (int i = 0; i < options.buffer_count; ++i) arv_stream_push_buffer(stream, arv_buffer_new(payload, nullptr));
   }
