@@ -27,8 +27,7 @@ void add_import_maps_command(CLI::App& app, int& exit_status) {
   cmd->add_option("--cache-dir", options->import.cache_dir, "forward-table cache");
   cmd->add_option("--threads", options->import.threads, "threads (0 = all cores)");
   cmd->callback([options, method, &exit_status] {
-    options->import.search_4d =
-        *method == "exhaustive" ? estimation::InverterMethod::kExhaustive : estimation::InverterMethod::kFast;
+    options->import.search_4d = *estimation::parse_method_name(*method);  // checked by IsMember above
     exit_status = run_map_operation("import-maps", [&] {
       const auto s = estimation::import_maps_to_files(*options);
       const auto& r = s.result;

@@ -169,16 +169,18 @@ class MapsServiceImpl final : public pb::MapsService::Service {
     return run(context, [&] {
       const Files files(daemon_, request->session_id());
       estimation::ImportMapsOptions o;
+      if (!request->search_4d().empty()) {
+        const auto search = estimation::parse_method_name(request->search_4d());
+        if (!search || *search == estimation::InverterMethod::k2d)
+          throw Refusal{{StatusCode::INVALID_ARGUMENT, "search_4d: must be \"fast\" or \"exhaustive\""}};
+        o.import.search_4d = *search;
+      }
       o.melanin = files.resolve("melanin_file", request->melanin_file(), true);
       o.hemoglobin = files.resolve("hemoglobin_file", request->hemoglobin_file(), true);
       o.measurement = files.resolve("measurement_file", request->measurement_file(), true);
       o.out = files.resolve("out_dir", request->out_dir(), true);
       o.statistics_mask = files.resolve("statistics_mask_file", request->statistics_mask_file(), false);
       if (request->prior_sigma_log10() != 0) o.import.prior_sigma_log10 = request->prior_sigma_log10();
-      const std::string& search = request->search_4d();
-      if (search == "exhaustive") o.import.search_4d = estimation::InverterMethod::kExhaustive;
-      else if (!search.empty() && search != "fast")
-        throw Refusal{{StatusCode::INVALID_ARGUMENT, "search_4d: must be \"fast\" or \"exhaustive\""}};
       const auto s = estimation::import_maps_to_files(o);
       to_proto(s.result.mapped_2d.stats, response->mutable_mapped_2d());
       to_proto(s.result.augmented.stats, response->mutable_augmented());

@@ -167,6 +167,17 @@ TEST_F(MapsApi, HostileRequestsAreRefusedWithTheFieldNamed) {
   grpc::ClientContext context3;
   status = stub->Flush(&context3, flush, &response);
   EXPECT_THAT(status.error_message(), StartsWith("scale.che: "));
+  // Import: the 4D search is "fast" or "exhaustive"; the 2D inverter is no 4D search.
+  for (const char* search : {"2d", "kd-tree"}) {
+    grpc::ClientContext import_context;
+    pb::ImportMapsRequest import;
+    import.set_search_4d(search);
+    import.set_out_dir((data / "out").string());
+    pb::ImportMapsResponse import_response;
+    status = stub->ImportMaps(&import_context, import, &import_response);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << search;
+    EXPECT_THAT(status.error_message(), StartsWith("search_4d: ")) << search;
+  }
   EXPECT_FALSE(fs::exists(data / "out"));
 }
 
