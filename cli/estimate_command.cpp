@@ -128,17 +128,9 @@ int run_estimate(const EstimateOptions& options) {
 
   // Register every further image to images[0] on the first channel both use.
   auto t = std::chrono::steady_clock::now();
-  nlohmann::ordered_json registration = nlohmann::ordered_json::array();
+  nlohmann::ordered_json registration;
   try {
-    for (const estimation::ImageRegistration& r : estimation::register_images(m))
-      registration.push_back({{"image", r.image},
-                              {"reference", r.reference},
-                              {"channel", r.channel},
-                              {"shift_x_px", r.result.shift_x_px},
-                              {"shift_y_px", r.result.shift_y_px},
-                              {"rotation_deg", r.result.rotation_deg},
-                              {"correlation", r.result.correlation},
-                              {"residual_motion_px", r.result.residual_motion_px}});
+    registration = nlohmann::ordered_json::parse(estimation::registration_report_json(estimation::register_images(m)));
   } catch (const estimation::RegistrationError& e) {
     std::cerr << "chromo estimate: " << e.what() << "\n";
     return kExitBadInput;

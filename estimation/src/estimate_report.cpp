@@ -45,6 +45,22 @@ nlohmann::ordered_json stats_json(const DeltaEStats& s) {
 
 }  // namespace
 
+std::string registration_report_json(std::span<const RegistrationReport> registration) {
+  nlohmann::ordered_json out = nlohmann::ordered_json::array();
+  for (const auto& r : registration)
+    out.push_back({{"image", r.image},
+                   {"reference", r.reference},
+                   {"channel", r.channel},
+                   {"shift_x_px", r.result.shift_x_px},
+                   {"shift_y_px", r.result.shift_y_px},
+                   {"rotation_deg", r.result.rotation_deg},
+                   {"correlation", r.result.correlation},
+                   {"motion_px", r.motion_px},
+                   {"warped", r.warped},
+                   {"residual_motion_px", r.result.residual_motion_px}});
+  return out.dump();
+}
+
 std::string neighbourhood_report_json(bool flags, bool order_pooling, const NeighbourhoodSummary& summary) {
   return nlohmann::ordered_json{{"flags", flags},
                                 {"order_pooling", order_pooling},
@@ -222,19 +238,7 @@ MethodEstimationResult estimate_method_captures(const MethodCaptures& captures, 
   auto extra = nlohmann::ordered_json::parse(extra_json);
   if (!extra.is_object()) throw std::invalid_argument("extra_json is not a JSON object");
   extra["table"] = {{"key", hex_key(table->key())}, {"nodes", table->grid().node_count()}, {"rebuilt", rebuilt}};
-  nlohmann::ordered_json registration = nlohmann::ordered_json::array();
-  for (const auto& r : m.registration)
-    registration.push_back({{"image", r.image},
-                            {"reference", r.reference},
-                            {"channel", r.channel},
-                            {"shift_x_px", r.result.shift_x_px},
-                            {"shift_y_px", r.result.shift_y_px},
-                            {"rotation_deg", r.result.rotation_deg},
-                            {"correlation", r.result.correlation},
-                            {"motion_px", r.motion_px},
-                            {"warped", r.warped},
-                            {"residual_motion_px", r.result.residual_motion_px}});
-  extra["registration"] = registration;
+  extra["registration"] = nlohmann::ordered_json::parse(registration_report_json(m.registration));
   nlohmann::ordered_json noise = nlohmann::ordered_json::object();
   for (const auto& c : m.set.channels)
     noise[c.name] = {{"read_sigma", c.noise.read_sigma},

@@ -115,8 +115,8 @@ MeasurementFile read_measurement_file(const fs::path& file) {
   return m;
 }
 
-std::vector<ImageRegistration> register_images(MeasurementFile& m) {
-  std::vector<ImageRegistration> out;
+std::vector<RegistrationReport> register_images(MeasurementFile& m) {
+  std::vector<RegistrationReport> out;
   const MeasurementImage& first = m.images.front();
   for (std::size_t k = 1; k < m.images.size(); ++k) {
     MeasurementImage& image = m.images[k];
@@ -130,8 +130,11 @@ std::vector<ImageRegistration> register_images(MeasurementFile& m) {
     try {
       const RegistrationResult r =
           register_channel(first.pixels.channel(shared), image.pixels.channel(shared), m.width, m.height);
-      for (auto& channel : image.pixels.channels) channel = warp_channel(channel, m.width, m.height, r);
-      out.push_back({image.name, first.name, shared, r});
+      const double motion = corner_displacement_px(r, m.width, m.height);
+      const bool warped = motion > kWarpThresholdPx;
+      if (warped)
+        for (auto& channel : image.pixels.channels) channel = warp_channel(channel, m.width, m.height, r);
+      out.push_back({image.name, first.name, shared, r, motion, warped});
     } catch (const RegistrationError& e) {
       throw RegistrationError("registering " + image.name + " to " + first.name + ": " + e.what());
     }

@@ -11,19 +11,6 @@ namespace {
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 constexpr float kRawSaturated = 0.999f;  // of full scale
 constexpr const char* kChannelNames[3] = {"R", "G", "B"};
-constexpr double kWarpThresholdPx = 0.1;
-
-// Largest displacement the registration's transform gives an image corner.
-double corner_displacement_px(const RegistrationResult& r, int width, int height) {
-  double largest = 0;
-  for (double x : {0.0, width - 1.0})
-    for (double y : {0.0, height - 1.0}) {
-      const double dx = r.warp[0][0] * x + r.warp[0][1] * y + r.warp[0][2] - x;
-      const double dy = r.warp[1][0] * x + r.warp[1][1] * y + r.warp[1][2] - y;
-      largest = std::max(largest, std::hypot(dx, dy));
-    }
-  return largest;
-}
 
 void check_image(const RgbImage& image, const RgbImage& like, const std::string& what) {
   if (image.width <= 0 || image.height <= 0)

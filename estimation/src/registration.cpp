@@ -80,6 +80,17 @@ std::vector<float> warp_channel(const std::vector<float>& moving, int width, int
   return {dst.ptr<float>(), dst.ptr<float>() + static_cast<std::size_t>(width) * height};
 }
 
+double corner_displacement_px(const RegistrationResult& r, int width, int height) {
+  double largest = 0;
+  for (double x : {0.0, width - 1.0})
+    for (double y : {0.0, height - 1.0}) {
+      const double dx = r.warp[0][0] * x + r.warp[0][1] * y + r.warp[0][2] - x;
+      const double dy = r.warp[1][0] * x + r.warp[1][1] * y + r.warp[1][2] - y;
+      largest = std::max(largest, std::hypot(dx, dy));
+    }
+  return largest;
+}
+
 RegistrationResult register_channel(const std::vector<float>& reference, const std::vector<float>& moving, int width,
                                     int height, const RegistrationOptions& options) {
   RegistrationResult r = estimate_registration(reference, moving, width, height, options);

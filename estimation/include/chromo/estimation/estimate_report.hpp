@@ -65,6 +65,9 @@ std::vector<RelitComparison> compare_with_photographs(std::span<const PixelEstim
 
 // summary.json's "neighbourhood" object (JSON text): which parts of the
 // spatial second pass ran (spatial_flags.hpp) and what they changed.
+// summary.json's "registration": one object per registered capture.
+std::string registration_report_json(std::span<const RegistrationReport> registration);
+
 std::string neighbourhood_report_json(bool flags, bool order_pooling, const NeighbourhoodSummary& summary);
 
 struct MethodEstimationOptions {

@@ -46,13 +46,10 @@ spectral::CameraSensitivity camera_by_name_or_file(const std::string& text, cons
 // Throws MeasurementFileError for anything wrong with the file or what it names.
 MeasurementFile read_measurement_file(const std::filesystem::path& json_file);
 
-struct ImageRegistration {
-  std::string image, reference, channel;
-  RegistrationResult result;
-};
 // Registers every image after the first to images[0] (ECC on the first
-// channel both list, else the image's first) and warps it in place.
+// channel both list, else the image's first) and warps it in place when it
+// moved by more than kWarpThresholdPx.
 // Throws RegistrationError naming the image.
-std::vector<ImageRegistration> register_images(MeasurementFile& measurement);
+std::vector<RegistrationReport> register_images(MeasurementFile& measurement);
 
 }  // namespace chromo::estimation

@@ -76,13 +76,6 @@ struct MethodCaptures {
   IlluminatedCapture with_blue;     // W57+blue
 };
 
-struct RegistrationReport {
-  std::string image, reference, channel;
-  RegistrationResult result;
-  double motion_px = 0;  // largest displacement of an image corner by the found transform
-  bool warped = false;   // motion_px > 0.1: the capture was warped onto the reference
-};
-
 // A capture of the subject as camera RGB albedo (white = 1) on the reference
 // grid: what the reconstruction is compared with under that illuminant.
 struct Photograph {

@@ -12,6 +12,7 @@
 // Thread rules: free functions, reentrant (OpenCV may use its own threads).
 
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace chromo::estimation {
@@ -49,5 +50,20 @@ std::vector<float> warp_channel(const std::vector<float>& moving_channel, int wi
 RegistrationResult register_channel(const std::vector<float>& reference_channel,
                                     const std::vector<float>& moving_channel, int width, int height,
                                     const RegistrationOptions& options = {});
+
+// Largest displacement the registration's transform gives an image corner.
+double corner_displacement_px(const RegistrationResult& registration, int width, int height);
+
+// A capture whose registration moves no image corner by more than this is not
+// warped: that motion is registration noise, and a warp would only blur.
+inline constexpr double kWarpThresholdPx = 0.1;
+
+// One capture registered to the reference, as summary.json reports it.
+struct RegistrationReport {
+  std::string image, reference, channel;
+  RegistrationResult result;
+  double motion_px = 0;  // corner_displacement_px of the found transform
+  bool warped = false;   // motion_px > kWarpThresholdPx: the capture was warped onto the reference
+};
 
 }  // namespace chromo::estimation
