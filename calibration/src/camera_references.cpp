@@ -16,6 +16,7 @@
 #include <nlohmann/json.hpp>
 
 #include "chromo/calibration/led_library_io.hpp"
+#include "chromo/files/durable_file.hpp"
 #include "chromo/spectral/table.hpp"
 
 namespace chromo::calibration {
@@ -29,19 +30,22 @@ const char* channel_name(int channels, int c) {
   return kRgb[c];
 }
 
+// Durably: the JSON written last names only images that are on disk.
 void write_exr(const cv::Mat& image, const std::filesystem::path& path) {
-  const int channels = image.channels();
-  cv::Mat continuous = image.isContinuous() ? image : image.clone();
-  Imf::Header header(continuous.cols, continuous.rows);
-  for (int c = 0; c < channels; ++c) header.channels().insert(channel_name(channels, c), Imf::Channel(Imf::FLOAT));
-  Imf::OutputFile file(path.c_str(), header);
-  Imf::FrameBuffer frame;
-  char* base = reinterpret_cast<char*>(continuous.ptr<float>());
-  for (int c = 0; c < channels; ++c)
-    frame.insert(channel_name(channels, c), Imf::Slice(Imf::FLOAT, base + c * sizeof(float), sizeof(float) * channels,
-                                                       sizeof(float) * channels * continuous.cols));
-  file.setFrameBuffer(frame);
-  file.writePixels(continuous.rows);
+  files::commit_file_durably(path, nullptr, [&](const std::filesystem::path& temporary) {
+    const int channels = image.channels();
+    cv::Mat continuous = image.isContinuous() ? image : image.clone();
+    Imf::Header header(continuous.cols, continuous.rows);
+    for (int c = 0; c < channels; ++c) header.channels().insert(channel_name(channels, c), Imf::Channel(Imf::FLOAT));
+    Imf::OutputFile file(temporary.c_str(), header);
+    Imf::FrameBuffer frame;
+    char* base = reinterpret_cast<char*>(continuous.ptr<float>());
+    for (int c = 0; c < channels; ++c)
+      frame.insert(channel_name(channels, c), Imf::Slice(Imf::FLOAT, base + c * sizeof(float), sizeof(float) * channels,
+                                                         sizeof(float) * channels * continuous.cols));
+    file.setFrameBuffer(frame);
+    file.writePixels(continuous.rows);
+  });
 }
 
 cv::Mat read_exr(const std::filesystem::path& path, int channels) {
@@ -168,14 +172,12 @@ void save_camera_references(const CameraReferenceSet& set, const std::filesystem
     write_exr(s.white, directory / (s.state + "-white.exr"));
     write_exr(s.dark_white, directory / (s.state + "-dark-white.exr"));
   }
-  // Metadata last, through a rename: a set with its JSON is complete.
-  const auto tmp = directory / "camera-references.json.tmp";
-  {
-    std::ofstream out(tmp);
-    out << meta.dump(2) << "\n";
-    if (!out) throw DataError(tmp.string() + ": cannot write");
+  // Metadata last, durably: a set with its JSON is complete.
+  try {
+    files::write_file_durably(directory / "camera-references.json", meta.dump(2) + "\n", nullptr);
+  } catch (const std::exception& e) {
+    throw DataError((directory / "camera-references.json").string() + ": cannot write (" + e.what() + ")");
   }
-  std::filesystem::rename(tmp, directory / "camera-references.json");
 }
 
 CameraReferenceSet load_camera_references(const std::filesystem::path& directory) {

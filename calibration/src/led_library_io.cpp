@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "chromo/files/durable_file.hpp"
 #include "chromo/spectral/table.hpp"
 
 namespace chromo::calibration {
@@ -208,15 +209,11 @@ std::string led_library_to_json(const LedLibrary& library) {
 void save_led_library(const LedLibrary& library, const std::filesystem::path& path) {
   if (const std::string error = validate(library); !error.empty())
     throw DataError("refusing to save an invalid LED library to " + path.string() + ": " + error);
-  const std::filesystem::path temporary = path.string() + ".tmp";
-  {
-    std::ofstream file(temporary, std::ios::trunc);
-    if (!file) throw DataError(path.string() + ": cannot write LED library");
-    file << led_library_to_json(library);
-    file.flush();
-    if (!file) throw DataError(path.string() + ": write failed");
+  try {
+    files::write_file_durably(path, led_library_to_json(library), nullptr);
+  } catch (const std::exception& e) {
+    throw DataError(path.string() + ": cannot write LED library (" + e.what() + ")");
   }
-  std::filesystem::rename(temporary, path);
 }
 
 std::filesystem::path led_library_directory() {

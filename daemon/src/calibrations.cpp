@@ -86,7 +86,7 @@ OperationRecord record_from_json(const nlohmann::json& j, const std::filesystem:
 }  // namespace
 
 Calibrations::Calibrations(std::filesystem::path root, std::filesystem::path configured_library, DeviceSet& devices,
-                           OperationRegistry& operations, StorageBudget* budget)
+                           OperationRegistry& operations, files::StorageBudget* budget)
     : root_(std::move(root)), devices_(devices), operations_(operations), budget_(budget) {
   if (!configured_library.empty()) use_library(configured_library);  // DataError naming the file
 }
@@ -130,7 +130,7 @@ std::vector<OperationRecord> Calibrations::recover() {
         record.message = "the daemon stopped while this calibration was running";
         j["state"] = state_name(record.state);
         j["message"] = record.message;
-        write_file_durably(file, j.dump(2) + "\n", budget_);
+        files::write_file_durably(file, j.dump(2) + "\n", budget_);
       }
       if (record.state == OperationState::kSucceeded && std::filesystem::exists(entry.path() / kLibraryFile) &&
           record.id > newest_id) {
@@ -176,7 +176,7 @@ OperationRecord Calibrations::start(const CalibrationRequest& request) {
   const auto folder = root_ / id;
   std::filesystem::create_directories(folder);
   const auto now = std::chrono::system_clock::now();
-  write_file_durably(folder / kRecordFile,
+  files::write_file_durably(folder / kRecordFile,
                      nlohmann::json{{"id", id},
                                     {"state", "running"},
                                     {"request", request_json(request)},
@@ -263,7 +263,7 @@ void Calibrations::run(std::string id, CalibrationRequest request, std::filesyst
         record["summary"]["linearity_max_deviation_percent"][std::string(spectral::led_type_name(lin.type))] =
             lin.max_deviation_percent;
     }
-    write_file_durably(folder / kRecordFile, record.dump(2) + "\n", budget_);
+    files::write_file_durably(folder / kRecordFile, record.dump(2) + "\n", budget_);
   } catch (const std::exception& e) {
     state = OperationState::kFailed;
     error = std::string("writing the calibration result: ") + e.what();

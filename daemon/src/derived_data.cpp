@@ -69,7 +69,7 @@ std::string illumination_key(const Step& step) {
 
 }  // namespace
 
-void write_derived_data(const std::filesystem::path& folder, Journal& journal, StorageBudget* budget) {
+void write_derived_data(const std::filesystem::path& folder, Journal& journal, files::StorageBudget* budget) {
   std::ifstream in(folder / "session.json");
   auto session = nlohmann::json::parse(in);
   SessionPlan plan = plan_from_json(session.at("plan"));

@@ -16,7 +16,7 @@ double thread_cpu_ms() {
 }
 }  // namespace
 
-FramePipeline::FramePipeline(std::filesystem::path folder, Journal& journal, StorageBudget* budget, Options options,
+FramePipeline::FramePipeline(std::filesystem::path folder, Journal& journal, files::StorageBudget* budget, Options options,
                              FrameConsumer* estimator, std::function<void(const StoredFrame&)> on_stored,
                              std::function<void(std::uint64_t)> on_estimator_behind)
     : folder_(std::move(folder)),

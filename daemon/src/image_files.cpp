@@ -50,7 +50,7 @@ using TiffPtr = std::unique_ptr<TIFF, TiffCloser>;
 }  // namespace
 
 void write_frame_tiff(const std::filesystem::path& path, const drivers::Frame& frame, const std::string& description,
-                      StorageBudget* budget) {
+                      files::StorageBudget* budget) {
   const int bits = significant_bits(frame.pixel_format);
   const int container_bits = bits == 8 ? 8 : 16;
   const int samples = samples_per_pixel(frame.pixel_format);
@@ -59,7 +59,7 @@ void write_frame_tiff(const std::filesystem::path& path, const drivers::Frame& f
     throw std::invalid_argument("frame " + std::to_string(frame.sequence) + ": " + std::to_string(frame.data.size()) +
                                 " bytes do not make a " + std::to_string(frame.width) + "x" +
                                 std::to_string(frame.height) + " " + pixel_format_name(frame.pixel_format) + " image");
-  commit_file_durably(path, budget, [&](const std::filesystem::path& temporary) {
+  files::commit_file_durably(path, budget, [&](const std::filesystem::path& temporary) {
     TiffPtr tiff(TIFFOpen(temporary.c_str(), "w"));
     if (!tiff) throw std::runtime_error("libtiff could not create " + temporary.string());
     TIFFSetField(tiff.get(), TIFFTAG_IMAGEWIDTH, static_cast<std::uint32_t>(frame.width));
@@ -76,10 +76,10 @@ void write_frame_tiff(const std::filesystem::path& path, const drivers::Frame& f
     for (int row = 0; row < frame.height; ++row) {
       auto* line = const_cast<std::uint8_t*>(frame.data.data() + row_bytes * static_cast<std::size_t>(row));
       if (TIFFWriteScanline(tiff.get(), line, static_cast<std::uint32_t>(row), 0) < 0)
-        throw StorageFullError("libtiff could not write row " + std::to_string(row) + " of " + temporary.string() +
+        throw files::StorageFullError("libtiff could not write row " + std::to_string(row) + " of " + temporary.string() +
                                " (disk full?)");
     }
-    if (!TIFFFlush(tiff.get())) throw StorageFullError("libtiff could not flush " + temporary.string());
+    if (!TIFFFlush(tiff.get())) throw files::StorageFullError("libtiff could not flush " + temporary.string());
   });
 }
 
@@ -108,7 +108,7 @@ TiffImage read_tiff(const std::filesystem::path& path) {
 }
 
 void write_float_exr(const std::filesystem::path& path, int width, int height,
-                     const std::vector<FloatChannel>& channels, StorageBudget* budget) {
+                     const std::vector<FloatChannel>& channels, files::StorageBudget* budget) {
   const auto pixels = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
   for (const auto& channel : channels)
     if (channel.values.size() != pixels)
@@ -123,7 +123,7 @@ void write_float_exr(const std::filesystem::path& path, int width, int height,
     image.channel_names.push_back(channel.name);
     image.channels.push_back(channel.values);
   }
-  commit_file_durably(path, budget,
+  files::commit_file_durably(path, budget,
                       [&](const std::filesystem::path& temporary) { estimation::write_exr(temporary, image); });
 }
 

@@ -11,12 +11,12 @@
 
 namespace chromo::daemon {
 
-Journal::Journal(std::filesystem::path path, StorageBudget* budget) : path_(std::move(path)), budget_(budget) {
+Journal::Journal(std::filesystem::path path, files::StorageBudget* budget) : path_(std::move(path)), budget_(budget) {
   bool existed = std::filesystem::exists(path_);
   fd_ = ::open(path_.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
   if (fd_ < 0) throw std::runtime_error("open journal " + path_.string() + ": " + std::strerror(errno));
   if (!existed) {
-    fsync_directory(path_.parent_path());
+    files::fsync_directory(path_.parent_path());
     return;
   }
   // A torn last line (crash during an append) is closed with a newline so
@@ -26,8 +26,8 @@ Journal::Journal(std::filesystem::path path, StorageBudget* budget) : path_(std:
     std::ifstream in(path_, std::ios::binary);
     in.seekg(static_cast<std::streamoff>(size - 1));
     if (in.get() != '\n') {
-      write_all(fd_, "\n", 1, path_.string());
-      fsync_or_throw(fd_, path_.string());
+      files::write_all(fd_, "\n", 1, path_.string());
+      files::fsync_or_throw(fd_, path_.string());
     }
   }
 }
@@ -41,8 +41,8 @@ void Journal::append(nlohmann::json record) {
   std::string line = record.dump() + "\n";
   std::lock_guard lock(mutex_);
   if (budget_) budget_->reserve(line.size(), path_.string());
-  write_all(fd_, line.data(), line.size(), path_.string());
-  fsync_or_throw(fd_, path_.string());
+  files::write_all(fd_, line.data(), line.size(), path_.string());
+  files::fsync_or_throw(fd_, path_.string());
 }
 
 JournalContents read_journal(const std::filesystem::path& path) {

@@ -46,7 +46,7 @@ CaptureSources resolve_capture_sources(const std::string& led_library, const std
   return sources;
 }
 
-std::unique_ptr<OnlineEstimator> make_online_estimator(const EstimationConfig& config, StorageBudget* budget,
+std::unique_ptr<OnlineEstimator> make_online_estimator(const EstimationConfig& config, files::StorageBudget* budget,
                                                        std::function<std::string()> daemon_led_library) {
   OnlineEstimatorOptions options;
   auto& e = options.estimation.estimator;
@@ -129,7 +129,7 @@ void OnlineEstimator::estimate_now() {
   std::filesystem::create_directories(results);
   // The LED library the illuminants came from, so that `chromo estimate
   // SESSION_DIR` reproduces these maps from the folder alone.
-  write_file_durably(results / "led_library.json", calibration::led_library_to_json(sources_->led_library),
+  files::write_file_durably(results / "led_library.json", calibration::led_library_to_json(sources_->led_library),
                      options_.budget);
   estimation::EstimateCallbacks callbacks;
   if (session_.progress)
@@ -139,7 +139,7 @@ void OnlineEstimator::estimate_now() {
   result_ = estimation::estimate_method_captures(
       captures, options_.estimation, results,
       [this](const std::filesystem::path& path, const std::function<void(const std::filesystem::path&)>& produce) {
-        commit_file_durably(path, options_.budget, produce);
+        files::commit_file_durably(path, options_.budget, produce);
       },
       callbacks, extra.dump());
 }

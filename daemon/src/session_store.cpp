@@ -32,7 +32,7 @@ std::chrono::system_clock::time_point parse_time(const std::string& text) {
 }
 }  // namespace
 
-SessionStore::SessionStore(std::filesystem::path root, StorageBudget* budget) : root_(std::move(root)), budget_(budget) {
+SessionStore::SessionStore(std::filesystem::path root, files::StorageBudget* budget) : root_(std::move(root)), budget_(budget) {
   std::filesystem::create_directories(root_);
 }
 
@@ -42,7 +42,7 @@ SessionStore::Created SessionStore::create(const SessionPlan& plan, const std::s
   created.id = new_session_id(plan.name);
   created.folder = root_ / created.id;
   std::filesystem::create_directory(created.folder);
-  fsync_directory(root_);
+  files::fsync_directory(root_);
   nlohmann::json session{{"format", "chromosphere-session/1"},
                          {"id", created.id},
                          {"name", plan.name},
@@ -50,7 +50,7 @@ SessionStore::Created SessionStore::create(const SessionPlan& plan, const std::s
                          {"created", utc_timestamp_now()},
                          {"plan", to_json(plan)},
                          {"devices", devices}};
-  write_file_durably(created.folder / "session.json", session.dump(2) + "\n", budget_);
+  files::write_file_durably(created.folder / "session.json", session.dump(2) + "\n", budget_);
   created.journal = std::make_unique<Journal>(created.folder / "journal.jsonl", budget_);
   created.journal->append({{"type", "state"}, {"state", "pending"}});
   return created;

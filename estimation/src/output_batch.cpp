@@ -1,22 +1,12 @@
 #include "chromo/estimation/output_batch.hpp"
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include <fstream>
 #include <stdexcept>
 
+#include "chromo/files/durable_file.hpp"
+
 namespace chromo::estimation {
 namespace fs = std::filesystem;
-namespace {
-void fsync_path(const fs::path& path, int flags) {
-  const int fd = ::open(path.c_str(), flags);
-  if (fd < 0) throw std::runtime_error(path.string() + ": cannot open to fsync");
-  const int result = ::fsync(fd);
-  ::close(fd);
-  if (result != 0) throw std::runtime_error(path.string() + ": fsync failed");
-}
-}  // namespace
 
 OutputBatch::OutputBatch(fs::path directory) : directory_(std::move(directory)) {
   if (directory_.empty()) throw std::runtime_error("output directory: empty path");
@@ -50,11 +40,11 @@ void OutputBatch::write_text(const std::string& name, const std::string& text) {
 }
 
 std::vector<fs::path> OutputBatch::commit() {
-  for (const auto& [temporary, final_path] : pending_) fsync_path(temporary, O_RDONLY);
+  for (const auto& [temporary, final_path] : pending_) files::fsync_file(temporary);
   std::vector<fs::path> written;
   for (const auto& [temporary, final_path] : pending_) fs::rename(temporary, final_path), written.push_back(final_path);
   pending_.clear();
-  fsync_path(directory_, O_RDONLY | O_DIRECTORY);
+  files::fsync_directory(directory_);
   return written;
 }
 

@@ -114,7 +114,7 @@ struct RecordedSession {
 // Daemon::run_session does, and ends the session succeeded.
 RecordedSession run_session(const fs::path& sessions, OnlineEstimator& estimator, std::size_t estimator_queue_frames) {
   RenderedLab lab;
-  StorageBudget budget;
+  files::StorageBudget budget;
   SessionStore store(sessions, &budget);
   StandardPlanOptions plan_options;
   plan_options.exposure_us = kExposureUs;

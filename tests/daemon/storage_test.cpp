@@ -19,8 +19,8 @@ using testing::fresh_directory;
 
 TEST(DurableFile, WritesAndReplacesWithoutLeavingTemporaries) {
   auto dir = fresh_directory("durable");
-  write_file_durably(dir / "a.json", std::string("first"), nullptr);
-  write_file_durably(dir / "a.json", std::string("second"), nullptr);
+  files::write_file_durably(dir / "a.json", std::string("first"), nullptr);
+  files::write_file_durably(dir / "a.json", std::string("second"), nullptr);
   std::ifstream in(dir / "a.json");
   std::string text;
   std::getline(in, text);
@@ -31,11 +31,11 @@ TEST(DurableFile, WritesAndReplacesWithoutLeavingTemporaries) {
 
 TEST(DurableFile, BudgetExhaustedLeavesTargetUntouchedAndNoTemporary) {
   auto dir = fresh_directory("budget");
-  StorageBudget budget(10);
-  write_file_durably(dir / "small", std::string("12345"), &budget);
-  EXPECT_THROW(write_file_durably(dir / "big", std::string("1234567890"), &budget), StorageFullError);
+  files::StorageBudget budget(10);
+  files::write_file_durably(dir / "small", std::string("12345"), &budget);
+  EXPECT_THROW(files::write_file_durably(dir / "big", std::string("1234567890"), &budget), files::StorageFullError);
   EXPECT_FALSE(std::filesystem::exists(dir / "big"));
-  EXPECT_FALSE(std::filesystem::exists(temporary_path_for(dir / "big")));
+  EXPECT_FALSE(std::filesystem::exists(files::temporary_path_for(dir / "big")));
   EXPECT_EQ(budget.used_bytes(), 5u);
   std::filesystem::remove_all(dir);
 }
@@ -70,10 +70,10 @@ TEST(Journal, RecordsSurviveAndATornTailIsIgnoredThenClosed) {
 
 TEST(Journal, FullBudgetRefusesTheRecordAndWritesNothing) {
   auto dir = fresh_directory("journal-full");
-  StorageBudget budget(80);
+  files::StorageBudget budget(80);
   Journal journal(dir / "j.jsonl", &budget);
   journal.append({{"type", "a"}});
-  EXPECT_THROW(journal.append({{"type", std::string(100, 'x')}}), StorageFullError);
+  EXPECT_THROW(journal.append({{"type", std::string(100, 'x')}}), files::StorageFullError);
   auto contents = read_journal(dir / "j.jsonl");
   EXPECT_EQ(contents.records.size(), 1u);
   EXPECT_FALSE(contents.torn_tail);

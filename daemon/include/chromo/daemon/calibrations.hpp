@@ -38,7 +38,7 @@
 #include <vector>
 
 #include "chromo/daemon/device_set.hpp"
-#include "chromo/daemon/durable_file.hpp"
+#include "chromo/files/durable_file.hpp"
 #include "chromo/daemon/operations.hpp"
 
 namespace chromo::calibration {
@@ -69,7 +69,7 @@ class Calibrations {
   // root: <sessions_dir>/calibrations (created by the first run). configured_library: the
   // configuration's led_library (may be empty).
   Calibrations(std::filesystem::path root, std::filesystem::path configured_library, DeviceSet& devices,
-               OperationRegistry& operations, StorageBudget* budget);
+               OperationRegistry& operations, files::StorageBudget* budget);
   ~Calibrations();
 
   // Every run in the folder, in-flight ones marked interrupted on disk; also
@@ -98,7 +98,7 @@ class Calibrations {
   std::filesystem::path root_;
   DeviceSet& devices_;
   OperationRegistry& operations_;
-  StorageBudget* budget_;
+  files::StorageBudget* budget_;
 
   mutable std::mutex mutex_;  // library, cache, worker
   std::shared_ptr<const calibration::LedLibrary> library_;

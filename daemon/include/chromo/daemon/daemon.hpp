@@ -20,7 +20,7 @@
 #include "chromo/daemon/calibrations.hpp"
 #include "chromo/daemon/config.hpp"
 #include "chromo/daemon/device_set.hpp"
-#include "chromo/daemon/durable_file.hpp"
+#include "chromo/files/durable_file.hpp"
 #include "chromo/daemon/operations.hpp"
 #include "chromo/daemon/session_store.hpp"
 
@@ -73,7 +73,7 @@ class Daemon {
   DaemonConfig config_;
   DeviceSet devices_;
   FrameConsumer* estimator_;
-  StorageBudget budget_;
+  files::StorageBudget budget_;
   std::unique_ptr<FrameConsumer> owned_estimator_;
   EventBus events_;
   OperationRegistry operations_{events_};

@@ -17,6 +17,6 @@
 
 namespace chromo::daemon {
 
-void write_derived_data(const std::filesystem::path& folder, Journal& journal, StorageBudget* budget);
+void write_derived_data(const std::filesystem::path& folder, Journal& journal, files::StorageBudget* budget);
 
 }  // namespace chromo::daemon

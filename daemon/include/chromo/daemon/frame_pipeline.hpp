@@ -101,7 +101,7 @@ class FramePipeline {
     std::size_t storage_queue_frames = 64;
     std::size_t estimator_queue_frames = 8;
   };
-  FramePipeline(std::filesystem::path folder, Journal& journal, StorageBudget* budget, Options options,
+  FramePipeline(std::filesystem::path folder, Journal& journal, files::StorageBudget* budget, Options options,
                 FrameConsumer* estimator, std::function<void(const StoredFrame&)> on_stored,
                 std::function<void(std::uint64_t skipped_so_far)> on_estimator_behind = {});
   ~FramePipeline();  // drains, then stops the threads
@@ -126,7 +126,7 @@ class FramePipeline {
 
   std::filesystem::path folder_;
   Journal& journal_;
-  StorageBudget* budget_;
+  files::StorageBudget* budget_;
   Options options_;
   FrameConsumer* estimator_;
   std::function<void(const StoredFrame&)> on_stored_;

@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "chromo/daemon/durable_file.hpp"
+#include "chromo/files/durable_file.hpp"
 #include "chromo/drivers/camera.hpp"
 
 namespace chromo::daemon {
@@ -27,7 +27,7 @@ std::string pixel_format_name(drivers::PixelFormat format);
 // Writes a complete frame; `description` (JSON text) goes into ImageDescription.
 // Throws std::invalid_argument when data.size() does not match the geometry.
 void write_frame_tiff(const std::filesystem::path& path, const drivers::Frame& frame, const std::string& description,
-                      StorageBudget* budget);
+                      files::StorageBudget* budget);
 
 struct TiffImage {
   int width = 0, height = 0, samples_per_pixel = 0, bits_per_sample = 0;
@@ -41,6 +41,6 @@ struct FloatChannel {
   std::vector<float> values;  // width × height, row-major
 };
 void write_float_exr(const std::filesystem::path& path, int width, int height,
-                     const std::vector<FloatChannel>& channels, StorageBudget* budget);
+                     const std::vector<FloatChannel>& channels, files::StorageBudget* budget);
 
 }  // namespace chromo::daemon

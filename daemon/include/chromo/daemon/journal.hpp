@@ -16,7 +16,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "chromo/daemon/durable_file.hpp"
+#include "chromo/files/durable_file.hpp"
 
 namespace chromo::daemon {
 
@@ -24,7 +24,7 @@ class Journal {
  public:
   // Opens (creating if needed) for appending; the directory is fsynced when
   // the file is created. Throws std::runtime_error naming the path.
-  Journal(std::filesystem::path path, StorageBudget* budget);
+  Journal(std::filesystem::path path, files::StorageBudget* budget);
   ~Journal();
   Journal(const Journal&) = delete;
   Journal& operator=(const Journal&) = delete;
@@ -36,7 +36,7 @@ class Journal {
 
  private:
   std::filesystem::path path_;
-  StorageBudget* budget_;
+  files::StorageBudget* budget_;
   int fd_ = -1;
   std::mutex mutex_;
 };

@@ -44,7 +44,7 @@
 #include <string>
 
 #include "chromo/daemon/config.hpp"
-#include "chromo/daemon/durable_file.hpp"
+#include "chromo/files/durable_file.hpp"
 #include "chromo/daemon/frame_pipeline.hpp"
 #include "chromo/daemon/session_captures.hpp"
 #include "chromo/estimation/estimate_report.hpp"
@@ -56,7 +56,7 @@ struct OnlineEstimatorOptions {
   // The LED library and camera sensitivity, resolved at each session start
   // (a new calibration applies to the next session).
   std::function<CaptureSources()> sources;
-  StorageBudget* budget = nullptr;
+  files::StorageBudget* budget = nullptr;
   bool IsValid(std::string* error) const;
 };
 
@@ -74,7 +74,7 @@ class OnlineEstimator;
 // (optional): the daemon's own LED library file at that moment ("" when it
 // has none), used unless config.led_library overrides it.
 std::unique_ptr<OnlineEstimator> make_online_estimator(
-    const EstimationConfig& config, StorageBudget* budget,
+    const EstimationConfig& config, files::StorageBudget* budget,
     std::function<std::string()> daemon_led_library = {});
 
 class OnlineEstimator final : public FrameConsumer {

@@ -51,7 +51,7 @@ std::string new_session_id(const std::string& name);
 
 class SessionStore {
  public:
-  SessionStore(std::filesystem::path root, StorageBudget* budget);
+  SessionStore(std::filesystem::path root, files::StorageBudget* budget);
   const std::filesystem::path& root() const { return root_; }
 
   struct Created {
@@ -73,7 +73,7 @@ class SessionStore {
 
  private:
   std::filesystem::path root_;
-  StorageBudget* budget_;
+  files::StorageBudget* budget_;
 };
 
 }  // namespace chromo::daemon

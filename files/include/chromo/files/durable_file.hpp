@@ -1,5 +1,7 @@
 #pragma once
-// Crash-safe file writing for the session folder.
+// Crash-safe file writing, for every library that writes results a person
+// relies on (session folders, LED libraries, camera references, estimate
+// outputs).
 //
 // write_file_durably(): the bytes go to "<path>.tmp-<pid>", which is fsynced,
 // renamed over <path>, and the directory fsynced: after a crash either the old
@@ -20,7 +22,7 @@
 #include <stdexcept>
 #include <string>
 
-namespace chromo::daemon {
+namespace chromo::files {
 
 // The disk (or the configured budget) is full. Nothing already written was
 // changed; the write that raised it left no file behind.
@@ -48,6 +50,8 @@ class StorageBudget {
 void write_all(int fd, const void* data, std::size_t size, const std::string& what);
 void fsync_or_throw(int fd, const std::string& what);
 void fsync_directory(const std::filesystem::path& directory);
+// fsync of a file written through another API (std::ofstream, OpenEXR...).
+void fsync_file(const std::filesystem::path& file);
 
 // The temporary name used for `path` by this process.
 std::filesystem::path temporary_path_for(const std::filesystem::path& path);
@@ -63,4 +67,4 @@ void write_file_durably(const std::filesystem::path& path, std::span<const std::
                         StorageBudget* budget);
 void write_file_durably(const std::filesystem::path& path, const std::string& text, StorageBudget* budget);
 
-}  // namespace chromo::daemon
+}  // namespace chromo::files

@@ -1,4 +1,4 @@
-#include "chromo/daemon/durable_file.hpp"
+#include "chromo/files/durable_file.hpp"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -6,7 +6,7 @@
 #include <cerrno>
 #include <cstring>
 
-namespace chromo::daemon {
+namespace chromo::files {
 
 void StorageBudget::reserve(std::uint64_t bytes, const std::string& what) {
   if (limit_bytes_ == 0) {
@@ -54,6 +54,15 @@ void fsync_directory(const std::filesystem::path& directory) {
   if (result != 0) throw_errno(error, "fsync directory " + directory.string());
 }
 
+void fsync_file(const std::filesystem::path& file) {
+  int fd = ::open(file.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw_errno(errno, "open " + file.string());
+  int result = ::fsync(fd);
+  int error = errno;
+  ::close(fd);
+  if (result != 0) throw_errno(error, "fsync " + file.string());
+}
+
 std::filesystem::path temporary_path_for(const std::filesystem::path& path) {
   return path.string() + ".tmp-" + std::to_string(::getpid());
 }
@@ -99,4 +108,4 @@ void write_file_durably(const std::filesystem::path& path, const std::string& te
   write_file_durably(path, std::span(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()), budget);
 }
 
-}  // namespace chromo::daemon
+}  // namespace chromo::files
