@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <ctime>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -85,7 +86,9 @@ LabRun run_lab(int size, double exposure_fill) {
   const auto table = std::make_shared<const ForwardTable>(ForwardTable::build(r.lab.set, TableGrid{}));
   const Estimator estimator(table, r.lab.set, EstimatorOptions{});
   r.per_pixel.resize(r.lab.measured.size() / 4);
+  const std::clock_t cpu = std::clock();
   EstimateSummary summary = estimator.estimate(r.lab.measured, r.per_pixel);
+  std::printf("first pass CPU %.2f s\n", double(std::clock() - cpu) / CLOCKS_PER_SEC);
   r.refined = r.per_pixel;
   const auto start = std::chrono::steady_clock::now();
   refine_with_neighbourhood(estimator, r.lab.measured, r.lab.width, r.lab.height, r.refined, summary);

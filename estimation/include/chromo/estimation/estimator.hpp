@@ -22,8 +22,9 @@
 //     the gamut fits exactly and χ² measures its distance outside the gamut
 //     along one direction). Default 0.001: ≤ 0.1% of skin pixels flagged by noise.
 //  5. If not explained: subtract a white surface reflection s (s scanned in
-//     eight steps up to the smallest channel) and refit in 4D; if some s ≥
-//     min_specular explains it → kSpecular with those parameters. Otherwise
+//     eight steps up to the smallest channel, each step's 4D fit continued
+//     from the previous one by a few LM iterations on the table) and refit; if
+//     some s ≥ min_specular explains it → kSpecular with those parameters. Otherwise
 //     kUnexplainedAbsorber when the pixel is darker than the best fit in every
 //     channel, else kUnexplainedColour; the best-fit parameters are kept.
 //  Limits (measured in bench/, docs/estimation.md): a specular reflection that
@@ -145,6 +146,11 @@ class Estimator {
   EstimatorOptions options_;
   std::unique_ptr<Inverter> inverter_;
   std::unique_ptr<Inverter> inverter_2d_;
+  // The specular test (step 5 above): the best 4D fit of measured − s over the
+  // scanned s, continued from `start`; chi2 = ∞ when no s reaches min_specular.
+  static constexpr int kSpecularSteps = 8;
+  static constexpr int kSpecularContinuationIterations = 4;
+  Fit specular_fit(const double* measured, const double* weight, const GridPoint& start) const;
   double order_threshold_ = 0;
   double flag_threshold_[5] = {};  // by free parameters (index 2 and 4)
 };
