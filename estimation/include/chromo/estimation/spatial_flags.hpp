@@ -59,7 +59,9 @@ struct NeighbourhoodOptions {
   double background_sigma_px = 6;
   int exclusion_px = 6;                      // the background ignores pixels this close to a flagged one
   double deviation_sigma_px = 0.7;
-  double background_sigma_relative = 0.004;  // background model error, relative to albedo
+  double background_sigma_relative = 0.0;    // background model error, relative to albedo
+  double misfit_sigma_px = 12;               // window of the skin's measured scatter around its background
+  double misfit_ratio = 1.1;                 // scatter up to this × the noise counts as noise alone
   double significance = 1e-5;                // per pixel test of the averaged deviation
   double rim_significance = 1e-3;            // the same for pixels next to a flagged one (hysteresis)
   int max_passes = 20;
