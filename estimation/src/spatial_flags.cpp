@@ -170,7 +170,8 @@ NeighbourhoodSummary refine_flags_with_neighbourhood(const Estimator& estimator,
           if (!good.at<float>(y, x) || !std::isfinite(b)) continue;
           const double m = values[c].at<float>(y, x);
           const double w = estimator.weight(c, m);
-          const double sigma = std::sqrt(1 / (w * w) + std::pow(options.background_sigma_relative * m, 2));
+          const double model = options.background_sigma_relative * m;
+          const double sigma = std::sqrt(1 / (w * w) + model * model);
           z[c].at<float>(y, x) = static_cast<float>((m - b) / sigma);
         }
     }
@@ -199,51 +200,69 @@ NeighbourhoodSummary refine_flags_with_neighbourhood(const Estimator& estimator,
     // window, or less noise at a longer exposure) the misfit adds to it, and
     // the statistic is measured against noise plus misfit: T = uᵀ M⁻¹ u with M
     // = E floored at the identity (eigenvalues ≥ 1).
-    const int pairs = channels * (channels + 1) / 2;
-    std::vector<cv::Mat> moment(pairs);
-    const cv::Mat kw = kernel(options.misfit_sigma_px, 0);
+    // The moments vary over misfit_sigma_px, so they (and M⁻¹) are computed
+    // on a grid of kMisfitBlock-px blocks (area averages, filtered with the
+    // kernel scaled down) and each pixel uses its block's.
     // Its source is the background's. (Tried: also excluding 6 or 12 px
     // around deviating pixels, so that an undetected rim beside them does not
     // count as misfit and hide itself: specular +28-40 points at 256 px, but
     // 6-15% of the skin flagged at 128 px, where hair strands leave little
     // skin that far from anything.)
+    constexpr int kMisfitBlock = 4;
+    const int block_cols = (width + kMisfitBlock - 1) / kMisfitBlock, block_rows = (height + kMisfitBlock - 1) / kMisfitBlock;
+    auto to_blocks = [&](const cv::Mat& m) {
+      cv::Mat padded, out;
+      cv::copyMakeBorder(m, padded, 0, block_rows * kMisfitBlock - height, 0, block_cols * kMisfitBlock - width,
+                         cv::BORDER_CONSTANT, 0);
+      cv::resize(padded, out, cv::Size(block_cols, block_rows), 0, 0, cv::INTER_AREA);
+      return out;
+    };
+    const cv::Mat kw = kernel(options.misfit_sigma_px / kMisfitBlock, 0);
     cv::Mat source_u;
     source.copyTo(source_u);
     source_u.setTo(0, tested == 0);
-    const cv::Mat moment_mass = filter(source_u, kw, kw);
-    for (int c = 0, k = 0; c < channels; ++c)
-      for (int d = c; d < channels; ++d, ++k) moment[k] = filter(u[c].mul(u[d]).mul(source_u), kw, kw);
+    const cv::Mat moment_mass = filter(to_blocks(source_u), kw, kw);
+    std::vector<cv::Mat> moment;
+    for (int c = 0; c < channels; ++c)
+      for (int d = c; d < channels; ++d) moment.push_back(filter(to_blocks(u[c].mul(u[d]).mul(source_u)), kw, kw));
     const double min_mass = 0.05 * std::pow(cv::sum(kw)[0], 2);
+    using Matrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxChannels, kMaxChannels>;
+    using Vector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxChannels, 1>;
+    // Per block: M⁻¹, or none (noise alone: M = I).
+    std::vector<Matrix> inverse(static_cast<std::size_t>(block_cols) * block_rows);
+    std::vector<char> misfit(inverse.size(), 0);
+    Matrix e(channels, channels);
+    Eigen::SelfAdjointEigenSolver<Matrix> eigen(channels);
+    for (int by = 0; by < block_rows; ++by)
+      for (int bx = 0; bx < block_cols; ++bx) {
+        const double mass = moment_mass.at<float>(by, bx);
+        if (!(mass > min_mass)) continue;
+        double largest = 0;
+        for (int c = 0, k = 0; c < channels; ++c)
+          for (int d = c; d < channels; ++d, ++k) {
+            e(c, d) = e(d, c) = moment[k].at<float>(by, bx) / mass;
+            if (c == d) largest = std::max(largest, e(c, c));
+          }
+        if (largest <= options.misfit_ratio) continue;  // noise alone
+        eigen.compute(e);
+        const Vector lambda = eigen.eigenvalues().cwiseMax(1.0);
+        const std::size_t i = static_cast<std::size_t>(by) * block_cols + bx;
+        inverse[i] = eigen.eigenvectors() * lambda.cwiseInverse().asDiagonal() * eigen.eigenvectors().transpose();
+        misfit[i] = 1;
+      }
     cv::Mat next(height, width, CV_8U, cv::Scalar(0)), rim;
     cv::dilate(good == 0, rim, cv::Mat::ones(3, 3, CV_8U));
-    Eigen::MatrixXd e(channels, channels);
-    Eigen::VectorXd v(channels);
-    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(channels);
+    Vector v(channels);
     for (int y = 0; y < height; ++y)
       for (int x = 0; x < width; ++x) {
         if (!tested.at<std::uint8_t>(y, x)) continue;
         for (int c = 0; c < channels; ++c) v[c] = u[c].at<float>(y, x);
-        double t = v.squaredNorm();
+        const std::size_t block = static_cast<std::size_t>(y / kMisfitBlock) * block_cols + x / kMisfitBlock;
+        const double t = misfit[block] ? v.dot(inverse[block] * v) : v.squaredNorm();
         // (Tried: beside a flagged pixel also a one-sided test of a white
         // reflection, u along a_c = 1/σ_c, one degree of freedom: specular
         // +2-5 points, but 1.2% of the skin flagged at 128 px, 2.5× exposure.)
-        const bool beside = rim.at<std::uint8_t>(y, x);
-        const double mass = moment_mass.at<float>(y, x);
-        if (mass > min_mass) {
-          double largest = 0;
-          for (int c = 0, k = 0; c < channels; ++c)
-            for (int d = c; d < channels; ++d, ++k) {
-              e(c, d) = e(d, c) = moment[k].at<float>(y, x) / mass;
-              if (c == d) largest = std::max(largest, e(c, c));
-            }
-          if (largest > options.misfit_ratio) {  // else: noise alone (M = I)
-            eigen.compute(e);
-            const Eigen::VectorXd lambda = eigen.eigenvalues().cwiseMax(1.0);
-            const Eigen::VectorXd projected = eigen.eigenvectors().transpose() * v;
-            t = projected.cwiseAbs2().cwiseQuotient(lambda).sum();
-          }
-        }
-        if (t > (beside ? rim_threshold : deviation_threshold)) next.at<std::uint8_t>(y, x) = 1;
+        if (t > (rim.at<std::uint8_t>(y, x) ? rim_threshold : deviation_threshold)) next.at<std::uint8_t>(y, x) = 1;
       }
     const bool changed = cv::countNonZero(next != candidate) > 0;
     candidate = next;
