@@ -174,7 +174,11 @@ PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const
     order = 2;
   } else {
     chosen = fit4 = inv.fit(measured, weight, 4);
-    if (model == ModelChoice::kAuto && order_threshold_ > 0) {
+    // A pixel this far outside the 4D gamut is outside its 2D slice too
+    // (χ²₂ ≥ χ²₄): the 2D fit (the search path, for such a pixel) is skipped
+    // and the pixel keeps order 4.
+    const bool hopeless = chosen.chi2 > kHopelessChi2Factor * flag_threshold_[2];
+    if (model == ModelChoice::kAuto && order_threshold_ > 0 && !hopeless) {
       const Fit fit2 = inv.fit(measured, weight, 2);
       out.order_statistic = static_cast<float>(std::max(fit2.chi2 - chosen.chi2, 0.0));
       if (fit2.chi2 - chosen.chi2 <= order_threshold_) chosen = fit2, order = 2;

@@ -15,7 +15,8 @@
 //     with (min(C, 4) − 2) degrees of freedom (C channels): the likelihood-ratio
 //     test of the nested models under Gaussian camera noise. At the default
 //     significance 0.01 a pixel of a 2D-model scene is given order 4 by noise
-//     alone 1% of the time.
+//     alone 1% of the time. A pixel whose χ²₄ is ten times the 2D flag
+//     threshold is unexplained with either order: no 2D fit, order 4.
 //  4. Explained? The chosen fit's χ² is compared with the (1 −
 //     flag_significance) quantile of χ² with max(C − free parameters, 1)
 //     degrees of freedom (with as many channels as parameters a pixel inside
@@ -149,6 +150,8 @@ class Estimator {
   // The specular test (step 5 above): the best 4D fit of measured − s over the
   // scanned s, continued from `start`; chi2 = ∞ when no s reaches min_specular.
   static constexpr int kSpecularSteps = 8;
+  // kAuto: no 2D fit when χ²₄ exceeds this × the 2D flag threshold (unexplained either way).
+  static constexpr double kHopelessChi2Factor = 10;
   static constexpr int kSpecularContinuationIterations = 4;
   Fit specular_fit(const double* measured, const double* weight, const GridPoint& start) const;
   double order_threshold_ = 0;
