@@ -78,6 +78,8 @@ std::vector<cv::Mat> background(const std::vector<cv::Mat>& values, const cv::Ma
   const double full_mass = std::pow(cv::sum(k[0])[0], 2);
   // Per pixel, the row q with background = q · (Σ g·good·m·u^a·v^b), or empty when unsupported.
   const int rows = good.rows, cols = good.cols;
+  std::array<double, kTerms> ridge{};  // a little ridge on the slope and curvature terms keeps one-sided neighbourhoods stable
+  for (int i = 1; i < kTerms; ++i) ridge[i] = 1e-3 * std::pow(sigma * sigma, kPowers[i][0] + kPowers[i][1]);
   std::vector<std::array<float, kTerms>> q(static_cast<std::size_t>(rows) * cols);
   std::vector<char> supported(q.size(), 0);
   for (int y = 0; y < rows; ++y)
@@ -88,8 +90,7 @@ std::vector<cv::Mat> background(const std::vector<cv::Mat>& values, const cv::Ma
       for (int i = 0; i < kTerms; ++i)
         for (int j = 0; j < kTerms; ++j)
           a(i, j) = moment[kPowers[i][0] + kPowers[j][0]][kPowers[i][1] + kPowers[j][1]].at<float>(y, x);
-      // A little ridge on the slope and curvature terms keeps one-sided neighbourhoods stable.
-      for (int i = 1; i < kTerms; ++i) a(i, i) += 1e-3 * m0 * std::pow(sigma * sigma, kPowers[i][0] + kPowers[i][1]);
+      for (int i = 1; i < kTerms; ++i) a(i, i) += ridge[i] * m0;
       cv::Vec<double, kTerms> e0(1, 0, 0, 0, 0, 0), row;
       if (!cv::solve(a, e0, row, cv::DECOMP_CHOLESKY)) continue;
       const std::size_t i = static_cast<std::size_t>(y) * cols + x;
