@@ -37,7 +37,7 @@ struct EstimateOptions {
   std::string model = "auto";
   std::string cache_dir;
   int threads = 0;
-  bool neighbourhood_flags = false;
+  bool neighbourhood_flags = true;
   bool order_pooling = true;
   // Session folders only.
   std::string led_library;  // empty: <session>/results/led_library.json, else as chromod (newest measured, nominal)
@@ -230,9 +230,10 @@ void add_estimate_command(CLI::App& app, int& exit_status) {
   cmd->add_option("--model", options->model, "model order: auto (χ² likelihood-ratio test, pooled over 7×7 windows unless --no-order-pooling), 2d or 4d")
       ->check(CLI::IsMember({"auto", "2d", "4d"}))
       ->capture_default_str();
-  cmd->add_flag("--neighbourhood-flags", options->neighbourhood_flags,
-                "also flag pixels from their neighbourhood (code 7: weak rims of flagged regions, weak highlights; "
-                "assumes skin varies slowly over ~20 px, see docs/estimation.md)");
+  cmd->add_flag("--neighbourhood-flags,!--no-neighbourhood-flags", options->neighbourhood_flags,
+                "flag pixels from their neighbourhood (code 7: weak rims of flagged regions, part of a highlight; "
+                "the deviation is measured against the noise plus the skin's own local scatter, see "
+                "docs/estimation.md); on by default, --no-neighbourhood-flags for per-pixel flags only");
   cmd->add_flag("!--no-order-pooling", options->order_pooling,
                 "with --model auto, decide the order per pixel only (default: the likelihood-ratio statistic pooled "
                 "over 7×7 windows)");

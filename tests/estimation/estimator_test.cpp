@@ -112,6 +112,7 @@ TEST(Estimator, FlagsAnomaliesAndNotSkin) {
     EXPECT_GE(share(k), 0.95) << synthetic_kind_name(k);
   EXPECT_GE(share(SyntheticKind::kTattoo), 0.85);
   EXPECT_GE(share(SyntheticKind::kSpecular), 0.45);
+  std::printf("tattoo %.4f marker %.4f specular %.4f skin %.4f\n", share(SyntheticKind::kTattoo), share(SyntheticKind::kMarker), share(SyntheticKind::kSpecular), share(SyntheticKind::kSkin));
 }
 
 TEST(Estimator, TwoDSceneGetsOrderTwo) {

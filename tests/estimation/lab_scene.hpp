@@ -33,6 +33,10 @@ struct LabScene {
   int width = 0, height = 0;
   std::vector<float> measured;     // width·height·4, pixel-major, the method's channels
   std::vector<bool> clipped;       // per pixel: a capture clipped (truth for "saturated")
+  // Per pixel, the flat surface reflection make_skin_scene added (its
+  // highlight's ellipse, 0.3·spec; labelled kSpecular where ≥ 0.006), for
+  // reporting the flagged share by strength.
+  std::vector<float> added_reflection;
   simulators::SceneRegion region(std::size_t pixel) const {
     return static_cast<simulators::SceneRegion>(scene.regions().at<std::uint8_t>(static_cast<int>(pixel) / width,
                                                                                   static_cast<int>(pixel) % width));

@@ -73,14 +73,9 @@ std::string neighbourhood_report_json(bool flags, bool order_pooling, const Neig
 struct MethodEstimationOptions {
   EstimatorOptions estimator;      // method (default fast), model (default auto), threads
   // The spatial second pass after the per-pixel estimate, as `chromo
-  // estimate` by default: model order pooled over 7×7 windows (model auto),
-  // no neighbourhood flags. Neither part: no second pass.
-  NeighbourhoodOptions neighbourhood = [] {
-    NeighbourhoodOptions o;
-    o.flags = false;
-    o.pool_order = true;
-    return o;
-  }();
+  // estimate` by default: neighbourhood flags (code 7) and the model order
+  // pooled over 7×7 windows (model auto). Neither part: no second pass.
+  NeighbourhoodOptions neighbourhood;
   TableGrid grid;
   std::filesystem::path cache_dir; // forward (and, unless estimator.cache_dir, inverse) tables; empty: default
   RegistrationOptions registration;

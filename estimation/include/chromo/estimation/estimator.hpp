@@ -15,15 +15,17 @@
 //     with (min(C, 4) − 2) degrees of freedom (C channels): the likelihood-ratio
 //     test of the nested models under Gaussian camera noise. At the default
 //     significance 0.01 a pixel of a 2D-model scene is given order 4 by noise
-//     alone 1% of the time.
+//     alone 1% of the time. A pixel whose χ²₄ is ten times the 2D flag
+//     threshold is unexplained with either order: no 2D fit, order 4.
 //  4. Explained? The chosen fit's χ² is compared with the (1 −
 //     flag_significance) quantile of χ² with max(C − free parameters, 1)
 //     degrees of freedom (with as many channels as parameters a pixel inside
 //     the gamut fits exactly and χ² measures its distance outside the gamut
 //     along one direction). Default 0.001: ≤ 0.1% of skin pixels flagged by noise.
 //  5. If not explained: subtract a white surface reflection s (s scanned in
-//     eight steps up to the smallest channel) and refit in 4D; if some s ≥
-//     min_specular explains it → kSpecular with those parameters. Otherwise
+//     eight steps up to the smallest channel, each step's 4D fit continued
+//     from the previous one by a few LM iterations on the table) and refit; if
+//     some s ≥ min_specular explains it → kSpecular with those parameters. Otherwise
 //     kUnexplainedAbsorber when the pixel is darker than the best fit in every
 //     channel, else kUnexplainedColour; the best-fit parameters are kept.
 //  Limits (measured in bench/, docs/estimation.md): a specular reflection that
@@ -145,6 +147,13 @@ class Estimator {
   EstimatorOptions options_;
   std::unique_ptr<Inverter> inverter_;
   std::unique_ptr<Inverter> inverter_2d_;
+  // The specular test (step 5 above): the best 4D fit of measured − s over the
+  // scanned s, continued from `start`; chi2 = ∞ when no s reaches min_specular.
+  static constexpr int kSpecularSteps = 8;
+  // kAuto: no 2D fit when χ²₄ exceeds this × the 2D flag threshold (unexplained either way).
+  static constexpr double kHopelessChi2Factor = 10;
+  static constexpr int kSpecularContinuationIterations = 4;
+  Fit specular_fit(const double* measured, const double* weight, const GridPoint& start) const;
   double order_threshold_ = 0;
   double flag_threshold_[5] = {};  // by free parameters (index 2 and 4)
 };
