@@ -130,6 +130,16 @@ TEST(SkinScene, BandsRenderTheSameSceneAsTheWhole) {
   for (int y = 0; y < 48; ++y)
     for (int x = 0; x < 64; ++x) unexplained += region_at(whole, x, y) != SceneRegion::kSkin;
   EXPECT_GT(unexplained, 100);
+  // A window (the bench's tiny sensors look at a part of a large scene).
+  options.row_begin = 5, options.row_count = 20, options.column_begin = 10, options.column_count = 30;
+  const SkinSceneResponse window = render_skin_scene(options, weights, 6);
+  const cv::Rect rect(10, 5, 30, 20);
+  EXPECT_EQ(cv::norm(whole.render(weights[0])(rect), window.responses[0], cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(whole.regions()(rect), window.regions, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(whole.ch()(rect), window.ch, cv::NORM_INF), 0.0);
+  options.column_begin = 40;
+  EXPECT_THROW(render_skin_scene(options, weights), std::invalid_argument);
+  options.column_begin = options.column_count = 0;
   options.row_begin = 40;
   options.row_count = 9;
   EXPECT_THROW(render_skin_scene(options, weights), std::invalid_argument);

@@ -82,11 +82,14 @@ struct SkinSceneOptions {
   std::uint64_t seed = 1;
   bool white_patch = true;  // a white target strip along the right edge (1/10 of the width)
   int threads = 0;          // for SkinModel::albedo_batch and the per-pixel loops; 0 = all cores
-  // A band of the scene: rows [row_begin, row_begin + row_count) of the
-  // width × height scene (same fields, moles, vein... as the whole scene;
-  // the band's row 0 is scene row row_begin). row_count 0: the whole scene.
+  // A window of the scene: rows [row_begin, row_begin + row_count) and
+  // columns [column_begin, column_begin + column_count) of the width × height
+  // scene (same fields, moles, vein... as the whole scene; the window's pixel
+  // (0, 0) is the scene's (column_begin, row_begin)). A count of 0: all.
   int row_begin = 0;
   int row_count = 0;
+  int column_begin = 0;
+  int column_count = 0;
 
   bool IsValid(std::string* error) const;
 };
@@ -97,7 +100,7 @@ struct SkinSceneOptions {
 Scene make_skin_scene(const SkinSceneOptions& options);
 
 // make_skin_scene(options)'s response under each of `weights` (Scene::render)
-// and its region labels and truth maps, at full resolution, rendered band by
+// and its region labels and truth maps (of options' window), rendered band by
 // band (band_rows rows at a time) so that the albedo cube is never held
 // whole: a 2592×1944 scene's is 1.6 GB of floats, a band of 128 rows 107 MB.
 // Identical to make_skin_scene(options).render(w) for every w (the bands are
