@@ -43,6 +43,7 @@
 // Thread rules: a pure function of its options (uses `threads` cores).
 
 #include <cstdint>
+#include <filesystem>
 #include <map>
 #include <string>
 #include <vector>
@@ -67,10 +68,20 @@ struct RenderedSessionOptions {
   bool noise_free = true;    // also render the noise-free chain
   int threads = 2;
   int band_rows = 128;       // scene rows rendered at a time
+  // Cache (empty: none): cache_dir/rendered_session_<key>.bin holds the
+  // rendered session (all but the measurements' photographs), keyed by a
+  // hash of these options (not threads, band_rows), the mixes' camera
+  // weights (true LED emission × camera sensitivity), the exposure, the
+  // camera model's constants, a probe of the scene generator and skin model
+  // (a 16×16 scene of this seed) and kRenderedSessionVersion (bump it when
+  // the capture path — binning, build_method_measurement — changes). A
+  // 5-MP session is 0.2 GB; written by rename, a damaged file is re-rendered.
+  std::filesystem::path cache_dir;
 
   bool IsValid(std::string* error) const;
 };
 
+inline constexpr std::uint32_t kRenderedSessionVersion = 1;
 inline constexpr std::uint8_t kMixedCell = 255;  // a 2×2 cell whose sites have different regions
 
 struct RenderedSession {
@@ -81,7 +92,8 @@ struct RenderedSession {
   calibration::LedLibrary library;
   std::map<std::string, drivers::DriveLevels> mixes;  // "d65", "w57", "w57+blue"
   double exposure_us = 0;
-  double scene_seconds = 0, camera_seconds = 0, measurement_seconds = 0;  // wall clock per stage
+  double scene_seconds = 0, camera_seconds = 0, measurement_seconds = 0;  // wall clock per stage (of the render)
+  bool loaded_from_cache = false;
   std::size_t pixels() const { return truth.size(); }
 };
 
