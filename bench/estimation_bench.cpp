@@ -1,26 +1,33 @@
-// Estimation: speed against accuracy for every inverter on the same synthetic
-// frames (known truth), noise-free and with the camera noise model; the same
-// on frames rendered from the virtual lab's skin scene; where each method
-// fails (noise level, distance outside the gamut, Ch against Che); table and
-// inverse-table build times and interpolation error; anomaly and vein flag
-// shares.
+// Estimation: speed against accuracy for every inverter on the same frames
+// (known truth), noise-free and with the camera noise model: synthetic
+// frames (random in-gamut skin, the estimation library's noise model) and
+// virtual-lab frames (the standard session rendered from the lab's physics,
+// daemon/rendered_session.hpp); where each method fails (noise level,
+// distance outside the gamut, Ch against Che); table and inverse-table build
+// times and interpolation error; anomaly and vein flag shares.
 //
 //   build/release/bin/estimation_bench [--pixels N] [--exhaustive-pixels N] [--full] [--out DIR]
 //                                      [--baseline FILE] [--methods fast,2d,exhaustive,scene]
-//                                      [--scene-size W H] [--speed-only] [--diagnose]
+//                                      [--scene-size W H] [--frame-cache DIR | --no-frame-cache]
+//                                      [--speed-only] [--diagnose]
 //
-// Default: a 256×192 synthetic frame (49,152 pixels) for the fast and 2D
-// inverters, the exhaustive search on a fixed subsample of its first 5,000
-// pixels (the 20,000 with --exhaustive-pixels 20000: about 4 min more
-// on 2 cores); --full: a 5-megapixel synthetic frame (2592×1944).
-// Virtual lab (virtual_lab_frame.hpp): the scene at 512×384, every method on
-// its skin pixels (exhaustive on --exhaustive-pixels of them), fast 4D also on
-// the skin pixels of the frame resampled to --scene-size (2592×1944 = 5 MP).
+// Synthetic: a 256×192 frame (49,152 pixels) for the fast and 2D inverters,
+// the exhaustive search on a fixed subsample of its first --exhaustive-pixels
+// (default 20,000, the issue's); --full: a 5-megapixel synthetic frame.
+// Virtual lab: a --scene-size sensor (default 2592×1944 = 5 MP, BayerRG12),
+// the scene rendered at that size (truth per site), binned 2×2 and measured
+// by the daemon's path into a 1296×972 measurement; every method on its skin
+// cells (exhaustive on a fixed subsample of --exhaustive-pixels of them),
+// fast 4D also on the whole frame; flag shares per scene region. Rendering
+// takes minutes on 2 cores: the session is cached in --frame-cache (default
+// ForwardTable::default_cache_dir()), keyed by its inputs.
 // --methods: which of the synthetic runs (fast, 2d, exhaustive) and whether
-// the scene runs at all; --speed-only skips the interpolation check and the
+// the virtual lab runs at all ("scene"); --speed-only skips the interpolation check and the
 // failure sections; --diagnose: one thread, CPU time, how the fast
 // inverter's fits end and where its time goes (cold and hot caches, the
 // Estimator's share, one interpolation).
+// Speeds: wall clock of Estimator::estimate on 2 threads (pixels/s) and the
+// process CPU time per pixel (both threads), steadier on a shared machine.
 // Writes DIR/estimation_bench.json, *.csv and two PNG charts (gnuplot), DIR
 // defaults to bench/results.
 // --baseline FILE: the estimation_speed_accuracy.csv of another build's run
@@ -186,12 +193,13 @@ int gnuplot(const fs::path& script) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  int width = 256, height = 192, exhaustive_pixels = 5000;
+  int width = 256, height = 192, exhaustive_pixels = 20000;
   fs::path out = fs::path(CHROMO_SOURCE_DIR) / "bench" / "results";
   fs::path baseline;
   std::string methods = "fast,2d,exhaustive,scene";
   int scene_width = 2592, scene_height = 1944;
   bool speed_only = false, diagnose = false;
+  fs::path frame_cache = ForwardTable::default_cache_dir();
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--full") width = 2592, height = 1944;
@@ -203,9 +211,12 @@ int main(int argc, char** argv) {
     else if (a == "--speed-only") speed_only = true;
     else if (a == "--scene-size" && i + 2 < argc) scene_width = std::atoi(argv[++i]), scene_height = std::atoi(argv[++i]);
     else if (a == "--diagnose") diagnose = true;
+    else if (a == "--frame-cache" && i + 1 < argc) frame_cache = argv[++i];
+    else if (a == "--no-frame-cache") frame_cache.clear();
     else {
       std::fprintf(stderr, "usage: estimation_bench [--pixels N] [--exhaustive-pixels N] [--full] [--out DIR] "
-                           "[--baseline FILE] [--methods fast,2d,exhaustive,scene] [--scene-size W H] [--speed-only] [--diagnose]\n");
+                           "[--baseline FILE] [--methods fast,2d,exhaustive,scene] [--scene-size W H] "
+                           "[--frame-cache DIR | --no-frame-cache] [--speed-only] [--diagnose]\n");
       return 2;
     }
   }
@@ -429,14 +440,16 @@ int main(int argc, char** argv) {
   if (methods.find("scene") != std::string::npos) {
     daemon::RenderedSessionOptions ro;
     ro.sensor_width = scene_width, ro.sensor_height = scene_height, ro.seed = 5, ro.threads = 2;
+    ro.cache_dir = frame_cache;
     const CpuClock render_cpu;
     t = std::chrono::steady_clock::now();
     const daemon::RenderedSession lab = daemon::render_session(ro);
     const double render_s = seconds_since(t), render_cpu_s = render_cpu.seconds();
-    std::printf("virtual lab: %dx%d BayerRG12 sensor -> %dx%d measurement (2x2 binning); render %.1f s wall, %.1f s CPU "
-                "(scene %.1f s, camera + capture builder %.1f s, build_method_measurement %.1f s); exposure %.0f us\n",
-                scene_width, scene_height, lab.width, lab.height, render_s, render_cpu_s, lab.scene_seconds,
-                lab.camera_seconds, lab.measurement_seconds, lab.exposure_us);
+    std::printf("virtual lab: %dx%d BayerRG12 sensor -> %dx%d measurement (2x2 binning); %s %.1f s wall, %.1f s CPU; "
+                "its render: scene %.1f s, camera + capture builder %.1f s, build_method_measurement %.1f s (wall); "
+                "exposure %.0f us\n",
+                scene_width, scene_height, lab.width, lab.height, lab.loaded_from_cache ? "loaded from the cache in" : "rendered in",
+                render_s, render_cpu_s, lab.scene_seconds, lab.camera_seconds, lab.measurement_seconds, lab.exposure_us);
     nlohmann::ordered_json mixes;
     for (const auto& [name, drive] : lab.mixes) {
       std::printf("  mix %-9s drive W57 %.3f W40 %.3f W27 %.3f R %.3f G %.3f B %.3f\n", name.c_str(), drive[0], drive[1],
@@ -448,7 +461,9 @@ int main(int argc, char** argv) {
         std::printf("  registration (%s): %s moved %.3f px%s\n", m == &lab.noisy ? "noisy" : "noise-free",
                     r.image.c_str(), r.motion_px, r.warped ? ", warped" : "");
     report["lab_frame"] = {{"sensor_width", scene_width}, {"sensor_height", scene_height}, {"width", lab.width},
-                           {"height", lab.height}, {"render_s", render_s}, {"render_cpu_s", render_cpu_s},
+                           {"height", lab.height}, {"loaded_from_cache", lab.loaded_from_cache}, {"seconds", render_s},
+                           {"cpu_s", render_cpu_s}, {"render_scene_s", lab.scene_seconds},
+                           {"render_camera_s", lab.camera_seconds}, {"render_measurement_s", lab.measurement_seconds},
                            {"exposure_us", lab.exposure_us}, {"mixes", mixes}};
     t = std::chrono::steady_clock::now();
     const auto lab_table = std::make_shared<const ForwardTable>(ForwardTable::build(lab.noisy.set, TableGrid{}, 2));
@@ -770,11 +785,11 @@ int main(int argc, char** argv) {
 
   // Charts.
   const fs::path script1 = out / "estimation_speed_accuracy.gp";
-  std::ofstream(script1) << "set terminal pngcairo noenhanced size 900,600\nset output '" << (out / "estimation_speed_accuracy.png").string()
-                         << "'\nset title 'Inverters on " << pixels << "-pixel synthetic frames and the virtual-lab scene (scene:), 2 threads (circles noise-free, squares noisy"
+  std::ofstream(script1) << "set terminal pngcairo noenhanced size 1500,900\nset output '" << (out / "estimation_speed_accuracy.png").string()
+                         << "'\nset multiplot layout 2,3 title 'Inverters on " << pixels << "-pixel synthetic frames and rendered virtual-lab sessions (lab:), 2 threads (circles noise-free, squares noisy"
                          << (old_runs.empty() ? "" : "; grey open: baseline run") << ")'\n"
-                         << "set xlabel 'pixels per second'\nset ylabel 'mean relit ΔE94 (six LEDs + D65)'\n"
-                         << "set logscale xy\nset grid\nset key outside right\n"
+                         << "set xlabel 'pixels per second'\nset logscale xy\nset grid\n"
+                         << "set ylabel 'mean relit ΔE94 (six LEDs + D65)'\n"
                          << "plot '" << (out / "estimation_speed_accuracy.csv").string()
                          << "' using 4:(stringcolumn(3) eq 'noise-free' ? $5 : 1/0):1 with labels point pt 7 offset 1,0.5 "
                             "notitle, '' using 4:(stringcolumn(3) eq 'noisy' ? $5 : 1/0):1 with labels point pt 5 "
@@ -786,6 +801,18 @@ int main(int argc, char** argv) {
                                        "offset -1,-0.8 tc rgb 'gray40' notitle, '' using 4:(stringcolumn(3) eq 'noisy' ? $5 "
                                        ": 1/0):1 with labels right point pt 4 offset -1,0.8 tc rgb 'gray40' notitle")
                          << "\n";
+  {
+    // Relit under D65 alone and the parameter errors, against speed (no labels: the legend says which point is which).
+    std::ofstream panels(script1, std::ios::app);
+    const std::string csv = "'" + (out / "estimation_speed_accuracy.csv").string() + "'";
+    const std::pair<int, const char*> columns[] = {{6, "relit ΔE94 under D65"}, {7, "|Δlog10 Cm|"}, {8, "|Δlog10 Ch|"},
+                                                   {9, "|ΔβM|"}, {10, "|ΔChe|"}};
+    for (const auto& [column, label] : columns)
+      panels << "set ylabel '" << label << "'\nplot " << csv << " using 4:(stringcolumn(3) eq 'noise-free' ? $" << column
+             << " : 1/0):1 with labels point pt 7 offset 1,0.5 font ',7' notitle, '' using 4:(stringcolumn(3) eq 'noisy' ? $"
+             << column << " : 1/0):1 with labels point pt 5 offset 1,-0.5 font ',7' tc rgb 'red' notitle\n";
+    panels << "unset multiplot\n";
+  }
   const fs::path script2 = out / "estimation_failures.gp";
   std::ofstream(script2) << "set terminal pngcairo size 1400,450\nset output '" << (out / "estimation_failures.png").string()
                          << "'\nset multiplot layout 1,3\nset grid\n"
