@@ -408,19 +408,21 @@ int main(int argc, char** argv) {
       const Estimator estimator(table, s, eo);
       const std::size_t n = c.method == InverterMethod::kExhaustive ? exhaustive_pixels : f.pixels();
       std::vector<PixelEstimate> e(n);
+      const CpuClock cpu;
       const EstimateSummary summary =
           estimator.estimate(std::span(noise > 0 ? f.noisy : f.clean).first(n * 4), e);
       RunResult r{std::string(method_name(c.method)), std::string(model_name(c.model)), noise > 0 ? "noisy" : "noise-free", 0, 0, 0, 0, 0, {}};
       r.pixels = n;
       r.pixels_per_second = n / summary.seconds;
+      r.cpu_us_per_pixel = 1e6 * cpu.seconds() / n;
       r.flagged = n - summary.flag_counts[0];
       r.order2 = summary.order2, r.order4 = summary.order4;
       Relit truth_n;
       for (const auto& l : truth.lab) truth_n.lab.emplace_back(l.begin(), l.begin() + n);
       r.acc = accuracy(truth_n, std::span(f.truth).first(n), e, std::vector<bool>(n, true));
-      std::printf("%-10s %-4s %-10s %9zu px %11.0f px/s  relit ΔE94 %.4f (D65 %.4f)%s  |Δlog10 Cm| %.4f |Δlog10 Ch| "
-                  "%.4f |ΔβM| %.3f |ΔChe| %.4f  flagged %.2f%%\n",
-                  r.method.c_str(), r.model.c_str(), r.noise.c_str(), n, r.pixels_per_second, r.acc.de_all,
+      std::printf("%-10s %-4s %-10s %9zu px %11.0f px/s %7.2f CPU us/px  relit ΔE94 %.4f (D65 %.4f)%s  |Δlog10 Cm| %.4f "
+                  "|Δlog10 Ch| %.4f |ΔβM| %.3f |ΔChe| %.4f  flagged %.2f%%\n",
+                  r.method.c_str(), r.model.c_str(), r.noise.c_str(), n, r.pixels_per_second, r.cpu_us_per_pixel, r.acc.de_all,
                   r.acc.de_d65, noise > 0 ? (" = " + std::to_string(r.acc.de_all / floor).substr(0, 5) + "× floor").c_str() : "",
                   r.acc.log_cm, r.acc.log_ch, r.acc.bm, r.acc.che, 100.0 * r.flagged / n);
       speed_csv << r.method << "/" << r.model << " " << r.model << " " << r.noise << " " << r.pixels_per_second << " "

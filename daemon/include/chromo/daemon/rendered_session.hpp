@@ -75,7 +75,7 @@ struct RenderedSessionOptions {
   // camera model's constants, a probe of the scene generator and skin model
   // (a 16×16 scene of this seed) and kRenderedSessionVersion (bump it when
   // the capture path — binning, build_method_measurement — changes). A
-  // 5-MP session is 0.2 GB; written by rename, a damaged file is re-rendered.
+  // 5-MP session is 82 MB; written by rename, a damaged file is re-rendered.
   std::filesystem::path cache_dir;
 
   bool IsValid(std::string* error) const;
