@@ -1,32 +1,40 @@
-// Estimation: speed against accuracy for every inverter on the same synthetic
-// frames (known truth), noise-free and with the camera noise model; the same
-// on frames rendered from the virtual lab's skin scene; where each method
-// fails (noise level, distance outside the gamut, Ch against Che); table and
-// inverse-table build times and interpolation error; anomaly and vein flag
-// shares.
+// Estimation: speed against accuracy for every inverter on the same frames
+// (known truth), noise-free and with the camera noise model: synthetic
+// frames (random in-gamut skin, the estimation library's noise model) and
+// virtual-lab frames (the standard session rendered from the lab's physics,
+// daemon/rendered_session.hpp); where each method fails (noise level,
+// distance outside the gamut, Ch against Che); table and inverse-table build
+// times and interpolation error; anomaly and vein flag shares.
 //
 //   build/release/bin/estimation_bench [--pixels N] [--exhaustive-pixels N] [--full] [--out DIR]
 //                                      [--baseline FILE] [--methods fast,2d,exhaustive,scene]
-//                                      [--scene-size W H] [--speed-only] [--diagnose]
+//                                      [--scene-size W H] [--frame-cache DIR | --no-frame-cache]
+//                                      [--speed-only] [--diagnose]
 //
-// Default: a 256×192 synthetic frame (49,152 pixels) for the fast and 2D
-// inverters, the exhaustive search on a fixed subsample of its first 5,000
-// pixels (the 20,000 with --exhaustive-pixels 20000: about 4 min more
-// on 2 cores); --full: a 5-megapixel synthetic frame (2592×1944).
-// Virtual lab (virtual_lab_frame.hpp): the scene at 512×384, every method on
-// its skin pixels (exhaustive on --exhaustive-pixels of them), fast 4D also on
-// the skin pixels of the frame resampled to --scene-size (2592×1944 = 5 MP).
+// Synthetic: a 256×192 frame (49,152 pixels) for the fast and 2D inverters,
+// the exhaustive search on a fixed subsample of its first --exhaustive-pixels
+// (default 20,000, the issue's); --full: a 5-megapixel synthetic frame.
+// Virtual lab: a --scene-size sensor (default 2592×1944 = 5 MP, BayerRG12),
+// the scene rendered at that size (truth per site), binned 2×2 and measured
+// by the daemon's path into a 1296×972 measurement; every method on its skin
+// cells (exhaustive on a fixed subsample of --exhaustive-pixels of them),
+// fast 4D also on the whole frame; flag shares per scene region. Rendering
+// takes minutes on 2 cores: the session is cached in --frame-cache (default
+// ForwardTable::default_cache_dir()), keyed by its inputs.
 // --methods: which of the synthetic runs (fast, 2d, exhaustive) and whether
-// the scene runs at all; --speed-only skips the interpolation check and the
+// the virtual lab runs at all ("scene"); --speed-only skips the interpolation check and the
 // failure sections; --diagnose: one thread, CPU time, how the fast
 // inverter's fits end and where its time goes (cold and hot caches, the
 // Estimator's share, one interpolation).
+// Speeds: wall clock of Estimator::estimate on 2 threads (pixels/s) and the
+// process CPU time per pixel (both threads), steadier on a shared machine.
 // Writes DIR/estimation_bench.json, *.csv and two PNG charts (gnuplot), DIR
 // defaults to bench/results.
 // --baseline FILE: the estimation_speed_accuracy.csv of another build's run
 // (e.g. the previous version of the inverters, run just before on the same
 // machine): its points go on the speed/accuracy chart next to this run's,
 // labelled "old ...", and the run prints new/old ratios per configuration.
+#include <sys/resource.h>
 #include <time.h>
 
 #include <chrono>
@@ -41,15 +49,17 @@
 #include <string>
 #include <vector>
 
+#include "chromo/daemon/rendered_session.hpp"
 #include "chromo/estimation/estimator.hpp"
 #include "chromo/estimation/inverse_table.hpp"
 #include "chromo/estimation/lab_illuminants.hpp"
 #include "chromo/estimation/reconstruction.hpp"
 #include "chromo/estimation/skin_model.hpp"
+#include "chromo/estimation/spatial_flags.hpp"
 #include "chromo/estimation/synthetic.hpp"
 #include "chromo/spectral/cie.hpp"
+#include "chromo/simulators/scene/scene.hpp"
 #include "chromo/spectral/delta_e.hpp"
-#include "virtual_lab_frame.hpp"
 
 using namespace chromo;
 using namespace chromo::estimation;
@@ -125,6 +135,23 @@ struct RunResult {
   double pixels_per_second = 0;
   std::size_t pixels = 0, flagged = 0, order2 = 0, order4 = 0;
   Accuracy acc;
+  double cpu_us_per_pixel = 0;  // process CPU time (both threads) per pixel
+};
+
+// Process CPU time since construction (all threads): steadier than the wall
+// clock on a shared machine.
+class CpuClock {
+ public:
+  CpuClock() : start_(now()) {}
+  double seconds() const { return now() - start_; }
+
+ private:
+  static double now() {
+    rusage u{};
+    getrusage(RUSAGE_SELF, &u);
+    return u.ru_utime.tv_sec + u.ru_stime.tv_sec + 1e-6 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+  }
+  double start_;
 };
 
 nlohmann::ordered_json to_json(const RunResult& r) {
@@ -135,7 +162,8 @@ nlohmann::ordered_json to_json(const RunResult& r) {
           {"order4", r.order4},       {"de94_relit_mean", r.acc.de_all},
           {"de94_d65", r.acc.de_d65}, {"de94_per_illuminant", std::vector<double>(r.acc.de_led, r.acc.de_led + 7)},
           {"abs_log10_cm", r.acc.log_cm}, {"abs_log10_ch", r.acc.log_ch},
-          {"abs_bm", r.acc.bm},       {"abs_che", r.acc.che}};
+          {"abs_bm", r.acc.bm},       {"abs_che", r.acc.che},
+          {"cpu_us_per_pixel", r.cpu_us_per_pixel}};
 }
 
 // One line of a previous run's estimation_speed_accuracy.csv.
@@ -165,12 +193,13 @@ int gnuplot(const fs::path& script) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  int width = 256, height = 192, exhaustive_pixels = 5000;
+  int width = 256, height = 192, exhaustive_pixels = 20000;
   fs::path out = fs::path(CHROMO_SOURCE_DIR) / "bench" / "results";
   fs::path baseline;
   std::string methods = "fast,2d,exhaustive,scene";
   int scene_width = 2592, scene_height = 1944;
   bool speed_only = false, diagnose = false;
+  fs::path frame_cache = ForwardTable::default_cache_dir();
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--full") width = 2592, height = 1944;
@@ -182,9 +211,12 @@ int main(int argc, char** argv) {
     else if (a == "--speed-only") speed_only = true;
     else if (a == "--scene-size" && i + 2 < argc) scene_width = std::atoi(argv[++i]), scene_height = std::atoi(argv[++i]);
     else if (a == "--diagnose") diagnose = true;
+    else if (a == "--frame-cache" && i + 1 < argc) frame_cache = argv[++i];
+    else if (a == "--no-frame-cache") frame_cache.clear();
     else {
       std::fprintf(stderr, "usage: estimation_bench [--pixels N] [--exhaustive-pixels N] [--full] [--out DIR] "
-                           "[--baseline FILE] [--methods fast,2d,exhaustive,scene] [--scene-size W H] [--speed-only] [--diagnose]\n");
+                           "[--baseline FILE] [--methods fast,2d,exhaustive,scene] [--scene-size W H] "
+                           "[--frame-cache DIR | --no-frame-cache] [--speed-only] [--diagnose]\n");
       return 2;
     }
   }
@@ -376,19 +408,21 @@ int main(int argc, char** argv) {
       const Estimator estimator(table, s, eo);
       const std::size_t n = c.method == InverterMethod::kExhaustive ? exhaustive_pixels : f.pixels();
       std::vector<PixelEstimate> e(n);
+      const CpuClock cpu;
       const EstimateSummary summary =
           estimator.estimate(std::span(noise > 0 ? f.noisy : f.clean).first(n * 4), e);
       RunResult r{std::string(method_name(c.method)), std::string(model_name(c.model)), noise > 0 ? "noisy" : "noise-free", 0, 0, 0, 0, 0, {}};
       r.pixels = n;
       r.pixels_per_second = n / summary.seconds;
+      r.cpu_us_per_pixel = 1e6 * cpu.seconds() / n;
       r.flagged = n - summary.flag_counts[0];
       r.order2 = summary.order2, r.order4 = summary.order4;
       Relit truth_n;
       for (const auto& l : truth.lab) truth_n.lab.emplace_back(l.begin(), l.begin() + n);
       r.acc = accuracy(truth_n, std::span(f.truth).first(n), e, std::vector<bool>(n, true));
-      std::printf("%-10s %-4s %-10s %9zu px %11.0f px/s  relit ΔE94 %.4f (D65 %.4f)%s  |Δlog10 Cm| %.4f |Δlog10 Ch| "
-                  "%.4f |ΔβM| %.3f |ΔChe| %.4f  flagged %.2f%%\n",
-                  r.method.c_str(), r.model.c_str(), r.noise.c_str(), n, r.pixels_per_second, r.acc.de_all,
+      std::printf("%-10s %-4s %-10s %9zu px %11.0f px/s %7.2f CPU us/px  relit ΔE94 %.4f (D65 %.4f)%s  |Δlog10 Cm| %.4f "
+                  "|Δlog10 Ch| %.4f |ΔβM| %.3f |ΔChe| %.4f  flagged %.2f%%\n",
+                  r.method.c_str(), r.model.c_str(), r.noise.c_str(), n, r.pixels_per_second, r.cpu_us_per_pixel, r.acc.de_all,
                   r.acc.de_d65, noise > 0 ? (" = " + std::to_string(r.acc.de_all / floor).substr(0, 5) + "× floor").c_str() : "",
                   r.acc.log_cm, r.acc.log_ch, r.acc.bm, r.acc.che, 100.0 * r.flagged / n);
       speed_csv << r.method << "/" << r.model << " " << r.model << " " << r.noise << " " << r.pixels_per_second << " "
@@ -398,95 +432,177 @@ int main(int argc, char** argv) {
       report["runs"].push_back(to_json(r));
     }
   }
-  // Virtual-lab frames (virtual_lab_frame.hpp): every method's speed and
-  // accuracy on the skin pixels of the 512×384 scene (known truth;
-  // exhaustive on a fixed subsample of them); fast 4D also on the skin
-  // pixels of the frame resampled to scene_width × scene_height (5
-  // megapixels by default: spatially coherent, as a camera frame is) and on
-  // the whole native frame.
+  // Virtual-lab frames (daemon/rendered_session.hpp): the standard session
+  // rendered from the lab's physics at the sensor's full size (5 MP by
+  // default), binned and measured by the daemon's own path. Every method on
+  // the measurement's skin cells (exhaustive on a fixed subsample of
+  // --exhaustive-pixels of them), fast 4D also on the whole frame; flag
+  // shares per scene region.
   std::vector<RunResult> scene_runs;
-  for (double noise : {0.0, 1.0}) {
-    if (methods.find("scene") == std::string::npos) break;
-    CameraNoiseModel noise_model;
-    noise_model.noise_scale = noise;
-    MeasurementSet s = method_set();
-    const LabFrame native = render_lab_frame(s, noise_model, 512, 384, 512, 384, 5);
+  if (methods.find("scene") != std::string::npos) {
+    daemon::RenderedSessionOptions ro;
+    ro.sensor_width = scene_width, ro.sensor_height = scene_height, ro.seed = 5, ro.threads = 2;
+    ro.cache_dir = frame_cache;
+    const CpuClock render_cpu;
+    t = std::chrono::steady_clock::now();
+    const daemon::RenderedSession lab = daemon::render_session(ro);
+    const double render_s = seconds_since(t), render_cpu_s = render_cpu.seconds();
+    std::printf("virtual lab: %dx%d BayerRG12 sensor -> %dx%d measurement (2x2 binning); %s %.1f s wall, %.1f s CPU; "
+                "its render: scene %.1f s, camera + capture builder %.1f s, build_method_measurement %.1f s (wall); "
+                "exposure %.0f us\n",
+                scene_width, scene_height, lab.width, lab.height, lab.loaded_from_cache ? "loaded from the cache in" : "rendered in",
+                render_s, render_cpu_s, lab.scene_seconds, lab.camera_seconds, lab.measurement_seconds, lab.exposure_us);
+    nlohmann::ordered_json mixes;
+    for (const auto& [name, drive] : lab.mixes) {
+      std::printf("  mix %-9s drive W57 %.3f W40 %.3f W27 %.3f R %.3f G %.3f B %.3f\n", name.c_str(), drive[0], drive[1],
+                  drive[2], drive[3], drive[4], drive[5]);
+      mixes[name] = std::vector<double>(drive.begin(), drive.end());
+    }
+    for (const auto* m : {&lab.noisy, &lab.noise_free})
+      for (const RegistrationReport& r : m->registration)
+        std::printf("  registration (%s): %s moved %.3f px%s\n", m == &lab.noisy ? "noisy" : "noise-free",
+                    r.image.c_str(), r.motion_px, r.warped ? ", warped" : "");
+    report["lab_frame"] = {{"sensor_width", scene_width}, {"sensor_height", scene_height}, {"width", lab.width},
+                           {"height", lab.height}, {"loaded_from_cache", lab.loaded_from_cache}, {"seconds", render_s},
+                           {"cpu_s", render_cpu_s}, {"render_scene_s", lab.scene_seconds},
+                           {"render_camera_s", lab.camera_seconds}, {"render_measurement_s", lab.measurement_seconds},
+                           {"exposure_us", lab.exposure_us}, {"mixes", mixes}};
+    t = std::chrono::steady_clock::now();
+    const auto lab_table = std::make_shared<const ForwardTable>(ForwardTable::build(lab.noisy.set, TableGrid{}, 2));
+    std::printf("  lab table (the measurement's own illuminants): build %.2f s\n", seconds_since(t));
+
     std::vector<std::size_t> skin;
-    for (std::size_t i = 0; i < native.pixels(); ++i)
-      if (native.region[i] == 0) skin.push_back(i);
-    const std::vector<float>& input = noise > 0 ? native.noisy : native.clean;
+    for (std::size_t i = 0; i < lab.pixels(); ++i)
+      if (lab.region[i] == static_cast<std::uint8_t>(simulators::SceneRegion::kSkin)) skin.push_back(i);
+    std::vector<SkinParameters> skin_truth;
+    for (std::size_t i : skin) skin_truth.push_back(lab.truth[i]);
+    const Relit skin_relit = relight(skin_truth);
+    {
+      // Fidelity of the frames (noise-free broadband against the model at the
+      // truth) and the noise floor (noisy broadband against noise-free), ΔE94
+      // under D65' through the camera→XYZ matrix, over the skin cells.
+      std::vector<Eigen::Vector3d> clean, noisy;
+      for (std::size_t i : skin) {
+        clean.emplace_back(lab.noise_free.measured[i * 4], lab.noise_free.measured[i * 4 + 1], lab.noise_free.measured[i * 4 + 2]);
+        noisy.emplace_back(lab.noisy.measured[i * 4], lab.noisy.measured[i * 4 + 1], lab.noisy.measured[i * 4 + 2]);
+      }
+      const MeasurementSet& set = lab.noisy.set;
+      const auto model = relit_camera_rgb(skin_truth, set.camera, set.channels[0].illuminant, 2);
+      const DeltaEStats fidelity = photo_delta_e94(clean, model, set.camera, set.channels[0].illuminant);
+      const DeltaEStats floor = photo_delta_e94(clean, noisy, set.camera, set.channels[0].illuminant);
+      std::printf("  %zu skin cells (%.1f%% of the frame); noise-free frame vs the model at the truth (D65' ΔE94): mean "
+                  "%.4f p95 %.4f; noise floor (noisy vs noise-free broadband): mean %.3f p95 %.3f\n",
+                  skin.size(), 100.0 * skin.size() / lab.pixels(), fidelity.mean, fidelity.p95, floor.mean, floor.p95);
+      report["lab_frame"]["skin_pixels"] = skin.size();
+      report["lab_frame"]["noise_free_vs_truth_de94_d65prime"] = {{"mean", fidelity.mean}, {"p95", fidelity.p95}};
+      report["lab_frame"]["noise_floor_de94"] = {{"mean", floor.mean}, {"p95", floor.p95}};
+      report["lab_noise_floor_de94"] = floor.mean;
+    }
+    const double lab_floor = report["lab_noise_floor_de94"].get<double>();
     const std::size_t stride = std::max<std::size_t>(1, skin.size() / std::max(exhaustive_pixels, 1));
-    struct Config {
-      InverterMethod method;
-      ModelChoice model;
-    };
-    for (const Config c : {Config{InverterMethod::kFast, ModelChoice::k4d}, Config{InverterMethod::kFast, ModelChoice::kAuto},
-                           Config{InverterMethod::k2d, ModelChoice::k2d},
-                           Config{InverterMethod::kExhaustive, ModelChoice::k4d}}) {
+    for (const bool noisy : {false, true}) {
+      const MethodMeasurement& m = noisy ? lab.noisy : lab.noise_free;
+      struct Config {
+        InverterMethod method;
+        ModelChoice model;
+      };
+      for (const Config c : {Config{InverterMethod::kFast, ModelChoice::k4d}, Config{InverterMethod::kFast, ModelChoice::kAuto},
+                             Config{InverterMethod::k2d, ModelChoice::k2d},
+                             Config{InverterMethod::kExhaustive, ModelChoice::k4d}}) {
+        EstimatorOptions eo;
+        eo.method = c.method;
+        eo.model = c.model;
+        eo.threads = 2;
+        const Estimator estimator(lab_table, m.set, eo);
+        // The cells this method is scored on: every skin cell, or the fixed subsample for exhaustive.
+        const std::size_t step = c.method == InverterMethod::kExhaustive ? stride : 1;
+        std::vector<float> measured;
+        std::vector<SkinParameters> truth;
+        Relit truth_relit;
+        truth_relit.lab.resize(skin_relit.lab.size());
+        for (std::size_t k = 0; k < skin.size(); k += step) {
+          measured.insert(measured.end(), m.measured.begin() + skin[k] * 4, m.measured.begin() + skin[k] * 4 + 4);
+          truth.push_back(skin_truth[k]);
+          for (std::size_t l = 0; l < skin_relit.lab.size(); ++l) truth_relit.lab[l].push_back(skin_relit.lab[l][k]);
+        }
+        std::vector<PixelEstimate> e(truth.size());
+        const CpuClock cpu;
+        const EstimateSummary summary = estimator.estimate(measured, e);
+        RunResult r{"lab:" + std::string(method_name(c.method)), std::string(model_name(c.model)),
+                    noisy ? "noisy" : "noise-free", 0, 0, 0, 0, 0, {}};
+        r.pixels = truth.size();
+        r.pixels_per_second = truth.size() / summary.seconds;
+        r.cpu_us_per_pixel = 1e6 * cpu.seconds() / truth.size();
+        r.flagged = truth.size() - summary.flag_counts[0];
+        r.order2 = summary.order2, r.order4 = summary.order4;
+        r.acc = accuracy(truth_relit, truth, e, std::vector<bool>(truth.size(), true));
+        std::printf("%-16s %-4s %-10s %8zu skin px %10.0f px/s %6.2f CPU us/px  relit ΔE94 %.4f (D65 %.4f)%s  "
+                    "|Δlog10 Cm| %.4f |Δlog10 Ch| %.4f |ΔβM| %.3f |ΔChe| %.4f  flagged %.2f%%\n",
+                    r.method.c_str(), r.model.c_str(), r.noise.c_str(), r.pixels, r.pixels_per_second, r.cpu_us_per_pixel,
+                    r.acc.de_all, r.acc.de_d65,
+                    noisy ? (" = " + std::to_string(r.acc.de_all / lab_floor).substr(0, 5) + "× floor").c_str() : "",
+                    r.acc.log_cm, r.acc.log_ch, r.acc.bm, r.acc.che, 100.0 * r.flagged / r.pixels);
+        if (c.method == InverterMethod::kFast && c.model == ModelChoice::k4d) {
+          // The whole frame: its tattoo, marker, hair, specular cells take the flagging path.
+          std::vector<PixelEstimate> all(lab.pixels());
+          const CpuClock whole_cpu;
+          const EstimateSummary whole = estimator.estimate(m.measured, all);
+          std::printf("  lab fast 4d %s, whole %dx%d frame (%.1f%% not skin): %.3f s, %.0f px/s, %.2f CPU us/px, "
+                      "flagged %.2f%%\n", r.noise.c_str(), lab.width, lab.height, 100.0 - 100.0 * skin.size() / lab.pixels(),
+                      whole.seconds, lab.pixels() / whole.seconds, 1e6 * whole_cpu.seconds() / lab.pixels(),
+                      100.0 * (lab.pixels() - whole.flag_counts[0]) / lab.pixels());
+          report["lab_fast4d_whole_frame_" + r.noise] = {{"pixels", lab.pixels()}, {"seconds", whole.seconds},
+                                                         {"pixels_per_second", lab.pixels() / whole.seconds}};
+        }
+        speed_csv << r.method << "/" << r.model << " " << r.model << " " << r.noise << " " << r.pixels_per_second << " "
+                  << r.acc.de_all << " " << r.acc.de_d65 << " " << r.acc.log_cm << " " << r.acc.log_ch << " " << r.acc.bm
+                  << " " << r.acc.che << "\n";
+        scene_runs.push_back(r);
+        report["lab_runs"].push_back(to_json(r));
+      }
+    }
+    for (const char* noise : {"noise-free", "noisy"}) {
+      const RunResult *fast = nullptr, *ex = nullptr;
+      for (const RunResult& r : scene_runs) {
+        if (r.noise != noise || r.model != "4d") continue;
+        (r.method == "lab:fast" ? fast : ex) = &r;
+      }
+      if (fast && ex)
+        std::printf("lab %s: fast 4d %.2f MP/s (target >= 10) = x%.0f exhaustive; D65 ΔE94 fast − exhaustive %+.4f "
+                    "(target <= 0.1)\n", noise, fast->pixels_per_second / 1e6,
+                    fast->pixels_per_second / ex->pixels_per_second, fast->acc.de_d65 - ex->acc.de_d65);
+    }
+    // Flag shares per scene region: fast auto on the noisy whole frame, per
+    // pixel and with the spatial second pass (spatial_flags.hpp).
+    {
       EstimatorOptions eo;
-      eo.method = c.method;
-      eo.model = c.model;
       eo.threads = 2;
-      const Estimator estimator(table, s, eo);
-      // The pixels this method is scored on: every skin pixel, or the fixed subsample for exhaustive.
-      std::vector<float> measured;
-      std::vector<SkinParameters> truth;
-      for (std::size_t k = 0; k < skin.size(); k += c.method == InverterMethod::kExhaustive ? stride : 1) {
-        measured.insert(measured.end(), input.begin() + skin[k] * 4, input.begin() + skin[k] * 4 + 4);
-        truth.push_back(native.truth[skin[k]]);
-      }
-      std::vector<PixelEstimate> e(truth.size());
-      const EstimateSummary summary = estimator.estimate(measured, e);
-      RunResult r{"scene:" + std::string(method_name(c.method)), std::string(model_name(c.model)),
-                  noise > 0 ? "noisy" : "noise-free", 0, 0, 0, 0, 0, {}};
-      r.pixels = truth.size();
-      r.pixels_per_second = truth.size() / summary.seconds;
-      r.flagged = truth.size() - summary.flag_counts[0];
-      r.acc = accuracy(relight(truth), truth, e, std::vector<bool>(truth.size(), true));
-      if (c.method == InverterMethod::kFast && c.model == ModelChoice::k4d) {
-        // The same method on the skin pixels of the frame resampled to
-        // scene_width × scene_height, and on the whole native frame (its
-        // tattoo, marker, hair, specular pixels take the slow flagging path).
-        const LabFrame big = render_lab_frame(s, noise_model, 512, 384, scene_width, scene_height, 5);
-        std::vector<float> big_skin;
-        for (std::size_t i = 0; i < big.pixels(); ++i)
-          if (big.region[i] == 0)
-            big_skin.insert(big_skin.end(), (noise > 0 ? big.noisy : big.clean).begin() + i * 4,
-                            (noise > 0 ? big.noisy : big.clean).begin() + i * 4 + 4);
-        std::vector<PixelEstimate> big_e(big_skin.size() / 4), all(native.pixels());
-        const EstimateSummary big_summary = estimator.estimate(big_skin, big_e);
-        const EstimateSummary whole = estimator.estimate(input, all);
-        std::printf("scene %s: fast 4d on the %zu skin pixels of the %dx%d frame: %.3f s, %.0f px/s; on the whole "
-                    "512x384 frame (%.1f%% not skin): %.0f px/s, flagged %.2f%%\n",
-                    r.noise.c_str(), big_e.size(), scene_width, scene_height, big_summary.seconds,
-                    big_e.size() / big_summary.seconds, 100.0 - 100.0 * skin.size() / native.pixels(),
-                    native.pixels() / whole.seconds, 100.0 * (native.pixels() - whole.flag_counts[0]) / native.pixels());
-        report["scene_frame"] = {{"width", scene_width}, {"height", scene_height}};
-        report["scene_fast4d_" + r.noise] = {{"skin_pixels", big_e.size()},
-                                             {"skin_pixels_per_second", big_e.size() / big_summary.seconds},
-                                             {"whole_native_frame_pixels_per_second", native.pixels() / whole.seconds}};
-      }
-      std::printf("%-16s %-4s %-10s %7zu skin px %11.0f px/s  relit ΔE94 %.4f (D65 %.4f)  |Δlog10 Cm| %.4f |Δlog10 Ch| "
-                  "%.4f |ΔβM| %.3f |ΔChe| %.4f  flagged %.2f%%\n",
-                  r.method.c_str(), r.model.c_str(), r.noise.c_str(), r.pixels, r.pixels_per_second, r.acc.de_all,
-                  r.acc.de_d65, r.acc.log_cm, r.acc.log_ch, r.acc.bm, r.acc.che, 100.0 * r.flagged / r.pixels);
-      speed_csv << r.method << "/" << r.model << " " << r.model << " " << r.noise << " " << r.pixels_per_second << " "
-                << r.acc.de_all << " " << r.acc.de_d65 << " " << r.acc.log_cm << " " << r.acc.log_ch << " " << r.acc.bm
-                << " " << r.acc.che << "\n";
-      scene_runs.push_back(r);
-      report["scene_runs"].push_back(to_json(r));
+      const Estimator estimator(lab_table, lab.noisy.set, eo);
+      std::vector<PixelEstimate> e(lab.pixels());
+      EstimateSummary summary = estimator.estimate(lab.noisy.measured, e);
+      auto shares = [&](const char* label, nlohmann::ordered_json& out) {
+        std::size_t total[8] = {}, flagged[8] = {};
+        for (std::size_t i = 0; i < lab.pixels(); ++i) {
+          const int region = lab.region[i] == daemon::kMixedCell ? 7 : lab.region[i];
+          ++total[region];
+          flagged[region] += e[i].flag != PixelFlag::kExplained;
+        }
+        std::printf("lab flagged share per region (fast auto, noisy, %s):", label);
+        for (int k = 0; k < 8; ++k) {
+          if (total[k] == 0) continue;
+          const char* name = k == 7 ? "mixed_cell" : simulators::region_name(static_cast<simulators::SceneRegion>(k));
+          std::printf(" %s %.1f%% (%zu)", name, 100.0 * flagged[k] / total[k], total[k]);
+          out[name] = double(flagged[k]) / total[k];
+        }
+        std::printf("\n");
+      };
+      shares("per pixel", report["lab_flagged_share_per_pixel"]);
+      t = std::chrono::steady_clock::now();
+      refine_with_neighbourhood(estimator, lab.noisy.measured, lab.width, lab.height, e, summary);
+      const double spatial_s = seconds_since(t);
+      shares("with the spatial pass", report["lab_flagged_share_spatial"]);
+      std::printf("  spatial pass on %zu px: %.2f s\n", lab.pixels(), spatial_s);
     }
-  }
-  for (const char* noise : {"noise-free", "noisy"}) {
-    const RunResult *fast = nullptr, *ex = nullptr;
-    for (const RunResult& r : scene_runs) {
-      if (r.noise != noise || r.model != "4d") continue;
-      (r.method == "scene:fast" ? fast : ex) = &r;
-    }
-    if (fast && ex)
-      std::printf("scene %s: fast 4d %.2f MP/s (target >= 10) = x%.0f exhaustive; D65 ΔE94 fast − exhaustive %+.4f "
-                  "(target <= 0.1)\n", noise, fast->pixels_per_second / 1e6, fast->pixels_per_second / ex->pixels_per_second,
-                  fast->acc.de_d65 - ex->acc.de_d65);
   }
 
   // Ratios.
@@ -671,11 +787,11 @@ int main(int argc, char** argv) {
 
   // Charts.
   const fs::path script1 = out / "estimation_speed_accuracy.gp";
-  std::ofstream(script1) << "set terminal pngcairo noenhanced size 900,600\nset output '" << (out / "estimation_speed_accuracy.png").string()
-                         << "'\nset title 'Inverters on " << pixels << "-pixel synthetic frames and the virtual-lab scene (scene:), 2 threads (circles noise-free, squares noisy"
+  std::ofstream(script1) << "set terminal pngcairo noenhanced size 1500,900\nset output '" << (out / "estimation_speed_accuracy.png").string()
+                         << "'\nset multiplot layout 2,3 title 'Inverters on " << pixels << "-pixel synthetic frames and rendered virtual-lab sessions (lab:), 2 threads (circles noise-free, squares noisy"
                          << (old_runs.empty() ? "" : "; grey open: baseline run") << ")'\n"
-                         << "set xlabel 'pixels per second'\nset ylabel 'mean relit ΔE94 (six LEDs + D65)'\n"
-                         << "set logscale xy\nset grid\nset key outside right\n"
+                         << "set xlabel 'pixels per second'\nset logscale xy\nset grid\n"
+                         << "set ylabel 'mean relit ΔE94 (six LEDs + D65)'\n"
                          << "plot '" << (out / "estimation_speed_accuracy.csv").string()
                          << "' using 4:(stringcolumn(3) eq 'noise-free' ? $5 : 1/0):1 with labels point pt 7 offset 1,0.5 "
                             "notitle, '' using 4:(stringcolumn(3) eq 'noisy' ? $5 : 1/0):1 with labels point pt 5 "
@@ -687,6 +803,18 @@ int main(int argc, char** argv) {
                                        "offset -1,-0.8 tc rgb 'gray40' notitle, '' using 4:(stringcolumn(3) eq 'noisy' ? $5 "
                                        ": 1/0):1 with labels right point pt 4 offset -1,0.8 tc rgb 'gray40' notitle")
                          << "\n";
+  {
+    // Relit under D65 alone and the parameter errors, against speed (no labels: the legend says which point is which).
+    std::ofstream panels(script1, std::ios::app);
+    const std::string csv = "'" + (out / "estimation_speed_accuracy.csv").string() + "'";
+    const std::pair<int, const char*> columns[] = {{6, "relit ΔE94 under D65"}, {7, "|Δlog10 Cm|"}, {8, "|Δlog10 Ch|"},
+                                                   {9, "|ΔβM|"}, {10, "|ΔChe|"}};
+    for (const auto& [column, label] : columns)
+      panels << "set ylabel '" << label << "'\nplot " << csv << " using 4:(stringcolumn(3) eq 'noise-free' ? $" << column
+             << " : 1/0):1 with labels point pt 7 offset 1,0.5 font ',7' notitle, '' using 4:(stringcolumn(3) eq 'noisy' ? $"
+             << column << " : 1/0):1 with labels point pt 5 offset 1,-0.5 font ',7' tc rgb 'red' notitle\n";
+    panels << "unset multiplot\n";
+  }
   const fs::path script2 = out / "estimation_failures.gp";
   std::ofstream(script2) << "set terminal pngcairo size 1400,450\nset output '" << (out / "estimation_failures.png").string()
                          << "'\nset multiplot layout 1,3\nset grid\n"

@@ -281,32 +281,29 @@ void Calibrations::run(std::string id, CalibrationRequest request, std::filesyst
   });
 }
 
-SolvedMix Calibrations::solve(const std::string& target, const std::string& objective, bool hold_chromaticity) const {
+namespace {
+calibration::MixSolverOptions mix_solver_options(const std::string& objective, bool hold_chromaticity) {
   calibration::MixSolverOptions options;
   const auto parsed = calibration::parse_mix_objective(objective);
   if (!parsed) throw std::invalid_argument("objective: \"" + objective.substr(0, 64) + "\" is not spectral, xyz or camera");
   options.objective = *parsed;
   options.hold_chromaticity = hold_chromaticity;
   if (std::string error; !options.IsValid(&error)) throw std::invalid_argument(error);
-  std::shared_ptr<const calibration::LedLibrary> library;
-  std::string path;
-  {
-    std::lock_guard lock(mutex_);
-    library = library_;
-    path = library_path_.string();
-  }
-  if (!library)
-    throw std::logic_error("no LED library: run a calibration (chromo calibrate) or configure led_library");
-  // "w57" is W57 alone at the level it has in w57+blue, so that the method's
-  // blue-only response (W57+blue) − W57 holds exactly.
+  return options;
+}
+}  // namespace
+
+SolvedMix solve_session_mix(const calibration::LedLibrary& library, const std::string& target,
+                            const std::string& objective, bool hold_chromaticity) {
+  const calibration::MixSolverOptions options = mix_solver_options(objective, hold_chromaticity);
   const bool w57_alone = target == "w57";
   calibration::MixTarget mix_target;
   try {
-    mix_target = calibration::parse_mix_target(w57_alone ? "w57+blue" : target, *library, options.camera);
+    mix_target = calibration::parse_mix_target(w57_alone ? "w57+blue" : target, library, options.camera);
   } catch (const std::exception& e) {
     throw std::invalid_argument("target: " + std::string(e.what()));
   }
-  const auto summary = calibration::solve_mix(*library, mix_target, options);
+  const auto summary = calibration::solve_mix(library, mix_target, options);
   if (!summary.IsSolutionUsable())
     throw std::invalid_argument("target \"" + target.substr(0, 64) + "\": " +
                                 std::string(calibration::mix_termination_name(summary.termination)) + ": " + summary.message);
@@ -324,6 +321,21 @@ SolvedMix Calibrations::solve(const std::string& target, const std::string& obje
                     {"camera_de00_max", summary.camera_de00.max}};
   solved.summary = (w57_alone ? std::string("w57: the W57 level of the w57+blue solve, other LEDs off. ") : std::string()) +
                    summary.BriefReport();
+  return solved;
+}
+
+SolvedMix Calibrations::solve(const std::string& target, const std::string& objective, bool hold_chromaticity) const {
+  mix_solver_options(objective, hold_chromaticity);  // a bad request is named before a missing library
+  std::shared_ptr<const calibration::LedLibrary> library;
+  std::string path;
+  {
+    std::lock_guard lock(mutex_);
+    library = library_;
+    path = library_path_.string();
+  }
+  if (!library)
+    throw std::logic_error("no LED library: run a calibration (chromo calibrate) or configure led_library");
+  SolvedMix solved = solve_session_mix(*library, target, objective, hold_chromaticity);
   solved.library = path;
   return solved;
 }

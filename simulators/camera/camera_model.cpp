@@ -50,6 +50,36 @@ double CameraModel::noise_sigma_dn(double response, double exposure_us, double g
   return std::sqrt(std::pow(sigma_e / e_per_dn, 2) + 1.0 / 12.0);  // + quantisation
 }
 
+namespace {
+
+// Reads out `response_rgb` into `out` (same size, 1 or 3 channels of T),
+// sample by sample: read(response) for every sensor site of the layout.
+template <typename T, typename Read>
+void read_out(const cv::Mat& response_rgb, SensorLayout layout, int phase_x, int phase_y, cv::Mat& out, Read read) {
+  for (int y = 0; y < response_rgb.rows; ++y) {
+    const auto* in = response_rgb.ptr<cv::Vec3f>(y);
+    if (layout == SensorLayout::kThreeChannel) {
+      auto* o = out.ptr<cv::Vec<T, 3>>(y);
+      for (int x = 0; x < response_rgb.cols; ++x)
+        for (int c = 0; c < 3; ++c) o[x][c] = read(in[x][c]);
+    } else {
+      auto* o = out.ptr<T>(y);
+      for (int x = 0; x < response_rgb.cols; ++x) {
+        double r;
+        if (layout == SensorLayout::kMono) {
+          r = (in[x][0] + in[x][1] + in[x][2]) / 3.0;
+        } else {
+          const int sx = (x + phase_x) & 1, sy = (y + phase_y) & 1;
+          r = (sx == 0 && sy == 0) ? in[x][0] : (sx == 1 && sy == 1) ? in[x][2] : in[x][1];
+        }
+        o[x] = read(r);
+      }
+    }
+  }
+}
+
+}  // namespace
+
 cv::Mat CameraModel::expose(const cv::Mat& response_rgb, SensorLayout layout, int phase_x, int phase_y,
                             double exposure_us, double gain_db, std::uint64_t frame_index) const {
   if (response_rgb.type() != CV_32FC3) throw std::invalid_argument("CameraModel::expose: response must be CV_32FC3");
@@ -66,28 +96,18 @@ cv::Mat CameraModel::expose(const cv::Mat& response_rgb, SensorLayout layout, in
     e = std::clamp(e, 0.0, options_.full_well_e) + options_.read_noise_e * normal(rng);
     return static_cast<std::uint16_t>(std::clamp(std::round(options_.black_level_dn + e / e_per_dn), 0.0, top));
   };
-  const int rows = response_rgb.rows, cols = response_rgb.cols;
-  cv::Mat out(rows, cols, layout == SensorLayout::kThreeChannel ? CV_16UC3 : CV_16U);
-  for (int y = 0; y < rows; ++y) {
-    const auto* in = response_rgb.ptr<cv::Vec3f>(y);
-    if (layout == SensorLayout::kThreeChannel) {
-      auto* o = out.ptr<cv::Vec<std::uint16_t, 3>>(y);
-      for (int x = 0; x < cols; ++x)
-        for (int c = 0; c < 3; ++c) o[x][c] = read(in[x][c]);
-    } else {
-      auto* o = out.ptr<std::uint16_t>(y);
-      for (int x = 0; x < cols; ++x) {
-        double r;
-        if (layout == SensorLayout::kMono) {
-          r = (in[x][0] + in[x][1] + in[x][2]) / 3.0;
-        } else {
-          const int sx = (x + phase_x) & 1, sy = (y + phase_y) & 1;
-          r = (sx == 0 && sy == 0) ? in[x][0] : (sx == 1 && sy == 1) ? in[x][2] : in[x][1];
-        }
-        o[x] = read(r);
-      }
-    }
-  }
+  cv::Mat out(response_rgb.rows, response_rgb.cols, layout == SensorLayout::kThreeChannel ? CV_16UC3 : CV_16U);
+  read_out<std::uint16_t>(response_rgb, layout, phase_x, phase_y, out, read);
+  return out;
+}
+
+cv::Mat CameraModel::expected(const cv::Mat& response_rgb, SensorLayout layout, int phase_x, int phase_y,
+                              double exposure_us, double gain_db) const {
+  if (response_rgb.type() != CV_32FC3) throw std::invalid_argument("CameraModel::expected: response must be CV_32FC3");
+  cv::Mat out(response_rgb.rows, response_rgb.cols, layout == SensorLayout::kThreeChannel ? CV_32FC3 : CV_32F);
+  read_out<float>(response_rgb, layout, phase_x, phase_y, out, [&](double response) {
+    return static_cast<float>(expected_dn(response, exposure_us, gain_db));
+  });
   return out;
 }
 

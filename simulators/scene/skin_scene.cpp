@@ -1,9 +1,13 @@
 // make_skin_scene: the virtual lab's skin patch. Every number here is a
 // modelling choice of the virtual lab, documented in docs/camera.md.
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
 #include <random>
 #include <span>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "chromo/estimation/chromophores.hpp"
@@ -48,11 +52,24 @@ Spectrum gaussian_band(double centre_nm, double width_nm) {
   return s;
 }
 
+int thread_count(const SkinSceneOptions& options) {
+  return options.threads > 0 ? options.threads : omp_get_max_threads();
+}
+
 }  // namespace
 
 bool SkinSceneOptions::IsValid(std::string* error) const {
   if (width < 16 || height < 16 || width > 4096 || height > 4096) {
     if (error != nullptr) *error = "scene width and height must be 16-4096 pixels";
+    return false;
+  }
+  if (row_begin < 0 || row_count < 0 || row_begin + row_count > height || (row_count == 0 && row_begin != 0)) {
+    if (error != nullptr) *error = "rows: row_begin + row_count must lie within the scene's height";
+    return false;
+  }
+  if (column_begin < 0 || column_count < 0 || column_begin + column_count > width ||
+      (column_count == 0 && column_begin != 0)) {
+    if (error != nullptr) *error = "columns: column_begin + column_count must lie within the scene's width";
     return false;
   }
   return true;
@@ -72,7 +89,11 @@ Scene make_skin_scene(const SkinSceneOptions& options) {
   if (!options.IsValid(&error)) throw std::invalid_argument("SkinSceneOptions: " + error);
   const int w = options.width, h = options.height;
   const double scale = w / 512.0;  // geometry is laid out for 512 px and scaled
-  Scene scene(w, h);
+  // This scene's window [x0, x0 + cols) × [y0, y0 + rows) of the full w × h
+  // scene; scene pixel = (x − x0, y − y0).
+  const int y0 = options.row_begin, rows = options.row_count > 0 ? options.row_count : h;
+  const int x0 = options.column_begin, cols = options.column_count > 0 ? options.column_count : w;
+  Scene scene(cols, rows);
   std::mt19937_64 rng(options.seed);
   const SmoothField f_cm(rng, 120 * scale, 400 * scale), f_ch(rng, 80 * scale, 300 * scale),
       f_bm(rng, 150 * scale, 500 * scale), f_che(rng, 100 * scale, 400 * scale);
@@ -91,9 +112,10 @@ Scene make_skin_scene(const SkinSceneOptions& options) {
   };
 
   // 1) Skin parameters everywhere (the truth maps).
-  std::vector<estimation::SkinParameters> parameters(static_cast<std::size_t>(w) * h);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
+  std::vector<estimation::SkinParameters> parameters(static_cast<std::size_t>(cols) * rows);
+#pragma omp parallel for schedule(static) num_threads(thread_count(options))
+  for (int y = y0; y < y0 + rows; ++y)
+    for (int x = x0; x < x0 + cols; ++x) {
       estimation::SkinParameters p;
       p.cm = 0.05 + 0.03 * f_cm(x, y);
       p.ch = 0.025 + 0.015 * f_ch(x, y);
@@ -104,11 +126,11 @@ Scene make_skin_scene(const SkinSceneOptions& options) {
         if (d < m.r * 1.5) p.cm += 0.2 * std::exp(-std::pow(d / m.r, 2));
       }
       p.ch += 0.04 * vein_profile(x, y);  // the explainable part of the vein
-      parameters[static_cast<std::size_t>(y) * w + x] = p;
-      scene.cm().at<float>(y, x) = static_cast<float>(p.cm);
-      scene.ch().at<float>(y, x) = static_cast<float>(p.ch);
-      scene.bm().at<float>(y, x) = static_cast<float>(p.bm);
-      scene.che().at<float>(y, x) = static_cast<float>(p.che);
+      parameters[static_cast<std::size_t>(y - y0) * cols + (x - x0)] = p;
+      scene.cm().at<float>(y - y0, x - x0) = static_cast<float>(p.cm);
+      scene.ch().at<float>(y - y0, x - x0) = static_cast<float>(p.ch);
+      scene.bm().at<float>(y - y0, x - x0) = static_cast<float>(p.bm);
+      scene.che().at<float>(y - y0, x - x0) = static_cast<float>(p.che);
     }
 
   // 2) Albedo straight from the forward model, in chunks (Spectrum is 648 bytes).
@@ -120,7 +142,7 @@ Scene make_skin_scene(const SkinSceneOptions& options) {
     model.albedo_batch(std::span(parameters).subspan(start, n), std::span(albedo).first(n), options.threads);
     for (std::size_t i = 0; i < n; ++i) {
       const auto index = static_cast<int>(start + i);
-      scene.set_albedo(index % w, index / w, albedo[i]);
+      scene.set_albedo(index % cols, index / cols, albedo[i]);
     }
   }
 
@@ -158,9 +180,10 @@ Scene make_skin_scene(const SkinSceneOptions& options) {
   const Spectrum white = white_target_reflectance();
   const int white_x0 = options.white_patch ? w - w / 10 : w;
 
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      Spectrum a = scene.albedo_at(x, y);
+#pragma omp parallel for schedule(static) num_threads(thread_count(options))
+  for (int y = y0; y < y0 + rows; ++y)
+    for (int x = x0; x < x0 + cols; ++x) {
+      Spectrum a = scene.albedo_at(x - x0, y - y0);
       SceneRegion region = SceneRegion::kSkin;
       const double vein = vein_profile(x, y);
       if (vein > 0.05) {
@@ -194,10 +217,38 @@ Scene make_skin_scene(const SkinSceneOptions& options) {
         a = white;
         region = SceneRegion::kWhiteTarget;
       }
-      scene.set_albedo(x, y, a);
-      scene.regions().at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(region);
+      scene.set_albedo(x - x0, y - y0, a);
+      scene.regions().at<std::uint8_t>(y - y0, x - x0) = static_cast<std::uint8_t>(region);
     }
   return scene;
+}
+
+SkinSceneResponse render_skin_scene(const SkinSceneOptions& options, const std::vector<SceneWeights>& weights,
+                                    int band_rows) {
+  std::string error;
+  if (!options.IsValid(&error)) throw std::invalid_argument("SkinSceneOptions: " + error);
+  if (band_rows < 1) throw std::invalid_argument("render_skin_scene: band_rows must be >= 1");
+  const int first = options.row_begin, rows = options.row_count > 0 ? options.row_count : options.height;
+  const int cols = options.column_count > 0 ? options.column_count : options.width;
+  SkinSceneResponse out;
+  for (const SceneWeights& w : weights)
+    out.responses.emplace_back(rows, cols, CV_32FC(static_cast<int>(w.rows())));
+  out.regions.create(rows, cols, CV_8U);
+  for (cv::Mat* m : {&out.cm, &out.ch, &out.bm, &out.che}) m->create(rows, cols, CV_32F);
+  for (int y = 0; y < rows; y += band_rows) {
+    SkinSceneOptions band = options;
+    band.row_begin = first + y;
+    band.row_count = std::min(band_rows, rows - y);
+    const Scene scene = make_skin_scene(band);
+    const cv::Rect target(0, y, cols, band.row_count);
+    for (std::size_t k = 0; k < weights.size(); ++k) scene.render(weights[k]).copyTo(out.responses[k](target));
+    scene.regions().copyTo(out.regions(target));
+    scene.cm().copyTo(out.cm(target));
+    scene.ch().copyTo(out.ch(target));
+    scene.bm().copyTo(out.bm(target));
+    scene.che().copyTo(out.che(target));
+  }
+  return out;
 }
 
 }  // namespace chromo::simulators

@@ -60,6 +60,25 @@ TEST(CameraModel, BayerPhaseFollowsTheSensorPosition) {
   EXPECT_LT(at_origin.at<std::uint16_t>(0, 1), at_origin.at<std::uint16_t>(1, 1));  // green < blue
 }
 
+TEST(CameraModel, ExpectedFrameIsTheNoiseFreeMeanOfExposedFrames) {
+  const CameraModel model{CameraModelOptions{}};
+  const cv::Mat response(64, 64, CV_32FC3, cv::Scalar(0.2, 0.3, 0.1));
+  const cv::Mat expected = model.expected(response, SensorLayout::kBayerRGGB, 0, 0, 8000, 0);
+  ASSERT_EQ(expected.type(), CV_32F);
+  // Same Bayer sites as expose(): R at (0,0), G at (0,1) and (1,0), B at (1,1); unrounded.
+  EXPECT_FLOAT_EQ(expected.at<float>(0, 0), model.expected_dn(0.2f, 8000, 0));
+  EXPECT_FLOAT_EQ(expected.at<float>(1, 0), model.expected_dn(0.3f, 8000, 0));
+  EXPECT_FLOAT_EQ(expected.at<float>(1, 1), model.expected_dn(0.1f, 8000, 0));
+  // The mean of a noisy frame's red sites is the expectation (σ ≈ 6 DN, 1024 sites).
+  double sum = 0;
+  const cv::Mat noisy = model.expose(response, SensorLayout::kBayerRGGB, 0, 0, 8000, 0, 3);
+  for (int y = 0; y < 64; y += 2)
+    for (int x = 0; x < 64; x += 2) sum += noisy.at<std::uint16_t>(y, x);
+  EXPECT_NEAR(sum / 1024, expected.at<float>(0, 0), 4 * model.noise_sigma_dn(0.2, 8000, 0) / 32);
+  EXPECT_EQ(model.expected(response, SensorLayout::kThreeChannel, 0, 0, 8000, 0).type(), CV_32FC3);
+  EXPECT_THROW(model.expected(cv::Mat(4, 4, CV_32F), SensorLayout::kMono, 0, 0, 1, 0), std::invalid_argument);
+}
+
 TEST(CameraModel, SameSeedAndFrameReproduceOtherFramesDiffer) {
   const CameraModel model{CameraModelOptions{}};
   const cv::Mat response(32, 32, CV_32FC3, cv::Scalar(0.2, 0.3, 0.1));

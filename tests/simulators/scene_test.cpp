@@ -106,5 +106,47 @@ TEST(Scene, RenderIsTheWeightedSumOfTheAlbedo) {
   EXPECT_NEAR(out.at<cv::Vec2f>(3, 7)[1], 2 * kWhiteTargetReflectance, 1e-6);
 }
 
+// The bench's 5-MP scenes are rendered band by band: the bands must be the
+// same scene (fields, moles, strands, regions) as the whole.
+TEST(SkinScene, BandsRenderTheSameSceneAsTheWhole) {
+  SkinSceneOptions options;
+  options.width = 64;
+  options.height = 48;
+  options.white_patch = false;
+  options.threads = 2;
+  const Scene whole = make_skin_scene(options);
+  std::vector<SceneWeights> weights(2, SceneWeights(3, spectral::kGridSize));
+  weights[0].setRandom();
+  weights[1] = weights[0].cwiseAbs();
+  const SkinSceneResponse bands = render_skin_scene(options, weights, 7);  // 7 rows: a band boundary inside every feature
+  for (std::size_t k = 0; k < weights.size(); ++k) {
+    const cv::Mat expected = whole.render(weights[k]);
+    EXPECT_EQ(cv::norm(expected, bands.responses[k], cv::NORM_INF), 0.0) << k;
+  }
+  EXPECT_EQ(cv::norm(whole.regions(), bands.regions, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(whole.cm(), bands.cm, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(whole.che(), bands.che, cv::NORM_INF), 0.0);
+  int unexplained = 0;  // the scene has its features in this size too
+  for (int y = 0; y < 48; ++y)
+    for (int x = 0; x < 64; ++x) unexplained += region_at(whole, x, y) != SceneRegion::kSkin;
+  EXPECT_GT(unexplained, 100);
+  // A window (the bench's tiny sensors look at a part of a large scene).
+  options.row_begin = 5, options.row_count = 20, options.column_begin = 10, options.column_count = 30;
+  const SkinSceneResponse window = render_skin_scene(options, weights, 6);
+  const cv::Rect rect(10, 5, 30, 20);
+  EXPECT_EQ(cv::norm(whole.render(weights[0])(rect), window.responses[0], cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(whole.regions()(rect), window.regions, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(whole.ch()(rect), window.ch, cv::NORM_INF), 0.0);
+  options.column_begin = 40;
+  EXPECT_THROW(render_skin_scene(options, weights), std::invalid_argument);
+  options.column_begin = options.column_count = 0;
+  options.row_begin = 40;
+  options.row_count = 9;
+  EXPECT_THROW(render_skin_scene(options, weights), std::invalid_argument);
+  options.row_count = 8;
+  EXPECT_EQ(render_skin_scene(options, weights, 3).regions.rows, 8);
+  EXPECT_THROW(render_skin_scene(options, weights, 0), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace chromo::simulators

@@ -61,6 +61,11 @@ class CameraModel {
   // Returns CV_16U (mono, Bayer) or CV_16UC3 (three-channel) DN in 0..max_dn().
   cv::Mat expose(const cv::Mat& response_rgb, SensorLayout layout, int phase_x, int phase_y, double exposure_us,
                  double gain_db, std::uint64_t frame_index) const;
+  // The same readout without noise: expected_dn() of every sample (no shot,
+  // read or quantisation noise; full well and ADC range as hard clamps), as
+  // CV_32F (mono, Bayer) or CV_32FC3 DN — the noise-free frame of a bench.
+  cv::Mat expected(const cv::Mat& response_rgb, SensorLayout layout, int phase_x, int phase_y, double exposure_us,
+                   double gain_db) const;
 
  private:
   CameraModelOptions options_;

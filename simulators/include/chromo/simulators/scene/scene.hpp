@@ -81,7 +81,15 @@ struct SkinSceneOptions {
   int height = 512;
   std::uint64_t seed = 1;
   bool white_patch = true;  // a white target strip along the right edge (1/10 of the width)
-  int threads = 0;          // for SkinModel::albedo_batch; 0 = all cores
+  int threads = 0;          // for SkinModel::albedo_batch and the per-pixel loops; 0 = all cores
+  // A window of the scene: rows [row_begin, row_begin + row_count) and
+  // columns [column_begin, column_begin + column_count) of the width × height
+  // scene (same fields, moles, vein... as the whole scene; the window's pixel
+  // (0, 0) is the scene's (column_begin, row_begin)). A count of 0: all.
+  int row_begin = 0;
+  int row_count = 0;
+  int column_begin = 0;
+  int column_count = 0;
 
   bool IsValid(std::string* error) const;
 };
@@ -90,6 +98,21 @@ struct SkinSceneOptions {
 // moles (high Cm, explainable), a vein, a tattoo, a marker stroke, hair, a
 // specular highlight and (optionally) the white target strip.
 Scene make_skin_scene(const SkinSceneOptions& options);
+
+// make_skin_scene(options)'s response under each of `weights` (Scene::render)
+// and its region labels and truth maps (of options' window), rendered band by
+// band (band_rows rows at a time) so that the albedo cube is never held
+// whole: a 2592×1944 scene's is 1.6 GB of floats, a band of 128 rows 107 MB.
+// Identical to make_skin_scene(options).render(w) for every w (the bands are
+// the same scene's rows). Throws std::invalid_argument for bad options or
+// band_rows < 1.
+struct SkinSceneResponse {
+  std::vector<cv::Mat> responses;  // CV_32FC(weights[k].rows()) each, height × width
+  cv::Mat regions, cm, ch, bm, che;
+};
+using SceneWeights = Eigen::Matrix<double, Eigen::Dynamic, spectral::kGridSize>;
+SkinSceneResponse render_skin_scene(const SkinSceneOptions& options, const std::vector<SceneWeights>& weights,
+                                    int band_rows = 128);
 
 // A scene that is all white target (for white-reference captures).
 Scene make_white_target_scene(int width, int height);
