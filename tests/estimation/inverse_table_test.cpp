@@ -103,7 +103,7 @@ TEST(InverseTable, EveryStoredBranchIsFittedExactly) {
     table->predict({b.x0[0], b.x0[1], b.x0[2], b.x0[3]}, m);
     FastPath path;
     const Fit f = fast.fit(m, w.data(), 4, &path);
-    exact += f.chi2 <= FastInverter::kConvergedChi2;
+    exact += f.chi2 <= FastInverterOptions{}.converged_chi2;
     presolved += path == FastPath::kPresolved;
   }
   ASSERT_EQ(multi, 200);
