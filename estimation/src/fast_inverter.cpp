@@ -19,6 +19,7 @@ bool FastInverterOptions::IsValid(std::string* error) const {
   };
   if (newton_steps < 0 || newton_steps > 1000) return fail("newton_steps must be in 0..1000");
   if (chord_steps < 0 || chord_steps > 1000) return fail("chord_steps must be in 0..1000");
+  if (!(face_stall_relative >= 0 && face_stall_relative < 1)) return fail("face_stall_relative must be in [0, 1)");
   if (!(converged_chi2 >= 0)) return fail("converged_chi2 must be >= 0");
   if (!(presolved_accept_chi2 >= converged_chi2)) return fail("presolved_accept_chi2 must be >= converged_chi2");
   return true;
@@ -150,8 +151,10 @@ bool gauss_newton(const FastInverter& inverter, const double* measured, const do
       }
     }
     // A coordinate at its bound whose gradient points outward is held.
+    bool held = false;
     for (int k = 0; k < 4; ++k) {
       if ((best.x[k] <= 0 && gradient[k] > 0) || (best.x[k] >= upper[k] && gradient[k] < 0)) {
+        held = true;
         for (int i = 0; i < 4; ++i) jtj[k * 4 + i] = jtj[i * 4 + k] = 0;
         jtj[k * 4 + k] = 1, gradient[k] = 0;
       } else {
@@ -169,8 +172,12 @@ bool gauss_newton(const FastInverter& inverter, const double* measured, const do
       }
       evaluate(inverter, measured, weight, trial);
       if (trial.chi2 < best.chi2) {
-        converged = trial.chi2 <= options.converged_chi2 || moved < 1e-3f ||
-                    best.chi2 - trial.chi2 < 1e-4 * best.chi2;
+        // Stalled: χ² fell by less than 10⁻⁴ of itself, or on a bound face
+        // (noisy pixels off the gamut's sheet) by less than face_stall_relative
+        // once it is acceptable anyway (never where the search path would follow).
+        const double stall =
+            held && trial.chi2 <= options.presolved_accept_chi2 ? std::max(options.face_stall_relative, 1e-4) : 1e-4;
+        converged = trial.chi2 <= options.converged_chi2 || moved < 1e-3f || best.chi2 - trial.chi2 < stall * best.chi2;
         best = trial, improved = true;
       }
     }

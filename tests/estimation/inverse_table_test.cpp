@@ -159,6 +159,37 @@ TEST(FastInverter, NoisyPixelsOnABoundFaceGetAFiniteBoundedFit) {
   }
 }
 
+// On a bound face with an acceptable χ² Gauss-Newton stops once a step
+// gains less than face_stall_relative of χ²: fewer iterations for noisy
+// pixels, and the same acceptance (no pixel crosses presolved_accept_chi2,
+// so none newly takes the search path) at nearly the same χ².
+TEST(FastInverter, FaceStallSavesIterationsOnNoisyPixels) {
+  const auto table = testing::method_table();
+  FastInverterOptions crawl;
+  crawl.face_stall_relative = 0;
+  const FastInverter fast(table, method_inverse_table()), crawling(table, method_inverse_table(), crawl);
+  MeasurementSet set = testing::method_set();
+  SyntheticOptions o;
+  o.pixels = 400;
+  o.seed = 27;
+  const SyntheticFrame f = make_synthetic_frame(set, o);
+  int iterations = 0, crawl_iterations = 0, same_path = 0;
+  double chi2 = 0, crawl_chi2 = 0;
+  for (std::size_t i = 0; i < f.pixels(); ++i) {
+    double m[4], w[4];
+    for (int c = 0; c < 4; ++c) m[c] = f.noisy[i * 4 + c];
+    estimator_weights(set, m, w);
+    FastPath path, crawl_path;
+    const Fit a = fast.fit(m, w, 4, &path), b = crawling.fit(m, w, 4, &crawl_path);
+    iterations += a.iterations, crawl_iterations += b.iterations;
+    chi2 += a.chi2, crawl_chi2 += b.chi2;
+    same_path += path == crawl_path;
+  }
+  EXPECT_LT(iterations, crawl_iterations * 9 / 10);
+  EXPECT_LT(chi2, crawl_chi2 * 1.05);
+  EXPECT_GE(same_path, static_cast<int>(f.pixels()) - 2);
+}
+
 TEST(FastInverter, OptionsAreValidated) {
   std::string error;
   EXPECT_TRUE(FastInverterOptions{}.IsValid(&error));
@@ -168,6 +199,9 @@ TEST(FastInverter, OptionsAreValidated) {
   EXPECT_NE(error.find("chord_steps"), std::string::npos);
   bad = {};
   bad.converged_chi2 = 5;  // above the acceptance χ²
+  EXPECT_FALSE(bad.IsValid(&error));
+  bad = {};
+  bad.face_stall_relative = 1;
   EXPECT_FALSE(bad.IsValid(&error));
   bad = {};
   bad.newton_steps = -2;

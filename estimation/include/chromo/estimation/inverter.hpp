@@ -23,7 +23,9 @@
 //    halves χ² (no Jacobian, no solve); then, unless χ² ≤
 //    Options::converged_chi2 already, bounded Gauss-Newton on the
 //    interpolated table (Newton where no bound is active) until χ² ≤
-//    converged_chi2 or the step stalls, at most Options::newton_steps. A
+//    converged_chi2 or the step stalls (on a bound face with an acceptable
+//    χ²: gains below Options::face_stall_relative), at most
+//    Options::newton_steps. A
 //    converged fit with χ² ≤ Options::presolved_accept_chi2 is the answer
 //    (≈ 99.7% of noise-free and ≈ 91-95% of noisy in-gamut skin pixels).
 //    Otherwise (far outside the gamut, several bounded local minima, no
@@ -125,6 +127,11 @@ struct FastInverterOptions {
   double converged_chi2 = 0.01;       // stop (and skip Gauss-Newton) at or below this χ²
   int chord_steps = 3;                // linear steps with the cell's stored J⁺ before Gauss-Newton
   double presolved_accept_chi2 = 4;   // a converged fit above this: the search path too (see fit())
+  // Gauss-Newton with a coordinate held at its bound and χ² ≤
+  // presolved_accept_chi2 stops when a step lowers χ² by less than this
+  // share of it (elsewhere 10⁻⁴): noisy pixels off the gamut's thin sheet
+  // crawl along a bound face in small steps that do not change their colour.
+  double face_stall_relative = 0.05;
   bool IsValid(std::string* error) const;
 };
 
