@@ -94,6 +94,11 @@ class Inverter {
   GridPoint node_descent(const double* measured, const double* weight, int order, GridPoint start,
                          bool diagonal_moves = true) const;
 
+  // The table's value (and Jacobian, when not null) at x for refine():
+  // ForwardTable::predict here; FastInverter's float interpolation for
+  // 4-channel tables.
+  virtual void interpolate(const GridPoint& x, double* value, double* jacobian) const;
+
   // χ² of `count` contiguous nodes' values; updates best/best_index (index in 0..count-1).
   static void scan_nodes(int channels, const float* values, int count, const float* measured, const float* weight,
                          float& best, int& best_index);
@@ -169,6 +174,7 @@ class FastInverter : public Inverter {
   Fit fit_by_search(const double* measured, const double* weight, int order) const;
   GridPoint seed_point(std::uint32_t node) const;
   std::array<float, 4> upper_bounds() const;  // largest grid coordinate per axis
+  void interpolate(const GridPoint& x, double* value, double* jacobian) const override;
 };
 
 }  // namespace chromo::estimation
