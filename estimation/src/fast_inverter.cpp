@@ -52,6 +52,29 @@ void FastInverter::init() {
   step_[0] = t.node_offset(1, 0, 0, 0), step_[1] = t.node_offset(0, 1, 0, 0);
   step_[2] = t.node_offset(0, 0, 1, 0), step_[3] = t.node_offset(0, 0, 0, 1);
   presolved_ = channels == 4 && inverse_->branch_count() > 0;
+  // The nodes node_search(…, 4, kCoarseStride) visits, in its order.
+  const auto n = t.nodes();
+  const int outer = std::max(1, kCoarseStride / 2);
+  for (int i_bm = 0; i_bm < n[2]; i_bm += outer)
+    for (int i_che = 0; i_che < n[3]; i_che += outer)
+      for (int i_cm = 0; i_cm < n[0]; i_cm += kCoarseStride)
+        for (int i_ch = 0; i_ch < n[1]; i_ch += kCoarseStride) {
+          const float* v = t.node(i_cm, i_ch, i_bm, i_che);
+          coarse_values_.insert(coarse_values_.end(), v, v + channels);
+          coarse_nodes_.push_back({i_cm, i_ch, i_bm, i_che});
+        }
+}
+
+GridPoint FastInverter::coarse_search(const double* measured, const double* weight) const {
+  const int channels = table_->channels();
+  float m[kMaxChannels], w[kMaxChannels];
+  for (int c = 0; c < channels; ++c) m[c] = static_cast<float>(measured[c]), w[c] = static_cast<float>(weight[c]);
+  float best = std::numeric_limits<float>::infinity();
+  int best_index = -1;
+  scan_nodes(channels, coarse_values_.data(), static_cast<int>(coarse_nodes_.size()), m, w, best, best_index);
+  if (best_index < 0) return {0, 0, bm_2d_coordinate(), 0};  // as node_search: no finite χ²
+  const auto& at = coarse_nodes_[best_index];
+  return {double(at[0]), double(at[1]), double(at[2]), double(at[3])};
 }
 
 double FastInverter::filled_share() const { return inverse_->filled_share(); }
@@ -300,7 +323,7 @@ Fit FastInverter::fit_by_search(const double* measured, const double* weight, in
                static_cast<int>(cell.bucket_count), m, w, best, best_index);
     start = seed_point(inverse_->bucket_nodes()[cell.bucket_begin + best_index]);
   } else {
-    start = node_search(measured, weight, 4, 4);  // outside the inverse table: coarse search
+    start = coarse_search(measured, weight);  // outside the inverse table: node_search(…, 4, 4), contiguous
   }
   return refine(measured, weight, order, node_descent(measured, weight, order, start, !in_table), 20);
 }

@@ -166,6 +166,13 @@ class FastInverter : public Inverter {
   Options options_;
   std::shared_ptr<const InverseTable> inverse_;
   std::vector<float> bucket_values_;  // table values of inverse_->bucket_nodes(), same order
+  // node_search(…, 4, kCoarseStride)'s nodes, contiguous in its visiting
+  // order (the seed of measurements outside the inverse table, e.g. the
+  // Estimator's specular refits): one vectorised scan instead of a strided walk.
+  static constexpr int kCoarseStride = 4;
+  std::vector<float> coarse_values_;
+  std::vector<std::array<int, 4>> coarse_nodes_;
+  GridPoint coarse_search(const double* measured, const double* weight) const;
   std::size_t step_[4] = {};          // floats between neighbouring nodes along each axis
   bool presolved_ = false;            // 4 channels: the linear-step path is available
   void init();
