@@ -97,6 +97,8 @@ bool EstimatorOptions::IsValid(std::string* error) const {
   if (!(model_sigma_relative >= 0)) return fail("model_sigma_relative must be >= 0");
   if (threads < 0) return fail("threads must be >= 0");
   if (tile_pixels < 1) return fail("tile_pixels must be >= 1");
+  std::string fast_error;
+  if (!fast.IsValid(&fast_error)) return fail("fast: " + fast_error);
   return true;
 }
 
@@ -109,10 +111,11 @@ void EstimateSummary::merge(const EstimateSummary& o) {
 }
 
 std::unique_ptr<Inverter> make_inverter(InverterMethod method, std::shared_ptr<const ForwardTable> table,
-                                        const std::filesystem::path& cache_dir) {
+                                        const std::filesystem::path& cache_dir,
+                                        const FastInverterOptions& fast_options) {
   switch (method) {
     case InverterMethod::kExhaustive: return std::make_unique<ExhaustiveInverter>(std::move(table));
-    case InverterMethod::kFast: return std::make_unique<FastInverter>(std::move(table), cache_dir);
+    case InverterMethod::kFast: return std::make_unique<FastInverter>(std::move(table), cache_dir, fast_options);
     case InverterMethod::k2d: return std::make_unique<TwoDInverter>(std::move(table));
   }
   throw std::invalid_argument("unknown inverter method");
@@ -126,7 +129,7 @@ Estimator::Estimator(std::shared_ptr<const ForwardTable> table, MeasurementSet s
   if (!table_ || table_->channels() != set_.size())
     throw std::invalid_argument("estimator: the table's channel count does not match the measurement set's");
   if (options_.method == InverterMethod::k2d) options_.model = ModelChoice::k2d;
-  inverter_ = make_inverter(options_.method, table_, options_.cache_dir);
+  inverter_ = make_inverter(options_.method, table_, options_.cache_dir, options_.fast);
   // The 2D fit of the auto test: the fast inverter's own order-2 path, or the
   // exhaustive slice search for the exhaustive reference.
   const int c = set_.size();

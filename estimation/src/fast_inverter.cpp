@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <stdexcept>
 
 #include "chromo/estimation/inverse_table.hpp"
 #include "chromo/estimation/inverter.hpp"
@@ -11,14 +12,33 @@
 
 namespace chromo::estimation {
 
-FastInverter::FastInverter(std::shared_ptr<const ForwardTable> table, const std::filesystem::path& cache_dir)
-    : Inverter(table) {
+bool FastInverterOptions::IsValid(std::string* error) const {
+  auto fail = [&](const char* m) {
+    if (error) *error = m;
+    return false;
+  };
+  if (newton_steps < 0 || newton_steps > 1000) return fail("newton_steps must be in 0..1000");
+  if (chord_steps < 0 || chord_steps > 1000) return fail("chord_steps must be in 0..1000");
+  if (!(face_stall_relative >= 0 && face_stall_relative < 1)) return fail("face_stall_relative must be in [0, 1)");
+  if (!(converged_chi2 >= 0)) return fail("converged_chi2 must be >= 0");
+  if (!(presolved_accept_chi2 >= converged_chi2)) return fail("presolved_accept_chi2 must be >= converged_chi2");
+  return true;
+}
+
+FastInverter::FastInverter(std::shared_ptr<const ForwardTable> table, const std::filesystem::path& cache_dir,
+                           Options options)
+    : Inverter(table), options_(options) {
+  std::string error;
+  if (!options_.IsValid(&error)) throw std::invalid_argument("fast inverter options: " + error);
   inverse_ = InverseTable::load_or_build(table_, cache_dir.empty() ? ForwardTable::default_cache_dir() : cache_dir);
   init();
 }
 
-FastInverter::FastInverter(std::shared_ptr<const ForwardTable> table, std::shared_ptr<const InverseTable> inverse)
-    : Inverter(std::move(table)), inverse_(std::move(inverse)) {
+FastInverter::FastInverter(std::shared_ptr<const ForwardTable> table, std::shared_ptr<const InverseTable> inverse,
+                           Options options)
+    : Inverter(std::move(table)), options_(options), inverse_(std::move(inverse)) {
+  std::string error;
+  if (!options_.IsValid(&error)) throw std::invalid_argument("fast inverter options: " + error);
   init();
 }
 
@@ -32,6 +52,29 @@ void FastInverter::init() {
   step_[0] = t.node_offset(1, 0, 0, 0), step_[1] = t.node_offset(0, 1, 0, 0);
   step_[2] = t.node_offset(0, 0, 1, 0), step_[3] = t.node_offset(0, 0, 0, 1);
   presolved_ = channels == 4 && inverse_->branch_count() > 0;
+  // The nodes node_search(…, 4, kCoarseStride) visits, in its order.
+  const auto n = t.nodes();
+  const int outer = std::max(1, kCoarseStride / 2);
+  for (int i_bm = 0; i_bm < n[2]; i_bm += outer)
+    for (int i_che = 0; i_che < n[3]; i_che += outer)
+      for (int i_cm = 0; i_cm < n[0]; i_cm += kCoarseStride)
+        for (int i_ch = 0; i_ch < n[1]; i_ch += kCoarseStride) {
+          const float* v = t.node(i_cm, i_ch, i_bm, i_che);
+          coarse_values_.insert(coarse_values_.end(), v, v + channels);
+          coarse_nodes_.push_back({i_cm, i_ch, i_bm, i_che});
+        }
+}
+
+GridPoint FastInverter::coarse_search(const double* measured, const double* weight) const {
+  const int channels = table_->channels();
+  float m[kMaxChannels], w[kMaxChannels];
+  for (int c = 0; c < channels; ++c) m[c] = static_cast<float>(measured[c]), w[c] = static_cast<float>(weight[c]);
+  float best = std::numeric_limits<float>::infinity();
+  int best_index = -1;
+  scan_nodes(channels, coarse_values_.data(), static_cast<int>(coarse_nodes_.size()), m, w, best, best_index);
+  if (best_index < 0) return {0, 0, bm_2d_coordinate(), 0};  // as node_search: no finite χ²
+  const auto& at = coarse_nodes_[best_index];
+  return {double(at[0]), double(at[1]), double(at[2]), double(at[3])};
 }
 
 double FastInverter::filled_share() const { return inverse_->filled_share(); }
@@ -88,53 +131,38 @@ void FastInverter::predict4(const float* x, float* value, float* jacobian) const
     }
 }
 
-bool FastInverter::fit_presolved(const double* measured, const double* weight, Fit& fit) const {
-  float m[4];
-  for (int c = 0; c < 4; ++c) m[c] = static_cast<float>(measured[c]);
-  const std::uint32_t cell_index = inverse_->cell_of(m);
-  if (cell_index == InverseTable::kNoCell) return false;
-  const InverseTable::Cell& cell = inverse_->cell(cell_index);
-  const auto n = table_->nodes();
-  const float upper[4] = {float(n[0] - 1), float(n[1] - 1), float(n[2] - 1), float(n[3] - 1)};
-  // The current point with its prediction and Jacobian (the next step needs both).
-  struct Point {
-    float x[4], predicted[4], jacobian[16];
-    double chi2 = std::numeric_limits<double>::infinity();
-  };
-  auto evaluate = [&](Point& p) {
-    predict4(p.x, p.predicted, p.jacobian);
-    p.chi2 = 0;
-    for (int c = 0; c < 4; ++c) {
-      const double r = (p.predicted[c] - measured[c]) * weight[c];
-      p.chi2 += r * r;
-    }
-  };
-  // Per branch: the linear step, and the branch's own solution where the
-  // step overshoots (strongly curved cells). The smallest χ² wins.
-  Point best, trial;
-  const InverseTable::Branch* branches = inverse_->branches(cell);
-  for (std::uint32_t b = 0; b < cell.branch_count && best.chi2 > kConvergedChi2; ++b) {
-    const InverseTable::Branch& branch = branches[b];
-    for (int k = 0; k < 4; ++k) {
-      float step = 0;
-      for (int c = 0; c < 4; ++c) step += branch.jinv[k * 4 + c] * (m[c] - branch.m0[c]);
-      trial.x[k] = std::clamp(branch.x0[k] + step, 0.0f, upper[k]);
-    }
-    evaluate(trial);
-    if (trial.chi2 < best.chi2) best = trial;
-    if (trial.chi2 > kPresolvedAcceptChi2) {
-      std::copy_n(branch.x0, 4, trial.x);
-      evaluate(trial);
-      if (trial.chi2 < best.chi2) best = trial;
-    }
+namespace {
+
+// A point of the 4-channel Gauss-Newton with its prediction and Jacobian (the next step needs both).
+struct Point {
+  float x[4], predicted[4], jacobian[16];
+  double chi2 = std::numeric_limits<double>::infinity();
+  bool has_jacobian = false;
+};
+
+// χ² of p.x (prediction, and the Jacobian when asked for, filled in).
+void evaluate(const FastInverter& inverter, const double* measured, const double* weight, Point& p,
+              bool with_jacobian = true) {
+  inverter.predict4(p.x, p.predicted, with_jacobian ? p.jacobian : nullptr);
+  p.has_jacobian = with_jacobian;
+  p.chi2 = 0;
+  for (int c = 0; c < 4; ++c) {
+    const double r = (p.predicted[c] - measured[c]) * weight[c];
+    p.chi2 += r * r;
   }
-  if (!std::isfinite(best.chi2)) return false;
-  // Bounded Gauss-Newton on the interpolated table (Newton where no bound is
-  // active: four channels, four parameters), with backtracking: the
-  // interpolant is only piecewise multilinear.
-  bool converged = best.chi2 <= kConvergedChi2;
-  int iterations = 0;
-  for (; iterations < kNewtonSteps && !converged; ++iterations) {
+}
+
+// Bounded Gauss-Newton on the interpolated table from `best` (evaluated)
+// (Newton where no bound is active: four channels, four parameters), with
+// backtracking: the interpolant is only piecewise multilinear. True when it
+// converged (χ² ≤ converged_chi2, a stalled step or a bounded minimum).
+bool gauss_newton(const FastInverter& inverter, const double* measured, const double* weight, const float* upper,
+                  Point& best, int& iterations) {
+  const FastInverterOptions& options = inverter.options();
+  bool converged = best.chi2 <= options.converged_chi2;
+  if (!converged && !best.has_jacobian) evaluate(inverter, measured, weight, best);
+  Point trial;
+  for (iterations = 0; iterations < options.newton_steps && !converged; ++iterations) {
     double jtj[16] = {}, gradient[4] = {};
     for (int c = 0; c < 4; ++c) {
       const double r = (best.predicted[c] - measured[c]) * weight[c];
@@ -146,8 +174,10 @@ bool FastInverter::fit_presolved(const double* measured, const double* weight, F
       }
     }
     // A coordinate at its bound whose gradient points outward is held.
+    bool held = false;
     for (int k = 0; k < 4; ++k) {
       if ((best.x[k] <= 0 && gradient[k] > 0) || (best.x[k] >= upper[k] && gradient[k] < 0)) {
+        held = true;
         for (int i = 0; i < 4; ++i) jtj[k * 4 + i] = jtj[i * 4 + k] = 0;
         jtj[k * 4 + k] = 1, gradient[k] = 0;
       } else {
@@ -163,19 +193,97 @@ bool FastInverter::fit_presolved(const double* measured, const double* weight, F
         trial.x[k] = std::clamp(best.x[k] - std::clamp(scale * static_cast<float>(step[k]), -4.0f, 4.0f), 0.0f, upper[k]);
         moved = std::max(moved, std::abs(trial.x[k] - best.x[k]));
       }
-      evaluate(trial);
+      evaluate(inverter, measured, weight, trial);
       if (trial.chi2 < best.chi2) {
-        converged = trial.chi2 <= kConvergedChi2 || moved < 1e-3f || best.chi2 - trial.chi2 < 1e-4 * best.chi2;
+        // Stalled: χ² fell by less than 10⁻⁴ of itself, or on a bound face
+        // (noisy pixels off the gamut's sheet) by less than face_stall_relative
+        // once it is acceptable anyway (never where the search path would follow).
+        const double stall =
+            held && trial.chi2 <= options.presolved_accept_chi2 ? std::max(options.face_stall_relative, 1e-4) : 1e-4;
+        converged = trial.chi2 <= options.converged_chi2 || moved < 1e-3f || best.chi2 - trial.chi2 < stall * best.chi2;
         best = trial, improved = true;
       }
     }
     if (!improved) converged = true;  // no descent along the GN direction: a (bounded) minimum
   }
-  fit.x = {best.x[0], best.x[1], best.x[2], best.x[3]};
-  fit.chi2 = best.chi2;
+  return converged;
+}
+
+void store(const Point& p, int iterations, Fit& fit) {
+  fit.x = {p.x[0], p.x[1], p.x[2], p.x[3]};
+  fit.chi2 = p.chi2;
   fit.iterations = iterations;
   fit.has_prediction = true;
-  std::copy_n(best.predicted, 4, fit.predicted);
+  std::copy_n(p.predicted, 4, fit.predicted);
+}
+
+}  // namespace
+
+std::array<float, 4> FastInverter::upper_bounds() const {
+  const auto n = table_->nodes();
+  return {float(n[0] - 1), float(n[1] - 1), float(n[2] - 1), float(n[3] - 1)};
+}
+
+// The search path's LM (refine()) through the float interpolation: the
+// generic double-precision one cost ≈ 10× as much per call.
+void FastInverter::interpolate(const GridPoint& x, double* value, double* jacobian) const {
+  if (!presolved_) return Inverter::interpolate(x, value, jacobian);
+  const float xf[4] = {float(x[0]), float(x[1]), float(x[2]), float(x[3])};
+  float v[4], j[16];
+  predict4(xf, v, jacobian ? j : nullptr);
+  std::copy_n(v, 4, value);
+  if (jacobian) std::copy_n(j, 16, jacobian);
+}
+
+bool FastInverter::fit_presolved(const double* measured, const double* weight, Fit& fit) const {
+  float m[4];
+  for (int c = 0; c < 4; ++c) m[c] = static_cast<float>(measured[c]);
+  const std::uint32_t cell_index = inverse_->cell_of(m);
+  if (cell_index == InverseTable::kNoCell) return false;
+  const InverseTable::Cell& cell = inverse_->cell(cell_index);
+  const std::array<float, 4> upper = upper_bounds();
+  // Per branch: the linear step, and the branch's own solution where the
+  // step overshoots (strongly curved cells). The smallest χ² wins.
+  Point best, trial;
+  const InverseTable::Branch* branches = inverse_->branches(cell);
+  const InverseTable::Branch* best_branch = nullptr;
+  for (std::uint32_t b = 0; b < cell.branch_count && best.chi2 > options_.converged_chi2; ++b) {
+    const InverseTable::Branch& branch = branches[b];
+    for (int k = 0; k < 4; ++k) {
+      float step = 0;
+      for (int c = 0; c < 4; ++c) step += branch.jinv[k * 4 + c] * (m[c] - branch.m0[c]);
+      trial.x[k] = std::clamp(branch.x0[k] + step, 0.0f, upper[k]);
+    }
+    evaluate(*this, measured, weight, trial, false);
+    if (trial.chi2 < best.chi2) best = trial, best_branch = &branch;
+    if (trial.chi2 > options_.presolved_accept_chi2) {
+      std::copy_n(branch.x0, 4, trial.x);
+      evaluate(*this, measured, weight, trial, false);
+      if (trial.chi2 < best.chi2) best = trial, best_branch = &branch;
+    }
+  }
+  if (!std::isfinite(best.chi2)) return false;
+  // Chord steps: the branch's stored J⁺ again from the current point (no
+  // Jacobian, no solve), while each halves χ² at least; Gauss-Newton then
+  // takes over where they stall (a bound, a dropped direction, curvature).
+  for (int s = 0; s < options_.chord_steps && best_branch->has_step() && best.chi2 > options_.converged_chi2; ++s) {
+    float r[4];
+    for (int c = 0; c < 4; ++c) r[c] = m[c] - best.predicted[c];
+    for (int k = 0; k < 4; ++k) {
+      float step = 0;
+      for (int c = 0; c < 4; ++c) step += best_branch->jinv[k * 4 + c] * r[c];
+      trial.x[k] = std::clamp(best.x[k] + step, 0.0f, upper[k]);
+    }
+    evaluate(*this, measured, weight, trial, false);
+    if (!(trial.chi2 < 0.5 * best.chi2)) {
+      if (trial.chi2 < best.chi2) best = trial;
+      break;
+    }
+    best = trial;
+  }
+  int iterations = 0;
+  const bool converged = gauss_newton(*this, measured, weight, upper.data(), best, iterations);
+  store(best, iterations, fit);
   return converged;
 }
 
@@ -188,7 +296,7 @@ Fit FastInverter::fit(const double* measured, const double* weight, int order, F
   presolved.chi2 = std::numeric_limits<double>::infinity();
   if (order == 4 && presolved_) {
     const bool converged = fit_presolved(measured, weight, presolved);
-    if (converged && presolved.chi2 <= kPresolvedAcceptChi2) {
+    if (converged && presolved.chi2 <= options_.presolved_accept_chi2) {
       if (path) *path = FastPath::kPresolved;
       return presolved;
     }
@@ -215,7 +323,7 @@ Fit FastInverter::fit_by_search(const double* measured, const double* weight, in
                static_cast<int>(cell.bucket_count), m, w, best, best_index);
     start = seed_point(inverse_->bucket_nodes()[cell.bucket_begin + best_index]);
   } else {
-    start = node_search(measured, weight, 4, 4);  // outside the inverse table: coarse search
+    start = coarse_search(measured, weight);  // outside the inverse table: node_search(…, 4, 4), contiguous
   }
   return refine(measured, weight, order, node_descent(measured, weight, order, start, !in_table), 20);
 }

@@ -29,6 +29,10 @@ Eigen::Vector4d solve_spd(const Eigen::Matrix4d& a, const Eigen::Vector4d& b) {
 
 }  // namespace
 
+void Inverter::interpolate(const GridPoint& x, double* value, double* jacobian) const {
+  table_->predict(x, value, jacobian);
+}
+
 Fit Inverter::refine(const double* measured, const double* weight, int order, GridPoint x, int max_iterations) const {
   const int channels = table_->channels();
   const auto nodes = table_->nodes();
@@ -38,7 +42,7 @@ Fit Inverter::refine(const double* measured, const double* weight, int order, Gr
 
   double predicted[kMaxChannels], jacobian[kMaxChannels * 4];
   auto evaluate = [&](const GridPoint& at, bool with_jacobian) {
-    table_->predict(at, predicted, with_jacobian ? jacobian : nullptr);
+    interpolate(at, predicted, with_jacobian ? jacobian : nullptr);
     double chi2 = 0;
     for (int c = 0; c < channels; ++c) {
       const double r = (predicted[c] - measured[c]) * weight[c];
@@ -103,7 +107,7 @@ Fit Inverter::refine(const double* measured, const double* weight, int order, Gr
       }
     }
     if (!accepted) {
-      table_->predict(fit.x, predicted, jacobian);  // restore the Jacobian at the accepted point
+      interpolate(fit.x, predicted, jacobian);  // restore the Jacobian at the accepted point
       return fit;
     }
   }

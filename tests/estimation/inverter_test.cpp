@@ -36,7 +36,7 @@ TEST(FastInverter, NodeValuesAreFittedExactly) {
     const float* v = table->node(i_cm, i_ch, i_bm, i_che);
     for (int c = 0; c < table->channels(); ++c) m[c] = v[c];
     const Fit f = fast.fit(m, w.data(), 4);
-    if (f.chi2 <= FastInverter::kConvergedChi2) ++exact;
+    if (f.chi2 <= FastInverterOptions{}.converged_chi2) ++exact;
   }
   EXPECT_GE(exact, trials * 99 / 100);
 }

@@ -93,6 +93,8 @@ struct EstimatorOptions {
   int tile_pixels = 16384;        // estimate(): pixels per tile
   // Where the fast method's inverse table is cached (empty: ForwardTable::default_cache_dir()).
   std::filesystem::path cache_dir;
+  // The fast inverter's stopping and acceptance settings (inverter.hpp).
+  FastInverterOptions fast;
   bool IsValid(std::string* error) const;
 };
 
@@ -159,6 +161,7 @@ class Estimator {
 };
 
 std::unique_ptr<Inverter> make_inverter(InverterMethod method, std::shared_ptr<const ForwardTable> table,
-                                        const std::filesystem::path& cache_dir = {});
+                                        const std::filesystem::path& cache_dir = {},
+                                        const FastInverterOptions& fast_options = {});
 
 }  // namespace chromo::estimation

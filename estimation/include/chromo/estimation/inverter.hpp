@@ -17,18 +17,24 @@
 //    (inverse_table.hpp, cached on disk next to the forward table). For a
 //    4-channel set in 4D a pixel costs one cell lookup; per branch of the
 //    non-unique inverse stored for its cell, a linear step x0 + J⁺·(m − m0)
-//    and one float interpolation for its χ² (and the branch's own x0 when the
-//    step overshoots); then bounded Gauss-Newton from the best of them on the
+//    and one float interpolation (value only) for its χ² (and the branch's
+//    own x0 when the step overshoots); then up to Options::chord_steps chord
+//    steps x += J⁺·(m − f(x)) with the best branch's stored J⁺ while each
+//    halves χ² (no Jacobian, no solve); then, unless χ² ≤
+//    Options::converged_chi2 already, bounded Gauss-Newton on the
 //    interpolated table (Newton where no bound is active) until χ² ≤
-//    kConvergedChi2 or the step stalls, at most kNewtonSteps. A converged fit
-//    with χ² ≤ kPresolvedAcceptChi2 is the answer (99.7% of noise-free and
-//    ~91% of noisy in-gamut skin pixels). Otherwise (far outside the gamut,
-//    several bounded local minima, no convergence) the search path too, and
-//    the smaller χ² wins: the best χ² node of the cell's node bucket (every
-//    branch reaching the cell competes), descent over neighbouring nodes,
-//    ≤ 20 bounded LM steps; outside the table a coarse node search seeds it.
-//    Order 2, and sets of other than four channels, use the search path
-//    only (order 2 from the 4D seed projected onto the 2D slice).
+//    converged_chi2 or the step stalls (on a bound face with an acceptable
+//    χ²: gains below Options::face_stall_relative), at most
+//    Options::newton_steps. A
+//    converged fit with χ² ≤ Options::presolved_accept_chi2 is the answer
+//    (≈ 99.7% of noise-free and ≈ 91-95% of noisy in-gamut skin pixels).
+//    Otherwise (far outside the gamut, several bounded local minima, no
+//    convergence) the search path too, and the smaller χ² wins: the best χ²
+//    node of the cell's node bucket (every branch reaching the cell
+//    competes), descent over neighbouring nodes, ≤ 20 bounded LM steps
+//    (refine()); outside the table a coarse node search seeds it. Order 2,
+//    and sets of other than four channels, use the search path only (order
+//    2 from the 4D seed projected onto the 2D slice).
 //  - TwoDInverter: ExhaustiveInverter restricted to the 2D slice for every
 //    order (the 2D model of Jimenez et al. as the seed uses it).
 //
@@ -36,9 +42,11 @@
 // called concurrently from any number of threads. They hold a shared_ptr to
 // the table.
 
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -86,6 +94,11 @@ class Inverter {
   GridPoint node_descent(const double* measured, const double* weight, int order, GridPoint start,
                          bool diagonal_moves = true) const;
 
+  // The table's value (and Jacobian, when not null) at x for refine():
+  // ForwardTable::predict here; FastInverter's float interpolation for
+  // 4-channel tables.
+  virtual void interpolate(const GridPoint& x, double* value, double* jacobian) const;
+
   // χ² of `count` contiguous nodes' values; updates best/best_index (index in 0..count-1).
   static void scan_nodes(int channels, const float* values, int count, const float* measured, const float* weight,
                          float& best, int& best_index);
@@ -112,14 +125,31 @@ class InverseTable;
 // How FastInverter's fit of a pixel ended (counted by fit_path_counts()).
 enum class FastPath { kPresolved, kSearched, kCount };
 
+// FastInverter's stopping and acceptance settings (χ² in the units of fit():
+// noise-weighted, so 1 is one σ of camera noise in one channel).
+struct FastInverterOptions {
+  int newton_steps = 16;              // at most this many Gauss-Newton iterations after the linear step
+  double converged_chi2 = 0.01;       // stop (and skip Gauss-Newton) at or below this χ²
+  int chord_steps = 3;                // linear steps with the cell's stored J⁺ before Gauss-Newton
+  double presolved_accept_chi2 = 4;   // a converged fit above this: the search path too (see fit())
+  // Gauss-Newton with a coordinate held at its bound and χ² ≤
+  // presolved_accept_chi2 stops when a step lowers χ² by less than this
+  // share of it (elsewhere 10⁻⁴): noisy pixels off the gamut's thin sheet
+  // crawl along a bound face in small steps that do not change their colour.
+  double face_stall_relative = 0.05;
+  bool IsValid(std::string* error) const;
+};
+
 class FastInverter : public Inverter {
  public:
-  static constexpr int kNewtonSteps = 16;
-  static constexpr double kConvergedChi2 = 0.01;     // Gauss-Newton stops below this χ² (0.1σ per channel)
-  static constexpr double kPresolvedAcceptChi2 = 4;  // above this: the search path too (see fit())
+  using Options = FastInverterOptions;
   // Loads or builds the inverse table in cache_dir (empty: ForwardTable::default_cache_dir()).
-  explicit FastInverter(std::shared_ptr<const ForwardTable> table, const std::filesystem::path& cache_dir = {});
-  FastInverter(std::shared_ptr<const ForwardTable> table, std::shared_ptr<const InverseTable> inverse);
+  // Throws std::invalid_argument for invalid options.
+  explicit FastInverter(std::shared_ptr<const ForwardTable> table, const std::filesystem::path& cache_dir = {},
+                        Options options = {});
+  FastInverter(std::shared_ptr<const ForwardTable> table, std::shared_ptr<const InverseTable> inverse,
+               Options options = {});
+  const Options& options() const { return options_; }
   std::string_view name() const override { return "fast"; }
   Fit fit(const double* measured, const double* weight, int order) const override;
   // As fit(), and says which path ended it.
@@ -133,8 +163,16 @@ class FastInverter : public Inverter {
   void predict4(const float* x, float* value, float* jacobian) const;
 
  private:
+  Options options_;
   std::shared_ptr<const InverseTable> inverse_;
   std::vector<float> bucket_values_;  // table values of inverse_->bucket_nodes(), same order
+  // node_search(…, 4, kCoarseStride)'s nodes, contiguous in its visiting
+  // order (the seed of measurements outside the inverse table, e.g. the
+  // Estimator's specular refits): one vectorised scan instead of a strided walk.
+  static constexpr int kCoarseStride = 4;
+  std::vector<float> coarse_values_;
+  std::vector<std::array<int, 4>> coarse_nodes_;
+  GridPoint coarse_search(const double* measured, const double* weight) const;
   std::size_t step_[4] = {};          // floats between neighbouring nodes along each axis
   bool presolved_ = false;            // 4 channels: the linear-step path is available
   void init();
@@ -142,6 +180,8 @@ class FastInverter : public Inverter {
   bool fit_presolved(const double* measured, const double* weight, Fit& fit) const;
   Fit fit_by_search(const double* measured, const double* weight, int order) const;
   GridPoint seed_point(std::uint32_t node) const;
+  std::array<float, 4> upper_bounds() const;  // largest grid coordinate per axis
+  void interpolate(const GridPoint& x, double* value, double* jacobian) const override;
 };
 
 }  // namespace chromo::estimation
