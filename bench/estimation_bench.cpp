@@ -69,6 +69,16 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// Every inverter, as the bench runs them (same order in every table).
+struct MethodConfig {
+  InverterMethod method;
+  ModelChoice model;
+};
+constexpr MethodConfig kMethodConfigs[] = {{InverterMethod::kFast, ModelChoice::k4d},
+                                           {InverterMethod::kFast, ModelChoice::kAuto},
+                                           {InverterMethod::k2d, ModelChoice::k2d},
+                                           {InverterMethod::kExhaustive, ModelChoice::k4d}};
+
 double seconds_since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
@@ -428,13 +438,7 @@ int main(int argc, char** argv) {
                   "mean chi2 %.4f, outside the inverse table %.2f%%, mean iterations %.2f\n", noise > 0 ? "noisy" : "noise-free", n, 1e9 * cpu / n, 100.0 * counts[0] / n,
                   100.0 * counts[1] / n, chi2_sum / n, 100.0 * no_cell / n, double(iteration_sum) / n);
     }
-    struct Config {
-      InverterMethod method;
-      ModelChoice model;
-    };
-    for (const Config c : {Config{InverterMethod::kFast, ModelChoice::k4d}, Config{InverterMethod::kFast, ModelChoice::kAuto},
-                           Config{InverterMethod::k2d, ModelChoice::k2d},
-                           Config{InverterMethod::kExhaustive, ModelChoice::k4d}}) {
+    for (const MethodConfig& c : kMethodConfigs) {
       if (methods.find(method_name(c.method)) == std::string::npos) continue;
       EstimatorOptions eo;
       eo.method = c.method;
@@ -537,13 +541,7 @@ int main(int argc, char** argv) {
     const std::size_t stride = std::max<std::size_t>(1, skin.size() / std::max(exhaustive_pixels, 1));
     for (const bool noisy : {false, true}) {
       const MethodMeasurement& m = noisy ? lab.noisy : lab.noise_free;
-      struct Config {
-        InverterMethod method;
-        ModelChoice model;
-      };
-      for (const Config c : {Config{InverterMethod::kFast, ModelChoice::k4d}, Config{InverterMethod::kFast, ModelChoice::kAuto},
-                             Config{InverterMethod::k2d, ModelChoice::k2d},
-                             Config{InverterMethod::kExhaustive, ModelChoice::k4d}}) {
+      for (const MethodConfig& c : kMethodConfigs) {
         EstimatorOptions eo;
         eo.method = c.method;
         eo.model = c.model;

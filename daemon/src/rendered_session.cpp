@@ -11,6 +11,7 @@
 #include "chromo/daemon/calibrations.hpp"
 #include "chromo/daemon/session_captures.hpp"
 #include "chromo/daemon/session_plan.hpp"
+#include "chromo/files/fnv1a.hpp"
 #include "chromo/simulators/camera/camera_model.hpp"
 #include "chromo/simulators/leds/led_lab.hpp"
 #include "chromo/simulators/scene/scene.hpp"
@@ -21,16 +22,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
-
-// The LedLab's true emission at `drive`, junctions settled at that drive.
-spectral::Spectrum emit(simulators::LedLab& leds, const drivers::DriveLevels& drive) {
-  drivers::LedState state;
-  state.drive = drive;
-  leds.apply(state);
-  leds.set_output_enabled(true);
-  leds.settle_thermal();
-  return leds.irradiance_now();
-}
 
 nlohmann::json led_record(const drivers::DriveLevels& drive) {
   nlohmann::json levels = nlohmann::json::object();
@@ -46,19 +37,9 @@ std::span<const std::uint8_t> bytes_of(const cv::Mat& m) {
 // ---- the on-disk cache ----
 constexpr char kCacheMagic[8] = {'C', 'H', 'R', 'S', 'E', 'S', 'S', '1'};
 
-struct Fnv1a {
-  std::uint64_t h = 1469598103934665603ull;
-  void add(const void* data, std::size_t n) {
-    const auto* p = static_cast<const unsigned char*>(data);
-    for (std::size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 1099511628211ull;
-  }
-  template <class T>
-  void add(const T& v) { add(&v, sizeof v); }
-};
-
 std::uint64_t cache_key(const RenderedSessionOptions& o, const std::vector<simulators::SceneWeights>& weights,
                         double exposure_us, const simulators::CameraModelOptions& camera) {
-  Fnv1a h;
+  files::Fnv1a h;
   h.add(kCacheMagic, sizeof kCacheMagic);
   h.add(kRenderedSessionVersion);
   for (int v : {o.sensor_width, o.sensor_height, o.scene_width, o.scene_height, o.window_x, o.window_y}) h.add(v);
@@ -278,7 +259,7 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
   for (std::size_t t = 0; t < spectral::kLedTypeCount; ++t) {
     drivers::DriveLevels drive{};
     drive[t] = 1.0;
-    out.library.leds[t].ladder = {{1.0, std::nullopt, std::nullopt, true, emit(leds, drive)}};
+    out.library.leds[t].ladder = {{1.0, std::nullopt, std::nullopt, true, leds.emit_settled(drive)}};
   }
   const char* const kMixes[3] = {"d65", "w57", "w57+blue"};
   const simulators::CameraModel camera{simulators::CameraModelOptions{}};
@@ -287,7 +268,7 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
   double brightest = 0;
   for (const char* mix : kMixes) {
     out.mixes[mix] = solve_session_mix(out.library, mix, "camera", false).weights;
-    const auto w = camera.weights(emit(leds, out.mixes[mix]));
+    const auto w = camera.weights(leds.emit_settled(out.mixes[mix]));
     weights.emplace_back(w);
     const Eigen::Vector3d white = w * simulators::white_target_reflectance().values().matrix();
     white_response[mix] = cv::Vec3f(static_cast<float>(white[0]), static_cast<float>(white[1]), static_cast<float>(white[2]));

@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include "chromo/estimation/skin_model.hpp"
+#include "chromo/files/fnv1a.hpp"
 
 namespace chromo::estimation {
 
@@ -42,16 +43,6 @@ double axis_coordinate(int axis, double value, int nodes) {
   if (!std::isfinite(t)) t = 0;
   return std::clamp(t, 0.0, 1.0) * (nodes - 1);
 }
-
-struct Fnv1a {
-  std::uint64_t h = 1469598103934665603ull;
-  void add(const void* data, std::size_t n) {
-    const auto* p = static_cast<const unsigned char*>(data);
-    for (std::size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 1099511628211ull;
-  }
-  template <class T>
-  void add(const T& v) { add(&v, sizeof v); }
-};
 
 }  // namespace
 
@@ -154,7 +145,7 @@ void ForwardTable::predict(const GridPoint& x, double* value, double* jacobian) 
 }
 
 std::uint64_t ForwardTable::cache_key(const MeasurementSet& set, const TableGrid& grid) {
-  Fnv1a h;
+  files::Fnv1a h;
   h.add(kMagic, sizeof kMagic);
   h.add(kFormatVersion);
   h.add(grid.cm_nodes), h.add(grid.ch_nodes), h.add(grid.bm_nodes), h.add(grid.che_nodes);

@@ -200,6 +200,15 @@ void LedLab::settle_thermal() {
   for (int i = 0; i < spectral::kLedTypeCount; ++i) temperature_C_[i] = target_temperature_locked(i);
 }
 
+spectral::Spectrum LedLab::emit_settled(const drivers::DriveLevels& drive) {
+  drivers::LedState state;
+  state.drive = drive;
+  apply(state);
+  set_output_enabled(true);
+  settle_thermal();
+  return irradiance_now();
+}
+
 std::vector<LedLab::Emission> LedLab::emissions_locked(int type) const {
   std::vector<Emission> emissions;
   if (!channel_emits_locked(type)) return emissions;

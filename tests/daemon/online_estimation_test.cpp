@@ -58,14 +58,7 @@ struct RenderedLab {
   simulators::CameraModel camera{simulators::CameraModelOptions{}};
   std::uint64_t frame_index = 0;
 
-  spectral::Spectrum emit(const drivers::DriveLevels& drive) {
-    drivers::LedState state;
-    state.drive = drive;
-    leds.apply(state);
-    leds.set_output_enabled(true);
-    leds.settle_thermal();
-    return leds.irradiance_now();
-  }
+  spectral::Spectrum emit(const drivers::DriveLevels& drive) { return leds.emit_settled(drive); }
 
   // What a perfect calibration run measures: each LED alone at full drive.
   calibration::LedLibrary measured_library() {

@@ -94,6 +94,9 @@ class LedLab final : public SphereIllumination {
   // Jumps every junction to its equilibrium for the present drive (a warm-up
   // without waiting).
   void settle_thermal();
+  // Applies `drive` with the output on, settles the junctions at it and
+  // returns the irradiance: the steady emission of that state.
+  spectral::Spectrum emit_settled(const drivers::DriveLevels& drive);
   const LedLabOptions& options() const { return options_; }
 
  private:

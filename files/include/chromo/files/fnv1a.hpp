@@ -1,0 +1,22 @@
+#pragma once
+// FNV-1a, 64 bit: the key of an on-disk cache (forward table, rendered
+// session) over everything the cached content depends on. Not cryptographic:
+// it tells inputs apart, it does not authenticate files.
+
+#include <cstddef>
+#include <cstdint>
+
+namespace chromo::files {
+
+struct Fnv1a {
+  std::uint64_t h = 1469598103934665603ull;
+  void add(const void* data, std::size_t n) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (std::size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 1099511628211ull;
+  }
+  // Trivially copyable values only (their bytes are hashed).
+  template <class T>
+  void add(const T& v) { add(&v, sizeof v); }
+};
+
+}  // namespace chromo::files
