@@ -3,70 +3,21 @@
 // configuration names the modbus-tcp and aravis backends with the addresses
 // chromo-sim printed; a session runs end to end. Also: what the backends say
 // about bad settings and unreachable devices.
-#include <signal.h>
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
-#include <cstdio>
-
+#include "../support/chromo_sim_process.hpp"
 #include "test_lab.hpp"
-
-extern char** environ;
 
 namespace chromo::daemon {
 namespace {
 
 using testing::bayer_site_mean;
-
-// chromo-sim as a child process whose stdout the test reads.
-class ChromoSim {
- public:
-  explicit ChromoSim(std::vector<std::string> args) {
-    int fds[2];
-    if (::pipe(fds) != 0) throw std::runtime_error("pipe");
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_adddup2(&actions, fds[1], STDOUT_FILENO);
-    posix_spawn_file_actions_addclose(&actions, fds[0]);
-    args.insert(args.begin(), CHROMO_SIM);
-    std::vector<char*> argv;
-    for (auto& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    const int spawned = posix_spawn(&pid_, CHROMO_SIM, &actions, nullptr, argv.data(), environ);
-    posix_spawn_file_actions_destroy(&actions);
-    ::close(fds[1]);
-    if (spawned != 0) throw std::runtime_error("cannot start " CHROMO_SIM);
-    out_ = ::fdopen(fds[0], "r");
-  }
-  ~ChromoSim() {
-    if (pid_ > 0 && ::kill(pid_, SIGTERM) == 0) ::waitpid(pid_, nullptr, 0);
-    if (out_) ::fclose(out_);
-  }
-  // Everything printed up to the line containing `marker`.
-  std::string read_until(const std::string& marker) {
-    std::string all;
-    char line[512];
-    while (std::fgets(line, sizeof line, out_)) {
-      all += line;
-      if (std::string(line).find(marker) != std::string::npos) break;
-    }
-    return all;
-  }
-
- private:
-  pid_t pid_ = -1;
-  FILE* out_ = nullptr;
-};
+using chromo::testing::ChromoSimProcess;
 
 TEST(ChromoSimDaemon, ConfiguredRealBackendsRunASessionAgainstChromoSim) {
-  ChromoSim sim({"--camera-serial", "CHROMO-SIMDMN", "--sensor-width", "160", "--sensor-height", "120",
-                 "--scene-size", "64"});
+  ChromoSimProcess sim({"--camera-serial", "CHROMO-SIMDMN", "--sensor-width", "160", "--sensor-height", "120",
+                        "--scene-size", "64"});
   const std::string banner = sim.read_until("running");
-  const std::string key = "Modbus TCP on 127.0.0.1:";
-  const auto at = banner.find(key);
-  ASSERT_NE(at, std::string::npos) << banner;
-  const int port = std::stoi(banner.substr(at + key.size()));
+  const int port = chromo::testing::printed_modbus_port(banner);
+  ASSERT_NE(port, -1) << banner;
 
   auto directory = testing::fresh_directory("chromo-sim-daemon");
   nlohmann::json json{

@@ -1,79 +1,17 @@
 // chromo-sim end to end: start the process, read where the camera listens,
 // grab a frame with the driver over GigE Vision, stop it with SIGINT.
 #include <gtest/gtest.h>
-#include <signal.h>
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <chrono>
-#include <cstdio>
 #include <string>
 #include <thread>
 
+#include "../support/chromo_sim_process.hpp"
 #include "camera_fixture.hpp"
 #include "chromo/drivers/led_controller_factory.hpp"
 
-extern char** environ;
-
 namespace chromo::testing {
 namespace {
-
-class ChromoSimProcess {
- public:
-  explicit ChromoSimProcess(std::vector<std::string> args) {
-    int pipe_fds[2];
-    if (pipe(pipe_fds) != 0) throw std::runtime_error("pipe");
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], STDOUT_FILENO);
-    posix_spawn_file_actions_addclose(&actions, pipe_fds[0]);
-    args.insert(args.begin(), CHROMO_SIM);
-    std::vector<char*> argv;
-    for (auto& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    if (posix_spawn(&pid_, CHROMO_SIM, &actions, nullptr, argv.data(), environ) != 0)
-      throw std::runtime_error("cannot start " CHROMO_SIM);
-    posix_spawn_file_actions_destroy(&actions);
-    close(pipe_fds[1]);
-    out_ = fdopen(pipe_fds[0], "r");
-  }
-  ~ChromoSimProcess() {
-    if (pid_ > 0) {
-      kill(pid_, SIGKILL);
-      waitpid(pid_, nullptr, 0);
-    }
-    if (out_ != nullptr) fclose(out_);
-  }
-  // Reads lines until one contains `marker`; returns everything read.
-  std::string read_until(const std::string& marker) {
-    std::string all;
-    char line[512];
-    while (fgets(line, sizeof line, out_) != nullptr) {
-      all += line;
-      if (std::string(line).find(marker) != std::string::npos) break;
-    }
-    return all;
-  }
-  int stop_with(int signal_number) {
-    kill(pid_, signal_number);
-    int status = 0;
-    waitpid(pid_, &status, 0);
-    pid_ = -1;
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  }
-
- private:
-  pid_t pid_ = -1;
-  FILE* out_ = nullptr;
-};
-
-// The Modbus TCP port chromo-sim printed ("... Modbus TCP on 127.0.0.1:<port> ...").
-int printed_modbus_port(const std::string& banner) {
-  const std::string key = "Modbus TCP on 127.0.0.1:";
-  const auto at = banner.find(key);
-  return at == std::string::npos ? -1 : std::stoi(banner.substr(at + key.size()));
-}
 
 double mean_of(const drivers::Frame& frame) {
   double sum = 0;
