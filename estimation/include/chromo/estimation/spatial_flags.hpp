@@ -74,9 +74,17 @@ struct NeighbourhoodOptions {
   double misfit_ratio = 1.1;                 // scatter up to this × the noise counts as noise alone
   double significance = 1e-5;                // per pixel test of the averaged deviation
   double rim_significance = 1e-3;            // the same for pixels next to a flagged one (hysteresis)
-  int max_passes = 20;
+  double reflection_significance = 1e-3;     // one-sided white test of a highlight's rim (grow_reflections)
+  bool grow_reflections = true;
+  int max_passes = 20;                       // rounds in which deviating regions join
+  int max_growth_passes = 20;                // further rounds in which only reflections grow
   int max_hole_px = 1024;  // explained regions enclosed by flagged pixels up to this size are flagged
   int order_window_px = 7;
+  // The level the flag pass runs on (see the contract above): blocks of
+  // block_px × block_px cells, or, when block_px is 0, max(1, ⌊longer side /
+  // reference_width_px⌋). All *_px windows above are in that level's pixels.
+  int block_px = 0;
+  int reference_width_px = 256;
   // refine_with_neighbourhood(): which of the two parts to run.
   bool flags = true;
   bool pool_order = true;
@@ -88,7 +96,11 @@ struct NeighbourhoodSummary {
   std::size_t flagged_holes = 0;      // explained pixels enclosed by flagged ones
   std::size_t order_to_4 = 0, order_to_2 = 0;
   int passes = 0;
+  int block_px = 1;  // the level the flag pass ran on
 };
+
+// The flag pass's block size for a width × height image under these options.
+int neighbourhood_block_px(int width, int height, const NeighbourhoodOptions& options);
 
 // measured: width·height·channels (the estimator's input), estimates: width·height,
 // the first pass's output, updated in place (flags, and for changed orders the
