@@ -138,7 +138,7 @@ struct Level {
   cv::Mat state;                // CV_8U LevelState
   cv::Mat seed;                 // CV_8U: holds a cell flagged before the pass (a region touching it joins)
   cv::Mat reflection;           // CV_8U: holds a specular or saturated cell, or joined one (a white region touching it joins)
-  std::vector<cv::Mat> background;  // per channel, the last pass's background (NaN where unsupported)
+  std::vector<cv::Mat> background;  // per channel, the background a joined pixel was judged against (else NaN)
 };
 
 Level make_level(int channels, std::span<const float> measured, int width, int height,
@@ -173,7 +173,8 @@ Level make_level(int channels, std::span<const float> measured, int width, int h
       if (2 * cells <= all.at<float>(y, x)) level.state.at<std::uint8_t>(y, x) = kFlaggedBefore;
       const float seed_cells = std::max(1.0f, kSeedShare * all.at<float>(y, x));
       level.seed.at<std::uint8_t>(y, x) = flagged.at<float>(y, x) >= seed_cells;
-      level.reflection.at<std::uint8_t>(y, x) = reflection.at<float>(y, x) >= seed_cells;
+      level.reflection.at<std::uint8_t>(y, x) =
+          reflection.at<float>(y, x) >= seed_cells && 2 * reflection.at<float>(y, x) >= flagged.at<float>(y, x);
     }
   return level;
 }
@@ -196,6 +197,8 @@ void flag_level(const Estimator& estimator, Level& level, const NeighbourhoodOpt
   // vessel or a rim does not bias the skin next to it) and are averaged only
   // with each other (so they do not bleed into that skin either).
   cv::Mat candidate(height, width, CV_8U, cv::Scalar(0)), white;
+  level.background.assign(channels, cv::Mat());
+  for (cv::Mat& b : level.background) b = cv::Mat(height, width, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
   int settling = 0;
   const int max_passes = options.max_passes + (options.grow_reflections ? options.max_growth_passes : 0);
   for (int pass = 0; pass < max_passes; ++pass) {
@@ -213,8 +216,11 @@ void flag_level(const Estimator& estimator, Level& level, const NeighbourhoodOpt
                cv::Size(2 * options.exclusion_px + 1, 2 * options.exclusion_px + 1)));
     steady.copyTo(source);
     source.setTo(0, flagged_band);
-    level.background = background(values, source, options.background_sigma_px);
-    const std::vector<cv::Mat>& back = level.background;
+    const std::vector<cv::Mat> back = background(values, source, options.background_sigma_px);
+    auto join = [&](int y, int x) {
+      level.state.at<std::uint8_t>(y, x) = kJoined, candidate.at<std::uint8_t>(y, x) = 0;
+      for (int c = 0; c < channels; ++c) level.background[c].at<float>(y, x) = back[c].at<float>(y, x);
+    };
 
     // Noise-normalised deviation, averaged over the neighbours of the same class.
     std::vector<cv::Mat> z(channels), sigmas(channels);
@@ -350,7 +356,7 @@ void flag_level(const Estimator& estimator, Level& level, const NeighbourhoodOpt
     for (int y = 0; y < height; ++y)
       for (int x = 0; x < width; ++x) {
         const int r = labels.at<int>(y, x);
-        if (r > 0 && touches[r]) level.state.at<std::uint8_t>(y, x) = kJoined, candidate.at<std::uint8_t>(y, x) = 0;
+        if (r > 0 && touches[r]) join(y, x);
       }
     // Reflections grow: open regions of white pixels touching a specular,
     // saturated or so-joined pixel join it (a highlight's rim brighter than
@@ -366,7 +372,7 @@ void flag_level(const Estimator& estimator, Level& level, const NeighbourhoodOpt
       for (int y = 0; y < height; ++y)
         for (int x = 0; x < width; ++x)
           if (const int r = labels.at<int>(y, x); r > 0 && grows[r]) {
-            level.state.at<std::uint8_t>(y, x) = kJoined, candidate.at<std::uint8_t>(y, x) = 0;
+            join(y, x);
             level.reflection.at<std::uint8_t>(y, x) = 1;
             ++added;
           }
@@ -428,23 +434,27 @@ NeighbourhoodSummary refine_flags_with_neighbourhood(const Estimator& estimator,
       cv::resize(level.background[c], back[c], cv::Size(level.width * block, level.height * block), 0, 0, cv::INTER_LINEAR);
   const double rim_threshold = chi_squared_quantile(1 - options.rim_significance, channels);
   const double white_threshold = std::sqrt(chi_squared_quantile(1 - 2 * options.reflection_significance, 1));
-  auto deviates = [&](std::size_t p, int y, int x) {
+  auto deviates = [&](std::size_t p, int y, int x, bool reflection) {
     double chi2 = 0, white = 0, white_norm = 0;
     for (int c = 0; c < channels; ++c) {
-      const double b = back[c].at<float>(y, x), m = measured[p * channels + c];
+      double b = back[c].at<float>(y, x);  // between blocks, or the cell's block's own where a neighbour has none
+      if (!std::isfinite(b)) b = level.background[c].at<float>(y / block, x / block);
+      const double m = measured[p * channels + c];
       if (!std::isfinite(b)) return true;
       const double w = estimator.weight(c, m);  // 1/σ_c
       chi2 += (m - b) * (m - b) * w * w;
       white += (m - b) * w * w, white_norm += w * w;
     }
-    return chi2 > rim_threshold || (options.grow_reflections && white > white_threshold * std::sqrt(white_norm));
+    return chi2 > rim_threshold || (reflection && white > white_threshold * std::sqrt(white_norm));
   };
   for (std::size_t p = 0; p < estimates.size(); ++p) {
     if (estimates[p].flag != PixelFlag::kExplained) continue;
     const int y = static_cast<int>(p / width), x = static_cast<int>(p % width);
     const std::uint8_t s = level.state.at<std::uint8_t>(y / block, x / block);
     if (s != kJoined && s != kHole) continue;
-    if (block > 1 && edge.at<std::uint8_t>(y / block, x / block) && !deviates(p, y, x)) continue;
+    const bool reflection = level.reflection.at<std::uint8_t>(y / block, x / block);
+    const bool alone = s == kJoined && !reflection;
+    if (block > 1 && (alone || edge.at<std::uint8_t>(y / block, x / block)) && !deviates(p, y, x, reflection)) continue;
     estimates[p].flag = PixelFlag::kNeighbourhood;
     ++(s == kJoined ? summary.flagged_touching : summary.flagged_holes);
   }
