@@ -137,18 +137,19 @@ void expect_finite(const std::vector<PixelEstimate>& estimates) {
 // Targets (issue 6): ≥ 95% of tattoo, marker, specular and saturated pixels
 // flagged, ≤ 1% of skin, at any scale and exposure. Measured on this scene
 // (docs/estimation.md, SkinStaysBelowOnePercentAcrossScaleAndExposure for 128-512 px and
-// exposure 0.5-2.5×): skin ≤ 0.81% everywhere; tattoo ≥ 97%, marker 86-98%,
-// specular 18-77% (missed: the highlight's weaker part looks like paler skin
-// and its scatter is counted as the skin's own misfit), vein 1-3%. The
-// specular and marker bounds are the measured shares less a margin, as
-// regression guards, not the target.
+// exposure 0.5-2.5×): skin ≤ 0.88% everywhere; tattoo ≥ 98%, marker 87-98%,
+// specular 23-77% (missed: the highlight's weaker part looks like paler skin,
+// and the reflection's growth stops where the background follows its smooth
+// tail), vein 0-5%. The specular and marker bounds are the measured shares
+// less a margin, as regression guards, not the target; the 5-MP session's
+// are in tests/daemon/lab_flags_test.cpp.
 TEST(NeighbourhoodFlags, VirtualLabSceneThroughTheCameraModel) {
   const LabRun r = run_lab(256, 0.8);
   EXPECT_LE(r.share(SceneRegion::kSkin, false), 0.0005);  // per pixel: the specular test flags no skin
   EXPECT_LE(r.share(SceneRegion::kSkin), 0.01);
   EXPECT_GE(r.share(SceneRegion::kTattoo), 0.95);
   EXPECT_GE(r.share(SceneRegion::kMarker), 0.93);
-  EXPECT_GE(r.share(SceneRegion::kSpecular), 0.38);
+  EXPECT_GE(r.share(SceneRegion::kSpecular), 0.55);  // measured 0.617 (0.409 before the reflection growth)
   EXPECT_GE(r.share(SceneRegion::kSpecular), r.share(SceneRegion::kSpecular, false) + 0.15);
   EXPECT_EQ(r.share(SceneRegion::kWhiteTarget), 1.0);
   expect_finite(r.refined);
@@ -171,7 +172,7 @@ TEST(NeighbourhoodFlags, SmallBrightSceneKeepsSkinAndFlagsClippedPixels) {
 
 // The rest of the 128-512 px × 0.5-2.5× exposure grid (the two runs above are
 // its other points): skin stays at ≤ 1% and tattoo at ≥ 95% everywhere. The
-// printed shares per region are the figures in docs/estimation.md (~30 s).
+// printed shares per region are the figures in docs/estimation.md (~40 s).
 TEST(NeighbourhoodFlags, SkinStaysBelowOnePercentAcrossScaleAndExposure) {
   for (int size : {128, 256, 512})
     for (double fill : {0.4, 0.8, 2.0}) {
