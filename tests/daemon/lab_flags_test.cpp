@@ -72,7 +72,7 @@ TEST(SpatialFlagsAtFiveMegapixels, HighlightWindow) {
   const Shares s = flag_window(1200, 30, 960, 720);
   ASSERT_GT(s.total[static_cast<int>(SceneRegion::kSpecular)], 40000u);
   EXPECT_LE(s.of(SceneRegion::kSkin), 0.01);  // measured 0.0070
-  EXPECT_GE(s.of(SceneRegion::kSpecular), 0.50);  // measured 0.552 (per pixel alone 0.07; target 0.95: missed)
+  EXPECT_GE(s.of(SceneRegion::kSpecular), 0.65);  // measured 0.709 (per pixel alone 0.07; target 0.95: missed)
 }
 
 // The tattoo's right half and the marker stroke's start, with hair: 500×350 cells.

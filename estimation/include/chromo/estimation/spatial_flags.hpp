@@ -37,7 +37,8 @@
 //     vessel's explainable part deviates from its surroundings too, and one
 //     region's mean cannot tell a surface reflection from a Cm/Ch change
 //     (tried: a Cm/Ch jump test passed highlights and failed a mole).
-//  4. Reflections grow (grow_reflections): a one-sided test of a white
+//  4. Reflections grow (grow_reflections), in rounds where no deviating
+//     region joined: a one-sided test of a white
 //     surface reflection, the matched filter w = aᵀE⁻¹u/√(aᵀE⁻¹a) along
 //     a_c = 1/σ_c (what an added flat s does to u) against the same noise
 //     plus misfit, above its 1 − reflection_significance quantile; 8-connected
@@ -68,11 +69,11 @@
 // view sets block_px itself (0: from the size).
 //
 //  Limits (docs/estimation.md, measured on the virtual lab's scene at 128-512
-//  px and 0.5-2.5× exposure: skin ≤ 0.9% flagged; the 5-MP session 0.12%): an
+//  px and 0.5-2.5× exposure: skin ≤ 0.91% flagged; the 5-MP session 0.12%): an
 //  undetected part of a highlight raises the local misfit E and the quadratic
 //  background follows a smooth bump wider than its window, so the rim growth
-//  stops short of the label's edge (specular 23-77% on the grid, 63% at 5 MP);
-//  the vein counts as skin misfit (0-5% flagged); skin next to a flagged
+//  stops short of the label's edge (specular 22-77% on the grid, 70% at 5 MP);
+//  the vein counts as skin misfit (0-3.4% flagged); skin next to a flagged
 //  region that deviates for its own reasons (a mole) joins it.
 //
 // Model order (pool_model_order): the likelihood-ratio statistic χ²₂ − χ²₄ of
@@ -84,8 +85,9 @@
 // window decides 2 but chose 4 is refitted in 2D unless its own 2D fit is not
 // explained (then it stays 4).
 //
-// Cost (CPU, shared machine): ~1-2 s at 256 px, 6-8 s at 512 px (block 1);
-// the 5-MP session 1.7 s on 260×195 blocks (was 19-25 s on its cells).
+// Cost (CPU, shared machine): 1.4-1.9 s at 256 px, 7.3-7.7 s at 512 px
+// (block 1); the 5-MP session 1.7 s on 260×195 blocks (was 19-25 s on its
+// cells).
 //
 // Thread rules: free functions over caller-owned buffers; reentrant. They use
 // OpenCV (single call, OpenCV's own threads).
