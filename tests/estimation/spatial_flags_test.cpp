@@ -185,6 +185,24 @@ TEST(NeighbourhoodFlags, SkinStaysBelowOnePercentAcrossScaleAndExposure) {
     }
 }
 
+// The level the flag pass runs on: the cells up to 512 px (the tuned range),
+// blocks of round(longer side / 256) above; an explicit block_px wins.
+TEST(NeighbourhoodFlags, BlockSizeFollowsTheImageSize) {
+  const NeighbourhoodOptions o;
+  EXPECT_EQ(neighbourhood_block_px(128, 128, o), 1);
+  EXPECT_EQ(neighbourhood_block_px(512, 384, o), 1);
+  EXPECT_EQ(neighbourhood_block_px(1296, 972, o), 5);  // the 5-MP session's cells
+  EXPECT_EQ(neighbourhood_block_px(972, 1296, o), 5);
+  EXPECT_EQ(neighbourhood_block_px(2592, 1944, o), 10);
+  NeighbourhoodOptions fixed;
+  fixed.block_px = 3;
+  EXPECT_EQ(neighbourhood_block_px(128, 128, fixed), 3);
+  fixed.block_px = -1;
+  std::string error;
+  EXPECT_FALSE(fixed.IsValid(&error));
+  EXPECT_NE(error.find("block_px"), std::string::npos);
+}
+
 // Whatever the input (NaN, ±inf, negative, huge, constant), both passes end
 // without NaN in the maps.
 TEST(NeighbourhoodFlags, AnyInputGivesFiniteMaps) {
@@ -198,11 +216,15 @@ TEST(NeighbourhoodFlags, AnyInputGivesFiniteMaps) {
                             -std::numeric_limits<float>::infinity(), -1.0f, 0.0f, 1e30f, 0.3f};
   for (std::size_t i = 0; i < measured.size(); ++i) measured[i] = (i / channels) % 5 == 0 ? specials[rng() % 7] : u(rng);
   std::vector<PixelEstimate> out(static_cast<std::size_t>(width) * height);
-  EstimateSummary summary = estimator.estimate(measured, out);
-  refine_with_neighbourhood(estimator, measured, width, height, out, summary);
-  for (const PixelEstimate& e : out)
-    for (double v : {e.parameters.cm, e.parameters.ch, e.parameters.bm, e.parameters.che, double(e.residual)})
-      ASSERT_TRUE(std::isfinite(v));
+  for (int block : {1, 3}) {  // on the pixels, and on 3×3 blocks (partial ones at the right and bottom)
+    EstimateSummary summary = estimator.estimate(measured, out);
+    NeighbourhoodOptions o;
+    o.block_px = block;
+    EXPECT_EQ(refine_with_neighbourhood(estimator, measured, width, height, out, summary, o).block_px, block);
+    for (const PixelEstimate& e : out)
+      for (double v : {e.parameters.cm, e.parameters.ch, e.parameters.bm, e.parameters.che, double(e.residual)})
+        ASSERT_TRUE(std::isfinite(v));
+  }
   // A constant image: nothing deviates from its neighbourhood.
   std::fill(measured.begin(), measured.end(), 0.3f);
   estimator.estimate(measured, out);
