@@ -66,6 +66,7 @@ std::string neighbourhood_report_json(bool flags, bool order_pooling, const Neig
                                 {"order_pooling", order_pooling},
                                 {"flagged_touching_flagged_regions", summary.flagged_touching},
                                 {"flagged_enclosed", summary.flagged_holes},
+                                {"block_px", summary.block_px},
                                 {"order_changed_to_4", summary.order_to_4},
                                 {"order_changed_to_2", summary.order_to_2}}
       .dump();

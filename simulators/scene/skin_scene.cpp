@@ -84,6 +84,11 @@ Scene make_white_target_scene(int width, int height) {
   return scene;
 }
 
+double skin_scene_added_reflection(int width, int height, double x, double y) {
+  const double spec_x = 0.65 * width, spec_y = 0.2 * height, spec_rx = 0.08 * width, spec_ry = 0.04 * height;
+  return 0.3 * std::exp(-(std::pow((x - spec_x) / spec_rx, 2) + std::pow((y - spec_y) / spec_ry, 2)));
+}
+
 Scene make_skin_scene(const SkinSceneOptions& options) {
   std::string error;
   if (!options.IsValid(&error)) throw std::invalid_argument("SkinSceneOptions: " + error);
@@ -176,7 +181,6 @@ Scene make_skin_scene(const SkinSceneOptions& options) {
     strands.push_back({ax, ay, ax + length * std::cos(angle), ay + length * std::sin(angle)});
   }
   const double hair_half_width = std::max(1.5 * scale, 1.0);
-  const double spec_x = 0.65 * w, spec_y = 0.2 * h, spec_rx = 0.08 * w, spec_ry = 0.04 * h;
   const Spectrum white = white_target_reflectance();
   const int white_x0 = options.white_patch ? w - w / 10 : w;
 
@@ -208,9 +212,9 @@ Scene make_skin_scene(const SkinSceneOptions& options) {
         a = (1 - hair_cover) * a + hair_cover * hair;
         region = SceneRegion::kHair;
       }
-      const double spec = std::exp(-(std::pow((x - spec_x) / spec_rx, 2) + std::pow((y - spec_y) / spec_ry, 2)));
-      if (spec > 0.02) {
-        a += Spectrum::constant(0.3 * spec);  // surface reflection: flat, on top of the diffuse albedo
+      const double reflection = skin_scene_added_reflection(w, h, x, y);
+      if (reflection > 0.006) {
+        a += Spectrum::constant(reflection);  // surface reflection: flat, on top of the diffuse albedo
         region = SceneRegion::kSpecular;
       }
       if (x >= white_x0) {

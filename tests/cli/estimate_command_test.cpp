@@ -166,6 +166,7 @@ TEST_F(EstimateCommand, NeighbourhoodFlagsAreOnByDefaultAndCounted) {
   EXPECT_EQ(s["flag_counts"]["neighbourhood"].get<std::size_t>(),
             s["neighbourhood"]["flagged_touching_flagged_regions"].get<std::size_t>() +
                 s["neighbourhood"]["flagged_enclosed"].get<std::size_t>());
+  EXPECT_EQ(s["neighbourhood"]["block_px"], 1);  // a small image: the pass on its pixels
   r = run("estimate " + args("--no-neighbourhood-flags --out " + (dir / "plain").string()));
   ASSERT_EQ(r.exit_status, 0) << r.output;
   s = nlohmann::json::parse(std::ifstream(dir / "plain" / "summary.json"));

@@ -52,13 +52,11 @@ LabScene render_lab_scene(int size, double exposure_fill, std::uint64_t seed) {
   const std::size_t pixels = static_cast<std::size_t>(size) * size;
   lab.measured.resize(pixels * 4);
   lab.clipped.assign(pixels, false);
-  // make_skin_scene's highlight (simulators/scene/skin_scene.cpp): an ellipse at (0.65 w, 0.2 h),
-  // radii 0.08 w and 0.04 h, adding 0.3·exp(−r²) to every wavelength.
   lab.added_reflection.resize(pixels);
   for (int y = 0; y < size; ++y)
     for (int x = 0; x < size; ++x)
-      lab.added_reflection[static_cast<std::size_t>(y) * size + x] = static_cast<float>(
-          0.3 * std::exp(-(std::pow((x - 0.65 * size) / (0.08 * size), 2) + std::pow((y - 0.2 * size) / (0.04 * size), 2))));
+      lab.added_reflection[static_cast<std::size_t>(y) * size + x] =
+          static_cast<float>(simulators::skin_scene_added_reflection(size, size, x, y));
   const int top = camera.max_dn();
   for (int y = 0; y < size; ++y)
     for (int x = 0; x < size; ++x) {

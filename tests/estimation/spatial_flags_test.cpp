@@ -137,18 +137,19 @@ void expect_finite(const std::vector<PixelEstimate>& estimates) {
 // Targets (issue 6): ≥ 95% of tattoo, marker, specular and saturated pixels
 // flagged, ≤ 1% of skin, at any scale and exposure. Measured on this scene
 // (docs/estimation.md, SkinStaysBelowOnePercentAcrossScaleAndExposure for 128-512 px and
-// exposure 0.5-2.5×): skin ≤ 0.81% everywhere; tattoo ≥ 97%, marker 86-98%,
-// specular 18-77% (missed: the highlight's weaker part looks like paler skin
-// and its scatter is counted as the skin's own misfit), vein 1-3%. The
-// specular and marker bounds are the measured shares less a margin, as
-// regression guards, not the target.
+// exposure 0.5-2.5×): skin ≤ 0.91% everywhere; tattoo ≥ 97.8%, marker 85-98%,
+// specular 22-77% (missed: the highlight's weaker part looks like paler skin,
+// and the reflection's growth stops where the background follows its smooth
+// tail), vein 0-3.4%. The specular and marker bounds are the measured shares
+// less a margin, as regression guards, not the target; the 5-MP session's
+// are in tests/daemon/lab_flags_test.cpp.
 TEST(NeighbourhoodFlags, VirtualLabSceneThroughTheCameraModel) {
   const LabRun r = run_lab(256, 0.8);
   EXPECT_LE(r.share(SceneRegion::kSkin, false), 0.0005);  // per pixel: the specular test flags no skin
   EXPECT_LE(r.share(SceneRegion::kSkin), 0.01);
   EXPECT_GE(r.share(SceneRegion::kTattoo), 0.95);
   EXPECT_GE(r.share(SceneRegion::kMarker), 0.93);
-  EXPECT_GE(r.share(SceneRegion::kSpecular), 0.38);
+  EXPECT_GE(r.share(SceneRegion::kSpecular), 0.38);  // measured 0.421 (0.409 before the reflection growth)
   EXPECT_GE(r.share(SceneRegion::kSpecular), r.share(SceneRegion::kSpecular, false) + 0.15);
   EXPECT_EQ(r.share(SceneRegion::kWhiteTarget), 1.0);
   expect_finite(r.refined);
@@ -171,7 +172,7 @@ TEST(NeighbourhoodFlags, SmallBrightSceneKeepsSkinAndFlagsClippedPixels) {
 
 // The rest of the 128-512 px × 0.5-2.5× exposure grid (the two runs above are
 // its other points): skin stays at ≤ 1% and tattoo at ≥ 95% everywhere. The
-// printed shares per region are the figures in docs/estimation.md (~30 s).
+// printed shares per region are the figures in docs/estimation.md (~40 s).
 TEST(NeighbourhoodFlags, SkinStaysBelowOnePercentAcrossScaleAndExposure) {
   for (int size : {128, 256, 512})
     for (double fill : {0.4, 0.8, 2.0}) {
@@ -182,6 +183,24 @@ TEST(NeighbourhoodFlags, SkinStaysBelowOnePercentAcrossScaleAndExposure) {
       EXPECT_GE(r.share(SceneRegion::kTattoo), 0.95) << size << " px, fill " << fill;
       expect_finite(r.refined);
     }
+}
+
+// The level the flag pass runs on: the cells up to 512 px (the tuned range),
+// blocks of round(longer side / 256) above; an explicit block_px wins.
+TEST(NeighbourhoodFlags, BlockSizeFollowsTheImageSize) {
+  const NeighbourhoodOptions o;
+  EXPECT_EQ(neighbourhood_block_px(128, 128, o), 1);
+  EXPECT_EQ(neighbourhood_block_px(512, 384, o), 1);
+  EXPECT_EQ(neighbourhood_block_px(1296, 972, o), 5);  // the 5-MP session's cells
+  EXPECT_EQ(neighbourhood_block_px(972, 1296, o), 5);
+  EXPECT_EQ(neighbourhood_block_px(2592, 1944, o), 10);
+  NeighbourhoodOptions fixed;
+  fixed.block_px = 3;
+  EXPECT_EQ(neighbourhood_block_px(128, 128, fixed), 3);
+  fixed.block_px = -1;
+  std::string error;
+  EXPECT_FALSE(fixed.IsValid(&error));
+  EXPECT_NE(error.find("block_px"), std::string::npos);
 }
 
 // Whatever the input (NaN, ±inf, negative, huge, constant), both passes end
@@ -197,11 +216,15 @@ TEST(NeighbourhoodFlags, AnyInputGivesFiniteMaps) {
                             -std::numeric_limits<float>::infinity(), -1.0f, 0.0f, 1e30f, 0.3f};
   for (std::size_t i = 0; i < measured.size(); ++i) measured[i] = (i / channels) % 5 == 0 ? specials[rng() % 7] : u(rng);
   std::vector<PixelEstimate> out(static_cast<std::size_t>(width) * height);
-  EstimateSummary summary = estimator.estimate(measured, out);
-  refine_with_neighbourhood(estimator, measured, width, height, out, summary);
-  for (const PixelEstimate& e : out)
-    for (double v : {e.parameters.cm, e.parameters.ch, e.parameters.bm, e.parameters.che, double(e.residual)})
-      ASSERT_TRUE(std::isfinite(v));
+  for (int block : {1, 3}) {  // on the pixels, and on 3×3 blocks (partial ones at the right and bottom)
+    EstimateSummary summary = estimator.estimate(measured, out);
+    NeighbourhoodOptions o;
+    o.block_px = block;
+    EXPECT_EQ(refine_with_neighbourhood(estimator, measured, width, height, out, summary, o).block_px, block);
+    for (const PixelEstimate& e : out)
+      for (double v : {e.parameters.cm, e.parameters.ch, e.parameters.bm, e.parameters.che, double(e.residual)})
+        ASSERT_TRUE(std::isfinite(v));
+  }
   // A constant image: nothing deviates from its neighbourhood.
   std::fill(measured.begin(), measured.end(), 0.3f);
   estimator.estimate(measured, out);

@@ -37,14 +37,44 @@
 //     vessel's explainable part deviates from its surroundings too, and one
 //     region's mean cannot tell a surface reflection from a Cm/Ch change
 //     (tried: a Cm/Ch jump test passed highlights and failed a mole).
-//  4. Repeated until no region joins (at most max_passes).
-//  5. Holes: explained regions of at most max_hole_px enclosed by flagged
+//  4. Reflections grow (grow_reflections), in rounds where no deviating
+//     region joined: a one-sided test of a white
+//     surface reflection, the matched filter w = aᵀE⁻¹u/√(aᵀE⁻¹a) along
+//     a_c = 1/σ_c (what an added flat s does to u) against the same noise
+//     plus misfit, above its 1 − reflection_significance quantile; 8-connected
+//     regions of such pixels that touch a specular or saturated pixel (or one
+//     so joined) are flagged: the highlight's rim grows ring by ring.
+//  5. Repeated until nothing joins: deviating regions in the first
+//     max_passes rounds, reflections for max_growth_passes more.
+//  6. Holes: explained regions of at most max_hole_px enclosed by flagged
 //     pixels (not reaching the image border) are flagged.
+//
+// Scale. The windows (background_sigma_px, exclusion_px, misfit_sigma_px,
+// deviation_sigma_px, max_hole_px) were tuned on the lab's scene rendered at
+// 128-512 px across, and they stand for sizes on the skin (the skin's fields,
+// a highlight, a vessel). The lab's camera always frames the same field (the
+// sphere's port), so an image's size says its pixel pitch: an image whose
+// longer side exceeds 2 × reference_width_px (256) is first averaged in
+// blocks of block_px × block_px cells, block_px = round(longer side / 256)
+// (5 for the 5-MP session's 1296×972 cells), and steps 1-6 run on that level
+// with each block's mean of its explained cells (noise σ/√cells; a block is
+// flagged when most of its cells are, a seed when ≥ 20% are, a reflection
+// seed when those are mostly specular or saturated). Back on the cells: a
+// block joined by step 3, or any joined or enclosed block with an open
+// neighbour, flags only its explained cells that deviate on their own from
+// the background it was judged against (interpolated between blocks) — the
+// χ² test at the rim significance with one cell's noise, or for reflection
+// blocks also the white test; a block joined by step 4 away from the edge,
+// or enclosed, flags all of its cells. A sensor window or another field of
+// view sets block_px itself (0: from the size).
+//
 //  Limits (docs/estimation.md, measured on the virtual lab's scene at 128-512
-//  px and 0.5-2.5× exposure: skin ≤ 0.7% flagged): an undetected part of a
-//  highlight raises the local misfit E and so hides itself (specular 19-77%
-//  flagged); the vein counts as skin misfit (1-3% flagged); skin next to a
-//  flagged region that deviates for its own reasons (a mole) joins it.
+//  px and 0.5-2.5× exposure: skin ≤ 0.91% flagged; the 5-MP session 0.12%): an
+//  undetected part of a highlight raises the local misfit E and the quadratic
+//  background follows a smooth bump wider than its window, so the rim growth
+//  stops short of the label's edge (specular 22-77% on the grid, 70% at 5 MP);
+//  the vein counts as skin misfit (0-3.4% flagged); skin next to a flagged
+//  region that deviates for its own reasons (a mole) joins it.
 //
 // Model order (pool_model_order): the likelihood-ratio statistic χ²₂ − χ²₄ of
 // the explained pixels is summed over a square window of order_window_px;
@@ -54,6 +84,10 @@
 // A pixel whose window decides 4 but that chose 2 is refitted in 4D; one whose
 // window decides 2 but chose 4 is refitted in 2D unless its own 2D fit is not
 // explained (then it stays 4).
+//
+// Cost (CPU, shared machine): 1.4-1.9 s at 256 px, 7.3-7.7 s at 512 px
+// (block 1); the 5-MP session 1.7 s on 260×195 blocks (was 19-25 s on its
+// cells).
 //
 // Thread rules: free functions over caller-owned buffers; reentrant. They use
 // OpenCV (single call, OpenCV's own threads).
@@ -74,9 +108,18 @@ struct NeighbourhoodOptions {
   double misfit_ratio = 1.1;                 // scatter up to this × the noise counts as noise alone
   double significance = 1e-5;                // per pixel test of the averaged deviation
   double rim_significance = 1e-3;            // the same for pixels next to a flagged one (hysteresis)
-  int max_passes = 20;
+  double reflection_significance = 1e-3;     // one-sided white test of a highlight's rim (grow_reflections)
+  bool grow_reflections = true;
+  int max_passes = 20;                       // rounds in which deviating regions join
+  int max_growth_passes = 20;                // further rounds in which only reflections grow
   int max_hole_px = 1024;  // explained regions enclosed by flagged pixels up to this size are flagged
   int order_window_px = 7;
+  // The level the flag pass runs on (see "Scale" above): blocks of block_px ×
+  // block_px cells, or, when block_px is 0, 1 up to a longer side of 2 ×
+  // reference_width_px and round(longer side / reference_width_px) above.
+  // All *_px windows above are in that level's pixels.
+  int block_px = 0;
+  int reference_width_px = 256;
   // refine_with_neighbourhood(): which of the two parts to run.
   bool flags = true;
   bool pool_order = true;
@@ -88,7 +131,11 @@ struct NeighbourhoodSummary {
   std::size_t flagged_holes = 0;      // explained pixels enclosed by flagged ones
   std::size_t order_to_4 = 0, order_to_2 = 0;
   int passes = 0;
+  int block_px = 1;  // the level the flag pass ran on
 };
+
+// The flag pass's block size for a width × height image under these options.
+int neighbourhood_block_px(int width, int height, const NeighbourhoodOptions& options);
 
 // measured: width·height·channels (the estimator's input), estimates: width·height,
 // the first pass's output, updated in place (flags, and for changed orders the

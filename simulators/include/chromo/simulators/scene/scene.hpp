@@ -99,6 +99,12 @@ struct SkinSceneOptions {
 // specular highlight and (optionally) the white target strip.
 Scene make_skin_scene(const SkinSceneOptions& options);
 
+// The flat surface reflection make_skin_scene adds at scene pixel (x, y) of a
+// width × height scene: its highlight, 0.3·exp(−r²) on an ellipse at (0.65 w,
+// 0.2 h) with radii 0.08 w and 0.04 h, labelled kSpecular where ≥ 0.006
+// (truth for reporting flagged shares by strength).
+double skin_scene_added_reflection(int width, int height, double x, double y);
+
 // make_skin_scene(options)'s response under each of `weights` (Scene::render)
 // and its region labels and truth maps (of options' window), rendered band by
 // band (band_rows rows at a time) so that the albedo cube is never held

@@ -1,0 +1,181 @@
+// The spatial flag pass (estimation/spatial_flags.hpp) on the rendered 5-MP
+// virtual-lab session (daemon/rendered_session.hpp, the estimation bench's
+// frame, read from its cache): flagged share per scene region and per band
+// of the highlight's added reflection, and the pass's cost, for the pass on
+// the cells themselves (block 1, its windows as tuned at 128-512 px) and on
+// coarser levels (blocks of B × B cells), side by side on the same per-pixel
+// estimate.
+//
+//   build/release/bin/spatial_flags_bench [--blocks 1,3,5] [--scene-size W H] [--frame-cache DIR]
+//
+// Default blocks: 1 and the size NeighbourhoodOptions{} picks (block_px = 0).
+// Cost: wall clock and process CPU time (getrusage: both threads), per pass
+// and per cell. Prints only; the figures go into docs/estimation.md.
+#include <sys/resource.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "chromo/daemon/rendered_session.hpp"
+#include "chromo/estimation/estimator.hpp"
+#include "chromo/estimation/forward_table.hpp"
+#include "chromo/estimation/spatial_flags.hpp"
+#include "chromo/simulators/scene/scene.hpp"
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace {
+
+using namespace chromo;
+using namespace chromo::estimation;
+
+double process_cpu_seconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_utime.tv_sec + u.ru_stime.tv_sec + 1e-6 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+// Regions 0-6 (SceneRegion), 7 mixed cells; specular bands of added reflection.
+constexpr int kRegions = 8;
+constexpr double kBandEdges[4] = {1.0, 0.03, 0.01, 0.0};
+
+struct Shares {
+  std::size_t total[kRegions] = {}, flagged[kRegions] = {}, band_total[3] = {}, band_flagged[3] = {};
+  // Flagged skin cells: in the highlight's unlabelled tail (added reflection 0.001-0.006), within 8 cells of
+  // another region, elsewhere.
+  std::size_t skin_tail = 0, skin_edge = 0, skin_other = 0;
+};
+
+Shares count(const daemon::RenderedSession& lab, const std::vector<float>& reflection, const std::vector<PixelEstimate>& e) {
+  Shares s;
+  cv::Mat other(lab.height, lab.width, CV_8U);
+  for (std::size_t i = 0; i < lab.pixels(); ++i)
+    other.at<std::uint8_t>(static_cast<int>(i / lab.width), static_cast<int>(i % lab.width)) =
+        lab.region[i] != static_cast<std::uint8_t>(simulators::SceneRegion::kSkin);
+  cv::dilate(other, other, cv::Mat::ones(17, 17, CV_8U));
+  for (std::size_t i = 0; i < lab.pixels(); ++i) {
+    if (lab.region[i] == static_cast<std::uint8_t>(simulators::SceneRegion::kSkin) && e[i].flag != PixelFlag::kExplained)
+      ++(reflection[i] >= 0.001 ? s.skin_tail
+         : other.at<std::uint8_t>(static_cast<int>(i / lab.width), static_cast<int>(i % lab.width)) ? s.skin_edge
+                                                                                                     : s.skin_other);
+  }
+  for (std::size_t i = 0; i < lab.pixels(); ++i) {
+    const int region = lab.region[i] == daemon::kMixedCell ? 7 : lab.region[i];
+    const bool flagged = e[i].flag != PixelFlag::kExplained;
+    ++s.total[region];
+    s.flagged[region] += flagged;
+    if (region == static_cast<int>(simulators::SceneRegion::kSpecular))
+      for (int b = 0; b < 3; ++b)
+        if (reflection[i] >= kBandEdges[b + 1] && reflection[i] < kBandEdges[b]) ++s.band_total[b], s.band_flagged[b] += flagged;
+  }
+  return s;
+}
+
+void print(const char* label, const Shares& s) {
+  std::printf("%-22s", label);
+  for (int k = 0; k < kRegions; ++k) {
+    if (s.total[k] == 0) continue;
+    const char* name = k == 7 ? "mixed" : simulators::region_name(static_cast<simulators::SceneRegion>(k));
+    std::printf(" %s %.2f%%", name, 100.0 * s.flagged[k] / s.total[k]);
+  }
+  std::printf(" | specular >=0.03 / 0.01-0.03 / 0.006-0.01:");
+  for (int b = 0; b < 3; ++b) std::printf(" %.1f%%", s.band_total[b] ? 100.0 * s.band_flagged[b] / s.band_total[b] : 0.0);
+  std::printf("\n%22s flagged skin cells: %zu in the highlight's unlabelled tail (reflection 0.001-0.006), %zu within 8 cells "
+              "of another region, %zu elsewhere\n", "", s.skin_tail, s.skin_edge, s.skin_other);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int sensor_width = 2592, sensor_height = 1944;
+  std::filesystem::path frame_cache = ForwardTable::default_cache_dir();
+  std::vector<int> blocks;
+  std::string png_prefix;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--blocks" && i + 1 < argc) {
+      std::stringstream list(argv[++i]);
+      for (std::string b; std::getline(list, b, ',');) blocks.push_back(std::atoi(b.c_str()));
+    } else if (a == "--scene-size" && i + 2 < argc) {
+      sensor_width = std::atoi(argv[++i]), sensor_height = std::atoi(argv[++i]);
+    } else if (a == "--png" && i + 1 < argc) {
+      png_prefix = argv[++i];
+    } else if (a == "--frame-cache" && i + 1 < argc) {
+      frame_cache = argv[++i];
+    } else {
+      std::fprintf(stderr, "usage: spatial_flags_bench [--blocks 1,3,5] [--scene-size W H] [--frame-cache DIR]\n");
+      return 2;
+    }
+  }
+  daemon::RenderedSessionOptions ro;  // the estimation bench's session
+  ro.sensor_width = sensor_width, ro.sensor_height = sensor_height, ro.seed = 5, ro.threads = 2;
+  ro.cache_dir = frame_cache;
+  auto t = std::chrono::steady_clock::now();
+  const daemon::RenderedSession lab = daemon::render_session(ro);
+  std::printf("virtual lab %dx%d -> %dx%d cells, %s in %.1f s\n", sensor_width, sensor_height, lab.width, lab.height,
+              lab.loaded_from_cache ? "loaded from the cache" : "rendered", seconds_since(t));
+  // Each cell's added reflection: the mean over its 2×2 sensor sites (one scene pixel per site).
+  std::vector<float> reflection(lab.pixels());
+  for (std::size_t i = 0; i < lab.pixels(); ++i) {
+    const int cx = static_cast<int>(i % lab.width), cy = static_cast<int>(i / lab.width);
+    double sum = 0;
+    for (int dy = 0; dy < 2; ++dy)
+      for (int dx = 0; dx < 2; ++dx)
+        sum += simulators::skin_scene_added_reflection(sensor_width, sensor_height, 2 * cx + dx, 2 * cy + dy);
+    reflection[i] = static_cast<float>(sum / 4);
+  }
+  const auto table = ForwardTable::load_or_build(lab.noisy.set, TableGrid{}, ForwardTable::default_cache_dir());
+  EstimatorOptions eo;
+  eo.threads = 2;
+  const Estimator estimator(table, lab.noisy.set, eo);
+  std::vector<PixelEstimate> per_pixel(lab.pixels());
+  const EstimateSummary first = estimator.estimate(lab.noisy.measured, per_pixel);
+  std::printf("first pass (fast auto, noisy): %.2f s wall, %.0f cells/s\n", first.seconds, lab.pixels() / first.seconds);
+  print("per pixel", count(lab, reflection, per_pixel));
+
+  if (blocks.empty()) blocks = {1, neighbourhood_block_px(lab.width, lab.height, NeighbourhoodOptions{})};
+  for (int block : blocks) {
+    NeighbourhoodOptions no;
+    no.block_px = block;
+    std::vector<PixelEstimate> e = per_pixel;
+    EstimateSummary summary = first;
+    const double cpu0 = process_cpu_seconds();
+    t = std::chrono::steady_clock::now();
+    const NeighbourhoodSummary flags = refine_flags_with_neighbourhood(estimator, lab.noisy.measured, lab.width, lab.height, e, no);
+    const double flags_s = seconds_since(t), flags_cpu = process_cpu_seconds() - cpu0;
+    no.flags = false;
+    t = std::chrono::steady_clock::now();
+    refine_with_neighbourhood(estimator, lab.noisy.measured, lab.width, lab.height, e, summary, no);
+    const double order_s = seconds_since(t), order_cpu = process_cpu_seconds() - cpu0 - flags_cpu;
+    char label[64];
+    std::snprintf(label, sizeof label, "block %d (%dx%d)", block, (lab.width + block - 1) / block,
+                  (lab.height + block - 1) / block);
+    print(label, count(lab, reflection, e));
+    if (!png_prefix.empty()) {
+      // Flagged skin red, flagged other regions grey, explained other regions dark blue.
+      cv::Mat image(lab.height, lab.width, CV_8UC3, cv::Scalar(0, 0, 0));
+      for (std::size_t i = 0; i < lab.pixels(); ++i) {
+        const bool skin = lab.region[i] == static_cast<std::uint8_t>(simulators::SceneRegion::kSkin);
+        const bool flagged = e[i].flag != PixelFlag::kExplained;
+        image.at<cv::Vec3b>(static_cast<int>(i / lab.width), static_cast<int>(i % lab.width)) =
+            skin ? (flagged ? cv::Vec3b(0, 0, 255) : cv::Vec3b(0, 0, 0)) : (flagged ? cv::Vec3b(128, 128, 128) : cv::Vec3b(128, 0, 0));
+      }
+      cv::imwrite(png_prefix + "_block" + std::to_string(block) + ".png", image);
+    }
+    std::printf("  flag pass %.2f s wall, %.2f s CPU (%.2f µs CPU per cell), %d rounds, %zu joined + %zu enclosed cells; "
+                "order pooling %.2f s wall, %.2f s CPU\n",
+                flags_s, flags_cpu, 1e6 * flags_cpu / lab.pixels(), flags.passes, flags.flagged_touching,
+                flags.flagged_holes, order_s, order_cpu);
+  }
+  return 0;
+}
