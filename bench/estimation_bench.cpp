@@ -9,7 +9,7 @@
 //   build/release/bin/estimation_bench [--pixels N] [--exhaustive-pixels N] [--full] [--out DIR]
 //                                      [--baseline FILE] [--methods fast,2d,exhaustive,scene]
 //                                      [--scene-size W H] [--frame-cache DIR | --no-frame-cache]
-//                                      [--speed-only] [--diagnose]
+//                                      [--speed-only] [--diagnose | --diagnose-only]
 //
 // Synthetic: a 256×192 frame (49,152 pixels) for the fast and 2D inverters,
 // the exhaustive search on a fixed subsample of its first --exhaustive-pixels
@@ -26,7 +26,9 @@
 // failure sections; --diagnose: one thread, CPU time, how the fast
 // inverter's fits end and where its time goes (cold and hot caches, the
 // Estimator's share, one interpolation, the previous stopping rules against
-// today's back to back). The summary lines give each fast 4D run's CPU time
+// today's back to back; per path and inverse-table cell kind on the
+// synthetic and the lab skin cells); --diagnose-only: that and no method
+// runs (nothing written). The summary lines give each fast 4D run's CPU time
 // per pixel and core against the 200 ns that 10 MP/s on 2 cores needs.
 // Speeds: wall clock of Estimator::estimate on 2 threads (pixels/s) and the
 // process CPU time per pixel (both threads), steadier on a shared machine.
@@ -184,6 +186,89 @@ double estimator_cpu_ns(const Estimator& estimator, std::span<const float> measu
   return 1e9 * best / e.size();
 }
 
+// --diagnose on a frame's cells (one thread, thread CPU time): where the
+// fast 4D fit's time goes. Cells are grouped by their inverse-table cell:
+// one holding table nodes itself ("occupied"), an empty one pointing at a
+// neighbour ("empty"), none (outside the key box, non-finite). Per group, the
+// pre-solved path runs on all its cells, then the search path on those where
+// fit() would run it too, each pass timed as a whole (per-cell clock reads
+// would cost more than a fit).
+nlohmann::ordered_json diagnose_fast_paths(const FastInverter& fast, const MeasurementSet& set,
+                                           std::span<const float> measured, const char* label) {
+  const std::size_t n = measured.size() / 4;
+  std::vector<double> m(n * 4), w(n * 4);
+  for (std::size_t i = 0; i < n * 4; ++i) {
+    m[i] = measured[i];
+    const double model = 0.003 * std::max(m[i], 0.0);
+    w[i] = 1 / std::sqrt(set.channels[i % 4].noise.variance(m[i]) + model * model);
+  }
+  const char* names[3] = {"occupied", "empty", "none"};
+  std::vector<std::size_t> group[3];
+  for (std::size_t i = 0; i < n; ++i) {
+    const float mf[4] = {measured[i * 4], measured[i * 4 + 1], measured[i * 4 + 2], measured[i * 4 + 3]};
+    group[fast.inverse_table().cell_of(mf) == InverseTable::kNoCell ? 2 : fast.in_occupied_cell(&m[i * 4]) ? 0 : 1]
+        .push_back(i);
+  }
+  auto thread_seconds = [] {
+    timespec t;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return t.tv_sec + 1e-9 * t.tv_nsec;
+  };
+  const FastInverterOptions& o = fast.options();
+  nlohmann::ordered_json out = {{"cells", n}};
+  double total_s = 0;
+  std::string lines;
+  for (int k = 0; k < 3; ++k) {
+    const std::vector<std::size_t>& cells = group[k];
+    if (cells.empty()) continue;
+    std::vector<Fit> presolved(cells.size());
+    std::vector<char> converged(cells.size());
+    const double t0 = thread_seconds();
+    for (std::size_t j = 0; j < cells.size(); ++j)
+      converged[j] = fast.fit_presolved(&m[cells[j] * 4], &w[cells[j] * 4], presolved[j]);
+    const double t1 = thread_seconds();
+    std::vector<std::size_t> searched;
+    for (std::size_t j = 0; j < cells.size(); ++j)
+      if (!(converged[j] && presolved[j].chi2 <= o.presolved_accept_chi2)) searched.push_back(j);
+    std::vector<Fit> search(searched.size());
+    const double t2 = thread_seconds();
+    for (std::size_t j = 0; j < searched.size(); ++j)
+      search[j] = fast.fit_by_search(&m[cells[searched[j]] * 4], &w[cells[searched[j]] * 4], 4);
+    const double t3 = thread_seconds();
+    total_s += (t1 - t0) + (t3 - t2);
+    double chi2 = 0, iterations = 0, before = 0, after = 0;
+    std::size_t unconverged = 0, better_01 = 0, better_1 = 0;
+    for (std::size_t j = 0; j < cells.size(); ++j) chi2 += presolved[j].chi2, iterations += presolved[j].iterations;
+    for (std::size_t j = 0; j < cells.size(); ++j) unconverged += !converged[j];
+    for (std::size_t j = 0; j < searched.size(); ++j) {
+      const Fit& p = presolved[searched[j]];
+      const double pre = std::isfinite(p.chi2) ? p.chi2 : 0, best = std::min(search[j].chi2, p.chi2);
+      chi2 += best - p.chi2;
+      before += pre, after += best;
+      better_01 += search[j].chi2 < p.chi2 - 0.1, better_1 += search[j].chi2 < p.chi2 - 1;
+    }
+    const double share = double(cells.size()) / n, searched_share = double(searched.size()) / cells.size();
+    const double pre_ns = 1e9 * (t1 - t0) / n, search_ns = 1e9 * (t3 - t2) / n;
+    char line[600];
+    std::snprintf(line, sizeof line,
+                  "  %-8s %6.2f%% of cells: pre-solved path %5.0f ns each (GN iterations %.2f, unconverged %.2f%%); "
+                  "searched %5.2f%% of them, %6.0f ns each (chi2 %.2f -> %.2f, lowered by > 0.1 on %.1f%%, by > 1 "
+                  "on %.1f%%); per cell of the frame: pre-solved %4.0f + search %4.0f ns; final mean chi2 %.3f\n",
+                  names[k], 100 * share, 1e9 * (t1 - t0) / cells.size(), iterations / cells.size(),
+                  100.0 * unconverged / cells.size(), 100 * searched_share,
+                  searched.empty() ? 0.0 : 1e9 * (t3 - t2) / searched.size(), searched.empty() ? 0.0 : before / searched.size(),
+                  searched.empty() ? 0.0 : after / searched.size(), searched.empty() ? 0.0 : 100.0 * better_01 / searched.size(),
+                  searched.empty() ? 0.0 : 100.0 * better_1 / searched.size(), pre_ns, search_ns, chi2 / cells.size());
+    lines += line;
+    out[names[k]] = {{"share", share}, {"searched_share", searched_share}, {"presolved_ns_per_frame_cell", pre_ns},
+                     {"search_ns_per_frame_cell", search_ns}, {"mean_chi2", chi2 / cells.size()}};
+  }
+  std::printf("diagnose %s: %zu cells, fast 4d fit %.0f ns/cell CPU (one thread)\n%s", label, n, 1e9 * total_s / n,
+              lines.c_str());
+  out["cpu_ns_per_cell"] = 1e9 * total_s / n;
+  return out;
+}
+
 nlohmann::ordered_json to_json(const RunResult& r) {
   return {{"method", r.method},       {"model", r.model},
           {"noise", r.noise},         {"pixels", r.pixels},
@@ -228,7 +313,7 @@ int main(int argc, char** argv) {
   fs::path baseline;
   std::string methods = "fast,2d,exhaustive,scene";
   int scene_width = 2592, scene_height = 1944;
-  bool speed_only = false, diagnose = false;
+  bool speed_only = false, diagnose = false, diagnose_only = false;
   fs::path frame_cache = ForwardTable::default_cache_dir();
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -241,12 +326,13 @@ int main(int argc, char** argv) {
     else if (a == "--speed-only") speed_only = true;
     else if (a == "--scene-size" && i + 2 < argc) scene_width = std::atoi(argv[++i]), scene_height = std::atoi(argv[++i]);
     else if (a == "--diagnose") diagnose = true;
+    else if (a == "--diagnose-only") diagnose = diagnose_only = true;
     else if (a == "--frame-cache" && i + 1 < argc) frame_cache = argv[++i];
     else if (a == "--no-frame-cache") frame_cache.clear();
     else {
       std::fprintf(stderr, "usage: estimation_bench [--pixels N] [--exhaustive-pixels N] [--full] [--out DIR] "
                            "[--baseline FILE] [--methods fast,2d,exhaustive,scene] [--scene-size W H] "
-                           "[--frame-cache DIR | --no-frame-cache] [--speed-only] [--diagnose]\n");
+                           "[--frame-cache DIR | --no-frame-cache] [--speed-only] [--diagnose | --diagnose-only]\n");
       return 2;
     }
   }
@@ -434,12 +520,15 @@ int main(int argc, char** argv) {
         report[std::string("diagnose_") + (noise > 0 ? "noisy" : "noise_free")] = {
             {"estimator_cpu_ns_previous_rules", before_ns}, {"estimator_cpu_ns", after_ns}};
       }
+      report[std::string("diagnose_paths_") + (noise > 0 ? "noisy" : "noise_free")] = diagnose_fast_paths(
+          fast, s, std::span<const float>(noise > 0 ? f.noisy : f.clean).first(n * 4),
+          noise > 0 ? "synthetic noisy" : "synthetic noise-free");
       std::printf("diagnose %s: %zu px, %.0f ns/px CPU (one thread), presolved %.2f%% searched %.2f%%, "
                   "mean chi2 %.4f, outside the inverse table %.2f%%, mean iterations %.2f\n", noise > 0 ? "noisy" : "noise-free", n, 1e9 * cpu / n, 100.0 * counts[0] / n,
                   100.0 * counts[1] / n, chi2_sum / n, 100.0 * no_cell / n, double(iteration_sum) / n);
     }
     for (const MethodConfig& c : kMethodConfigs) {
-      if (methods.find(method_name(c.method)) == std::string::npos) continue;
+      if (diagnose_only || methods.find(method_name(c.method)) == std::string::npos) continue;
       EstimatorOptions eo;
       eo.method = c.method;
       eo.model = c.model;
@@ -478,6 +567,7 @@ int main(int argc, char** argv) {
   // --exhaustive-pixels of them), fast 4D also on the whole frame; flag
   // shares per scene region.
   std::vector<RunResult> scene_runs;
+  if (diagnose_only && methods.find("scene") == std::string::npos) return 0;
   if (methods.find("scene") != std::string::npos) {
     daemon::RenderedSessionOptions ro;
     ro.sensor_width = scene_width, ro.sensor_height = scene_height, ro.seed = 5, ro.threads = 2;
@@ -536,6 +626,17 @@ int main(int argc, char** argv) {
       report["lab_frame"]["noise_free_vs_truth_de94_d65prime"] = {{"mean", fidelity.mean}, {"p95", fidelity.p95}};
       report["lab_frame"]["noise_floor_de94"] = {{"mean", floor.mean}, {"p95", floor.p95}};
       report["lab_noise_floor_de94"] = floor.mean;
+    }
+    if (diagnose) {
+      const FastInverter fast(lab_table);
+      for (const bool noisy : {false, true}) {
+        const MethodMeasurement& m = noisy ? lab.noisy : lab.noise_free;
+        std::vector<float> measured;
+        for (std::size_t i : skin) measured.insert(measured.end(), m.measured.begin() + i * 4, m.measured.begin() + i * 4 + 4);
+        report[std::string("diagnose_paths_lab_") + (noisy ? "noisy" : "noise_free")] =
+            diagnose_fast_paths(fast, m.set, measured, noisy ? "lab skin noisy" : "lab skin noise-free");
+      }
+      if (diagnose_only) return 0;
     }
     const double lab_floor = report["lab_noise_floor_de94"].get<double>();
     const std::size_t stride = std::max<std::size_t>(1, skin.size() / std::max(exhaustive_pixels, 1));

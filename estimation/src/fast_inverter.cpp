@@ -77,6 +77,17 @@ GridPoint FastInverter::coarse_search(const double* measured, const double* weig
   return {double(at[0]), double(at[1]), double(at[2]), double(at[3])};
 }
 
+bool FastInverter::in_occupied_cell(const double* measured) const {
+  const int channels = table_->channels();
+  float m[kMaxChannels];
+  for (int c = 0; c < channels; ++c) m[c] = static_cast<float>(measured[c]);
+  const std::uint32_t box = inverse_->box_of(m), cell_index = inverse_->cell_of(m);
+  if (cell_index == InverseTable::kNoCell) return false;
+  // An occupied cell's bucket holds the nodes whose own values fall in it.
+  const std::uint32_t node = inverse_->bucket_nodes()[inverse_->cell(cell_index).bucket_begin];
+  return inverse_->box_of(table_->values().data() + std::size_t(node) * channels) == box;
+}
+
 double FastInverter::filled_share() const { return inverse_->filled_share(); }
 
 GridPoint FastInverter::seed_point(std::uint32_t node) const {

@@ -203,6 +203,11 @@ void InverseTable::key_of(const float* values, float* key) const {
 }
 
 std::uint32_t InverseTable::cell_of(const float* measured) const {
+  const std::uint32_t box = box_of(measured);
+  return box == kNoCell ? kNoCell : cell_index_[box];
+}
+
+std::uint32_t InverseTable::box_of(const float* measured) const {
   float key[4];
   key_of(measured, key);
   std::uint32_t box = 0, stride = 1;
@@ -213,7 +218,7 @@ std::uint32_t InverseTable::cell_of(const float* measured) const {
     if (!std::isfinite(position)) return kNoCell;
     box += static_cast<std::uint32_t>(std::clamp(position, 0.0f, kBins - 1.0f)) * stride;
   }
-  return cell_index_[box];
+  return box;
 }
 
 double InverseTable::filled_share() const {

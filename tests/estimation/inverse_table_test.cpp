@@ -217,6 +217,61 @@ TEST(FastInverter, OptionsAreValidated) {
 // measurement at any branch's stored solution is fitted to within the
 // convergence χ² (0.1σ per channel) by the pre-solved path (whichever branch
 // it picks explains it).
+// fit() is its two public paths combined (the bench's cost breakdown times
+// them apart): the pre-solved fit when it converged within the acceptance
+// χ², else the smaller χ² of it and the search path. Noise-free skin falls
+// mostly in inverse-table cells that hold table nodes themselves; noisy skin
+// lies off the gamut's thin sheet, mostly in empty cells that point at a
+// neighbour (synthetic: 14% and 92%).
+TEST(FastInverter, FitIsThePresolvedPathThenTheSearchPath) {
+  const auto table = testing::method_table();
+  const FastInverter fast(table, method_inverse_table());
+  for (const double noise : {0.0, 1.0}) {
+    MeasurementSet set = testing::method_set();
+    SyntheticOptions o;
+    o.pixels = 300;
+    o.noise.noise_scale = noise;
+    o.seed = 23;
+    const SyntheticFrame f = make_synthetic_frame(set, o);
+    int occupied = 0, searched = 0;
+    for (std::size_t i = 0; i < f.pixels(); ++i) {
+      double m[4], w[4];
+      for (int c = 0; c < 4; ++c) m[c] = (noise > 0 ? f.noisy : f.clean)[i * 4 + c];
+      estimator_weights(set, m, w);
+      FastPath path;
+      const Fit fit = fast.fit(m, w, 4, &path);
+      Fit presolved;
+      const bool converged = fast.fit_presolved(m, w, presolved);
+      if (converged && presolved.chi2 <= fast.options().presolved_accept_chi2) {
+        EXPECT_EQ(path, FastPath::kPresolved);
+        EXPECT_EQ(fit.chi2, presolved.chi2);
+        EXPECT_EQ(fit.x, presolved.x);
+      } else {
+        ++searched;
+        EXPECT_EQ(path, FastPath::kSearched);
+        EXPECT_EQ(fit.chi2, std::min(presolved.chi2, fast.fit_by_search(m, w, 4).chi2));
+      }
+      occupied += fast.in_occupied_cell(m);
+    }
+    SCOPED_TRACE(noise);
+    if (noise > 0) {
+      EXPECT_LT(occupied, 60);  // ≤ 20% (8% in the bench)
+      EXPECT_GT(searched, 5);   // the search path runs (8% in the bench)
+    } else {
+      EXPECT_GT(occupied, 225);  // ≥ 75% (86% in the bench)
+    }
+  }
+  // A table node's own prediction lies in its own, occupied cell.
+  const auto n = table->nodes();
+  for (int i = 0; i < 50; ++i) {
+    const float* v = table->node(i % n[0], (7 * i) % n[1], (3 * i) % n[2], i % n[3]);
+    const double m[4] = {v[0], v[1], v[2], v[3]};
+    EXPECT_TRUE(fast.in_occupied_cell(m));
+  }
+  const double nan_pixel[4] = {NAN, 0.2, 0.2, 0.2};
+  EXPECT_FALSE(fast.in_occupied_cell(nan_pixel));
+}
+
 TEST(InverseTable, EveryStoredBranchIsFittedExactly) {
   const auto table = testing::method_table();
   const auto inverse = method_inverse_table();

@@ -85,6 +85,9 @@ class InverseTable {
   // Cell of a measurement (its first key_dims() channels; beyond the key
   // box: the box's edge cell); kNoCell for an empty cell or a non-finite key.
   std::uint32_t cell_of(const float* measured) const;
+  // The key-box cell of a measurement (index over all kBins^key_dims() cells,
+  // occupied or not); kNoCell for a non-finite key.
+  std::uint32_t box_of(const float* measured) const;
   const Cell& cell(std::uint32_t index) const { return cells_[index]; }
   const std::vector<std::uint32_t>& bucket_nodes() const { return bucket_nodes_; }
   const Branch* branches(const Cell& c) const { return branches_.data() + c.branch_begin; }

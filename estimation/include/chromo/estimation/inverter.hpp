@@ -161,6 +161,14 @@ class FastInverter : public Inverter {
   // (x: grid coordinates; value: 4; jacobian: 16 row-major, or null). Public
   // for the bench's cost breakdown.
   void predict4(const float* x, float* value, float* jacobian) const;
+  // The two paths fit() combines (public for the bench's cost breakdown):
+  // the pre-solved path (4 channels, order 4 only; false when it did not
+  // converge, `fit` then holds the best point reached) and the search path.
+  bool fit_presolved(const double* measured, const double* weight, Fit& fit) const;
+  Fit fit_by_search(const double* measured, const double* weight, int order) const;
+  // Whether `measured` falls in an inverse-table cell that holds table nodes
+  // itself (false: an empty cell pointing at a neighbour, or outside).
+  bool in_occupied_cell(const double* measured) const;
 
  private:
   Options options_;
@@ -176,9 +184,6 @@ class FastInverter : public Inverter {
   std::size_t step_[4] = {};          // floats between neighbouring nodes along each axis
   bool presolved_ = false;            // 4 channels: the linear-step path is available
   void init();
-  // Linear step + bounded Gauss-Newton; false when not converged (fit holds the best point reached).
-  bool fit_presolved(const double* measured, const double* weight, Fit& fit) const;
-  Fit fit_by_search(const double* measured, const double* weight, int order) const;
   GridPoint seed_point(std::uint32_t node) const;
   std::array<float, 4> upper_bounds() const;  // largest grid coordinate per axis
   void interpolate(const GridPoint& x, double* value, double* jacobian) const override;
