@@ -33,6 +33,16 @@ void estimator_weights(const MeasurementSet& set, const double* m, double* w) {
   }
 }
 
+// `pixels` random in-gamut skin pixels of `set` (synthetic.hpp), noisy with
+// the camera noise model's σ × noise_scale (which becomes set's noise).
+SyntheticFrame skin_frame(MeasurementSet& set, int pixels, std::uint64_t seed, double noise_scale = 1.0) {
+  SyntheticOptions o;
+  o.pixels = pixels;
+  o.seed = seed;
+  o.noise.noise_scale = noise_scale;
+  return make_synthetic_frame(set, o);
+}
+
 double mean_d65_delta_e(const ForwardTable& table, const std::vector<GridPoint>& a, const std::vector<GridPoint>& b) {
   const SkinModel model;
   const spectral::Spectrum& d65 = spectral::illuminant_d65();
@@ -59,11 +69,7 @@ TEST(FastInverter, PresolvedPathMatchesTheExhaustiveSearchOnInGamutSkin) {
   const ExhaustiveInverter exhaustive(table);
   for (const double noise : {0.0, 1.0}) {
     MeasurementSet set = testing::method_set();
-    SyntheticOptions o;
-    o.pixels = 300;
-    o.noise.noise_scale = noise;
-    o.seed = 21;
-    const SyntheticFrame f = make_synthetic_frame(set, o);
+    const SyntheticFrame f = skin_frame(set, 300, 21, noise);
     int presolved = 0, close = 0;
     std::vector<GridPoint> fast_x, exhaustive_x;
     for (std::size_t i = 0; i < f.pixels(); ++i) {
@@ -99,10 +105,7 @@ TEST(FastInverter, ChordStepsFinishMostNoiseFreePixelsWithoutGaussNewton) {
   const FastInverter fast(table, method_inverse_table()), newton_only(table, method_inverse_table(), no_chord);
   const ExhaustiveInverter exhaustive(table);
   MeasurementSet set = testing::method_set();
-  SyntheticOptions o;
-  o.pixels = 300;
-  o.seed = 23;
-  const SyntheticFrame f = make_synthetic_frame(set, o);
+  const SyntheticFrame f = skin_frame(set, 300, 23);
   int chord_only = 0, close_cm = 0, chord_iterations = 0, newton_iterations = 0;
   std::vector<GridPoint> chord_x, exhaustive_x;
   for (std::size_t i = 0; i < f.pixels(); ++i) {
@@ -132,11 +135,7 @@ TEST(FastInverter, NoisyPixelsOnABoundFaceGetAFiniteBoundedFit) {
   const auto table = testing::method_table();
   const auto n = table->nodes();
   MeasurementSet set = testing::method_set();
-  SyntheticOptions o;
-  o.pixels = 200;
-  o.noise.noise_scale = 2;
-  o.seed = 25;
-  const SyntheticFrame f = make_synthetic_frame(set, o);
+  const SyntheticFrame f = skin_frame(set, 200, 25, 2);
   for (const int chord_steps : {0, 3, 50}) {
     FastInverterOptions options;
     options.chord_steps = chord_steps;
@@ -169,10 +168,7 @@ TEST(FastInverter, FaceStallSavesIterationsOnNoisyPixels) {
   crawl.face_stall_relative = 0;
   const FastInverter fast(table, method_inverse_table()), crawling(table, method_inverse_table(), crawl);
   MeasurementSet set = testing::method_set();
-  SyntheticOptions o;
-  o.pixels = 400;
-  o.seed = 27;
-  const SyntheticFrame f = make_synthetic_frame(set, o);
+  const SyntheticFrame f = skin_frame(set, 400, 27);
   int iterations = 0, crawl_iterations = 0, same_path = 0;
   double chi2 = 0, crawl_chi2 = 0;
   for (std::size_t i = 0; i < f.pixels(); ++i) {
@@ -228,11 +224,7 @@ TEST(FastInverter, FitIsThePresolvedPathThenTheSearchPath) {
   const FastInverter fast(table, method_inverse_table());
   for (const double noise : {0.0, 1.0}) {
     MeasurementSet set = testing::method_set();
-    SyntheticOptions o;
-    o.pixels = 300;
-    o.noise.noise_scale = noise;
-    o.seed = 23;
-    const SyntheticFrame f = make_synthetic_frame(set, o);
+    const SyntheticFrame f = skin_frame(set, 300, 23, noise);
     int occupied = 0, searched = 0;
     for (std::size_t i = 0; i < f.pixels(); ++i) {
       double m[4], w[4];
