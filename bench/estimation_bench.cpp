@@ -38,7 +38,6 @@
 // (e.g. the previous version of the inverters, run just before on the same
 // machine): its points go on the speed/accuracy chart next to this run's,
 // labelled "old ...", and the run prints new/old ratios per configuration.
-#include <sys/resource.h>
 #include <time.h>
 
 #include <chrono>
@@ -64,9 +63,12 @@
 #include "chromo/spectral/cie.hpp"
 #include "chromo/simulators/scene/scene.hpp"
 #include "chromo/spectral/delta_e.hpp"
+#include "clocks.hpp"
 
 using namespace chromo;
 using namespace chromo::estimation;
+using bench::CpuClock;
+using bench::seconds_since;
 namespace fs = std::filesystem;
 
 namespace {
@@ -80,10 +82,6 @@ constexpr MethodConfig kMethodConfigs[] = {{InverterMethod::kFast, ModelChoice::
                                            {InverterMethod::kFast, ModelChoice::kAuto},
                                            {InverterMethod::k2d, ModelChoice::k2d},
                                            {InverterMethod::kExhaustive, ModelChoice::k4d}};
-
-double seconds_since(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-}
 
 MeasurementSet method_set() {
   return method_measurement_set(spectral::builtin_camera("nikon_d5100"), led_d65_metamer(),
@@ -150,22 +148,6 @@ struct RunResult {
   std::size_t pixels = 0, flagged = 0, order2 = 0, order4 = 0;
   Accuracy acc;
   double cpu_us_per_pixel = 0;  // process CPU time (both threads) per pixel
-};
-
-// Process CPU time since construction (all threads): steadier than the wall
-// clock on a shared machine.
-class CpuClock {
- public:
-  CpuClock() : start_(now()) {}
-  double seconds() const { return now() - start_; }
-
- private:
-  static double now() {
-    rusage u{};
-    getrusage(RUSAGE_SELF, &u);
-    return u.ru_utime.tv_sec + u.ru_stime.tv_sec + 1e-6 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
-  }
-  double start_;
 };
 
 // 10 MP/s on 2 cores is 200 ns of CPU per pixel and core.
@@ -716,15 +698,9 @@ int main(int argc, char** argv) {
       const Estimator estimator(lab_table, lab.noisy.set, eo);
       std::vector<PixelEstimate> e(lab.pixels());
       EstimateSummary summary = estimator.estimate(lab.noisy.measured, e);
-      // Each cell's added surface reflection (the highlight's; the mean over its 2×2 sites), for the
-      // specular shares per band: ≥ 0.03, 0.01-0.03, 0.006-0.01 (the label's edge).
-      std::vector<float> reflection(lab.pixels());
-      for (std::size_t i = 0; i < lab.pixels(); ++i) {
-        const int cx = static_cast<int>(i % lab.width), cy = static_cast<int>(i / lab.width);
-        for (int d = 0; d < 4; ++d)
-          reflection[i] += static_cast<float>(
-              simulators::skin_scene_added_reflection(scene_width, scene_height, 2 * cx + d % 2, 2 * cy + d / 2) / 4);
-      }
+      // Each cell's added surface reflection, for the specular shares per band: ≥ 0.03, 0.01-0.03,
+      // 0.006-0.01 (the label's edge).
+      const std::vector<float> reflection = daemon::cell_added_reflection(ro);
       auto shares = [&](const char* label, nlohmann::ordered_json& out) {
         std::size_t total[8] = {}, flagged[8] = {}, band_total[3] = {}, band_flagged[3] = {};
         constexpr double kBandEdges[4] = {1.0, 0.03, 0.01, 0.0};

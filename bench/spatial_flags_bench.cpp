@@ -11,8 +11,6 @@
 // Default blocks: 1 and the size NeighbourhoodOptions{} picks (block_px = 0).
 // Cost: wall clock and process CPU time (getrusage: both threads), per pass
 // and per cell. Prints only; the figures go into docs/estimation.md.
-#include <sys/resource.h>
-
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -30,20 +28,15 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "clocks.hpp"
+
 namespace {
 
 using namespace chromo;
 using namespace chromo::estimation;
 
-double process_cpu_seconds() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return u.ru_utime.tv_sec + u.ru_stime.tv_sec + 1e-6 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
-}
-
-double seconds_since(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-}
+using bench::CpuClock;
+using bench::seconds_since;
 
 // Regions 0-6 (SceneRegion), 7 mixed cells; specular bands of added reflection.
 constexpr int kRegions = 8;
@@ -124,16 +117,7 @@ int main(int argc, char** argv) {
   const daemon::RenderedSession lab = daemon::render_session(ro);
   std::printf("virtual lab %dx%d -> %dx%d cells, %s in %.1f s\n", sensor_width, sensor_height, lab.width, lab.height,
               lab.loaded_from_cache ? "loaded from the cache" : "rendered", seconds_since(t));
-  // Each cell's added reflection: the mean over its 2×2 sensor sites (one scene pixel per site).
-  std::vector<float> reflection(lab.pixels());
-  for (std::size_t i = 0; i < lab.pixels(); ++i) {
-    const int cx = static_cast<int>(i % lab.width), cy = static_cast<int>(i / lab.width);
-    double sum = 0;
-    for (int dy = 0; dy < 2; ++dy)
-      for (int dx = 0; dx < 2; ++dx)
-        sum += simulators::skin_scene_added_reflection(sensor_width, sensor_height, 2 * cx + dx, 2 * cy + dy);
-    reflection[i] = static_cast<float>(sum / 4);
-  }
+  const std::vector<float> reflection = daemon::cell_added_reflection(ro);
   const auto table = ForwardTable::load_or_build(lab.noisy.set, TableGrid{}, ForwardTable::default_cache_dir());
   EstimatorOptions eo;
   eo.threads = 2;
@@ -149,14 +133,15 @@ int main(int argc, char** argv) {
     no.block_px = block;
     std::vector<PixelEstimate> e = per_pixel;
     EstimateSummary summary = first;
-    const double cpu0 = process_cpu_seconds();
     t = std::chrono::steady_clock::now();
+    const CpuClock flags_clock;
     const NeighbourhoodSummary flags = refine_flags_with_neighbourhood(estimator, lab.noisy.measured, lab.width, lab.height, e, no);
-    const double flags_s = seconds_since(t), flags_cpu = process_cpu_seconds() - cpu0;
+    const double flags_s = seconds_since(t), flags_cpu = flags_clock.seconds();
     no.flags = false;
     t = std::chrono::steady_clock::now();
+    const CpuClock order_clock;
     refine_with_neighbourhood(estimator, lab.noisy.measured, lab.width, lab.height, e, summary, no);
-    const double order_s = seconds_since(t), order_cpu = process_cpu_seconds() - cpu0 - flags_cpu;
+    const double order_s = seconds_since(t), order_cpu = order_clock.seconds();
     char label[64];
     std::snprintf(label, sizeof label, "block %d (%dx%d)", block, (lab.width + block - 1) / block,
                   (lab.height + block - 1) / block);

@@ -370,4 +370,20 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
   return out;
 }
 
+std::vector<float> cell_added_reflection(const RenderedSessionOptions& options) {
+  const int scene_w = options.scene_width > 0 ? options.scene_width : options.sensor_width;
+  const int scene_h = options.scene_height > 0 ? options.scene_height : options.sensor_height;
+  const int cells_x = options.sensor_width / 2, cells_y = options.sensor_height / 2;
+  std::vector<float> reflection(static_cast<std::size_t>(cells_x) * cells_y);
+  for (int cy = 0; cy < cells_y; ++cy)
+    for (int cx = 0; cx < cells_x; ++cx) {
+      double sum = 0;
+      for (int d = 0; d < 4; ++d)
+        sum += simulators::skin_scene_added_reflection(scene_w, scene_h, options.window_x + 2 * cx + d % 2,
+                                                       options.window_y + 2 * cy + d / 2);
+      reflection[static_cast<std::size_t>(cy) * cells_x + cx] = static_cast<float>(sum / 4);
+    }
+  return reflection;
+}
+
 }  // namespace chromo::daemon

@@ -120,7 +120,6 @@ std::vector<cv::Mat> background(const std::vector<cv::Mat>& values, const cv::Ma
   return out;
 }
 
-
 // One resolution of the flag pass: the estimator's cells (block 1), or blocks
 // of block × block cells, each holding the mean of its explained cells (noise
 // σ/√cells) and flagged when most of its cells are.
@@ -429,7 +428,7 @@ NeighbourhoodSummary refine_flags_with_neighbourhood(const Estimator& estimator,
   // passes it only to its cells that deviate on their own from the
   // background (interpolated between blocks) at the rim significance: the
   // χ² test or the one-sided white test above, with one cell's noise.
-  cv::Mat edge, background_at_cells;
+  cv::Mat edge;
   cv::dilate(level.state == kOpen, edge, cv::Mat::ones(3, 3, CV_8U));
   std::vector<cv::Mat> back(channels);
   if (block > 1)

@@ -7,6 +7,8 @@
 // scene's truth, so the bench's frames cannot silently go wrong.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <cmath>
 #include <filesystem>
 #include <unistd.h>
@@ -40,6 +42,21 @@ RenderedSessionOptions tiny_options() {
 const RenderedSession& session() {
   static const RenderedSession s = render_session(tiny_options());
   return s;
+}
+
+// The highlight's added reflection per cell follows the window: 0.3 at its
+// centre (0.65 w, 0.2 h of the 2592×1944 scene), nothing on the tiny window.
+TEST(RenderedSession, CellAddedReflectionFollowsTheWindow) {
+  RenderedSessionOptions o = tiny_options();
+  std::vector<float> r = cell_added_reflection(o);
+  ASSERT_EQ(r.size(), 64u * 48u);
+  for (float v : r) EXPECT_LT(v, 1e-6f);
+  o.window_x = static_cast<int>(0.65 * 2592) - 64, o.window_y = static_cast<int>(0.2 * 1944) - 48;
+  r = cell_added_reflection(o);
+  const float centre = r[24 * 64 + 32];  // cell (32, 24): sites 64-65, 48-49 of the window
+  EXPECT_NEAR(centre, 0.3f, 0.003f);
+  EXPECT_EQ(*std::max_element(r.begin(), r.end()), centre);
+  EXPECT_LT(r[0], centre);
 }
 
 TEST(RenderedSession, IsTheBinnedMethodMeasurementWithTruthPerCell) {

@@ -100,4 +100,10 @@ struct RenderedSession {
 // Throws std::invalid_argument for bad options (naming the field).
 RenderedSession render_session(const RenderedSessionOptions& options);
 
+// Each measurement cell's added surface reflection (make_skin_scene's
+// highlight, simulators::skin_scene_added_reflection): the mean over the
+// cell's 2×2 sensor sites, at the scene pixels `options` put them on (scene
+// size and window). Truth for the specular shares per band of reflection.
+std::vector<float> cell_added_reflection(const RenderedSessionOptions& options);
+
 }  // namespace chromo::daemon
