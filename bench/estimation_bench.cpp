@@ -64,10 +64,15 @@
 #include "chromo/simulators/scene/scene.hpp"
 #include "chromo/spectral/delta_e.hpp"
 #include "clocks.hpp"
+#include "relit_accuracy.hpp"
 
 using namespace chromo;
 using namespace chromo::estimation;
+using bench::Accuracy;
 using bench::CpuClock;
+using bench::Relit;
+using bench::accuracy;
+using bench::relight;
 using bench::seconds_since;
 namespace fs = std::filesystem;
 
@@ -86,60 +91,6 @@ constexpr MethodConfig kMethodConfigs[] = {{InverterMethod::kFast, ModelChoice::
 MeasurementSet method_set() {
   return method_measurement_set(spectral::builtin_camera("nikon_d5100"), led_d65_metamer(),
                                 led_spectrum(spectral::LedType::kBlue));
-}
-
-// Lab of many albedos under the relight illuminants, computed once per set.
-struct Relit {
-  std::vector<std::vector<spectral::Lab>> lab;  // [illuminant][pixel]
-};
-Relit relight(std::span<const SkinParameters> p) {
-  static const SkinModel model;
-  std::vector<spectral::Spectrum> albedo(p.size());
-  model.albedo_batch(p, albedo);
-  Relit r;
-  for (const NamedIlluminant& i : relight_illuminants()) {
-    const spectral::Xyz white = spectral::white_point(i.spectrum);
-    std::vector<spectral::Lab> lab(p.size());
-    for (std::size_t k = 0; k < p.size(); ++k)
-      lab[k] = spectral::lab_from_xyz(spectral::xyz_of_reflectance(albedo[k], i.spectrum), white);
-    r.lab.push_back(std::move(lab));
-  }
-  return r;
-}
-
-struct Accuracy {
-  double de_all = 0, de_d65 = 0;   // mean relit ΔE94: over six LEDs + D65, and D65 alone
-  double de_led[7] = {};
-  double log_cm = 0, log_ch = 0, bm = 0, che = 0;  // mean |error| (log10 for Cm, Ch)
-  std::size_t pixels = 0;
-};
-
-// Accuracy over pixels where mask is set and the estimate is explained.
-Accuracy accuracy(const Relit& truth, std::span<const SkinParameters> truth_p, std::span<const PixelEstimate> e,
-                  const std::vector<bool>& mask) {
-  std::vector<SkinParameters> est;
-  std::vector<std::size_t> index;
-  for (std::size_t i = 0; i < e.size(); ++i)
-    if (mask[i] && e[i].flag == PixelFlag::kExplained) est.push_back(e[i].parameters), index.push_back(i);
-  Accuracy a;
-  a.pixels = est.size();
-  if (est.empty()) return a;
-  const Relit r = relight(est);
-  for (std::size_t l = 0; l < r.lab.size(); ++l) {
-    double sum = 0;
-    for (std::size_t k = 0; k < est.size(); ++k) sum += spectral::delta_e94(truth.lab[l][index[k]], r.lab[l][k]);
-    a.de_led[l] = sum / est.size();
-    a.de_all += a.de_led[l] / r.lab.size();
-  }
-  a.de_d65 = a.de_led[6];
-  for (std::size_t k = 0; k < est.size(); ++k) {
-    const SkinParameters& t = truth_p[index[k]];
-    a.log_cm += std::abs(std::log10(est[k].cm / t.cm)) / est.size();
-    a.log_ch += std::abs(std::log10(est[k].ch / t.ch)) / est.size();
-    a.bm += std::abs(est[k].bm - t.bm) / est.size();
-    a.che += std::abs(est[k].che - t.che) / est.size();
-  }
-  return a;
 }
 
 struct RunResult {

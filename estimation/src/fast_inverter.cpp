@@ -307,7 +307,8 @@ Fit FastInverter::fit(const double* measured, const double* weight, int order, F
   presolved.chi2 = std::numeric_limits<double>::infinity();
   if (order == 4 && presolved_) {
     const bool converged = fit_presolved(measured, weight, presolved);
-    if (converged && presolved.chi2 <= options_.presolved_accept_chi2) {
+    const bool accepted = converged && presolved.chi2 <= options_.presolved_accept_chi2;
+    if (accepted || (!options_.search_fallback && std::isfinite(presolved.chi2))) {
       if (path) *path = FastPath::kPresolved;
       return presolved;
     }

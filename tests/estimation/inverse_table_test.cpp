@@ -264,6 +264,38 @@ TEST(FastInverter, FitIsThePresolvedPathThenTheSearchPath) {
   EXPECT_FALSE(fast.in_occupied_cell(nan_pixel));
 }
 
+// search_fallback = false (fast_budget_bench's cheaper budgets): every pixel
+// whose key cell holds a branch ends on the pre-solved path, with its best point even
+// where the default would have searched; with no chord or Newton step that
+// point is a branch's linear step (no iteration).
+TEST(FastInverter, WithoutTheSearchFallbackThePresolvedPathAnswers) {
+  const auto table = testing::method_table();
+  FastInverterOptions linear_only;
+  linear_only.search_fallback = false, linear_only.newton_steps = 0, linear_only.chord_steps = 0;
+  const FastInverter fast(table, method_inverse_table()), cheap(table, method_inverse_table(), linear_only);
+  MeasurementSet set = testing::method_set();
+  const SyntheticFrame f = skin_frame(set, 300, 29, 1.0);
+  int would_search = 0, unacceptable = 0;
+  for (std::size_t i = 0; i < f.pixels(); ++i) {
+    double m[4], w[4];
+    for (int c = 0; c < 4; ++c) m[c] = f.noisy[i * 4 + c];
+    estimator_weights(set, m, w);
+    FastPath default_path, path;
+    fast.fit(m, w, 4, &default_path);
+    const Fit fit = cheap.fit(m, w, 4, &path);
+    would_search += default_path == FastPath::kSearched;
+    EXPECT_EQ(path, FastPath::kPresolved);
+    EXPECT_EQ(fit.iterations, 0);
+    unacceptable += fit.chi2 > linear_only.presolved_accept_chi2;
+    Fit presolved;
+    cheap.fit_presolved(m, w, presolved);
+    EXPECT_EQ(fit.x, presolved.x);
+    for (double x : fit.x) EXPECT_TRUE(std::isfinite(x));
+  }
+  EXPECT_GT(would_search, 5);   // the default searches some of these pixels…
+  EXPECT_GT(unacceptable, 20);  // …and the linear step alone leaves many above the acceptance χ²
+}
+
 TEST(InverseTable, EveryStoredBranchIsFittedExactly) {
   const auto table = testing::method_table();
   const auto inverse = method_inverse_table();

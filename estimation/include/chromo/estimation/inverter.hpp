@@ -137,6 +137,11 @@ struct FastInverterOptions {
   // share of it (elsewhere 10⁻⁴): noisy pixels off the gamut's thin sheet
   // crawl along a bound face in small steps that do not change their colour.
   double face_stall_relative = 0.05;
+  // false: the pre-solved path's best point is the answer whatever its χ²
+  // and convergence (the search path then runs only where the pixel's key
+  // cell holds no branch to start from). With few newton_steps this trades accuracy
+  // and flags for speed; bench/fast_budget_bench charts the trade.
+  bool search_fallback = true;
   bool IsValid(std::string* error) const;
 };
 
