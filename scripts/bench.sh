@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# Builds and runs the benches (bench/README.md says what each measures). Each
+# writes its figures and charts into bench/results/ and this script keeps its
+# printout as bench/results/<name>_output.txt (pipeline_bench.txt). Speeds are CPU and wall-clock
+# figures: run on an otherwise idle machine. pipeline_bench binds the GigE
+# Vision port (UDP 3956) and runs under the lock the tests use. All of them:
+# about 12 minutes on 2 cores once the lab session is cached (the first run
+# renders it, ~35 s).
+#
+#   scripts/bench.sh [NAME...]   (default: every bench; NAME as in bench/CMakeLists.txt)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+all=(forward_model_bench mix_solver_bench estimation_bench fast_budget_bench spatial_flags_bench pipeline_bench)
+benches=("$@")
+[[ ${#benches[@]} -eq 0 ]] && benches=("${all[@]}")
+for name in "${benches[@]}"; do
+  if [[ ! " ${all[*]} " =~ " ${name} " ]]; then
+    echo "scripts/bench.sh: unknown bench '${name}' (one of: ${all[*]})" >&2
+    exit 2
+  fi
+done
+scripts/build.sh --target "${benches[@]}"
+mkdir -p bench/results
+for name in "${benches[@]}"; do
+  echo "== ${name}"
+  case "${name}" in
+    estimation_bench) args=(--diagnose) ;;
+    pipeline_bench) args=(--seconds 12) ;;
+    mix_solver_bench) args=(bench/results) ;;
+    *) args=() ;;
+  esac
+  if [[ "${name}" == pipeline_bench ]]; then
+    flock /tmp/chromo-gige.lock "build/release/bin/${name}" "${args[@]}" | tee bench/results/pipeline_bench.txt
+  else
+    "build/release/bin/${name}" "${args[@]}" | tee "bench/results/${name}_output.txt"
+  fi
+done
