@@ -64,6 +64,7 @@
 #include "chromo/simulators/scene/scene.hpp"
 #include "chromo/spectral/delta_e.hpp"
 #include "clocks.hpp"
+#include "lab_session.hpp"
 #include "relit_accuracy.hpp"
 
 using namespace chromo;
@@ -502,9 +503,7 @@ int main(int argc, char** argv) {
   std::vector<RunResult> scene_runs;
   if (diagnose_only && methods.find("scene") == std::string::npos) return 0;
   if (methods.find("scene") != std::string::npos) {
-    daemon::RenderedSessionOptions ro;
-    ro.sensor_width = scene_width, ro.sensor_height = scene_height, ro.seed = 5, ro.threads = 2;
-    ro.cache_dir = frame_cache;
+    const daemon::RenderedSessionOptions ro = bench::lab_session_options(scene_width, scene_height, frame_cache);
     const CpuClock render_cpu;
     t = std::chrono::steady_clock::now();
     const daemon::RenderedSession lab = daemon::render_session(ro);

@@ -32,6 +32,7 @@
 #include "chromo/estimation/estimator.hpp"
 #include "chromo/simulators/scene/scene.hpp"
 #include "clocks.hpp"
+#include "lab_session.hpp"
 #include "relit_accuracy.hpp"
 
 using namespace chromo;
@@ -123,13 +124,8 @@ int main(int argc, char** argv) {
   }
   fs::create_directories(out);
 
-  daemon::RenderedSessionOptions ro;  // the estimation bench's session
-  ro.sensor_width = sensor_width, ro.sensor_height = sensor_height, ro.seed = 5, ro.threads = 2;
-  ro.cache_dir = frame_cache;
-  auto t = std::chrono::steady_clock::now();
-  const daemon::RenderedSession lab = daemon::render_session(ro);
-  std::printf("virtual lab %dx%d -> %dx%d cells, %s in %.1f s\n", sensor_width, sensor_height, lab.width, lab.height,
-              lab.loaded_from_cache ? "loaded from the cache" : "rendered", bench::seconds_since(t));
+  const daemon::RenderedSessionOptions ro = bench::lab_session_options(sensor_width, sensor_height, frame_cache);
+  const daemon::RenderedSession lab = bench::load_lab_session(ro);
   const auto table = std::make_shared<const ForwardTable>(ForwardTable::build(lab.noisy.set, TableGrid{}, 2));
   std::vector<std::size_t> skin;
   for (std::size_t i = 0; i < lab.pixels(); ++i)

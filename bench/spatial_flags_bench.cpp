@@ -29,6 +29,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "clocks.hpp"
+#include "lab_session.hpp"
 
 namespace {
 
@@ -110,13 +111,8 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  daemon::RenderedSessionOptions ro;  // the estimation bench's session
-  ro.sensor_width = sensor_width, ro.sensor_height = sensor_height, ro.seed = 5, ro.threads = 2;
-  ro.cache_dir = frame_cache;
-  auto t = std::chrono::steady_clock::now();
-  const daemon::RenderedSession lab = daemon::render_session(ro);
-  std::printf("virtual lab %dx%d -> %dx%d cells, %s in %.1f s\n", sensor_width, sensor_height, lab.width, lab.height,
-              lab.loaded_from_cache ? "loaded from the cache" : "rendered", seconds_since(t));
+  const daemon::RenderedSessionOptions ro = bench::lab_session_options(sensor_width, sensor_height, frame_cache);
+  const daemon::RenderedSession lab = bench::load_lab_session(ro);
   const std::vector<float> reflection = daemon::cell_added_reflection(ro);
   const auto table = ForwardTable::load_or_build(lab.noisy.set, TableGrid{}, ForwardTable::default_cache_dir());
   EstimatorOptions eo;
@@ -133,7 +129,7 @@ int main(int argc, char** argv) {
     no.block_px = block;
     std::vector<PixelEstimate> e = per_pixel;
     EstimateSummary summary = first;
-    t = std::chrono::steady_clock::now();
+    auto t = std::chrono::steady_clock::now();
     const CpuClock flags_clock;
     const NeighbourhoodSummary flags = refine_flags_with_neighbourhood(estimator, lab.noisy.measured, lab.width, lab.height, e, no);
     const double flags_s = seconds_since(t), flags_cpu = flags_clock.seconds();

@@ -25,12 +25,21 @@ std::shared_ptr<const InverseTable> method_inverse_table() {
   return InverseTable::load_or_build(testing::method_table(), ForwardTable::default_cache_dir());
 }
 
-// Weights as the Estimator gives them: camera noise plus 0.3% model error.
-void estimator_weights(const MeasurementSet& set, const double* m, double* w) {
-  for (int c = 0; c < set.size(); ++c) {
-    const double model = 0.003 * std::max(m[c], 0.0);
-    w[c] = 1 / std::sqrt(set.channels[c].noise.variance(m[c]) + model * model);
+// A pixel's 4 measured values (from `values` at pixel i, the blue-only
+// channel scaled by blue_scale) and its weights as the Estimator gives them:
+// camera noise plus 0.3% model error.
+struct WeightedPixel {
+  double m[4], w[4];
+};
+WeightedPixel weighted_pixel(const MeasurementSet& set, const std::vector<float>& values, std::size_t i,
+                             double blue_scale = 1.0) {
+  WeightedPixel p;
+  for (int c = 0; c < 4; ++c) {
+    p.m[c] = values[i * 4 + c] * (c == 3 ? blue_scale : 1.0);
+    const double model = 0.003 * std::max(p.m[c], 0.0);
+    p.w[c] = 1 / std::sqrt(set.channels[c].noise.variance(p.m[c]) + model * model);
   }
+  return p;
 }
 
 // `pixels` random in-gamut skin pixels of `set` (synthetic.hpp), noisy with
@@ -73,9 +82,7 @@ TEST(FastInverter, PresolvedPathMatchesTheExhaustiveSearchOnInGamutSkin) {
     int presolved = 0, close = 0;
     std::vector<GridPoint> fast_x, exhaustive_x;
     for (std::size_t i = 0; i < f.pixels(); ++i) {
-      double m[4], w[4];
-      for (int c = 0; c < 4; ++c) m[c] = (noise > 0 ? f.noisy : f.clean)[i * 4 + c];
-      estimator_weights(set, m, w);
+      const auto [m, w] = weighted_pixel(set, noise > 0 ? f.noisy : f.clean, i);
       FastPath path;
       const Fit a = fast.fit(m, w, 4, &path), b = exhaustive.fit(m, w, 4);
       presolved += path == FastPath::kPresolved;
@@ -109,9 +116,7 @@ TEST(FastInverter, ChordStepsFinishMostNoiseFreePixelsWithoutGaussNewton) {
   int chord_only = 0, close_cm = 0, chord_iterations = 0, newton_iterations = 0;
   std::vector<GridPoint> chord_x, exhaustive_x;
   for (std::size_t i = 0; i < f.pixels(); ++i) {
-    double m[4], w[4];
-    for (int c = 0; c < 4; ++c) m[c] = f.clean[i * 4 + c];
-    estimator_weights(set, m, w);
+    const auto [m, w] = weighted_pixel(set, f.clean, i);
     FastPath path;
     const Fit a = fast.fit(m, w, 4, &path), b = newton_only.fit(m, w, 4);
     chord_iterations += a.iterations, newton_iterations += b.iterations;
@@ -142,9 +147,7 @@ TEST(FastInverter, NoisyPixelsOnABoundFaceGetAFiniteBoundedFit) {
     const FastInverter fast(table, method_inverse_table(), options);
     int on_face = 0;
     for (std::size_t i = 0; i < f.pixels(); ++i) {
-      double m[4], w[4];
-      for (int c = 0; c < 4; ++c) m[c] = f.noisy[i * 4 + c] * (c == 3 ? 1.15 : 1.0);
-      estimator_weights(set, m, w);
+      const auto [m, w] = weighted_pixel(set, f.noisy, i, 1.15);
       const Fit fit = fast.fit(m, w, 4);
       ASSERT_TRUE(std::isfinite(fit.chi2));
       bool at_bound = false;
@@ -172,9 +175,7 @@ TEST(FastInverter, FaceStallSavesIterationsOnNoisyPixels) {
   int iterations = 0, crawl_iterations = 0, same_path = 0;
   double chi2 = 0, crawl_chi2 = 0;
   for (std::size_t i = 0; i < f.pixels(); ++i) {
-    double m[4], w[4];
-    for (int c = 0; c < 4; ++c) m[c] = f.noisy[i * 4 + c];
-    estimator_weights(set, m, w);
+    const auto [m, w] = weighted_pixel(set, f.noisy, i);
     FastPath path, crawl_path;
     const Fit a = fast.fit(m, w, 4, &path), b = crawling.fit(m, w, 4, &crawl_path);
     iterations += a.iterations, crawl_iterations += b.iterations;
@@ -227,9 +228,7 @@ TEST(FastInverter, FitIsThePresolvedPathThenTheSearchPath) {
     const SyntheticFrame f = skin_frame(set, 300, 23, noise);
     int occupied = 0, searched = 0;
     for (std::size_t i = 0; i < f.pixels(); ++i) {
-      double m[4], w[4];
-      for (int c = 0; c < 4; ++c) m[c] = (noise > 0 ? f.noisy : f.clean)[i * 4 + c];
-      estimator_weights(set, m, w);
+      const auto [m, w] = weighted_pixel(set, noise > 0 ? f.noisy : f.clean, i);
       FastPath path;
       const Fit fit = fast.fit(m, w, 4, &path);
       Fit presolved;
@@ -277,9 +276,7 @@ TEST(FastInverter, WithoutTheSearchFallbackThePresolvedPathAnswers) {
   const SyntheticFrame f = skin_frame(set, 300, 29, 1.0);
   int would_search = 0, unacceptable = 0;
   for (std::size_t i = 0; i < f.pixels(); ++i) {
-    double m[4], w[4];
-    for (int c = 0; c < 4; ++c) m[c] = f.noisy[i * 4 + c];
-    estimator_weights(set, m, w);
+    const auto [m, w] = weighted_pixel(set, f.noisy, i);
     FastPath default_path, path;
     fast.fit(m, w, 4, &default_path);
     const Fit fit = cheap.fit(m, w, 4, &path);
