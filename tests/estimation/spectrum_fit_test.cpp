@@ -32,7 +32,7 @@ TEST(SpectrumFit, TwoDModelMissesRealSkinByAboutTwoUnderD65) {
 }
 
 // Weighting the spectral term by the colour-forming band moves error out of
-// the A and LED colours (over the first 12 subjects; all 50 in docs/estimation.md).
+// the A and LED colours (over the first 12 subjects; all 50 in docs/estimation-notes.md section 3).
 TEST(SpectrumFit, ColourBandWeightingBeatsFlatUnderAAndTheLeds) {
   const auto spectra = nist_forearms(12);
   SpectrumFitOptions band, flat;

@@ -2,7 +2,8 @@
 // Fitting the skin model to one measured reflectance spectrum (contact
 // spectrophotometer), for `chromo fit-spectrum` and model validation.
 //
-// Objective (weights justified in docs/estimation.md):
+// Objective (weights justified in docs/estimation.md "Fitting measured spectra";
+// the whole sweep of weightings and σ: docs/estimation-notes.md section 3):
 //   cost = Σ_λ w_λ² ((model_λ + specular − measured_λ) / spectral_sigma)² / Σ_λ w_λ²
 //        + (ΔE94(measured, model) under D65 / lab_sigma)²
 // with w_λ from SpectralWeighting (default: the colour-forming band).
@@ -40,7 +41,7 @@ struct SpectrumFitOptions {
   bool specular_included = false;
   bool free_specular = false;      // fit the surface constant (0-0.1) instead of fixing it
   double spectral_sigma = 0.01;    // reflectance units
-  double lab_sigma = 0.55;         // ΔE94 units (docs/estimation.md: the weights and what they give)
+  double lab_sigma = 0.55;         // ΔE94 units (docs/estimation-notes.md section 3: the weights and what they give)
   double spectral_min_nm = 380, spectral_max_nm = 780;  // wavelengths of the spectral term
   SpectralWeighting spectral_weighting = SpectralWeighting::kColourBand;
   int starts = 3;                  // Ceres runs from the best coarse-grid nodes
