@@ -52,7 +52,7 @@ void FastInverter::init() {
   step_[0] = t.node_offset(1, 0, 0, 0), step_[1] = t.node_offset(0, 1, 0, 0);
   step_[2] = t.node_offset(0, 0, 1, 0), step_[3] = t.node_offset(0, 0, 0, 1);
   presolved_ = channels == 4 && inverse_->branch_count() > 0;
-  // The nodes node_search(…, 4, kCoarseStride) visits, in its order.
+  // The level-1 nodes of coarse_search().
   const auto n = t.nodes();
   const int outer = std::max(1, kCoarseStride / 2);
   for (int i_bm = 0; i_bm < n[2]; i_bm += outer)
@@ -69,11 +69,48 @@ GridPoint FastInverter::coarse_search(const double* measured, const double* weig
   const int channels = table_->channels();
   float m[kMaxChannels], w[kMaxChannels];
   for (int c = 0; c < channels; ++c) m[c] = static_cast<float>(measured[c]), w[c] = static_cast<float>(weight[c]);
-  float best = std::numeric_limits<float>::infinity();
-  int best_index = -1;
-  scan_nodes(channels, coarse_values_.data(), static_cast<int>(coarse_nodes_.size()), m, w, best, best_index);
-  if (best_index < 0) return {0, 0, bm_2d_coordinate(), 0};  // as node_search: no finite χ²
-  const auto& at = coarse_nodes_[best_index];
+  auto chi2_of = [&](const float* v) {
+    float chi2 = 0;
+    for (int c = 0; c < channels; ++c) {
+      const float r = (v[c] - m[c]) * w[c];
+      chi2 += r * r;
+    }
+    return chi2;
+  };
+  // Level 1: the kCoarseCandidates smallest χ² (NaN never enters).
+  const int count = static_cast<int>(coarse_nodes_.size());
+  std::array<float, kCoarseCandidates> best_chi2;
+  std::array<int, kCoarseCandidates> best_index;
+  best_chi2.fill(std::numeric_limits<float>::infinity());
+  best_index.fill(-1);
+  for (int i = 0; i < count; ++i) {
+    const float chi2 = chi2_of(coarse_values_.data() + std::size_t(i) * channels);
+    if (!(chi2 < best_chi2.back())) continue;
+    int k = kCoarseCandidates - 1;
+    for (; k > 0 && chi2 < best_chi2[k - 1]; --k) best_chi2[k] = best_chi2[k - 1], best_index[k] = best_index[k - 1];
+    best_chi2[k] = chi2, best_index[k] = i;
+  }
+  if (best_index[0] < 0) return {0, 0, bm_2d_coordinate(), 0};  // as node_search: no finite χ²
+  // Level 2: the half-way nodes around each candidate.
+  const auto n = table_->nodes();
+  const int half[4] = {kCoarseStride / 2, kCoarseStride / 2, std::max(1, kCoarseStride / 4),
+                       std::max(1, kCoarseStride / 4)};
+  float best = best_chi2[0];
+  std::array<int, 4> at = coarse_nodes_[best_index[0]];
+  for (int k = 0; k < kCoarseCandidates && best_index[k] >= 0; ++k) {
+    const std::array<int, 4>& centre = coarse_nodes_[best_index[k]];
+    for (int code = 0; code < 81; ++code) {
+      std::array<int, 4> node;
+      bool inside = true;
+      for (int d = 0, rest = code; d < 4; ++d, rest /= 3) {
+        node[d] = centre[d] + (rest % 3 - 1) * half[d];
+        inside = inside && node[d] >= 0 && node[d] < n[d];
+      }
+      if (!inside) continue;
+      const float chi2 = chi2_of(table_->node(node[0], node[1], node[2], node[3]));
+      if (chi2 < best) best = chi2, at = node;
+    }
+  }
   return {double(at[0]), double(at[1]), double(at[2]), double(at[3])};
 }
 
@@ -335,7 +372,7 @@ Fit FastInverter::fit_by_search(const double* measured, const double* weight, in
                static_cast<int>(cell.bucket_count), m, w, best, best_index);
     start = seed_point(inverse_->bucket_nodes()[cell.bucket_begin + best_index]);
   } else {
-    start = coarse_search(measured, weight);  // outside the inverse table: node_search(…, 4, 4), contiguous
+    start = coarse_search(measured, weight);  // outside the inverse table: two-level node scan
   }
   return refine(measured, weight, order, node_descent(measured, weight, order, start, !in_table), 20);
 }

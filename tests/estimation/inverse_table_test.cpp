@@ -293,6 +293,35 @@ TEST(FastInverter, WithoutTheSearchFallbackThePresolvedPathAnswers) {
   EXPECT_GT(unacceptable, 20);  // …and the linear step alone leaves many above the acceptance χ²
 }
 
+// Tattoo ink and marker fall outside the inverse table's reach (no cell):
+// the search path seeds from the two-level coarse node scan, and ends at the
+// exhaustive search's minimum, or close to it: a cheaper seed must not leave
+// such a pixel in a worse local minimum (its flag code, 5 or 6, and the fit
+// shown for inspection come from it).
+TEST(FastInverter, OutsideTheInverseTableTheSearchFindsTheExhaustiveMinimum) {
+  const auto table = testing::method_table();
+  const FastInverter fast(table, method_inverse_table());
+  const ExhaustiveInverter exhaustive(table);
+  MeasurementSet set = testing::method_set();
+  SyntheticOptions o;
+  o.pixels = 600, o.seed = 31;
+  o.share[static_cast<int>(SyntheticKind::kTattoo)] = 0.5, o.share[static_cast<int>(SyntheticKind::kMarker)] = 0.5;
+  const SyntheticFrame f = make_synthetic_frame(set, o);
+  int outside = 0, as_good = 0, close = 0;
+  for (std::size_t i = 0; i < f.pixels() && outside < 80; ++i) {
+    const auto [m, w] = weighted_pixel(set, f.noisy, i);
+    const float mf[4] = {float(m[0]), float(m[1]), float(m[2]), float(m[3])};
+    if (!std::isfinite(m[0] + m[1] + m[2] + m[3]) || fast.inverse_table().cell_of(mf) != InverseTable::kNoCell) continue;
+    ++outside;
+    const double searched = fast.fit(m, w, 4).chi2, reference = exhaustive.fit(m, w, 4).chi2;
+    as_good += searched <= reference * 1.001 + 1e-9;
+    close += searched <= reference * 1.05 + 1e-9;
+  }
+  ASSERT_GE(outside, 40);
+  EXPECT_GE(as_good, outside * 8 / 10);
+  EXPECT_GE(close, outside * 95 / 100);
+}
+
 TEST(InverseTable, EveryStoredBranchIsFittedExactly) {
   const auto table = testing::method_table();
   const auto inverse = method_inverse_table();
