@@ -50,6 +50,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
+#include <unordered_set>
 #include <vector>
 
 #include "chromo/daemon/rendered_session.hpp"
@@ -127,6 +128,14 @@ double estimator_cpu_ns(const Estimator& estimator, std::span<const float> measu
 // pre-solved path runs on all its cells, then the search path on those where
 // fit() would run it too, each pass timed as a whole (per-cell clock reads
 // would cost more than a fit).
+// The fast inverter's options as the Estimator completes them for `set`
+// (its inverse table's pre-solved fits weigh with the set's noise).
+FastInverterOptions fast_options_for(const MeasurementSet& set) {
+  FastInverterOptions options;
+  options.inverse_table.relative_sigma = InverseTableSettings::from_noise(set);
+  return options;
+}
+
 nlohmann::ordered_json diagnose_fast_paths(const FastInverter& fast, const MeasurementSet& set,
                                            std::span<const float> measured, const char* label) {
   const std::size_t n = measured.size() / 4;
@@ -138,10 +147,12 @@ nlohmann::ordered_json diagnose_fast_paths(const FastInverter& fast, const Measu
   }
   const char* names[3] = {"occupied", "empty", "none"};
   std::vector<std::size_t> group[3];
+  std::unordered_set<std::uint32_t> boxes[3];  // distinct key-box cells reached per group
   for (std::size_t i = 0; i < n; ++i) {
     const float mf[4] = {measured[i * 4], measured[i * 4 + 1], measured[i * 4 + 2], measured[i * 4 + 3]};
-    group[fast.inverse_table().cell_of(mf) == InverseTable::kNoCell ? 2 : fast.in_occupied_cell(&m[i * 4]) ? 0 : 1]
-        .push_back(i);
+    const int g = fast.inverse_table().cell_of(mf) == InverseTable::kNoCell ? 2 : fast.in_occupied_cell(&m[i * 4]) ? 0 : 1;
+    group[g].push_back(i);
+    boxes[g].insert(fast.inverse_table().box_of(mf));
   }
   auto thread_seconds = [] {
     timespec t;
@@ -185,16 +196,16 @@ nlohmann::ordered_json diagnose_fast_paths(const FastInverter& fast, const Measu
     const double pre_ns = 1e9 * (t1 - t0) / n, search_ns = 1e9 * (t3 - t2) / n;
     char line[600];
     std::snprintf(line, sizeof line,
-                  "  %-8s %6.2f%% of cells: pre-solved path %5.0f ns each (GN iterations %.2f, unconverged %.2f%%); "
+                  "  %-8s %6.2f%% of cells (%zu distinct inverse-table cells): pre-solved path %5.0f ns each (GN iterations %.2f, unconverged %.2f%%); "
                   "searched %5.2f%% of them, %6.0f ns each (chi2 %.2f -> %.2f, lowered by > 0.1 on %.1f%%, by > 1 "
                   "on %.1f%%); per cell of the frame: pre-solved %4.0f + search %4.0f ns; final mean chi2 %.3f\n",
-                  names[k], 100 * share, 1e9 * (t1 - t0) / cells.size(), iterations / cells.size(),
+                  names[k], 100 * share, boxes[k].size(), 1e9 * (t1 - t0) / cells.size(), iterations / cells.size(),
                   100.0 * unconverged / cells.size(), 100 * searched_share,
                   searched.empty() ? 0.0 : 1e9 * (t3 - t2) / searched.size(), searched.empty() ? 0.0 : before / searched.size(),
                   searched.empty() ? 0.0 : after / searched.size(), searched.empty() ? 0.0 : 100.0 * better_01 / searched.size(),
                   searched.empty() ? 0.0 : 100.0 * better_1 / searched.size(), pre_ns, search_ns, chi2 / cells.size());
     lines += line;
-    out[names[k]] = {{"share", share}, {"searched_share", searched_share}, {"presolved_ns_per_frame_cell", pre_ns},
+    out[names[k]] = {{"share", share}, {"distinct_cells", boxes[k].size()}, {"searched_share", searched_share}, {"presolved_ns_per_frame_cell", pre_ns},
                      {"search_ns_per_frame_cell", search_ns}, {"mean_chi2", chi2 / cells.size()}};
   }
   std::printf("diagnose %s: %zu cells, fast 4d fit %.0f ns/cell CPU (one thread)\n%s", label, n, 1e9 * total_s / n,
@@ -300,22 +311,38 @@ int main(int argc, char** argv) {
     fs::remove_all(cache);
     t = std::chrono::steady_clock::now();
     bool inverse_rebuilt = false;
-    const auto inverse = InverseTable::load_or_build(table, cache, &inverse_rebuilt, nullptr, 2);
+    InverseTableSettings inverse_settings;  // as the Estimator builds it for this set
+    inverse_settings.relative_sigma = InverseTableSettings::from_noise(set);
+    const auto inverse = InverseTable::load_or_build(table, cache, &inverse_rebuilt, nullptr, 2, inverse_settings);
     const double inverse_build_s = seconds_since(t);
     const fs::path copy = cache.string() + "_copy";
     fs::remove_all(copy);
     fs::copy(cache, copy);
     t = std::chrono::steady_clock::now();
-    InverseTable::load_or_build(table, copy, &inverse_rebuilt);
+    InverseTable::load_or_build(table, copy, &inverse_rebuilt, nullptr, 0, inverse_settings);
     const double inverse_load_s = seconds_since(t);
-    std::printf("inverse table: %zu occupied cells, %zu branches (%.2f per cell), %.1f%% of the key box reached; build "
-                "%.2f s on 2 threads, cache load %.3f s (rebuilt=%d), file %.1f MB\n",
-                inverse->occupied_cells(), inverse->branch_count(),
-                double(inverse->branch_count()) / inverse->occupied_cells(), 100 * inverse->filled_share(),
-                inverse_build_s, inverse_load_s, inverse_rebuilt,
-                fs::file_size(copy / InverseTable::file_name(InverseTable::cache_key(*table))) / 1e6);
-    report["inverse_table"] = {{"occupied_cells", inverse->occupied_cells()}, {"branches", inverse->branch_count()},
-                               {"build_s", inverse_build_s}, {"cache_load_s", inverse_load_s}};
+    // The same build without the empty cells' pre-solved branches (the previous table), for the cost.
+    fs::remove_all(cache);
+    InverseTableSettings without = inverse_settings;
+    without.presolve_empty_cells = false;
+    t = std::chrono::steady_clock::now();
+    InverseTable::load_or_build(table, cache, nullptr, nullptr, 2, without);
+    const double plain_build_s = seconds_since(t);
+    const double file_mb = fs::file_size(copy / InverseTable::file_name(InverseTable::cache_key(*table, inverse_settings))) / 1e6;
+    const double plain_mb = fs::file_size(cache / InverseTable::file_name(InverseTable::cache_key(*table, without))) / 1e6;
+    std::printf("inverse table: %zu occupied cells, %zu pre-solved empty cells, %zu branches, %.1f%% of the key box "
+                "reached; build %.2f s on 2 threads (%.2f s without the empty cells' pre-solve), cache load %.3f s "
+                "(rebuilt=%d), file %.1f MB (%.1f MB without)\n",
+                inverse->occupied_cells(), inverse->presolved_empty_cells(), inverse->branch_count(),
+                100 * inverse->filled_share(), inverse_build_s, plain_build_s, inverse_load_s, inverse_rebuilt, file_mb,
+                plain_mb);
+    report["inverse_table"] = {{"occupied_cells", inverse->occupied_cells()},
+                               {"presolved_empty_cells", inverse->presolved_empty_cells()},
+                               {"branches", inverse->branch_count()},
+                               {"build_s", inverse_build_s},
+                               {"build_s_without_presolve", plain_build_s},
+                               {"cache_load_s", inverse_load_s},
+                               {"file_mb", file_mb}};
     fs::remove_all(copy);
     fs::remove_all(cache);
   }
@@ -368,7 +395,7 @@ int main(int argc, char** argv) {
     }
     if (diagnose) {
       // One thread, CPU time: how the fast inverter's fits end, and their cost.
-      const FastInverter fast(table);
+      const FastInverter fast(table, fs::path{}, fast_options_for(s));
       const std::size_t n = std::min<std::size_t>(f.pixels(), 50000);
       std::size_t counts[2] = {}, no_cell = 0, iteration_sum = 0;
       double chi2_sum = 0;
@@ -560,13 +587,23 @@ int main(int argc, char** argv) {
       report["lab_noise_floor_de94"] = floor.mean;
     }
     if (diagnose) {
-      const FastInverter fast(lab_table);
+      const FastInverter fast(lab_table, fs::path{}, fast_options_for(lab.noisy.set));
       for (const bool noisy : {false, true}) {
         const MethodMeasurement& m = noisy ? lab.noisy : lab.noise_free;
         std::vector<float> measured;
         for (std::size_t i : skin) measured.insert(measured.end(), m.measured.begin() + i * 4, m.measured.begin() + i * 4 + 4);
         report[std::string("diagnose_paths_lab_") + (noisy ? "noisy" : "noise_free")] =
             diagnose_fast_paths(fast, m.set, measured, noisy ? "lab skin noisy" : "lab skin noise-free");
+        if (!noisy) continue;
+        // The same noisy cells with an empty cell's own branch tried only after
+        // its neighbour's, and with the previous table (no empty cells' branches).
+        FastInverterOptions later = fast_options_for(lab.noisy.set), plain = later;
+        later.empty_cell_branch_first = false;
+        plain.inverse_table.presolve_empty_cells = false;
+        report["diagnose_paths_lab_noisy_branch_later"] = diagnose_fast_paths(
+            FastInverter(lab_table, fs::path{}, later), m.set, measured, "lab skin noisy, empty cell's branch after its neighbour's");
+        report["diagnose_paths_lab_noisy_no_presolve"] = diagnose_fast_paths(
+            FastInverter(lab_table, fs::path{}, plain), m.set, measured, "lab skin noisy, no pre-solved empty cells");
       }
       if (diagnose_only) return 0;
     }

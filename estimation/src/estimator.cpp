@@ -129,6 +129,9 @@ Estimator::Estimator(std::shared_ptr<const ForwardTable> table, MeasurementSet s
   if (!table_ || table_->channels() != set_.size())
     throw std::invalid_argument("estimator: the table's channel count does not match the measurement set's");
   if (options_.method == InverterMethod::k2d) options_.model = ModelChoice::k2d;
+  auto& sigma = options_.fast.inverse_table.relative_sigma;
+  if (set_.size() == 4 && std::all_of(sigma.begin(), sigma.end(), [](double s) { return s == 0; }))
+    sigma = InverseTableSettings::from_noise(set_);
   inverter_ = make_inverter(options_.method, table_, options_.cache_dir, options_.fast);
   // The 2D fit of the auto test: the fast inverter's own order-2 path, or the
   // exhaustive slice search for the exhaustive reference.

@@ -22,6 +22,11 @@ bool FastInverterOptions::IsValid(std::string* error) const {
   if (!(face_stall_relative >= 0 && face_stall_relative < 1)) return fail("face_stall_relative must be in [0, 1)");
   if (!(converged_chi2 >= 0)) return fail("converged_chi2 must be >= 0");
   if (!(presolved_accept_chi2 >= converged_chi2)) return fail("presolved_accept_chi2 must be >= converged_chi2");
+  std::string table_error;
+  if (!inverse_table.IsValid(&table_error)) {
+    if (error) *error = "inverse_table: " + table_error;
+    return false;
+  }
   return true;
 }
 
@@ -30,7 +35,8 @@ FastInverter::FastInverter(std::shared_ptr<const ForwardTable> table, const std:
     : Inverter(table), options_(options) {
   std::string error;
   if (!options_.IsValid(&error)) throw std::invalid_argument("fast inverter options: " + error);
-  inverse_ = InverseTable::load_or_build(table_, cache_dir.empty() ? ForwardTable::default_cache_dir() : cache_dir);
+  inverse_ = InverseTable::load_or_build(table_, cache_dir.empty() ? ForwardTable::default_cache_dir() : cache_dir,
+                                         nullptr, nullptr, 0, options_.inverse_table);
   init();
 }
 
@@ -234,6 +240,18 @@ bool gauss_newton(const FastInverter& inverter, const double* measured, const do
     }
     double step[4];
     detail::solve_spd4(jtj, gradient, step);
+    // Stalled already by the Gauss-Newton model: its predicted gain
+    // (gradient·step, χ² − |r − J·step|²) below the stall share of χ² (below).
+    // A noisy pixel that starts on its own face (a pre-solved empty cell)
+    // then ends without a trial evaluation.
+    const double stall =
+        held && best.chi2 <= options.presolved_accept_chi2 ? std::max(options.face_stall_relative, 1e-4) : 1e-4;
+    double predicted_gain = 0;
+    for (int k = 0; k < 4; ++k) predicted_gain += gradient[k] * step[k];
+    if (predicted_gain < stall * best.chi2) {
+      converged = true;
+      break;
+    }
     bool improved = false;
     for (float scale = 1.0f; scale > 0.005f && !improved; scale *= 0.5f) {
       float moved = 0;
@@ -246,9 +264,9 @@ bool gauss_newton(const FastInverter& inverter, const double* measured, const do
         // Stalled: χ² fell by less than 10⁻⁴ of itself, or on a bound face
         // (noisy pixels off the gamut's sheet) by less than face_stall_relative
         // once it is acceptable anyway (never where the search path would follow).
-        const double stall =
+        const double trial_stall =
             held && trial.chi2 <= options.presolved_accept_chi2 ? std::max(options.face_stall_relative, 1e-4) : 1e-4;
-        converged = trial.chi2 <= options.converged_chi2 || moved < 1e-3f || best.chi2 - trial.chi2 < stall * best.chi2;
+        converged = trial.chi2 <= options.converged_chi2 || moved < 1e-3f || best.chi2 - trial.chi2 < trial_stall * best.chi2;
         best = trial, improved = true;
       }
     }
@@ -283,38 +301,37 @@ void FastInverter::interpolate(const GridPoint& x, double* value, double* jacobi
   if (jacobian) std::copy_n(j, 16, jacobian);
 }
 
-bool FastInverter::fit_presolved(const double* measured, const double* weight, Fit& fit) const {
-  float m[4];
-  for (int c = 0; c < 4; ++c) m[c] = static_cast<float>(measured[c]);
-  const std::uint32_t cell_index = inverse_->cell_of(m);
-  if (cell_index == InverseTable::kNoCell) return false;
-  const InverseTable::Cell& cell = inverse_->cell(cell_index);
-  const std::array<float, 4> upper = upper_bounds();
-  // Per branch: the linear step, and the branch's own solution where the
-  // step overshoots (strongly curved cells). The smallest χ² wins.
-  Point best, trial;
-  const InverseTable::Branch* branches = inverse_->branches(cell);
+namespace {
+
+// From the best linear step of `branches` (each branch's own x0 too where its
+// step overshoots): chord steps with that branch's J⁺, then Gauss-Newton.
+// True when converged; `best` holds the end point.
+bool descend(const FastInverter& inverter, const float* m, const double* measured, const double* weight,
+             const InverseTable::Branch* const* branches, int count, const float* upper, Point& best, int& iterations) {
+  const FastInverterOptions& options = inverter.options();
+  Point trial;
   const InverseTable::Branch* best_branch = nullptr;
-  for (std::uint32_t b = 0; b < cell.branch_count && best.chi2 > options_.converged_chi2; ++b) {
-    const InverseTable::Branch& branch = branches[b];
+  for (int b = 0; b < count && best.chi2 > options.converged_chi2; ++b) {
+    const InverseTable::Branch& branch = *branches[b];
     for (int k = 0; k < 4; ++k) {
       float step = 0;
       for (int c = 0; c < 4; ++c) step += branch.jinv[k * 4 + c] * (m[c] - branch.m0[c]);
       trial.x[k] = std::clamp(branch.x0[k] + step, 0.0f, upper[k]);
     }
-    evaluate(*this, measured, weight, trial, false);
+    evaluate(inverter, measured, weight, trial, false);
     if (trial.chi2 < best.chi2) best = trial, best_branch = &branch;
-    if (trial.chi2 > options_.presolved_accept_chi2) {
+    if (trial.chi2 > options.presolved_accept_chi2) {
       std::copy_n(branch.x0, 4, trial.x);
-      evaluate(*this, measured, weight, trial, false);
+      evaluate(inverter, measured, weight, trial, false);
       if (trial.chi2 < best.chi2) best = trial, best_branch = &branch;
     }
   }
+  iterations = 0;
   if (!std::isfinite(best.chi2)) return false;
   // Chord steps: the branch's stored J⁺ again from the current point (no
   // Jacobian, no solve), while each halves χ² at least; Gauss-Newton then
   // takes over where they stall (a bound, a dropped direction, curvature).
-  for (int s = 0; s < options_.chord_steps && best_branch->has_step() && best.chi2 > options_.converged_chi2; ++s) {
+  for (int s = 0; s < options.chord_steps && best_branch->has_step() && best.chi2 > options.converged_chi2; ++s) {
     float r[4];
     for (int c = 0; c < 4; ++c) r[c] = m[c] - best.predicted[c];
     for (int k = 0; k < 4; ++k) {
@@ -322,15 +339,45 @@ bool FastInverter::fit_presolved(const double* measured, const double* weight, F
       for (int c = 0; c < 4; ++c) step += best_branch->jinv[k * 4 + c] * r[c];
       trial.x[k] = std::clamp(best.x[k] + step, 0.0f, upper[k]);
     }
-    evaluate(*this, measured, weight, trial, false);
+    evaluate(inverter, measured, weight, trial, false);
     if (!(trial.chi2 < 0.5 * best.chi2)) {
       if (trial.chi2 < best.chi2) best = trial;
       break;
     }
     best = trial;
   }
+  return gauss_newton(inverter, measured, weight, upper, best, iterations);
+}
+
+}  // namespace
+
+bool FastInverter::fit_presolved(const double* measured, const double* weight, Fit& fit) const {
+  float m[4];
+  for (int c = 0; c < 4; ++c) m[c] = static_cast<float>(measured[c]);
+  const std::uint32_t cell_index = inverse_->cell_of(m);
+  if (cell_index == InverseTable::kNoCell) return false;
+  const InverseTable::Cell& cell = inverse_->cell(cell_index);
+  const std::array<float, 4> upper = upper_bounds();
+  const InverseTable::Branch* list[InverseTable::kMaxBranches + 1];
+  int count = 0;
+  for (std::uint32_t b = 0; b < cell.branch_count; ++b) list[count++] = inverse_->branches(cell) + b;
+  const InverseTable::Branch* own =
+      cell.presolved_branch != InverseTable::kNoCell ? &inverse_->branch(cell.presolved_branch) : nullptr;
+  // An empty cell's own pre-solved branch competes with its neighbour's from
+  // the start, or only where they end above the acceptance χ² (options).
+  const bool own_later = own && !options_.empty_cell_branch_first;
+  if (own && !own_later) list[count++] = own;
+  Point best;
   int iterations = 0;
-  const bool converged = gauss_newton(*this, measured, weight, upper.data(), best, iterations);
+  bool converged = descend(*this, m, measured, weight, list, count, upper.data(), best, iterations);
+  if (own_later && !(converged && best.chi2 <= options_.presolved_accept_chi2)) {
+    Point other;
+    int more = 0;
+    const bool other_converged = descend(*this, m, measured, weight, &own, 1, upper.data(), other, more);
+    iterations += more;
+    if (other.chi2 < best.chi2 || !std::isfinite(best.chi2)) best = other, converged = other_converged;
+  }
+  if (!std::isfinite(best.chi2)) return false;
   store(best, iterations, fit);
   return converged;
 }

@@ -16,6 +16,7 @@
 #include <numeric>
 #include <stdexcept>
 #include <system_error>
+#include <unordered_map>
 
 #include "chromo/estimation/inverter.hpp"
 
@@ -24,7 +25,7 @@ namespace chromo::estimation {
 namespace {
 
 constexpr char kMagic[8] = {'C', 'H', 'R', 'O', 'M', 'O', 'I', 'T'};
-constexpr std::uint32_t kFormatVersion = 2;
+constexpr std::uint32_t kFormatVersion = 3;
 // Build settings (part of the cache key).
 constexpr int kMaxSeedsPerCell = 12;     // LM solves per cell, best groups first
 constexpr int kBranchIterations = 40;    // LM iterations per solve
@@ -34,6 +35,13 @@ constexpr double kMaxCondition = 1e4;    // pseudo-inverse: singular values belo
 // Fill reach (bins) per key axis, widest axis first: about three times the
 // camera noise (σ ≈ 2% at albedo 0.3) in bins of that axis.
 constexpr int kFillReach[4] = {2, 4, 16, 48};
+// Empty cells within the fill reach get their own pre-solved branch, one per
+// block of kPresolveBlock[a] bins along key axis a (widest axis first): the
+// bounded fit at the block centre's measurement (see presolve_empty_cells).
+// Measured on the lab session (estimation.md): blocks of 1×1×2×4 bins cost
+// 87 MB and 3-5 s of build for the same fit time; 2×2×8×16 leave more noisy
+// pixels to Gauss-Newton and the search.
+constexpr int kPresolveBlock[4] = {1, 1, 4, 8};
 
 // 64-bit FNV-1a over 8-byte words (a checksum, not a cryptographic hash).
 struct WordHash {
@@ -78,6 +86,28 @@ struct NodeIndex {
 int find_root(std::vector<int>& parent, int i) {
   while (parent[i] != i) i = parent[i] = parent[parent[i]];
   return i;
+}
+
+// The weighted least-squares inverse of the 4×4 Jacobian (row-major dm/dx):
+// jinv = (W·J_free)⁺·W, W = diag(weight), J_free = J without the columns of
+// the held coordinates (their rows of jinv are zero: x0 + jinv·(m − m0) is the
+// least-squares step along the bound face they sit on), singular values below
+// 1/kMaxCondition of the largest dropped. All zero when J is zero.
+void pseudo_inverse(const double* jacobian, const double* weight, const bool* held, float* jinv) {
+  Eigen::Matrix4d j = Eigen::Map<const Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(jacobian);
+  for (int k = 0; k < 4; ++k)
+    if (held[k]) j.col(k).setZero();
+  const Eigen::Vector4d w(weight[0], weight[1], weight[2], weight[3]);
+  const Eigen::Matrix4d weighted = w.asDiagonal() * j;
+  const Eigen::JacobiSVD<Eigen::Matrix4d> svd(weighted, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const auto& sv = svd.singularValues();
+  if (!(sv[0] > 0)) return;
+  Eigen::Vector4d inverse_sv = Eigen::Vector4d::Zero();
+  for (int k = 0; k < 4; ++k)
+    if (sv[k] > sv[0] / kMaxCondition) inverse_sv[k] = 1 / sv[k];
+  const Eigen::Matrix<double, 4, 4, Eigen::RowMajor> inverse =
+      svd.matrixV() * inverse_sv.asDiagonal() * svd.matrixU().transpose() * w.asDiagonal();
+  for (int k = 0; k < 16; ++k) jinv[k] = static_cast<float>(inverse.data()[k]);
 }
 
 // Branches of one cell: LM from the best node of each grid-connected group of
@@ -152,16 +182,9 @@ std::vector<InverseTable::Branch> solve_cell(const Inverter& solver, const NodeI
       // Pseudo-inverse without the directions the channels barely see (a
       // parameter that hardly changes the colour there): the linear step
       // leaves them to Gauss-Newton.
-      const Eigen::Matrix4d j = Eigen::Map<const Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(jacobian);
-      const Eigen::JacobiSVD<Eigen::Matrix4d> svd(j, Eigen::ComputeFullU | Eigen::ComputeFullV);
-      const auto& sv = svd.singularValues();
-      Eigen::Vector4d inverse_sv = Eigen::Vector4d::Zero();
-      for (int k = 0; k < 4; ++k)
-        if (sv[k] > sv[0] / kMaxCondition) inverse_sv[k] = 1 / sv[k];
-      const Eigen::Matrix<double, 4, 4, Eigen::RowMajor> inverse =
-          svd.matrixV() * inverse_sv.asDiagonal() * svd.matrixU().transpose();
-      if (sv[0] > 0)
-        for (int k = 0; k < 16; ++k) b.jinv[k] = static_cast<float>(inverse.data()[k]);
+      const double unit[4] = {1, 1, 1, 1};
+      const bool held[4] = {};
+      pseudo_inverse(jacobian, unit, held, b.jinv);
     }
     branches.push_back(b);
   }
@@ -170,7 +193,39 @@ std::vector<InverseTable::Branch> solve_cell(const Inverter& solver, const NodeI
 
 }  // namespace
 
-std::uint64_t InverseTable::cache_key(const ForwardTable& table) {
+bool InverseTableSettings::IsValid(std::string* error) const {
+  bool all_zero = true;
+  for (double s : relative_sigma) {
+    if (!(s >= 0 && std::isfinite(s))) {
+      if (error) *error = "relative_sigma must be finite and >= 0";
+      return false;
+    }
+    all_zero = all_zero && s == 0;
+  }
+  if (!all_zero && *std::min_element(relative_sigma.begin(), relative_sigma.end()) == 0) {
+    if (error) *error = "relative_sigma must be all zero or all > 0";
+    return false;
+  }
+  return true;
+}
+
+std::array<double, 4> InverseTableSettings::from_noise(const MeasurementSet& set) {
+  std::array<double, 4> sigma{};
+  for (int c = 0; c < std::min(set.size(), 4); ++c) sigma[c] = std::sqrt(set.channels[c].noise.variance(0.2)) / 0.2;
+  return sigma;
+}
+
+std::array<double, 4> InverseTableSettings::quantised_sigma() const {
+  std::array<double, 4> q = {1, 1, 1, 1};
+  const double smallest = *std::min_element(relative_sigma.begin(), relative_sigma.end());
+  if (!(smallest > 0)) return q;
+  for (int c = 0; c < 4; ++c) q[c] = std::exp2(std::round(2 * std::log2(relative_sigma[c] / smallest)) / 2);
+  return q;
+}
+
+std::uint64_t InverseTable::cache_key(const ForwardTable& table, const InverseTableSettings& settings) {
+  std::string error;
+  if (!settings.IsValid(&error)) throw std::invalid_argument("inverse table settings: " + error);
   WordHash h;
   h.add(kMagic, sizeof kMagic);
   h.add_value(kFormatVersion);
@@ -181,8 +236,12 @@ std::uint64_t InverseTable::cache_key(const ForwardTable& table) {
   h.add(table.values().data(), table.values().size() * sizeof(float));
   for (double setting : {double(kBins), double(kMaxBranches), double(kMaxSeedsPerCell), double(kBranchIterations),
                          kSameBranch, kBranchChi2Margin, kMaxCondition, double(kFillReach[0]), double(kFillReach[1]),
-                         double(kFillReach[2]), double(kFillReach[3])})
+                         double(kFillReach[2]), double(kFillReach[3]), double(kPresolveBlock[0]),
+                         double(kPresolveBlock[1]), double(kPresolveBlock[2]), double(kPresolveBlock[3])})
     h.add_value(setting);
+  h.add_value(settings.presolve_empty_cells);
+  if (settings.presolve_empty_cells)
+    for (double q : settings.quantised_sigma()) h.add_value(q);
   return h.h;
 }
 
@@ -226,11 +285,12 @@ double InverseTable::filled_share() const {
   return static_cast<double>(filled) / static_cast<double>(cell_index_.size());
 }
 
-InverseTable InverseTable::build(std::shared_ptr<const ForwardTable> table_ptr, int threads) {
+InverseTable InverseTable::build(std::shared_ptr<const ForwardTable> table_ptr, int threads,
+                                 const InverseTableSettings& settings) {
   if (!table_ptr || table_ptr->values().empty()) throw std::invalid_argument("inverse table: empty forward table");
   const ForwardTable& table = *table_ptr;
   InverseTable t;
-  t.key_ = cache_key(table);
+  t.key_ = cache_key(table, settings);
   const int channels = table.channels();
   t.key_dims_ = std::min(channels, 4);
   const std::size_t node_count = table.grid().node_count();
@@ -300,6 +360,7 @@ InverseTable InverseTable::build(std::shared_ptr<const ForwardTable> table_ptr, 
     }
   }
   const std::size_t occupied = t.cells_.size();
+  t.occupied_cells_ = occupied;
 
   // Branches per occupied cell, in parallel; then concatenated in cell order.
   const ExhaustiveInverter solver(table_ptr);
@@ -312,15 +373,11 @@ InverseTable InverseTable::build(std::shared_ptr<const ForwardTable> table_ptr, 
 #pragma omp parallel for num_threads(thread_count) schedule(dynamic, 64)
   for (std::ptrdiff_t cell = 0; cell < static_cast<std::ptrdiff_t>(occupied); ++cell) {
     double centre[kMaxChannels] = {};
+    std::array<float, 4> bin{};
     std::uint32_t box = box_of_cell[cell];
-    float rotated[4] = {};
-    for (int k = 0; k < dims; ++k, box /= kBins)
-      rotated[k] = t.key_min_[k] + (static_cast<float>(box % kBins) + 0.5f) / t.key_scale_[k];
-    for (int d = 0; d < dims; ++d) {
-      float key = t.key_mean_[d];
-      for (int a = 0; a < dims; ++a) key += t.key_axes_[a * 4 + d] * rotated[a];
-      centre[d] = value_of_key(key);
-    }
+    for (int k = 0; k < dims; ++k, box /= kBins) bin[k] = static_cast<float>(box % kBins);
+    const std::array<double, 4> key_centre = t.box_centre(bin);
+    std::copy_n(key_centre.begin(), dims, centre);
     // Channels beyond the key (tables of more than four channels): the mean of the bucket's nodes.
     const Cell& c = t.cells_[cell];
     for (int ch = dims; ch < channels; ++ch) {
@@ -336,6 +393,7 @@ InverseTable InverseTable::build(std::shared_ptr<const ForwardTable> table_ptr, 
     t.branches_.insert(t.branches_.end(), per_cell[cell].begin(), per_cell[cell].end());
   }
 
+  const std::vector<std::uint32_t> own_cell_index = t.cell_index_;
   // Empty cells point at the nearest occupied cell along one axis: up to
   // kFillReach[a] bins along axis a, thinnest axis first (a noisy pixel lies
   // off the thin gamut sheet by many bins of its thin axes; Gauss-Newton from
@@ -370,7 +428,109 @@ InverseTable InverseTable::build(std::shared_ptr<const ForwardTable> table_ptr, 
     }
     t.cell_index_.swap(next);
   }
+  if (channels == 4 && settings.presolve_empty_cells)
+    t.presolve_empty_cells(table_ptr, own_cell_index, settings.quantised_sigma(), thread_count);
   return t;
+}
+
+std::array<double, 4> InverseTable::box_centre(std::array<float, 4> bin) const {
+  float rotated[4] = {};
+  for (int k = 0; k < key_dims_; ++k) rotated[k] = key_min_[k] + (bin[k] + 0.5f) / key_scale_[k];
+  std::array<double, 4> centre{};
+  for (int d = 0; d < key_dims_; ++d) {
+    float key = key_mean_[d];
+    for (int a = 0; a < key_dims_; ++a) key += key_axes_[a * 4 + d] * rotated[a];
+    centre[d] = value_of_key(key);
+  }
+  return centre;
+}
+
+void InverseTable::presolve_empty_cells(std::shared_ptr<const ForwardTable> table_ptr,
+                                        const std::vector<std::uint32_t>& own_cell_index,
+                                        const std::array<double, 4>& relative_sigma, int threads) {
+  const ForwardTable& table = *table_ptr;
+  // Blocks of empty cells that the fill reached, numbered in box order.
+  int block_bins[4], blocks_per_axis[4];
+  std::uint32_t block_count = 1;
+  for (int a = 0; a < 4; ++a) {
+    block_bins[a] = kPresolveBlock[a];
+    blocks_per_axis[a] = (kBins + block_bins[a] - 1) / block_bins[a];
+    block_count *= blocks_per_axis[a];
+  }
+  auto block_of = [&](std::uint32_t box) {
+    std::uint32_t block = 0, stride = 1;
+    for (int a = 0; a < 4; ++a) {
+      block += (box % kBins) / block_bins[a] * stride;
+      box /= kBins;
+      stride *= blocks_per_axis[a];
+    }
+    return block;
+  };
+  std::vector<std::uint32_t> slot_of_block(block_count, kNoCell), block_of_slot;
+  for (std::uint32_t box = 0; box < cell_index_.size(); ++box) {
+    if (own_cell_index[box] != kNoCell || cell_index_[box] == kNoCell) continue;
+    std::uint32_t& slot = slot_of_block[block_of(box)];
+    if (slot == kNoCell) slot = static_cast<std::uint32_t>(block_of_slot.size()), block_of_slot.push_back(block_of(box));
+  }
+  // One bounded fit per block at its centre, by the fast inverter on the
+  // occupied cells' branches (and its search path), polished by LM.
+  const auto stage_one = std::make_shared<const InverseTable>(*this);
+  const FastInverter fast(table_ptr, stage_one);
+  const std::array<float, 4> upper = {float(table.nodes()[0] - 1), float(table.nodes()[1] - 1),
+                                      float(table.nodes()[2] - 1), float(table.nodes()[3] - 1)};
+  std::vector<Branch> solved(block_of_slot.size());
+  std::vector<char> has_solution(block_of_slot.size(), 0);
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 256)
+  for (std::ptrdiff_t slot = 0; slot < static_cast<std::ptrdiff_t>(block_of_slot.size()); ++slot) {
+    std::array<float, 4> bin;  // the block's central bin (fractional)
+    std::uint32_t block = block_of_slot[slot];
+    for (int a = 0; a < 4; ++a) {
+      const int first = static_cast<int>(block % blocks_per_axis[a]) * block_bins[a];
+      const int last = std::min(first + block_bins[a], kBins) - 1;
+      bin[a] = 0.5f * static_cast<float>(first + last);
+      block /= blocks_per_axis[a];
+    }
+    const std::array<double, 4> centre = box_centre(bin);
+    double weight[4];  // σ = 1% of the value for the least noisy channel
+    for (int c = 0; c < 4; ++c) weight[c] = 1.0 / (0.01 * relative_sigma[c] * std::max(centre[c], 1e-4));
+    Fit f = fast.fit(centre.data(), weight, 4);
+    const Fit polished = fast.refine(centre.data(), weight, 4, f.x, kBranchIterations);
+    if (polished.chi2 < f.chi2) f = polished;
+    if (!std::isfinite(f.chi2)) continue;
+    double m0[kMaxChannels], jacobian[kMaxChannels * 4];
+    table.predict(f.x, m0, jacobian);
+    Branch& b = solved[slot];
+    bool held[4];
+    for (int k = 0; k < 4; ++k) {
+      b.x0[k] = static_cast<float>(f.x[k]);
+      b.m0[k] = static_cast<float>(m0[k]);
+      double gradient = 0;  // of χ²/2 along x_k
+      for (int c = 0; c < 4; ++c) gradient += jacobian[c * 4 + k] * weight[c] * weight[c] * (m0[c] - centre[c]);
+      held[k] = (f.x[k] <= 0 && gradient > 0) || (f.x[k] >= upper[k] && gradient < 0);
+    }
+    pseudo_inverse(jacobian, weight, held, b.jinv);
+    has_solution[slot] = 1;
+  }
+  // Every reached empty cell: a cell of its own with its neighbour's bucket
+  // (the search path's seeds, as before) and its block's branch; one such
+  // cell per (block, neighbour) pair.
+  std::vector<std::uint32_t> branch_of_slot(block_of_slot.size(), kNoCell);
+  for (std::size_t slot = 0; slot < block_of_slot.size(); ++slot)
+    if (has_solution[slot]) branch_of_slot[slot] = static_cast<std::uint32_t>(branches_.size()), branches_.push_back(solved[slot]);
+  std::unordered_map<std::uint64_t, std::uint32_t> cell_of_pair;
+  for (std::uint32_t box = 0; box < cell_index_.size(); ++box) {
+    if (own_cell_index[box] != kNoCell || cell_index_[box] == kNoCell) continue;
+    const std::uint32_t slot = slot_of_block[block_of(box)];
+    if (branch_of_slot[slot] == kNoCell) continue;
+    const std::uint32_t neighbour = cell_index_[box];
+    auto [it, inserted] = cell_of_pair.try_emplace((std::uint64_t(slot) << 32) | neighbour, std::uint32_t(cells_.size()));
+    if (inserted) {
+      Cell c = cells_[neighbour];
+      c.presolved_branch = branch_of_slot[slot];
+      cells_.push_back(c);
+    }
+    cell_index_[box] = it->second;
+  }
 }
 
 namespace {
@@ -456,22 +616,26 @@ bool InverseTable::read(const std::filesystem::path& file, std::uint64_t key, st
   if (!in.read(reinterpret_cast<char*>(&checksum), sizeof checksum) || in.peek() != std::char_traits<char>::eof())
     return fail("truncated or trailing bytes");
   if (checksum != h.h) return fail("checksum mismatch");
+  occupied_cells_ = static_cast<std::size_t>(std::count_if(
+      cells_.begin(), cells_.end(), [](const Cell& c) { return c.presolved_branch == kNoCell; }));
   // Indices in range (a file written by another build with the same key cannot point outside its arrays).
   for (std::uint32_t c : cell_index_)
     if (c != kNoCell && c >= cells_.size()) return fail("cell index out of range");
   for (const Cell& c : cells_)
     if (std::uint64_t(c.bucket_begin) + c.bucket_count > bucket_nodes_.size() ||
-        std::uint64_t(c.branch_begin) + c.branch_count > branches_.size() || c.branch_count > kMaxBranches)
+        std::uint64_t(c.branch_begin) + c.branch_count > branches_.size() || c.branch_count > kMaxBranches ||
+        (c.presolved_branch != kNoCell && c.presolved_branch >= branches_.size()))
       return fail("cell range out of range");
   return true;
 }
 
 std::shared_ptr<const InverseTable> InverseTable::load_or_build(std::shared_ptr<const ForwardTable> table,
                                                                 const std::filesystem::path& cache_dir, bool* rebuilt,
-                                                                std::string* warning, int threads) {
+                                                                std::string* warning, int threads,
+                                                                const InverseTableSettings& settings) {
   if (!table || table->values().empty()) throw std::invalid_argument("inverse table: empty forward table");
   if (warning) warning->clear();
-  const std::uint64_t key = cache_key(*table);
+  const std::uint64_t key = cache_key(*table, settings);
   const std::filesystem::path file = cache_dir / file_name(key);
   // One table per key and process while anyone holds it; the lock also keeps
   // two threads of one process from building the same table twice.
@@ -499,7 +663,7 @@ std::shared_ptr<const InverseTable> InverseTable::load_or_build(std::shared_ptr<
     if (warning) *warning = message;
     std::fprintf(stderr, "warning: %s\n", message.c_str());
   }
-  auto built = std::make_shared<InverseTable>(build(table, threads));
+  auto built = std::make_shared<InverseTable>(build(table, threads, settings));
   if (rebuilt) *rebuilt = true;
   slot = built;
   std::filesystem::create_directories(cache_dir, ec);

@@ -28,8 +28,24 @@
 //    where two branches meet), so that x ≈ x0 + J⁺·(m − m0) for a
 //    measurement m of that cell.
 //
-// Build: OpenMP over cells (one LM solve per group), ≈ 2-4 s on 2 cores for
-// the default table. Cache: load_or_build() keys a file by a hash of the
+// Per empty cell (for 4-channel tables with
+// InverseTableSettings::presolve_empty_cells): the fill points it at the
+// nearest occupied cell along one key axis (up to 2/4/16/48 bins, widest axis
+// first: noisy pixels lie off the thin sheet by many bins of its thin axes),
+// whose bucket and branches it shares, and it gets one branch of its own:
+// the bounded fit at the centre of its block (1×1×4×8 bins along the key
+// axes, widest first) with the channels' relative noise of the settings. Off
+// the sheet the exact inverse lies outside the parameter box, so that fit sits
+// on a bound face (Che = 0, a βm bound, ...); its pseudo-inverse is the
+// weighted one of the Jacobian without the held coordinates' columns (their
+// rows are zero), so x0 + J⁺·(m − m0) is the least-squares step along that
+// face, and a noisy pixel starts on its own face and fold instead of a
+// neighbour's. One branch is shared by the cells of a block; a cell of the
+// index per (block, neighbour) pair carries the neighbour's ranges and it.
+//
+// Build: OpenMP over cells (one LM solve per group), then over the empty
+// cells' blocks (the fast fit on the occupied cells' branches, polished by LM),
+// ≈ 2-5 s on 2 cores for the default table. Cache: load_or_build() keys a file by a hash of the
 // forward table's key and values, the bins, the build's settings and the
 // format version; a missing file is built and stored; a file that does not
 // read back intact (wrong magic, key, sizes, checksum) is rebuilt with a
@@ -50,6 +66,30 @@
 
 namespace chromo::estimation {
 
+// An InverseTable's build settings beyond its forward table (part of its
+// cache key).
+struct InverseTableSettings {
+  // Give the empty cells the fill reaches their own pre-solved branch (see
+  // InverseTable): noisy pixels then start on their own bound face.
+  bool presolve_empty_cells = true;
+  // The camera noise σ of the four channels relative to each other (any
+  // common scale, e.g. σ/value at a typical skin albedo): the weights of the
+  // empty cells' pre-solved fits, whose bound face depends on them (a noisy
+  // difference channel, the method's blue one with ≈ 10× the others' relative
+  // noise, lets a fit leave that channel and move along another face). Only the
+  // ratios count, rounded to half-octaves of the smallest (quantised_sigma())
+  // so that sessions whose noise differs a little share one cached table.
+  // All zero: equal relative noise (the Estimator fills them in from its
+  // measurement set's noise models, from_noise()).
+  std::array<double, 4> relative_sigma = {};
+  bool IsValid(std::string* error) const;
+  // relative_sigma from a set's noise models (σ/value at albedo 0.2 per
+  // channel; the first four channels).
+  static std::array<double, 4> from_noise(const MeasurementSet& set);
+  // The ratios the build weighs with: 2^(round(2·log2(σ_c/σ_min))/2), or all 1.
+  std::array<double, 4> quantised_sigma() const;
+};
+
 class InverseTable {
  public:
   static constexpr int kBins = 48;
@@ -65,10 +105,14 @@ class InverseTable {
   struct Cell {
     std::uint32_t bucket_begin = 0, bucket_count = 0;  // range in bucket_nodes()
     std::uint32_t branch_begin = 0, branch_count = 0;  // range in branches()
+    // An empty cell's own pre-solved branch (index in branches(), after the
+    // neighbour's range), or kNoCell.
+    std::uint32_t presolved_branch = kNoCell;
   };
 
   // Builds on `threads` threads (0 = all cores). The table must be non-empty.
-  static InverseTable build(std::shared_ptr<const ForwardTable> table, int threads = 0);
+  static InverseTable build(std::shared_ptr<const ForwardTable> table, int threads = 0,
+                            const InverseTableSettings& settings = {});
   // Loads cache_dir/inverse_table_<key>.bin when intact, else builds and
   // stores it. *rebuilt says which happened; *warning (optional) is set when
   // an existing file had to be rebuilt (and why), cleared otherwise. A
@@ -77,8 +121,9 @@ class InverseTable {
   static std::shared_ptr<const InverseTable> load_or_build(std::shared_ptr<const ForwardTable> table,
                                                            const std::filesystem::path& cache_dir,
                                                            bool* rebuilt = nullptr, std::string* warning = nullptr,
-                                                           int threads = 0);
-  static std::uint64_t cache_key(const ForwardTable& table);
+                                                           int threads = 0, const InverseTableSettings& settings = {});
+  // Throws std::invalid_argument for invalid settings.
+  static std::uint64_t cache_key(const ForwardTable& table, const InverseTableSettings& settings = {});
   static std::string file_name(std::uint64_t key);  // "inverse_table_<16 hex>.bin"
 
   int key_dims() const { return key_dims_; }
@@ -91,8 +136,12 @@ class InverseTable {
   const Cell& cell(std::uint32_t index) const { return cells_[index]; }
   const std::vector<std::uint32_t>& bucket_nodes() const { return bucket_nodes_; }
   const Branch* branches(const Cell& c) const { return branches_.data() + c.branch_begin; }
-  std::size_t branch_count() const { return branches_.size(); }
-  std::size_t occupied_cells() const { return cells_.size(); }
+  const Branch& branch(std::uint32_t index) const { return branches_[index]; }
+  std::size_t branch_count() const { return branches_.size(); }  // the empty cells' pre-solved ones included
+  // Cells holding table nodes (numbered first), and the empty cells' own
+  // cells after them (one per block and neighbour, see above).
+  std::size_t occupied_cells() const { return occupied_cells_; }
+  std::size_t presolved_empty_cells() const { return cells_.size() - occupied_cells_; }
   // Share of the key box's cells that hold a bucket (for reports).
   double filled_share() const;
 
@@ -103,9 +152,16 @@ class InverseTable {
   void key_of(const float* values, float* key) const;  // pseudo-log, centred, rotated
   std::uint64_t key_ = 0;
   std::vector<std::uint32_t> cell_index_;   // per key-box cell: index into cells_, or kNoCell
-  std::vector<Cell> cells_;                 // occupied (and dilated) cells
+  std::vector<Cell> cells_;                 // occupied cells, then the pre-solved empty cells
+  std::size_t occupied_cells_ = 0;
   std::vector<std::uint32_t> bucket_nodes_; // node indices, grouped by cell
   std::vector<Branch> branches_;
+
+  // Measurement at the centre of the key-box cell with (fractional) bins `bin`.
+  std::array<double, 4> box_centre(std::array<float, 4> bin) const;
+  // Gives every empty cell the fill reached a pre-solved branch (4 channels).
+  void presolve_empty_cells(std::shared_ptr<const ForwardTable> table, const std::vector<std::uint32_t>& own_cell_index,
+                            const std::array<double, 4>& relative_sigma, int threads);
 
   bool read(const std::filesystem::path& file, std::uint64_t key, std::string* why);
   bool write(const std::filesystem::path& file) const;
