@@ -442,12 +442,10 @@ TEST(FastInverter, PresolvedEmptyCellsSaveNoisyPixelsIterations) {
     int iterations[2] = {}, searched[2] = {};
     double chi2[2] = {};
     for (std::size_t i = 0; i < f.pixels(); ++i) {
-      double m[4], w[4];
-      for (int c = 0; c < 4; ++c) m[c] = f.noisy[i * 4 + c];
-      estimator_weights(set, m, w);
+      const WeightedPixel p = weighted_pixel(set, f.noisy, i);
       for (int k = 0; k < 2; ++k) {
         FastPath path;
-        const Fit fit = (k == 0 ? fast : plain).fit(m, w, 4, &path);
+        const Fit fit = (k == 0 ? fast : plain).fit(p.m, p.w, 4, &path);
         iterations[k] += fit.iterations, chi2[k] += fit.chi2, searched[k] += path == FastPath::kSearched;
       }
     }
