@@ -16,8 +16,9 @@
 //  - FastInverter: a pre-solved inverse table in measurement space
 //    (inverse_table.hpp, cached on disk next to the forward table). For a
 //    4-channel set in 4D a pixel costs one cell lookup; per branch of the
-//    non-unique inverse stored for its cell, a linear step x0 + J⁺·(m − m0)
-//    and one float interpolation (value only) for its χ² (and the branch's
+//    non-unique inverse stored for its cell (an empty cell: its neighbour's
+//    and its own pre-solved bounded fit, see Options::empty_cell_branch_first),
+//    a linear step x0 + J⁺·(m − m0) and one float interpolation (value only) for its χ² (and the branch's
 //    own x0 when the step overshoots); then up to Options::chord_steps chord
 //    steps x += J⁺·(m − f(x)) with the best branch's stored J⁺ while each
 //    halves χ² (no Jacobian, no solve); then, unless χ² ≤
