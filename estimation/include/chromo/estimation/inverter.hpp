@@ -144,7 +144,7 @@ struct FastInverterOptions {
   bool search_fallback = true;
   // An empty inverse-table cell's own pre-solved branch (InverseTable)
   // competes with its neighbour's branches from the start (true: a noisy
-  // pixel starts on its own bound face; the virtual lab's noisy skin ×1.4
+  // pixel starts on its own bound face; the virtual lab's noisy skin ×1.5
   // faster, relit ΔE94 1.54 → 1.63 against the truth, docs/estimation.md),
   // or is tried only where they end above presolved_accept_chi2, before the
   // search path (false: ×1.1-1.2, relit 1.56).
@@ -197,7 +197,7 @@ class FastInverter : public Inverter {
   // half those spacings around the kCoarseCandidates best level-1 nodes (the
   // 3⁴ − 1 half-way neighbours of each). 1,296 + 324 node χ² instead of the
   // 14,641 of one level at half the spacing, which took 69% of a tattoo
-  // pixel's fit (docs/estimation.md, "Where the fast method's time goes").
+  // pixel's fit (docs/estimation.md, "Inverters" and "The whole frame").
   static constexpr int kCoarseStride = 8;
   static constexpr int kCoarseCandidates = 4;
   std::vector<float> coarse_values_;
