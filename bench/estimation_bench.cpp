@@ -121,6 +121,17 @@ double estimator_cpu_ns(const Estimator& estimator, std::span<const float> measu
   return 1e9 * best / e.size();
 }
 
+// The weights' model error, as the Estimator's default.
+const double kModelSigmaRelative = EstimatorOptions{}.model_sigma_relative;
+
+// The fast inverter's options as the Estimator completes them for `set`
+// (its inverse table's pre-solved fits weigh with the set's noise).
+FastInverterOptions fast_options_for(const MeasurementSet& set) {
+  FastInverterOptions options;
+  options.inverse_table = options.inverse_table.completed_for(set);
+  return options;
+}
+
 // --diagnose on a frame's cells (one thread, thread CPU time): where the
 // fast 4D fit's time goes. Cells are grouped by their inverse-table cell:
 // one holding table nodes itself ("occupied"), an empty one pointing at a
@@ -128,22 +139,13 @@ double estimator_cpu_ns(const Estimator& estimator, std::span<const float> measu
 // pre-solved path runs on all its cells, then the search path on those where
 // fit() would run it too, each pass timed as a whole (per-cell clock reads
 // would cost more than a fit).
-// The fast inverter's options as the Estimator completes them for `set`
-// (its inverse table's pre-solved fits weigh with the set's noise).
-FastInverterOptions fast_options_for(const MeasurementSet& set) {
-  FastInverterOptions options;
-  options.inverse_table.relative_sigma = InverseTableSettings::from_noise(set);
-  return options;
-}
-
 nlohmann::ordered_json diagnose_fast_paths(const FastInverter& fast, const MeasurementSet& set,
                                            std::span<const float> measured, const char* label) {
   const std::size_t n = measured.size() / 4;
   std::vector<double> m(n * 4), w(n * 4);
   for (std::size_t i = 0; i < n * 4; ++i) {
     m[i] = measured[i];
-    const double model = 0.003 * std::max(m[i], 0.0);
-    w[i] = 1 / std::sqrt(set.channels[i % 4].noise.variance(m[i]) + model * model);
+    w[i] = set.channels[i % 4].noise.fit_weight(m[i], kModelSigmaRelative);
   }
   const char* names[3] = {"occupied", "empty", "none"};
   std::vector<std::size_t> group[3];
@@ -311,8 +313,7 @@ int main(int argc, char** argv) {
     fs::remove_all(cache);
     t = std::chrono::steady_clock::now();
     bool inverse_rebuilt = false;
-    InverseTableSettings inverse_settings;  // as the Estimator builds it for this set
-    inverse_settings.relative_sigma = InverseTableSettings::from_noise(set);
+    const InverseTableSettings inverse_settings = fast_options_for(set).inverse_table;  // as the Estimator builds it
     const auto inverse = InverseTable::load_or_build(table, cache, &inverse_rebuilt, nullptr, 2, inverse_settings);
     const double inverse_build_s = seconds_since(t);
     const fs::path copy = cache.string() + "_copy";
@@ -406,8 +407,7 @@ int main(int argc, char** argv) {
         const std::vector<float>& v = noise > 0 ? f.noisy : f.clean;
         for (int c = 0; c < 4; ++c) {
           m[c] = v[i * 4 + c];
-          const double model = 0.003 * std::max(m[c], 0.0);
-          w[c] = 1 / std::sqrt(s.channels[c].noise.variance(m[c]) + model * model);
+          w[c] = s.channels[c].noise.fit_weight(m[c], kModelSigmaRelative);
         }
         FastPath path;
         const float mf[4] = {float(m[0]), float(m[1]), float(m[2]), float(m[3])};
@@ -431,8 +431,7 @@ int main(int argc, char** argv) {
             const std::vector<float>& v = noise > 0 ? f.noisy : f.clean;
             for (int c = 0; c < 4; ++c) {
               m[c] = v[i * 4 + c];
-              const double model = 0.003 * std::max(m[c], 0.0);
-              w[c] = 1 / std::sqrt(s.channels[c].noise.variance(m[c]) + model * model);
+              w[c] = s.channels[c].noise.fit_weight(m[c], kModelSigmaRelative);
             }
             sink += fast.fit(m, w, 4).chi2;
           }

@@ -129,9 +129,7 @@ Estimator::Estimator(std::shared_ptr<const ForwardTable> table, MeasurementSet s
   if (!table_ || table_->channels() != set_.size())
     throw std::invalid_argument("estimator: the table's channel count does not match the measurement set's");
   if (options_.method == InverterMethod::k2d) options_.model = ModelChoice::k2d;
-  auto& sigma = options_.fast.inverse_table.relative_sigma;
-  if (set_.size() == 4 && std::all_of(sigma.begin(), sigma.end(), [](double s) { return s == 0; }))
-    sigma = InverseTableSettings::from_noise(set_);
+  options_.fast.inverse_table = options_.fast.inverse_table.completed_for(set_);
   inverter_ = make_inverter(options_.method, table_, options_.cache_dir, options_.fast);
   // The 2D fit of the auto test: the fast inverter's own order-2 path, or the
   // exhaustive slice search for the exhaustive reference.
@@ -141,8 +139,7 @@ Estimator::Estimator(std::shared_ptr<const ForwardTable> table, MeasurementSet s
 }
 
 double Estimator::weight(int channel, double albedo) const {
-  const double model = options_.model_sigma_relative * std::max(albedo, 0.0);
-  return 1.0 / std::sqrt(set_.channels[channel].noise.variance(albedo) + model * model);
+  return set_.channels[channel].noise.fit_weight(albedo, options_.model_sigma_relative);
 }
 
 void Estimator::predict(const SkinParameters& p, double* out) const { table_->predict(table_->to_grid(p), out); }

@@ -106,6 +106,7 @@ GridPoint FastInverter::coarse_search(const double* measured, const double* weig
   for (int k = 0; k < kCoarseCandidates && best_index[k] >= 0; ++k) {
     const std::array<int, 4>& centre = coarse_nodes_[best_index[k]];
     for (int code = 0; code < 81; ++code) {
+      if (code == 40) continue;  // the candidate itself: already scanned
       std::array<int, 4> node;
       bool inside = true;
       for (int d = 0, rest = code; d < 4; ++d, rest /= 3) {
@@ -215,6 +216,11 @@ bool gauss_newton(const FastInverter& inverter, const double* measured, const do
   const FastInverterOptions& options = inverter.options();
   bool converged = best.chi2 <= options.converged_chi2;
   if (!converged && !best.has_jacobian) evaluate(inverter, measured, weight, best);
+  // Stalled: a gain below 10⁻⁴ of χ², or with a coordinate held on a bound
+  // face and χ² already acceptable, below face_stall_relative of it.
+  auto stall_share = [&](bool held, double chi2) {
+    return held && chi2 <= options.presolved_accept_chi2 ? std::max(options.face_stall_relative, 1e-4) : 1e-4;
+  };
   Point trial;
   for (iterations = 0; iterations < options.newton_steps && !converged; ++iterations) {
     double jtj[16] = {}, gradient[4] = {};
@@ -241,14 +247,12 @@ bool gauss_newton(const FastInverter& inverter, const double* measured, const do
     double step[4];
     detail::solve_spd4(jtj, gradient, step);
     // Stalled already by the Gauss-Newton model: its predicted gain
-    // (gradient·step, χ² − |r − J·step|²) below the stall share of χ² (below).
+    // (gradient·step, χ² − |r − J·step|²) below the stall share of χ².
     // A noisy pixel that starts on its own face (a pre-solved empty cell)
     // then ends without a trial evaluation.
-    const double stall =
-        held && best.chi2 <= options.presolved_accept_chi2 ? std::max(options.face_stall_relative, 1e-4) : 1e-4;
     double predicted_gain = 0;
     for (int k = 0; k < 4; ++k) predicted_gain += gradient[k] * step[k];
-    if (predicted_gain < stall * best.chi2) {
+    if (predicted_gain < stall_share(held, best.chi2) * best.chi2) {
       converged = true;
       break;
     }
@@ -261,12 +265,10 @@ bool gauss_newton(const FastInverter& inverter, const double* measured, const do
       }
       evaluate(inverter, measured, weight, trial);
       if (trial.chi2 < best.chi2) {
-        // Stalled: χ² fell by less than 10⁻⁴ of itself, or on a bound face
-        // (noisy pixels off the gamut's sheet) by less than face_stall_relative
-        // once it is acceptable anyway (never where the search path would follow).
-        const double trial_stall =
-            held && trial.chi2 <= options.presolved_accept_chi2 ? std::max(options.face_stall_relative, 1e-4) : 1e-4;
-        converged = trial.chi2 <= options.converged_chi2 || moved < 1e-3f || best.chi2 - trial.chi2 < trial_stall * best.chi2;
+        // (The face stall: noisy pixels off the gamut's sheet crawl along a
+        // bound face; never where the search path would follow.)
+        converged = trial.chi2 <= options.converged_chi2 || moved < 1e-3f ||
+                    best.chi2 - trial.chi2 < stall_share(held, trial.chi2) * best.chi2;
         best = trial, improved = true;
       }
     }

@@ -215,6 +215,13 @@ std::array<double, 4> InverseTableSettings::from_noise(const MeasurementSet& set
   return sigma;
 }
 
+InverseTableSettings InverseTableSettings::completed_for(const MeasurementSet& set) const {
+  InverseTableSettings out = *this;
+  if (set.size() == 4 && std::all_of(relative_sigma.begin(), relative_sigma.end(), [](double s) { return s == 0; }))
+    out.relative_sigma = from_noise(set);
+  return out;
+}
+
 std::array<double, 4> InverseTableSettings::quantised_sigma() const {
   std::array<double, 4> q = {1, 1, 1, 1};
   const double smallest = *std::min_element(relative_sigma.begin(), relative_sigma.end());
@@ -469,8 +476,9 @@ void InverseTable::presolve_empty_cells(std::shared_ptr<const ForwardTable> tabl
   std::vector<std::uint32_t> slot_of_block(block_count, kNoCell), block_of_slot;
   for (std::uint32_t box = 0; box < cell_index_.size(); ++box) {
     if (own_cell_index[box] != kNoCell || cell_index_[box] == kNoCell) continue;
-    std::uint32_t& slot = slot_of_block[block_of(box)];
-    if (slot == kNoCell) slot = static_cast<std::uint32_t>(block_of_slot.size()), block_of_slot.push_back(block_of(box));
+    const std::uint32_t block = block_of(box);
+    std::uint32_t& slot = slot_of_block[block];
+    if (slot == kNoCell) slot = static_cast<std::uint32_t>(block_of_slot.size()), block_of_slot.push_back(block);
   }
   // One bounded fit per block at its centre, by the fast inverter on the
   // occupied cells' branches (and its search path), polished by LM.

@@ -37,8 +37,7 @@ WeightedPixel weighted_pixel(const MeasurementSet& set, const std::vector<float>
   WeightedPixel p;
   for (int c = 0; c < 4; ++c) {
     p.m[c] = values[i * 4 + c] * (c == 3 ? blue_scale : 1.0);
-    const double model = 0.003 * std::max(p.m[c], 0.0);
-    p.w[c] = 1 / std::sqrt(set.channels[c].noise.variance(p.m[c]) + model * model);
+    p.w[c] = set.channels[c].noise.fit_weight(p.m[c], EstimatorOptions{}.model_sigma_relative);
   }
   return p;
 }

@@ -86,6 +86,9 @@ struct InverseTableSettings {
   // relative_sigma from a set's noise models (σ/value at albedo 0.2 per
   // channel; the first four channels).
   static std::array<double, 4> from_noise(const MeasurementSet& set);
+  // These settings for a 4-channel `set`: relative_sigma from_noise(set)
+  // where it is all zero (what the Estimator builds), else unchanged.
+  InverseTableSettings completed_for(const MeasurementSet& set) const;
   // The ratios the build weighs with: 2^(round(2·log2(σ_c/σ_min))/2), or all 1.
   std::array<double, 4> quantised_sigma() const;
 };

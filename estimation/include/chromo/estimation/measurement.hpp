@@ -23,6 +23,7 @@
 
 #include <Eigen/Core>
 #include <algorithm>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -38,6 +39,12 @@ struct ChannelNoise {
   double shot_coefficient = 0.0002; // albedo units: variance per unit albedo
   double saturation_albedo = 1.5;   // ≥ this: saturated
   double variance(double albedo) const { return read_sigma * read_sigma + shot_coefficient * std::max(albedo, 0.0); }
+  // 1/σ at an albedo as the inverters' χ² weighs a channel: this noise plus a
+  // model error of model_sigma_relative · albedo (EstimatorOptions).
+  double fit_weight(double albedo, double model_sigma_relative) const {
+    const double model = model_sigma_relative * std::max(albedo, 0.0);
+    return 1.0 / std::sqrt(variance(albedo) + model * model);
+  }
 };
 
 struct MeasurementChannel {
