@@ -21,9 +21,12 @@
 // (e.g. for a profile of one; the first one run is the ratios' reference).
 // --whole-frame: the fast budgets run on every cell of the frame (its
 // tattoo, marker, hair and highlight cells take the flagging path: the
-// speed a session gets), still scored on the skin cells; the files are then
-// fast_budget_whole_frame.{csv,png}. Writes DIR/fast_budget.csv and
+// speed a session gets), still scored on the skin cells, and the default's
+// CPU time per cell of each scene region (one thread) is printed; the files
+// are then fast_budget_whole_frame.{csv,png}. Writes DIR/fast_budget.csv and
 // DIR/fast_budget.png (gnuplot); DIR defaults to bench/results.
+#include <time.h>
+
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -114,6 +117,32 @@ Row run(const std::shared_ptr<const ForwardTable>& table, const MeasurementSet& 
   return r;
 }
 
+// --whole-frame: the default fast 4D Estimator's CPU time per cell of each
+// scene region, one thread (thread CPU time): which cells a frame's time goes to.
+void print_region_costs(const std::shared_ptr<const ForwardTable>& table, const daemon::RenderedSession& lab,
+                        const MethodMeasurement& m, const char* noise) {
+  EstimatorOptions eo;
+  eo.method = InverterMethod::kFast, eo.model = ModelChoice::k4d, eo.threads = 1;
+  const Estimator estimator(table, m.set, eo);
+  std::printf("  %s, default budget, one thread, CPU µs per cell by region:", noise);
+  for (int region = 0; region < 8; ++region) {
+    std::vector<float> measured;
+    for (std::size_t i = 0; i < lab.pixels(); ++i)
+      if ((lab.region[i] == daemon::kMixedCell ? 7 : lab.region[i]) == region)
+        measured.insert(measured.end(), m.measured.begin() + i * 4, m.measured.begin() + i * 4 + 4);
+    if (measured.empty()) continue;
+    std::vector<PixelEstimate> e(measured.size() / 4);
+    timespec t0, t1;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t0);
+    estimator.estimate_tile(measured, e);
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t1);
+    const double us = 1e6 * ((t1.tv_sec - t0.tv_sec) + 1e-9 * (t1.tv_nsec - t0.tv_nsec)) / e.size();
+    std::printf(" %s %.2f (%zu)", region == 7 ? "mixed_cell" : simulators::region_name(static_cast<simulators::SceneRegion>(region)),
+                us, e.size());
+  }
+  std::printf("\n");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -171,6 +200,7 @@ int main(int argc, char** argv) {
                 ex.acc.de_d65);
     std::printf("  %-12s %11s %8s %9s %8s %9s %8s %8s %6s\n", "budget", "cells/s", "CPU µs", "x target", "relit",
                 "D65", "D65-exh", "flagged", "chi2");
+    if (whole_frame) print_region_costs(table, lab, m, noise);
     const Cells cells = lab_cells(lab, m, skin, skin_relit, 1, whole_frame);
     const std::size_t reference = rows.size();  // this noise's default budget
     for (const Budget& b : kBudgets) {
