@@ -64,11 +64,16 @@ void FastInverter::init() {
   for (int i_bm = 0; i_bm < n[2]; i_bm += outer)
     for (int i_che = 0; i_che < n[3]; i_che += outer)
       for (int i_cm = 0; i_cm < n[0]; i_cm += kCoarseStride)
-        for (int i_ch = 0; i_ch < n[1]; i_ch += kCoarseStride) {
-          const float* v = t.node(i_cm, i_ch, i_bm, i_che);
-          coarse_values_.insert(coarse_values_.end(), v, v + channels);
-          coarse_nodes_.push_back({i_cm, i_ch, i_bm, i_che});
-        }
+        for (int i_ch = 0; i_ch < n[1]; i_ch += kCoarseStride) coarse_nodes_.push_back({i_cm, i_ch, i_bm, i_che});
+  // Channel-major (all nodes' channel 0, then channel 1, ...): the level-1
+  // scan runs across nodes, eight per AVX instruction.
+  const std::size_t count = coarse_nodes_.size();
+  coarse_values_.resize(count * channels);
+  for (std::size_t i = 0; i < count; ++i) {
+    const auto& at = coarse_nodes_[i];
+    const float* v = t.node(at[0], at[1], at[2], at[3]);
+    for (int c = 0; c < channels; ++c) coarse_values_[c * count + i] = v[c];
+  }
 }
 
 GridPoint FastInverter::coarse_search(const double* measured, const double* weight) const {
@@ -83,18 +88,34 @@ GridPoint FastInverter::coarse_search(const double* measured, const double* weig
     }
     return chi2;
   };
-  // Level 1: the kCoarseCandidates smallest χ² (NaN never enters).
+  // Level 1: the kCoarseCandidates smallest χ² (NaN never enters), computed
+  // a block of nodes at a time, one channel after the other (the same sum
+  // per node as chi2_of, in the same order).
   const int count = static_cast<int>(coarse_nodes_.size());
   std::array<float, kCoarseCandidates> best_chi2;
   std::array<int, kCoarseCandidates> best_index;
   best_chi2.fill(std::numeric_limits<float>::infinity());
   best_index.fill(-1);
-  for (int i = 0; i < count; ++i) {
-    const float chi2 = chi2_of(coarse_values_.data() + std::size_t(i) * channels);
-    if (!(chi2 < best_chi2.back())) continue;
-    int k = kCoarseCandidates - 1;
-    for (; k > 0 && chi2 < best_chi2[k - 1]; --k) best_chi2[k] = best_chi2[k - 1], best_index[k] = best_index[k - 1];
-    best_chi2[k] = chi2, best_index[k] = i;
+  constexpr int kBlock = 256;
+  float block_chi2[kBlock];
+  for (int first = 0; first < count; first += kBlock) {
+    const int size = std::min(kBlock, count - first);
+    std::fill_n(block_chi2, size, 0.0f);
+    for (int c = 0; c < channels; ++c) {
+      const float* v = coarse_values_.data() + std::size_t(c) * count + first;
+      const float mc = m[c], wc = w[c];
+      for (int i = 0; i < size; ++i) {
+        const float r = (v[i] - mc) * wc;
+        block_chi2[i] += r * r;
+      }
+    }
+    for (int i = 0; i < size; ++i) {
+      const float chi2 = block_chi2[i];
+      if (!(chi2 < best_chi2.back())) continue;
+      int k = kCoarseCandidates - 1;
+      for (; k > 0 && chi2 < best_chi2[k - 1]; --k) best_chi2[k] = best_chi2[k - 1], best_index[k] = best_index[k - 1];
+      best_chi2[k] = chi2, best_index[k] = first + i;
+    }
   }
   if (best_index[0] < 0) return {0, 0, bm_2d_coordinate(), 0};  // as node_search: no finite χ²
   // Level 2: the half-way nodes around each candidate.

@@ -200,7 +200,7 @@ class FastInverter : public Inverter {
   // pixel's fit (docs/estimation.md, "Inverters" and "The whole frame").
   static constexpr int kCoarseStride = 8;
   static constexpr int kCoarseCandidates = 4;
-  std::vector<float> coarse_values_;
+  std::vector<float> coarse_values_;  // channel-major: channel c of node i at [c * coarse_nodes_.size() + i]
   std::vector<std::array<int, 4>> coarse_nodes_;
   GridPoint coarse_search(const double* measured, const double* weight) const;
   std::size_t step_[4] = {};          // floats between neighbouring nodes along each axis
