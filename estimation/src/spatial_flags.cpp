@@ -178,15 +178,26 @@ Level make_level(int channels, std::span<const float> measured, int width, int h
   return level;
 }
 
+// The three test levels of the header, for `channels` channels: the χ²
+// deviation test, its hysteresis (rim) level, and the one-sided white
+// reflection test (P(w > t) = α ⇔ P(w² > t²) = 2α under N(0, 1)).
+struct TestLevels {
+  double deviation, rim, white;
+};
+
+TestLevels test_levels(const NeighbourhoodOptions& options, int channels) {
+  return {chi_squared_quantile(1 - options.significance, channels),
+          chi_squared_quantile(1 - options.rim_significance, channels),
+          std::sqrt(chi_squared_quantile(1 - 2 * options.reflection_significance, 1))};
+}
+
 // Steps 1-5 of the header on one level; joined and enclosed pixels get
 // kJoined and kHole. All windows in the level's pixels.
 void flag_level(const Estimator& estimator, Level& level, const NeighbourhoodOptions& options,
                 NeighbourhoodSummary& summary) {
   const int channels = estimator.channels(), width = level.width, height = level.height;
-  const double deviation_threshold = chi_squared_quantile(1 - options.significance, channels);
-  const double rim_threshold = chi_squared_quantile(1 - options.rim_significance, channels);
-  // One-sided normal quantile: P(w > t) = α ⇔ P(w² > t²) = 2α under N(0, 1).
-  const double white_threshold = std::sqrt(chi_squared_quantile(1 - 2 * options.reflection_significance, 1));
+  const TestLevels levels = test_levels(options, channels);
+  const double deviation_threshold = levels.deviation, rim_threshold = levels.rim, white_threshold = levels.white;
   const cv::Mat h = kernel(options.deviation_sigma_px, 0);
   cv::Mat h2;
   cv::multiply(h, h, h2);
@@ -434,8 +445,8 @@ NeighbourhoodSummary refine_flags_with_neighbourhood(const Estimator& estimator,
   if (block > 1)
     for (int c = 0; c < channels; ++c)
       cv::resize(level.background[c], back[c], cv::Size(level.width * block, level.height * block), 0, 0, cv::INTER_LINEAR);
-  const double rim_threshold = chi_squared_quantile(1 - options.rim_significance, channels);
-  const double white_threshold = std::sqrt(chi_squared_quantile(1 - 2 * options.reflection_significance, 1));
+  const TestLevels levels = test_levels(options, channels);
+  const double rim_threshold = levels.rim, white_threshold = levels.white;
   auto deviates = [&](std::size_t p, int y, int x, bool reflection) {
     double chi2 = 0, white = 0, white_norm = 0;
     for (int c = 0; c < channels; ++c) {
