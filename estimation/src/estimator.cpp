@@ -129,13 +129,16 @@ Estimator::Estimator(std::shared_ptr<const ForwardTable> table, MeasurementSet s
   if (!table_ || table_->channels() != set_.size())
     throw std::invalid_argument("estimator: the table's channel count does not match the measurement set's");
   if (options_.method == InverterMethod::k2d) options_.model = ModelChoice::k2d;
-  options_.fast.inverse_table = options_.fast.inverse_table.completed_for(set_);
-  inverter_ = make_inverter(options_.method, table_, options_.cache_dir, options_.fast);
   // The 2D fit of the auto test: the fast inverter's own order-2 path, or the
   // exhaustive slice search for the exhaustive reference.
   const int c = set_.size();
   order_threshold_ = std::min(c, 4) > 2 ? chi_squared_quantile(1 - options_.order_significance, std::min(c, 4) - 2) : 0;
   for (int free : {2, 4}) flag_threshold_[free] = chi_squared_quantile(1 - options_.flag_significance, std::max(c - free, 1));
+  options_.fast.inverse_table = options_.fast.inverse_table.completed_for(set_);
+  // A pre-solved fit the flag test would reject always gets the search path.
+  options_.fast.presolved_accept_chi2 =
+      std::max(options_.fast.converged_chi2, std::min(options_.fast.presolved_accept_chi2, flag_threshold_[4]));
+  inverter_ = make_inverter(options_.method, table_, options_.cache_dir, options_.fast);
 }
 
 double Estimator::weight(int channel, double albedo) const {
