@@ -28,7 +28,7 @@
 //    χ²: gains below Options::face_stall_relative), at most
 //    Options::newton_steps. A
 //    converged fit with χ² ≤ Options::presolved_accept_chi2 is the answer
-//    (≈ 99.7% of noise-free and ≈ 91-95% of noisy in-gamut skin pixels).
+//    (≈ 99.8% of noise-free and ≈ 99.6-99.7% of noisy in-gamut skin pixels).
 //    Otherwise (far outside the gamut, several bounded local minima, no
 //    convergence) the search path too, and the smaller χ² wins: the best χ²
 //    node of the cell's node bucket (every branch reaching the cell
