@@ -187,7 +187,11 @@ PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const
     if (model == ModelChoice::kAuto && order_threshold_ > 0 && !hopeless) {
       const Fit fit2 = inv.fit(measured, weight, 2);
       out.order_statistic = static_cast<float>(std::max(fit2.chi2 - chosen.chi2, 0.0));
-      if (fit2.chi2 - chosen.chi2 <= order_threshold_) chosen = fit2, order = 2;
+      // Order 2 where 4D does not lower χ² by more than noise would, unless
+      // the 2D fit fails the flag test that the 4D fit passes: a pixel one
+      // order explains is not flagged for the test picking the other.
+      const bool only_4d_explains = fit2.chi2 > flag_threshold_[2] && chosen.chi2 <= flag_threshold_[4];
+      if (fit2.chi2 - chosen.chi2 <= order_threshold_ && !only_4d_explains) chosen = fit2, order = 2;
     }
   }
   out.order = static_cast<std::uint8_t>(order);

@@ -135,6 +135,36 @@ TEST(Estimator, FourDSceneGetsOrderFour) {
   EXPECT_GE(r.summary.order4, 0.90 * r.frame.pixels());
 }
 
+// The order test picks 2D where 4D lowers χ² by no more than noise would
+// (χ²₂ − χ²₄ ≤ 9.21), but a pixel whose 4D fit passes the flag test while its
+// 2D fit fails it is explained: it keeps order 4 instead of being flagged for
+// the test's choice. Such pixels sit between the two flag thresholds (χ²₄ ≤
+// 10.83 < χ²₂ ≤ χ²₄ + 9.21, 13.82 the 2D threshold); noisy 4D skin has a few.
+TEST(Estimator, APixelOnlyTheFourDFitExplainsKeepsOrderFour) {
+  MeasurementSet set = testing::method_set();
+  SyntheticOptions o = in_gamut_skin(3000, 2.0);
+  o.seed = 41;
+  const SyntheticFrame frame = make_synthetic_frame(set, o);
+  const Estimator estimator(testing::method_table(), set, EstimatorOptions{});
+  const double order_threshold = chi_squared_quantile(0.99, 2);
+  int between = 0;
+  for (std::size_t i = 0; i < frame.pixels(); ++i) {
+    const float* m = frame.noisy.data() + i * 4;
+    double measured[4], weight[4];
+    for (int c = 0; c < 4; ++c) measured[c] = m[c], weight[c] = estimator.weight(c, m[c]);
+    const Fit fit4 = estimator.inverter().fit(measured, weight, 4), fit2 = estimator.inverter().fit(measured, weight, 2);
+    if (!(fit4.chi2 <= estimator.flag_threshold(4) && fit2.chi2 > estimator.flag_threshold(2) &&
+          fit2.chi2 - fit4.chi2 <= order_threshold))
+      continue;
+    ++between;
+    const PixelEstimate e = estimator.estimate_pixel(m, ModelChoice::kAuto);
+    EXPECT_EQ(e.flag, PixelFlag::kExplained) << i;
+    EXPECT_EQ(e.order, 4) << i;
+    EXPECT_FLOAT_EQ(e.chi2, static_cast<float>(fit4.chi2)) << i;
+  }
+  EXPECT_GE(between, 3);
+}
+
 TEST(Estimator, TilesMatchTheWholeImageAndCancelStops) {
   MeasurementSet set = testing::method_set();
   const SyntheticFrame f = make_synthetic_frame(set, in_gamut_skin(600, 1.0));
