@@ -72,7 +72,7 @@ TEST(SpatialFlagsAtFiveMegapixels, HighlightWindow) {
   const Shares s = flag_window(1200, 30, 960, 720);
   ASSERT_GT(s.total[static_cast<int>(SceneRegion::kSpecular)], 40000u);
   EXPECT_LE(s.of(SceneRegion::kSkin), 0.01);  // measured 0.0070
-  EXPECT_GE(s.of(SceneRegion::kSpecular), 0.65);  // measured 0.709 (per pixel alone 0.07; target 0.95: missed)
+  EXPECT_GE(s.of(SceneRegion::kSpecular), 0.65);  // measured 0.722 (0.709 before stop 13; per pixel alone 0.07; target 0.95: missed)
 }
 
 // The tattoo's right half and the marker stroke's start, with hair: 500×350 cells.
@@ -80,7 +80,7 @@ TEST(SpatialFlagsAtFiveMegapixels, TattooAndMarkerWindow) {
   const Shares s = flag_window(700, 1150, 1000, 700);
   ASSERT_GT(s.total[static_cast<int>(SceneRegion::kTattoo)], 10000u);
   ASSERT_GT(s.total[static_cast<int>(SceneRegion::kMarker)], 2000u);
-  EXPECT_LE(s.of(SceneRegion::kSkin), 0.01);  // measured 0.0093 (a fifth of the window's skin is the tattoo's edge; whole frame 0.0012)
+  EXPECT_LE(s.of(SceneRegion::kSkin), 0.01);  // measured 0.0095 (a fifth of the window's skin is the tattoo's edge; whole frame 0.0014)
   EXPECT_GE(s.of(SceneRegion::kTattoo), 0.95);
   EXPECT_GE(s.of(SceneRegion::kMarker), 0.95);
 }

@@ -137,10 +137,10 @@ void expect_finite(const std::vector<PixelEstimate>& estimates) {
 // Targets (issue 6): ≥ 95% of tattoo, marker, specular and saturated pixels
 // flagged, ≤ 1% of skin, at any scale and exposure. Measured on this scene
 // (docs/estimation.md, SkinStaysBelowOnePercentAcrossScaleAndExposure for 128-512 px and
-// exposure 0.5-2.5×): skin ≤ 0.91% everywhere; tattoo ≥ 97.8%, marker 85-98%,
-// specular 22-77% (missed: the highlight's weaker part looks like paler skin,
+// exposure 0.5-2.5×): skin ≤ 0.88% everywhere; tattoo ≥ 97.9%, marker 87-98%,
+// specular 23-75% (missed: the highlight's weaker part looks like paler skin,
 // and the reflection's growth stops where the background follows its smooth
-// tail), vein 0-3.4%. The specular and marker bounds are the measured shares
+// tail), vein 0-7.3%. The specular and marker bounds are the measured shares
 // less a margin, as regression guards, not the target; the 5-MP session's
 // are in tests/daemon/lab_flags_test.cpp.
 TEST(NeighbourhoodFlags, VirtualLabSceneThroughTheCameraModel) {
@@ -149,7 +149,7 @@ TEST(NeighbourhoodFlags, VirtualLabSceneThroughTheCameraModel) {
   EXPECT_LE(r.share(SceneRegion::kSkin), 0.01);
   EXPECT_GE(r.share(SceneRegion::kTattoo), 0.95);
   EXPECT_GE(r.share(SceneRegion::kMarker), 0.93);
-  EXPECT_GE(r.share(SceneRegion::kSpecular), 0.38);  // measured 0.421 (0.409 before the reflection growth)
+  EXPECT_GE(r.share(SceneRegion::kSpecular), 0.38);  // measured 0.409 (0.421 before the auto model kept order 4 where only it explains)
   EXPECT_GE(r.share(SceneRegion::kSpecular), r.share(SceneRegion::kSpecular, false) + 0.15);
   EXPECT_EQ(r.share(SceneRegion::kWhiteTarget), 1.0);
   expect_finite(r.refined);
