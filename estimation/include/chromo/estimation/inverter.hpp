@@ -137,7 +137,7 @@ struct FastInverterOptions {
   // threshold for four channels at its default significance, and the
   // Estimator caps it at its own flag threshold: the search runs only where
   // the pre-solved fit would be flagged. (It was 4: the virtual lab's noisy
-  // skin ×1.22 faster, relit ΔE94 1.627 → 1.660 against the truth, D65
+  // skin ×1.15-1.22 faster, relit ΔE94 1.627 → 1.660 against the truth, D65
   // +0.042 → +0.049 from the exhaustive search; docs/estimation.md.)
   double presolved_accept_chi2 = 10.83;
   // Gauss-Newton with a coordinate held at its bound and χ² ≤
