@@ -38,7 +38,6 @@
 // (e.g. the previous version of the inverters, run just before on the same
 // machine): its points go on the speed/accuracy chart next to this run's,
 // labelled "old ...", and the run prints new/old ratios per configuration.
-#include <time.h>
 
 #include <chrono>
 #include <cmath>
@@ -72,6 +71,7 @@ using namespace chromo;
 using namespace chromo::estimation;
 using bench::Accuracy;
 using bench::CpuClock;
+using bench::ThreadCpuClock;
 using bench::Relit;
 using bench::accuracy;
 using bench::relight;
@@ -112,11 +112,9 @@ double estimator_cpu_ns(const Estimator& estimator, std::span<const float> measu
   std::vector<PixelEstimate> e(measured.size() / estimator.channels());
   double best = 1e30;
   for (int r = 0; r < rounds; ++r) {
-    timespec t0, t1;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t0);
+    const ThreadCpuClock cpu;
     estimator.estimate_tile(measured, e);
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t1);
-    best = std::min(best, (t1.tv_sec - t0.tv_sec) + 1e-9 * (t1.tv_nsec - t0.tv_nsec));
+    best = std::min(best, cpu.seconds());
   }
   return 1e9 * best / e.size();
 }
@@ -156,11 +154,8 @@ nlohmann::ordered_json diagnose_fast_paths(const FastInverter& fast, const Measu
     group[g].push_back(i);
     boxes[g].insert(fast.inverse_table().box_of(mf));
   }
-  auto thread_seconds = [] {
-    timespec t;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-    return t.tv_sec + 1e-9 * t.tv_nsec;
-  };
+  const ThreadCpuClock thread_clock;
+  auto thread_seconds = [&] { return thread_clock.seconds(); };
   const FastInverterOptions& o = fast.options();
   nlohmann::ordered_json out = {{"cells", n}};
   double total_s = 0;
@@ -400,8 +395,7 @@ int main(int argc, char** argv) {
       const std::size_t n = std::min<std::size_t>(f.pixels(), 50000);
       std::size_t counts[2] = {}, no_cell = 0, iteration_sum = 0;
       double chi2_sum = 0;
-      timespec t0, t1;
-      clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t0);
+      const ThreadCpuClock fit_clock;
       for (std::size_t i = 0; i < n; ++i) {
         double m[4], w[4];
         const std::vector<float>& v = noise > 0 ? f.noisy : f.clean;
@@ -417,12 +411,10 @@ int main(int argc, char** argv) {
         iteration_sum += fit.iterations;
         ++counts[static_cast<int>(path)];
       }
-      clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t1);
-      const double cpu = (t1.tv_sec - t0.tv_sec) + 1e-9 * (t1.tv_nsec - t0.tv_nsec);
+      const double cpu = fit_clock.seconds();
       {
         // The same 256 pixels again and again: the tables' lines stay in cache.
-        timespec h0, h1;
-        clock_gettime(CLOCK_THREAD_CPUTIME_ID, &h0);
+        const ThreadCpuClock hot_clock;
         double sink = 0;
         const int hot_repeats = std::getenv("HOT_REPEATS") ? std::atoi(std::getenv("HOT_REPEATS")) : 100;
         for (int repeat = 0; repeat < hot_repeats; ++repeat)
@@ -435,21 +427,19 @@ int main(int argc, char** argv) {
             }
             sink += fast.fit(m, w, 4).chi2;
           }
-        clock_gettime(CLOCK_THREAD_CPUTIME_ID, &h1);
+        const double hot_s = hot_clock.seconds();
         {
-          timespec q0, q1;
           float acc = 0;
-          clock_gettime(CLOCK_THREAD_CPUTIME_ID, &q0);
+          const ThreadCpuClock predict_clock;
           for (int i = 0; i < 1000000; ++i) {
             const float x[4] = {float(i % 37) + 0.3f, float(i % 29) + 0.6f, float(i % 13) + 0.2f, float(i % 7) + 0.5f};
             float v[4], j[16];
             fast.predict4(x, v, (i & 1) ? j : nullptr);
             acc += v[0] + ((i & 1) ? j[5] : 0);
           }
-          clock_gettime(CLOCK_THREAD_CPUTIME_ID, &q1);
-          std::printf("predict4: %.1f ns per call (%g)\n", 1e9 * ((q1.tv_sec - q0.tv_sec) + 1e-9 * (q1.tv_nsec - q0.tv_nsec)) / 1e6, acc);
+          std::printf("predict4: %.1f ns per call (%g)\n", 1e9 * predict_clock.seconds() / 1e6, acc);
         }
-        std::printf("diagnose: hot cache %.0f ns/px (%g)\n", 1e9 * ((h1.tv_sec - h0.tv_sec) + 1e-9 * (h1.tv_nsec - h0.tv_nsec)) / (256.0 * hot_repeats), sink);
+        std::printf("diagnose: hot cache %.0f ns/px (%g)\n", 1e9 * hot_s / (256.0 * hot_repeats), sink);
       }
       {
         EstimatorOptions eo;
@@ -458,12 +448,10 @@ int main(int argc, char** argv) {
         eo.threads = 1;
         const Estimator estimator(table, s, eo);
         std::vector<PixelEstimate> e(n);
-        timespec e0, e1;
-        clock_gettime(CLOCK_THREAD_CPUTIME_ID, &e0);
+        const ThreadCpuClock estimate_clock;
         estimator.estimate_tile(std::span(noise > 0 ? f.noisy : f.clean).first(n * 4), e);
-        clock_gettime(CLOCK_THREAD_CPUTIME_ID, &e1);
-        std::printf("diagnose: Estimator::estimate_tile (4d, one thread) %.0f ns/px CPU\n",
-                    1e9 * ((e1.tv_sec - e0.tv_sec) + 1e-9 * (e1.tv_nsec - e0.tv_nsec)) / n);
+        const double estimate_s = estimate_clock.seconds();
+        std::printf("diagnose: Estimator::estimate_tile (4d, one thread) %.0f ns/px CPU\n", 1e9 * estimate_s / n);
         // The same, back to back, with the fast inverter's previous stopping
         // rules (no chord steps, no face stall) and today's defaults: best of
         // three rounds each, so that the ratio survives a shared machine.

@@ -26,8 +26,6 @@
 // CPU time per cell of each scene region (one thread) is printed; the files
 // are then fast_budget_whole_frame.{csv,png}. Writes DIR/fast_budget.csv and
 // DIR/fast_budget.png (gnuplot); DIR defaults to bench/results.
-#include <time.h>
-
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -136,11 +134,9 @@ void print_region_costs(const std::shared_ptr<const ForwardTable>& table, const 
         measured.insert(measured.end(), m.measured.begin() + i * 4, m.measured.begin() + i * 4 + 4);
     if (measured.empty()) continue;
     std::vector<PixelEstimate> e(measured.size() / 4);
-    timespec t0, t1;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t0);
+    const bench::ThreadCpuClock cpu;
     estimator.estimate_tile(measured, e);
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t1);
-    const double us = 1e6 * ((t1.tv_sec - t0.tv_sec) + 1e-9 * (t1.tv_nsec - t0.tv_nsec)) / e.size();
+    const double us = 1e6 * cpu.seconds() / e.size();
     std::printf(" %s %.2f (%zu)", region == 7 ? "mixed_cell" : simulators::region_name(static_cast<simulators::SceneRegion>(region)),
                 us, e.size());
   }
