@@ -233,14 +233,17 @@ void evaluate(const FastInverter& inverter, const double* measured, const double
 // backtracking: the interpolant is only piecewise multilinear. True when it
 // converged (χ² ≤ converged_chi2, a stalled step or a bounded minimum).
 bool gauss_newton(const FastInverter& inverter, const double* measured, const double* weight, const float* upper,
-                  Point& best, int& iterations) {
+                  int free_dims, Point& best, int& iterations) {
   const FastInverterOptions& options = inverter.options();
   bool converged = best.chi2 <= options.converged_chi2;
   if (!converged && !best.has_jacobian) evaluate(inverter, measured, weight, best);
-  // Stalled: a gain below 10⁻⁴ of χ², or with a coordinate held on a bound
-  // face and χ² already acceptable, below face_stall_relative of it.
+  // Stalled: a gain below 10⁻⁴ of χ², or in 4D with a coordinate held on a
+  // bound face and χ² already acceptable, below face_stall_relative of it.
+  // (Not in 2D: the last few per cent of χ²₂ there decide the model order.)
   auto stall_share = [&](bool held, double chi2) {
-    return held && chi2 <= options.presolved_accept_chi2 ? std::max(options.face_stall_relative, 1e-4) : 1e-4;
+    return held && free_dims == 4 && chi2 <= options.presolved_accept_chi2
+               ? std::max(options.face_stall_relative, 1e-4)
+               : 1e-4;
   };
   Point trial;
   for (iterations = 0; iterations < options.newton_steps && !converged; ++iterations) {
@@ -254,11 +257,13 @@ bool gauss_newton(const FastInverter& inverter, const double* measured, const do
         for (int k = 0; k < 4; ++k) jtj[i * 4 + k] += row[i] * row[k];
       }
     }
-    // A coordinate at its bound whose gradient points outward is held.
+    // A coordinate at its bound whose gradient points outward is held (and
+    // the 2D model's βm and Che always).
     bool held = false;
     for (int k = 0; k < 4; ++k) {
-      if ((best.x[k] <= 0 && gradient[k] > 0) || (best.x[k] >= upper[k] && gradient[k] < 0)) {
-        held = true;
+      const bool at_bound = (best.x[k] <= 0 && gradient[k] > 0) || (best.x[k] >= upper[k] && gradient[k] < 0);
+      if (at_bound || k >= free_dims) {
+        held = held || (at_bound && k < free_dims);
         for (int i = 0; i < 4; ++i) jtj[k * 4 + i] = jtj[i * 4 + k] = 0;
         jtj[k * 4 + k] = 1, gradient[k] = 0;
       } else {
@@ -330,7 +335,8 @@ namespace {
 // step overshoots): chord steps with that branch's J⁺, then Gauss-Newton.
 // True when converged; `best` holds the end point.
 bool descend(const FastInverter& inverter, const float* m, const double* measured, const double* weight,
-             const InverseTable::Branch* const* branches, int count, const float* upper, Point& best, int& iterations) {
+             const InverseTable::Branch* const* branches, int count, const float* upper, int free_dims, Point& best,
+             int& iterations) {
   const FastInverterOptions& options = inverter.options();
   Point trial;
   const InverseTable::Branch* best_branch = nullptr;
@@ -369,7 +375,7 @@ bool descend(const FastInverter& inverter, const float* m, const double* measure
     }
     best = trial;
   }
-  return gauss_newton(inverter, measured, weight, upper, best, iterations);
+  return gauss_newton(inverter, measured, weight, upper, free_dims, best, iterations);
 }
 
 }  // namespace
@@ -392,14 +398,31 @@ bool FastInverter::fit_presolved(const double* measured, const double* weight, F
   if (own && !own_later) list[count++] = own;
   Point best;
   int iterations = 0;
-  bool converged = descend(*this, m, measured, weight, list, count, upper.data(), best, iterations);
+  bool converged = descend(*this, m, measured, weight, list, count, upper.data(), 4, best, iterations);
   if (own_later && !(converged && best.chi2 <= options_.presolved_accept_chi2)) {
     Point other;
     int more = 0;
-    const bool other_converged = descend(*this, m, measured, weight, &own, 1, upper.data(), other, more);
+    const bool other_converged = descend(*this, m, measured, weight, &own, 1, upper.data(), 4, other, more);
     iterations += more;
     if (other.chi2 < best.chi2 || !std::isfinite(best.chi2)) best = other, converged = other_converged;
   }
+  if (!std::isfinite(best.chi2)) return false;
+  store(best, iterations, fit);
+  return converged;
+}
+
+bool FastInverter::fit_presolved_slice(const double* measured, const double* weight, Fit& fit) const {
+  float m[4];
+  for (int c = 0; c < 4; ++c) m[c] = static_cast<float>(measured[c]);
+  const std::uint32_t cell_index = inverse_->cell_of(m);
+  if (cell_index == InverseTable::kNoCell) return false;
+  const InverseTable::Cell& cell = inverse_->cell(cell_index);
+  if (cell.slice_branch == InverseTable::kNoCell) return false;
+  const InverseTable::Branch* slice = &inverse_->branch(cell.slice_branch);
+  const std::array<float, 4> upper = upper_bounds();
+  Point best;
+  int iterations = 0;
+  const bool converged = descend(*this, m, measured, weight, &slice, 1, upper.data(), 2, best, iterations);
   if (!std::isfinite(best.chi2)) return false;
   store(best, iterations, fit);
   return converged;
@@ -412,8 +435,9 @@ Fit FastInverter::fit(const double* measured, const double* weight, int order) c
 Fit FastInverter::fit(const double* measured, const double* weight, int order, FastPath* path) const {
   Fit presolved;
   presolved.chi2 = std::numeric_limits<double>::infinity();
-  if (order == 4 && presolved_) {
-    const bool converged = fit_presolved(measured, weight, presolved);
+  if (presolved_ && (order == 4 || options_.presolved_slice)) {
+    const bool converged =
+        order == 4 ? fit_presolved(measured, weight, presolved) : fit_presolved_slice(measured, weight, presolved);
     const bool accepted = converged && presolved.chi2 <= options_.presolved_accept_chi2;
     if (accepted || (!options_.search_fallback && std::isfinite(presolved.chi2))) {
       if (path) *path = FastPath::kPresolved;

@@ -14,6 +14,7 @@
 #include <map>
 #include <mutex>
 #include <numeric>
+#include <optional>
 #include <stdexcept>
 #include <system_error>
 #include <unordered_map>
@@ -25,7 +26,7 @@ namespace chromo::estimation {
 namespace {
 
 constexpr char kMagic[8] = {'C', 'H', 'R', 'O', 'M', 'O', 'I', 'T'};
-constexpr std::uint32_t kFormatVersion = 3;
+constexpr std::uint32_t kFormatVersion = 4;
 // Build settings (part of the cache key).
 constexpr int kMaxSeedsPerCell = 12;     // LM solves per cell, best groups first
 constexpr int kBranchIterations = 40;    // LM iterations per solve
@@ -107,7 +108,7 @@ void pseudo_inverse(const double* jacobian, const double* weight, const bool* he
     if (sv[k] > sv[0] / kMaxCondition) inverse_sv[k] = 1 / sv[k];
   const Eigen::Matrix<double, 4, 4, Eigen::RowMajor> inverse =
       svd.matrixV() * inverse_sv.asDiagonal() * svd.matrixU().transpose() * w.asDiagonal();
-  for (int k = 0; k < 16; ++k) jinv[k] = static_cast<float>(inverse.data()[k]);
+  for (int k = 0; k < 16; ++k) jinv[k] = held[k / 4] ? 0.0f : static_cast<float>(inverse.data()[k]);  // exactly zero
 }
 
 // Branches of one cell: LM from the best node of each grid-connected group of
@@ -191,6 +192,39 @@ std::vector<InverseTable::Branch> solve_cell(const Inverter& solver, const NodeI
   return branches;
 }
 
+// Weights of a pre-solved fit at `centre`: σ_c = 1% of the value times the
+// channel's relative noise.
+void presolve_weights(const double* centre, const std::array<double, 4>& relative_sigma, double* weight) {
+  for (int c = 0; c < 4; ++c) weight[c] = 1.0 / (0.01 * relative_sigma[c] * std::max(centre[c], 1e-4));
+}
+
+// The 2D model's fit at `centre` (4 channels): the best slice node, LM, and
+// the weighted pseudo-inverse along the slice (βm and Che rows zero; a Cm or
+// Ch held at a bound its gradient points out of, as for the empty cells).
+std::optional<InverseTable::Branch> solve_slice(const ExhaustiveInverter& solver, const double* centre,
+                                                const double* weight) {
+  const ForwardTable& table = solver.table();
+  Fit f = solver.fit(centre, weight, 2);
+  const Fit polished = solver.refine(centre, weight, 2, f.x, kBranchIterations);
+  if (polished.chi2 < f.chi2) f = polished;
+  if (!std::isfinite(f.chi2)) return std::nullopt;
+  double m0[kMaxChannels], jacobian[kMaxChannels * 4];
+  table.predict(f.x, m0, jacobian);
+  InverseTable::Branch b{};
+  bool held[4] = {false, false, true, true};
+  for (int k = 0; k < 4; ++k) {
+    b.x0[k] = static_cast<float>(f.x[k]);
+    b.m0[k] = static_cast<float>(m0[k]);
+  }
+  for (int k = 0; k < 2; ++k) {
+    double gradient = 0;  // of χ²/2 along x_k
+    for (int c = 0; c < 4; ++c) gradient += jacobian[c * 4 + k] * weight[c] * weight[c] * (m0[c] - centre[c]);
+    held[k] = (f.x[k] <= 0 && gradient > 0) || (f.x[k] >= table.nodes()[k] - 1 && gradient < 0);
+  }
+  pseudo_inverse(jacobian, weight, held, b.jinv);
+  return b;
+}
+
 }  // namespace
 
 bool InverseTableSettings::IsValid(std::string* error) const {
@@ -247,8 +281,7 @@ std::uint64_t InverseTable::cache_key(const ForwardTable& table, const InverseTa
                          double(kPresolveBlock[1]), double(kPresolveBlock[2]), double(kPresolveBlock[3])})
     h.add_value(setting);
   h.add_value(settings.presolve_empty_cells);
-  if (settings.presolve_empty_cells)
-    for (double q : settings.quantised_sigma()) h.add_value(q);
+  for (double q : settings.quantised_sigma()) h.add_value(q);  // the pre-solved fits' weights
   return h.h;
 }
 
@@ -373,6 +406,9 @@ InverseTable InverseTable::build(std::shared_ptr<const ForwardTable> table_ptr, 
   const ExhaustiveInverter solver(table_ptr);
   const NodeIndex index{{table.nodes()[0], table.nodes()[1], table.nodes()[2], table.nodes()[3]}};
   std::vector<std::vector<Branch>> per_cell(occupied);
+  const bool with_slice = channels == 4;
+  const std::array<double, 4> relative_sigma = settings.quantised_sigma();
+  std::vector<std::optional<Branch>> slice_of_cell(occupied);
   std::vector<std::uint32_t> box_of_cell(occupied);
   for (std::uint32_t box = 0; box < box_cells; ++box)
     if (t.cell_index_[box] != kNoCell) box_of_cell[t.cell_index_[box]] = box;
@@ -393,12 +429,20 @@ InverseTable InverseTable::build(std::shared_ptr<const ForwardTable> table_ptr, 
       centre[ch] = sum / c.bucket_count;
     }
     per_cell[cell] = solve_cell(solver, index, t.bucket_nodes_.data() + c.bucket_begin, c.bucket_count, centre);
+    if (with_slice) {
+      double weight[4];
+      presolve_weights(centre, relative_sigma, weight);
+      slice_of_cell[cell] = solve_slice(solver, centre, weight);
+    }
   }
   for (std::size_t cell = 0; cell < occupied; ++cell) {
     t.cells_[cell].branch_begin = static_cast<std::uint32_t>(t.branches_.size());
     t.cells_[cell].branch_count = static_cast<std::uint32_t>(per_cell[cell].size());
     t.branches_.insert(t.branches_.end(), per_cell[cell].begin(), per_cell[cell].end());
   }
+  for (std::size_t cell = 0; cell < occupied; ++cell)
+    if (slice_of_cell[cell])
+      t.cells_[cell].slice_branch = static_cast<std::uint32_t>(t.branches_.size()), t.branches_.push_back(*slice_of_cell[cell]);
 
   const std::vector<std::uint32_t> own_cell_index = t.cell_index_;
   // Empty cells point at the nearest occupied cell along one axis: up to
@@ -436,7 +480,7 @@ InverseTable InverseTable::build(std::shared_ptr<const ForwardTable> table_ptr, 
     t.cell_index_.swap(next);
   }
   if (channels == 4 && settings.presolve_empty_cells)
-    t.presolve_empty_cells(table_ptr, own_cell_index, settings.quantised_sigma(), thread_count);
+    t.presolve_empty_cells(table_ptr, own_cell_index, relative_sigma, thread_count);
   return t;
 }
 
@@ -486,7 +530,9 @@ void InverseTable::presolve_empty_cells(std::shared_ptr<const ForwardTable> tabl
   const FastInverter fast(table_ptr, stage_one);
   const std::array<float, 4> upper = {float(table.nodes()[0] - 1), float(table.nodes()[1] - 1),
                                       float(table.nodes()[2] - 1), float(table.nodes()[3] - 1)};
+  const ExhaustiveInverter slice_solver(table_ptr);
   std::vector<Branch> solved(block_of_slot.size());
+  std::vector<std::optional<Branch>> slice_of_slot(block_of_slot.size());
   std::vector<char> has_solution(block_of_slot.size(), 0);
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 256)
   for (std::ptrdiff_t slot = 0; slot < static_cast<std::ptrdiff_t>(block_of_slot.size()); ++slot) {
@@ -500,7 +546,8 @@ void InverseTable::presolve_empty_cells(std::shared_ptr<const ForwardTable> tabl
     }
     const std::array<double, 4> centre = box_centre(bin);
     double weight[4];  // σ = 1% of the value for the least noisy channel
-    for (int c = 0; c < 4; ++c) weight[c] = 1.0 / (0.01 * relative_sigma[c] * std::max(centre[c], 1e-4));
+    presolve_weights(centre.data(), relative_sigma, weight);
+    slice_of_slot[slot] = solve_slice(slice_solver, centre.data(), weight);
     Fit f = fast.fit(centre.data(), weight, 4);
     const Fit polished = fast.refine(centre.data(), weight, 4, f.x, kBranchIterations);
     if (polished.chi2 < f.chi2) f = polished;
@@ -522,9 +569,12 @@ void InverseTable::presolve_empty_cells(std::shared_ptr<const ForwardTable> tabl
   // Every reached empty cell: a cell of its own with its neighbour's bucket
   // (the search path's seeds, as before) and its block's branch; one such
   // cell per (block, neighbour) pair.
-  std::vector<std::uint32_t> branch_of_slot(block_of_slot.size(), kNoCell);
+  std::vector<std::uint32_t> branch_of_slot(block_of_slot.size(), kNoCell), slice_branch_of_slot(block_of_slot.size(), kNoCell);
   for (std::size_t slot = 0; slot < block_of_slot.size(); ++slot)
     if (has_solution[slot]) branch_of_slot[slot] = static_cast<std::uint32_t>(branches_.size()), branches_.push_back(solved[slot]);
+  for (std::size_t slot = 0; slot < block_of_slot.size(); ++slot)
+    if (has_solution[slot] && slice_of_slot[slot])
+      slice_branch_of_slot[slot] = static_cast<std::uint32_t>(branches_.size()), branches_.push_back(*slice_of_slot[slot]);
   std::unordered_map<std::uint64_t, std::uint32_t> cell_of_pair;
   for (std::uint32_t box = 0; box < cell_index_.size(); ++box) {
     if (own_cell_index[box] != kNoCell || cell_index_[box] == kNoCell) continue;
@@ -535,6 +585,7 @@ void InverseTable::presolve_empty_cells(std::shared_ptr<const ForwardTable> tabl
     if (inserted) {
       Cell c = cells_[neighbour];
       c.presolved_branch = branch_of_slot[slot];
+      if (slice_branch_of_slot[slot] != kNoCell) c.slice_branch = slice_branch_of_slot[slot];
       cells_.push_back(c);
     }
     cell_index_[box] = it->second;
@@ -618,7 +669,7 @@ bool InverseTable::read(const std::filesystem::path& file, std::uint64_t key, st
   for (int k = 0; k < dims; ++k) box_cells *= kBins;
   if (!read_array(in, h, cell_index_, box_cells) || cell_index_.size() != box_cells ||
       !read_array(in, h, cells_, box_cells) || !read_array(in, h, bucket_nodes_, 1ull << 32) ||
-      !read_array(in, h, branches_, cells_.size() * kMaxBranches))
+      !read_array(in, h, branches_, cells_.size() * (kMaxBranches + 2)))
     return fail("truncated or inconsistent sizes");
   std::uint64_t checksum = 0;
   if (!in.read(reinterpret_cast<char*>(&checksum), sizeof checksum) || in.peek() != std::char_traits<char>::eof())
@@ -632,7 +683,8 @@ bool InverseTable::read(const std::filesystem::path& file, std::uint64_t key, st
   for (const Cell& c : cells_)
     if (std::uint64_t(c.bucket_begin) + c.bucket_count > bucket_nodes_.size() ||
         std::uint64_t(c.branch_begin) + c.branch_count > branches_.size() || c.branch_count > kMaxBranches ||
-        (c.presolved_branch != kNoCell && c.presolved_branch >= branches_.size()))
+        (c.presolved_branch != kNoCell && c.presolved_branch >= branches_.size()) ||
+        (c.slice_branch != kNoCell && c.slice_branch >= branches_.size()))
       return fail("cell range out of range");
   return true;
 }

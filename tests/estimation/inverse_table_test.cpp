@@ -396,6 +396,65 @@ TEST(InverseTable, EveryStoredBranchIsFittedExactly) {
   EXPECT_GE(presolved, 190);
 }
 
+// Every cell holds the 2D model's pre-solved fit: on the slice (βm = 0.7,
+// Che = 0) with a linear step that never leaves it. A 2D-model scene's 2D
+// fit then starts there: it takes the pre-solved path on almost every pixel,
+// reaches the exhaustive slice search's χ² (the 2D inverter) and relights
+// under D65 as it does; with Options::presolved_slice off the same pixels
+// take the search path.
+TEST(FastInverter, TheTwoDFitStartsFromThePresolvedSliceFit) {
+  const auto table = testing::method_table();
+  const auto inverse = method_inverse_table();
+  const FastInverter fast(table, inverse);
+  FastInverterOptions search_only;
+  search_only.presolved_slice = false;
+  const FastInverter searched(table, inverse, search_only);
+  const TwoDInverter two_d(table);
+  std::size_t with_slice = 0;
+  for (std::uint32_t cell = 0; cell < inverse->occupied_cells() + inverse->presolved_empty_cells(); ++cell) {
+    const std::uint32_t index = inverse->cell(cell).slice_branch;
+    if (index == InverseTable::kNoCell) continue;
+    ++with_slice;
+    const InverseTable::Branch& b = inverse->branch(index);
+    ASSERT_NEAR(b.x0[2], fast.bm_2d_coordinate(), 1e-5);
+    ASSERT_EQ(b.x0[3], 0.0f);
+    for (int c = 0; c < 4; ++c) {
+      ASSERT_EQ(b.jinv[2 * 4 + c], 0.0f);
+      ASSERT_EQ(b.jinv[3 * 4 + c], 0.0f);
+    }
+  }
+  EXPECT_GE(with_slice, (inverse->occupied_cells() + inverse->presolved_empty_cells()) * 99 / 100);
+  for (const double noise : {0.0, 1.0}) {
+    MeasurementSet set = testing::method_set();
+    SyntheticOptions o;
+    o.pixels = 300;
+    o.seed = 27;
+    o.noise.noise_scale = noise;
+    o.low.bm = o.high.bm = 0.7;
+    o.low.che = o.high.che = 0;
+    const SyntheticFrame f = make_synthetic_frame(set, o);
+    int presolved = 0, close = 0, search_path = 0;
+    std::vector<GridPoint> fast_x, reference_x;
+    for (std::size_t i = 0; i < f.pixels(); ++i) {
+      const auto [m, w] = weighted_pixel(set, noise > 0 ? f.noisy : f.clean, i);
+      FastPath path, old_path;
+      const Fit a = fast.fit(m, w, 2, &path), b = two_d.fit(m, w, 2);
+      searched.fit(m, w, 2, &old_path);
+      presolved += path == FastPath::kPresolved;
+      search_path += old_path == FastPath::kSearched;
+      close += a.chi2 <= b.chi2 + 0.05;
+      EXPECT_NEAR(a.x[2], fast.bm_2d_coordinate(), 1e-5);
+      EXPECT_EQ(a.x[3], 0.0);
+      fast_x.push_back(a.x), reference_x.push_back(b.x);
+    }
+    SCOPED_TRACE(noise);
+    EXPECT_EQ(search_path, 300);
+    EXPECT_GE(presolved, 291);  // 97% (all here)
+    EXPECT_GE(close, 291);      // 97% (all here; the search path 98% noisy)
+    EXPECT_LT(mean_d65_delta_e(*table, fast_x, reference_x), noise > 0 ? 0.02 : 0.005);  // 0.0062, 0.0019 here
+  }
+}
+
 // The inverse table's build settings: validated, the noise ratios rounded to
 // half-octaves of the smallest (sessions whose noise differs a little share a
 // cached table), and part of the cache key.

@@ -43,6 +43,14 @@
 // neighbour's. One branch is shared by the cells of a block; a cell of the
 // index per (block, neighbour) pair carries the neighbour's ranges and it.
 //
+// Per cell, for 4-channel tables: the 2D model's pre-solved fit (the slice
+// βm = 0.7, Che = 0, free Cm and Ch), as a Branch whose βm and Che rows of
+// J⁺ are zero: the global slice fit (every slice node, then LM) at the cell
+// centre (an empty cell: its block's centre) with the channels' relative
+// noise of the settings (four channels weigh two parameters, so the weights
+// move the solution). FastInverter's order-2 fit starts there instead of
+// walking the slice's nodes from the bucket's best 4D node.
+//
 // Build: OpenMP over cells (one LM solve per group), then over the empty
 // cells' blocks (the fast fit on the occupied cells' branches, polished by LM),
 // ≈ 2-5 s on 2 cores for the default table. Cache: load_or_build() keys a file by a hash of the
@@ -74,7 +82,7 @@ struct InverseTableSettings {
   bool presolve_empty_cells = true;
   // The camera noise σ of the four channels relative to each other (any
   // common scale, e.g. σ/value at a typical skin albedo): the weights of the
-  // empty cells' pre-solved fits, whose bound face depends on them (a noisy
+  // 2D fits and of the empty cells' pre-solved fits, whose bound face depends on them (a noisy
   // difference channel, the method's blue one with ≈ 10× the others' relative
   // noise, lets a fit leave that channel and move along another face). Only the
   // ratios count, rounded to half-octaves of the smallest (quantised_sigma())
@@ -111,6 +119,8 @@ class InverseTable {
     // An empty cell's own pre-solved branch (index in branches(), after the
     // neighbour's range), or kNoCell.
     std::uint32_t presolved_branch = kNoCell;
+    // The 2D model's pre-solved fit (index in branches()), or kNoCell.
+    std::uint32_t slice_branch = kNoCell;
   };
 
   // Builds on `threads` threads (0 = all cores). The table must be non-empty.
@@ -140,7 +150,7 @@ class InverseTable {
   const std::vector<std::uint32_t>& bucket_nodes() const { return bucket_nodes_; }
   const Branch* branches(const Cell& c) const { return branches_.data() + c.branch_begin; }
   const Branch& branch(std::uint32_t index) const { return branches_[index]; }
-  std::size_t branch_count() const { return branches_.size(); }  // the empty cells' pre-solved ones included
+  std::size_t branch_count() const { return branches_.size(); }  // the empty cells' and the 2D fits included
   // Cells holding table nodes (numbered first), and the empty cells' own
   // cells after them (one per block and neighbour, see above).
   std::size_t occupied_cells() const { return occupied_cells_; }
@@ -162,7 +172,7 @@ class InverseTable {
 
   // Measurement at the centre of the key-box cell with (fractional) bins `bin`.
   std::array<double, 4> box_centre(std::array<float, 4> bin) const;
-  // Gives every empty cell the fill reached a pre-solved branch (4 channels).
+  // Gives every empty cell the fill reached a pre-solved branch and 2D fit (4 channels).
   void presolve_empty_cells(std::shared_ptr<const ForwardTable> table, const std::vector<std::uint32_t>& own_cell_index,
                             const std::array<double, 4>& relative_sigma, int threads);
 

@@ -33,9 +33,10 @@
 //    convergence) the search path too, and the smaller χ² wins: the best χ²
 //    node of the cell's node bucket (every branch reaching the cell
 //    competes), descent over neighbouring nodes, ≤ 20 bounded LM steps
-//    (refine()); outside the table a coarse node search seeds it. Order 2,
-//    and sets of other than four channels, use the search path only (order
-//    2 from the 4D seed projected onto the 2D slice).
+//    (refine()); outside the table a coarse node search seeds it. Order 2
+//    alike from the cell's pre-solved 2D fit (Options::presolved_slice; its
+//    search path starts from the 4D seed projected onto the 2D slice). Sets
+//    of other than four channels use the search path only.
 //  - TwoDInverter: ExhaustiveInverter restricted to the 2D slice for every
 //    order (the 2D model of Jimenez et al. as the seed uses it).
 //
@@ -157,6 +158,13 @@ struct FastInverterOptions {
   // or is tried only where they end above presolved_accept_chi2, before the
   // search path (false: ×1.1-1.2, relit 1.56).
   bool empty_cell_branch_first = true;
+  // The 2D fit (order 2; the auto model's second fit) starts from the inverse
+  // table's pre-solved 2D fit at the pixel's cell, as the 4D fit starts from
+  // its branches (a linear step, chord steps, Gauss-Newton along the slice),
+  // and takes the search path only where that fit does not converge at or
+  // below presolved_accept_chi2. false: the search path always (the 4D bucket's
+  // best node projected onto the slice, a node walk along it, LM).
+  bool presolved_slice = true;
   // How the inverse table is built (part of its cache key): whether its
   // empty cells hold pre-solved branches, and the channels' relative noise
   // those fits weigh with (Estimator: from its measurement set when all zero).
@@ -186,9 +194,11 @@ class FastInverter : public Inverter {
   // for the bench's cost breakdown.
   void predict4(const float* x, float* value, float* jacobian) const;
   // The two paths fit() combines (public for the bench's cost breakdown):
-  // the pre-solved path (4 channels, order 4 only; false when it did not
+  // the pre-solved path (4 channels, order 4; false when it did not
   // converge, `fit` then holds the best point reached) and the search path.
   bool fit_presolved(const double* measured, const double* weight, Fit& fit) const;
+  // The pre-solved path of the 2D fit (Options::presolved_slice), alike.
+  bool fit_presolved_slice(const double* measured, const double* weight, Fit& fit) const;
   Fit fit_by_search(const double* measured, const double* weight, int order) const;
   // Whether `measured` falls in an inverse-table cell that holds table nodes
   // itself (false: an empty cell pointing at a neighbour, or outside).
