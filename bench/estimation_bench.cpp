@@ -27,7 +27,8 @@
 // inverter's fits end and where its time goes (cold and hot caches, the
 // Estimator's share, one interpolation, the previous stopping rules against
 // today's back to back; per path and inverse-table cell kind on the
-// synthetic and the lab skin cells); --diagnose-only: that and no method
+// synthetic and the lab skin cells; the auto model's 2D fit by the search
+// path against the pre-solved one, back to back on 200,000 lab skin cells); --diagnose-only: that and no method
 // runs (nothing written). The summary lines give each fast 4D run's CPU time
 // per pixel and core against the 200 ns that 10 MP/s on 2 cores needs.
 // Speeds: wall clock of Estimator::estimate on 2 threads (pixels/s) and the
@@ -117,6 +118,43 @@ double estimator_cpu_ns(const Estimator& estimator, std::span<const float> measu
     best = std::min(best, cpu.seconds());
   }
   return 1e9 * best / e.size();
+}
+
+// The auto model (fast, one thread) with its 2D fit by the search path
+// (FastInverterOptions::presolved_slice false, the previous rule) and from
+// the cell's pre-solved 2D fit (the default), back to back on `measured`:
+// CPU per cell (best of two rounds each), the share of order 2, the mean χ²
+// of the chosen fits and of the order statistic χ²₂ − χ²₄, and the cells
+// whose order or flag differ.
+nlohmann::ordered_json diagnose_auto_slice(std::shared_ptr<const ForwardTable> table, const MeasurementSet& set,
+                                           std::span<const float> measured, const char* label) {
+  const std::size_t n = measured.size() / 4;
+  std::vector<PixelEstimate> e[2];
+  double ns[2], order2[2], chi2[2], statistic[2];
+  for (int presolved : {0, 1}) {
+    EstimatorOptions eo;
+    eo.method = InverterMethod::kFast;
+    eo.model = ModelChoice::kAuto;
+    eo.threads = 1;
+    eo.fast.presolved_slice = presolved;
+    const Estimator estimator(table, set, eo);
+    ns[presolved] = estimator_cpu_ns(estimator, measured, 2);
+    e[presolved].resize(n);
+    estimator.estimate_tile(measured, e[presolved]);
+    order2[presolved] = chi2[presolved] = statistic[presolved] = 0;
+    for (const PixelEstimate& p : e[presolved])
+      order2[presolved] += p.order == 2, chi2[presolved] += p.chi2, statistic[presolved] += p.order_statistic;
+  }
+  std::size_t order_differs = 0, flag_differs = 0;
+  for (std::size_t i = 0; i < n; ++i)
+    order_differs += e[0][i].order != e[1][i].order, flag_differs += e[0][i].flag != e[1][i].flag;
+  std::printf("diagnose %s: auto model (one thread) %.0f CPU ns/cell with the 2D fit by the search path -> %.0f "
+              "from the pre-solved 2D fit: x%.2f on %zu cells; order 2 %.2f%% -> %.2f%%, mean chi2 %.4f -> %.4f, "
+              "mean chi2_2 - chi2_4 %.4f -> %.4f; order differs on %zu, flag on %zu\n",
+              label, ns[0], ns[1], ns[0] / ns[1], n, 100 * order2[0] / n, 100 * order2[1] / n, chi2[0] / n, chi2[1] / n,
+              statistic[0] / n, statistic[1] / n, order_differs, flag_differs);
+  return {{"cells", n}, {"search_ns", ns[0]}, {"presolved_ns", ns[1]}, {"order2_search", order2[0] / n},
+          {"order2_presolved", order2[1] / n}, {"order_differs", order_differs}, {"flag_differs", flag_differs}};
 }
 
 // The weights' model error, as the Estimator's default.
@@ -581,6 +619,9 @@ int main(int argc, char** argv) {
         for (std::size_t i : skin) measured.insert(measured.end(), m.measured.begin() + i * 4, m.measured.begin() + i * 4 + 4);
         report[std::string("diagnose_paths_lab_") + (noisy ? "noisy" : "noise_free")] =
             diagnose_fast_paths(fast, m.set, measured, noisy ? "lab skin noisy" : "lab skin noise-free");
+        report[std::string("diagnose_auto_slice_lab_") + (noisy ? "noisy" : "noise_free")] = diagnose_auto_slice(
+            lab_table, m.set, std::span<const float>(measured).first(std::min<std::size_t>(measured.size(), 4 * 200000)),
+            noisy ? "lab skin noisy" : "lab skin noise-free");
         if (!noisy) continue;
         // The same noisy cells with an empty cell's own branch tried only after
         // its neighbour's, and with the previous table (no empty cells' branches).

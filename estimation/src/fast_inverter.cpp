@@ -438,7 +438,8 @@ Fit FastInverter::fit(const double* measured, const double* weight, int order, F
   if (presolved_ && (order == 4 || options_.presolved_slice)) {
     const bool converged =
         order == 4 ? fit_presolved(measured, weight, presolved) : fit_presolved_slice(measured, weight, presolved);
-    const bool accepted = converged && presolved.chi2 <= options_.presolved_accept_chi2;
+    // A converged 2D fit is the answer whatever its χ² (Options::presolved_slice).
+    const bool accepted = converged && (order == 2 || presolved.chi2 <= options_.presolved_accept_chi2);
     if (accepted || (!options_.search_fallback && std::isfinite(presolved.chi2))) {
       if (path) *path = FastPath::kPresolved;
       return presolved;

@@ -161,9 +161,12 @@ struct FastInverterOptions {
   // The 2D fit (order 2; the auto model's second fit) starts from the inverse
   // table's pre-solved 2D fit at the pixel's cell, as the 4D fit starts from
   // its branches (a linear step, chord steps, Gauss-Newton along the slice),
-  // and takes the search path only where that fit does not converge at or
-  // below presolved_accept_chi2. false: the search path always (the 4D bucket's
-  // best node projected onto the slice, a node walk along it, LM).
+  // and takes the search path only where that fit does not converge. A
+  // converged 2D fit above presolved_accept_chi2 is a pixel the 2D model does
+  // not explain: the search found a lower 2D minimum on half of such
+  // synthetic pixels, for 4.3 µs each, and changed no order decision on
+  // 40,000 of them. false: the search path always (the 4D bucket's best node
+  // projected onto the slice, a node walk along it, LM).
   bool presolved_slice = true;
   // How the inverse table is built (part of its cache key): whether its
   // empty cells hold pre-solved branches, and the channels' relative noise
