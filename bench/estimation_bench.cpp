@@ -29,7 +29,8 @@
 // today's back to back; per path and inverse-table cell kind on the
 // synthetic and the lab skin cells; the auto model's 2D fit by the search
 // path against the pre-solved one, back to back on 200,000 lab skin cells); --diagnose-only: that and no method
-// runs (nothing written). The summary lines give each fast 4D run's CPU time
+// runs (nothing written); the environment variable HOT_REPEATS (default 100)
+// sets how often the hot-cache measurement refits its 256 pixels. The summary lines give each fast 4D run's CPU time
 // per pixel and core against the 200 ns that 10 MP/s on 2 cores needs.
 // Speeds: wall clock of Estimator::estimate on 2 threads (pixels/s) and the
 // process CPU time per pixel (both threads), steadier on a shared machine.

@@ -146,7 +146,7 @@ bool FastInverter::in_occupied_cell(const double* measured) const {
   const int channels = table_->channels();
   float m[kMaxChannels];
   for (int c = 0; c < channels; ++c) m[c] = static_cast<float>(measured[c]);
-  const std::uint32_t box = inverse_->box_of(m), cell_index = inverse_->cell_of(m);
+  const std::uint32_t box = inverse_->box_of(m), cell_index = inverse_->cell_at(box);
   if (cell_index == InverseTable::kNoCell) return false;
   // An occupied cell's bucket holds the nodes whose own values fall in it.
   const std::uint32_t node = inverse_->bucket_nodes()[inverse_->cell(cell_index).bucket_begin];

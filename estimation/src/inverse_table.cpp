@@ -26,7 +26,7 @@ namespace chromo::estimation {
 namespace {
 
 constexpr char kMagic[8] = {'C', 'H', 'R', 'O', 'M', 'O', 'I', 'T'};
-constexpr std::uint32_t kFormatVersion = 4;
+constexpr std::uint32_t kFormatVersion = 5;
 // Build settings (part of the cache key).
 constexpr int kMaxSeedsPerCell = 12;     // LM solves per cell, best groups first
 constexpr int kBranchIterations = 40;    // LM iterations per solve
@@ -302,8 +302,7 @@ void InverseTable::key_of(const float* values, float* key) const {
 }
 
 std::uint32_t InverseTable::cell_of(const float* measured) const {
-  const std::uint32_t box = box_of(measured);
-  return box == kNoCell ? kNoCell : cell_index_[box];
+  return cell_at(box_of(measured));
 }
 
 std::uint32_t InverseTable::box_of(const float* measured) const {
@@ -634,6 +633,9 @@ bool InverseTable::write(const std::filesystem::path& file) const {
       h.add(key_axes_, sizeof key_axes_), h.add(key_min_, sizeof key_min_), h.add(key_scale_, sizeof key_scale_);
   write_array(out, h, cell_index_);
   write_array(out, h, cells_);
+  const std::uint64_t occupied = occupied_cells_;
+  out.write(reinterpret_cast<const char*>(&occupied), sizeof occupied);
+  h.add_value(occupied);
   write_array(out, h, bucket_nodes_);
   write_array(out, h, branches_);
   out.write(reinterpret_cast<const char*>(&h.h), sizeof h.h);
@@ -667,16 +669,20 @@ bool InverseTable::read(const std::filesystem::path& file, std::uint64_t key, st
       h.add(key_axes_, sizeof key_axes_), h.add(key_min_, sizeof key_min_), h.add(key_scale_, sizeof key_scale_);
   std::uint64_t box_cells = 1;
   for (int k = 0; k < dims; ++k) box_cells *= kBins;
+  std::uint64_t occupied = 0;
   if (!read_array(in, h, cell_index_, box_cells) || cell_index_.size() != box_cells ||
-      !read_array(in, h, cells_, box_cells) || !read_array(in, h, bucket_nodes_, 1ull << 32) ||
+      !read_array(in, h, cells_, box_cells) || !in.read(reinterpret_cast<char*>(&occupied), sizeof occupied) ||
+      occupied > cells_.size())
+    return fail("truncated or inconsistent sizes");
+  h.add_value(occupied);
+  if (!read_array(in, h, bucket_nodes_, 1ull << 32) ||
       !read_array(in, h, branches_, cells_.size() * (kMaxBranches + 2)))
     return fail("truncated or inconsistent sizes");
   std::uint64_t checksum = 0;
   if (!in.read(reinterpret_cast<char*>(&checksum), sizeof checksum) || in.peek() != std::char_traits<char>::eof())
     return fail("truncated or trailing bytes");
   if (checksum != h.h) return fail("checksum mismatch");
-  occupied_cells_ = static_cast<std::size_t>(std::count_if(
-      cells_.begin(), cells_.end(), [](const Cell& c) { return c.presolved_branch == kNoCell; }));
+  occupied_cells_ = static_cast<std::size_t>(occupied);
   // Indices in range (a file written by another build with the same key cannot point outside its arrays).
   for (std::uint32_t c : cell_index_)
     if (c != kNoCell && c >= cells_.size()) return fail("cell index out of range");

@@ -146,6 +146,8 @@ class InverseTable {
   // The key-box cell of a measurement (index over all kBins^key_dims() cells,
   // occupied or not); kNoCell for a non-finite key.
   std::uint32_t box_of(const float* measured) const;
+  // The cell a key-box cell (box_of()) holds or points at, or kNoCell.
+  std::uint32_t cell_at(std::uint32_t box) const { return box < cell_index_.size() ? cell_index_[box] : kNoCell; }
   const Cell& cell(std::uint32_t index) const { return cells_[index]; }
   const std::vector<std::uint32_t>& bucket_nodes() const { return bucket_nodes_; }
   const Branch* branches(const Cell& c) const { return branches_.data() + c.branch_begin; }
