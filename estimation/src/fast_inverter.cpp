@@ -80,17 +80,9 @@ GridPoint FastInverter::coarse_search(const double* measured, const double* weig
   const int channels = table_->channels();
   float m[kMaxChannels], w[kMaxChannels];
   for (int c = 0; c < channels; ++c) m[c] = static_cast<float>(measured[c]), w[c] = static_cast<float>(weight[c]);
-  auto chi2_of = [&](const float* v) {
-    float chi2 = 0;
-    for (int c = 0; c < channels; ++c) {
-      const float r = (v[c] - m[c]) * w[c];
-      chi2 += r * r;
-    }
-    return chi2;
-  };
   // Level 1: the kCoarseCandidates smallest χ² (NaN never enters), computed
   // a block of nodes at a time, one channel after the other (the same sum
-  // per node as chi2_of, in the same order).
+  // per node as scan_nodes, in the same order).
   const int count = static_cast<int>(coarse_nodes_.size());
   std::array<float, kCoarseCandidates> best_chi2;
   std::array<int, kCoarseCandidates> best_index;
@@ -135,8 +127,9 @@ GridPoint FastInverter::coarse_search(const double* measured, const double* weig
         inside = inside && node[d] >= 0 && node[d] < n[d];
       }
       if (!inside) continue;
-      const float chi2 = chi2_of(table_->node(node[0], node[1], node[2], node[3]));
-      if (chi2 < best) best = chi2, at = node;
+      int found = -1;
+      scan_nodes(channels, table_->node(node[0], node[1], node[2], node[3]), 1, m, w, best, found);
+      if (found >= 0) at = node;
     }
   }
   return {double(at[0]), double(at[1]), double(at[2]), double(at[3])};
