@@ -373,12 +373,17 @@ bool descend(const FastInverter& inverter, const float* m, const double* measure
 
 }  // namespace
 
-bool FastInverter::fit_presolved(const double* measured, const double* weight, Fit& fit) const {
-  float m[4];
+const InverseTable::Cell* FastInverter::presolved_cell(const double* measured, float* m) const {
   for (int c = 0; c < 4; ++c) m[c] = static_cast<float>(measured[c]);
   const std::uint32_t cell_index = inverse_->cell_of(m);
-  if (cell_index == InverseTable::kNoCell) return false;
-  const InverseTable::Cell& cell = inverse_->cell(cell_index);
+  return cell_index == InverseTable::kNoCell ? nullptr : &inverse_->cell(cell_index);
+}
+
+bool FastInverter::fit_presolved(const double* measured, const double* weight, Fit& fit) const {
+  float m[4];
+  const InverseTable::Cell* found = presolved_cell(measured, m);
+  if (!found) return false;
+  const InverseTable::Cell& cell = *found;
   const std::array<float, 4> upper = upper_bounds();
   const InverseTable::Branch* list[InverseTable::kMaxBranches + 1];
   int count = 0;
@@ -406,12 +411,9 @@ bool FastInverter::fit_presolved(const double* measured, const double* weight, F
 
 bool FastInverter::fit_presolved_slice(const double* measured, const double* weight, Fit& fit) const {
   float m[4];
-  for (int c = 0; c < 4; ++c) m[c] = static_cast<float>(measured[c]);
-  const std::uint32_t cell_index = inverse_->cell_of(m);
-  if (cell_index == InverseTable::kNoCell) return false;
-  const InverseTable::Cell& cell = inverse_->cell(cell_index);
-  if (cell.slice_branch == InverseTable::kNoCell) return false;
-  const InverseTable::Branch* slice = &inverse_->branch(cell.slice_branch);
+  const InverseTable::Cell* cell = presolved_cell(measured, m);
+  if (!cell || cell->slice_branch == InverseTable::kNoCell) return false;
+  const InverseTable::Branch* slice = &inverse_->branch(cell->slice_branch);
   const std::array<float, 4> upper = upper_bounds();
   Point best;
   int iterations = 0;

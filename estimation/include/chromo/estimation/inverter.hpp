@@ -229,6 +229,9 @@ class FastInverter : public Inverter {
   void init();
   GridPoint seed_point(std::uint32_t node) const;
   std::array<float, 4> upper_bounds() const;  // largest grid coordinate per axis
+  // The inverse-table cell of a 4-channel measurement (m: its 4 values as
+  // floats, filled in), or null.
+  const InverseTable::Cell* presolved_cell(const double* measured, float* m) const;
   void interpolate(const GridPoint& x, double* value, double* jacobian) const override;
 };
 
