@@ -6,11 +6,18 @@
 // coarser levels (blocks of B × B cells), side by side on the same per-pixel
 // estimate.
 //
-//   build/release/bin/spatial_flags_bench [--blocks 1,3,5] [--scene-size W H] [--frame-cache DIR]
+//   build/release/bin/spatial_flags_bench [--blocks 1,3,5] [--offsets N] [--scene-size W H]
+//                                         [--frame-cache DIR] [--png PREFIX]
 //
 // Default blocks: 1 and the size NeighbourhoodOptions{} picks (block_px = 0).
+// --offsets N: for each block size above 1, the pass again on N crops of the
+// session that start (k mod B, 2k mod B) cells in (k < N): the same scene
+// under N alignments of its blocks, and each region's lowest and highest
+// flagged share (at 5 MP the highlight's share depends on a few seed cells,
+// docs/estimation.md).
 // Cost: wall clock and process CPU time (getrusage: both threads), per pass
 // and per cell. Prints only; the figures go into docs/estimation.md.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -50,21 +57,51 @@ struct Shares {
   std::size_t skin_tail = 0, skin_edge = 0, skin_other = 0;
 };
 
-Shares count(const daemon::RenderedSession& lab, const std::vector<float>& reflection, const std::vector<PixelEstimate>& e) {
+// The session's cells, or a crop of them (the flag pass's blocks then fall
+// elsewhere on the scene): labels, the highlight's added reflection, the
+// measurement and the first pass's estimates.
+struct Frame {
+  int width = 0, height = 0;
+  std::vector<std::uint8_t> region;
+  std::vector<float> reflection, measured;
+  std::vector<PixelEstimate> estimates;
+  std::size_t pixels() const { return region.size(); }
+};
+
+// The cells from (dx, dy) to the session's edge.
+Frame crop(const daemon::RenderedSession& lab, const std::vector<float>& reflection,
+           const std::vector<PixelEstimate>& estimates, int dx, int dy) {
+  Frame f;
+  f.width = lab.width - dx, f.height = lab.height - dy;
+  const int channels = static_cast<int>(lab.noisy.set.size());
+  for (int y = dy; y < lab.height; ++y)
+    for (int x = dx; x < lab.width; ++x) {
+      const std::size_t i = static_cast<std::size_t>(y) * lab.width + x;
+      f.region.push_back(lab.region[i]);
+      f.reflection.push_back(reflection[i]);
+      f.estimates.push_back(estimates[i]);
+      f.measured.insert(f.measured.end(), lab.noisy.measured.begin() + i * channels,
+                        lab.noisy.measured.begin() + (i + 1) * channels);
+    }
+  return f;
+}
+
+Shares count(const Frame& frame, const std::vector<PixelEstimate>& e) {
   Shares s;
-  cv::Mat other(lab.height, lab.width, CV_8U);
-  for (std::size_t i = 0; i < lab.pixels(); ++i)
-    other.at<std::uint8_t>(static_cast<int>(i / lab.width), static_cast<int>(i % lab.width)) =
-        lab.region[i] != static_cast<std::uint8_t>(simulators::SceneRegion::kSkin);
+  const std::vector<float>& reflection = frame.reflection;
+  cv::Mat other(frame.height, frame.width, CV_8U);
+  for (std::size_t i = 0; i < frame.pixels(); ++i)
+    other.at<std::uint8_t>(static_cast<int>(i / frame.width), static_cast<int>(i % frame.width)) =
+        frame.region[i] != static_cast<std::uint8_t>(simulators::SceneRegion::kSkin);
   cv::dilate(other, other, cv::Mat::ones(17, 17, CV_8U));
-  for (std::size_t i = 0; i < lab.pixels(); ++i) {
-    if (lab.region[i] == static_cast<std::uint8_t>(simulators::SceneRegion::kSkin) && e[i].flag != PixelFlag::kExplained)
+  for (std::size_t i = 0; i < frame.pixels(); ++i) {
+    if (frame.region[i] == static_cast<std::uint8_t>(simulators::SceneRegion::kSkin) && e[i].flag != PixelFlag::kExplained)
       ++(reflection[i] >= 0.001 ? s.skin_tail
-         : other.at<std::uint8_t>(static_cast<int>(i / lab.width), static_cast<int>(i % lab.width)) ? s.skin_edge
-                                                                                                     : s.skin_other);
+         : other.at<std::uint8_t>(static_cast<int>(i / frame.width), static_cast<int>(i % frame.width)) ? s.skin_edge
+                                                                                                         : s.skin_other);
   }
-  for (std::size_t i = 0; i < lab.pixels(); ++i) {
-    const int region = lab.region[i] == daemon::kMixedCell ? 7 : lab.region[i];
+  for (std::size_t i = 0; i < frame.pixels(); ++i) {
+    const int region = frame.region[i] == daemon::kMixedCell ? 7 : frame.region[i];
     const bool flagged = e[i].flag != PixelFlag::kExplained;
     ++s.total[region];
     s.flagged[region] += flagged;
@@ -95,6 +132,7 @@ int main(int argc, char** argv) {
   std::filesystem::path frame_cache = ForwardTable::default_cache_dir();
   std::vector<int> blocks;
   std::string png_prefix;
+  int offsets = 0;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--blocks" && i + 1 < argc) {
@@ -106,8 +144,10 @@ int main(int argc, char** argv) {
       png_prefix = argv[++i];
     } else if (a == "--frame-cache" && i + 1 < argc) {
       frame_cache = argv[++i];
+    } else if (a == "--offsets" && i + 1 < argc) {
+      offsets = std::atoi(argv[++i]);
     } else {
-      std::fprintf(stderr, "usage: spatial_flags_bench [--blocks 1,3,5] [--scene-size W H] [--frame-cache DIR]\n");
+      std::fprintf(stderr, "usage: spatial_flags_bench [--blocks 1,3,5] [--offsets N] [--scene-size W H] [--frame-cache DIR] [--png PREFIX]\n");
       return 2;
     }
   }
@@ -121,7 +161,8 @@ int main(int argc, char** argv) {
   std::vector<PixelEstimate> per_pixel(lab.pixels());
   const EstimateSummary first = estimator.estimate(lab.noisy.measured, per_pixel);
   std::printf("first pass (fast auto, noisy): %.2f s wall, %.0f cells/s\n", first.seconds, lab.pixels() / first.seconds);
-  print("per pixel", count(lab, reflection, per_pixel));
+  const Frame whole = crop(lab, reflection, per_pixel, 0, 0);
+  print("per pixel", count(whole, per_pixel));
 
   if (blocks.empty()) blocks = {1, neighbourhood_block_px(lab.width, lab.height, NeighbourhoodOptions{})};
   for (int block : blocks) {
@@ -141,7 +182,7 @@ int main(int argc, char** argv) {
     char label[64];
     std::snprintf(label, sizeof label, "block %d (%dx%d)", block, (lab.width + block - 1) / block,
                   (lab.height + block - 1) / block);
-    print(label, count(lab, reflection, e));
+    print(label, count(whole, e));
     if (!png_prefix.empty()) {
       // Flagged skin red, flagged other regions grey, explained other regions dark blue.
       cv::Mat image(lab.height, lab.width, CV_8UC3, cv::Scalar(0, 0, 0));
@@ -157,6 +198,32 @@ int main(int argc, char** argv) {
                 "order pooling %.2f s wall, %.2f s CPU\n",
                 flags_s, flags_cpu, 1e6 * flags_cpu / lab.pixels(), flags.passes, flags.flagged_touching,
                 flags.flagged_holes, order_s, order_cpu);
+    if (offsets < 2 || block < 2) continue;
+    // The same pass on crops that start (dx, dy) cells in, so that the
+    // blocks fall elsewhere on the scene: every dx and every dy of the block
+    // once. How much a region's share depends on where the blocks fall.
+    double low[kRegions], high[kRegions];
+    std::fill_n(low, kRegions, 1.0), std::fill_n(high, kRegions, 0.0);
+    for (int k = 0; k < offsets; ++k) {
+      const int dx = k % block, dy = (2 * k) % block;
+      Frame f = crop(lab, reflection, per_pixel, dx, dy);
+      refine_flags_with_neighbourhood(estimator, f.measured, f.width, f.height, f.estimates, no);
+      const Shares shares = count(f, f.estimates);
+      std::snprintf(label, sizeof label, "  crop +%d,+%d", dx, dy);
+      print(label, shares);
+      for (int r = 0; r < kRegions; ++r) {
+        if (!shares.total[r]) continue;
+        const double share = static_cast<double>(shares.flagged[r]) / shares.total[r];
+        low[r] = std::min(low[r], share), high[r] = std::max(high[r], share);
+      }
+    }
+    std::printf("  block %d over %d block alignments, flagged share per region (lowest - highest):", block, offsets);
+    for (int r = 0; r < kRegions; ++r) {
+      if (low[r] > high[r]) continue;
+      const char* name = r == 7 ? "mixed" : simulators::region_name(static_cast<simulators::SceneRegion>(r));
+      std::printf(" %s %.2f-%.2f%%", name, 100 * low[r], 100 * high[r]);
+    }
+    std::printf("\n");
   }
   return 0;
 }
