@@ -199,15 +199,19 @@ int main(int argc, char** argv) {
                 flags_s, flags_cpu, 1e6 * flags_cpu / lab.pixels(), flags.passes, flags.flagged_touching,
                 flags.flagged_holes, order_s, order_cpu);
     if (offsets < 2 || block < 2) continue;
-    // The same pass on crops that start (dx, dy) cells in, so that the
-    // blocks fall elsewhere on the scene: every dx and every dy of the block
-    // once. How much a region's share depends on where the blocks fall.
+    // The same passes (flags, then the order pooling) on crops that start
+    // (dx, dy) cells in, so that the blocks fall elsewhere on the scene:
+    // every dx and every dy of the block once. How much a region's share
+    // depends on where the blocks fall.
+    NeighbourhoodOptions both = no;
+    both.flags = true;
     double low[kRegions], high[kRegions];
     std::fill_n(low, kRegions, 1.0), std::fill_n(high, kRegions, 0.0);
     for (int k = 0; k < offsets; ++k) {
       const int dx = k % block, dy = (2 * k) % block;
       Frame f = crop(lab, reflection, per_pixel, dx, dy);
-      refine_flags_with_neighbourhood(estimator, f.measured, f.width, f.height, f.estimates, no);
+      EstimateSummary crop_summary;
+      refine_with_neighbourhood(estimator, f.measured, f.width, f.height, f.estimates, crop_summary, both);
       const Shares shares = count(f, f.estimates);
       std::snprintf(label, sizeof label, "  crop +%d,+%d", dx, dy);
       print(label, shares);
