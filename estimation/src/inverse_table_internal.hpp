@@ -1,0 +1,48 @@
+#pragma once
+// Internal to estimation/: what inverse_table.cpp (settings, key space, cache
+// file) and inverse_table_build.cpp (the build) share: the file format's
+// magic and version, the build's settings (all part of the cache key) and the
+// checksum.
+
+#include <cstdint>
+#include <cstring>
+
+namespace chromo::estimation::detail {
+
+inline constexpr char kMagic[8] = {'C', 'H', 'R', 'O', 'M', 'O', 'I', 'T'};
+inline constexpr std::uint32_t kFormatVersion = 5;
+// Build settings (part of the cache key).
+inline constexpr int kMaxSeedsPerCell = 12;     // LM solves per cell, best groups first
+inline constexpr int kBranchIterations = 40;    // LM iterations per solve
+inline constexpr double kSameBranch = 0.25;     // solutions closer than this (node units) are one branch
+inline constexpr double kBranchChi2Margin = 1;  // keep branches with χ² ≤ best + this (σ = 1% of the value)
+inline constexpr double kMaxCondition = 1e4;    // pseudo-inverse: singular values below σ_max / this dropped
+// Fill reach (bins) per key axis, widest axis first: about three times the
+// camera noise (σ ≈ 2% at albedo 0.3) in bins of that axis.
+inline constexpr int kFillReach[4] = {2, 4, 16, 48};
+// Empty cells within the fill reach get their own pre-solved branch, one per
+// block of kPresolveBlock[a] bins along key axis a (widest axis first): the
+// bounded fit at the block centre's measurement (see presolve_empty_cells).
+// Measured on the lab session (estimation.md): blocks of 1×1×2×4 bins cost
+// 87 MB and 3-5 s of build for the same fit time; 2×2×8×16 leave more noisy
+// pixels to Gauss-Newton and the search.
+inline constexpr int kPresolveBlock[4] = {1, 1, 4, 8};
+
+// 64-bit FNV-1a over 8-byte words (a checksum, not a cryptographic hash).
+struct WordHash {
+  std::uint64_t h = 1469598103934665603ull;
+  void add(const void* data, std::size_t n) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    std::size_t i = 0;
+    for (; i + 8 <= n; i += 8) {
+      std::uint64_t w;
+      std::memcpy(&w, p + i, 8);
+      h = (h ^ w) * 1099511628211ull;
+    }
+    for (; i < n; ++i) h = (h ^ p[i]) * 1099511628211ull;
+  }
+  template <class T>
+  void add_value(const T& v) { add(&v, sizeof v); }
+};
+
+}  // namespace chromo::estimation::detail
