@@ -51,9 +51,10 @@
 // move the solution). FastInverter's order-2 fit starts there instead of
 // walking the slice's nodes from the bucket's best 4D node.
 //
-// Build: OpenMP over cells (one LM solve per group), then over the empty
-// cells' blocks (the fast fit on the occupied cells' branches, polished by LM),
-// ≈ 2-5 s on 2 cores for the default table. Cache: load_or_build() keys a file by a hash of the
+// Build (src/inverse_table_build.cpp): OpenMP over cells (one LM solve per
+// group, and the cell's 2D fit), then over the empty cells' blocks (the fast
+// fit on the occupied cells' branches, polished by LM, and the block's 2D
+// fit), ≈ 2.5 s on 2 cores for the default table. Cache: load_or_build() keys a file by a hash of the
 // forward table's key and values, the bins, the build's settings and the
 // format version; a missing file is built and stored; a file that does not
 // read back intact (wrong magic, key, sizes, checksum) is rebuilt with a
