@@ -14,34 +14,31 @@ inline double seconds_since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
-// Process CPU time since construction (all threads).
-class CpuClock {
+// CPU seconds of the whole process (all threads, getrusage) and of the
+// calling thread.
+inline double process_cpu_seconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_utime.tv_sec + u.ru_stime.tv_sec + 1e-6 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+inline double thread_cpu_seconds() {
+  timespec t;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return t.tv_sec + 1e-9 * t.tv_nsec;
+}
+
+// Seconds of `Now` since construction.
+template <double (*Now)()>
+class ElapsedClock {
  public:
-  CpuClock() : start_(now()) {}
-  double seconds() const { return now() - start_; }
+  ElapsedClock() : start_(Now()) {}
+  double seconds() const { return Now() - start_; }
 
  private:
-  static double now() {
-    rusage u{};
-    getrusage(RUSAGE_SELF, &u);
-    return u.ru_utime.tv_sec + u.ru_stime.tv_sec + 1e-6 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
-  }
   double start_;
 };
 
-// The calling thread's CPU time since construction.
-class ThreadCpuClock {
- public:
-  ThreadCpuClock() : start_(now()) {}
-  double seconds() const { return now() - start_; }
-
- private:
-  static double now() {
-    timespec t;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-    return t.tv_sec + 1e-9 * t.tv_nsec;
-  }
-  double start_;
-};
+using CpuClock = ElapsedClock<process_cpu_seconds>;       // all threads
+using ThreadCpuClock = ElapsedClock<thread_cpu_seconds>;  // the calling thread (one-thread breakdowns)
 
 }  // namespace chromo::bench

@@ -109,9 +109,12 @@ struct RunResult {
 constexpr double kTargetCpuUsPerPixel = 0.2;
 
 // Estimator::estimate_tile on the calling thread: CPU ns per pixel, best of
-// `rounds` (the least disturbed by other processes).
-double estimator_cpu_ns(const Estimator& estimator, std::span<const float> measured, int rounds = 3) {
-  std::vector<PixelEstimate> e(measured.size() / estimator.channels());
+// `rounds` (the least disturbed by other processes); the last round's estimates in *estimates when given.
+double estimator_cpu_ns(const Estimator& estimator, std::span<const float> measured, int rounds = 3,
+                        std::vector<PixelEstimate>* estimates = nullptr) {
+  std::vector<PixelEstimate> local;
+  std::vector<PixelEstimate>& e = estimates ? *estimates : local;
+  e.resize(measured.size() / estimator.channels());
   double best = 1e30;
   for (int r = 0; r < rounds; ++r) {
     const ThreadCpuClock cpu;
@@ -139,9 +142,7 @@ nlohmann::ordered_json diagnose_auto_slice(std::shared_ptr<const ForwardTable> t
     eo.threads = 1;
     eo.fast.presolved_slice = presolved;
     const Estimator estimator(table, set, eo);
-    ns[presolved] = estimator_cpu_ns(estimator, measured, 2);
-    e[presolved].resize(n);
-    estimator.estimate_tile(measured, e[presolved]);
+    ns[presolved] = estimator_cpu_ns(estimator, measured, 2, &e[presolved]);
     order2[presolved] = chi2[presolved] = statistic[presolved] = 0;
     for (const PixelEstimate& p : e[presolved])
       order2[presolved] += p.order == 2, chi2[presolved] += p.chi2, statistic[presolved] += p.order_statistic;

@@ -48,6 +48,9 @@ using bench::seconds_since;
 
 // Regions 0-6 (SceneRegion), 7 mixed cells; specular bands of added reflection.
 constexpr int kRegions = 8;
+const char* region_label(int region) {
+  return region == 7 ? "mixed" : simulators::region_name(static_cast<simulators::SceneRegion>(region));
+}
 constexpr double kBandEdges[4] = {1.0, 0.03, 0.01, 0.0};
 
 struct Shares {
@@ -116,8 +119,7 @@ void print(const char* label, const Shares& s) {
   std::printf("%-22s", label);
   for (int k = 0; k < kRegions; ++k) {
     if (s.total[k] == 0) continue;
-    const char* name = k == 7 ? "mixed" : simulators::region_name(static_cast<simulators::SceneRegion>(k));
-    std::printf(" %s %.2f%%", name, 100.0 * s.flagged[k] / s.total[k]);
+    std::printf(" %s %.2f%%", region_label(k), 100.0 * s.flagged[k] / s.total[k]);
   }
   std::printf(" | specular >=0.03 / 0.01-0.03 / 0.006-0.01:");
   for (int b = 0; b < 3; ++b) std::printf(" %.1f%%", s.band_total[b] ? 100.0 * s.band_flagged[b] / s.band_total[b] : 0.0);
@@ -224,8 +226,7 @@ int main(int argc, char** argv) {
     std::printf("  block %d over %d block alignments, flagged share per region (lowest - highest):", block, offsets);
     for (int r = 0; r < kRegions; ++r) {
       if (low[r] > high[r]) continue;
-      const char* name = r == 7 ? "mixed" : simulators::region_name(static_cast<simulators::SceneRegion>(r));
-      std::printf(" %s %.2f-%.2f%%", name, 100 * low[r], 100 * high[r]);
+      std::printf(" %s %.2f-%.2f%%", region_label(r), 100 * low[r], 100 * high[r]);
     }
     std::printf("\n");
   }
