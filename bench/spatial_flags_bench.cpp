@@ -147,7 +147,13 @@ int main(int argc, char** argv) {
     } else if (a == "--frame-cache" && i + 1 < argc) {
       frame_cache = argv[++i];
     } else if (a == "--offsets" && i + 1 < argc) {
-      offsets = std::atoi(argv[++i]);
+      char* end = nullptr;
+      const long n = std::strtol(argv[++i], &end, 10);
+      if (*end != '\0' || n < 0 || n > 64) {
+        std::fprintf(stderr, "spatial_flags_bench: --offsets takes a count of crops, 0-64 (got '%s')\n", argv[i]);
+        return 2;
+      }
+      offsets = static_cast<int>(n);
     } else {
       std::fprintf(stderr, "usage: spatial_flags_bench [--blocks 1,3,5] [--offsets N] [--scene-size W H] [--frame-cache DIR] [--png PREFIX]\n");
       return 2;
