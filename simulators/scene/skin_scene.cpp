@@ -89,6 +89,12 @@ double skin_scene_added_reflection(int width, int height, double x, double y) {
   return 0.3 * std::exp(-(std::pow((x - spec_x) / spec_rx, 2) + std::pow((y - spec_y) / spec_ry, 2)));
 }
 
+double skin_scene_marker_cover(int width, int height, double x, double y) {
+  const double half_width = 4 * width / 512.0;
+  const double d = distance_to_segment(x, y, 0.5 * width, 0.85 * height, 0.85 * width, 0.6 * height);
+  return std::clamp(half_width + 1 - d, 0.0, 1.0);
+}
+
 Scene make_skin_scene(const SkinSceneOptions& options) {
   std::string error;
   if (!options.IsValid(&error)) throw std::invalid_argument("SkinSceneOptions: " + error);
@@ -172,8 +178,6 @@ Scene make_skin_scene(const SkinSceneOptions& options) {
   // Tattoo: a disk in the lower left; marker: a stroke across the lower right;
   // hair strands: random segments; specular: an ellipse in the upper right.
   const double tattoo_x = 0.25 * w, tattoo_y = 0.7 * h, tattoo_r = 0.1 * w;
-  const double marker[4] = {0.5 * w, 0.85 * h, 0.85 * w, 0.6 * h};
-  const double marker_half_width = 4 * scale;
   struct Strand { double ax, ay, bx, by; };
   std::vector<Strand> strands;
   for (int i = 0; i < 12; ++i) {
@@ -199,8 +203,7 @@ Scene make_skin_scene(const SkinSceneOptions& options) {
         a = (1 - tattoo) * a + tattoo * ink;
         region = SceneRegion::kTattoo;
       }
-      const double marker_d = distance_to_segment(x, y, marker[0], marker[1], marker[2], marker[3]);
-      const double marker_cover = std::clamp(marker_half_width + 1 - marker_d, 0.0, 1.0);
+      const double marker_cover = skin_scene_marker_cover(w, h, x, y);
       if (marker_cover > 0) {
         for (int i = 0; i < kGridSize; ++i) a[i] *= 1 - marker_cover + marker_cover * dye_double_pass[i];
         region = SceneRegion::kMarker;

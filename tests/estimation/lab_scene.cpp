@@ -12,7 +12,7 @@ LabScene render_lab_scene(int size, double exposure_fill, std::uint64_t seed) {
   simulators::SkinSceneOptions scene_options;
   scene_options.width = scene_options.height = size;
   scene_options.seed = seed;
-  LabScene lab{simulators::make_skin_scene(scene_options), {}, size, size, {}, {}, {}};
+  LabScene lab{simulators::make_skin_scene(scene_options), {}, size, size, {}, {}, {}, {}};
   simulators::CameraModelOptions camera_options;
   camera_options.seed = seed;
   const simulators::CameraModel camera(camera_options);
@@ -53,10 +53,13 @@ LabScene render_lab_scene(int size, double exposure_fill, std::uint64_t seed) {
   lab.measured.resize(pixels * 4);
   lab.clipped.assign(pixels, false);
   lab.added_reflection.resize(pixels);
+  lab.marker_cover.resize(pixels);
   for (int y = 0; y < size; ++y)
-    for (int x = 0; x < size; ++x)
-      lab.added_reflection[static_cast<std::size_t>(y) * size + x] =
-          static_cast<float>(simulators::skin_scene_added_reflection(size, size, x, y));
+    for (int x = 0; x < size; ++x) {
+      const std::size_t p = static_cast<std::size_t>(y) * size + x;
+      lab.added_reflection[p] = static_cast<float>(simulators::skin_scene_added_reflection(size, size, x, y));
+      lab.marker_cover[p] = static_cast<float>(simulators::skin_scene_marker_cover(size, size, x, y));
+    }
   const int top = camera.max_dn();
   for (int y = 0; y < size; ++y)
     for (int x = 0; x < size; ++x) {

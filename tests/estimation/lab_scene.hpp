@@ -37,6 +37,8 @@ struct LabScene {
   // highlight's ellipse, 0.3·spec; labelled kSpecular where ≥ 0.006), for
   // reporting the flagged share by strength.
   std::vector<float> added_reflection;
+  // Per pixel, the share the marker's dye covers (labelled kMarker where > 0).
+  std::vector<float> marker_cover;
   simulators::SceneRegion region(std::size_t pixel) const {
     return static_cast<simulators::SceneRegion>(scene.regions().at<std::uint8_t>(static_cast<int>(pixel) / width,
                                                                                   static_cast<int>(pixel) % width));

@@ -105,6 +105,12 @@ Scene make_skin_scene(const SkinSceneOptions& options);
 // (truth for reporting flagged shares by strength).
 double skin_scene_added_reflection(int width, int height, double x, double y);
 
+// The share of scene pixel (x, y) the marker stroke's dye covers: 1 within
+// 4·width/512 px of the stroke from (0.5 w, 0.85 h) to (0.85 w, 0.6 h),
+// falling to 0 over the next pixel; labelled kMarker where > 0 (truth for
+// reporting flagged shares by cover).
+double skin_scene_marker_cover(int width, int height, double x, double y);
+
 // make_skin_scene(options)'s response under each of `weights` (Scene::render)
 // and its region labels and truth maps (of options' window), rendered band by
 // band (band_rows rows at a time) so that the albedo cube is never held
