@@ -25,6 +25,8 @@ bool NeighbourhoodOptions::IsValid(std::string* error) const {
     return fail("significance and rim_significance must be in (0, 1)");
   if (!(reflection_significance > 0 && reflection_significance < 0.5))
     return fail("reflection_significance must be in (0, 0.5)");
+  if (!(mixture_significance > 0 && mixture_significance < 0.5))
+    return fail("mixture_significance must be in (0, 0.5)");
   if (exclusion_px < 0 || exclusion_px > 100) return fail("exclusion_px must be 0-100");
   if (!(misfit_sigma_px >= 1 && misfit_sigma_px <= 200)) return fail("misfit_sigma_px must be 1-200");
   if (!(misfit_ratio >= 1)) return fail("misfit_ratio must be >= 1");
@@ -137,6 +139,8 @@ struct Level {
   cv::Mat state;                // CV_8U LevelState
   cv::Mat seed;                 // CV_8U: holds a cell flagged before the pass (a region touching it joins)
   cv::Mat reflection;           // CV_8U: holds a specular or saturated cell, or joined one (a white region touching it joins)
+  std::vector<cv::Mat> all_values;  // per channel, CV_32F: the mean of all its cells, flagged ones too (NaN if one is not finite)
+  cv::Mat material;             // CV_8U: flagged before the pass and not a reflection: ink, dye, hair (grow_mixtures)
   std::vector<cv::Mat> background;  // per channel, the background a joined pixel was judged against (else NaN)
 };
 
@@ -150,10 +154,16 @@ Level make_level(int channels, std::span<const float> measured, int width, int h
   level.cells = cv::Mat(size, CV_32F, cv::Scalar(0));
   level.seed = cv::Mat(size, CV_8U, cv::Scalar(0));
   level.reflection = cv::Mat(size, CV_8U, cv::Scalar(0));
+  level.all_values.assign(channels, cv::Mat());
+  for (cv::Mat& v : level.all_values) v = cv::Mat(size, CV_32F, cv::Scalar(0));
   cv::Mat all(size, CV_32F, cv::Scalar(0)), flagged(size, CV_32F, cv::Scalar(0)), reflection(size, CV_32F, cv::Scalar(0));
   for (std::size_t p = 0; p < estimates.size(); ++p) {
     const int y = static_cast<int>(p / width) / block, x = static_cast<int>(p % width) / block;
     all.at<float>(y, x) += 1;
+    for (int c = 0; c < channels; ++c) {
+      const float m = measured[p * channels + c];
+      level.all_values[c].at<float>(y, x) += std::isfinite(m) ? m : std::numeric_limits<float>::quiet_NaN();
+    }
     if (estimates[p].flag != PixelFlag::kExplained) {
       flagged.at<float>(y, x) += 1;
       if (estimates[p].flag == PixelFlag::kSpecular || estimates[p].flag == PixelFlag::kSaturated)
@@ -169,12 +179,14 @@ Level make_level(int channels, std::span<const float> measured, int width, int h
       const float cells = level.cells.at<float>(y, x);
       if (cells > 0)
         for (cv::Mat& v : level.values) v.at<float>(y, x) /= cells;
+      for (cv::Mat& v : level.all_values) v.at<float>(y, x) /= all.at<float>(y, x);
       if (2 * cells <= all.at<float>(y, x)) level.state.at<std::uint8_t>(y, x) = kFlaggedBefore;
       const float seed_cells = std::max(1.0f, kSeedShare * all.at<float>(y, x));
       level.seed.at<std::uint8_t>(y, x) = flagged.at<float>(y, x) >= seed_cells;
       level.reflection.at<std::uint8_t>(y, x) =
           reflection.at<float>(y, x) >= seed_cells && 2 * reflection.at<float>(y, x) >= flagged.at<float>(y, x);
     }
+  level.material = (level.state == kFlaggedBefore) & (level.reflection == 0);
   return level;
 }
 
@@ -182,13 +194,14 @@ Level make_level(int channels, std::span<const float> measured, int width, int h
 // deviation test, its hysteresis (rim) level, and the one-sided white
 // reflection test (P(w > t) = α ⇔ P(w² > t²) = 2α under N(0, 1)).
 struct TestLevels {
-  double deviation, rim, white;
+  double deviation, rim, white, mixture;
 };
 
 TestLevels test_levels(const NeighbourhoodOptions& options, int channels) {
   return {chi_squared_quantile(1 - options.significance, channels),
           chi_squared_quantile(1 - options.rim_significance, channels),
-          std::sqrt(chi_squared_quantile(1 - 2 * options.reflection_significance, 1))};
+          std::sqrt(chi_squared_quantile(1 - 2 * options.reflection_significance, 1)),
+          std::sqrt(chi_squared_quantile(1 - 2 * options.mixture_significance, 1))};
 }
 
 // Steps 1-5 of the header on one level; joined and enclosed pixels get
@@ -209,8 +222,28 @@ void flag_level(const Estimator& estimator, Level& level, const NeighbourhoodOpt
   cv::Mat candidate(height, width, CV_8U, cv::Scalar(0)), white;
   level.background.assign(channels, cv::Mat());
   for (cv::Mat& b : level.background) b = cv::Mat(height, width, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  // Partial covers (step 4b): per pixel, the mean value of the flagged
+  // material among its 8 neighbours (flagged before the pass, not a
+  // reflection: ink, dye, hair; none where the count is 0). A cover c of it
+  // over the pixel's skin moves the pixel by c·(material − background).
+  std::vector<cv::Mat> material_mean(channels);
+  cv::Mat material_count;
+  if (options.grow_mixtures) {
+    cv::Mat valid = level.material.clone();
+    for (const cv::Mat& v : level.all_values) valid &= (v == v);  // NaN: a cell without a value
+    cv::Mat valid_f;
+    valid.convertTo(valid_f, CV_32F, 1.0 / 255);
+    cv::boxFilter(valid_f, material_count, CV_32F, cv::Size(3, 3), cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
+    for (int c = 0; c < channels; ++c) {
+      cv::Mat v = level.all_values[c].clone(), sum;
+      v.setTo(0, valid == 0);
+      cv::boxFilter(v, sum, CV_32F, cv::Size(3, 3), cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
+      cv::divide(sum, cv::max(material_count, 1.0f), material_mean[c]);
+    }
+  }
   int settling = 0;
-  const int max_passes = options.max_passes + (options.grow_reflections ? options.max_growth_passes : 0);
+  const bool grow = options.grow_reflections || options.grow_mixtures;
+  const int max_passes = options.max_passes + (grow ? options.max_growth_passes : 0);
   for (int pass = 0; pass < max_passes; ++pass) {
     summary.passes = pass + 1;
     cv::Mat good;
@@ -327,6 +360,7 @@ void flag_level(const Estimator& estimator, Level& level, const NeighbourhoodOpt
     cv::Mat next(height, width, CV_8U, cv::Scalar(0)), rim;
     cv::dilate(good == 0, rim, cv::Mat::ones(3, 3, CV_8U));
     white = cv::Mat(height, width, CV_8U, cv::Scalar(0));
+    cv::Mat mixed(height, width, CV_8U, cv::Scalar(0));
     Vector v(channels), a(channels);
     for (int y = 0; y < height; ++y)
       for (int x = 0; x < width; ++x) {
@@ -337,10 +371,22 @@ void flag_level(const Estimator& estimator, Level& level, const NeighbourhoodOpt
         if (t > (rim.at<std::uint8_t>(y, x) ? rim_threshold : deviation_threshold)) next.at<std::uint8_t>(y, x) = 1;
         // A white surface reflection s adds s/σ_c to z_c: the matched
         // one-sided test along a_c = 1/σ_c against the same noise plus misfit.
-        if (!options.grow_reflections) continue;
-        for (int c = 0; c < channels; ++c) a[c] = 1 / sigmas[c].at<float>(y, x);
-        const Vector ma = misfit[block] ? Vector(inverse[block] * a) : a;
-        if (ma.dot(v) > white_threshold * std::sqrt(ma.dot(a))) white.at<std::uint8_t>(y, x) = 1;
+        // A partial cover c of the material beside it adds c·d_c/σ_c: the
+        // same test along that direction.
+        auto matched = [&](double threshold) {
+          const Vector ma = misfit[block] ? Vector(inverse[block] * a) : a;
+          const double norm2 = ma.dot(a);
+          return norm2 > 0 && ma.dot(v) > threshold * std::sqrt(norm2);
+        };
+        if (options.grow_reflections) {
+          for (int c = 0; c < channels; ++c) a[c] = 1 / sigmas[c].at<float>(y, x);
+          if (matched(white_threshold)) white.at<std::uint8_t>(y, x) = 1;
+        }
+        if (options.grow_mixtures) {
+          for (int c = 0; c < channels; ++c)
+            a[c] = (material_mean[c].at<float>(y, x) - back[c].at<float>(y, x)) / sigmas[c].at<float>(y, x);
+          if (material_count.at<float>(y, x) > 0 && matched(levels.mixture)) mixed.at<std::uint8_t>(y, x) = 1;
+        }
       }
     const bool changed = cv::countNonZero(next != candidate) > 0;
     candidate = next;
@@ -350,7 +396,7 @@ void flag_level(const Estimator& estimator, Level& level, const NeighbourhoodOpt
     // Regions of deviating pixels that touch a flagged pixel join it.
     cv::Mat labels, stats, centroids;
     const int regions = cv::connectedComponentsWithStats(candidate, labels, stats, centroids, 8, CV_32S);
-    if (regions <= 1 && !options.grow_reflections) break;
+    if (regions <= 1 && !grow) break;
     cv::Mat flagged_near;
     cv::dilate(level.seed | (level.state != kOpen), flagged_near, cv::Mat::ones(3, 3, CV_8U));
     std::vector<char> touches(regions, 0);
@@ -374,7 +420,8 @@ void flag_level(const Estimator& estimator, Level& level, const NeighbourhoodOpt
     // every channel alike). (Growing in the same rounds as the joins made the
     // end path-dependent: at 5 MP specular 63 / 86 / 89 / 71% at 10⁻³ / 5·10⁻³
     // / 10⁻² / 1.5·10⁻²; after them 70 / 76 / 82%.)
-    if (options.grow_reflections && (added == 0 || pass >= options.max_passes)) {
+    const bool growth_round = added == 0 || pass >= options.max_passes;
+    if (options.grow_reflections && growth_round) {
       const cv::Mat open_white = white & (level.state == kOpen);
       const int white_regions = cv::connectedComponents(open_white, labels, 8, CV_32S);
       cv::dilate(level.reflection, flagged_near, cv::Mat::ones(3, 3, CV_8U));
@@ -390,6 +437,14 @@ void flag_level(const Estimator& estimator, Level& level, const NeighbourhoodOpt
             ++added;
           }
     }
+    // Partial covers join in the same rounds, one ring beside the material.
+    if (options.grow_mixtures && growth_round)
+      for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x)
+          if (mixed.at<std::uint8_t>(y, x) && level.state.at<std::uint8_t>(y, x) == kOpen) {
+            join(y, x);
+            ++added;
+          }
     if (added == 0) break;
   }
   // Holes: explained pixels enclosed by flagged ones (not reaching the image

@@ -79,13 +79,17 @@ struct LabRun {
   static constexpr double kBandEdges[4] = {1.0, 0.03, 0.01, 0.0};
   std::size_t band_total[3] = {}, band_flagged[3] = {};
   double band_share(int band) const { return band_total[band] ? double(band_flagged[band]) / band_total[band] : 0.0; }
+  // Marker pixels by the dye's cover: ≥ 0.2, 0.1-0.2, < 0.1 (the stroke's antialiased edge).
+  static constexpr double kCoverEdges[4] = {1.01, 0.2, 0.1, 0.0};
+  std::size_t cover_total[3] = {}, cover_flagged[3] = {};
+  double cover_share(int band) const { return cover_total[band] ? double(cover_flagged[band]) / cover_total[band] : 0.0; }
   double share(SceneRegion r, bool refined_flags = true) const {
     const int i = static_cast<int>(r);
     return total[i] ? static_cast<double>((refined_flags ? flagged : flagged_per_pixel)[i]) / total[i] : 0.0;
   }
 };
 
-LabRun run_lab(int size, double exposure_fill) {
+LabRun run_lab(int size, double exposure_fill, const NeighbourhoodOptions& options = {}) {
   LabRun r{testing::render_lab_scene(size, exposure_fill), {}, {}};
   const auto table = std::make_shared<const ForwardTable>(ForwardTable::build(r.lab.set, TableGrid{}));
   const Estimator estimator(table, r.lab.set, EstimatorOptions{});
@@ -96,7 +100,7 @@ LabRun run_lab(int size, double exposure_fill) {
   r.refined = r.per_pixel;
   const auto start = std::chrono::steady_clock::now();
   const std::clock_t spatial_cpu = std::clock();
-  refine_with_neighbourhood(estimator, r.lab.measured, r.lab.width, r.lab.height, r.refined, summary);
+  refine_with_neighbourhood(estimator, r.lab.measured, r.lab.width, r.lab.height, r.refined, summary, options);
   std::printf("first pass %.2f s, spatial pass %.2f s, CPU %.2f s (printed, not asserted)\n", summary.seconds,
               std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
               double(std::clock() - spatial_cpu) / CLOCKS_PER_SEC);
@@ -110,6 +114,12 @@ LabRun run_lab(int size, double exposure_fill) {
         if (r.lab.added_reflection[p] >= LabRun::kBandEdges[b + 1] && r.lab.added_reflection[p] < LabRun::kBandEdges[b]) {
           ++r.band_total[b];
           r.band_flagged[b] += r.refined[p].flag != PixelFlag::kExplained;
+        }
+    if (r.lab.region(p) == SceneRegion::kMarker)
+      for (int b = 0; b < 3; ++b)
+        if (r.lab.marker_cover[p] >= LabRun::kCoverEdges[b + 1] && r.lab.marker_cover[p] < LabRun::kCoverEdges[b]) {
+          ++r.cover_total[b];
+          r.cover_flagged[b] += r.refined[p].flag != PixelFlag::kExplained;
         }
     if (r.lab.clipped[p]) {
       ++r.clipped;
@@ -125,6 +135,8 @@ LabRun run_lab(int size, double exposure_fill) {
                 r.share(static_cast<SceneRegion>(i), false), r.share(static_cast<SceneRegion>(i)));
   std::printf("specular by added reflection: >= 0.03 %.4f (%zu px), 0.01-0.03 %.4f (%zu px), 0.006-0.01 %.4f (%zu px)\n",
               r.band_share(0), r.band_total[0], r.band_share(1), r.band_total[1], r.band_share(2), r.band_total[2]);
+  std::printf("marker by the dye's cover: >= 0.2 %.4f (%zu px), 0.1-0.2 %.4f (%zu px), < 0.1 %.4f (%zu px)\n",
+              r.cover_share(0), r.cover_total[0], r.cover_share(1), r.cover_total[1], r.cover_share(2), r.cover_total[2]);
   return r;
 }
 
@@ -137,22 +149,42 @@ void expect_finite(const std::vector<PixelEstimate>& estimates) {
 // Targets (issue 6): ≥ 95% of tattoo, marker, specular and saturated pixels
 // flagged, ≤ 1% of skin, at any scale and exposure. Measured on this scene
 // (docs/estimation.md, SkinStaysBelowOnePercentAcrossScaleAndExposure for 128-512 px and
-// exposure 0.5-2.5×): skin ≤ 0.88% everywhere; tattoo ≥ 97.9%, marker 87-98%,
+// exposure 0.5-2.5×): skin ≤ 0.88% everywhere; tattoo ≥ 98.1%, marker 88-98%
+// (missed at 128 px and at 256 px 0.5×: edge pixels with < 10-20% dye),
 // specular 23-75% (missed: the highlight's weaker part looks like paler skin,
 // and the reflection's growth stops where the background follows its smooth
-// tail), vein 0-7.3%. The specular and marker bounds are the measured shares
-// less a margin, as regression guards, not the target; the 5-MP session's
-// are in tests/daemon/lab_flags_test.cpp.
+// tail), vein 0-7.3%. The specular bounds are the measured shares less a
+// margin, as regression guards, not the target; the 5-MP session's are in
+// tests/daemon/lab_flags_test.cpp.
 TEST(NeighbourhoodFlags, VirtualLabSceneThroughTheCameraModel) {
   const LabRun r = run_lab(256, 0.8);
   EXPECT_LE(r.share(SceneRegion::kSkin, false), 0.0005);  // per pixel: the specular test flags no skin
   EXPECT_LE(r.share(SceneRegion::kSkin), 0.01);
   EXPECT_GE(r.share(SceneRegion::kTattoo), 0.95);
-  EXPECT_GE(r.share(SceneRegion::kMarker), 0.93);
+  EXPECT_GE(r.share(SceneRegion::kMarker), 0.95);  // measured 0.959 (0.947 before the partial-cover test, step 4b)
   EXPECT_GE(r.share(SceneRegion::kSpecular), 0.38);  // measured 0.409 (0.421 before the auto model kept order 4 where only it explains)
   EXPECT_GE(r.share(SceneRegion::kSpecular), r.share(SceneRegion::kSpecular, false) + 0.15);
   EXPECT_EQ(r.share(SceneRegion::kWhiteTarget), 1.0);
   expect_finite(r.refined);
+}
+
+// Step 4b of the pass: an edge pixel of the marker's stroke, part dye and part
+// skin, deviates from its background along the dye's own deviation; the
+// one-sided test along that direction, beside pixels flagged before the pass,
+// flags edge pixels the 4-channel χ² test leaves (the white test's twin).
+// Skin beside the same stroke has no such deviation and stays explained.
+// Measured: dye cover 0.1-0.2 flagged 61.5% → 92.3%, marker 94.7% → 95.9%,
+// skin 6 pixels more of 51,245 (a mixed pixel joined, then skin beside the
+// tattoo joined it), specular unchanged.
+TEST(NeighbourhoodFlags, PartialCoverBesideFlaggedMaterialJoins) {
+  NeighbourhoodOptions without;
+  without.grow_mixtures = false;
+  const LabRun before = run_lab(256, 0.8, without), after = run_lab(256, 0.8);
+  EXPECT_GE(after.cover_share(0), before.cover_share(0));
+  EXPECT_GE(after.cover_share(1), before.cover_share(1) + 0.2);
+  EXPECT_GE(after.share(SceneRegion::kMarker), before.share(SceneRegion::kMarker) + 0.008);
+  EXPECT_LE(after.share(SceneRegion::kSkin), before.share(SceneRegion::kSkin) + 0.0005);
+  EXPECT_EQ(after.share(SceneRegion::kSpecular), before.share(SceneRegion::kSpecular));
 }
 
 // Half the scale at 2.5× the exposure: the skin's fields vary over a few

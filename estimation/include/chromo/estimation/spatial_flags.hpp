@@ -44,8 +44,17 @@
 //     plus misfit, above its 1 − reflection_significance quantile; 8-connected
 //     regions of such pixels that touch a specular or saturated pixel (or one
 //     so joined) are flagged: the highlight's rim grows ring by ring.
+//     4b. Partial covers join in the same rounds (grow_mixtures): a pixel
+//     beside material flagged before the pass (not a reflection: ink, dye,
+//     hair) that is partly covered by it moves from its background by
+//     cover × (material − background). The same one-sided matched test,
+//     along d_c = (mean of the flagged neighbours' values − background)/σ_c,
+//     above its 1 − mixture_significance quantile, joins it: the stroke's
+//     or the disk's antialiased edge, one ring wide (the test's direction
+//     comes only from pixels flagged before the pass, so it does not grow).
 //  5. Repeated until nothing joins: deviating regions in the first
-//     max_passes rounds, reflections for max_growth_passes more.
+//     max_passes rounds, reflections and partial covers for
+//     max_growth_passes more.
 //  6. Holes: explained regions of at most max_hole_px enclosed by flagged
 //     pixels (not reaching the image border) are flagged.
 //
@@ -69,11 +78,13 @@
 // view sets block_px itself (0: from the size).
 //
 //  Limits (docs/estimation.md, measured on the virtual lab's scene at 128-512
-//  px and 0.5-2.5× exposure: skin ≤ 0.91% flagged; the 5-MP session 0.12%): an
+//  px and 0.5-2.5× exposure: skin ≤ 0.88% flagged; the 5-MP session 0.14%): a
+//  marker edge pixel with less than 10-20% dye is not told from skin (marker
+//  88-98% flagged, ≥ 97% of its pixels with ≥ 20% dye); an
 //  undetected part of a highlight raises the local misfit E and the quadratic
 //  background follows a smooth bump wider than its window, so the rim growth
-//  stops short of the label's edge (specular 22-77% on the grid, 70% at 5 MP);
-//  the vein counts as skin misfit (0-3.4% flagged); skin next to a flagged
+//  stops short of the label's edge (specular 23-75% on the grid, 70-76% at 5 MP);
+//  the vein counts as skin misfit (0-7.3% flagged); skin next to a flagged
 //  region that deviates for its own reasons (a mole) joins it.
 //
 // Model order (pool_model_order): the likelihood-ratio statistic χ²₂ − χ²₄ of
@@ -110,6 +121,8 @@ struct NeighbourhoodOptions {
   double rim_significance = 1e-3;            // the same for pixels next to a flagged one (hysteresis)
   double reflection_significance = 1e-3;     // one-sided white test of a highlight's rim (grow_reflections)
   bool grow_reflections = true;
+  bool grow_mixtures = true;                 // step 4b: partial covers beside flagged material
+  double mixture_significance = 1e-3;        // its one-sided test along the material's deviation (as the white test)
   int max_passes = 20;                       // rounds in which deviating regions join
   int max_growth_passes = 20;                // further rounds in which only reflections grow
   int max_hole_px = 1024;  // explained regions enclosed by flagged pixels up to this size are flagged
