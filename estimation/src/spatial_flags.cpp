@@ -204,6 +204,137 @@ TestLevels test_levels(const NeighbourhoodOptions& options, int channels) {
           std::sqrt(chi_squared_quantile(1 - 2 * options.mixture_significance, 1))};
 }
 
+// The deviation statistic of steps 1-2 against one background: per pixel
+// u (the averaged deviation, unit variance under camera noise alone), σ_c,
+// whether it is tested, and per kMisfitBlock-px block M⁻¹ (noise plus the
+// skin's misfit; none where noise alone).
+constexpr int kMisfitBlock = 4;
+using Matrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxChannels, kMaxChannels>;
+using Vector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxChannels, 1>;
+struct Deviation {
+  std::vector<cv::Mat> u, sigmas;
+  cv::Mat tested;
+  int block_cols = 0;
+  std::vector<Matrix> inverse;
+  std::vector<char> misfit;
+  void u_at(int y, int x, Vector& v) const {
+    for (std::size_t c = 0; c < u.size(); ++c) v[static_cast<Eigen::Index>(c)] = u[c].at<float>(y, x);
+  }
+  // M⁻¹ at (y, x), or null where noise alone (M = I).
+  const Matrix* misfit_inverse(int y, int x) const {
+    const std::size_t block = static_cast<std::size_t>(y / kMisfitBlock) * block_cols + x / kMisfitBlock;
+    return misfit[block] ? &inverse[block] : nullptr;
+  }
+};
+
+// The one-sided matched filter of u = v along the direction a (in u's
+// units): w = aᵀM⁻¹v / √(aᵀM⁻¹a), N(0, 1) under noise plus misfit; −∞ for a = 0.
+double matched_statistic(const Vector& a, const Vector& v, const Matrix* misfit_inverse) {
+  const Vector ma = misfit_inverse ? Vector(*misfit_inverse * a) : a;
+  const double norm2 = ma.dot(a);
+  return norm2 > 0 ? ma.dot(v) / std::sqrt(norm2) : -std::numeric_limits<double>::infinity();
+}
+
+Deviation deviation(const Estimator& estimator, const Level& level, const cv::Mat& good, const cv::Mat& steady,
+                    const cv::Mat& deviating, const cv::Mat& source, const std::vector<cv::Mat>& back,
+                    const NeighbourhoodOptions& options) {
+  const int channels = estimator.channels(), width = level.width, height = level.height;
+  const std::vector<cv::Mat>& values = level.values;
+  const cv::Mat h = kernel(options.deviation_sigma_px, 0);
+  cv::Mat h2;
+  cv::multiply(h, h, h2);
+  // Noise-normalised deviation, averaged over the neighbours of the same class.
+  std::vector<cv::Mat> z(channels), sigmas(channels);
+  for (int c = 0; c < channels; ++c) {
+    z[c] = cv::Mat(height, width, CV_32F, cv::Scalar(0));
+    sigmas[c] = cv::Mat(height, width, CV_32F, cv::Scalar(1));
+    for (int y = 0; y < height; ++y)
+      for (int x = 0; x < width; ++x) {
+        const float b = back[c].at<float>(y, x);
+        if (!good.at<float>(y, x) || !std::isfinite(b)) continue;
+        const double m = values[c].at<float>(y, x);
+        const double w = estimator.weight(c, m);
+        const double model = options.background_sigma_relative * m;
+        const double sigma = std::sqrt(1 / (w * w * level.cells.at<float>(y, x)) + model * model);
+        z[c].at<float>(y, x) = static_cast<float>((m - b) / sigma);
+        sigmas[c].at<float>(y, x) = static_cast<float>(sigma);
+      }
+  }
+  // Per class, the averaged deviation scaled to unit variance under camera
+  // noise alone: u_c = z̄_c·√n_eff, n_eff = (Σg)²/Σg².
+  std::vector<cv::Mat> u(channels);
+  for (cv::Mat& m : u) m = cv::Mat(height, width, CV_32F, cv::Scalar(0));
+  cv::Mat tested(height, width, CV_8U, cv::Scalar(0));
+  for (const cv::Mat* cls : {&steady, &deviating}) {
+    const cv::Mat sum_g = filter(*cls, h, h), sum_g2 = filter(*cls, h2, h2);
+    std::vector<cv::Mat> z_mean(channels);
+    for (int c = 0; c < channels; ++c) z_mean[c] = filter(z[c].mul(*cls), h, h);
+    for (int y = 0; y < height; ++y)
+      for (int x = 0; x < width; ++x) {
+        if (!cls->at<float>(y, x) || !std::isfinite(back[0].at<float>(y, x))) continue;
+        const double sg = sum_g.at<float>(y, x), sg2 = sum_g2.at<float>(y, x);
+        if (!(sg > 0 && sg2 > 0)) continue;
+        tested.at<std::uint8_t>(y, x) = 1;
+        for (int c = 0; c < channels; ++c) u[c].at<float>(y, x) = static_cast<float>(z_mean[c].at<float>(y, x) / std::sqrt(sg2));
+      }
+  }
+  // The skin's own scatter around its background: the local second moments
+  // E[u uᵀ] of the background's source pixels (steady skin away from flagged
+  // ones) over misfit_sigma_px. Camera noise alone gives the identity; where
+  // the quadratic background cannot follow the skin (fields finer than its
+  // window, or less noise at a longer exposure) the misfit adds to it, and
+  // the statistic is measured against noise plus misfit: T = uᵀ M⁻¹ u with M
+  // = E floored at the identity (eigenvalues ≥ 1).
+  // The moments vary over misfit_sigma_px, so they (and M⁻¹) are computed
+  // on a grid of kMisfitBlock-px blocks (area averages, filtered with the
+  // kernel scaled down) and each pixel uses its block's.
+  // Its source is the background's. (Tried: also excluding 6 or 12 px
+  // around deviating pixels, so that an undetected rim beside them does not
+  // count as misfit and hide itself: specular +28-40 points at 256 px, but
+  // 6-15% of the skin flagged at 128 px, where hair strands leave little
+  // skin that far from anything.)
+  const int block_cols = (width + kMisfitBlock - 1) / kMisfitBlock, block_rows = (height + kMisfitBlock - 1) / kMisfitBlock;
+  auto to_blocks = [&](const cv::Mat& m) {
+    cv::Mat padded, out;
+    cv::copyMakeBorder(m, padded, 0, block_rows * kMisfitBlock - height, 0, block_cols * kMisfitBlock - width,
+                       cv::BORDER_CONSTANT, 0);
+    cv::resize(padded, out, cv::Size(block_cols, block_rows), 0, 0, cv::INTER_AREA);
+    return out;
+  };
+  const cv::Mat kw = kernel(options.misfit_sigma_px / kMisfitBlock, 0);
+  cv::Mat source_u;
+  source.copyTo(source_u);
+  source_u.setTo(0, tested == 0);
+  const cv::Mat moment_mass = filter(to_blocks(source_u), kw, kw);
+  std::vector<cv::Mat> moment;
+  for (int c = 0; c < channels; ++c)
+    for (int d = c; d < channels; ++d) moment.push_back(filter(to_blocks(u[c].mul(u[d]).mul(source_u)), kw, kw));
+  const double min_mass = 0.05 * std::pow(cv::sum(kw)[0], 2);
+  // Per block: M⁻¹, or none (noise alone: M = I).
+  std::vector<Matrix> inverse(static_cast<std::size_t>(block_cols) * block_rows);
+  std::vector<char> misfit(inverse.size(), 0);
+  Matrix e(channels, channels);
+  Eigen::SelfAdjointEigenSolver<Matrix> eigen(channels);
+  for (int by = 0; by < block_rows; ++by)
+    for (int bx = 0; bx < block_cols; ++bx) {
+      const double mass = moment_mass.at<float>(by, bx);
+      if (!(mass > min_mass)) continue;
+      double largest = 0;
+      for (int c = 0, k = 0; c < channels; ++c)
+        for (int d = c; d < channels; ++d, ++k) {
+          e(c, d) = e(d, c) = moment[k].at<float>(by, bx) / mass;
+          if (c == d) largest = std::max(largest, e(c, c));
+        }
+      if (largest <= options.misfit_ratio) continue;  // noise alone
+      eigen.compute(e);
+      const Vector lambda = eigen.eigenvalues().cwiseMax(1.0);
+      const std::size_t i = static_cast<std::size_t>(by) * block_cols + bx;
+      inverse[i] = eigen.eigenvectors() * lambda.cwiseInverse().asDiagonal() * eigen.eigenvectors().transpose();
+      misfit[i] = 1;
+    }
+  return {std::move(u), std::move(sigmas), std::move(tested), block_cols, std::move(inverse), std::move(misfit)};
+}
+
 // Steps 1-5 of the header on one level; joined and enclosed pixels get
 // kJoined and kHole. All windows in the level's pixels.
 void flag_level(const Estimator& estimator, Level& level, const NeighbourhoodOptions& options,
@@ -211,9 +342,6 @@ void flag_level(const Estimator& estimator, Level& level, const NeighbourhoodOpt
   const int channels = estimator.channels(), width = level.width, height = level.height;
   const TestLevels levels = test_levels(options, channels);
   const double deviation_threshold = levels.deviation, rim_threshold = levels.rim, white_threshold = levels.white;
-  const cv::Mat h = kernel(options.deviation_sigma_px, 0);
-  cv::Mat h2;
-  cv::multiply(h, h, h2);
   const std::vector<cv::Mat>& values = level.values;
 
   // Deviating pixels, kept across passes: they leave the background (so a
@@ -265,98 +393,7 @@ void flag_level(const Estimator& estimator, Level& level, const NeighbourhoodOpt
       for (int c = 0; c < channels; ++c) level.background[c].at<float>(y, x) = back[c].at<float>(y, x);
     };
 
-    // Noise-normalised deviation, averaged over the neighbours of the same class.
-    std::vector<cv::Mat> z(channels), sigmas(channels);
-    for (int c = 0; c < channels; ++c) {
-      z[c] = cv::Mat(height, width, CV_32F, cv::Scalar(0));
-      sigmas[c] = cv::Mat(height, width, CV_32F, cv::Scalar(1));
-      for (int y = 0; y < height; ++y)
-        for (int x = 0; x < width; ++x) {
-          const float b = back[c].at<float>(y, x);
-          if (!good.at<float>(y, x) || !std::isfinite(b)) continue;
-          const double m = values[c].at<float>(y, x);
-          const double w = estimator.weight(c, m);
-          const double model = options.background_sigma_relative * m;
-          const double sigma = std::sqrt(1 / (w * w * level.cells.at<float>(y, x)) + model * model);
-          z[c].at<float>(y, x) = static_cast<float>((m - b) / sigma);
-          sigmas[c].at<float>(y, x) = static_cast<float>(sigma);
-        }
-    }
-    // Per class, the averaged deviation scaled to unit variance under camera
-    // noise alone: u_c = z̄_c·√n_eff, n_eff = (Σg)²/Σg².
-    std::vector<cv::Mat> u(channels);
-    for (cv::Mat& m : u) m = cv::Mat(height, width, CV_32F, cv::Scalar(0));
-    cv::Mat tested(height, width, CV_8U, cv::Scalar(0));
-    for (const cv::Mat* cls : {&steady, &deviating}) {
-      const cv::Mat sum_g = filter(*cls, h, h), sum_g2 = filter(*cls, h2, h2);
-      std::vector<cv::Mat> z_mean(channels);
-      for (int c = 0; c < channels; ++c) z_mean[c] = filter(z[c].mul(*cls), h, h);
-      for (int y = 0; y < height; ++y)
-        for (int x = 0; x < width; ++x) {
-          if (!cls->at<float>(y, x) || !std::isfinite(back[0].at<float>(y, x))) continue;
-          const double sg = sum_g.at<float>(y, x), sg2 = sum_g2.at<float>(y, x);
-          if (!(sg > 0 && sg2 > 0)) continue;
-          tested.at<std::uint8_t>(y, x) = 1;
-          for (int c = 0; c < channels; ++c) u[c].at<float>(y, x) = static_cast<float>(z_mean[c].at<float>(y, x) / std::sqrt(sg2));
-        }
-    }
-    // The skin's own scatter around its background: the local second moments
-    // E[u uᵀ] of the background's source pixels (steady skin away from flagged
-    // ones) over misfit_sigma_px. Camera noise alone gives the identity; where
-    // the quadratic background cannot follow the skin (fields finer than its
-    // window, or less noise at a longer exposure) the misfit adds to it, and
-    // the statistic is measured against noise plus misfit: T = uᵀ M⁻¹ u with M
-    // = E floored at the identity (eigenvalues ≥ 1).
-    // The moments vary over misfit_sigma_px, so they (and M⁻¹) are computed
-    // on a grid of kMisfitBlock-px blocks (area averages, filtered with the
-    // kernel scaled down) and each pixel uses its block's.
-    // Its source is the background's. (Tried: also excluding 6 or 12 px
-    // around deviating pixels, so that an undetected rim beside them does not
-    // count as misfit and hide itself: specular +28-40 points at 256 px, but
-    // 6-15% of the skin flagged at 128 px, where hair strands leave little
-    // skin that far from anything.)
-    constexpr int kMisfitBlock = 4;
-    const int block_cols = (width + kMisfitBlock - 1) / kMisfitBlock, block_rows = (height + kMisfitBlock - 1) / kMisfitBlock;
-    auto to_blocks = [&](const cv::Mat& m) {
-      cv::Mat padded, out;
-      cv::copyMakeBorder(m, padded, 0, block_rows * kMisfitBlock - height, 0, block_cols * kMisfitBlock - width,
-                         cv::BORDER_CONSTANT, 0);
-      cv::resize(padded, out, cv::Size(block_cols, block_rows), 0, 0, cv::INTER_AREA);
-      return out;
-    };
-    const cv::Mat kw = kernel(options.misfit_sigma_px / kMisfitBlock, 0);
-    cv::Mat source_u;
-    source.copyTo(source_u);
-    source_u.setTo(0, tested == 0);
-    const cv::Mat moment_mass = filter(to_blocks(source_u), kw, kw);
-    std::vector<cv::Mat> moment;
-    for (int c = 0; c < channels; ++c)
-      for (int d = c; d < channels; ++d) moment.push_back(filter(to_blocks(u[c].mul(u[d]).mul(source_u)), kw, kw));
-    const double min_mass = 0.05 * std::pow(cv::sum(kw)[0], 2);
-    using Matrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxChannels, kMaxChannels>;
-    using Vector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxChannels, 1>;
-    // Per block: M⁻¹, or none (noise alone: M = I).
-    std::vector<Matrix> inverse(static_cast<std::size_t>(block_cols) * block_rows);
-    std::vector<char> misfit(inverse.size(), 0);
-    Matrix e(channels, channels);
-    Eigen::SelfAdjointEigenSolver<Matrix> eigen(channels);
-    for (int by = 0; by < block_rows; ++by)
-      for (int bx = 0; bx < block_cols; ++bx) {
-        const double mass = moment_mass.at<float>(by, bx);
-        if (!(mass > min_mass)) continue;
-        double largest = 0;
-        for (int c = 0, k = 0; c < channels; ++c)
-          for (int d = c; d < channels; ++d, ++k) {
-            e(c, d) = e(d, c) = moment[k].at<float>(by, bx) / mass;
-            if (c == d) largest = std::max(largest, e(c, c));
-          }
-        if (largest <= options.misfit_ratio) continue;  // noise alone
-        eigen.compute(e);
-        const Vector lambda = eigen.eigenvalues().cwiseMax(1.0);
-        const std::size_t i = static_cast<std::size_t>(by) * block_cols + bx;
-        inverse[i] = eigen.eigenvectors() * lambda.cwiseInverse().asDiagonal() * eigen.eigenvectors().transpose();
-        misfit[i] = 1;
-      }
+    const Deviation dev = deviation(estimator, level, good, steady, deviating, source, back, options);
     cv::Mat next(height, width, CV_8U, cv::Scalar(0)), rim;
     cv::dilate(good == 0, rim, cv::Mat::ones(3, 3, CV_8U));
     white = cv::Mat(height, width, CV_8U, cv::Scalar(0));
@@ -364,28 +401,23 @@ void flag_level(const Estimator& estimator, Level& level, const NeighbourhoodOpt
     Vector v(channels), a(channels);
     for (int y = 0; y < height; ++y)
       for (int x = 0; x < width; ++x) {
-        if (!tested.at<std::uint8_t>(y, x)) continue;
-        for (int c = 0; c < channels; ++c) v[c] = u[c].at<float>(y, x);
-        const std::size_t block = static_cast<std::size_t>(y / kMisfitBlock) * block_cols + x / kMisfitBlock;
-        const double t = misfit[block] ? v.dot(inverse[block] * v) : v.squaredNorm();
+        if (!dev.tested.at<std::uint8_t>(y, x)) continue;
+        dev.u_at(y, x, v);
+        const Matrix* misfit_inverse = dev.misfit_inverse(y, x);
+        const double t = misfit_inverse ? v.dot(*misfit_inverse * v) : v.squaredNorm();
         if (t > (rim.at<std::uint8_t>(y, x) ? rim_threshold : deviation_threshold)) next.at<std::uint8_t>(y, x) = 1;
         // A white surface reflection s adds s/σ_c to z_c: the matched
         // one-sided test along a_c = 1/σ_c against the same noise plus misfit.
         // A partial cover c of the material beside it adds c·d_c/σ_c: the
         // same test along that direction.
-        auto matched = [&](double threshold) {
-          const Vector ma = misfit[block] ? Vector(inverse[block] * a) : a;
-          const double norm2 = ma.dot(a);
-          return norm2 > 0 && ma.dot(v) > threshold * std::sqrt(norm2);
-        };
         if (options.grow_reflections) {
-          for (int c = 0; c < channels; ++c) a[c] = 1 / sigmas[c].at<float>(y, x);
-          if (matched(white_threshold)) white.at<std::uint8_t>(y, x) = 1;
+          for (int c = 0; c < channels; ++c) a[c] = 1 / dev.sigmas[c].at<float>(y, x);
+          if (matched_statistic(a, v, misfit_inverse) > white_threshold) white.at<std::uint8_t>(y, x) = 1;
         }
-        if (options.grow_mixtures) {
+        if (options.grow_mixtures && material_count.at<float>(y, x) > 0) {
           for (int c = 0; c < channels; ++c)
-            a[c] = (material_mean[c].at<float>(y, x) - back[c].at<float>(y, x)) / sigmas[c].at<float>(y, x);
-          if (material_count.at<float>(y, x) > 0 && matched(levels.mixture)) mixed.at<std::uint8_t>(y, x) = 1;
+            a[c] = (material_mean[c].at<float>(y, x) - back[c].at<float>(y, x)) / dev.sigmas[c].at<float>(y, x);
+          if (matched_statistic(a, v, misfit_inverse) > levels.mixture) mixed.at<std::uint8_t>(y, x) = 1;
         }
       }
     const bool changed = cv::countNonZero(next != candidate) > 0;
