@@ -266,6 +266,11 @@ TEST(NeighbourhoodFlags, AnyInputGivesFiniteMaps) {
   NeighbourhoodOptions bad;
   bad.significance = 0;
   EXPECT_THROW(refine_flags_with_neighbourhood(estimator, measured, width, height, out, bad), std::invalid_argument);
+  NeighbourhoodOptions two_sided;
+  two_sided.mixture_significance = 0.5;  // the partial-cover test is one-sided: α < 0.5
+  std::string error;
+  EXPECT_FALSE(two_sided.IsValid(&error));
+  EXPECT_NE(error.find("mixture_significance"), std::string::npos);
 }
 
 }  // namespace
