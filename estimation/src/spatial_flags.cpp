@@ -1,5 +1,7 @@
 #include "chromo/estimation/spatial_flags.hpp"
 
+#include "spatial_internal.hpp"
+
 #include <opencv2/imgproc.hpp>
 
 #include <Eigen/Eigenvalues>
@@ -38,10 +40,9 @@ bool NeighbourhoodOptions::IsValid(std::string* error) const {
   return true;
 }
 
-namespace {
-
-void check_sizes(const Estimator& estimator, std::span<const float> measured, int width, int height,
-                 std::span<PixelEstimate> estimates, const NeighbourhoodOptions& options) {
+void detail::check_neighbourhood_sizes(const Estimator& estimator, std::span<const float> measured, int width,
+                                       int height, std::span<PixelEstimate> estimates,
+                                       const NeighbourhoodOptions& options) {
   std::string error;
   if (!options.IsValid(&error)) throw std::invalid_argument("neighbourhood options: " + error);
   if (width < 1 || height < 1 || estimates.size() != static_cast<std::size_t>(width) * height ||
@@ -51,76 +52,11 @@ void check_sizes(const Estimator& estimator, std::span<const float> measured, in
                                 " measured values");
 }
 
-// 1D Gaussian-derived kernels u^power·g(u) for a separable normalised convolution.
-cv::Mat kernel(double sigma, int power) {
-  const int radius = static_cast<int>(std::ceil(3 * sigma));
-  cv::Mat k(2 * radius + 1, 1, CV_32F);
-  for (int u = -radius; u <= radius; ++u)
-    k.at<float>(u + radius) = static_cast<float>(std::pow(u, power) * std::exp(-0.5 * u * u / (sigma * sigma)));
-  return k;
-}
+namespace {
 
-cv::Mat filter(const cv::Mat& src, const cv::Mat& kx, const cv::Mat& ky) {
-  cv::Mat dst;
-  cv::sepFilter2D(src, dst, CV_32F, kx, ky, cv::Point(-1, -1), 0, cv::BORDER_CONSTANT);
-  return dst;
-}
-
-// Per channel, the local quadratic fit (normalised convolution of order 2:
-// weighted least squares on 1, u, v, u², uv, v² with Gaussian weights) of the
-// explained pixels' values around every pixel, evaluated at the pixel. A
-// linear fit leaves the curvature of the skin's own variation (a few % of
-// albedo over σ = 6 px) in the deviation; the quadratic one does not. NaN where
-// the neighbourhood has too little support.
-std::vector<cv::Mat> background(const std::vector<cv::Mat>& values, const cv::Mat& good, double sigma) {
-  constexpr int kTerms = 6;
-  constexpr int kPowers[kTerms][2] = {{0, 0}, {1, 0}, {0, 1}, {2, 0}, {1, 1}, {0, 2}};
-  std::array<cv::Mat, 5> k;
-  for (int p = 0; p < 5; ++p) k[p] = kernel(sigma, p);
-  // Moments Σ g·good·u^a·v^b for a + b ≤ 4.
-  std::array<std::array<cv::Mat, 5>, 5> moment;
-  for (int a = 0; a <= 4; ++a)
-    for (int b = 0; a + b <= 4; ++b) moment[a][b] = filter(good, k[a], k[b]);
-  const double full_mass = std::pow(cv::sum(k[0])[0], 2);
-  // Per pixel, the row q with background = q · (Σ g·good·m·u^a·v^b), or empty when unsupported.
-  const int rows = good.rows, cols = good.cols;
-  std::array<double, kTerms> ridge{};  // a little ridge on the slope and curvature terms keeps one-sided neighbourhoods stable
-  for (int i = 1; i < kTerms; ++i) ridge[i] = 1e-3 * std::pow(sigma * sigma, kPowers[i][0] + kPowers[i][1]);
-  std::vector<std::array<float, kTerms>> q(static_cast<std::size_t>(rows) * cols);
-  std::vector<char> supported(q.size(), 0);
-  for (int y = 0; y < rows; ++y)
-    for (int x = 0; x < cols; ++x) {
-      const double m0 = moment[0][0].at<float>(y, x);
-      if (m0 < 0.15 * full_mass) continue;
-      cv::Matx<double, kTerms, kTerms> a;
-      for (int i = 0; i < kTerms; ++i)
-        for (int j = 0; j < kTerms; ++j)
-          a(i, j) = moment[kPowers[i][0] + kPowers[j][0]][kPowers[i][1] + kPowers[j][1]].at<float>(y, x);
-      for (int i = 1; i < kTerms; ++i) a(i, i) += ridge[i] * m0;
-      cv::Vec<double, kTerms> e0(1, 0, 0, 0, 0, 0), row;
-      if (!cv::solve(a, e0, row, cv::DECOMP_CHOLESKY)) continue;
-      const std::size_t i = static_cast<std::size_t>(y) * cols + x;
-      for (int t = 0; t < kTerms; ++t) q[i][t] = static_cast<float>(row[t]);
-      supported[i] = 1;
-    }
-  std::vector<cv::Mat> out;
-  for (const cv::Mat& v : values) {
-    const cv::Mat wv = v.mul(good);
-    std::array<cv::Mat, kTerms> r;
-    for (int t = 0; t < kTerms; ++t) r[t] = filter(wv, k[kPowers[t][0]], k[kPowers[t][1]]);
-    cv::Mat b(v.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
-    for (int y = 0; y < rows; ++y)
-      for (int x = 0; x < cols; ++x) {
-        const std::size_t i = static_cast<std::size_t>(y) * cols + x;
-        if (!supported[i]) continue;
-        double sum = 0;
-        for (int t = 0; t < kTerms; ++t) sum += q[i][t] * r[t].at<float>(y, x);
-        b.at<float>(y, x) = static_cast<float>(sum);
-      }
-    out.push_back(b);
-  }
-  return out;
-}
+using detail::background;
+using detail::filter;
+using detail::kernel;
 
 // One resolution of the flag pass: the estimator's cells (block 1), or blocks
 // of block × block cells, each holding the mean of its explained cells (noise
@@ -513,7 +449,7 @@ int neighbourhood_block_px(int width, int height, const NeighbourhoodOptions& op
 NeighbourhoodSummary refine_flags_with_neighbourhood(const Estimator& estimator, std::span<const float> measured,
                                                      int width, int height, std::span<PixelEstimate> estimates,
                                                      const NeighbourhoodOptions& options) {
-  check_sizes(estimator, measured, width, height, estimates, options);
+  detail::check_neighbourhood_sizes(estimator, measured, width, height, estimates, options);
   NeighbourhoodSummary summary;
   summary.block_px = neighbourhood_block_px(width, height, options);
   const int block = summary.block_px;
@@ -557,47 +493,6 @@ NeighbourhoodSummary refine_flags_with_neighbourhood(const Estimator& estimator,
     if (block > 1 && (alone || edge.at<std::uint8_t>(y / block, x / block)) && !deviates(p, y, x, reflection)) continue;
     estimates[p].flag = PixelFlag::kNeighbourhood;
     ++(s == kJoined ? summary.flagged_touching : summary.flagged_holes);
-  }
-  return summary;
-}
-
-NeighbourhoodSummary pool_model_order(const Estimator& estimator, std::span<const float> measured, int width,
-                                      int height, std::span<PixelEstimate> estimates,
-                                      const NeighbourhoodOptions& options) {
-  check_sizes(estimator, measured, width, height, estimates, options);
-  NeighbourhoodSummary summary;
-  if (estimator.options().model != ModelChoice::kAuto || estimator.channels() < 3) return summary;
-  const int channels = estimator.channels();
-  const int dof = std::min(channels, 4) - 2;
-  cv::Mat tested(height, width, CV_32F, cv::Scalar(0)), statistic(height, width, CV_32F, cv::Scalar(0));
-  for (std::size_t p = 0; p < estimates.size(); ++p) {
-    const PixelEstimate& e = estimates[p];
-    if (e.flag != PixelFlag::kExplained || (e.order != 2 && e.order != 4)) continue;
-    const int y = static_cast<int>(p / width), x = static_cast<int>(p % width);
-    tested.at<float>(y, x) = 1;
-    statistic.at<float>(y, x) = e.order_statistic;
-  }
-  const cv::Size window(options.order_window_px, options.order_window_px);
-  cv::Mat count, sum;
-  cv::boxFilter(tested, count, CV_32F, window, cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
-  cv::boxFilter(statistic, sum, CV_32F, window, cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
-  const int max_count = options.order_window_px * options.order_window_px;
-  std::vector<double> threshold(max_count + 1, 0);
-  for (int n = 1; n <= max_count; ++n)
-    threshold[n] = chi_squared_quantile(1 - estimator.options().order_significance, dof * n);
-  for (std::size_t p = 0; p < estimates.size(); ++p) {
-    PixelEstimate& e = estimates[p];
-    const int y = static_cast<int>(p / width), x = static_cast<int>(p % width);
-    if (!tested.at<float>(y, x)) continue;
-    const int n = std::clamp(static_cast<int>(std::lround(count.at<float>(y, x))), 1, max_count);
-    const int decided = sum.at<float>(y, x) > threshold[n] ? 4 : 2;
-    if (decided == e.order) continue;
-    PixelEstimate refit = estimator.estimate_pixel(measured.data() + p * channels,
-                                                   decided == 4 ? ModelChoice::k4d : ModelChoice::k2d);
-    if (decided == 2 && refit.flag != PixelFlag::kExplained) continue;  // the 2D model does not explain it alone
-    refit.order_statistic = e.order_statistic;
-    e = refit;
-    ++(decided == 4 ? summary.order_to_4 : summary.order_to_2);
   }
   return summary;
 }
