@@ -68,7 +68,7 @@ TEST(Estimator, FastIsWithinATenthOfExhaustiveUnderD65) {
   const SyntheticOptions o = in_gamut_skin(150);
   const EstimationRun fast = run(InverterMethod::kFast, ModelChoice::k4d, o, false);
   const EstimationRun exhaustive = run(InverterMethod::kExhaustive, ModelChoice::k4d, o, false);
-  const spectral::Spectrum& d65 = relight_illuminants().back().spectrum;
+  const spectral::Spectrum d65 = relight_illuminants().back().spectrum;  // a copy: the vector is a temporary
   const double fast_de = delta_e_stats(relit_delta_e94(fast.frame.truth, parameters_of(fast.out), d65)).mean;
   const double exhaustive_de =
       delta_e_stats(relit_delta_e94(exhaustive.frame.truth, parameters_of(exhaustive.out), d65)).mean;
