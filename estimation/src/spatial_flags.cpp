@@ -7,7 +7,6 @@
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <stdexcept>
 #include <vector>
@@ -76,7 +75,6 @@ struct Level {
   cv::Mat seed;                 // CV_8U: holds a cell flagged before the pass (a region touching it joins)
   cv::Mat reflection;           // CV_8U: holds a specular or saturated cell, or joined one (a white region touching it joins)
   std::vector<cv::Mat> all_values;  // per channel, CV_32F: the mean of all its cells, flagged ones too (NaN if one is not finite)
-  cv::Mat material;             // CV_8U: flagged before the pass and not a reflection: ink, dye, hair (grow_mixtures)
   std::vector<cv::Mat> background;  // per channel, the background a joined pixel was judged against (else NaN)
 };
 
@@ -122,7 +120,6 @@ Level make_level(int channels, std::span<const float> measured, int width, int h
       level.reflection.at<std::uint8_t>(y, x) =
           reflection.at<float>(y, x) >= seed_cells && 2 * reflection.at<float>(y, x) >= flagged.at<float>(y, x);
     }
-  level.material = (level.state == kFlaggedBefore) & (level.reflection == 0);
   return level;
 }
 
@@ -283,7 +280,7 @@ void flag_level(const Estimator& estimator, Level& level, const NeighbourhoodOpt
   // Deviating pixels, kept across passes: they leave the background (so a
   // vessel or a rim does not bias the skin next to it) and are averaged only
   // with each other (so they do not bleed into that skin either).
-  cv::Mat candidate(height, width, CV_8U, cv::Scalar(0)), white;
+  cv::Mat candidate(height, width, CV_8U, cv::Scalar(0));
   level.background.assign(channels, cv::Mat());
   for (cv::Mat& b : level.background) b = cv::Mat(height, width, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
   // Partial covers (step 4b): per pixel, the mean value of the flagged
@@ -293,7 +290,7 @@ void flag_level(const Estimator& estimator, Level& level, const NeighbourhoodOpt
   std::vector<cv::Mat> material_mean(channels);
   cv::Mat material_count;
   if (options.grow_mixtures) {
-    cv::Mat valid = level.material.clone();
+    cv::Mat valid = (level.state == kFlaggedBefore) & (level.reflection == 0);
     for (const cv::Mat& v : level.all_values) valid &= (v == v);  // NaN: a cell without a value
     cv::Mat valid_f;
     valid.convertTo(valid_f, CV_32F, 1.0 / 255);
@@ -332,8 +329,7 @@ void flag_level(const Estimator& estimator, Level& level, const NeighbourhoodOpt
     const Deviation dev = deviation(estimator, level, good, steady, deviating, source, back, options);
     cv::Mat next(height, width, CV_8U, cv::Scalar(0)), rim;
     cv::dilate(good == 0, rim, cv::Mat::ones(3, 3, CV_8U));
-    white = cv::Mat(height, width, CV_8U, cv::Scalar(0));
-    cv::Mat mixed(height, width, CV_8U, cv::Scalar(0));
+    cv::Mat white(height, width, CV_8U, cv::Scalar(0)), mixed(height, width, CV_8U, cv::Scalar(0));
     Vector v(channels), a(channels);
     for (int y = 0; y < height; ++y)
       for (int x = 0; x < width; ++x) {
