@@ -20,8 +20,14 @@ for _ in $(seq 100); do [[ -S "$socket" ]] && break; sleep 0.1; done
 
 export CHROMO_DAEMON="unix:$socket"
 "$bin/chromo" status
-output=$("$bin/chromo" session run --subject "demo forearm" --exposure-us 10000 | tee /dev/stderr)
-id=$(sed -n 's/^session \([^ ]*\) started$/\1/p' <<<"$output")
+# Started detached for its id, then followed: the progress goes straight to
+# stdout (a `| tee /dev/stderr` reopened stderr and, when the job's output
+# was redirected to a file, truncated that log).
+started=$("$bin/chromo" session run --detach --subject "demo forearm" --exposure-us 10000)
+echo "$started"
+id=$(sed -n 's/^session \([^ ]*\) started$/\1/p' <<<"$started")
+[[ -n "$id" ]] || { echo "demo-session: no session id in: $started" >&2; exit 1; }
+"$bin/chromo" session watch "$id"
 echo
 "$bin/chromo" session show "$id"
 echo
