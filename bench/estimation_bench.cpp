@@ -66,6 +66,7 @@
 #include "chromo/simulators/scene/scene.hpp"
 #include "chromo/spectral/delta_e.hpp"
 #include "clocks.hpp"
+#include "interpolation_cost.hpp"
 #include "lab_session.hpp"
 #include "relit_accuracy.hpp"
 
@@ -479,6 +480,7 @@ int main(int argc, char** argv) {
           }
           std::printf("predict4: %.1f ns per call (%g)\n", 1e9 * predict_clock.seconds() / 1e6, acc);
         }
+        bench::print_interpolation_costs(fast);
         std::printf("diagnose: hot cache %.0f ns/px (%g)\n", 1e9 * hot_s / (256.0 * hot_repeats), sink);
       }
       {
