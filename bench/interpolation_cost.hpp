@@ -25,12 +25,11 @@ inline void print_interpolation_costs(const estimation::FastInverter& fast) {
   const auto n = table.nodes();
   constexpr int kPoints = 1 << 20;
   // Grid coordinates spread over the table, the same for every variant.
+  constexpr int kPeriod[4] = {37, 29, 13, 7};
   std::vector<float> axis[4];
-  for (int k = 0; k < 4; ++k) axis[k].resize(kPoints);
-  for (int i = 0; i < kPoints; ++i) {
-    const int prime[4] = {37, 29, 13, 7};
-    for (int k = 0; k < 4; ++k)
-      axis[k][i] = std::fmod(float(i % prime[k]) + 0.3f + 0.1f * k, float(n[k] - 1));
+  for (int k = 0; k < 4; ++k) {
+    axis[k].resize(kPoints);
+    for (int i = 0; i < kPoints; ++i) axis[k][i] = std::fmod(float(i % kPeriod[k]) + 0.3f + 0.1f * k, float(n[k] - 1));
   }
   float sink = 0;
   auto ns_per_point = [](const ThreadCpuClock& clock) { return 1e9 * clock.seconds() / kPoints; };
