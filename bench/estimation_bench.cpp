@@ -480,7 +480,10 @@ int main(int argc, char** argv) {
           }
           std::printf("predict4: %.1f ns per call (%g)\n", 1e9 * predict_clock.seconds() / 1e6, acc);
         }
-        bench::print_interpolation_costs(fast);
+        if (!bench::print_interpolation_costs(fast)) {
+          std::fprintf(stderr, "estimation_bench: the AVX2 gather interpolation differs from predict4 by more than 1e-5\n");
+          return 1;
+        }
         std::printf("diagnose: hot cache %.0f ns/px (%g)\n", 1e9 * hot_s / (256.0 * hot_repeats), sink);
       }
       {
