@@ -54,14 +54,14 @@
 #include <unordered_set>
 #include <vector>
 
-#include "chromo/daemon/rendered_session.hpp"
+#include "chromo/simulators/scene/rendered_session.hpp"
 #include "chromo/estimation/estimator.hpp"
 #include "chromo/estimation/inverse_table.hpp"
-#include "chromo/estimation/lab_illuminants.hpp"
-#include "chromo/estimation/reconstruction.hpp"
+#include "chromo/spectral/lab_illuminants.hpp"
+#include "chromo/maps/reconstruction.hpp"
 #include "chromo/estimation/skin_model.hpp"
 #include "chromo/estimation/spatial_flags.hpp"
-#include "chromo/estimation/synthetic.hpp"
+#include "chromo/simulators/scene/synthetic.hpp"
 #include "chromo/spectral/cie.hpp"
 #include "chromo/simulators/scene/scene.hpp"
 #include "chromo/spectral/delta_e.hpp"
@@ -94,8 +94,8 @@ constexpr MethodConfig kMethodConfigs[] = {{InverterMethod::kFast, ModelChoice::
                                            {InverterMethod::kExhaustive, ModelChoice::k4d}};
 
 MeasurementSet method_set() {
-  return method_measurement_set(spectral::builtin_camera("nikon_d5100"), led_d65_metamer(),
-                                led_spectrum(spectral::LedType::kBlue));
+  return method_measurement_set(spectral::builtin_camera("nikon_d5100"), spectral::led_d65_metamer(),
+                                spectral::led_spectrum(spectral::LedType::kBlue));
 }
 
 struct RunResult {
@@ -389,7 +389,7 @@ int main(int argc, char** argv) {
     const spectral::Observer& o = spectral::cie1931_observer();
     const MeasurementSet xyz = rgb_measurement_set({"cie1931", {o.x_bar, o.y_bar, o.z_bar}}, spectral::illuminant_d65());
     const ForwardTable xt = ForwardTable::build(xyz, TableGrid{}, 2);
-    const auto p = random_skin_parameters(20000, {0.001, 0.001, 0, 0}, {0.5, 0.32, 1, 0.1}, 3);
+    const auto p = simulators::random_skin_parameters(20000, {0.001, 0.001, 0, 0}, {0.5, 0.32, 1, 0.1}, 3);
     std::vector<spectral::Spectrum> albedo(p.size());
     SkinModel().albedo_batch(p, albedo, 2);
     const spectral::Xyz white = spectral::white_point(spectral::illuminant_d65());
@@ -401,7 +401,7 @@ int main(int argc, char** argv) {
           spectral::lab_from_xyz(spectral::xyz_of_reflectance(albedo[i], spectral::illuminant_d65()), white),
           spectral::lab_from_xyz({v[0] * white.X, v[1] * white.Y, v[2] * white.Z}, white)));
     }
-    const DeltaEStats s = delta_e_stats(de);
+    const maps::DeltaEStats s = maps::delta_e_stats(de);
     std::printf("table interpolation error under D65 (20,000 random parameter sets, full range): mean ΔE94 %.4f "
                 "(target <= 0.02), median %.4f, p95 %.4f, max %.3f\n", s.mean, s.median, s.p95, s.max);
     report["interpolation_de94_d65"] = {{"mean", s.mean}, {"median", s.median}, {"p95", s.p95}, {"max", s.max}};
@@ -412,12 +412,12 @@ int main(int argc, char** argv) {
   std::ofstream speed_csv(out / "estimation_speed_accuracy.csv");
   speed_csv << "# method model noise pixels_per_second de94_relit_mean de94_d65 abs_log10_cm abs_log10_ch abs_bm abs_che\n";
   for (double noise : {0.0, 1.0}) {
-    SyntheticOptions o;
+    simulators::SyntheticOptions o;
     o.pixels = pixels;
     o.noise.noise_scale = noise;
     o.threads = 2;
     MeasurementSet s = method_set();
-    const SyntheticFrame f = make_synthetic_frame(s, o);
+    const simulators::SyntheticFrame f = simulators::make_synthetic_frame(s, o);
     const Relit truth = relight(f.truth);
     const std::vector<bool> all(f.pixels(), true);
     // Noise floor: ΔE94 (D65, via the camera→XYZ matrix) of the noisy broadband input against the clean one.
@@ -426,7 +426,7 @@ int main(int argc, char** argv) {
       std::vector<Eigen::Vector3d> clean(f.pixels()), noisy(f.pixels());
       for (std::size_t i = 0; i < f.pixels(); ++i)
         for (int c = 0; c < 3; ++c) clean[i][c] = f.clean[i * 4 + c], noisy[i][c] = f.noisy[i * 4 + c];
-      floor = photo_delta_e94(clean, noisy, s.camera, s.channels[0].illuminant).mean;
+      floor = maps::photo_delta_e94(clean, noisy, s.camera, s.channels[0].illuminant).mean;
       std::printf("noise floor (ΔE94 of noisy broadband input vs noise-free, D65'): %.3f\n", floor);
       report["noise_floor_de94"] = floor;
     }
@@ -562,13 +562,13 @@ int main(int argc, char** argv) {
   std::vector<RunResult> scene_runs;
   if (diagnose_only && methods.find("scene") == std::string::npos) return 0;
   if (methods.find("scene") != std::string::npos) {
-    const daemon::RenderedSessionOptions ro = bench::lab_session_options(scene_width, scene_height, frame_cache);
+    const simulators::RenderedSessionOptions ro = bench::lab_session_options(scene_width, scene_height, frame_cache);
     const CpuClock render_cpu;
     t = std::chrono::steady_clock::now();
-    const daemon::RenderedSession lab = daemon::render_session(ro);
+    const simulators::RenderedSession lab = simulators::render_session(ro);
     const double render_s = seconds_since(t), render_cpu_s = render_cpu.seconds();
     std::printf("virtual lab: %dx%d BayerRG12 sensor -> %dx%d measurement (2x2 binning); %s %.1f s wall, %.1f s CPU; "
-                "its render: scene %.1f s, camera + capture builder %.1f s, build_method_measurement %.1f s (wall); "
+                "its render: scene %.1f s, camera + capture builder %.1f s, session::build_method_measurement %.1f s (wall); "
                 "exposure %.0f us\n",
                 scene_width, scene_height, lab.width, lab.height, lab.loaded_from_cache ? "loaded from the cache in" : "rendered in",
                 render_s, render_cpu_s, lab.scene_seconds, lab.camera_seconds, lab.measurement_seconds, lab.exposure_us);
@@ -579,7 +579,7 @@ int main(int argc, char** argv) {
       mixes[name] = std::vector<double>(drive.begin(), drive.end());
     }
     for (const auto* m : {&lab.noisy, &lab.noise_free})
-      for (const RegistrationReport& r : m->registration)
+      for (const session::RegistrationReport& r : m->registration)
         std::printf("  registration (%s): %s moved %.3f px%s\n", m == &lab.noisy ? "noisy" : "noise-free",
                     r.image.c_str(), r.motion_px, r.warped ? ", warped" : "");
     report["lab_frame"] = {{"sensor_width", scene_width}, {"sensor_height", scene_height}, {"width", lab.width},
@@ -607,9 +607,9 @@ int main(int argc, char** argv) {
         noisy.emplace_back(lab.noisy.measured[i * 4], lab.noisy.measured[i * 4 + 1], lab.noisy.measured[i * 4 + 2]);
       }
       const MeasurementSet& set = lab.noisy.set;
-      const auto model = relit_camera_rgb(skin_truth, set.camera, set.channels[0].illuminant, 2);
-      const DeltaEStats fidelity = photo_delta_e94(clean, model, set.camera, set.channels[0].illuminant);
-      const DeltaEStats floor = photo_delta_e94(clean, noisy, set.camera, set.channels[0].illuminant);
+      const auto model = maps::relit_camera_rgb(skin_truth, set.camera, set.channels[0].illuminant, 2);
+      const maps::DeltaEStats fidelity = maps::photo_delta_e94(clean, model, set.camera, set.channels[0].illuminant);
+      const maps::DeltaEStats floor = maps::photo_delta_e94(clean, noisy, set.camera, set.channels[0].illuminant);
       std::printf("  %zu skin cells (%.1f%% of the frame); noise-free frame vs the model at the truth (D65' ΔE94): mean "
                   "%.4f p95 %.4f; noise floor (noisy vs noise-free broadband): mean %.3f p95 %.3f\n",
                   skin.size(), 100.0 * skin.size() / lab.pixels(), fidelity.mean, fidelity.p95, floor.mean, floor.p95);
@@ -621,7 +621,7 @@ int main(int argc, char** argv) {
     if (diagnose) {
       const FastInverter fast(lab_table, fs::path{}, fast_options_for(lab.noisy.set));
       for (const bool noisy : {false, true}) {
-        const MethodMeasurement& m = noisy ? lab.noisy : lab.noise_free;
+        const session::MethodMeasurement& m = noisy ? lab.noisy : lab.noise_free;
         std::vector<float> measured;
         for (std::size_t i : skin) measured.insert(measured.end(), m.measured.begin() + i * 4, m.measured.begin() + i * 4 + 4);
         report[std::string("diagnose_paths_lab_") + (noisy ? "noisy" : "noise_free")] =
@@ -645,7 +645,7 @@ int main(int argc, char** argv) {
     const double lab_floor = report["lab_noise_floor_de94"].get<double>();
     const std::size_t stride = std::max<std::size_t>(1, skin.size() / std::max(exhaustive_pixels, 1));
     for (const bool noisy : {false, true}) {
-      const MethodMeasurement& m = noisy ? lab.noisy : lab.noise_free;
+      const session::MethodMeasurement& m = noisy ? lab.noisy : lab.noise_free;
       for (const MethodConfig& c : kMethodConfigs) {
         EstimatorOptions eo;
         eo.method = c.method;
@@ -722,12 +722,12 @@ int main(int argc, char** argv) {
       EstimateSummary summary = estimator.estimate(lab.noisy.measured, e);
       // Each cell's added surface reflection, for the specular shares per band: ≥ 0.03, 0.01-0.03,
       // 0.006-0.01 (the label's edge).
-      const std::vector<float> reflection = daemon::cell_added_reflection(ro);
+      const std::vector<float> reflection = simulators::cell_added_reflection(ro);
       auto shares = [&](const char* label, nlohmann::ordered_json& out) {
         std::size_t total[8] = {}, flagged[8] = {}, band_total[3] = {}, band_flagged[3] = {};
         constexpr double kBandEdges[4] = {1.0, 0.03, 0.01, 0.0};
         for (std::size_t i = 0; i < lab.pixels(); ++i) {
-          const int region = lab.region[i] == daemon::kMixedCell ? 7 : lab.region[i];
+          const int region = lab.region[i] == simulators::kMixedCell ? 7 : lab.region[i];
           ++total[region];
           flagged[region] += e[i].flag != PixelFlag::kExplained;
           if (region == static_cast<int>(simulators::SceneRegion::kSpecular))
@@ -817,18 +817,18 @@ int main(int argc, char** argv) {
   std::ofstream noise_csv(out / "estimation_error_vs_noise.csv");
   noise_csv << "# noise_scale fast_de94 2d_de94 exhaustive_de94 noise_floor\n";
   for (double noise : {0.0, 0.25, 0.5, 1.0, 2.0, 4.0}) {
-    SyntheticOptions o;
+    simulators::SyntheticOptions o;
     o.pixels = 8000;
     o.noise.noise_scale = noise;
     o.seed = 7;
     MeasurementSet s = method_set();
-    const SyntheticFrame f = make_synthetic_frame(s, o);
+    const simulators::SyntheticFrame f = simulators::make_synthetic_frame(s, o);
     double floor = 0;
     if (noise > 0) {
       std::vector<Eigen::Vector3d> clean(f.pixels()), noisy(f.pixels());
       for (std::size_t i = 0; i < f.pixels(); ++i)
         for (int c = 0; c < 3; ++c) clean[i][c] = f.clean[i * 4 + c], noisy[i][c] = f.noisy[i * 4 + c];
-      floor = photo_delta_e94(clean, noisy, s.camera, s.channels[0].illuminant).mean;
+      floor = maps::photo_delta_e94(clean, noisy, s.camera, s.channels[0].illuminant).mean;
     }
     noise_csv << noise;
     for (InverterMethod m : {InverterMethod::kFast, InverterMethod::k2d, InverterMethod::kExhaustive}) {
@@ -851,12 +851,12 @@ int main(int argc, char** argv) {
   std::ofstream gamut_csv(out / "estimation_error_vs_gamut.csv");
   gamut_csv << "# blue_channel_excess flagged_share_fast de94_unflagged_fast flagged_share_exhaustive\n";
   {
-    SyntheticOptions o;
+    simulators::SyntheticOptions o;
     o.pixels = 4000;
     o.noise.noise_scale = 1.0;
     o.seed = 9;
     MeasurementSet s = method_set();
-    const SyntheticFrame f = make_synthetic_frame(s, o);
+    const simulators::SyntheticFrame f = simulators::make_synthetic_frame(s, o);
     for (double d : {0.0, 0.02, 0.05, 0.1, 0.2, 0.4}) {
       std::vector<float> pushed = f.noisy;
       for (std::size_t i = 0; i < f.pixels(); ++i) pushed[i * 4 + 3] *= static_cast<float>(1 + d);
@@ -883,12 +883,12 @@ int main(int argc, char** argv) {
   std::ofstream chche_csv(out / "estimation_ch_vs_che.csv");
   chche_csv << "# true_che fast_abs_log10_ch fast_abs_che fast_noisy_abs_log10_ch fast_noisy_abs_che\n";
   {
-    SyntheticOptions o;
+    simulators::SyntheticOptions o;
     o.pixels = 20000;
     o.noise.noise_scale = 1.0;
     o.seed = 11;
     MeasurementSet s = method_set();
-    const SyntheticFrame f = make_synthetic_frame(s, o);
+    const simulators::SyntheticFrame f = simulators::make_synthetic_frame(s, o);
     EstimatorOptions eo;
     eo.model = ModelChoice::k4d;
     eo.threads = 2;
@@ -915,27 +915,27 @@ int main(int argc, char** argv) {
 
   // Anomalies and veins: share flagged per kind (fast, auto, noisy).
   {
-    SyntheticOptions o;
+    simulators::SyntheticOptions o;
     o.pixels = 40000;
     o.noise.noise_scale = 1.0;
     o.seed = 13;
-    for (int k = 1; k < kSyntheticKindCount; ++k) o.share[k] = 0.08;
+    for (int k = 1; k < simulators::kSyntheticKindCount; ++k) o.share[k] = 0.08;
     MeasurementSet s = method_set();
-    const SyntheticFrame f = make_synthetic_frame(s, o);
+    const simulators::SyntheticFrame f = simulators::make_synthetic_frame(s, o);
     EstimatorOptions eo;
     eo.threads = 2;
     std::vector<PixelEstimate> e(f.pixels());
     Estimator(table, s, eo).estimate(f.noisy, e);
-    std::size_t total[kSyntheticKindCount] = {}, flagged[kSyntheticKindCount] = {};
+    std::size_t total[simulators::kSyntheticKindCount] = {}, flagged[simulators::kSyntheticKindCount] = {};
     for (std::size_t i = 0; i < f.pixels(); ++i) {
       ++total[static_cast<int>(f.kind[i])];
       flagged[static_cast<int>(f.kind[i])] += e[i].flag != PixelFlag::kExplained;
     }
     std::printf("flagged share per kind (fast, auto, noisy):");
-    for (int k = 0; k < kSyntheticKindCount; ++k) {
+    for (int k = 0; k < simulators::kSyntheticKindCount; ++k) {
       const double share = double(flagged[k]) / std::max<std::size_t>(total[k], 1);
-      std::printf(" %s %.1f%%", synthetic_kind_name(static_cast<SyntheticKind>(k)), 100 * share);
-      report["flagged_share"][synthetic_kind_name(static_cast<SyntheticKind>(k))] = share;
+      std::printf(" %s %.1f%%", simulators::synthetic_kind_name(static_cast<simulators::SyntheticKind>(k)), 100 * share);
+      report["flagged_share"][simulators::synthetic_kind_name(static_cast<simulators::SyntheticKind>(k))] = share;
     }
     std::printf("\nveins: %.1f%% flagged, %.1f%% fitted by the model\n",
                 100.0 * flagged[1] / std::max<std::size_t>(total[1], 1),

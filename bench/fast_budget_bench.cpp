@@ -35,7 +35,7 @@
 #include <string>
 #include <vector>
 
-#include "chromo/daemon/rendered_session.hpp"
+#include "chromo/simulators/scene/rendered_session.hpp"
 #include "chromo/estimation/estimator.hpp"
 #include "chromo/simulators/scene/scene.hpp"
 #include "clocks.hpp"
@@ -79,7 +79,7 @@ struct Cells {
   std::vector<SkinParameters> truth;
   bench::Relit relit;
 };
-Cells lab_cells(const daemon::RenderedSession& lab, const MethodMeasurement& m, const std::vector<std::size_t>& skin,
+Cells lab_cells(const simulators::RenderedSession& lab, const session::MethodMeasurement& m, const std::vector<std::size_t>& skin,
                 const bench::Relit& skin_relit, std::size_t step, bool whole_frame) {
   Cells c;
   if (whole_frame) c.measured = m.measured;
@@ -121,8 +121,8 @@ Row run(const std::shared_ptr<const ForwardTable>& table, const MeasurementSet& 
 
 // --whole-frame: the default fast 4D Estimator's CPU time per cell of each
 // scene region, one thread (thread CPU time): which cells a frame's time goes to.
-void print_region_costs(const std::shared_ptr<const ForwardTable>& table, const daemon::RenderedSession& lab,
-                        const MethodMeasurement& m, const char* noise) {
+void print_region_costs(const std::shared_ptr<const ForwardTable>& table, const simulators::RenderedSession& lab,
+                        const session::MethodMeasurement& m, const char* noise) {
   EstimatorOptions eo;
   eo.method = InverterMethod::kFast, eo.model = ModelChoice::k4d, eo.threads = 1;
   const Estimator estimator(table, m.set, eo);
@@ -130,7 +130,7 @@ void print_region_costs(const std::shared_ptr<const ForwardTable>& table, const 
   for (int region = 0; region < 8; ++region) {
     std::vector<float> measured;
     for (std::size_t i = 0; i < lab.pixels(); ++i)
-      if ((lab.region[i] == daemon::kMixedCell ? 7 : lab.region[i]) == region)
+      if ((lab.region[i] == simulators::kMixedCell ? 7 : lab.region[i]) == region)
         measured.insert(measured.end(), m.measured.begin() + i * 4, m.measured.begin() + i * 4 + 4);
     if (measured.empty()) continue;
     std::vector<PixelEstimate> e(measured.size() / 4);
@@ -172,8 +172,8 @@ int main(int argc, char** argv) {
   }
   fs::create_directories(out);
 
-  const daemon::RenderedSessionOptions ro = bench::lab_session_options(sensor_width, sensor_height, frame_cache);
-  const daemon::RenderedSession lab = bench::load_lab_session(ro);
+  const simulators::RenderedSessionOptions ro = bench::lab_session_options(sensor_width, sensor_height, frame_cache);
+  const simulators::RenderedSession lab = bench::load_lab_session(ro);
   const auto table = std::make_shared<const ForwardTable>(ForwardTable::build(lab.noisy.set, TableGrid{}, 2));
   std::vector<std::size_t> skin;
   for (std::size_t i = 0; i < lab.pixels(); ++i)
@@ -191,7 +191,7 @@ int main(int argc, char** argv) {
   csv << "# budget noise cells_per_second cpu_us_per_cell de94_relit_mean de94_d65 d65_minus_exhaustive "
          "flagged_share mean_chi2\n";
   for (const bool noisy : {false, true}) {
-    const MethodMeasurement& m = noisy ? lab.noisy : lab.noise_free;
+    const session::MethodMeasurement& m = noisy ? lab.noisy : lab.noise_free;
     const char* noise = noisy ? "noisy" : "noise-free";
     EstimatorOptions exhaustive;
     exhaustive.method = InverterMethod::kExhaustive, exhaustive.model = ModelChoice::k4d, exhaustive.threads = 2;

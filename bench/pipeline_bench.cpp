@@ -47,7 +47,7 @@
 
 #include "chart.hpp"
 #include "chromo/daemon/frame_pipeline.hpp"
-#include "chromo/daemon/journal.hpp"
+#include "chromo/session/journal.hpp"
 #include "chromo/drivers/camera/aravis_camera.hpp"
 #include "chromo/simulators/camera/camera_simulator.hpp"
 #include "chromo/simulators/camera/fixed_illumination.hpp"
@@ -194,7 +194,7 @@ RunResult run(const RunSpec& spec, const std::filesystem::path& root, const std:
   const auto folder = root / spec.label;
   std::filesystem::remove_all(folder);
   std::filesystem::create_directories(folder);
-  daemon::Journal journal(folder / "journal.jsonl", nullptr);
+  session::Journal journal(folder / "journal.jsonl", nullptr);
   std::mutex mutex;
   std::vector<double> latencies_ms;
   std::uint64_t received = 0, failed = 0;

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "chromo/estimation/estimator.hpp"
-#include "chromo/estimation/lab_illuminants.hpp"
+#include "chromo/spectral/lab_illuminants.hpp"
 #include "chromo/estimation/skin_model.hpp"
 #include "chromo/spectral/cie.hpp"
 #include "chromo/spectral/delta_e.hpp"
@@ -25,7 +25,7 @@ inline Relit relight(std::span<const estimation::SkinParameters> p) {
   std::vector<spectral::Spectrum> albedo(p.size());
   model.albedo_batch(p, albedo);
   Relit r;
-  for (const estimation::NamedIlluminant& i : estimation::relight_illuminants()) {
+  for (const spectral::NamedIlluminant& i : spectral::relight_illuminants()) {
     const spectral::Xyz white = spectral::white_point(i.spectrum);
     std::vector<spectral::Lab> lab(p.size());
     for (std::size_t k = 0; k < p.size(); ++k)

@@ -26,7 +26,7 @@
 #include <string>
 #include <vector>
 
-#include "chromo/daemon/rendered_session.hpp"
+#include "chromo/simulators/scene/rendered_session.hpp"
 #include "chromo/estimation/estimator.hpp"
 #include "chromo/estimation/forward_table.hpp"
 #include "chromo/estimation/spatial_flags.hpp"
@@ -72,7 +72,7 @@ struct Frame {
 };
 
 // The cells from (dx, dy) to the session's edge.
-Frame crop(const daemon::RenderedSession& lab, const std::vector<float>& reflection,
+Frame crop(const simulators::RenderedSession& lab, const std::vector<float>& reflection,
            const std::vector<PixelEstimate>& estimates, int dx, int dy) {
   Frame f;
   f.width = lab.width - dx, f.height = lab.height - dy;
@@ -104,7 +104,7 @@ Shares count(const Frame& frame, const std::vector<PixelEstimate>& e) {
                                                                                                          : s.skin_other);
   }
   for (std::size_t i = 0; i < frame.pixels(); ++i) {
-    const int region = frame.region[i] == daemon::kMixedCell ? 7 : frame.region[i];
+    const int region = frame.region[i] == simulators::kMixedCell ? 7 : frame.region[i];
     const bool flagged = e[i].flag != PixelFlag::kExplained;
     ++s.total[region];
     s.flagged[region] += flagged;
@@ -159,9 +159,9 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  const daemon::RenderedSessionOptions ro = bench::lab_session_options(sensor_width, sensor_height, frame_cache);
-  const daemon::RenderedSession lab = bench::load_lab_session(ro);
-  const std::vector<float> reflection = daemon::cell_added_reflection(ro);
+  const simulators::RenderedSessionOptions ro = bench::lab_session_options(sensor_width, sensor_height, frame_cache);
+  const simulators::RenderedSession lab = bench::load_lab_session(ro);
+  const std::vector<float> reflection = simulators::cell_added_reflection(ro);
   const auto table = ForwardTable::load_or_build(lab.noisy.set, TableGrid{}, ForwardTable::default_cache_dir());
   EstimatorOptions eo;
   eo.threads = 2;

@@ -13,17 +13,17 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "chromo/daemon/online_estimator.hpp"
-#include "chromo/daemon/session_captures.hpp"
-#include "chromo/estimation/estimate_report.hpp"
+#include "chromo/maps/estimate_report.hpp"
+#include "chromo/session/session_captures.hpp"
+#include "chromo/maps/estimate_report.hpp"
 #include "chromo/estimation/estimator.hpp"
-#include "chromo/estimation/measurement_file.hpp"
-#include "chromo/estimation/output_batch.hpp"
+#include "chromo/session/measurement_file.hpp"
+#include "chromo/files/output_batch.hpp"
 #include "chromo/estimation/spatial_flags.hpp"
 #include "chromo/spectral/resample.hpp"
 #include "chromo/spectral/table.hpp"
 #include "commands.hpp"
-#include "chromo/estimation/image_files.hpp"
+#include "chromo/files/float_image.hpp"
 
 namespace chromo::cli {
 namespace {
@@ -46,7 +46,7 @@ struct EstimateOptions {
 };
 
 // Stages a report's files in an OutputBatch (renamed into place by commit()).
-estimation::FileCommit stage_in(estimation::OutputBatch& batch) {
+maps::FileCommit stage_in(files::OutputBatch& batch) {
   return [&batch](const fs::path& path, const std::function<void(const fs::path&)>& produce) {
     produce(batch.temporary(path.filename().string()));
   };
@@ -65,19 +65,19 @@ estimation::EstimatorOptions estimator_options(const EstimateOptions& options) {
 // A stored session folder: the same captures and estimation as chromod's on-line estimator.
 int run_estimate_session(const EstimateOptions& options) {
   const fs::path folder = options.input;
-  daemon::CaptureSources sources;
-  estimation::MethodCaptures captures;
+  session::CaptureSources sources;
+  session::MethodCaptures captures;
   try {
     std::string library = options.led_library;
     if (library.empty() && fs::exists(folder / "results" / "led_library.json"))
       library = (folder / "results" / "led_library.json").string();
-    sources = daemon::resolve_capture_sources(library, options.camera, options.white_reflectance);
-    captures = daemon::read_session_captures(folder, sources);
+    sources = session::resolve_capture_sources(library, options.camera, options.white_reflectance);
+    captures = session::read_session_captures(folder, sources);
   } catch (const std::exception& e) {
     std::cerr << "chromo estimate: " << e.what() << "\n";
     return kExitBadInput;
   }
-  estimation::MethodEstimationOptions eo;
+  maps::MethodEstimationOptions eo;
   eo.estimator = estimator_options(options);
   eo.neighbourhood.flags = options.neighbourhood_flags;
   eo.neighbourhood.pool_order = options.order_pooling;
@@ -87,15 +87,15 @@ int run_estimate_session(const EstimateOptions& options) {
                                {"led_library", sources.led_library_source},
                                {"camera_sensitivity", sources.camera_source},
                                {"white_reflectance", sources.white_reflectance}};
-  estimation::MethodEstimationResult result;
+  maps::MethodEstimationResult result;
   try {
-    estimation::OutputBatch files(options.out);  // removed again (with the directory it made) unless committed
+    files::OutputBatch files(options.out);  // removed again (with the directory it made) unless committed
     try {
-      result = estimation::estimate_method_captures(captures, eo, options.out, stage_in(files), {}, extra.dump());
+      result = maps::estimate_method_captures(captures, eo, options.out, stage_in(files), {}, extra.dump());
     } catch (const std::invalid_argument& e) {
       std::cerr << "chromo estimate: " << folder.string() << ": " << e.what() << "\n";
       return kExitBadInput;
-    } catch (const estimation::RegistrationError& e) {
+    } catch (const session::RegistrationError& e) {
       std::cerr << "chromo estimate: " << folder.string() << ": " << e.what() << "\n";
       return kExitBadInput;
     }
@@ -117,10 +117,10 @@ int run_estimate(const EstimateOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   auto seconds_since = [](auto t) { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count(); };
   if (fs::is_directory(options.input)) return run_estimate_session(options);
-  estimation::MeasurementFile m;
+  session::MeasurementFile m;
   try {
-    m = estimation::read_measurement_file(options.input);
-  } catch (const estimation::MeasurementFileError& e) {
+    m = session::read_measurement_file(options.input);
+  } catch (const session::MeasurementFileError& e) {
     std::cerr << "chromo estimate: " << e.what() << "\n";
     return kExitBadInput;
   }
@@ -130,8 +130,8 @@ int run_estimate(const EstimateOptions& options) {
   auto t = std::chrono::steady_clock::now();
   nlohmann::ordered_json registration;
   try {
-    registration = nlohmann::ordered_json::parse(estimation::registration_report_json(estimation::register_images(m)));
-  } catch (const estimation::RegistrationError& e) {
+    registration = nlohmann::ordered_json::parse(maps::registration_report_json(session::register_images(m)));
+  } catch (const session::RegistrationError& e) {
     std::cerr << "chromo estimate: " << e.what() << "\n";
     return kExitBadInput;
   }
@@ -179,7 +179,7 @@ int run_estimate(const EstimateOptions& options) {
     neighbourhood_seconds = seconds_since(t);
   }
 
-  estimation::EstimateReport report;
+  maps::EstimateReport report;
   report.method = options.method;
   report.model = options.model;
   report.width = m.width, report.height = m.height;
@@ -196,12 +196,12 @@ int run_estimate(const EstimateOptions& options) {
                                           {"nodes", table->grid().node_count()},
                                           {"rebuilt", rebuilt}}},
                                {"registration", registration},
-                               {"neighbourhood", nlohmann::ordered_json::parse(estimation::neighbourhood_report_json(
+                               {"neighbourhood", nlohmann::ordered_json::parse(maps::neighbourhood_report_json(
                                                      options.neighbourhood_flags, options.order_pooling, neighbourhood))}};
   report.extra_json = extra.dump();
   try {
-    estimation::OutputBatch files(options.out);
-    estimation::write_estimate_report(options.out, report, stage_in(files));
+    files::OutputBatch files(options.out);
+    maps::write_estimate_report(options.out, report, stage_in(files));
     files.commit();
   } catch (const std::exception& e) {
     std::cerr << "chromo estimate: writing " << options.out << ": " << e.what() << "\n";

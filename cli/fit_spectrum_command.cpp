@@ -6,7 +6,7 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "chromo/estimation/lab_illuminants.hpp"
+#include "chromo/spectral/lab_illuminants.hpp"
 #include "chromo/estimation/spectrum_fit.hpp"
 #include "chromo/spectral/resample.hpp"
 #include "chromo/spectral/table.hpp"

@@ -5,7 +5,7 @@
 #include <iostream>
 #include <sstream>
 
-#include "chromo/estimation/map_operations.hpp"
+#include "chromo/maps/map_operations.hpp"
 #include "commands.hpp"
 
 namespace chromo::cli {
@@ -25,7 +25,7 @@ std::vector<double> numbers(const std::string& text, const std::string& option) 
 }
 
 struct FlushCommandOptions {
-  estimation::FlushOptions options;
+  maps::FlushOptions options;
   std::string scale, ellipse, polygon;
 };
 
@@ -46,12 +46,12 @@ void parse(FlushCommandOptions& c) {
   if (!c.ellipse.empty()) {
     const auto v = numbers(c.ellipse, "ellipse");
     if (v.size() != 4 && v.size() != 5) throw std::invalid_argument("ellipse: give cx,cy,rx,ry[,angle_deg] in pixels");
-    c.options.ellipse = estimation::EllipseShape{v[0], v[1], v[2], v[3], v.size() == 5 ? v[4] : 0.0};
+    c.options.ellipse = maps::EllipseShape{v[0], v[1], v[2], v[3], v.size() == 5 ? v[4] : 0.0};
   }
   if (!c.polygon.empty()) {
     const auto v = numbers(c.polygon, "polygon");
     if (v.size() < 6 || v.size() % 2) throw std::invalid_argument("polygon: give x1,y1,x2,y2,x3,y3,... (≥ 3 vertices)");
-    estimation::PolygonShape p;
+    maps::PolygonShape p;
     for (std::size_t k = 0; k < v.size(); k += 2) p.vertices_px.emplace_back(v[k], v[k + 1]);
     c.options.polygon = p;
   }
@@ -77,7 +77,7 @@ void add_flush_command(CLI::App& app, int& exit_status) {
   cmd->callback([c, &exit_status] {
     exit_status = run_map_operation("flush", [&] {
       parse(*c);
-      const auto s = estimation::flush_to_files(c->options);
+      const auto s = maps::flush_to_files(c->options);
       fmt::print("{} pixels edited; {} values clamped to MODEL.md's ranges ({:.2f}% of edited values: Cm {}, Ch {}, "
                  "βm {}, Che {})\n",
                  s.edit.pixels_touched, s.edit.values_clamped, 100 * s.edit.clamped_share, s.edit.clamped_cm,

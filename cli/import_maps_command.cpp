@@ -4,14 +4,14 @@
 // test data set (make-maps-test-data).
 #include <fmt/format.h>
 
-#include "chromo/estimation/map_operations.hpp"
+#include "chromo/maps/map_operations.hpp"
 #include "chromo/simulators/scene/external_maps_scene.hpp"
 #include "commands.hpp"
 
 namespace chromo::cli {
 
 void add_import_maps_command(CLI::App& app, int& exit_status) {
-  auto options = std::make_shared<estimation::ImportMapsOptions>();
+  auto options = std::make_shared<maps::ImportMapsOptions>();
   auto method = std::make_shared<std::string>("fast");
   CLI::App* cmd = app.add_subcommand(
       "import-maps", "Map external melanin/hemoglobin maps to (Cm, Ch), augment, compare with the 4D search");
@@ -29,7 +29,7 @@ void add_import_maps_command(CLI::App& app, int& exit_status) {
   cmd->callback([options, method, &exit_status] {
     options->import.search_4d = *estimation::parse_method_name(*method);  // checked by IsMember above
     exit_status = run_map_operation("import-maps", [&] {
-      const auto s = estimation::import_maps_to_files(*options);
+      const auto s = maps::import_maps_to_files(*options);
       const auto& r = s.result;
       fmt::print("mean ΔE94 against {} ({} pixels):\n", r.photograph_name, r.search_4d.stats.pixels);
       fmt::print("  {:<12} {:>8} {:>8} {:>8}\n", "method", "mean", "median", "p95");

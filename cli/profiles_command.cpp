@@ -5,7 +5,7 @@
 #include <filesystem>
 #include <iostream>
 
-#include "chromo/estimation/map_operations.hpp"
+#include "chromo/maps/map_operations.hpp"
 #include "commands.hpp"
 
 namespace chromo::cli {
@@ -20,7 +20,7 @@ struct ProfilesOptions {
 };
 
 int run_profiles(const ProfilesOptions& options) {
-  estimation::ExportProfilesOptions o;
+  maps::ExportProfilesOptions o;
   o.illuminant = options.illuminant;
   o.out = options.out;
   o.maps = options.maps;
@@ -35,7 +35,7 @@ int run_profiles(const ProfilesOptions& options) {
   };
   try {
     // Everything is checked before anything is written (map_operations.hpp).
-    const estimation::ExportProfilesSummary s = estimation::export_profiles_to_files(o);
+    const maps::ExportProfilesSummary s = maps::export_profiles_to_files(o);
     std::cerr << "\n";
     fmt::print("{} profiles × {} radii under {} → {}/profiles.json, profiles.f32\n", s.entries, s.radii,
                options.illuminant, options.out.string());

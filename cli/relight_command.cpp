@@ -4,7 +4,7 @@
 
 #include <iostream>
 
-#include "chromo/estimation/map_operations.hpp"
+#include "chromo/maps/map_operations.hpp"
 #include "commands.hpp"
 
 namespace chromo::cli {
@@ -23,7 +23,7 @@ int run_map_operation(const char* command, const std::function<void()>& operatio
 }
 
 void add_relight_command(CLI::App& app, int& exit_status) {
-  auto options = std::make_shared<estimation::RelightOptions>();
+  auto options = std::make_shared<maps::RelightOptions>();
   CLI::App* cmd = app.add_subcommand("relight", "Relight parameter maps under any illuminant (+ panel against a photograph)");
   cmd->add_option("maps", options->maps, "maps.exr from chromo estimate")->required();
   cmd->add_option("--illuminant", options->illuminant,
@@ -36,7 +36,7 @@ void add_relight_command(CLI::App& app, int& exit_status) {
   cmd->add_option("--threads", options->threads, "threads (0 = all cores)");
   cmd->callback([options, &exit_status] {
     exit_status = run_map_operation("relight", [&] {
-      const auto s = estimation::relight_to_files(*options);
+      const auto s = maps::relight_to_files(*options);
       fmt::print("{}x{} maps relit under {}: {} pixels → {}\n", s.width, s.height, s.illuminant, s.relit_pixels,
                  options->out.string());
       if (s.compared)

@@ -7,7 +7,7 @@
 #include <fmt/format.h>
 #include <google/protobuf/util/time_util.h>
 
-#include "chromo/daemon/api_conversions.hpp"
+#include "chromo/proto/plan_messages.hpp"
 #include "chromosphere/v1/operations.grpc.pb.h"
 #include "chromosphere/v1/sessions.grpc.pb.h"
 #include "commands.hpp"
@@ -40,7 +40,7 @@ void run(SessionOptions& options, int& exit_status) {
       return;
     }
     try {
-      daemon::to_proto(daemon::plan_from_json(json), request.mutable_plan());
+      proto::to_proto(session::plan_from_json(json), request.mutable_plan());
     } catch (const std::invalid_argument& error) {
       std::cerr << "chromo: --plan " << options.plan_file << ": " << error.what() << "\n";
       exit_status = kExitBadInput;

@@ -70,7 +70,7 @@ LedLibrary nominal_led_library() {
     lib.instrument.spectrometer_serial = "unknown";
     lib.conditions.notes =
         "built-in nominal library: published spectra (photobiologyLEDs 0.5.3), LED current 350 mA, resampled to "
-        "380-780 nm/5 nm and scaled to the nominal radiant flux of calibration::kNominalRadiantFlux";
+        "380-780 nm/5 nm and scaled to the nominal radiant flux of kNominalRadiantFlux";
     for (int i = 0; i < spectral::kLedTypeCount; ++i) {
       const std::string name = kSources[i].file;
       const spectral::Table table = spectral::parse_table(spectral::data::embedded_file(name), "data/" + name);

@@ -7,6 +7,10 @@
 
 namespace chromo::daemon {
 
+// The plan and drive-level conversions (chromo/proto/plan_messages.hpp) join the daemon's own.
+using proto::from_proto;
+using proto::to_proto;
+
 namespace pb = chromosphere::v1;
 using grpc::Status;
 using grpc::StatusCode;
@@ -15,37 +19,6 @@ namespace {
 google::protobuf::Timestamp timestamp(std::chrono::system_clock::time_point time) {
   return google::protobuf::util::TimeUtil::NanosecondsToTimestamp(
       std::chrono::duration_cast<std::chrono::nanoseconds>(time.time_since_epoch()).count());
-}
-pb::StepRole role_to_proto(StepRole role) {
-  switch (role) {
-    case StepRole::kDark: return pb::STEP_ROLE_DARK;
-    case StepRole::kWhite: return pb::STEP_ROLE_WHITE;
-    case StepRole::kSubject: return pb::STEP_ROLE_SUBJECT;
-  }
-  return pb::STEP_ROLE_UNSPECIFIED;
-}
-}  // namespace
-
-void to_proto(const drivers::DriveLevels& levels, pb::DriveLevels* out) {
-  out->set_w57(levels[0]);
-  out->set_w40(levels[1]);
-  out->set_w27(levels[2]);
-  out->set_red(levels[3]);
-  out->set_green(levels[4]);
-  out->set_blue(levels[5]);
-}
-
-drivers::DriveLevels from_proto(const pb::DriveLevels& levels) {
-  return {levels.w57(), levels.w40(), levels.w27(), levels.red(), levels.green(), levels.blue()};
-}
-
-namespace {
-Status check_levels(const drivers::DriveLevels& levels, const std::string& field) {
-  static const char* kNames[] = {"w57", "w40", "w27", "red", "green", "blue"};
-  for (std::size_t i = 0; i < levels.size(); ++i)
-    if (!(levels[i] >= 0 && levels[i] <= 1))
-      return {StatusCode::INVALID_ARGUMENT, field + "." + kNames[i] + ": must be in [0, 1], got " + std::to_string(levels[i])};
-  return Status::OK;
 }
 }  // namespace
 
@@ -77,7 +50,7 @@ void to_proto(const std::string& controller, const drivers::LedStatus& status, p
 
 Status from_proto(const pb::LedState& state, const std::string& field, drivers::LedState* out) {
   out->drive = from_proto(state.drive());
-  if (Status s = check_levels(out->drive, field + ".drive"); !s.ok()) return s;
+  if (Status s = proto::check_levels(out->drive, field + ".drive"); !s.ok()) return s;
   if (!(state.pwm_frequency_hz() >= 0 && state.pwm_frequency_hz() <= 1e7))
     return {StatusCode::INVALID_ARGUMENT, field + ".pwm_frequency_hz: must be in [0, 10000000]"};
   out->pwm_frequency_hz = state.pwm_frequency_hz();
@@ -88,9 +61,9 @@ Status from_proto(const pb::LedState& state, const std::string& field, drivers::
   return Status::OK;
 }
 
-void to_proto(const OperationRecord& record, pb::Operation* out) {
+void to_proto(const session::OperationRecord& record, pb::Operation* out) {
   out->set_id(record.id);
-  out->set_kind(record.kind == OperationKind::kSession ? pb::OPERATION_KIND_SESSION : pb::OPERATION_KIND_CALIBRATION);
+  out->set_kind(record.kind == session::OperationKind::kSession ? pb::OPERATION_KIND_SESSION : pb::OPERATION_KIND_CALIBRATION);
   out->set_name(record.name);
   out->set_state(static_cast<pb::OperationState>(static_cast<int>(record.state) + 1));
   out->set_progress(record.progress);
@@ -117,64 +90,7 @@ void to_proto(const OperationRecord& record, pb::Operation* out) {
   for (const auto& [reason, count] : record.counters.skipped_reasons) (*counters->mutable_skipped_reasons())[reason] = count;
 }
 
-Status from_proto(const pb::SessionPlan& plan, const std::string& field, SessionPlan* out) {
-  if (!pb::Timing_IsValid(plan.timing())) return {StatusCode::INVALID_ARGUMENT, field + ".timing: unknown value"};
-  if (plan.steps_size() > static_cast<int>(kMaxSteps))
-    return {StatusCode::INVALID_ARGUMENT, field + ".steps: more than " + std::to_string(kMaxSteps) + " steps"};
-  out->name = plan.name();
-  out->timing = plan.timing() == pb::TIMING_HARDWARE ? Timing::kHardware : Timing::kSoftware;
-  for (int i = 0; i < plan.steps_size(); ++i) {
-    const auto& s = plan.steps(i);
-    const std::string step_field = field + ".steps[" + std::to_string(i) + "]";
-    if (!pb::StepRole_IsValid(s.role())) return {StatusCode::INVALID_ARGUMENT, step_field + ".role: unknown value"};
-    Step step;
-    step.name = s.name();
-    step.role = s.role() == pb::STEP_ROLE_DARK ? StepRole::kDark : s.role() == pb::STEP_ROLE_WHITE ? StepRole::kWhite : StepRole::kSubject;
-    switch (s.illumination_case()) {
-      case pb::Step::kDark: step.illumination.kind = Illumination::Kind::kDark; break;
-      case pb::Step::kWeights:
-        step.illumination.kind = Illumination::Kind::kWeights;
-        step.illumination.weights = from_proto(s.weights());
-        if (Status st = check_levels(step.illumination.weights, step_field + ".weights"); !st.ok()) return st;
-        break;
-      case pb::Step::kMix:
-        step.illumination.kind = Illumination::Kind::kMix;
-        step.illumination.mix = s.mix();
-        break;
-      default:
-        return {StatusCode::INVALID_ARGUMENT, step_field + ".illumination: set one of dark, weights, mix"};
-    }
-    step.settle_ms = s.settle_ms();
-    step.exposure_us = s.exposure_us();
-    step.frames_per_camera = s.frames_per_camera();
-    step.prompt = s.prompt();
-    out->steps.push_back(std::move(step));
-  }
-  std::string error;
-  if (!out->IsValid(&error)) return {StatusCode::INVALID_ARGUMENT, field + "." + error};
-  return Status::OK;
-}
-
-void to_proto(const SessionPlan& plan, pb::SessionPlan* out) {
-  out->set_name(plan.name);
-  out->set_timing(plan.timing == Timing::kHardware ? pb::TIMING_HARDWARE : pb::TIMING_SOFTWARE);
-  for (const auto& step : plan.steps) {
-    auto* s = out->add_steps();
-    s->set_name(step.name);
-    s->set_role(role_to_proto(step.role));
-    switch (step.illumination.kind) {
-      case Illumination::Kind::kDark: s->set_dark(true); break;
-      case Illumination::Kind::kWeights: to_proto(step.illumination.weights, s->mutable_weights()); break;
-      case Illumination::Kind::kMix: s->set_mix(step.illumination.mix); break;
-    }
-    s->set_settle_ms(step.settle_ms);
-    s->set_exposure_us(step.exposure_us);
-    s->set_frames_per_camera(step.frames_per_camera);
-    s->set_prompt(step.prompt);
-  }
-}
-
-void to_proto(const SessionInfo& info, bool include_frames, pb::SessionDetail* out) {
+void to_proto(const session::SessionInfo& info, bool include_frames, pb::SessionDetail* out) {
   auto* summary = out->mutable_summary();
   summary->set_id(info.record.id);
   summary->set_name(info.record.name);
@@ -186,7 +102,7 @@ void to_proto(const SessionInfo& info, bool include_frames, pb::SessionDetail* o
     auto* step = out->add_steps();
     step->set_index(static_cast<int>(i));
     step->set_name(info.steps[i].name);
-    step->set_role(role_to_proto(info.steps[i].role));
+    step->set_role(proto::role_to_proto(info.steps[i].role));
     step->set_completed(info.steps[i].completed);
     step->set_frames_stored(info.steps[i].frames_stored);
   }
@@ -217,13 +133,13 @@ void to_proto(const SessionInfo& info, bool include_frames, pb::SessionDetail* o
   }
 }
 
-void results_to_proto(const SessionInfo& info, pb::Results* out) {
+void results_to_proto(const session::SessionInfo& info, pb::Results* out) {
   out->set_session_id(info.record.id);
   out->set_folder(info.record.folder);
   for (const auto& frame : info.frames) out->add_frame_files(frame.value("file", ""));
-  if (!is_final(info.record.state)) {
+  if (!session::is_final(info.record.state)) {
     out->set_state(pb::RESULTS_STATE_PENDING);
-    out->set_reason("the session is " + state_name(info.record.state));
+    out->set_reason("the session is " + session::state_name(info.record.state));
     return;
   }
   const std::filesystem::path folder = info.record.folder;
@@ -260,8 +176,8 @@ void results_to_proto(const SessionInfo& info, pb::Results* out) {
     return;
   }
   out->set_state(pb::RESULTS_STATE_UNAVAILABLE);
-  if (info.record.state != OperationState::kSucceeded)
-    out->set_reason("the session ended " + state_name(info.record.state) +
+  if (info.record.state != session::OperationState::kSucceeded)
+    out->set_reason("the session ended " + session::state_name(info.record.state) +
                     (info.record.error.empty() ? "" : ": " + info.record.error) + "; its stored frames are in the folder");
   else
     out->set_reason(info.results.is_null() ? "no on-line estimator in this daemon: frames and derived albedo are stored"

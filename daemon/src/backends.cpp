@@ -8,7 +8,7 @@
 #include <stdexcept>
 
 #include "chromo/daemon/device_set.hpp"
-#include "chromo/daemon/image_files.hpp"
+#include "chromo/session/frame_files.hpp"
 #include "chromo/drivers/camera/aravis_camera.hpp"
 #include "chromo/drivers/led_controller_factory.hpp"
 #include "chromo/drivers/spectrometer_factory.hpp"
@@ -153,7 +153,7 @@ drivers::CameraSettings camera_capture_settings(const DeviceConfig& config) {
     for (auto format : {drivers::PixelFormat::kMono8, drivers::PixelFormat::kMono12, drivers::PixelFormat::kMono16,
                         drivers::PixelFormat::kBayerRG8, drivers::PixelFormat::kBayerRG12, drivers::PixelFormat::kBayerRG16,
                         drivers::PixelFormat::kRgb8})
-      if (pixel_format_name(format) == name) {
+      if (session::pixel_format_name(format) == name) {
         settings.pixel_format = format;
         found = true;
       }

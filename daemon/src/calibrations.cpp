@@ -8,8 +8,9 @@
 #include "chromo/calibration/calibration_run.hpp"
 #include "chromo/calibration/led_library_io.hpp"
 #include "chromo/calibration/mix_solver.hpp"
-#include "chromo/daemon/session_plan.hpp"
-#include "chromo/daemon/session_store.hpp"
+#include "chromo/calibration/session_mix.hpp"
+#include "chromo/session/session_plan.hpp"
+#include "chromo/session/session_store.hpp"
 #include "chromo/spectral/camera.hpp"
 
 namespace chromo::daemon {
@@ -60,22 +61,22 @@ class LockedSpectrometer final : public drivers::Spectrometer, LockedCalls<drive
   drivers::SpectrometerStatus read_status() override { return call([&] { return device().read_status(); }); }
 };
 
-std::string state_for_disk(OperationState state) { return state_name(state); }
+std::string state_for_disk(session::OperationState state) { return session::state_name(state); }
 
 nlohmann::json request_json(const CalibrationRequest& r) {
   return {{"controller", r.controller}, {"spectrometer", r.spectrometer}, {"drive_levels", r.drive_levels},
           {"warmup_ms", r.warmup_ms}};
 }
 
-OperationRecord record_from_json(const nlohmann::json& j, const std::filesystem::path& folder) {
-  OperationRecord record;
+session::OperationRecord record_from_json(const nlohmann::json& j, const std::filesystem::path& folder) {
+  session::OperationRecord record;
   record.id = j.at("id").get<std::string>();
-  record.kind = OperationKind::kCalibration;
+  record.kind = session::OperationKind::kCalibration;
   record.name = "calibration";
-  record.state = parse_state(j.at("state").get<std::string>()).value_or(OperationState::kFailed);
+  record.state = session::parse_state(j.at("state").get<std::string>()).value_or(session::OperationState::kFailed);
   record.message = j.value("message", "");
   record.error = j.value("error", "");
-  record.progress = record.state == OperationState::kSucceeded ? 1.0 : j.value("progress", 0.0);
+  record.progress = record.state == session::OperationState::kSucceeded ? 1.0 : j.value("progress", 0.0);
   record.eta_seconds = 0;
   record.folder = std::filesystem::absolute(folder).string();
   record.created = record.updated = std::chrono::system_clock::time_point(
@@ -110,8 +111,8 @@ void Calibrations::use_library(const std::filesystem::path& path) {
   mix_cache_.clear();
 }
 
-std::vector<OperationRecord> Calibrations::recover() {
-  std::vector<OperationRecord> records;
+std::vector<session::OperationRecord> Calibrations::recover() {
+  std::vector<session::OperationRecord> records;
   std::filesystem::path newest_library;
   std::string newest_id;
   if (!std::filesystem::is_directory(root_)) return records;  // made by the first run
@@ -125,14 +126,14 @@ std::vector<OperationRecord> Calibrations::recover() {
       std::ifstream in(file);
       j = nlohmann::json::parse(in);
       auto record = record_from_json(j, entry.path());
-      if (!is_final(record.state)) {
-        record.state = OperationState::kInterrupted;
+      if (!session::is_final(record.state)) {
+        record.state = session::OperationState::kInterrupted;
         record.message = "the daemon stopped while this calibration was running";
-        j["state"] = state_name(record.state);
+        j["state"] = session::state_name(record.state);
         j["message"] = record.message;
         files::write_file_durably(file, j.dump(2) + "\n", budget_);
       }
-      if (record.state == OperationState::kSucceeded && std::filesystem::exists(entry.path() / kLibraryFile) &&
+      if (record.state == session::OperationState::kSucceeded && std::filesystem::exists(entry.path() / kLibraryFile) &&
           record.id > newest_id) {
         newest_id = record.id;
         newest_library = entry.path() / kLibraryFile;
@@ -146,7 +147,7 @@ std::vector<OperationRecord> Calibrations::recover() {
   return records;
 }
 
-OperationRecord Calibrations::start(const CalibrationRequest& request) {
+session::OperationRecord Calibrations::start(const CalibrationRequest& request) {
   calibration::CalibrationRunOptions options;
   if (!request.drive_levels.empty()) options.drive_levels = request.drive_levels;
   for (std::size_t i = 0; i < options.drive_levels.size(); ++i) {
@@ -172,7 +173,7 @@ OperationRecord Calibrations::start(const CalibrationRequest& request) {
 
   std::lock_guard lock(mutex_);
   if (worker_.joinable()) worker_.join();
-  const std::string id = new_session_id("calibration");
+  const std::string id = session::new_session_id("calibration");
   const auto folder = root_ / id;
   std::filesystem::create_directories(folder);
   const auto now = std::chrono::system_clock::now();
@@ -185,11 +186,11 @@ OperationRecord Calibrations::start(const CalibrationRequest& request) {
                                     {"created_unix_s", std::chrono::duration_cast<std::chrono::seconds>(now.time_since_epoch()).count()}}
                              .dump(2) + "\n",
                      budget_);
-  OperationRecord record;
+  session::OperationRecord record;
   record.id = id;
-  record.kind = OperationKind::kCalibration;
+  record.kind = session::OperationKind::kCalibration;
   record.name = "calibration";
-  record.state = OperationState::kRunning;
+  record.state = session::OperationState::kRunning;
   record.message = "starting";
   record.folder = std::filesystem::absolute(folder).string();
   auto control = operations_.add(record);
@@ -223,7 +224,7 @@ void Calibrations::run(std::string id, CalibrationRequest request, std::filesyst
     summary = run.run(
         [&](double fraction, const std::string& step) {
           const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-          operations_.update(id, [&](OperationRecord& r) {
+          operations_.update(id, [&](session::OperationRecord& r) {
             r.progress = fraction;
             r.eta_seconds = fraction > 0 ? elapsed * (1 - fraction) / fraction : -1;
             r.message = step;
@@ -234,16 +235,16 @@ void Calibrations::run(std::string id, CalibrationRequest request, std::filesyst
     summary.termination = calibration::CalibrationTermination::kDeviceError;
     summary.message = e.what();
   }
-  OperationState state = OperationState::kFailed;
+  session::OperationState state = session::OperationState::kFailed;
   switch (summary.termination) {
-    case calibration::CalibrationTermination::kCompleted: state = OperationState::kSucceeded; break;
-    case calibration::CalibrationTermination::kCancelled: state = OperationState::kCancelled; break;
-    default: state = OperationState::kFailed;
+    case calibration::CalibrationTermination::kCompleted: state = session::OperationState::kSucceeded; break;
+    case calibration::CalibrationTermination::kCancelled: state = session::OperationState::kCancelled; break;
+    default: state = session::OperationState::kFailed;
   }
-  std::string error = state == OperationState::kFailed ? summary.message : "";
+  std::string error = state == session::OperationState::kFailed ? summary.message : "";
   nlohmann::json record;
   try {
-    if (state == OperationState::kSucceeded) {
+    if (state == session::OperationState::kSucceeded) {
       // save_led_library writes crash-safe (temporary, fsync, rename).
       calibration::save_led_library(summary.library, folder / kLibraryFile);
       use_library(folder / kLibraryFile);
@@ -257,7 +258,7 @@ void Calibrations::run(std::string id, CalibrationRequest request, std::filesyst
                          {"spectra_measured", summary.spectra_measured},
                          {"elapsed_s", summary.elapsed_s},
                          {"linearity_ok", summary.linearity_ok}};
-    if (state == OperationState::kSucceeded) {
+    if (state == session::OperationState::kSucceeded) {
       record["library"] = kLibraryFile;
       for (const auto& lin : summary.linearity)
         record["summary"]["linearity_max_deviation_percent"][std::string(spectral::led_type_name(lin.type))] =
@@ -265,67 +266,24 @@ void Calibrations::run(std::string id, CalibrationRequest request, std::filesyst
     }
     files::write_file_durably(folder / kRecordFile, record.dump(2) + "\n", budget_);
   } catch (const std::exception& e) {
-    state = OperationState::kFailed;
+    state = session::OperationState::kFailed;
     error = std::string("writing the calibration result: ") + e.what();
   }
   {
     std::lock_guard lock(mutex_);
     running_id_.clear();
   }
-  operations_.update(id, [&](OperationRecord& r) {
+  operations_.update(id, [&](session::OperationRecord& r) {
     r.state = state;
     r.message = summary.message;
     r.error = error;
-    if (state == OperationState::kSucceeded) r.progress = 1;
+    if (state == session::OperationState::kSucceeded) r.progress = 1;
     r.eta_seconds = 0;
   });
 }
 
-namespace {
-calibration::MixSolverOptions mix_solver_options(const std::string& objective, bool hold_chromaticity) {
-  calibration::MixSolverOptions options;
-  const auto parsed = calibration::parse_mix_objective(objective);
-  if (!parsed) throw std::invalid_argument("objective: \"" + objective.substr(0, 64) + "\" is not spectral, xyz or camera");
-  options.objective = *parsed;
-  options.hold_chromaticity = hold_chromaticity;
-  if (std::string error; !options.IsValid(&error)) throw std::invalid_argument(error);
-  return options;
-}
-}  // namespace
-
-SolvedMix solve_session_mix(const calibration::LedLibrary& library, const std::string& target,
-                            const std::string& objective, bool hold_chromaticity) {
-  const calibration::MixSolverOptions options = mix_solver_options(objective, hold_chromaticity);
-  const bool w57_alone = target == "w57";
-  calibration::MixTarget mix_target;
-  try {
-    mix_target = calibration::parse_mix_target(w57_alone ? "w57+blue" : target, library, options.camera);
-  } catch (const std::exception& e) {
-    throw std::invalid_argument("target: " + std::string(e.what()));
-  }
-  const auto summary = calibration::solve_mix(library, mix_target, options);
-  if (!summary.IsSolutionUsable())
-    throw std::invalid_argument("target \"" + target.substr(0, 64) + "\": " +
-                                std::string(calibration::mix_termination_name(summary.termination)) + ": " + summary.message);
-  SolvedMix solved;
-  for (std::size_t i = 0; i < solved.weights.size(); ++i) solved.weights[i] = summary.weights[i];
-  if (w57_alone) {
-    for (std::size_t i = 0; i < solved.weights.size(); ++i)
-      if (i != static_cast<std::size_t>(spectral::led_type_index(spectral::LedType::kW57))) solved.weights[i] = 0;
-  }
-  solved.figures = {{"rmse", summary.rmse},
-                    {"delta_uv_prime", summary.delta_uv_prime},
-                    {"ra", summary.rendering.ra},
-                    {"cct_K", summary.rendering.cct_K},
-                    {"camera_de00_mean", summary.camera_de00.mean},
-                    {"camera_de00_max", summary.camera_de00.max}};
-  solved.summary = (w57_alone ? std::string("w57: the W57 level of the w57+blue solve, other LEDs off. ") : std::string()) +
-                   summary.BriefReport();
-  return solved;
-}
-
-SolvedMix Calibrations::solve(const std::string& target, const std::string& objective, bool hold_chromaticity) const {
-  mix_solver_options(objective, hold_chromaticity);  // a bad request is named before a missing library
+calibration::SolvedMix Calibrations::solve(const std::string& target, const std::string& objective, bool hold_chromaticity) const {
+  calibration::session_mix_solver_options(objective, hold_chromaticity);  // a bad request is named before a missing library
   std::shared_ptr<const calibration::LedLibrary> library;
   std::string path;
   {
@@ -335,7 +293,7 @@ SolvedMix Calibrations::solve(const std::string& target, const std::string& obje
   }
   if (!library)
     throw std::logic_error("no LED library: run a calibration (chromo calibrate) or configure led_library");
-  SolvedMix solved = solve_session_mix(*library, target, objective, hold_chromaticity);
+  calibration::SolvedMix solved = calibration::solve_session_mix(*library, target, objective, hold_chromaticity);
   solved.library = path;
   return solved;
 }

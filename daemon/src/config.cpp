@@ -4,7 +4,7 @@
 #include <set>
 #include <stdexcept>
 
-#include "chromo/daemon/session_plan.hpp"
+#include "chromo/session/session_plan.hpp"
 #include "chromo/estimation/estimator.hpp"
 
 namespace chromo::daemon {
@@ -34,7 +34,7 @@ bool DaemonConfig::IsValid(std::string* error) const {
   std::set<std::string> names;
   for (std::size_t i = 0; i < devices.size(); ++i) {
     const auto field = "devices[" + std::to_string(i) + "].";
-    if (!is_valid_name(devices[i].name)) return fail(field + "name: must match [A-Za-z0-9_+.-]{1,64}");
+    if (!session::is_valid_name(devices[i].name)) return fail(field + "name: must match [A-Za-z0-9_+.-]{1,64}");
     if (!names.insert(devices[i].name).second) return fail(field + "name: \"" + devices[i].name + "\" is used twice");
     if (devices[i].backend.empty()) return fail(field + "backend: missing");
   }
@@ -46,7 +46,7 @@ bool DaemonConfig::IsValid(std::string* error) const {
     return fail("estimation.white_reflectance: must be in (0, 1]");
   if (estimation.threads < 0 || estimation.threads > 256) return fail("estimation.threads: must be in [0, 256]");
   for (const auto& [name, levels] : mixes) {
-    if (!is_valid_mix(name)) return fail("mixes." + name + ": not a mix name (d65, w57, w57+blue[:R])");
+    if (!session::is_valid_mix(name)) return fail("mixes." + name + ": not a mix name (d65, w57, w57+blue[:R])");
     for (double level : levels)
       if (!(level >= 0 && level <= 1)) return fail("mixes." + name + ": levels must be in [0, 1]");
   }

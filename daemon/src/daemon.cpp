@@ -2,7 +2,7 @@
 
 #include <stdexcept>
 
-#include "chromo/daemon/derived_data.hpp"
+#include "chromo/session/derived_data.hpp"
 #include "chromo/daemon/online_estimator.hpp"
 #include "chromo/daemon/sequencer.hpp"
 #include "chromo/drivers/device_error.hpp"
@@ -138,7 +138,7 @@ drivers::DriveLevels Daemon::resolve_mix(const std::string& mix) const {
   throw std::invalid_argument("mix \"" + mix + "\": no weights for it (configure \"mixes\" or run a calibration)");
 }
 
-OperationRecord Daemon::start_calibration(const CalibrationRequest& request) {
+session::OperationRecord Daemon::start_calibration(const CalibrationRequest& request) {
   std::lock_guard lock(run_mutex_);
   ensure_idle();
   return calibrations_->start(request);
@@ -148,12 +148,12 @@ void Daemon::ensure_idle() const {
   if (operations_.any_active()) throw std::logic_error("another session or calibration is running");
 }
 
-OperationRecord Daemon::start_session(SessionPlan plan, const std::string& subject) {
+session::OperationRecord Daemon::start_session(session::SessionPlan plan, const std::string& subject) {
   std::string error;
   if (!plan.IsValid(&error)) throw std::invalid_argument("plan." + error);
-  if (subject.size() > kMaxTextBytes) throw std::invalid_argument("subject: longer than 4096 bytes");
+  if (subject.size() > session::kMaxTextBytes) throw std::invalid_argument("subject: longer than 4096 bytes");
   for (std::size_t i = 0; i < plan.steps.size(); ++i)
-    if (plan.steps[i].illumination.kind == Illumination::Kind::kMix) {
+    if (plan.steps[i].illumination.kind == session::Illumination::Kind::kMix) {
       try {
         resolve_mix(plan.steps[i].illumination.mix);
       } catch (const std::invalid_argument& failure) {
@@ -164,9 +164,9 @@ OperationRecord Daemon::start_session(SessionPlan plan, const std::string& subje
   auto* led = devices_.led_controller("", &led_error);
   if (!led) throw std::runtime_error("LED controller: " + led_error);
   if (devices_.cameras.empty()) throw std::runtime_error("no camera configured");
-  if (plan.timing == Timing::kHardware && devices_.cameras.size() != 1)
+  if (plan.timing == session::Timing::kHardware && devices_.cameras.size() != 1)
     throw std::invalid_argument("plan.timing: hardware timing needs exactly one camera wired to the controller's trigger input");
-  if (plan.timing == Timing::kHardware && led->device) {
+  if (plan.timing == session::Timing::kHardware && led->device) {
     // The controller holds the whole sequence: a resting state plus one state per frame.
     int capacity = 0;
     {
@@ -191,17 +191,17 @@ OperationRecord Daemon::start_session(SessionPlan plan, const std::string& subje
   const std::uint64_t expected = plan.frames_per_camera_total() * devices_.cameras.size();
   created.journal->append({{"type", "session_started"}, {"expected_frames", expected}});
 
-  OperationRecord record;
+  session::OperationRecord record;
   record.id = created.id;
-  record.kind = OperationKind::kSession;
+  record.kind = session::OperationKind::kSession;
   record.name = plan.name;
-  record.state = OperationState::kPending;
+  record.state = session::OperationState::kPending;
   record.folder = std::filesystem::absolute(created.folder).string();
   record.step_count = static_cast<int>(plan.steps.size());
   record.expected_frames = expected;
   auto control = operations_.add(record);
   running_id_ = created.id;
-  std::shared_ptr<Journal> journal(std::move(created.journal));
+  std::shared_ptr<session::Journal> journal(std::move(created.journal));
   worker_ = std::thread([this, id = created.id, plan = std::move(plan), journal, folder = created.folder, control] {
     run_session(id, plan, journal, folder, control);
   });
@@ -210,10 +210,10 @@ OperationRecord Daemon::start_session(SessionPlan plan, const std::string& subje
   return *started;
 }
 
-void Daemon::run_session(std::string id, SessionPlan plan, std::shared_ptr<Journal> journal,
+void Daemon::run_session(std::string id, session::SessionPlan plan, std::shared_ptr<session::Journal> journal,
                          std::filesystem::path folder, std::shared_ptr<OperationControl> control) {
   SequencerOutcome outcome;
-  PipelineCounters counters;
+  session::PipelineCounters counters;
   auto log_event = [&](const std::string& text) {
     Event event;
     event.kind = Event::Kind::kLog;
@@ -222,8 +222,8 @@ void Daemon::run_session(std::string id, SessionPlan plan, std::shared_ptr<Journ
     events_.publish(std::move(event));
   };
   if (estimator_)
-    estimator_->begin_session({id, folder, to_json(plan), [&, id](double fraction, const std::string& message) {
-                                 operations_.update(id, [&](OperationRecord& r) {
+    estimator_->begin_session({id, folder, session::to_json(plan), [&, id](double fraction, const std::string& message) {
+                                 operations_.update(id, [&](session::OperationRecord& r) {
                                    r.message = message + " " + std::to_string(static_cast<int>(fraction * 100)) + "%";
                                  });
                                }});
@@ -261,30 +261,30 @@ void Daemon::run_session(std::string id, SessionPlan plan, std::shared_ptr<Journ
       journal->append({{"type", "state"}, {"state", "running"}});
       outcome = run_sequence(context);
     } catch (const std::exception& error) {
-      outcome = {OperationState::kFailed, error.what()};
+      outcome = {session::OperationState::kFailed, error.what()};
     }
     pipeline.drain();
     counters = pipeline.counters();
   }
   std::string derived_error;
-  if (outcome.state == OperationState::kSucceeded) {
-    operations_.update(id, [](OperationRecord& r) { r.message = "writing derived data"; });
+  if (outcome.state == session::OperationState::kSucceeded) {
+    operations_.update(id, [](session::OperationRecord& r) { r.message = "writing derived data"; });
     try {
-      write_derived_data(folder, *journal, &budget_);
+      session::write_derived_data(folder, *journal, &budget_);
     } catch (const std::exception& error) {
-      outcome = {OperationState::kFailed, std::string("derived data: ") + error.what()};
+      outcome = {session::OperationState::kFailed, std::string("derived data: ") + error.what()};
     }
   }
   if (estimator_) {
     // The maps: catches up on skipped frames, estimates if not done yet, and
     // says whether results are available (before the final state record).
-    nlohmann::json results = estimator_->end_session({outcome.state == OperationState::kSucceeded});
+    nlohmann::json results = estimator_->end_session({outcome.state == session::OperationState::kSucceeded});
     if (!results.is_null()) {
       counters.estimator_read_back = results.value("frames_read_back", std::uint64_t{0});
       try {
         journal->append(results);
       } catch (const std::exception& error) {
-        outcome = {OperationState::kFailed, std::string("results record: ") + error.what()};
+        outcome = {session::OperationState::kFailed, std::string("results record: ") + error.what()};
       }
       log_event("session " + id + ": results " + results.value("state", "") +
                 (results.contains("reason") ? ": " + results.value("reason", "") : ""));
@@ -304,13 +304,13 @@ void Daemon::run_session(std::string id, SessionPlan plan, std::shared_ptr<Journ
                      {"skipped_reasons", counters.skipped_reasons},
                      {"mean_trigger_to_stored_ms", counters.mean_trigger_to_stored_ms},
                      {"max_trigger_to_stored_ms", counters.max_trigger_to_stored_ms}});
-    nlohmann::json final_state{{"type", "state"}, {"state", state_name(outcome.state)}};
+    nlohmann::json final_state{{"type", "state"}, {"state", session::state_name(outcome.state)}};
     if (!outcome.error.empty()) final_state["error"] = outcome.error;
     journal->append(final_state);
   } catch (const std::exception& error) {
     // The disk is full: the final record could not be written. The folder
     // stays valid; the next start reports the session as interrupted.
-    if (outcome.error.empty()) outcome = {OperationState::kFailed, error.what()};
+    if (outcome.error.empty()) outcome = {session::OperationState::kFailed, error.what()};
   }
   {
     // Before the record turns final: start_session() joins this thread under
@@ -319,21 +319,21 @@ void Daemon::run_session(std::string id, SessionPlan plan, std::shared_ptr<Journ
     std::lock_guard lock(run_mutex_);
     running_id_.clear();
   }
-  operations_.update(id, [&](OperationRecord& r) {
+  operations_.update(id, [&](session::OperationRecord& r) {
     r.state = outcome.state;
     r.error = outcome.error;
-    r.message = outcome.state == OperationState::kSucceeded ? "done" : state_name(outcome.state);
+    r.message = outcome.state == session::OperationState::kSucceeded ? "done" : session::state_name(outcome.state);
     r.counters = counters;
-    if (outcome.state == OperationState::kSucceeded) r.progress = 1;
+    if (outcome.state == session::OperationState::kSucceeded) r.progress = 1;
     r.eta_seconds = 0;
   });
 }
 
-std::optional<SessionInfo> Daemon::session(const std::string& id) const {
-  if (!is_valid_name(id)) return std::nullopt;
+std::optional<session::SessionInfo> Daemon::session(const std::string& id) const {
+  if (!session::is_valid_name(id)) return std::nullopt;
   auto folder = store_.root() / id;
   if (!std::filesystem::exists(folder / "session.json")) return std::nullopt;
-  SessionInfo info = store_.read_session(folder);
+  session::SessionInfo info = store_.read_session(folder);
   if (auto live = operations_.get(id)) info.record = *live;
   return info;
 }

@@ -4,7 +4,7 @@
 
 #include <cstdio>
 
-#include "chromo/daemon/image_files.hpp"
+#include "chromo/session/frame_files.hpp"
 
 namespace chromo::daemon {
 
@@ -16,7 +16,7 @@ double thread_cpu_ms() {
 }
 }  // namespace
 
-FramePipeline::FramePipeline(std::filesystem::path folder, Journal& journal, files::StorageBudget* budget, Options options,
+FramePipeline::FramePipeline(std::filesystem::path folder, session::Journal& journal, files::StorageBudget* budget, Options options,
                              FrameConsumer* estimator, std::function<void(const StoredFrame&)> on_stored,
                              std::function<void(std::uint64_t)> on_estimator_behind)
     : folder_(std::move(folder)),
@@ -78,7 +78,7 @@ void FramePipeline::drain() {
   });
 }
 
-PipelineCounters FramePipeline::counters() const {
+session::PipelineCounters FramePipeline::counters() const {
   std::lock_guard lock(mutex_);
   return counters_;
 }
@@ -127,9 +127,9 @@ void FramePipeline::storage_loop() {
                                          captured.frame.host_timestamp.time_since_epoch()).count();
         entry["width"] = captured.frame.width;
         entry["height"] = captured.frame.height;
-        entry["pixel_format"] = pixel_format_name(captured.frame.pixel_format);
+        entry["pixel_format"] = session::pixel_format_name(captured.frame.pixel_format);
         entry["file"] = stored.file;
-        write_frame_tiff(folder_ / relative, captured.frame, entry.dump(), budget_);
+        session::write_frame_tiff(folder_ / relative, captured.frame, entry.dump(), budget_);
         journal_.append(entry);
       } catch (const std::exception& failure) {
         error = failure.what();

@@ -3,7 +3,7 @@
 #include <filesystem>
 #include <string>
 
-#include "chromo/estimation/map_operations.hpp"
+#include "chromo/maps/map_operations.hpp"
 #include "chromosphere/v1/maps.grpc.pb.h"
 
 namespace chromo::daemon {
@@ -80,7 +80,7 @@ std::string illuminant_field(const Files& files, const std::string& value, const
   return looks_like_file ? files.resolve("illuminant", value, true).string() : value;
 }
 
-void to_proto(const estimation::DeltaEStats& s, pb::DeltaEStatistics* out) {
+void to_proto(const maps::DeltaEStats& s, pb::DeltaEStatistics* out) {
   out->set_mean(s.mean), out->set_median(s.median), out->set_p95(s.p95), out->set_max(s.max);
   out->set_pixels(s.pixels);
 }
@@ -103,7 +103,7 @@ class MapsServiceImpl final : public pb::MapsService::Service {
   Status Relight(ServerContext* context, const pb::RelightRequest* request, pb::RelightResponse* response) override {
     return run(context, [&] {
       const Files files(daemon_, request->session_id());
-      estimation::RelightOptions o;
+      maps::RelightOptions o;
       o.maps = files.resolve("maps_file", request->maps_file(), true);
       if (request->illuminant().empty()) throw Refusal{{StatusCode::INVALID_ARGUMENT, "illuminant: required"}};
       o.illuminant = illuminant_field(files, request->illuminant(), "");
@@ -114,7 +114,7 @@ class MapsServiceImpl final : public pb::MapsService::Service {
         o.camera = builtin ? request->camera() : files.resolve("camera", request->camera(), true).string();
       }
       o.heat_map_max = request->heat_map_max();
-      const auto s = estimation::relight_to_files(o);
+      const auto s = maps::relight_to_files(o);
       response->set_illuminant(s.illuminant);
       response->set_width(s.width), response->set_height(s.height);
       response->set_relit_pixels(s.relit_pixels);
@@ -128,7 +128,7 @@ class MapsServiceImpl final : public pb::MapsService::Service {
   Status Flush(ServerContext* context, const pb::FlushRequest* request, pb::FlushResponse* response) override {
     return run(context, [&] {
       const Files files(daemon_, request->session_id());
-      estimation::FlushOptions o;
+      maps::FlushOptions o;
       o.maps = files.resolve("maps_file", request->maps_file(), true);
       o.out = files.resolve("out_dir", request->out_dir(), true);
       o.illuminant = illuminant_field(files, request->illuminant(), "D65");
@@ -139,12 +139,12 @@ class MapsServiceImpl final : public pb::MapsService::Service {
       switch (request->region_case()) {
         case pb::FlushRequest::kEllipse: {
           const auto& e = request->ellipse();
-          o.ellipse = estimation::EllipseShape{e.center_x_px(), e.center_y_px(), e.radius_x_px(), e.radius_y_px(),
+          o.ellipse = maps::EllipseShape{e.center_x_px(), e.center_y_px(), e.radius_x_px(), e.radius_y_px(),
                                                e.angle_deg()};
           break;
         }
         case pb::FlushRequest::kPolygon: {
-          estimation::PolygonShape p;
+          maps::PolygonShape p;
           for (const auto& v : request->polygon().vertices()) p.vertices_px.emplace_back(v.x_px(), v.y_px());
           o.polygon = p;
           break;
@@ -155,7 +155,7 @@ class MapsServiceImpl final : public pb::MapsService::Service {
         default:
           throw Refusal{{StatusCode::INVALID_ARGUMENT, "region: give ellipse, polygon or mask_file"}};
       }
-      const auto r = estimation::flush_to_files(o);
+      const auto r = maps::flush_to_files(o);
       response->set_pixels_touched(r.edit.pixels_touched);
       response->set_values_clamped(r.edit.values_clamped);
       response->set_clamped_share(r.edit.clamped_share);
@@ -168,7 +168,7 @@ class MapsServiceImpl final : public pb::MapsService::Service {
   Status ImportMaps(ServerContext* context, const pb::ImportMapsRequest* request, pb::ImportMapsResponse* response) override {
     return run(context, [&] {
       const Files files(daemon_, request->session_id());
-      estimation::ImportMapsOptions o;
+      maps::ImportMapsOptions o;
       if (!request->search_4d().empty()) {
         const auto search = estimation::parse_method_name(request->search_4d());
         if (!search || *search == estimation::InverterMethod::k2d)
@@ -181,7 +181,7 @@ class MapsServiceImpl final : public pb::MapsService::Service {
       o.out = files.resolve("out_dir", request->out_dir(), true);
       o.statistics_mask = files.resolve("statistics_mask_file", request->statistics_mask_file(), false);
       if (request->prior_sigma_log10() != 0) o.import.prior_sigma_log10 = request->prior_sigma_log10();
-      const auto s = estimation::import_maps_to_files(o);
+      const auto s = maps::import_maps_to_files(o);
       to_proto(s.result.mapped_2d.stats, response->mutable_mapped_2d());
       to_proto(s.result.augmented.stats, response->mutable_augmented());
       to_proto(s.result.search_4d.stats, response->mutable_search_4d());
@@ -196,7 +196,7 @@ class MapsServiceImpl final : public pb::MapsService::Service {
                         pb::ExportProfilesResponse* response) override {
     return run(context, [&] {
       const Files files(daemon_, request->session_id());
-      estimation::ExportProfilesOptions o;
+      maps::ExportProfilesOptions o;
       o.illuminant = illuminant_field(files, request->illuminant(), "D65");
       o.out = files.resolve("out_dir", request->out_dir(), true);
       o.maps = files.resolve("maps_file", request->maps_file(), false);
@@ -205,7 +205,7 @@ class MapsServiceImpl final : public pb::MapsService::Service {
       if (request->bm_size() > 0) o.axes.bm.assign(request->bm().begin(), request->bm().end());
       if (request->che_size() > 0) o.axes.che.assign(request->che().begin(), request->che().end());
       if (o.axes.entry_count() > 100000) throw Refusal{{StatusCode::INVALID_ARGUMENT, "cm, ch, bm, che: more than 100000 profiles"}};
-      const auto s = estimation::export_profiles_to_files(o);
+      const auto s = maps::export_profiles_to_files(o);
       response->set_entries(s.entries), response->set_radii(s.radii);
       response->set_worst_plane_integral_error(s.worst_plane_integral_error);
       response->set_unmapped_pixels(s.unmapped_pixels);

@@ -3,7 +3,7 @@
 #include <chrono>
 
 #include "chromo/calibration/led_library_io.hpp"
-#include "chromo/daemon/image_files.hpp"
+#include "chromo/session/frame_files.hpp"
 #include "chromo/spectral/table.hpp"
 
 namespace chromo::daemon {
@@ -14,36 +14,6 @@ bool OnlineEstimatorOptions::IsValid(std::string* error) const {
     return false;
   }
   return estimation.estimator.IsValid(error) && estimation.grid.IsValid(error);
-}
-
-CaptureSources resolve_capture_sources(const std::string& led_library, const std::string& camera,
-                                       double white_reflectance) {
-  CaptureSources sources;
-  try {
-    std::filesystem::path path = led_library;
-    if (path.empty()) path = calibration::latest_led_library_path();
-    if (path.empty()) {
-      sources.led_library = calibration::nominal_led_library();
-      sources.led_library_source = "nominal (built-in; no measured library in " +
-                                   calibration::led_library_directory().string() + ")";
-    } else {
-      sources.led_library = calibration::load_led_library(path);
-      sources.led_library_source = path.string();
-    }
-  } catch (const spectral::DataError& error) {
-    throw std::invalid_argument(std::string("estimation.led_library: ") + error.what());
-  }
-  try {
-    sources.camera = camera.rfind("builtin:", 0) == 0 ? spectral::builtin_camera(camera.substr(8))
-                                                      : spectral::read_camera_sensitivity(camera);
-  } catch (const std::exception& error) {
-    throw std::invalid_argument("estimation.camera_sensitivity: " + camera + ": " + error.what());
-  }
-  sources.camera_source = camera;
-  if (!(white_reflectance > 0 && white_reflectance <= 1))
-    throw std::invalid_argument("estimation.white_reflectance: must be in (0, 1]");
-  sources.white_reflectance = white_reflectance;
-  return sources;
 }
 
 std::unique_ptr<OnlineEstimator> make_online_estimator(const EstimationConfig& config, files::StorageBudget* budget,
@@ -58,7 +28,7 @@ std::unique_ptr<OnlineEstimator> make_online_estimator(const EstimationConfig& c
   options.sources = [config, daemon_led_library] {
     std::string library = config.led_library;
     if (library.empty() && daemon_led_library) library = daemon_led_library();
-    return resolve_capture_sources(library, config.camera_sensitivity, config.white_reflectance);
+    return session::resolve_capture_sources(library, config.camera_sensitivity, config.white_reflectance);
   };
   options.budget = budget;
   return std::make_unique<OnlineEstimator>(std::move(options));
@@ -80,7 +50,7 @@ void OnlineEstimator::begin_session(const SessionStart& start) {
   read_back_ = 0;
   try {
     sources_ = options_.sources();
-    builder_ = std::make_unique<SessionCaptureBuilder>(plan_from_json(start.plan), *sources_);
+    builder_ = std::make_unique<session::SessionCaptureBuilder>(session::plan_from_json(start.plan), *sources_);
   } catch (const std::exception& e) {
     error_ = e.what();
   }
@@ -89,14 +59,14 @@ void OnlineEstimator::begin_session(const SessionStart& start) {
 void OnlineEstimator::consume(const CapturedFrame& captured, const StoredFrame& stored) {
   if (!builder_ || !error_.empty() || result_) return;
   try {
-    builder_->add_frame(captured.step, captured.camera, pixel_format_name(captured.frame.pixel_format),
+    builder_->add_frame(captured.step, captured.camera, session::pixel_format_name(captured.frame.pixel_format),
                         captured.frame.width, captured.frame.height, captured.frame.data,
                         captured.metadata.value("led", nlohmann::json::object()));
     consumed_.insert(stored.index);
     if (!table_prepared_ && builder_->references_complete()) {
       // The subject is not captured yet: build (or load) the table now.
       const auto t = std::chrono::steady_clock::now();
-      const auto set = estimation::method_set_from_references(builder_->captures());
+      const auto set = session::method_set_from_references(builder_->captures());
       const auto& e = options_.estimation;
       auto table = estimation::ForwardTable::load_or_build(
           set, e.grid, e.cache_dir.empty() ? estimation::ForwardTable::default_cache_dir() : e.cache_dir, nullptr,
@@ -136,7 +106,7 @@ void OnlineEstimator::estimate_now() {
     callbacks.progress = [this](std::size_t done, std::size_t total) {
       session_.progress(total ? static_cast<double>(done) / static_cast<double>(total) : 1.0, "estimating maps");
     };
-  result_ = estimation::estimate_method_captures(
+  result_ = maps::estimate_method_captures(
       captures, options_.estimation, results,
       [this](const std::filesystem::path& path, const std::function<void(const std::filesystem::path&)>& produce) {
         files::commit_file_durably(path, options_.budget, produce);
@@ -154,7 +124,7 @@ nlohmann::json OnlineEstimator::end_session(const SessionEnd& end) {
   if (error_.empty() && !result_) {
     // Catch up: the frames the pipeline skipped are in storage.
     try {
-      read_back_ = add_stored_frames(*builder_, session_.folder, consumed_);
+      read_back_ = session::add_stored_frames(*builder_, session_.folder, consumed_);
       if (!builder_->complete()) {
         error_ = "frames missing: " + builder_->missing();
       } else {

@@ -4,32 +4,6 @@
 
 namespace chromo::daemon {
 
-std::string state_name(OperationState state) {
-  switch (state) {
-    case OperationState::kPending: return "pending";
-    case OperationState::kRunning: return "running";
-    case OperationState::kPaused: return "paused";
-    case OperationState::kSucceeded: return "succeeded";
-    case OperationState::kFailed: return "failed";
-    case OperationState::kCancelled: return "cancelled";
-    case OperationState::kInterrupted: return "interrupted";
-  }
-  return "unknown";
-}
-
-std::optional<OperationState> parse_state(const std::string& name) {
-  for (auto state : {OperationState::kPending, OperationState::kRunning, OperationState::kPaused,
-                     OperationState::kSucceeded, OperationState::kFailed, OperationState::kCancelled,
-                     OperationState::kInterrupted})
-    if (state_name(state) == name) return state;
-  return std::nullopt;
-}
-
-bool is_final(OperationState state) {
-  return state == OperationState::kSucceeded || state == OperationState::kFailed ||
-         state == OperationState::kCancelled || state == OperationState::kInterrupted;
-}
-
 void OperationControl::request_cancel() {
   std::lock_guard lock(mutex_);
   cancel_ = true;
@@ -100,7 +74,7 @@ void EventBus::publish(Event event) {
   }
 }
 
-std::shared_ptr<OperationControl> OperationRegistry::add(OperationRecord record) {
+std::shared_ptr<OperationControl> OperationRegistry::add(session::OperationRecord record) {
   auto control = std::make_shared<OperationControl>();
   Event event;
   {
@@ -116,13 +90,13 @@ std::shared_ptr<OperationControl> OperationRegistry::add(OperationRecord record)
   return control;
 }
 
-void OperationRegistry::add_past(OperationRecord record) {
+void OperationRegistry::add_past(session::OperationRecord record) {
   std::lock_guard lock(mutex_);
   auto id = record.id;
   entries_[id] = Entry{std::move(record), nullptr, 1};
 }
 
-void OperationRegistry::update(const std::string& id, const std::function<void(OperationRecord&)>& change) {
+void OperationRegistry::update(const std::string& id, const std::function<void(session::OperationRecord&)>& change) {
   Event event;
   {
     std::lock_guard lock(mutex_);
@@ -138,7 +112,7 @@ void OperationRegistry::update(const std::string& id, const std::function<void(O
   events_.publish(std::move(event));
 }
 
-std::optional<OperationRecord> OperationRegistry::get(const std::string& id) const {
+std::optional<session::OperationRecord> OperationRegistry::get(const std::string& id) const {
   std::lock_guard lock(mutex_);
   auto entry = entries_.find(id);
   if (entry == entries_.end()) return std::nullopt;
@@ -151,8 +125,8 @@ std::shared_ptr<OperationControl> OperationRegistry::control(const std::string& 
   return entry == entries_.end() ? nullptr : entry->second.control;
 }
 
-std::vector<OperationRecord> OperationRegistry::list() const {
-  std::vector<OperationRecord> records;
+std::vector<session::OperationRecord> OperationRegistry::list() const {
+  std::vector<session::OperationRecord> records;
   {
     std::lock_guard lock(mutex_);
     for (const auto& [id, entry] : entries_) records.push_back(entry.record);
@@ -163,7 +137,7 @@ std::vector<OperationRecord> OperationRegistry::list() const {
   return records;
 }
 
-std::optional<std::pair<OperationRecord, std::uint64_t>> OperationRegistry::wait_change(
+std::optional<std::pair<session::OperationRecord, std::uint64_t>> OperationRegistry::wait_change(
     const std::string& id, std::uint64_t seen_version, std::chrono::milliseconds timeout) const {
   std::unique_lock lock(mutex_);
   auto current = [&]() -> const Entry* {
@@ -181,7 +155,7 @@ std::optional<std::pair<OperationRecord, std::uint64_t>> OperationRegistry::wait
 
 bool OperationRegistry::any_active() const {
   std::lock_guard lock(mutex_);
-  return std::any_of(entries_.begin(), entries_.end(), [](const auto& item) { return !is_final(item.second.record.state); });
+  return std::any_of(entries_.begin(), entries_.end(), [](const auto& item) { return !session::is_final(item.second.record.state); });
 }
 
 }  // namespace chromo::daemon

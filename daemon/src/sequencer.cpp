@@ -58,28 +58,28 @@ class Run {
     start_ = std::chrono::steady_clock::now();
     expected_ = c_.plan.frames_per_camera_total() * c_.cameras.size();
     try {
-      set_state(OperationState::kRunning, "starting");
+      set_state(session::OperationState::kRunning, "starting");
       create_collectors();
       SequencerOutcome outcome = steps();
       finish_devices();
       return outcome;
     } catch (const std::exception& error) {
       finish_devices();
-      return {OperationState::kFailed, error.what()};
+      return {session::OperationState::kFailed, error.what()};
     }
   }
 
  private:
   SequencerOutcome steps() {
-    const bool hardware = c_.plan.timing == Timing::kHardware;
+    const bool hardware = c_.plan.timing == session::Timing::kHardware;
     // Controllers keep their output stage off until told (the LED state is
     // applied but nothing is emitted): switch it on for the session.
     if (!with_led("set_output_enabled", [](drivers::LedController& device) { device.set_output_enabled(true); }))
       return cancelled();
     if (hardware && !arm_from(0, 0)) return cancelled();
     for (std::size_t index = 0; index < c_.plan.steps.size(); ++index) {
-      const Step& step = c_.plan.steps[index];
-      update([&](OperationRecord& r) {
+      const session::Step& step = c_.plan.steps[index];
+      update([&](session::OperationRecord& r) {
         r.step_index = static_cast<int>(index);
         r.message = "step " + step.name;
       });
@@ -112,29 +112,29 @@ class Run {
              {"sequence_position", status.sequence_position}};
       c_.journal->append({{"type", "step_started"}, {"step", step.name}, {"index", index}, {"led", led},
                           {"exposure_us", step.exposure_us}, {"settle_ms", step.settle_ms},
-                          {"timing", timing_name(c_.plan.timing)}});
+                          {"timing", session::timing_name(c_.plan.timing)}});
       if (!c_.control->sleep_unless_cancelled(std::chrono::milliseconds(step.settle_ms))) return cancelled();
       if (!ensure_exposure(step.exposure_us)) return cancelled();
       for (std::uint32_t frame = 0; frame < step.frames_per_camera; ++frame) {
         if (c_.control->cancel_requested()) return cancelled();
         nlohmann::json metadata{{"exposure_us", step.exposure_us}, {"led", led}, {"frame_in_step", frame},
-                                {"role", role_name(step.role)}};
+                                {"role", session::role_name(step.role)}};
         if (!take_frame(step, static_cast<int>(index), frame, metadata)) return cancelled();
-        if (auto error = c_.pipeline->storage_error(); !error.empty()) return {OperationState::kFailed, error};
+        if (auto error = c_.pipeline->storage_error(); !error.empty()) return {session::OperationState::kFailed, error};
         frames_done_ += c_.cameras.size();
         report_progress();
       }
       c_.pipeline->drain();
-      if (auto error = c_.pipeline->storage_error(); !error.empty()) return {OperationState::kFailed, error};
+      if (auto error = c_.pipeline->storage_error(); !error.empty()) return {session::OperationState::kFailed, error};
       c_.journal->append({{"type", "step_completed"}, {"step", step.name}, {"index", index},
                           {"frames", step.frames_per_camera * c_.cameras.size()}});
     }
-    return {OperationState::kSucceeded, ""};
+    return {session::OperationState::kSucceeded, ""};
   }
 
   // Triggers every camera and waits for one complete frame from each;
   // retries failed frames. False when cancelled.
-  bool take_frame(const Step& step, int index, std::uint32_t frame_in_step, const nlohmann::json& metadata) {
+  bool take_frame(const session::Step& step, int index, std::uint32_t frame_in_step, const nlohmann::json& metadata) {
     for (auto& collector : collectors_) {
       std::uint32_t attempts = 0;
       while (true) {
@@ -175,7 +175,7 @@ class Run {
         }
         report_progress();
         if (++attempts < c_.frame_attempts) {
-          if (c_.plan.timing == Timing::kHardware && !arm_from(static_cast<std::size_t>(index), frame_in_step)) return false;
+          if (c_.plan.timing == session::Timing::kHardware && !arm_from(static_cast<std::size_t>(index), frame_in_step)) return false;
           continue;
         }
         c_.control->pause_by_daemon();
@@ -183,7 +183,7 @@ class Run {
                          std::to_string(attempts) + " attempts (last: " + failure + "); resume to retry"))
           return false;
         attempts = 0;
-        if (c_.plan.timing == Timing::kHardware && !arm_from(static_cast<std::size_t>(index), frame_in_step)) return false;
+        if (c_.plan.timing == session::Timing::kHardware && !arm_from(static_cast<std::size_t>(index), frame_in_step)) return false;
       }
     }
     return true;
@@ -228,20 +228,20 @@ class Run {
   }
 
   bool pause_point(const std::string& message) {
-    set_state(OperationState::kPaused, message);
+    set_state(session::OperationState::kPaused, message);
     c_.journal->append({{"type", "state"}, {"state", "paused"}, {"message", message}});
     bool resumed = c_.control->wait_while_paused();
     if (!resumed) return false;
-    set_state(OperationState::kRunning, "resumed");
+    set_state(session::OperationState::kRunning, "resumed");
     c_.journal->append({{"type", "state"}, {"state", "running"}, {"message", "resumed"}});
     return true;
   }
 
-  DriveLevels resolve(const Step& step) {
+  DriveLevels resolve(const session::Step& step) {
     switch (step.illumination.kind) {
-      case Illumination::Kind::kDark: return DriveLevels{};
-      case Illumination::Kind::kWeights: return step.illumination.weights;
-      case Illumination::Kind::kMix: return c_.resolve_mix(step.illumination.mix);
+      case session::Illumination::Kind::kDark: return DriveLevels{};
+      case session::Illumination::Kind::kWeights: return step.illumination.weights;
+      case session::Illumination::Kind::kMix: return c_.resolve_mix(step.illumination.mix);
     }
     return DriveLevels{};
   }
@@ -354,7 +354,7 @@ class Run {
     if (c_.led && c_.led->device) {
       try {
         std::lock_guard lock(c_.led->mutex);
-        if (c_.plan.timing == Timing::kHardware) c_.led->device->disarm_sequence();
+        if (c_.plan.timing == session::Timing::kHardware) c_.led->device->disarm_sequence();
         c_.led->device->set_state(LedState{});
       } catch (const std::exception&) {
         // The controller is gone; nothing more to switch off from here.
@@ -363,26 +363,26 @@ class Run {
     c_.pipeline->drain();
   }
 
-  SequencerOutcome cancelled() { return {OperationState::kCancelled, ""}; }
+  SequencerOutcome cancelled() { return {session::OperationState::kCancelled, ""}; }
 
   void report_progress() {
     auto elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
     double progress = expected_ ? static_cast<double>(frames_done_) / static_cast<double>(expected_) : 1.0;
-    update([&](OperationRecord& r) {
+    update([&](session::OperationRecord& r) {
       r.progress = progress;
       r.eta_seconds = progress > 0 ? elapsed * (1 - progress) / progress : -1;
       r.counters = c_.pipeline->counters();
     });
   }
 
-  void set_state(OperationState state, const std::string& message) {
-    update([&](OperationRecord& r) {
+  void set_state(session::OperationState state, const std::string& message) {
+    update([&](session::OperationRecord& r) {
       r.state = state;
       r.message = message;
     });
   }
 
-  void update(const std::function<void(OperationRecord&)>& change) { c_.operations->update(c_.id, change); }
+  void update(const std::function<void(session::OperationRecord&)>& change) { c_.operations->update(c_.id, change); }
 
   SequencerContext& c_;
   std::vector<std::unique_ptr<CameraCollector>> collectors_;

@@ -23,6 +23,10 @@
 
 namespace chromo::daemon {
 
+// The plan and drive-level conversions (chromo/proto/plan_messages.hpp) join the daemon's own.
+using proto::from_proto;
+using proto::to_proto;
+
 namespace pb = chromosphere::v1;
 using grpc::ServerContext;
 using grpc::Status;
@@ -82,7 +86,7 @@ class Guard {
 Status check_id(const std::string& field, const std::string& id) {
   if (id.empty()) return invalid(field + ": required");
   if (id.size() > 128) return invalid(field + ": longer than 128 bytes");
-  if (!is_valid_name(id) && id.size() <= kMaxNameBytes) return invalid(field + ": not an id ([A-Za-z0-9_+.-])");
+  if (!session::is_valid_name(id) && id.size() <= session::kMaxNameBytes) return invalid(field + ": not an id ([A-Za-z0-9_+.-])");
   for (char c : id)
     if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '+' || c == '.' || c == '-'))
       return invalid(field + ": not an id ([A-Za-z0-9_+.-])");
@@ -168,8 +172,8 @@ class OperationServiceImpl final : public pb::OperationService::Service {
       if (!pb::OperationKind_IsValid(request->kind())) return invalid("kind: unknown value");
       std::uint32_t count = 0;
       for (const auto& record : daemon_.operations().list()) {
-        if (request->kind() == pb::OPERATION_KIND_SESSION && record.kind != OperationKind::kSession) continue;
-        if (request->kind() == pb::OPERATION_KIND_CALIBRATION && record.kind != OperationKind::kCalibration) continue;
+        if (request->kind() == pb::OPERATION_KIND_SESSION && record.kind != session::OperationKind::kSession) continue;
+        if (request->kind() == pb::OPERATION_KIND_CALIBRATION && record.kind != session::OperationKind::kCalibration) continue;
         if (request->limit() && count++ >= request->limit()) break;
         to_proto(record, response->add_operations());
       }
@@ -191,7 +195,7 @@ class OperationServiceImpl final : public pb::OperationService::Service {
         pb::Operation operation;
         to_proto(change->first, &operation);
         if (!writer->Write(operation)) break;
-        if (is_final(change->first.state)) break;
+        if (session::is_final(change->first.state)) break;
       }
       return Status::OK;
     });
@@ -214,8 +218,8 @@ class OperationServiceImpl final : public pb::OperationService::Service {
       auto record = daemon_.operations().get(id);
       if (!record) return Status(StatusCode::NOT_FOUND, "id: no operation \"" + id + "\"");
       auto control = daemon_.operations().control(id);
-      if (!control || is_final(record->state))
-        return Status(StatusCode::FAILED_PRECONDITION, "id: operation \"" + id + "\" has ended (" + state_name(record->state) + ")");
+      if (!control || session::is_final(record->state))
+        return Status(StatusCode::FAILED_PRECONDITION, "id: operation \"" + id + "\" has ended (" + session::state_name(record->state) + ")");
       action(*control);
       to_proto(*daemon_.operations().get(id), response);
       return Status::OK;
@@ -230,19 +234,19 @@ class SessionServiceImpl final : public pb::SessionService::Service {
   SessionServiceImpl(Daemon& daemon, Guard& guard) : daemon_(daemon), guard_(guard) {}
   Status StartSession(ServerContext* context, const pb::StartSessionRequest* request, pb::Operation* response) override {
     return guard_(context, [&] {
-      if (request->subject().size() > kMaxTextBytes) return invalid("subject: longer than 4096 bytes");
-      if (!request->name().empty() && !is_valid_name(request->name()))
+      if (request->subject().size() > session::kMaxTextBytes) return invalid("subject: longer than 4096 bytes");
+      if (!request->name().empty() && !session::is_valid_name(request->name()))
         return invalid("name: must match [A-Za-z0-9_+.-]{1,64}");
-      SessionPlan plan;
+      session::SessionPlan plan;
       if (request->plan_source_case() == pb::StartSessionRequest::kPlan) {
         if (Status s = from_proto(request->plan(), "plan", &plan); !s.ok()) return s;
       } else if (request->plan_source_case() == pb::StartSessionRequest::kStandard && request->standard()) {
-        StandardPlanOptions options;
+        session::StandardPlanOptions options;
         if (Status s = standard_options(request->timing(), request->exposure_us(), request->frames_per_camera(),
                                         request->operator_prompts(), &options);
             !s.ok())
           return s;
-        plan = standard_plan(options);
+        plan = session::standard_plan(options);
       } else {
         return invalid("plan_source: set standard = true or give a plan");
       }
@@ -253,12 +257,12 @@ class SessionServiceImpl final : public pb::SessionService::Service {
   }
   Status GetStandardPlan(ServerContext* context, const pb::GetStandardPlanRequest* request, pb::SessionPlan* response) override {
     return guard_(context, [&] {
-      StandardPlanOptions options;
+      session::StandardPlanOptions options;
       if (Status s = standard_options(request->timing(), request->exposure_us(), request->frames_per_camera(),
                                       request->operator_prompts(), &options);
           !s.ok())
         return s;
-      to_proto(standard_plan(options), response);
+      to_proto(session::standard_plan(options), response);
       return Status::OK;
     });
   }
@@ -267,7 +271,7 @@ class SessionServiceImpl final : public pb::SessionService::Service {
       if (request->limit() > 10000) return invalid("limit: at most 10000");
       std::uint32_t count = 0;
       for (const auto& record : daemon_.operations().list()) {
-        if (record.kind != OperationKind::kSession) continue;
+        if (record.kind != session::OperationKind::kSession) continue;
         if (request->limit() && count++ >= request->limit()) break;
         auto* summary = response->add_sessions();
         summary->set_id(record.id);
@@ -289,15 +293,15 @@ class SessionServiceImpl final : public pb::SessionService::Service {
   }
 
  private:
-  static Status standard_options(int timing, double exposure_us, std::uint32_t frames, bool prompts, StandardPlanOptions* options) {
+  static Status standard_options(int timing, double exposure_us, std::uint32_t frames, bool prompts, session::StandardPlanOptions* options) {
     if (!pb::Timing_IsValid(timing)) return invalid("timing: unknown value " + std::to_string(timing));
-    options->timing = timing == pb::TIMING_HARDWARE ? Timing::kHardware : Timing::kSoftware;
+    options->timing = timing == pb::TIMING_HARDWARE ? session::Timing::kHardware : session::Timing::kSoftware;
     if (exposure_us != 0) {
-      if (!(exposure_us > 0 && exposure_us <= kMaxExposureUs)) return invalid("exposure_us: must be in (0, 10000000]");
+      if (!(exposure_us > 0 && exposure_us <= session::kMaxExposureUs)) return invalid("exposure_us: must be in (0, 10000000]");
       options->exposure_us = exposure_us;
     }
     if (frames != 0) {
-      if (frames > kMaxFramesPerCamera) return invalid("frames_per_camera: must be in [1, 1000]");
+      if (frames > session::kMaxFramesPerCamera) return invalid("frames_per_camera: must be in [1, 1000]");
       options->frames_per_camera = frames;
     }
     options->operator_prompts = prompts;

@@ -3,7 +3,7 @@
 #include <atomic>
 #include <stdexcept>
 
-#include "chromo/daemon/image_files.hpp"
+#include "chromo/session/frame_files.hpp"
 #include "chromo/drivers/spectrometer_factory.hpp"
 #include "chromo/simulators/calibration_lab.hpp"
 #include "chromo/simulators/camera/camera_simulator.hpp"
@@ -76,9 +76,9 @@ simulators::LedLab& VirtualLabSimulators::leds() { return impl_->lab.lab(); }
 simulators::CameraSimulator& VirtualLabSimulators::camera() { return *impl_->camera; }
 simulators::CalibrationLab& VirtualLabSimulators::calibration_lab() { return impl_->lab; }
 
-void VirtualLabSimulators::place_in_sphere(StepRole role) {
-  if (role == StepRole::kDark) return;
-  const bool white = role == StepRole::kWhite;
+void VirtualLabSimulators::place_in_sphere(session::StepRole role) {
+  if (role == session::StepRole::kDark) return;
+  const bool white = role == session::StepRole::kWhite;
   if (impl_->white_shown.exchange(white) == white) return;
   impl_->camera->set_scene(white ? impl_->white : impl_->skin);
 }
@@ -106,7 +106,7 @@ VirtualLab start_virtual_lab(const VirtualLabOptions& options) {
   });
   lab.device_set = registry.open(lab.devices);
   lab.device_set.keep_alive.push_back(simulators);
-  lab.device_set.place_in_sphere = [raw = simulators.get()](StepRole role) { raw->place_in_sphere(role); };
+  lab.device_set.place_in_sphere = [raw = simulators.get()](session::StepRole role) { raw->place_in_sphere(role); };
   lab.device_set.reference_lamp = [raw = simulators.get()](bool on) { raw->calibration_lab().lamp().set_on(on); };
   lab.device_set.lab_time_scale = options.led_time_scale;
   lab.mixes = default_virtual_lab_mixes();

@@ -8,7 +8,7 @@
 #include <limits>
 #include <stdexcept>
 
-#include "chromo/estimation/lab_illuminants.hpp"
+#include "chromo/spectral/lab_illuminants.hpp"
 #include "chromo/estimation/skin_model.hpp"
 #include "chromo/spectral/cie.hpp"
 #include "chromo/spectral/delta_e.hpp"
@@ -56,7 +56,7 @@ std::array<double, spectral::kGridSize> spectral_weights(const SpectrumFitOption
   // The reporting illuminants' mean relative power (D65, A, six LED types, each to unit sum).
   spectral::Spectrum power = spectral::illuminant_d65() / spectral::illuminant_d65().values().sum() +
                              spectral::illuminant_a() / spectral::illuminant_a().values().sum();
-  for (spectral::LedType t : spectral::kAllLedTypes) power = power + led_spectrum(t) / led_spectrum(t).values().sum();
+  for (spectral::LedType t : spectral::kAllLedTypes) power = power + spectral::led_spectrum(t) / spectral::led_spectrum(t).values().sum();
   const spectral::Observer& o = spectral::cie1931_observer();
   std::array<double, spectral::kGridSize> w{};
   double sum_squares = 0;
@@ -179,7 +179,7 @@ SpectrumFitResult fit_spectrum(const spectral::Spectrum& measured, const Spectru
   best.de94_d65 = de(spectral::illuminant_d65());
   best.de94_a = de(spectral::illuminant_a());
   for (int i = 0; i < spectral::kLedTypeCount; ++i) {
-    best.de94_led[i] = de(led_spectrum(spectral::kAllLedTypes[i]));
+    best.de94_led[i] = de(spectral::led_spectrum(spectral::kAllLedTypes[i]));
     best.de94_led_mean += best.de94_led[i] / spectral::kLedTypeCount;
   }
   return best;

@@ -6,17 +6,22 @@
 #include <random>
 #include <stdexcept>
 
-#include "chromo/estimation/image_files.hpp"
-#include "chromo/estimation/lab_illuminants.hpp"
-#include "chromo/estimation/map_panels.hpp"
+#include "chromo/files/float_image.hpp"
+#include "chromo/spectral/lab_illuminants.hpp"
 #include "chromo/estimation/measurement.hpp"
-#include "chromo/estimation/output_batch.hpp"
-#include "chromo/estimation/synthetic.hpp"
+#include "chromo/files/output_batch.hpp"
+#include "chromo/simulators/scene/synthetic.hpp"
 #include "chromo/simulators/scene/scene.hpp"
 #include "chromo/spectral/camera.hpp"
 #include "chromo/spectral/grid.hpp"
 
 namespace chromo::simulators {
+
+namespace {
+void write_png(const std::string& path, const cv::Mat& image) {
+  if (!cv::imwrite(path, image)) throw std::runtime_error(path + ": cannot write PNG");
+}
+}  // namespace
 
 void write_external_maps_scene(const std::filesystem::path& directory, const ExternalMapsSceneOptions& options) {
   if (!(options.camera_noise_scale >= 0) || !(options.map_noise_fraction >= 0))
@@ -28,10 +33,10 @@ void write_external_maps_scene(const std::filesystem::path& directory, const Ext
   const int w = scene.width(), h = scene.height();
   const std::size_t pixels = static_cast<std::size_t>(w) * h;
 
-  estimation::CameraNoiseModel camera_noise;
+  CameraNoiseModel camera_noise;
   camera_noise.noise_scale = options.camera_noise_scale;
-  const spectral::Spectrum d65_prime = estimation::led_d65_metamer();
-  const spectral::Spectrum blue = estimation::led_spectrum(spectral::LedType::kBlue);
+  const spectral::Spectrum d65_prime = spectral::led_d65_metamer();
+  const spectral::Spectrum blue = spectral::led_spectrum(spectral::LedType::kBlue);
   const estimation::MeasurementSet set = estimation::method_measurement_set(
       spectral::builtin_camera("nikon_d5100"), d65_prime, blue, camera_noise.channel_noise());
   const cv::Mat rendered = scene.render(set.weights());  // CV_32FC4: R, G, B under D65', B under blue
@@ -42,15 +47,15 @@ void write_external_maps_scene(const std::filesystem::path& directory, const Ext
     return static_cast<float>(options.camera_noise_scale > 0 ? albedo + std::sqrt(noise.variance(albedo)) * gauss(rng)
                                                              : albedo);
   };
-  estimation::FloatImage broadband{w, h, {"R", "G", "B"}, std::vector<std::vector<float>>(3, std::vector<float>(pixels))};
-  estimation::FloatImage blue_only{w, h, {"B"}, std::vector<std::vector<float>>(1, std::vector<float>(pixels))};
+  files::FloatImage broadband{w, h, {"R", "G", "B"}, std::vector<std::vector<float>>(3, std::vector<float>(pixels))};
+  files::FloatImage blue_only{w, h, {"B"}, std::vector<std::vector<float>>(1, std::vector<float>(pixels))};
   for (std::size_t i = 0; i < pixels; ++i) {
     const cv::Vec4f v = rendered.at<cv::Vec4f>(static_cast<int>(i));
     for (int c = 0; c < 3; ++c) broadband.channels[c][i] = noisy(v[c], set.channels[c].noise);
     blue_only.channels[0][i] = noisy(v[3], set.channels[3].noise);
   }
 
-  estimation::FloatImage truth{w, h, {"Cm", "Ch", "Bm", "Che", "flags", "region"},
+  files::FloatImage truth{w, h, {"Cm", "Ch", "Bm", "Che", "flags", "region"},
                                std::vector<std::vector<float>>(6, std::vector<float>(pixels, 0.0f))};
   cv::Mat melanin(h, w, CV_16U), hemoglobin(h, w, CV_16U), skin(h, w, CV_8U);
   auto to_u16 = [](double v) { return static_cast<std::uint16_t>(std::lround(std::clamp(v, 0.0, 65535.0))); };
@@ -77,7 +82,7 @@ void write_external_maps_scene(const std::filesystem::path& directory, const Ext
   // The file states the camera's nominal noise even for noise-free data (the
   // estimator weighs channels by it).
   const estimation::MeasurementSet nominal = estimation::method_measurement_set(
-      set.camera, d65_prime, blue, estimation::CameraNoiseModel{}.channel_noise());
+      set.camera, d65_prime, blue, CameraNoiseModel{}.channel_noise());
   const auto& noise = nominal.channels[0].noise;
   const std::string measurement =
       "{\n  \"camera\": \"builtin:nikon_d5100\",\n  \"noise\": {\"read_sigma\": " + std::to_string(noise.read_sigma) +
@@ -88,13 +93,13 @@ void write_external_maps_scene(const std::filesystem::path& directory, const Ext
       "\"blue.csv\", \"channels\": [\"B\"], \"noise\": {\"read_sigma\": " +
       std::to_string(nominal.channels[3].noise.read_sigma) + "}}\n  ]\n}\n";
 
-  estimation::OutputBatch files(directory);
-  estimation::write_exr(files.temporary("d65prime.exr"), broadband);
-  estimation::write_exr(files.temporary("blue.exr"), blue_only);
-  estimation::write_exr(files.temporary("truth.exr"), truth);
-  estimation::write_png(files.temporary("melanin.png").string(), melanin);
-  estimation::write_png(files.temporary("hemoglobin.png").string(), hemoglobin);
-  estimation::write_png(files.temporary("skin_mask.png").string(), skin);
+  files::OutputBatch files(directory);
+  files::write_exr(files.temporary("d65prime.exr"), broadband);
+  files::write_exr(files.temporary("blue.exr"), blue_only);
+  files::write_exr(files.temporary("truth.exr"), truth);
+  write_png(files.temporary("melanin.png").string(), melanin);
+  write_png(files.temporary("hemoglobin.png").string(), hemoglobin);
+  write_png(files.temporary("skin_mask.png").string(), skin);
   files.write_text("d65prime.csv", spectrum_csv(d65_prime));
   files.write_text("blue.csv", spectrum_csv(blue));
   files.write_text("MEASUREMENT.json", measurement);

@@ -18,7 +18,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "chromo/estimation/lab_illuminants.hpp"
+#include "chromo/spectral/lab_illuminants.hpp"
 #include "chromo/estimation/measurement.hpp"
 #include "chromo/estimation/skin_model.hpp"
 #include "chromo/spectral/grid.hpp"
@@ -60,8 +60,8 @@ class EstimateCommand : public ::testing::Test {
     fs::remove_all(dir);
     fs::create_directories(dir);
     estimation::MeasurementSet set = estimation::method_measurement_set(
-        spectral::builtin_camera("nikon_d5100"), estimation::led_d65_metamer(),
-        estimation::led_spectrum(spectral::LedType::kBlue));
+        spectral::builtin_camera("nikon_d5100"), spectral::led_d65_metamer(),
+        spectral::led_spectrum(spectral::LedType::kBlue));
     // Smooth parameter maps (registration needs structure), noise-free.
     const int pixels = kWidth * kHeight;
     truth.resize(pixels);

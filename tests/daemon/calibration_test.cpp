@@ -33,14 +33,14 @@ TEST(Calibration, RunMeasuresALibraryTheSolverThenUsesAndARestartFinds) {
     EXPECT_EQ(daemon->resolve_mix("d65"), lab.config.mixes["d65"]);
 
     auto started = daemon->start_calibration(quick_request());
-    EXPECT_EQ(started.kind, OperationKind::kCalibration);
+    EXPECT_EQ(started.kind, session::OperationKind::kCalibration);
     EXPECT_THROW(daemon->start_session(testing::quick_standard_plan(), ""), std::logic_error);  // one at a time
     // Progress and an estimate of the time left while it runs.
-    auto midway = wait_for(*daemon, started.id, [](const OperationRecord& r) { return r.progress > 0.3; });
+    auto midway = wait_for(*daemon, started.id, [](const session::OperationRecord& r) { return r.progress > 0.3; });
     EXPECT_GT(midway.eta_seconds, 0.0);
     EXPECT_FALSE(midway.message.empty());
     auto final = wait_final(*daemon, started.id);
-    ASSERT_EQ(final.state, OperationState::kSucceeded) << final.error << " / " << final.message;
+    ASSERT_EQ(final.state, session::OperationState::kSucceeded) << final.error << " / " << final.message;
     EXPECT_DOUBLE_EQ(final.progress, 1.0);
     id = started.id;
 
@@ -78,8 +78,8 @@ TEST(Calibration, RunMeasuresALibraryTheSolverThenUsesAndARestartFinds) {
   auto daemon = lab.daemon();
   auto record = daemon->operations().get(id);
   ASSERT_TRUE(record);
-  EXPECT_EQ(record->state, OperationState::kSucceeded);
-  EXPECT_EQ(record->kind, OperationKind::kCalibration);
+  EXPECT_EQ(record->state, session::OperationState::kSucceeded);
+  EXPECT_EQ(record->kind, session::OperationKind::kCalibration);
   EXPECT_EQ(daemon->calibrations().library_path(), library);
   EXPECT_EQ(daemon->resolve_mix("d65"), d65);
 }
@@ -106,10 +106,10 @@ TEST(Calibration, CancelEndsTheRunWithoutALibraryAndInvalidRequestsNameTheField)
   request.spectrometer.clear();
   request.warmup_ms = 1000;
   auto started = daemon->start_calibration(request);
-  wait_for(*daemon, started.id, [](const OperationRecord& r) { return r.progress > 0.05; });
+  wait_for(*daemon, started.id, [](const session::OperationRecord& r) { return r.progress > 0.05; });
   daemon->operations().control(started.id)->request_cancel();
   auto final = wait_final(*daemon, started.id);
-  EXPECT_EQ(final.state, OperationState::kCancelled);
+  EXPECT_EQ(final.state, session::OperationState::kCancelled);
   EXPECT_FALSE(std::filesystem::exists(std::filesystem::path(final.folder) / "led-library.json"));
   EXPECT_EQ(daemon->calibrations().library_path(), "");
   std::ifstream in(std::filesystem::path(final.folder) / "calibration.json");

@@ -45,7 +45,7 @@ TEST(ChromoSimDaemon, ConfiguredRealBackendsRunASessionAgainstChromoSim) {
     EXPECT_EQ(reports[1].info["serial"], "CHROMO-SIMDMN");
     auto started = daemon.start_session(testing::quick_standard_plan(1, 2000), "chromo-sim");
     auto final = testing::wait_final(daemon, started.id);
-    ASSERT_EQ(final.state, OperationState::kSucceeded) << final.error;
+    ASSERT_EQ(final.state, session::OperationState::kSucceeded) << final.error;
     EXPECT_EQ(final.counters.stored, 7u);
     auto info = daemon.session(started.id);
     const std::filesystem::path folder = final.folder;

@@ -12,8 +12,8 @@
 
 #include <grpcpp/grpcpp.h>
 
-#include "chromo/daemon/image_files.hpp"
-#include "chromo/daemon/session_store.hpp"
+#include "chromo/session/frame_files.hpp"
+#include "chromo/session/session_store.hpp"
 #include "chromosphere/v1/calibration.grpc.pb.h"
 #include "chromosphere/v1/operations.grpc.pb.h"
 #include "chromosphere/v1/sessions.grpc.pb.h"
@@ -111,13 +111,13 @@ TEST(Crash, KillNineMidSessionThenRestartReportsInterruptedAndTheFolderIsIntact)
   // Every acknowledged frame reads back in full.
   const std::filesystem::path folder = detail.summary().folder();
   for (const auto& frame : detail.frames()) {
-    auto image = read_tiff(folder / frame.file());
+    auto image = session::read_tiff(folder / frame.file());
     EXPECT_EQ(image.data.size(), static_cast<std::size_t>(image.width * image.height * 2)) << frame.file();
   }
   // No temporary files left, and the journal holds the interruption record.
   for (const auto& file : std::filesystem::recursive_directory_iterator(folder))
     EXPECT_EQ(file.path().string().find(".tmp-"), std::string::npos);
-  auto journal = read_journal(folder / "journal.jsonl");
+  auto journal = session::read_journal(folder / "journal.jsonl");
   EXPECT_EQ(journal.records.back()["state"], "interrupted");
 
   ::kill(pid, SIGTERM);

@@ -7,7 +7,7 @@
 #include <grpcpp/grpcpp.h>
 
 #include "chromo/daemon/server.hpp"
-#include "chromo/estimation/image_files.hpp"
+#include "chromo/files/float_image.hpp"
 #include "chromo/simulators/scene/external_maps_scene.hpp"
 #include "chromosphere/v1/maps.grpc.pb.h"
 #include "test_lab.hpp"
@@ -35,10 +35,10 @@ struct MapsApi : ::testing::Test {
     data = lab.directory / "data";
     fs::create_directories(data);
     const std::size_t n = 24 * 16;
-    estimation::FloatImage maps{24, 16, {"Cm", "Ch", "Bm", "Che", "flags"},
+    files::FloatImage maps{24, 16, {"Cm", "Ch", "Bm", "Che", "flags"},
                                 {std::vector<float>(n, 0.05f), std::vector<float>(n, 0.04f), std::vector<float>(n, 0.7f),
                                  std::vector<float>(n, 0.01f), std::vector<float>(n, 0.0f)}};
-    estimation::write_exr(data / "maps.exr", maps);
+    files::write_exr(data / "maps.exr", maps);
   }
   void TearDown() override { server->shutdown(); }
 };

@@ -10,8 +10,8 @@
 #include <fstream>
 
 #include "chromo/daemon/api_conversions.hpp"
-#include "chromo/estimation/image_files.hpp"
-#include "chromo/estimation/reconstruction.hpp"
+#include "chromo/files/float_image.hpp"
+#include "chromo/maps/reconstruction.hpp"
 #include "chromo/simulators/scene/scene.hpp"
 #include "chromo/spectral/cie.hpp"
 #include "chromosphere/v1/estimation.pb.h"
@@ -43,12 +43,12 @@ TEST(OnlineEstimationOnTheVirtualLab, CalibratedStandardSessionEndsInMapsThatMat
   calibration.drive_levels = {0.5, 1.0};
   calibration.warmup_ms = 100;
   auto calibrated = wait_final(*daemon, daemon->start_calibration(calibration).id);
-  ASSERT_EQ(calibrated.state, OperationState::kSucceeded) << calibrated.error;
+  ASSERT_EQ(calibrated.state, session::OperationState::kSucceeded) << calibrated.error;
 
   auto started = daemon->start_session(testing::quick_standard_plan(1, kExposureUs), "forearm");
-  auto final = wait_for(*daemon, started.id, [](const OperationRecord& r) { return is_final(r.state); },
+  auto final = wait_for(*daemon, started.id, [](const session::OperationRecord& r) { return session::is_final(r.state); },
                         std::chrono::seconds(120));
-  ASSERT_EQ(final.state, OperationState::kSucceeded) << final.error;
+  ASSERT_EQ(final.state, session::OperationState::kSucceeded) << final.error;
   EXPECT_EQ(final.counters.stored, 7u);
   EXPECT_EQ(final.counters.estimated, 7u);
 
@@ -67,7 +67,7 @@ TEST(OnlineEstimationOnTheVirtualLab, CalibratedStandardSessionEndsInMapsThatMat
   EXPECT_EQ(results.summary().relit_delta_e94().size(), 3);
 
   // Against the truth: the lab's scene (same options), resampled to the maps' grid.
-  const auto maps = estimation::read_exr(folder / "results" / "maps.exr");
+  const auto maps = files::read_exr(folder / "results" / "maps.exr");
   ASSERT_EQ(maps.width, 160);
   ASSERT_EQ(maps.height, 120);
   simulators::SkinSceneOptions scene_options;
@@ -100,7 +100,7 @@ TEST(OnlineEstimationOnTheVirtualLab, CalibratedStandardSessionEndsInMapsThatMat
     }
   ASSERT_GT(skin_pixels, 5000u);
   const auto relit =
-      estimation::delta_e_stats(estimation::relit_delta_e94(truth, estimate, spectral::illuminant_d65(), 1));
+      maps::delta_e_stats(maps::relit_delta_e94(truth, estimate, spectral::illuminant_d65(), 1));
   std::cout << "virtual lab session: skin " << skin_pixels << ", flagged " << flagged << "; relit ΔE94 (D65) vs truth mean "
             << relit.mean << " median " << relit.median << " p95 " << relit.p95 << "; estimate "
             << summary["timings_s"]["estimate"] << " s, " << summary["pixels_per_second"] << " pixels/s\n";
@@ -109,9 +109,9 @@ TEST(OnlineEstimationOnTheVirtualLab, CalibratedStandardSessionEndsInMapsThatMat
 
   // Too long an exposure clips the white reference: no maps, and the record says why.
   auto clipped = daemon->start_session(testing::quick_standard_plan(1, 12000), "forearm");
-  auto clipped_final = wait_for(*daemon, clipped.id, [](const OperationRecord& r) { return is_final(r.state); },
+  auto clipped_final = wait_for(*daemon, clipped.id, [](const session::OperationRecord& r) { return session::is_final(r.state); },
                                 std::chrono::seconds(120));
-  ASSERT_EQ(clipped_final.state, OperationState::kSucceeded) << clipped_final.error;  // the frames are stored
+  ASSERT_EQ(clipped_final.state, session::OperationState::kSucceeded) << clipped_final.error;  // the frames are stored
   auto clipped_info = daemon->session(clipped.id);
   EXPECT_EQ(clipped_info->results.value("state", ""), "unavailable");
   EXPECT_NE(clipped_info->results.value("reason", "").find("white reference under D65'"), std::string::npos)

@@ -20,9 +20,9 @@
 #include "chromo/daemon/api_conversions.hpp"
 #include "chromo/daemon/daemon.hpp"
 #include "chromo/daemon/online_estimator.hpp"
-#include "chromo/daemon/session_store.hpp"
-#include "chromo/estimation/image_files.hpp"
-#include "chromo/estimation/reconstruction.hpp"
+#include "chromo/session/session_store.hpp"
+#include "chromo/files/float_image.hpp"
+#include "chromo/maps/reconstruction.hpp"
 #include "chromo/spectral/cie.hpp"
 #include "chromo/simulators/camera/camera_model.hpp"
 #include "chromo/simulators/leds/led_lab.hpp"
@@ -99,7 +99,7 @@ struct RecordedSession {
   std::string id;
   fs::path folder;
   nlohmann::json results;
-  PipelineCounters counters;
+  session::PipelineCounters counters;
   std::vector<std::uint64_t> behind_reports;
 };
 
@@ -108,27 +108,27 @@ struct RecordedSession {
 RecordedSession run_session(const fs::path& sessions, OnlineEstimator& estimator, std::size_t estimator_queue_frames) {
   RenderedLab lab;
   files::StorageBudget budget;
-  SessionStore store(sessions, &budget);
-  StandardPlanOptions plan_options;
+  session::SessionStore store(sessions, &budget);
+  session::StandardPlanOptions plan_options;
   plan_options.exposure_us = kExposureUs;
-  const SessionPlan plan = standard_plan(plan_options);
+  const session::SessionPlan plan = session::standard_plan(plan_options);
   auto created = store.create(plan, "rendered forearm", nlohmann::json::array());
   RecordedSession recorded{created.id, created.folder, nullptr, {}, {}};
   const auto mixes = default_virtual_lab_mixes();
-  estimator.begin_session({created.id, created.folder, to_json(plan), {}});
+  estimator.begin_session({created.id, created.folder, session::to_json(plan), {}});
   {
     FramePipeline pipeline(created.folder, *created.journal, &budget, {64, estimator_queue_frames}, &estimator, {},
                            [&](std::uint64_t skipped) { recorded.behind_reports.push_back(skipped); });
     for (std::size_t s = 0; s < plan.steps.size(); ++s) {
-      const Step& step = plan.steps[s];
+      const session::Step& step = plan.steps[s];
       const drivers::DriveLevels drive =
-          step.role == StepRole::kDark ? drivers::DriveLevels{} : mixes.at(step.illumination.mix);
+          step.role == session::StepRole::kDark ? drivers::DriveLevels{} : mixes.at(step.illumination.mix);
       CapturedFrame captured;
       captured.camera = "cam0";
       captured.step = step.name;
       captured.step_index = static_cast<int>(s);
-      captured.frame = lab.frame(step.role == StepRole::kSubject ? lab.skin : lab.white, drive);
-      captured.metadata = {{"exposure_us", kExposureUs}, {"role", role_name(step.role)},
+      captured.frame = lab.frame(step.role == session::StepRole::kSubject ? lab.skin : lab.white, drive);
+      captured.metadata = {{"exposure_us", kExposureUs}, {"role", session::role_name(step.role)},
                            {"led", {{"drive", drive_json(drive)}}}, {"frame_in_step", 0}};
       captured.trigger_time = std::chrono::steady_clock::now();
       pipeline.submit(std::move(captured));
@@ -155,7 +155,7 @@ struct Fixture : ::testing::Test {
     options.estimation.cache_dir = cache_dir();
     options.estimation.estimator.threads = 2;
     options.sources = [] {
-      return resolve_capture_sources(library_file.string(), "builtin:nikon_d5100", simulators::kWhiteTargetReflectance);
+      return session::resolve_capture_sources(library_file.string(), "builtin:nikon_d5100", simulators::kWhiteTargetReflectance);
     };
     return std::make_unique<OnlineEstimator>(options);
   }
@@ -210,7 +210,7 @@ TEST_F(Fixture, StreamedSessionPublishesMapsReportAndResultsRecord) {
 }
 
 TEST_F(Fixture, RecoveredMapsMatchTheScenesTruth) {
-  const auto maps = estimation::read_exr(streamed.folder / "results" / "maps.exr");
+  const auto maps = files::read_exr(streamed.folder / "results" / "maps.exr");
   ASSERT_EQ(maps.width, kSceneSize);
   RenderedLab lab;  // the same seeded scene
   const auto& regions = lab.skin.regions();
@@ -249,8 +249,8 @@ TEST_F(Fixture, RecoveredMapsMatchTheScenesTruth) {
             << median(cm_error) << ", |Δlog10 Ch| " << median(ch_error) << ", |ΔβM| " << median(bm_error)
             << "; tattoo+marker flagged " << ink_flagged << "/" << ink << "\n";
   // Relit under D65 against the truth's albedo: what the maps are for.
-  const auto relit = estimation::delta_e_stats(
-      estimation::relit_delta_e94(truth, estimate, spectral::illuminant_d65(), 1));
+  const auto relit = maps::delta_e_stats(
+      maps::relit_delta_e94(truth, estimate, spectral::illuminant_d65(), 1));
   std::cout << "relit ΔE94 under D65 against the truth: mean " << relit.mean << ", median " << relit.median
             << ", p95 " << relit.p95 << "\n";
   EXPECT_LT(median(cm_error), 0.05);  // Cm within 12% (median) through one noisy frame per capture
@@ -270,8 +270,8 @@ TEST_F(Fixture, EstimatorBehindIsCountedAndCatchesUpFromStorageWithTheSameMaps) 
   EXPECT_EQ(behind.counters.skipped_reasons.at("queue_full"), 7u);
   EXPECT_EQ(behind.behind_reports, std::vector<std::uint64_t>{1});  // one report per run of skipped frames
   EXPECT_EQ(behind.results["frames_read_back"], 7);
-  const auto a = estimation::read_exr(streamed.folder / "results" / "maps.exr");
-  const auto b = estimation::read_exr(behind.folder / "results" / "maps.exr");
+  const auto a = files::read_exr(streamed.folder / "results" / "maps.exr");
+  const auto b = files::read_exr(behind.folder / "results" / "maps.exr");
   ASSERT_EQ(a.channel_names, b.channel_names);
   for (std::size_t c = 0; c < a.channels.size(); ++c) EXPECT_EQ(a.channels[c], b.channels[c]) << a.channel_names[c];
 }
@@ -305,8 +305,8 @@ TEST_F(Fixture, OfflineEstimateOfTheSessionFolderEqualsTheDaemonsMaps) {
                            cache_dir().string() + " --threads 2");
   ASSERT_EQ(result.exit_status, 0) << result.output;
   EXPECT_NE(result.output.find("relit ΔE94 against the photograph under D65'"), std::string::npos) << result.output;
-  const auto daemon_maps = estimation::read_exr(streamed.folder / "results" / "maps.exr");
-  const auto offline_maps = estimation::read_exr(out / "maps.exr");
+  const auto daemon_maps = files::read_exr(streamed.folder / "results" / "maps.exr");
+  const auto offline_maps = files::read_exr(out / "maps.exr");
   ASSERT_EQ(daemon_maps.channel_names, offline_maps.channel_names);
   for (std::size_t c = 0; c < daemon_maps.channels.size(); ++c)
     EXPECT_EQ(daemon_maps.channels[c], offline_maps.channels[c]) << daemon_maps.channel_names[c];

@@ -15,7 +15,7 @@ using testing::wait_for;
 constexpr int kRed = 0, kGreen = 1, kBlue = 3;  // RGGB sites
 
 // The frame file of the n-th stored frame of a step.
-std::filesystem::path frame_of(const SessionInfo& info, const std::string& step, std::size_t n = 0) {
+std::filesystem::path frame_of(const session::SessionInfo& info, const std::string& step, std::size_t n = 0) {
   for (const auto& frame : info.frames)
     if (frame["step"] == step && n-- == 0) return std::filesystem::path(info.record.folder) / frame["file"].get<std::string>();
   ADD_FAILURE() << "no frame of step " << step;
@@ -27,7 +27,7 @@ TEST(Session, StandardSessionStoresEveryFrameWithMetadataAndDerivedData) {
   auto daemon = lab.daemon();
   auto started = daemon->start_session(quick_standard_plan(2), "forearm");
   auto final = wait_final(*daemon, started.id);
-  ASSERT_EQ(final.state, OperationState::kSucceeded) << final.error;
+  ASSERT_EQ(final.state, session::OperationState::kSucceeded) << final.error;
   EXPECT_EQ(final.counters.stored, 14u);
   EXPECT_EQ(final.counters.estimated, 14u);  // consumed by the on-line estimator
   EXPECT_DOUBLE_EQ(final.progress, 1.0);
@@ -39,7 +39,7 @@ TEST(Session, StandardSessionStoresEveryFrameWithMetadataAndDerivedData) {
   for (const auto& step : info->steps) EXPECT_TRUE(step.completed) << step.name;
   // Every frame: the camera simulator's sensor at its native 12 bits in 16-bit samples.
   for (const auto& frame : info->frames) {
-    auto image = read_tiff(std::filesystem::path(final.folder) / frame["file"].get<std::string>());
+    auto image = session::read_tiff(std::filesystem::path(final.folder) / frame["file"].get<std::string>());
     EXPECT_EQ(image.width, 160);
     EXPECT_EQ(image.height, 120);
     EXPECT_EQ(image.bits_per_sample, 16);
@@ -75,11 +75,11 @@ TEST(Session, HardwareTimedSequenceAdvancesOnTheCameraExposure) {
   TestLab lab("hardware");
   auto daemon = lab.daemon();
   auto plan = quick_standard_plan(2);
-  plan.timing = Timing::kHardware;
+  plan.timing = session::Timing::kHardware;
   const int triggers_before = lab.simulators->leds().trigger_count();
   auto started = daemon->start_session(plan, "");
   auto final = wait_final(*daemon, started.id);
-  ASSERT_EQ(final.state, OperationState::kSucceeded) << final.error;
+  ASSERT_EQ(final.state, session::OperationState::kSucceeded) << final.error;
   auto info = daemon->session(started.id);
   ASSERT_EQ(info->frames.size(), 14u);
   // Every exposure was an edge on the controller's trigger input ...
@@ -94,7 +94,7 @@ TEST(Session, HardwareTimedSequenceAdvancesOnTheCameraExposure) {
   EXPECT_EQ(lab.simulators->leds().status().sequence_position, -1);  // disarmed at the end
   // A sequence longer than the controller holds is refused before anything runs.
   auto long_plan = quick_standard_plan(10);
-  long_plan.timing = Timing::kHardware;
+  long_plan.timing = session::Timing::kHardware;
   try {
     daemon->start_session(long_plan, "");
     FAIL() << "accepted 71 states for a 64-state controller";
@@ -108,19 +108,19 @@ TEST(Session, CancelInTheMiddleKeepsStoredFramesAndEndsCancelled) {
   TestLab lab("cancel");
   auto daemon = lab.daemon();
   auto started = daemon->start_session(quick_standard_plan(20), "");
-  wait_for(*daemon, started.id, [](const OperationRecord& r) { return r.counters.stored >= 5; });
+  wait_for(*daemon, started.id, [](const session::OperationRecord& r) { return r.counters.stored >= 5; });
   daemon->operations().control(started.id)->request_cancel();
   auto final = wait_final(*daemon, started.id);
-  EXPECT_EQ(final.state, OperationState::kCancelled);
+  EXPECT_EQ(final.state, session::OperationState::kCancelled);
   EXPECT_LT(final.counters.stored, 140u);
   auto info = daemon->session(started.id);
-  EXPECT_EQ(info->record.state, OperationState::kCancelled);
+  EXPECT_EQ(info->record.state, session::OperationState::kCancelled);
   EXPECT_EQ(info->frames.size(), final.counters.stored);
   EXPECT_FALSE(info->steps.back().completed);
   EXPECT_EQ(lab.emitted(), drivers::DriveLevels{});  // the simulator's LEDs dark after the cancel
   // A new session may start once the first ended.
   auto second = daemon->start_session(quick_standard_plan(), "");
-  EXPECT_EQ(wait_final(*daemon, second.id).state, OperationState::kSucceeded);
+  EXPECT_EQ(wait_final(*daemon, second.id).state, session::OperationState::kSucceeded);
 }
 
 TEST(Session, SecondSessionWhileOneRunsIsRefused) {
@@ -137,14 +137,14 @@ TEST(Session, PauseFinishesTheStepAndResumeContinues) {
   auto daemon = lab.daemon();
   auto started = daemon->start_session(quick_standard_plan(3), "");
   daemon->operations().control(started.id)->request_pause();
-  auto paused = wait_for(*daemon, started.id, [](const OperationRecord& r) { return r.state == OperationState::kPaused; });
-  ASSERT_EQ(paused.state, OperationState::kPaused);
+  auto paused = wait_for(*daemon, started.id, [](const session::OperationRecord& r) { return r.state == session::OperationState::kPaused; });
+  ASSERT_EQ(paused.state, session::OperationState::kPaused);
   auto stored = paused.counters.stored;
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
   EXPECT_EQ(daemon->operations().get(started.id)->counters.stored, stored);  // nothing taken while paused
   daemon->operations().control(started.id)->request_resume();
   auto final = wait_final(*daemon, started.id);
-  EXPECT_EQ(final.state, OperationState::kSucceeded);
+  EXPECT_EQ(final.state, session::OperationState::kSucceeded);
   EXPECT_EQ(final.counters.stored, 21u);
 }
 
@@ -155,15 +155,15 @@ TEST(Session, LedControllerThatStopsAnsweringPausesWithAClearStatus) {
   // times out (300 ms) and the session pauses instead of hanging.
   lab.simulators->leds().set_unresponsive(true);
   auto started = daemon->start_session(quick_standard_plan(), "");
-  auto paused = wait_for(*daemon, started.id, [](const OperationRecord& r) { return r.state == OperationState::kPaused; },
+  auto paused = wait_for(*daemon, started.id, [](const session::OperationRecord& r) { return r.state == session::OperationState::kPaused; },
                          std::chrono::seconds(10));
-  ASSERT_EQ(paused.state, OperationState::kPaused);
+  ASSERT_EQ(paused.state, session::OperationState::kPaused);
   EXPECT_NE(paused.message.find("LED controller \"sphere\" stopped answering"), std::string::npos) << paused.message;
   EXPECT_EQ(paused.counters.stored, 0u);
   lab.simulators->leds().set_unresponsive(false);
   daemon->operations().control(started.id)->request_resume();
   auto final = wait_final(*daemon, started.id);
-  EXPECT_EQ(final.state, OperationState::kSucceeded) << final.error;
+  EXPECT_EQ(final.state, session::OperationState::kSucceeded) << final.error;
   EXPECT_EQ(final.counters.stored, 7u);
 }
 
@@ -175,7 +175,7 @@ TEST(Session, CameraPacketLossIsCountedWithItsReasonAndRetaken) {
   lab.simulators->camera().set_packet_loss_ratio(0.02);
   auto started = daemon->start_session(quick_standard_plan(2), "");
   auto final = wait_final(*daemon, started.id);
-  ASSERT_EQ(final.state, OperationState::kSucceeded) << final.error;
+  ASSERT_EQ(final.state, session::OperationState::kSucceeded) << final.error;
   EXPECT_EQ(final.counters.stored, 14u);  // every wanted frame, retaken
   EXPECT_GE(final.counters.lost, 2u);
   // Each lost frame with its reason: Aravis completes a frame whose packets
@@ -194,7 +194,7 @@ TEST(Session, CameraPacketLossIsCountedWithItsReasonAndRetaken) {
   auto info = daemon->session(started.id);
   EXPECT_EQ(info->record.counters.lost, final.counters.lost);  // the journal says the same
   for (const auto& frame : info->frames)
-    EXPECT_EQ(read_tiff(std::filesystem::path(final.folder) / frame["file"].get<std::string>()).data.size(), 160u * 120u * 2u);
+    EXPECT_EQ(session::read_tiff(std::filesystem::path(final.folder) / frame["file"].get<std::string>()).data.size(), 160u * 120u * 2u);
 }
 
 TEST(Session, CameraThatDisappearsPausesAndContinuesWhenItReturns) {
@@ -203,12 +203,12 @@ TEST(Session, CameraThatDisappearsPausesAndContinuesWhenItReturns) {
   lab.config.frame_timeout_ms = 500;
   auto daemon = lab.daemon();
   auto started = daemon->start_session(quick_standard_plan(4), "");
-  wait_for(*daemon, started.id, [](const OperationRecord& r) { return r.counters.stored >= 3; });
+  wait_for(*daemon, started.id, [](const session::OperationRecord& r) { return r.counters.stored >= 3; });
   auto& camera = testing::aravis(*daemon);
   lab.simulators->camera().power_off();  // control and stream channels gone
-  auto paused = wait_for(*daemon, started.id, [](const OperationRecord& r) { return r.state == OperationState::kPaused; },
+  auto paused = wait_for(*daemon, started.id, [](const session::OperationRecord& r) { return r.state == session::OperationState::kPaused; },
                          std::chrono::seconds(20));
-  ASSERT_EQ(paused.state, OperationState::kPaused);
+  ASSERT_EQ(paused.state, session::OperationState::kPaused);
   EXPECT_NE(paused.message.find("camera \"cam0\""), std::string::npos) << paused.message;
   // The driver's watchdog notices the loss (on a loaded machine possibly
   // only after the session paused on failed triggers).
@@ -218,18 +218,18 @@ TEST(Session, CameraThatDisappearsPausesAndContinuesWhenItReturns) {
   // The driver notices the camera is back, reopens it and restores its
   // settings; the operator resumes (again, if a trigger still met the
   // reconnect in progress).
-  OperationRecord final;
+  session::OperationRecord final;
   for (int round = 0; round < 5; ++round) {
     for (int i = 0; i < 200 && !camera.link_up(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(50));
     ASSERT_TRUE(camera.link_up());
     daemon->operations().control(started.id)->request_resume();
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    final = wait_for(*daemon, started.id, [](const OperationRecord& r) {
-      return is_final(r.state) || r.state == OperationState::kPaused;
+    final = wait_for(*daemon, started.id, [](const session::OperationRecord& r) {
+      return session::is_final(r.state) || r.state == session::OperationState::kPaused;
     });
-    if (is_final(final.state)) break;
+    if (session::is_final(final.state)) break;
   }
-  ASSERT_EQ(final.state, OperationState::kSucceeded) << final.error << " / " << final.message;
+  ASSERT_EQ(final.state, session::OperationState::kSucceeded) << final.error << " / " << final.message;
   EXPECT_EQ(final.counters.stored, 28u);
   EXPECT_GE(final.counters.lost, 2u);
   EXPECT_GE(camera.statistics().reconnects, 1u);
@@ -242,7 +242,7 @@ TEST(Session, FullDiskStopsCleanlyAndKeepsWhatWasStored) {
   auto daemon = lab.daemon();
   auto started = daemon->start_session(quick_standard_plan(5), "");
   auto final = wait_final(*daemon, started.id);
-  ASSERT_EQ(final.state, OperationState::kFailed);
+  ASSERT_EQ(final.state, session::OperationState::kFailed);
   EXPECT_NE(final.error.find("storage full"), std::string::npos) << final.error;
   EXPECT_GT(final.counters.stored, 3u);
   EXPECT_LT(final.counters.stored, 35u);
@@ -251,7 +251,7 @@ TEST(Session, FullDiskStopsCleanlyAndKeepsWhatWasStored) {
   EXPECT_EQ(info.frames.size(), final.counters.stored);
   EXPECT_EQ(info.torn_journal_tail, false);
   for (const auto& frame : info.frames)
-    EXPECT_EQ(read_tiff(std::filesystem::path(final.folder) / frame["file"].get<std::string>()).data.size(), 160u * 120u * 2u);
+    EXPECT_EQ(session::read_tiff(std::filesystem::path(final.folder) / frame["file"].get<std::string>()).data.size(), 160u * 120u * 2u);
   for (const auto& file : std::filesystem::recursive_directory_iterator(final.folder))
     EXPECT_EQ(file.path().string().find(".tmp-"), std::string::npos) << file.path();
   EXPECT_EQ(lab.emitted(), drivers::DriveLevels{});  // LEDs switched off
@@ -263,12 +263,12 @@ TEST(Session, RestartReportsFinishedSessionsFromTheFolder) {
   {
     auto daemon = lab.daemon();
     id = daemon->start_session(quick_standard_plan(), "x").id;
-    ASSERT_EQ(wait_final(*daemon, id).state, OperationState::kSucceeded);
+    ASSERT_EQ(wait_final(*daemon, id).state, session::OperationState::kSucceeded);
   }
   auto daemon = lab.daemon();
   auto record = daemon->operations().get(id);
   ASSERT_TRUE(record);
-  EXPECT_EQ(record->state, OperationState::kSucceeded);
+  EXPECT_EQ(record->state, session::OperationState::kSucceeded);
   EXPECT_EQ(record->counters.stored, 7u);
   EXPECT_DOUBLE_EQ(record->progress, 1.0);
 }

@@ -14,8 +14,9 @@
 
 #include <gtest/gtest.h>
 
+#include "../support/fresh_directory.hpp"
 #include "chromo/daemon/daemon.hpp"
-#include "chromo/daemon/image_files.hpp"
+#include "chromo/session/frame_files.hpp"
 #include "chromo/daemon/virtual_lab.hpp"
 #include "chromo/drivers/camera/aravis_camera.hpp"
 #include "chromo/simulators/camera/camera_simulator.hpp"
@@ -23,13 +24,7 @@
 
 namespace chromo::daemon::testing {
 
-inline std::filesystem::path fresh_directory(const std::string& name) {
-  auto path = std::filesystem::temp_directory_path() /
-              ("chromo-" + name + "-" + std::to_string(::getpid()) + "-" + std::to_string(std::random_device{}()));
-  std::filesystem::remove_all(path);
-  std::filesystem::create_directories(path);
-  return path;
-}
+using chromo::testing::fresh_directory;
 
 // Small frames keep the suite fast: 160x120 BayerRG12 (16-bit containers).
 inline VirtualLabOptions small_lab_options() {
@@ -80,18 +75,18 @@ inline drivers::AravisCamera& aravis(Daemon& daemon) {
   return dynamic_cast<drivers::AravisCamera&>(*daemon.devices().cameras.front()->device);
 }
 
-inline SessionPlan quick_standard_plan(std::uint32_t frames = 1, double exposure_us = 2000) {
-  StandardPlanOptions options;
+inline session::SessionPlan quick_standard_plan(std::uint32_t frames = 1, double exposure_us = 2000) {
+  session::StandardPlanOptions options;
   options.exposure_us = exposure_us;
   options.frames_per_camera = frames;
   options.settle_ms = 0;
-  return standard_plan(options);
+  return session::standard_plan(options);
 }
 
 // Mean of one site of the RGGB mosaic (0 R, 1 and 2 G, 3 B) of a stored
 // 16-bit frame, in DN of the 12-bit ADC.
 inline double bayer_site_mean(const std::filesystem::path& tiff, int site) {
-  const auto image = read_tiff(tiff);
+  const auto image = session::read_tiff(tiff);
   const int dx = site % 2, dy = site / 2;
   double sum = 0;
   std::size_t count = 0;
@@ -106,7 +101,7 @@ inline double bayer_site_mean(const std::filesystem::path& tiff, int site) {
 
 // Waits until `predicate(record)` or the timeout; returns the last record.
 template <typename Predicate>
-OperationRecord wait_for(Daemon& daemon, const std::string& id, Predicate predicate,
+session::OperationRecord wait_for(Daemon& daemon, const std::string& id, Predicate predicate,
                          std::chrono::milliseconds timeout = std::chrono::seconds(60)) {
   auto deadline = std::chrono::steady_clock::now() + timeout;
   std::uint64_t version = 0;
@@ -118,8 +113,8 @@ OperationRecord wait_for(Daemon& daemon, const std::string& id, Predicate predic
   }
 }
 
-inline OperationRecord wait_final(Daemon& daemon, const std::string& id) {
-  return wait_for(daemon, id, [](const OperationRecord& r) { return is_final(r.state); });
+inline session::OperationRecord wait_final(Daemon& daemon, const std::string& id) {
+  return wait_for(daemon, id, [](const session::OperationRecord& r) { return session::is_final(r.state); });
 }
 
 }  // namespace chromo::daemon::testing

@@ -11,7 +11,7 @@
 #include <string>
 
 #include "chromo/estimation/forward_table.hpp"
-#include "chromo/estimation/lab_illuminants.hpp"
+#include "chromo/spectral/lab_illuminants.hpp"
 #include "chromo/estimation/measurement.hpp"
 
 namespace chromo::estimation::testing {
@@ -26,8 +26,8 @@ inline const bool kTestCacheDirSet = [] {
 }();
 
 inline MeasurementSet method_set() {
-  return method_measurement_set(spectral::builtin_camera("nikon_d5100"), led_d65_metamer(),
-                                led_spectrum(spectral::LedType::kBlue));
+  return method_measurement_set(spectral::builtin_camera("nikon_d5100"), spectral::led_d65_metamer(),
+                                spectral::led_spectrum(spectral::LedType::kBlue));
 }
 
 inline std::shared_ptr<const ForwardTable> method_table() {

@@ -4,8 +4,8 @@
 
 #include <cmath>
 
-#include "chromo/estimation/reconstruction.hpp"
-#include "chromo/estimation/synthetic.hpp"
+#include "chromo/maps/reconstruction.hpp"
+#include "chromo/simulators/scene/synthetic.hpp"
 #include "estimation_fixture.hpp"
 
 namespace chromo::estimation {
@@ -20,20 +20,20 @@ std::vector<SkinParameters> parameters_of(std::span<const PixelEstimate> e) {
 // Mean relit ΔE94 against the truth over the six LED types and D65.
 double mean_relit_delta_e94(std::span<const SkinParameters> truth, std::span<const SkinParameters> estimate) {
   double sum = 0;
-  const auto illuminants = relight_illuminants();
-  for (const NamedIlluminant& i : illuminants) sum += delta_e_stats(relit_delta_e94(truth, estimate, i.spectrum)).mean;
+  const auto illuminants = spectral::relight_illuminants();
+  for (const spectral::NamedIlluminant& i : illuminants) sum += maps::delta_e_stats(maps::relit_delta_e94(truth, estimate, i.spectrum)).mean;
   return sum / illuminants.size();
 }
 
 struct EstimationRun {
-  SyntheticFrame frame;
+  simulators::SyntheticFrame frame;
   std::vector<PixelEstimate> out;
   EstimateSummary summary;
 };
 
-EstimationRun run(InverterMethod method, ModelChoice model, SyntheticOptions synthetic, bool noisy) {
+EstimationRun run(InverterMethod method, ModelChoice model, simulators::SyntheticOptions synthetic, bool noisy) {
   MeasurementSet set = testing::method_set();
-  EstimationRun r{make_synthetic_frame(set, synthetic), {}, {}};
+  EstimationRun r{simulators::make_synthetic_frame(set, synthetic), {}, {}};
   EstimatorOptions options;
   options.method = method;
   options.model = model;
@@ -43,8 +43,8 @@ EstimationRun run(InverterMethod method, ModelChoice model, SyntheticOptions syn
   return r;
 }
 
-SyntheticOptions in_gamut_skin(int pixels, double noise_scale = 0) {
-  SyntheticOptions o;
+simulators::SyntheticOptions in_gamut_skin(int pixels, double noise_scale = 0) {
+  simulators::SyntheticOptions o;
   o.pixels = pixels;
   o.low = {0.005, 0.005, 0.0, 0.0};
   o.high = {0.3, 0.2, 1.0, 0.1};
@@ -65,13 +65,13 @@ TEST(Estimator, ExhaustiveRecoversInGamutSkinNoiseFree) {
 }
 
 TEST(Estimator, FastIsWithinATenthOfExhaustiveUnderD65) {
-  const SyntheticOptions o = in_gamut_skin(150);
+  const simulators::SyntheticOptions o = in_gamut_skin(150);
   const EstimationRun fast = run(InverterMethod::kFast, ModelChoice::k4d, o, false);
   const EstimationRun exhaustive = run(InverterMethod::kExhaustive, ModelChoice::k4d, o, false);
-  const spectral::Spectrum d65 = relight_illuminants().back().spectrum;  // a copy: the vector is a temporary
-  const double fast_de = delta_e_stats(relit_delta_e94(fast.frame.truth, parameters_of(fast.out), d65)).mean;
+  const spectral::Spectrum d65 = spectral::relight_illuminants().back().spectrum;  // a copy: the vector is a temporary
+  const double fast_de = maps::delta_e_stats(maps::relit_delta_e94(fast.frame.truth, parameters_of(fast.out), d65)).mean;
   const double exhaustive_de =
-      delta_e_stats(relit_delta_e94(exhaustive.frame.truth, parameters_of(exhaustive.out), d65)).mean;
+      maps::delta_e_stats(maps::relit_delta_e94(exhaustive.frame.truth, parameters_of(exhaustive.out), d65)).mean;
   EXPECT_LE(fast_de, exhaustive_de + 0.1);
 }
 
@@ -81,12 +81,12 @@ TEST(Estimator, FastIsWithinATenthOfExhaustiveUnderD65) {
 // (docs/estimation.md): the asserted shares are the measured ones, as
 // regression guards, not the target.
 TEST(Estimator, FlagsAnomaliesAndNotSkin) {
-  SyntheticOptions o = in_gamut_skin(4000, 1.0);
-  for (SyntheticKind k : {SyntheticKind::kTattoo, SyntheticKind::kMarker, SyntheticKind::kSpecular,
-                          SyntheticKind::kSaturated, SyntheticKind::kDark, SyntheticKind::kNaN})
+  simulators::SyntheticOptions o = in_gamut_skin(4000, 1.0);
+  for (simulators::SyntheticKind k : {simulators::SyntheticKind::kTattoo, simulators::SyntheticKind::kMarker, simulators::SyntheticKind::kSpecular,
+                          simulators::SyntheticKind::kSaturated, simulators::SyntheticKind::kDark, simulators::SyntheticKind::kNaN})
     o.share[static_cast<int>(k)] = 0.05;
   const EstimationRun r = run(InverterMethod::kFast, ModelChoice::kAuto, o, true);
-  std::size_t total[kSyntheticKindCount] = {}, flagged[kSyntheticKindCount] = {};
+  std::size_t total[simulators::kSyntheticKindCount] = {}, flagged[simulators::kSyntheticKindCount] = {};
   for (std::size_t i = 0; i < r.out.size(); ++i) {
     const PixelEstimate& e = r.out[i];
     for (double v : {e.parameters.cm, e.parameters.ch, e.parameters.bm, e.parameters.che, double(e.residual)})
@@ -94,29 +94,29 @@ TEST(Estimator, FlagsAnomaliesAndNotSkin) {
     const int kind = static_cast<int>(r.frame.kind[i]);
     ++total[kind];
     flagged[kind] += e.flag != PixelFlag::kExplained;
-    if (r.frame.kind[i] == SyntheticKind::kNaN) {
+    if (r.frame.kind[i] == simulators::SyntheticKind::kNaN) {
       EXPECT_EQ(e.flag, PixelFlag::kNonFinite);
     }
-    if (r.frame.kind[i] == SyntheticKind::kSaturated) {
+    if (r.frame.kind[i] == simulators::SyntheticKind::kSaturated) {
       EXPECT_EQ(e.flag, PixelFlag::kSaturated);
     }
-    if (r.frame.kind[i] == SyntheticKind::kDark) {
+    if (r.frame.kind[i] == simulators::SyntheticKind::kDark) {
       EXPECT_EQ(e.flag, PixelFlag::kDark);
     }
   }
-  auto share = [&](SyntheticKind k) {
+  auto share = [&](simulators::SyntheticKind k) {
     return static_cast<double>(flagged[static_cast<int>(k)]) / std::max<std::size_t>(1, total[static_cast<int>(k)]);
   };
-  EXPECT_LE(share(SyntheticKind::kSkin), 0.01);
-  for (SyntheticKind k : {SyntheticKind::kMarker, SyntheticKind::kSaturated, SyntheticKind::kDark, SyntheticKind::kNaN})
-    EXPECT_GE(share(k), 0.95) << synthetic_kind_name(k);
-  EXPECT_GE(share(SyntheticKind::kTattoo), 0.85);
-  EXPECT_GE(share(SyntheticKind::kSpecular), 0.45);
-  std::printf("tattoo %.4f marker %.4f specular %.4f skin %.4f\n", share(SyntheticKind::kTattoo), share(SyntheticKind::kMarker), share(SyntheticKind::kSpecular), share(SyntheticKind::kSkin));
+  EXPECT_LE(share(simulators::SyntheticKind::kSkin), 0.01);
+  for (simulators::SyntheticKind k : {simulators::SyntheticKind::kMarker, simulators::SyntheticKind::kSaturated, simulators::SyntheticKind::kDark, simulators::SyntheticKind::kNaN})
+    EXPECT_GE(share(k), 0.95) << simulators::synthetic_kind_name(k);
+  EXPECT_GE(share(simulators::SyntheticKind::kTattoo), 0.85);
+  EXPECT_GE(share(simulators::SyntheticKind::kSpecular), 0.45);
+  std::printf("tattoo %.4f marker %.4f specular %.4f skin %.4f\n", share(simulators::SyntheticKind::kTattoo), share(simulators::SyntheticKind::kMarker), share(simulators::SyntheticKind::kSpecular), share(simulators::SyntheticKind::kSkin));
 }
 
 TEST(Estimator, TwoDSceneGetsOrderTwo) {
-  SyntheticOptions o = in_gamut_skin(1500, 1.0);
+  simulators::SyntheticOptions o = in_gamut_skin(1500, 1.0);
   o.low.bm = o.high.bm = 0.7;
   o.low.che = o.high.che = 0.0;
   const EstimationRun r = run(InverterMethod::kFast, ModelChoice::kAuto, o, true);
@@ -127,7 +127,7 @@ TEST(Estimator, TwoDSceneGetsOrderTwo) {
 // change the measurement and the test keeps order 2 more often (88.7% order 4
 // for Cm up to 0.3 at this noise, docs/estimation.md).
 TEST(Estimator, FourDSceneGetsOrderFour) {
-  SyntheticOptions o = in_gamut_skin(1500, 1.0);
+  simulators::SyntheticOptions o = in_gamut_skin(1500, 1.0);
   o.high.cm = 0.15;
   o.low.bm = 0.1, o.high.bm = 0.4;
   o.low.che = 0.03, o.high.che = 0.08;
@@ -142,9 +142,9 @@ TEST(Estimator, FourDSceneGetsOrderFour) {
 // 10.83 < χ²₂ ≤ χ²₄ + 9.21, 13.82 the 2D threshold); noisy 4D skin has a few.
 TEST(Estimator, APixelOnlyTheFourDFitExplainsKeepsOrderFour) {
   MeasurementSet set = testing::method_set();
-  SyntheticOptions o = in_gamut_skin(3000, 2.0);
+  simulators::SyntheticOptions o = in_gamut_skin(3000, 2.0);
   o.seed = 41;
-  const SyntheticFrame frame = make_synthetic_frame(set, o);
+  const simulators::SyntheticFrame frame = simulators::make_synthetic_frame(set, o);
   const Estimator estimator(testing::method_table(), set, EstimatorOptions{});
   const double order_threshold = chi_squared_quantile(0.99, 2);
   int between = 0;
@@ -167,7 +167,7 @@ TEST(Estimator, APixelOnlyTheFourDFitExplainsKeepsOrderFour) {
 
 TEST(Estimator, TilesMatchTheWholeImageAndCancelStops) {
   MeasurementSet set = testing::method_set();
-  const SyntheticFrame f = make_synthetic_frame(set, in_gamut_skin(600, 1.0));
+  const simulators::SyntheticFrame f = simulators::make_synthetic_frame(set, in_gamut_skin(600, 1.0));
   EstimatorOptions options;
   options.tile_pixels = 100;
   const Estimator estimator(testing::method_table(), set, options);

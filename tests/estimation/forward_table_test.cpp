@@ -8,7 +8,7 @@
 #include <unistd.h>
 
 #include "chromo/estimation/skin_model.hpp"
-#include "chromo/estimation/synthetic.hpp"
+#include "chromo/simulators/scene/synthetic.hpp"
 #include "chromo/spectral/cie.hpp"
 #include "chromo/spectral/delta_e.hpp"
 #include "estimation_fixture.hpp"
@@ -48,7 +48,7 @@ TEST(ForwardTable, InterpolationErrorUnderD65IsBelowTwoHundredthsDeltaE94) {
   const spectral::Observer& o = spectral::cie1931_observer();
   const MeasurementSet xyz_set = rgb_measurement_set({"cie1931", {o.x_bar, o.y_bar, o.z_bar}}, spectral::illuminant_d65());
   const ForwardTable table = ForwardTable::build(xyz_set, TableGrid{});
-  const auto parameters = random_skin_parameters(4000, {0.001, 0.001, 0, 0}, {0.5, 0.32, 1, 0.1}, 11);
+  const auto parameters = simulators::random_skin_parameters(4000, {0.001, 0.001, 0, 0}, {0.5, 0.32, 1, 0.1}, 11);
   const SkinModel model;
   const spectral::Xyz white = spectral::white_point(spectral::illuminant_d65());
   double sum = 0;
@@ -93,7 +93,7 @@ TEST(ForwardTable, CacheIsReusedAndRebuiltWhenAnInputChanges) {
 
   // Another illuminant → another key → a new file.
   set.channels[3].illuminant *= 0.5;
-  set.channels[3].illuminant += led_spectrum(spectral::LedType::kGreen) * 0.1;
+  set.channels[3].illuminant += spectral::led_spectrum(spectral::LedType::kGreen) * 0.1;
   const auto third = ForwardTable::load_or_build(set, small, dir, &rebuilt);
   EXPECT_TRUE(rebuilt);
   EXPECT_NE(third->key(), first->key());

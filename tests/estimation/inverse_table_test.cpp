@@ -10,9 +10,9 @@
 
 #include "chromo/estimation/estimator.hpp"
 #include "chromo/estimation/inverter.hpp"
-#include "chromo/estimation/reconstruction.hpp"
+#include "chromo/maps/reconstruction.hpp"
 #include "chromo/estimation/skin_model.hpp"
-#include "chromo/estimation/synthetic.hpp"
+#include "chromo/simulators/scene/synthetic.hpp"
 #include "chromo/spectral/cie.hpp"
 #include "chromo/spectral/delta_e.hpp"
 #include "estimation_fixture.hpp"
@@ -44,12 +44,12 @@ WeightedPixel weighted_pixel(const MeasurementSet& set, const std::vector<float>
 
 // `pixels` random in-gamut skin pixels of `set` (synthetic.hpp), noisy with
 // the camera noise model's σ × noise_scale (which becomes set's noise).
-SyntheticFrame skin_frame(MeasurementSet& set, int pixels, std::uint64_t seed, double noise_scale = 1.0) {
-  SyntheticOptions o;
+simulators::SyntheticFrame skin_frame(MeasurementSet& set, int pixels, std::uint64_t seed, double noise_scale = 1.0) {
+  simulators::SyntheticOptions o;
   o.pixels = pixels;
   o.seed = seed;
   o.noise.noise_scale = noise_scale;
-  return make_synthetic_frame(set, o);
+  return simulators::make_synthetic_frame(set, o);
 }
 
 double mean_d65_delta_e(const ForwardTable& table, const std::vector<GridPoint>& a, const std::vector<GridPoint>& b) {
@@ -78,7 +78,7 @@ TEST(FastInverter, PresolvedPathMatchesTheExhaustiveSearchOnInGamutSkin) {
   const ExhaustiveInverter exhaustive(table);
   for (const double noise : {0.0, 1.0}) {
     MeasurementSet set = testing::method_set();
-    const SyntheticFrame f = skin_frame(set, 300, 21, noise);
+    const simulators::SyntheticFrame f = skin_frame(set, 300, 21, noise);
     int presolved = 0, close = 0;
     std::vector<GridPoint> fast_x, exhaustive_x;
     for (std::size_t i = 0; i < f.pixels(); ++i) {
@@ -112,7 +112,7 @@ TEST(FastInverter, ChordStepsFinishMostNoiseFreePixelsWithoutGaussNewton) {
   const FastInverter fast(table, method_inverse_table()), newton_only(table, method_inverse_table(), no_chord);
   const ExhaustiveInverter exhaustive(table);
   MeasurementSet set = testing::method_set();
-  const SyntheticFrame f = skin_frame(set, 300, 23);
+  const simulators::SyntheticFrame f = skin_frame(set, 300, 23);
   int chord_only = 0, close_cm = 0, chord_iterations = 0, newton_iterations = 0;
   std::vector<GridPoint> chord_x, exhaustive_x;
   for (std::size_t i = 0; i < f.pixels(); ++i) {
@@ -140,7 +140,7 @@ TEST(FastInverter, NoisyPixelsOnABoundFaceGetAFiniteBoundedFit) {
   const auto table = testing::method_table();
   const auto n = table->nodes();
   MeasurementSet set = testing::method_set();
-  const SyntheticFrame f = skin_frame(set, 200, 25, 2);
+  const simulators::SyntheticFrame f = skin_frame(set, 200, 25, 2);
   for (const int chord_steps : {0, 3, 50}) {
     FastInverterOptions options;
     options.chord_steps = chord_steps;
@@ -171,7 +171,7 @@ TEST(FastInverter, FaceStallSavesIterationsOnNoisyPixels) {
   crawl.face_stall_relative = 0;
   const FastInverter fast(table, method_inverse_table()), crawling(table, method_inverse_table(), crawl);
   MeasurementSet set = testing::method_set();
-  const SyntheticFrame f = skin_frame(set, 400, 27);
+  const simulators::SyntheticFrame f = skin_frame(set, 400, 27);
   int iterations = 0, crawl_iterations = 0, same_path = 0;
   double chi2 = 0, crawl_chi2 = 0;
   for (std::size_t i = 0; i < f.pixels(); ++i) {
@@ -225,7 +225,7 @@ TEST(FastInverter, FitIsThePresolvedPathThenTheSearchPath) {
   const FastInverter fast(table, method_inverse_table());
   for (const double noise : {0.0, 1.0}) {
     MeasurementSet set = testing::method_set();
-    const SyntheticFrame f = skin_frame(set, 300, 23, noise);
+    const simulators::SyntheticFrame f = skin_frame(set, 300, 23, noise);
     int occupied = 0, searched = 0;
     for (std::size_t i = 0; i < f.pixels(); ++i) {
       const auto [m, w] = weighted_pixel(set, noise > 0 ? f.noisy : f.clean, i);
@@ -287,7 +287,7 @@ TEST(FastInverter, TheEstimatorSearchesOnlyWhereThePresolvedFitWouldBeFlagged) {
   accept_4.presolved_accept_chi2 = 4;
   const FastInverter previous(table, method_inverse_table(), accept_4);
   MeasurementSet set = testing::method_set();
-  const SyntheticFrame f = skin_frame(set, 400, 31, 1.0);
+  const simulators::SyntheticFrame f = skin_frame(set, 400, 31, 1.0);
   int in_band = 0, previous_searched = 0;
   for (std::size_t i = 0; i < f.pixels(); ++i) {
     const auto [m, w] = weighted_pixel(set, f.noisy, i);
@@ -322,7 +322,7 @@ TEST(FastInverter, WithoutTheSearchFallbackThePresolvedPathAnswers) {
   linear_only.search_fallback = false, linear_only.newton_steps = 0, linear_only.chord_steps = 0;
   const FastInverter fast(table, method_inverse_table(), searching), cheap(table, method_inverse_table(), linear_only);
   MeasurementSet set = testing::method_set();
-  const SyntheticFrame f = skin_frame(set, 300, 29, 1.0);
+  const simulators::SyntheticFrame f = skin_frame(set, 300, 29, 1.0);
   int would_search = 0, unacceptable = 0;
   for (std::size_t i = 0; i < f.pixels(); ++i) {
     const auto [m, w] = weighted_pixel(set, f.noisy, i);
@@ -352,10 +352,10 @@ TEST(FastInverter, OutsideTheInverseTableTheSearchFindsTheExhaustiveMinimum) {
   const FastInverter fast(table, method_inverse_table());
   const ExhaustiveInverter exhaustive(table);
   MeasurementSet set = testing::method_set();
-  SyntheticOptions o;
+  simulators::SyntheticOptions o;
   o.pixels = 600, o.seed = 31;
-  o.share[static_cast<int>(SyntheticKind::kTattoo)] = 0.5, o.share[static_cast<int>(SyntheticKind::kMarker)] = 0.5;
-  const SyntheticFrame f = make_synthetic_frame(set, o);
+  o.share[static_cast<int>(simulators::SyntheticKind::kTattoo)] = 0.5, o.share[static_cast<int>(simulators::SyntheticKind::kMarker)] = 0.5;
+  const simulators::SyntheticFrame f = simulators::make_synthetic_frame(set, o);
   int outside = 0, as_good = 0, close = 0;
   for (std::size_t i = 0; i < f.pixels() && outside < 80; ++i) {
     const auto [m, w] = weighted_pixel(set, f.noisy, i);
@@ -426,13 +426,13 @@ TEST(FastInverter, TheTwoDFitStartsFromThePresolvedSliceFit) {
   EXPECT_GE(with_slice, (inverse->occupied_cells() + inverse->presolved_empty_cells()) * 99 / 100);
   for (const double noise : {0.0, 1.0}) {
     MeasurementSet set = testing::method_set();
-    SyntheticOptions o;
+    simulators::SyntheticOptions o;
     o.pixels = 300;
     o.seed = 27;
     o.noise.noise_scale = noise;
     o.low.bm = o.high.bm = 0.7;
     o.low.che = o.high.che = 0;
-    const SyntheticFrame f = make_synthetic_frame(set, o);
+    const simulators::SyntheticFrame f = simulators::make_synthetic_frame(set, o);
     int presolved = 0, close = 0, search_path = 0;
     std::vector<GridPoint> fast_x, reference_x;
     for (std::size_t i = 0; i < f.pixels(); ++i) {
@@ -545,7 +545,7 @@ TEST(FastInverter, PresolvedEmptyCellsSaveNoisyPixelsIterations) {
   EXPECT_EQ(plain.inverse_table().presolved_empty_cells(), 0u);
   for (const double noise : {1.0, 0.0}) {
     MeasurementSet set = testing::method_set();
-    const SyntheticFrame f = skin_frame(set, 600, 31, noise);
+    const simulators::SyntheticFrame f = skin_frame(set, 600, 31, noise);
     int iterations[2] = {}, searched[2] = {};
     double chi2[2] = {};
     for (std::size_t i = 0; i < f.pixels(); ++i) {
@@ -580,7 +580,7 @@ TEST(FastInverter, PresolvedFitsWeighWithTheChannelsNoise) {
   const FastInverter equal(table, method_inverse_table()),
       weighted(table, InverseTable::load_or_build(table, ForwardTable::default_cache_dir(), nullptr, nullptr, 0, matched));
   MeasurementSet set = testing::method_set();
-  const SyntheticFrame f = skin_frame(set, 800, 33, 0);
+  const simulators::SyntheticFrame f = skin_frame(set, 800, 33, 0);
   std::mt19937 random(5);
   std::normal_distribution<double> normal;
   int searched[2] = {};
@@ -653,7 +653,7 @@ TEST_F(InverseTableCache, IsReusedAndRebuiltWhenTheForwardTableChanges) {
   // Another illuminant → another forward table → another key and file.
   MeasurementSet other = set;
   other.channels[3].illuminant *= 0.5;
-  other.channels[3].illuminant += led_spectrum(spectral::LedType::kGreen) * 0.1;
+  other.channels[3].illuminant += spectral::led_spectrum(spectral::LedType::kGreen) * 0.1;
   const auto third = InverseTable::load_or_build(small_table(other), dir, &rebuilt, &warning, 2);
   EXPECT_TRUE(rebuilt);
   EXPECT_NE(InverseTable::cache_key(*small_table(other)), InverseTable::cache_key(*table));

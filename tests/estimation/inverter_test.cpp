@@ -7,7 +7,7 @@
 #include <random>
 #include <vector>
 
-#include "chromo/estimation/synthetic.hpp"
+#include "chromo/simulators/scene/synthetic.hpp"
 #include "estimation_fixture.hpp"
 
 namespace chromo::estimation {
@@ -49,12 +49,12 @@ TEST(FastInverter, ReachesTheExhaustiveResidualOnNoiseFreeSkin) {
   const FastInverter fast(table);
   const ExhaustiveInverter exhaustive(table);
   MeasurementSet set = testing::method_set();
-  SyntheticOptions o;
+  simulators::SyntheticOptions o;
   o.pixels = 200;
   o.low = {0.005, 0.005, 0.0, 0.0};
   o.high = {0.3, 0.2, 1.0, 0.1};
   o.noise.noise_scale = 0;
-  const SyntheticFrame f = make_synthetic_frame(set, o);
+  const simulators::SyntheticFrame f = simulators::make_synthetic_frame(set, o);
   const int c_count = table->channels();
   const std::vector<double> w = unit_weights(c_count);
   int close = 0;

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "chromo/estimation/lab_illuminants.hpp"
+#include "chromo/spectral/lab_illuminants.hpp"
 #include "chromo/simulators/camera/camera_model.hpp"
 
 namespace chromo::estimation::testing {
@@ -16,8 +16,8 @@ LabScene render_lab_scene(int size, double exposure_fill, std::uint64_t seed) {
   simulators::CameraModelOptions camera_options;
   camera_options.seed = seed;
   const simulators::CameraModel camera(camera_options);
-  const spectral::Spectrum d65 = led_d65_metamer(), w57 = led_spectrum(spectral::LedType::kW57),
-                           blue = led_spectrum(spectral::LedType::kBlue), mix = w57 + blue;
+  const spectral::Spectrum d65 = spectral::led_d65_metamer(), w57 = spectral::led_spectrum(spectral::LedType::kW57),
+                           blue = spectral::led_spectrum(spectral::LedType::kBlue), mix = w57 + blue;
   const double full_well = camera_options.full_well_e, read_e = camera_options.read_noise_e;
   const double e_per_dn = camera_options.gain_e_per_dn, black = camera_options.black_level_dn;
   const double quantisation_e2 = e_per_dn * e_per_dn / 12.0;

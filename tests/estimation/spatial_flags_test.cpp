@@ -13,7 +13,7 @@
 #include <limits>
 #include <random>
 
-#include "chromo/estimation/synthetic.hpp"
+#include "chromo/simulators/scene/synthetic.hpp"
 #include "estimation_fixture.hpp"
 #include "lab_scene.hpp"
 
@@ -26,11 +26,11 @@ struct OrderShares {
 
 // A synthetic frame of side×side pixels (each pixel its own random skin in the
 // box: the hardest case for pooling, no two neighbours alike).
-OrderShares order4_shares(SyntheticOptions o, int side) {
+OrderShares order4_shares(simulators::SyntheticOptions o, int side) {
   o.pixels = side * side;
   o.noise.noise_scale = 1.0;
   MeasurementSet set = testing::method_set();
-  const SyntheticFrame frame = make_synthetic_frame(set, o);
+  const simulators::SyntheticFrame frame = simulators::make_synthetic_frame(set, o);
   const Estimator estimator(testing::method_table(), set, EstimatorOptions{});
   std::vector<PixelEstimate> out(frame.pixels());
   const EstimateSummary summary = estimator.estimate(frame.noisy, out);
@@ -44,15 +44,15 @@ OrderShares order4_shares(SyntheticOptions o, int side) {
   return s;
 }
 
-SyntheticOptions skin_box(double cm_max) {
-  SyntheticOptions o;
+simulators::SyntheticOptions skin_box(double cm_max) {
+  simulators::SyntheticOptions o;
   o.low = {0.005, 0.005, 0.0, 0.0};
   o.high = {cm_max, 0.2, 1.0, 0.1};
   return o;
 }
 
 TEST(PoolModelOrder, FourDSceneGetsOrderFourOnNinetyPercent) {
-  SyntheticOptions o = skin_box(0.3);
+  simulators::SyntheticOptions o = skin_box(0.3);
   o.low.bm = 0.1, o.high.bm = 0.4;
   o.low.che = 0.03, o.high.che = 0.08;
   const OrderShares s = order4_shares(o, 40);
@@ -60,7 +60,7 @@ TEST(PoolModelOrder, FourDSceneGetsOrderFourOnNinetyPercent) {
 }
 
 TEST(PoolModelOrder, TwoDSceneKeepsOrderTwoOnNinetyFivePercent) {
-  SyntheticOptions o = skin_box(0.3);
+  simulators::SyntheticOptions o = skin_box(0.3);
   o.low.bm = o.high.bm = 0.7;
   o.low.che = o.high.che = 0.0;
   const OrderShares s = order4_shares(o, 40);

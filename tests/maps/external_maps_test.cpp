@@ -1,4 +1,4 @@
-#include "chromo/estimation/external_maps.hpp"
+#include "chromo/maps/external_maps.hpp"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -6,11 +6,11 @@
 #include <opencv2/imgcodecs.hpp>
 #include <random>
 
-#include "chromo/estimation/map_operations.hpp"
+#include "chromo/maps/map_operations.hpp"
 #include "chromo/simulators/scene/external_maps_scene.hpp"
 #include "maps_fixture.hpp"
 
-namespace chromo::estimation {
+namespace chromo::maps {
 namespace {
 
 using ::testing::HasSubstr;
@@ -71,7 +71,7 @@ TEST(ImportMaps, TableTwoOrderingOnTheSyntheticScene) {
     EXPECT_TRUE(std::filesystem::exists(dir / "out" / f)) << f;
   // The mapped Cm follows the truth in rank (it cannot in scale: the 2D model's
   // Cm differs from a 4D truth's): Spearman-like check on skin pixels.
-  const FloatImage truth = read_exr(dir / "scene" / "truth.exr");
+  const files::FloatImage truth = files::read_exr(dir / "scene" / "truth.exr");
   const auto& region = truth.channel("region");
   auto rank_agreement = [&](const std::vector<float>& true_values, const std::vector<float>& mapped, double min_difference) {
     double agree = 0, total = 0;
@@ -139,4 +139,4 @@ TEST(ImportMaps, BadInputNamesTheFieldAndWritesNothing) {
 }
 
 }  // namespace
-}  // namespace chromo::estimation
+}  // namespace chromo::maps

@@ -3,10 +3,10 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "chromo/estimation/map_operations.hpp"
+#include "chromo/maps/map_operations.hpp"
 #include "maps_fixture.hpp"
 
-namespace chromo::estimation {
+namespace chromo::maps {
 namespace {
 
 using ::testing::StartsWith;
@@ -56,7 +56,7 @@ TEST_F(FlushFixture, FeatheringRampsTheScaleLinearlyAcrossTheOutline) {
   for (const char* f : {"maps.exr", "mask.png", "before.png", "after.png", "panel.png", "flush.json"})
     EXPECT_TRUE(std::filesystem::exists(dir / "out" / f)) << f;
   // The other channels of the input survive the edit.
-  EXPECT_NO_THROW(read_exr(dir / "out" / "maps.exr").channel("flags"));
+  EXPECT_NO_THROW(files::read_exr(dir / "out" / "maps.exr").channel("flags"));
 }
 
 TEST_F(FlushFixture, OutOfRangeResultsAreClampedAndTheShareReported) {
@@ -113,4 +113,4 @@ TEST_F(FlushFixture, BadInputNamesTheFieldAndWritesNothing) {
 }
 
 }  // namespace
-}  // namespace chromo::estimation
+}  // namespace chromo::maps

@@ -8,18 +8,13 @@
 #include <random>
 #include <string>
 
-#include "chromo/estimation/image_files.hpp"
-#include "chromo/estimation/profile_table.hpp"
+#include "../support/fresh_directory.hpp"
+#include "chromo/files/float_image.hpp"
+#include "chromo/maps/profile_table.hpp"
 
-namespace chromo::estimation::testing {
+namespace chromo::maps::testing {
 
-inline std::filesystem::path fresh_directory(const std::string& name) {
-  auto path = std::filesystem::temp_directory_path() /
-              ("chromo-maps-" + name + "-" + std::to_string(::getpid()) + "-" + std::to_string(std::random_device{}()));
-  std::filesystem::remove_all(path);
-  std::filesystem::create_directories(path);
-  return path;
-}
+using chromo::testing::fresh_directory;
 
 inline ParameterMaps uniform_maps(int width, int height, float cm, float ch, float bm, float che) {
   const std::size_t n = static_cast<std::size_t>(width) * height;
@@ -28,7 +23,7 @@ inline ParameterMaps uniform_maps(int width, int height, float cm, float ch, flo
 }
 
 inline void write_maps(const std::filesystem::path& path, const ParameterMaps& m) {
-  write_exr(path, {m.width, m.height, {"Cm", "Ch", "Bm", "Che", "flags"}, {m.cm, m.ch, m.bm, m.che, m.flags}});
+  files::write_exr(path, {m.width, m.height, {"Cm", "Ch", "Bm", "Che", "flags"}, {m.cm, m.ch, m.bm, m.che, m.flags}});
 }
 
 // The folder does not exist, or holds nothing.
@@ -36,4 +31,4 @@ inline bool nothing_written(const std::filesystem::path& folder) {
   return !std::filesystem::exists(folder) || std::filesystem::is_empty(folder);
 }
 
-}  // namespace chromo::estimation::testing
+}  // namespace chromo::maps::testing

@@ -1,4 +1,4 @@
-#include "chromo/estimation/relight.hpp"
+#include "chromo/maps/relight.hpp"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -6,14 +6,14 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "chromo/estimation/map_operations.hpp"
+#include "chromo/maps/map_operations.hpp"
 #include "chromo/estimation/skin_model.hpp"
 #include "chromo/spectral/camera.hpp"
 #include "chromo/spectral/cie.hpp"
 #include "chromo/spectral/srgb.hpp"
 #include "maps_fixture.hpp"
 
-namespace chromo::estimation {
+namespace chromo::maps {
 namespace {
 
 using ::testing::HasSubstr;
@@ -45,10 +45,10 @@ TEST(ResolveIlluminant, NamesLedsCctsAndFiles) {
 // A flat patch relit through the maps equals the forward model's albedo seen
 // under the illuminant, by MODEL.md's colour rules.
 TEST(Relight, FlatPatchEqualsTheForwardModel) {
-  const SkinParameters p{0.08, 0.05, 0.6, 0.02};
+  const estimation::SkinParameters p{0.08, 0.05, 0.6, 0.02};
   ParameterMaps maps = uniform_maps(5, 3, p.cm, p.ch, p.bm, p.che);
   maps.flags[4] = 2.0f;  // saturated: not relit
-  const SkinModel model;
+  const estimation::SkinModel model;
   const spectral::Spectrum albedo = model.albedo(p);
   for (const char* name : {"D65", "A", "W27", "R"}) {
     const spectral::Spectrum e = resolve_illuminant(name).spectrum;
@@ -79,10 +79,10 @@ TEST(RelightToFiles, WritesImagesAndComparesWithAPhotograph) {
   const spectral::Spectrum a = spectral::illuminant_a();
   const auto camera = spectral::builtin_camera("nikon_d5100");
   const RelitImage exact = relight(maps, spectral::camera_weights(camera, a), 1);
-  FloatImage photo{16, 8, {"R", "G", "B"}, std::vector<std::vector<float>>(3, std::vector<float>(128))};
+  files::FloatImage photo{16, 8, {"R", "G", "B"}, std::vector<std::vector<float>>(3, std::vector<float>(128))};
   for (int i = 0; i < 128; ++i)
     for (int c = 0; c < 3; ++c) photo.channels[c][i] = exact.rgb[3 * i + c];
-  write_exr(dir / "photo.exr", photo);
+  files::write_exr(dir / "photo.exr", photo);
 
   RelightOptions o;
   o.maps = dir / "maps.exr", o.illuminant = "A", o.out = dir / "out", o.photograph = dir / "photo.exr";
@@ -92,7 +92,7 @@ TEST(RelightToFiles, WritesImagesAndComparesWithAPhotograph) {
   EXPECT_LT(s.photo_delta_e94.max, 1e-3);
   for (const char* f : {"relit.exr", "relit.png", "panel.png", "delta_e94.exr", "relight.json"})
     EXPECT_TRUE(std::filesystem::exists(dir / "out" / f)) << f;
-  const FloatImage relit = read_exr(dir / "out" / "relit.exr");
+  const files::FloatImage relit = files::read_exr(dir / "out" / "relit.exr");
   EXPECT_EQ(relit.channel("valid")[0], 1.0f);
   const auto j = nlohmann::json::parse(std::ifstream(dir / "out" / "relight.json"));
   EXPECT_EQ(j["illuminant"], "A");
@@ -101,7 +101,7 @@ TEST(RelightToFiles, WritesImagesAndComparesWithAPhotograph) {
   // 10% brighter photograph: a uniform, known lightness difference.
   for (auto& channel : photo.channels)
     for (float& v : channel) v *= 1.1f;
-  write_exr(dir / "photo.exr", photo);
+  files::write_exr(dir / "photo.exr", photo);
   const RelightSummary brighter = relight_to_files(o);
   EXPECT_GT(brighter.photo_delta_e94.mean, 1.5);
   EXPECT_LT(brighter.photo_delta_e94.max - brighter.photo_delta_e94.median, 0.6);
@@ -111,11 +111,11 @@ TEST(RelightToFiles, WritesImagesAndComparesWithAPhotograph) {
 TEST(RelightToFiles, BadInputNamesTheFieldAndWritesNothing) {
   const auto dir = fresh_directory("relight-bad");
   write_maps(dir / "maps.exr", uniform_maps(8, 8, 0.05f, 0.03f, 0.7f, 0.0f));
-  FloatImage small{4, 4, {"R", "G", "B"}, std::vector<std::vector<float>>(3, std::vector<float>(16, 0.3f))};
-  write_exr(dir / "small.exr", small);
-  FloatImage no_b{8, 8, {"R", "G"}, std::vector<std::vector<float>>(2, std::vector<float>(64, 0.3f))};
-  write_exr(dir / "no_b.exr", no_b);
-  write_exr(dir / "no_cm.exr", no_b);
+  files::FloatImage small{4, 4, {"R", "G", "B"}, std::vector<std::vector<float>>(3, std::vector<float>(16, 0.3f))};
+  files::write_exr(dir / "small.exr", small);
+  files::FloatImage no_b{8, 8, {"R", "G"}, std::vector<std::vector<float>>(2, std::vector<float>(64, 0.3f))};
+  files::write_exr(dir / "no_b.exr", no_b);
+  files::write_exr(dir / "no_cm.exr", no_b);
   struct Case {
     std::string maps, illuminant, photo, expected;
   };
@@ -137,4 +137,4 @@ TEST(RelightToFiles, BadInputNamesTheFieldAndWritesNothing) {
 }
 
 }  // namespace
-}  // namespace chromo::estimation
+}  // namespace chromo::maps

@@ -37,6 +37,7 @@
 #include <thread>
 #include <vector>
 
+#include "chromo/calibration/session_mix.hpp"
 #include "chromo/daemon/device_set.hpp"
 #include "chromo/files/durable_file.hpp"
 #include "chromo/daemon/operations.hpp"
@@ -57,23 +58,6 @@ struct CalibrationRequest {
   std::uint32_t warmup_ms = 0;
 };
 
-struct SolvedMix {
-  drivers::DriveLevels weights{};
-  std::map<std::string, double> figures;  // rmse, delta_uv_prime, ra, camera_de00_mean, camera_de00_max
-  std::string summary;                    // MixSummary::BriefReport()
-  std::string library;                    // the library file used
-};
-
-// The drive levels of a mix `target` ("d65", "w57", "w57+blue[:R]", "cct:K",
-// a CSV path) from `library` under `objective` ("spectral", "xyz",
-// "camera"), as sessions get them (Calibrations::solved_mix uses "camera").
-// "w57" is W57 alone at the level it has in the w57+blue solve, so that the
-// method's blue-only response (W57+blue) − W57 holds exactly. std::invalid_argument
-// naming "target"/"objective" for a bad request or an unusable solve.
-// (library is left empty.) A pure function.
-SolvedMix solve_session_mix(const calibration::LedLibrary& library, const std::string& target,
-                            const std::string& objective, bool hold_chromaticity);
-
 class Calibrations {
  public:
   // root: <sessions_dir>/calibrations (created by the first run). configured_library: the
@@ -84,16 +68,16 @@ class Calibrations {
 
   // Every run in the folder, in-flight ones marked interrupted on disk; also
   // loads the newest succeeded run's library.
-  std::vector<OperationRecord> recover();
+  std::vector<session::OperationRecord> recover();
 
   // Validates (std::invalid_argument naming the field; std::logic_error when
   // a device is not open or there is no reference lamp), writes the folder,
   // starts the run's thread.
-  OperationRecord start(const CalibrationRequest& request);
+  session::OperationRecord start(const CalibrationRequest& request);
 
   // std::invalid_argument naming "target"/"objective" for a bad request;
   // std::logic_error (FAILED_PRECONDITION) when there is no library.
-  SolvedMix solve(const std::string& target, const std::string& objective, bool hold_chromaticity) const;
+  calibration::SolvedMix solve(const std::string& target, const std::string& objective, bool hold_chromaticity) const;
   // The weights of a session mix from the library; nullopt without a library.
   std::optional<drivers::DriveLevels> solved_mix(const std::string& mix) const;
   // The library file in use ("" when none).

@@ -22,7 +22,7 @@
 #include "chromo/daemon/device_set.hpp"
 #include "chromo/files/durable_file.hpp"
 #include "chromo/daemon/operations.hpp"
-#include "chromo/daemon/session_store.hpp"
+#include "chromo/session/session_store.hpp"
 
 namespace chromo::daemon {
 
@@ -51,23 +51,23 @@ class Daemon {
   DeviceSet& devices() { return devices_; }
   OperationRegistry& operations() { return operations_; }
   EventBus& events() { return events_; }
-  SessionStore& store() { return store_; }
+  session::SessionStore& store() { return store_; }
 
   std::vector<DeviceReport> probe_devices();
   // Validated plan; throws std::invalid_argument (naming the field),
   // std::logic_error (another operation runs), std::runtime_error (devices).
-  OperationRecord start_session(SessionPlan plan, const std::string& subject);
+  session::OperationRecord start_session(session::SessionPlan plan, const std::string& subject);
   drivers::DriveLevels resolve_mix(const std::string& mix) const;
   // A calibration run (calibrations.hpp); same errors as start_session.
-  OperationRecord start_calibration(const CalibrationRequest& request);
+  session::OperationRecord start_calibration(const CalibrationRequest& request);
   Calibrations& calibrations() { return *calibrations_; }
   // Session folder of an id known to the registry; nullopt when unknown.
-  std::optional<SessionInfo> session(const std::string& id) const;
+  std::optional<session::SessionInfo> session(const std::string& id) const;
   // Throws std::logic_error while a session runs.
   void ensure_idle() const;
 
  private:
-  void run_session(std::string id, SessionPlan plan, std::shared_ptr<Journal> journal, std::filesystem::path folder,
+  void run_session(std::string id, session::SessionPlan plan, std::shared_ptr<session::Journal> journal, std::filesystem::path folder,
                    std::shared_ptr<OperationControl> control);
 
   DaemonConfig config_;
@@ -77,7 +77,7 @@ class Daemon {
   std::unique_ptr<FrameConsumer> owned_estimator_;
   EventBus events_;
   OperationRegistry operations_{events_};
-  SessionStore store_;
+  session::SessionStore store_;
   std::mutex run_mutex_;
   std::thread worker_;
   std::string running_id_;

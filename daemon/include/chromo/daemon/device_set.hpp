@@ -23,7 +23,7 @@
 #include <vector>
 
 #include "chromo/daemon/config.hpp"
-#include "chromo/daemon/session_plan.hpp"
+#include "chromo/session/session_plan.hpp"
 #include "chromo/drivers/camera.hpp"
 #include "chromo/drivers/led_controller.hpp"
 #include "chromo/drivers/spectrometer.hpp"
@@ -50,7 +50,7 @@ struct DeviceSet {
   // the subject in the sphere: called by the sequencer before each step with
   // its role (the camera simulator's scene is switched). Empty with real
   // devices (the plan's prompts ask the operator).
-  std::function<void(StepRole role)> place_in_sphere;
+  std::function<void(session::StepRole role)> place_in_sphere;
   // Switches the spectrometer's reference lamp (calibration runs need it:
   // calibration_run.hpp), returning once its output is stable. The virtual
   // lab's lamp; empty with real devices unless one is wired (then a

@@ -38,7 +38,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "chromo/daemon/journal.hpp"
+#include "chromo/session/journal.hpp"
+#include "chromo/session/operation_record.hpp"
 #include "chromo/drivers/camera.hpp"
 
 namespace chromo::daemon {
@@ -56,16 +57,6 @@ struct StoredFrame {
   std::uint64_t index;          // session-wide storage order
   std::string file;             // relative to the session folder
   const CapturedFrame* frame;
-};
-
-struct PipelineCounters {
-  std::uint64_t received = 0, stored = 0, estimated = 0, estimator_skipped = 0, lost = 0, resent_packets = 0;
-  std::map<std::string, std::uint64_t> lost_reasons, skipped_reasons;
-  double max_trigger_to_stored_ms = 0, mean_trigger_to_stored_ms = 0;
-  double storage_cpu_ms = 0, estimator_cpu_ms = 0;  // CPU time of the pipeline's own threads
-  // Frames waiting for the estimator now and at most; frames it read back
-  // from storage after skipping them (set by the daemon after end_session).
-  std::uint64_t estimator_queue_depth = 0, max_estimator_queue_depth = 0, estimator_read_back = 0;
 };
 
 // The on-line estimator's side of the pipeline (estimation plugs in here;
@@ -101,7 +92,7 @@ class FramePipeline {
     std::size_t storage_queue_frames = 64;
     std::size_t estimator_queue_frames = 8;
   };
-  FramePipeline(std::filesystem::path folder, Journal& journal, files::StorageBudget* budget, Options options,
+  FramePipeline(std::filesystem::path folder, session::Journal& journal, files::StorageBudget* budget, Options options,
                 FrameConsumer* estimator, std::function<void(const StoredFrame&)> on_stored,
                 std::function<void(std::uint64_t skipped_so_far)> on_estimator_behind = {});
   ~FramePipeline();  // drains, then stops the threads
@@ -116,7 +107,7 @@ class FramePipeline {
   // Waits until every submitted frame is stored (or storage failed) and the
   // estimator has consumed its queue.
   void drain();
-  PipelineCounters counters() const;
+  session::PipelineCounters counters() const;
   // Empty while storage works; the reason storage stopped otherwise.
   std::string storage_error() const;
 
@@ -125,7 +116,7 @@ class FramePipeline {
   void estimator_loop();
 
   std::filesystem::path folder_;
-  Journal& journal_;
+  session::Journal& journal_;
   files::StorageBudget* budget_;
   Options options_;
   FrameConsumer* estimator_;
@@ -139,7 +130,7 @@ class FramePipeline {
   std::deque<std::pair<CapturedFrame, StoredFrame>> estimator_queue_;
   bool storing_ = false, estimating_ = false, stopping_ = false;
   std::string storage_error_;
-  PipelineCounters counters_;
+  session::PipelineCounters counters_;
   double latency_sum_ms_ = 0;
   std::uint64_t next_index_ = 0;
   std::thread storage_thread_, estimator_thread_;

@@ -31,7 +31,7 @@
 // A session that did not succeed gets no record.
 //
 // The same computation runs offline on a stored session (`chromo estimate
-// SESSION_DIR`): read_session_captures() + estimate_method_captures().
+// SESSION_DIR`): session::read_session_captures() + estimate_method_captures().
 //
 // Thread rules: begin_session/end_session on the session's thread, consume on
 // the pipeline's estimator thread; the daemon runs one session at a time and
@@ -46,26 +46,19 @@
 #include "chromo/daemon/config.hpp"
 #include "chromo/files/durable_file.hpp"
 #include "chromo/daemon/frame_pipeline.hpp"
-#include "chromo/daemon/session_captures.hpp"
-#include "chromo/estimation/estimate_report.hpp"
+#include "chromo/session/session_captures.hpp"
+#include "chromo/maps/estimate_report.hpp"
 
 namespace chromo::daemon {
 
 struct OnlineEstimatorOptions {
-  estimation::MethodEstimationOptions estimation;  // method fast, model auto by default
+  maps::MethodEstimationOptions estimation;  // method fast, model auto by default
   // The LED library and camera sensitivity, resolved at each session start
   // (a new calibration applies to the next session).
-  std::function<CaptureSources()> sources;
+  std::function<session::CaptureSources()> sources;
   files::StorageBudget* budget = nullptr;
   bool IsValid(std::string* error) const;
 };
-
-// The sources chromod uses: the LED library at `led_library` (empty: the
-// newest measured one in calibration::led_library_directory(), else the
-// nominal built-in one), the camera "builtin:NAME" or a CSV of
-// wavelength_nm,R,G,B, ρ_white. Throws std::invalid_argument naming the file.
-CaptureSources resolve_capture_sources(const std::string& led_library, const std::string& camera,
-                                       double white_reflectance);
 
 class OnlineEstimator;
 // chromod's estimator from its configuration (config.estimation); sources are
@@ -91,13 +84,13 @@ class OnlineEstimator final : public FrameConsumer {
 
   OnlineEstimatorOptions options_;
   SessionStart session_;
-  std::optional<CaptureSources> sources_;
-  std::unique_ptr<SessionCaptureBuilder> builder_;
+  std::optional<session::CaptureSources> sources_;
+  std::unique_ptr<session::SessionCaptureBuilder> builder_;
   std::set<std::uint64_t> consumed_;      // storage indices already added
   std::string error_;                     // first reason this session cannot be estimated
   bool table_prepared_ = false;
   double table_prepare_seconds_ = 0;
-  std::optional<estimation::MethodEstimationResult> result_;
+  std::optional<maps::MethodEstimationResult> result_;
   std::size_t read_back_ = 0;
 };
 

@@ -2,7 +2,7 @@
 // Operations: long work (sessions, calibration runs) as observable records,
 // and the daemon's event bus.
 //
-// An OperationRecord is the API's Operation in C++ form. OperationRegistry
+// A session::OperationRecord (session/operation_record.hpp) is the API's Operation in C++ form. OperationRegistry
 // holds every operation this daemon knows: the ones it runs and the ones
 // read back from the sessions folder at start-up (finished, or INTERRUPTED
 // when they were in flight at the restart). Each update bumps a version and
@@ -33,29 +33,9 @@
 #include <vector>
 
 #include "chromo/daemon/frame_pipeline.hpp"
+#include "chromo/session/operation_record.hpp"
 
 namespace chromo::daemon {
-
-enum class OperationKind { kSession, kCalibration };
-enum class OperationState { kPending, kRunning, kPaused, kSucceeded, kFailed, kCancelled, kInterrupted };
-std::string state_name(OperationState state);
-std::optional<OperationState> parse_state(const std::string& name);
-bool is_final(OperationState state);
-
-struct OperationRecord {
-  std::string id;
-  OperationKind kind = OperationKind::kSession;
-  std::string name;
-  OperationState state = OperationState::kPending;
-  double progress = 0;
-  double eta_seconds = -1;
-  std::string message, error;
-  std::chrono::system_clock::time_point created, updated;
-  PipelineCounters counters;
-  std::uint64_t expected_frames = 0;
-  std::string folder;
-  int step_index = -1, step_count = 0;
-};
 
 class OperationControl {
  public:
@@ -81,7 +61,7 @@ struct Event {
   std::uint64_t sequence = 0;
   std::chrono::system_clock::time_point time;
   enum class Kind { kOperation, kLog, kFrame } kind = Kind::kLog;
-  OperationRecord operation;  // kOperation
+  session::OperationRecord operation;  // kOperation
   std::string log;            // kLog
   std::string session_id, step, camera;  // kFrame
   std::uint64_t frame_index = 0;
@@ -118,24 +98,24 @@ class OperationRegistry {
  public:
   explicit OperationRegistry(EventBus& events) : events_(events) {}
   // Adds a record (id must be new) with its control.
-  std::shared_ptr<OperationControl> add(OperationRecord record);
+  std::shared_ptr<OperationControl> add(session::OperationRecord record);
   // Adds a finished record read from disk (no control).
-  void add_past(OperationRecord record);
+  void add_past(session::OperationRecord record);
   // Applies `change` to the record and publishes it; no-op for unknown ids.
-  void update(const std::string& id, const std::function<void(OperationRecord&)>& change);
-  std::optional<OperationRecord> get(const std::string& id) const;
+  void update(const std::string& id, const std::function<void(session::OperationRecord&)>& change);
+  std::optional<session::OperationRecord> get(const std::string& id) const;
   std::shared_ptr<OperationControl> control(const std::string& id) const;
-  std::vector<OperationRecord> list() const;  // newest first
+  std::vector<session::OperationRecord> list() const;  // newest first
   // Waits until the record's version exceeds `seen_version` or the timeout
   // passes; returns the record and its version.
-  std::optional<std::pair<OperationRecord, std::uint64_t>> wait_change(const std::string& id, std::uint64_t seen_version,
+  std::optional<std::pair<session::OperationRecord, std::uint64_t>> wait_change(const std::string& id, std::uint64_t seen_version,
                                                                        std::chrono::milliseconds timeout) const;
   // True while some operation is not final.
   bool any_active() const;
 
  private:
   struct Entry {
-    OperationRecord record;
+    session::OperationRecord record;
     std::shared_ptr<OperationControl> control;
     std::uint64_t version = 1;
   };

@@ -44,14 +44,14 @@
 #include "chromo/daemon/device_set.hpp"
 #include "chromo/daemon/frame_pipeline.hpp"
 #include "chromo/daemon/operations.hpp"
-#include "chromo/daemon/session_plan.hpp"
+#include "chromo/session/session_plan.hpp"
 
 namespace chromo::daemon {
 
 struct SequencerContext {
   std::string id;
-  SessionPlan plan;
-  Journal* journal = nullptr;
+  session::SessionPlan plan;
+  session::Journal* journal = nullptr;
   FramePipeline* pipeline = nullptr;
   OperationRegistry* operations = nullptr;
   OperationControl* control = nullptr;
@@ -59,13 +59,13 @@ struct SequencerContext {
   std::vector<NamedDevice<drivers::Camera>*> cameras;
   // Drive levels of a named mix; throws std::invalid_argument when unknown.
   std::function<drivers::DriveLevels(const std::string& mix)> resolve_mix;
-  std::function<void(StepRole)> place_in_sphere;  // optional (DeviceSet::place_in_sphere)
+  std::function<void(session::StepRole)> place_in_sphere;  // optional (DeviceSet::place_in_sphere)
   std::uint32_t frame_timeout_ms = 3000;
   std::uint32_t frame_attempts = 3;
 };
 
 struct SequencerOutcome {
-  OperationState state = OperationState::kSucceeded;
+  session::OperationState state = session::OperationState::kSucceeded;
   std::string error;
 };
 

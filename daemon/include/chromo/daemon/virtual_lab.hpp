@@ -68,7 +68,7 @@ class VirtualLabSimulators {
   simulators::CalibrationLab& calibration_lab();
   int modbus_port() const { return modbus_port_; }
   // Shows the white target (kWhite) or the skin patch (kSubject); kDark leaves the scene.
-  void place_in_sphere(StepRole role);
+  void place_in_sphere(session::StepRole role);
   bool showing_white_target() const;
 
  private:

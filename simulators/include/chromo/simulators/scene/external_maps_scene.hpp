@@ -1,5 +1,5 @@
 #pragma once
-// Test data for `chromo import-maps` (and `relight`, `flush`): the virtual
+// Test data for `chromo import-maps` (and `maps::relight`, `flush`): the virtual
 // lab's skin scene (make_skin_scene, no white strip) measured the method's
 // way, plus "another device's" relative melanin and hemoglobin maps made from
 // the scene's truth through a monotone nonlinearity the importer is NOT told:
@@ -13,7 +13,7 @@
 // still show the skin underneath, as a device that sees past them would not:
 // there the imported maps are simply wrong for the photograph.
 //
-// Files written into the directory (crash-safe through OutputBatch):
+// Files written into the directory (crash-safe through files::OutputBatch):
 //   MEASUREMENT.json, d65prime.exr (R, G, B under a D65 metamer of the six
 //   LEDs), blue.exr (B under the blue LED), d65prime.csv, blue.csv,
 //   truth.exr (Cm, Ch, Bm, Che, flags = 0, region), melanin.png, hemoglobin.png,

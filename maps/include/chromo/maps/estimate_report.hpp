@@ -1,0 +1,100 @@
+#pragma once
+// An estimation's output folder, written the same way by `chromo estimate`
+// (MEASUREMENT.json or a stored session) and by chromod's on-line estimator:
+//
+//   maps.exr      FLOAT channels Cm, Ch, Bm, Che, residual, order, flags (pixel_flags.hpp)
+//   cm.png ch.png bm.png che.png residual.png   false colour with a colour bar
+//   flags.png order.png                         categorical with a legend
+//   summary.json  method, model, size, channels, timings_s, pixels_per_second,
+//                 residual statistics, order_counts, flag_counts, and what the
+//                 caller adds (input, table, registration, relit ΔE94, ...)
+//
+// Files go through a FileCommit: the caller decides how a file becomes
+// durable (chromod: temp + fsync + rename + fsync-dir, daemon/durable_file;
+// the CLI: every file to a temporary name first, all renamed at the end).
+//
+// estimate_method_captures() is the whole estimation of a standard session's
+// captures (method_measurement.hpp → forward table from the disk cache →
+// estimation::Estimator tile by tile on options.threads → the spatial second pass →
+// relit ΔE94 against the captured photographs → the folder above); the daemon and `chromo estimate
+// SESSION_DIR` both call it, so they give the same maps for the same frames.
+//
+// Thread rules: free functions; the estimator runs on its own threads.
+
+#include <filesystem>
+#include <functional>
+#include <span>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "chromo/estimation/estimator.hpp"
+#include "chromo/session/method_measurement.hpp"
+#include "chromo/maps/reconstruction.hpp"
+#include "chromo/estimation/spatial_flags.hpp"
+
+namespace chromo::maps {
+
+// Makes `final_path` hold what `produce` writes to the temporary path it is given.
+using FileCommit = std::function<void(const std::filesystem::path& final_path,
+                                      const std::function<void(const std::filesystem::path& temporary)>& produce)>;
+
+struct EstimateReport {
+  std::string method, model;
+  int width = 0, height = 0;
+  std::vector<std::string> channel_names;
+  std::span<const estimation::PixelEstimate> estimates;
+  estimation::EstimateSummary summary;
+  std::vector<std::pair<std::string, double>> timings_s;  // in order; "estimate" is summary.seconds
+  std::string extra_json = "{}";  // a JSON object whose members are added to summary.json
+};
+
+// Writes the folder's files (the directory must exist) and returns summary.json's text.
+std::string write_estimate_report(const std::filesystem::path& dir, const EstimateReport& report,
+                                  const FileCommit& commit);
+
+// ΔE94 of the reconstruction against one captured photograph.
+struct RelitComparison {
+  std::string illuminant;  // "D65'", "W57", "W57+blue"
+  DeltaEStats delta_e94;
+};
+// Over explained pixels (flag kExplained) with a finite photograph.
+std::vector<RelitComparison> compare_with_photographs(std::span<const estimation::PixelEstimate> estimates,
+                                                      const std::vector<session::Photograph>& photographs,
+                                                      const spectral::CameraSensitivity& camera, int threads = 0);
+
+// summary.json's "neighbourhood" object (JSON text): which parts of the
+// spatial second pass ran (spatial_flags.hpp) and what they changed.
+// summary.json's "registration": one object per registered capture.
+std::string registration_report_json(std::span<const session::RegistrationReport> registration);
+
+std::string neighbourhood_report_json(bool flags, bool order_pooling, const estimation::NeighbourhoodSummary& summary);
+
+struct MethodEstimationOptions {
+  estimation::EstimatorOptions estimator;      // method (default fast), model (default auto), threads
+  // The spatial second pass after the per-pixel estimate, as `chromo
+  // estimate` by default: neighbourhood flags (code 7) and the model order
+  // pooled over 7×7 windows (model auto). Neither part: no second pass.
+  estimation::NeighbourhoodOptions neighbourhood;
+  estimation::TableGrid grid;
+  std::filesystem::path cache_dir; // forward (and, unless estimator.cache_dir, inverse) tables; empty: default
+  session::RegistrationOptions registration;
+};
+
+struct MethodEstimationResult {
+  std::string summary_json;
+  estimation::EstimateSummary summary;
+  double pixels_per_second = 0;
+  std::vector<RelitComparison> relit;
+  std::vector<session::RegistrationReport> registration;
+};
+
+// extra_json: members added to summary.json (e.g. the session id and source).
+// Throws std::invalid_argument / session::RegistrationError for unusable captures
+// (nothing written), std::runtime_error for failed writes.
+MethodEstimationResult estimate_method_captures(const session::MethodCaptures& captures, const MethodEstimationOptions& options,
+                                                const std::filesystem::path& out_dir, const FileCommit& commit,
+                                                const estimation::EstimateCallbacks& callbacks = {},
+                                                const std::string& extra_json = "{}");
+
+}  // namespace chromo::maps

@@ -1,0 +1,277 @@
+#include "chromo/maps/estimate_report.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "chromo/maps/map_previews.hpp"
+#include "chromo/estimation/skin_model.hpp"
+
+namespace chromo::maps {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+std::string hex_key(std::uint64_t key) {
+  char text[17];
+  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(key));
+  return text;
+}
+
+// OpenCV picks its image writer by the file's extension, which a commit's
+// temporary name does not have: write beside it with ".png", then rename.
+void write_png_to(const fs::path& temporary, const std::function<void(const fs::path&)>& write) {
+  const fs::path png = temporary.string() + ".png";
+  try {
+    write(png);
+    fs::rename(png, temporary);
+  } catch (...) {
+    std::error_code ignored;
+    fs::remove(png, ignored);
+    throw;
+  }
+}
+
+nlohmann::ordered_json stats_json(const DeltaEStats& s) {
+  return {{"mean", s.mean}, {"median", s.median}, {"p95", s.p95}, {"max", s.max}, {"pixels", s.pixels}};
+}
+
+}  // namespace
+
+std::string registration_report_json(std::span<const session::RegistrationReport> registration) {
+  nlohmann::ordered_json out = nlohmann::ordered_json::array();
+  for (const auto& r : registration)
+    out.push_back({{"image", r.image},
+                   {"reference", r.reference},
+                   {"channel", r.channel},
+                   {"shift_x_px", r.result.shift_x_px},
+                   {"shift_y_px", r.result.shift_y_px},
+                   {"rotation_deg", r.result.rotation_deg},
+                   {"correlation", r.result.correlation},
+                   {"motion_px", r.motion_px},
+                   {"warped", r.warped},
+                   {"residual_motion_px", r.result.residual_motion_px}});
+  return out.dump();
+}
+
+std::string neighbourhood_report_json(bool flags, bool order_pooling, const estimation::NeighbourhoodSummary& summary) {
+  return nlohmann::ordered_json{{"flags", flags},
+                                {"order_pooling", order_pooling},
+                                {"flagged_touching_flagged_regions", summary.flagged_touching},
+                                {"flagged_enclosed", summary.flagged_holes},
+                                {"block_px", summary.block_px},
+                                {"order_changed_to_4", summary.order_to_4},
+                                {"order_changed_to_2", summary.order_to_2}}
+      .dump();
+}
+
+std::string write_estimate_report(const fs::path& dir, const EstimateReport& report, const FileCommit& commit) {
+  const std::size_t pixels = static_cast<std::size_t>(report.width) * report.height;
+  if (report.estimates.size() != pixels) throw std::invalid_argument("estimate report: estimates do not fill the image");
+  files::FloatImage maps;
+  maps.width = report.width, maps.height = report.height;
+  maps.channel_names = {"Cm", "Ch", "Bm", "Che", "residual", "order", "flags"};
+  maps.channels.assign(7, std::vector<float>(pixels));
+  std::vector<std::uint8_t> hide(pixels);
+  std::vector<double> residuals;
+  for (std::size_t i = 0; i < pixels; ++i) {
+    const estimation::PixelEstimate& e = report.estimates[i];
+    const float values[7] = {float(e.parameters.cm), float(e.parameters.ch), float(e.parameters.bm),
+                             float(e.parameters.che), e.residual, float(e.order), float(static_cast<int>(e.flag))};
+    for (int c = 0; c < 7; ++c) maps.channels[c][i] = values[c];
+    hide[i] = e.flag != estimation::PixelFlag::kExplained && e.flag != estimation::PixelFlag::kSpecular;
+    if (e.order > 0) residuals.push_back(e.residual);
+  }
+  std::sort(residuals.begin(), residuals.end());
+  auto quantile = [&](double q) {
+    return residuals.empty() ? 0.0
+                             : residuals[std::min(residuals.size() - 1, std::size_t(q * (residuals.size() - 1) + 0.5))];
+  };
+  double residual_sum = 0;
+  for (double r : residuals) residual_sum += r;
+
+  nlohmann::ordered_json s;
+  s["method"] = report.method;
+  s["model"] = report.model;
+  s["width"] = report.width;
+  s["height"] = report.height;
+  s["channels"] = report.channel_names;
+  nlohmann::ordered_json timings = nlohmann::ordered_json::object();
+  for (const auto& [name, seconds] : report.timings_s) timings[name] = seconds;
+  timings["estimate"] = report.summary.seconds;
+  s["timings_s"] = timings;
+  s["pixels"] = pixels;
+  s["pixels_per_second"] = report.summary.seconds > 0 ? static_cast<double>(pixels) / report.summary.seconds : 0.0;
+  s["residual"] = {{"unit", "albedo RMS over channels"},
+                   {"mean", residuals.empty() ? 0.0 : residual_sum / static_cast<double>(residuals.size())},
+                   {"median", quantile(0.5)},
+                   {"p95", quantile(0.95)},
+                   {"max", residuals.empty() ? 0.0 : residuals.back()}};
+  s["order_counts"] = {{"2", report.summary.order2}, {"4", report.summary.order4}};
+  nlohmann::ordered_json flags;
+  for (int f = 0; f < estimation::kPixelFlagCount; ++f)
+    flags[std::string(estimation::pixel_flag_name(static_cast<estimation::PixelFlag>(f)))] = report.summary.flag_counts[f];
+  s["flag_counts"] = flags;
+  const auto extra = nlohmann::ordered_json::parse(report.extra_json);
+  if (!extra.is_object()) throw std::invalid_argument("estimate report: extra_json is not a JSON object");
+  for (const auto& [key, value] : extra.items()) s[key] = value;
+  const std::string summary_text = s.dump(2) + "\n";
+
+  commit(dir / "maps.exr", [&](const fs::path& t) { files::write_exr(t, maps); });
+  struct Preview {
+    const char* file;
+    int channel;
+    double low, high;
+    bool log;
+  };
+  for (const Preview& p : {Preview{"cm.png", 0, estimation::kCmRange.min, estimation::kCmRange.max, true},
+                           Preview{"ch.png", 1, estimation::kChRange.min, estimation::kChRange.max, true}, Preview{"bm.png", 2, 0.0, 1.0, false},
+                           Preview{"che.png", 3, 0.0, 0.1, false},
+                           Preview{"residual.png", 4, 0.0, std::max(quantile(0.99), 1e-6), false}})
+    commit(dir / p.file, [&](const fs::path& t) {
+      write_png_to(t, [&](const fs::path& png) {
+        write_map_png(png, maps.channels[p.channel], report.width, report.height, p.low, p.high, p.log,
+                      maps.channel_names[p.channel], hide);
+      });
+    });
+  std::vector<std::string> flag_names;
+  for (int f = 0; f < estimation::kPixelFlagCount; ++f) flag_names.emplace_back(estimation::pixel_flag_name(static_cast<estimation::PixelFlag>(f)));
+  commit(dir / "flags.png", [&](const fs::path& t) {
+    write_png_to(t, [&](const fs::path& png) {
+      write_category_png(png, maps.channels[6], report.width, report.height, flag_names);
+    });
+  });
+  commit(dir / "order.png", [&](const fs::path& t) {
+    write_png_to(t, [&](const fs::path& png) {
+      write_category_png(png, maps.channels[5], report.width, report.height, {"none", "", "2D", "", "4D"});
+    });
+  });
+  commit(dir / "summary.json", [&](const fs::path& t) {
+    std::ofstream out(t);
+    out << summary_text;
+    if (!out.flush()) throw std::runtime_error("cannot write " + t.string());
+  });
+  return summary_text;
+}
+
+std::vector<RelitComparison> compare_with_photographs(std::span<const estimation::PixelEstimate> estimates,
+                                                      const std::vector<session::Photograph>& photographs,
+                                                      const spectral::CameraSensitivity& camera, int threads) {
+  std::vector<std::size_t> included;
+  for (std::size_t i = 0; i < estimates.size(); ++i)
+    // Explained pixels only: a specular pixel's parameters are the skin under
+    // the reflection, so its reconstruction lacks the highlight by design.
+    if (estimates[i].flag == estimation::PixelFlag::kExplained) included.push_back(i);
+  // The reconstruction's camera RGB under each illuminant, chunk by chunk (albedo spectra once per chunk).
+  std::vector<std::vector<Eigen::Vector3d>> reconstructed(photographs.size(),
+                                                          std::vector<Eigen::Vector3d>(included.size()));
+  std::vector<spectral::CameraWeights> weights;
+  for (const auto& photo : photographs) weights.push_back(spectral::camera_weights(camera, photo.illuminant));
+  static const estimation::SkinModel model;
+  constexpr std::size_t kChunk = 16384;
+  std::vector<estimation::SkinParameters> parameters;
+  std::vector<spectral::Spectrum> albedo;
+  for (std::size_t begin = 0; begin < included.size(); begin += kChunk) {
+    const std::size_t end = std::min(included.size(), begin + kChunk);
+    parameters.resize(end - begin);
+    albedo.resize(end - begin);
+    for (std::size_t k = begin; k < end; ++k) parameters[k - begin] = estimates[included[k]].parameters;
+    model.albedo_batch(parameters, albedo, threads);
+    for (std::size_t p = 0; p < photographs.size(); ++p)
+      for (std::size_t k = begin; k < end; ++k) reconstructed[p][k] = weights[p] * albedo[k - begin].values().matrix();
+  }
+  std::vector<RelitComparison> out;
+  std::vector<Eigen::Vector3d> photographed(included.size());
+  for (std::size_t p = 0; p < photographs.size(); ++p) {
+    if (photographs[p].rgb.size() != estimates.size())
+      throw std::invalid_argument("photograph " + photographs[p].name + ": size differs from the maps");
+    for (std::size_t k = 0; k < included.size(); ++k) photographed[k] = photographs[p].rgb[included[k]];
+    out.push_back({photographs[p].name,
+                   photo_delta_e94(photographed, reconstructed[p], camera, photographs[p].illuminant)});
+  }
+  return out;
+}
+
+MethodEstimationResult estimate_method_captures(const session::MethodCaptures& captures, const MethodEstimationOptions& options,
+                                                const fs::path& out_dir, const FileCommit& commit,
+                                                const estimation::EstimateCallbacks& callbacks, const std::string& extra_json) {
+  const auto start = std::chrono::steady_clock::now();
+  auto t = start;
+  session::MethodMeasurement m = session::build_method_measurement(captures, options.registration);
+  const double measurement_seconds = seconds_since(t);
+
+  t = std::chrono::steady_clock::now();
+  bool rebuilt = false;
+  auto table = estimation::ForwardTable::load_or_build(
+      m.set, options.grid, options.cache_dir.empty() ? estimation::ForwardTable::default_cache_dir() : options.cache_dir, &rebuilt,
+      options.estimator.threads);
+  const double table_seconds = seconds_since(t);
+  t = std::chrono::steady_clock::now();
+  estimation::EstimatorOptions estimator_options = options.estimator;
+  if (estimator_options.cache_dir.empty()) estimator_options.cache_dir = options.cache_dir;  // the inverse table too
+  const estimation::Estimator estimator(table, m.set, estimator_options);
+  const double inverter_seconds = seconds_since(t);
+  std::vector<estimation::PixelEstimate> estimates(m.measured.size() / static_cast<std::size_t>(m.set.size()));
+  MethodEstimationResult result;
+  result.summary = estimator.estimate(m.measured, estimates, callbacks);
+  if (result.summary.cancelled) throw std::runtime_error("estimation cancelled");
+  result.pixels_per_second =
+      result.summary.seconds > 0 ? static_cast<double>(estimates.size()) / result.summary.seconds : 0.0;
+  estimation::NeighbourhoodSummary neighbourhood;
+  t = std::chrono::steady_clock::now();
+  if (options.neighbourhood.flags || options.neighbourhood.pool_order)
+    neighbourhood = estimation::refine_with_neighbourhood(estimator, m.measured, m.width, m.height, estimates, result.summary,
+                                              options.neighbourhood);
+  const double neighbourhood_seconds = seconds_since(t);
+
+  t = std::chrono::steady_clock::now();
+  result.relit = compare_with_photographs(estimates, m.photographs, captures.camera, options.estimator.threads);
+  const double relit_seconds = seconds_since(t);
+  result.registration = m.registration;
+
+  auto extra = nlohmann::ordered_json::parse(extra_json);
+  if (!extra.is_object()) throw std::invalid_argument("extra_json is not a JSON object");
+  extra["table"] = {{"key", hex_key(table->key())}, {"nodes", table->grid().node_count()}, {"rebuilt", rebuilt}};
+  extra["registration"] = nlohmann::ordered_json::parse(registration_report_json(m.registration));
+  nlohmann::ordered_json noise = nlohmann::ordered_json::object();
+  for (const auto& c : m.set.channels)
+    noise[c.name] = {{"read_sigma", c.noise.read_sigma},
+                     {"shot_coefficient", c.noise.shot_coefficient},
+                     {"saturation_albedo", c.noise.saturation_albedo}};
+  extra["noise"] = noise;
+  extra["saturated_pixels"] = m.saturated_pixels;
+  extra["neighbourhood"] = nlohmann::ordered_json::parse(
+      neighbourhood_report_json(options.neighbourhood.flags, options.neighbourhood.pool_order, neighbourhood));
+  nlohmann::ordered_json relit = nlohmann::ordered_json::object();
+  for (const auto& r : result.relit) relit[r.illuminant] = stats_json(r.delta_e94);
+  extra["relit_delta_e94"] = {
+      {"against", "the captured photographs (camera RGB albedo → XYZ by the ColorChecker-fitted matrix per illuminant)"},
+      {"pixels", "explained (flag 0)"},
+      {"by_illuminant", relit}};
+
+  EstimateReport report;
+  report.method = std::string(estimation::method_name(options.estimator.method));
+  report.model = std::string(estimation::model_name(options.estimator.model));
+  report.width = m.width, report.height = m.height;
+  for (const auto& c : m.set.channels) report.channel_names.push_back(c.name);
+  report.estimates = estimates;
+  report.summary = result.summary;
+  report.timings_s = {{"measurement_and_registration", measurement_seconds},
+                      {"table", table_seconds},
+                      {"inverter_setup", inverter_seconds},
+                      {"neighbourhood", neighbourhood_seconds},
+                      {"relit_comparison", relit_seconds},
+                      {"total_before_writing", seconds_since(start)}};
+  report.extra_json = extra.dump();
+  result.summary_json = write_estimate_report(out_dir, report, commit);
+  return result;
+}
+
+}  // namespace chromo::maps

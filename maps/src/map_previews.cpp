@@ -1,0 +1,76 @@
+#include "chromo/maps/map_previews.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace chromo::maps {
+
+namespace {
+
+constexpr int kBarWidth = 140;
+
+void save(const std::filesystem::path& path, const cv::Mat& image) {
+  if (!cv::imwrite(path.string(), image)) throw files::ImageError(path.string() + ": cannot write PNG");
+}
+
+}  // namespace
+
+void write_map_png(const std::filesystem::path& path, const std::vector<float>& values, int width, int height,
+                   double low, double high, bool log_scale, const std::string& label,
+                   const std::vector<std::uint8_t>& hide) {
+  auto normalise = [&](double v) {
+    if (log_scale) v = std::log(std::max(v, 1e-12));
+    const double lo = log_scale ? std::log(low) : low, hi = log_scale ? std::log(high) : high;
+    return std::clamp((v - lo) / (hi - lo), 0.0, 1.0);
+  };
+  const int bar_height = std::max(height, 160);
+  cv::Mat gray(height, width, CV_8U);
+  for (int i = 0; i < width * height; ++i) gray.at<std::uint8_t>(i) = static_cast<std::uint8_t>(255 * normalise(values[i]) + 0.5);
+  cv::Mat colour;
+  cv::applyColorMap(gray, colour, cv::COLORMAP_VIRIDIS);
+  for (int i = 0; i < width * height; ++i)
+    if (!hide.empty() && hide[i]) colour.at<cv::Vec3b>(i) = cv::Vec3b(128, 128, 128);
+  cv::Mat canvas(bar_height, width + kBarWidth, CV_8UC3, cv::Scalar(255, 255, 255));
+  colour.copyTo(canvas(cv::Rect(0, 0, width, height)));
+  cv::Mat ramp(bar_height - 40, 1, CV_8U);
+  for (int y = 0; y < ramp.rows; ++y) ramp.at<std::uint8_t>(y) = static_cast<std::uint8_t>(255 - 255 * y / std::max(1, ramp.rows - 1));
+  cv::Mat ramp_colour;
+  cv::applyColorMap(ramp, ramp_colour, cv::COLORMAP_VIRIDIS);
+  cv::resize(ramp_colour, ramp_colour, cv::Size(20, ramp.rows), 0, 0, cv::INTER_NEAREST);
+  ramp_colour.copyTo(canvas(cv::Rect(width + 10, 20, 20, ramp.rows)));
+  auto text = [&](const std::string& s, int y) {
+    cv::putText(canvas, s, cv::Point(width + 34, y), cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  };
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.4g", high);
+  text(buffer, 28);
+  std::snprintf(buffer, sizeof buffer, "%.4g", low);
+  text(buffer, bar_height - 22);
+  text(label + (log_scale ? " (log)" : ""), bar_height / 2);
+  save(path, canvas);
+}
+
+void write_category_png(const std::filesystem::path& path, const std::vector<float>& codes, int width, int height,
+                        const std::vector<std::string>& names) {
+  static const cv::Vec3b kColours[] = {{60, 60, 60},   {255, 0, 255}, {0, 255, 255}, {0, 0, 0},
+                                       {255, 255, 255}, {255, 0, 0},  {0, 0, 255},   {0, 200, 0}};
+  const int n = static_cast<int>(std::size(kColours));
+  const int legend_height = static_cast<int>(names.size()) * 18 + 10;
+  cv::Mat canvas(std::max(height, legend_height), width + 190, CV_8UC3, cv::Scalar(255, 255, 255));
+  for (int i = 0; i < width * height; ++i) {
+    const int code = std::isfinite(codes[i]) ? std::clamp(static_cast<int>(codes[i]), 0, n - 1) : 0;
+    canvas.at<cv::Vec3b>(i / width, i % width) = kColours[code];
+  }
+  for (std::size_t k = 0; k < names.size(); ++k) {
+    const int y = 10 + static_cast<int>(k) * 18;
+    cv::rectangle(canvas, cv::Rect(width + 8, y, 12, 12), cv::Scalar(kColours[k % n]), cv::FILLED);
+    cv::rectangle(canvas, cv::Rect(width + 8, y, 12, 12), cv::Scalar(0, 0, 0), 1);
+    cv::putText(canvas, std::to_string(k) + " " + names[k], cv::Point(width + 26, y + 11), cv::FONT_HERSHEY_SIMPLEX,
+                0.4, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  }
+  save(path, canvas);
+}
+
+}  // namespace chromo::maps

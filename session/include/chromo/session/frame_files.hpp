@@ -1,0 +1,46 @@
+#pragma once
+// Image files of the session folder, each written crash-safe through
+// commit_file_durably():
+//  - raw frames as TIFF (libtiff, uncompressed, one strip per row block) at
+//    their native bit depth: 8-bit formats as 8-bit samples, 12- and 16-bit
+//    formats as 16-bit samples (12-bit values unscaled, MaxSampleValue 4095);
+//    Bayer frames as one-sample greyscale plus the CFA pattern in the
+//    ImageDescription JSON; RGB8 as three samples.
+//  - derived float data as OpenEXR (FLOAT channels, ZIP compression).
+// read_tiff() exists for tests and tools (any file written here reads back).
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "chromo/files/durable_file.hpp"
+#include "chromo/drivers/camera.hpp"
+
+namespace chromo::session {
+
+// Bits per sample the frame's pixel format stores (8, 12 or 16) and samples per pixel.
+int significant_bits(drivers::PixelFormat format);
+int samples_per_pixel(drivers::PixelFormat format);
+std::string pixel_format_name(drivers::PixelFormat format);
+
+// Writes a complete frame; `description` (JSON text) goes into ImageDescription.
+// Throws std::invalid_argument when data.size() does not match the geometry.
+void write_frame_tiff(const std::filesystem::path& path, const drivers::Frame& frame, const std::string& description,
+                      files::StorageBudget* budget);
+
+struct TiffImage {
+  int width = 0, height = 0, samples_per_pixel = 0, bits_per_sample = 0;
+  std::vector<std::uint8_t> data;  // rows as stored (16-bit samples in host order)
+  std::string description;
+};
+TiffImage read_tiff(const std::filesystem::path& path);
+
+struct FloatChannel {
+  std::string name;
+  std::vector<float> values;  // width × height, row-major
+};
+void write_float_exr(const std::filesystem::path& path, int width, int height,
+                     const std::vector<FloatChannel>& channels, files::StorageBudget* budget);
+
+}  // namespace chromo::session

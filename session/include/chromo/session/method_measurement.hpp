@@ -1,0 +1,103 @@
+#pragma once
+// The method's captures of one subject → the estimator's input.
+//
+// A standard session (docs/daemon.md) captures, with one camera: a dark frame,
+// then the white reference target and the subject, each under D65' (the
+// broadband D65 metamer), W57 alone and W57+blue. build_method_measurement()
+// turns the (mean) images of those seven captures into the measurement of the
+// seed method, pixel by pixel:
+//
+//   albedo_k,c  = ρ_white · (subject_k,c − dark_c) / (white_k,c − dark_c)     k = each illumination, c = R, G, B
+//   measured    = (albedo_D65',R, albedo_D65',G, albedo_D65',B, blue)
+//   blue        = ρ_white · (subject_mix,B − subject_W57,B) / (white_mix,B − white_W57,B)
+//
+// with the illuminants D65' (R, G, B) and "mix − W57" (B). The subject moves
+// between captures, the white target does not (it is the sphere's flat field):
+// each capture is normalised by its own white first, then the W57 and
+// W57+blue albedo images are registered to the D65' one (ECC on G,
+// registration.hpp) and warped onto its grid, and the blue-only channel is
+// formed there as a_mix,B·w_mix,B − a_W57,B·w_W57,B over w_mix,B − w_W57,B
+// (w = white − dark at the reference pixel), which equals the formula above
+// when nothing moved. A capture whose registration moves no image corner by
+// more than 0.1 px is not warped (that motion is registration noise, and a
+// warp would blank the border row); the report says which were warped.
+//
+// Noise (measurement.hpp's model), estimated from the captures themselves:
+// the per-pixel noise variance of the dark and of each white image is half
+// the mean squared difference of horizontally adjacent pixels (a flat target:
+// slow flat-field variation cancels). For albedo a under capture k, channel c,
+// with W = mean(white − dark), V_d, V_w the dark and white noise variances:
+//   σ²(a) ≈ [V_d + a·(V_w − V_d)] / W²  (subject)  +  a²·V_w / W²  (white; a² ≤ a)
+//   → read_sigma = √V_d / W,  shot_coefficient = (2·V_w − V_d) / W²
+// and for the blue-only channel (two subject and two white captures; the
+// subject's shot noise at albedo 0.5 of both captures folded into read_sigma,
+// as measurement.hpp asks):
+//   read_sigma² = [2·V_d + 0.5·(V_w,mix − V_d + V_w,W57 − V_d)] / D²,
+//   shot_coefficient = (V_w,mix + V_w,W57) / D²,   D = W_mix,B − W_W57,B.
+// Saturation: a pixel whose raw subject value is at or above 0.999 of full
+// scale in a channel gets that channel set to the channel's saturation albedo
+// (so the estimator flags it kSaturated); saturation_albedo = ρ·(1 − dark)/W.
+//
+// Errors: std::invalid_argument naming the capture (sizes differ, a white no
+// brighter than the dark or saturated on more than 0.1% of its pixels, no
+// blue left in W57+blue − W57); RegistrationError
+// when a capture cannot be registered. Thread rules: a pure function.
+
+#include <Eigen/Core>
+#include <array>
+#include <string>
+#include <vector>
+
+#include "chromo/estimation/measurement.hpp"
+#include "chromo/session/registration.hpp"
+
+namespace chromo::session {
+
+// A linear RGB image in units of the camera's full scale (0-1, dark level
+// included): the mean of one step's frames after demosaicing.
+struct RgbImage {
+  int width = 0, height = 0;
+  std::array<std::vector<float>, 3> planes;  // R, G, B; width × height each, row-major
+  std::size_t pixels() const { return static_cast<std::size_t>(width) * height; }
+};
+
+struct IlluminatedCapture {
+  std::string name;               // "D65'", "W57", "W57+blue"
+  spectral::Spectrum illuminant;  // what the sphere emitted (any common scale)
+  RgbImage white, subject;        // the white reference target and the subject under it
+};
+
+struct MethodCaptures {
+  spectral::CameraSensitivity camera;
+  double white_reflectance = 0.99;  // ρ_white of the reference target
+  RgbImage dark;
+  IlluminatedCapture broadband;     // D65'
+  IlluminatedCapture base;          // W57 alone
+  IlluminatedCapture with_blue;     // W57+blue
+};
+
+// A capture of the subject as camera RGB albedo (white = 1) on the reference
+// grid: what the reconstruction is compared with under that illuminant.
+struct Photograph {
+  std::string name;
+  spectral::Spectrum illuminant;
+  std::vector<Eigen::Vector3d> rgb;
+};
+
+struct MethodMeasurement {
+  estimation::MeasurementSet set;   // D65'.R, D65'.G, D65'.B, blue.B
+  int width = 0, height = 0;
+  std::vector<float> measured;  // pixel-major, set.size() values per pixel
+  std::vector<RegistrationReport> registration;
+  std::vector<Photograph> photographs;  // D65', W57, W57+blue
+  std::size_t saturated_pixels = 0;     // pixels with a raw subject value at full scale
+};
+
+MethodMeasurement build_method_measurement(const MethodCaptures& captures, const RegistrationOptions& options = {});
+
+// The measurement set alone (illuminants and noise), from the dark and white
+// captures: known before the subject is captured, so a streaming caller can
+// build the forward table early. Equal to build_method_measurement(...).set.
+estimation::MeasurementSet method_set_from_references(const MethodCaptures& captures);
+
+}  // namespace chromo::session

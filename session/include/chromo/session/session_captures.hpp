@@ -1,0 +1,115 @@
+#pragma once
+// Frames of a standard session → the estimator's captures
+// (estimation/method_measurement.hpp). The one place where session frames
+// become a measurement: the on-line estimator feeds frames as they arrive,
+// `chromo estimate SESSION_DIR` feeds the stored ones (read_session_captures),
+// so both give bit-identical captures for the same frames (a TIFF holds the
+// frame's samples unchanged).
+//
+// Which step is which: the dark step (role dark), and for each of the mixes
+// "d65" (D65'), "w57" and "w57+blue" (also "w57+blue:R") one white and one
+// subject step. A plan without all seven, or with a step lit by explicit
+// weights, is not the method's session: SessionCaptureBuilder's constructor
+// throws std::invalid_argument saying what is missing.
+//
+// Frames: only the first camera that delivers a frame is used (its name is
+// kept); BayerRG frames are binned 2×2 (R, mean of the two G, B per cell:
+// half resolution, colours without interpolation), RGB8 is used as is, mono
+// formats are refused. Values are divided by the format's full scale (255,
+// 4095, 65535) and averaged over the step's frames.
+//
+// Illuminant of a step: Σ_type drive(type)·spectrum_per_unit_drive(type) of
+// the LED library, with drive the levels the controller reported applied
+// (the frame record's "led.drive"), averaged over the step's frames.
+//
+// Thread rules: one thread at a time per builder.
+
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <set>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "chromo/calibration/led_library.hpp"
+#include "chromo/session/session_plan.hpp"
+#include "chromo/session/method_measurement.hpp"
+
+namespace chromo::session {
+
+struct CaptureSources {
+  calibration::LedLibrary led_library;
+  std::string led_library_source;  // where it came from (for the report)
+  spectral::CameraSensitivity camera;
+  std::string camera_source;       // "builtin:nikon_d5100" or a CSV path
+  double white_reflectance = 0.99;
+};
+
+// The sources chromod uses: the LED library at `led_library` (empty: the
+// newest measured one in calibration::led_library_directory(), else the
+// nominal built-in one), the camera "builtin:NAME" or a CSV of
+// wavelength_nm,R,G,B, ρ_white. Throws std::invalid_argument naming the file.
+CaptureSources resolve_capture_sources(const std::string& led_library, const std::string& camera,
+                                       double white_reflectance);
+
+class SessionCaptureBuilder {
+ public:
+  SessionCaptureBuilder(const SessionPlan& plan, CaptureSources sources);
+
+  // One frame of `step`: samples as the camera sent them (16-bit samples in
+  // host order), pixel_format by name ("BayerRG12", "RGB8", ...), led = the
+  // frame record's "led" object. Frames of another camera than the first are
+  // ignored (returns false). Throws std::invalid_argument naming the step for
+  // a frame that cannot be used (mono, odd size, size change, unknown step).
+  bool add_frame(const std::string& step, const std::string& camera, const std::string& pixel_format, int width,
+                 int height, std::span<const std::uint8_t> samples, const nlohmann::json& led);
+
+  // The dark and the three white steps have all their frames.
+  bool references_complete() const;
+  // Every step of the method has all its frames.
+  bool complete() const;
+  // What is still missing, e.g. "subject_w57: 0 of 1 frames" (empty when complete).
+  std::string missing() const;
+  const std::string& camera() const { return camera_; }
+
+  // Throws std::logic_error unless references_complete() (subjects then empty) / complete().
+  MethodCaptures captures() const;
+
+ private:
+  struct StepSum {
+    std::string step;
+    std::uint32_t expected = 0, frames = 0;
+    int width = 0, height = 0;
+    std::array<std::vector<double>, 3> sum;
+    spectral::Spectrum illuminant_sum;
+  };
+  RgbImage mean_image(const StepSum& s) const;
+  spectral::Spectrum mean_illuminant(const StepSum& s) const;
+
+  CaptureSources sources_;
+  std::string camera_;
+  // Keys: "dark", "white:d65", "subject:d65", "white:w57", ... (kept in plan order in steps_).
+  std::map<std::string, StepSum> steps_;
+  std::map<std::string, std::string> key_of_step_;
+};
+
+// Adds the session folder's stored frames (journal frame records, TIFFs)
+// whose storage index is not in `already_added`; returns how many it added.
+// Throws std::invalid_argument naming the file for an unreadable frame.
+std::size_t add_stored_frames(SessionCaptureBuilder& builder, const std::filesystem::path& folder,
+                              const std::set<std::uint64_t>& already_added = {});
+
+// The plan of a session folder (session.json); std::invalid_argument naming
+// the folder when it is not a session.
+SessionPlan read_session_plan(const std::filesystem::path& folder);
+
+// The stored frames of a session folder (its journal's frame records, TIFFs)
+// through a SessionCaptureBuilder. Throws std::invalid_argument naming the
+// folder and what is wrong (not a session, not the method's plan, frames
+// missing, unreadable TIFF).
+MethodCaptures read_session_captures(const std::filesystem::path& folder, const CaptureSources& sources);
+
+}  // namespace chromo::session

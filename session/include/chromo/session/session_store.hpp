@@ -1,0 +1,79 @@
+#pragma once
+// SessionStore: the sessions folder. One folder per session, named by its id
+// (docs/formats/session.md):
+//
+//   <sessions_dir>/<id>/session.json    written once, crash-safe: id, name, subject, plan, devices
+//                       journal.jsonl   append-only, one fsynced JSON record per line
+//                       frames/<step>/<camera>-<sequence>.tiff
+//                       derived/<step>-<camera>-mean.exr
+//                       results/        the estimator's maps and report
+//
+// read_session() rebuilds everything the API reports about a session from
+// these files alone: state, counters, which steps completed, every frame. At
+// start-up, recover() marks sessions whose journal has no final state as
+// interrupted (appending that record), so a restart after kill -9 reports them.
+//
+// Thread rules: create() and recover() from one thread; read_session() anywhere.
+
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "chromo/session/journal.hpp"
+#include "chromo/session/operation_record.hpp"
+#include "chromo/session/session_plan.hpp"
+
+namespace chromo::session {
+
+struct StepProgress {
+  std::string name;
+  StepRole role = StepRole::kSubject;
+  bool completed = false;
+  std::uint64_t frames_stored = 0;
+};
+
+struct SessionInfo {
+  OperationRecord record;  // state, counters, folder...
+  SessionPlan plan;
+  std::string subject;
+  std::vector<StepProgress> steps;
+  std::vector<nlohmann::json> frames;  // the journal's frame records
+  nlohmann::json results;              // the last "results" record (null if none)
+  bool torn_journal_tail = false;
+};
+
+// "20261122T183000Z-<name>-<6 hex>": ids of sessions and calibration runs
+// (sortable by creation time, unique in practice, a valid folder name).
+std::string new_session_id(const std::string& name);
+
+class SessionStore {
+ public:
+  SessionStore(std::filesystem::path root, files::StorageBudget* budget);
+  const std::filesystem::path& root() const { return root_; }
+
+  struct Created {
+    std::string id;
+    std::filesystem::path folder;
+    std::unique_ptr<Journal> journal;
+  };
+  // A new folder with session.json and the journal's first record. Throws
+  // (StorageFullError included) leaving no half-made session behind that
+  // recover() would report as more than a failed start.
+  Created create(const SessionPlan& plan, const std::string& subject, const nlohmann::json& devices);
+
+  // Every session in the folder, newest first, with in-flight ones marked
+  // interrupted on disk.
+  std::vector<SessionInfo> recover();
+
+  // Throws std::runtime_error when the folder is not a session.
+  SessionInfo read_session(const std::filesystem::path& folder) const;
+
+ private:
+  std::filesystem::path root_;
+  files::StorageBudget* budget_;
+};
+
+}  // namespace chromo::session

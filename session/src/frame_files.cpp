@@ -1,0 +1,130 @@
+#include "chromo/session/frame_files.hpp"
+
+#include <tiffio.h>
+
+#include "chromo/files/float_image.hpp"
+
+
+#include <memory>
+#include <stdexcept>
+
+namespace chromo::session {
+
+using drivers::PixelFormat;
+
+int significant_bits(PixelFormat format) {
+  switch (format) {
+    case PixelFormat::kMono12:
+    case PixelFormat::kBayerRG12:
+      return 12;
+    case PixelFormat::kMono16:
+    case PixelFormat::kBayerRG16:
+      return 16;
+    default:
+      return 8;
+  }
+}
+
+int samples_per_pixel(PixelFormat format) { return format == PixelFormat::kRgb8 ? 3 : 1; }
+
+std::string pixel_format_name(PixelFormat format) {
+  switch (format) {
+    case PixelFormat::kMono8: return "Mono8";
+    case PixelFormat::kMono12: return "Mono12";
+    case PixelFormat::kMono16: return "Mono16";
+    case PixelFormat::kBayerRG8: return "BayerRG8";
+    case PixelFormat::kBayerRG12: return "BayerRG12";
+    case PixelFormat::kBayerRG16: return "BayerRG16";
+    case PixelFormat::kRgb8: return "RGB8";
+  }
+  return "unknown";
+}
+
+namespace {
+struct TiffCloser {
+  void operator()(TIFF* tiff) const {
+    if (tiff) TIFFClose(tiff);
+  }
+};
+using TiffPtr = std::unique_ptr<TIFF, TiffCloser>;
+}  // namespace
+
+void write_frame_tiff(const std::filesystem::path& path, const drivers::Frame& frame, const std::string& description,
+                      files::StorageBudget* budget) {
+  const int bits = significant_bits(frame.pixel_format);
+  const int container_bits = bits == 8 ? 8 : 16;
+  const int samples = samples_per_pixel(frame.pixel_format);
+  const std::size_t row_bytes = static_cast<std::size_t>(frame.width) * samples * (container_bits / 8);
+  if (frame.width <= 0 || frame.height <= 0 || frame.data.size() != row_bytes * static_cast<std::size_t>(frame.height))
+    throw std::invalid_argument("frame " + std::to_string(frame.sequence) + ": " + std::to_string(frame.data.size()) +
+                                " bytes do not make a " + std::to_string(frame.width) + "x" +
+                                std::to_string(frame.height) + " " + pixel_format_name(frame.pixel_format) + " image");
+  files::commit_file_durably(path, budget, [&](const std::filesystem::path& temporary) {
+    TiffPtr tiff(TIFFOpen(temporary.c_str(), "w"));
+    if (!tiff) throw std::runtime_error("libtiff could not create " + temporary.string());
+    TIFFSetField(tiff.get(), TIFFTAG_IMAGEWIDTH, static_cast<std::uint32_t>(frame.width));
+    TIFFSetField(tiff.get(), TIFFTAG_IMAGELENGTH, static_cast<std::uint32_t>(frame.height));
+    TIFFSetField(tiff.get(), TIFFTAG_BITSPERSAMPLE, static_cast<std::uint16_t>(container_bits));
+    TIFFSetField(tiff.get(), TIFFTAG_SAMPLESPERPIXEL, static_cast<std::uint16_t>(samples));
+    TIFFSetField(tiff.get(), TIFFTAG_PHOTOMETRIC, samples == 3 ? PHOTOMETRIC_RGB : PHOTOMETRIC_MINISBLACK);
+    TIFFSetField(tiff.get(), TIFFTAG_PLANARCONFIG, PLANARCONFIG_CONTIG);
+    TIFFSetField(tiff.get(), TIFFTAG_COMPRESSION, COMPRESSION_NONE);
+    TIFFSetField(tiff.get(), TIFFTAG_ROWSPERSTRIP, static_cast<std::uint32_t>(std::max<std::size_t>(1, 65536 / row_bytes)));
+    if (bits == 12) TIFFSetField(tiff.get(), TIFFTAG_MAXSAMPLEVALUE, static_cast<std::uint16_t>(4095));
+    TIFFSetField(tiff.get(), TIFFTAG_IMAGEDESCRIPTION, description.c_str());
+    TIFFSetField(tiff.get(), TIFFTAG_SOFTWARE, "chromod");
+    for (int row = 0; row < frame.height; ++row) {
+      auto* line = const_cast<std::uint8_t*>(frame.data.data() + row_bytes * static_cast<std::size_t>(row));
+      if (TIFFWriteScanline(tiff.get(), line, static_cast<std::uint32_t>(row), 0) < 0)
+        throw files::StorageFullError("libtiff could not write row " + std::to_string(row) + " of " + temporary.string() +
+                               " (disk full?)");
+    }
+    if (!TIFFFlush(tiff.get())) throw files::StorageFullError("libtiff could not flush " + temporary.string());
+  });
+}
+
+TiffImage read_tiff(const std::filesystem::path& path) {
+  TiffPtr tiff(TIFFOpen(path.c_str(), "r"));
+  if (!tiff) throw std::runtime_error("not a readable TIFF: " + path.string());
+  TiffImage image;
+  std::uint32_t width = 0, height = 0;
+  std::uint16_t bits = 0, samples = 1;
+  TIFFGetField(tiff.get(), TIFFTAG_IMAGEWIDTH, &width);
+  TIFFGetField(tiff.get(), TIFFTAG_IMAGELENGTH, &height);
+  TIFFGetField(tiff.get(), TIFFTAG_BITSPERSAMPLE, &bits);
+  TIFFGetFieldDefaulted(tiff.get(), TIFFTAG_SAMPLESPERPIXEL, &samples);
+  char* description = nullptr;
+  if (TIFFGetField(tiff.get(), TIFFTAG_IMAGEDESCRIPTION, &description) && description) image.description = description;
+  image.width = static_cast<int>(width);
+  image.height = static_cast<int>(height);
+  image.bits_per_sample = bits;
+  image.samples_per_pixel = samples;
+  const auto scanline = static_cast<std::size_t>(TIFFScanlineSize(tiff.get()));
+  image.data.resize(scanline * height);
+  for (std::uint32_t row = 0; row < height; ++row)
+    if (TIFFReadScanline(tiff.get(), image.data.data() + scanline * row, row, 0) < 0)
+      throw std::runtime_error("TIFF row " + std::to_string(row) + " unreadable in " + path.string());
+  return image;
+}
+
+void write_float_exr(const std::filesystem::path& path, int width, int height,
+                     const std::vector<FloatChannel>& channels, files::StorageBudget* budget) {
+  const auto pixels = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
+  for (const auto& channel : channels)
+    if (channel.values.size() != pixels)
+      throw std::invalid_argument("EXR channel " + channel.name + ": " + std::to_string(channel.values.size()) +
+                                  " values for " + std::to_string(pixels) + " pixels");
+  // files::write_exr writes FLOAT channels with OpenEXR's default (ZIP)
+  // compression; here it fills the temporary file of the durable commit.
+  files::FloatImage image;
+  image.width = width;
+  image.height = height;
+  for (const auto& channel : channels) {
+    image.channel_names.push_back(channel.name);
+    image.channels.push_back(channel.values);
+  }
+  files::commit_file_durably(path, budget,
+                      [&](const std::filesystem::path& temporary) { files::write_exr(temporary, image); });
+}
+
+}  // namespace chromo::session

@@ -1,0 +1,207 @@
+#include "chromo/session/method_measurement.hpp"
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+namespace chromo::session {
+
+namespace {
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+constexpr float kRawSaturated = 0.999f;  // of full scale
+constexpr const char* kChannelNames[3] = {"R", "G", "B"};
+
+void check_image(const RgbImage& image, const RgbImage& like, const std::string& what) {
+  if (image.width <= 0 || image.height <= 0)
+    throw std::invalid_argument(what + ": empty image");
+  if (image.width != like.width || image.height != like.height)
+    throw std::invalid_argument(what + ": " + std::to_string(image.width) + "×" + std::to_string(image.height) +
+                                " pixels, but the dark capture has " + std::to_string(like.width) + "×" +
+                                std::to_string(like.height));
+  for (const auto& plane : image.planes)
+    if (plane.size() != image.pixels()) throw std::invalid_argument(what + ": a colour plane has the wrong size");
+}
+
+// Noise variance of a flat image: half the mean squared difference of
+// horizontally adjacent finite pixels.
+double flat_noise_variance(const std::vector<float>& plane, int width, int height) {
+  double sum = 0;
+  std::size_t count = 0;
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x + 1 < width; ++x) {
+      const double a = plane[static_cast<std::size_t>(y) * width + x], b = plane[static_cast<std::size_t>(y) * width + x + 1];
+      if (std::isfinite(a) && std::isfinite(b)) sum += (a - b) * (a - b), ++count;
+    }
+  return count ? sum / (2.0 * static_cast<double>(count)) : 0.0;
+}
+
+double mean_of(const std::vector<float>& values) {
+  double sum = 0;
+  std::size_t count = 0;
+  for (float v : values)
+    if (std::isfinite(v)) sum += v, ++count;
+  return count ? sum / static_cast<double>(count) : 0.0;
+}
+
+struct Reference {  // one illumination's white reference, dark-subtracted
+  std::array<std::vector<float>, 3> white_signal;  // white − dark
+  std::array<double, 3> white_mean{}, white_variance{};
+};
+
+Reference reference_of(const IlluminatedCapture& capture, const RgbImage& dark) {
+  check_image(capture.white, dark, "white reference under " + capture.name);
+  const std::size_t n = dark.pixels();
+  Reference out;
+  for (int c = 0; c < 3; ++c) {
+    const auto &w = capture.white.planes[c], &d = dark.planes[c];
+    auto& ws = out.white_signal[c];
+    ws.resize(n);
+    std::size_t clipped = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      ws[i] = w[i] - d[i];
+      if (w[i] >= kRawSaturated) ++clipped;
+    }
+    if (clipped > n / 1000)
+      throw std::invalid_argument("white reference under " + capture.name + ": channel " + kChannelNames[c] + " is at full scale on " +
+                                  std::to_string(100.0 * static_cast<double>(clipped) / static_cast<double>(n)) +
+                                  "% of its pixels (saturated): shorten the exposure or dim the mix");
+    out.white_mean[c] = mean_of(ws);
+    out.white_variance[c] = flat_noise_variance(w, dark.width, dark.height);
+    if (!(out.white_mean[c] > 1e-3))
+      throw std::invalid_argument("white reference under " + capture.name + ": channel " + kChannelNames[c] +
+                                  " is no brighter than the dark capture (white − dark = " +
+                                  std::to_string(out.white_mean[c]) + " of full scale)");
+  }
+  return out;
+}
+
+struct Normalised {
+  std::array<std::vector<float>, 3> albedo;  // ρ·(subject − dark)/(white − dark), NaN where white ≤ dark
+  std::vector<std::uint8_t> saturated;       // any raw subject channel at full scale
+};
+
+Normalised normalise(const IlluminatedCapture& capture, const Reference& reference, const RgbImage& dark, double rho) {
+  check_image(capture.subject, dark, "subject under " + capture.name);
+  const std::size_t n = dark.pixels();
+  Normalised out;
+  out.saturated.assign(n, 0);
+  for (int c = 0; c < 3; ++c) {
+    const auto &s = capture.subject.planes[c], &d = dark.planes[c];
+    const auto& ws = reference.white_signal[c];
+    auto& a = out.albedo[c];
+    a.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      a[i] = ws[i] > 1e-3f ? static_cast<float>(rho * (s[i] - d[i]) / ws[i]) : kNaN;
+      if (s[i] >= kRawSaturated) out.saturated[i] = 1;
+    }
+  }
+  return out;
+}
+
+struct References {
+  Reference broadband, base, with_blue;
+  estimation::MeasurementSet set;
+};
+
+References references_of(const MethodCaptures& captures) {
+  const RgbImage& dark = captures.dark;
+  check_image(dark, dark, "dark capture");
+  const double rho = captures.white_reflectance;
+  if (!(rho > 0 && rho <= 1)) throw std::invalid_argument("white_reflectance: must be in (0, 1]");
+  References r{reference_of(captures.broadband, dark), reference_of(captures.base, dark),
+               reference_of(captures.with_blue, dark), {}};
+  std::array<double, 3> dark_variance{}, dark_mean{};
+  for (int c = 0; c < 3; ++c) {
+    dark_variance[c] = flat_noise_variance(dark.planes[c], dark.width, dark.height);
+    dark_mean[c] = mean_of(dark.planes[c]);
+  }
+  auto albedo_noise = [&](const Reference& k, int c) {
+    const double W = k.white_mean[c], Vd = dark_variance[c], Vw = k.white_variance[c];
+    estimation::ChannelNoise noise;
+    noise.read_sigma = std::max(std::sqrt(Vd) / W, 1e-5);
+    noise.shot_coefficient = std::max(2 * Vw - Vd, 0.0) / (W * W);
+    noise.saturation_albedo = rho * (1.0 - dark_mean[c]) / W;
+    return noise;
+  };
+  const double D = r.with_blue.white_mean[2] - r.base.white_mean[2];
+  if (!(D > 1e-3))
+    throw std::invalid_argument("W57+blue − W57: the white reference's B channel gains " + std::to_string(D) +
+                                " of full scale; the blue-only response needs more blue in the W57+blue mix");
+  r.set.camera = captures.camera;
+  for (int c = 0; c < 3; ++c)
+    r.set.channels.push_back({"D65'." + std::string(kChannelNames[c]), captures.broadband.illuminant, c,
+                              albedo_noise(r.broadband, c)});
+  spectral::Spectrum blue_illuminant = captures.with_blue.illuminant - captures.base.illuminant;
+  blue_illuminant = spectral::Spectrum(blue_illuminant.values().max(0.0));
+  estimation::ChannelNoise blue_noise;
+  const double Vd = dark_variance[2], Vm = r.with_blue.white_variance[2], Vb = r.base.white_variance[2];
+  blue_noise.read_sigma =
+      std::max(std::sqrt(2 * Vd + 0.5 * (std::max(Vm - Vd, 0.0) + std::max(Vb - Vd, 0.0))) / D, 1e-5);
+  blue_noise.shot_coefficient = (Vm + Vb) / (D * D);
+  blue_noise.saturation_albedo = rho * (1.0 - dark_mean[2]) / D;
+  r.set.channels.push_back({"blue.B", blue_illuminant, 2, blue_noise});
+  r.set.validate();
+  return r;
+}
+
+}  // namespace
+
+estimation::MeasurementSet method_set_from_references(const MethodCaptures& captures) { return references_of(captures).set; }
+
+MethodMeasurement build_method_measurement(const MethodCaptures& captures, const RegistrationOptions& options) {
+  References references = references_of(captures);
+  const RgbImage& dark = captures.dark;
+  const double rho = captures.white_reflectance;
+  const int width = dark.width, height = dark.height;
+  const std::size_t n = dark.pixels();
+  Normalised broadband = normalise(captures.broadband, references.broadband, dark, rho);
+  Normalised base = normalise(captures.base, references.base, dark, rho);
+  Normalised with_blue = normalise(captures.with_blue, references.with_blue, dark, rho);
+
+  MethodMeasurement m;
+  m.width = width, m.height = height;
+  m.set = std::move(references.set);
+  // Register W57 and W57+blue to D65' on the G albedo, warp all their planes.
+  for (auto* moving : {&base, &with_blue}) {
+    const IlluminatedCapture& capture = moving == &base ? captures.base : captures.with_blue;
+    RegistrationResult r = register_channel(broadband.albedo[1], moving->albedo[1], width, height, options);
+    const double motion = corner_displacement_px(r, width, height);
+    const bool warped = motion > kWarpThresholdPx;
+    if (warped) {
+      for (auto& plane : moving->albedo) plane = warp_channel(plane, width, height, r);
+      std::vector<float> s(moving->saturated.begin(), moving->saturated.end());
+      s = warp_channel(s, width, height, r);
+      for (std::size_t i = 0; i < n; ++i) moving->saturated[i] = std::isfinite(s[i]) && s[i] > 0;
+    }
+    m.registration.push_back(
+        {"subject under " + capture.name, "subject under " + captures.broadband.name, "G", r, motion, warped});
+  }
+
+  const int channels = m.set.size();
+  m.measured.resize(n * channels);
+  for (std::size_t i = 0; i < n; ++i) {
+    float* out = &m.measured[i * channels];
+    for (int c = 0; c < 3; ++c) out[c] = broadband.albedo[c][i];
+    const float wm = references.with_blue.white_signal[2][i], wb = references.base.white_signal[2][i];
+    const float difference = wm - wb;
+    out[3] = difference > 1e-3f ? (with_blue.albedo[2][i] * wm - base.albedo[2][i] * wb) / difference : kNaN;
+    if (broadband.saturated[i] || base.saturated[i] || with_blue.saturated[i]) {
+      ++m.saturated_pixels;
+      for (int c = 0; c < channels; ++c)
+        if (std::isfinite(out[c]))
+          out[c] = std::max(out[c], static_cast<float>(m.set.channels[c].noise.saturation_albedo));
+    }
+  }
+
+  const std::pair<const Normalised*, const IlluminatedCapture*> photographed[] = {
+      {&broadband, &captures.broadband}, {&base, &captures.base}, {&with_blue, &captures.with_blue}};
+  for (const auto& [k, capture] : photographed) {
+    Photograph photo{capture->name, capture->illuminant, std::vector<Eigen::Vector3d>(n)};
+    for (std::size_t i = 0; i < n; ++i) photo.rgb[i] = {k->albedo[0][i], k->albedo[1][i], k->albedo[2][i]};
+    m.photographs.push_back(std::move(photo));
+  }
+  return m;
+}
+
+}  // namespace chromo::session

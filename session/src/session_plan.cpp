@@ -1,0 +1,172 @@
+#include "chromo/session/session_plan.hpp"
+
+#include <cmath>
+#include <set>
+#include <stdexcept>
+
+namespace chromo::session {
+
+bool is_valid_name(const std::string& name) {
+  if (name.empty() || name.size() > kMaxNameBytes) return false;
+  for (char c : name)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '+' || c == '.' || c == '-')) return false;
+  return name != "." && name != "..";
+}
+
+bool is_valid_mix(const std::string& mix) {
+  if (mix == "d65" || mix == "w57" || mix == "w57+blue") return true;
+  const std::string prefix = "w57+blue:";
+  if (mix.rfind(prefix, 0) != 0 || mix.size() > prefix.size() + 16) return false;
+  try {
+    std::size_t used = 0;
+    double ratio = std::stod(mix.substr(prefix.size()), &used);
+    return used == mix.size() - prefix.size() && std::isfinite(ratio) && ratio > 0 && ratio <= 100;
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
+bool SessionPlan::IsValid(std::string* error) const {
+  auto fail = [&](const std::string& message) {
+    if (error) *error = message;
+    return false;
+  };
+  if (!is_valid_name(name)) return fail("name: must match [A-Za-z0-9_+.-]{1,64}, got \"" + name.substr(0, 80) + "\"");
+  if (steps.empty() || steps.size() > kMaxSteps)
+    return fail("steps: must hold 1 to " + std::to_string(kMaxSteps) + " steps, got " + std::to_string(steps.size()));
+  std::set<std::string> names;
+  for (std::size_t i = 0; i < steps.size(); ++i) {
+    const Step& step = steps[i];
+    const std::string field = "steps[" + std::to_string(i) + "].";
+    if (!is_valid_name(step.name)) return fail(field + "name: must match [A-Za-z0-9_+.-]{1,64}");
+    if (!names.insert(step.name).second) return fail(field + "name: \"" + step.name + "\" is used twice");
+    if (!(step.exposure_us > 0 && step.exposure_us <= kMaxExposureUs))
+      return fail(field + "exposure_us: must be in (0, 10000000], got " + std::to_string(step.exposure_us));
+    if (step.frames_per_camera < 1 || step.frames_per_camera > kMaxFramesPerCamera)
+      return fail(field + "frames_per_camera: must be in [1, 1000], got " + std::to_string(step.frames_per_camera));
+    if (step.settle_ms > kMaxSettleMs)
+      return fail(field + "settle_ms: must be at most 60000, got " + std::to_string(step.settle_ms));
+    if (step.prompt.size() > kMaxTextBytes) return fail(field + "prompt: longer than 4096 bytes");
+    if (step.illumination.kind == Illumination::Kind::kWeights) {
+      for (int led = 0; led < drivers::kLedTypeCount; ++led) {
+        double level = step.illumination.weights[static_cast<std::size_t>(led)];
+        if (!(level >= 0 && level <= 1))
+          return fail(field + "weights." +
+                      std::string(spectral::led_type_name(static_cast<drivers::LedType>(led))) +
+                      ": must be in [0, 1], got " + std::to_string(level));
+      }
+    } else if (step.illumination.kind == Illumination::Kind::kMix && !is_valid_mix(step.illumination.mix)) {
+      return fail(field + "mix: must be d65, w57, w57+blue or w57+blue:R with R in (0, 100], got \"" +
+                  step.illumination.mix.substr(0, 80) + "\"");
+    }
+  }
+  return true;
+}
+
+std::uint64_t SessionPlan::frames_per_camera_total() const {
+  std::uint64_t total = 0;
+  for (const auto& step : steps) total += step.frames_per_camera;
+  return total;
+}
+
+SessionPlan standard_plan(const StandardPlanOptions& options) {
+  SessionPlan plan;
+  plan.name = "standard";
+  plan.timing = options.timing;
+  auto step = [&](std::string name, StepRole role, Illumination illumination, std::string prompt = {}) {
+    Step s;
+    s.name = std::move(name);
+    s.role = role;
+    s.illumination = std::move(illumination);
+    s.settle_ms = options.settle_ms;
+    s.exposure_us = options.exposure_us;
+    s.frames_per_camera = options.frames_per_camera;
+    if (options.operator_prompts) s.prompt = std::move(prompt);
+    plan.steps.push_back(std::move(s));
+  };
+  auto mix = [](std::string name) {
+    Illumination illumination;
+    illumination.kind = Illumination::Kind::kMix;
+    illumination.mix = std::move(name);
+    return illumination;
+  };
+  step("dark", StepRole::kDark, Illumination{}, "Close the sphere (dark frame)");
+  step("white_d65", StepRole::kWhite, mix("d65"), "Place the white reference target");
+  step("white_w57", StepRole::kWhite, mix("w57"));
+  step("white_w57+blue", StepRole::kWhite, mix("w57+blue"));
+  step("subject_d65", StepRole::kSubject, mix("d65"), "Place the subject");
+  step("subject_w57", StepRole::kSubject, mix("w57"));
+  step("subject_w57+blue", StepRole::kSubject, mix("w57+blue"));
+  return plan;
+}
+
+std::string role_name(StepRole role) {
+  switch (role) {
+    case StepRole::kDark: return "dark";
+    case StepRole::kWhite: return "white";
+    case StepRole::kSubject: return "subject";
+  }
+  return "subject";
+}
+
+std::string timing_name(Timing timing) { return timing == Timing::kHardware ? "hardware" : "software"; }
+
+nlohmann::json to_json(const SessionPlan& plan) {
+  nlohmann::json steps = nlohmann::json::array();
+  for (const auto& step : plan.steps) {
+    nlohmann::json s{{"name", step.name},
+                     {"role", role_name(step.role)},
+                     {"settle_ms", step.settle_ms},
+                     {"exposure_us", step.exposure_us},
+                     {"frames_per_camera", step.frames_per_camera}};
+    if (!step.prompt.empty()) s["prompt"] = step.prompt;
+    switch (step.illumination.kind) {
+      case Illumination::Kind::kDark: s["illumination"] = {{"dark", true}}; break;
+      case Illumination::Kind::kMix: s["illumination"] = {{"mix", step.illumination.mix}}; break;
+      case Illumination::Kind::kWeights: {
+        nlohmann::json weights;
+        for (auto type : spectral::kAllLedTypes)
+          weights[std::string(spectral::led_type_name(type))] =
+              step.illumination.weights[static_cast<std::size_t>(spectral::led_type_index(type))];
+        s["illumination"] = {{"weights", weights}};
+        break;
+      }
+    }
+    steps.push_back(std::move(s));
+  }
+  return {{"name", plan.name}, {"timing", timing_name(plan.timing)}, {"steps", steps}};
+}
+
+SessionPlan plan_from_json(const nlohmann::json& json) {
+  try {
+    SessionPlan plan;
+    plan.name = json.at("name").get<std::string>();
+    plan.timing = json.value("timing", "software") == "hardware" ? Timing::kHardware : Timing::kSoftware;
+    for (const auto& s : json.at("steps")) {
+      Step step;
+      step.name = s.at("name").get<std::string>();
+      std::string role = s.value("role", "subject");
+      step.role = role == "dark" ? StepRole::kDark : role == "white" ? StepRole::kWhite : StepRole::kSubject;
+      step.settle_ms = s.value("settle_ms", 0u);
+      step.exposure_us = s.at("exposure_us").get<double>();
+      step.frames_per_camera = s.value("frames_per_camera", 1u);
+      step.prompt = s.value("prompt", "");
+      const auto& illumination = s.at("illumination");
+      if (illumination.contains("mix")) {
+        step.illumination.kind = Illumination::Kind::kMix;
+        step.illumination.mix = illumination.at("mix").get<std::string>();
+      } else if (illumination.contains("weights")) {
+        step.illumination.kind = Illumination::Kind::kWeights;
+        for (auto type : spectral::kAllLedTypes)
+          step.illumination.weights[static_cast<std::size_t>(spectral::led_type_index(type))] =
+              illumination.at("weights").value(std::string(spectral::led_type_name(type)), 0.0);
+      }
+      plan.steps.push_back(std::move(step));
+    }
+    return plan;
+  } catch (const nlohmann::json::exception& error) {
+    throw std::invalid_argument(std::string("session plan: ") + error.what());
+  }
+}
+
+}  // namespace chromo::session

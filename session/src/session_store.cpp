@@ -1,0 +1,154 @@
+#include "chromo/session/session_store.hpp"
+
+#include <algorithm>
+#include <fstream>
+#include <iomanip>
+#include <random>
+#include <sstream>
+
+namespace chromo::session {
+
+std::string new_session_id(const std::string& name) {
+  auto now = std::chrono::system_clock::now();
+  auto seconds = std::chrono::system_clock::to_time_t(now);
+  std::tm tm{};
+  gmtime_r(&seconds, &tm);
+  char stamp[32];
+  std::strftime(stamp, sizeof stamp, "%Y%m%dT%H%M%SZ", &tm);
+  static thread_local std::mt19937_64 random{std::random_device{}()};
+  char suffix[8];
+  std::snprintf(suffix, sizeof suffix, "%06x", static_cast<unsigned>(random() & 0xffffff));
+  return std::string(stamp) + "-" + name.substr(0, 32) + "-" + suffix;
+}
+
+namespace {
+
+std::chrono::system_clock::time_point parse_time(const std::string& text) {
+  std::tm tm{};
+  std::istringstream in(text);
+  in >> std::get_time(&tm, "%Y-%m-%dT%H:%M:%S");
+  if (in.fail()) return {};
+  return std::chrono::system_clock::from_time_t(timegm(&tm));
+}
+}  // namespace
+
+SessionStore::SessionStore(std::filesystem::path root, files::StorageBudget* budget) : root_(std::move(root)), budget_(budget) {
+  std::filesystem::create_directories(root_);
+}
+
+SessionStore::Created SessionStore::create(const SessionPlan& plan, const std::string& subject,
+                                           const nlohmann::json& devices) {
+  Created created;
+  created.id = new_session_id(plan.name);
+  created.folder = root_ / created.id;
+  std::filesystem::create_directory(created.folder);
+  files::fsync_directory(root_);
+  nlohmann::json session{{"format", "chromosphere-session/1"},
+                         {"id", created.id},
+                         {"name", plan.name},
+                         {"subject", subject},
+                         {"created", utc_timestamp_now()},
+                         {"plan", to_json(plan)},
+                         {"devices", devices}};
+  files::write_file_durably(created.folder / "session.json", session.dump(2) + "\n", budget_);
+  created.journal = std::make_unique<Journal>(created.folder / "journal.jsonl", budget_);
+  created.journal->append({{"type", "state"}, {"state", "pending"}});
+  return created;
+}
+
+SessionInfo SessionStore::read_session(const std::filesystem::path& folder) const {
+  std::ifstream in(folder / "session.json");
+  if (!in) throw std::runtime_error(folder.string() + ": no session.json");
+  auto session = nlohmann::json::parse(in, nullptr, false);
+  if (!session.is_object() || !session.contains("id"))
+    throw std::runtime_error(folder.string() + "/session.json: not a session description");
+  SessionInfo info;
+  info.record.id = session.value("id", "");
+  info.record.name = session.value("name", "");
+  info.record.kind = OperationKind::kSession;
+  info.record.folder = std::filesystem::absolute(folder).string();
+  info.record.created = parse_time(session.value("created", ""));
+  info.record.updated = info.record.created;
+  info.subject = session.value("subject", "");
+  info.plan = plan_from_json(session.at("plan"));
+  for (const auto& step : info.plan.steps) info.steps.push_back({step.name, step.role, false, 0});
+  info.record.step_count = static_cast<int>(info.plan.steps.size());
+  info.record.expected_frames = 0;
+
+  auto journal = read_journal(folder / "journal.jsonl");
+  info.torn_journal_tail = journal.torn_tail;
+  for (const auto& record : journal.records) {
+    const std::string type = record.value("type", "");
+    if (record.contains("t")) info.record.updated = parse_time(record.value("t", ""));
+    if (type == "state") {
+      if (auto state = parse_state(record.value("state", ""))) info.record.state = *state;
+      info.record.message = record.value("message", "");
+      info.record.error = record.value("error", "");
+    } else if (type == "session_started") {
+      info.record.expected_frames = record.value("expected_frames", 0ull);
+    } else if (type == "frame") {
+      ++info.record.counters.stored;
+      ++info.record.counters.received;
+      int index = record.value("step_index", -1);
+      if (index >= 0 && index < static_cast<int>(info.steps.size())) ++info.steps[static_cast<std::size_t>(index)].frames_stored;
+      info.frames.push_back(record);
+    } else if (type == "frame_lost") {
+      ++info.record.counters.lost;
+      ++info.record.counters.lost_reasons[record.value("reason", "unknown")];
+    } else if (type == "step_started") {
+      info.record.step_index = record.value("index", -1);
+    } else if (type == "step_completed") {
+      int index = record.value("index", -1);
+      if (index >= 0 && index < static_cast<int>(info.steps.size())) info.steps[static_cast<std::size_t>(index)].completed = true;
+    } else if (type == "counters") {
+      info.record.counters.estimated = record.value("estimated", 0ull);
+      info.record.counters.estimator_skipped = record.value("estimator_skipped", 0ull);
+      info.record.counters.resent_packets = record.value("resent_packets", 0ull);
+      info.record.counters.max_estimator_queue_depth = record.value("max_estimator_queue_depth", 0ull);
+      info.record.counters.estimator_read_back = record.value("estimator_read_back", 0ull);
+      const auto skipped = record.value("skipped_reasons", nlohmann::json::object());
+      for (const auto& [reason, count] : skipped.items())
+        info.record.counters.skipped_reasons[reason] = count.get<std::uint64_t>();
+      info.record.counters.mean_trigger_to_stored_ms = record.value("mean_trigger_to_stored_ms", 0.0);
+      info.record.counters.max_trigger_to_stored_ms = record.value("max_trigger_to_stored_ms", 0.0);
+    } else if (type == "results") {
+      info.results = record;
+    }
+  }
+  std::size_t completed = 0;
+  for (const auto& step : info.steps) completed += step.completed ? 1 : 0;
+  info.record.progress = info.steps.empty() ? 0 : static_cast<double>(completed) / static_cast<double>(info.steps.size());
+  if (info.record.state == OperationState::kSucceeded) info.record.progress = 1;
+  info.record.eta_seconds = is_final(info.record.state) ? 0 : -1;
+  return info;
+}
+
+std::vector<SessionInfo> SessionStore::recover() {
+  std::vector<SessionInfo> sessions;
+  for (const auto& entry : std::filesystem::directory_iterator(root_)) {
+    if (!entry.is_directory() || !std::filesystem::exists(entry.path() / "session.json")) continue;
+    // Leftover temporary files of writes a crash interrupted are not part of the session.
+    for (const auto& file : std::filesystem::recursive_directory_iterator(entry.path()))
+      if (file.is_regular_file() && file.path().filename().string().find(".tmp-") != std::string::npos)
+        std::filesystem::remove(file.path());
+    SessionInfo info;
+    try {
+      info = read_session(entry.path());
+    } catch (const std::exception&) {
+      continue;  // not a readable session (e.g. a crash between mkdir and session.json)
+    }
+    if (!is_final(info.record.state)) {
+      Journal journal(entry.path() / "journal.jsonl", budget_);
+      const std::string message = "the daemon stopped while this session was " + state_name(info.record.state);
+      journal.append({{"type", "state"}, {"state", "interrupted"}, {"message", message}});
+      info.record.state = OperationState::kInterrupted;
+      info.record.message = message;
+      info.record.eta_seconds = 0;
+    }
+    sessions.push_back(std::move(info));
+  }
+  std::sort(sessions.begin(), sessions.end(), [](const auto& a, const auto& b) { return a.record.id > b.record.id; });
+  return sessions;
+}
+
+}  // namespace chromo::session

@@ -1,0 +1,109 @@
+#pragma once
+// The virtual lab's standard session (session_plan.hpp: dark, then white and
+// subject under D65', W57 and W57+blue) rendered in this process, without
+// devices or network, and turned into the estimator's measurement by the
+// daemon's own path. Frames with known truth for the estimation bench (5 MP)
+// and tests (tiny). Each stage is the project's code, not a re-implementation:
+//
+//   LED library   what a perfect calibration run measures: the LedLab's true
+//                 emission of each LED type alone at full drive, warmed up
+//                 (true_leds.hpp; not the nominal library spectra);
+//   mixes         calibration::solve_session_mix(library, "d65" | "w57" | "w57+blue",
+//                 "camera"), what daemon::Calibrations::solved_mix gives a calibrated
+//                 daemon;
+//   light         the LedLab's true emission at those drive levels, junctions
+//                 settled at that drive (so a 0.8 drive is not exactly 0.8 ×
+//                 the full-drive spectrum: the lab's temperature drift);
+//   scene         make_skin_scene (no white strip), one scene pixel per
+//                 sensor site (the sensor sees the whole scene or a window
+//                 of it), rendered in bands (render_skin_scene: the 5-MP albedo cube
+//                 is never held whole); the white target scene for the white
+//                 steps; truth maps at the sensor's resolution;
+//   camera        CameraModel (nikon_d5100 sensitivities, 12-bit ADC, black
+//                 level, shot and read noise, full well), Bayer RGGB, one
+//                 BayerRG12 frame per step as the lab camera sends it; the
+//                 exposure (all steps) puts the brightest white channel at
+//                 white_fill of full scale, as an operator would set it;
+//   noise-free    the same readout without noise (CameraModel::expected):
+//                 BayerRG16 frames of the expected DN·16 (the lab camera's 16-bit
+//                 encoding; steps of 1/16 DN);
+//   captures      session::SessionCaptureBuilder (2×2 Bayer binning, illuminants from
+//                 the library and the applied drive levels), then
+//                 session::build_method_measurement (albedo against the white
+//                 reference, the blue-only channel, registration, the noise
+//                 estimated from the dark and white frames).
+//
+// The measurement is half the sensor's size per side (the binning). Truth
+// per measurement pixel (one 2×2 sensor cell): the mean of the cell's scene
+// parameters; region: the cell's region when its four sites agree, else
+// kMixedCell. The noise-free measurement's set carries the noisy chain's
+// noise estimate (its own frames have none to estimate: the estimator is
+// told the camera's noise either way, as in the daemon).
+//
+// Thread rules: a pure function of its options (uses `threads` cores).
+
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "chromo/calibration/led_library.hpp"
+#include "chromo/drivers/led_controller.hpp"
+#include "chromo/session/method_measurement.hpp"
+#include "chromo/estimation/skin_parameters.hpp"
+
+namespace chromo::simulators {
+
+struct RenderedSessionOptions {
+  int sensor_width = 2592;   // even; 16-4096
+  int sensor_height = 1944;  // even; 16-4096
+  // The skin scene's size (0: the sensor's) and the sensor's window on it
+  // (its top-left scene pixel): a tiny sensor can look at part of a 5-MP
+  // scene, whose fields are as smooth per pixel as the bench's.
+  int scene_width = 0, scene_height = 0;
+  int window_x = 0, window_y = 0;
+  std::uint64_t seed = 5;    // scene and camera noise
+  double white_fill = 0.85;  // expected DN of the brightest white channel / full scale
+  bool noise_free = true;    // also render the noise-free chain
+  int threads = 2;
+  int band_rows = 128;       // scene rows rendered at a time
+  // Cache (empty: none): cache_dir/rendered_session_<key>.bin holds the
+  // rendered session (all but the measurements' photographs), keyed by a
+  // hash of these options (not threads, band_rows), the mixes' camera
+  // weights (true LED emission × camera sensitivity), the exposure, the
+  // camera model's constants, a probe of the scene generator and skin model
+  // (a 16×16 scene of this seed) and kRenderedSessionVersion (bump it when
+  // the capture path — binning, session::build_method_measurement — changes). A
+  // 5-MP session is 82 MB; written by rename, a damaged file is re-rendered.
+  std::filesystem::path cache_dir;
+
+  bool IsValid(std::string* error) const;
+};
+
+inline constexpr std::uint32_t kRenderedSessionVersion = 1;
+inline constexpr std::uint8_t kMixedCell = 255;  // a 2×2 cell whose sites have different regions
+
+struct RenderedSession {
+  int width = 0, height = 0;                       // the measurement's (sensor / 2)
+  session::MethodMeasurement noisy, noise_free;  // noise_free empty unless options.noise_free
+  std::vector<estimation::SkinParameters> truth;   // per measurement pixel
+  std::vector<std::uint8_t> region;                // SceneRegion per pixel, or kMixedCell
+  calibration::LedLibrary library;
+  std::map<std::string, drivers::DriveLevels> mixes;  // "d65", "w57", "w57+blue"
+  double exposure_us = 0;
+  double scene_seconds = 0, camera_seconds = 0, measurement_seconds = 0;  // wall clock per stage (of the render)
+  bool loaded_from_cache = false;
+  std::size_t pixels() const { return truth.size(); }
+};
+
+// Throws std::invalid_argument for bad options (naming the field).
+RenderedSession render_session(const RenderedSessionOptions& options);
+
+// Each measurement cell's added surface reflection (make_skin_scene's
+// highlight, skin_scene_added_reflection): the mean over the
+// cell's 2×2 sensor sites, at the scene pixels `options` put them on (scene
+// size and window). Truth for the specular shares per band of reflection.
+std::vector<float> cell_added_reflection(const RenderedSessionOptions& options);
+
+}  // namespace chromo::simulators

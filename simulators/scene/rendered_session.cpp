@@ -1,0 +1,389 @@
+#include "chromo/simulators/scene/rendered_session.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <unistd.h>
+#include <stdexcept>
+
+#include "chromo/calibration/session_mix.hpp"
+#include "chromo/session/session_captures.hpp"
+#include "chromo/session/session_plan.hpp"
+#include "chromo/files/fnv1a.hpp"
+#include "chromo/simulators/camera/camera_model.hpp"
+#include "chromo/simulators/leds/led_lab.hpp"
+#include "chromo/simulators/scene/scene.hpp"
+
+namespace chromo::simulators {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+nlohmann::json led_record(const drivers::DriveLevels& drive) {
+  nlohmann::json levels = nlohmann::json::object();
+  for (std::size_t t = 0; t < spectral::kLedTypeCount; ++t)
+    levels[std::string(spectral::led_type_name(spectral::kAllLedTypes[t]))] = drive[t];
+  return {{"drive", levels}};
+}
+
+std::span<const std::uint8_t> bytes_of(const cv::Mat& m) {
+  return {m.ptr<std::uint8_t>(), m.total() * m.elemSize()};
+}
+
+// ---- the on-disk cache ----
+constexpr char kCacheMagic[8] = {'C', 'H', 'R', 'S', 'E', 'S', 'S', '1'};
+
+std::uint64_t cache_key(const RenderedSessionOptions& o, const std::vector<SceneWeights>& weights,
+                        double exposure_us, const CameraModelOptions& camera) {
+  files::Fnv1a h;
+  h.add(kCacheMagic, sizeof kCacheMagic);
+  h.add(kRenderedSessionVersion);
+  for (int v : {o.sensor_width, o.sensor_height, o.scene_width, o.scene_height, o.window_x, o.window_y}) h.add(v);
+  h.add(o.seed), h.add(o.white_fill), h.add(o.noise_free), h.add(exposure_us);
+  for (const auto& w : weights) h.add(w.data(), sizeof(double) * w.size());
+  for (double v : {camera.quantum_scale_e_per_us, camera.full_well_e, camera.read_noise_e, camera.gain_e_per_dn,
+                   camera.black_level_dn})
+    h.add(v);
+  h.add(camera.adc_bits), h.add(camera.seed);
+  SkinSceneOptions probe;  // the scene generator and the skin model
+  probe.width = probe.height = 16;
+  probe.seed = o.seed;
+  probe.white_patch = false;
+  probe.threads = 1;
+  const Scene scene = make_skin_scene(probe);
+  h.add(scene.albedo_data(), sizeof(float) * 16 * 16 * spectral::kGridSize);
+  return h.h;
+}
+
+class Writer {
+ public:
+  explicit Writer(std::ofstream& out) : out_(out) {}
+  template <class T>
+  void put(const T& v) { out_.write(reinterpret_cast<const char*>(&v), sizeof v); }
+  template <class T>
+  void put_vector(const std::vector<T>& v) {
+    put<std::uint64_t>(v.size());
+    out_.write(reinterpret_cast<const char*>(v.data()), static_cast<std::streamsize>(v.size() * sizeof(T)));
+  }
+  void put_string(const std::string& s) { put_vector(std::vector<char>(s.begin(), s.end())); }
+  void put_spectrum(const spectral::Spectrum& s) { out_.write(reinterpret_cast<const char*>(s.values().data()), sizeof(double) * spectral::kGridSize); }
+
+ private:
+  std::ofstream& out_;
+};
+
+class Reader {
+ public:
+  explicit Reader(std::ifstream& in) : in_(in) {}
+  template <class T>
+  T get() {
+    T v{};
+    in_.read(reinterpret_cast<char*>(&v), sizeof v);
+    return v;
+  }
+  template <class T>
+  std::vector<T> get_vector(std::uint64_t limit) {
+    const auto n = get<std::uint64_t>();
+    if (!in_ || n > limit) throw std::runtime_error("bad length");
+    std::vector<T> v(n);
+    in_.read(reinterpret_cast<char*>(v.data()), static_cast<std::streamsize>(n * sizeof(T)));
+    return v;
+  }
+  std::string get_string() {
+    const auto v = get_vector<char>(4096);
+    return {v.begin(), v.end()};
+  }
+  spectral::Spectrum get_spectrum() {
+    spectral::Spectrum s;
+    for (int i = 0; i < spectral::kGridSize; ++i) s[i] = get<double>();
+    return s;
+  }
+  bool ok() const { return static_cast<bool>(in_); }
+
+ private:
+  std::ifstream& in_;
+};
+
+void put_measurement(Writer& w, const session::MethodMeasurement& m) {
+  w.put_string(m.set.camera.name);
+  for (const auto& c : m.set.camera.rgb) w.put_spectrum(c);
+  w.put<std::uint32_t>(static_cast<std::uint32_t>(m.set.channels.size()));
+  for (const auto& c : m.set.channels) {
+    w.put_string(c.name);
+    w.put_spectrum(c.illuminant);
+    w.put<std::int32_t>(c.camera_channel);
+    w.put(c.noise);
+  }
+  w.put<std::int32_t>(m.width), w.put<std::int32_t>(m.height);
+  w.put_vector(m.measured);
+  w.put<std::uint32_t>(static_cast<std::uint32_t>(m.registration.size()));
+  for (const auto& r : m.registration) {
+    w.put_string(r.image), w.put_string(r.reference), w.put_string(r.channel);
+    w.put(r.result), w.put(r.motion_px), w.put(r.warped);
+  }
+  w.put<std::uint64_t>(m.saturated_pixels);
+}
+
+session::MethodMeasurement get_measurement(Reader& r) {
+  session::MethodMeasurement m;
+  m.set.camera.name = r.get_string();
+  for (auto& c : m.set.camera.rgb) c = r.get_spectrum();
+  const auto channels = r.get<std::uint32_t>();
+  if (channels > 16) throw std::runtime_error("bad channel count");
+  for (std::uint32_t k = 0; k < channels; ++k) {
+    estimation::MeasurementChannel c;
+    c.name = r.get_string();
+    c.illuminant = r.get_spectrum();
+    c.camera_channel = r.get<std::int32_t>();
+    c.noise = r.get<estimation::ChannelNoise>();
+    m.set.channels.push_back(std::move(c));
+  }
+  m.width = r.get<std::int32_t>(), m.height = r.get<std::int32_t>();
+  m.measured = r.get_vector<float>(std::uint64_t{1} << 32);
+  const auto reports = r.get<std::uint32_t>();
+  if (reports > 16) throw std::runtime_error("bad registration count");
+  for (std::uint32_t k = 0; k < reports; ++k) {
+    session::RegistrationReport report;
+    report.image = r.get_string(), report.reference = r.get_string(), report.channel = r.get_string();
+    report.result = r.get<session::RegistrationResult>();
+    report.motion_px = r.get<double>();
+    report.warped = r.get<bool>();
+    m.registration.push_back(std::move(report));
+  }
+  m.saturated_pixels = r.get<std::uint64_t>();
+  return m;
+}
+
+std::filesystem::path cache_file(const std::filesystem::path& dir, std::uint64_t key) {
+  char name[64];
+  std::snprintf(name, sizeof name, "rendered_session_%016llx.bin", static_cast<unsigned long long>(key));
+  return dir / name;
+}
+
+// Fills out's rendered parts from the cache file; false when absent, damaged or of other inputs.
+bool load_cached(const std::filesystem::path& file, std::uint64_t key, RenderedSession& out) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) return false;
+  try {
+    Reader r(in);
+    char magic[8];
+    in.read(magic, 8);
+    if (!in || std::memcmp(magic, kCacheMagic, 8) != 0 || r.get<std::uint32_t>() != kRenderedSessionVersion ||
+        r.get<std::uint64_t>() != key)
+      return false;
+    RenderedSession s;
+    s.width = r.get<std::int32_t>(), s.height = r.get<std::int32_t>();
+    s.scene_seconds = r.get<double>(), s.camera_seconds = r.get<double>(), s.measurement_seconds = r.get<double>();
+    s.noisy = get_measurement(r);
+    if (r.get<bool>()) s.noise_free = get_measurement(r);
+    s.truth = r.get_vector<estimation::SkinParameters>(std::uint64_t{1} << 28);
+    s.region = r.get_vector<std::uint8_t>(std::uint64_t{1} << 28);
+    const std::size_t pixels = static_cast<std::size_t>(s.width) * s.height;
+    if (!r.ok() || in.peek() != std::char_traits<char>::eof() || s.truth.size() != pixels || s.region.size() != pixels ||
+        s.noisy.measured.size() != pixels * 4)
+      return false;
+    out.width = s.width, out.height = s.height;
+    out.scene_seconds = s.scene_seconds, out.camera_seconds = s.camera_seconds, out.measurement_seconds = s.measurement_seconds;
+    out.noisy = std::move(s.noisy), out.noise_free = std::move(s.noise_free);
+    out.truth = std::move(s.truth), out.region = std::move(s.region);
+    out.loaded_from_cache = true;
+    return true;
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
+// A cache that cannot be written is not an error: the session is in memory.
+void store_cached(const std::filesystem::path& file, std::uint64_t key, const RenderedSession& s) {
+  std::error_code ec;
+  std::filesystem::create_directories(file.parent_path(), ec);
+  const std::filesystem::path temporary = file.string() + ".tmp" + std::to_string(static_cast<long long>(::getpid()));
+  {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    Writer w(out);
+    out.write(kCacheMagic, 8);
+    w.put(kRenderedSessionVersion), w.put(key);
+    w.put<std::int32_t>(s.width), w.put<std::int32_t>(s.height);
+    w.put(s.scene_seconds), w.put(s.camera_seconds), w.put(s.measurement_seconds);
+    put_measurement(w, s.noisy);
+    w.put(!s.noise_free.measured.empty());
+    if (!s.noise_free.measured.empty()) put_measurement(w, s.noise_free);
+    w.put_vector(s.truth);
+    w.put_vector(s.region);
+    if (!out) {
+      out.close();
+      std::filesystem::remove(temporary, ec);
+      return;
+    }
+  }
+  std::filesystem::rename(temporary, file, ec);
+  if (ec) std::filesystem::remove(temporary, ec);
+}
+
+}  // namespace
+
+bool RenderedSessionOptions::IsValid(std::string* error) const {
+  auto fail = [&](const char* message) {
+    if (error != nullptr) *error = message;
+    return false;
+  };
+  if (sensor_width < 16 || sensor_width > 4096 || sensor_width % 2) return fail("sensor_width: must be even, 16-4096");
+  if (sensor_height < 16 || sensor_height > 4096 || sensor_height % 2) return fail("sensor_height: must be even, 16-4096");
+  const int scene_w = scene_width > 0 ? scene_width : sensor_width, scene_h = scene_height > 0 ? scene_height : sensor_height;
+  if (scene_w > 4096 || scene_h > 4096 || window_x < 0 || window_y < 0 || window_x + sensor_width > scene_w ||
+      window_y + sensor_height > scene_h)
+    return fail("window_x/window_y: the sensor's window must lie within the scene (at most 4096 per side)");
+  if (!(white_fill > 0.05 && white_fill < 0.99)) return fail("white_fill: must be in (0.05, 0.99)");
+  if (threads < 1) return fail("threads: must be >= 1");
+  if (band_rows < 1) return fail("band_rows: must be >= 1");
+  return true;
+}
+
+RenderedSession render_session(const RenderedSessionOptions& options) {
+  if (std::string error; !options.IsValid(&error)) throw std::invalid_argument("RenderedSessionOptions: " + error);
+  RenderedSession out;
+  auto start = Clock::now();
+
+  // Light: the library a perfect calibration measures, the calibrated mixes, their true emission.
+  LedLab leds([] {
+    LedLabOptions o;
+    o.start_warm = true;
+    return o;
+  }());
+  out.library = calibration::nominal_led_library();
+  out.library.source = "measured";
+  for (std::size_t t = 0; t < spectral::kLedTypeCount; ++t) {
+    drivers::DriveLevels drive{};
+    drive[t] = 1.0;
+    out.library.leds[t].ladder = {{1.0, std::nullopt, std::nullopt, true, leds.emit_settled(drive)}};
+  }
+  const char* const kMixes[3] = {"d65", "w57", "w57+blue"};
+  const CameraModel camera{CameraModelOptions{}};
+  std::vector<SceneWeights> weights;
+  std::map<std::string, cv::Vec3f> white_response;
+  double brightest = 0;
+  for (const char* mix : kMixes) {
+    out.mixes[mix] = calibration::solve_session_mix(out.library, mix, "camera", false).weights;
+    const auto w = camera.weights(leds.emit_settled(out.mixes[mix]));
+    weights.emplace_back(w);
+    const Eigen::Vector3d white = w * white_target_reflectance().values().matrix();
+    white_response[mix] = cv::Vec3f(static_cast<float>(white[0]), static_cast<float>(white[1]), static_cast<float>(white[2]));
+    brightest = std::max(brightest, white.maxCoeff());
+  }
+  const CameraModelOptions& c = camera.options();
+  out.exposure_us = (options.white_fill * camera.max_dn() - c.black_level_dn) * c.gain_e_per_dn /
+                    (c.quantum_scale_e_per_us * brightest);
+  std::filesystem::path cached;
+  std::uint64_t key = 0;
+  if (!options.cache_dir.empty()) {
+    key = cache_key(options, weights, out.exposure_us, c);
+    cached = cache_file(options.cache_dir, key);
+    if (load_cached(cached, key, out)) return out;
+  }
+
+  // Scene at the sensor's resolution, in bands.
+  SkinSceneOptions scene_options;
+  scene_options.width = options.scene_width > 0 ? options.scene_width : options.sensor_width;
+  scene_options.height = options.scene_height > 0 ? options.scene_height : options.sensor_height;
+  scene_options.column_begin = options.window_x, scene_options.column_count = options.sensor_width;
+  scene_options.row_begin = options.window_y, scene_options.row_count = options.sensor_height;
+  scene_options.seed = options.seed;
+  scene_options.white_patch = false;
+  scene_options.threads = options.threads;
+  const SkinSceneResponse scene = render_skin_scene(scene_options, weights, options.band_rows);
+  out.scene_seconds = seconds_since(start);
+
+  // Frames of the standard plan through the daemon's capture builder.
+  session::StandardPlanOptions plan_options;
+  plan_options.exposure_us = out.exposure_us;
+  const session::SessionPlan plan = session::standard_plan(plan_options);
+  const session::CaptureSources sources{out.library, "true LED emission at full drive (rendered session)",
+                               c.sensitivity, "builtin:nikon_d5100", kWhiteTargetReflectance};
+  const cv::Size sensor(options.sensor_width, options.sensor_height);
+  auto captures = [&](bool noisy) {
+    session::SessionCaptureBuilder builder(plan, sources);
+    for (std::size_t s = 0; s < plan.steps.size(); ++s) {
+      const session::Step& step = plan.steps[s];
+      cv::Mat response;
+      drivers::DriveLevels drive{};
+      if (step.role == session::StepRole::kDark) {
+        response = cv::Mat(sensor, CV_32FC3, cv::Scalar::all(0));
+      } else {
+        drive = out.mixes.at(step.illumination.mix);
+        const int k = static_cast<int>(std::find(std::begin(kMixes), std::end(kMixes), step.illumination.mix) - kMixes);
+        if (step.role == session::StepRole::kWhite) response = cv::Mat(sensor, CV_32FC3, white_response.at(step.illumination.mix));
+        else response = scene.responses[k];
+      }
+      const nlohmann::json led = step.role == session::StepRole::kDark ? nlohmann::json::object() : led_record(drive);
+      if (noisy) {
+        const cv::Mat dn = camera.expose(response, SensorLayout::kBayerRGGB, 0, 0, out.exposure_us, 0, s);
+        builder.add_frame(step.name, "cam0", "BayerRG12", dn.cols, dn.rows, bytes_of(dn), led);
+      } else {
+        cv::Mat dn16;  // the 16-bit encoding: DN << 4, here with the fraction kept to 1/16 DN
+        camera.expected(response, SensorLayout::kBayerRGGB, 0, 0, out.exposure_us, 0)
+            .convertTo(dn16, CV_16U, 16.0);
+        builder.add_frame(step.name, "cam0", "BayerRG16", dn16.cols, dn16.rows, bytes_of(dn16), led);
+      }
+    }
+    return builder.captures();
+  };
+  start = Clock::now();
+  const session::MethodCaptures noisy_captures = captures(true);
+  session::MethodCaptures clean_captures;
+  if (options.noise_free) clean_captures = captures(false);
+  out.camera_seconds = seconds_since(start);
+  start = Clock::now();
+  out.noisy = session::build_method_measurement(noisy_captures);
+  if (options.noise_free) {
+    out.noise_free = session::build_method_measurement(clean_captures);
+    for (std::size_t k = 0; k < out.noise_free.set.channels.size(); ++k)
+      out.noise_free.set.channels[k].noise = out.noisy.set.channels[k].noise;
+  }
+  out.measurement_seconds = seconds_since(start);
+
+  // Truth per 2×2 cell.
+  out.width = options.sensor_width / 2, out.height = options.sensor_height / 2;
+  out.truth.resize(static_cast<std::size_t>(out.width) * out.height);
+  out.region.resize(out.truth.size());
+  for (int y = 0; y < out.height; ++y)
+    for (int x = 0; x < out.width; ++x) {
+      const std::size_t i = static_cast<std::size_t>(y) * out.width + x;
+      estimation::SkinParameters& p = out.truth[i];
+      p = {0, 0, 0, 0};
+      const std::uint8_t first = scene.regions.at<std::uint8_t>(2 * y, 2 * x);
+      out.region[i] = first;
+      for (int dy = 0; dy < 2; ++dy)
+        for (int dx = 0; dx < 2; ++dx) {
+          const int sy = 2 * y + dy, sx = 2 * x + dx;
+          p.cm += 0.25 * scene.cm.at<float>(sy, sx);
+          p.ch += 0.25 * scene.ch.at<float>(sy, sx);
+          p.bm += 0.25 * scene.bm.at<float>(sy, sx);
+          p.che += 0.25 * scene.che.at<float>(sy, sx);
+          if (scene.regions.at<std::uint8_t>(sy, sx) != first) out.region[i] = kMixedCell;
+        }
+    }
+  if (!cached.empty()) store_cached(cached, key, out);
+  return out;
+}
+
+std::vector<float> cell_added_reflection(const RenderedSessionOptions& options) {
+  const int scene_w = options.scene_width > 0 ? options.scene_width : options.sensor_width;
+  const int scene_h = options.scene_height > 0 ? options.scene_height : options.sensor_height;
+  const int cells_x = options.sensor_width / 2, cells_y = options.sensor_height / 2;
+  std::vector<float> reflection(static_cast<std::size_t>(cells_x) * cells_y);
+  for (int cy = 0; cy < cells_y; ++cy)
+    for (int cx = 0; cx < cells_x; ++cx) {
+      double sum = 0;
+      for (int d = 0; d < 4; ++d)
+        sum += skin_scene_added_reflection(scene_w, scene_h, options.window_x + 2 * cx + d % 2,
+                                                       options.window_y + 2 * cy + d / 2);
+      reflection[static_cast<std::size_t>(cy) * cells_x + cx] = static_cast<float>(sum / 4);
+    }
+  return reflection;
+}
+
+}  // namespace chromo::simulators

@@ -1,0 +1,112 @@
+// The session folder's storage: the journal (torn tails, a full budget), raw
+// frames as TIFF at native bit depth, derived data as OpenEXR.
+#include <fstream>
+
+#include <ImfInputFile.h>
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <gtest/gtest.h>
+
+#include "chromo/session/frame_files.hpp"
+#include "chromo/session/journal.hpp"
+#include "../support/fresh_directory.hpp"
+
+namespace chromo::session {
+namespace {
+
+using testing::fresh_directory;
+
+TEST(Journal, RecordsSurviveAndATornTailIsIgnoredThenClosed) {
+  auto dir = fresh_directory("journal");
+  {
+    Journal journal(dir / "j.jsonl", nullptr);
+    journal.append({{"type", "a"}, {"n", 1}});
+    journal.append({{"type", "b"}, {"n", 2}});
+  }
+  {  // A crash in the middle of an append.
+    std::ofstream out(dir / "j.jsonl", std::ios::app);
+    out << "{\"type\":\"c\",\"n\":";
+  }
+  auto contents = read_journal(dir / "j.jsonl");
+  ASSERT_EQ(contents.records.size(), 2u);
+  EXPECT_TRUE(contents.torn_tail);
+  EXPECT_EQ(contents.records[1]["n"], 2);
+  EXPECT_TRUE(contents.records[0].contains("t"));
+  {  // Reopening closes the torn line so the next record stays intact.
+    Journal journal(dir / "j.jsonl", nullptr);
+    journal.append({{"type", "d"}});
+  }
+  contents = read_journal(dir / "j.jsonl");
+  ASSERT_EQ(contents.records.size(), 3u);
+  EXPECT_EQ(contents.records[2]["type"], "d");
+  EXPECT_EQ(contents.malformed_lines, 1);
+  EXPECT_FALSE(contents.torn_tail);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Journal, FullBudgetRefusesTheRecordAndWritesNothing) {
+  auto dir = fresh_directory("journal-full");
+  files::StorageBudget budget(80);
+  Journal journal(dir / "j.jsonl", &budget);
+  journal.append({{"type", "a"}});
+  EXPECT_THROW(journal.append({{"type", std::string(100, 'x')}}), files::StorageFullError);
+  auto contents = read_journal(dir / "j.jsonl");
+  EXPECT_EQ(contents.records.size(), 1u);
+  EXPECT_FALSE(contents.torn_tail);
+  std::filesystem::remove_all(dir);
+}
+
+drivers::Frame ramp_frame(drivers::PixelFormat format, int width, int height) {
+  drivers::Frame frame;
+  frame.width = width;
+  frame.height = height;
+  frame.pixel_format = format;
+  const int bytes = significant_bits(format) == 8 ? 1 : 2;
+  frame.data.resize(static_cast<std::size_t>(width * height * samples_per_pixel(format) * bytes));
+  for (std::size_t i = 0; i < frame.data.size(); ++i) frame.data[i] = static_cast<std::uint8_t>(i * 7 + 3);
+  return frame;
+}
+
+TEST(ImageFiles, TiffKeepsNativeBitDepthAndEveryByte) {
+  auto dir = fresh_directory("tiff");
+  for (auto [format, bits, samples] : {std::tuple{drivers::PixelFormat::kMono8, 8, 1},
+                                       std::tuple{drivers::PixelFormat::kBayerRG12, 16, 1},
+                                       std::tuple{drivers::PixelFormat::kMono16, 16, 1},
+                                       std::tuple{drivers::PixelFormat::kRgb8, 8, 3}}) {
+    auto frame = ramp_frame(format, 37, 11);
+    auto path = dir / (pixel_format_name(format) + ".tiff");
+    write_frame_tiff(path, frame, "{\"step\":\"x\"}", nullptr);
+    auto image = read_tiff(path);
+    EXPECT_EQ(image.width, 37);
+    EXPECT_EQ(image.height, 11);
+    EXPECT_EQ(image.bits_per_sample, bits);
+    EXPECT_EQ(image.samples_per_pixel, samples);
+    EXPECT_EQ(image.data, frame.data) << pixel_format_name(format);
+    EXPECT_EQ(image.description, "{\"step\":\"x\"}");
+  }
+  auto bad = ramp_frame(drivers::PixelFormat::kMono8, 4, 4);
+  bad.data.pop_back();
+  EXPECT_THROW(write_frame_tiff(dir / "bad.tiff", bad, "", nullptr), std::invalid_argument);
+  EXPECT_FALSE(std::filesystem::exists(dir / "bad.tiff"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST(ImageFiles, ExrHoldsFloatChannels) {
+  auto dir = fresh_directory("exr");
+  std::vector<float> values{0.f, 0.25f, 0.5f, 1.5f, -1.f, 1e-3f};
+  write_float_exr(dir / "a.exr", 3, 2, {{"Y", values}}, nullptr);
+  Imf::InputFile file((dir / "a.exr").c_str());
+  EXPECT_NE(file.header().channels().findChannel("Y"), nullptr);
+  std::vector<float> read(6);
+  Imf::FrameBuffer buffer;
+  buffer.insert("Y", Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(read.data()), sizeof(float), 3 * sizeof(float)));
+  file.setFrameBuffer(buffer);
+  file.readPixels(0, 1);
+  EXPECT_EQ(read, values);
+  EXPECT_THROW(write_float_exr(dir / "b.exr", 3, 3, {{"Y", values}}, nullptr), std::invalid_argument);
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace chromo::session
