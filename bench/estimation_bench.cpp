@@ -2,7 +2,7 @@
 // (known truth), noise-free and with the camera noise model: synthetic
 // frames (random in-gamut skin, the estimation library's noise model) and
 // virtual-lab frames (the standard session rendered from the lab's physics,
-// daemon/rendered_session.hpp); where each method fails (noise level,
+// simulators/scene/rendered_session.hpp); where each method fails (noise level,
 // distance outside the gamut, Ch against Che); table and inverse-table build
 // times and interpolation error; anomaly and vein flag shares.
 //
@@ -553,7 +553,7 @@ int main(int argc, char** argv) {
       report["runs"].push_back(to_json(r));
     }
   }
-  // Virtual-lab frames (daemon/rendered_session.hpp): the standard session
+  // Virtual-lab frames (simulators/scene/rendered_session.hpp): the standard session
   // rendered from the lab's physics at the sensor's full size (5 MP by
   // default), binned and measured by the daemon's own path. Every method on
   // the measurement's skin cells (exhaustive on a fixed subsample of

@@ -1,6 +1,6 @@
 #pragma once
 // The virtual-lab session every lab bench measures on: the standard session
-// rendered from the lab's physics (daemon/rendered_session.hpp), seed 5, on
+// rendered from the lab's physics (simulators/scene/rendered_session.hpp), seed 5, on
 // 2 threads, cached on disk in cache_dir (empty: not cached), so that
 // estimation_bench renders it once and the others read it back.
 

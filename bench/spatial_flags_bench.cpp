@@ -1,5 +1,5 @@
 // The spatial flag pass (estimation/spatial_flags.hpp) on the rendered 5-MP
-// virtual-lab session (daemon/rendered_session.hpp, the estimation bench's
+// virtual-lab session (simulators/scene/rendered_session.hpp, the estimation bench's
 // frame, read from its cache): flagged share per scene region and per band
 // of the highlight's added reflection, and the pass's cost, for the pass on
 // the cells themselves (block 1, its windows as tuned at 128-512 px) and on

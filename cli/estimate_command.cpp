@@ -1,7 +1,7 @@
 // chromo estimate: offline chromophore estimation from a measurement
 // description (docs/formats/measurement.md) or a stored session folder
 // (docs/formats/session.md) to parameter maps, previews and a summary
-// (estimation/estimate_report.hpp). Everything is read and checked before
+// (maps/estimate_report.hpp). Everything is read and checked before
 // anything is written; outputs are written under temporary names and renamed
 // into place at the end (OutputBatch). A session folder goes through the
 // daemon's own SessionCaptureBuilder and estimate_method_captures(), so the

@@ -1,5 +1,5 @@
 // The spatial flag pass (estimation/spatial_flags.hpp) at the lab's real
-// sampling: windows of the 5-MP rendered session (daemon/rendered_session.hpp,
+// sampling: windows of the 5-MP rendered session (simulators/scene/rendered_session.hpp,
 // the estimation bench's scene and seed), each ~0.2 M cells, through the
 // estimator (fast, auto) and both passes on the block size the whole
 // 1296×972-cell session gets. The shares per region are asserted: skin ≤ 1%

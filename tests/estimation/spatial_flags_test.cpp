@@ -155,7 +155,7 @@ void expect_finite(const std::vector<PixelEstimate>& estimates) {
 // and the reflection's growth stops where the background follows its smooth
 // tail), vein 0-7.3%. The specular bounds are the measured shares less a
 // margin, as regression guards, not the target; the 5-MP session's are in
-// tests/daemon/lab_flags_test.cpp.
+// tests/estimation/lab_flags_test.cpp.
 TEST(NeighbourhoodFlags, VirtualLabSceneThroughTheCameraModel) {
   const LabRun r = run_lab(256, 0.8);
   EXPECT_LE(r.share(SceneRegion::kSkin, false), 0.0005);  // per pixel: the specular test flags no skin

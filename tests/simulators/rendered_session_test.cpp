@@ -1,4 +1,4 @@
-// The rendered virtual-lab session (daemon/rendered_session.hpp) that the
+// The rendered virtual-lab session (simulators/scene/rendered_session.hpp) that the
 // estimation bench measures on: a tiny sensor (128×96 → 64×48 after the
 // binning; a window of the 5-MP scene) through the whole chain (true LEDs,
 // skin scene, camera model,

@@ -1,7 +1,7 @@
 #pragma once
 // The Maps service of proto/chromosphere/v1/maps.proto: relight, flush,
 // import-maps and profile export over the estimation library's map
-// operations (estimation/map_operations.hpp), on files of a session folder.
+// operations (maps/map_operations.hpp), on files of a session folder.
 //
 // Paths: with session_id set, every file field is a relative path inside
 // <sessions_dir>/<session_id>/ (no "..", no absolute path); with session_id

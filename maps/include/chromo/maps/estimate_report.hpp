@@ -10,7 +10,7 @@
 //                 caller adds (input, table, registration, relit ΔE94, ...)
 //
 // Files go through a FileCommit: the caller decides how a file becomes
-// durable (chromod: temp + fsync + rename + fsync-dir, daemon/durable_file;
+// durable (chromod: temp + fsync + rename + fsync-dir, files/durable_file.hpp;
 // the CLI: every file to a temporary name first, all renamed at the end).
 //
 // estimate_method_captures() is the whole estimation of a standard session's

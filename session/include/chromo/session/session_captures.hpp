@@ -1,6 +1,6 @@
 #pragma once
 // Frames of a standard session → the estimator's captures
-// (estimation/method_measurement.hpp). The one place where session frames
+// (session/method_measurement.hpp). The one place where session frames
 // become a measurement: the on-line estimator feeds frames as they arrive,
 // `chromo estimate SESSION_DIR` feeds the stored ones (read_session_captures),
 // so both give bit-identical captures for the same frames (a TIFF holds the
