@@ -56,6 +56,7 @@
 
 #include "chromo/simulators/scene/rendered_session.hpp"
 #include "chromo/estimation/estimator.hpp"
+#include "chromo/files/gnuplot_chart.hpp"
 #include "chromo/estimation/inverse_table.hpp"
 #include "chromo/spectral/lab_illuminants.hpp"
 #include "chromo/maps/reconstruction.hpp"
@@ -283,9 +284,11 @@ std::vector<BaselineRun> read_baseline(const fs::path& file) {
   return runs;
 }
 
-int gnuplot(const fs::path& script) {
-  const std::string command = "gnuplot " + script.string() + " 2>&1";
-  return std::system(command.c_str());
+// Draws a chart (files/gnuplot_chart.hpp), its script kept beside it; a
+// missing gnuplot is reported, not fatal: the figures are printed and in CSV.
+void draw(const fs::path& png, const std::string& terminal, const std::string& commands) {
+  const std::string failed = files::draw_chart({png, terminal, commands}, fs::path(png).replace_extension(".gp"));
+  if (!failed.empty()) std::fprintf(stderr, "%s: no chart\n", failed.c_str());
 }
 
 }  // namespace
@@ -946,9 +949,8 @@ int main(int argc, char** argv) {
   for (std::ofstream* f : {&speed_csv, &noise_csv, &gamut_csv, &chche_csv}) f->close();  // gnuplot reads them next
 
   // Charts.
-  const fs::path script1 = out / "estimation_speed_accuracy.gp";
-  std::ofstream(script1) << "set terminal pngcairo noenhanced size 1500,900\nset output '" << (out / "estimation_speed_accuracy.png").string()
-                         << "'\nset multiplot layout 2,3 title 'Inverters on " << pixels << "-pixel synthetic frames and rendered virtual-lab sessions (lab:), 2 threads (circles noise-free, squares noisy"
+  std::ostringstream speed_chart;
+  speed_chart << "set multiplot layout 2,3 title 'Inverters on " << pixels << "-pixel synthetic frames and rendered virtual-lab sessions (lab:), 2 threads (circles noise-free, squares noisy"
                          << (old_runs.empty() ? "" : "; grey open: baseline run") << ")'\n"
                          << "set xlabel 'pixels per second'\nset logscale xy\nset grid\n"
                          << "set ylabel 'mean relit ΔE94 (six LEDs + D65)'\n"
@@ -965,7 +967,7 @@ int main(int argc, char** argv) {
                          << "\n";
   {
     // Relit under D65 alone and the parameter errors, against speed (no labels: the legend says which point is which).
-    std::ofstream panels(script1, std::ios::app);
+    std::ostringstream& panels = speed_chart;
     const std::string csv = "'" + (out / "estimation_speed_accuracy.csv").string() + "'";
     const std::pair<int, const char*> columns[] = {{6, "relit ΔE94 under D65"}, {7, "|Δlog10 Cm|"}, {8, "|Δlog10 Ch|"},
                                                    {9, "|ΔβM|"}, {10, "|ΔChe|"}};
@@ -975,9 +977,9 @@ int main(int argc, char** argv) {
              << column << " : 1/0):1 with labels point pt 5 offset 1,-0.5 font ',7' tc rgb 'red' notitle\n";
     panels << "unset multiplot\n";
   }
-  const fs::path script2 = out / "estimation_failures.gp";
-  std::ofstream(script2) << "set terminal pngcairo size 1400,450\nset output '" << (out / "estimation_failures.png").string()
-                         << "'\nset multiplot layout 1,3\nset grid\n"
+  draw(out / "estimation_speed_accuracy.png", "pngcairo noenhanced size 1500,900", speed_chart.str());
+  std::ostringstream failures_chart;
+  failures_chart << "set multiplot layout 1,3\nset grid\n"
                          << "set title 'error vs noise'\nset xlabel 'noise scale (1 = camera model)'\nset ylabel 'relit ΔE94'\n"
                          << "plot '" << (out / "estimation_error_vs_noise.csv").string()
                          << "' u 1:2 w lp t 'fast 4D', '' u 1:3 w lp t '2D', '' u 1:4 w lp t 'exhaustive 4D', '' u 1:5 w l "
@@ -992,8 +994,7 @@ int main(int argc, char** argv) {
                          << "plot '" << (out / "estimation_ch_vs_che.csv").string()
                          << "' u 1:2 w lp t 'Ch, noise-free', '' u 1:4 w lp t 'Ch, noisy', '' u 1:3 w lp axes x1y2 t 'Che, "
                             "noise-free', '' u 1:5 w lp axes x1y2 t 'Che, noisy'\nunset multiplot\n";
-  gnuplot(script1);
-  gnuplot(script2);
+  draw(out / "estimation_failures.png", "pngcairo size 1400,450", failures_chart.str());
   std::printf("wrote %s\n", out.string().c_str());
   return 0;
 }

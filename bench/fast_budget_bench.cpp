@@ -32,11 +32,13 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "chromo/simulators/scene/rendered_session.hpp"
 #include "chromo/estimation/estimator.hpp"
+#include "chromo/files/gnuplot_chart.hpp"
 #include "chromo/simulators/scene/scene.hpp"
 #include "clocks.hpp"
 #include "lab_session.hpp"
@@ -238,8 +240,8 @@ int main(int argc, char** argv) {
 
   const fs::path script = out / (stem + ".gp");
   const std::string data = "'" + (out / (stem + ".csv")).string() + "'";
-  std::ofstream(script)
-      << "set terminal pngcairo noenhanced size 1400,500\nset output '" << (out / (stem + ".png")).string() << "'\n"
+  std::ostringstream commands;
+  commands
       << "set multiplot layout 1,3 title 'Fast 4D inverter: budget against accuracy on the 5-MP lab session, "
       << (whole_frame ? "speed over the whole frame, " : "") << "scored on its " << skin.size()
       << " skin cells (circles noise-free, squares noisy; dashed: the 0.2 µs target)'\n"
@@ -259,8 +261,9 @@ int main(int argc, char** argv) {
       << "plot " << data << " u 4:(stringcolumn(2) eq 'noise-free' ? $8 : 1/0):1 w labels point pt 7 offset 1,0.5 "
       << "font ',8' notitle, '' u 4:(stringcolumn(2) eq 'noisy' ? $8 : 1/0):1 w labels point pt 5 offset 1,-0.5 "
       << "font ',8' tc rgb 'red' notitle\nunset multiplot\n";
-  const std::string command = "gnuplot " + script.string() + " 2>&1";
-  if (std::system(command.c_str()) != 0) std::fprintf(stderr, "gnuplot failed: no chart\n");
+  const std::string failed =
+      files::draw_chart({out / (stem + ".png"), "pngcairo noenhanced size 1400,500", commands.str()}, script);
+  if (!failed.empty()) std::fprintf(stderr, "%s: no chart\n", failed.c_str());
   std::printf("wrote %s.csv and %s.png in %s\n", stem.c_str(), stem.c_str(), out.string().c_str());
   return 0;
 }
