@@ -27,6 +27,8 @@
 // are then fast_budget_whole_frame.{csv,png}. Writes DIR/fast_budget.csv and
 // DIR/fast_budget.png (gnuplot); DIR defaults to bench/results.
 #include <chrono>
+
+#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -152,22 +154,25 @@ int main(int argc, char** argv) {
   fs::path frame_cache = ForwardTable::default_cache_dir();
   int exhaustive_pixels = 20000, sensor_width = 2592, sensor_height = 1944;
   std::string budgets;  // empty: all
-  bool whole_frame = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--out" && i + 1 < argc) out = argv[++i];
-    else if (a == "--exhaustive-pixels" && i + 1 < argc) exhaustive_pixels = std::atoi(argv[++i]);
-    else if (a == "--scene-size" && i + 2 < argc) sensor_width = std::atoi(argv[++i]), sensor_height = std::atoi(argv[++i]);
-    else if (a == "--frame-cache" && i + 1 < argc) frame_cache = argv[++i];
-    else if (a == "--no-frame-cache") frame_cache.clear();
-    else if (a == "--whole-frame") whole_frame = true;
-    else if (a == "--budgets" && i + 1 < argc) budgets = "," + std::string(argv[++i]) + ",";
-    else {
-      std::fprintf(stderr, "usage: fast_budget_bench [--out DIR] [--exhaustive-pixels N] [--scene-size W H] "
-                           "[--frame-cache DIR | --no-frame-cache] [--budgets NAME,...] [--whole-frame]\n");
-      return 2;
-    }
+  bool whole_frame = false, no_frame_cache = false;
+  std::vector<int> scene_size;
+  CLI::App app{"The fast 4D inverter's budget against accuracy on the lab session (see the source's header)"};
+  app.add_option("--out", out, "where the CSV and the chart go");
+  app.add_option("--exhaustive-pixels", exhaustive_pixels, "the exhaustive reference's subsample of skin cells");
+  app.add_option("--scene-size", scene_size, "the virtual lab's sensor, W H")->expected(2);
+  auto* cache = app.add_option("--frame-cache", frame_cache, "the rendered session's cache directory");
+  app.add_flag("--no-frame-cache", no_frame_cache, "render the session, cache nothing")->excludes(cache);
+  app.add_option("--budgets", budgets, "NAME,...: only these budgets (default: all)");
+  app.add_flag("--whole-frame", whole_frame, "time the whole frame, not only the skin cells");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& error) {
+    const int status = app.exit(error);
+    return status == 0 ? 0 : 2;
   }
+  if (!budgets.empty()) budgets = "," + budgets + ",";
+  if (!scene_size.empty()) sensor_width = scene_size[0], sensor_height = scene_size[1];
+  if (no_frame_cache) frame_cache.clear();
   if (exhaustive_pixels < 1 || sensor_width < 16 || sensor_height < 16) {
     std::fprintf(stderr, "fast_budget_bench: --exhaustive-pixels must be >= 1 and --scene-size at least 16 16\n");
     return 2;
