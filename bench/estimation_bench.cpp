@@ -311,6 +311,7 @@ struct Options {
 // (estimation_bench.json), the speed/accuracy CSV and the runs in it, and
 // the method set's table.
 struct BenchRun {
+  explicit BenchRun(const Options& run_options) : options(run_options) {}
   const Options& options;
   int pixels = 0, exhaustive_pixels = 0;  // the synthetic frame's, and the exhaustive subsample (≤ pixels)
   nlohmann::ordered_json report;
@@ -1101,6 +1102,7 @@ void draw_charts(const BenchRun& run, const std::vector<BaselineRun>& old_runs) 
                          << "plot '" << (out / "estimation_ch_vs_che.csv").string()
                          << "' u 1:2 w lp t 'Ch, noise-free', '' u 1:4 w lp t 'Ch, noisy', '' u 1:3 w lp axes x1y2 t 'Che, "
                             "noise-free', '' u 1:5 w lp axes x1y2 t 'Che, noisy'\nunset multiplot\n";
+  draw(out / "estimation_failures.png", "pngcairo size 1400,450", failures_chart.str());
 }
 
 }  // namespace
@@ -1137,7 +1139,7 @@ int main(int argc, char** argv) {
   if (options.diagnose_only) options.diagnose = true;
 
   fs::create_directories(options.out);
-  BenchRun run{options};
+  BenchRun run(options);
   run.pixels = options.width * options.height;
   run.exhaustive_pixels = std::min(options.exhaustive_pixels, run.pixels);
   run.report["frame"] = {{"width", options.width}, {"height", options.height}, {"pixels", run.pixels},
