@@ -48,6 +48,8 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
+#include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -56,6 +58,7 @@
 
 #include "chromo/simulators/scene/rendered_session.hpp"
 #include "chromo/estimation/estimator.hpp"
+#include "chromo/files/gnuplot_chart.hpp"
 #include "chromo/estimation/inverse_table.hpp"
 #include "chromo/spectral/lab_illuminants.hpp"
 #include "chromo/maps/reconstruction.hpp"
@@ -283,50 +286,55 @@ std::vector<BaselineRun> read_baseline(const fs::path& file) {
   return runs;
 }
 
-int gnuplot(const fs::path& script) {
-  const std::string command = "gnuplot " + script.string() + " 2>&1";
-  return std::system(command.c_str());
+// Draws a chart (files/gnuplot_chart.hpp), its script kept beside it; a
+// missing gnuplot is reported, not fatal: the figures are printed and in CSV.
+void draw(const fs::path& png, const std::string& terminal, const std::string& commands) {
+  const std::string failed = files::draw_chart({png, terminal, commands}, fs::path(png).replace_extension(".gp"));
+  if (!failed.empty()) std::fprintf(stderr, "%s: no chart\n", failed.c_str());
 }
 
-}  // namespace
 
-int main(int argc, char** argv) {
-  int width = 256, height = 192, exhaustive_pixels = 20000;
+// The command line (main() parses it with CLI11; the file's header says what each option does).
+struct Options {
+  int width = 256, height = 192;  // the synthetic frame (--pixels N: N×1; --full: 2592×1944)
+  int exhaustive_pixels = 20000;
   fs::path out = fs::path(CHROMO_SOURCE_DIR) / "bench" / "results";
   fs::path baseline;
   std::string methods = "fast,2d,exhaustive,scene";
   int scene_width = 2592, scene_height = 1944;
   bool speed_only = false, diagnose = false, diagnose_only = false;
   fs::path frame_cache = ForwardTable::default_cache_dir();
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--full") width = 2592, height = 1944;
-    else if (a == "--pixels" && i + 1 < argc) width = std::atoi(argv[++i]), height = 1;
-    else if (a == "--exhaustive-pixels" && i + 1 < argc) exhaustive_pixels = std::atoi(argv[++i]);
-    else if (a == "--out" && i + 1 < argc) out = argv[++i];
-    else if (a == "--baseline" && i + 1 < argc) baseline = argv[++i];
-    else if (a == "--methods" && i + 1 < argc) methods = argv[++i];
-    else if (a == "--speed-only") speed_only = true;
-    else if (a == "--scene-size" && i + 2 < argc) scene_width = std::atoi(argv[++i]), scene_height = std::atoi(argv[++i]);
-    else if (a == "--diagnose") diagnose = true;
-    else if (a == "--diagnose-only") diagnose = diagnose_only = true;
-    else if (a == "--frame-cache" && i + 1 < argc) frame_cache = argv[++i];
-    else if (a == "--no-frame-cache") frame_cache.clear();
-    else {
-      std::fprintf(stderr, "usage: estimation_bench [--pixels N] [--exhaustive-pixels N] [--full] [--out DIR] "
-                           "[--baseline FILE] [--methods fast,2d,exhaustive,scene] [--scene-size W H] "
-                           "[--frame-cache DIR | --no-frame-cache] [--speed-only] [--diagnose | --diagnose-only]\n");
-      return 2;
-    }
-  }
-  fs::create_directories(out);
-  const int pixels = width * height;
-  exhaustive_pixels = std::min(exhaustive_pixels, pixels);
-  nlohmann::ordered_json report;
-  report["frame"] = {{"width", width}, {"height", height}, {"pixels", pixels}, {"exhaustive_pixels", exhaustive_pixels}};
-  report["threads"] = 2;
+  bool selects(const std::string& name) const { return methods.find(name) != std::string::npos; }
+};
 
-  // Table: build time (2 threads, full grid) and cache load time.
+// What the sections of one run share: the options, the report
+// (estimation_bench.json), the speed/accuracy CSV and the runs in it, and
+// the method set's table.
+struct BenchRun {
+  explicit BenchRun(const Options& run_options) : options(run_options) {}
+  const Options& options;
+  int pixels = 0, exhaustive_pixels = 0;  // the synthetic frame's, and the exhaustive subsample (≤ pixels)
+  nlohmann::ordered_json report;
+  std::ofstream speed_csv;
+  std::vector<RunResult> runs, scene_runs;
+  std::shared_ptr<const ForwardTable> table;
+};
+
+// The virtual-lab session and what every lab section uses of it.
+struct LabFrames {
+  simulators::RenderedSessionOptions ro;
+  simulators::RenderedSession lab;
+  std::shared_ptr<const ForwardTable> lab_table;  // on the measurement's own illuminants
+  std::vector<std::size_t> skin;                  // the skin cells
+  std::vector<SkinParameters> skin_truth;         // their truth
+  Relit skin_relit;                               // relit from their truth
+};
+
+// Table: build time (2 threads, full grid) and cache load time; the fast
+// inverter's inverse table: build and load time, file size. Returns the
+// method set's table.
+std::shared_ptr<const ForwardTable> measure_tables(BenchRun& run) {
+  auto& report = run.report;
   MeasurementSet set = method_set();
   auto t = std::chrono::steady_clock::now();
   auto table = std::make_shared<const ForwardTable>(ForwardTable::build(set, TableGrid{}, 2));
@@ -383,34 +391,179 @@ int main(int argc, char** argv) {
     fs::remove_all(copy);
     fs::remove_all(cache);
   }
+  return table;
+}
 
-  // Interpolation error of the grid in colour (XYZ table under D65 vs direct model).
-  if (!speed_only) {
-    const spectral::Observer& o = spectral::cie1931_observer();
-    const MeasurementSet xyz = rgb_measurement_set({"cie1931", {o.x_bar, o.y_bar, o.z_bar}}, spectral::illuminant_d65());
-    const ForwardTable xt = ForwardTable::build(xyz, TableGrid{}, 2);
-    const auto p = simulators::random_skin_parameters(20000, {0.001, 0.001, 0, 0}, {0.5, 0.32, 1, 0.1}, 3);
-    std::vector<spectral::Spectrum> albedo(p.size());
-    SkinModel().albedo_batch(p, albedo, 2);
-    const spectral::Xyz white = spectral::white_point(spectral::illuminant_d65());
-    std::vector<double> de;
-    for (std::size_t i = 0; i < p.size(); ++i) {
-      double v[3];
-      xt.predict(xt.to_grid(p[i]), v);
-      de.push_back(spectral::delta_e94(
-          spectral::lab_from_xyz(spectral::xyz_of_reflectance(albedo[i], spectral::illuminant_d65()), white),
-          spectral::lab_from_xyz({v[0] * white.X, v[1] * white.Y, v[2] * white.Z}, white)));
-    }
-    const maps::DeltaEStats s = maps::delta_e_stats(de);
-    std::printf("table interpolation error under D65 (20,000 random parameter sets, full range): mean ΔE94 %.4f "
-                "(target <= 0.02), median %.4f, p95 %.4f, max %.3f\n", s.mean, s.median, s.p95, s.max);
-    report["interpolation_de94_d65"] = {{"mean", s.mean}, {"median", s.median}, {"p95", s.p95}, {"max", s.max}};
+// Interpolation error of the grid in colour (XYZ table under D65 vs direct model).
+void measure_interpolation_error(BenchRun& run) {
+  auto& report = run.report;
+  const spectral::Observer& o = spectral::cie1931_observer();
+  const MeasurementSet xyz = rgb_measurement_set({"cie1931", {o.x_bar, o.y_bar, o.z_bar}}, spectral::illuminant_d65());
+  const ForwardTable xt = ForwardTable::build(xyz, TableGrid{}, 2);
+  const auto p = simulators::random_skin_parameters(20000, {0.001, 0.001, 0, 0}, {0.5, 0.32, 1, 0.1}, 3);
+  std::vector<spectral::Spectrum> albedo(p.size());
+  SkinModel().albedo_batch(p, albedo, 2);
+  const spectral::Xyz white = spectral::white_point(spectral::illuminant_d65());
+  std::vector<double> de;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    double v[3];
+    xt.predict(xt.to_grid(p[i]), v);
+    de.push_back(spectral::delta_e94(
+        spectral::lab_from_xyz(spectral::xyz_of_reflectance(albedo[i], spectral::illuminant_d65()), white),
+        spectral::lab_from_xyz({v[0] * white.X, v[1] * white.Y, v[2] * white.Z}, white)));
   }
+  const maps::DeltaEStats s = maps::delta_e_stats(de);
+  std::printf("table interpolation error under D65 (20,000 random parameter sets, full range): mean ΔE94 %.4f "
+              "(target <= 0.02), median %.4f, p95 %.4f, max %.3f\n", s.mean, s.median, s.p95, s.max);
+  report["interpolation_de94_d65"] = {{"mean", s.mean}, {"median", s.median}, {"p95", s.p95}, {"max", s.max}};
+}
 
-  // Speed/accuracy: in-gamut skin, noise-free and noisy.
-  std::vector<RunResult> runs;
-  std::ofstream speed_csv(out / "estimation_speed_accuracy.csv");
-  speed_csv << "# method model noise pixels_per_second de94_relit_mean de94_d65 abs_log10_cm abs_log10_ch abs_bm abs_che\n";
+// --diagnose on a synthetic frame (one thread, CPU time): how the fast
+// inverter's fits end and their cost. False when the AVX2 gather
+// interpolation differs from predict4 (the run then fails).
+bool diagnose_synthetic(BenchRun& run, const MeasurementSet& s, const simulators::SyntheticFrame& f, double noise) {
+  auto& report = run.report;
+  const auto& table = run.table;
+  // One thread, CPU time: how the fast inverter's fits end, and their cost.
+  const FastInverter fast(table, fs::path{}, fast_options_for(s));
+  const std::size_t n = std::min<std::size_t>(f.pixels(), 50000);
+  std::size_t counts[2] = {}, no_cell = 0, iteration_sum = 0;
+  double chi2_sum = 0;
+  const ThreadCpuClock fit_clock;
+  for (std::size_t i = 0; i < n; ++i) {
+    double m[4], w[4];
+    const std::vector<float>& v = noise > 0 ? f.noisy : f.clean;
+    for (int c = 0; c < 4; ++c) {
+      m[c] = v[i * 4 + c];
+      w[c] = s.channels[c].noise.fit_weight(m[c], kModelSigmaRelative);
+    }
+    FastPath path;
+    const float mf[4] = {float(m[0]), float(m[1]), float(m[2]), float(m[3])};
+    no_cell += fast.inverse_table().cell_of(mf) == InverseTable::kNoCell;
+    const Fit fit = fast.fit(m, w, 4, &path);
+    chi2_sum += fit.chi2;
+    iteration_sum += fit.iterations;
+    ++counts[static_cast<int>(path)];
+  }
+  const double cpu = fit_clock.seconds();
+  {
+    // The same 256 pixels again and again: the tables' lines stay in cache.
+    const ThreadCpuClock hot_clock;
+    double sink = 0;
+    const int hot_repeats = std::getenv("HOT_REPEATS") ? std::atoi(std::getenv("HOT_REPEATS")) : 100;
+    for (int repeat = 0; repeat < hot_repeats; ++repeat)
+      for (std::size_t i = 0; i < 256; ++i) {
+        double m[4], w[4];
+        const std::vector<float>& v = noise > 0 ? f.noisy : f.clean;
+        for (int c = 0; c < 4; ++c) {
+          m[c] = v[i * 4 + c];
+          w[c] = s.channels[c].noise.fit_weight(m[c], kModelSigmaRelative);
+        }
+        sink += fast.fit(m, w, 4).chi2;
+      }
+    const double hot_s = hot_clock.seconds();
+    {
+      float acc = 0;
+      const ThreadCpuClock predict_clock;
+      for (int i = 0; i < 1000000; ++i) {
+        const float x[4] = {float(i % 37) + 0.3f, float(i % 29) + 0.6f, float(i % 13) + 0.2f, float(i % 7) + 0.5f};
+        float v[4], j[16];
+        fast.predict4(x, v, (i & 1) ? j : nullptr);
+        acc += v[0] + ((i & 1) ? j[5] : 0);
+      }
+      std::printf("predict4: %.1f ns per call (%g)\n", 1e9 * predict_clock.seconds() / 1e6, acc);
+    }
+    if (!bench::print_interpolation_costs(fast)) {
+      std::fprintf(stderr, "estimation_bench: the AVX2 gather interpolation differs from predict4 by more than 1e-5\n");
+      return false;
+    }
+    std::printf("diagnose: hot cache %.0f ns/px (%g)\n", 1e9 * hot_s / (256.0 * hot_repeats), sink);
+  }
+  {
+    EstimatorOptions eo;
+    eo.method = InverterMethod::kFast;
+    eo.model = ModelChoice::k4d;
+    eo.threads = 1;
+    const Estimator estimator(table, s, eo);
+    std::vector<PixelEstimate> e(n);
+    const ThreadCpuClock estimate_clock;
+    estimator.estimate_tile(std::span(noise > 0 ? f.noisy : f.clean).first(n * 4), e);
+    const double estimate_s = estimate_clock.seconds();
+    std::printf("diagnose: Estimator::estimate_tile (4d, one thread) %.0f ns/px CPU\n", 1e9 * estimate_s / n);
+    // The same, back to back, with the fast inverter's previous stopping
+    // rules (no chord steps, no face stall) and today's defaults: best of
+    // three rounds each, so that the ratio survives a shared machine.
+    EstimatorOptions previous = eo;
+    previous.fast.chord_steps = 0;
+    previous.fast.face_stall_relative = 0;
+    const auto frame = std::span<const float>(noise > 0 ? f.noisy : f.clean).first(n * 4);
+    const double before_ns = estimator_cpu_ns(Estimator(table, s, previous), frame);
+    const double after_ns = estimator_cpu_ns(estimator, frame);
+    std::printf("diagnose: Estimator 4d CPU ns/px, previous stopping rules (chord_steps 0, face_stall_relative 0) %.0f "
+                "-> defaults (chord_steps %d, face_stall_relative %.2f) %.0f: x%.2f; target %.0f: x%.1f to go\n",
+                before_ns, eo.fast.chord_steps, eo.fast.face_stall_relative, after_ns, before_ns / after_ns,
+                1e3 * kTargetCpuUsPerPixel, after_ns / (1e3 * kTargetCpuUsPerPixel));
+    report[std::string("diagnose_") + (noise > 0 ? "noisy" : "noise_free")] = {
+        {"estimator_cpu_ns_previous_rules", before_ns}, {"estimator_cpu_ns", after_ns}};
+  }
+  report[std::string("diagnose_paths_") + (noise > 0 ? "noisy" : "noise_free")] = diagnose_fast_paths(
+      fast, s, std::span<const float>(noise > 0 ? f.noisy : f.clean).first(n * 4),
+      noise > 0 ? "synthetic noisy" : "synthetic noise-free");
+  std::printf("diagnose %s: %zu px, %.0f ns/px CPU (one thread), presolved %.2f%% searched %.2f%%, "
+              "mean chi2 %.4f, outside the inverse table %.2f%%, mean iterations %.2f\n", noise > 0 ? "noisy" : "noise-free", n, 1e9 * cpu / n, 100.0 * counts[0] / n,
+              100.0 * counts[1] / n, chi2_sum / n, 100.0 * no_cell / n, double(iteration_sum) / n);
+  return true;
+}
+
+// Each selected method on a synthetic frame: a printed line, a CSV row and a report entry.
+void run_synthetic_methods(BenchRun& run, const MeasurementSet& s, const simulators::SyntheticFrame& f, double noise,
+                           double floor, const Relit& truth) {
+  const std::string& methods = run.options.methods;
+  const bool diagnose_only = run.options.diagnose_only;
+  const int exhaustive_pixels = run.exhaustive_pixels;
+  const auto& table = run.table;
+  auto& report = run.report;
+  auto& speed_csv = run.speed_csv;
+  auto& runs = run.runs;
+  for (const MethodConfig& c : kMethodConfigs) {
+    if (diagnose_only || methods.find(method_name(c.method)) == std::string::npos) continue;
+    EstimatorOptions eo;
+    eo.method = c.method;
+    eo.model = c.model;
+    eo.threads = 2;
+    const Estimator estimator(table, s, eo);
+    const std::size_t n = c.method == InverterMethod::kExhaustive ? exhaustive_pixels : f.pixels();
+    std::vector<PixelEstimate> e(n);
+    const CpuClock cpu;
+    const EstimateSummary summary =
+        estimator.estimate(std::span(noise > 0 ? f.noisy : f.clean).first(n * 4), e);
+    RunResult r{std::string(method_name(c.method)), std::string(model_name(c.model)), noise > 0 ? "noisy" : "noise-free", 0, 0, 0, 0, 0, {}};
+    r.pixels = n;
+    r.pixels_per_second = n / summary.seconds;
+    r.cpu_us_per_pixel = 1e6 * cpu.seconds() / n;
+    r.flagged = n - summary.flag_counts[0];
+    r.order2 = summary.order2, r.order4 = summary.order4;
+    Relit truth_n;
+    for (const auto& l : truth.lab) truth_n.lab.emplace_back(l.begin(), l.begin() + n);
+    r.acc = accuracy(truth_n, std::span(f.truth).first(n), e, std::vector<bool>(n, true));
+    std::printf("%-10s %-4s %-10s %9zu px %11.0f px/s %7.2f CPU us/px  relit ΔE94 %.4f (D65 %.4f)%s  |Δlog10 Cm| %.4f "
+                "|Δlog10 Ch| %.4f |ΔβM| %.3f |ΔChe| %.4f  flagged %.2f%%\n",
+                r.method.c_str(), r.model.c_str(), r.noise.c_str(), n, r.pixels_per_second, r.cpu_us_per_pixel, r.acc.de_all,
+                r.acc.de_d65, noise > 0 ? (" = " + std::to_string(r.acc.de_all / floor).substr(0, 5) + "× floor").c_str() : "",
+                r.acc.log_cm, r.acc.log_ch, r.acc.bm, r.acc.che, 100.0 * r.flagged / n);
+    speed_csv << r.method << "/" << r.model << " " << r.model << " " << r.noise << " " << r.pixels_per_second << " "
+              << r.acc.de_all << " " << r.acc.de_d65 << " " << r.acc.log_cm << " " << r.acc.log_ch << " " << r.acc.bm
+              << " " << r.acc.che << "\n";
+    runs.push_back(r);
+    report["runs"].push_back(to_json(r));
+  }
+}
+
+// Speed/accuracy on synthetic in-gamut skin, noise-free and noisy (and
+// --diagnose on each). False when the diagnosis failed.
+bool run_synthetic(BenchRun& run) {
+  auto& report = run.report;
+  const int pixels = run.pixels;
   for (double noise : {0.0, 1.0}) {
     simulators::SyntheticOptions o;
     o.pixels = pixels;
@@ -430,340 +583,275 @@ int main(int argc, char** argv) {
       std::printf("noise floor (ΔE94 of noisy broadband input vs noise-free, D65'): %.3f\n", floor);
       report["noise_floor_de94"] = floor;
     }
-    if (diagnose) {
-      // One thread, CPU time: how the fast inverter's fits end, and their cost.
-      const FastInverter fast(table, fs::path{}, fast_options_for(s));
-      const std::size_t n = std::min<std::size_t>(f.pixels(), 50000);
-      std::size_t counts[2] = {}, no_cell = 0, iteration_sum = 0;
-      double chi2_sum = 0;
-      const ThreadCpuClock fit_clock;
-      for (std::size_t i = 0; i < n; ++i) {
-        double m[4], w[4];
-        const std::vector<float>& v = noise > 0 ? f.noisy : f.clean;
-        for (int c = 0; c < 4; ++c) {
-          m[c] = v[i * 4 + c];
-          w[c] = s.channels[c].noise.fit_weight(m[c], kModelSigmaRelative);
-        }
-        FastPath path;
-        const float mf[4] = {float(m[0]), float(m[1]), float(m[2]), float(m[3])};
-        no_cell += fast.inverse_table().cell_of(mf) == InverseTable::kNoCell;
-        const Fit fit = fast.fit(m, w, 4, &path);
-        chi2_sum += fit.chi2;
-        iteration_sum += fit.iterations;
-        ++counts[static_cast<int>(path)];
-      }
-      const double cpu = fit_clock.seconds();
-      {
-        // The same 256 pixels again and again: the tables' lines stay in cache.
-        const ThreadCpuClock hot_clock;
-        double sink = 0;
-        const int hot_repeats = std::getenv("HOT_REPEATS") ? std::atoi(std::getenv("HOT_REPEATS")) : 100;
-        for (int repeat = 0; repeat < hot_repeats; ++repeat)
-          for (std::size_t i = 0; i < 256; ++i) {
-            double m[4], w[4];
-            const std::vector<float>& v = noise > 0 ? f.noisy : f.clean;
-            for (int c = 0; c < 4; ++c) {
-              m[c] = v[i * 4 + c];
-              w[c] = s.channels[c].noise.fit_weight(m[c], kModelSigmaRelative);
-            }
-            sink += fast.fit(m, w, 4).chi2;
-          }
-        const double hot_s = hot_clock.seconds();
-        {
-          float acc = 0;
-          const ThreadCpuClock predict_clock;
-          for (int i = 0; i < 1000000; ++i) {
-            const float x[4] = {float(i % 37) + 0.3f, float(i % 29) + 0.6f, float(i % 13) + 0.2f, float(i % 7) + 0.5f};
-            float v[4], j[16];
-            fast.predict4(x, v, (i & 1) ? j : nullptr);
-            acc += v[0] + ((i & 1) ? j[5] : 0);
-          }
-          std::printf("predict4: %.1f ns per call (%g)\n", 1e9 * predict_clock.seconds() / 1e6, acc);
-        }
-        if (!bench::print_interpolation_costs(fast)) {
-          std::fprintf(stderr, "estimation_bench: the AVX2 gather interpolation differs from predict4 by more than 1e-5\n");
-          return 1;
-        }
-        std::printf("diagnose: hot cache %.0f ns/px (%g)\n", 1e9 * hot_s / (256.0 * hot_repeats), sink);
-      }
-      {
-        EstimatorOptions eo;
-        eo.method = InverterMethod::kFast;
-        eo.model = ModelChoice::k4d;
-        eo.threads = 1;
-        const Estimator estimator(table, s, eo);
-        std::vector<PixelEstimate> e(n);
-        const ThreadCpuClock estimate_clock;
-        estimator.estimate_tile(std::span(noise > 0 ? f.noisy : f.clean).first(n * 4), e);
-        const double estimate_s = estimate_clock.seconds();
-        std::printf("diagnose: Estimator::estimate_tile (4d, one thread) %.0f ns/px CPU\n", 1e9 * estimate_s / n);
-        // The same, back to back, with the fast inverter's previous stopping
-        // rules (no chord steps, no face stall) and today's defaults: best of
-        // three rounds each, so that the ratio survives a shared machine.
-        EstimatorOptions previous = eo;
-        previous.fast.chord_steps = 0;
-        previous.fast.face_stall_relative = 0;
-        const auto frame = std::span<const float>(noise > 0 ? f.noisy : f.clean).first(n * 4);
-        const double before_ns = estimator_cpu_ns(Estimator(table, s, previous), frame);
-        const double after_ns = estimator_cpu_ns(estimator, frame);
-        std::printf("diagnose: Estimator 4d CPU ns/px, previous stopping rules (chord_steps 0, face_stall_relative 0) %.0f "
-                    "-> defaults (chord_steps %d, face_stall_relative %.2f) %.0f: x%.2f; target %.0f: x%.1f to go\n",
-                    before_ns, eo.fast.chord_steps, eo.fast.face_stall_relative, after_ns, before_ns / after_ns,
-                    1e3 * kTargetCpuUsPerPixel, after_ns / (1e3 * kTargetCpuUsPerPixel));
-        report[std::string("diagnose_") + (noise > 0 ? "noisy" : "noise_free")] = {
-            {"estimator_cpu_ns_previous_rules", before_ns}, {"estimator_cpu_ns", after_ns}};
-      }
-      report[std::string("diagnose_paths_") + (noise > 0 ? "noisy" : "noise_free")] = diagnose_fast_paths(
-          fast, s, std::span<const float>(noise > 0 ? f.noisy : f.clean).first(n * 4),
-          noise > 0 ? "synthetic noisy" : "synthetic noise-free");
-      std::printf("diagnose %s: %zu px, %.0f ns/px CPU (one thread), presolved %.2f%% searched %.2f%%, "
-                  "mean chi2 %.4f, outside the inverse table %.2f%%, mean iterations %.2f\n", noise > 0 ? "noisy" : "noise-free", n, 1e9 * cpu / n, 100.0 * counts[0] / n,
-                  100.0 * counts[1] / n, chi2_sum / n, 100.0 * no_cell / n, double(iteration_sum) / n);
-    }
+    if (run.options.diagnose && !diagnose_synthetic(run, s, f, noise)) return false;
+    run_synthetic_methods(run, s, f, noise, floor, truth);
+  }
+  return true;
+}
+
+// The virtual-lab frames (simulators/scene/rendered_session.hpp): the
+// standard session rendered from the lab's physics at the sensor's full size
+// (5 MP by default), binned and measured by the daemon's own path, from the
+// frame cache when it holds it; the table on the measurement's own
+// illuminants; the skin cells and their truth.
+LabFrames render_lab(BenchRun& run) {
+  const int scene_width = run.options.scene_width, scene_height = run.options.scene_height;
+  const fs::path& frame_cache = run.options.frame_cache;
+  auto& report = run.report;
+  simulators::RenderedSessionOptions ro = bench::lab_session_options(scene_width, scene_height, frame_cache);
+  const CpuClock render_cpu;
+  auto t = std::chrono::steady_clock::now();
+  simulators::RenderedSession lab = simulators::render_session(ro);
+  const double render_s = seconds_since(t), render_cpu_s = render_cpu.seconds();
+  std::printf("virtual lab: %dx%d BayerRG12 sensor -> %dx%d measurement (2x2 binning); %s %.1f s wall, %.1f s CPU; "
+              "its render: scene %.1f s, camera + capture builder %.1f s, session::build_method_measurement %.1f s (wall); "
+              "exposure %.0f us\n",
+              scene_width, scene_height, lab.width, lab.height, lab.loaded_from_cache ? "loaded from the cache in" : "rendered in",
+              render_s, render_cpu_s, lab.scene_seconds, lab.camera_seconds, lab.measurement_seconds, lab.exposure_us);
+  nlohmann::ordered_json mixes;
+  for (const auto& [name, drive] : lab.mixes) {
+    std::printf("  mix %-9s drive W57 %.3f W40 %.3f W27 %.3f R %.3f G %.3f B %.3f\n", name.c_str(), drive[0], drive[1],
+                drive[2], drive[3], drive[4], drive[5]);
+    mixes[name] = std::vector<double>(drive.begin(), drive.end());
+  }
+  for (const auto* m : {&lab.noisy, &lab.noise_free})
+    for (const session::RegistrationReport& r : m->registration)
+      std::printf("  registration (%s): %s moved %.3f px%s\n", m == &lab.noisy ? "noisy" : "noise-free",
+                  r.image.c_str(), r.motion_px, r.warped ? ", warped" : "");
+  report["lab_frame"] = {{"sensor_width", scene_width}, {"sensor_height", scene_height}, {"width", lab.width},
+                         {"height", lab.height}, {"loaded_from_cache", lab.loaded_from_cache}, {"seconds", render_s},
+                         {"cpu_s", render_cpu_s}, {"render_scene_s", lab.scene_seconds},
+                         {"render_camera_s", lab.camera_seconds}, {"render_measurement_s", lab.measurement_seconds},
+                         {"exposure_us", lab.exposure_us}, {"mixes", mixes}};
+  t = std::chrono::steady_clock::now();
+  auto lab_table = std::make_shared<const ForwardTable>(ForwardTable::build(lab.noisy.set, TableGrid{}, 2));
+  std::printf("  lab table (the measurement's own illuminants): build %.2f s\n", seconds_since(t));
+
+  std::vector<std::size_t> skin;
+  for (std::size_t i = 0; i < lab.pixels(); ++i)
+    if (lab.region[i] == static_cast<std::uint8_t>(simulators::SceneRegion::kSkin)) skin.push_back(i);
+  std::vector<SkinParameters> skin_truth;
+  for (std::size_t i : skin) skin_truth.push_back(lab.truth[i]);
+  Relit skin_relit = relight(skin_truth);
+  return {std::move(ro), std::move(lab), std::move(lab_table), std::move(skin), std::move(skin_truth), std::move(skin_relit)};
+}
+
+// Fidelity of the lab frames (noise-free broadband against the model at the
+// truth) and the noise floor (noisy broadband against noise-free), ΔE94
+// under D65' through the camera→XYZ matrix, over the skin cells.
+void measure_lab_fidelity(BenchRun& run, const LabFrames& frames) {
+  auto& report = run.report;
+  const auto& skin = frames.skin;
+  const auto& lab = frames.lab;
+  const auto& skin_truth = frames.skin_truth;
+  std::vector<Eigen::Vector3d> clean, noisy;
+  for (std::size_t i : skin) {
+    clean.emplace_back(lab.noise_free.measured[i * 4], lab.noise_free.measured[i * 4 + 1], lab.noise_free.measured[i * 4 + 2]);
+    noisy.emplace_back(lab.noisy.measured[i * 4], lab.noisy.measured[i * 4 + 1], lab.noisy.measured[i * 4 + 2]);
+  }
+  const MeasurementSet& set = lab.noisy.set;
+  const auto model = maps::relit_camera_rgb(skin_truth, set.camera, set.channels[0].illuminant, 2);
+  const maps::DeltaEStats fidelity = maps::photo_delta_e94(clean, model, set.camera, set.channels[0].illuminant);
+  const maps::DeltaEStats floor = maps::photo_delta_e94(clean, noisy, set.camera, set.channels[0].illuminant);
+  std::printf("  %zu skin cells (%.1f%% of the frame); noise-free frame vs the model at the truth (D65' ΔE94): mean "
+              "%.4f p95 %.4f; noise floor (noisy vs noise-free broadband): mean %.3f p95 %.3f\n",
+              skin.size(), 100.0 * skin.size() / lab.pixels(), fidelity.mean, fidelity.p95, floor.mean, floor.p95);
+  report["lab_frame"]["skin_pixels"] = skin.size();
+  report["lab_frame"]["noise_free_vs_truth_de94_d65prime"] = {{"mean", fidelity.mean}, {"p95", fidelity.p95}};
+  report["lab_frame"]["noise_floor_de94"] = {{"mean", floor.mean}, {"p95", floor.p95}};
+  report["lab_noise_floor_de94"] = floor.mean;
+}
+
+// --diagnose on the lab's skin cells: the fast inverter's paths, the auto
+// model's 2D fit, and the noisy cells with other inverse-table settings.
+void diagnose_lab(BenchRun& run, const LabFrames& frames) {
+  auto& report = run.report;
+  const auto& lab_table = frames.lab_table;
+  const auto& lab = frames.lab;
+  const auto& skin = frames.skin;
+  const FastInverter fast(lab_table, fs::path{}, fast_options_for(lab.noisy.set));
+  for (const bool noisy : {false, true}) {
+    const session::MethodMeasurement& m = noisy ? lab.noisy : lab.noise_free;
+    std::vector<float> measured;
+    for (std::size_t i : skin) measured.insert(measured.end(), m.measured.begin() + i * 4, m.measured.begin() + i * 4 + 4);
+    report[std::string("diagnose_paths_lab_") + (noisy ? "noisy" : "noise_free")] =
+        diagnose_fast_paths(fast, m.set, measured, noisy ? "lab skin noisy" : "lab skin noise-free");
+    report[std::string("diagnose_auto_slice_lab_") + (noisy ? "noisy" : "noise_free")] = diagnose_auto_slice(
+        lab_table, m.set, std::span<const float>(measured).first(std::min<std::size_t>(measured.size(), 4 * 200000)),
+        noisy ? "lab skin noisy" : "lab skin noise-free");
+    if (!noisy) continue;
+    // The same noisy cells with an empty cell's own branch tried only after
+    // its neighbour's, and with the previous table (no empty cells' branches).
+    FastInverterOptions later = fast_options_for(lab.noisy.set), plain = later;
+    later.empty_cell_branch_first = false;
+    plain.inverse_table.presolve_empty_cells = false;
+    report["diagnose_paths_lab_noisy_branch_later"] = diagnose_fast_paths(
+        FastInverter(lab_table, fs::path{}, later), m.set, measured, "lab skin noisy, empty cell's branch after its neighbour's");
+    report["diagnose_paths_lab_noisy_no_presolve"] = diagnose_fast_paths(
+        FastInverter(lab_table, fs::path{}, plain), m.set, measured, "lab skin noisy, no pre-solved empty cells");
+  }
+}
+
+// Every method on the lab's skin cells (exhaustive on a fixed subsample of
+// --exhaustive-pixels of them), fast 4D also on the whole frame.
+void run_lab_methods(BenchRun& run, const LabFrames& frames) {
+  auto& report = run.report;
+  auto& speed_csv = run.speed_csv;
+  auto& scene_runs = run.scene_runs;
+  const int exhaustive_pixels = run.exhaustive_pixels;
+  const auto& skin = frames.skin;
+  const auto& lab_table = frames.lab_table;
+  const auto& lab = frames.lab;
+  const auto& skin_truth = frames.skin_truth;
+  const auto& skin_relit = frames.skin_relit;
+  const double lab_floor = report["lab_noise_floor_de94"].get<double>();
+  const std::size_t stride = std::max<std::size_t>(1, skin.size() / std::max(exhaustive_pixels, 1));
+  for (const bool noisy : {false, true}) {
+    const session::MethodMeasurement& m = noisy ? lab.noisy : lab.noise_free;
     for (const MethodConfig& c : kMethodConfigs) {
-      if (diagnose_only || methods.find(method_name(c.method)) == std::string::npos) continue;
       EstimatorOptions eo;
       eo.method = c.method;
       eo.model = c.model;
       eo.threads = 2;
-      const Estimator estimator(table, s, eo);
-      const std::size_t n = c.method == InverterMethod::kExhaustive ? exhaustive_pixels : f.pixels();
-      std::vector<PixelEstimate> e(n);
+      const Estimator estimator(lab_table, m.set, eo);
+      // The cells this method is scored on: every skin cell, or the fixed subsample for exhaustive.
+      const std::size_t step = c.method == InverterMethod::kExhaustive ? stride : 1;
+      std::vector<float> measured;
+      std::vector<SkinParameters> truth;
+      Relit truth_relit;
+      truth_relit.lab.resize(skin_relit.lab.size());
+      for (std::size_t k = 0; k < skin.size(); k += step) {
+        measured.insert(measured.end(), m.measured.begin() + skin[k] * 4, m.measured.begin() + skin[k] * 4 + 4);
+        truth.push_back(skin_truth[k]);
+        for (std::size_t l = 0; l < skin_relit.lab.size(); ++l) truth_relit.lab[l].push_back(skin_relit.lab[l][k]);
+      }
+      std::vector<PixelEstimate> e(truth.size());
       const CpuClock cpu;
-      const EstimateSummary summary =
-          estimator.estimate(std::span(noise > 0 ? f.noisy : f.clean).first(n * 4), e);
-      RunResult r{std::string(method_name(c.method)), std::string(model_name(c.model)), noise > 0 ? "noisy" : "noise-free", 0, 0, 0, 0, 0, {}};
-      r.pixels = n;
-      r.pixels_per_second = n / summary.seconds;
-      r.cpu_us_per_pixel = 1e6 * cpu.seconds() / n;
-      r.flagged = n - summary.flag_counts[0];
+      const EstimateSummary summary = estimator.estimate(measured, e);
+      RunResult r{"lab:" + std::string(method_name(c.method)), std::string(model_name(c.model)),
+                  noisy ? "noisy" : "noise-free", 0, 0, 0, 0, 0, {}};
+      r.pixels = truth.size();
+      r.pixels_per_second = truth.size() / summary.seconds;
+      r.cpu_us_per_pixel = 1e6 * cpu.seconds() / truth.size();
+      r.flagged = truth.size() - summary.flag_counts[0];
       r.order2 = summary.order2, r.order4 = summary.order4;
-      Relit truth_n;
-      for (const auto& l : truth.lab) truth_n.lab.emplace_back(l.begin(), l.begin() + n);
-      r.acc = accuracy(truth_n, std::span(f.truth).first(n), e, std::vector<bool>(n, true));
-      std::printf("%-10s %-4s %-10s %9zu px %11.0f px/s %7.2f CPU us/px  relit ΔE94 %.4f (D65 %.4f)%s  |Δlog10 Cm| %.4f "
-                  "|Δlog10 Ch| %.4f |ΔβM| %.3f |ΔChe| %.4f  flagged %.2f%%\n",
-                  r.method.c_str(), r.model.c_str(), r.noise.c_str(), n, r.pixels_per_second, r.cpu_us_per_pixel, r.acc.de_all,
-                  r.acc.de_d65, noise > 0 ? (" = " + std::to_string(r.acc.de_all / floor).substr(0, 5) + "× floor").c_str() : "",
-                  r.acc.log_cm, r.acc.log_ch, r.acc.bm, r.acc.che, 100.0 * r.flagged / n);
+      r.acc = accuracy(truth_relit, truth, e, std::vector<bool>(truth.size(), true));
+      std::printf("%-16s %-4s %-10s %8zu skin px %10.0f px/s %6.2f CPU us/px  relit ΔE94 %.4f (D65 %.4f)%s  "
+                  "|Δlog10 Cm| %.4f |Δlog10 Ch| %.4f |ΔβM| %.3f |ΔChe| %.4f  flagged %.2f%%\n",
+                  r.method.c_str(), r.model.c_str(), r.noise.c_str(), r.pixels, r.pixels_per_second, r.cpu_us_per_pixel,
+                  r.acc.de_all, r.acc.de_d65,
+                  noisy ? (" = " + std::to_string(r.acc.de_all / lab_floor).substr(0, 5) + "× floor").c_str() : "",
+                  r.acc.log_cm, r.acc.log_ch, r.acc.bm, r.acc.che, 100.0 * r.flagged / r.pixels);
+      if (c.method == InverterMethod::kFast && c.model == ModelChoice::k4d) {
+        // The whole frame: its tattoo, marker, hair, specular cells take the flagging path.
+        std::vector<PixelEstimate> all(lab.pixels());
+        const CpuClock whole_cpu;
+        const EstimateSummary whole = estimator.estimate(m.measured, all);
+        std::printf("  lab fast 4d %s, whole %dx%d frame (%.1f%% not skin): %.3f s, %.0f px/s, %.2f CPU us/px, "
+                    "flagged %.2f%%\n", r.noise.c_str(), lab.width, lab.height, 100.0 - 100.0 * skin.size() / lab.pixels(),
+                    whole.seconds, lab.pixels() / whole.seconds, 1e6 * whole_cpu.seconds() / lab.pixels(),
+                    100.0 * (lab.pixels() - whole.flag_counts[0]) / lab.pixels());
+        report["lab_fast4d_whole_frame_" + r.noise] = {{"pixels", lab.pixels()}, {"seconds", whole.seconds},
+                                                       {"pixels_per_second", lab.pixels() / whole.seconds}};
+      }
       speed_csv << r.method << "/" << r.model << " " << r.model << " " << r.noise << " " << r.pixels_per_second << " "
                 << r.acc.de_all << " " << r.acc.de_d65 << " " << r.acc.log_cm << " " << r.acc.log_ch << " " << r.acc.bm
                 << " " << r.acc.che << "\n";
-      runs.push_back(r);
-      report["runs"].push_back(to_json(r));
+      scene_runs.push_back(r);
+      report["lab_runs"].push_back(to_json(r));
     }
   }
-  // Virtual-lab frames (simulators/scene/rendered_session.hpp): the standard session
-  // rendered from the lab's physics at the sensor's full size (5 MP by
-  // default), binned and measured by the daemon's own path. Every method on
-  // the measurement's skin cells (exhaustive on a fixed subsample of
-  // --exhaustive-pixels of them), fast 4D also on the whole frame; flag
-  // shares per scene region.
-  std::vector<RunResult> scene_runs;
-  if (diagnose_only && methods.find("scene") == std::string::npos) return 0;
-  if (methods.find("scene") != std::string::npos) {
-    const simulators::RenderedSessionOptions ro = bench::lab_session_options(scene_width, scene_height, frame_cache);
-    const CpuClock render_cpu;
-    t = std::chrono::steady_clock::now();
-    const simulators::RenderedSession lab = simulators::render_session(ro);
-    const double render_s = seconds_since(t), render_cpu_s = render_cpu.seconds();
-    std::printf("virtual lab: %dx%d BayerRG12 sensor -> %dx%d measurement (2x2 binning); %s %.1f s wall, %.1f s CPU; "
-                "its render: scene %.1f s, camera + capture builder %.1f s, session::build_method_measurement %.1f s (wall); "
-                "exposure %.0f us\n",
-                scene_width, scene_height, lab.width, lab.height, lab.loaded_from_cache ? "loaded from the cache in" : "rendered in",
-                render_s, render_cpu_s, lab.scene_seconds, lab.camera_seconds, lab.measurement_seconds, lab.exposure_us);
-    nlohmann::ordered_json mixes;
-    for (const auto& [name, drive] : lab.mixes) {
-      std::printf("  mix %-9s drive W57 %.3f W40 %.3f W27 %.3f R %.3f G %.3f B %.3f\n", name.c_str(), drive[0], drive[1],
-                  drive[2], drive[3], drive[4], drive[5]);
-      mixes[name] = std::vector<double>(drive.begin(), drive.end());
-    }
-    for (const auto* m : {&lab.noisy, &lab.noise_free})
-      for (const session::RegistrationReport& r : m->registration)
-        std::printf("  registration (%s): %s moved %.3f px%s\n", m == &lab.noisy ? "noisy" : "noise-free",
-                    r.image.c_str(), r.motion_px, r.warped ? ", warped" : "");
-    report["lab_frame"] = {{"sensor_width", scene_width}, {"sensor_height", scene_height}, {"width", lab.width},
-                           {"height", lab.height}, {"loaded_from_cache", lab.loaded_from_cache}, {"seconds", render_s},
-                           {"cpu_s", render_cpu_s}, {"render_scene_s", lab.scene_seconds},
-                           {"render_camera_s", lab.camera_seconds}, {"render_measurement_s", lab.measurement_seconds},
-                           {"exposure_us", lab.exposure_us}, {"mixes", mixes}};
-    t = std::chrono::steady_clock::now();
-    const auto lab_table = std::make_shared<const ForwardTable>(ForwardTable::build(lab.noisy.set, TableGrid{}, 2));
-    std::printf("  lab table (the measurement's own illuminants): build %.2f s\n", seconds_since(t));
+}
 
-    std::vector<std::size_t> skin;
-    for (std::size_t i = 0; i < lab.pixels(); ++i)
-      if (lab.region[i] == static_cast<std::uint8_t>(simulators::SceneRegion::kSkin)) skin.push_back(i);
-    std::vector<SkinParameters> skin_truth;
-    for (std::size_t i : skin) skin_truth.push_back(lab.truth[i]);
-    const Relit skin_relit = relight(skin_truth);
-    {
-      // Fidelity of the frames (noise-free broadband against the model at the
-      // truth) and the noise floor (noisy broadband against noise-free), ΔE94
-      // under D65' through the camera→XYZ matrix, over the skin cells.
-      std::vector<Eigen::Vector3d> clean, noisy;
-      for (std::size_t i : skin) {
-        clean.emplace_back(lab.noise_free.measured[i * 4], lab.noise_free.measured[i * 4 + 1], lab.noise_free.measured[i * 4 + 2]);
-        noisy.emplace_back(lab.noisy.measured[i * 4], lab.noisy.measured[i * 4 + 1], lab.noisy.measured[i * 4 + 2]);
-      }
-      const MeasurementSet& set = lab.noisy.set;
-      const auto model = maps::relit_camera_rgb(skin_truth, set.camera, set.channels[0].illuminant, 2);
-      const maps::DeltaEStats fidelity = maps::photo_delta_e94(clean, model, set.camera, set.channels[0].illuminant);
-      const maps::DeltaEStats floor = maps::photo_delta_e94(clean, noisy, set.camera, set.channels[0].illuminant);
-      std::printf("  %zu skin cells (%.1f%% of the frame); noise-free frame vs the model at the truth (D65' ΔE94): mean "
-                  "%.4f p95 %.4f; noise floor (noisy vs noise-free broadband): mean %.3f p95 %.3f\n",
-                  skin.size(), 100.0 * skin.size() / lab.pixels(), fidelity.mean, fidelity.p95, floor.mean, floor.p95);
-      report["lab_frame"]["skin_pixels"] = skin.size();
-      report["lab_frame"]["noise_free_vs_truth_de94_d65prime"] = {{"mean", fidelity.mean}, {"p95", fidelity.p95}};
-      report["lab_frame"]["noise_floor_de94"] = {{"mean", floor.mean}, {"p95", floor.p95}};
-      report["lab_noise_floor_de94"] = floor.mean;
+// The lab's fast 4D against the targets and against exhaustive.
+void print_lab_targets(const BenchRun& run) {
+  const auto& scene_runs = run.scene_runs;
+  for (const char* noise : {"noise-free", "noisy"}) {
+    const RunResult *fast = nullptr, *ex = nullptr;
+    for (const RunResult& r : scene_runs) {
+      if (r.noise != noise || r.model != "4d") continue;
+      (r.method == "lab:fast" ? fast : ex) = &r;
     }
-    if (diagnose) {
-      const FastInverter fast(lab_table, fs::path{}, fast_options_for(lab.noisy.set));
-      for (const bool noisy : {false, true}) {
-        const session::MethodMeasurement& m = noisy ? lab.noisy : lab.noise_free;
-        std::vector<float> measured;
-        for (std::size_t i : skin) measured.insert(measured.end(), m.measured.begin() + i * 4, m.measured.begin() + i * 4 + 4);
-        report[std::string("diagnose_paths_lab_") + (noisy ? "noisy" : "noise_free")] =
-            diagnose_fast_paths(fast, m.set, measured, noisy ? "lab skin noisy" : "lab skin noise-free");
-        report[std::string("diagnose_auto_slice_lab_") + (noisy ? "noisy" : "noise_free")] = diagnose_auto_slice(
-            lab_table, m.set, std::span<const float>(measured).first(std::min<std::size_t>(measured.size(), 4 * 200000)),
-            noisy ? "lab skin noisy" : "lab skin noise-free");
-        if (!noisy) continue;
-        // The same noisy cells with an empty cell's own branch tried only after
-        // its neighbour's, and with the previous table (no empty cells' branches).
-        FastInverterOptions later = fast_options_for(lab.noisy.set), plain = later;
-        later.empty_cell_branch_first = false;
-        plain.inverse_table.presolve_empty_cells = false;
-        report["diagnose_paths_lab_noisy_branch_later"] = diagnose_fast_paths(
-            FastInverter(lab_table, fs::path{}, later), m.set, measured, "lab skin noisy, empty cell's branch after its neighbour's");
-        report["diagnose_paths_lab_noisy_no_presolve"] = diagnose_fast_paths(
-            FastInverter(lab_table, fs::path{}, plain), m.set, measured, "lab skin noisy, no pre-solved empty cells");
-      }
-      if (diagnose_only) return 0;
-    }
-    const double lab_floor = report["lab_noise_floor_de94"].get<double>();
-    const std::size_t stride = std::max<std::size_t>(1, skin.size() / std::max(exhaustive_pixels, 1));
-    for (const bool noisy : {false, true}) {
-      const session::MethodMeasurement& m = noisy ? lab.noisy : lab.noise_free;
-      for (const MethodConfig& c : kMethodConfigs) {
-        EstimatorOptions eo;
-        eo.method = c.method;
-        eo.model = c.model;
-        eo.threads = 2;
-        const Estimator estimator(lab_table, m.set, eo);
-        // The cells this method is scored on: every skin cell, or the fixed subsample for exhaustive.
-        const std::size_t step = c.method == InverterMethod::kExhaustive ? stride : 1;
-        std::vector<float> measured;
-        std::vector<SkinParameters> truth;
-        Relit truth_relit;
-        truth_relit.lab.resize(skin_relit.lab.size());
-        for (std::size_t k = 0; k < skin.size(); k += step) {
-          measured.insert(measured.end(), m.measured.begin() + skin[k] * 4, m.measured.begin() + skin[k] * 4 + 4);
-          truth.push_back(skin_truth[k]);
-          for (std::size_t l = 0; l < skin_relit.lab.size(); ++l) truth_relit.lab[l].push_back(skin_relit.lab[l][k]);
-        }
-        std::vector<PixelEstimate> e(truth.size());
-        const CpuClock cpu;
-        const EstimateSummary summary = estimator.estimate(measured, e);
-        RunResult r{"lab:" + std::string(method_name(c.method)), std::string(model_name(c.model)),
-                    noisy ? "noisy" : "noise-free", 0, 0, 0, 0, 0, {}};
-        r.pixels = truth.size();
-        r.pixels_per_second = truth.size() / summary.seconds;
-        r.cpu_us_per_pixel = 1e6 * cpu.seconds() / truth.size();
-        r.flagged = truth.size() - summary.flag_counts[0];
-        r.order2 = summary.order2, r.order4 = summary.order4;
-        r.acc = accuracy(truth_relit, truth, e, std::vector<bool>(truth.size(), true));
-        std::printf("%-16s %-4s %-10s %8zu skin px %10.0f px/s %6.2f CPU us/px  relit ΔE94 %.4f (D65 %.4f)%s  "
-                    "|Δlog10 Cm| %.4f |Δlog10 Ch| %.4f |ΔβM| %.3f |ΔChe| %.4f  flagged %.2f%%\n",
-                    r.method.c_str(), r.model.c_str(), r.noise.c_str(), r.pixels, r.pixels_per_second, r.cpu_us_per_pixel,
-                    r.acc.de_all, r.acc.de_d65,
-                    noisy ? (" = " + std::to_string(r.acc.de_all / lab_floor).substr(0, 5) + "× floor").c_str() : "",
-                    r.acc.log_cm, r.acc.log_ch, r.acc.bm, r.acc.che, 100.0 * r.flagged / r.pixels);
-        if (c.method == InverterMethod::kFast && c.model == ModelChoice::k4d) {
-          // The whole frame: its tattoo, marker, hair, specular cells take the flagging path.
-          std::vector<PixelEstimate> all(lab.pixels());
-          const CpuClock whole_cpu;
-          const EstimateSummary whole = estimator.estimate(m.measured, all);
-          std::printf("  lab fast 4d %s, whole %dx%d frame (%.1f%% not skin): %.3f s, %.0f px/s, %.2f CPU us/px, "
-                      "flagged %.2f%%\n", r.noise.c_str(), lab.width, lab.height, 100.0 - 100.0 * skin.size() / lab.pixels(),
-                      whole.seconds, lab.pixels() / whole.seconds, 1e6 * whole_cpu.seconds() / lab.pixels(),
-                      100.0 * (lab.pixels() - whole.flag_counts[0]) / lab.pixels());
-          report["lab_fast4d_whole_frame_" + r.noise] = {{"pixels", lab.pixels()}, {"seconds", whole.seconds},
-                                                         {"pixels_per_second", lab.pixels() / whole.seconds}};
-        }
-        speed_csv << r.method << "/" << r.model << " " << r.model << " " << r.noise << " " << r.pixels_per_second << " "
-                  << r.acc.de_all << " " << r.acc.de_d65 << " " << r.acc.log_cm << " " << r.acc.log_ch << " " << r.acc.bm
-                  << " " << r.acc.che << "\n";
-        scene_runs.push_back(r);
-        report["lab_runs"].push_back(to_json(r));
-      }
-    }
-    for (const char* noise : {"noise-free", "noisy"}) {
-      const RunResult *fast = nullptr, *ex = nullptr;
-      for (const RunResult& r : scene_runs) {
-        if (r.noise != noise || r.model != "4d") continue;
-        (r.method == "lab:fast" ? fast : ex) = &r;
-      }
-      if (fast && ex)
-        std::printf("lab %s: fast 4d %.2f MP/s (target >= 10), %.3f CPU µs per cell and core (target %.1f: x%.1f to "
-                    "go) = x%.0f exhaustive; D65 ΔE94 fast − exhaustive %+.4f (target <= 0.1)\n",
-                    noise, fast->pixels_per_second / 1e6, fast->cpu_us_per_pixel, kTargetCpuUsPerPixel,
-                    fast->cpu_us_per_pixel / kTargetCpuUsPerPixel, fast->pixels_per_second / ex->pixels_per_second,
-                    fast->acc.de_d65 - ex->acc.de_d65);
-    }
-    // Flag shares per scene region: fast auto on the noisy whole frame, per
-    // pixel and with the spatial second pass (spatial_flags.hpp).
-    {
-      EstimatorOptions eo;
-      eo.threads = 2;
-      const Estimator estimator(lab_table, lab.noisy.set, eo);
-      std::vector<PixelEstimate> e(lab.pixels());
-      EstimateSummary summary = estimator.estimate(lab.noisy.measured, e);
-      // Each cell's added surface reflection, for the specular shares per band: ≥ 0.03, 0.01-0.03,
-      // 0.006-0.01 (the label's edge).
-      const std::vector<float> reflection = simulators::cell_added_reflection(ro);
-      auto shares = [&](const char* label, nlohmann::ordered_json& out) {
-        std::size_t total[8] = {}, flagged[8] = {}, band_total[3] = {}, band_flagged[3] = {};
-        constexpr double kBandEdges[4] = {1.0, 0.03, 0.01, 0.0};
-        for (std::size_t i = 0; i < lab.pixels(); ++i) {
-          const int region = lab.region[i] == simulators::kMixedCell ? 7 : lab.region[i];
-          ++total[region];
-          flagged[region] += e[i].flag != PixelFlag::kExplained;
-          if (region == static_cast<int>(simulators::SceneRegion::kSpecular))
-            for (int b = 0; b < 3; ++b)
-              if (reflection[i] >= kBandEdges[b + 1] && reflection[i] < kBandEdges[b])
-                ++band_total[b], band_flagged[b] += e[i].flag != PixelFlag::kExplained;
-        }
-        std::printf("lab flagged share per region (fast auto, noisy, %s):", label);
-        for (int k = 0; k < 8; ++k) {
-          if (total[k] == 0) continue;
-          const char* name = k == 7 ? "mixed_cell" : simulators::region_name(static_cast<simulators::SceneRegion>(k));
-          std::printf(" %s %.1f%% (%zu)", name, 100.0 * flagged[k] / total[k], total[k]);
-          out[name] = double(flagged[k]) / total[k];
-        }
-        std::printf("; specular by added reflection >= 0.03 / 0.01-0.03 / 0.006-0.01:");
-        for (int b = 0; b < 3; ++b) {
-          const double share = band_total[b] ? double(band_flagged[b]) / band_total[b] : 0.0;
-          std::printf(" %.1f%%", 100 * share);
-          out["specular_band"].push_back(share);
-        }
-        std::printf("\n");
-      };
-      shares("per pixel", report["lab_flagged_share_per_pixel"]);
-      t = std::chrono::steady_clock::now();
-      const CpuClock spatial_cpu;
-      const NeighbourhoodSummary pass = refine_with_neighbourhood(estimator, lab.noisy.measured, lab.width, lab.height, e, summary);
-      const double spatial_s = seconds_since(t), spatial_cpu_s = spatial_cpu.seconds();
-      shares("with the spatial pass", report["lab_flagged_share_spatial"]);
-      std::printf("  spatial pass on %zu px (flags on %d×%d-cell blocks): %.2f s wall, %.2f s CPU (%.2f µs per cell; "
-                  "target <= 2 s per session)\n",
-                  lab.pixels(), pass.block_px, pass.block_px, spatial_s, spatial_cpu_s, 1e6 * spatial_cpu_s / lab.pixels());
-      report["lab_spatial_pass"] = {{"block_px", pass.block_px}, {"seconds", spatial_s}, {"cpu_s", spatial_cpu_s}};
-    }
+    if (fast && ex)
+      std::printf("lab %s: fast 4d %.2f MP/s (target >= 10), %.3f CPU µs per cell and core (target %.1f: x%.1f to "
+                  "go) = x%.0f exhaustive; D65 ΔE94 fast − exhaustive %+.4f (target <= 0.1)\n",
+                  noise, fast->pixels_per_second / 1e6, fast->cpu_us_per_pixel, kTargetCpuUsPerPixel,
+                  fast->cpu_us_per_pixel / kTargetCpuUsPerPixel, fast->pixels_per_second / ex->pixels_per_second,
+                  fast->acc.de_d65 - ex->acc.de_d65);
   }
+}
 
-  // Ratios.
+// Flag shares per scene region: fast auto on the noisy whole frame, per
+// pixel and with the spatial second pass (spatial_flags.hpp).
+void measure_lab_flag_shares(BenchRun& run, const LabFrames& frames) {
+  auto& report = run.report;
+  const auto& lab_table = frames.lab_table;
+  const auto& lab = frames.lab;
+  const auto& ro = frames.ro;
+  EstimatorOptions eo;
+  eo.threads = 2;
+  const Estimator estimator(lab_table, lab.noisy.set, eo);
+  std::vector<PixelEstimate> e(lab.pixels());
+  EstimateSummary summary = estimator.estimate(lab.noisy.measured, e);
+  // Each cell's added surface reflection, for the specular shares per band: ≥ 0.03, 0.01-0.03,
+  // 0.006-0.01 (the label's edge).
+  const std::vector<float> reflection = simulators::cell_added_reflection(ro);
+  auto shares = [&](const char* label, nlohmann::ordered_json& out) {
+    std::size_t total[8] = {}, flagged[8] = {}, band_total[3] = {}, band_flagged[3] = {};
+    constexpr double kBandEdges[4] = {1.0, 0.03, 0.01, 0.0};
+    for (std::size_t i = 0; i < lab.pixels(); ++i) {
+      const int region = lab.region[i] == simulators::kMixedCell ? 7 : lab.region[i];
+      ++total[region];
+      flagged[region] += e[i].flag != PixelFlag::kExplained;
+      if (region == static_cast<int>(simulators::SceneRegion::kSpecular))
+        for (int b = 0; b < 3; ++b)
+          if (reflection[i] >= kBandEdges[b + 1] && reflection[i] < kBandEdges[b])
+            ++band_total[b], band_flagged[b] += e[i].flag != PixelFlag::kExplained;
+    }
+    std::printf("lab flagged share per region (fast auto, noisy, %s):", label);
+    for (int k = 0; k < 8; ++k) {
+      if (total[k] == 0) continue;
+      const char* name = k == 7 ? "mixed_cell" : simulators::region_name(static_cast<simulators::SceneRegion>(k));
+      std::printf(" %s %.1f%% (%zu)", name, 100.0 * flagged[k] / total[k], total[k]);
+      out[name] = double(flagged[k]) / total[k];
+    }
+    std::printf("; specular by added reflection >= 0.03 / 0.01-0.03 / 0.006-0.01:");
+    for (int b = 0; b < 3; ++b) {
+      const double share = band_total[b] ? double(band_flagged[b]) / band_total[b] : 0.0;
+      std::printf(" %.1f%%", 100 * share);
+      out["specular_band"].push_back(share);
+    }
+    std::printf("\n");
+  };
+  shares("per pixel", report["lab_flagged_share_per_pixel"]);
+  const auto t = std::chrono::steady_clock::now();
+  const CpuClock spatial_cpu;
+  const NeighbourhoodSummary pass = refine_with_neighbourhood(estimator, lab.noisy.measured, lab.width, lab.height, e, summary);
+  const double spatial_s = seconds_since(t), spatial_cpu_s = spatial_cpu.seconds();
+  shares("with the spatial pass", report["lab_flagged_share_spatial"]);
+  std::printf("  spatial pass on %zu px (flags on %d×%d-cell blocks): %.2f s wall, %.2f s CPU (%.2f µs per cell; "
+              "target <= 2 s per session)\n",
+              lab.pixels(), pass.block_px, pass.block_px, spatial_s, spatial_cpu_s, 1e6 * spatial_cpu_s / lab.pixels());
+  report["lab_spatial_pass"] = {{"block_px", pass.block_px}, {"seconds", spatial_s}, {"cpu_s", spatial_cpu_s}};
+}
+
+// The virtual lab's sections. False when --diagnose-only ends the run here.
+bool run_virtual_lab(BenchRun& run) {
+  const LabFrames frames = render_lab(run);
+  measure_lab_fidelity(run, frames);
+  if (run.options.diagnose) {
+    diagnose_lab(run, frames);
+    if (run.options.diagnose_only) return false;
+  }
+  run_lab_methods(run, frames);
+  print_lab_targets(run);
+  measure_lab_flag_shares(run, frames);
+  return true;
+}
+
+// The synthetic runs' ratios: fast against exhaustive and 2D, and the targets.
+void print_ratios(const BenchRun& run) {
+  const auto& runs = run.runs;
   auto find = [&](const std::string& m, const std::string& model, const std::string& noise) -> const RunResult* {
     for (const RunResult& r : runs)
       if (r.method == m && r.model == model && r.noise == noise) return &r;
@@ -780,14 +868,21 @@ int main(int argc, char** argv) {
                 fast->pixels_per_second / 1e6, fast->cpu_us_per_pixel, kTargetCpuUsPerPixel,
                 fast->cpu_us_per_pixel / kTargetCpuUsPerPixel);
   }
+}
 
-  // Previous version's run, side by side.
+// --baseline: the previous version's runs beside this one's (printed ratios,
+// the report, a CSV for the chart). Returns them; none without --baseline.
+// Throws std::runtime_error when the file holds no runs.
+std::vector<BaselineRun> compare_with_baseline(BenchRun& run) {
+  const fs::path& baseline = run.options.baseline;
+  const fs::path& out = run.options.out;
+  const auto& runs = run.runs;
+  auto& report = run.report;
   std::vector<BaselineRun> old_runs;
   if (!baseline.empty()) {
     old_runs = read_baseline(baseline);
     if (old_runs.empty()) {
-      std::fprintf(stderr, "baseline %s: no runs read\n", baseline.string().c_str());
-      return 2;
+      throw std::runtime_error("baseline " + baseline.string() + ": no runs read");
     }
     std::ofstream old_csv(out / "estimation_speed_accuracy_baseline.csv");
     old_csv << "# runs of the baseline (" << baseline.filename().string() << "), same columns as estimation_speed_accuracy.csv\n";
@@ -811,9 +906,13 @@ int main(int argc, char** argv) {
       }
     }
   }
+  return old_runs;
+}
 
-  if (speed_only) return 0;
-  // Failure behaviour 1: error against noise level (fast 4D, 2D; exhaustive on 1,000 pixels).
+// Failure behaviour 1: error against noise level (fast 4D, 2D; exhaustive on 1,000 pixels).
+void measure_error_vs_noise(const BenchRun& run) {
+  const fs::path& out = run.options.out;
+  const auto& table = run.table;
   std::ofstream noise_csv(out / "estimation_error_vs_noise.csv");
   noise_csv << "# noise_scale fast_de94 2d_de94 exhaustive_de94 noise_floor\n";
   for (double noise : {0.0, 0.25, 0.5, 1.0, 2.0, 4.0}) {
@@ -844,10 +943,14 @@ int main(int argc, char** argv) {
     }
     noise_csv << " " << floor << "\n";
   }
+}
 
-  // Failure behaviour 2: distance outside the gamut. In-gamut pixels pushed
-  // out by scaling the blue-only channel by (1 + d): share flagged, and the
-  // relit error of those left unflagged.
+// Failure behaviour 2: distance outside the gamut. In-gamut pixels pushed
+// out by scaling the blue-only channel by (1 + d): share flagged, and the
+// relit error of those left unflagged.
+void measure_error_vs_gamut(const BenchRun& run) {
+  const fs::path& out = run.options.out;
+  const auto& table = run.table;
   std::ofstream gamut_csv(out / "estimation_error_vs_gamut.csv");
   gamut_csv << "# blue_channel_excess flagged_share_fast de94_unflagged_fast flagged_share_exhaustive\n";
   {
@@ -878,8 +981,12 @@ int main(int argc, char** argv) {
       gamut_csv << "\n";
     }
   }
+}
 
-  // Failure behaviour 3: Ch against Che, binned by the true Che.
+// Failure behaviour 3: Ch against Che, binned by the true Che.
+void measure_ch_vs_che(const BenchRun& run) {
+  const fs::path& out = run.options.out;
+  const auto& table = run.table;
   std::ofstream chche_csv(out / "estimation_ch_vs_che.csv");
   chche_csv << "# true_che fast_abs_log10_ch fast_abs_che fast_noisy_abs_log10_ch fast_noisy_abs_che\n";
   {
@@ -912,43 +1019,46 @@ int main(int argc, char** argv) {
       chche_csv << "\n";
     }
   }
+}
 
-  // Anomalies and veins: share flagged per kind (fast, auto, noisy).
-  {
-    simulators::SyntheticOptions o;
-    o.pixels = 40000;
-    o.noise.noise_scale = 1.0;
-    o.seed = 13;
-    for (int k = 1; k < simulators::kSyntheticKindCount; ++k) o.share[k] = 0.08;
-    MeasurementSet s = method_set();
-    const simulators::SyntheticFrame f = simulators::make_synthetic_frame(s, o);
-    EstimatorOptions eo;
-    eo.threads = 2;
-    std::vector<PixelEstimate> e(f.pixels());
-    Estimator(table, s, eo).estimate(f.noisy, e);
-    std::size_t total[simulators::kSyntheticKindCount] = {}, flagged[simulators::kSyntheticKindCount] = {};
-    for (std::size_t i = 0; i < f.pixels(); ++i) {
-      ++total[static_cast<int>(f.kind[i])];
-      flagged[static_cast<int>(f.kind[i])] += e[i].flag != PixelFlag::kExplained;
-    }
-    std::printf("flagged share per kind (fast, auto, noisy):");
-    for (int k = 0; k < simulators::kSyntheticKindCount; ++k) {
-      const double share = double(flagged[k]) / std::max<std::size_t>(total[k], 1);
-      std::printf(" %s %.1f%%", simulators::synthetic_kind_name(static_cast<simulators::SyntheticKind>(k)), 100 * share);
-      report["flagged_share"][simulators::synthetic_kind_name(static_cast<simulators::SyntheticKind>(k))] = share;
-    }
-    std::printf("\nveins: %.1f%% flagged, %.1f%% fitted by the model\n",
-                100.0 * flagged[1] / std::max<std::size_t>(total[1], 1),
-                100.0 - 100.0 * flagged[1] / std::max<std::size_t>(total[1], 1));
+// Anomalies and veins: share flagged per kind (fast, auto, noisy).
+void measure_anomaly_flags(BenchRun& run) {
+  const auto& table = run.table;
+  auto& report = run.report;
+  simulators::SyntheticOptions o;
+  o.pixels = 40000;
+  o.noise.noise_scale = 1.0;
+  o.seed = 13;
+  for (int k = 1; k < simulators::kSyntheticKindCount; ++k) o.share[k] = 0.08;
+  MeasurementSet s = method_set();
+  const simulators::SyntheticFrame f = simulators::make_synthetic_frame(s, o);
+  EstimatorOptions eo;
+  eo.threads = 2;
+  std::vector<PixelEstimate> e(f.pixels());
+  Estimator(table, s, eo).estimate(f.noisy, e);
+  std::size_t total[simulators::kSyntheticKindCount] = {}, flagged[simulators::kSyntheticKindCount] = {};
+  for (std::size_t i = 0; i < f.pixels(); ++i) {
+    ++total[static_cast<int>(f.kind[i])];
+    flagged[static_cast<int>(f.kind[i])] += e[i].flag != PixelFlag::kExplained;
   }
+  std::printf("flagged share per kind (fast, auto, noisy):");
+  for (int k = 0; k < simulators::kSyntheticKindCount; ++k) {
+    const double share = double(flagged[k]) / std::max<std::size_t>(total[k], 1);
+    std::printf(" %s %.1f%%", simulators::synthetic_kind_name(static_cast<simulators::SyntheticKind>(k)), 100 * share);
+    report["flagged_share"][simulators::synthetic_kind_name(static_cast<simulators::SyntheticKind>(k))] = share;
+  }
+  std::printf("\nveins: %.1f%% flagged, %.1f%% fitted by the model\n",
+              100.0 * flagged[1] / std::max<std::size_t>(total[1], 1),
+              100.0 - 100.0 * flagged[1] / std::max<std::size_t>(total[1], 1));
+}
 
-  std::ofstream(out / "estimation_bench.json") << report.dump(2) << "\n";
-  for (std::ofstream* f : {&speed_csv, &noise_csv, &gamut_csv, &chche_csv}) f->close();  // gnuplot reads them next
-
-  // Charts.
-  const fs::path script1 = out / "estimation_speed_accuracy.gp";
-  std::ofstream(script1) << "set terminal pngcairo noenhanced size 1500,900\nset output '" << (out / "estimation_speed_accuracy.png").string()
-                         << "'\nset multiplot layout 2,3 title 'Inverters on " << pixels << "-pixel synthetic frames and rendered virtual-lab sessions (lab:), 2 threads (circles noise-free, squares noisy"
+// The two charts: speed against accuracy (with the baseline's points), and
+// the failure sections. Their CSVs are written and closed before.
+void draw_charts(const BenchRun& run, const std::vector<BaselineRun>& old_runs) {
+  const fs::path& out = run.options.out;
+  const int pixels = run.pixels;
+  std::ostringstream speed_chart;
+  speed_chart << "set multiplot layout 2,3 title 'Inverters on " << pixels << "-pixel synthetic frames and rendered virtual-lab sessions (lab:), 2 threads (circles noise-free, squares noisy"
                          << (old_runs.empty() ? "" : "; grey open: baseline run") << ")'\n"
                          << "set xlabel 'pixels per second'\nset logscale xy\nset grid\n"
                          << "set ylabel 'mean relit ΔE94 (six LEDs + D65)'\n"
@@ -965,7 +1075,7 @@ int main(int argc, char** argv) {
                          << "\n";
   {
     // Relit under D65 alone and the parameter errors, against speed (no labels: the legend says which point is which).
-    std::ofstream panels(script1, std::ios::app);
+    std::ostringstream& panels = speed_chart;
     const std::string csv = "'" + (out / "estimation_speed_accuracy.csv").string() + "'";
     const std::pair<int, const char*> columns[] = {{6, "relit ΔE94 under D65"}, {7, "|Δlog10 Cm|"}, {8, "|Δlog10 Ch|"},
                                                    {9, "|ΔβM|"}, {10, "|ΔChe|"}};
@@ -975,9 +1085,9 @@ int main(int argc, char** argv) {
              << column << " : 1/0):1 with labels point pt 5 offset 1,-0.5 font ',7' tc rgb 'red' notitle\n";
     panels << "unset multiplot\n";
   }
-  const fs::path script2 = out / "estimation_failures.gp";
-  std::ofstream(script2) << "set terminal pngcairo size 1400,450\nset output '" << (out / "estimation_failures.png").string()
-                         << "'\nset multiplot layout 1,3\nset grid\n"
+  draw(out / "estimation_speed_accuracy.png", "pngcairo noenhanced size 1500,900", speed_chart.str());
+  std::ostringstream failures_chart;
+  failures_chart << "set multiplot layout 1,3\nset grid\n"
                          << "set title 'error vs noise'\nset xlabel 'noise scale (1 = camera model)'\nset ylabel 'relit ΔE94'\n"
                          << "plot '" << (out / "estimation_error_vs_noise.csv").string()
                          << "' u 1:2 w lp t 'fast 4D', '' u 1:3 w lp t '2D', '' u 1:4 w lp t 'exhaustive 4D', '' u 1:5 w l "
@@ -992,8 +1102,75 @@ int main(int argc, char** argv) {
                          << "plot '" << (out / "estimation_ch_vs_che.csv").string()
                          << "' u 1:2 w lp t 'Ch, noise-free', '' u 1:4 w lp t 'Ch, noisy', '' u 1:3 w lp axes x1y2 t 'Che, "
                             "noise-free', '' u 1:5 w lp axes x1y2 t 'Che, noisy'\nunset multiplot\n";
-  gnuplot(script1);
-  gnuplot(script2);
-  std::printf("wrote %s\n", out.string().c_str());
+  draw(out / "estimation_failures.png", "pngcairo size 1400,450", failures_chart.str());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options options;
+  CLI::App app{"Estimation: speed against accuracy for every inverter on the same frames (see the source's header)"};
+  std::optional<int> pixels_option;
+  bool full = false, no_frame_cache = false;
+  std::vector<int> scene_size;
+  auto* pixels = app.add_option("--pixels", pixels_option, "synthetic frame of N×1 pixels");
+  app.add_flag("--full", full, "a 5-megapixel synthetic frame (2592×1944)")->excludes(pixels);
+  app.add_option("--exhaustive-pixels", options.exhaustive_pixels, "the exhaustive search's subsample");
+  app.add_option("--out", options.out, "where the figures and charts go");
+  app.add_option("--baseline", options.baseline, "another build's estimation_speed_accuracy.csv");
+  app.add_option("--methods", options.methods, "fast,2d,exhaustive,scene (which runs)");
+  app.add_option("--scene-size", scene_size, "the virtual lab's sensor, W H")->expected(2);
+  auto* cache = app.add_option("--frame-cache", options.frame_cache, "the rendered session's cache directory");
+  app.add_flag("--no-frame-cache", no_frame_cache, "render the session, cache nothing")->excludes(cache);
+  app.add_flag("--speed-only", options.speed_only, "no interpolation check, no failure sections");
+  auto* diagnose = app.add_flag("--diagnose", options.diagnose, "one thread, CPU time, where the fast inverter's time goes");
+  app.add_flag("--diagnose-only", options.diagnose_only, "the diagnosis and no method runs (nothing written)")
+      ->excludes(diagnose);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& error) {
+    const int status = app.exit(error);
+    return status == 0 ? 0 : 2;
+  }
+  if (pixels_option) options.width = *pixels_option, options.height = 1;
+  if (full) options.width = 2592, options.height = 1944;
+  if (!scene_size.empty()) options.scene_width = scene_size[0], options.scene_height = scene_size[1];
+  if (no_frame_cache) options.frame_cache.clear();
+  if (options.diagnose_only) options.diagnose = true;
+
+  fs::create_directories(options.out);
+  BenchRun run(options);
+  run.pixels = options.width * options.height;
+  run.exhaustive_pixels = std::min(options.exhaustive_pixels, run.pixels);
+  run.report["frame"] = {{"width", options.width}, {"height", options.height}, {"pixels", run.pixels},
+                         {"exhaustive_pixels", run.exhaustive_pixels}};
+  run.report["threads"] = 2;
+  run.table = measure_tables(run);
+  if (!options.speed_only) measure_interpolation_error(run);
+  run.speed_csv.open(options.out / "estimation_speed_accuracy.csv");
+  run.speed_csv << "# method model noise pixels_per_second de94_relit_mean de94_d65 abs_log10_cm abs_log10_ch abs_bm abs_che\n";
+  if (!run_synthetic(run)) return 1;
+  if (options.selects("scene")) {
+    if (!run_virtual_lab(run)) return 0;
+  } else if (options.diagnose_only) {
+    return 0;
+  }
+  print_ratios(run);
+  std::vector<BaselineRun> old_runs;
+  try {
+    old_runs = compare_with_baseline(run);
+  } catch (const std::runtime_error& error) {
+    std::fprintf(stderr, "%s\n", error.what());
+    return 2;
+  }
+  if (options.speed_only) return 0;
+  measure_error_vs_noise(run);
+  measure_error_vs_gamut(run);
+  measure_ch_vs_che(run);
+  measure_anomaly_flags(run);
+  std::ofstream(options.out / "estimation_bench.json") << run.report.dump(2) << "\n";
+  run.speed_csv.close();  // gnuplot reads it next
+  draw_charts(run, old_runs);
+  std::printf("wrote %s\n", options.out.string().c_str());
   return 0;
 }

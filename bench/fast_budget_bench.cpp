@@ -27,16 +27,20 @@
 // are then fast_budget_whole_frame.{csv,png}. Writes DIR/fast_budget.csv and
 // DIR/fast_budget.png (gnuplot); DIR defaults to bench/results.
 #include <chrono>
+
+#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "chromo/simulators/scene/rendered_session.hpp"
 #include "chromo/estimation/estimator.hpp"
+#include "chromo/files/gnuplot_chart.hpp"
 #include "chromo/simulators/scene/scene.hpp"
 #include "clocks.hpp"
 #include "lab_session.hpp"
@@ -150,22 +154,25 @@ int main(int argc, char** argv) {
   fs::path frame_cache = ForwardTable::default_cache_dir();
   int exhaustive_pixels = 20000, sensor_width = 2592, sensor_height = 1944;
   std::string budgets;  // empty: all
-  bool whole_frame = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--out" && i + 1 < argc) out = argv[++i];
-    else if (a == "--exhaustive-pixels" && i + 1 < argc) exhaustive_pixels = std::atoi(argv[++i]);
-    else if (a == "--scene-size" && i + 2 < argc) sensor_width = std::atoi(argv[++i]), sensor_height = std::atoi(argv[++i]);
-    else if (a == "--frame-cache" && i + 1 < argc) frame_cache = argv[++i];
-    else if (a == "--no-frame-cache") frame_cache.clear();
-    else if (a == "--whole-frame") whole_frame = true;
-    else if (a == "--budgets" && i + 1 < argc) budgets = "," + std::string(argv[++i]) + ",";
-    else {
-      std::fprintf(stderr, "usage: fast_budget_bench [--out DIR] [--exhaustive-pixels N] [--scene-size W H] "
-                           "[--frame-cache DIR | --no-frame-cache] [--budgets NAME,...] [--whole-frame]\n");
-      return 2;
-    }
+  bool whole_frame = false, no_frame_cache = false;
+  std::vector<int> scene_size;
+  CLI::App app{"The fast 4D inverter's budget against accuracy on the lab session (see the source's header)"};
+  app.add_option("--out", out, "where the CSV and the chart go");
+  app.add_option("--exhaustive-pixels", exhaustive_pixels, "the exhaustive reference's subsample of skin cells");
+  app.add_option("--scene-size", scene_size, "the virtual lab's sensor, W H")->expected(2);
+  auto* cache = app.add_option("--frame-cache", frame_cache, "the rendered session's cache directory");
+  app.add_flag("--no-frame-cache", no_frame_cache, "render the session, cache nothing")->excludes(cache);
+  app.add_option("--budgets", budgets, "NAME,...: only these budgets (default: all)");
+  app.add_flag("--whole-frame", whole_frame, "time the whole frame, not only the skin cells");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& error) {
+    const int status = app.exit(error);
+    return status == 0 ? 0 : 2;
   }
+  if (!budgets.empty()) budgets = "," + budgets + ",";
+  if (!scene_size.empty()) sensor_width = scene_size[0], sensor_height = scene_size[1];
+  if (no_frame_cache) frame_cache.clear();
   if (exhaustive_pixels < 1 || sensor_width < 16 || sensor_height < 16) {
     std::fprintf(stderr, "fast_budget_bench: --exhaustive-pixels must be >= 1 and --scene-size at least 16 16\n");
     return 2;
@@ -238,8 +245,8 @@ int main(int argc, char** argv) {
 
   const fs::path script = out / (stem + ".gp");
   const std::string data = "'" + (out / (stem + ".csv")).string() + "'";
-  std::ofstream(script)
-      << "set terminal pngcairo noenhanced size 1400,500\nset output '" << (out / (stem + ".png")).string() << "'\n"
+  std::ostringstream commands;
+  commands
       << "set multiplot layout 1,3 title 'Fast 4D inverter: budget against accuracy on the 5-MP lab session, "
       << (whole_frame ? "speed over the whole frame, " : "") << "scored on its " << skin.size()
       << " skin cells (circles noise-free, squares noisy; dashed: the 0.2 µs target)'\n"
@@ -259,8 +266,9 @@ int main(int argc, char** argv) {
       << "plot " << data << " u 4:(stringcolumn(2) eq 'noise-free' ? $8 : 1/0):1 w labels point pt 7 offset 1,0.5 "
       << "font ',8' notitle, '' u 4:(stringcolumn(2) eq 'noisy' ? $8 : 1/0):1 w labels point pt 5 offset 1,-0.5 "
       << "font ',8' tc rgb 'red' notitle\nunset multiplot\n";
-  const std::string command = "gnuplot " + script.string() + " 2>&1";
-  if (std::system(command.c_str()) != 0) std::fprintf(stderr, "gnuplot failed: no chart\n");
+  const std::string failed =
+      files::draw_chart({out / (stem + ".png"), "pngcairo noenhanced size 1400,500", commands.str()}, script);
+  if (!failed.empty()) std::fprintf(stderr, "%s: no chart\n", failed.c_str());
   std::printf("wrote %s.csv and %s.png in %s\n", stem.c_str(), stem.c_str(), out.string().c_str());
   return 0;
 }

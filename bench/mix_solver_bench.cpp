@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "chromo/calibration/mix_solver.hpp"
+#include "chromo/files/gnuplot_chart.hpp"
 #include "chromo/spectral/colorimetry.hpp"
 
 using namespace chromo::calibration;
@@ -107,8 +108,6 @@ int main(int argc, char** argv) {
   const std::string png = (out_dir / "mix_solver.png").string();
   const std::string data = (out_dir / "mix_solver.csv").string();
   const std::string script =
-      "set terminal pngcairo size 1200,520 font 'sans,10'\n"
-      "set output '" + png + "'\n"
       "set datafile separator ','\nset key autotitle columnhead\nset grid\n"
       "set multiplot layout 1,2 title 'Mix solver trade-off, nominal LED library (D65 target; points: spectral, xyz, camera, camera+hold)'\n"
       "set xlabel 'spectral RMSE (fraction of target peak)'\nset ylabel 'camera ColorChecker dE00 (mean)'\n"
@@ -118,9 +117,8 @@ int main(int argc, char** argv) {
       "plot '" + data + "' every ::0::3 using 3:6:2 with labels point pt 7 ps 1.5 offset char 1,0.6 notitle, "
       "'' every ::0::3 using 3:6 with lines lw 1 dt 2 notitle\n"
       "unset multiplot\n";
-  FILE* gnuplot = popen("gnuplot", "w");
-  if (!gnuplot || (std::fwrite(script.data(), 1, script.size(), gnuplot), pclose(gnuplot)) != 0) {
-    std::fprintf(stderr, "gnuplot failed; figures are in %s\n", data.c_str());
+  if (const std::string failed = chromo::files::draw_chart({png, "pngcairo size 1200,520 font 'sans,10'", script}); !failed.empty()) {
+    std::fprintf(stderr, "%s; figures are in %s\n", failed.c_str(), data.c_str());
     return 1;
   }
   std::printf("wrote %s and %s\n", data.c_str(), png.c_str());

@@ -26,6 +26,8 @@
 #include <string>
 #include <vector>
 
+#include <CLI/CLI.hpp>
+
 #include "chromo/simulators/scene/rendered_session.hpp"
 #include "chromo/estimation/estimator.hpp"
 #include "chromo/estimation/forward_table.hpp"
@@ -135,30 +137,20 @@ int main(int argc, char** argv) {
   std::vector<int> blocks;
   std::string png_prefix;
   int offsets = 0;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--blocks" && i + 1 < argc) {
-      std::stringstream list(argv[++i]);
-      for (std::string b; std::getline(list, b, ',');) blocks.push_back(std::atoi(b.c_str()));
-    } else if (a == "--scene-size" && i + 2 < argc) {
-      sensor_width = std::atoi(argv[++i]), sensor_height = std::atoi(argv[++i]);
-    } else if (a == "--png" && i + 1 < argc) {
-      png_prefix = argv[++i];
-    } else if (a == "--frame-cache" && i + 1 < argc) {
-      frame_cache = argv[++i];
-    } else if (a == "--offsets" && i + 1 < argc) {
-      char* end = nullptr;
-      const long n = std::strtol(argv[++i], &end, 10);
-      if (*end != '\0' || n < 0 || n > 64) {
-        std::fprintf(stderr, "spatial_flags_bench: --offsets takes a count of crops, 0-64 (got '%s')\n", argv[i]);
-        return 2;
-      }
-      offsets = static_cast<int>(n);
-    } else {
-      std::fprintf(stderr, "usage: spatial_flags_bench [--blocks 1,3,5] [--offsets N] [--scene-size W H] [--frame-cache DIR] [--png PREFIX]\n");
-      return 2;
-    }
+  std::vector<int> scene_size;
+  CLI::App app{"The spatial flag pass on the rendered lab session, per block size (see the source's header)"};
+  app.add_option("--blocks", blocks, "block sizes in cells, e.g. 1,3,5")->delimiter(',');
+  app.add_option("--offsets", offsets, "count of shifted crops, 0-64")->check(CLI::Range(0, 64));
+  app.add_option("--scene-size", scene_size, "the virtual lab's sensor, W H")->expected(2);
+  app.add_option("--frame-cache", frame_cache, "the rendered session's cache directory");
+  app.add_option("--png", png_prefix, "PREFIX of the flag images to write");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& error) {
+    const int status = app.exit(error);
+    return status == 0 ? 0 : 2;
   }
+  if (!scene_size.empty()) sensor_width = scene_size[0], sensor_height = scene_size[1];
   const simulators::RenderedSessionOptions ro = bench::lab_session_options(sensor_width, sensor_height, frame_cache);
   const simulators::RenderedSession lab = bench::load_lab_session(ro);
   const std::vector<float> reflection = simulators::cell_added_reflection(ro);

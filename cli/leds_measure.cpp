@@ -50,7 +50,7 @@ MeasuredOnVirtualLab measure_on_virtual_lab(const std::filesystem::path& out_pat
                               lab_options.leds.time_scale, options.warm_up_s, options.warm_up_s * lab_options.leds.time_scale);
   calibration::CalibrationRun run(*leds, *spectrometer, lab.lamp_switch(), options);
   MeasuredOnVirtualLab result;
-  result.summary = run.run(progress_bar ? calibration::CalibrationProgress(draw_progress_bar) : calibration::CalibrationProgress{});
+  result.summary = run.run(progress_bar ? files::Progress{draw_progress_bar, {}} : files::Progress{});
   if (result.summary.IsLibraryUsable()) {
     result.path = out_path.empty() ? calibration::led_library_directory() /
                                          calibration::led_library_file_name(result.summary.library)

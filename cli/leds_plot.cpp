@@ -1,11 +1,12 @@
 // chromo leds plot: target vs mix spectra and per-patch camera ΔE00 as one
-// PNG, drawn by gnuplot (inline data, pngcairo terminal).
+// PNG, drawn by gnuplot (files/gnuplot_chart.hpp; inline data).
 #include <fmt/format.h>
 
 #include <cstdio>
 #include <iostream>
 #include <string>
 
+#include "chromo/files/gnuplot_chart.hpp"
 #include "commands.hpp"
 #include "leds_common.hpp"
 
@@ -14,8 +15,7 @@ namespace chromo::cli {
 int plot_mix(const SolvedMix& solved, const std::string& out_png) {
   const calibration::MixSummary& s = solved.summary;
   const double peak = s.target.max();
-  std::string script = "set terminal pngcairo size 1000,900 font 'sans,10'\n";
-  script += fmt::format("set output '{}'\nset multiplot layout 2,1\n", out_png);
+  std::string script = "set multiplot layout 2,1\n";
   script += fmt::format("set title \"{} vs mix ({} objective{}): Ra {:.1f}, RMSE {:.3f}, du'v' {:.1e}\"\n", s.target_name,
                         calibration::mix_objective_name(s.objective), s.hold_chromaticity ? ", chromaticity held" : "",
                         s.rendering.ra, s.rmse, s.delta_uv_prime);
@@ -33,14 +33,9 @@ int plot_mix(const SolvedMix& solved, const std::string& out_png) {
   for (std::size_t p = 0; p < s.camera_de00.delta_e00.size(); ++p) script += fmt::format("{} {}\n", p + 1, s.camera_de00.delta_e00[p]);
   script += "e\nunset multiplot\n";
 
-  FILE* gnuplot = popen("gnuplot 2>&1", "w");
-  if (!gnuplot) {
-    std::cerr << "chromo leds plot: cannot start gnuplot\n";
-    return kExitFailure;
-  }
-  std::fwrite(script.data(), 1, script.size(), gnuplot);
-  if (pclose(gnuplot) != 0) {
-    std::cerr << "chromo leds plot: gnuplot failed writing " << out_png << "\n";
+  if (const std::string failed = files::draw_chart({out_png, "pngcairo size 1000,900 font 'sans,10'", script});
+      !failed.empty()) {
+    std::cerr << "chromo leds plot: " << failed << "\n";
     return kExitFailure;
   }
   std::cout << "wrote " << out_png << " (" << s.target_name << ", library " << solved.library_description << ")\n";

@@ -29,9 +29,8 @@ int run_profiles(const ProfilesOptions& options) {
   if (!options.bm.empty()) o.axes.bm = options.bm;
   if (!options.che.empty()) o.axes.che = options.che;
   o.threads = options.threads;
-  o.progress = [](double done) {
+  o.progress.on_progress = [](double done, const std::string&) {
     std::cerr << fmt::format("\rprofiles {:5.1f}%", 100 * done);
-    return true;
   };
   try {
     // Everything is checked before anything is written (map_operations.hpp).

@@ -19,8 +19,6 @@ void sleep_s(double seconds) {
   if (seconds > 0) std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
 }
 
-struct Cancelled {};
-
 // Dark-subtracted peak of a measurement as a fraction of full scale.
 double signal_fraction(const drivers::SpectrometerMeasurement& m, double saturation_counts) {
   const double peak = *std::max_element(m.pixel_counts_per_s.begin(), m.pixel_counts_per_s.end());
@@ -95,15 +93,15 @@ CalibrationRun::CalibrationRun(drivers::LedController& leds, drivers::Spectromet
   if (!lamp_) throw std::invalid_argument("CalibrationRun: no lamp switch");
 }
 
-CalibrationSummary CalibrationRun::run(const CalibrationProgress& progress, const CalibrationCancel& cancel) {
+CalibrationSummary CalibrationRun::run(const files::Progress& progress) {
   const auto start = std::chrono::steady_clock::now();
   CalibrationSummary summary;
   const int rungs = static_cast<int>(options_.drive_levels.size());
   const int total_steps = 1 + kLeds * (rungs + 1);  // lamp, then warm-up + rungs per LED
   int step = 0;
   auto report = [&](const std::string& text) {
-    if (cancel && cancel()) throw Cancelled{};
-    if (progress) progress(static_cast<double>(step) / total_steps, text);
+    if (progress.cancelled()) throw files::Cancelled{};
+    progress.report(static_cast<double>(step) / total_steps, text);
   };
   auto off_state = [] {
     drivers::LedState state;
@@ -216,8 +214,8 @@ CalibrationSummary CalibrationRun::run(const CalibrationProgress& progress, cons
     summary.message = fmt::format("measured {} spectra; ", summary.spectra_measured) +
                       (summary.linearity_ok ? fmt::format("all LEDs linear within {:.1f} %", options_.max_linearity_deviation_percent)
                                             : "non-linear beyond " + fmt::format("{:.1f} %:", options_.max_linearity_deviation_percent) + nonlinear);
-    if (progress) progress(1.0, "done");
-  } catch (const Cancelled&) {
+    progress.report(1.0, "done");
+  } catch (const files::Cancelled&) {
     summary.termination = CalibrationTermination::kCancelled;
     summary.message = "cancelled";
     summary.library = {};

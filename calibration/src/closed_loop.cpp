@@ -14,7 +14,6 @@ namespace chromo::calibration {
 namespace {
 
 constexpr int kLeds = spectral::kLedTypeCount;
-struct Cancelled {};
 
 std::string names(const std::vector<LedType>& types) {
   std::string text;
@@ -73,7 +72,7 @@ bool ClosedLoopOptions::IsValid(std::string* error) const {
 
 ClosedLoopSummary run_closed_loop(drivers::LedController& leds, drivers::Spectrometer& spectrometer,
                                   const LedLibrary& library, const MixTarget& target, const ClosedLoopOptions& options,
-                                  const CalibrationProgress& progress, const CalibrationCancel& cancel) {
+                                  const files::Progress& progress) {
   ClosedLoopSummary summary;
   std::string error;
   if (!options.IsValid(&error)) {
@@ -111,7 +110,7 @@ ClosedLoopSummary run_closed_loop(drivers::LedController& leds, drivers::Spectro
   try {
     drivers::SpectrometerReader reader(spectrometer, options.reader);
     for (int k = 0; k < options.max_iterations; ++k) {
-      if (cancel && cancel()) throw Cancelled{};
+      if (progress.cancelled()) throw files::Cancelled{};
       drivers::LedState state;
       for (int j = 0; j < kLeds; ++j) state.drive[j] = weights[j];
       try {
@@ -139,10 +138,9 @@ ClosedLoopSummary run_closed_loop(drivers::LedController& leds, drivers::Spectro
       it.meets_tolerance = it.figures.delta_uv_prime <= options.max_delta_uv_prime &&
                            it.figures.camera_de00.mean <= max_de00 && it.figures.rmse <= max_rmse;
       summary.iterations.push_back(it);
-      if (progress)
-        progress(static_cast<double>(k + 1) / options.max_iterations,
-                 fmt::format("iteration {}: du'v' {:.5f}, camera dE00 mean {:.3f}, RMSE {:.4f}", k + 1,
-                             it.figures.delta_uv_prime, it.figures.camera_de00.mean, it.figures.rmse));
+      progress.report(static_cast<double>(k + 1) / options.max_iterations,
+                      fmt::format("iteration {}: du'v' {:.5f}, camera dE00 mean {:.3f}, RMSE {:.4f}", k + 1,
+                                  it.figures.delta_uv_prime, it.figures.camera_de00.mean, it.figures.rmse));
       for (int j = 0; j < kLeds; ++j)
         if (weights[j] >= options.min_weight_for_gain && it.channel_gain[j] < options.dead_gain_threshold)
           summary.dead_channels.push_back(static_cast<LedType>(j));
@@ -171,7 +169,7 @@ ClosedLoopSummary run_closed_loop(drivers::LedController& leds, drivers::Spectro
         // columns at the operating point (flux loss and peak shift included).
         for (int j = 0; j < kLeds; ++j) {
           if (weights[j] < options.min_weight_for_gain) continue;
-          if (cancel && cancel()) throw Cancelled{};
+          if (progress.cancelled()) throw files::Cancelled{};
           drivers::LedState alone;
           alone.drive.fill(0.0);
           alone.drive[j] = weights[j];
@@ -228,7 +226,7 @@ ClosedLoopSummary run_closed_loop(drivers::LedController& leds, drivers::Spectro
                         (summary.saturated_channels.empty() ? "; drift the loop cannot follow"
                                                             : "; saturated at the drive limit: " + names(summary.saturated_channels));
     }
-  } catch (const Cancelled&) {
+  } catch (const files::Cancelled&) {
     summary.termination = ClosedLoopTermination::kCancelled;
     summary.message = "cancelled";
   } catch (const std::exception& e) {

@@ -87,20 +87,9 @@ session::OperationRecord record_from_json(const nlohmann::json& j, const std::fi
 }  // namespace
 
 Calibrations::Calibrations(std::filesystem::path root, std::filesystem::path configured_library, DeviceSet& devices,
-                           OperationRegistry& operations, files::StorageBudget* budget)
-    : root_(std::move(root)), devices_(devices), operations_(operations), budget_(budget) {
+                           OperationRunner& runner, files::StorageBudget* budget)
+    : root_(std::move(root)), devices_(devices), runner_(runner), budget_(budget) {
   if (!configured_library.empty()) use_library(configured_library);  // DataError naming the file
-}
-
-Calibrations::~Calibrations() {
-  std::thread worker;
-  {
-    std::lock_guard lock(mutex_);
-    if (!running_id_.empty())
-      if (auto control = operations_.control(running_id_)) control->request_cancel();
-    worker = std::move(worker_);
-  }
-  if (worker.joinable()) worker.join();
 }
 
 void Calibrations::use_library(const std::filesystem::path& path) {
@@ -171,39 +160,39 @@ session::OperationRecord Calibrations::start(const CalibrationRequest& request) 
     throw std::logic_error("no reference lamp is wired to this daemon: a calibration run measures the spectrometer's "
                            "response against it first (the virtual lab has one)");
 
-  std::lock_guard lock(mutex_);
-  if (worker_.joinable()) worker_.join();
-  const std::string id = session::new_session_id("calibration");
-  const auto folder = root_ / id;
-  std::filesystem::create_directories(folder);
-  const auto now = std::chrono::system_clock::now();
-  files::write_file_durably(folder / kRecordFile,
-                     nlohmann::json{{"id", id},
-                                    {"state", "running"},
-                                    {"request", request_json(request)},
-                                    {"controller", led->config.name},
-                                    {"spectrometer", spectrometer->config.name},
-                                    {"created_unix_s", std::chrono::duration_cast<std::chrono::seconds>(now.time_since_epoch()).count()}}
-                             .dump(2) + "\n",
-                     budget_);
-  session::OperationRecord record;
-  record.id = id;
-  record.kind = session::OperationKind::kCalibration;
-  record.name = "calibration";
-  record.state = session::OperationState::kRunning;
-  record.message = "starting";
-  record.folder = std::filesystem::absolute(folder).string();
-  auto control = operations_.add(record);
-  running_id_ = id;
-  worker_ = std::thread([this, id, request, folder, control, led, spectrometer] {
-    run(id, request, folder, control, led, spectrometer);
+  // Under the runner's lock, once nothing else runs: the folder, its first record, the operation.
+  return runner_.start([&] {
+    const std::string id = session::new_session_id("calibration");
+    const auto folder = root_ / id;
+    std::filesystem::create_directories(folder);
+    const auto now = std::chrono::system_clock::now();
+    files::write_file_durably(
+        folder / kRecordFile,
+        nlohmann::json{{"id", id},
+                       {"state", "running"},
+                       {"request", request_json(request)},
+                       {"controller", led->config.name},
+                       {"spectrometer", spectrometer->config.name},
+                       {"created_unix_s", std::chrono::duration_cast<std::chrono::seconds>(now.time_since_epoch()).count()}}
+                .dump(2) + "\n",
+        budget_);
+    session::OperationRecord record;
+    record.id = id;
+    record.kind = session::OperationKind::kCalibration;
+    record.name = "calibration";
+    record.state = session::OperationState::kRunning;
+    record.message = "starting";
+    record.folder = std::filesystem::absolute(folder).string();
+    return OperationRunner::Start{record, [this, request, folder, led, spectrometer](RunningOperation& running) {
+                                    return run(running, request, folder, led, spectrometer);
+                                  }};
   });
-  return *operations_.get(id);
 }
 
-void Calibrations::run(std::string id, CalibrationRequest request, std::filesystem::path folder,
-                       std::shared_ptr<OperationControl> control, NamedDevice<drivers::LedController>* led,
-                       NamedDevice<drivers::Spectrometer>* spectrometer) {
+OperationRunner::Outcome Calibrations::run(RunningOperation& running, const CalibrationRequest& request,
+                                           const std::filesystem::path& folder, NamedDevice<drivers::LedController>* led,
+                                           NamedDevice<drivers::Spectrometer>* spectrometer) {
+  const std::string& id = running.id();
   calibration::CalibrationRunOptions options;
   if (!request.drive_levels.empty()) options.drive_levels = request.drive_levels;
   const double scale = devices_.lab_time_scale;
@@ -217,20 +206,10 @@ void Calibrations::run(std::string id, CalibrationRequest request, std::filesyst
 
   LockedLeds leds(*led);
   LockedSpectrometer meter(*spectrometer);
-  const auto start = std::chrono::steady_clock::now();
   calibration::CalibrationSummary summary;
   try {
     calibration::CalibrationRun run(leds, meter, devices_.reference_lamp, options);
-    summary = run.run(
-        [&](double fraction, const std::string& step) {
-          const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-          operations_.update(id, [&](session::OperationRecord& r) {
-            r.progress = fraction;
-            r.eta_seconds = fraction > 0 ? elapsed * (1 - fraction) / fraction : -1;
-            r.message = step;
-          });
-        },
-        [&] { return control->cancel_requested(); });
+    summary = run.run(running.progress());
   } catch (const std::exception& e) {
     summary.termination = calibration::CalibrationTermination::kDeviceError;
     summary.message = e.what();
@@ -269,17 +248,7 @@ void Calibrations::run(std::string id, CalibrationRequest request, std::filesyst
     state = session::OperationState::kFailed;
     error = std::string("writing the calibration result: ") + e.what();
   }
-  {
-    std::lock_guard lock(mutex_);
-    running_id_.clear();
-  }
-  operations_.update(id, [&](session::OperationRecord& r) {
-    r.state = state;
-    r.message = summary.message;
-    r.error = error;
-    if (state == session::OperationState::kSucceeded) r.progress = 1;
-    r.eta_seconds = 0;
-  });
+  return {state, error, summary.message, std::nullopt};
 }
 
 calibration::SolvedMix Calibrations::solve(const std::string& target, const std::string& objective, bool hold_chromaticity) const {

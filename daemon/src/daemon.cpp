@@ -17,7 +17,7 @@ Daemon::Daemon(DaemonConfig config, DeviceSet devices, FrameConsumer* estimator)
       store_(config_.sessions_dir, &budget_) {
   for (auto& info : store_.recover()) operations_.add_past(std::move(info.record));
   calibrations_ = std::make_unique<Calibrations>(config_.sessions_dir / "calibrations", config_.led_library, devices_,
-                                                 operations_, &budget_);
+                                                 runner_, &budget_);
   for (auto& record : calibrations_->recover()) operations_.add_past(std::move(record));
   if (!estimator_ && config_.estimation.enabled) {
     owned_estimator_ = make_online_estimator(config_.estimation, &budget_,
@@ -26,16 +26,7 @@ Daemon::Daemon(DaemonConfig config, DeviceSet devices, FrameConsumer* estimator)
   }
 }
 
-Daemon::~Daemon() {
-  std::thread worker;
-  {
-    std::lock_guard lock(run_mutex_);
-    if (!running_id_.empty())
-      if (auto control = operations_.control(running_id_)) control->request_cancel();
-    worker = std::move(worker_);
-  }
-  if (worker.joinable()) worker.join();
-}
+Daemon::~Daemon() { runner_.cancel_and_join(); }
 
 std::vector<DeviceReport> Daemon::probe_devices() {
   std::vector<DeviceReport> reports;
@@ -139,8 +130,7 @@ drivers::DriveLevels Daemon::resolve_mix(const std::string& mix) const {
 }
 
 session::OperationRecord Daemon::start_calibration(const CalibrationRequest& request) {
-  std::lock_guard lock(run_mutex_);
-  ensure_idle();
+  ensure_idle();  // before the request's checks, as the runner checks again
   return calibrations_->start(request);
 }
 
@@ -180,38 +170,34 @@ session::OperationRecord Daemon::start_session(session::SessionPlan plan, const 
                                   led->config.name + "\" holds " + std::to_string(capacity));
   }
 
-  std::lock_guard lock(run_mutex_);
-  ensure_idle();
-  if (worker_.joinable()) worker_.join();
+  // Under the runner's lock, once nothing else runs: the folder, the first journal record, the operation.
+  return runner_.start([&] {
+    nlohmann::json devices = nlohmann::json::array();
+    for (auto& d : devices_.led_controllers) devices.push_back({{"name", d->config.name}, {"kind", "led_controller"}, {"backend", d->config.backend}});
+    for (auto& d : devices_.cameras) devices.push_back({{"name", d->config.name}, {"kind", "camera"}, {"backend", d->config.backend}});
+    auto created = store_.create(plan, subject, devices);
+    const std::uint64_t expected = plan.frames_per_camera_total() * devices_.cameras.size();
+    created.journal->append({{"type", "session_started"}, {"expected_frames", expected}});
 
-  nlohmann::json devices = nlohmann::json::array();
-  for (auto& d : devices_.led_controllers) devices.push_back({{"name", d->config.name}, {"kind", "led_controller"}, {"backend", d->config.backend}});
-  for (auto& d : devices_.cameras) devices.push_back({{"name", d->config.name}, {"kind", "camera"}, {"backend", d->config.backend}});
-  auto created = store_.create(plan, subject, devices);
-  const std::uint64_t expected = plan.frames_per_camera_total() * devices_.cameras.size();
-  created.journal->append({{"type", "session_started"}, {"expected_frames", expected}});
-
-  session::OperationRecord record;
-  record.id = created.id;
-  record.kind = session::OperationKind::kSession;
-  record.name = plan.name;
-  record.state = session::OperationState::kPending;
-  record.folder = std::filesystem::absolute(created.folder).string();
-  record.step_count = static_cast<int>(plan.steps.size());
-  record.expected_frames = expected;
-  auto control = operations_.add(record);
-  running_id_ = created.id;
-  std::shared_ptr<session::Journal> journal(std::move(created.journal));
-  worker_ = std::thread([this, id = created.id, plan = std::move(plan), journal, folder = created.folder, control] {
-    run_session(id, plan, journal, folder, control);
+    session::OperationRecord record;
+    record.id = created.id;
+    record.kind = session::OperationKind::kSession;
+    record.name = plan.name;
+    record.state = session::OperationState::kPending;
+    record.folder = std::filesystem::absolute(created.folder).string();
+    record.step_count = static_cast<int>(plan.steps.size());
+    record.expected_frames = expected;
+    std::shared_ptr<session::Journal> journal(std::move(created.journal));
+    return OperationRunner::Start{record, [this, plan, journal, folder = created.folder](RunningOperation& running) {
+                                    return run_session(running, plan, journal, folder);
+                                  }};
   });
-  auto started = operations_.get(record.id);
-  if (!started) throw std::runtime_error("session " + record.id + " vanished from the registry");
-  return *started;
 }
 
-void Daemon::run_session(std::string id, session::SessionPlan plan, std::shared_ptr<session::Journal> journal,
-                         std::filesystem::path folder, std::shared_ptr<OperationControl> control) {
+OperationRunner::Outcome Daemon::run_session(RunningOperation& running, const session::SessionPlan& plan,
+                                             const std::shared_ptr<session::Journal>& journal,
+                                             const std::filesystem::path& folder) {
+  const std::string& id = running.id();
   SequencerOutcome outcome;
   session::PipelineCounters counters;
   auto log_event = [&](const std::string& text) {
@@ -222,11 +208,11 @@ void Daemon::run_session(std::string id, session::SessionPlan plan, std::shared_
     events_.publish(std::move(event));
   };
   if (estimator_)
-    estimator_->begin_session({id, folder, session::to_json(plan), [&, id](double fraction, const std::string& message) {
+    estimator_->begin_session({id, folder, session::to_json(plan), {[&, id](double fraction, const std::string& message) {
                                  operations_.update(id, [&](session::OperationRecord& r) {
                                    r.message = message + " " + std::to_string(static_cast<int>(fraction * 100)) + "%";
                                  });
-                               }});
+                               }, {}}});
   {
     FramePipeline pipeline(
         folder, *journal, &budget_, {config_.storage_queue_frames, config_.estimator_queue_frames}, estimator_,
@@ -250,7 +236,7 @@ void Daemon::run_session(std::string id, session::SessionPlan plan, std::shared_
     context.journal = journal.get();
     context.pipeline = &pipeline;
     context.operations = &operations_;
-    context.control = control.get();
+    context.control = &running.control();
     context.led = devices_.led_controller("", nullptr);
     for (auto& camera : devices_.cameras) context.cameras.push_back(camera.get());
     context.resolve_mix = [this](const std::string& mix) { return resolve_mix(mix); };
@@ -312,21 +298,8 @@ void Daemon::run_session(std::string id, session::SessionPlan plan, std::shared_
     // stays valid; the next start reports the session as interrupted.
     if (outcome.error.empty()) outcome = {session::OperationState::kFailed, error.what()};
   }
-  {
-    // Before the record turns final: start_session() joins this thread under
-    // run_mutex_ once it sees no active operation, so nothing after the final
-    // update may take run_mutex_.
-    std::lock_guard lock(run_mutex_);
-    running_id_.clear();
-  }
-  operations_.update(id, [&](session::OperationRecord& r) {
-    r.state = outcome.state;
-    r.error = outcome.error;
-    r.message = outcome.state == session::OperationState::kSucceeded ? "done" : session::state_name(outcome.state);
-    r.counters = counters;
-    if (outcome.state == session::OperationState::kSucceeded) r.progress = 1;
-    r.eta_seconds = 0;
-  });
+  // The runner's final update: "done" or the state's name, with the counters.
+  return {outcome.state, outcome.error, std::nullopt, counters};
 }
 
 std::optional<session::SessionInfo> Daemon::session(const std::string& id) const {

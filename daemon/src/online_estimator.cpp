@@ -101,17 +101,12 @@ void OnlineEstimator::estimate_now() {
   // SESSION_DIR` reproduces these maps from the folder alone.
   files::write_file_durably(results / "led_library.json", calibration::led_library_to_json(sources_->led_library),
                      options_.budget);
-  estimation::EstimateCallbacks callbacks;
-  if (session_.progress)
-    callbacks.progress = [this](std::size_t done, std::size_t total) {
-      session_.progress(total ? static_cast<double>(done) / static_cast<double>(total) : 1.0, "estimating maps");
-    };
   result_ = maps::estimate_method_captures(
       captures, options_.estimation, results,
       [this](const std::filesystem::path& path, const std::function<void(const std::filesystem::path&)>& produce) {
         files::commit_file_durably(path, options_.budget, produce);
       },
-      callbacks, extra.dump());
+      session_.progress, extra.dump());
 }
 
 nlohmann::json OnlineEstimator::unavailable(const std::string& reason) const {

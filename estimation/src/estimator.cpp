@@ -267,7 +267,7 @@ EstimateSummary Estimator::estimate_tile(std::span<const float> measured, std::s
 }
 
 EstimateSummary Estimator::estimate(std::span<const float> measured, std::span<PixelEstimate> out,
-                                    const EstimateCallbacks& callbacks) const {
+                                    const files::Progress& progress) const {
   if (measured.size() != out.size() * static_cast<std::size_t>(channels()))
     throw std::invalid_argument("estimate: measurement size does not match the output size");
   const auto start = std::chrono::steady_clock::now();
@@ -281,9 +281,9 @@ EstimateSummary Estimator::estimate(std::span<const float> measured, std::span<P
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
   for (std::ptrdiff_t t = 0; t < tiles; ++t) {
     if (cancelled.load(std::memory_order_relaxed)) continue;
-    if (callbacks.cancel) {
+    {
       std::lock_guard lock(mutex);
-      if (callbacks.cancel()) {
+      if (progress.cancelled()) {
         cancelled = true;
         continue;
       }
@@ -294,7 +294,7 @@ EstimateSummary Estimator::estimate(std::span<const float> measured, std::span<P
     s.pixels = 0;
     std::lock_guard lock(mutex);
     total.merge(s);
-    if (callbacks.progress) callbacks.progress(total.processed, total.pixels);
+    progress.report(static_cast<double>(total.processed) / static_cast<double>(total.pixels), "estimating maps");
   }
   total.cancelled = cancelled;
   total.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -201,7 +201,7 @@ std::vector<RelitComparison> compare_with_photographs(std::span<const estimation
 
 MethodEstimationResult estimate_method_captures(const session::MethodCaptures& captures, const MethodEstimationOptions& options,
                                                 const fs::path& out_dir, const FileCommit& commit,
-                                                const estimation::EstimateCallbacks& callbacks, const std::string& extra_json) {
+                                                const files::Progress& progress, const std::string& extra_json) {
   const auto start = std::chrono::steady_clock::now();
   auto t = start;
   session::MethodMeasurement m = session::build_method_measurement(captures, options.registration);
@@ -220,7 +220,7 @@ MethodEstimationResult estimate_method_captures(const session::MethodCaptures& c
   const double inverter_seconds = seconds_since(t);
   std::vector<estimation::PixelEstimate> estimates(m.measured.size() / static_cast<std::size_t>(m.set.size()));
   MethodEstimationResult result;
-  result.summary = estimator.estimate(m.measured, estimates, callbacks);
+  result.summary = estimator.estimate(m.measured, estimates, progress);
   if (result.summary.cancelled) throw std::runtime_error("estimation cancelled");
   result.pixels_per_second =
       result.summary.seconds > 0 ? static_cast<double>(estimates.size()) / result.summary.seconds : 0.0;

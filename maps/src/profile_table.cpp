@@ -77,7 +77,7 @@ bool ProfileTableAxes::IsValid(std::string* error) const {
 }
 
 ProfileTable build_profile_table(const RadialProfileModel& model, const ProfileTableAxes& axes,
-                                 const std::string& illuminant_name, int threads, const TableProgress& progress) {
+                                 const std::string& illuminant_name, int threads, const files::Progress& progress) {
   std::string error;
   if (!axes.IsValid(&error)) throw std::invalid_argument("profile table axes: " + error);
   ProfileTable table;
@@ -112,10 +112,13 @@ ProfileTable build_profile_table(const RadialProfileModel& model, const ProfileT
       integral_error[e] = std::max(integral_error[e], std::abs(p.plane_integral_rgb[c] / p.albedo_rgb[c] - 1.0));
     }
     const std::size_t finished = ++done;
-    if (progress && omp_get_thread_num() == 0 && !progress(static_cast<double>(finished) / entries)) cancelled = true;
+    if (omp_get_thread_num() == 0) {  // the calling thread: never concurrently
+      progress.report(static_cast<double>(finished) / static_cast<double>(entries), "profile table");
+      if (progress.cancelled()) cancelled = true;
+    }
   }
-  if (cancelled.load()) throw std::runtime_error("cancelled");
-  if (progress) progress(1.0);
+  if (cancelled.load()) throw files::Cancelled{};
+  progress.report(1.0, "profile table");
   table.worst_plane_integral_error = *std::max_element(integral_error.begin(), integral_error.end());
   return table;
 }

@@ -66,7 +66,7 @@ struct MeasuredOnce {
   std::array<spectral::Spectrum, spectral::kLedTypeCount> truth;
   MeasuredOnce() {
     CalibrationRun run(*connected.leds, *connected.spectrometer, connected.lab.lamp_switch(), fast_run_options());
-    summary = run.run([this](double f, const std::string& s) { progress.emplace_back(f, s); });
+    summary = run.run({[this](double f, const std::string& s) { progress.emplace_back(f, s); }, {}});
     for (int i = 0; i < spectral::kLedTypeCount; ++i)
       truth[i] = true_full_drive_spectrum(connected.lab.lab(), static_cast<LedType>(i));
   }

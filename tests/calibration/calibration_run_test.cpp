@@ -117,9 +117,18 @@ TEST(CalibrationRun, CancelStopsAndSwitchesOff) {
   auto options = testing::fast_run_options();
   options.warm_up_s = 0.05;
   std::atomic<int> calls{0};
+  std::vector<double> reported;
   CalibrationRun run(*connected.leds, *connected.spectrometer, connected.lab.lamp_switch(), options);
-  const CalibrationSummary s = run.run({}, [&] { return ++calls > 3; });
+  // Progress (files/progress.hpp): polled before each step, reported after a
+  // poll that did not cancel; the fourth poll cancels.
+  const CalibrationSummary s =
+      run.run({[&](double fraction, const std::string&) { reported.push_back(fraction); }, [&] { return ++calls > 3; }});
   EXPECT_EQ(s.termination, CalibrationTermination::kCancelled);
+  EXPECT_EQ(s.message, "cancelled");
+  EXPECT_EQ(calls, 4);
+  ASSERT_EQ(reported.size(), 3u);  // the three steps begun, never 1
+  EXPECT_LT(reported.back(), 1.0);
+  EXPECT_FALSE(s.IsLibraryUsable());
   EXPECT_FALSE(connected.lab.lab().output_enabled());
   EXPECT_FALSE(connected.lab.lamp().on());
 }

@@ -172,14 +172,16 @@ TEST(Estimator, TilesMatchTheWholeImageAndCancelStops) {
   options.tile_pixels = 100;
   const Estimator estimator(testing::method_table(), set, options);
   std::vector<PixelEstimate> whole(f.pixels()), tile(100);
-  std::size_t progress_calls = 0, last_done = 0;
-  const EstimateSummary s = estimator.estimate(f.noisy, whole, {[&](std::size_t done, std::size_t total) {
+  std::size_t progress_calls = 0;
+  double last_fraction = 0;
+  const EstimateSummary s = estimator.estimate(f.noisy, whole, {[&](double fraction, const std::string& step) {
                                                    ++progress_calls;
-                                                   EXPECT_EQ(total, f.pixels());
-                                                   EXPECT_GT(done, last_done);
-                                                   last_done = done;
+                                                   EXPECT_EQ(step, "estimating maps");
+                                                   EXPECT_GT(fraction, last_fraction);
+                                                   last_fraction = fraction;
                                                  }, {}});
   EXPECT_EQ(progress_calls, 6u);
+  EXPECT_DOUBLE_EQ(last_fraction, 1.0);
   EXPECT_EQ(s.processed, f.pixels());
   estimator.estimate_tile(std::span(f.noisy).subspan(200 * 4, 100 * 4), tile);
   for (int i = 0; i < 100; ++i) {

@@ -1,4 +1,5 @@
 #include "chromo/maps/radial_profile.hpp"
+#include "chromo/maps/profile_table.hpp"
 
 #include <gtest/gtest.h>
 
@@ -60,3 +61,36 @@ TEST(RadialProfile, OptionsAreValidated) {
 }
 
 }  // namespace
+
+// build_profile_table's Progress (files/progress.hpp): with one thread every
+// entry is reported, in order, then 1; cancelled() stops it after the entry
+// under way with files::Cancelled.
+TEST(ProfileTable, ReportsEachEntryAndStopsWhenCancelled) {
+  ProfileTableAxes axes = ProfileTableAxes::Default();
+  axes.cm.resize(2);
+  axes.ch.resize(2);
+  ASSERT_EQ(axes.entry_count(), 36u);  // 2 × 2 × 3 βm × 3 Che
+
+  std::vector<double> fractions;
+  chromo::files::Progress progress;
+  progress.on_progress = [&](double fraction, const std::string& step) {
+    EXPECT_EQ(step, "profile table");
+    fractions.push_back(fraction);
+  };
+  const ProfileTable table = build_profile_table(d65_profiles(), axes, "d65", 1, progress);
+  EXPECT_EQ(table.albedo_rgb.size(), 36u * 3);
+  ASSERT_EQ(fractions.size(), 37u);  // each entry, then 1 at the end
+  for (std::size_t i = 0; i < 36; ++i) EXPECT_DOUBLE_EQ(fractions[i], (i + 1) / 36.0);
+  EXPECT_DOUBLE_EQ(fractions.back(), 1.0);
+
+  fractions.clear();
+  progress.should_cancel = [&] { return fractions.size() >= 5; };
+  try {
+    build_profile_table(d65_profiles(), axes, "d65", 1, progress);
+    ADD_FAILURE() << "a cancelled build returned a table";
+  } catch (const chromo::files::Cancelled& cancelled) {
+    EXPECT_STREQ(cancelled.what(), "cancelled");
+  }
+  ASSERT_EQ(fractions.size(), 5u);  // stopped after the fifth entry, no final 1
+  EXPECT_DOUBLE_EQ(fractions.back(), 5 / 36.0);
+}

@@ -42,6 +42,7 @@
 #include "chromo/drivers/led_controller.hpp"
 #include "chromo/drivers/spectrometer.hpp"
 #include "chromo/drivers/spectrometer_reader.hpp"
+#include "chromo/files/progress.hpp"
 
 namespace chromo::calibration {
 
@@ -63,14 +64,9 @@ struct CalibrationRunOptions {
   bool IsValid(std::string* error) const;
 };
 
-// Called with the fraction done (0-1) and what is being done now.
-using CalibrationProgress = std::function<void(double fraction, const std::string& step)>;
-// Polled between measurements; returning true cancels the run.
-using CalibrationCancel = std::function<bool()>;
-
 enum class CalibrationTermination {
   kCompleted,     // library complete (see linearity_ok)
-  kCancelled,     // the cancel callback said so; no library
+  kCancelled,     // progress.cancelled() said so; no library
   kDeviceError,   // a device failed or a channel is dead/faulted; message names it
   kInvalidInput,  // options rejected
 };
@@ -97,7 +93,11 @@ class CalibrationRun {
   CalibrationRun(drivers::LedController& leds, drivers::Spectrometer& spectrometer, LampSwitch lamp,
                  CalibrationRunOptions options);
 
-  CalibrationSummary run(const CalibrationProgress& progress = {}, const CalibrationCancel& cancel = {});
+  // Progress (files/progress.hpp): reported before each measurement step
+  // (the fraction of steps done and the step's text) and 1 ("done") at the
+  // end; cancelled() is polled before each step and ends the run with
+  // kCancelled, the LEDs off and no library.
+  CalibrationSummary run(const files::Progress& progress = {});
 
  private:
   drivers::LedController& leds_;

@@ -99,9 +99,11 @@ struct ClosedLoopSummary {
   bool converged() const { return termination == ClosedLoopTermination::kConverged; }
 };
 
-// Progress: fraction of max_iterations done and "iteration k: du'v' …".
+// Progress (files/progress.hpp): after each iteration, the fraction of
+// max_iterations done and "iteration k: du'v' …"; cancelled() is polled before
+// each iteration and each channel re-measurement and ends with kCancelled.
 ClosedLoopSummary run_closed_loop(drivers::LedController& leds, drivers::Spectrometer& spectrometer,
                                   const LedLibrary& library, const MixTarget& target, const ClosedLoopOptions& options,
-                                  const CalibrationProgress& progress = {}, const CalibrationCancel& cancel = {});
+                                  const files::Progress& progress = {});
 
 }  // namespace chromo::calibration

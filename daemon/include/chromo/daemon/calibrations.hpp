@@ -5,7 +5,8 @@
 // the same solver as `chromo leds solve`).
 //
 // A calibration run is an observable operation (kind kCalibration) like a
-// session: start() returns at once with its id; the run reports progress
+// session, run by the daemon's OperationRunner (operation_runner.hpp):
+// start() returns at once with its id; the run reports progress
 // (0-1), the estimated time left and the step being measured; cancel is
 // honoured between measurements. Its folder is
 //
@@ -23,9 +24,8 @@
 // (camera objective, the Nikon D5100 sensitivity, as `chromo leds solve`'s
 // defaults) and caches the weights until the library changes.
 //
-// Thread rules: thread-safe. start() must be called by the Daemon under its
-// run lock after checking that nothing else runs. The destructor cancels a
-// running calibration and joins its thread. The devices' mutexes are held
+// Thread rules: thread-safe. The runner must stop (cancel and join) before
+// the Calibrations is destroyed (Daemon does). The devices' mutexes are held
 // per call, not for the whole run (status queries stay answered).
 
 #include <filesystem>
@@ -34,12 +34,12 @@
 #include <mutex>
 #include <optional>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "chromo/calibration/session_mix.hpp"
 #include "chromo/daemon/device_set.hpp"
 #include "chromo/files/durable_file.hpp"
+#include "chromo/daemon/operation_runner.hpp"
 #include "chromo/daemon/operations.hpp"
 
 namespace chromo::calibration {
@@ -63,16 +63,16 @@ class Calibrations {
   // root: <sessions_dir>/calibrations (created by the first run). configured_library: the
   // configuration's led_library (may be empty).
   Calibrations(std::filesystem::path root, std::filesystem::path configured_library, DeviceSet& devices,
-               OperationRegistry& operations, files::StorageBudget* budget);
-  ~Calibrations();
+               OperationRunner& runner, files::StorageBudget* budget);
 
   // Every run in the folder, in-flight ones marked interrupted on disk; also
   // loads the newest succeeded run's library.
   std::vector<session::OperationRecord> recover();
 
   // Validates (std::invalid_argument naming the field; std::logic_error when
-  // a device is not open or there is no reference lamp), writes the folder,
-  // starts the run's thread.
+  // a device is not open or there is no reference lamp; std::logic_error
+  // from the runner while another operation runs), writes the folder, starts
+  // the run on the runner.
   session::OperationRecord start(const CalibrationRequest& request);
 
   // std::invalid_argument naming "target"/"objective" for a bad request;
@@ -84,22 +84,22 @@ class Calibrations {
   std::string library_path() const;
 
  private:
-  void run(std::string id, CalibrationRequest request, std::filesystem::path folder,
-           std::shared_ptr<OperationControl> control, NamedDevice<drivers::LedController>* led,
-           NamedDevice<drivers::Spectrometer>* spectrometer);
+  // The work of a calibration operation: the run, then the library and the
+  // final calibration.json.
+  OperationRunner::Outcome run(RunningOperation& running, const CalibrationRequest& request,
+                               const std::filesystem::path& folder, NamedDevice<drivers::LedController>* led,
+                               NamedDevice<drivers::Spectrometer>* spectrometer);
   void use_library(const std::filesystem::path& path);
 
   std::filesystem::path root_;
   DeviceSet& devices_;
-  OperationRegistry& operations_;
+  OperationRunner& runner_;
   files::StorageBudget* budget_;
 
-  mutable std::mutex mutex_;  // library, cache, worker
+  mutable std::mutex mutex_;  // library, cache
   std::shared_ptr<const calibration::LedLibrary> library_;
   std::filesystem::path library_path_;
   mutable std::map<std::string, drivers::DriveLevels> mix_cache_;
-  std::thread worker_;
-  std::string running_id_;
 };
 
 }  // namespace chromo::daemon

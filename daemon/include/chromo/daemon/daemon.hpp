@@ -4,23 +4,23 @@
 // can drive a Daemon directly.
 //
 // Owns the devices, the operation registry and event bus, the session store.
-// One session or calibration runs at a time (on its own thread); starting a
-// second gets FAILED_PRECONDITION from the API (std::logic_error here).
+// One session or calibration runs at a time, on the thread of the daemon's
+// OperationRunner (operation_runner.hpp); starting a second gets
+// FAILED_PRECONDITION from the API (std::logic_error here).
 //
-// Lifetime: the destructor cancels a running session and joins its thread;
-// the session then ends CANCELLED on disk. Thread-safe.
+// Lifetime: the destructor cancels a running session or calibration and
+// joins its thread; a session then ends CANCELLED on disk. Thread-safe.
 
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "chromo/daemon/calibrations.hpp"
 #include "chromo/daemon/config.hpp"
 #include "chromo/daemon/device_set.hpp"
 #include "chromo/files/durable_file.hpp"
+#include "chromo/daemon/operation_runner.hpp"
 #include "chromo/daemon/operations.hpp"
 #include "chromo/session/session_store.hpp"
 
@@ -67,8 +67,10 @@ class Daemon {
   void ensure_idle() const;
 
  private:
-  void run_session(std::string id, session::SessionPlan plan, std::shared_ptr<session::Journal> journal, std::filesystem::path folder,
-                   std::shared_ptr<OperationControl> control);
+  // The work of a session operation: the sequencer, the pipeline, derived
+  // data and the on-line estimator's results, and the journal's last records.
+  OperationRunner::Outcome run_session(RunningOperation& running, const session::SessionPlan& plan,
+                                       const std::shared_ptr<session::Journal>& journal, const std::filesystem::path& folder);
 
   DaemonConfig config_;
   DeviceSet devices_;
@@ -78,10 +80,9 @@ class Daemon {
   EventBus events_;
   OperationRegistry operations_{events_};
   session::SessionStore store_;
-  std::mutex run_mutex_;
-  std::thread worker_;
-  std::string running_id_;
-  // Last: its destructor joins a running calibration, which uses the members above.
+  // Runs sessions and calibrations; ~Daemon() stops it first, since the work
+  // uses the members around it.
+  OperationRunner runner_{operations_};
   std::unique_ptr<Calibrations> calibrations_;
 };
 

@@ -41,6 +41,7 @@
 #include "chromo/session/journal.hpp"
 #include "chromo/session/operation_record.hpp"
 #include "chromo/drivers/camera.hpp"
+#include "chromo/files/progress.hpp"
 
 namespace chromo::daemon {
 
@@ -72,7 +73,7 @@ class FrameConsumer {
     std::filesystem::path folder;
     nlohmann::json plan;  // session.json's plan
     // Progress of the consumer's own work (0-1) with a short message; any thread.
-    std::function<void(double fraction, const std::string& message)> progress;
+    files::Progress progress;
   };
   struct SessionEnd {
     bool succeeded = false;  // the plan ran to its end (else results are not attempted)

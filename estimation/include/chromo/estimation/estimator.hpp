@@ -36,10 +36,12 @@
 // Thread rules: an Estimator is immutable after construction. estimate_tile()
 // may be called concurrently from any number of threads on disjoint outputs
 // (the daemon runs one tile per core as frames arrive). estimate() splits an
-// image into tiles over options.threads threads itself; its progress callback
-// is called under a lock (never concurrently) after each tile, and cancel is
-// polled before each tile: a cancelled run returns with summary.cancelled and
-// the pixels of tiles not started left untouched.
+// image into tiles over options.threads threads itself. Its Progress
+// (files/progress.hpp) is reported under a lock (never concurrently) after
+// each tile, with the fraction of pixels done and "estimating maps", and
+// cancelled() is polled under the same lock before each tile: a cancelled run
+// returns with summary.cancelled and the pixels of tiles not started left
+// untouched.
 
 #include <cstdint>
 #include <filesystem>
@@ -49,6 +51,7 @@
 #include <string>
 
 #include "chromo/estimation/forward_table.hpp"
+#include "chromo/files/progress.hpp"
 #include <optional>
 #include <string_view>
 
@@ -108,11 +111,6 @@ struct EstimateSummary {
   void merge(const EstimateSummary& other);
 };
 
-struct EstimateCallbacks {
-  std::function<void(std::size_t done_pixels, std::size_t total_pixels)> progress;  // optional
-  std::function<bool()> cancel;                                                     // optional: true = stop
-};
-
 // Inverse χ² CDF (quantile) for k degrees of freedom, p in (0, 1).
 double chi_squared_quantile(double p, int degrees_of_freedom);
 
@@ -134,7 +132,7 @@ class Estimator {
   EstimateSummary estimate_tile(std::span<const float> measured, std::span<PixelEstimate> out) const;
   // The whole image on options().threads threads, tile by tile.
   EstimateSummary estimate(std::span<const float> measured, std::span<PixelEstimate> out,
-                           const EstimateCallbacks& callbacks = {}) const;
+                           const files::Progress& progress = {}) const;
 
   // Predicted measurement of parameters through the table (for residual maps).
   void predict(const SkinParameters& p, double* out) const;

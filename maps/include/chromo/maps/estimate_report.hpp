@@ -94,7 +94,7 @@ struct MethodEstimationResult {
 // (nothing written), std::runtime_error for failed writes.
 MethodEstimationResult estimate_method_captures(const session::MethodCaptures& captures, const MethodEstimationOptions& options,
                                                 const std::filesystem::path& out_dir, const FileCommit& commit,
-                                                const estimation::EstimateCallbacks& callbacks = {},
+                                                const files::Progress& progress = {},
                                                 const std::string& extra_json = "{}");
 
 }  // namespace chromo::maps

@@ -99,7 +99,7 @@ struct ExportProfilesOptions {
   std::filesystem::path maps;  // optional: also index.exr
   ProfileTableAxes axes = ProfileTableAxes::Default();
   int threads = 0;
-  TableProgress progress;      // optional
+  files::Progress progress;    // optional (profile_table.hpp)
 };
 struct ExportProfilesSummary {
   std::size_t entries = 0, radii = 0, unmapped_pixels = 0;

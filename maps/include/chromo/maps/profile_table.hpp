@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "chromo/files/output_batch.hpp"
+#include "chromo/files/progress.hpp"
 #include "chromo/maps/radial_profile.hpp"
 
 namespace chromo::maps {
@@ -41,14 +42,14 @@ struct ProfileTable {
   }
 };
 
-// Progress in [0, 1]; return false to cancel (build_profile_table then throws
-// std::runtime_error("cancelled")).
-using TableProgress = std::function<bool(double fraction_done)>;
-
-// Throws std::invalid_argument when the axes are not valid.
+// Throws std::invalid_argument when the axes are not valid. Progress
+// (files/progress.hpp): reported from the calling thread with the fraction of
+// entries done and "profile table", and 1 at the end; cancelled() is polled
+// on the calling thread after each entry it computes, and then
+// build_profile_table throws files::Cancelled once the entries under way are done.
 ProfileTable build_profile_table(const RadialProfileModel& model, const ProfileTableAxes& axes,
                                  const std::string& illuminant_name, int threads = 0,
-                                 const TableProgress& progress = {});
+                                 const files::Progress& progress = {});
 
 // Adds profiles.json and profiles.f32 to `files` (written to temporaries;
 // they appear in the batch's directory, crash-safe, at files.commit()).

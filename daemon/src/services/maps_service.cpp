@@ -1,12 +1,12 @@
-#include "chromo/daemon/maps_service.hpp"
-
+// MapsService: relight, flush, import-maps and profile export on session files (services.hpp, docs/maps.md).
 #include <filesystem>
 #include <string>
 
 #include "chromo/maps/map_operations.hpp"
 #include "chromosphere/v1/maps.grpc.pb.h"
+#include "services.hpp"
 
-namespace chromo::daemon {
+namespace chromo::daemon::services {
 namespace {
 
 namespace fs = std::filesystem;
@@ -98,7 +98,7 @@ double scale_field(double value, const char* field) {
 
 class MapsServiceImpl final : public pb::MapsService::Service {
  public:
-  MapsServiceImpl(Daemon& daemon, HandlerGuard guard) : daemon_(daemon), guard_(std::move(guard)) {}
+  MapsServiceImpl(Daemon& daemon, Guard& guard) : daemon_(daemon), guard_(guard) {}
 
   Status Relight(ServerContext* context, const pb::RelightRequest* request, pb::RelightResponse* response) override {
     return run(context, [&] {
@@ -228,13 +228,13 @@ class MapsServiceImpl final : public pb::MapsService::Service {
     });
   }
   Daemon& daemon_;
-  HandlerGuard guard_;
+  Guard& guard_;
 };
 
 }  // namespace
 
-std::unique_ptr<grpc::Service> make_maps_service(Daemon& daemon, HandlerGuard guard) {
-  return std::make_unique<MapsServiceImpl>(daemon, std::move(guard));
+std::unique_ptr<grpc::Service> make_maps_service(Daemon& daemon, Guard& guard) {
+  return std::make_unique<MapsServiceImpl>(daemon, guard);
 }
 
-}  // namespace chromo::daemon
+}  // namespace chromo::daemon::services

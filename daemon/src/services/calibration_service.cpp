@@ -1,0 +1,62 @@
+// CalibrationService: the mix solver on the daemon's LED library and calibration runs (calibration.proto).
+#include <string>
+
+#include "chromosphere/v1/calibration.grpc.pb.h"
+#include "services.hpp"
+
+namespace chromo::daemon::services {
+namespace {
+
+class CalibrationServiceImpl final : public pb::CalibrationService::Service {
+ public:
+  CalibrationServiceImpl(Daemon& daemon, Guard& guard) : daemon_(daemon), guard_(guard) {}
+  Status SolveMix(ServerContext* context, const pb::SolveMixRequest* request, pb::SolveMixResponse* response) override {
+    return guard_(context, [&] {
+      if (request->target().size() > 256) return invalid("target: longer than 256 bytes");
+      if (!pb::MixObjective_IsValid(request->objective())) return invalid("objective: unknown value");
+      std::string objective = "camera";
+      if (request->objective() == pb::MIX_OBJECTIVE_SPECTRAL) objective = "spectral";
+      if (request->objective() == pb::MIX_OBJECTIVE_XYZ) objective = "xyz";
+      const bool w57 = request->target() == "w57";
+      if (!w57 && (request->target().ends_with(".csv") || request->target().find('/') != std::string::npos))
+        return invalid("target: files are not accepted over the API (d65, w57, w57+blue[:R], cct:K)");
+      // The calibration library's mix solver on the daemon's LED library
+      // (calibrations.hpp); FAILED_PRECONDITION when there is none yet.
+      auto solved = daemon_.calibrations().solve(request->target(), objective, request->hold_chromaticity());
+      to_proto(solved.weights, response->mutable_weights());
+      for (const auto& [name, value] : solved.figures) (*response->mutable_figures())[name] = value;
+      response->set_summary(solved.summary);
+      response->set_library(solved.library);
+      return Status::OK;
+    });
+  }
+  Status StartCalibration(ServerContext* context, const pb::StartCalibrationRequest* request,
+                          pb::Operation* response) override {
+    return guard_(context, [&] {
+      if (request->drive_levels_size() > 64) return invalid("drive_levels: at most 64 rungs");
+      if (request->controller().size() > 64) return invalid("controller: longer than 64 bytes");
+      if (request->spectrometer().size() > 64) return invalid("spectrometer: longer than 64 bytes");
+      CalibrationRequest calibration;
+      calibration.controller = request->controller();
+      calibration.spectrometer = request->spectrometer();
+      calibration.drive_levels.assign(request->drive_levels().begin(), request->drive_levels().end());
+      calibration.warmup_ms = request->warmup_ms();
+      // Field-naming std::invalid_argument → INVALID_ARGUMENT; another
+      // operation running or no reference lamp → FAILED_PRECONDITION.
+      to_proto(daemon_.start_calibration(calibration), response);
+      return Status::OK;
+    });
+  }
+
+ private:
+  Daemon& daemon_;
+  Guard& guard_;
+};
+
+}  // namespace
+
+std::unique_ptr<grpc::Service> make_calibration_service(Daemon& daemon, Guard& guard) {
+  return std::make_unique<CalibrationServiceImpl>(daemon, guard);
+}
+
+}  // namespace chromo::daemon::services

@@ -1,0 +1,98 @@
+// SessionService: sessions: start one (a plan or the standard plan), list, read back (sessions.proto).
+#include <string>
+
+#include "chromosphere/v1/sessions.grpc.pb.h"
+#include "services.hpp"
+
+namespace chromo::daemon::services {
+namespace {
+
+class SessionServiceImpl final : public pb::SessionService::Service {
+ public:
+  SessionServiceImpl(Daemon& daemon, Guard& guard) : daemon_(daemon), guard_(guard) {}
+  Status StartSession(ServerContext* context, const pb::StartSessionRequest* request, pb::Operation* response) override {
+    return guard_(context, [&] {
+      if (request->subject().size() > session::kMaxTextBytes) return invalid("subject: longer than 4096 bytes");
+      if (!request->name().empty() && !session::is_valid_name(request->name()))
+        return invalid("name: must match [A-Za-z0-9_+.-]{1,64}");
+      session::SessionPlan plan;
+      if (request->plan_source_case() == pb::StartSessionRequest::kPlan) {
+        if (Status s = from_proto(request->plan(), "plan", &plan); !s.ok()) return s;
+      } else if (request->plan_source_case() == pb::StartSessionRequest::kStandard && request->standard()) {
+        session::StandardPlanOptions options;
+        if (Status s = standard_options(request->timing(), request->exposure_us(), request->frames_per_camera(),
+                                        request->operator_prompts(), &options);
+            !s.ok())
+          return s;
+        plan = session::standard_plan(options);
+      } else {
+        return invalid("plan_source: set standard = true or give a plan");
+      }
+      if (!request->name().empty()) plan.name = request->name();
+      to_proto(daemon_.start_session(std::move(plan), request->subject()), response);
+      return Status::OK;
+    });
+  }
+  Status GetStandardPlan(ServerContext* context, const pb::GetStandardPlanRequest* request, pb::SessionPlan* response) override {
+    return guard_(context, [&] {
+      session::StandardPlanOptions options;
+      if (Status s = standard_options(request->timing(), request->exposure_us(), request->frames_per_camera(),
+                                      request->operator_prompts(), &options);
+          !s.ok())
+        return s;
+      to_proto(session::standard_plan(options), response);
+      return Status::OK;
+    });
+  }
+  Status ListSessions(ServerContext* context, const pb::ListSessionsRequest* request, pb::ListSessionsResponse* response) override {
+    return guard_(context, [&] {
+      if (request->limit() > 10000) return invalid("limit: at most 10000");
+      std::uint32_t count = 0;
+      for (const auto& record : daemon_.operations().list()) {
+        if (record.kind != session::OperationKind::kSession) continue;
+        if (request->limit() && count++ >= request->limit()) break;
+        auto* summary = response->add_sessions();
+        summary->set_id(record.id);
+        summary->set_name(record.name);
+        summary->set_folder(record.folder);
+        to_proto(record, summary->mutable_operation());
+      }
+      return Status::OK;
+    });
+  }
+  Status GetSession(ServerContext* context, const pb::GetSessionRequest* request, pb::SessionDetail* response) override {
+    return guard_(context, [&] {
+      if (Status s = check_id("id", request->id()); !s.ok()) return s;
+      auto info = daemon_.session(request->id());
+      if (!info) return Status(StatusCode::NOT_FOUND, "id: no session \"" + request->id() + "\"");
+      to_proto(*info, request->include_frames(), response);
+      return Status::OK;
+    });
+  }
+
+ private:
+  static Status standard_options(int timing, double exposure_us, std::uint32_t frames, bool prompts, session::StandardPlanOptions* options) {
+    if (!pb::Timing_IsValid(timing)) return invalid("timing: unknown value " + std::to_string(timing));
+    options->timing = timing == pb::TIMING_HARDWARE ? session::Timing::kHardware : session::Timing::kSoftware;
+    if (exposure_us != 0) {
+      if (!(exposure_us > 0 && exposure_us <= session::kMaxExposureUs)) return invalid("exposure_us: must be in (0, 10000000]");
+      options->exposure_us = exposure_us;
+    }
+    if (frames != 0) {
+      if (frames > session::kMaxFramesPerCamera) return invalid("frames_per_camera: must be in [1, 1000]");
+      options->frames_per_camera = frames;
+    }
+    options->operator_prompts = prompts;
+    return Status::OK;
+  }
+  Daemon& daemon_;
+  Guard& guard_;
+};
+
+}  // namespace
+
+std::unique_ptr<grpc::Service> make_session_service(Daemon& daemon, Guard& guard) {
+  return std::make_unique<SessionServiceImpl>(daemon, guard);
+}
+
+}  // namespace chromo::daemon::services
