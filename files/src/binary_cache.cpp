@@ -43,23 +43,36 @@ std::string cache_file_name(const std::string& stem, std::uint64_t key) {
 }
 
 std::optional<std::vector<std::uint8_t>> read_cache(const fs::path& file, const CacheFormat& format,
-                                                    std::uint64_t key) {
+                                                    std::uint64_t key, std::string* why) {
+  auto miss = [&](const std::string& reason) -> std::optional<std::vector<std::uint8_t>> {
+    if (why) *why = reason;
+    return std::nullopt;
+  };
   std::error_code error;
   const std::uintmax_t file_bytes = fs::file_size(file, error);
-  if (error || file_bytes < kHeaderBytes + kChecksumBytes) return std::nullopt;
+  if (error) return miss("cannot read it (" + error.message() + ")");
   std::ifstream in(file, std::ios::binary);
   Header header;
-  if (!read_value(in, header.magic) || !read_value(in, header.version) || !read_value(in, header.key) ||
-      !read_value(in, header.payload_bytes))
-    return std::nullopt;
-  if (header.magic != format.magic || header.version != format.version || header.key != key) return std::nullopt;
-  if (header.payload_bytes != file_bytes - kHeaderBytes - kChecksumBytes) return std::nullopt;
+  const std::string magic(format.magic.data(), format.magic.size());
+  if (!read_value(in, header.magic) || header.magic != format.magic)
+    return miss("another kind of file (its magic is not " + magic + ")");
+  if (!read_value(in, header.version) || !read_value(in, header.key) || !read_value(in, header.payload_bytes))
+    return miss("truncated header");
+  if (header.version != format.version)
+    return miss("another format version (" + std::to_string(header.version) + ", this build reads " +
+                std::to_string(format.version) + ")");
+  if (header.key != key) return miss("another key");
+  if (file_bytes < kHeaderBytes + kChecksumBytes || header.payload_bytes != file_bytes - kHeaderBytes - kChecksumBytes)
+    return miss("truncated, extended or with a corrupted length (its header says " +
+                std::to_string(header.payload_bytes) + " payload bytes, the file holds " + std::to_string(file_bytes) +
+                " bytes in all)");
   std::vector<std::uint8_t> payload(header.payload_bytes);
   std::uint64_t checksum = 0;
   if (!in.read(reinterpret_cast<char*>(payload.data()), static_cast<std::streamsize>(payload.size())) ||
       !read_value(in, checksum) || in.peek() != std::char_traits<char>::eof())
-    return std::nullopt;  // the file changed size while we read it
-  if (checksum != checksum_of(payload)) return std::nullopt;
+    return miss("truncated while it was read");
+  if (checksum != checksum_of(payload)) return miss("checksum mismatch (corrupted bytes)");
+  if (why) why->clear();
   return payload;
 }
 

@@ -75,10 +75,15 @@ TEST_F(BinaryCacheTest, AnotherMagicVersionOrKeyIsAMiss) {
   other_magic.magic[7] = 'X';
   CacheFormat other_version = kFormat;
   other_version.version = 4;
-  EXPECT_FALSE(read_cache(file_, other_magic, kKey));
-  EXPECT_FALSE(read_cache(file_, other_version, kKey));
-  EXPECT_FALSE(read_cache(file_, kFormat, kKey + 1));
-  EXPECT_TRUE(read_cache(file_, kFormat, kKey));
+  std::string why;
+  EXPECT_FALSE(read_cache(file_, other_magic, kKey, &why));
+  EXPECT_EQ(why, "another kind of file (its magic is not CHROTESX)");
+  EXPECT_FALSE(read_cache(file_, other_version, kKey, &why));
+  EXPECT_EQ(why, "another format version (3, this build reads 4)");
+  EXPECT_FALSE(read_cache(file_, kFormat, kKey + 1, &why));
+  EXPECT_EQ(why, "another key");
+  EXPECT_TRUE(read_cache(file_, kFormat, kKey, &why));
+  EXPECT_EQ(why, "");
 }
 
 TEST_F(BinaryCacheTest, ATruncatedFileIsAMiss) {
@@ -101,7 +106,9 @@ TEST_F(BinaryCacheTest, ACorruptedLengthIsAMiss) {
   for (std::uint64_t length : {std::uint64_t{0}, std::uint64_t{1} << 40, ~std::uint64_t{0}}) {
     std::memcpy(bytes.data() + 20, &length, sizeof length);  // payload_bytes (the layout in the header)
     overwrite(file_, bytes);
-    EXPECT_FALSE(read_cache(file_, kFormat, kKey)) << length;
+    std::string why;
+    EXPECT_FALSE(read_cache(file_, kFormat, kKey, &why)) << length;
+    EXPECT_NE(why.find("corrupted length"), std::string::npos) << why;
   }
 }
 
@@ -109,7 +116,9 @@ TEST_F(BinaryCacheTest, ACorruptedPayloadByteIsAMiss) {
   auto bytes = file_bytes(file_);
   bytes[28 + 5] ^= 0x10;  // one bit of the double
   overwrite(file_, bytes);
-  EXPECT_FALSE(read_cache(file_, kFormat, kKey));
+  std::string why;
+  EXPECT_FALSE(read_cache(file_, kFormat, kKey, &why));
+  EXPECT_EQ(why, "checksum mismatch (corrupted bytes)");
 }
 
 TEST(CacheReader, ReadingPastTheEndFailsAndStaysFailed) {

@@ -43,6 +43,7 @@
 #include <span>
 #include <string>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace chromo::files {
@@ -57,9 +58,11 @@ struct CacheFormat {
 std::string cache_file_name(const std::string& stem, std::uint64_t key);
 
 // The payload of `file` when it is intact and of this format and key;
-// std::nullopt otherwise (see above). Never throws (but std::bad_alloc).
+// std::nullopt otherwise (see above), with *why (optional) saying which check
+// failed, e.g. "another key", "checksum mismatch (corrupted bytes)", for a
+// caller that warns. Never throws (but std::bad_alloc).
 std::optional<std::vector<std::uint8_t>> read_cache(const std::filesystem::path& file, const CacheFormat& format,
-                                                    std::uint64_t key);
+                                                    std::uint64_t key, std::string* why = nullptr);
 
 // Writes the cache file durably, creating its folder if needed. Throws
 // std::runtime_error naming the file when it cannot; the target is then
@@ -89,6 +92,8 @@ class CacheWriter {
   }
   void reserve(std::size_t size) { bytes_.reserve(size); }
   const std::vector<std::uint8_t>& bytes() const { return bytes_; }
+  // The payload, moved out (the writer is empty afterwards).
+  std::vector<std::uint8_t> take_bytes() { return std::move(bytes_); }
 
  private:
   std::vector<std::uint8_t> bytes_;
