@@ -9,6 +9,7 @@
 #include "chromo/calibration/led_library_io.hpp"
 #include "chromo/calibration/mix_solver.hpp"
 #include "chromo/calibration/session_mix.hpp"
+#include "chromo/files/temporary_file.hpp"
 #include "chromo/session/session_plan.hpp"
 #include "chromo/session/session_store.hpp"
 #include "chromo/spectral/camera.hpp"
@@ -108,8 +109,7 @@ std::vector<session::OperationRecord> Calibrations::recover() {
   for (const auto& entry : std::filesystem::directory_iterator(root_)) {
     const auto file = entry.path() / kRecordFile;
     if (!entry.is_directory() || !std::filesystem::exists(file)) continue;
-    for (const auto& leftover : std::filesystem::directory_iterator(entry.path()))
-      if (leftover.path().filename().string().find(".tmp") != std::string::npos) std::filesystem::remove(leftover.path());
+    files::remove_leftover_temporaries(entry.path());  // writes a crash interrupted
     nlohmann::json j;
     try {
       std::ifstream in(file);

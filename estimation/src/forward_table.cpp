@@ -5,22 +5,20 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
-#include <cstdio>
-#include <cstring>
-#include <fstream>
+#include <iterator>
 #include <stdexcept>
-#include <system_error>
-#include <unistd.h>
 
 #include "chromo/estimation/skin_model.hpp"
+#include "chromo/files/binary_cache.hpp"
 #include "chromo/files/fnv1a.hpp"
 
 namespace chromo::estimation {
 
 namespace {
 
-constexpr char kMagic[8] = {'C', 'H', 'R', 'O', 'M', 'O', 'F', 'T'};
-constexpr std::uint32_t kFormatVersion = 1;
+// Version 2: the file is a files/binary_cache.hpp file (version 1 had no
+// payload length or checksum).
+constexpr files::CacheFormat kCacheFormat{{'C', 'H', 'R', 'O', 'M', 'O', 'F', 'T'}, 2};
 
 struct Axis {
   double min, max;
@@ -146,8 +144,8 @@ void ForwardTable::predict(const GridPoint& x, double* value, double* jacobian) 
 
 std::uint64_t ForwardTable::cache_key(const MeasurementSet& set, const TableGrid& grid) {
   files::Fnv1a h;
-  h.add(kMagic, sizeof kMagic);
-  h.add(kFormatVersion);
+  h.add(kCacheFormat.magic);
+  h.add(kCacheFormat.version);
   h.add(grid.cm_nodes), h.add(grid.ch_nodes), h.add(grid.bm_nodes), h.add(grid.che_nodes);
   for (const Axis& a : kAxes) h.add(a.min), h.add(a.max), h.add(a.log);
   const Eigen::MatrixXd w = set.weights();
@@ -221,28 +219,21 @@ std::shared_ptr<const ForwardTable> ForwardTable::load_or_build(const Measuremen
   if (!grid.IsValid(&error)) throw std::invalid_argument("table grid: " + error);
   set.validate();
   const std::uint64_t key = cache_key(set, grid);
-  char name[64];
-  std::snprintf(name, sizeof name, "forward_table_%016llx.bin", static_cast<unsigned long long>(key));
-  const std::filesystem::path file = cache_dir / name;
-  {
-    std::ifstream in(file, std::ios::binary);
-    char magic[8];
-    std::uint32_t version = 0;
-    std::uint64_t stored_key = 0;
-    std::int32_t dims[5] = {};
-    if (in.read(magic, 8) && std::memcmp(magic, kMagic, 8) == 0 &&
-        in.read(reinterpret_cast<char*>(&version), sizeof version) && version == kFormatVersion &&
-        in.read(reinterpret_cast<char*>(&stored_key), sizeof stored_key) && stored_key == key &&
-        in.read(reinterpret_cast<char*>(dims), sizeof dims) && dims[0] == grid.cm_nodes &&
-        dims[1] == grid.ch_nodes && dims[2] == grid.bm_nodes && dims[3] == grid.che_nodes && dims[4] == set.size()) {
+  const std::filesystem::path file = cache_dir / files::cache_file_name("forward_table", key);
+  const std::int32_t dims[5] = {grid.cm_nodes, grid.ch_nodes, grid.bm_nodes, grid.che_nodes, set.size()};
+  if (const auto payload = files::read_cache(file, kCacheFormat, key)) {
+    // Payload: the five dimensions (int32), then the values (float).
+    files::CacheReader in(*payload);
+    std::int32_t stored_dims[5];
+    in.get_bytes(stored_dims, sizeof stored_dims);
+    if (in.ok() && std::equal(std::begin(dims), std::end(dims), std::begin(stored_dims))) {
       auto t = std::make_shared<ForwardTable>();
       t->grid_ = grid;
       t->channels_ = set.size();
       t->key_ = key;
       t->values_.resize(grid.node_count() * t->channels_);
-      const auto bytes = static_cast<std::streamsize>(t->values_.size() * sizeof(float));
-      if (in.read(reinterpret_cast<char*>(t->values_.data()), bytes) && in.gcount() == bytes &&
-          in.peek() == std::char_traits<char>::eof()) {
+      in.get_bytes(t->values_.data(), t->values_.size() * sizeof(float));
+      if (in.at_end()) {
         if (rebuilt) *rebuilt = false;
         return t;
       }
@@ -250,28 +241,15 @@ std::shared_ptr<const ForwardTable> ForwardTable::load_or_build(const Measuremen
   }
   auto t = std::make_shared<ForwardTable>(build(set, grid, threads));
   if (rebuilt) *rebuilt = true;
-  std::error_code ec;
-  std::filesystem::create_directories(cache_dir, ec);
-  const std::filesystem::path temporary =
-      cache_dir / (std::string(name) + ".tmp" + std::to_string(static_cast<long long>(::getpid())));
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    const std::int32_t dims[5] = {grid.cm_nodes, grid.ch_nodes, grid.bm_nodes, grid.che_nodes, set.size()};
-    out.write(kMagic, 8);
-    out.write(reinterpret_cast<const char*>(&kFormatVersion), sizeof kFormatVersion);
-    out.write(reinterpret_cast<const char*>(&key), sizeof key);
-    out.write(reinterpret_cast<const char*>(dims), sizeof dims);
-    out.write(reinterpret_cast<const char*>(t->values_.data()),
-              static_cast<std::streamsize>(t->values_.size() * sizeof(float)));
-    if (!out) {
-      // A cache that cannot be written is not an error: the table is in memory.
-      out.close();
-      std::filesystem::remove(temporary, ec);
-      return t;
-    }
+  files::CacheWriter out;
+  out.reserve(sizeof dims + t->values_.size() * sizeof(float));
+  out.put_bytes(dims, sizeof dims);
+  out.put_bytes(t->values_.data(), t->values_.size() * sizeof(float));
+  try {
+    files::write_cache(file, kCacheFormat, key, out.take_bytes());
+  } catch (const std::exception&) {
+    // A cache that cannot be written is not an error: the table is in memory.
   }
-  std::filesystem::rename(temporary, file, ec);
-  if (ec) std::filesystem::remove(temporary, ec);
   return t;
 }
 

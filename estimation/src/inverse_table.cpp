@@ -2,18 +2,16 @@
 // its cache file. The build is in inverse_table_build.cpp.
 #include "chromo/estimation/inverse_table.hpp"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
-#include <fstream>
 #include <map>
 #include <mutex>
 #include <stdexcept>
 #include <system_error>
 
+#include "chromo/files/binary_cache.hpp"
+#include "chromo/files/fnv1a.hpp"
 #include "inverse_table_internal.hpp"
 
 namespace chromo::estimation {
@@ -60,11 +58,11 @@ std::array<double, 4> InverseTableSettings::quantised_sigma() const {
 std::uint64_t InverseTable::cache_key(const ForwardTable& table, const InverseTableSettings& settings) {
   std::string error;
   if (!settings.IsValid(&error)) throw std::invalid_argument("inverse table settings: " + error);
-  WordHash h;
-  h.add(kMagic, sizeof kMagic);
-  h.add_value(kFormatVersion);
-  h.add_value(table.key());
-  h.add_value(table.channels());
+  files::Fnv1a h;
+  h.add(kCacheFormat.magic);
+  h.add(kCacheFormat.version);
+  h.add(table.key());
+  h.add(table.channels());
   const auto n = table.nodes();
   h.add(n.data(), sizeof n);
   h.add(table.values().data(), table.values().size() * sizeof(float));
@@ -72,17 +70,13 @@ std::uint64_t InverseTable::cache_key(const ForwardTable& table, const InverseTa
                          kSameBranch, kBranchChi2Margin, kMaxCondition, double(kFillReach[0]), double(kFillReach[1]),
                          double(kFillReach[2]), double(kFillReach[3]), double(kPresolveBlock[0]),
                          double(kPresolveBlock[1]), double(kPresolveBlock[2]), double(kPresolveBlock[3])})
-    h.add_value(setting);
-  h.add_value(settings.presolve_empty_cells);
-  for (double q : settings.quantised_sigma()) h.add_value(q);  // the pre-solved fits' weights
+    h.add(setting);
+  h.add(settings.presolve_empty_cells);
+  for (double q : settings.quantised_sigma()) h.add(q);  // the pre-solved fits' weights
   return h.h;
 }
 
-std::string InverseTable::file_name(std::uint64_t key) {
-  char name[64];
-  std::snprintf(name, sizeof name, "inverse_table_%016llx.bin", static_cast<unsigned long long>(key));
-  return name;
-}
+std::string InverseTable::file_name(std::uint64_t key) { return files::cache_file_name("inverse_table", key); }
 
 void InverseTable::key_of(const float* values, float* key) const {
   float centred[4];
@@ -117,97 +111,51 @@ double InverseTable::filled_share() const {
   return static_cast<double>(filled) / static_cast<double>(cell_index_.size());
 }
 
-namespace {
-
-template <class T>
-void write_array(std::ofstream& out, WordHash& h, const std::vector<T>& a) {
-  const std::uint64_t n = a.size();
-  out.write(reinterpret_cast<const char*>(&n), sizeof n);
-  out.write(reinterpret_cast<const char*>(a.data()), static_cast<std::streamsize>(n * sizeof(T)));
-  h.add_value(n);
-  h.add(a.data(), n * sizeof(T));
+// The cache file's payload (files/binary_cache.hpp holds magic, version,
+// key, length and checksum): the key space's dimensions and bins, its mean,
+// axes, minimum and scale, the cell index, the cells, the occupied cells'
+// count, the bucket nodes and the branches (each array: uint64 count, then
+// the elements).
+std::vector<std::uint8_t> InverseTable::encode() const {
+  files::CacheWriter out;
+  out.reserve(2 * sizeof(std::int32_t) + sizeof key_mean_ + sizeof key_axes_ + sizeof key_min_ + sizeof key_scale_ +
+              5 * sizeof(std::uint64_t) + cell_index_.size() * sizeof(std::uint32_t) + cells_.size() * sizeof(Cell) +
+              bucket_nodes_.size() * sizeof(std::uint32_t) + branches_.size() * sizeof(Branch));
+  out.put<std::int32_t>(key_dims_);
+  out.put<std::int32_t>(kBins);
+  out.put(key_mean_), out.put(key_axes_), out.put(key_min_), out.put(key_scale_);
+  out.put_vector(cell_index_);
+  out.put_vector(cells_);
+  out.put<std::uint64_t>(occupied_cells_);
+  out.put_vector(bucket_nodes_);
+  out.put_vector(branches_);
+  return out.take_bytes();
 }
 
-template <class T>
-bool read_array(std::ifstream& in, WordHash& h, std::vector<T>& a, std::uint64_t max_size) {
-  std::uint64_t n = 0;
-  if (!in.read(reinterpret_cast<char*>(&n), sizeof n) || n > max_size) return false;
-  a.resize(n);
-  const auto bytes = static_cast<std::streamsize>(n * sizeof(T));
-  if (!in.read(reinterpret_cast<char*>(a.data()), bytes) || in.gcount() != bytes) return false;
-  h.add_value(n);
-  h.add(a.data(), n * sizeof(T));
-  return true;
-}
-
-}  // namespace
-
-bool InverseTable::write(const std::filesystem::path& file) const {
-  std::ofstream out(file, std::ios::binary | std::ios::trunc);
-  WordHash h;
-  out.write(kMagic, 8);
-  out.write(reinterpret_cast<const char*>(&kFormatVersion), sizeof kFormatVersion);
-  out.write(reinterpret_cast<const char*>(&key_), sizeof key_);
-  const std::int32_t dims = key_dims_, bins = kBins;
-  out.write(reinterpret_cast<const char*>(&dims), sizeof dims);
-  out.write(reinterpret_cast<const char*>(&bins), sizeof bins);
-  out.write(reinterpret_cast<const char*>(key_mean_), sizeof key_mean_);
-  out.write(reinterpret_cast<const char*>(key_axes_), sizeof key_axes_);
-  out.write(reinterpret_cast<const char*>(key_min_), sizeof key_min_);
-  out.write(reinterpret_cast<const char*>(key_scale_), sizeof key_scale_);
-  h.add_value(key_), h.add_value(dims), h.add_value(bins), h.add(key_mean_, sizeof key_mean_),
-      h.add(key_axes_, sizeof key_axes_), h.add(key_min_, sizeof key_min_), h.add(key_scale_, sizeof key_scale_);
-  write_array(out, h, cell_index_);
-  write_array(out, h, cells_);
-  const std::uint64_t occupied = occupied_cells_;
-  out.write(reinterpret_cast<const char*>(&occupied), sizeof occupied);
-  h.add_value(occupied);
-  write_array(out, h, bucket_nodes_);
-  write_array(out, h, branches_);
-  out.write(reinterpret_cast<const char*>(&h.h), sizeof h.h);
-  return static_cast<bool>(out);
-}
-
-bool InverseTable::read(const std::filesystem::path& file, std::uint64_t key, std::string* why) {
-  std::ifstream in(file, std::ios::binary);
+bool InverseTable::decode(std::span<const std::uint8_t> payload, std::uint64_t key, std::string* why) {
   auto fail = [&](const char* reason) {
     *why = reason;
     return false;
   };
-  char magic[8];
-  std::uint32_t version = 0;
-  std::int32_t dims = 0, bins = 0;
-  if (!in.read(magic, 8) || std::memcmp(magic, kMagic, 8) != 0) return fail("not an inverse table file");
-  if (!in.read(reinterpret_cast<char*>(&version), sizeof version) || version != kFormatVersion)
-    return fail("another format version");
-  WordHash h;
-  if (!in.read(reinterpret_cast<char*>(&key_), sizeof key_) || key_ != key) return fail("another key");
-  if (!in.read(reinterpret_cast<char*>(&dims), sizeof dims) || !in.read(reinterpret_cast<char*>(&bins), sizeof bins) ||
-      dims < 1 || dims > 4 || bins != kBins)
-    return fail("bad header");
+  files::CacheReader in(payload);
+  key_ = key;
+  const auto dims = in.get<std::int32_t>(), bins = in.get<std::int32_t>();
+  if (!in.ok() || dims < 1 || dims > 4 || bins != kBins) return fail("bad header");
   key_dims_ = dims;
-  if (!in.read(reinterpret_cast<char*>(key_mean_), sizeof key_mean_) ||
-      !in.read(reinterpret_cast<char*>(key_axes_), sizeof key_axes_) ||
-      !in.read(reinterpret_cast<char*>(key_min_), sizeof key_min_) ||
-      !in.read(reinterpret_cast<char*>(key_scale_), sizeof key_scale_))
-    return fail("truncated header");
-  h.add_value(key_), h.add_value(dims), h.add_value(bins), h.add(key_mean_, sizeof key_mean_),
-      h.add(key_axes_, sizeof key_axes_), h.add(key_min_, sizeof key_min_), h.add(key_scale_, sizeof key_scale_);
+  in.get_bytes(key_mean_, sizeof key_mean_), in.get_bytes(key_axes_, sizeof key_axes_);
+  in.get_bytes(key_min_, sizeof key_min_), in.get_bytes(key_scale_, sizeof key_scale_);
+  if (!in.ok()) return fail("truncated header");
   std::uint64_t box_cells = 1;
   for (int k = 0; k < dims; ++k) box_cells *= kBins;
-  std::uint64_t occupied = 0;
-  if (!read_array(in, h, cell_index_, box_cells) || cell_index_.size() != box_cells ||
-      !read_array(in, h, cells_, box_cells) || !in.read(reinterpret_cast<char*>(&occupied), sizeof occupied) ||
-      occupied > cells_.size())
+  cell_index_ = in.get_vector<std::uint32_t>(box_cells);
+  cells_ = in.get_vector<Cell>(box_cells);
+  const auto occupied = in.get<std::uint64_t>();
+  if (!in.ok() || cell_index_.size() != box_cells || occupied > cells_.size())
     return fail("truncated or inconsistent sizes");
-  h.add_value(occupied);
-  if (!read_array(in, h, bucket_nodes_, 1ull << 32) ||
-      !read_array(in, h, branches_, cells_.size() * (kMaxBranches + 2)))
-    return fail("truncated or inconsistent sizes");
-  std::uint64_t checksum = 0;
-  if (!in.read(reinterpret_cast<char*>(&checksum), sizeof checksum) || in.peek() != std::char_traits<char>::eof())
-    return fail("truncated or trailing bytes");
-  if (checksum != h.h) return fail("checksum mismatch");
+  bucket_nodes_ = in.get_vector<std::uint32_t>(1ull << 32);
+  branches_ = in.get_vector<Branch>(cells_.size() * (kMaxBranches + 2));
+  if (!in.ok()) return fail("truncated or inconsistent sizes");
+  if (!in.at_end()) return fail("trailing bytes");
   occupied_cells_ = static_cast<std::size_t>(occupied);
   // Indices in range (a file written by another build with the same key cannot point outside its arrays).
   for (std::uint32_t c : cell_index_)
@@ -245,7 +193,8 @@ std::shared_ptr<const InverseTable> InverseTable::load_or_build(std::shared_ptr<
   if (std::filesystem::exists(file, ec)) {
     auto loaded = std::make_shared<InverseTable>();
     std::string why;
-    if (loaded->read(file, key, &why) && loaded->bucket_nodes_.size() == table->grid().node_count()) {
+    const auto payload = files::read_cache(file, kCacheFormat, key, &why);
+    if (payload && loaded->decode(*payload, key, &why) && loaded->bucket_nodes_.size() == table->grid().node_count()) {
       if (rebuilt) *rebuilt = false;
       slot = loaded;
       return loaded;
@@ -258,14 +207,10 @@ std::shared_ptr<const InverseTable> InverseTable::load_or_build(std::shared_ptr<
   auto built = std::make_shared<InverseTable>(build(table, threads, settings));
   if (rebuilt) *rebuilt = true;
   slot = built;
-  std::filesystem::create_directories(cache_dir, ec);
-  const std::filesystem::path temporary =
-      cache_dir / (file_name(key) + ".tmp" + std::to_string(static_cast<long long>(::getpid())));
-  if (built->write(temporary)) {
-    std::filesystem::rename(temporary, file, ec);  // a cache that cannot be written is not an error
-    if (ec) std::filesystem::remove(temporary, ec);
-  } else {
-    std::filesystem::remove(temporary, ec);
+  try {
+    files::write_cache(file, kCacheFormat, key, built->encode());
+  } catch (const std::exception&) {
+    // A cache that cannot be written is not an error: the table is in memory.
   }
   return built;
 }

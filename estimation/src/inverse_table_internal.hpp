@@ -1,16 +1,17 @@
 #pragma once
 // Internal to estimation/: what inverse_table.cpp (settings, key space, cache
-// file) and inverse_table_build.cpp (the build) share: the file format's
-// magic and version, the build's settings (all part of the cache key) and the
-// checksum.
+// file) and inverse_table_build.cpp (the build) share: the cache file's
+// format and the build's settings (all part of the cache key).
 
 #include <cstdint>
-#include <cstring>
+
+#include "chromo/files/binary_cache.hpp"
 
 namespace chromo::estimation::detail {
 
-inline constexpr char kMagic[8] = {'C', 'H', 'R', 'O', 'M', 'O', 'I', 'T'};
-inline constexpr std::uint32_t kFormatVersion = 5;
+// Version 6: the file is a files/binary_cache.hpp file (its checksum and the
+// key hash are the one byte-wise Fnv1a; version 5 hashed 8-byte words).
+inline constexpr files::CacheFormat kCacheFormat{{'C', 'H', 'R', 'O', 'M', 'O', 'I', 'T'}, 6};
 // Build settings (part of the cache key).
 inline constexpr int kMaxSeedsPerCell = 12;     // LM solves per cell, best groups first
 inline constexpr int kBranchIterations = 40;    // LM iterations per solve
@@ -27,22 +28,5 @@ inline constexpr int kFillReach[4] = {2, 4, 16, 48};
 // 87 MB and 3-5 s of build for the same fit time; 2×2×8×16 leave more noisy
 // pixels to Gauss-Newton and the search.
 inline constexpr int kPresolveBlock[4] = {1, 1, 4, 8};
-
-// 64-bit FNV-1a over 8-byte words (a checksum, not a cryptographic hash).
-struct WordHash {
-  std::uint64_t h = 1469598103934665603ull;
-  void add(const void* data, std::size_t n) {
-    const auto* p = static_cast<const unsigned char*>(data);
-    std::size_t i = 0;
-    for (; i + 8 <= n; i += 8) {
-      std::uint64_t w;
-      std::memcpy(&w, p + i, 8);
-      h = (h ^ w) * 1099511628211ull;
-    }
-    for (; i < n; ++i) h = (h ^ p[i]) * 1099511628211ull;
-  }
-  template <class T>
-  void add_value(const T& v) { add(&v, sizeof v); }
-};
 
 }  // namespace chromo::estimation::detail

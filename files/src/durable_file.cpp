@@ -6,6 +6,8 @@
 #include <cerrno>
 #include <cstring>
 
+#include "chromo/files/temporary_file.hpp"
+
 namespace chromo::files {
 
 void StorageBudget::reserve(std::uint64_t bytes, const std::string& what) {
@@ -61,10 +63,6 @@ void fsync_file(const std::filesystem::path& file) {
   int error = errno;
   ::close(fd);
   if (result != 0) throw_errno(error, "fsync " + file.string());
-}
-
-std::filesystem::path temporary_path_for(const std::filesystem::path& path) {
-  return path.string() + ".tmp-" + std::to_string(::getpid());
 }
 
 void commit_file_durably(const std::filesystem::path& path, StorageBudget* budget,

@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "chromo/files/durable_file.hpp"
+#include "chromo/files/temporary_file.hpp"
 
 namespace chromo::files {
 namespace fs = std::filesystem;
@@ -26,9 +27,9 @@ OutputBatch::~OutputBatch() {
 }
 
 fs::path OutputBatch::temporary(const std::string& name) {
-  const fs::path t = directory_ / (".tmp-" + name), f = directory_ / name;
-  pending_.emplace_back(t, f);
-  return t;
+  const fs::path final_path = directory_ / name, temporary = temporary_path_for(final_path);
+  pending_.emplace_back(temporary, final_path);
+  return temporary;
 }
 
 void OutputBatch::write_text(const std::string& name, const std::string& text) {

@@ -6,6 +6,8 @@
 #include <random>
 #include <sstream>
 
+#include "chromo/files/temporary_file.hpp"
+
 namespace chromo::session {
 
 std::string new_session_id(const std::string& name) {
@@ -128,9 +130,7 @@ std::vector<SessionInfo> SessionStore::recover() {
   for (const auto& entry : std::filesystem::directory_iterator(root_)) {
     if (!entry.is_directory() || !std::filesystem::exists(entry.path() / "session.json")) continue;
     // Leftover temporary files of writes a crash interrupted are not part of the session.
-    for (const auto& file : std::filesystem::recursive_directory_iterator(entry.path()))
-      if (file.is_regular_file() && file.path().filename().string().find(".tmp-") != std::string::npos)
-        std::filesystem::remove(file.path());
+    files::remove_leftover_temporaries(entry.path(), files::Subfolders::kInclude);
     SessionInfo info;
     try {
       info = read_session(entry.path());

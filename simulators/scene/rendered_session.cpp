@@ -3,14 +3,12 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstring>
-#include <fstream>
-#include <unistd.h>
 #include <stdexcept>
 
 #include "chromo/calibration/session_mix.hpp"
 #include "chromo/session/session_captures.hpp"
 #include "chromo/session/session_plan.hpp"
+#include "chromo/files/binary_cache.hpp"
 #include "chromo/files/fnv1a.hpp"
 #include "chromo/simulators/camera/camera_model.hpp"
 #include "chromo/simulators/leds/led_lab.hpp"
@@ -35,13 +33,13 @@ std::span<const std::uint8_t> bytes_of(const cv::Mat& m) {
 }
 
 // ---- the on-disk cache ----
-constexpr char kCacheMagic[8] = {'C', 'H', 'R', 'S', 'E', 'S', 'S', '1'};
+constexpr files::CacheFormat kCacheFormat{{'C', 'H', 'R', 'S', 'E', 'S', 'S', '1'}, kRenderedSessionVersion};
 
 std::uint64_t cache_key(const RenderedSessionOptions& o, const std::vector<SceneWeights>& weights,
                         double exposure_us, const CameraModelOptions& camera) {
   files::Fnv1a h;
-  h.add(kCacheMagic, sizeof kCacheMagic);
-  h.add(kRenderedSessionVersion);
+  h.add(kCacheFormat.magic);
+  h.add(kCacheFormat.version);
   for (int v : {o.sensor_width, o.sensor_height, o.scene_width, o.scene_height, o.window_x, o.window_y}) h.add(v);
   h.add(o.seed), h.add(o.white_fill), h.add(o.noise_free), h.add(exposure_us);
   for (const auto& w : weights) h.add(w.data(), sizeof(double) * w.size());
@@ -59,62 +57,29 @@ std::uint64_t cache_key(const RenderedSessionOptions& o, const std::vector<Scene
   return h.h;
 }
 
-class Writer {
- public:
-  explicit Writer(std::ofstream& out) : out_(out) {}
-  template <class T>
-  void put(const T& v) { out_.write(reinterpret_cast<const char*>(&v), sizeof v); }
-  template <class T>
-  void put_vector(const std::vector<T>& v) {
-    put<std::uint64_t>(v.size());
-    out_.write(reinterpret_cast<const char*>(v.data()), static_cast<std::streamsize>(v.size() * sizeof(T)));
-  }
-  void put_string(const std::string& s) { put_vector(std::vector<char>(s.begin(), s.end())); }
-  void put_spectrum(const spectral::Spectrum& s) { out_.write(reinterpret_cast<const char*>(s.values().data()), sizeof(double) * spectral::kGridSize); }
+// The payload's encoding of strings and spectra, over files::CacheWriter /
+// files::CacheReader (plain values are their bytes, vectors count + elements).
+void put_string(files::CacheWriter& w, const std::string& s) { w.put_vector(std::vector<char>(s.begin(), s.end())); }
+void put_spectrum(files::CacheWriter& w, const spectral::Spectrum& s) {
+  w.put_bytes(s.values().data(), sizeof(double) * spectral::kGridSize);
+}
+std::string get_string(files::CacheReader& r) {
+  const auto v = r.get_vector<char>(4096);
+  return {v.begin(), v.end()};
+}
+spectral::Spectrum get_spectrum(files::CacheReader& r) {
+  spectral::Spectrum s;
+  for (int i = 0; i < spectral::kGridSize; ++i) s[i] = r.get<double>();
+  return s;
+}
 
- private:
-  std::ofstream& out_;
-};
-
-class Reader {
- public:
-  explicit Reader(std::ifstream& in) : in_(in) {}
-  template <class T>
-  T get() {
-    T v{};
-    in_.read(reinterpret_cast<char*>(&v), sizeof v);
-    return v;
-  }
-  template <class T>
-  std::vector<T> get_vector(std::uint64_t limit) {
-    const auto n = get<std::uint64_t>();
-    if (!in_ || n > limit) throw std::runtime_error("bad length");
-    std::vector<T> v(n);
-    in_.read(reinterpret_cast<char*>(v.data()), static_cast<std::streamsize>(n * sizeof(T)));
-    return v;
-  }
-  std::string get_string() {
-    const auto v = get_vector<char>(4096);
-    return {v.begin(), v.end()};
-  }
-  spectral::Spectrum get_spectrum() {
-    spectral::Spectrum s;
-    for (int i = 0; i < spectral::kGridSize; ++i) s[i] = get<double>();
-    return s;
-  }
-  bool ok() const { return static_cast<bool>(in_); }
-
- private:
-  std::ifstream& in_;
-};
-
-void put_measurement(Writer& w, const session::MethodMeasurement& m) {
-  w.put_string(m.set.camera.name);
-  for (const auto& c : m.set.camera.rgb) w.put_spectrum(c);
+void put_measurement(files::CacheWriter& w, const session::MethodMeasurement& m) {
+  put_string(w, m.set.camera.name);
+  for (const auto& c : m.set.camera.rgb) put_spectrum(w, c);
   w.put<std::uint32_t>(static_cast<std::uint32_t>(m.set.channels.size()));
   for (const auto& c : m.set.channels) {
-    w.put_string(c.name);
-    w.put_spectrum(c.illuminant);
+    put_string(w, c.name);
+    put_spectrum(w, c.illuminant);
     w.put<std::int32_t>(c.camera_channel);
     w.put(c.noise);
   }
@@ -122,22 +87,22 @@ void put_measurement(Writer& w, const session::MethodMeasurement& m) {
   w.put_vector(m.measured);
   w.put<std::uint32_t>(static_cast<std::uint32_t>(m.registration.size()));
   for (const auto& r : m.registration) {
-    w.put_string(r.image), w.put_string(r.reference), w.put_string(r.channel);
+    put_string(w, r.image), put_string(w, r.reference), put_string(w, r.channel);
     w.put(r.result), w.put(r.motion_px), w.put(r.warped);
   }
   w.put<std::uint64_t>(m.saturated_pixels);
 }
 
-session::MethodMeasurement get_measurement(Reader& r) {
+session::MethodMeasurement get_measurement(files::CacheReader& r) {
   session::MethodMeasurement m;
-  m.set.camera.name = r.get_string();
-  for (auto& c : m.set.camera.rgb) c = r.get_spectrum();
+  m.set.camera.name = get_string(r);
+  for (auto& c : m.set.camera.rgb) c = get_spectrum(r);
   const auto channels = r.get<std::uint32_t>();
   if (channels > 16) throw std::runtime_error("bad channel count");
   for (std::uint32_t k = 0; k < channels; ++k) {
     estimation::MeasurementChannel c;
-    c.name = r.get_string();
-    c.illuminant = r.get_spectrum();
+    c.name = get_string(r);
+    c.illuminant = get_spectrum(r);
     c.camera_channel = r.get<std::int32_t>();
     c.noise = r.get<estimation::ChannelNoise>();
     m.set.channels.push_back(std::move(c));
@@ -148,7 +113,7 @@ session::MethodMeasurement get_measurement(Reader& r) {
   if (reports > 16) throw std::runtime_error("bad registration count");
   for (std::uint32_t k = 0; k < reports; ++k) {
     session::RegistrationReport report;
-    report.image = r.get_string(), report.reference = r.get_string(), report.channel = r.get_string();
+    report.image = get_string(r), report.reference = get_string(r), report.channel = get_string(r);
     report.result = r.get<session::RegistrationResult>();
     report.motion_px = r.get<double>();
     report.warped = r.get<bool>();
@@ -159,22 +124,15 @@ session::MethodMeasurement get_measurement(Reader& r) {
 }
 
 std::filesystem::path cache_file(const std::filesystem::path& dir, std::uint64_t key) {
-  char name[64];
-  std::snprintf(name, sizeof name, "rendered_session_%016llx.bin", static_cast<unsigned long long>(key));
-  return dir / name;
+  return dir / files::cache_file_name("rendered_session", key);
 }
 
 // Fills out's rendered parts from the cache file; false when absent, damaged or of other inputs.
 bool load_cached(const std::filesystem::path& file, std::uint64_t key, RenderedSession& out) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) return false;
+  const auto payload = files::read_cache(file, kCacheFormat, key);
+  if (!payload) return false;
   try {
-    Reader r(in);
-    char magic[8];
-    in.read(magic, 8);
-    if (!in || std::memcmp(magic, kCacheMagic, 8) != 0 || r.get<std::uint32_t>() != kRenderedSessionVersion ||
-        r.get<std::uint64_t>() != key)
-      return false;
+    files::CacheReader r(*payload);
     RenderedSession s;
     s.width = r.get<std::int32_t>(), s.height = r.get<std::int32_t>();
     s.scene_seconds = r.get<double>(), s.camera_seconds = r.get<double>(), s.measurement_seconds = r.get<double>();
@@ -183,8 +141,7 @@ bool load_cached(const std::filesystem::path& file, std::uint64_t key, RenderedS
     s.truth = r.get_vector<estimation::SkinParameters>(std::uint64_t{1} << 28);
     s.region = r.get_vector<std::uint8_t>(std::uint64_t{1} << 28);
     const std::size_t pixels = static_cast<std::size_t>(s.width) * s.height;
-    if (!r.ok() || in.peek() != std::char_traits<char>::eof() || s.truth.size() != pixels || s.region.size() != pixels ||
-        s.noisy.measured.size() != pixels * 4)
+    if (!r.at_end() || s.truth.size() != pixels || s.region.size() != pixels || s.noisy.measured.size() != pixels * 4)
       return false;
     out.width = s.width, out.height = s.height;
     out.scene_seconds = s.scene_seconds, out.camera_seconds = s.camera_seconds, out.measurement_seconds = s.measurement_seconds;
@@ -193,35 +150,24 @@ bool load_cached(const std::filesystem::path& file, std::uint64_t key, RenderedS
     out.loaded_from_cache = true;
     return true;
   } catch (const std::exception&) {
-    return false;
+    return false;  // a count out of range (get_measurement)
   }
 }
 
-// A cache that cannot be written is not an error: the session is in memory.
 void store_cached(const std::filesystem::path& file, std::uint64_t key, const RenderedSession& s) {
-  std::error_code ec;
-  std::filesystem::create_directories(file.parent_path(), ec);
-  const std::filesystem::path temporary = file.string() + ".tmp" + std::to_string(static_cast<long long>(::getpid()));
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    Writer w(out);
-    out.write(kCacheMagic, 8);
-    w.put(kRenderedSessionVersion), w.put(key);
-    w.put<std::int32_t>(s.width), w.put<std::int32_t>(s.height);
-    w.put(s.scene_seconds), w.put(s.camera_seconds), w.put(s.measurement_seconds);
-    put_measurement(w, s.noisy);
-    w.put(!s.noise_free.measured.empty());
-    if (!s.noise_free.measured.empty()) put_measurement(w, s.noise_free);
-    w.put_vector(s.truth);
-    w.put_vector(s.region);
-    if (!out) {
-      out.close();
-      std::filesystem::remove(temporary, ec);
-      return;
-    }
+  files::CacheWriter w;
+  w.put<std::int32_t>(s.width), w.put<std::int32_t>(s.height);
+  w.put(s.scene_seconds), w.put(s.camera_seconds), w.put(s.measurement_seconds);
+  put_measurement(w, s.noisy);
+  w.put(!s.noise_free.measured.empty());
+  if (!s.noise_free.measured.empty()) put_measurement(w, s.noise_free);
+  w.put_vector(s.truth);
+  w.put_vector(s.region);
+  try {
+    files::write_cache(file, kCacheFormat, key, w.take_bytes());
+  } catch (const std::exception&) {
+    // A cache that cannot be written is not an error: the session is in memory.
   }
-  std::filesystem::rename(temporary, file, ec);
-  if (ec) std::filesystem::remove(temporary, ec);
 }
 
 }  // namespace

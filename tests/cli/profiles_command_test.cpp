@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 #include <vector>
 
+#include "chromo/files/temporary_file.hpp"
 #include "run_chromo.hpp"
 
 using testing::HasSubstr;
@@ -61,7 +62,8 @@ TEST(ChromoProfiles, WritesTableWhoseProfilesIntegrateToTheAlbedo) {
     integral_green += w * log_step * 2 * M_PI * radii[i] * radii[i] * data[(entry * radii.size() + i) * 3 + 1];
   }
   EXPECT_NEAR(integral_green / header["albedo_rgb"][entry * 3 + 1].get<double>(), 1.0, 0.005);
-  EXPECT_FALSE(fs::exists(out / "profiles.f32.tmp"));
+  for (const auto& entry : fs::directory_iterator(out))  // no temporary left behind
+    EXPECT_FALSE(chromo::files::temporary_writer_pid(entry.path().filename().string())) << entry.path();
 }
 
 TEST(ChromoProfiles, IndexMapPointsAtNearestEntryAndSkipsFlaggedPixels) {

@@ -698,7 +698,7 @@ TEST_F(InverseTableCache, ACorruptOrTruncatedFileIsRebuiltWithAWarning) {
   std::ofstream(file, std::ios::trunc) << "not a table";
   { InverseTable::load_or_build(table, dir, &rebuilt, &warning, 2); }
   EXPECT_TRUE(rebuilt);
-  EXPECT_NE(warning.find("not an inverse table"), std::string::npos) << warning;
+  EXPECT_NE(warning.find("another kind of file"), std::string::npos) << warning;
   EXPECT_GT(fs::file_size(file), 1000u);
 }
 

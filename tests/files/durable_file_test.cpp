@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "chromo/files/durable_file.hpp"
+#include "chromo/files/temporary_file.hpp"
 #include "../support/fresh_directory.hpp"
 
 namespace chromo::files {

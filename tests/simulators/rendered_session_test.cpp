@@ -11,6 +11,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <unistd.h>
 
 #include "chromo/simulators/scene/rendered_session.hpp"
@@ -199,6 +200,19 @@ TEST(RenderedSession, CacheGivesTheRenderedSessionBack) {
   o.white_fill = tiny_options().white_fill;
   for (const auto& entry : fs::directory_iterator(dir)) fs::resize_file(entry.path(), 1000);
   EXPECT_FALSE(render_session(o).loaded_from_cache);
+  EXPECT_TRUE(render_session(o).loaded_from_cache);
+  // One byte flipped in the middle (the measurements): the checksum catches it.
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    std::fstream f(entry.path(), std::ios::in | std::ios::out | std::ios::binary);
+    const auto middle = static_cast<std::streamoff>(fs::file_size(entry.path()) / 2);
+    char byte = 0;
+    f.seekg(middle), f.read(&byte, 1);
+    byte = static_cast<char>(byte ^ 0x5a);
+    f.seekp(middle), f.write(&byte, 1);
+  }
+  const RenderedSession rerendered = render_session(o);
+  EXPECT_FALSE(rerendered.loaded_from_cache);
+  EXPECT_EQ(rerendered.noisy.measured, reference.noisy.measured);
   EXPECT_TRUE(render_session(o).loaded_from_cache);
   fs::remove_all(dir);
 }

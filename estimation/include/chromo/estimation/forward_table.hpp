@@ -22,9 +22,11 @@
 // Cache: load_or_build() keys a file by a 64-bit hash of everything the table
 // depends on: the channel weights (camera × illuminants), the grid, the
 // format version and the model itself (its albedo at fixed probe parameters,
-// so any change to the model's code or data changes the key). A file that is
-// missing, truncated or has another key is rebuilt; writes go to a temporary
-// file renamed into place, so concurrent builders never see half a table.
+// so any change to the model's code or data changes the key). The file is a
+// files/binary_cache.hpp cache (magic "CHROMOFT"; payload: the five
+// dimensions as int32, then the values as float): one that is missing,
+// truncated, corrupted or of another key or version is rebuilt, and writes are
+// durable, so concurrent builders never see half a table.
 //
 // Thread rules: a ForwardTable is immutable after construction; every const
 // member may be called from any number of threads.

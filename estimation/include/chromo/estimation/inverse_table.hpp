@@ -56,10 +56,10 @@
 // fit on the occupied cells' branches, polished by LM, and the block's 2D
 // fit), ≈ 2.5 s on 2 cores for the default table. Cache: load_or_build() keys a file by a hash of the
 // forward table's key and values, the bins, the build's settings and the
-// format version; a missing file is built and stored; a file that does not
-// read back intact (wrong magic, key, sizes, checksum) is rebuilt with a
-// warning (never read as a table); writes go to a temporary file renamed into
-// place. Tables are also shared within a process (one per key).
+// format version; the file is a files/binary_cache.hpp cache (magic
+// "CHROMOIT"); a missing file is built and stored; a file that does not read
+// back intact (wrong magic, version, key, length, checksum, sizes) is rebuilt
+// with a warning saying why (never read as a table); writes are durable. Tables are also shared within a process (one per key).
 //
 // Thread rules: immutable after construction; every const member may be
 // called from any number of threads.
@@ -68,6 +68,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -179,8 +180,9 @@ class InverseTable {
   void presolve_empty_cells(std::shared_ptr<const ForwardTable> table, const std::vector<std::uint32_t>& own_cell_index,
                             const std::array<double, 4>& relative_sigma, int threads);
 
-  bool read(const std::filesystem::path& file, std::uint64_t key, std::string* why);
-  bool write(const std::filesystem::path& file) const;
+  // The cache file's payload, and back (false with *why when it is inconsistent).
+  std::vector<std::uint8_t> encode() const;
+  bool decode(std::span<const std::uint8_t> payload, std::uint64_t key, std::string* why);
 };
 
 // The key of one channel value (see above): monotone, ≈ log2(max(v, 1e-4)).

@@ -3,9 +3,11 @@
 // relies on (session folders, LED libraries, camera references, estimate
 // outputs).
 //
-// write_file_durably(): the bytes go to "<path>.tmp-<pid>", which is fsynced,
-// renamed over <path>, and the directory fsynced: after a crash either the old
-// file (or none) or the complete new one exists, never a torn one.
+// write_file_durably(): the bytes go to the temporary of <path>
+// (temporary_file.hpp: DIR/.tmp-<pid>-<tid>-NAME), which is fsynced, renamed
+// over <path>, and the directory fsynced: after a crash either the old file
+// (or none) or the complete new one exists, never a torn one; the crash's
+// temporary is left for remove_leftover_temporaries().
 //
 // StorageBudget: an optional cap on the bytes the storage layer may write,
 // shared by every writer of one daemon. It exists so that the "disk full" path
@@ -52,9 +54,6 @@ void fsync_or_throw(int fd, const std::string& what);
 void fsync_directory(const std::filesystem::path& directory);
 // fsync of a file written through another API (std::ofstream, OpenEXR...).
 void fsync_file(const std::filesystem::path& file);
-
-// The temporary name used for `path` by this process.
-std::filesystem::path temporary_path_for(const std::filesystem::path& path);
 
 // Writes through a temporary file the `produce` callback fills (it gets the
 // temporary path; e.g. libtiff or OpenEXR write it), then fsync, rename, fsync

@@ -1,7 +1,9 @@
 #pragma once
-// FNV-1a, 64 bit: the key of an on-disk cache (forward table, rendered
-// session) over everything the cached content depends on. Not cryptographic:
-// it tells inputs apart, it does not authenticate files.
+// FNV-1a, 64 bit, byte by byte: the project's one hash. The key of an
+// on-disk cache (forward table, inverse table, rendered session) over
+// everything the cached content depends on, and the checksum of a cache
+// file's payload (binary_cache.hpp). Not cryptographic: it tells inputs
+// apart and catches corrupted bytes, it does not authenticate files.
 
 #include <cstddef>
 #include <cstdint>

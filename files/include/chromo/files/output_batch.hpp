@@ -1,8 +1,9 @@
 #pragma once
 // Crash-safe writing of a command's set of output files.
 //
-// Each file is written to DIR/.tmp-<name> (the extension stays last, so
-// OpenCV and OpenEXR pick the format by name), and commit() fsyncs every
+// Each file is written to its temporary (temporary_file.hpp:
+// DIR/.tmp-<pid>-<tid>-NAME, the extension stays last, so OpenCV and OpenEXR
+// pick the format by name), and commit() fsyncs every
 // temporary, renames them all into place and fsyncs the directory. If the
 // batch is destroyed before commit() (an exception on the way), the
 // temporaries are removed, and so is DIR if the batch created it: a failed

@@ -74,14 +74,17 @@ struct RenderedSessionOptions {
   // weights (true LED emission × camera sensitivity), the exposure, the
   // camera model's constants, a probe of the scene generator and skin model
   // (a 16×16 scene of this seed) and kRenderedSessionVersion (bump it when
-  // the capture path — binning, session::build_method_measurement — changes). A
-  // 5-MP session is 82 MB; written by rename, a damaged file is re-rendered.
+  // the capture path — binning, session::build_method_measurement — or the
+  // payload's encoding changes). A 5-MP session is 82 MB; the file is a
+  // files/binary_cache.hpp cache (magic "CHRSESS1"), written durably; a
+  // damaged file is re-rendered.
   std::filesystem::path cache_dir;
 
   bool IsValid(std::string* error) const;
 };
 
-inline constexpr std::uint32_t kRenderedSessionVersion = 1;
+// 2: the file is a files/binary_cache.hpp file (length and checksum).
+inline constexpr std::uint32_t kRenderedSessionVersion = 2;
 inline constexpr std::uint8_t kMixedCell = 255;  // a 2×2 cell whose sites have different regions
 
 struct RenderedSession {
