@@ -256,7 +256,7 @@ OperationRunner::Outcome Daemon::run_session(RunningOperation& running, const se
   if (outcome.state == session::OperationState::kSucceeded) {
     operations_.update(id, [](session::OperationRecord& r) { r.message = "writing derived data"; });
     try {
-      session::write_derived_data(folder, *journal, &budget_);
+      session::write_derived_data(folder, config_.estimation.white_reflectance, *journal, &budget_);
     } catch (const std::exception& error) {
       outcome = {session::OperationState::kFailed, std::string("derived data: ") + error.what()};
     }

@@ -46,6 +46,7 @@ void OnlineEstimator::begin_session(const SessionStart& start) {
   error_.clear();
   table_prepared_ = false;
   table_prepare_seconds_ = 0;
+  prepared_.reset();
   result_.reset();
   read_back_ = 0;
   try {
@@ -66,16 +67,11 @@ void OnlineEstimator::consume(const CapturedFrame& captured, const StoredFrame& 
     if (!table_prepared_ && builder_->references_complete()) {
       // The subject is not captured yet: build (or load) the table now.
       const auto t = std::chrono::steady_clock::now();
-      const auto set = session::method_set_from_references(builder_->captures());
-      const auto& e = options_.estimation;
-      auto table = estimation::ForwardTable::load_or_build(
-          set, e.grid, e.cache_dir.empty() ? estimation::ForwardTable::default_cache_dir() : e.cache_dir, nullptr,
-          e.estimator.threads);
-      // The fast inverter's inverse table is cached beside it: building an
-      // Estimator now puts it there too.
-      estimation::EstimatorOptions estimator_options = e.estimator;
-      if (estimator_options.cache_dir.empty()) estimator_options.cache_dir = e.cache_dir;
-      estimation::Estimator(table, set, estimator_options);
+      // Kept in memory until the estimate (it uses them when the subject's
+      // frames leave the measurement set unchanged, as they do when the
+      // controller applied the same levels), and left in the disk cache for
+      // `chromo estimate SESSION_DIR`.
+      prepared_ = maps::prepare_tables(session::method_set_from_references(builder_->captures()), options_.estimation);
       table_prepared_ = true;
       table_prepare_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
     }
@@ -106,7 +102,8 @@ void OnlineEstimator::estimate_now() {
       [this](const std::filesystem::path& path, const std::function<void(const std::filesystem::path&)>& produce) {
         files::commit_file_durably(path, options_.budget, produce);
       },
-      session_.progress, extra.dump());
+      session_.progress, extra.dump(), prepared_ ? &*prepared_ : nullptr);
+  prepared_.reset();  // the tables' memory goes back before the next session
 }
 
 nlohmann::json OnlineEstimator::unavailable(const std::string& reason) const {

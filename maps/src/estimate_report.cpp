@@ -199,25 +199,57 @@ std::vector<RelitComparison> compare_with_photographs(std::span<const estimation
   return out;
 }
 
+PreparedTables prepare_tables(const estimation::MeasurementSet& set, const MethodEstimationOptions& options) {
+  PreparedTables prepared;
+  prepared.set = set;
+  auto t = std::chrono::steady_clock::now();
+  prepared.table = estimation::ForwardTable::load_or_build(
+      set, options.grid, options.cache_dir.empty() ? estimation::ForwardTable::default_cache_dir() : options.cache_dir,
+      &prepared.table_rebuilt, options.estimator.threads);
+  prepared.table_seconds = seconds_since(t);
+  t = std::chrono::steady_clock::now();
+  estimation::EstimatorOptions estimator_options = options.estimator;
+  if (estimator_options.cache_dir.empty()) estimator_options.cache_dir = options.cache_dir;  // the inverse table too
+  prepared.estimator = std::make_shared<const estimation::Estimator>(prepared.table, set, estimator_options);
+  prepared.inverter_seconds = seconds_since(t);
+  return prepared;
+}
+
+bool same_measurement_set(const estimation::MeasurementSet& a, const estimation::MeasurementSet& b) {
+  if (a.camera.name != b.camera.name || a.channels.size() != b.channels.size()) return false;
+  for (int c = 0; c < 3; ++c)
+    if (!(a.camera.rgb[static_cast<std::size_t>(c)].values() == b.camera.rgb[static_cast<std::size_t>(c)].values()).all())
+      return false;
+  for (std::size_t i = 0; i < a.channels.size(); ++i) {
+    const auto &x = a.channels[i], &y = b.channels[i];
+    if (x.name != y.name || x.camera_channel != y.camera_channel || !(x.illuminant.values() == y.illuminant.values()).all() ||
+        x.noise.read_sigma != y.noise.read_sigma || x.noise.shot_coefficient != y.noise.shot_coefficient ||
+        x.noise.saturation_albedo != y.noise.saturation_albedo)
+      return false;
+  }
+  return true;
+}
+
 MethodEstimationResult estimate_method_captures(const session::MethodCaptures& captures, const MethodEstimationOptions& options,
                                                 const fs::path& out_dir, const FileCommit& commit,
-                                                const files::Progress& progress, const std::string& extra_json) {
+                                                const files::Progress& progress, const std::string& extra_json,
+                                                const PreparedTables* prepared) {
   const auto start = std::chrono::steady_clock::now();
   auto t = start;
   session::MethodMeasurement m = session::build_method_measurement(captures, options.registration);
   const double measurement_seconds = seconds_since(t);
 
-  t = std::chrono::steady_clock::now();
-  bool rebuilt = false;
-  auto table = estimation::ForwardTable::load_or_build(
-      m.set, options.grid, options.cache_dir.empty() ? estimation::ForwardTable::default_cache_dir() : options.cache_dir, &rebuilt,
-      options.estimator.threads);
-  const double table_seconds = seconds_since(t);
-  t = std::chrono::steady_clock::now();
-  estimation::EstimatorOptions estimator_options = options.estimator;
-  if (estimator_options.cache_dir.empty()) estimator_options.cache_dir = options.cache_dir;  // the inverse table too
-  const estimation::Estimator estimator(table, m.set, estimator_options);
-  const double inverter_seconds = seconds_since(t);
+  // The tables: kept in memory since the references were in (the on-line
+  // estimator), else loaded from the disk cache or built.
+  const bool in_memory = prepared && same_measurement_set(prepared->set, m.set);
+  PreparedTables loaded;
+  if (!in_memory) loaded = prepare_tables(m.set, options);
+  const double table_seconds = in_memory ? 0.0 : loaded.table_seconds;
+  const double inverter_seconds = in_memory ? 0.0 : loaded.inverter_seconds;
+  const PreparedTables& tables = in_memory ? *prepared : loaded;
+  const bool rebuilt = in_memory ? false : loaded.table_rebuilt;
+  const auto& table = tables.table;
+  const estimation::Estimator& estimator = *tables.estimator;
   std::vector<estimation::PixelEstimate> estimates(m.measured.size() / static_cast<std::size_t>(m.set.size()));
   MethodEstimationResult result;
   result.summary = estimator.estimate(m.measured, estimates, progress);
@@ -238,7 +270,7 @@ MethodEstimationResult estimate_method_captures(const session::MethodCaptures& c
 
   auto extra = nlohmann::ordered_json::parse(extra_json);
   if (!extra.is_object()) throw std::invalid_argument("extra_json is not a JSON object");
-  extra["table"] = {{"key", hex_key(table->key())}, {"nodes", table->grid().node_count()}, {"rebuilt", rebuilt}};
+  extra["table"] = {{"key", hex_key(table->key())}, {"nodes", table->grid().node_count()}, {"rebuilt", rebuilt}, {"tables_in_memory", in_memory}};
   extra["registration"] = nlohmann::ordered_json::parse(registration_report_json(m.registration));
   nlohmann::ordered_json noise = nlohmann::ordered_json::object();
   for (const auto& c : m.set.channels)

@@ -69,7 +69,12 @@ std::string illumination_key(const Step& step) {
 
 }  // namespace
 
-void write_derived_data(const std::filesystem::path& folder, Journal& journal, files::StorageBudget* budget) {
+void write_derived_data(const std::filesystem::path& folder, double white_reflectance, Journal& journal,
+                        files::StorageBudget* budget) {
+  if (!(white_reflectance > 0 && white_reflectance <= 1))
+    throw std::invalid_argument("derived data: white_reflectance must be in (0, 1], not " +
+                                std::to_string(white_reflectance));
+  const float rho = static_cast<float>(white_reflectance);
   std::ifstream in(folder / "session.json");
   auto session = nlohmann::json::parse(in);
   SessionPlan plan = plan_from_json(session.at("plan"));
@@ -123,13 +128,13 @@ void write_derived_data(const std::filesystem::path& folder, Journal& journal, f
         std::vector<float> albedo(s.size());
         for (std::size_t i = 0; i < s.size(); ++i) {
           float denominator = wh[i] - dk[i];
-          albedo[i] = denominator > 1e-3f ? (s[i] - dk[i]) / denominator : std::numeric_limits<float>::quiet_NaN();
+          albedo[i] = denominator > 1e-3f ? rho * (s[i] - dk[i]) / denominator : std::numeric_limits<float>::quiet_NaN();
         }
         channels.push_back({names[static_cast<std::size_t>(c)], std::move(albedo)});
       }
       write("albedo-" + illumination_key(step) + "-" + key.second + ".exr", subject, std::move(channels),
             {{"kind", "albedo"}, {"step", step.name}, {"camera", key.second}, {"white_step", white->second->name},
-             {"dark_step", dark}});
+             {"dark_step", dark}, {"white_reflectance", white_reflectance}});
     }
   }
 }

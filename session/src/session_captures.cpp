@@ -9,6 +9,7 @@
 
 #include "chromo/session/frame_files.hpp"
 #include "chromo/session/journal.hpp"
+#include "chromo/session/session_store.hpp"
 
 namespace chromo::session {
 
@@ -196,6 +197,7 @@ SessionPlan read_session_plan(const std::filesystem::path& folder) {
   auto session = nlohmann::json::parse(in, nullptr, false);
   if (session.is_discarded() || !session.is_object() || !session.contains("plan"))
     throw std::invalid_argument((folder / "session.json").string() + ": not valid JSON with a \"plan\"");
+  session_format_version(session, folder / "session.json");
   try {
     return plan_from_json(session.at("plan"));
   } catch (const std::exception& error) {

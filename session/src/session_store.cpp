@@ -34,6 +34,23 @@ std::chrono::system_clock::time_point parse_time(const std::string& text) {
 }
 }  // namespace
 
+int session_format_version(const nlohmann::json& session, const std::filesystem::path& file) {
+  static const std::string kPrefix = "chromosphere-session/";
+  const auto format = session.find("format");
+  if (format == session.end() || !format->is_string())
+    throw std::invalid_argument(file.string() + ": format: missing (expected \"" + kPrefix + "N\")");
+  const std::string text = format->get<std::string>();
+  const std::string number = text.rfind(kPrefix, 0) == 0 ? text.substr(kPrefix.size()) : "";
+  int version = 0;
+  if (!number.empty() && number.size() <= 3 && number.find_first_not_of("0123456789") == std::string::npos)
+    version = std::stoi(number);
+  if (version < 1 || version > kSessionFormatVersion)
+    throw std::invalid_argument(file.string() + ": format: \"" + text.substr(0, 64) + "\" is not a session format " +
+                                "this version reads (" + kPrefix + "1 to " + kPrefix +
+                                std::to_string(kSessionFormatVersion) + ")");
+  return version;
+}
+
 SessionStore::SessionStore(std::filesystem::path root, files::StorageBudget* budget) : root_(std::move(root)), budget_(budget) {
   std::filesystem::create_directories(root_);
 }
@@ -45,7 +62,7 @@ SessionStore::Created SessionStore::create(const SessionPlan& plan, const std::s
   created.folder = root_ / created.id;
   std::filesystem::create_directory(created.folder);
   files::fsync_directory(root_);
-  nlohmann::json session{{"format", "chromosphere-session/1"},
+  nlohmann::json session{{"format", "chromosphere-session/" + std::to_string(kSessionFormatVersion)},
                          {"id", created.id},
                          {"name", plan.name},
                          {"subject", subject},
@@ -65,6 +82,11 @@ SessionInfo SessionStore::read_session(const std::filesystem::path& folder) cons
   if (!session.is_object() || !session.contains("id"))
     throw std::runtime_error(folder.string() + "/session.json: not a session description");
   SessionInfo info;
+  try {
+    info.format_version = session_format_version(session, folder / "session.json");
+  } catch (const std::invalid_argument& error) {
+    throw std::runtime_error(error.what());
+  }
   info.record.id = session.value("id", "");
   info.record.name = session.value("name", "");
   info.record.kind = OperationKind::kSession;

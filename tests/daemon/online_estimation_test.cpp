@@ -313,6 +313,14 @@ TEST_F(Fixture, OfflineEstimateOfTheSessionFolderEqualsTheDaemonsMaps) {
   std::ifstream in(out / "summary.json");
   const auto summary = nlohmann::json::parse(in);
   EXPECT_EQ(summary["flag_counts"], streamed.results["flag_counts"]);
+  // The daemon estimated with the tables it prepared from the references,
+  // kept in memory; the offline run loaded them from the disk cache.
+  std::ifstream daemon_in(streamed.folder / "results" / "summary.json");
+  const auto daemon_summary = nlohmann::json::parse(daemon_in);
+  EXPECT_EQ(daemon_summary["table"]["tables_in_memory"], true);
+  EXPECT_EQ(daemon_summary["timings_s"]["table"], 0.0);
+  EXPECT_EQ(summary["table"]["tables_in_memory"], false);
+  EXPECT_EQ(summary["table"]["key"], daemon_summary["table"]["key"]);
 }
 
 TEST_F(Fixture, BadSessionFolderIsRefusedNamingTheProblemAndWritesNothing) {

@@ -8,7 +8,9 @@
 // in — before the subject is captured — it knows the measurement set
 // (illuminants from the LED library and the applied drive levels, noise from
 // the references) and builds or loads the forward table and the fast
-// inverter's inverse table into the disk cache.
+// inverter's inverse table (maps::prepare_tables: into the disk cache too),
+// and keeps both in memory until the estimate, so the last frame is followed
+// by the estimate itself, with no table reload.
 // When the subject's last frame is in it estimates the maps tile by tile on
 // options.estimation.estimator.threads threads (0 = all cores) and writes
 // <session>/results/ (estimate_report.hpp: maps.exr, previews, summary.json),
@@ -90,6 +92,7 @@ class OnlineEstimator final : public FrameConsumer {
   std::string error_;                     // first reason this session cannot be estimated
   bool table_prepared_ = false;
   double table_prepare_seconds_ = 0;
+  std::optional<maps::PreparedTables> prepared_;  // from the references until the estimate
   std::optional<maps::MethodEstimationResult> result_;
   std::size_t read_back_ = 0;
 };

@@ -23,6 +23,7 @@
 
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <span>
 #include <string>
 #include <utility>
@@ -89,12 +90,39 @@ struct MethodEstimationResult {
   std::vector<session::RegistrationReport> registration;
 };
 
+// The forward table and the inverter of one measurement set, made before the
+// subject is captured (the on-line estimator, from the dark and white
+// references) and kept in memory until the estimate: estimate_method_captures()
+// uses them instead of reloading both tables from the disk cache when the
+// captures' set is the same (same_measurement_set). prepare_tables() fills
+// the disk cache as load_or_build() does, so `chromo estimate SESSION_DIR`
+// later loads tables with the same numbers.
+//
+// Thread rules: immutable once made; estimate() may run on any thread.
+struct PreparedTables {
+  estimation::MeasurementSet set;
+  std::shared_ptr<const estimation::ForwardTable> table;
+  std::shared_ptr<const estimation::Estimator> estimator;
+  bool table_rebuilt = false;  // the forward table was not in the disk cache
+  double table_seconds = 0;     // loading or building the forward table
+  double inverter_seconds = 0;  // setting up the inverter (the fast one loads or builds its inverse table)
+};
+PreparedTables prepare_tables(const estimation::MeasurementSet& set, const MethodEstimationOptions& options);
+
+// Every number the tables depend on is equal (camera, channels, illuminants, noise).
+bool same_measurement_set(const estimation::MeasurementSet& a, const estimation::MeasurementSet& b);
+
 // extra_json: members added to summary.json (e.g. the session id and source).
+// prepared (optional): tables made earlier for the captures' measurement set;
+// used when same_measurement_set, otherwise the tables are loaded or built as
+// without them. summary.json's timings_s then shows "table" and
+// "inverter_setup" as 0 and "tables_in_memory": true in its "table" object.
 // Throws std::invalid_argument / session::RegistrationError for unusable captures
 // (nothing written), std::runtime_error for failed writes.
 MethodEstimationResult estimate_method_captures(const session::MethodCaptures& captures, const MethodEstimationOptions& options,
                                                 const std::filesystem::path& out_dir, const FileCommit& commit,
                                                 const files::Progress& progress = {},
-                                                const std::string& extra_json = "{}");
+                                                const std::string& extra_json = "{}",
+                                                const PreparedTables* prepared = nullptr);
 
 }  // namespace chromo::maps

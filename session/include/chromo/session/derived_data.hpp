@@ -5,10 +5,11 @@
 //    units of full scale (0-1), channel "Y" for one-sample formats (Bayer
 //    frames stay mosaicked), "R","G","B" for RGB8;
 //  - derived/albedo-<illumination>-<camera>.exr for every subject step with a
-//    white step under the same illumination and a dark step:
-//    (subject − dark) / (white − dark), unscaled by the white target's
-//    reflectance (ρ_white is applied by the estimator, which knows the
-//    target); pixels where white − dark ≤ 1/1000 of full scale are NaN.
+//    white step under the same illumination and a dark step, by the
+//    estimator's definition (method_measurement.hpp):
+//    ρ_white · (subject − dark) / (white − dark), ρ_white = white_reflectance,
+//    the white target's known reflectance; pixels where white − dark ≤ 1/1000
+//    of full scale are NaN. (Session format 1 wrote these without ρ_white.)
 // Each file is recorded in the journal ({"type": "derived", ...}).
 
 #include <filesystem>
@@ -17,6 +18,8 @@
 
 namespace chromo::session {
 
-void write_derived_data(const std::filesystem::path& folder, Journal& journal, files::StorageBudget* budget);
+// Throws std::invalid_argument unless white_reflectance is in (0, 1].
+void write_derived_data(const std::filesystem::path& folder, double white_reflectance, Journal& journal,
+                        files::StorageBudget* budget);
 
 }  // namespace chromo::session

@@ -13,6 +13,11 @@
 // start-up, recover() marks sessions whose journal has no final state as
 // interrupted (appending that record), so a restart after kill -9 reports them.
 //
+// Format version: session.json's "format" is "chromosphere-session/<N>"
+// (docs/formats/session.md says what each version changed). create() writes
+// kSessionFormatVersion; readers accept every version from 1 to it and refuse
+// others, naming the file and the field.
+//
 // Thread rules: create() and recover() from one thread; read_session() anywhere.
 
 #include <filesystem>
@@ -28,6 +33,11 @@
 
 namespace chromo::session {
 
+inline constexpr int kSessionFormatVersion = 2;
+// The version of a parsed session.json (1 ... kSessionFormatVersion). Throws
+// std::invalid_argument naming `file` and the "format" field otherwise.
+int session_format_version(const nlohmann::json& session, const std::filesystem::path& file);
+
 struct StepProgress {
   std::string name;
   StepRole role = StepRole::kSubject;
@@ -38,6 +48,7 @@ struct StepProgress {
 struct SessionInfo {
   OperationRecord record;  // state, counters, folder...
   SessionPlan plan;
+  int format_version = kSessionFormatVersion;
   std::string subject;
   std::vector<StepProgress> steps;
   std::vector<nlohmann::json> frames;  // the journal's frame records
