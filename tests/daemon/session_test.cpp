@@ -17,7 +17,7 @@ constexpr int kRed = 0, kGreen = 1, kBlue = 3;  // RGGB sites
 // The frame file of the n-th stored frame of a step.
 std::filesystem::path frame_of(const session::SessionInfo& info, const std::string& step, std::size_t n = 0) {
   for (const auto& frame : info.frames)
-    if (frame["step"] == step && n-- == 0) return std::filesystem::path(info.record.folder) / frame["file"].get<std::string>();
+    if (frame.step == step && n-- == 0) return std::filesystem::path(info.record.folder) / frame.file;
   ADD_FAILURE() << "no frame of step " << step;
   return {};
 }
@@ -39,19 +39,22 @@ TEST(Session, StandardSessionStoresEveryFrameWithMetadataAndDerivedData) {
   for (const auto& step : info->steps) EXPECT_TRUE(step.completed) << step.name;
   // Every frame: the camera simulator's sensor at its native 12 bits in 16-bit samples.
   for (const auto& frame : info->frames) {
-    auto image = session::read_tiff(std::filesystem::path(final.folder) / frame["file"].get<std::string>());
+    auto image = session::read_tiff(std::filesystem::path(final.folder) / frame.file);
     EXPECT_EQ(image.width, 160);
     EXPECT_EQ(image.height, 120);
     EXPECT_EQ(image.bits_per_sample, 16);
-    EXPECT_EQ(frame["pixel_format"], "BayerRG12");
-    EXPECT_TRUE(frame.contains("camera_timestamp_ns"));
-    EXPECT_EQ(frame["led"]["temperature_C"].size(), 6u);
-    EXPECT_DOUBLE_EQ(frame["exposure_us"].get<double>(), 2000.0);
+    EXPECT_EQ(frame.pixel_format, drivers::PixelFormat::kBayerRG12);
+    EXPECT_GT(frame.camera_timestamp_ns, 0u);
+    ASSERT_TRUE(frame.led);
+    EXPECT_GT(frame.led->temperature_C[0], 0.0);  // the controller's reading
+    EXPECT_DOUBLE_EQ(frame.exposure_us, 2000.0);
   }
   // The controller applied the configured mix (read back over Modbus).
   const auto& last = info->frames.back();
-  EXPECT_EQ(last["step"], "subject_w57+blue");
-  EXPECT_NEAR(last["led"]["drive"]["B"].get<double>(), lab.config.mixes["w57+blue"][5], 1e-3);
+  EXPECT_EQ(last.step, "subject_w57+blue");
+  EXPECT_EQ(last.role, session::StepRole::kSubject);
+  ASSERT_TRUE(last.led);
+  EXPECT_NEAR(last.led->drive[5], lab.config.mixes["w57+blue"][5], 1e-3);
   // What the camera saw: black in the dark; the white target (rho 0.99) is
   // brighter than the skin under the same light (the scene was switched for
   // each step); the blue LED raises the blue sites, not the red ones.
@@ -194,7 +197,7 @@ TEST(Session, CameraPacketLossIsCountedWithItsReasonAndRetaken) {
   auto info = daemon->session(started.id);
   EXPECT_EQ(info->record.counters.lost, final.counters.lost);  // the journal says the same
   for (const auto& frame : info->frames)
-    EXPECT_EQ(session::read_tiff(std::filesystem::path(final.folder) / frame["file"].get<std::string>()).data.size(), 160u * 120u * 2u);
+    EXPECT_EQ(session::read_tiff(std::filesystem::path(final.folder) / frame.file).data.size(), 160u * 120u * 2u);
 }
 
 TEST(Session, CameraThatDisappearsPausesAndContinuesWhenItReturns) {
@@ -251,7 +254,7 @@ TEST(Session, FullDiskStopsCleanlyAndKeepsWhatWasStored) {
   EXPECT_EQ(info.frames.size(), final.counters.stored);
   EXPECT_EQ(info.torn_journal_tail, false);
   for (const auto& frame : info.frames)
-    EXPECT_EQ(session::read_tiff(std::filesystem::path(final.folder) / frame["file"].get<std::string>()).data.size(), 160u * 120u * 2u);
+    EXPECT_EQ(session::read_tiff(std::filesystem::path(final.folder) / frame.file).data.size(), 160u * 120u * 2u);
   for (const auto& file : std::filesystem::recursive_directory_iterator(final.folder))
     EXPECT_EQ(file.path().string().find(".tmp-"), std::string::npos) << file.path();
   EXPECT_EQ(lab.emitted(), drivers::DriveLevels{});  // LEDs switched off
