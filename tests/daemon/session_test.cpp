@@ -3,6 +3,13 @@
 // GigE Vision camera simulator through Aravis), with the simulators' faults.
 #include "test_lab.hpp"
 
+#include <cstring>
+
+#include "../support/fresh_directory.hpp"
+#include "chromo/files/float_image.hpp"
+#include "chromo/session/derived_data.hpp"
+#include "chromo/session/session_captures.hpp"
+
 namespace chromo::daemon {
 namespace {
 
@@ -72,6 +79,34 @@ TEST(Session, StandardSessionStoresEveryFrameWithMetadataAndDerivedData) {
   EXPECT_NEAR(red_gain, 1.0, 0.02);
   EXPECT_TRUE(std::filesystem::exists(std::filesystem::path(final.folder) / "derived/albedo-d65-cam0.exr"));
   EXPECT_TRUE(std::filesystem::exists(std::filesystem::path(final.folder) / "derived/dark-cam0-mean.exr"));
+
+  // Derived data written live (from the sums the pipeline filled as frames
+  // were stored) equals a re-processing of the stored frames from disk.
+  namespace fs = std::filesystem;
+  const fs::path copy = testing::fresh_directory("session-derived-reprocessed");
+  fs::copy(final.folder, copy, fs::copy_options::recursive | fs::copy_options::overwrite_existing);
+  fs::remove_all(copy / "derived");
+  double white_reflectance = 0;
+  for (const auto& record : session::read_journal(copy / "journal.jsonl").records)
+    if (record.value("kind", "") == "albedo") white_reflectance = record.at("white_reflectance").get<double>();
+  ASSERT_GT(white_reflectance, 0);
+  session::SessionFrameSums sums;
+  EXPECT_EQ(session::add_stored_frames(sums, copy), 14u);
+  {
+    session::Journal journal(copy / "journal.jsonl", nullptr);
+    session::write_derived_data(copy, session::read_session_plan(copy), sums, white_reflectance, journal, nullptr);
+  }
+  int compared = 0;
+  for (const auto& entry : fs::directory_iterator(fs::path(final.folder) / "derived")) {
+    const auto live = files::read_exr(entry.path());
+    const auto again = files::read_exr(copy / "derived" / entry.path().filename());
+    ASSERT_EQ(live.channel_names, again.channel_names) << entry.path();
+    for (std::size_t c = 0; c < live.channels.size(); ++c)
+      EXPECT_EQ(std::memcmp(live.channels[c].data(), again.channels[c].data(), live.channels[c].size() * sizeof(float)), 0)
+          << entry.path();
+    ++compared;
+  }
+  EXPECT_EQ(compared, 7 + 3);  // a mean per step, an albedo per mix (one camera)
 }
 
 TEST(Session, HardwareTimedSequenceAdvancesOnTheCameraExposure) {
