@@ -227,9 +227,15 @@ RunResult run(const RunSpec& spec, const std::filesystem::path& root, const std:
         ++received;
       }
       if (!spec.store) return;  // link only
-      captured.camera = "cam0";
-      captured.step = "stream";
-      captured.frame = std::move(frame);
+      captured.record.camera = "cam0";
+      captured.record.step = "stream";
+      captured.record.sequence = frame.sequence;
+      captured.record.camera_frame_id = frame.camera_frame_id;
+      captured.record.camera_timestamp_ns = frame.camera_timestamp_ns;
+      captured.record.width = frame.width;
+      captured.record.height = frame.height;
+      captured.record.pixel_format = frame.pixel_format;
+      captured.samples = std::move(frame.data);
       pipeline.submit(std::move(captured));  // blocks while storage's queue is full (never drops)
     });
     std::this_thread::sleep_for(std::chrono::milliseconds(500));  // stream settled

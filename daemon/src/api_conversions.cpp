@@ -109,26 +109,18 @@ void to_proto(const session::SessionInfo& info, bool include_frames, pb::Session
   if (!include_frames) return;
   for (const auto& frame : info.frames) {
     auto* f = out->add_frames();
-    f->set_index(frame.value("index", 0ull));
-    f->set_step(frame.value("step", ""));
-    f->set_camera(frame.value("camera", ""));
-    f->set_sequence(frame.value("sequence", 0ull));
-    f->set_camera_frame_id(frame.value("camera_frame_id", 0ull));
-    f->set_camera_timestamp_ns(frame.value("camera_timestamp_ns", 0ull));
-    f->set_file(frame.value("file", ""));
+    f->set_index(frame.index);
+    f->set_step(frame.step);
+    f->set_camera(frame.camera);
+    f->set_sequence(frame.sequence);
+    f->set_camera_frame_id(frame.camera_frame_id);
+    f->set_camera_timestamp_ns(frame.camera_timestamp_ns);
+    f->set_file(frame.file);
     f->set_status("complete");
-    f->set_exposure_us(frame.value("exposure_us", 0.0));
-    if (frame.contains("led")) {
-      const auto& led = frame.at("led");
-      if (led.contains("drive")) {
-        drivers::DriveLevels levels{};
-        for (auto type : spectral::kAllLedTypes)
-          levels[static_cast<std::size_t>(spectral::led_type_index(type))] =
-              led.at("drive").value(std::string(spectral::led_type_name(type)), 0.0);
-        to_proto(levels, f->mutable_drive());
-      }
-      if (led.contains("temperature_C"))
-        for (const auto& t : led.at("temperature_C")) f->add_temperature_c(t.get<double>());
+    f->set_exposure_us(frame.exposure_us);
+    if (frame.led) {
+      to_proto(frame.led->drive, f->mutable_drive());
+      for (double t : frame.led->temperature_C) f->add_temperature_c(t);
     }
   }
 }
@@ -136,7 +128,7 @@ void to_proto(const session::SessionInfo& info, bool include_frames, pb::Session
 void results_to_proto(const session::SessionInfo& info, pb::Results* out) {
   out->set_session_id(info.record.id);
   out->set_folder(info.record.folder);
-  for (const auto& frame : info.frames) out->add_frame_files(frame.value("file", ""));
+  for (const auto& frame : info.frames) out->add_frame_files(frame.file);
   if (!session::is_final(info.record.state)) {
     out->set_state(pb::RESULTS_STATE_PENDING);
     out->set_reason("the session is " + session::state_name(info.record.state));

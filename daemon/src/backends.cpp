@@ -8,7 +8,6 @@
 #include <stdexcept>
 
 #include "chromo/daemon/device_set.hpp"
-#include "chromo/session/frame_files.hpp"
 #include "chromo/drivers/camera/aravis_camera.hpp"
 #include "chromo/drivers/led_controller_factory.hpp"
 #include "chromo/drivers/spectrometer_factory.hpp"
@@ -149,17 +148,11 @@ drivers::CameraSettings camera_capture_settings(const DeviceConfig& config) {
   if (json.contains("pixel_format")) {
     if (!json.at("pixel_format").is_string()) throw std::invalid_argument("settings.pixel_format: must be a string");
     const std::string name = json.at("pixel_format").get<std::string>();
-    bool found = false;
-    for (auto format : {drivers::PixelFormat::kMono8, drivers::PixelFormat::kMono12, drivers::PixelFormat::kMono16,
-                        drivers::PixelFormat::kBayerRG8, drivers::PixelFormat::kBayerRG12, drivers::PixelFormat::kBayerRG16,
-                        drivers::PixelFormat::kRgb8})
-      if (session::pixel_format_name(format) == name) {
-        settings.pixel_format = format;
-        found = true;
-      }
-    if (!found)
-      throw std::invalid_argument("settings.pixel_format: \"" + name.substr(0, 64) +
-                                  "\" unknown (Mono8, Mono12, Mono16, BayerRG8, BayerRG12, BayerRG16, RGB8)");
+    const auto format = drivers::parse_pixel_format(name);
+    if (!format)
+      throw std::invalid_argument("settings.pixel_format: \"" + name.substr(0, 64) + "\" unknown (" +
+                                  drivers::pixel_format_names() + ")");
+    settings.pixel_format = *format;
   }
   if (json.contains("gain_db")) {
     if (!json.at("gain_db").is_number()) throw std::invalid_argument("settings.gain_db: must be a number");

@@ -208,20 +208,26 @@ OperationRunner::Outcome Daemon::run_session(RunningOperation& running, const se
     events_.publish(std::move(event));
   };
   if (estimator_)
-    estimator_->begin_session({id, folder, session::to_json(plan), {[&, id](double fraction, const std::string& message) {
+    estimator_->begin_session({id, folder, plan, {[&, id](double fraction, const std::string& message) {
                                  operations_.update(id, [&](session::OperationRecord& r) {
                                    r.message = message + " " + std::to_string(static_cast<int>(fraction * 100)) + "%";
                                  });
                                }, {}}});
+  // Every stored frame, summed as it is stored: derived data is written from
+  // these sums (a session re-processed from its folder fills them from the
+  // stored frames: session::add_stored_frames).
+  session::SessionFrameSums stored_sums;
+  std::string stored_sums_error;
   {
     FramePipeline pipeline(
-        folder, *journal, &budget_, {config_.storage_queue_frames, config_.estimator_queue_frames}, estimator_,
+        folder, *journal, &budget_,
+        {config_.storage_queue_frames, config_.estimator_queue_frames, &stored_sums}, estimator_,
         [&](const StoredFrame& stored) {
           Event event;
           event.kind = Event::Kind::kFrame;
           event.session_id = id;
-          event.step = stored.frame->step;
-          event.camera = stored.frame->camera;
+          event.step = stored.frame->record.step;
+          event.camera = stored.frame->record.camera;
           event.frame_index = stored.index;
           events_.publish(std::move(event));
         },
@@ -251,12 +257,14 @@ OperationRunner::Outcome Daemon::run_session(RunningOperation& running, const se
     }
     pipeline.drain();
     counters = pipeline.counters();
+    stored_sums_error = pipeline.stored_sums_error();
   }
   std::string derived_error;
   if (outcome.state == session::OperationState::kSucceeded) {
     operations_.update(id, [](session::OperationRecord& r) { r.message = "writing derived data"; });
     try {
-      session::write_derived_data(folder, config_.estimation.white_reflectance, *journal, &budget_);
+      if (!stored_sums_error.empty()) throw std::runtime_error(stored_sums_error);
+      session::write_derived_data(folder, plan, stored_sums, config_.estimation.white_reflectance, *journal, &budget_);
     } catch (const std::exception& error) {
       outcome = {session::OperationState::kFailed, std::string("derived data: ") + error.what()};
     }

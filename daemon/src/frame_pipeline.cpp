@@ -83,6 +83,11 @@ session::PipelineCounters FramePipeline::counters() const {
   return counters_;
 }
 
+std::string FramePipeline::stored_sums_error() const {
+  std::lock_guard lock(mutex_);
+  return stored_sums_error_;
+}
+
 std::string FramePipeline::storage_error() const {
   std::lock_guard lock(mutex_);
   return storage_error_;
@@ -108,31 +113,28 @@ void FramePipeline::storage_loop() {
     StoredFrame stored{index, {}, &captured};
     if (!failed_before) {
       char name[96];
-      std::snprintf(name, sizeof name, "%s-%06llu.tiff", captured.camera.c_str(),
-                    static_cast<unsigned long long>(captured.frame.sequence));
-      const std::filesystem::path relative = std::filesystem::path("frames") / captured.step / name;
+      std::snprintf(name, sizeof name, "%s-%06llu.tiff", captured.record.camera.c_str(),
+                    static_cast<unsigned long long>(captured.record.sequence));
+      const std::filesystem::path relative = std::filesystem::path("frames") / captured.record.step / name;
       stored.file = relative.string();
+      captured.record.index = index;
+      captured.record.file = stored.file;
       try {
         std::filesystem::create_directories(folder_ / relative.parent_path());
-        nlohmann::json entry = captured.metadata;
-        entry["type"] = "frame";
-        entry["index"] = index;
-        entry["step"] = captured.step;
-        entry["step_index"] = captured.step_index;
-        entry["camera"] = captured.camera;
-        entry["sequence"] = captured.frame.sequence;
-        entry["camera_frame_id"] = captured.frame.camera_frame_id;
-        entry["camera_timestamp_ns"] = captured.frame.camera_timestamp_ns;
-        entry["host_timestamp_ns"] = std::chrono::duration_cast<std::chrono::nanoseconds>(
-                                         captured.frame.host_timestamp.time_since_epoch()).count();
-        entry["width"] = captured.frame.width;
-        entry["height"] = captured.frame.height;
-        entry["pixel_format"] = session::pixel_format_name(captured.frame.pixel_format);
-        entry["file"] = stored.file;
-        session::write_frame_tiff(folder_ / relative, captured.frame, entry.dump(), budget_);
-        journal_.append(entry);
+        session::write_frame_tiff(folder_ / relative, captured.record, captured.samples, budget_);
+        journal_.append(session::to_json(captured.record));
       } catch (const std::exception& failure) {
         error = failure.what();
+      }
+      if (error.empty() && options_.stored_sums) {
+        // The frame is stored: a frame the sums refuse (its step's frames
+        // differ in size) fails derived data, not storage.
+        try {
+          options_.stored_sums->add(captured.record, captured.samples);
+        } catch (const std::exception& failure) {
+          std::lock_guard guard(mutex_);
+          if (stored_sums_error_.empty()) stored_sums_error_ = failure.what();
+        }
       }
     }
     const double latency_ms =

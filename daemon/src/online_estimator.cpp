@@ -3,7 +3,6 @@
 #include <chrono>
 
 #include "chromo/calibration/led_library_io.hpp"
-#include "chromo/session/frame_files.hpp"
 #include "chromo/spectral/table.hpp"
 
 namespace chromo::daemon {
@@ -51,7 +50,7 @@ void OnlineEstimator::begin_session(const SessionStart& start) {
   read_back_ = 0;
   try {
     sources_ = options_.sources();
-    builder_ = std::make_unique<session::SessionCaptureBuilder>(session::plan_from_json(start.plan), *sources_);
+    builder_ = std::make_unique<session::SessionCaptureBuilder>(start.plan, *sources_);
   } catch (const std::exception& e) {
     error_ = e.what();
   }
@@ -60,9 +59,7 @@ void OnlineEstimator::begin_session(const SessionStart& start) {
 void OnlineEstimator::consume(const CapturedFrame& captured, const StoredFrame& stored) {
   if (!builder_ || !error_.empty() || result_) return;
   try {
-    builder_->add_frame(captured.step, captured.camera, session::pixel_format_name(captured.frame.pixel_format),
-                        captured.frame.width, captured.frame.height, captured.frame.data,
-                        captured.metadata.value("led", nlohmann::json::object()));
+    builder_->add_frame(captured.record, captured.samples);
     consumed_.insert(stored.index);
     if (!table_prepared_ && builder_->references_complete()) {
       // The subject is not captured yet: build (or load) the table now.

@@ -13,13 +13,6 @@ using drivers::LedState;
 
 namespace {
 
-nlohmann::json levels_json(const DriveLevels& levels) {
-  nlohmann::json json;
-  for (auto type : spectral::kAllLedTypes)
-    json[std::string(spectral::led_type_name(type))] = levels[static_cast<std::size_t>(spectral::led_type_index(type))];
-  return json;
-}
-
 std::string frame_status_reason(drivers::FrameStatus status) {
   switch (status) {
     case drivers::FrameStatus::kMissingPackets: return "missing_packets";
@@ -43,9 +36,7 @@ struct CameraCollector {
   std::condition_variable arrived;
   std::uint64_t delivered = 0;  // frames (complete or not) since start
   drivers::FrameStatus last_status = drivers::FrameStatus::kComplete;
-  std::string step;
-  int step_index = 0;
-  nlohmann::json metadata;
+  session::FrameRecord pending;  // the frame being taken: step, LED state, exposure (camera fields come with it)
   std::chrono::steady_clock::time_point trigger_time;
   bool streaming = false;  // sequencer thread only
 };
@@ -92,7 +83,6 @@ class Run {
       if (c_.control->cancel_requested()) return cancelled();
       if (c_.place_in_sphere) c_.place_in_sphere(step.role);
       DriveLevels levels = resolve(step);
-      nlohmann::json led;
       if (!hardware) {
         LedState state;
         state.drive = levels;
@@ -104,22 +94,28 @@ class Run {
       // Hardware timing: the controller moves to this step's state on the
       // first exposure edge, so before it the status still shows the state
       // of the previous frame; the frames were taken under the armed levels.
-      led = {{"drive", levels_json(hardware ? levels : status.applied.drive)},
-             {"requested_drive", levels_json(levels)},
-             {"temperature_C", status.temperature_C},
-             {"channel_faults", status.channel_faults},
-             {"controller_faults", status.controller_faults},
-             {"sequence_position", status.sequence_position}};
-      c_.journal->append({{"type", "step_started"}, {"step", step.name}, {"index", index}, {"led", led},
+      session::FrameLedState led;
+      led.drive = hardware ? levels : status.applied.drive;
+      led.requested_drive = levels;
+      led.temperature_C = status.temperature_C;
+      led.channel_faults = status.channel_faults;
+      led.controller_faults = status.controller_faults;
+      led.sequence_position = status.sequence_position;
+      c_.journal->append({{"type", "step_started"}, {"step", step.name}, {"index", index}, {"led", session::to_json(led)},
                           {"exposure_us", step.exposure_us}, {"settle_ms", step.settle_ms},
                           {"timing", session::timing_name(c_.plan.timing)}});
       if (!c_.control->sleep_unless_cancelled(std::chrono::milliseconds(step.settle_ms))) return cancelled();
       if (!ensure_exposure(step.exposure_us)) return cancelled();
       for (std::uint32_t frame = 0; frame < step.frames_per_camera; ++frame) {
         if (c_.control->cancel_requested()) return cancelled();
-        nlohmann::json metadata{{"exposure_us", step.exposure_us}, {"led", led}, {"frame_in_step", frame},
-                                {"role", session::role_name(step.role)}};
-        if (!take_frame(step, static_cast<int>(index), frame, metadata)) return cancelled();
+        session::FrameRecord pending;
+        pending.step = step.name;
+        pending.step_index = static_cast<int>(index);
+        pending.role = step.role;
+        pending.frame_in_step = frame;
+        pending.exposure_us = step.exposure_us;
+        pending.led = led;
+        if (!take_frame(step, static_cast<int>(index), frame, pending)) return cancelled();
         if (auto error = c_.pipeline->storage_error(); !error.empty()) return {session::OperationState::kFailed, error};
         frames_done_ += c_.cameras.size();
         report_progress();
@@ -134,7 +130,7 @@ class Run {
 
   // Triggers every camera and waits for one complete frame from each;
   // retries failed frames. False when cancelled.
-  bool take_frame(const session::Step& step, int index, std::uint32_t frame_in_step, const nlohmann::json& metadata) {
+  bool take_frame(const session::Step& step, int index, std::uint32_t frame_in_step, const session::FrameRecord& pending) {
     for (auto& collector : collectors_) {
       std::uint32_t attempts = 0;
       while (true) {
@@ -142,9 +138,8 @@ class Run {
         std::uint64_t before;
         {
           std::lock_guard lock(collector->mutex);
-          collector->step = step.name;
-          collector->step_index = index;
-          collector->metadata = metadata;
+          collector->pending = pending;
+          collector->pending.camera = collector->camera->config.name;
           collector->trigger_time = std::chrono::steady_clock::now();
           before = collector->delivered;
         }
@@ -251,6 +246,7 @@ class Run {
       if (!camera->device) throw std::runtime_error("camera \"" + camera->config.name + "\" is not open: " + camera->open_error);
       auto collector = std::make_unique<CameraCollector>();
       collector->camera = camera;
+      collector->pending.camera = camera->config.name;
       collectors_.push_back(std::move(collector));
     }
   }
@@ -303,20 +299,26 @@ class Run {
     const bool complete = frame.status == drivers::FrameStatus::kComplete;
     {
       std::lock_guard lock(collector.mutex);
-      captured.camera = collector.camera->config.name;
-      captured.step = collector.step;
-      captured.step_index = collector.step_index;
-      captured.metadata = collector.metadata;
+      captured.record = collector.pending;
       captured.trigger_time = collector.trigger_time;
     }
     if (complete) {
-      captured.frame = std::move(frame);
+      session::FrameRecord& r = captured.record;
+      r.sequence = frame.sequence;
+      r.camera_frame_id = frame.camera_frame_id;
+      r.camera_timestamp_ns = frame.camera_timestamp_ns;
+      r.host_timestamp_ns =
+          std::chrono::duration_cast<std::chrono::nanoseconds>(frame.host_timestamp.time_since_epoch()).count();
+      r.width = frame.width;
+      r.height = frame.height;
+      r.pixel_format = frame.pixel_format;
+      captured.samples = std::move(frame.data);
       c_.pipeline->submit(std::move(captured));
     } else {
       const std::string reason = frame_status_reason(frame.status);
       c_.pipeline->record_lost(reason);
       try {
-        c_.journal->append({{"type", "frame_lost"}, {"step", captured.step}, {"camera", captured.camera},
+        c_.journal->append({{"type", "frame_lost"}, {"step", captured.record.step}, {"camera", captured.record.camera},
                             {"reason", reason}, {"sequence", frame.sequence}});
       } catch (const std::exception&) {
         // Storage is failing: the pipeline reports it and the sequencer stops.

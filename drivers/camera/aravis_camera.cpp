@@ -51,31 +51,17 @@ class GErrorSlot {
   GError* error_ = nullptr;
 };
 
-struct PixelFormatName {
-  PixelFormat format;
-  ArvPixelFormat arv;
-  const char* genicam_name;
-};
-constexpr PixelFormatName kPixelFormats[] = {
-    {PixelFormat::kMono8, ARV_PIXEL_FORMAT_MONO_8, "Mono8"},
-    {PixelFormat::kMono12, ARV_PIXEL_FORMAT_MONO_12, "Mono12"},
-    {PixelFormat::kMono16, ARV_PIXEL_FORMAT_MONO_16, "Mono16"},
-    {PixelFormat::kBayerRG8, ARV_PIXEL_FORMAT_BAYER_RG_8, "BayerRG8"},
-    {PixelFormat::kBayerRG12, ARV_PIXEL_FORMAT_BAYER_RG_12, "BayerRG12"},
-    {PixelFormat::kBayerRG16, ARV_PIXEL_FORMAT_BAYER_RG_16, "BayerRG16"},
-    {PixelFormat::kRgb8, ARV_PIXEL_FORMAT_RGB_8_PACKED, "RGB8"},
-};
+// The camera interface's table carries each format's PFNC code, which is
+// Aravis' ArvPixelFormat value.
+static_assert(pixel_format_info(PixelFormat::kMono8).pfnc_code == ARV_PIXEL_FORMAT_MONO_8);
+static_assert(pixel_format_info(PixelFormat::kMono12).pfnc_code == ARV_PIXEL_FORMAT_MONO_12);
+static_assert(pixel_format_info(PixelFormat::kMono16).pfnc_code == ARV_PIXEL_FORMAT_MONO_16);
+static_assert(pixel_format_info(PixelFormat::kBayerRG8).pfnc_code == ARV_PIXEL_FORMAT_BAYER_RG_8);
+static_assert(pixel_format_info(PixelFormat::kBayerRG12).pfnc_code == ARV_PIXEL_FORMAT_BAYER_RG_12);
+static_assert(pixel_format_info(PixelFormat::kBayerRG16).pfnc_code == ARV_PIXEL_FORMAT_BAYER_RG_16);
+static_assert(pixel_format_info(PixelFormat::kRgb8).pfnc_code == ARV_PIXEL_FORMAT_RGB_8_PACKED);
 
-const PixelFormatName& lookup(PixelFormat format) {
-  for (const auto& entry : kPixelFormats)
-    if (entry.format == format) return entry;
-  throw std::invalid_argument("unknown PixelFormat");
-}
-std::optional<PixelFormat> from_arv(ArvPixelFormat arv) {
-  for (const auto& entry : kPixelFormats)
-    if (entry.arv == arv) return entry.format;
-  return std::nullopt;
-}
+std::optional<PixelFormat> from_arv(ArvPixelFormat arv) { return pixel_format_from_pfnc(static_cast<std::uint32_t>(arv)); }
 
 // net.core.rmem_max in bytes, 0 when unreadable.
 std::size_t read_rmem_max() {
@@ -254,10 +240,10 @@ struct AravisCamera::Impl {
 
   void apply_settings_locked(const CameraSettings& s) {
     GErrorSlot error;
-    const auto& format = lookup(s.pixel_format);
+    const auto& format = pixel_format_info(s.pixel_format);
     if (std::find(info.pixel_formats.begin(), info.pixel_formats.end(), s.pixel_format) == info.pixel_formats.end())
       throw DeviceError(DeviceError::Kind::kInvalidRequest, device_name,
-                        std::string("set PixelFormat=") + format.genicam_name, "the device does not offer this format");
+                        "set PixelFormat=" + std::string(format.name), "the device does not offer this format");
     const int width = s.roi.width > 0 ? s.roi.width : info.sensor_width - s.roi.x;
     const int height = s.roi.height > 0 ? s.roi.height : info.sensor_height - s.roi.y;
     if (s.roi.x < 0 || s.roi.y < 0 || width <= 0 || height <= 0 || s.roi.x + width > info.sensor_width ||
@@ -274,8 +260,8 @@ struct AravisCamera::Impl {
       arv_camera_gv_set_packet_size(camera, options.packet_size_bytes, error.out());
       if (error) fail("set GevSCPSPacketSize=" + std::to_string(options.packet_size_bytes), error);
     }
-    arv_camera_set_pixel_format(camera, format.arv, error.out());
-    if (error) fail(std::string("set PixelFormat=") + format.genicam_name, error);
+    arv_camera_set_pixel_format(camera, static_cast<ArvPixelFormat>(format.pfnc_code), error.out());
+    if (error) fail("set PixelFormat=" + std::string(format.name), error);
     arv_camera_set_region(camera, s.roi.x, s.roi.y, width, height, error.out());
     if (error) fail("set OffsetX/OffsetY/Width/Height", error);
     arv_camera_set_exposure_time(camera, s.exposure_us, error.out());

@@ -1,51 +1,14 @@
 #include "chromo/session/derived_data.hpp"
 
 #include <cmath>
-#include <cstring>
-#include <fstream>
 #include <limits>
 #include <map>
 
 #include "chromo/session/frame_files.hpp"
-#include "chromo/session/session_plan.hpp"
 
 namespace chromo::session {
 
 namespace {
-
-struct MeanImage {
-  int width = 0, height = 0, samples = 1;
-  std::vector<double> sum;
-  int frames = 0;
-  std::vector<float> channel(int c) const {
-    std::vector<float> out(static_cast<std::size_t>(width) * height);
-    for (std::size_t i = 0; i < out.size(); ++i) out[i] = static_cast<float>(sum[i * samples + c] / frames);
-    return out;
-  }
-};
-
-void accumulate(MeanImage& mean, const TiffImage& image, double full_scale) {
-  if (mean.frames == 0) {
-    mean.width = image.width;
-    mean.height = image.height;
-    mean.samples = image.samples_per_pixel;
-    mean.sum.assign(static_cast<std::size_t>(image.width) * image.height * image.samples_per_pixel, 0.0);
-  } else if (mean.width != image.width || mean.height != image.height || mean.samples != image.samples_per_pixel) {
-    throw std::runtime_error("frames of one step and camera differ in size");
-  }
-  for (std::size_t i = 0; i < mean.sum.size(); ++i) {
-    double value;
-    if (image.bits_per_sample == 8) {
-      value = image.data[i];
-    } else {
-      std::uint16_t v;
-      std::memcpy(&v, &image.data[i * 2], 2);
-      value = v;
-    }
-    mean.sum[i] += value / full_scale;
-  }
-  ++mean.frames;
-}
 
 std::vector<std::string> channel_names(int samples) {
   return samples == 3 ? std::vector<std::string>{"R", "G", "B"} : std::vector<std::string>{"Y"};
@@ -69,38 +32,28 @@ std::string illumination_key(const Step& step) {
 
 }  // namespace
 
-void write_derived_data(const std::filesystem::path& folder, double white_reflectance, Journal& journal,
-                        files::StorageBudget* budget) {
+void write_derived_data(const std::filesystem::path& folder, const SessionPlan& plan, const SessionFrameSums& sums,
+                        double white_reflectance, Journal& journal, files::StorageBudget* budget) {
   if (!(white_reflectance > 0 && white_reflectance <= 1))
     throw std::invalid_argument("derived data: white_reflectance must be in (0, 1], not " +
                                 std::to_string(white_reflectance));
   const float rho = static_cast<float>(white_reflectance);
-  std::ifstream in(folder / "session.json");
-  auto session = nlohmann::json::parse(in);
-  SessionPlan plan = plan_from_json(session.at("plan"));
-  std::map<std::pair<std::string, std::string>, MeanImage> means;  // (step, camera)
-  for (const auto& record : read_journal(folder / "journal.jsonl").records) {
-    if (record.value("type", "") != "frame") continue;
-    auto image = read_tiff(folder / record.at("file").get<std::string>());
-    const std::string format = record.value("pixel_format", "Mono8");
-    const int bits = format.find("12") != std::string::npos ? 12 : image.bits_per_sample;
-    accumulate(means[{record.at("step").get<std::string>(), record.at("camera").get<std::string>()}], image,
-               std::pow(2.0, bits) - 1);
-  }
+  const auto& means = sums.by_step_and_camera();  // (step, camera)
   std::filesystem::create_directories(folder / "derived");
-  auto write = [&](const std::string& name, const MeanImage& like, std::vector<FloatChannel> channels,
+  auto write = [&](const std::string& name, const FrameSums& like, std::vector<FloatChannel> channels,
                    nlohmann::json extra) {
-    write_float_exr(folder / "derived" / name, like.width, like.height, channels, budget);
+    write_float_exr(folder / "derived" / name, like.width(), like.height(), channels, budget);
     extra["type"] = "derived";
     extra["file"] = "derived/" + name;
     journal.append(extra);
   };
   for (const auto& [key, mean] : means) {
     std::vector<FloatChannel> channels;
-    auto names = channel_names(mean.samples);
-    for (int c = 0; c < mean.samples; ++c) channels.push_back({names[static_cast<std::size_t>(c)], mean.channel(c)});
+    const int samples = mean.format().samples_per_pixel;
+    auto names = channel_names(samples);
+    for (int c = 0; c < samples; ++c) channels.push_back({names[static_cast<std::size_t>(c)], mean.mean_channel(c)});
     write(key.first + "-" + key.second + "-mean.exr", mean, std::move(channels),
-          {{"kind", "mean"}, {"step", key.first}, {"camera", key.second}, {"frames", mean.frames}});
+          {{"kind", "mean"}, {"step", key.first}, {"camera", key.second}, {"frames", mean.frames()}});
   }
   // Albedo per subject step.
   std::map<std::string, const Step*> dark_steps, white_by_illumination;
@@ -118,13 +71,14 @@ void write_derived_data(const std::filesystem::path& folder, double white_reflec
       if (key.first != step.name) continue;
       auto d = means.find({dark, key.second});
       auto w = means.find({white->second->name, key.second});
-      if (d == means.end() || w == means.end() || d->second.sum.size() != subject.sum.size() ||
-          w->second.sum.size() != subject.sum.size())
+      if (d == means.end() || w == means.end() || d->second.sums().size() != subject.sums().size() ||
+          w->second.sums().size() != subject.sums().size())
         continue;
       std::vector<FloatChannel> channels;
-      auto names = channel_names(subject.samples);
-      for (int c = 0; c < subject.samples; ++c) {
-        auto s = subject.channel(c), dk = d->second.channel(c), wh = w->second.channel(c);
+      const int samples = subject.format().samples_per_pixel;
+      auto names = channel_names(samples);
+      for (int c = 0; c < samples; ++c) {
+        auto s = subject.mean_channel(c), dk = d->second.mean_channel(c), wh = w->second.mean_channel(c);
         std::vector<float> albedo(s.size());
         for (std::size_t i = 0; i < s.size(); ++i) {
           float denominator = wh[i] - dk[i];

@@ -10,36 +10,6 @@
 
 namespace chromo::session {
 
-using drivers::PixelFormat;
-
-int significant_bits(PixelFormat format) {
-  switch (format) {
-    case PixelFormat::kMono12:
-    case PixelFormat::kBayerRG12:
-      return 12;
-    case PixelFormat::kMono16:
-    case PixelFormat::kBayerRG16:
-      return 16;
-    default:
-      return 8;
-  }
-}
-
-int samples_per_pixel(PixelFormat format) { return format == PixelFormat::kRgb8 ? 3 : 1; }
-
-std::string pixel_format_name(PixelFormat format) {
-  switch (format) {
-    case PixelFormat::kMono8: return "Mono8";
-    case PixelFormat::kMono12: return "Mono12";
-    case PixelFormat::kMono16: return "Mono16";
-    case PixelFormat::kBayerRG8: return "BayerRG8";
-    case PixelFormat::kBayerRG12: return "BayerRG12";
-    case PixelFormat::kBayerRG16: return "BayerRG16";
-    case PixelFormat::kRgb8: return "RGB8";
-  }
-  return "unknown";
-}
-
 namespace {
 struct TiffCloser {
   void operator()(TIFF* tiff) const {
@@ -49,32 +19,34 @@ struct TiffCloser {
 using TiffPtr = std::unique_ptr<TIFF, TiffCloser>;
 }  // namespace
 
-void write_frame_tiff(const std::filesystem::path& path, const drivers::Frame& frame, const std::string& description,
-                      files::StorageBudget* budget) {
-  const int bits = significant_bits(frame.pixel_format);
-  const int container_bits = bits == 8 ? 8 : 16;
-  const int samples = samples_per_pixel(frame.pixel_format);
-  const std::size_t row_bytes = static_cast<std::size_t>(frame.width) * samples * (container_bits / 8);
-  if (frame.width <= 0 || frame.height <= 0 || frame.data.size() != row_bytes * static_cast<std::size_t>(frame.height))
-    throw std::invalid_argument("frame " + std::to_string(frame.sequence) + ": " + std::to_string(frame.data.size()) +
-                                " bytes do not make a " + std::to_string(frame.width) + "x" +
-                                std::to_string(frame.height) + " " + pixel_format_name(frame.pixel_format) + " image");
+void write_frame_tiff(const std::filesystem::path& path, const FrameRecord& record,
+                      std::span<const std::uint8_t> samples, files::StorageBudget* budget) {
+  const auto& format = drivers::pixel_format_info(record.pixel_format);
+  const int bits = format.significant_bits;
+  const int container_bits = 8 * format.bytes_per_sample;
+  const int samples_per_pixel = format.samples_per_pixel;
+  const std::size_t row_bytes = format.frame_bytes(record.width, 1);
+  if (record.width <= 0 || record.height <= 0 || samples.size() != format.frame_bytes(record.width, record.height))
+    throw std::invalid_argument("frame " + std::to_string(record.sequence) + ": " + std::to_string(samples.size()) +
+                                " bytes do not make a " + std::to_string(record.width) + "x" +
+                                std::to_string(record.height) + " " + std::string(format.name) + " image");
+  const std::string description = to_json(record).dump();
   files::commit_file_durably(path, budget, [&](const std::filesystem::path& temporary) {
     TiffPtr tiff(TIFFOpen(temporary.c_str(), "w"));
     if (!tiff) throw std::runtime_error("libtiff could not create " + temporary.string());
-    TIFFSetField(tiff.get(), TIFFTAG_IMAGEWIDTH, static_cast<std::uint32_t>(frame.width));
-    TIFFSetField(tiff.get(), TIFFTAG_IMAGELENGTH, static_cast<std::uint32_t>(frame.height));
+    TIFFSetField(tiff.get(), TIFFTAG_IMAGEWIDTH, static_cast<std::uint32_t>(record.width));
+    TIFFSetField(tiff.get(), TIFFTAG_IMAGELENGTH, static_cast<std::uint32_t>(record.height));
     TIFFSetField(tiff.get(), TIFFTAG_BITSPERSAMPLE, static_cast<std::uint16_t>(container_bits));
-    TIFFSetField(tiff.get(), TIFFTAG_SAMPLESPERPIXEL, static_cast<std::uint16_t>(samples));
-    TIFFSetField(tiff.get(), TIFFTAG_PHOTOMETRIC, samples == 3 ? PHOTOMETRIC_RGB : PHOTOMETRIC_MINISBLACK);
+    TIFFSetField(tiff.get(), TIFFTAG_SAMPLESPERPIXEL, static_cast<std::uint16_t>(samples_per_pixel));
+    TIFFSetField(tiff.get(), TIFFTAG_PHOTOMETRIC, samples_per_pixel == 3 ? PHOTOMETRIC_RGB : PHOTOMETRIC_MINISBLACK);
     TIFFSetField(tiff.get(), TIFFTAG_PLANARCONFIG, PLANARCONFIG_CONTIG);
     TIFFSetField(tiff.get(), TIFFTAG_COMPRESSION, COMPRESSION_NONE);
     TIFFSetField(tiff.get(), TIFFTAG_ROWSPERSTRIP, static_cast<std::uint32_t>(std::max<std::size_t>(1, 65536 / row_bytes)));
     if (bits == 12) TIFFSetField(tiff.get(), TIFFTAG_MAXSAMPLEVALUE, static_cast<std::uint16_t>(4095));
     TIFFSetField(tiff.get(), TIFFTAG_IMAGEDESCRIPTION, description.c_str());
     TIFFSetField(tiff.get(), TIFFTAG_SOFTWARE, "chromod");
-    for (int row = 0; row < frame.height; ++row) {
-      auto* line = const_cast<std::uint8_t*>(frame.data.data() + row_bytes * static_cast<std::size_t>(row));
+    for (int row = 0; row < record.height; ++row) {
+      auto* line = const_cast<std::uint8_t*>(samples.data() + row_bytes * static_cast<std::size_t>(row));
       if (TIFFWriteScanline(tiff.get(), line, static_cast<std::uint32_t>(row), 0) < 0)
         throw files::StorageFullError("libtiff could not write row " + std::to_string(row) + " of " + temporary.string() +
                                " (disk full?)");

@@ -3,7 +3,6 @@
 #include "chromo/calibration/led_library_io.hpp"
 #include "chromo/spectral/table.hpp"
 
-#include <cstring>
 #include <fstream>
 #include <stdexcept>
 
@@ -23,30 +22,6 @@ std::string mix_key(const std::string& mix) {
 
 const char* const kMixes[3] = {"d65", "w57", "w57+blue"};
 
-struct Layout {
-  bool bayer = false;
-  int samples = 1, bytes = 1;
-  double full_scale = 255;
-};
-
-Layout layout_of(const std::string& format, const std::string& step) {
-  Layout l;
-  if (format == "RGB8") {
-    l.samples = 3;
-  } else if (format.rfind("BayerRG", 0) == 0) {
-    l.bayer = true;
-  } else {
-    throw std::invalid_argument("step " + step + ": pixel format \"" + format +
-                                "\" has no colour; the estimator needs BayerRG or RGB8 frames");
-  }
-  const std::string bits = format.substr(format.find_first_of("0123456789"));
-  if (bits == "8") l.bytes = 1, l.full_scale = 255;
-  else if (bits == "12") l.bytes = 2, l.full_scale = 4095;
-  else if (bits == "16") l.bytes = 2, l.full_scale = 65535;
-  else throw std::invalid_argument("step " + step + ": pixel format \"" + format + "\" has an unknown bit depth");
-  return l;
-}
-
 }  // namespace
 
 SessionCaptureBuilder::SessionCaptureBuilder(const SessionPlan& plan, CaptureSources sources)
@@ -63,7 +38,7 @@ SessionCaptureBuilder::SessionCaptureBuilder(const SessionPlan& plan, CaptureSou
       key = std::string(step.role == StepRole::kWhite ? "white:" : "subject:") + mix_key(step.illumination.mix);
     }
     if (steps_.count(key)) throw std::invalid_argument("step " + step.name + ": a second " + key + " step");
-    steps_[key] = StepSum{step.name, step.frames_per_camera, 0, 0, 0, {}, {}};
+    steps_[key] = StepSum{step.name, step.frames_per_camera, {}, {}};
     key_of_step_[step.name] = key;
   }
   std::string missing;
@@ -75,99 +50,76 @@ SessionCaptureBuilder::SessionCaptureBuilder(const SessionPlan& plan, CaptureSou
     throw std::invalid_argument("the plan is not the method's standard session: no step for" + missing);
 }
 
-bool SessionCaptureBuilder::add_frame(const std::string& step, const std::string& camera, const std::string& pixel_format,
-                                      int width, int height, std::span<const std::uint8_t> samples,
-                                      const nlohmann::json& led) {
+bool SessionCaptureBuilder::add_frame(const FrameRecord& record, std::span<const std::uint8_t> samples) {
+  const std::string& step = record.step;
   auto key = key_of_step_.find(step);
   if (key == key_of_step_.end()) throw std::invalid_argument("frame of step \"" + step + "\": not in the plan");
-  if (camera_.empty()) camera_ = camera;
-  if (camera != camera_) return false;
-  const Layout layout = layout_of(pixel_format, step);
-  if (width <= 0 || height <= 0 || (layout.bayer && (width % 2 || height % 2)))
-    throw std::invalid_argument("step " + step + ": a " + std::to_string(width) + "×" + std::to_string(height) +
-                                " frame (Bayer frames need even sizes)");
-  const std::size_t expected_bytes = static_cast<std::size_t>(width) * height * layout.samples * layout.bytes;
-  if (samples.size() != expected_bytes)
-    throw std::invalid_argument("step " + step + ": frame has " + std::to_string(samples.size()) + " bytes, " +
-                                std::to_string(expected_bytes) + " expected for " + pixel_format);
-  StepSum& s = steps_[key->second];
-  const int out_width = layout.bayer ? width / 2 : width, out_height = layout.bayer ? height / 2 : height;
-  if (s.frames == 0) {
-    s.width = out_width, s.height = out_height;
-    for (auto& plane : s.sum) plane.assign(static_cast<std::size_t>(out_width) * out_height, 0.0);
-  } else if (s.width != out_width || s.height != out_height) {
-    throw std::invalid_argument("step " + step + ": frames of one step differ in size");
-  }
-  auto sample = [&](std::size_t index) -> double {
-    if (layout.bytes == 1) return samples[index];
-    std::uint16_t v;
-    std::memcpy(&v, &samples[index * 2], 2);
-    return v;
-  };
-  const double scale = 1.0 / layout.full_scale;
-  for (int y = 0; y < out_height; ++y)
-    for (int x = 0; x < out_width; ++x) {
-      const std::size_t o = static_cast<std::size_t>(y) * out_width + x;
-      if (layout.bayer) {  // RGGB: R at (even row, even column)
-        const std::size_t top = static_cast<std::size_t>(2 * y) * width + 2 * x, bottom = top + width;
-        s.sum[0][o] += sample(top) * scale;
-        s.sum[1][o] += 0.5 * (sample(top + 1) + sample(bottom)) * scale;
-        s.sum[2][o] += sample(bottom + 1) * scale;
-      } else {
-        for (int c = 0; c < 3; ++c) s.sum[c][o] += sample(o * 3 + c) * scale;
-      }
-    }
+  if (camera_.empty()) camera_ = record.camera;
+  if (record.camera != camera_) return false;
+  const auto& format = drivers::pixel_format_info(record.pixel_format);
+  if (format.layout == drivers::ColourLayout::kMono)
+    throw std::invalid_argument("step " + step + ": pixel format \"" + std::string(format.name) +
+                                "\" has no colour; the estimator needs BayerRG or RGB8 frames");
+  const bool bayer = format.layout == drivers::ColourLayout::kBayerRGGB;
+  if (record.width <= 0 || record.height <= 0 || (bayer && (record.width % 2 || record.height % 2)))
+    throw std::invalid_argument("step " + step + ": a " + std::to_string(record.width) + "×" +
+                                std::to_string(record.height) + " frame (Bayer frames need even sizes)");
   spectral::Spectrum illuminant;
   if (key->second != "dark") {
-    if (!led.contains("drive") || !led["drive"].is_object())
+    if (!record.led)
       throw std::invalid_argument("step " + step + ": the frame's record has no led.drive (the applied LED levels)");
-    for (const auto& [name, level] : led["drive"].items()) {
-      auto type = spectral::parse_led_type(name);
-      if (!type || !level.is_number())
-        throw std::invalid_argument("step " + step + ": led.drive." + name + " is not an LED type with a level");
-      illuminant += sources_.led_library.led(*type).spectrum_per_unit_drive() * level.get<double>();
-    }
+    for (auto type : spectral::kAllLedTypes)
+      illuminant += sources_.led_library.led(type).spectrum_per_unit_drive() *
+                    record.led->drive[static_cast<std::size_t>(spectral::led_type_index(type))];
   }
+  StepSum& s = steps_[key->second];
+  s.frames.add(record, samples);  // checks the size and that the step's frames agree
   s.illuminant_sum += illuminant;
-  ++s.frames;
   return true;
 }
 
 bool SessionCaptureBuilder::references_complete() const {
   for (const auto& [key, s] : steps_)
-    if (key.rfind("subject:", 0) != 0 && s.frames < s.expected) return false;
+    if (key.rfind("subject:", 0) != 0 && s.frames.frames() < s.expected) return false;
   return true;
 }
 
 bool SessionCaptureBuilder::complete() const {
   for (const auto& [key, s] : steps_)
-    if (s.frames < s.expected) return false;
+    if (s.frames.frames() < s.expected) return false;
   return true;
 }
 
 std::string SessionCaptureBuilder::missing() const {
   std::string out;
   for (const auto& [key, s] : steps_)
-    if (s.frames < s.expected)
-      out += (out.empty() ? "" : ", ") + s.step + ": " + std::to_string(s.frames) + " of " +
+    if (s.frames.frames() < s.expected)
+      out += (out.empty() ? "" : ", ") + s.step + ": " + std::to_string(s.frames.frames()) + " of " +
              std::to_string(s.expected) + " frames";
   return out;
 }
 
 RgbImage SessionCaptureBuilder::mean_image(const StepSum& s) const {
   RgbImage image;
-  if (s.frames == 0) return image;
-  image.width = s.width, image.height = s.height;
-  for (int c = 0; c < 3; ++c) {
-    image.planes[c].resize(s.sum[c].size());
-    for (std::size_t i = 0; i < s.sum[c].size(); ++i)
-      image.planes[c][i] = static_cast<float>(s.sum[c][i] / s.frames);
-  }
+  const FrameSums& f = s.frames;
+  if (f.frames() == 0) return image;
+  const bool bayer = f.format().layout == drivers::ColourLayout::kBayerRGGB;
+  image.width = bayer ? f.width() / 2 : f.width(), image.height = bayer ? f.height() / 2 : f.height();
+  const auto pixels = static_cast<std::size_t>(image.width) * static_cast<std::size_t>(image.height);
+  for (auto& plane : image.planes) plane.resize(pixels);
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x) {
+      const std::size_t o = static_cast<std::size_t>(y) * image.width + x;
+      if (bayer) {  // RGGB: R at (even row, even column)
+        const std::size_t top = static_cast<std::size_t>(2 * y) * f.width() + 2 * x, bottom = top + f.width();
+        image.planes[0][o] = static_cast<float>(f.mean(top));
+        image.planes[1][o] = static_cast<float>(0.5 * (f.mean(top + 1) + f.mean(bottom)));
+        image.planes[2][o] = static_cast<float>(f.mean(bottom + 1));
+      } else {
+        for (int c = 0; c < 3; ++c) image.planes[c][o] = static_cast<float>(f.mean(o * 3 + c));
+      }
+    }
   return image;
-}
-
-spectral::Spectrum SessionCaptureBuilder::mean_illuminant(const StepSum& s) const {
-  return s.frames ? s.illuminant_sum / static_cast<double>(s.frames) : s.illuminant_sum;
 }
 
 MethodCaptures SessionCaptureBuilder::captures() const {
@@ -186,7 +138,7 @@ MethodCaptures SessionCaptureBuilder::captures() const {
     target->subject = mean_image(subject);
     // The illuminant as the sphere emitted it for both captures (white and subject).
     target->illuminant = (white.illuminant_sum + subject.illuminant_sum) / static_cast<double>(
-                                                                               std::max(1u, white.frames + subject.frames));
+                                                                               std::max(1u, white.frames.frames() + subject.frames.frames()));
   }
   return c;
 }
@@ -208,21 +160,11 @@ SessionPlan read_session_plan(const std::filesystem::path& folder) {
 std::size_t add_stored_frames(SessionCaptureBuilder& builder, const std::filesystem::path& folder,
                               const std::set<std::uint64_t>& already_added) {
   std::size_t added = 0;
-  for (const auto& record : read_journal(folder / "journal.jsonl").records) {
-    if (record.value("type", "") != "frame") continue;
-    const std::uint64_t index = record.value("index", std::uint64_t{0});
-    if (already_added.count(index)) continue;
-    const std::string file = record.value("file", "");
-    TiffImage image;
-    try {
-      image = read_tiff(folder / file);
-    } catch (const std::exception& error) {
-      throw std::invalid_argument((folder / file).string() + ": " + error.what());
-    }
-    if (builder.add_frame(record.value("step", ""), record.value("camera", ""), record.value("pixel_format", ""),
-                          image.width, image.height, image.data, record.value("led", nlohmann::json::object())))
-      ++added;
-  }
+  for_each_stored_frame(
+      folder, [&](std::uint64_t index) { return already_added.count(index) == 0; },
+      [&](const FrameRecord& record, std::span<const std::uint8_t> samples) {
+        if (builder.add_frame(record, samples)) ++added;
+      });
   return added;
 }
 

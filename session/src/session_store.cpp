@@ -113,9 +113,14 @@ SessionInfo SessionStore::read_session(const std::filesystem::path& folder) cons
     } else if (type == "frame") {
       ++info.record.counters.stored;
       ++info.record.counters.received;
-      int index = record.value("step_index", -1);
-      if (index >= 0 && index < static_cast<int>(info.steps.size())) ++info.steps[static_cast<std::size_t>(index)].frames_stored;
-      info.frames.push_back(record);
+      try {
+        FrameRecord frame = frame_record_from_json(record);
+        const int index = frame.step_index;
+        if (index >= 0 && index < static_cast<int>(info.steps.size())) ++info.steps[static_cast<std::size_t>(index)].frames_stored;
+        info.frames.push_back(std::move(frame));
+      } catch (const std::invalid_argument& error) {
+        if (info.malformed_frame_records++ == 0) info.malformed_frame_error = error.what();
+      }
     } else if (type == "frame_lost") {
       ++info.record.counters.lost;
       ++info.record.counters.lost_reasons[record.value("reason", "unknown")];

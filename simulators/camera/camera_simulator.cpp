@@ -1,4 +1,5 @@
 #include "chromo/simulators/camera/camera_simulator.hpp"
+#include "chromo/drivers/camera.hpp"
 
 #include <arv.h>
 #include <unistd.h>
@@ -66,14 +67,13 @@ std::string simulator_genicam_xml() {
   return text;
 }
 
-SensorLayout layout_of(ArvPixelFormat format) {
-  switch (format) {
-    case ARV_PIXEL_FORMAT_BAYER_RG_8:
-    case ARV_PIXEL_FORMAT_BAYER_RG_12:
-    case ARV_PIXEL_FORMAT_BAYER_RG_16: return SensorLayout::kBayerRGGB;
-    case ARV_PIXEL_FORMAT_RGB_8_PACKED: return SensorLayout::kThreeChannel;
-    default: return SensorLayout::kMono;
+SensorLayout layout_of(drivers::ColourLayout layout) {
+  switch (layout) {
+    case drivers::ColourLayout::kBayerRGGB: return SensorLayout::kBayerRGGB;
+    case drivers::ColourLayout::kRgb: return SensorLayout::kThreeChannel;
+    case drivers::ColourLayout::kMono: return SensorLayout::kMono;
   }
+  return SensorLayout::kMono;
 }
 
 }  // namespace
@@ -229,24 +229,24 @@ void CameraSimulator::render_into(void* arv_buffer, std::uint32_t exposure_us, s
   arv_fake_camera_read_register(camera, kRegisterOffsetY, &offset_y);
   const cv::Rect window(static_cast<int>(offset_x), static_cast<int>(offset_y), width, height);
   if ((window & cv::Rect(0, 0, response.cols, response.rows)) != window) return;  // GenICam limits prevent this
-  const auto format = static_cast<ArvPixelFormat>(pixel_format);
-  const cv::Mat dn = model_.expose(response(window), layout_of(format), window.x, window.y, exposure_us,
+  const auto known = drivers::pixel_format_from_pfnc(pixel_format);
+  if (!known) return;  // the GenICam enumeration offers only the table's formats
+  const drivers::PixelFormatInfo& format = drivers::pixel_format_info(*known);
+  const cv::Mat dn = model_.expose(response(window), layout_of(format.layout), window.x, window.y, exposure_us,
                                    gain_centi_db / 100.0, frame_index_++);
   ++frames_rendered_;
 
   std::size_t ignored = 0;
   auto* out = static_cast<std::uint8_t*>(const_cast<void*>(arv_buffer_get_data(buffer, &ignored)));
   if (out == nullptr) return;
-  const int bits = ARV_PIXEL_FORMAT_BIT_PER_PIXEL(format);
   const int adc_bits = model_.options().adc_bits;
   const int channels = dn.channels();
   const auto count = static_cast<std::size_t>(width) * height * channels;
   const auto* in = dn.ptr<std::uint16_t>();  // continuous: freshly allocated
-  if (bits == 8 || bits == 24) {
+  if (format.bytes_per_sample == 1) {
     for (std::size_t i = 0; i < count; ++i) out[i] = static_cast<std::uint8_t>(in[i] >> (adc_bits - 8));
   } else {
-    const bool twelve = format == ARV_PIXEL_FORMAT_MONO_12 || format == ARV_PIXEL_FORMAT_BAYER_RG_12;
-    const int shift = twelve ? 0 : 16 - adc_bits;
+    const int shift = format.significant_bits == 12 ? 0 : 16 - adc_bits;
     for (std::size_t i = 0; i < count; ++i) {
       const auto v = static_cast<std::uint16_t>(in[i] << shift);
       std::memcpy(out + 2 * i, &v, 2);  // little-endian, as GigE Vision pixel data

@@ -21,11 +21,22 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
-nlohmann::json led_record(const drivers::DriveLevels& drive) {
-  nlohmann::json levels = nlohmann::json::object();
-  for (std::size_t t = 0; t < spectral::kLedTypeCount; ++t)
-    levels[std::string(spectral::led_type_name(spectral::kAllLedTypes[t]))] = drive[t];
-  return {{"drive", levels}};
+// The frame record the daemon would store for this step's frame from "cam0".
+session::FrameRecord frame_record(const session::Step& step, std::size_t index, const drivers::DriveLevels& drive,
+                                  double exposure_us, const cv::Mat& dn, drivers::PixelFormat format) {
+  session::FrameRecord record;
+  record.index = index;
+  record.step = step.name;
+  record.step_index = static_cast<int>(index);
+  record.role = step.role;
+  record.exposure_us = exposure_us;
+  if (step.role != session::StepRole::kDark) record.led = session::FrameLedState{.drive = drive};
+  record.camera = "cam0";
+  record.sequence = index;
+  record.width = dn.cols;
+  record.height = dn.rows;
+  record.pixel_format = format;
+  return record;
 }
 
 std::span<const std::uint8_t> bytes_of(const cv::Mat& m) {
@@ -264,15 +275,15 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
         if (step.role == session::StepRole::kWhite) response = cv::Mat(sensor, CV_32FC3, white_response.at(step.illumination.mix));
         else response = scene.responses[k];
       }
-      const nlohmann::json led = step.role == session::StepRole::kDark ? nlohmann::json::object() : led_record(drive);
       if (noisy) {
         const cv::Mat dn = camera.expose(response, SensorLayout::kBayerRGGB, 0, 0, out.exposure_us, 0, s);
-        builder.add_frame(step.name, "cam0", "BayerRG12", dn.cols, dn.rows, bytes_of(dn), led);
+        builder.add_frame(frame_record(step, s, drive, out.exposure_us, dn, drivers::PixelFormat::kBayerRG12), bytes_of(dn));
       } else {
         cv::Mat dn16;  // the 16-bit encoding: DN << 4, here with the fraction kept to 1/16 DN
         camera.expected(response, SensorLayout::kBayerRGGB, 0, 0, out.exposure_us, 0)
             .convertTo(dn16, CV_16U, 16.0);
-        builder.add_frame(step.name, "cam0", "BayerRG16", dn16.cols, dn16.rows, bytes_of(dn16), led);
+        builder.add_frame(frame_record(step, s, drive, out.exposure_us, dn16, drivers::PixelFormat::kBayerRG16),
+                          bytes_of(dn16));
       }
     }
     return builder.captures();

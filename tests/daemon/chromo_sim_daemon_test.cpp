@@ -51,8 +51,8 @@ TEST(ChromoSimDaemon, ConfiguredRealBackendsRunASessionAgainstChromoSim) {
     const std::filesystem::path folder = final.folder;
     // chromo-sim rendered under the LED state the daemon set over Modbus:
     // black in the dark step, lit in the others.
-    EXPECT_LT(bayer_site_mean(folder / info->frames[0]["file"].get<std::string>(), 1), 40.0);
-    EXPECT_GT(bayer_site_mean(folder / info->frames[1]["file"].get<std::string>(), 1), 100.0);
+    EXPECT_LT(bayer_site_mean(folder / info->frames[0].file, 1), 40.0);
+    EXPECT_GT(bayer_site_mean(folder / info->frames[1].file, 1), 100.0);
   }
   // The same controller over its other front-end: Modbus RTU on the pty chromo-sim printed.
   const std::string rtu_key = "Modbus RTU on ";

@@ -88,13 +88,6 @@ struct RenderedLab {
   }
 };
 
-nlohmann::json drive_json(const drivers::DriveLevels& drive) {
-  nlohmann::json j = nlohmann::json::object();
-  for (std::size_t t = 0; t < spectral::kLedTypeCount; ++t)
-    j[std::string(spectral::led_type_name(spectral::kAllLedTypes[t]))] = drive[t];
-  return j;
-}
-
 struct RecordedSession {
   std::string id;
   fs::path folder;
@@ -115,7 +108,7 @@ RecordedSession run_session(const fs::path& sessions, OnlineEstimator& estimator
   auto created = store.create(plan, "rendered forearm", nlohmann::json::array());
   RecordedSession recorded{created.id, created.folder, nullptr, {}, {}};
   const auto mixes = default_virtual_lab_mixes();
-  estimator.begin_session({created.id, created.folder, session::to_json(plan), {}});
+  estimator.begin_session({created.id, created.folder, plan, {}});
   {
     FramePipeline pipeline(created.folder, *created.journal, &budget, {64, estimator_queue_frames}, &estimator, {},
                            [&](std::uint64_t skipped) { recorded.behind_reports.push_back(skipped); });
@@ -123,13 +116,19 @@ RecordedSession run_session(const fs::path& sessions, OnlineEstimator& estimator
       const session::Step& step = plan.steps[s];
       const drivers::DriveLevels drive =
           step.role == session::StepRole::kDark ? drivers::DriveLevels{} : mixes.at(step.illumination.mix);
+      drivers::Frame frame = lab.frame(step.role == session::StepRole::kSubject ? lab.skin : lab.white, drive);
       CapturedFrame captured;
-      captured.camera = "cam0";
-      captured.step = step.name;
-      captured.step_index = static_cast<int>(s);
-      captured.frame = lab.frame(step.role == session::StepRole::kSubject ? lab.skin : lab.white, drive);
-      captured.metadata = {{"exposure_us", kExposureUs}, {"role", session::role_name(step.role)},
-                           {"led", {{"drive", drive_json(drive)}}}, {"frame_in_step", 0}};
+      captured.record.camera = "cam0";
+      captured.record.step = step.name;
+      captured.record.step_index = static_cast<int>(s);
+      captured.record.role = step.role;
+      captured.record.exposure_us = kExposureUs;
+      captured.record.led = session::FrameLedState{.drive = drive};
+      captured.record.sequence = frame.sequence;
+      captured.record.width = frame.width;
+      captured.record.height = frame.height;
+      captured.record.pixel_format = frame.pixel_format;
+      captured.samples = std::move(frame.data);
       captured.trigger_time = std::chrono::steady_clock::now();
       pipeline.submit(std::move(captured));
     }

@@ -3,6 +3,13 @@
 // GigE Vision camera simulator through Aravis), with the simulators' faults.
 #include "test_lab.hpp"
 
+#include <cstring>
+
+#include "../support/fresh_directory.hpp"
+#include "chromo/files/float_image.hpp"
+#include "chromo/session/derived_data.hpp"
+#include "chromo/session/session_captures.hpp"
+
 namespace chromo::daemon {
 namespace {
 
@@ -17,7 +24,7 @@ constexpr int kRed = 0, kGreen = 1, kBlue = 3;  // RGGB sites
 // The frame file of the n-th stored frame of a step.
 std::filesystem::path frame_of(const session::SessionInfo& info, const std::string& step, std::size_t n = 0) {
   for (const auto& frame : info.frames)
-    if (frame["step"] == step && n-- == 0) return std::filesystem::path(info.record.folder) / frame["file"].get<std::string>();
+    if (frame.step == step && n-- == 0) return std::filesystem::path(info.record.folder) / frame.file;
   ADD_FAILURE() << "no frame of step " << step;
   return {};
 }
@@ -39,19 +46,22 @@ TEST(Session, StandardSessionStoresEveryFrameWithMetadataAndDerivedData) {
   for (const auto& step : info->steps) EXPECT_TRUE(step.completed) << step.name;
   // Every frame: the camera simulator's sensor at its native 12 bits in 16-bit samples.
   for (const auto& frame : info->frames) {
-    auto image = session::read_tiff(std::filesystem::path(final.folder) / frame["file"].get<std::string>());
+    auto image = session::read_tiff(std::filesystem::path(final.folder) / frame.file);
     EXPECT_EQ(image.width, 160);
     EXPECT_EQ(image.height, 120);
     EXPECT_EQ(image.bits_per_sample, 16);
-    EXPECT_EQ(frame["pixel_format"], "BayerRG12");
-    EXPECT_TRUE(frame.contains("camera_timestamp_ns"));
-    EXPECT_EQ(frame["led"]["temperature_C"].size(), 6u);
-    EXPECT_DOUBLE_EQ(frame["exposure_us"].get<double>(), 2000.0);
+    EXPECT_EQ(frame.pixel_format, drivers::PixelFormat::kBayerRG12);
+    EXPECT_GT(frame.camera_timestamp_ns, 0u);
+    ASSERT_TRUE(frame.led);
+    EXPECT_GT(frame.led->temperature_C[0], 0.0);  // the controller's reading
+    EXPECT_DOUBLE_EQ(frame.exposure_us, 2000.0);
   }
   // The controller applied the configured mix (read back over Modbus).
   const auto& last = info->frames.back();
-  EXPECT_EQ(last["step"], "subject_w57+blue");
-  EXPECT_NEAR(last["led"]["drive"]["B"].get<double>(), lab.config.mixes["w57+blue"][5], 1e-3);
+  EXPECT_EQ(last.step, "subject_w57+blue");
+  EXPECT_EQ(last.role, session::StepRole::kSubject);
+  ASSERT_TRUE(last.led);
+  EXPECT_NEAR(last.led->drive[5], lab.config.mixes["w57+blue"][5], 1e-3);
   // What the camera saw: black in the dark; the white target (rho 0.99) is
   // brighter than the skin under the same light (the scene was switched for
   // each step); the blue LED raises the blue sites, not the red ones.
@@ -69,6 +79,34 @@ TEST(Session, StandardSessionStoresEveryFrameWithMetadataAndDerivedData) {
   EXPECT_NEAR(red_gain, 1.0, 0.02);
   EXPECT_TRUE(std::filesystem::exists(std::filesystem::path(final.folder) / "derived/albedo-d65-cam0.exr"));
   EXPECT_TRUE(std::filesystem::exists(std::filesystem::path(final.folder) / "derived/dark-cam0-mean.exr"));
+
+  // Derived data written live (from the sums the pipeline filled as frames
+  // were stored) equals a re-processing of the stored frames from disk.
+  namespace fs = std::filesystem;
+  const fs::path copy = testing::fresh_directory("session-derived-reprocessed");
+  fs::copy(final.folder, copy, fs::copy_options::recursive | fs::copy_options::overwrite_existing);
+  fs::remove_all(copy / "derived");
+  double white_reflectance = 0;
+  for (const auto& record : session::read_journal(copy / "journal.jsonl").records)
+    if (record.value("kind", "") == "albedo") white_reflectance = record.at("white_reflectance").get<double>();
+  ASSERT_GT(white_reflectance, 0);
+  session::SessionFrameSums sums;
+  EXPECT_EQ(session::add_stored_frames(sums, copy), 14u);
+  {
+    session::Journal journal(copy / "journal.jsonl", nullptr);
+    session::write_derived_data(copy, session::read_session_plan(copy), sums, white_reflectance, journal, nullptr);
+  }
+  int compared = 0;
+  for (const auto& entry : fs::directory_iterator(fs::path(final.folder) / "derived")) {
+    const auto live = files::read_exr(entry.path());
+    const auto again = files::read_exr(copy / "derived" / entry.path().filename());
+    ASSERT_EQ(live.channel_names, again.channel_names) << entry.path();
+    for (std::size_t c = 0; c < live.channels.size(); ++c)
+      EXPECT_EQ(std::memcmp(live.channels[c].data(), again.channels[c].data(), live.channels[c].size() * sizeof(float)), 0)
+          << entry.path();
+    ++compared;
+  }
+  EXPECT_EQ(compared, 7 + 3);  // a mean per step, an albedo per mix (one camera)
 }
 
 TEST(Session, HardwareTimedSequenceAdvancesOnTheCameraExposure) {
@@ -194,7 +232,7 @@ TEST(Session, CameraPacketLossIsCountedWithItsReasonAndRetaken) {
   auto info = daemon->session(started.id);
   EXPECT_EQ(info->record.counters.lost, final.counters.lost);  // the journal says the same
   for (const auto& frame : info->frames)
-    EXPECT_EQ(session::read_tiff(std::filesystem::path(final.folder) / frame["file"].get<std::string>()).data.size(), 160u * 120u * 2u);
+    EXPECT_EQ(session::read_tiff(std::filesystem::path(final.folder) / frame.file).data.size(), 160u * 120u * 2u);
 }
 
 TEST(Session, CameraThatDisappearsPausesAndContinuesWhenItReturns) {
@@ -251,7 +289,7 @@ TEST(Session, FullDiskStopsCleanlyAndKeepsWhatWasStored) {
   EXPECT_EQ(info.frames.size(), final.counters.stored);
   EXPECT_EQ(info.torn_journal_tail, false);
   for (const auto& frame : info.frames)
-    EXPECT_EQ(session::read_tiff(std::filesystem::path(final.folder) / frame["file"].get<std::string>()).data.size(), 160u * 120u * 2u);
+    EXPECT_EQ(session::read_tiff(std::filesystem::path(final.folder) / frame.file).data.size(), 160u * 120u * 2u);
   for (const auto& file : std::filesystem::recursive_directory_iterator(final.folder))
     EXPECT_EQ(file.path().string().find(".tmp-"), std::string::npos) << file.path();
   EXPECT_EQ(lab.emitted(), drivers::DriveLevels{});  // LEDs switched off

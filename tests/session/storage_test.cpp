@@ -57,14 +57,19 @@ TEST(Journal, FullBudgetRefusesTheRecordAndWritesNothing) {
   std::filesystem::remove_all(dir);
 }
 
-drivers::Frame ramp_frame(drivers::PixelFormat format, int width, int height) {
-  drivers::Frame frame;
-  frame.width = width;
-  frame.height = height;
-  frame.pixel_format = format;
-  const int bytes = significant_bits(format) == 8 ? 1 : 2;
-  frame.data.resize(static_cast<std::size_t>(width * height * samples_per_pixel(format) * bytes));
-  for (std::size_t i = 0; i < frame.data.size(); ++i) frame.data[i] = static_cast<std::uint8_t>(i * 7 + 3);
+struct RampFrame {
+  FrameRecord record;
+  std::vector<std::uint8_t> samples;
+};
+RampFrame ramp_frame(drivers::PixelFormat format, int width, int height) {
+  RampFrame frame;
+  frame.record.step = "x";
+  frame.record.camera = "cam0";
+  frame.record.width = width;
+  frame.record.height = height;
+  frame.record.pixel_format = format;
+  frame.samples.resize(drivers::pixel_format_info(format).frame_bytes(width, height));
+  for (std::size_t i = 0; i < frame.samples.size(); ++i) frame.samples[i] = static_cast<std::uint8_t>(i * 7 + 3);
   return frame;
 }
 
@@ -75,19 +80,21 @@ TEST(ImageFiles, TiffKeepsNativeBitDepthAndEveryByte) {
                                        std::tuple{drivers::PixelFormat::kMono16, 16, 1},
                                        std::tuple{drivers::PixelFormat::kRgb8, 8, 3}}) {
     auto frame = ramp_frame(format, 37, 11);
-    auto path = dir / (pixel_format_name(format) + ".tiff");
-    write_frame_tiff(path, frame, "{\"step\":\"x\"}", nullptr);
+    const std::string name(drivers::pixel_format_name(format));
+    auto path = dir / (name + ".tiff");
+    write_frame_tiff(path, frame.record, frame.samples, nullptr);
     auto image = read_tiff(path);
     EXPECT_EQ(image.width, 37);
     EXPECT_EQ(image.height, 11);
     EXPECT_EQ(image.bits_per_sample, bits);
     EXPECT_EQ(image.samples_per_pixel, samples);
-    EXPECT_EQ(image.data, frame.data) << pixel_format_name(format);
-    EXPECT_EQ(image.description, "{\"step\":\"x\"}");
+    EXPECT_EQ(image.data, frame.samples) << name;
+    // The description is the frame's journal record.
+    EXPECT_EQ(frame_record_from_json(nlohmann::json::parse(image.description)), frame.record) << name;
   }
   auto bad = ramp_frame(drivers::PixelFormat::kMono8, 4, 4);
-  bad.data.pop_back();
-  EXPECT_THROW(write_frame_tiff(dir / "bad.tiff", bad, "", nullptr), std::invalid_argument);
+  bad.samples.pop_back();
+  EXPECT_THROW(write_frame_tiff(dir / "bad.tiff", bad.record, bad.samples, nullptr), std::invalid_argument);
   EXPECT_FALSE(std::filesystem::exists(dir / "bad.tiff"));
   std::filesystem::remove_all(dir);
 }

@@ -9,7 +9,8 @@
 // full (the camera driver's own buffer pool then absorbs the burst, and what
 // the link loses meanwhile is counted as lost with the driver's reason). A
 // frame counts as stored, and is acknowledged (on_stored), once its TIFF is
-// renamed into place and its journal entry is fsynced.
+// renamed into place and its journal entry is fsynced. The record becomes
+// JSON only there (session::to_json, the journal's edge).
 //
 // The estimator may fall behind: a frame offered to a full estimator queue is
 // counted as skipped with reason "queue_full" (the estimator reads it back
@@ -38,19 +39,22 @@
 
 #include <nlohmann/json.hpp>
 
+#include "chromo/session/frame_record.hpp"
+#include "chromo/session/frame_sums.hpp"
 #include "chromo/session/journal.hpp"
+#include "chromo/session/session_plan.hpp"
 #include "chromo/session/operation_record.hpp"
 #include "chromo/drivers/camera.hpp"
 #include "chromo/files/progress.hpp"
 
 namespace chromo::daemon {
 
+// A complete frame on its way: the typed record (the sequencer fills
+// everything but index and file, which storage sets) and the samples as the
+// camera sent them (session::FrameRecord's geometry and pixel format).
 struct CapturedFrame {
-  std::string camera;
-  std::string step;
-  int step_index = 0;
-  drivers::Frame frame;
-  nlohmann::json metadata;  // LED state and temperatures, exposure, ...: goes into the journal entry
+  session::FrameRecord record;
+  std::vector<std::uint8_t> samples;
   std::chrono::steady_clock::time_point trigger_time;
 };
 
@@ -71,7 +75,7 @@ class FrameConsumer {
   struct SessionStart {
     std::string id;
     std::filesystem::path folder;
-    nlohmann::json plan;  // session.json's plan
+    session::SessionPlan plan;  // the plan the sequencer runs (session.json's "plan")
     // Progress of the consumer's own work (0-1) with a short message; any thread.
     files::Progress progress;
   };
@@ -92,6 +96,11 @@ class FramePipeline {
   struct Options {
     std::size_t storage_queue_frames = 64;
     std::size_t estimator_queue_frames = 8;
+    // Optional: every stored frame is added here by the storage thread, after
+    // its journal record is fsynced (derived data is written from it). Owned
+    // by the caller, who reads it only after drain() and keeps it alive
+    // until the pipeline is destroyed.
+    session::SessionFrameSums* stored_sums = nullptr;
   };
   FramePipeline(std::filesystem::path folder, session::Journal& journal, files::StorageBudget* budget, Options options,
                 FrameConsumer* estimator, std::function<void(const StoredFrame&)> on_stored,
@@ -111,6 +120,9 @@ class FramePipeline {
   session::PipelineCounters counters() const;
   // Empty while storage works; the reason storage stopped otherwise.
   std::string storage_error() const;
+  // Empty unless Options::stored_sums refused a stored frame (its step's
+  // frames differ in size or format); the first refusal otherwise.
+  std::string stored_sums_error() const;
 
  private:
   void storage_loop();
@@ -131,6 +143,7 @@ class FramePipeline {
   std::deque<std::pair<CapturedFrame, StoredFrame>> estimator_queue_;
   bool storing_ = false, estimating_ = false, stopping_ = false;
   std::string storage_error_;
+  std::string stored_sums_error_;
   session::PipelineCounters counters_;
   double latency_sum_ms_ = 0;
   std::uint64_t next_index_ = 0;

@@ -20,12 +20,79 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace chromo::drivers {
 
 enum class PixelFormat { kMono8, kMono12, kMono16, kBayerRG8, kBayerRG12, kBayerRG16, kRgb8 };
+
+// How a format's samples map to colour.
+enum class ColourLayout {
+  kMono,       // one sample per pixel, no colour
+  kBayerRGGB,  // one sample per pixel, colour filter array R G / G B (R at even row, even column)
+  kRgb,        // three samples per pixel, R G B
+};
+
+// The one table of pixel-format facts (every library asks it; no other file
+// keeps its own copy). Samples are stored in containers of bytes_per_sample
+// bytes (16-bit containers in host order, i.e. little-endian as GigE Vision
+// sends them); a 12-bit format keeps its values unscaled (0-4095) in 16 bits.
+struct PixelFormatInfo {
+  PixelFormat format;
+  std::string_view name;        // GenICam PFNC name: files, JSON, configuration
+  std::uint32_t pfnc_code;      // GigE Vision PFNC value (Aravis' ARV_PIXEL_FORMAT_*)
+  int significant_bits;         // 8, 12 or 16
+  int bytes_per_sample;         // 1 or 2
+  int samples_per_pixel;        // 1 or 3
+  ColourLayout layout;
+  constexpr std::uint32_t full_scale() const { return (1u << significant_bits) - 1; }  // 255, 4095, 65535
+  constexpr std::size_t frame_bytes(int width, int height) const {
+    return static_cast<std::size_t>(width) * static_cast<std::size_t>(height) *
+           static_cast<std::size_t>(samples_per_pixel * bytes_per_sample);
+  }
+};
+
+inline constexpr PixelFormatInfo kPixelFormats[] = {
+    {PixelFormat::kMono8, "Mono8", 0x01080001u, 8, 1, 1, ColourLayout::kMono},
+    {PixelFormat::kMono12, "Mono12", 0x01100005u, 12, 2, 1, ColourLayout::kMono},
+    {PixelFormat::kMono16, "Mono16", 0x01100007u, 16, 2, 1, ColourLayout::kMono},
+    {PixelFormat::kBayerRG8, "BayerRG8", 0x01080009u, 8, 1, 1, ColourLayout::kBayerRGGB},
+    {PixelFormat::kBayerRG12, "BayerRG12", 0x01100011u, 12, 2, 1, ColourLayout::kBayerRGGB},
+    {PixelFormat::kBayerRG16, "BayerRG16", 0x0110002fu, 16, 2, 1, ColourLayout::kBayerRGGB},
+    {PixelFormat::kRgb8, "RGB8", 0x02180014u, 8, 1, 3, ColourLayout::kRgb},
+};
+
+// The table is in enum order, so a format is its own index.
+constexpr bool pixel_format_table_in_enum_order() {
+  for (std::size_t i = 0; i < std::size(kPixelFormats); ++i)
+    if (static_cast<std::size_t>(kPixelFormats[i].format) != i) return false;
+  return std::size(kPixelFormats) == static_cast<std::size_t>(PixelFormat::kRgb8) + 1;
+}
+static_assert(pixel_format_table_in_enum_order());
+constexpr const PixelFormatInfo& pixel_format_info(PixelFormat format) {
+  return kPixelFormats[static_cast<std::size_t>(format)];
+}
+constexpr std::string_view pixel_format_name(PixelFormat format) { return pixel_format_info(format).name; }
+// Inverse of pixel_format_name (exact, case-sensitive); nullopt for anything else.
+constexpr std::optional<PixelFormat> parse_pixel_format(std::string_view name) {
+  for (const auto& info : kPixelFormats)
+    if (info.name == name) return info.format;
+  return std::nullopt;
+}
+constexpr std::optional<PixelFormat> pixel_format_from_pfnc(std::uint32_t code) {
+  for (const auto& info : kPixelFormats)
+    if (info.pfnc_code == code) return info.format;
+  return std::nullopt;
+}
+// "Mono8, Mono12, ..., RGB8": for messages that list the accepted names.
+inline std::string pixel_format_names() {
+  std::string names;
+  for (const auto& info : kPixelFormats) (names += names.empty() ? "" : ", ") += info.name;
+  return names;
+}
 
 struct Roi {
   int x = 0, y = 0, width = 0, height = 0;  // width/height 0 = full sensor

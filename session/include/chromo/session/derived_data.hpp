@@ -1,6 +1,8 @@
 #pragma once
-// Derived float data of a finished session, from the stored frames only
-// (so the same function serves a session re-processed later):
+// Derived float data of a finished session, from its frame sums
+// (frame_sums.hpp): chromod fills them as each frame is stored; a session
+// re-processed later fills them from its stored frames (add_stored_frames),
+// and the same frames give the same files.
 //  - derived/<step>-<camera>-mean.exr: the mean of the step's frames, in
 //    units of full scale (0-1), channel "Y" for one-sample formats (Bayer
 //    frames stay mosaicked), "R","G","B" for RGB8;
@@ -14,12 +16,16 @@
 
 #include <filesystem>
 
+#include "chromo/session/frame_sums.hpp"
 #include "chromo/session/journal.hpp"
+#include "chromo/session/session_plan.hpp"
 
 namespace chromo::session {
 
-// Throws std::invalid_argument unless white_reflectance is in (0, 1].
-void write_derived_data(const std::filesystem::path& folder, double white_reflectance, Journal& journal,
-                        files::StorageBudget* budget);
+// Writes into folder/derived/ and appends to `journal`. Throws
+// std::invalid_argument unless white_reflectance is in (0, 1]; a failed write
+// throws as files::commit_file_durably.
+void write_derived_data(const std::filesystem::path& folder, const SessionPlan& plan, const SessionFrameSums& sums,
+                        double white_reflectance, Journal& journal, files::StorageBudget* budget);
 
 }  // namespace chromo::session

@@ -11,23 +11,21 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "chromo/files/durable_file.hpp"
-#include "chromo/drivers/camera.hpp"
+#include "chromo/session/frame_record.hpp"
 
 namespace chromo::session {
 
-// Bits per sample the frame's pixel format stores (8, 12 or 16) and samples per pixel.
-int significant_bits(drivers::PixelFormat format);
-int samples_per_pixel(drivers::PixelFormat format);
-std::string pixel_format_name(drivers::PixelFormat format);
-
-// Writes a complete frame; `description` (JSON text) goes into ImageDescription.
-// Throws std::invalid_argument when data.size() does not match the geometry.
-void write_frame_tiff(const std::filesystem::path& path, const drivers::Frame& frame, const std::string& description,
-                      files::StorageBudget* budget);
+// Writes a complete frame: `samples` as the camera sent them (pixel-format
+// facts from drivers' table), the record's journal JSON in ImageDescription.
+// Throws std::invalid_argument when samples.size() does not match the record's
+// geometry and format.
+void write_frame_tiff(const std::filesystem::path& path, const FrameRecord& record,
+                      std::span<const std::uint8_t> samples, files::StorageBudget* budget);
 
 struct TiffImage {
   int width = 0, height = 0, samples_per_pixel = 0, bits_per_sample = 0;

@@ -13,14 +13,16 @@
 // throws std::invalid_argument saying what is missing.
 //
 // Frames: only the first camera that delivers a frame is used (its name is
-// kept); BayerRG frames are binned 2×2 (R, mean of the two G, B per cell:
-// half resolution, colours without interpolation), RGB8 is used as is, mono
-// formats are refused. Values are divided by the format's full scale (255,
-// 4095, 65535) and averaged over the step's frames.
+// kept); its frames are summed per step exactly as they came (FrameSums,
+// frame_sums.hpp: the accumulator derived data is written from too), and the
+// mean is taken when the captures are made: BayerRG frames binned 2×2 (R,
+// mean of the two G, B per cell: half resolution, colours without
+// interpolation), RGB8 used as is, mono formats refused. Values are in units
+// of the format's full scale (255, 4095, 65535).
 //
 // Illuminant of a step: Σ_type drive(type)·spectrum_per_unit_drive(type) of
 // the LED library, with drive the levels the controller reported applied
-// (the frame record's "led.drive"), averaged over the step's frames.
+// (FrameRecord::led->drive), averaged over the step's frames.
 //
 // Thread rules: one thread at a time per builder.
 
@@ -32,9 +34,8 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "chromo/calibration/led_library.hpp"
+#include "chromo/session/frame_sums.hpp"
 #include "chromo/session/session_plan.hpp"
 #include "chromo/session/method_measurement.hpp"
 
@@ -59,13 +60,13 @@ class SessionCaptureBuilder {
  public:
   SessionCaptureBuilder(const SessionPlan& plan, CaptureSources sources);
 
-  // One frame of `step`: samples as the camera sent them (16-bit samples in
-  // host order), pixel_format by name ("BayerRG12", "RGB8", ...), led = the
-  // frame record's "led" object. Frames of another camera than the first are
-  // ignored (returns false). Throws std::invalid_argument naming the step for
-  // a frame that cannot be used (mono, odd size, size change, unknown step).
-  bool add_frame(const std::string& step, const std::string& camera, const std::string& pixel_format, int width,
-                 int height, std::span<const std::uint8_t> samples, const nlohmann::json& led);
+  // One frame: samples as the camera sent them (16-bit samples in host
+  // order), described by its record (step, camera, geometry, pixel format, the
+  // applied LED levels). Frames of another camera than the first are ignored
+  // (returns false). Throws std::invalid_argument naming the step for a frame
+  // that cannot be used (mono, odd size, size change, unknown step, no LED
+  // levels on a lit step).
+  bool add_frame(const FrameRecord& record, std::span<const std::uint8_t> samples);
 
   // The dark and the three white steps have all their frames.
   bool references_complete() const;
@@ -81,13 +82,11 @@ class SessionCaptureBuilder {
  private:
   struct StepSum {
     std::string step;
-    std::uint32_t expected = 0, frames = 0;
-    int width = 0, height = 0;
-    std::array<std::vector<double>, 3> sum;
+    std::uint32_t expected = 0;
+    FrameSums frames;  // the builder's camera's frames of the step
     spectral::Spectrum illuminant_sum;
   };
   RgbImage mean_image(const StepSum& s) const;
-  spectral::Spectrum mean_illuminant(const StepSum& s) const;
 
   CaptureSources sources_;
   std::string camera_;

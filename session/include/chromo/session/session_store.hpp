@@ -27,6 +27,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "chromo/session/frame_record.hpp"
 #include "chromo/session/journal.hpp"
 #include "chromo/session/operation_record.hpp"
 #include "chromo/session/session_plan.hpp"
@@ -51,9 +52,13 @@ struct SessionInfo {
   int format_version = kSessionFormatVersion;
   std::string subject;
   std::vector<StepProgress> steps;
-  std::vector<nlohmann::json> frames;  // the journal's frame records
-  nlohmann::json results;              // the last "results" record (null if none)
+  std::vector<FrameRecord> frames;  // the journal's frame records, in storage order
+  nlohmann::json results;           // the last "results" record (null if none)
   bool torn_journal_tail = false;
+  // Frame records that did not parse (frame_record_from_json; should be 0):
+  // counted as stored, left out of `frames`; the first one's error.
+  int malformed_frame_records = 0;
+  std::string malformed_frame_error;
 };
 
 // "20261122T183000Z-<name>-<6 hex>": ids of sessions and calibration runs

@@ -84,7 +84,9 @@ struct RenderedSessionOptions {
 };
 
 // 2: the file is a files/binary_cache.hpp file (length and checksum).
-inline constexpr std::uint32_t kRenderedSessionVersion = 2;
+// 3: the capture builder sums raw samples exactly and bins the mean
+//    (session/frame_sums.hpp), which rounds the last bits differently.
+inline constexpr std::uint32_t kRenderedSessionVersion = 3;
 inline constexpr std::uint8_t kMixedCell = 255;  // a 2×2 cell whose sites have different regions
 
 struct RenderedSession {
