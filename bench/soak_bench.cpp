@@ -229,7 +229,7 @@ int main(int argc, char** argv) {
   chromo::files::GnuplotChart chart;
   chart.png = fs::path(results_dir) / "soak_bench.png";
   std::ostringstream commands;
-  commands << "set datafile separator ','\nset key top left\nset xlabel 'sessions'\n"
+  commands << "set datafile separator ','\nset key bottom right\nset xlabel 'sessions'\n"
            << "set ylabel 'VmRSS (MB)'\nset y2label 'threads, open files'\nset ytics nomirror\nset y2tics\n"
            << "set yrange [0:*]\nset y2range [0:*]\nset arrow from " << warmup << ", graph 0 to " << warmup
            << ", graph 1 nohead dt 2\n"
