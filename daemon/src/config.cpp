@@ -80,7 +80,9 @@ std::string shown(const json& value) {
 std::uint64_t read_unsigned(const json& value, std::uint64_t min, std::uint64_t max) {
   const std::string range = "[" + std::to_string(min) + ", " + std::to_string(max) + "]";
   if (!value.is_number_integer()) throw std::invalid_argument(shown(value) + " is not an integer in " + range);
-  if (value.is_number_unsigned()) {
+  // A JSON built in C++ holds small integers as signed ones: only the value counts.
+  const bool negative = !value.is_number_unsigned() && value.get<std::int64_t>() < 0;
+  if (!negative) {
     const auto v = value.get<std::uint64_t>();
     if (v >= min && v <= max) return v;
   }

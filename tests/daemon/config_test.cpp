@@ -205,6 +205,18 @@ TEST(DaemonConfig, TheDefaultSocketAndRunFilesAreNotUnderTmp) {
   EXPECT_EQ(config.estimation.cache_limit_bytes, 2ull << 30);
 }
 
+// A JSON built in C++ (not parsed) holds 2000 as a signed integer.
+TEST(DaemonConfig, IntegersBuiltInCodeAreReadByValue) {
+  nlohmann::json json;
+  json["frame_timeout_ms"] = static_cast<int>(2000);
+  json["storage_limit_bytes"] = static_cast<long long>(5);
+  const auto config = parse_config(json, "cfg");
+  EXPECT_EQ(config.frame_timeout_ms, 2000u);
+  EXPECT_EQ(config.storage_limit_bytes, 5u);
+  json["frame_timeout_ms"] = static_cast<int>(-2000);
+  EXPECT_EQ(refused(json).rfind("cfg: frame_timeout_ms: -2000 is outside", 0), 0u);
+}
+
 // As a process: a bad configuration exits 2 naming the key, and the virtual
 // lab never started (it prints a line when it does).
 TEST(Chromod, ABadConfigurationExitsTwoBeforeTheLabStarts) {
