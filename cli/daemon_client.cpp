@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include "chromo/files/runtime_dir.hpp"
 #include "commands.hpp"
 
 namespace chromo::cli {
@@ -15,7 +16,8 @@ namespace chromo::cli {
 void add_daemon_options(CLI::App& command, DaemonAddress& address) {
   const char* env_target = std::getenv("CHROMO_DAEMON");
   const char* env_token = std::getenv("CHROMO_TOKEN");
-  address.target = env_target ? env_target : "unix:/tmp/chromod.sock";
+  // chromod's default socket (files/runtime_dir.hpp: the same rule as the daemon's).
+  address.target = env_target ? env_target : "unix:" + files::default_unix_socket().string();
   address.token = env_token ? env_token : "";
   command.add_option("--daemon", address.target, "chromod address: unix:PATH or HOST:PORT ($CHROMO_DAEMON)");
   command.add_option("--token", address.token, "bearer token for TCP ($CHROMO_TOKEN)");

@@ -1,7 +1,7 @@
 #pragma once
 // Shared by the operator commands that talk to chromod over the socket API.
 //
-// Where: --daemon ADDRESS (or $CHROMO_DAEMON), default unix:/tmp/chromod.sock;
+// Where: --daemon ADDRESS (or $CHROMO_DAEMON), default unix:<runtime dir>/chromod.sock (files/runtime_dir.hpp);
 // a TCP address needs --token (or $CHROMO_TOKEN), sent as a bearer token, and
 // uses TLS when --tls-ca PEM is given.
 

@@ -11,11 +11,14 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=build/release/bin
 sessions=${1:-demo-sessions}
-socket=$(mktemp -u /tmp/chromod-demo-XXXXXX.sock)
+# The daemon's socket and run files go in a folder of the demo's own (never /tmp).
+mkdir -p "$sessions"
+run_dir=$(mktemp -d "$sessions/.chromod-run-XXXXXX")
+socket="$run_dir/chromod.sock"
 
-"$bin/chromod" --socket "$socket" --sessions-dir "$sessions" &
+CHROMO_RUNTIME_DIR="$run_dir" "$bin/chromod" --socket "$socket" --sessions-dir "$sessions" &
 daemon_pid=$!
-trap 'kill "$daemon_pid" 2>/dev/null; wait "$daemon_pid" 2>/dev/null || true' EXIT
+trap 'kill "$daemon_pid" 2>/dev/null; wait "$daemon_pid" 2>/dev/null || true; rm -rf "$run_dir"' EXIT
 for _ in $(seq 100); do [[ -S "$socket" ]] && break; sleep 0.1; done
 
 export CHROMO_DAEMON="unix:$socket"

@@ -5,7 +5,7 @@ grpc_python_plugin) into build/<preset>/clients/python/gen; this module finds
 them there, or wherever CHROMO_PY_STUBS points. Needs Debian's python3-grpcio
 and python3-protobuf.
 
-    client = Client("unix:/tmp/chromod.sock")             # or ("host:7443", token="...")
+    client = Client(default_target())                      # or ("host:7443", token="...")
     op = client.start_standard_session(subject="forearm")
     final = client.wait(op.id, on_update=print)           # streams progress
     print(client.results(op.id).folder)
@@ -34,6 +34,19 @@ FINAL_STATES = {
     operations_pb2.OPERATION_STATE_CANCELLED,
     operations_pb2.OPERATION_STATE_INTERRUPTED,
 }
+
+
+def default_target():
+    """chromod's default socket, by the daemon's rule (files/runtime_dir.hpp):
+    $CHROMO_RUNTIME_DIR, else $XDG_RUNTIME_DIR/chromosphere, else
+    ~/.local/state/chromosphere/run; then /chromod.sock."""
+    if os.environ.get("CHROMO_RUNTIME_DIR"):
+        folder = pathlib.Path(os.environ["CHROMO_RUNTIME_DIR"])
+    elif os.environ.get("XDG_RUNTIME_DIR"):
+        folder = pathlib.Path(os.environ["XDG_RUNTIME_DIR"]) / "chromosphere"
+    else:
+        folder = pathlib.Path.home() / ".local" / "state" / "chromosphere" / "run"
+    return "unix:" + str(folder / "chromod.sock")
 
 
 def state_name(state):

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Example: run the standard session on chromod and wait for its result.
 
-    python3 clients/python/run_session_example.py [unix:/tmp/chromod.sock] [--token T]
+    python3 clients/python/run_session_example.py [TARGET] [--token T]   (default: chromod's default socket)
 
 Prints one progress line per update, then the session folder, the result
 state and the stored frame count. Exit status 0 when the session succeeded.
@@ -9,17 +9,17 @@ state and the stored frame count. Exit status 0 when the session succeeded.
 import argparse
 import sys
 
-from chromosphere_client import Client, state_name
+from chromosphere_client import Client, default_target, state_name
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("target", nargs="?", default="unix:/tmp/chromod.sock")
+    parser.add_argument("target", nargs="?", default=None)
     parser.add_argument("--token", default=None, help="bearer token (TCP)")
     parser.add_argument("--subject", default="python example")
     args = parser.parse_args()
 
-    client = Client(args.target, token=args.token)
+    client = Client(args.target or default_target(), token=args.token)
     for device in client.list_devices():
         print(f"device {device.name}: {device.backend} {device.address} health={device.health}")
     operation = client.start_standard_session(subject=args.subject)

@@ -1,13 +1,26 @@
 #include "chromo/daemon/config.hpp"
 
+#include <netdb.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <cmath>
 #include <fstream>
+#include <functional>
+#include <limits>
 #include <set>
 #include <stdexcept>
 
-#include "chromo/session/session_plan.hpp"
+#include "chromo/calibration/led_library_io.hpp"
 #include "chromo/estimation/estimator.hpp"
+#include "chromo/session/session_plan.hpp"
+#include "chromo/spectral/camera.hpp"
 
 namespace chromo::daemon {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
 
 std::string device_kind_name(DeviceKind kind) {
   switch (kind) {
@@ -30,6 +43,7 @@ bool DaemonConfig::IsValid(std::string* error) const {
     return fail("tls: tls_certificate_file and tls_private_key_file go together");
   if (storage_queue_frames < 1 || storage_queue_frames > 100000) return fail("storage_queue_frames: must be in [1, 100000]");
   if (estimator_queue_frames > 100000) return fail("estimator_queue_frames: must be at most 100000");
+  if (frame_timeout_ms < 1 || frame_timeout_ms > 600000) return fail("frame_timeout_ms: must be in [1, 600000]");
   if (frame_attempts < 1 || frame_attempts > 100) return fail("frame_attempts: must be in [1, 100]");
   std::set<std::string> names;
   for (std::size_t i = 0; i < devices.size(); ++i) {
@@ -54,124 +68,452 @@ bool DaemonConfig::IsValid(std::string* error) const {
 }
 
 namespace {
-drivers::DriveLevels parse_levels(const nlohmann::json& json, const std::string& field) {
+
+// ---- value readers: the JSON type and range of one value ----
+// Each throws std::invalid_argument with what is wrong (the caller names the key).
+
+std::string shown(const json& value) {
+  std::string text = value.dump();
+  return text.size() > 64 ? text.substr(0, 61) + "..." : text;
+}
+
+std::uint64_t read_unsigned(const json& value, std::uint64_t min, std::uint64_t max) {
+  const std::string range = "[" + std::to_string(min) + ", " + std::to_string(max) + "]";
+  if (!value.is_number_integer()) throw std::invalid_argument(shown(value) + " is not an integer in " + range);
+  // A JSON built in C++ holds small integers as signed ones: only the value counts.
+  const bool negative = !value.is_number_unsigned() && value.get<std::int64_t>() < 0;
+  if (!negative) {
+    const auto v = value.get<std::uint64_t>();
+    if (v >= min && v <= max) return v;
+  }
+  throw std::invalid_argument(shown(value) + " is outside " + range);
+}
+
+std::int64_t read_signed(const json& value, std::int64_t min, std::int64_t max) {
+  const std::string range = "[" + std::to_string(min) + ", " + std::to_string(max) + "]";
+  if (!value.is_number_integer()) throw std::invalid_argument(shown(value) + " is not an integer in " + range);
+  if (value.is_number_unsigned() && value.get<std::uint64_t>() > static_cast<std::uint64_t>(max))
+    throw std::invalid_argument(shown(value) + " is outside " + range);
+  const auto v = value.get<std::int64_t>();
+  if (v < min || v > max) throw std::invalid_argument(shown(value) + " is outside " + range);
+  return v;
+}
+
+double read_number(const json& value, double min, double max, bool min_open) {
+  const std::string range = std::string(min_open ? "(" : "[") + json(min).dump() + ", " + json(max).dump() + "]";
+  if (!value.is_number()) throw std::invalid_argument(shown(value) + " is not a number in " + range);
+  const double v = value.get<double>();
+  if (!std::isfinite(v) || v < min || v > max || (min_open && v == min))
+    throw std::invalid_argument(shown(value) + " is outside " + range);
+  return v;
+}
+
+// What a key holding other keys throws: its message starts with the path
+// below the key (".method: ...", "[0].kind: ..."), joined to the key's name.
+struct NestedError : std::invalid_argument {
+  using std::invalid_argument::invalid_argument;
+};
+
+std::string read_string(const json& value) {
+  if (!value.is_string()) throw std::invalid_argument(shown(value) + " is not a string");
+  return value.get<std::string>();
+}
+
+// ---- checks of the final value (files, folders, addresses) ----
+// Each returns "" when fine, else what is wrong. They only look.
+
+std::string regular_file_error(const fs::path& path) {
+  std::error_code error;
+  const auto status = fs::status(path, error);
+  if (error || !fs::exists(status)) return path.string() + ": no such file";
+  if (!fs::is_regular_file(status)) return path.string() + ": not a regular file";
+  if (::access(path.c_str(), R_OK) != 0) return path.string() + ": cannot be read (permissions)";
+  return {};
+}
+
+// A folder chromod may create files in: an existing writable folder, or one
+// that can be created (its nearest existing ancestor is a writable folder).
+std::string folder_error(const fs::path& folder) {
+  if (folder.empty()) return "empty path";
+  fs::path at = folder;
+  std::error_code error;
+  while (true) {
+    const auto status = fs::status(at, error);
+    if (fs::exists(status)) {
+      if (!fs::is_directory(status))
+        return at == folder ? folder.string() + ": exists and is not a folder"
+                            : folder.string() + ": cannot be created (" + at.string() + " is not a folder)";
+      if (::access(at.c_str(), W_OK | X_OK) != 0)
+        return at == folder ? folder.string() + ": not writable"
+                            : folder.string() + ": cannot be created (" + at.string() + " is not writable)";
+      return {};
+    }
+    if (!at.has_parent_path() || at.parent_path() == at) {
+      at = ".";
+      continue;
+    }
+    at = at.parent_path();
+  }
+}
+
+// folder_error, and for a folder that does not exist yet, whether it can
+// really be made: it is created and removed again (only what was created).
+std::string folder_error_tried(const fs::path& folder) {
+  if (auto error = folder_error(folder); !error.empty()) return error;
+  std::error_code error;
+  if (fs::exists(folder, error)) return {};
+  std::vector<fs::path> made;
+  for (fs::path at = folder; !at.empty() && !fs::exists(at, error); at = at.parent_path()) {
+    made.push_back(at);
+    if (at.parent_path() == at) break;
+  }
+  fs::create_directories(folder, error);
+  std::string problem = error ? folder.string() + ": cannot be created (" + error.message() + ")" : std::string();
+  for (const auto& path : made) fs::remove(path, error);  // deepest first; only empty folders we made
+  return problem;
+}
+
+// -1: nothing there; 0: a socket nobody listens on; 1: a socket in use; 2: not a socket.
+int socket_file_state(const std::string& path) {
+  std::error_code error;
+  const auto status = fs::symlink_status(path, error);
+  if (error || !fs::exists(status)) return -1;
+  if (!fs::is_socket(status)) return 2;
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (fd < 0) return 1;
+  sockaddr_un address{};
+  address.sun_family = AF_UNIX;
+  path.copy(address.sun_path, sizeof address.sun_path - 1);
+  const bool listening = ::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) == 0;
+  ::close(fd);
+  return listening ? 1 : 0;
+}
+
+std::string unix_socket_error(const std::string& path) {
+  if (path.empty()) return {};
+  if (path.size() >= sizeof(sockaddr_un{}.sun_path))
+    return path + ": longer than a Unix socket path may be (" + std::to_string(sizeof(sockaddr_un{}.sun_path) - 1) +
+           " bytes)";
+  switch (socket_file_state(path)) {
+    case 2: return path + ": a file that is not a socket is there (chromod never deletes a file it did not create)";
+    case 1: return path + ": another process is listening on it";
+    default: break;
+  }
+  const fs::path parent = fs::path(path).parent_path();
+  if (const auto error = folder_error_tried(parent.empty() ? fs::path(".") : parent); !error.empty()) return error;
+  return {};
+}
+
+std::string tcp_address_error(const std::string& address) {
+  if (address.empty()) return {};
+  const auto colon = address.rfind(':');
+  if (colon == std::string::npos) return "\"" + address + "\" is not host:port";
+  std::string host = address.substr(0, colon);
+  const std::string port = address.substr(colon + 1);
+  if (port.empty() || port.size() > 5 || port.find_first_not_of("0123456789") != std::string::npos ||
+      std::stoul(port) > 65535)
+    return "\"" + address + "\": the port must be a number in [0, 65535] (0: any free port)";
+  if (host.size() >= 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
+  if (host.empty()) return "\"" + address + "\": missing the host (e.g. 0.0.0.0, 127.0.0.1, [::1])";
+  addrinfo hints{};
+  hints.ai_family = AF_UNSPEC;
+  hints.ai_socktype = SOCK_STREAM;
+  hints.ai_flags = AI_PASSIVE;
+  addrinfo* found = nullptr;
+  const int status = ::getaddrinfo(host.c_str(), port.c_str(), &hints, &found);
+  if (found) ::freeaddrinfo(found);
+  if (status != 0) return "\"" + address + "\": the host \"" + host + "\" is not an address (" + gai_strerror(status) + ")";
+  return {};
+}
+
+std::string pem_file_error(const std::string& path) {
+  if (path.empty()) return {};
+  if (auto error = regular_file_error(path); !error.empty()) return error;
+  std::ifstream in(path);
+  std::string line;
+  for (int i = 0; i < 64 && std::getline(in, line); ++i)
+    if (line.rfind("-----BEGIN ", 0) == 0) return {};
+  return path + ": not a PEM file (no -----BEGIN line)";
+}
+
+std::string led_library_error(const std::string& path) {
+  if (path.empty()) return {};
+  if (auto error = regular_file_error(path); !error.empty()) return error;
+  try {
+    calibration::load_led_library(path);
+  } catch (const std::exception& error) {
+    return path + ": not an LED library (" + error.what() + ")";
+  }
+  return {};
+}
+
+std::string camera_sensitivity_error(const std::string& source) {
+  try {
+    if (source.rfind("builtin:", 0) == 0) {
+      spectral::builtin_camera(source.substr(8));
+      return {};
+    }
+    if (auto error = regular_file_error(source); !error.empty()) return error;
+    spectral::read_camera_sensitivity(source);
+  } catch (const std::exception& error) {
+    return source + ": " + error.what();
+  }
+  return {};
+}
+
+// ---- the table of keys ----
+
+// One key: how its JSON value is read (type and range: the reader throws),
+// and what is checked of its final value, present in the file or not
+// (returns "" or what is wrong). Built only by the factories below, each of
+// which demands the key's range or its check.
+struct Key {
+  std::string name;
+  std::function<void(const json&, DaemonConfig&)> read;
+  std::function<std::string(const DaemonConfig&)> check;
+};
+
+template <class Get>
+Key unsigned_key(std::string name, std::uint64_t min, std::uint64_t max, Get get) {
+  return {std::move(name),
+          [=](const json& v, DaemonConfig& c) {
+            get(c) = static_cast<std::remove_reference_t<decltype(get(c))>>(read_unsigned(v, min, max));
+          },
+          [](const DaemonConfig&) { return std::string(); }};
+}
+template <class Get>
+Key signed_key(std::string name, std::int64_t min, std::int64_t max, Get get) {
+  return {std::move(name),
+          [=](const json& v, DaemonConfig& c) {
+            get(c) = static_cast<std::remove_reference_t<decltype(get(c))>>(read_signed(v, min, max));
+          },
+          [](const DaemonConfig&) { return std::string(); }};
+}
+template <class Get>
+Key number_key(std::string name, double min, double max, bool min_open, Get get) {
+  return {std::move(name), [=](const json& v, DaemonConfig& c) { get(c) = read_number(v, min, max, min_open); },
+          [](const DaemonConfig&) { return std::string(); }};
+}
+template <class Get>
+Key bool_key(std::string name, Get get) {
+  return {std::move(name),
+          [=](const json& v, DaemonConfig& c) {
+            if (!v.is_boolean()) throw std::invalid_argument(shown(v) + " is not true or false");
+            get(c) = v.get<bool>();
+          },
+          [](const DaemonConfig&) { return std::string(); }};
+}
+// A string whose final value `check` accepts ("" or what is wrong).
+template <class Get>
+Key string_key(std::string name, Get get, std::function<std::string(const std::string&)> check) {
+  return {std::move(name), [=](const json& v, DaemonConfig& c) { get(c) = read_string(v); },
+          [=](const DaemonConfig& c) { return check(std::string(get(const_cast<DaemonConfig&>(c)))); }};
+}
+
+std::string any_string(const std::string&) { return {}; }
+std::string optional_folder(const std::string& path) { return path.empty() ? std::string() : folder_error_tried(path); }
+
+drivers::DriveLevels read_levels(const json& value) {
+  if (!value.is_object()) throw std::invalid_argument(shown(value) + " is not an object of LED levels");
   drivers::DriveLevels levels{};
-  for (const auto& [key, value] : json.items()) {
+  for (const auto& [key, level] : value.items()) {
     auto type = spectral::parse_led_type(key);
-    if (!type) throw std::invalid_argument(field + "." + key + ": not an LED type (W57, W40, W27, R, G, B)");
-    levels[static_cast<std::size_t>(spectral::led_type_index(*type))] = value.get<double>();
+    if (!type) throw std::invalid_argument(key + ": not an LED type (W57, W40, W27, R, G, B)");
+    try {
+      levels[static_cast<std::size_t>(spectral::led_type_index(*type))] = read_number(level, 0, 1, false);
+    } catch (const std::invalid_argument& error) {
+      throw std::invalid_argument(key + ": " + error.what());
+    }
   }
   return levels;
 }
+
+DeviceConfig read_device(const json& device) {
+  if (!device.is_object()) throw std::invalid_argument("must be a JSON object");
+  static const std::set<std::string> known{"name", "kind", "backend", "address", "settings"};
+  for (const auto& [key, value] : device.items())
+    if (!known.count(key)) throw std::invalid_argument(key + ": unknown key (name, kind, backend, address, settings)");
+  auto field = [&](const char* key, bool required) -> std::string {
+    if (!device.contains(key)) {
+      if (required) throw std::invalid_argument(std::string(key) + ": missing");
+      return {};
+    }
+    try {
+      return read_string(device.at(key));
+    } catch (const std::invalid_argument& error) {
+      throw std::invalid_argument(std::string(key) + ": " + error.what());
+    }
+  };
+  DeviceConfig d;
+  d.name = field("name", true);
+  const std::string kind = field("kind", true);
+  if (kind == "led_controller") d.kind = DeviceKind::kLedController;
+  else if (kind == "camera") d.kind = DeviceKind::kCamera;
+  else if (kind == "spectrometer") d.kind = DeviceKind::kSpectrometer;
+  else throw std::invalid_argument("kind: \"" + kind + "\" is not led_controller, camera or spectrometer");
+  d.backend = field("backend", true);
+  d.address = field("address", false);
+  if (device.contains("settings")) {
+    if (!device.at("settings").is_object()) throw std::invalid_argument("settings: must be a JSON object");
+    d.settings = device.at("settings");
+  }
+  return d;
+}
+
+const std::vector<Key>& estimation_keys() {
+  static const std::vector<Key> keys = {
+      bool_key("enabled", [](DaemonConfig& c) -> auto& { return c.estimation.enabled; }),
+      string_key("method", [](DaemonConfig& c) -> auto& { return c.estimation.method; },
+                 [](const std::string& v) {
+                   return estimation::parse_method_name(v) ? std::string()
+                                                           : "\"" + v + "\" is not fast, exhaustive or 2d";
+                 }),
+      string_key("model", [](DaemonConfig& c) -> auto& { return c.estimation.model; },
+                 [](const std::string& v) {
+                   return estimation::parse_model_name(v) ? std::string() : "\"" + v + "\" is not auto, 2d or 4d";
+                 }),
+      string_key("led_library", [](DaemonConfig& c) -> auto& { return c.estimation.led_library; }, led_library_error),
+      string_key("camera_sensitivity", [](DaemonConfig& c) -> auto& { return c.estimation.camera_sensitivity; },
+                 camera_sensitivity_error),
+      number_key("white_reflectance", 0, 1, true, [](DaemonConfig& c) -> auto& { return c.estimation.white_reflectance; }),
+      string_key("cache_dir", [](DaemonConfig& c) -> auto& { return c.estimation.cache_dir; }, optional_folder),
+      unsigned_key("cache_limit_bytes", 1ull << 20, 1ull << 50,
+                   [](DaemonConfig& c) -> auto& { return c.estimation.cache_limit_bytes; }),
+      signed_key("threads", 0, 256, [](DaemonConfig& c) -> auto& { return c.estimation.threads; }),
+  };
+  return keys;
+}
+
+void read_section(const json& value, const std::vector<Key>& keys, const std::string& section, DaemonConfig& config) {
+  if (!value.is_object()) throw std::invalid_argument(shown(value) + " is not a JSON object");
+  for (const auto& [name, item] : value.items()) {
+    const Key* key = nullptr;
+    for (const auto& k : keys)
+      if (k.name == name) key = &k;
+    if (!key) {
+      const std::string message = "unknown key \"" + name + "\" (see docs/config.md)";
+      if (section.empty()) throw std::invalid_argument(message);
+      throw NestedError(": " + message);
+    }
+    const std::string path = section.empty() ? name : "." + name;
+    try {
+      key->read(item, config);
+    } catch (const NestedError& error) {
+      throw NestedError(path + error.what());
+    } catch (const std::invalid_argument& error) {
+      throw NestedError(path + ": " + error.what());
+    }
+  }
+}
+
+const std::vector<Key>& top_level_keys() {
+  static const std::vector<Key> keys = {
+      string_key("runtime_dir", [](DaemonConfig& c) -> auto& { return c.runtime_dir; },
+                 [](const std::string& v) {
+                   if (v.empty())
+                     return std::string("no default (none of CHROMO_RUNTIME_DIR, XDG_RUNTIME_DIR, HOME is set): set it");
+                   return folder_error_tried(v);
+                 }),
+      string_key("unix_socket", [](DaemonConfig& c) -> auto& { return c.unix_socket; }, unix_socket_error),
+      {"unix_socket_mode",
+       [](const json& v, DaemonConfig& c) {
+         const std::string text = read_string(v);
+         if (text.empty() || text.size() > 4 || text.find_first_not_of("01234567") != std::string::npos ||
+             std::stoul(text, nullptr, 8) > 0777)
+           throw std::invalid_argument(shown(v) + " is not an octal file mode of at most 0777 (e.g. \"0660\")");
+         c.unix_socket_mode = static_cast<std::uint32_t>(std::stoul(text, nullptr, 8));
+       },
+       [](const DaemonConfig& c) {
+         return (c.unix_socket_mode & 0600) == 0600 ? std::string()
+                                                    : "the owner must be able to read and write the socket (0600)";
+       }},
+      string_key("tcp_address", [](DaemonConfig& c) -> auto& { return c.tcp_address; }, tcp_address_error),
+      string_key("token", [](DaemonConfig& c) -> auto& { return c.token; }, any_string),  // length: IsValid
+      string_key("tls_certificate_file", [](DaemonConfig& c) -> auto& { return c.tls_certificate_file; }, pem_file_error),
+      string_key("tls_private_key_file", [](DaemonConfig& c) -> auto& { return c.tls_private_key_file; }, pem_file_error),
+      string_key("sessions_dir", [](DaemonConfig& c) -> auto& { return c.sessions_dir; },
+                 [](const std::string& v) { return folder_error_tried(v); }),
+      unsigned_key("storage_limit_bytes", 0, std::numeric_limits<std::int64_t>::max(),
+                   [](DaemonConfig& c) -> auto& { return c.storage_limit_bytes; }),
+      unsigned_key("storage_queue_frames", 1, 100000, [](DaemonConfig& c) -> auto& { return c.storage_queue_frames; }),
+      unsigned_key("estimator_queue_frames", 0, 100000,
+                   [](DaemonConfig& c) -> auto& { return c.estimator_queue_frames; }),
+      unsigned_key("frame_timeout_ms", 1, 600000, [](DaemonConfig& c) -> auto& { return c.frame_timeout_ms; }),
+      unsigned_key("frame_attempts", 1, 100, [](DaemonConfig& c) -> auto& { return c.frame_attempts; }),
+      string_key("led_library", [](DaemonConfig& c) -> auto& { return c.led_library; }, led_library_error),
+      {"devices",
+       [](const json& v, DaemonConfig& c) {
+         if (!v.is_array()) throw std::invalid_argument(shown(v) + " is not a JSON array");
+         c.devices.clear();
+         for (std::size_t i = 0; i < v.size(); ++i) try {
+             c.devices.push_back(read_device(v[i]));
+           } catch (const std::invalid_argument& error) {
+             throw NestedError("[" + std::to_string(i) + "]." + error.what());
+           }
+       },
+       // Backend names, addresses and settings: BackendRegistry::open, before any device opens.
+       [](const DaemonConfig&) { return std::string(); }},
+      {"mixes",
+       [](const json& v, DaemonConfig& c) {
+         if (!v.is_object()) throw std::invalid_argument(shown(v) + " is not a JSON object");
+         for (const auto& [name, levels] : v.items()) try {
+             c.mixes[name] = read_levels(levels);
+           } catch (const std::invalid_argument& error) {
+             throw NestedError("." + name + "." + error.what());
+           }
+       },
+       [](const DaemonConfig&) { return std::string(); }},  // names: IsValid
+      {"estimation", [](const json& v, DaemonConfig& c) { read_section(v, estimation_keys(), "estimation", c); },
+       [](const DaemonConfig& c) {
+         for (const auto& key : estimation_keys())
+           if (auto error = key.check(c); !error.empty()) return "." + key.name + ": " + error;
+         return std::string();
+       }},
+  };
+  return keys;
+}
+
 }  // namespace
 
-DaemonConfig parse_config(const nlohmann::json& json, const std::string& origin) {
+std::vector<std::string> config_key_names() {
+  std::vector<std::string> names;
+  for (const auto& key : top_level_keys())
+    if (key.name != "estimation") names.push_back(key.name);
+  for (const auto& key : estimation_keys()) names.push_back("estimation." + key.name);
+  return names;
+}
+
+DaemonConfig parse_config(const json& json_config, const std::string& origin) {
+  if (!json_config.is_object()) throw std::invalid_argument(origin + ": must be a JSON object");
   DaemonConfig config;
-  static const std::set<std::string> known{"unix_socket", "unix_socket_mode", "tcp_address", "token",
-                                           "tls_certificate_file", "tls_private_key_file", "sessions_dir",
-                                           "storage_limit_bytes", "storage_queue_frames", "estimator_queue_frames",
-                                           "frame_timeout_ms", "frame_attempts", "led_library", "devices", "mixes",
-                                           "estimation"};
-  if (!json.is_object()) throw std::invalid_argument(origin + ": must be a JSON object");
-  std::string field;
   try {
-    for (const auto& [key, value] : json.items())
-      if (!known.count(key)) throw std::invalid_argument(origin + ": unknown key \"" + key + "\" (see docs/config.md)");
-    auto get = [&](const char* key, auto& target) {
-      field = key;
-      if (json.contains(key)) target = json.at(key).get<std::remove_reference_t<decltype(target)>>();
-    };
-    get("unix_socket", config.unix_socket);
-    if (json.contains("unix_socket_mode")) {
-      field = "unix_socket_mode";
-      config.unix_socket_mode = static_cast<std::uint32_t>(std::stoul(json.at("unix_socket_mode").get<std::string>(), nullptr, 8));
-    }
-    get("tcp_address", config.tcp_address);
-    get("token", config.token);
-    get("tls_certificate_file", config.tls_certificate_file);
-    get("tls_private_key_file", config.tls_private_key_file);
-    std::string sessions_dir = config.sessions_dir.string();
-    get("sessions_dir", sessions_dir);
-    config.sessions_dir = sessions_dir;
-    get("storage_limit_bytes", config.storage_limit_bytes);
-    get("storage_queue_frames", config.storage_queue_frames);
-    get("estimator_queue_frames", config.estimator_queue_frames);
-    get("frame_timeout_ms", config.frame_timeout_ms);
-    get("frame_attempts", config.frame_attempts);
-    std::string led_library;
-    get("led_library", led_library);
-    config.led_library = led_library;
-    if (json.contains("devices")) {
-      std::size_t index = 0;
-      for (const auto& device : json.at("devices")) {
-        field = "devices[" + std::to_string(index++) + "]";
-        DeviceConfig d;
-        if (!device.is_object()) throw std::invalid_argument(origin + ": " + field + ": must be a JSON object");
-        for (const auto& [key, value] : device.items())
-          if (key != "name" && key != "kind" && key != "backend" && key != "address" && key != "settings")
-            throw std::invalid_argument(origin + ": " + field + "." + key +
-                                        ": unknown key (name, kind, backend, address, settings)");
-        if (device.contains("settings") && !device.at("settings").is_object())
-          throw std::invalid_argument(origin + ": " + field + ".settings: must be a JSON object");
-        d.name = device.at("name").get<std::string>();
-        std::string kind = device.at("kind").get<std::string>();
-        if (kind == "led_controller") d.kind = DeviceKind::kLedController;
-        else if (kind == "camera") d.kind = DeviceKind::kCamera;
-        else if (kind == "spectrometer") d.kind = DeviceKind::kSpectrometer;
-        else throw std::invalid_argument(origin + ": " + field + ".kind: \"" + kind +
-                                         "\" is not led_controller, camera or spectrometer");
-        d.backend = device.at("backend").get<std::string>();
-        d.address = device.value("address", "");
-        d.settings = device.value("settings", nlohmann::json::object());
-        config.devices.push_back(std::move(d));
-      }
-    }
-    if (json.contains("mixes"))
-      for (const auto& [name, levels] : json.at("mixes").items()) {
-        field = "mixes." + name;
-        config.mixes[name] = parse_levels(levels, field);
-      }
-    if (json.contains("estimation")) {
-      field = "estimation";
-      const auto& e = json.at("estimation");
-      if (!e.is_object()) throw std::invalid_argument(origin + ": estimation: must be an object");
-      static const std::set<std::string> known_estimation{"enabled", "method", "model", "led_library",
-                                                          "camera_sensitivity", "white_reflectance", "cache_dir",
-                                                          "threads"};
-      for (const auto& [key, value] : e.items())
-        if (!known_estimation.count(key))
-          throw std::invalid_argument(origin + ": estimation: unknown key \"" + key + "\" (see docs/config.md)");
-      auto get_estimation = [&](const char* key, auto& target) {
-        field = std::string("estimation.") + key;
-        if (e.contains(key)) target = e.at(key).get<std::remove_reference_t<decltype(target)>>();
-      };
-      get_estimation("enabled", config.estimation.enabled);
-      get_estimation("method", config.estimation.method);
-      get_estimation("model", config.estimation.model);
-      get_estimation("led_library", config.estimation.led_library);
-      get_estimation("camera_sensitivity", config.estimation.camera_sensitivity);
-      get_estimation("white_reflectance", config.estimation.white_reflectance);
-      get_estimation("cache_dir", config.estimation.cache_dir);
-      get_estimation("threads", config.estimation.threads);
-    }
-  } catch (const nlohmann::json::exception& error) {
-    throw std::invalid_argument(origin + ": " + field + ": " + error.what());
-  } catch (const std::logic_error& error) {
-    if (dynamic_cast<const std::invalid_argument*>(&error) && std::string(error.what()).rfind(origin, 0) == 0) throw;
-    throw std::invalid_argument(origin + ": " + field + ": " + error.what());
+    read_section(json_config, top_level_keys(), "", config);
+  } catch (const std::invalid_argument& error) {  // NestedError too: its path starts at a top-level key
+    throw std::invalid_argument(origin + ": " + error.what());
   }
+  // The socket goes into the runtime folder unless it is named.
+  if (json_config.contains("runtime_dir") && !json_config.contains("unix_socket"))
+    config.unix_socket = (config.runtime_dir / "chromod.sock").string();
   std::string error;
   if (!config.IsValid(&error)) throw std::invalid_argument(origin + ": " + error);
+  // Every key's check on its final value, given or default.
+  for (const auto& key : top_level_keys())
+    if (auto problem = key.check(config); !problem.empty())
+      throw std::invalid_argument(origin + ": " + key.name + (problem.front() == '.' ? "" : ": ") + problem);
   return config;
 }
 
-DaemonConfig read_config_file(const std::filesystem::path& path) {
+json read_config_json(const fs::path& path) {
+  if (auto error = regular_file_error(path); !error.empty()) throw std::invalid_argument(error);
   std::ifstream in(path);
   if (!in) throw std::invalid_argument(path.string() + ": cannot be read");
-  auto json = nlohmann::json::parse(in, nullptr, false);
-  if (json.is_discarded()) throw std::invalid_argument(path.string() + ": not valid JSON");
-  return parse_config(json, path.string());
+  auto parsed = json::parse(in, nullptr, false);
+  if (parsed.is_discarded()) throw std::invalid_argument(path.string() + ": not valid JSON");
+  if (!parsed.is_object()) throw std::invalid_argument(path.string() + ": must be a JSON object");
+  return parsed;
 }
+
+DaemonConfig read_config_file(const fs::path& path) { return parse_config(read_config_json(path), path.string()); }
 
 std::map<std::string, drivers::DriveLevels> default_virtual_lab_mixes() {
   // Order: W57 W40 W27 R G B. Placeholders for sessions before a calibration

@@ -1,6 +1,9 @@
 #include "chromo/daemon/server.hpp"
 
+#include <sys/socket.h>
 #include <sys/stat.h>
+#include <sys/un.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <fstream>
@@ -25,6 +28,26 @@ std::string read_text_file(const std::string& path) {
   return buffer.str();
 }
 
+// A socket file at `path` that nobody accepts on is removed (a killed
+// chromod's); anything else there is an error, and left as it is.
+void remove_stale_socket(const std::string& path) {
+  std::error_code error;
+  const auto status = std::filesystem::symlink_status(path, error);
+  if (error || !std::filesystem::exists(status)) return;
+  if (!std::filesystem::is_socket(status))
+    throw std::invalid_argument("unix_socket: " + path + ": a file that is not a socket is there (chromod never "
+                                "deletes a file it did not create)");
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (fd < 0) throw std::runtime_error("unix_socket: cannot make a socket to probe " + path);
+  sockaddr_un address{};
+  address.sun_family = AF_UNIX;
+  path.copy(address.sun_path, sizeof address.sun_path - 1);
+  const bool listening = ::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) == 0;
+  ::close(fd);
+  if (listening) throw std::invalid_argument("unix_socket: " + path + ": another process is listening on it");
+  std::filesystem::remove(path, error);
+}
+
 }  // namespace
 
 // One of each service (services/services.hpp), all behind one guard.
@@ -47,7 +70,9 @@ Server::Server(Daemon& daemon) : daemon_(daemon), services_(std::make_unique<Ser
   grpc::ServerBuilder builder;
   builder.SetMaxReceiveMessageSize(1 << 20);
   if (!config.unix_socket.empty()) {
-    std::filesystem::remove(config.unix_socket);
+    // Only a socket nobody listens on (left by a killed chromod) is removed;
+    // any other file there is refused, never deleted.
+    remove_stale_socket(config.unix_socket);
     builder.AddListeningPort("unix:" + config.unix_socket, grpc::InsecureServerCredentials());
   }
   if (!config.tcp_address.empty()) {
@@ -65,7 +90,10 @@ Server::Server(Daemon& daemon) : daemon_(daemon), services_(std::make_unique<Ser
   if (!server_) throw std::runtime_error("could not listen on the configured addresses (unix:" + config.unix_socket + " " +
                                          config.tcp_address + ")");
   if (!config.tcp_address.empty() && tcp_port_ == 0) throw std::runtime_error("could not listen on " + config.tcp_address);
-  if (!config.unix_socket.empty()) ::chmod(config.unix_socket.c_str(), config.unix_socket_mode);
+  if (!config.unix_socket.empty()) {
+    ::chmod(config.unix_socket.c_str(), config.unix_socket_mode);
+    created_socket_ = config.unix_socket;
+  }
   server_->GetHealthCheckService()->SetServingStatus(true);
 }
 
@@ -77,6 +105,11 @@ void Server::shutdown() {
   server_->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
   server_->Wait();
   server_.reset();
+  // The socket this server made (still a socket: nobody replaced it).
+  std::error_code error;
+  if (!created_socket_.empty() && std::filesystem::is_socket(std::filesystem::symlink_status(created_socket_, error)))
+    std::filesystem::remove(created_socket_, error);
+  created_socket_.clear();
 }
 
 void Server::wait() {

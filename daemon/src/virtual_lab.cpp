@@ -51,6 +51,7 @@ struct VirtualLabSimulators::Impl {
     camera_options.sensor_width = options.sensor_width;
     camera_options.sensor_height = options.sensor_height;
     camera_options.camera_model.seed = options.seed;
+    camera_options.genicam_dir = options.run_dir;
     // The camera sees the LEDs (the lamp's port is closed during captures);
     // the lab outlives the camera simulator (declared first): non-owning.
     const std::shared_ptr<const simulators::SphereIllumination> light(std::shared_ptr<void>(), &lab.lab());

@@ -1,6 +1,10 @@
 #include "chromo/files/binary_cache.hpp"
 
+#include <algorithm>
+#include <atomic>
 #include <cstdio>
+#include <cstdlib>
+#include <regex>
 #include <fstream>
 #include <stdexcept>
 #include <system_error>
@@ -34,7 +38,64 @@ bool read_value(std::ifstream& in, T& value) {
   return static_cast<bool>(in.read(reinterpret_cast<char*>(&value), sizeof value));
 }
 
+std::uint64_t initial_cache_limit() {
+  if (const char* text = std::getenv("CHROMO_CACHE_LIMIT_BYTES"); text && *text) {
+    char* end = nullptr;
+    const unsigned long long value = std::strtoull(text, &end, 10);
+    if (end && *end == '\0' && value > 0) return value;
+  }
+  return kDefaultCacheLimitBytes;
+}
+
+std::atomic<std::uint64_t>& limit_holder() {
+  static std::atomic<std::uint64_t> limit{initial_cache_limit()};
+  return limit;
+}
+
+bool is_cache_file_name(const std::string& name) {
+  static const std::regex pattern("[A-Za-z0-9_]+_[0-9a-f]{16}\\.bin");
+  return std::regex_match(name, pattern);
+}
+
 }  // namespace
+
+std::uint64_t cache_limit_bytes() { return limit_holder().load(); }
+void set_cache_limit_bytes(std::uint64_t limit) { limit_holder().store(limit); }
+
+std::uint64_t trim_cache_folder(const fs::path& dir, std::uint64_t limit_bytes, const fs::path& keep) {
+  struct Entry {
+    fs::path path;
+    fs::file_time_type used;
+    std::uintmax_t bytes;
+  };
+  std::vector<Entry> entries;
+  std::uint64_t total = 0;
+  std::error_code error;
+  for (fs::directory_iterator it(dir, error), end; !error && it != end; it.increment(error)) {
+    if (!is_cache_file_name(it->path().filename().string())) continue;
+    std::error_code e;
+    if (!it->is_regular_file(e) || e) continue;
+    const auto bytes = it->file_size(e);
+    const auto used = it->last_write_time(e);
+    if (e) continue;
+    total += bytes;
+    if (!keep.empty() && it->path().filename() == keep.filename()) continue;
+    entries.push_back({it->path(), used, bytes});
+  }
+  std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) { return a.used < b.used; });
+  std::uint64_t removed = 0;
+  for (const auto& entry : entries) {
+    if (total <= limit_bytes) break;
+    std::error_code e;
+    if (fs::remove(entry.path, e)) {  // another process may have removed it already
+      total -= entry.bytes;
+      removed += entry.bytes;
+    } else if (!e) {
+      total -= entry.bytes;
+    }
+  }
+  return removed;
+}
 
 std::string cache_file_name(const std::string& stem, std::uint64_t key) {
   char hex[17];
@@ -72,6 +133,8 @@ std::optional<std::vector<std::uint8_t>> read_cache(const fs::path& file, const 
       !read_value(in, checksum) || in.peek() != std::char_traits<char>::eof())
     return miss("truncated while it was read");
   if (checksum != checksum_of(payload)) return miss("checksum mismatch (corrupted bytes)");
+  // Used now: the least recently used files are the ones a bounded folder loses first.
+  fs::last_write_time(file, fs::file_time_type::clock::now(), error);
   if (why) why->clear();
   return payload;
 }
@@ -96,6 +159,7 @@ void write_cache(const fs::path& file, const CacheFormat& format, std::uint64_t 
     out.close();
     if (!out) throw std::runtime_error("cache " + file.string() + ": cannot write " + temporary.string());
   });
+  trim_cache_folder(file.has_parent_path() ? file.parent_path() : fs::path("."), cache_limit_bytes(), file);
 }
 
 }  // namespace chromo::files

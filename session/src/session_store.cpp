@@ -60,7 +60,23 @@ SessionStore::Created SessionStore::create(const SessionPlan& plan, const std::s
   Created created;
   created.id = new_session_id(plan.name);
   created.folder = root_ / created.id;
-  std::filesystem::create_directory(created.folder);
+  if (!std::filesystem::create_directory(created.folder))
+    throw std::runtime_error("session folder " + created.folder.string() + " already exists");
+  // A start refused while the folder is being filled (a full disk, the
+  // storage budget) leaves no folder behind: it is ours, made just now.
+  try {
+    fill_new_session_folder(created, plan, subject, devices);
+  } catch (...) {
+    created.journal.reset();
+    std::error_code ignored;
+    std::filesystem::remove_all(created.folder, ignored);
+    throw;
+  }
+  return created;
+}
+
+void SessionStore::fill_new_session_folder(Created& created, const SessionPlan& plan, const std::string& subject,
+                                           const nlohmann::json& devices) {
   files::fsync_directory(root_);
   nlohmann::json session{{"format", "chromosphere-session/" + std::to_string(kSessionFormatVersion)},
                          {"id", created.id},
@@ -72,7 +88,6 @@ SessionStore::Created SessionStore::create(const SessionPlan& plan, const std::s
   files::write_file_durably(created.folder / "session.json", session.dump(2) + "\n", budget_);
   created.journal = std::make_unique<Journal>(created.folder / "journal.jsonl", budget_);
   created.journal->append({{"type", "state"}, {"state", "pending"}});
-  return created;
 }
 
 SessionInfo SessionStore::read_session(const std::filesystem::path& folder) const {

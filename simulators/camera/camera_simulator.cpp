@@ -106,23 +106,27 @@ CameraSimulator::CameraSimulator(CameraSimulatorOptions options, std::shared_ptr
   std::string error;
   if (!options_.IsValid(&error)) throw std::invalid_argument("CameraSimulatorOptions: " + error);
   if (!illumination_ || !scene_) throw std::invalid_argument("CameraSimulator: illumination and scene are required");
-  genicam_path_ = (std::filesystem::temp_directory_path() /
+  genicam_path_ = ((options_.genicam_dir.empty() ? std::filesystem::temp_directory_path() : options_.genicam_dir) /
                    ("chromo-camera-sim-" + std::to_string(::getpid()) + "-" + options_.serial + ".xml"))
                       .string();
-  std::ofstream(genicam_path_) << simulator_genicam_xml();
   start_fake();
 }
 
-CameraSimulator::~CameraSimulator() {
-  power_off();
-  std::error_code ignored;
-  std::filesystem::remove(genicam_path_, ignored);
-}
+CameraSimulator::~CameraSimulator() { power_off(); }
 
 void CameraSimulator::start_fake() {
   auto fake = std::make_unique<Fake>();
+  // Aravis reads the GenICam file when the fake camera is made: the file
+  // exists only for that call.
+  {
+    std::ofstream xml(genicam_path_);
+    xml << simulator_genicam_xml();
+    if (!xml.flush()) throw std::runtime_error("camera simulator " + options_.serial + ": cannot write " + genicam_path_);
+  }
   fake->gv = arv_gv_fake_camera_new_full(options_.interface_address.c_str(), options_.serial.c_str(),
                                          genicam_path_.c_str());
+  std::error_code ignored;
+  std::filesystem::remove(genicam_path_, ignored);
   if (fake->gv == nullptr || !arv_gv_fake_camera_is_running(fake->gv))
     throw std::runtime_error("camera simulator " + options_.serial + ": cannot listen for GigE Vision on " +
                              options_.interface_address + ":" + std::to_string(kGvcpPort) +

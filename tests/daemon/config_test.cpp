@@ -1,9 +1,91 @@
+// chromod's configuration (docs/config.md): every key checked for type,
+// range, readable files, usable folders and valid addresses before anything
+// starts; and, as a process, chromod exits 2 naming the key before its
+// virtual lab starts, never deleting a file it did not create (issue 19).
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
 #include <gtest/gtest.h>
 
 #include "chromo/daemon/config.hpp"
+#include "../support/fresh_directory.hpp"
 
 namespace chromo::daemon {
 namespace {
+
+namespace fs = std::filesystem;
+
+std::string refused(const nlohmann::json& json) {
+  try {
+    parse_config(json, "cfg");
+  } catch (const std::invalid_argument& error) {
+    return error.what();
+  }
+  return "accepted";
+}
+
+std::string text_of(const fs::path& file) {
+  std::ifstream in(file);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+struct ChromodRun {
+  pid_t pid = 0;
+  int exit_code = -1;
+  std::string output;
+};
+
+// chromod with `arguments`, its output in directory/chromod.log; killed after
+// `seconds` if still running (exit_code -1 then).
+ChromodRun run_chromod(const fs::path& directory, std::vector<std::string> arguments, int seconds = 20,
+                std::vector<std::string> environment = {}) {
+  const std::string log = (directory / "chromod.log").string();
+  fs::remove(log);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_adddup2(&actions, 1, 2);
+  arguments.insert(arguments.begin(), CHROMOD);
+  std::vector<char*> argv;
+  for (auto& argument : arguments) argv.push_back(argument.data());
+  argv.push_back(nullptr);
+  std::vector<std::string> env_strings(environment);
+  for (char** e = environ; *e; ++e) env_strings.push_back(*e);
+  std::vector<char*> envp;
+  for (auto& e : env_strings) envp.push_back(e.data());
+  envp.push_back(nullptr);
+  pid_t pid = 0;
+  EXPECT_EQ(posix_spawn(&pid, CHROMOD, &actions, nullptr, argv.data(), envp.data()), 0);
+  posix_spawn_file_actions_destroy(&actions);
+  ChromodRun run;
+  run.pid = pid;
+  int status = 0;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(seconds);
+  while (::waitpid(pid, &status, WNOHANG) == 0) {
+    if (std::chrono::steady_clock::now() > deadline) {
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, &status, 0);
+      run.output = text_of(log);
+      return run;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  run.output = text_of(log);
+  return run;
+}
 
 TEST(DaemonConfig, ParsesDevicesAndRefusesBadFieldsByName) {
   auto config = parse_config(nlohmann::json::parse(R"({
@@ -16,20 +98,187 @@ TEST(DaemonConfig, ParsesDevicesAndRefusesBadFieldsByName) {
   EXPECT_EQ(config.devices[1].settings["gain_db"], 3);
   EXPECT_DOUBLE_EQ(config.mixes.at("d65")[5], 0.2);
 
-  auto refused = [](const char* text) {
-    try {
-      parse_config(nlohmann::json::parse(text));
-    } catch (const std::invalid_argument& error) {
-      return std::string(error.what());
-    }
-    return std::string("accepted");
-  };
+  auto refused = [](const char* text) { return daemon::refused(nlohmann::json::parse(text)); };
   EXPECT_NE(refused(R"({"tcp_address": "0.0.0.0:1", "token": "short"})").find("token"), std::string::npos);
   EXPECT_NE(refused(R"({"frame_attempts": "three"})").find("frame_attempts"), std::string::npos);
   EXPECT_NE(refused(R"({"colour": 1})").find("unknown key \"colour\""), std::string::npos);
   EXPECT_NE(refused(R"({"devices": [{"name": "a", "kind": "toaster", "backend": "x"}]})").find("devices[0].kind"),
             std::string::npos);
   EXPECT_NE(refused(R"({"mixes": {"d65": {"UV": 1}}})").find("mixes.d65.UV"), std::string::npos);
+}
+
+
+// The probes of issue 19, each refused naming its key.
+TEST(DaemonConfig, RefusesEveryProbeOfIssue19NamingTheKey) {
+  const std::string token = "0123456789abcdef";
+  struct Probe {
+    nlohmann::json json;
+    std::string expected;
+  };
+  const std::vector<Probe> probes = {
+      {{{"tcp_address", "127.0.0.1:99999"}, {"token", token}}, "cfg: tcp_address: \"127.0.0.1:99999\": the port"},
+      {{{"tcp_address", "127.0.0.1"}, {"token", token}}, "cfg: tcp_address: \"127.0.0.1\" is not host:port"},
+      {{{"tcp_address", "no-such-host.invalid:7443"}, {"token", token}}, "cfg: tcp_address: "},
+      {{{"storage_limit_bytes", -1}}, "cfg: storage_limit_bytes: -1 is outside"},
+      {{{"storage_limit_bytes", 1.5}}, "cfg: storage_limit_bytes: 1.5 is not an integer"},
+      {{{"frame_timeout_ms", -5}}, "cfg: frame_timeout_ms: -5 is outside [1, 600000]"},
+      {{{"frame_timeout_ms", 0}}, "cfg: frame_timeout_ms: 0 is outside"},
+      {{{"frame_attempts", 2.5}}, "cfg: frame_attempts: 2.5 is not an integer"},
+      {{{"estimator_queue_frames", true}}, "cfg: estimator_queue_frames: true is not an integer"},
+      {{{"estimation", {{"camera_sensitivity", "/no/such/camera.csv"}}}},
+       "cfg: estimation.camera_sensitivity: /no/such/camera.csv: no such file"},
+      {{{"estimation", {{"camera_sensitivity", "builtin:no_such_camera"}}}}, "cfg: estimation.camera_sensitivity: "},
+      {{{"estimation", {{"threads", -1}}}}, "cfg: estimation.threads: -1 is outside [0, 256]"},
+      {{{"estimation", {{"white_reflectance", 0}}}}, "cfg: estimation.white_reflectance: 0 is outside (0"},
+      {{{"estimation", {{"cache_limit_bytes", 10}}}}, "cfg: estimation.cache_limit_bytes: 10 is outside"},
+      {{{"estimation", {{"led_library", "/no/such/library.json"}}}},
+       "cfg: estimation.led_library: /no/such/library.json: no such file"},
+      {{{"estimation", {{"colour", 1}}}}, "cfg: estimation: unknown key \"colour\""},
+      {{{"estimation", 3}}, "cfg: estimation: 3 is not a JSON object"},
+      {{{"tcp_address", "127.0.0.1:0"}, {"token", token}, {"tls_certificate_file", "/no/cert.pem"},
+        {"tls_private_key_file", "/no/key.pem"}},
+       "cfg: tls_certificate_file: /no/cert.pem: no such file"},
+      {{{"led_library", "/no/such/library.json"}}, "cfg: led_library: /no/such/library.json: no such file"},
+      {{{"led_library", "/dev/zero"}}, "cfg: led_library: /dev/zero: not a regular file"},
+      {{{"sessions_dir", "/proc/version/sessions"}}, "cfg: sessions_dir: /proc/version/sessions: cannot be created"},
+      {{{"sessions_dir", "/proc/no-such-folder/sessions"}}, "cfg: sessions_dir: /proc/no-such-folder/sessions: cannot be created"},
+      {{{"unix_socket_mode", "abc"}}, "cfg: unix_socket_mode: \"abc\" is not an octal file mode"},
+      {{{"unix_socket_mode", "0999"}}, "cfg: unix_socket_mode: \"0999\" is not an octal file mode"},
+      {{{"unix_socket_mode", "0044"}}, "cfg: unix_socket_mode: the owner must be able"},
+      {{{"unix_socket", std::string(200, 'a')}}, "cfg: unix_socket: "},
+      {{{"mixes", {{"d65", {{"W57", 1.5}}}}}}, "cfg: mixes.d65.W57: 1.5 is outside [0"},
+      {{{"mixes", {{"d65", {{"W57", "high"}}}}}}, "cfg: mixes.d65.W57: \"high\" is not a number"},
+      {{{"devices", {{{"name", "a"}, {"kind", "camera"}}}}}, "cfg: devices[0].backend: missing"},
+  };
+  for (const auto& probe : probes) {
+    const std::string error = refused(probe.json);
+    EXPECT_EQ(error.rfind(probe.expected, 0), 0u) << probe.json.dump() << "\n  said: " << error;
+  }
+}
+
+// "Keys added later follow the same rule": every key in the table refuses a
+// value of the wrong type naming itself, and is documented in docs/config.md.
+TEST(DaemonConfig, EveryKeyInTheTableRefusesAWrongTypeAndIsDocumented) {
+  const std::string doc = text_of(fs::path(CHROMO_SOURCE_DIR) / "docs" / "config.md");
+  const auto names = config_key_names();
+  EXPECT_GE(names.size(), 23u);
+  for (const auto& name : names) {
+    nlohmann::json json = nlohmann::json::object();
+    const auto dot = name.find('.');
+    const nlohmann::json wrong = nlohmann::json::array({nlohmann::json::object()});  // [{}]: no key takes it
+    if (dot == std::string::npos) json[name] = wrong;
+    else json[name.substr(0, dot)][name.substr(dot + 1)] = wrong;
+    const std::string error = refused(json);
+    EXPECT_EQ(error.rfind("cfg: " + name, 0), 0u) << name << ": " << error;
+    const std::string leaf = dot == std::string::npos ? name : name.substr(dot + 1);
+    EXPECT_NE(doc.find("`" + leaf + "`"), std::string::npos) << name << " is not in docs/config.md";
+  }
+}
+
+TEST(DaemonConfig, ChecksFilesByWhatTheyHold) {
+  const auto dir = testing::fresh_directory("config-files");
+  std::ofstream(dir / "not-pem.pem") << "hello\n";
+  std::ofstream(dir / "library.json") << "{\"format\": 7}";
+  std::ofstream(dir / "camera.csv") << "wavelength_nm,R,G,B\nx,y,z,w\n";
+  const std::string token = "0123456789abcdef";
+  EXPECT_NE(refused({{"tcp_address", "127.0.0.1:0"}, {"token", token}, {"tls_certificate_file", (dir / "not-pem.pem")},
+                     {"tls_private_key_file", (dir / "not-pem.pem")}})
+                .find("tls_certificate_file: " + (dir / "not-pem.pem").string() + ": not a PEM file"),
+            std::string::npos);
+  EXPECT_EQ(refused({{"led_library", dir / "library.json"}}).rfind("cfg: led_library: ", 0), 0u);
+  EXPECT_EQ(refused({{"estimation", {{"camera_sensitivity", dir / "camera.csv"}}}})
+                .rfind("cfg: estimation.camera_sensitivity: ", 0),
+            0u);
+  // A folder that does not exist yet but can be made is accepted, and left unmade.
+  const auto config = parse_config({{"sessions_dir", dir / "a" / "b"}, {"runtime_dir", dir / "run"}}, "cfg");
+  EXPECT_EQ(config.unix_socket, (dir / "run" / "chromod.sock").string());
+  EXPECT_FALSE(fs::exists(dir / "a"));
+  EXPECT_FALSE(fs::exists(dir / "run"));
+  fs::remove_all(dir);
+}
+
+TEST(DaemonConfig, TheDefaultSocketAndRunFilesAreNotUnderTmp) {
+  const DaemonConfig config;
+  EXPECT_FALSE(config.runtime_dir.empty());
+  EXPECT_NE(config.unix_socket.rfind("/tmp/", 0), 0u) << config.unix_socket;
+  EXPECT_EQ(config.unix_socket, (config.runtime_dir / "chromod.sock").string());
+  EXPECT_EQ(config.estimation.cache_limit_bytes, 2ull << 30);
+}
+
+// A JSON built in C++ (not parsed) holds 2000 as a signed integer.
+TEST(DaemonConfig, IntegersBuiltInCodeAreReadByValue) {
+  nlohmann::json json;
+  json["frame_timeout_ms"] = static_cast<int>(2000);
+  json["storage_limit_bytes"] = static_cast<long long>(5);
+  const auto config = parse_config(json, "cfg");
+  EXPECT_EQ(config.frame_timeout_ms, 2000u);
+  EXPECT_EQ(config.storage_limit_bytes, 5u);
+  json["frame_timeout_ms"] = static_cast<int>(-2000);
+  EXPECT_EQ(refused(json).rfind("cfg: frame_timeout_ms: -2000 is outside", 0), 0u);
+}
+
+// As a process: a bad configuration exits 2 naming the key, and the virtual
+// lab never started (it prints a line when it does).
+TEST(Chromod, ABadConfigurationExitsTwoBeforeTheLabStarts) {
+  const auto dir = testing::fresh_directory("chromod-config");
+  const std::string token = "0123456789abcdef0";
+  const std::vector<std::pair<nlohmann::json, std::string>> probes = {
+      {{{"tcp_address", "256.1.1.1:7443"}, {"token", token}}, "tcp_address: "},
+      {{{"tcp_address", "127.0.0.1:0"}, {"token", token}, {"tls_certificate_file", "/no/cert.pem"},
+        {"tls_private_key_file", "/no/key.pem"}},
+       "tls_certificate_file: "},
+      {{{"sessions_dir", "/proc/version/x"}}, "sessions_dir: "},
+      {{{"led_library", (dir / "missing.json").string()}}, "led_library: "},
+      {{{"unix_socket_mode", "abc"}}, "unix_socket_mode: "},
+      {{{"storage_limit_bytes", -1}}, "storage_limit_bytes: "},
+  };
+  for (const auto& [json, key] : probes) {
+    std::ofstream(dir / "config.json") << json.dump();
+    const ChromodRun run = run_chromod(dir, {"--config", (dir / "config.json").string(), "--socket", (dir / "s.sock").string()});
+    EXPECT_EQ(run.exit_code, 2) << json.dump() << "\n" << run.output;
+    EXPECT_NE(run.output.find("chromod: configuration: " + (dir / "config.json").string() + ": " + key),
+              std::string::npos)
+        << run.output;
+    EXPECT_EQ(run.output.find("virtual lab"), std::string::npos) << run.output;
+  }
+  fs::remove_all(dir);
+}
+
+// unix_socket used to delete whatever file was at its path.
+TEST(Chromod, NeverDeletesAFileAtItsSocketPath) {
+  const auto dir = testing::fresh_directory("chromod-socket");
+  std::ofstream(dir / "precious.txt") << "keep me\n";
+  const ChromodRun run = run_chromod(dir, {"--socket", (dir / "precious.txt").string(), "--sessions-dir", (dir / "s").string()});
+  EXPECT_EQ(run.exit_code, 2) << run.output;
+  EXPECT_NE(run.output.find("unix_socket: " + (dir / "precious.txt").string() + ": a file that is not a socket"),
+            std::string::npos)
+      << run.output;
+  EXPECT_EQ(text_of(dir / "precious.txt"), "keep me\n");
+  EXPECT_FALSE(fs::exists(dir / "s"));  // nothing made either
+  fs::remove_all(dir);
+}
+
+// A killed chromod left its camera XML in /tmp; now its run files live in
+// its runtime folder, and the XML only while the camera simulator starts.
+// A socket left by the killed chromod is replaced by the next one.
+TEST(Chromod, AKilledDaemonLeavesNoRunFileButItsSocketWhichTheNextReplaces) {
+  const auto dir = testing::fresh_directory("chromod-run");
+  const fs::path run_dir = dir / "run";
+  const std::vector<std::string> env{"CHROMO_RUNTIME_DIR=" + run_dir.string()};
+  for (int round = 0; round < 2; ++round) {
+    // Killed after 15 s, by then listening (the lab starts in a few seconds).
+    const ChromodRun run = run_chromod(dir, {"--sessions-dir", (dir / "sessions").string()}, 15, env);
+    EXPECT_EQ(run.exit_code, -1) << run.output;
+    EXPECT_NE(run.output.find("listening on unix:" + (run_dir / "chromod.sock").string()), std::string::npos)
+        << run.output;
+    std::vector<std::string> left;
+    for (const auto& entry : fs::directory_iterator(run_dir)) left.push_back(entry.path().filename().string());
+    EXPECT_EQ(left, std::vector<std::string>{"chromod.sock"});
+    EXPECT_EQ(fs::status(run_dir).permissions() & fs::perms::all, fs::perms::owner_all);
+    EXPECT_FALSE(fs::exists(fs::temp_directory_path() /
+                            ("chromo-camera-sim-" + std::to_string(run.pid) + "-CHROMO-VLAB-CAM.xml")));
+  }
+  fs::remove_all(dir);
 }
 
 }  // namespace

@@ -162,5 +162,45 @@ TEST(BinaryCache, AWriteThatFailsNamesTheFileAndLeavesNothing) {
   fs::remove_all(dir);
 }
 
+// Issue 19: the table cache grew ~77 MB per measurement set without bound.
+// A folder is kept within the limit, least recently used evicted first.
+TEST(BinaryCacheBound, EvictsTheLeastRecentlyUsedBeyondTheLimit) {
+  const auto dir = fresh_directory("binary_cache_bound");
+  const std::vector<std::uint8_t> payload(1000, 7);  // each file: 1000 + 36 bytes
+  const auto previous = cache_limit_bytes();
+  set_cache_limit_bytes(3 * 1036);
+  auto name = [](int i) { return cache_file_name("table", 100 + i); };
+  std::ofstream(dir / "notes.txt") << std::string(5000, 'x');  // not a cache file: neither counted nor touched
+  for (int i = 0; i < 3; ++i) {
+    write_cache(dir / name(i), kFormat, 100 + i, payload);
+    fs::last_write_time(dir / name(i), fs::file_time_type::clock::now() - std::chrono::hours(10 - i));
+  }
+  // Reading the oldest makes it the most recently used.
+  ASSERT_TRUE(read_cache(dir / name(0), kFormat, 100).has_value());
+  write_cache(dir / name(3), kFormat, 103, payload);  // 4 files > 3: the least recently used (1) goes
+  EXPECT_TRUE(fs::exists(dir / name(0)));
+  EXPECT_FALSE(fs::exists(dir / name(1)));
+  EXPECT_TRUE(fs::exists(dir / name(2)));
+  EXPECT_TRUE(fs::exists(dir / name(3)));
+  EXPECT_TRUE(fs::exists(dir / "notes.txt"));
+  // A file larger than the whole bound is kept alone (it was just written).
+  set_cache_limit_bytes(500);
+  write_cache(dir / name(4), kFormat, 104, payload);
+  EXPECT_TRUE(fs::exists(dir / name(4)));
+  for (int i : {0, 2, 3}) EXPECT_FALSE(fs::exists(dir / name(i))) << i;
+  set_cache_limit_bytes(previous);
+  fs::remove_all(dir);
+}
+
+TEST(BinaryCacheBound, TheDefaultBoundIsTwoGiB) {
+  EXPECT_EQ(kDefaultCacheLimitBytes, 2ull << 30);
+  const auto dir = fresh_directory("binary_cache_trim");
+  const std::vector<std::uint8_t> payload(100, 1);
+  for (int i = 0; i < 4; ++i) write_cache(dir / cache_file_name("t", i), kFormat, i, payload);
+  EXPECT_EQ(trim_cache_folder(dir, 2 * 136), 2u * 136u);
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 2);
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace chromo::files

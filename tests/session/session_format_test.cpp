@@ -75,6 +75,18 @@ TEST(SessionFormat, NewFoldersAreWrittenInTheCurrentVersion) {
   EXPECT_EQ(store.read_session(created.folder).format_version, kSessionFormatVersion);
 }
 
+// Issue 19: a full disk (here the storage budget, which fails exactly as one)
+// refusing a start left an empty session folder behind on every try.
+TEST(SessionFormat, ARefusedStartLeavesNoFolder) {
+  const fs::path root = testing::fresh_directory("session-format-refused");
+  files::StorageBudget budget(10);  // not even session.json fits
+  SessionStore store(root, &budget);
+  for (int attempt = 0; attempt < 3; ++attempt)
+    EXPECT_THROW(store.create(standard_plan(), "", nlohmann::json::array()), files::StorageFullError);
+  EXPECT_TRUE(fs::is_empty(root)) << fs::directory_iterator(root)->path();
+  EXPECT_TRUE(store.recover().empty());
+}
+
 TEST(SessionFormat, UnknownFormatIsRefusedNamingTheField) {
   const fs::path folder = testing::fresh_directory("session-format-future");
   fs::copy(kSample, folder, fs::copy_options::recursive | fs::copy_options::overwrite_existing);

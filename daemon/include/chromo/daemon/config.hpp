@@ -2,6 +2,14 @@
 // DaemonConfig: chromod's one configuration file (JSON), documented in
 // docs/config.md. Every field has a default; with no file at all the daemon
 // listens on its default Unix socket and starts the built-in virtual lab.
+//
+// parse_config() is the one check of a configuration, and chromod runs it
+// before anything starts (no simulator, device, folder or socket): every key's
+// JSON type and range, files that must be readable (read as what they are),
+// folders that must be usable, addresses that must be valid. Keys are a table
+// in config.cpp (config_keys()): an entry is built by a typed factory that
+// demands the key's range or check, and a key not in the table is refused by
+// name, so a key cannot be added without its check.
 
 #include <cstdint>
 #include <filesystem>
@@ -12,6 +20,7 @@
 #include <nlohmann/json.hpp>
 
 #include "chromo/drivers/led_controller.hpp"
+#include "chromo/files/runtime_dir.hpp"
 
 namespace chromo::daemon {
 
@@ -35,12 +44,16 @@ struct EstimationConfig {
   std::string camera_sensitivity = "builtin:nikon_d5100";  // or a CSV wavelength_nm,R,G,B
   double white_reflectance = 0.99;  // ρ of the white reference target
   std::string cache_dir;         // forward tables; empty = $CHROMO_CACHE_DIR or ~/.cache/chromosphere
+  std::uint64_t cache_limit_bytes = 2ull << 30;  // table cache bound (least recently used evicted)
   int threads = 0;               // 0 = all cores
 };
 
 struct DaemonConfig {
-  // Listening. unix_socket empty = no Unix socket.
-  std::string unix_socket = "/tmp/chromod.sock";
+  // The daemon's own folder for its socket and the virtual lab's run files
+  // (files/runtime_dir.hpp; never /tmp). Created 0700 at start.
+  std::filesystem::path runtime_dir = files::default_runtime_dir();
+  // Listening. unix_socket empty = no Unix socket; default <runtime_dir>/chromod.sock.
+  std::string unix_socket = files::default_unix_socket().string();
   std::uint32_t unix_socket_mode = 0660;  // file permissions decide who may connect
   std::string tcp_address;                // e.g. "0.0.0.0:7443"; empty = no TCP
   std::string token;                      // required on TCP: "authorization: Bearer <token>"
@@ -63,12 +76,21 @@ struct DaemonConfig {
   std::map<std::string, drivers::DriveLevels> mixes;
   EstimationConfig estimation;
 
+  // The checks between keys (listening, token with TCP, TLS pair); the
+  // per-key checks are in parse_config.
   bool IsValid(std::string* error) const;
 };
 
-// Parses and validates; throws std::invalid_argument naming the file and field.
+// Reads and checks everything (above); throws std::invalid_argument
+// "<origin>: <key>: <what is wrong>". Touches nothing on disk.
 DaemonConfig parse_config(const nlohmann::json& json, const std::string& origin = "config");
+// The file's JSON object (std::invalid_argument when unreadable or not JSON),
+// to be given to parse_config, after command-line overrides if any.
+nlohmann::json read_config_json(const std::filesystem::path& path);
 DaemonConfig read_config_file(const std::filesystem::path& path);
+
+// The names of every key the table knows ("unix_socket", "estimation.method", ...).
+std::vector<std::string> config_key_names();
 
 // Drive levels for the virtual lab's mixes before any calibration (d65, w57, w57+blue).
 std::map<std::string, drivers::DriveLevels> default_virtual_lab_mixes();

@@ -3,7 +3,9 @@
 // Daemon, plus the standard health service and server reflection.
 //
 // Listening: the Unix socket (config.unix_socket; its file mode is set to
-// config.unix_socket_mode so that file permissions decide who may connect)
+// config.unix_socket_mode so that file permissions decide who may connect;
+// a file already at that path is refused unless it is a socket nobody
+// listens on, which is replaced; the socket is removed at shutdown)
 // and, when config.tcp_address is set, TCP with TLS when a certificate and key
 // are configured. Every call arriving over TCP must carry
 // "authorization: Bearer <config.token>" (UNAUTHENTICATED otherwise); calls on
@@ -43,6 +45,7 @@ class Server {
   std::unique_ptr<Services> services_;
   std::unique_ptr<grpc::Server> server_;
   int tcp_port_ = 0;
+  std::string created_socket_;  // removed again at shutdown
 };
 
 }  // namespace chromo::daemon

@@ -29,6 +29,7 @@
 // the fault switches of VirtualLabSimulators (tests) may be called from any
 // one thread while sessions run on theirs.
 
+#include <filesystem>
 #include <map>
 #include <memory>
 #include <string>
@@ -53,6 +54,7 @@ struct VirtualLabOptions {
   double led_time_scale = 300;     // lab seconds per wall-clock second (LED warm-up, drift)
   std::uint64_t seed = 1;          // scene and camera noise
   int scene_threads = 0;           // building the skin scene (0 = all cores)
+  std::filesystem::path run_dir;   // the camera simulator's GenICam file while it starts; empty = temp folder
 
   bool IsValid(std::string* error) const;
 };

@@ -30,6 +30,15 @@
 // temporary of the rule (temporary_file.hpp), fsync, rename, fsync of the
 // directory. Readers see the old file, no file or the whole new file.
 //
+// Bounded: a cache folder holds at most cache_limit_bytes() of cache files
+// (default 2 GiB; $CHROMO_CACHE_LIMIT_BYTES, or set_cache_limit_bytes, e.g.
+// from chromod's estimation.cache_limit_bytes). After each write_cache the
+// folder's cache files ("<stem>_<16 hex digits>.bin", nothing else) are
+// counted and the least recently used are removed until the total is within
+// the bound; the file just written is kept even when it alone is larger. A
+// hit in read_cache marks its file used (its modification time is set to
+// now: the recency stamp, independent of noatime mounts).
+//
 // Thread rules: free functions, reentrant. Any number of threads and
 // processes may read and write the same cache file at once: each writer
 // writes its own temporary, the last rename wins, and every file it leaves
@@ -70,6 +79,17 @@ std::optional<std::vector<std::uint8_t>> read_cache(const std::filesystem::path&
 // whom the cache only saves time catch it and go on with the content in memory.
 void write_cache(const std::filesystem::path& file, const CacheFormat& format, std::uint64_t key,
                  std::span<const std::uint8_t> payload);
+
+inline constexpr std::uint64_t kDefaultCacheLimitBytes = 2ull << 30;
+// The bound every write_cache keeps its folder within (process-wide).
+std::uint64_t cache_limit_bytes();
+void set_cache_limit_bytes(std::uint64_t limit);
+
+// Removes the least recently used cache files of `dir` until their total is
+// at most `limit_bytes`, never `keep`; returns the bytes removed. Files that
+// are not named as cache files are neither counted nor touched.
+std::uint64_t trim_cache_folder(const std::filesystem::path& dir, std::uint64_t limit_bytes,
+                                const std::filesystem::path& keep = {});
 
 // Builds a payload: values are appended as their bytes.
 class CacheWriter {

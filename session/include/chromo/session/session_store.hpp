@@ -76,8 +76,8 @@ class SessionStore {
     std::unique_ptr<Journal> journal;
   };
   // A new folder with session.json and the journal's first record. Throws
-  // (StorageFullError included) leaving no half-made session behind that
-  // recover() would report as more than a failed start.
+  // (StorageFullError included) leaving no folder behind: a refused start
+  // (a full disk, the storage budget) removes the folder it had just made.
   Created create(const SessionPlan& plan, const std::string& subject, const nlohmann::json& devices);
 
   // Every session in the folder, newest first, with in-flight ones marked
@@ -88,6 +88,8 @@ class SessionStore {
   SessionInfo read_session(const std::filesystem::path& folder) const;
 
  private:
+  void fill_new_session_folder(Created& created, const SessionPlan& plan, const std::string& subject,
+                               const nlohmann::json& devices);
   std::filesystem::path root_;
   files::StorageBudget* budget_;
 };

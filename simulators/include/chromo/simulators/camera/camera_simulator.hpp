@@ -38,6 +38,7 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <filesystem>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -54,6 +55,10 @@ struct CameraSimulatorOptions {
   int sensor_width = 1024;
   int sensor_height = 1024;
   CameraModelOptions camera_model;
+  // Where the GenICam XML Aravis's fake camera reads is written for the
+  // moment it starts (the file is removed as soon as the camera has read it,
+  // so a killed process leaves nothing); empty = the system's temporary folder.
+  std::filesystem::path genicam_dir;
 
   bool IsValid(std::string* error) const;
 };
