@@ -1,4 +1,5 @@
 #include "chromo/daemon/config.hpp"
+#include "chromo/files/bounded_read.hpp"
 
 #include <fstream>
 #include <set>
@@ -166,9 +167,13 @@ DaemonConfig parse_config(const nlohmann::json& json, const std::string& origin)
 }
 
 DaemonConfig read_config_file(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) throw std::invalid_argument(path.string() + ": cannot be read");
-  auto json = nlohmann::json::parse(in, nullptr, false);
+  std::string text;
+  try {
+    text = files::read_text_file(path, "configuration");
+  } catch (const files::InputFileError& e) {
+    throw std::invalid_argument(e.what());
+  }
+  auto json = nlohmann::json::parse(text, nullptr, false);
   if (json.is_discarded()) throw std::invalid_argument(path.string() + ": not valid JSON");
   return parse_config(json, path.string());
 }

@@ -1,4 +1,5 @@
 #include "chromo/session/derived_data.hpp"
+#include "chromo/files/bounded_read.hpp"
 
 #include <cmath>
 #include <cstring>
@@ -75,8 +76,7 @@ void write_derived_data(const std::filesystem::path& folder, double white_reflec
     throw std::invalid_argument("derived data: white_reflectance must be in (0, 1], not " +
                                 std::to_string(white_reflectance));
   const float rho = static_cast<float>(white_reflectance);
-  std::ifstream in(folder / "session.json");
-  auto session = nlohmann::json::parse(in);
+  auto session = nlohmann::json::parse(files::read_text_file(folder / "session.json", "JSON"));
   SessionPlan plan = plan_from_json(session.at("plan"));
   std::map<std::pair<std::string, std::string>, MeanImage> means;  // (step, camera)
   for (const auto& record : read_journal(folder / "journal.jsonl").records) {

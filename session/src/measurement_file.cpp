@@ -1,4 +1,5 @@
 #include "chromo/session/measurement_file.hpp"
+#include "chromo/files/bounded_read.hpp"
 
 #include <algorithm>
 #include <fstream>
@@ -54,12 +55,16 @@ std::vector<float> MeasurementFile::pixel_major() const {
 }
 
 MeasurementFile read_measurement_file(const fs::path& file) {
-  std::ifstream in(file);
-  if (!in || fs::is_directory(file)) throw MeasurementFileError(file.string() + ": cannot open");
+  std::string text;
+  try {
+    text = files::read_text_file(file, "JSON");
+  } catch (const files::InputFileError& e) {
+    throw MeasurementFileError(e.what());
+  }
   nlohmann::json j;
   try {
-    j = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
+    j = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
     throw MeasurementFileError(file.string() + ": not valid JSON: " + e.what());
   }
   if (!j.is_object()) throw MeasurementFileError(file.string() + ": must be a JSON object");
