@@ -99,6 +99,8 @@ LedLibrary from_json(const json& root, const Reader& in) {
     if (!(rc.lamp_temperature_K > 0)) in.fail(path + ".lamp_temperature_K", "must be positive");
     rc.calibrated_utc = in.string(in.field(*it, path, "calibrated_utc"), path + ".calibrated_utc");
     rc.correction = in.spectrum(in.field(*it, path, "correction"), path + ".correction");
+    if (rc.correction.values().abs().maxCoeff() > kMaxLibrarySpectrumValue)
+      in.fail(path + ".correction", "a value beyond the 1e12 cap on |value|");
     lib.instrument.response_calibration = rc;
   }
   const json& conditions = in.field(root, "", "conditions");

@@ -27,8 +27,8 @@ std::string kind_of(mode_t mode) {
 void check_stat(const std::filesystem::path& path, const struct stat& st, std::uintmax_t cap_bytes,
                 std::string_view what) {
   if (!S_ISREG(st.st_mode))
-    refuse(path, "not a regular file (" + kind_of(st.st_mode) + "); a " + std::string(what) +
-                     " file must be a regular file");
+    refuse(path, "not a regular file (" + kind_of(st.st_mode) + "); " + std::string(what) +
+                     " files must be regular files");
   if (static_cast<std::uintmax_t>(st.st_size) > cap_bytes)
     refuse(path, std::to_string(st.st_size) + " bytes, over the " + describe_bytes(cap_bytes) + " cap for " +
                      std::string(what) + " files");

@@ -2,6 +2,7 @@
 #include "chromo/files/bounded_read.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
@@ -12,6 +13,13 @@ namespace chromo::session {
 namespace fs = std::filesystem;
 namespace {
 
+std::string fmt_number(double v) {
+  std::string s = std::to_string(v);
+  while (s.size() > 1 && s.back() == '0') s.pop_back();
+  if (s.back() == '.') s.pop_back();
+  return s;
+}
+
 int channel_index(const std::string& name) { return name == "R" ? 0 : name == "G" ? 1 : 2; }
 
 estimation::ChannelNoise parse_noise(const nlohmann::json& j, estimation::ChannelNoise base, const std::string& where) {
@@ -19,9 +27,18 @@ estimation::ChannelNoise parse_noise(const nlohmann::json& j, estimation::Channe
   if (!j.is_object()) throw MeasurementFileError(where + ": 'noise' must be an object");
   for (const auto& [key, value] : j.items()) {
     if (!value.is_number()) throw MeasurementFileError(where + ": noise." + key + " must be a number");
-    if (key == "read_sigma") base.read_sigma = value.get<double>();
-    else if (key == "shot_coefficient") base.shot_coefficient = value.get<double>();
-    else if (key == "saturation_albedo") base.saturation_albedo = value.get<double>();
+    const double v = value.get<double>();
+    // Refused where they enter (docs/formats/measurement.md): albedo units, so
+    // anything outside these ranges is a mistake, not a noisy camera.
+    auto in_range = [&](double low, bool low_open, double high) {
+      if (!std::isfinite(v) || (low_open ? !(v > low) : !(v >= low)) || !(v <= high))
+        throw MeasurementFileError(where + ": noise." + key + ": " + value.dump() + " is outside " +
+                                   (low_open ? "(" : "[") + fmt_number(low) + ", " + fmt_number(high) + "]");
+      return v;
+    };
+    if (key == "read_sigma") base.read_sigma = in_range(0, false, 1);
+    else if (key == "shot_coefficient") base.shot_coefficient = in_range(0, false, 1);
+    else if (key == "saturation_albedo") base.saturation_albedo = in_range(0, true, 10);
     else throw MeasurementFileError(where + ": unknown noise key '" + key + "' (read_sigma, shot_coefficient, saturation_albedo)");
   }
   return base;
