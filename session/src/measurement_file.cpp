@@ -25,7 +25,9 @@ int channel_index(const std::string& name) { return name == "R" ? 0 : name == "G
 estimation::ChannelNoise parse_noise(const nlohmann::json& j, estimation::ChannelNoise base, const std::string& where) {
   if (j.is_null()) return base;
   if (!j.is_object()) throw MeasurementFileError(where + ": 'noise' must be an object");
-  for (const auto& [key, value] : j.items()) {
+  for (const auto& item : j.items()) {
+    const std::string key = item.key();
+    const nlohmann::json& value = item.value();
     if (!value.is_number()) throw MeasurementFileError(where + ": noise." + key + " must be a number");
     const double v = value.get<double>();
     // Refused where they enter (docs/formats/measurement.md): albedo units, so

@@ -9,6 +9,7 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace chromo::drivers;
+  using namespace chromo::drivers::ocean_optics;
   if (size < 2) return 0;
   const std::uint8_t selector = data[0], parameter = data[1];
   const std::span<const std::uint8_t> reply(data + 2, size - 2);
