@@ -70,7 +70,7 @@ cv::Mat read_mask_image(const std::filesystem::path& path, int width, int height
   try {
     bytes = files::read_png_file(path);  // a regular PNG file, size checked by header before decoding
   } catch (const files::InputFileError& e) {
-    throw std::invalid_argument(e.what());
+    throw std::runtime_error(e.what());
   }
   cv::Mat image;
   try {
