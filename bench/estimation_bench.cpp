@@ -41,6 +41,8 @@
 // machine): its points go on the speed/accuracy chart next to this run's,
 // labelled "old ...", and the run prints new/old ratios per configuration.
 
+#include <stdexcept>
+#include <iostream>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -1107,7 +1109,7 @@ void draw_charts(const BenchRun& run, const std::vector<BaselineRun>& old_runs) 
 
 }  // namespace
 
-int main(int argc, char** argv) {
+static int bench_main(int argc, char** argv) {
   Options options;
   CLI::App app{"Estimation: speed against accuracy for every inverter on the same frames (see the source's header)"};
   std::optional<int> pixels_option;
@@ -1173,4 +1175,21 @@ int main(int argc, char** argv) {
   draw_charts(run, old_runs);
   std::printf("wrote %s\n", options.out.string().c_str());
   return 0;
+}
+
+// No exception leaves a program (issue 19): std::invalid_argument (bad input)
+// exits 2, anything else 1, each with a message.
+int main(int argc, char** argv) {
+  try {
+    return bench_main(argc, argv);
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "estimation_bench: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "estimation_bench: " << e.what() << "\n";
+    return 1;
+  } catch (...) {
+    std::cerr << "estimation_bench: unknown exception\n";
+    return 1;
+  }
 }

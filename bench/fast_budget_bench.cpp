@@ -26,6 +26,8 @@
 // CPU time per cell of each scene region (one thread) is printed; the files
 // are then fast_budget_whole_frame.{csv,png}. Writes DIR/fast_budget.csv and
 // DIR/fast_budget.png (gnuplot); DIR defaults to bench/results.
+#include <stdexcept>
+#include <iostream>
 #include <chrono>
 
 #include <CLI/CLI.hpp>
@@ -149,7 +151,7 @@ void print_region_costs(const std::shared_ptr<const ForwardTable>& table, const 
 
 }  // namespace
 
-int main(int argc, char** argv) {
+static int bench_main(int argc, char** argv) {
   fs::path out = fs::path(CHROMO_SOURCE_DIR) / "bench" / "results";
   fs::path frame_cache = ForwardTable::default_cache_dir();
   int exhaustive_pixels = 20000, sensor_width = 2592, sensor_height = 1944;
@@ -271,4 +273,21 @@ int main(int argc, char** argv) {
   if (!failed.empty()) std::fprintf(stderr, "%s: no chart\n", failed.c_str());
   std::printf("wrote %s.csv and %s.png in %s\n", stem.c_str(), stem.c_str(), out.string().c_str());
   return 0;
+}
+
+// No exception leaves a program (issue 19): std::invalid_argument (bad input)
+// exits 2, anything else 1, each with a message.
+int main(int argc, char** argv) {
+  try {
+    return bench_main(argc, argv);
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "fast_budget_bench: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "fast_budget_bench: " << e.what() << "\n";
+    return 1;
+  } catch (...) {
+    std::cerr << "fast_budget_bench: unknown exception\n";
+    return 1;
+  }
 }

@@ -9,6 +9,8 @@
 //
 // Target (issue "Foundation"): >= 1e7 wavelength evaluations/s per core,
 // aim 5e7.
+#include <stdexcept>
+#include <iostream>
 #include <benchmark/benchmark.h>
 
 #include <cstdio>
@@ -101,7 +103,7 @@ class RecordingReporter : public benchmark::ConsoleReporter {
   std::map<std::string, std::map<std::string, double>> figures;
 };
 
-int main(int argc, char** argv) {
+static int bench_main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
   RecordingReporter reporter;
   benchmark::RunSpecifiedBenchmarks(&reporter);
@@ -129,4 +131,21 @@ int main(int argc, char** argv) {
                                     {"batch, 2 threads", two / 1e6}, {"target per core", 10.0}});
   }
   return 0;
+}
+
+// No exception leaves a program (issue 19): std::invalid_argument (bad input)
+// exits 2, anything else 1, each with a message.
+int main(int argc, char** argv) {
+  try {
+    return bench_main(argc, argv);
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "forward_model_bench: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "forward_model_bench: " << e.what() << "\n";
+    return 1;
+  } catch (...) {
+    std::cerr << "forward_model_bench: unknown exception\n";
+    return 1;
+  }
 }

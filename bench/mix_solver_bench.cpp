@@ -7,6 +7,8 @@
 //
 // Writes OUTPUT_DIR/mix_solver.csv and OUTPUT_DIR/mix_solver.png (gnuplot).
 // Target (issue "Calibration"): one solve <= 1 ms.
+#include <stdexcept>
+#include <iostream>
 #include <algorithm>
 #include <cmath>
 #include <chrono>
@@ -47,7 +49,7 @@ struct Case {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+static int bench_main(int argc, char** argv) {
   const std::filesystem::path out_dir = argc > 1 ? argv[1] : "bench/results";
   std::filesystem::create_directories(out_dir);
   const LedLibrary library = nominal_led_library();
@@ -123,4 +125,21 @@ int main(int argc, char** argv) {
   }
   std::printf("wrote %s and %s\n", data.c_str(), png.c_str());
   return 0;
+}
+
+// No exception leaves a program (issue 19): std::invalid_argument (bad input)
+// exits 2, anything else 1, each with a message.
+int main(int argc, char** argv) {
+  try {
+    return bench_main(argc, argv);
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "mix_solver_bench: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "mix_solver_bench: " << e.what() << "\n";
+    return 1;
+  } catch (...) {
+    std::cerr << "mix_solver_bench: unknown exception\n";
+    return 1;
+  }
 }

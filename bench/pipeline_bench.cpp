@@ -26,6 +26,7 @@
 // rate sustained with zero loss.
 //
 // Holds the GigE Vision port: run it under the lock (flock /tmp/chromo-gige.lock).
+#include <stdexcept>
 #include <dirent.h>
 #include <sys/syscall.h>
 #include <unistd.h>
@@ -292,7 +293,7 @@ void print(const RunResult& r) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+static int bench_main(int argc, char** argv) {
   bool short_run = false, chart = true;
   double seconds = 20;
   std::filesystem::path dir = std::filesystem::temp_directory_path() / ("chromo-pipeline-bench-" + std::to_string(::getpid()));
@@ -382,4 +383,21 @@ int main(int argc, char** argv) {
                            "Trigger to stored (acknowledged), 99th percentile", "ms", latency);
   }
   return 0;
+}
+
+// No exception leaves a program (issue 19): std::invalid_argument (bad input)
+// exits 2, anything else 1, each with a message.
+int main(int argc, char** argv) {
+  try {
+    return bench_main(argc, argv);
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "pipeline_bench: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "pipeline_bench: " << e.what() << "\n";
+    return 1;
+  } catch (...) {
+    std::cerr << "pipeline_bench: unknown exception\n";
+    return 1;
+  }
 }

@@ -17,6 +17,8 @@
 // docs/estimation.md).
 // Cost: wall clock and process CPU time (getrusage: both threads), per pass
 // and per cell. Prints only; the figures go into docs/estimation.md.
+#include <stdexcept>
+#include <iostream>
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -131,7 +133,7 @@ void print(const char* label, const Shares& s) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+static int bench_main(int argc, char** argv) {
   int sensor_width = 2592, sensor_height = 1944;
   std::filesystem::path frame_cache = ForwardTable::default_cache_dir();
   std::vector<int> blocks;
@@ -229,4 +231,21 @@ int main(int argc, char** argv) {
     std::printf("\n");
   }
   return 0;
+}
+
+// No exception leaves a program (issue 19): std::invalid_argument (bad input)
+// exits 2, anything else 1, each with a message.
+int main(int argc, char** argv) {
+  try {
+    return bench_main(argc, argv);
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "spatial_flags_bench: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "spatial_flags_bench: " << e.what() << "\n";
+    return 1;
+  } catch (...) {
+    std::cerr << "spatial_flags_bench: unknown exception\n";
+    return 1;
+  }
 }

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "chromo/files/runtime_dir.hpp"
+#include "chromo/files/bounded_read.hpp"
 #include "commands.hpp"
 
 namespace chromo::cli {
@@ -27,12 +28,12 @@ void add_daemon_options(CLI::App& command, DaemonAddress& address) {
 DaemonConnection::DaemonConnection(const DaemonAddress& address) : token_(address.token) {
   std::shared_ptr<grpc::ChannelCredentials> credentials = grpc::InsecureChannelCredentials();
   if (!address.tls_ca_file.empty()) {
-    std::ifstream in(address.tls_ca_file);
-    if (!in) throw std::invalid_argument("--tls-ca: cannot read " + address.tls_ca_file);
-    std::stringstream pem;
-    pem << in.rdbuf();
     grpc::SslCredentialsOptions options;
-    options.pem_root_certs = pem.str();
+    try {
+      options.pem_root_certs = files::read_bounded(address.tls_ca_file, files::kMaxTextFileBytes, "PEM");
+    } catch (const files::InputFileError& e) {
+      throw std::invalid_argument(std::string("--tls-ca: ") + e.what());
+    }
     credentials = grpc::SslCredentials(options);
   }
   channel_ = grpc::CreateChannel(address.target, credentials);

@@ -37,6 +37,16 @@ int run_fit_spectrum(const FitSpectrumOptions& options) {
     std::cerr << "chromo fit-spectrum: " << e.what() << "\n";
     return kExitBadInput;
   }
+  // Every sample is fitted before anything is printed: bad input prints nothing.
+  std::vector<estimation::SpectrumFitResult> results;
+  for (const auto& [name, spectrum] : samples) {
+    try {
+      results.push_back(estimation::fit_spectrum(spectrum, fit));
+    } catch (const std::invalid_argument& e) {
+      std::cerr << "chromo fit-spectrum: " << options.file << ": column '" << name << "': " << e.what() << "\n";
+      return kExitBadInput;
+    }
+  }
   nlohmann::ordered_json array = nlohmann::ordered_json::array();
   double sum_d65 = 0, sum_a = 0, sum_led = 0;
   if (!options.json)
@@ -44,14 +54,9 @@ int run_fit_spectrum(const FitSpectrumOptions& options) {
                "{:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>7}\n",
                options.model, options.specular_included ? " + surface reflection" : "", "sample", "Cm", "Ch", "βm",
                "Che", "rms", "D65", "A", "W57", "W40", "W27", "R", "G", "B", "LEDmean");
-  for (const auto& [name, spectrum] : samples) {
-    estimation::SpectrumFitResult r;
-    try {
-      r = estimation::fit_spectrum(spectrum, fit);
-    } catch (const std::invalid_argument& e) {
-      std::cerr << "chromo fit-spectrum: sample " << name << ": " << e.what() << "\n";
-      return kExitBadInput;
-    }
+  for (std::size_t k = 0; k < samples.size(); ++k) {
+    const std::string& name = samples[k].first;
+    const estimation::SpectrumFitResult& r = results[k];
     sum_d65 += r.de94_d65, sum_a += r.de94_a, sum_led += r.de94_led_mean;
     const auto& p = r.parameters;
     if (options.json) {

@@ -1,6 +1,11 @@
-// chromo: the Chromosphere operator command line.
+// chromo: the Chromosphere operator command line. Exit statuses (README):
+// 0 done, 1 an internal failure (message on stderr), 2 bad input (the command
+// line or an input file; the message names the file and field). No exception
+// leaves main: a command's uncaught one is mapped here.
 #include <iostream>
 
+#include "chromo/files/bounded_read.hpp"
+#include "chromo/spectral/table.hpp"
 #include "commands.hpp"
 
 int main(int argc, char** argv) {
@@ -29,6 +34,21 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     app.exit(e);
     return chromo::cli::kExitBadInput;
+  } catch (const chromo::files::InputFileError& e) {  // a data file refused by the bounded reader (names the file)
+    std::cerr << "chromo: " << e.what() << "\n";
+    return chromo::cli::kExitBadInput;
+  } catch (const chromo::spectral::DataError& e) {  // a CSV or LED library at fault (names the file and field)
+    std::cerr << "chromo: " << e.what() << "\n";
+    return chromo::cli::kExitBadInput;
+  } catch (const std::invalid_argument& e) {  // the libraries' bad-input type
+    std::cerr << "chromo: " << e.what() << "\n";
+    return chromo::cli::kExitBadInput;
+  } catch (const std::exception& e) {  // anything else escaping a command is ours: exit 1, never abort
+    std::cerr << "chromo: internal error: " << e.what() << "\n";
+    return chromo::cli::kExitFailure;
+  } catch (...) {
+    std::cerr << "chromo: internal error (unknown exception)\n";
+    return chromo::cli::kExitFailure;
   }
   return exit_status;
 }

@@ -8,6 +8,7 @@
 #include <google/protobuf/util/time_util.h>
 
 #include "chromo/proto/plan_messages.hpp"
+#include "chromo/files/bounded_read.hpp"
 #include "chromosphere/v1/operations.grpc.pb.h"
 #include "chromosphere/v1/sessions.grpc.pb.h"
 #include "commands.hpp"
@@ -32,10 +33,17 @@ void run(SessionOptions& options, int& exit_status) {
   DaemonConnection daemon(options.address);
   pb::StartSessionRequest request;
   if (!options.plan_file.empty()) {
-    std::ifstream in(options.plan_file);
-    auto json = nlohmann::json::parse(in, nullptr, false);
-    if (!in || json.is_discarded()) {
-      std::cerr << "chromo: --plan " << options.plan_file << ": not a readable JSON file\n";
+    std::string text;
+    try {
+      text = files::read_text_file(options.plan_file, "session plan");
+    } catch (const files::InputFileError& error) {
+      std::cerr << "chromo: --plan " << error.what() << "\n";
+      exit_status = kExitBadInput;
+      return;
+    }
+    auto json = nlohmann::json::parse(text, nullptr, false);
+    if (json.is_discarded()) {
+      std::cerr << "chromo: --plan " << options.plan_file << ": not valid JSON\n";
       exit_status = kExitBadInput;
       return;
     }

@@ -48,7 +48,12 @@ int main(int argc, char** argv) {
   app.add_option("--socket", socket, "Unix socket path (overrides the configuration)");
   app.add_option("--sessions-dir", sessions_dir, "sessions folder (overrides the configuration)");
   app.add_option("--tcp", tcp_address, "TCP address host:port (overrides; needs a token in the configuration)");
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int status = app.exit(e);
+    return status == 0 ? 0 : 2;  // --help is not an error; a bad command line is bad input
+  }
 
   // Signals are taken by one thread with sigwait(); block them everywhere else.
   sigset_t signals;
@@ -108,6 +113,9 @@ int main(int argc, char** argv) {
     return 2;
   } catch (const std::exception& error) {
     std::cerr << "chromod: " << error.what() << "\n";
+    return 1;
+  } catch (...) {  // no exception leaves main (issue 19)
+    std::cerr << "chromod: unknown exception\n";
     return 1;
   }
 }

@@ -6,6 +6,8 @@ set -euo pipefail
 packages=(
   # toolchain
   g++ cmake ninja-build pkg-config git
+  # the fuzz preset (tests/fuzz/): clang with libFuzzer and the sanitizers' runtime
+  clang libclang-rt-14-dev
   # numerics and utilities
   libeigen3-dev libceres-dev libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
   # tests and benchmarks

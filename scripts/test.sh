@@ -9,3 +9,9 @@ scripts/build.sh
 # resend requests, so one dropped datagram times a frame out). A test that
 # fails twice fails the suite; ctest's log keeps both runs.
 ctest --preset release -j2 --repeat until-pass:2 "$@"
+# The fuzz smoke (tests/fuzz/README.md): the libFuzzer harnesses, built with
+# clang into build/fuzz (only the libraries they need), each run for 15 s on
+# its committed corpus. scripts/fuzz.sh [SECONDS] is the longer run.
+cmake --preset fuzz >/dev/null
+cmake --build --preset fuzz -j2
+ctest --preset fuzz -j1

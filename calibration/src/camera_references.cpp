@@ -1,4 +1,6 @@
 #include "chromo/calibration/camera_references.hpp"
+#include "chromo/files/float_image.hpp"
+#include "chromo/files/bounded_read.hpp"
 
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
@@ -50,6 +52,7 @@ void write_exr(const cv::Mat& image, const std::filesystem::path& path) {
 
 cv::Mat read_exr(const std::filesystem::path& path, int channels) {
   try {
+    files::check_exr_file(path);  // a regular file, its data window within the image cap, before OpenEXR opens it
     Imf::InputFile file(path.c_str());
     const auto window = file.header().dataWindow();
     const int width = window.max.x - window.min.x + 1, height = window.max.y - window.min.y + 1;
@@ -182,11 +185,9 @@ void save_camera_references(const CameraReferenceSet& set, const std::filesystem
 
 CameraReferenceSet load_camera_references(const std::filesystem::path& directory) {
   const auto path = directory / "camera-references.json";
-  std::ifstream in(path);
-  if (!in) throw DataError(path.string() + ": cannot open");
   nlohmann::json meta;
   try {
-    meta = nlohmann::json::parse(in);
+    meta = nlohmann::json::parse(files::read_text_file(path, "JSON"));
   } catch (const std::exception& e) {
     throw DataError(path.string() + ": " + e.what());
   }

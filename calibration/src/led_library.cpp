@@ -1,5 +1,7 @@
 #include "chromo/calibration/led_library.hpp"
 
+#include <sstream>
+
 #include <cmath>
 #include <string>
 
@@ -43,6 +45,11 @@ std::string validate(const LedLibrary& library) {
       if (s.led_temperature_C && !std::isfinite(*s.led_temperature_C))
         return rung + ".led_temperature_C must be finite";
       if (!s.spectrum.values().allFinite()) return rung + ".spectrum holds a non-finite value";
+      // Library units are arbitrary, but a value beyond this is a unit mistake
+      // or a hostile file: the solver's sums of squares would overflow.
+      if (s.spectrum.values().abs().maxCoeff() > kMaxLibrarySpectrumValue)
+        return rung + ".spectrum holds " + (std::ostringstream() << s.spectrum.values().abs().maxCoeff()).str() +
+               ", beyond the 1e12 cap on |value| (library units)";
       if (!(s.spectrum.values().abs().maxCoeff() > 0.0)) return rung + ".spectrum is all zero";
     }
   }

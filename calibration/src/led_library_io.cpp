@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "chromo/files/durable_file.hpp"
+#include "chromo/files/bounded_read.hpp"
 #include "chromo/spectral/table.hpp"
 
 namespace chromo::calibration {
@@ -98,6 +99,8 @@ LedLibrary from_json(const json& root, const Reader& in) {
     if (!(rc.lamp_temperature_K > 0)) in.fail(path + ".lamp_temperature_K", "must be positive");
     rc.calibrated_utc = in.string(in.field(*it, path, "calibrated_utc"), path + ".calibrated_utc");
     rc.correction = in.spectrum(in.field(*it, path, "correction"), path + ".correction");
+    if (rc.correction.values().abs().maxCoeff() > kMaxLibrarySpectrumValue)
+      in.fail(path + ".correction", "a value beyond the 1e12 cap on |value|");
     lib.instrument.response_calibration = rc;
   }
   const json& conditions = in.field(root, "", "conditions");
@@ -145,18 +148,20 @@ LedLibrary parse_led_library(std::string_view json_text, const std::string& sour
   json root;
   try {
     root = json::parse(json_text);
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // parse_error, and out_of_range for numbers such as 1e999
     throw DataError(source + ": not valid JSON (" + e.what() + ")");
   }
   return from_json(root, Reader(source));
 }
 
 LedLibrary load_led_library(const std::filesystem::path& path) {
-  std::ifstream file(path);
-  if (!file) throw DataError(path.string() + ": cannot open LED library");
-  std::stringstream text;
-  text << file.rdbuf();
-  return parse_led_library(text.str(), path.string());
+  std::string text;
+  try {
+    text = files::read_text_file(path, "LED library");
+  } catch (const files::InputFileError& e) {
+    throw DataError(e.what());
+  }
+  return parse_led_library(text, path.string());
 }
 
 std::string led_library_to_json(const LedLibrary& library) {

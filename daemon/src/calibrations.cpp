@@ -1,4 +1,5 @@
 #include "chromo/daemon/calibrations.hpp"
+#include "chromo/files/bounded_read.hpp"
 
 #include <fstream>
 #include <stdexcept>
@@ -112,8 +113,7 @@ std::vector<session::OperationRecord> Calibrations::recover() {
     files::remove_leftover_temporaries(entry.path());  // writes a crash interrupted
     nlohmann::json j;
     try {
-      std::ifstream in(file);
-      j = nlohmann::json::parse(in);
+      j = nlohmann::json::parse(files::read_text_file(file, "JSON"));
       auto record = record_from_json(j, entry.path());
       if (!session::is_final(record.state)) {
         record.state = session::OperationState::kInterrupted;
@@ -228,8 +228,7 @@ OperationRunner::Outcome Calibrations::run(RunningOperation& running, const Cali
       calibration::save_led_library(summary.library, folder / kLibraryFile);
       use_library(folder / kLibraryFile);
     }
-    std::ifstream in(folder / kRecordFile);
-    record = nlohmann::json::parse(in);
+    record = nlohmann::json::parse(files::read_text_file(folder / kRecordFile, "JSON"));
     record["state"] = state_for_disk(state);
     record["message"] = summary.message;
     if (!error.empty()) record["error"] = error;

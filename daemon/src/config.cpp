@@ -1,4 +1,5 @@
 #include "chromo/daemon/config.hpp"
+#include "chromo/files/bounded_read.hpp"
 
 #include <netdb.h>
 #include <sys/socket.h>
@@ -504,10 +505,13 @@ DaemonConfig parse_config(const json& json_config, const std::string& origin) {
 }
 
 json read_config_json(const fs::path& path) {
-  if (auto error = regular_file_error(path); !error.empty()) throw std::invalid_argument(error);
-  std::ifstream in(path);
-  if (!in) throw std::invalid_argument(path.string() + ": cannot be read");
-  auto parsed = json::parse(in, nullptr, false);
+  std::string text;
+  try {
+    text = files::read_text_file(path, "configuration");
+  } catch (const files::InputFileError& e) {
+    throw std::invalid_argument(e.what());
+  }
+  auto parsed = json::parse(text, nullptr, false);
   if (parsed.is_discarded()) throw std::invalid_argument(path.string() + ": not valid JSON");
   if (!parsed.is_object()) throw std::invalid_argument(path.string() + ": must be a JSON object");
   return parsed;

@@ -1,4 +1,5 @@
 #include "chromo/daemon/server.hpp"
+#include "chromo/files/bounded_read.hpp"
 
 #include <sys/socket.h>
 #include <sys/stat.h>
@@ -21,11 +22,7 @@ namespace chromo::daemon {
 namespace {
 
 std::string read_text_file(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error("cannot read " + path);
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
+  return files::read_bounded(path, files::kMaxTextFileBytes, "PEM");
 }
 
 // A socket file at `path` that nobody accepts on is removed (a killed

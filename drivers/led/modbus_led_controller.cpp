@@ -16,6 +16,7 @@
 
 #include "chromo/drivers/device_error.hpp"
 #include "chromo/drivers/led/led_modbus_map.hpp"
+#include "chromo/drivers/led/modbus_registers.hpp"
 #include "chromo/drivers/led_controller_factory.hpp"
 #include "led_state_rules.hpp"
 
@@ -47,19 +48,6 @@ Kind kind_of_errno(int error) {
 std::uint16_t level_to_register(double level) {
   return static_cast<std::uint16_t>(std::lround(level * map::kDriveFullScale));
 }
-double register_to_level(std::uint16_t value) { return value / double(map::kDriveFullScale); }
-std::uint32_t join32(std::uint16_t high, std::uint16_t low) { return (std::uint32_t(high) << 16) | low; }
-
-std::string registers_to_ascii(const std::uint16_t* registers, int count) {
-  std::string text;
-  for (int i = 0; i < count; ++i)
-    for (int shift : {8, 0}) {
-      char c = static_cast<char>((registers[i] >> shift) & 0xFF);
-      if (c == '\0') return text;
-      text += c;
-    }
-  return text;
-}
 
 class ModbusLedController final : public LedController {
  public:
@@ -83,20 +71,10 @@ class ModbusLedController final : public LedController {
   LedStatus read_status() override {
     std::uint16_t regs[map::kInStatusCount];
     call("read status", modbus_read_input_registers(ctx_.get(), map::kInStatusFirst, map::kInStatusCount, regs));
-    auto at = [&](int address) { return regs[address - map::kInStatusFirst]; };
-    LedStatus status;
-    for (int i = 0; i < kLedTypeCount; ++i) {
-      status.applied.drive[i] = register_to_level(at(map::kInAppliedDrive0 + i));
-      status.temperature_C[i] = static_cast<std::int16_t>(at(map::kInTemperature0 + i)) / 100.0;
-      status.channel_faults[i] = at(map::kInChannelFaults0 + i);
-    }
-    if (at(map::kInAppliedZone) != map::kAllZones) status.applied.zone = at(map::kInAppliedZone);
-    status.applied.pwm_frequency_hz = join32(at(map::kInAppliedPwmHzHigh), at(map::kInAppliedPwmHzHigh + 1));
-    std::uint16_t position = at(map::kInSequencePosition);
-    status.sequence_position = position == 0xFFFF ? -1 : position;
-    status.controller_faults = at(map::kInControllerFaults);
-    last_ack_ = at(map::kInAckSequence);
-    last_result_ = at(map::kInCommandResult);
+    const map::StatusRegisters decoded = map::decode_status_registers(regs, device_);
+    LedStatus status = decoded.status;
+    last_ack_ = decoded.ack_sequence;
+    last_result_ = decoded.command_result;
     std::uint8_t coil = 0;
     call("read output enable", modbus_read_bits(ctx_.get(), map::kCoilOutputEnable, 1, &coil));
     status.output_enabled = coil != 0;
@@ -173,23 +151,7 @@ class ModbusLedController final : public LedController {
   void read_info() {
     std::uint16_t regs[map::kInInfoCount];
     call("read info", modbus_read_input_registers(ctx_.get(), 0, map::kInInfoCount, regs));
-    if (regs[map::kInProtocolVersion] != map::kProtocolVersion)
-      throw DeviceError(Kind::kProtocol, device_, "read info",
-                        "protocol version " + std::to_string(regs[map::kInProtocolVersion]) + ", expected " +
-                            std::to_string(map::kProtocolVersion));
-    if (regs[map::kInDriveMode] > 1)
-      throw DeviceError(Kind::kProtocol, device_, "read info", "unknown drive mode " + std::to_string(regs[map::kInDriveMode]));
-    info_.drive_mode = regs[map::kInDriveMode] == 0 ? DriveMode::kPwmDuty : DriveMode::kConstantCurrent;
-    info_.zone_count = regs[map::kInZoneCount];
-    info_.sequence_capacity = std::min<int>(regs[map::kInSequenceCapacity], map::kMaxSequenceStates);
-    info_.min_pwm_frequency_hz = join32(regs[map::kInMinPwmHzHigh], regs[map::kInMinPwmHzHigh + 1]);
-    info_.max_pwm_frequency_hz = join32(regs[map::kInMaxPwmHzHigh], regs[map::kInMaxPwmHzHigh + 1]);
-    int firmware = regs[map::kInFirmwareVersion];
-    info_.firmware_version = std::to_string(firmware >> 8) + "." + std::to_string(firmware & 0xFF);
-    info_.serial = registers_to_ascii(&regs[map::kInSerial], 8);
-    info_.model = registers_to_ascii(&regs[map::kInModel], 8);
-    if (info_.zone_count < 1)
-      throw DeviceError(Kind::kProtocol, device_, "read info", "zone count " + std::to_string(info_.zone_count));
+    info_ = map::decode_info_registers(regs, device_);
   }
 
   void call(const std::string& request, int result) {

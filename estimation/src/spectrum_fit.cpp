@@ -1,5 +1,7 @@
 #include "chromo/estimation/spectrum_fit.hpp"
 
+#include <sstream>
+
 #include <ceres/ceres.h>
 
 #include <algorithm>
@@ -109,6 +111,15 @@ SpectrumFitResult fit_spectrum(const spectral::Spectrum& measured, const Spectru
   std::string error;
   if (!options.IsValid(&error)) throw std::invalid_argument("fit options: " + error);
   if (!measured.values().allFinite()) throw std::invalid_argument("measured spectrum has non-finite values");
+  // A reflectance factor: 0..1, a little beyond with noise or fluorescence.
+  // Percentages or anything larger are refused, not fitted to NaN.
+  if (measured.values().minCoeff() < kMinFitReflectance || measured.values().maxCoeff() > kMaxFitReflectance)
+    throw std::invalid_argument("reflectance " +
+                                (std::ostringstream() << (measured.values().maxCoeff() > kMaxFitReflectance
+                                                              ? measured.values().maxCoeff()
+                                                              : measured.values().minCoeff()))
+                                    .str() +
+                                " is outside [-0.1, 1.5] (a reflectance factor 0..1 is expected, not percent)");
   const double specular = options.specular_included ? surface_reflectance() : 0.0;
   Residual residual{&measured, lab_under(measured, spectral::illuminant_d65()), &options, specular,
                     spectral_weights(options)};

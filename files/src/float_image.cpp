@@ -7,6 +7,12 @@
 #include <ImfOutputFile.h>
 
 #include <algorithm>
+#include <cstdint>
+#include <optional>
+#include <cstring>
+#include <fstream>
+
+#include "chromo/files/bounded_read.hpp"
 
 namespace chromo::files {
 
@@ -18,7 +24,67 @@ const std::vector<float>& FloatImage::channel(const std::string& name) const {
   throw ImageError("image has no channel '" + name + "' (it has " + have + ")");
 }
 
+ExrSize check_exr_file(const std::filesystem::path& path) {
+  try {
+    check_regular_file(path, kMaxImageFileBytes, "OpenEXR");
+  } catch (const InputFileError& e) {
+    throw ImageError(e.what());
+  }
+  // The header is read by hand, bounded, before OpenEXR sees the file: the
+  // library sizes its line tables from the data window as it opens a file.
+  constexpr std::size_t kMaxHeaderBytes = 1 << 20;
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw ImageError(path.string() + ": cannot open");
+  std::string head(kMaxHeaderBytes, '\0');
+  in.read(head.data(), static_cast<std::streamsize>(head.size()));
+  head.resize(static_cast<std::size_t>(in.gcount()));
+  auto fail = [&](const std::string& what) -> ImageError { return ImageError(path.string() + ": not a readable OpenEXR file: " + what); };
+  auto int32_at = [&](std::size_t at) {
+    std::uint32_t v = 0;
+    for (int i = 3; i >= 0; --i) v = (v << 8) | static_cast<unsigned char>(head[at + static_cast<std::size_t>(i)]);
+    return static_cast<std::int32_t>(v);
+  };
+  if (head.size() < 8 || std::memcmp(head.data(), "\x76\x2f\x31\x01", 4) != 0) throw fail("no OpenEXR magic number");
+  const auto flags = static_cast<std::uint32_t>(int32_at(4));
+  if ((flags & 0xff) != 2) throw fail("version " + std::to_string(flags & 0xff) + " (only 2 is known)");
+  if (flags & 0x800) throw fail("deep data is not supported");
+  if (flags & 0x1000) throw fail("multi-part files are not supported");
+  std::size_t at = 8;
+  auto read_string = [&](const char* what) {
+    const std::size_t end = head.find('\0', at);
+    if (end == std::string::npos || end - at > 255) throw fail(std::string("header ") + what + " unterminated or longer than the first 1 MiB");
+    std::string s = head.substr(at, end - at);
+    at = end + 1;
+    return s;
+  };
+  std::optional<ExrSize> size;
+  while (true) {
+    const std::string name = read_string("attribute name");
+    if (name.empty()) break;
+    const std::string type = read_string("attribute type");
+    if (at + 4 > head.size()) throw fail("header attribute '" + name + "' truncated");
+    const std::int32_t length = int32_at(at);
+    at += 4;
+    if (length < 0 || static_cast<std::size_t>(length) > head.size() - at)
+      throw fail("header attribute '" + name + "' size " + std::to_string(length) + " runs past the header");
+    if (name == "dataWindow") {
+      if (type != "box2i" || length != 16) throw fail("dataWindow is not a box2i");
+      const std::int64_t x0 = int32_at(at), y0 = int32_at(at + 4), x1 = int32_at(at + 8), y1 = int32_at(at + 12);
+      size = ExrSize{x1 - x0 + 1, y1 - y0 + 1};
+    }
+    at += static_cast<std::size_t>(length);
+  }
+  if (!size) throw fail("no dataWindow in the header");
+  try {
+    check_image_size(path, size->width, size->height);
+  } catch (const InputFileError& e) {
+    throw ImageError(e.what());
+  }
+  return *size;
+}
+
 FloatImage read_exr(const std::filesystem::path& path) {
+  check_exr_file(path);
   try {
     Imf::InputFile file(path.c_str());
     const Imath::Box2i window = file.header().dataWindow();

@@ -12,6 +12,7 @@
 #include <numeric>
 #include <stdexcept>
 
+#include "chromo/files/bounded_read.hpp"
 #include "chromo/files/float_image.hpp"
 #include "chromo/maps/relight.hpp"
 
@@ -33,8 +34,15 @@ std::vector<float> read_grey(const fs::path& path, const std::string& what, int*
     return image.channels[y == image.channel_names.end() ? 0 : y - image.channel_names.begin()];
   }
   cv::Mat grey;
+  std::string bytes;
   try {
-    grey = cv::imread(path.string(), cv::IMREAD_GRAYSCALE | cv::IMREAD_ANYDEPTH);
+    bytes = files::read_png_file(path);  // a regular PNG file, size checked by header before decoding
+  } catch (const files::InputFileError& e) {
+    throw std::invalid_argument(what + ": " + e.what());
+  }
+  try {
+    grey = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8U, bytes.data()),
+                        cv::IMREAD_GRAYSCALE | cv::IMREAD_ANYDEPTH);
   } catch (const cv::Exception&) {
   }
   if (grey.empty()) throw std::invalid_argument(what + ": " + path.string() + ": not a readable image");

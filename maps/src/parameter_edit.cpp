@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "chromo/estimation/skin_parameters.hpp"
+#include "chromo/files/bounded_read.hpp"
 
 namespace chromo::maps {
 namespace {
@@ -65,7 +66,18 @@ cv::Mat polygon_mask(int width, int height, const PolygonShape& polygon, double 
 }
 
 cv::Mat read_mask_image(const std::filesystem::path& path, int width, int height, double feather_px) {
-  const cv::Mat image = cv::imread(path.string(), cv::IMREAD_GRAYSCALE | cv::IMREAD_ANYDEPTH);
+  std::string bytes;
+  try {
+    bytes = files::read_png_file(path);  // a regular PNG file, size checked by header before decoding
+  } catch (const files::InputFileError& e) {
+    throw std::runtime_error(e.what());
+  }
+  cv::Mat image;
+  try {
+    image = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8U, bytes.data()),
+                         cv::IMREAD_GRAYSCALE | cv::IMREAD_ANYDEPTH);
+  } catch (const cv::Exception&) {
+  }
   if (image.empty()) throw std::runtime_error(path.string() + ": not a readable image");
   if (image.cols != width || image.rows != height)
     throw std::runtime_error(path.string() + ": mask is " + std::to_string(image.cols) + "x" +

@@ -1,4 +1,5 @@
 #include "chromo/session/frame_files.hpp"
+#include "chromo/files/bounded_read.hpp"
 
 #include <tiffio.h>
 
@@ -56,7 +57,11 @@ void write_frame_tiff(const std::filesystem::path& path, const FrameRecord& reco
 }
 
 TiffImage read_tiff(const std::filesystem::path& path) {
-  TiffPtr tiff(TIFFOpen(path.c_str(), "r"));
+  // A regular file within the image cap before libtiff opens it (a FIFO would
+  // block, a device never end); "m": no memory map, so a file truncated while
+  // it is read is a read error, not SIGBUS.
+  files::check_regular_file(path, files::kMaxImageFileBytes, "TIFF");
+  TiffPtr tiff(TIFFOpen(path.c_str(), "rm"));
   if (!tiff) throw std::runtime_error("not a readable TIFF: " + path.string());
   TiffImage image;
   std::uint32_t width = 0, height = 0;
@@ -67,11 +72,21 @@ TiffImage read_tiff(const std::filesystem::path& path) {
   TIFFGetFieldDefaulted(tiff.get(), TIFFTAG_SAMPLESPERPIXEL, &samples);
   char* description = nullptr;
   if (TIFFGetField(tiff.get(), TIFFTAG_IMAGEDESCRIPTION, &description) && description) image.description = description;
+  // Checked from the header before any pixel memory is allocated.
+  files::check_image_size(path, width, height);
+  if (bits != 8 && bits != 16 && bits != 32)
+    throw files::InputFileError(path.string() + ": " + std::to_string(bits) + " bits per sample (8, 16 or 32 expected)");
+  if (samples < 1 || samples > 4)
+    throw files::InputFileError(path.string() + ": " + std::to_string(samples) + " samples per pixel (1 to 4 expected)");
   image.width = static_cast<int>(width);
   image.height = static_cast<int>(height);
   image.bits_per_sample = bits;
   image.samples_per_pixel = samples;
   const auto scanline = static_cast<std::size_t>(TIFFScanlineSize(tiff.get()));
+  if (scanline != static_cast<std::size_t>(width) * samples * (bits / 8))
+    throw files::InputFileError(path.string() + ": scanline of " + std::to_string(scanline) + " bytes for " +
+                                std::to_string(width) + " pixels of " + std::to_string(samples) + "×" +
+                                std::to_string(bits) + " bits (planar or compressed-odd layouts are not read)");
   image.data.resize(scanline * height);
   for (std::uint32_t row = 0; row < height; ++row)
     if (TIFFReadScanline(tiff.get(), image.data.data() + scanline * row, row, 0) < 0)

@@ -1,4 +1,5 @@
 #include "chromo/session/journal.hpp"
+#include "chromo/files/bounded_read.hpp"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -47,11 +48,9 @@ void Journal::append(nlohmann::json record) {
 
 JournalContents read_journal(const std::filesystem::path& path) {
   JournalContents contents;
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return contents;
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  std::string text = buffer.str();
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) return contents;
+  const std::string text = files::read_bounded(path, files::kMaxJournalBytes, "journal");
   std::size_t start = 0;
   while (start < text.size()) {
     std::size_t end = text.find('\n', start);

@@ -1,6 +1,8 @@
 #include "chromo/session/measurement_file.hpp"
+#include "chromo/files/bounded_read.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
@@ -11,16 +13,34 @@ namespace chromo::session {
 namespace fs = std::filesystem;
 namespace {
 
+std::string fmt_number(double v) {
+  std::string s = std::to_string(v);
+  while (s.size() > 1 && s.back() == '0') s.pop_back();
+  if (s.back() == '.') s.pop_back();
+  return s;
+}
+
 int channel_index(const std::string& name) { return name == "R" ? 0 : name == "G" ? 1 : 2; }
 
 estimation::ChannelNoise parse_noise(const nlohmann::json& j, estimation::ChannelNoise base, const std::string& where) {
   if (j.is_null()) return base;
   if (!j.is_object()) throw MeasurementFileError(where + ": 'noise' must be an object");
-  for (const auto& [key, value] : j.items()) {
+  for (const auto& item : j.items()) {
+    const std::string key = item.key();
+    const nlohmann::json& value = item.value();
     if (!value.is_number()) throw MeasurementFileError(where + ": noise." + key + " must be a number");
-    if (key == "read_sigma") base.read_sigma = value.get<double>();
-    else if (key == "shot_coefficient") base.shot_coefficient = value.get<double>();
-    else if (key == "saturation_albedo") base.saturation_albedo = value.get<double>();
+    const double v = value.get<double>();
+    // Refused where they enter (docs/formats/measurement.md): albedo units, so
+    // anything outside these ranges is a mistake, not a noisy camera.
+    auto in_range = [&](double low, bool low_open, double high) {
+      if (!std::isfinite(v) || (low_open ? !(v > low) : !(v >= low)) || !(v <= high))
+        throw MeasurementFileError(where + ": noise." + key + ": " + value.dump() + " is outside " +
+                                   (low_open ? "(" : "[") + fmt_number(low) + ", " + fmt_number(high) + "]");
+      return v;
+    };
+    if (key == "read_sigma") base.read_sigma = in_range(0, false, 1);
+    else if (key == "shot_coefficient") base.shot_coefficient = in_range(0, false, 1);
+    else if (key == "saturation_albedo") base.saturation_albedo = in_range(0, true, 10);
     else throw MeasurementFileError(where + ": unknown noise key '" + key + "' (read_sigma, shot_coefficient, saturation_albedo)");
   }
   return base;
@@ -54,12 +74,16 @@ std::vector<float> MeasurementFile::pixel_major() const {
 }
 
 MeasurementFile read_measurement_file(const fs::path& file) {
-  std::ifstream in(file);
-  if (!in || fs::is_directory(file)) throw MeasurementFileError(file.string() + ": cannot open");
+  std::string text;
+  try {
+    text = files::read_text_file(file, "JSON");
+  } catch (const files::InputFileError& e) {
+    throw MeasurementFileError(e.what());
+  }
   nlohmann::json j;
   try {
-    j = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
+    j = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
     throw MeasurementFileError(file.string() + ": not valid JSON: " + e.what());
   }
   if (!j.is_object()) throw MeasurementFileError(file.string() + ": must be a JSON object");

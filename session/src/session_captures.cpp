@@ -1,4 +1,5 @@
 #include "chromo/session/session_captures.hpp"
+#include "chromo/files/bounded_read.hpp"
 
 #include "chromo/calibration/led_library_io.hpp"
 #include "chromo/spectral/table.hpp"
@@ -144,9 +145,13 @@ MethodCaptures SessionCaptureBuilder::captures() const {
 }
 
 SessionPlan read_session_plan(const std::filesystem::path& folder) {
-  std::ifstream in(folder / "session.json");
-  if (!in) throw std::invalid_argument(folder.string() + ": not a session folder (no readable session.json)");
-  auto session = nlohmann::json::parse(in, nullptr, false);
+  std::string text;
+  try {
+    text = files::read_text_file(folder / "session.json", "JSON");
+  } catch (const files::InputFileError& e) {
+    throw std::invalid_argument(folder.string() + ": not a session folder (" + e.what() + ")");
+  }
+  auto session = nlohmann::json::parse(text, nullptr, false);
   if (session.is_discarded() || !session.is_object() || !session.contains("plan"))
     throw std::invalid_argument((folder / "session.json").string() + ": not valid JSON with a \"plan\"");
   session_format_version(session, folder / "session.json");

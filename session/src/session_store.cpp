@@ -1,4 +1,5 @@
 #include "chromo/session/session_store.hpp"
+#include "chromo/files/bounded_read.hpp"
 
 #include <algorithm>
 #include <fstream>
@@ -91,9 +92,8 @@ void SessionStore::fill_new_session_folder(Created& created, const SessionPlan& 
 }
 
 SessionInfo SessionStore::read_session(const std::filesystem::path& folder) const {
-  std::ifstream in(folder / "session.json");
-  if (!in) throw std::runtime_error(folder.string() + ": no session.json");
-  auto session = nlohmann::json::parse(in, nullptr, false);
+  if (!std::filesystem::exists(folder / "session.json")) throw std::runtime_error(folder.string() + ": no session.json");
+  auto session = nlohmann::json::parse(files::read_text_file(folder / "session.json", "JSON"), nullptr, false);
   if (!session.is_object() || !session.contains("id"))
     throw std::runtime_error(folder.string() + "/session.json: not a session description");
   SessionInfo info;

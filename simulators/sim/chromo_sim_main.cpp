@@ -149,5 +149,8 @@ int main(int argc, char** argv) {
   } catch (const std::exception& e) {
     std::cerr << "chromo-sim: " << e.what() << "\n";
     return 1;
+  } catch (...) {  // no exception leaves main (issue 19)
+    std::cerr << "chromo-sim: unknown exception\n";
+    return 1;
   }
 }

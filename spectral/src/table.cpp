@@ -2,8 +2,8 @@
 
 #include <charconv>
 #include <cmath>
-#include <fstream>
-#include <sstream>
+
+#include "chromo/files/bounded_read.hpp"
 
 namespace chromo::spectral {
 namespace {
@@ -83,11 +83,13 @@ Table parse_table(std::string_view text, const std::string& source) {
 }
 
 Table read_table(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw DataError(path.string() + ": cannot open for reading");
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  return parse_table(buffer.str(), path.string());
+  std::string text;
+  try {
+    text = files::read_text_file(path, "CSV");
+  } catch (const files::InputFileError& e) {
+    throw DataError(e.what());
+  }
+  return parse_table(text, path.string());
 }
 
 }  // namespace chromo::spectral

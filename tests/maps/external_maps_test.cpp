@@ -124,7 +124,7 @@ TEST(ImportMaps, BadInputNamesTheFieldAndWritesNothing) {
   o.measurement = dir / "scene" / "MEASUREMENT.json";
   ImportMapsOptions bad = o;
   bad.melanin = dir / "missing.png";
-  expect_refused(bad, "melanin: ", "not a readable image");
+  expect_refused(bad, "melanin: ", "missing.png: cannot open (No such file or directory)");
   bad = o, bad.hemoglobin = dir / "small.png";
   expect_refused(bad, "hemoglobin: ", "12x10");
   bad = o, bad.melanin = dir / "small.png", bad.hemoglobin = dir / "small.png";

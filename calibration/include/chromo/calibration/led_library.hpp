@@ -80,8 +80,10 @@ struct LedLibrary {
 
 // Empty when the library is well-formed (every LED type once, in order,
 // ladders non-empty, drive levels in (0, 1] and strictly increasing, spectra
-// finite and not all zero, drive limits in (0, 1], positive integration
-// times); otherwise a message naming the LED and field at fault.
+// finite, not all zero and within ±kMaxLibrarySpectrumValue, drive limits in
+// (0, 1], positive integration times); otherwise a message naming the LED and
+// field at fault.
+inline constexpr double kMaxLibrarySpectrumValue = 1e12;
 std::string validate(const LedLibrary& library);
 
 // The built-in library, so the solver and CLI work before any measurement:

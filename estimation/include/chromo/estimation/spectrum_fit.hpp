@@ -63,7 +63,10 @@ struct SpectrumFitResult {
 // Fresnel reflectance at normal incidence for η = kSkinRefractiveIndex.
 double surface_reflectance();
 
-// Throws std::invalid_argument for invalid options or a non-finite spectrum.
+// The measured reflectance factor's accepted range.
+inline constexpr double kMinFitReflectance = -0.1, kMaxFitReflectance = 1.5;
+// Throws std::invalid_argument for invalid options, a non-finite spectrum or
+// one outside [kMinFitReflectance, kMaxFitReflectance].
 SpectrumFitResult fit_spectrum(const spectral::Spectrum& measured, const SpectrumFitOptions& options = {});
 
 }  // namespace chromo::estimation

@@ -4,6 +4,7 @@
 // derived data, measurement files, map files. Errors throw ImageError naming
 // the file. Thread rules: free functions, reentrant.
 
+#include <cstdint>
 #include <filesystem>
 #include <stdexcept>
 #include <string>
@@ -22,6 +23,16 @@ struct FloatImage {
   std::vector<std::vector<float>> channels;  // width × height each, row-major
   const std::vector<float>& channel(const std::string& name) const;  // ImageError if absent
 };
+
+// Checks an OpenEXR file before any library reads it: a regular file within
+// kMaxImageFileBytes, a single-part, non-deep version 2 header (read by hand,
+// at most 1 MiB) whose data window is within kMaxImagePixels
+// (bounded_read.hpp). Returns the data window's size; ImageError naming the
+// file and the problem otherwise. read_exr calls it first.
+struct ExrSize {
+  std::int64_t width = 0, height = 0;
+};
+ExrSize check_exr_file(const std::filesystem::path& path);
 
 FloatImage read_exr(const std::filesystem::path& path);
 void write_exr(const std::filesystem::path& path, const FloatImage& image);

@@ -29,6 +29,8 @@ struct Table {
 };
 
 Table parse_table(std::string_view text, const std::string& source);
+// A file through files::read_text_file: a regular file of at most 16 MiB
+// (files::kMaxTextFileBytes); anything else is a DataError naming the path.
 Table read_table(const std::filesystem::path& path);
 
 }  // namespace chromo::spectral
