@@ -28,6 +28,11 @@ bool DaemonConfig::IsValid(std::string* error) const {
     return fail("token: TCP listening needs a bearer token of at least 16 characters");
   if (tls_certificate_file.empty() != tls_private_key_file.empty())
     return fail("tls: tls_certificate_file and tls_private_key_file go together");
+  if (!tcp_address.empty() && tls_certificate_file.empty() && !tcp_insecure)
+    return fail("tcp_insecure: TCP without TLS needs \"tcp_insecure\": true (or tls_certificate_file and tls_private_key_file)");
+  if (tcp_insecure && !tls_certificate_file.empty())
+    return fail("tcp_insecure: true contradicts tls_certificate_file (TLS is on)");
+  if (max_streams < 1 || max_streams > 1024) return fail("max_streams: must be in [1, 1024]");
   if (storage_queue_frames < 1 || storage_queue_frames > 100000) return fail("storage_queue_frames: must be in [1, 100000]");
   if (estimator_queue_frames > 100000) return fail("estimator_queue_frames: must be at most 100000");
   if (frame_attempts < 1 || frame_attempts > 100) return fail("frame_attempts: must be in [1, 100]");
@@ -68,7 +73,8 @@ drivers::DriveLevels parse_levels(const nlohmann::json& json, const std::string&
 DaemonConfig parse_config(const nlohmann::json& json, const std::string& origin) {
   DaemonConfig config;
   static const std::set<std::string> known{"unix_socket", "unix_socket_mode", "tcp_address", "token",
-                                           "tls_certificate_file", "tls_private_key_file", "sessions_dir",
+                                           "tls_certificate_file", "tls_private_key_file", "tcp_insecure",
+                                           "max_streams", "maps_dir", "sessions_dir",
                                            "storage_limit_bytes", "storage_queue_frames", "estimator_queue_frames",
                                            "frame_timeout_ms", "frame_attempts", "led_library", "devices", "mixes",
                                            "estimation"};
@@ -90,6 +96,11 @@ DaemonConfig parse_config(const nlohmann::json& json, const std::string& origin)
     get("token", config.token);
     get("tls_certificate_file", config.tls_certificate_file);
     get("tls_private_key_file", config.tls_private_key_file);
+    get("tcp_insecure", config.tcp_insecure);
+    get("max_streams", config.max_streams);
+    std::string maps_dir;
+    get("maps_dir", maps_dir);
+    config.maps_dir = maps_dir;
     std::string sessions_dir = config.sessions_dir.string();
     get("sessions_dir", sessions_dir);
     config.sessions_dir = sessions_dir;

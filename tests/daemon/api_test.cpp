@@ -2,7 +2,9 @@
 // token, TLS; validation of hostile input; health.
 #include <sys/stat.h>
 
+#include <atomic>
 #include <fstream>
+#include <iostream>
 #include <future>
 #include <set>
 
@@ -10,6 +12,7 @@
 #include <google/protobuf/dynamic_message.h>
 #include <sstream>
 
+#include <gmock/gmock.h>
 #include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/grpcpp.h>
 
@@ -44,6 +47,7 @@ struct ApiFixture : ::testing::Test {
   void SetUp() override {
     lab.config.tcp_address = "127.0.0.1:0";
     lab.config.token = kToken;
+    lab.config.tcp_insecure = true;  // loopback plaintext (TLS has its own test)
   }
   void TearDown() override {
     if (server) server->shutdown();
@@ -263,6 +267,7 @@ TEST_F(ApiFixture, TlsWithTokenWhenCertificatesAreConfigured) {
   ASSERT_EQ(std::system(command.c_str()), 0);
   lab.config.tls_certificate_file = cert.string();
   lab.config.tls_private_key_file = key.string();
+  lab.config.tcp_insecure = false;
   start();
   std::ifstream in(cert);
   std::stringstream pem;
@@ -281,6 +286,142 @@ TEST_F(ApiFixture, TlsWithTokenWhenCertificatesAreConfigured) {
   context.AddMetadata("authorization", "Bearer test-token-0123456789");
   pb::ListOperationsResponse response;
   EXPECT_FALSE(pb::OperationService::NewStub(plain)->ListOperations(&context, {}, &response).ok());
+}
+
+// A raw call: `body` as the message bytes, whatever they are.
+grpc::Status raw_call(std::shared_ptr<grpc::Channel> channel, const std::string& method, const std::string& body,
+                      const char* authorization) {
+  grpc::GenericStub generic(channel);
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+  if (authorization) context.AddMetadata("authorization", authorization);
+  grpc::Slice slice(body);
+  grpc::ByteBuffer request(&slice, 1), response;
+  std::promise<grpc::Status> done;
+  generic.UnaryCall(&context, method, grpc::StubOptions(), &request, &response,
+                    [&](grpc::Status status) { done.set_value(status); });
+  return done.get_future().get();
+}
+
+TEST_F(ApiFixture, OverTcpTheTokenIsCheckedBeforeTheMessageIsParsed) {
+  start();
+  auto tcp = grpc::CreateChannel("127.0.0.1:" + std::to_string(server->tcp_port()), grpc::InsecureChannelCredentials());
+  const std::string malformed("\xff\xff\xff\xff\x0f", 5);  // not a protobuf message
+  const char* method = "/chromosphere.v1.SessionService/StartSession";
+  for (const char* authorization : {static_cast<const char*>(nullptr), "Bearer wrong-token-0123456789"}) {
+    const grpc::Status status = raw_call(tcp, method, malformed, authorization);
+    EXPECT_EQ(status.error_code(), StatusCode::UNAUTHENTICATED) << status.error_message();
+    EXPECT_THAT(status.error_message(), ::testing::StartsWith("authorization: "));
+  }
+  // With the token, the same bytes reach the parser (and are refused there),
+  // and nothing was started by any of them.
+  const grpc::Status parsed = raw_call(tcp, method, malformed, "Bearer test-token-0123456789");
+  EXPECT_NE(parsed.error_code(), StatusCode::UNAUTHENTICATED);
+  EXPECT_NE(parsed.error_code(), StatusCode::OK);
+  EXPECT_TRUE(daemon->operations().list().empty());
+  // The Unix socket needs no token.
+  EXPECT_EQ(raw_call(channel, "/chromosphere.v1.OperationService/ListOperations", "", nullptr).error_code(), StatusCode::OK);
+}
+
+// Threads of this process (the test's client and the daemon's server).
+int thread_count() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line))
+    if (line.rfind("Threads:", 0) == 0) return std::stoi(line.substr(8));
+  return -1;
+}
+
+TEST_F(ApiFixture, StreamsBeyondMaxStreamsAreRefusedAndThreadsStayBounded) {
+  ASSERT_EQ(lab.config.max_streams, 64u);  // the documented default
+  start();
+  const int baseline = thread_count();
+  std::atomic<bool> sampling{true};
+  std::atomic<int> peak{0};
+  std::thread sampler([&] {
+    while (sampling) {
+      peak = std::max(peak.load(), thread_count());
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+  });
+  // 1000 subscriptions at once, plus a WatchOperation of a past session: one
+  // counter for every server-streaming call.
+  constexpr int kAttempts = 1000;
+  auto events = pb::EventService::NewStub(channel);
+  std::vector<std::unique_ptr<grpc::ClientContext>> contexts;
+  std::vector<std::unique_ptr<grpc::ClientReader<pb::Event>>> readers;
+  for (int i = 0; i < kAttempts; ++i) {
+    contexts.push_back(std::make_unique<grpc::ClientContext>());
+    contexts.back()->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+    readers.push_back(events->Subscribe(contexts.back().get(), pb::SubscribeRequest{}));
+  }
+  // Every accepted stream gets the next log event; a refused one ends.
+  std::atomic<bool> publishing{true};
+  std::thread publisher([&] {
+    while (publishing) {
+      Event event;
+      event.kind = Event::Kind::kLog;
+      event.log = "ping";
+      daemon->events().publish(event);
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  });
+  int accepted = 0, refused_by_limit = 0;
+  std::vector<std::size_t> open;
+  for (std::size_t i = 0; i < readers.size(); ++i) {
+    pb::Event event;
+    if (readers[i]->Read(&event)) {
+      ++accepted;
+      open.push_back(i);
+      continue;
+    }
+    const grpc::Status status = readers[i]->Finish();
+    EXPECT_EQ(status.error_code(), StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
+    if (status.error_message().rfind("max_streams: 64 streaming calls are open", 0) == 0) ++refused_by_limit;
+  }
+  EXPECT_EQ(accepted, 64);
+  EXPECT_GT(refused_by_limit, 0);
+  // While 64 streams run: a unary call still answers, a 65th stream (of the
+  // other kind) is refused naming the limit.
+  pb::ListOperationsResponse listed;
+  {
+    grpc::ClientContext context;
+    EXPECT_TRUE(pb::OperationService::NewStub(channel)->ListOperations(&context, {}, &listed).ok());
+  }
+  {
+    grpc::ClientContext context;
+    pb::WatchOperationRequest request;
+    request.set_id("20260101T000000Z-none-000000");
+    auto reader = pb::OperationService::NewStub(channel)->WatchOperation(&context, request);
+    pb::Operation operation;
+    EXPECT_FALSE(reader->Read(&operation));
+    const grpc::Status status = reader->Finish();
+    EXPECT_EQ(status.error_code(), StatusCode::RESOURCE_EXHAUSTED);
+    EXPECT_THAT(status.error_message(), ::testing::HasSubstr("max_streams: 64"));
+  }
+  sampling = false;
+  sampler.join();
+  // Closing one frees its slot: the next subscription is served.
+  contexts[open.front()]->TryCancel();
+  readers[open.front()]->Finish();
+  open.erase(open.begin());
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  {
+    grpc::ClientContext context;
+    auto reader = events->Subscribe(&context, pb::SubscribeRequest{});
+    pb::Event event;
+    EXPECT_TRUE(reader->Read(&event));
+    context.TryCancel();
+    reader->Finish();
+  }
+  publishing = false;
+  publisher.join();
+  for (std::size_t i : open) contexts[i]->TryCancel();
+  for (std::size_t i : open) readers[i]->Finish();
+  std::cout << "threads: baseline " << baseline << ", peak " << peak << " with " << kAttempts << " stream attempts\n";
+  // 64 streams + 32 unary + pollers (server.cpp's resource quota), plus the
+  // test's own threads: not one per attempt.
+  EXPECT_LT(peak.load(), baseline + 64 + 32 + 16);
 }
 
 TEST_F(ApiFixture, HealthServiceAnswersServing) {

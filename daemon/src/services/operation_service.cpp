@@ -36,7 +36,7 @@ class OperationServiceImpl final : public pb::OperationService::Service {
   }
   Status WatchOperation(ServerContext* context, const pb::WatchOperationRequest* request,
                         grpc::ServerWriter<pb::Operation>* writer) override {
-    return guard_(context, [&] {
+    return guard_.stream(context, [&] {
       if (Status s = check_id("id", request->id()); !s.ok()) return s;
       if (!daemon_.operations().get(request->id()))
         return Status(StatusCode::NOT_FOUND, "id: no operation \"" + request->id() + "\"");
