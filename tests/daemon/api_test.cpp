@@ -2,7 +2,10 @@
 // token, TLS; validation of hostile input; health.
 #include <sys/stat.h>
 
+#include <unistd.h>
+
 #include <atomic>
+#include <cstring>
 #include <fstream>
 #include <iostream>
 #include <future>
@@ -17,6 +20,7 @@
 #include <grpcpp/grpcpp.h>
 
 #include "chromo/daemon/server.hpp"
+#include "chromo/files/fnv1a.hpp"
 #include "chromosphere/v1/calibration.grpc.pb.h"
 #include "chromosphere/v1/estimation.grpc.pb.h"
 #include "chromosphere/v1/events.grpc.pb.h"
@@ -422,6 +426,107 @@ TEST_F(ApiFixture, StreamsBeyondMaxStreamsAreRefusedAndThreadsStayBounded) {
   // 64 streams + 32 unary + pollers (server.cpp's resource quota), plus the
   // test's own threads: not one per attempt.
   EXPECT_LT(peak.load(), baseline + 64 + 32 + 16);
+}
+
+// The audit log's id of a token: the top 32 bits of its FNV-1a hash, in hex.
+std::string services_token_id() {
+  files::Fnv1a hash;
+  hash.add(kToken, std::strlen(kToken));
+  char hex[9];
+  std::snprintf(hex, sizeof hex, "%08x", static_cast<unsigned>(hash.h >> 32));
+  return hex;
+}
+
+std::vector<nlohmann::json> audit_lines(const std::filesystem::path& sessions_dir) {
+  std::vector<nlohmann::json> lines;
+  std::ifstream in(sessions_dir / "audit.jsonl");
+  for (std::string line; std::getline(in, line);) lines.push_back(nlohmann::json::parse(line));
+  return lines;
+}
+
+TEST_F(ApiFixture, ASessionIsDeletedWithItsOwnCacheEntriesAndTheAuditLogSaysWho) {
+  lab.config.estimation.cache_dir = (lab.directory / "cache").string();
+  start();
+  auto sessions = pb::SessionService::NewStub(channel);
+  auto remove = [&](const std::string& id, pb::DeleteSessionResponse* response) {
+    grpc::ClientContext context;
+    return sessions->DeleteSession(&context, [&] {
+      pb::DeleteSessionRequest request;
+      request.set_id(id);
+      return request;
+    }(), response);
+  };
+  pb::StartSessionRequest request;
+  request.set_standard(true);
+  request.set_exposure_us(1000);
+  pb::Operation started;
+  ASSERT_TRUE(start_session(*channel, request, &started).ok());
+  pb::DeleteSessionResponse response;
+  // Refused while it runs; nothing removed.
+  grpc::Status status = remove(started.id(), &response);
+  EXPECT_EQ(status.error_code(), StatusCode::FAILED_PRECONDITION) << status.error_message();
+  EXPECT_THAT(status.error_message(), ::testing::HasSubstr("cancel it first"));
+  ASSERT_EQ(watch_to_end(started.id()).state(), pb::OPERATION_STATE_SUCCEEDED);
+  const auto folder = lab.config.sessions_dir / started.id();
+  ASSERT_TRUE(std::filesystem::exists(folder / "session.json"));
+  // Its table (named by its results) and another session's.
+  std::filesystem::create_directories(folder / "results");
+  std::filesystem::create_directories(lab.directory / "cache");
+  std::ofstream(folder / "results" / "summary.json") << R"({"table": {"key": "00000000000000aa"}})";
+  std::filesystem::create_directories(lab.config.sessions_dir / "other" / "results");
+  std::ofstream(lab.config.sessions_dir / "other" / "results" / "summary.json") << R"({"table": {"key": "00000000000000bb"}})";
+  for (const char* name : {"forward_table_00000000000000aa.bin", "forward_table_00000000000000bb.bin"})
+    std::ofstream(lab.directory / "cache" / name) << "table";
+  for (const char* hostile : {"..", ".", "../sessions", ""}) {
+    status = remove(hostile, &response);
+    EXPECT_EQ(status.error_code(), StatusCode::INVALID_ARGUMENT) << hostile;
+    EXPECT_THAT(status.error_message(), ::testing::StartsWith("id: ")) << hostile;
+  }
+  EXPECT_EQ(remove("20260101T000000Z-none-000000", &response).error_code(), StatusCode::NOT_FOUND);
+  status = remove(started.id(), &response);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_GE(response.files_removed(), 9u);  // session.json, journal, 7 frames, ...
+  EXPECT_GT(response.bytes_removed(), 7u * 160 * 120 * 2);
+  ASSERT_EQ(response.cache_entries_removed_size(), 1);
+  EXPECT_EQ(response.cache_entries_removed(0), "forward_table_00000000000000aa.bin");
+  EXPECT_FALSE(std::filesystem::exists(folder));
+  EXPECT_FALSE(std::filesystem::exists(lab.directory / "cache" / "forward_table_00000000000000aa.bin"));
+  EXPECT_TRUE(std::filesystem::exists(lab.directory / "cache" / "forward_table_00000000000000bb.bin"));
+  EXPECT_TRUE(std::filesystem::exists(lab.config.sessions_dir / "other" / "results" / "summary.json"));
+  {
+    grpc::ClientContext context;
+    pb::GetSessionRequest get;
+    get.set_id(started.id());
+    pb::SessionDetail detail;
+    EXPECT_EQ(sessions->GetSession(&context, get, &detail).error_code(), StatusCode::NOT_FOUND);
+  }
+  EXPECT_EQ(remove(started.id(), &response).error_code(), StatusCode::NOT_FOUND);
+  // Over TCP: the token's id, never the token.
+  auto tcp = grpc::CreateChannel("127.0.0.1:" + std::to_string(server->tcp_port()), grpc::InsecureChannelCredentials());
+  {
+    grpc::ClientContext context;
+    context.AddMetadata("authorization", std::string("Bearer ") + kToken);
+    pb::CancelOperationRequest cancel;
+    cancel.set_id(started.id());
+    pb::Operation out;
+    EXPECT_EQ(pb::OperationService::NewStub(tcp)->CancelOperation(&context, cancel, &out).error_code(), StatusCode::NOT_FOUND);
+  }
+  const auto lines = audit_lines(lab.config.sessions_dir);
+  const std::string uid = "uid:" + std::to_string(::getuid());
+  std::vector<std::string> seen;
+  for (const auto& line : lines) seen.push_back(line["action"].get<std::string>() + " " + line["who"].get<std::string>() + " " + line["outcome"].get<std::string>());
+  const std::vector<std::string> expected{
+      "start_session " + uid + " ok", "delete_session " + uid + " refused", "delete_session " + uid + " refused",
+      "delete_session " + uid + " refused", "delete_session " + uid + " refused", "delete_session " + uid + " refused",
+      "delete_session " + uid + " refused", "delete_session " + uid + " ok", "delete_session " + uid + " refused",
+      "cancel token:" + services_token_id() + " refused"};
+  EXPECT_EQ(seen, expected);
+  EXPECT_EQ(lines[0]["session"], started.id());
+  EXPECT_EQ(lines[7]["session"], started.id());
+  EXPECT_EQ(lines[7]["cache_entries_removed"][0], "forward_table_00000000000000aa.bin");
+  std::ifstream raw(lab.config.sessions_dir / "audit.jsonl");
+  const std::string text((std::istreambuf_iterator<char>(raw)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(text.find(kToken), std::string::npos);
 }
 
 TEST_F(ApiFixture, HealthServiceAnswersServing) {

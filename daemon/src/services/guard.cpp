@@ -113,6 +113,7 @@ Status Guard::authenticate(ServerContext* context) const {
 Status check_id(const std::string& field, const std::string& id) {
   if (id.empty()) return invalid(field + ": required");
   if (id.size() > 128) return invalid(field + ": longer than 128 bytes");
+  if (id == "." || id == "..") return invalid(field + ": not an id");
   if (!session::is_valid_name(id) && id.size() <= session::kMaxNameBytes) return invalid(field + ": not an id ([A-Za-z0-9_+.-])");
   for (char c : id)
     if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '+' || c == '.' || c == '-'))
