@@ -175,12 +175,11 @@ std::unique_ptr<grpc::Service> make_calibration_service(Daemon& daemon, Guard& g
 std::unique_ptr<grpc::Service> make_results_service(Daemon& daemon, Guard& guard);
 std::unique_ptr<grpc::Service> make_event_service(Daemon& daemon, Guard& guard);
 // MapsService: relight, flush, import-maps and profile export over the maps
-// library's map operations (maps/map_operations.hpp), on files of a session
-// folder. Paths: with session_id set, every file field is a relative path
-// inside <sessions_dir>/<session_id>/ (no "..", no absolute path); with
-// session_id empty, an absolute path. Calls run synchronously on the gRPC
-// handler thread (the operation's own threads: all cores); the library
-// writes crash-safe.
+// library's map operations (maps/map_operations.hpp), inside one folder of the
+// daemon's: the session's, or config.maps_dir without session_id. Inputs are
+// relative paths resolved inside it (symbolic links included), outputs a new
+// products/<operation>-<time>-<hex> folder (docs/maps.md). Calls run
+// synchronously on the gRPC handler thread; the library writes crash-safe.
 std::unique_ptr<grpc::Service> make_maps_service(Daemon& daemon, Guard& guard);
 
 }  // namespace chromo::daemon::services
