@@ -1,4 +1,4 @@
-// chromo session run|watch|list|show|cancel|pause|resume: capture sessions on chromod.
+// chromo session run|watch|list|show|cancel|pause|resume|delete: capture sessions on chromod.
 #include <unistd.h>
 
 #include <fstream>
@@ -197,6 +197,26 @@ void add_session_command(CLI::App& app, int& exit_status) {
   show_command->add_option("id", options->id, "session id")->required();
   show_command->add_flag("--frames", options->frames, "list every stored frame");
   show_command->callback([&exit_status, options] { show(*options, exit_status); });
+
+  auto* delete_command = session->add_subcommand(
+      "delete", "delete a finished session: its folder (frames, results, products) and the cache entries only it used");
+  add_daemon_options(*delete_command, options->address);
+  delete_command->add_option("id", options->id, "session id")->required();
+  delete_command->callback([&exit_status, options] {
+    DaemonConnection daemon(options->address);
+    pb::DeleteSessionRequest request;
+    request.set_id(options->id);
+    pb::DeleteSessionResponse response;
+    auto status = pb::SessionService::NewStub(daemon.channel())->DeleteSession(daemon.context().get(), request, &response);
+    if (!status.ok()) {
+      exit_status = report_failure("session delete", status);
+      return;
+    }
+    std::cout << fmt::format("session {} deleted: {} files, {} bytes", response.id(), response.files_removed(),
+                             response.bytes_removed());
+    for (const auto& entry : response.cache_entries_removed()) std::cout << ", cache " << entry;
+    std::cout << "\n";
+  });
 
   auto add_control = [&](const char* verb, const char* help, auto call, auto request_tag) {
     auto* command = session->add_subcommand(verb, help);

@@ -98,11 +98,18 @@ class Client:
     def results(self, session_id):
         return self.results_service.GetResults(estimation_pb2.GetResultsRequest(session_id=session_id))
 
-    def relight(self, maps_file, illuminant, out_dir, photograph_file="", session_id="", timeout=120):
-        """Relit albedo (and a panel against the photograph) written to out_dir; returns RelightResponse."""
+    def relight(self, maps_file, illuminant, label="", photograph_file="", session_id="", timeout=120):
+        """Relit albedo (and a panel against the photograph) in a new folder of the daemon's; returns
+        RelightResponse, whose out_dir and files are relative to the session folder (or the daemon's
+        maps_dir without session_id). maps_file and photograph_file are relative to the same folder."""
         request = maps_pb2.RelightRequest(session_id=session_id, maps_file=maps_file, illuminant=illuminant,
-                                          out_dir=out_dir, photograph_file=photograph_file)
+                                          label=label, photograph_file=photograph_file)
         return self.maps.Relight(request, timeout=timeout)
+
+    def delete_session(self, session_id):
+        """Deletes a finished session's folder and the table-cache entries only it used; returns
+        DeleteSessionResponse. Refused (FAILED_PRECONDITION) while the session runs."""
+        return self.sessions.DeleteSession(sessions_pb2.DeleteSessionRequest(id=session_id))
 
     def close(self):
         self.channel.close()

@@ -42,6 +42,11 @@ bool DaemonConfig::IsValid(std::string* error) const {
     return fail("token: TCP listening needs a bearer token of at least 16 characters");
   if (tls_certificate_file.empty() != tls_private_key_file.empty())
     return fail("tls: tls_certificate_file and tls_private_key_file go together");
+  if (!tcp_address.empty() && tls_certificate_file.empty() && !tcp_insecure)
+    return fail("tcp_insecure: TCP without TLS needs \"tcp_insecure\": true (or tls_certificate_file and tls_private_key_file)");
+  if (tcp_insecure && !tls_certificate_file.empty())
+    return fail("tcp_insecure: true contradicts tls_certificate_file (TLS is on)");
+  if (max_streams < 1 || max_streams > 1024) return fail("max_streams: must be in [1, 1024]");
   if (storage_queue_frames < 1 || storage_queue_frames > 100000) return fail("storage_queue_frames: must be in [1, 100000]");
   if (estimator_queue_frames > 100000) return fail("estimator_queue_frames: must be at most 100000");
   if (frame_timeout_ms < 1 || frame_timeout_ms > 600000) return fail("frame_timeout_ms: must be in [1, 600000]");
@@ -432,6 +437,9 @@ const std::vector<Key>& top_level_keys() {
       string_key("token", [](DaemonConfig& c) -> auto& { return c.token; }, any_string),  // length: IsValid
       string_key("tls_certificate_file", [](DaemonConfig& c) -> auto& { return c.tls_certificate_file; }, pem_file_error),
       string_key("tls_private_key_file", [](DaemonConfig& c) -> auto& { return c.tls_private_key_file; }, pem_file_error),
+      bool_key("tcp_insecure", [](DaemonConfig& c) -> auto& { return c.tcp_insecure; }),  // with TLS or token: IsValid
+      unsigned_key("max_streams", 1, 1024, [](DaemonConfig& c) -> auto& { return c.max_streams; }),
+      string_key("maps_dir", [](DaemonConfig& c) -> auto& { return c.maps_dir; }, optional_folder),
       string_key("sessions_dir", [](DaemonConfig& c) -> auto& { return c.sessions_dir; },
                  [](const std::string& v) { return folder_error_tried(v); }),
       unsigned_key("storage_limit_bytes", 0, std::numeric_limits<std::int64_t>::max(),

@@ -1,4 +1,7 @@
 #include "chromo/daemon/daemon.hpp"
+#include "chromo/estimation/forward_table.hpp"
+
+#include <fstream>
 
 #include <stdexcept>
 
@@ -317,6 +320,52 @@ std::optional<session::SessionInfo> Daemon::session(const std::string& id) const
   session::SessionInfo info = store_.read_session(folder);
   if (auto live = operations_.get(id)) info.record = *live;
   return info;
+}
+
+namespace {
+// The forward table's key a session's results name (results/summary.json's
+// table.key), "" when none.
+std::string table_key_of(const std::filesystem::path& folder) {
+  std::ifstream in(folder / "results" / "summary.json");
+  if (!in) return {};
+  const auto summary = nlohmann::json::parse(in, nullptr, false);
+  if (summary.is_discarded() || !summary.is_object() || !summary.contains("table") || !summary["table"].is_object())
+    return {};
+  const auto& key = summary["table"]["key"];
+  return key.is_string() ? key.get<std::string>() : std::string();
+}
+}  // namespace
+
+Daemon::DeletedSession Daemon::delete_session(const std::string& id) {
+  namespace fs = std::filesystem;
+  std::lock_guard lock(delete_mutex_);
+  auto record = operations_.get(id);
+  if (!session::is_valid_name(id) || id == "." || id == ".." || !record || record->kind != session::OperationKind::kSession ||
+      !fs::exists(store_.root() / id / "session.json"))
+    throw std::invalid_argument("id: no session \"" + id + "\"");
+  if (!session::is_final(record->state))
+    throw std::logic_error("id: session \"" + id + "\" is " + session::state_name(record->state) + "; cancel it first");
+  const fs::path folder = store_.root() / id;
+  DeletedSession deleted;
+  // Cache entries: this session's forward table, unless another session's
+  // results name the same key.
+  const std::string key = table_key_of(folder);
+  bool shared = key.empty();
+  for (const auto& entry : fs::directory_iterator(store_.root()))
+    if (!shared && entry.is_directory() && entry.path().filename() != id && table_key_of(entry.path()) == key) shared = true;
+  for (const auto& entry : fs::recursive_directory_iterator(folder))
+    if (entry.is_regular_file()) ++deleted.files, deleted.bytes += entry.file_size();
+  operations_.remove(id);
+  fs::remove_all(folder);
+  files::fsync_directory(store_.root());
+  if (!shared && key.size() == 16 && key.find_first_not_of("0123456789abcdef") == std::string::npos) {
+    const fs::path cache = config_.estimation.cache_dir.empty() ? estimation::ForwardTable::default_cache_dir()
+                                                                 : fs::path(config_.estimation.cache_dir);
+    const std::string name = "forward_table_" + key + ".bin";
+    std::error_code error;
+    if (fs::remove(cache / name, error)) deleted.cache_entries.push_back(name);
+  }
+  return deleted;
 }
 
 }  // namespace chromo::daemon

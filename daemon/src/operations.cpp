@@ -96,6 +96,14 @@ void OperationRegistry::add_past(session::OperationRecord record) {
   entries_[id] = Entry{std::move(record), nullptr, 1};
 }
 
+void OperationRegistry::remove(const std::string& id) {
+  {
+    std::lock_guard lock(mutex_);
+    entries_.erase(id);
+  }
+  changed_.notify_all();
+}
+
 void OperationRegistry::update(const std::string& id, const std::function<void(session::OperationRecord&)>& change) {
   Event event;
   {

@@ -14,8 +14,12 @@
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
+#include <grpc/grpc_security_constants.h>
+#include <grpcpp/resource_quota.h>
+#include <grpcpp/security/auth_metadata_processor.h>
 
 #include "services/services.hpp"
+#include "unix_listener.hpp"
 
 namespace chromo::daemon {
 
@@ -45,14 +49,36 @@ void remove_stale_socket(const std::string& path) {
   std::filesystem::remove(path, error);
 }
 
+// Threads for unary calls beside max_streams running streams.
+constexpr int kUnaryThreads = 32;
+
+// The TCP credentials' metadata processor: the bearer token is checked when a
+// call's metadata arrives, before gRPC reads its message or picks a handler.
+class TokenProcessor final : public grpc::AuthMetadataProcessor {
+ public:
+  explicit TokenProcessor(const DaemonConfig& config) : config_(config) {}
+  bool IsBlocking() const override { return false; }  // a comparison: runs inline
+  grpc::Status Process(const InputMetadata& metadata, grpc::AuthContext*, OutputMetadata*, OutputMetadata*) override {
+    return services::check_bearer(config_, metadata);
+  }
+
+ private:
+  const DaemonConfig& config_;
+};
+
 }  // namespace
 
 // One of each service (services/services.hpp), all behind one guard.
 struct Server::Services {
   std::atomic<bool> stopping{false};
+  services::Peers peers;
+  services::AuditLog audit;
   services::Guard guard;
   std::vector<std::unique_ptr<grpc::Service>> all;
-  explicit Services(Daemon& daemon) : guard(daemon.config(), stopping) {
+  std::unique_ptr<UnixListener> unix_listener;
+  explicit Services(Daemon& daemon)
+      : audit(daemon.config().sessions_dir / "audit.jsonl"), guard(daemon.config(), stopping, peers, audit) {
+    peers.set_token_id(services::token_id(daemon.config().token));
     for (auto make : {services::make_device_service, services::make_led_service, services::make_operation_service,
                       services::make_session_service, services::make_calibration_service, services::make_results_service,
                       services::make_event_service, services::make_maps_service})
@@ -66,20 +92,35 @@ Server::Server(Daemon& daemon) : daemon_(daemon), services_(std::make_unique<Ser
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   builder.SetMaxReceiveMessageSize(1 << 20);
+  // A thread per running call (the synchronous API): the streams' slots, room
+  // for unary calls beside them, the pollers. Beyond it gRPC itself answers
+  // RESOURCE_EXHAUSTED; streams beyond max_streams are refused by the Guard
+  // first (measured in docs/daemon.md, "Limits").
+  grpc::ResourceQuota quota("chromod");
+  quota.SetMaxThreads(static_cast<int>(config.max_streams) + kUnaryThreads + 4);
+  builder.SetResourceQuota(quota);
   if (!config.unix_socket.empty()) {
     // Only a socket nobody listens on (left by a killed chromod) is removed;
     // any other file there is refused, never deleted.
     remove_stale_socket(config.unix_socket);
-    builder.AddListeningPort("unix:" + config.unix_socket, grpc::InsecureServerCredentials());
+    // Accepted by chromod itself, for each peer's uid (unix_listener.hpp).
+    services_->unix_listener = std::make_unique<UnixListener>(config.unix_socket);
   }
   if (!config.tcp_address.empty()) {
-    std::shared_ptr<grpc::ServerCredentials> credentials = grpc::InsecureServerCredentials();
+    // TLS, or plaintext only with "tcp_insecure": true, where gRPC's local
+    // credentials accept loopback peers only. Both carry the token processor.
+    std::shared_ptr<grpc::ServerCredentials> credentials;
     if (!config.tls_certificate_file.empty()) {
       grpc::SslServerCredentialsOptions options;
       options.pem_key_cert_pairs.push_back(
           {read_text_file(config.tls_private_key_file), read_text_file(config.tls_certificate_file)});
       credentials = grpc::SslServerCredentials(options);
+    } else if (config.tcp_insecure) {
+      credentials = grpc::experimental::LocalServerCredentials(LOCAL_TCP);
+    } else {
+      throw std::runtime_error("tcp_insecure: TCP without TLS needs \"tcp_insecure\": true");
     }
+    credentials->SetAuthMetadataProcessor(std::make_shared<TokenProcessor>(config));
     builder.AddListeningPort(config.tcp_address, credentials, &tcp_port_);
   }
   for (const auto& service : services_->all) builder.RegisterService(service.get());
@@ -90,6 +131,7 @@ Server::Server(Daemon& daemon) : daemon_(daemon), services_(std::make_unique<Ser
   if (!config.unix_socket.empty()) {
     ::chmod(config.unix_socket.c_str(), config.unix_socket_mode);
     created_socket_ = config.unix_socket;
+    services_->unix_listener->start(*server_, [this](int fd, unsigned uid) { services_->peers.accepted(fd, uid); });
   }
   server_->GetHealthCheckService()->SetServingStatus(true);
 }
@@ -99,6 +141,7 @@ Server::~Server() { shutdown(); }
 void Server::shutdown() {
   if (!server_) return;
   services_->stopping = true;
+  if (services_->unix_listener) services_->unix_listener->stop();
   server_->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
   server_->Wait();
   server_.reset();

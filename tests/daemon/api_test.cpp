@@ -2,7 +2,12 @@
 // token, TLS; validation of hostile input; health.
 #include <sys/stat.h>
 
+#include <unistd.h>
+
+#include <atomic>
+#include <cstring>
 #include <fstream>
+#include <iostream>
 #include <future>
 #include <set>
 
@@ -10,10 +15,12 @@
 #include <google/protobuf/dynamic_message.h>
 #include <sstream>
 
+#include <gmock/gmock.h>
 #include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/grpcpp.h>
 
 #include "chromo/daemon/server.hpp"
+#include "chromo/files/fnv1a.hpp"
 #include "chromosphere/v1/calibration.grpc.pb.h"
 #include "chromosphere/v1/estimation.grpc.pb.h"
 #include "chromosphere/v1/events.grpc.pb.h"
@@ -44,6 +51,7 @@ struct ApiFixture : ::testing::Test {
   void SetUp() override {
     lab.config.tcp_address = "127.0.0.1:0";
     lab.config.token = kToken;
+    lab.config.tcp_insecure = true;  // loopback plaintext (TLS has its own test)
   }
   void TearDown() override {
     if (server) server->shutdown();
@@ -60,6 +68,8 @@ struct ApiFixture : ::testing::Test {
     return last;
   }
 };
+
+std::vector<nlohmann::json> audit_lines(const std::filesystem::path& sessions_dir);
 
 grpc::Status start_session(grpc::Channel& channel, const pb::StartSessionRequest& request, pb::Operation* out) {
   grpc::ClientContext context;
@@ -196,7 +206,11 @@ TEST_F(ApiFixture, HostileInputIsRefusedWithTheFieldNamedAndNothingChanges) {
                       [&](grpc::Status status) { done.set_value(status); });
     EXPECT_FALSE(done.get_future().get().ok());
   }
-  EXPECT_TRUE(std::filesystem::is_empty(lab.config.sessions_dir));  // nothing was started
+  // Nothing was started: the sessions folder holds only the audit log, every
+  // line of it a refusal.
+  for (const auto& entry : std::filesystem::directory_iterator(lab.config.sessions_dir))
+    EXPECT_EQ(entry.path().filename(), "audit.jsonl");
+  for (const auto& line : audit_lines(lab.config.sessions_dir)) EXPECT_EQ(line["outcome"], "refused") << line.dump();
   {  // The daemon still serves.
     grpc::ClientContext context;
     pb::ListSessionsRequest list;
@@ -263,6 +277,7 @@ TEST_F(ApiFixture, TlsWithTokenWhenCertificatesAreConfigured) {
   ASSERT_EQ(std::system(command.c_str()), 0);
   lab.config.tls_certificate_file = cert.string();
   lab.config.tls_private_key_file = key.string();
+  lab.config.tcp_insecure = false;
   start();
   std::ifstream in(cert);
   std::stringstream pem;
@@ -281,6 +296,243 @@ TEST_F(ApiFixture, TlsWithTokenWhenCertificatesAreConfigured) {
   context.AddMetadata("authorization", "Bearer test-token-0123456789");
   pb::ListOperationsResponse response;
   EXPECT_FALSE(pb::OperationService::NewStub(plain)->ListOperations(&context, {}, &response).ok());
+}
+
+// A raw call: `body` as the message bytes, whatever they are.
+grpc::Status raw_call(std::shared_ptr<grpc::Channel> channel, const std::string& method, const std::string& body,
+                      const char* authorization) {
+  grpc::GenericStub generic(channel);
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+  if (authorization) context.AddMetadata("authorization", authorization);
+  grpc::Slice slice(body);
+  grpc::ByteBuffer request(&slice, 1), response;
+  std::promise<grpc::Status> done;
+  generic.UnaryCall(&context, method, grpc::StubOptions(), &request, &response,
+                    [&](grpc::Status status) { done.set_value(status); });
+  return done.get_future().get();
+}
+
+TEST_F(ApiFixture, OverTcpTheTokenIsCheckedBeforeTheMessageIsParsed) {
+  start();
+  auto tcp = grpc::CreateChannel("127.0.0.1:" + std::to_string(server->tcp_port()), grpc::InsecureChannelCredentials());
+  const std::string malformed("\xff\xff\xff\xff\x0f", 5);  // not a protobuf message
+  const char* method = "/chromosphere.v1.SessionService/StartSession";
+  for (const char* authorization : {static_cast<const char*>(nullptr), "Bearer wrong-token-0123456789"}) {
+    const grpc::Status status = raw_call(tcp, method, malformed, authorization);
+    EXPECT_EQ(status.error_code(), StatusCode::UNAUTHENTICATED) << status.error_message();
+    EXPECT_THAT(status.error_message(), ::testing::StartsWith("authorization: "));
+  }
+  // With the token, the same bytes reach the parser (and are refused there),
+  // and nothing was started by any of them.
+  const grpc::Status parsed = raw_call(tcp, method, malformed, "Bearer test-token-0123456789");
+  EXPECT_NE(parsed.error_code(), StatusCode::UNAUTHENTICATED);
+  EXPECT_NE(parsed.error_code(), StatusCode::OK);
+  EXPECT_TRUE(daemon->operations().list().empty());
+  // The Unix socket needs no token.
+  EXPECT_EQ(raw_call(channel, "/chromosphere.v1.OperationService/ListOperations", "", nullptr).error_code(), StatusCode::OK);
+}
+
+// Threads of this process (the test's client and the daemon's server).
+int thread_count() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line))
+    if (line.rfind("Threads:", 0) == 0) return std::stoi(line.substr(8));
+  return -1;
+}
+
+TEST_F(ApiFixture, StreamsBeyondMaxStreamsAreRefusedAndThreadsStayBounded) {
+  ASSERT_EQ(lab.config.max_streams, 64u);  // the documented default
+  start();
+  const int baseline = thread_count();
+  std::atomic<bool> sampling{true};
+  std::atomic<int> peak{0};
+  std::thread sampler([&] {
+    while (sampling) {
+      peak = std::max(peak.load(), thread_count());
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+  });
+  // 1000 subscriptions at once, plus a WatchOperation of a past session: one
+  // counter for every server-streaming call.
+  constexpr int kAttempts = 1000;
+  auto events = pb::EventService::NewStub(channel);
+  std::vector<std::unique_ptr<grpc::ClientContext>> contexts;
+  std::vector<std::unique_ptr<grpc::ClientReader<pb::Event>>> readers;
+  for (int i = 0; i < kAttempts; ++i) {
+    contexts.push_back(std::make_unique<grpc::ClientContext>());
+    contexts.back()->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+    readers.push_back(events->Subscribe(contexts.back().get(), pb::SubscribeRequest{}));
+  }
+  // Every accepted stream gets the next log event; a refused one ends.
+  std::atomic<bool> publishing{true};
+  std::thread publisher([&] {
+    while (publishing) {
+      Event event;
+      event.kind = Event::Kind::kLog;
+      event.log = "ping";
+      daemon->events().publish(event);
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  });
+  int accepted = 0, refused_by_limit = 0;
+  std::vector<std::size_t> open;
+  for (std::size_t i = 0; i < readers.size(); ++i) {
+    pb::Event event;
+    if (readers[i]->Read(&event)) {
+      ++accepted;
+      open.push_back(i);
+      continue;
+    }
+    const grpc::Status status = readers[i]->Finish();
+    EXPECT_EQ(status.error_code(), StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
+    if (status.error_message().rfind("max_streams: 64 streaming calls are open", 0) == 0) ++refused_by_limit;
+  }
+  EXPECT_EQ(accepted, 64);
+  EXPECT_GT(refused_by_limit, 0);
+  // While 64 streams run: a unary call still answers, a 65th stream (of the
+  // other kind) is refused naming the limit.
+  pb::ListOperationsResponse listed;
+  {
+    grpc::ClientContext context;
+    EXPECT_TRUE(pb::OperationService::NewStub(channel)->ListOperations(&context, {}, &listed).ok());
+  }
+  {
+    grpc::ClientContext context;
+    pb::WatchOperationRequest request;
+    request.set_id("20260101T000000Z-none-000000");
+    auto reader = pb::OperationService::NewStub(channel)->WatchOperation(&context, request);
+    pb::Operation operation;
+    EXPECT_FALSE(reader->Read(&operation));
+    const grpc::Status status = reader->Finish();
+    EXPECT_EQ(status.error_code(), StatusCode::RESOURCE_EXHAUSTED);
+    EXPECT_THAT(status.error_message(), ::testing::HasSubstr("max_streams: 64"));
+  }
+  sampling = false;
+  sampler.join();
+  // Closing one frees its slot: the next subscription is served.
+  contexts[open.front()]->TryCancel();
+  readers[open.front()]->Finish();
+  open.erase(open.begin());
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  {
+    grpc::ClientContext context;
+    auto reader = events->Subscribe(&context, pb::SubscribeRequest{});
+    pb::Event event;
+    EXPECT_TRUE(reader->Read(&event));
+    context.TryCancel();
+    reader->Finish();
+  }
+  publishing = false;
+  publisher.join();
+  for (std::size_t i : open) contexts[i]->TryCancel();
+  for (std::size_t i : open) readers[i]->Finish();
+  std::cout << "threads: baseline " << baseline << ", peak " << peak << " with " << kAttempts << " stream attempts\n";
+  // 64 streams + 32 unary + pollers (server.cpp's resource quota), plus the
+  // test's own threads: not one per attempt.
+  EXPECT_LT(peak.load(), baseline + 64 + 32 + 16);
+}
+
+// The audit log's id of a token: the top 32 bits of its FNV-1a hash, in hex.
+std::string services_token_id() {
+  files::Fnv1a hash;
+  hash.add(kToken, std::strlen(kToken));
+  char hex[9];
+  std::snprintf(hex, sizeof hex, "%08x", static_cast<unsigned>(hash.h >> 32));
+  return hex;
+}
+
+std::vector<nlohmann::json> audit_lines(const std::filesystem::path& sessions_dir) {
+  std::vector<nlohmann::json> lines;
+  std::ifstream in(sessions_dir / "audit.jsonl");
+  for (std::string line; std::getline(in, line);) lines.push_back(nlohmann::json::parse(line));
+  return lines;
+}
+
+TEST_F(ApiFixture, ASessionIsDeletedWithItsOwnCacheEntriesAndTheAuditLogSaysWho) {
+  lab.config.estimation.cache_dir = (lab.directory / "cache").string();
+  start();
+  auto sessions = pb::SessionService::NewStub(channel);
+  auto remove = [&](const std::string& id, pb::DeleteSessionResponse* response) {
+    grpc::ClientContext context;
+    return sessions->DeleteSession(&context, [&] {
+      pb::DeleteSessionRequest request;
+      request.set_id(id);
+      return request;
+    }(), response);
+  };
+  pb::StartSessionRequest request;
+  request.set_standard(true);
+  request.set_exposure_us(1000);
+  pb::Operation started;
+  ASSERT_TRUE(start_session(*channel, request, &started).ok());
+  pb::DeleteSessionResponse response;
+  // Refused while it runs; nothing removed.
+  grpc::Status status = remove(started.id(), &response);
+  EXPECT_EQ(status.error_code(), StatusCode::FAILED_PRECONDITION) << status.error_message();
+  EXPECT_THAT(status.error_message(), ::testing::HasSubstr("cancel it first"));
+  ASSERT_EQ(watch_to_end(started.id()).state(), pb::OPERATION_STATE_SUCCEEDED);
+  const auto folder = lab.config.sessions_dir / started.id();
+  ASSERT_TRUE(std::filesystem::exists(folder / "session.json"));
+  // Its table (named by its results) and another session's.
+  std::filesystem::create_directories(folder / "results");
+  std::filesystem::create_directories(lab.directory / "cache");
+  std::ofstream(folder / "results" / "summary.json") << R"({"table": {"key": "00000000000000aa"}})";
+  std::filesystem::create_directories(lab.config.sessions_dir / "other" / "results");
+  std::ofstream(lab.config.sessions_dir / "other" / "results" / "summary.json") << R"({"table": {"key": "00000000000000bb"}})";
+  for (const char* name : {"forward_table_00000000000000aa.bin", "forward_table_00000000000000bb.bin"})
+    std::ofstream(lab.directory / "cache" / name) << "table";
+  for (const char* hostile : {"..", ".", "../sessions", ""}) {
+    status = remove(hostile, &response);
+    EXPECT_EQ(status.error_code(), StatusCode::INVALID_ARGUMENT) << hostile;
+    EXPECT_THAT(status.error_message(), ::testing::StartsWith("id: ")) << hostile;
+  }
+  EXPECT_EQ(remove("20260101T000000Z-none-000000", &response).error_code(), StatusCode::NOT_FOUND);
+  status = remove(started.id(), &response);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_GE(response.files_removed(), 9u);  // session.json, journal, 7 frames, ...
+  EXPECT_GT(response.bytes_removed(), 7u * 160 * 120 * 2);
+  ASSERT_EQ(response.cache_entries_removed_size(), 1);
+  EXPECT_EQ(response.cache_entries_removed(0), "forward_table_00000000000000aa.bin");
+  EXPECT_FALSE(std::filesystem::exists(folder));
+  EXPECT_FALSE(std::filesystem::exists(lab.directory / "cache" / "forward_table_00000000000000aa.bin"));
+  EXPECT_TRUE(std::filesystem::exists(lab.directory / "cache" / "forward_table_00000000000000bb.bin"));
+  EXPECT_TRUE(std::filesystem::exists(lab.config.sessions_dir / "other" / "results" / "summary.json"));
+  {
+    grpc::ClientContext context;
+    pb::GetSessionRequest get;
+    get.set_id(started.id());
+    pb::SessionDetail detail;
+    EXPECT_EQ(sessions->GetSession(&context, get, &detail).error_code(), StatusCode::NOT_FOUND);
+  }
+  EXPECT_EQ(remove(started.id(), &response).error_code(), StatusCode::NOT_FOUND);
+  // Over TCP: the token's id, never the token.
+  auto tcp = grpc::CreateChannel("127.0.0.1:" + std::to_string(server->tcp_port()), grpc::InsecureChannelCredentials());
+  {
+    grpc::ClientContext context;
+    context.AddMetadata("authorization", std::string("Bearer ") + kToken);
+    pb::CancelOperationRequest cancel;
+    cancel.set_id(started.id());
+    pb::Operation out;
+    EXPECT_EQ(pb::OperationService::NewStub(tcp)->CancelOperation(&context, cancel, &out).error_code(), StatusCode::NOT_FOUND);
+  }
+  const auto lines = audit_lines(lab.config.sessions_dir);
+  const std::string uid = "uid:" + std::to_string(::getuid());
+  std::vector<std::string> seen;
+  for (const auto& line : lines) seen.push_back(line["action"].get<std::string>() + " " + line["who"].get<std::string>() + " " + line["outcome"].get<std::string>());
+  const std::vector<std::string> expected{
+      "start_session " + uid + " ok", "delete_session " + uid + " refused", "delete_session " + uid + " refused",
+      "delete_session " + uid + " refused", "delete_session " + uid + " refused", "delete_session " + uid + " refused",
+      "delete_session " + uid + " refused", "delete_session " + uid + " ok", "delete_session " + uid + " refused",
+      "cancel token:" + services_token_id() + " refused"};
+  EXPECT_EQ(seen, expected);
+  EXPECT_EQ(lines[0]["session"], started.id());
+  EXPECT_EQ(lines[7]["session"], started.id());
+  EXPECT_EQ(lines[7]["cache_entries_removed"][0], "forward_table_00000000000000aa.bin");
+  std::ifstream raw(lab.config.sessions_dir / "audit.jsonl");
+  const std::string text((std::istreambuf_iterator<char>(raw)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(text.find(kToken), std::string::npos);
 }
 
 TEST_F(ApiFixture, HealthServiceAnswersServing) {

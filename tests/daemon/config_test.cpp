@@ -89,7 +89,7 @@ ChromodRun run_chromod(const fs::path& directory, std::vector<std::string> argum
 
 TEST(DaemonConfig, ParsesDevicesAndRefusesBadFieldsByName) {
   auto config = parse_config(nlohmann::json::parse(R"({
-    "unix_socket": "/tmp/x.sock", "tcp_address": "127.0.0.1:7443", "token": "0123456789abcdef",
+    "unix_socket": "/tmp/x.sock", "tcp_address": "127.0.0.1:7443", "token": "0123456789abcdef", "tcp_insecure": true,
     "devices": [{"name": "sphere", "kind": "led_controller", "backend": "modbus-tcp", "address": "127.0.0.1:1502"},
                 {"name": "cam0", "kind": "camera", "backend": "aravis", "address": "SN123", "settings": {"gain_db": 3}}],
     "mixes": {"d65": {"W57": 0.5, "B": 0.2}}})"));
@@ -100,6 +100,16 @@ TEST(DaemonConfig, ParsesDevicesAndRefusesBadFieldsByName) {
 
   auto refused = [](const char* text) { return daemon::refused(nlohmann::json::parse(text)); };
   EXPECT_NE(refused(R"({"tcp_address": "0.0.0.0:1", "token": "short"})").find("token"), std::string::npos);
+  // TCP is TLS unless the configuration says insecure, explicitly.
+  EXPECT_NE(refused(R"({"tcp_address": "127.0.0.1:1", "token": "0123456789abcdef"})").find("tcp_insecure: TCP without TLS"),
+            std::string::npos);
+  EXPECT_NE(refused(R"({"tcp_address": "127.0.0.1:1", "token": "0123456789abcdef", "tcp_insecure": true,
+                       "tls_certificate_file": "c.pem", "tls_private_key_file": "k.pem"})").find("tcp_insecure: true contradicts"),
+            std::string::npos);
+  EXPECT_NE(refused(R"({"tcp_address": "127.0.0.1:1", "tcp_insecure": true})").find("token: "), std::string::npos);
+  EXPECT_NE(refused(R"({"tcp_insecure": "yes"})").find("tcp_insecure"), std::string::npos);
+  EXPECT_NE(refused(R"({"max_streams": 0})").find("max_streams: must be in [1, 1024]"), std::string::npos);
+  EXPECT_EQ(parse_config(nlohmann::json::parse("{}")).max_streams, 64u);
   EXPECT_NE(refused(R"({"frame_attempts": "three"})").find("frame_attempts"), std::string::npos);
   EXPECT_NE(refused(R"({"colour": 1})").find("unknown key \"colour\""), std::string::npos);
   EXPECT_NE(refused(R"({"devices": [{"name": "a", "kind": "toaster", "backend": "x"}]})").find("devices[0].kind"),

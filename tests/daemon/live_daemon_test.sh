@@ -5,7 +5,8 @@
 set -euo pipefail
 chromod=$1 chromo=$2 stubs=$3 source=$4 mode=$5
 work=$(mktemp -d /tmp/chromo-live-XXXXXX)
-"$chromod" --socket "$work/s.sock" --sessions-dir "$work/sessions" >"$work/chromod.log" 2>&1 &
+echo "{\"maps_dir\": \"$work/maps\"}" >"$work/chromod.json"
+"$chromod" --config "$work/chromod.json" --socket "$work/s.sock" --sessions-dir "$work/sessions" >"$work/chromod.log" 2>&1 &
 daemon_pid=$!
 cleanup() { kill -9 "$daemon_pid" 2>/dev/null || true; wait "$daemon_pid" 2>/dev/null || true; rm -rf "$work"; }
 trap cleanup EXIT
@@ -23,17 +24,20 @@ case "$mode" in
     grep -q "frames stored: 7" "$work/out" || fail "not 7 frames"
     # The Maps service through the Python client (docs/maps.md).
     t "$chromo" make-maps-test-data --out "$work/scene" --width 32 --height 24 >"$work/out" 2>&1 || fail "test data"
-    t "$chromo" estimate "$work/scene/MEASUREMENT.json" --out "$work/est" --cache-dir "$work/cache" >"$work/out" 2>&1 ||
+    t "$chromo" estimate "$work/scene/MEASUREMENT.json" --out "$work/maps/est" --cache-dir "$work/cache" >"$work/out" 2>&1 ||
       fail "estimate"
     CHROMO_PY_STUBS="$stubs" t /usr/bin/python3 -c "
 import sys
 sys.path.insert(0, '$source/clients/python')
 from chromosphere_client import Client
 client = Client('unix:$work/s.sock')
-print('relit', client.relight('$work/est/maps.exr', 'W40', '$work/relit').relit_pixels)
+response = client.relight('est/maps.exr', 'W40')
+print('relit', response.relit_pixels)
+print('out_dir', response.out_dir)
 " >"$work/out" 2>&1 || fail "relight exited $?"
     grep -Eq "^relit [1-7][0-9]{2}$" "$work/out" || fail "relight did not relight most of the 32x24 pixels"
-    [[ -f "$work/relit/relit.png" ]] || fail "no relit.png"
+    out_dir=$(sed -n 's/^out_dir //p' "$work/out")
+    [[ "$out_dir" == products/relight-* && -f "$work/maps/$out_dir/relit.png" ]] || fail "no relit.png in products/"
     ;;
   cli)
     export CHROMO_DAEMON="unix:$work/s.sock"

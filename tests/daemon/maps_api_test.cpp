@@ -6,6 +6,10 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include <fstream>
+#include <map>
+#include <set>
+
 #include "chromo/daemon/server.hpp"
 #include "chromo/files/float_image.hpp"
 #include "chromo/simulators/scene/external_maps_scene.hpp"
@@ -18,6 +22,7 @@ namespace {
 namespace fs = std::filesystem;
 namespace pb = chromosphere::v1;
 using ::testing::HasSubstr;
+using ::testing::Not;
 using ::testing::StartsWith;
 
 struct MapsApi : ::testing::Test {
@@ -28,11 +33,12 @@ struct MapsApi : ::testing::Test {
   fs::path data;
 
   void SetUp() override {
+    lab.config.maps_dir = lab.directory / "maps-work";
     daemon = lab.daemon();
     server = std::make_unique<Server>(*daemon);
     stub = pb::MapsService::NewStub(
         grpc::CreateChannel("unix:" + lab.config.unix_socket, grpc::InsecureChannelCredentials()));
-    data = lab.directory / "data";
+    data = lab.directory / "maps-work";
     fs::create_directories(data);
     const std::size_t n = 24 * 16;
     files::FloatImage maps{24, 16, {"Cm", "Ch", "Bm", "Che", "flags"},
@@ -47,37 +53,40 @@ TEST_F(MapsApi, RelightFlushAndProfilesWriteTheirFiles) {
   {
     grpc::ClientContext context;
     pb::RelightRequest request;
-    request.set_maps_file((data / "maps.exr").string());
+    request.set_maps_file("maps.exr");
     request.set_illuminant("4000K");
-    request.set_out_dir((data / "relit").string());
+    request.set_label("warm");
     pb::RelightResponse response;
     const grpc::Status status = stub->Relight(&context, request, &response);
     ASSERT_TRUE(status.ok()) << status.error_message();
     EXPECT_EQ(response.relit_pixels(), 24u * 16u);
     EXPECT_EQ(response.illuminant(), "4000K");
-    EXPECT_TRUE(fs::exists(data / "relit" / "relit.exr"));
+    // A new folder of its own, named after the operation, relative paths only.
+    EXPECT_THAT(response.out_dir(), ::testing::MatchesRegex("products/relight-[0-9]{8}T[0-9]{6}Z-[0-9a-f]{6}-warm"));
+    EXPECT_TRUE(fs::exists(data / response.out_dir() / "relit.exr"));
+    ASSERT_GT(response.files_size(), 0);
+    for (const auto& file : response.files()) EXPECT_THAT(file, StartsWith(response.out_dir() + "/"));
     EXPECT_THAT(response.summary_json(), HasSubstr("\"relit_pixels\": 384"));
   }
   {
     grpc::ClientContext context;
     pb::FlushRequest request;
-    request.set_maps_file((data / "maps.exr").string());
+    request.set_maps_file("maps.exr");
     request.mutable_scale()->set_ch(10);  // 0.4 > 0.32: clamped
     auto* e = request.mutable_ellipse();
     e->set_center_x_px(12), e->set_center_y_px(8), e->set_radius_x_px(6), e->set_radius_y_px(4);
-    request.set_out_dir((data / "flushed").string());
     pb::FlushResponse response;
     const grpc::Status status = stub->Flush(&context, request, &response);
     ASSERT_TRUE(status.ok()) << status.error_message();
     EXPECT_GT(response.pixels_touched(), 50u);
     EXPECT_DOUBLE_EQ(response.clamped_share(), 0.25);
-    EXPECT_TRUE(fs::exists(data / "flushed" / "panel.png"));
+    EXPECT_THAT(response.out_dir(), StartsWith("products/flush-"));
+    EXPECT_TRUE(fs::exists(data / response.out_dir() / "panel.png"));
   }
   {
     grpc::ClientContext context;
     pb::ExportProfilesRequest request;
-    request.set_out_dir((data / "profiles").string());
-    request.set_maps_file((data / "maps.exr").string());
+    request.set_maps_file("maps.exr");
     for (double v : {0.01, 0.1}) request.add_cm(v), request.add_ch(v);
     request.add_bm(0.7), request.add_che(0.0);
     pb::ExportProfilesResponse response;
@@ -85,7 +94,8 @@ TEST_F(MapsApi, RelightFlushAndProfilesWriteTheirFiles) {
     ASSERT_TRUE(status.ok()) << status.error_message();
     EXPECT_EQ(response.entries(), 4u);
     EXPECT_LT(response.worst_plane_integral_error(), 0.005);
-    EXPECT_TRUE(fs::exists(data / "profiles" / "index.exr"));
+    EXPECT_THAT(response.out_dir(), StartsWith("products/profiles-"));
+    EXPECT_TRUE(fs::exists(data / response.out_dir() / "index.exr"));
   }
 }
 
@@ -96,17 +106,17 @@ TEST_F(MapsApi, ImportMapsGivesTheTableTwoComparison) {
   ::setenv("CHROMO_CACHE_DIR", (lab.directory / "cache").c_str(), 1);
   grpc::ClientContext context;
   pb::ImportMapsRequest request;
-  request.set_melanin_file((data / "scene" / "melanin.png").string());
-  request.set_hemoglobin_file((data / "scene" / "hemoglobin.png").string());
-  request.set_measurement_file((data / "scene" / "MEASUREMENT.json").string());
-  request.set_out_dir((data / "imported").string());
+  request.set_melanin_file("scene/melanin.png");
+  request.set_hemoglobin_file("scene/hemoglobin.png");
+  request.set_measurement_file("scene/MEASUREMENT.json");
   pb::ImportMapsResponse response;
   const grpc::Status status = stub->ImportMaps(&context, request, &response);
   ASSERT_TRUE(status.ok()) << status.error_message();
   EXPECT_GT(response.mapped_2d().mean(), response.augmented().mean());
   EXPECT_GT(response.augmented().mean(), response.search_4d().mean());
   EXPECT_TRUE(response.melanin_increasing());
-  EXPECT_TRUE(fs::exists(data / "imported" / "comparison.json"));
+  EXPECT_THAT(response.out_dir(), StartsWith("products/import-maps-"));
+  EXPECT_TRUE(fs::exists(data / response.out_dir() / "comparison.json"));
 }
 
 TEST_F(MapsApi, HostileRequestsAreRefusedWithTheFieldNamed) {
@@ -116,9 +126,8 @@ TEST_F(MapsApi, HostileRequestsAreRefusedWithTheFieldNamed) {
     return stub->Relight(&context, request, &response);
   };
   pb::RelightRequest good;
-  good.set_maps_file((data / "maps.exr").string());
+  good.set_maps_file("maps.exr");
   good.set_illuminant("D65");
-  good.set_out_dir((data / "out").string());
   struct Case {
     std::function<void(pb::RelightRequest&)> change;
     grpc::StatusCode code;
@@ -126,16 +135,21 @@ TEST_F(MapsApi, HostileRequestsAreRefusedWithTheFieldNamed) {
   };
   const std::vector<Case> cases{
       {[](auto& r) { r.clear_maps_file(); }, grpc::StatusCode::INVALID_ARGUMENT, "maps_file: required"},
-      {[](auto& r) { r.set_maps_file("relative/maps.exr"); }, grpc::StatusCode::INVALID_ARGUMENT, "maps_file: must be an absolute"},
-      {[&](auto& r) { r.set_maps_file((data / "missing.exr").string()); }, grpc::StatusCode::INVALID_ARGUMENT, "maps_file: "},
+      {[&](auto& r) { r.set_maps_file((data / "maps.exr").string()); }, grpc::StatusCode::INVALID_ARGUMENT,
+       "maps_file: must be a path relative to maps_dir, not absolute"},
+      {[](auto& r) { r.set_maps_file("missing.exr"); }, grpc::StatusCode::INVALID_ARGUMENT, "maps_file: missing.exr: no such file"},
+      {[](auto& r) { r.set_maps_file("."); }, grpc::StatusCode::INVALID_ARGUMENT, "maps_file: .: not a regular file"},
+      {[](auto& r) { r.set_maps_file("../maps-work/maps.exr"); }, grpc::StatusCode::INVALID_ARGUMENT, "maps_file: must not contain"},
       {[](auto& r) { r.set_illuminant("D66"); }, grpc::StatusCode::INVALID_ARGUMENT, "illuminant: "},
       {[](auto& r) { r.clear_illuminant(); }, grpc::StatusCode::INVALID_ARGUMENT, "illuminant: required"},
-      {[](auto& r) { r.clear_out_dir(); }, grpc::StatusCode::INVALID_ARGUMENT, "out_dir: required"},
-      {[](auto& r) { r.set_out_dir(std::string(5000, 'x')); }, grpc::StatusCode::INVALID_ARGUMENT, "out_dir: longer"},
+      {[](auto& r) { r.set_label("."); }, grpc::StatusCode::INVALID_ARGUMENT, "label: must match"},
+      {[](auto& r) { r.set_label("frames/dark"); }, grpc::StatusCode::INVALID_ARGUMENT, "label: must match"},
+      {[](auto& r) { r.set_label(std::string(5000, 'x')); }, grpc::StatusCode::INVALID_ARGUMENT, "label: must match"},
+      {[](auto& r) { r.set_illuminant("/dev/zero"); }, grpc::StatusCode::INVALID_ARGUMENT, "illuminant: must be a path relative"},
+      {[](auto& r) { r.set_camera("/etc/passwd"); }, grpc::StatusCode::INVALID_ARGUMENT, "camera: must be a path relative"},
       {[](auto& r) { r.set_session_id("no-such-session"); }, grpc::StatusCode::NOT_FOUND, "session_id: "},
       {[](auto& r) { r.set_session_id("../etc"); }, grpc::StatusCode::INVALID_ARGUMENT, "session_id: "},
-      {[&](auto& r) { r.set_photograph_file((data / "maps.exr").string()); }, grpc::StatusCode::INVALID_ARGUMENT,
-       "photograph_file: "},
+      {[&](auto& r) { r.set_photograph_file("maps.exr"); }, grpc::StatusCode::INVALID_ARGUMENT, "photograph_file: "},
       {[](auto& r) { r.set_heat_map_max(-1); }, grpc::StatusCode::INVALID_ARGUMENT, "heat_map_max: "},
   };
   for (const Case& c : cases) {
@@ -144,13 +158,13 @@ TEST_F(MapsApi, HostileRequestsAreRefusedWithTheFieldNamed) {
     const grpc::Status status = relight(request);
     EXPECT_EQ(status.error_code(), c.code) << c.field << ": " << status.error_message();
     EXPECT_THAT(status.error_message(), StartsWith(c.field));
-    EXPECT_FALSE(fs::exists(data / "out")) << c.field;
+    EXPECT_THAT(status.error_message(), Not(HasSubstr(lab.directory.string()))) << c.field;
+    EXPECT_FALSE(fs::exists(data / "products")) << c.field;
   }
   // Flush: a region outside the image, no region, a mask of another size.
   grpc::ClientContext context;
   pb::FlushRequest flush;
-  flush.set_maps_file((data / "maps.exr").string());
-  flush.set_out_dir((data / "out").string());
+  flush.set_maps_file("maps.exr");
   flush.mutable_scale()->set_ch(1.5);
   auto* e = flush.mutable_ellipse();
   e->set_center_x_px(-100), e->set_center_y_px(-100), e->set_radius_x_px(5), e->set_radius_y_px(5);
@@ -163,7 +177,7 @@ TEST_F(MapsApi, HostileRequestsAreRefusedWithTheFieldNamed) {
   status = stub->Flush(&context2, flush, &response);
   EXPECT_THAT(status.error_message(), StartsWith("region: "));
   flush.mutable_scale()->set_che(-2);
-  flush.set_mask_file((data / "maps.exr").string());
+  flush.set_mask_file("maps.exr");
   grpc::ClientContext context3;
   status = stub->Flush(&context3, flush, &response);
   EXPECT_THAT(status.error_message(), StartsWith("scale.che: "));
@@ -172,13 +186,133 @@ TEST_F(MapsApi, HostileRequestsAreRefusedWithTheFieldNamed) {
     grpc::ClientContext import_context;
     pb::ImportMapsRequest import;
     import.set_search_4d(search);
-    import.set_out_dir((data / "out").string());
     pb::ImportMapsResponse import_response;
     status = stub->ImportMaps(&import_context, import, &import_response);
     EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << search;
     EXPECT_THAT(status.error_message(), StartsWith("search_4d: ")) << search;
   }
-  EXPECT_FALSE(fs::exists(data / "out"));
+  EXPECT_FALSE(fs::exists(data / "products"));
+}
+
+// Every file under `folder` (recursively) with its bytes.
+std::map<std::string, std::string> snapshot(const fs::path& folder) {
+  std::map<std::string, std::string> files;
+  for (const auto& entry : fs::recursive_directory_iterator(folder)) {
+    if (!entry.is_regular_file()) continue;
+    std::ifstream in(entry.path(), std::ios::binary);
+    files[entry.path().lexically_relative(folder).string()] =
+        std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  return files;
+}
+
+TEST_F(MapsApi, ASessionsResultsAndFramesAreNeverWrittenAndNothingOutsideIsRead) {
+  const auto started = daemon->start_session(testing::quick_standard_plan(), "maps api");
+  const auto ended = testing::wait_final(*daemon, started.id);
+  ASSERT_EQ(ended.state, session::OperationState::kSucceeded) << ended.error;
+  const fs::path folder = lab.config.sessions_dir / started.id;
+  // Without an LED library (no calibration run here) the estimator may
+  // publish no maps; then published maps are put in place as the estimator
+  // leaves them (results/maps.exr).
+  if (!fs::exists(folder / "results" / "maps.exr")) {
+    fs::create_directories(folder / "results");
+    fs::copy_file(data / "maps.exr", folder / "results" / "maps.exr");
+  }
+  // Planted by someone with a shell: links out of the session folder.
+  fs::create_symlink("/root/.ssh/id_rsa", folder / "key.exr");
+  fs::create_symlink("/etc/shadow", folder / "shadow.exr");
+  fs::create_symlink("/dev/zero", folder / "zero.csv");
+  fs::create_symlink("/etc", folder / "etc");
+  const auto results_before = snapshot(folder / "results");
+  const auto frames_before = snapshot(folder / "frames");
+  ASSERT_GT(frames_before.size(), 6u);
+
+  // The reproduced data loss: Flush(maps_file results/maps.exr, out_dir results).
+  grpc::ClientContext flush_context;
+  pb::FlushRequest flush;
+  flush.set_session_id(started.id);
+  flush.set_maps_file("results/maps.exr");
+  flush.set_label("results");
+  flush.mutable_scale()->set_ch(1.5);
+  auto* e = flush.mutable_ellipse();
+  e->set_center_x_px(30), e->set_center_y_px(20), e->set_radius_x_px(10), e->set_radius_y_px(8);
+  pb::FlushResponse flushed;
+  const grpc::Status flush_status = stub->Flush(&flush_context, flush, &flushed);
+  ASSERT_TRUE(flush_status.ok()) << flush_status.error_message();
+  EXPECT_THAT(flushed.out_dir(), ::testing::MatchesRegex("products/flush-[0-9]{8}T[0-9]{6}Z-[0-9a-f]{6}-results"));
+  EXPECT_TRUE(fs::exists(folder / flushed.out_dir() / "maps.exr"));
+
+  auto relight = [&](const std::function<void(pb::RelightRequest&)>& change) {
+    pb::RelightRequest request;
+    request.set_session_id(started.id);
+    request.set_maps_file("results/maps.exr");
+    request.set_illuminant("W27");
+    change(request);
+    grpc::ClientContext context;
+    pb::RelightResponse response;
+    const grpc::Status status = stub->Relight(&context, request, &response);
+    return std::make_pair(status, response);
+  };
+  // Relit from the session's maps into products/, never into frames/.
+  const auto [ok, relit] = relight([](auto&) {});
+  ASSERT_TRUE(ok.ok()) << ok.error_message();
+  EXPECT_THAT(relit.out_dir(), StartsWith("products/relight-"));
+  // Flagged pixels (dark, saturated) are not relit: most of the maps are.
+  EXPECT_GT(relit.relit_pixels(), 0.9 * relit.width() * relit.height());
+  struct Case {
+    std::function<void(pb::RelightRequest&)> change;
+    std::string message;
+  };
+  const std::vector<Case> refused{
+      {[](auto& r) { r.set_label("."); }, "label: must match [A-Za-z0-9_+.-]{1,64}"},
+      {[](auto& r) { r.set_label("frames/dark"); }, "label: must match [A-Za-z0-9_+.-]{1,64}"},
+      {[](auto& r) { r.set_maps_file("/etc/shadow"); }, "maps_file: must be a path relative to the session folder, not absolute"},
+      {[](auto& r) { r.set_maps_file("/root/.ssh/id_rsa"); }, "maps_file: must be a path relative to the session folder, not absolute"},
+      // A missing and an unreadable target outside read the same.
+      {[](auto& r) { r.set_maps_file("key.exr"); }, "maps_file: key.exr leads outside the session folder"},
+      {[](auto& r) { r.set_maps_file("shadow.exr"); }, "maps_file: shadow.exr leads outside the session folder"},
+      {[](auto& r) { r.set_maps_file("etc/shadow"); }, "maps_file: etc/shadow leads outside the session folder"},
+      {[](auto& r) { r.set_maps_file("etc/no-such-file"); }, "maps_file: etc/no-such-file leads outside the session folder"},
+      {[](auto& r) { r.set_illuminant("zero.csv"); }, "illuminant: zero.csv leads outside the session folder"},
+      {[](auto& r) { r.set_illuminant("/dev/zero"); }, "illuminant: must be a path relative to the session folder, not absolute"},
+      {[](auto& r) { r.set_maps_file("frames"); }, "maps_file: frames: not a regular file"},
+      {[](auto& r) { r.set_maps_file("results/../../x"); }, "maps_file: must not contain \"..\""},
+  };
+  for (const Case& c : refused) {
+    const auto [status, response] = relight(c.change);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << c.message;
+    EXPECT_EQ(status.error_message(), c.message);
+  }
+  // A library error names the file relative to the session folder.
+  const auto [bad_maps, unused] = relight([](auto& r) { r.set_maps_file("session.json"); });
+  EXPECT_EQ(bad_maps.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(bad_maps.error_message(), StartsWith("maps_file: "));
+  EXPECT_THAT(bad_maps.error_message(), Not(HasSubstr(lab.directory.string())));
+
+  EXPECT_EQ(snapshot(folder / "results"), results_before);
+  EXPECT_EQ(snapshot(folder / "frames"), frames_before);
+  // Two products, nothing else new in the session folder's top level.
+  std::set<std::string> products;
+  for (const auto& entry : fs::directory_iterator(folder / "products")) products.insert(entry.path().filename().string());
+  EXPECT_EQ(products.size(), 2u);
+}
+
+TEST(MapsApiWithoutMapsDir, CallsWithoutASessionAreRefused) {
+  testing::TestLab lab{"maps-api-no-dir"};
+  auto daemon = lab.daemon();
+  Server server(*daemon);
+  auto stub = pb::MapsService::NewStub(grpc::CreateChannel("unix:" + lab.config.unix_socket, grpc::InsecureChannelCredentials()));
+  for (const char* path : {"/etc/shadow", "/root/.ssh/id_rsa", "maps.exr"}) {
+    grpc::ClientContext context;
+    pb::RelightRequest request;
+    request.set_maps_file(path);
+    request.set_illuminant("D65");
+    pb::RelightResponse response;
+    const grpc::Status status = stub->Relight(&context, request, &response);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+    EXPECT_EQ(status.error_message(), "session_id: required (this daemon has no maps_dir for work without a session)");
+  }
+  server.shutdown();
 }
 
 }  // namespace

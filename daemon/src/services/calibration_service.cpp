@@ -32,7 +32,7 @@ class CalibrationServiceImpl final : public pb::CalibrationService::Service {
   }
   Status StartCalibration(ServerContext* context, const pb::StartCalibrationRequest* request,
                           pb::Operation* response) override {
-    return guard_(context, [&] {
+    return guard_.audited(context, "start_calibration", [&](nlohmann::json&) {
       if (request->drive_levels_size() > 64) return invalid("drive_levels: at most 64 rungs");
       if (request->controller().size() > 64) return invalid("controller: longer than 64 bytes");
       if (request->spectrometer().size() > 64) return invalid("spectrometer: longer than 64 bytes");

@@ -11,7 +11,7 @@ class EventServiceImpl final : public pb::EventService::Service {
  public:
   EventServiceImpl(Daemon& daemon, Guard& guard) : daemon_(daemon), guard_(guard) {}
   Status Subscribe(ServerContext* context, const pb::SubscribeRequest* request, grpc::ServerWriter<pb::Event>* writer) override {
-    return guard_(context, [&] {
+    return guard_.stream(context, [&] {
       auto subscription = daemon_.events().subscribe(request->include_frames());
       while (!context->IsCancelled() && !guard_.stopping()) {
         std::uint64_t dropped = 0;

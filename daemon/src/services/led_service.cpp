@@ -22,7 +22,8 @@ class LedServiceImpl final : public pb::LedService::Service {
     });
   }
   Status SetLedState(ServerContext* context, const pb::SetLedStateRequest* request, pb::LedStatus* response) override {
-    return guard_(context, [&] {
+    return guard_.audited(context, "set_led_state", [&](nlohmann::json& details) {
+      details["controller"] = request->controller();
       if (Status s = check_device_name("controller", request->controller()); !s.ok()) return s;
       if (!request->has_state()) return invalid("state: required");
       drivers::LedState state;

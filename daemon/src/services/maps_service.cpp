@@ -1,5 +1,9 @@
 // MapsService: relight, flush, import-maps and profile export on session files (services.hpp, docs/maps.md).
+#include <ctime>
 #include <filesystem>
+#include <mutex>
+#include <optional>
+#include <random>
 #include <string>
 
 #include "chromo/maps/map_operations.hpp"
@@ -34,21 +38,32 @@ std::string api_message(const std::string& message) {
   return message;
 }
 
-class Files {
+// The folder a call works in: the session's (<sessions_dir>/<session_id>) or,
+// without a session, the configured maps_dir. Inputs are relative paths that
+// stay inside it once symbolic links are resolved and name regular files;
+// outputs go to a new folder products/<operation>-<UTC time>-<6 hex>[-label]
+// of their own. Nothing outside the folder is read, written or described.
+class Folder {
  public:
-  Files(Daemon& daemon, const std::string& session_id) {
-    if (session_id.empty()) return;
-    if (session_id.size() > 128) throw Refusal{{StatusCode::INVALID_ARGUMENT, "session_id: longer than 128 bytes"}};
-    for (char c : session_id)
-      if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '+' || c == '.' || c == '-'))
-        throw Refusal{{StatusCode::INVALID_ARGUMENT, "session_id: not an id ([A-Za-z0-9_+.-])"}};
+  Folder(Daemon& daemon, const std::string& session_id) {
+    if (session_id.empty()) {
+      if (daemon.config().maps_dir.empty())
+        throw Refusal{{StatusCode::INVALID_ARGUMENT,
+                       "session_id: required (this daemon has no maps_dir for work without a session)"}};
+      fs::create_directories(daemon.config().maps_dir);
+      base_ = fs::canonical(daemon.config().maps_dir);
+      what_ = "maps_dir";
+      return;
+    }
+    if (Status s = check_id("session_id", session_id); !s.ok()) throw Refusal{s};
     if (!daemon.session(session_id))
       throw Refusal{{StatusCode::NOT_FOUND, "session_id: no session \"" + session_id + "\""}};
-    folder_ = daemon.config().sessions_dir / session_id;
+    base_ = fs::canonical(daemon.config().sessions_dir / session_id);
+    what_ = "the session folder";
   }
 
-  // "" stays "" unless required.
-  fs::path resolve(const std::string& field, const std::string& value, bool required) const {
+  // An input file; "" stays "" unless required.
+  fs::path input(const std::string& field, const std::string& value, bool required) const {
     if (value.empty()) {
       if (required) throw Refusal{{StatusCode::INVALID_ARGUMENT, field + ": required"}};
       return {};
@@ -56,28 +71,86 @@ class Files {
     if (value.size() > kMaxPathBytes) throw Refusal{{StatusCode::INVALID_ARGUMENT, field + ": longer than 4096 bytes"}};
     if (value.find('\0') != std::string::npos) throw Refusal{{StatusCode::INVALID_ARGUMENT, field + ": contains NUL"}};
     const fs::path path(value);
-    if (folder_.empty()) {
-      if (!path.is_absolute())
-        throw Refusal{{StatusCode::INVALID_ARGUMENT, field + ": must be an absolute path when session_id is empty"}};
-      return path.lexically_normal();
-    }
     if (path.is_absolute())
-      throw Refusal{{StatusCode::INVALID_ARGUMENT, field + ": must be relative to the session folder"}};
+      throw Refusal{{StatusCode::INVALID_ARGUMENT, field + ": must be a path relative to " + what_ + ", not absolute"}};
     for (const auto& part : path)
       if (part == "..") throw Refusal{{StatusCode::INVALID_ARGUMENT, field + ": must not contain \"..\""}};
-    return (folder_ / path).lexically_normal();
+    // Every symbolic link on the way must resolve completely, and inside: a
+    // link out of the folder reads as the same refusal whether its target
+    // exists, is unreadable or is missing.
+    const auto outside = [&] { return Refusal{{StatusCode::INVALID_ARGUMENT, field + ": " + value + " leads outside " + what_}}; };
+    std::error_code error;
+    fs::path prefix = base_;
+    for (const auto& part : path) {
+      prefix /= part;
+      if (fs::is_symlink(fs::symlink_status(prefix, error))) {
+        const fs::path target = fs::canonical(prefix, error);
+        if (error || !inside(target)) throw outside();
+      }
+    }
+    const fs::path resolved = fs::weakly_canonical(base_ / path, error);
+    if (error || !inside(resolved)) throw outside();
+    const auto status = fs::status(resolved, error);
+    if (error || !fs::exists(status)) throw Refusal{{StatusCode::INVALID_ARGUMENT, field + ": " + value + ": no such file"}};
+    if (!fs::is_regular_file(status))
+      throw Refusal{{StatusCode::INVALID_ARGUMENT, field + ": " + value + ": not a regular file"}};
+    return resolved;
+  }
+
+  // The new output folder of one call (not created: the library creates it
+  // and removes it again when the call fails).
+  fs::path output(const std::string& operation, const std::string& label) const {
+    if (!label.empty() && !session::is_valid_name(label))
+      throw Refusal{{StatusCode::INVALID_ARGUMENT, "label: must match [A-Za-z0-9_+.-]{1,64}"}};
+    const fs::path products = base_ / "products";
+    std::error_code error;
+    const auto status = fs::symlink_status(products, error);
+    if (fs::exists(status) && !fs::is_directory(status))
+      throw Refusal{{StatusCode::FAILED_PRECONDITION, "products: exists in " + what_ + " and is not a folder"}};
+    static std::mutex mutex;
+    static std::mt19937_64 random{std::random_device{}()};
+    std::uint64_t suffix;
+    {
+      std::lock_guard lock(mutex);
+      suffix = random();
+    }
+    const std::time_t now = std::time(nullptr);
+    std::tm utc{};
+    ::gmtime_r(&now, &utc);
+    char name[64];
+    std::snprintf(name, sizeof name, "%04d%02d%02dT%02d%02d%02dZ-%06llx", utc.tm_year + 1900, utc.tm_mon + 1, utc.tm_mday,
+                  utc.tm_hour, utc.tm_min, utc.tm_sec, static_cast<unsigned long long>(suffix & 0xffffff));
+    fs::path out = products / (operation + "-" + name + (label.empty() ? "" : "-" + label));
+    if (fs::exists(out, error)) throw Refusal{{StatusCode::ABORTED, "out_dir: " + relative(out) + " exists; retry"}};
+    return out;
+  }
+
+  // A path inside the folder as the client names it.
+  std::string relative(const fs::path& path) const { return path.lexically_relative(base_).string(); }
+  // A library message with the folder's own path taken out.
+  std::string scrub(std::string message) const {
+    const std::string prefix = base_.string() + "/";
+    for (std::size_t at; (at = message.find(prefix)) != std::string::npos;) message.erase(at, prefix.size());
+    return message;
   }
 
  private:
-  fs::path folder_;
+  bool inside(const fs::path& path) const {
+    auto b = base_.begin(), p = path.begin();
+    for (; b != base_.end(); ++b, ++p)
+      if (p == path.end() || *p != *b) return false;
+    return true;
+  }
+  fs::path base_;
+  std::string what_;
 };
 
-// Illuminant names that are files follow the path rule; names do not.
-std::string illuminant_field(const Files& files, const std::string& value, const char* fallback) {
+// Illuminant and camera names that are files follow the input rule; names do not.
+std::string name_or_file(const Folder& folder, const char* field, const std::string& value, const char* fallback) {
   if (value.empty()) return fallback;
-  if (value.size() > kMaxPathBytes) throw Refusal{{StatusCode::INVALID_ARGUMENT, "illuminant: longer than 4096 bytes"}};
+  if (value.size() > kMaxPathBytes) throw Refusal{{StatusCode::INVALID_ARGUMENT, std::string(field) + ": longer than 4096 bytes"}};
   const bool looks_like_file = value.find('/') != std::string::npos || value.find('.') != std::string::npos;
-  return looks_like_file ? files.resolve("illuminant", value, true).string() : value;
+  return looks_like_file ? folder.input(field, value, true).string() : value;
 }
 
 void to_proto(const maps::DeltaEStats& s, pb::DeltaEStatistics* out) {
@@ -85,9 +158,11 @@ void to_proto(const maps::DeltaEStats& s, pb::DeltaEStatistics* out) {
   out->set_pixels(s.pixels);
 }
 
+// The output folder and its files, relative to the call's folder.
 template <typename Response>
-void add_files(const std::vector<fs::path>& files, Response* response) {
-  for (const auto& f : files) response->add_files(f.string());
+void add_files(const Folder& folder, const fs::path& out, const std::vector<fs::path>& files, Response* response) {
+  response->set_out_dir(folder.relative(out));
+  for (const auto& f : files) response->add_files(folder.relative(f));
 }
 
 double scale_field(double value, const char* field) {
@@ -101,18 +176,17 @@ class MapsServiceImpl final : public pb::MapsService::Service {
   MapsServiceImpl(Daemon& daemon, Guard& guard) : daemon_(daemon), guard_(guard) {}
 
   Status Relight(ServerContext* context, const pb::RelightRequest* request, pb::RelightResponse* response) override {
-    return run(context, [&] {
-      const Files files(daemon_, request->session_id());
+    return run(context, request->session_id(), [&](const Folder& files) {
       maps::RelightOptions o;
-      o.maps = files.resolve("maps_file", request->maps_file(), true);
+      o.maps = files.input("maps_file", request->maps_file(), true);
       if (request->illuminant().empty()) throw Refusal{{StatusCode::INVALID_ARGUMENT, "illuminant: required"}};
-      o.illuminant = illuminant_field(files, request->illuminant(), "");
-      o.out = files.resolve("out_dir", request->out_dir(), true);
-      o.photograph = files.resolve("photograph_file", request->photograph_file(), false);
+      o.illuminant = name_or_file(files, "illuminant", request->illuminant(), "");
+      o.photograph = files.input("photograph_file", request->photograph_file(), false);
       if (!request->camera().empty()) {
         const bool builtin = request->camera().rfind("builtin:", 0) == 0;
-        o.camera = builtin ? request->camera() : files.resolve("camera", request->camera(), true).string();
+        o.camera = builtin ? request->camera() : files.input("camera", request->camera(), true).string();
       }
+      o.out = files.output("relight", request->label());
       o.heat_map_max = request->heat_map_max();
       const auto s = maps::relight_to_files(o);
       response->set_illuminant(s.illuminant);
@@ -120,18 +194,16 @@ class MapsServiceImpl final : public pb::MapsService::Service {
       response->set_relit_pixels(s.relit_pixels);
       response->set_compared(s.compared);
       to_proto(s.photo_delta_e94, response->mutable_photo_delta_e94());
-      add_files(s.files, response);
+      add_files(files, o.out, s.files, response);
       response->set_summary_json(s.json);
     });
   }
 
   Status Flush(ServerContext* context, const pb::FlushRequest* request, pb::FlushResponse* response) override {
-    return run(context, [&] {
-      const Files files(daemon_, request->session_id());
+    return run(context, request->session_id(), [&](const Folder& files) {
       maps::FlushOptions o;
-      o.maps = files.resolve("maps_file", request->maps_file(), true);
-      o.out = files.resolve("out_dir", request->out_dir(), true);
-      o.illuminant = illuminant_field(files, request->illuminant(), "D65");
+      o.maps = files.input("maps_file", request->maps_file(), true);
+      o.illuminant = name_or_file(files, "illuminant", request->illuminant(), "D65");
       const auto& s = request->scale();
       o.scale = {scale_field(s.cm(), "scale.cm"), scale_field(s.ch(), "scale.ch"), scale_field(s.bm(), "scale.bm"),
                  scale_field(s.che(), "scale.che")};
@@ -150,24 +222,24 @@ class MapsServiceImpl final : public pb::MapsService::Service {
           break;
         }
         case pb::FlushRequest::kMaskFile:
-          o.mask = files.resolve("mask_file", request->mask_file(), true);
+          o.mask = files.input("mask_file", request->mask_file(), true);
           break;
         default:
           throw Refusal{{StatusCode::INVALID_ARGUMENT, "region: give ellipse, polygon or mask_file"}};
       }
+      o.out = files.output("flush", request->label());
       const auto r = maps::flush_to_files(o);
       response->set_pixels_touched(r.edit.pixels_touched);
       response->set_values_clamped(r.edit.values_clamped);
       response->set_clamped_share(r.edit.clamped_share);
       to_proto(r.change_delta_e94, response->mutable_change_delta_e94());
-      add_files(r.files, response);
+      add_files(files, o.out, r.files, response);
       response->set_summary_json(r.json);
     });
   }
 
   Status ImportMaps(ServerContext* context, const pb::ImportMapsRequest* request, pb::ImportMapsResponse* response) override {
-    return run(context, [&] {
-      const Files files(daemon_, request->session_id());
+    return run(context, request->session_id(), [&](const Folder& files) {
       maps::ImportMapsOptions o;
       if (!request->search_4d().empty()) {
         const auto search = estimation::parse_method_name(request->search_4d());
@@ -175,11 +247,11 @@ class MapsServiceImpl final : public pb::MapsService::Service {
           throw Refusal{{StatusCode::INVALID_ARGUMENT, "search_4d: must be \"fast\" or \"exhaustive\""}};
         o.import.search_4d = *search;
       }
-      o.melanin = files.resolve("melanin_file", request->melanin_file(), true);
-      o.hemoglobin = files.resolve("hemoglobin_file", request->hemoglobin_file(), true);
-      o.measurement = files.resolve("measurement_file", request->measurement_file(), true);
-      o.out = files.resolve("out_dir", request->out_dir(), true);
-      o.statistics_mask = files.resolve("statistics_mask_file", request->statistics_mask_file(), false);
+      o.melanin = files.input("melanin_file", request->melanin_file(), true);
+      o.hemoglobin = files.input("hemoglobin_file", request->hemoglobin_file(), true);
+      o.measurement = files.input("measurement_file", request->measurement_file(), true);
+      o.statistics_mask = files.input("statistics_mask_file", request->statistics_mask_file(), false);
+      o.out = files.output("import-maps", request->label());
       if (request->prior_sigma_log10() != 0) o.import.prior_sigma_log10 = request->prior_sigma_log10();
       const auto s = maps::import_maps_to_files(o);
       to_proto(s.result.mapped_2d.stats, response->mutable_mapped_2d());
@@ -187,43 +259,48 @@ class MapsServiceImpl final : public pb::MapsService::Service {
       to_proto(s.result.search_4d.stats, response->mutable_search_4d());
       response->set_melanin_increasing(s.result.cm_mapping.increasing);
       response->set_hemoglobin_increasing(s.result.ch_mapping.increasing);
-      add_files(s.files, response);
+      add_files(files, o.out, s.files, response);
       response->set_summary_json(s.json);
     });
   }
 
   Status ExportProfiles(ServerContext* context, const pb::ExportProfilesRequest* request,
                         pb::ExportProfilesResponse* response) override {
-    return run(context, [&] {
-      const Files files(daemon_, request->session_id());
+    return run(context, request->session_id(), [&](const Folder& files) {
       maps::ExportProfilesOptions o;
-      o.illuminant = illuminant_field(files, request->illuminant(), "D65");
-      o.out = files.resolve("out_dir", request->out_dir(), true);
-      o.maps = files.resolve("maps_file", request->maps_file(), false);
+      o.illuminant = name_or_file(files, "illuminant", request->illuminant(), "D65");
+      o.maps = files.input("maps_file", request->maps_file(), false);
       if (request->cm_size() > 0) o.axes.cm.assign(request->cm().begin(), request->cm().end());
       if (request->ch_size() > 0) o.axes.ch.assign(request->ch().begin(), request->ch().end());
       if (request->bm_size() > 0) o.axes.bm.assign(request->bm().begin(), request->bm().end());
       if (request->che_size() > 0) o.axes.che.assign(request->che().begin(), request->che().end());
       if (o.axes.entry_count() > 100000) throw Refusal{{StatusCode::INVALID_ARGUMENT, "cm, ch, bm, che: more than 100000 profiles"}};
+      o.out = files.output("profiles", request->label());
       const auto s = maps::export_profiles_to_files(o);
       response->set_entries(s.entries), response->set_radii(s.radii);
       response->set_worst_plane_integral_error(s.worst_plane_integral_error);
       response->set_unmapped_pixels(s.unmapped_pixels);
-      add_files(s.files, response);
+      add_files(files, o.out, s.files, response);
     });
   }
 
  private:
+  // The body gets the call's folder; library messages lose the folder's
+  // own path (a client names files relative to it).
   template <typename Body>
-  Status run(ServerContext* context, Body&& body) {
+  Status run(ServerContext* context, const std::string& session_id, Body&& body) {
     return guard_(context, [&]() -> Status {
+      std::optional<Folder> folder;
       try {
-        body();
+        folder.emplace(daemon_, session_id);
+        body(*folder);
         return Status::OK;
       } catch (const Refusal& refusal) {
         return refusal.status;
       } catch (const std::invalid_argument& e) {
-        return {StatusCode::INVALID_ARGUMENT, api_message(e.what())};
+        return {StatusCode::INVALID_ARGUMENT, api_message(folder ? folder->scrub(e.what()) : e.what())};
+      } catch (const std::exception& e) {
+        return {StatusCode::INTERNAL, folder ? folder->scrub(e.what()) : e.what()};
       }
     });
   }

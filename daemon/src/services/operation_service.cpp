@@ -36,7 +36,7 @@ class OperationServiceImpl final : public pb::OperationService::Service {
   }
   Status WatchOperation(ServerContext* context, const pb::WatchOperationRequest* request,
                         grpc::ServerWriter<pb::Operation>* writer) override {
-    return guard_(context, [&] {
+    return guard_.stream(context, [&] {
       if (Status s = check_id("id", request->id()); !s.ok()) return s;
       if (!daemon_.operations().get(request->id()))
         return Status(StatusCode::NOT_FOUND, "id: no operation \"" + request->id() + "\"");
@@ -55,20 +55,21 @@ class OperationServiceImpl final : public pb::OperationService::Service {
     });
   }
   Status CancelOperation(ServerContext* context, const pb::CancelOperationRequest* request, pb::Operation* response) override {
-    return control(context, request->id(), response, [](OperationControl& c) { c.request_cancel(); });
+    return control(context, "cancel", request->id(), response, [](OperationControl& c) { c.request_cancel(); });
   }
   Status PauseOperation(ServerContext* context, const pb::PauseOperationRequest* request, pb::Operation* response) override {
-    return control(context, request->id(), response, [](OperationControl& c) { c.request_pause(); });
+    return control(context, "pause", request->id(), response, [](OperationControl& c) { c.request_pause(); });
   }
   Status ResumeOperation(ServerContext* context, const pb::ResumeOperationRequest* request, pb::Operation* response) override {
-    return control(context, request->id(), response, [](OperationControl& c) { c.request_resume(); });
+    return control(context, "resume", request->id(), response, [](OperationControl& c) { c.request_resume(); });
   }
 
  private:
   template <typename Action>
-  Status control(ServerContext* context, const std::string& id, pb::Operation* response, Action action) {
-    return guard_(context, [&] {
+  Status control(ServerContext* context, const char* verb, const std::string& id, pb::Operation* response, Action action) {
+    return guard_.audited(context, verb, [&](nlohmann::json& details) {
       if (Status s = check_id("id", id); !s.ok()) return s;
+      details["operation"] = id;
       auto record = daemon_.operations().get(id);
       if (!record) return Status(StatusCode::NOT_FOUND, "id: no operation \"" + id + "\"");
       auto control = daemon_.operations().control(id);

@@ -11,7 +11,8 @@ class SessionServiceImpl final : public pb::SessionService::Service {
  public:
   SessionServiceImpl(Daemon& daemon, Guard& guard) : daemon_(daemon), guard_(guard) {}
   Status StartSession(ServerContext* context, const pb::StartSessionRequest* request, pb::Operation* response) override {
-    return guard_(context, [&] {
+    return guard_.audited(context, "start_session", [&](nlohmann::json& details) {
+      details["subject_bytes"] = request->subject().size();
       if (request->subject().size() > session::kMaxTextBytes) return invalid("subject: longer than 4096 bytes");
       if (!request->name().empty() && !session::is_valid_name(request->name()))
         return invalid("name: must match [A-Za-z0-9_+.-]{1,64}");
@@ -29,7 +30,9 @@ class SessionServiceImpl final : public pb::SessionService::Service {
         return invalid("plan_source: set standard = true or give a plan");
       }
       if (!request->name().empty()) plan.name = request->name();
-      to_proto(daemon_.start_session(std::move(plan), request->subject()), response);
+      const auto record = daemon_.start_session(std::move(plan), request->subject());
+      details["session"] = record.id;
+      to_proto(record, response);
       return Status::OK;
     });
   }
@@ -57,6 +60,24 @@ class SessionServiceImpl final : public pb::SessionService::Service {
         summary->set_folder(record.folder);
         to_proto(record, summary->mutable_operation());
       }
+      return Status::OK;
+    });
+  }
+  Status DeleteSession(ServerContext* context, const pb::DeleteSessionRequest* request,
+                       pb::DeleteSessionResponse* response) override {
+    return guard_.audited(context, "delete_session", [&](nlohmann::json& details) {
+      if (Status s = check_id("id", request->id()); !s.ok()) return s;
+      details["session"] = request->id();
+      if (!daemon_.operations().get(request->id()))
+        return Status(StatusCode::NOT_FOUND, "id: no session \"" + request->id() + "\"");
+      const auto deleted = daemon_.delete_session(request->id());
+      details["files_removed"] = deleted.files;
+      details["bytes_removed"] = deleted.bytes;
+      details["cache_entries_removed"] = deleted.cache_entries;
+      response->set_id(request->id());
+      response->set_files_removed(deleted.files);
+      response->set_bytes_removed(deleted.bytes);
+      for (const auto& name : deleted.cache_entries) response->add_cache_entries_removed(name);
       return Status::OK;
     });
   }

@@ -59,6 +59,9 @@ struct DaemonConfig {
   std::string token;                      // required on TCP: "authorization: Bearer <token>"
   std::string tls_certificate_file;       // PEM; both set = TLS on TCP
   std::string tls_private_key_file;
+  bool tcp_insecure = false;              // plaintext TCP, loopback peers only; needed when TCP has no TLS
+  std::uint32_t max_streams = 64;         // concurrent streaming calls (Subscribe, WatchOperation); beyond: RESOURCE_EXHAUSTED
+  std::filesystem::path maps_dir;         // the maps API's folder for work without a session; empty = none
 
   std::filesystem::path sessions_dir = "chromod-sessions";
   std::uint64_t storage_limit_bytes = 0;  // 0 = the disk is the limit (see durable_file.hpp)

@@ -66,6 +66,14 @@ class Daemon {
   // Throws std::logic_error while a session runs.
   void ensure_idle() const;
 
+  struct DeletedSession {
+    std::uint64_t files = 0, bytes = 0;
+    std::vector<std::string> cache_entries;  // forward_table_<key>.bin no other session's results name
+  };
+  // Deletes a finished session's folder and the cache entries only it used.
+  // Throws std::invalid_argument (unknown id), std::logic_error (it runs).
+  DeletedSession delete_session(const std::string& id);
+
  private:
   // The work of a session operation: the sequencer, the pipeline, derived
   // data and the on-line estimator's results, and the journal's last records.
@@ -84,6 +92,7 @@ class Daemon {
   // uses the members around it.
   OperationRunner runner_{operations_};
   std::unique_ptr<Calibrations> calibrations_;
+  std::mutex delete_mutex_;
 };
 
 }  // namespace chromo::daemon

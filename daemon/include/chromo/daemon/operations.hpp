@@ -101,6 +101,8 @@ class OperationRegistry {
   std::shared_ptr<OperationControl> add(session::OperationRecord record);
   // Adds a finished record read from disk (no control).
   void add_past(session::OperationRecord record);
+  // Forgets an operation (a deleted session).
+  void remove(const std::string& id);
   // Applies `change` to the record and publishes it; no-op for unknown ids.
   void update(const std::string& id, const std::function<void(session::OperationRecord&)>& change);
   std::optional<session::OperationRecord> get(const std::string& id) const;

@@ -2,17 +2,16 @@
 // The gRPC server of chromod: the services of proto/chromosphere/v1 over a
 // Daemon, plus the standard health service and server reflection.
 //
-// Listening: the Unix socket (config.unix_socket; its file mode is set to
+// Listening: the Unix socket (config.unix_socket, accepted by chromod itself
+// for each peer's uid: unix_listener.hpp; its file mode is set to
 // config.unix_socket_mode so that file permissions decide who may connect;
 // a file already at that path is refused unless it is a socket nobody
 // listens on, which is replaced; the socket is removed at shutdown)
-// and, when config.tcp_address is set, TCP with TLS when a certificate and key
-// are configured. Every call arriving over TCP must carry
-// "authorization: Bearer <config.token>" (UNAUTHENTICATED otherwise); calls on
-// the Unix socket need none. The check runs at the top of every handler of
-// our services (the peer address tells the transport); the health and
-// reflection services, which reveal nothing but liveness and the schema, are
-// open.
+// and, when config.tcp_address is set, TCP with TLS, or plaintext from
+// loopback peers with config.tcp_insecure. Every call over TCP must carry
+// "authorization: Bearer <config.token>": an auth metadata processor on the
+// credentials checks it before the message is parsed (UNAUTHENTICATED), and
+// the services' Guard again. Streaming calls are capped at config.max_streams.
 //
 // Lifetime: the Server must not outlive the Daemon. shutdown() ends streams
 // (Watch/Subscribe notice within 200 ms) and waits for the handlers.
