@@ -221,14 +221,18 @@ std::string tcp_address_error(const std::string& address) {
     return "\"" + address + "\": the port must be a number in [0, 65535] (0: any free port)";
   if (host.size() >= 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
   if (host.empty()) return "\"" + address + "\": missing the host (e.g. 0.0.0.0, 127.0.0.1, [::1])";
+  // Numeric addresses only (and localhost): a check that looked a name up
+  // would send a DNS query from a configuration check.
+  if (host == "localhost") return {};
   addrinfo hints{};
   hints.ai_family = AF_UNSPEC;
   hints.ai_socktype = SOCK_STREAM;
-  hints.ai_flags = AI_PASSIVE;
+  hints.ai_flags = AI_PASSIVE | AI_NUMERICHOST;
   addrinfo* found = nullptr;
   const int status = ::getaddrinfo(host.c_str(), port.c_str(), &hints, &found);
   if (found) ::freeaddrinfo(found);
-  if (status != 0) return "\"" + address + "\": the host \"" + host + "\" is not an address (" + gai_strerror(status) + ")";
+  if (status != 0) return "\"" + address + "\": the host \"" + host + "\" is not a numeric IPv4 or [IPv6] address or localhost (" +
+           gai_strerror(status) + ")";
   return {};
 }
 
@@ -492,7 +496,7 @@ std::vector<std::string> config_key_names() {
   return names;
 }
 
-DaemonConfig parse_config(const json& json_config, const std::string& origin) {
+DaemonConfig read_config_values(const json& json_config, const std::string& origin) {
   if (!json_config.is_object()) throw std::invalid_argument(origin + ": must be a JSON object");
   DaemonConfig config;
   try {
@@ -505,6 +509,11 @@ DaemonConfig parse_config(const json& json_config, const std::string& origin) {
     config.unix_socket = (config.runtime_dir / "chromod.sock").string();
   std::string error;
   if (!config.IsValid(&error)) throw std::invalid_argument(origin + ": " + error);
+  return config;
+}
+
+DaemonConfig parse_config(const json& json_config, const std::string& origin) {
+  DaemonConfig config = read_config_values(json_config, origin);
   // Every key's check on its final value, given or default.
   for (const auto& key : top_level_keys())
     if (auto problem = key.check(config); !problem.empty())

@@ -96,11 +96,12 @@ FloatImage read_exr(const std::filesystem::path& path) {
     for (auto it = file.header().channels().begin(); it != file.header().channels().end(); ++it)
       image.channel_names.push_back(it.name());
     image.channels.assign(image.channel_names.size(), std::vector<float>(pixels));
-    for (std::size_t c = 0; c < image.channel_names.size(); ++c) {
-      char* base = reinterpret_cast<char*>(image.channels[c].data() - window.min.x - window.min.y * image.width);
-      frame.insert(image.channel_names[c],
-                   Imf::Slice(Imf::FLOAT, base, sizeof(float), sizeof(float) * image.width));
-    }
+    // Slice::Make places the buffer at the data window's origin in 64-bit
+    // arithmetic: a window far from (0, 0) (found by fuzz_exr: min.y of
+    // -84215046) must not overflow an int computing the base pointer.
+    for (std::size_t c = 0; c < image.channel_names.size(); ++c)
+      frame.insert(image.channel_names[c], Imf::Slice::Make(Imf::FLOAT, image.channels[c].data(), window, sizeof(float),
+                                                            sizeof(float) * static_cast<std::size_t>(image.width)));
     file.setFrameBuffer(frame);
     file.readPixels(window.min.y, window.max.y);
     return image;

@@ -108,7 +108,7 @@ TEST(DaemonConfig, ParsesDevicesAndRefusesBadFieldsByName) {
             std::string::npos);
   EXPECT_NE(refused(R"({"tcp_address": "127.0.0.1:1", "tcp_insecure": true})").find("token: "), std::string::npos);
   EXPECT_NE(refused(R"({"tcp_insecure": "yes"})").find("tcp_insecure"), std::string::npos);
-  EXPECT_NE(refused(R"({"max_streams": 0})").find("max_streams: must be in [1, 1024]"), std::string::npos);
+  EXPECT_NE(refused(R"({"max_streams": 0})").find("max_streams: 0 is outside [1, 1024]"), std::string::npos);
   EXPECT_EQ(parse_config(nlohmann::json::parse("{}")).max_streams, 64u);
   EXPECT_NE(refused(R"({"frame_attempts": "three"})").find("frame_attempts"), std::string::npos);
   EXPECT_NE(refused(R"({"colour": 1})").find("unknown key \"colour\""), std::string::npos);
@@ -126,9 +126,10 @@ TEST(DaemonConfig, RefusesEveryProbeOfIssue19NamingTheKey) {
     std::string expected;
   };
   const std::vector<Probe> probes = {
-      {{{"tcp_address", "127.0.0.1:99999"}, {"token", token}}, "cfg: tcp_address: \"127.0.0.1:99999\": the port"},
-      {{{"tcp_address", "127.0.0.1"}, {"token", token}}, "cfg: tcp_address: \"127.0.0.1\" is not host:port"},
-      {{{"tcp_address", "no-such-host.invalid:7443"}, {"token", token}}, "cfg: tcp_address: "},
+      {{{"tcp_address", "127.0.0.1:99999"}, {"token", token}, {"tcp_insecure", true}}, "cfg: tcp_address: \"127.0.0.1:99999\": the port"},
+      {{{"tcp_address", "127.0.0.1"}, {"token", token}, {"tcp_insecure", true}}, "cfg: tcp_address: \"127.0.0.1\" is not host:port"},
+      {{{"tcp_address", "no-such-host.invalid:7443"}, {"token", token}, {"tcp_insecure", true}},
+       "cfg: tcp_address: \"no-such-host.invalid:7443\": the host \"no-such-host.invalid\" is not a numeric"},
       {{{"storage_limit_bytes", -1}}, "cfg: storage_limit_bytes: -1 is outside"},
       {{{"storage_limit_bytes", 1.5}}, "cfg: storage_limit_bytes: 1.5 is not an integer"},
       {{{"frame_timeout_ms", -5}}, "cfg: frame_timeout_ms: -5 is outside [1, 600000]"},
@@ -233,7 +234,7 @@ TEST(Chromod, ABadConfigurationExitsTwoBeforeTheLabStarts) {
   const auto dir = testing::fresh_directory("chromod-config");
   const std::string token = "0123456789abcdef0";
   const std::vector<std::pair<nlohmann::json, std::string>> probes = {
-      {{{"tcp_address", "256.1.1.1:7443"}, {"token", token}}, "tcp_address: "},
+      {{{"tcp_address", "256.1.1.1:7443"}, {"token", token}, {"tcp_insecure", true}}, "tcp_address: "},
       {{{"tcp_address", "127.0.0.1:0"}, {"token", token}, {"tls_certificate_file", "/no/cert.pem"},
         {"tls_private_key_file", "/no/key.pem"}},
        "tls_certificate_file: "},

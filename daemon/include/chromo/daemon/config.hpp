@@ -84,8 +84,17 @@ struct DaemonConfig {
   bool IsValid(std::string* error) const;
 };
 
-// Reads and checks everything (above); throws std::invalid_argument
-// "<origin>: <key>: <what is wrong>". Touches nothing on disk.
+// Every key's type and range read into a DaemonConfig (unknown keys refused,
+// IsValid applied), without the checks that look at the file system or
+// resolve addresses: parse_config runs those next. The configuration fuzz
+// harness (tests/fuzz/fuzz_config.cpp) exercises this part, which touches
+// nothing outside the process. Throws std::invalid_argument naming the key.
+DaemonConfig read_config_values(const nlohmann::json& json, const std::string& origin = "config");
+
+// Reads and checks everything: read_config_values, then each key's check on
+// its final value (files read, a missing folder created and removed again to
+// prove it can be made, addresses resolved); throws std::invalid_argument
+// "<origin>: <key>: <what is wrong>". Changes nothing on disk.
 DaemonConfig parse_config(const nlohmann::json& json, const std::string& origin = "config");
 // The file's JSON object (std::invalid_argument when unreadable or not JSON),
 // to be given to parse_config, after command-line overrides if any.
