@@ -1,10 +1,12 @@
 #include "chromo/daemon/daemon.hpp"
-#include "chromo/estimation/forward_table.hpp"
 
 #include <fstream>
+#include <set>
 
 #include <stdexcept>
 
+#include "chromo/estimation/forward_table.hpp"
+#include "chromo/files/bounded_read.hpp"
 #include "chromo/session/derived_data.hpp"
 #include "chromo/daemon/online_estimator.hpp"
 #include "chromo/daemon/sequencer.hpp"
@@ -323,16 +325,28 @@ std::optional<session::SessionInfo> Daemon::session(const std::string& id) const
 }
 
 namespace {
-// The forward table's key a session's results name (results/summary.json's
-// table.key), "" when none.
-std::string table_key_of(const std::filesystem::path& folder) {
-  std::ifstream in(folder / "results" / "summary.json");
-  if (!in) return {};
-  const auto summary = nlohmann::json::parse(in, nullptr, false);
+// The table cache entries a session's results name (results/summary.json's
+// table.key and table.inverse_key) as cache file names; none when absent.
+std::set<std::string> cache_entries_of(const std::filesystem::path& folder) {
+  std::set<std::string> names;
+  std::string text;
+  try {
+    text = files::read_text_file(folder / "results" / "summary.json", "JSON");
+  } catch (const std::exception&) {
+    return names;  // no results (or unreadable ones): no cache entry to name
+  }
+  const auto summary = nlohmann::json::parse(text, nullptr, false);
   if (summary.is_discarded() || !summary.is_object() || !summary.contains("table") || !summary["table"].is_object())
-    return {};
-  const auto& key = summary["table"]["key"];
-  return key.is_string() ? key.get<std::string>() : std::string();
+    return names;
+  const auto hex = [](const nlohmann::json& key) {
+    const std::string text = key.is_string() ? key.get<std::string>() : std::string();
+    return text.size() == 16 && text.find_first_not_of("0123456789abcdef") == std::string::npos ? text : std::string();
+  };
+  const auto& table = summary["table"];
+  if (auto key = hex(table.value("key", nlohmann::json())); !key.empty()) names.insert("forward_table_" + key + ".bin");
+  if (auto key = hex(table.value("inverse_key", nlohmann::json())); !key.empty())
+    names.insert("inverse_table_" + key + ".bin");
+  return names;
 }
 }  // namespace
 
@@ -347,21 +361,20 @@ Daemon::DeletedSession Daemon::delete_session(const std::string& id) {
     throw std::logic_error("id: session \"" + id + "\" is " + session::state_name(record->state) + "; cancel it first");
   const fs::path folder = store_.root() / id;
   DeletedSession deleted;
-  // Cache entries: this session's forward table, unless another session's
-  // results name the same key.
-  const std::string key = table_key_of(folder);
-  bool shared = key.empty();
+  // Cache entries: this session's forward and inverse tables, unless another
+  // session's results name the same entry.
+  std::set<std::string> only_here = cache_entries_of(folder);
   for (const auto& entry : fs::directory_iterator(store_.root()))
-    if (!shared && entry.is_directory() && entry.path().filename() != id && table_key_of(entry.path()) == key) shared = true;
+    if (entry.is_directory() && entry.path().filename() != id)
+      for (const auto& name : cache_entries_of(entry.path())) only_here.erase(name);
   for (const auto& entry : fs::recursive_directory_iterator(folder))
     if (entry.is_regular_file()) ++deleted.files, deleted.bytes += entry.file_size();
   operations_.remove(id);
   fs::remove_all(folder);
   files::fsync_directory(store_.root());
-  if (!shared && key.size() == 16 && key.find_first_not_of("0123456789abcdef") == std::string::npos) {
-    const fs::path cache = config_.estimation.cache_dir.empty() ? estimation::ForwardTable::default_cache_dir()
-                                                                 : fs::path(config_.estimation.cache_dir);
-    const std::string name = "forward_table_" + key + ".bin";
+  const fs::path cache = config_.estimation.cache_dir.empty() ? estimation::ForwardTable::default_cache_dir()
+                                                               : fs::path(config_.estimation.cache_dir);
+  for (const auto& name : only_here) {
     std::error_code error;
     if (fs::remove(cache / name, error)) deleted.cache_entries.push_back(name);
   }

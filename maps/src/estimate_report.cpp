@@ -1,5 +1,7 @@
 #include "chromo/maps/estimate_report.hpp"
 
+#include "chromo/estimation/inverter.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -271,6 +273,10 @@ MethodEstimationResult estimate_method_captures(const session::MethodCaptures& c
   auto extra = nlohmann::ordered_json::parse(extra_json);
   if (!extra.is_object()) throw std::invalid_argument("extra_json is not a JSON object");
   extra["table"] = {{"key", hex_key(table->key())}, {"nodes", table->grid().node_count()}, {"rebuilt", rebuilt}, {"tables_in_memory", in_memory}};
+  // The fast inverter's inverse table in the cache, so deleting the session
+  // can remove the entries only it used (docs/daemon.md).
+  if (const auto* fast = dynamic_cast<const estimation::FastInverter*>(&estimator.inverter()))
+    extra["table"]["inverse_key"] = hex_key(fast->inverse_table().key());
   extra["registration"] = nlohmann::ordered_json::parse(registration_report_json(m.registration));
   nlohmann::ordered_json noise = nlohmann::ordered_json::object();
   for (const auto& c : m.set.channels)

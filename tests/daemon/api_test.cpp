@@ -478,10 +478,15 @@ TEST_F(ApiFixture, ASessionIsDeletedWithItsOwnCacheEntriesAndTheAuditLogSaysWho)
   // Its table (named by its results) and another session's.
   std::filesystem::create_directories(folder / "results");
   std::filesystem::create_directories(lab.directory / "cache");
-  std::ofstream(folder / "results" / "summary.json") << R"({"table": {"key": "00000000000000aa"}})";
+  // Its forward table aa and inverse table cc; the other session's bb and dd
+  // stay.
+  std::ofstream(folder / "results" / "summary.json")
+      << R"({"table": {"key": "00000000000000aa", "inverse_key": "00000000000000cc"}})";
   std::filesystem::create_directories(lab.config.sessions_dir / "other" / "results");
-  std::ofstream(lab.config.sessions_dir / "other" / "results" / "summary.json") << R"({"table": {"key": "00000000000000bb"}})";
-  for (const char* name : {"forward_table_00000000000000aa.bin", "forward_table_00000000000000bb.bin"})
+  std::ofstream(lab.config.sessions_dir / "other" / "results" / "summary.json")
+      << R"({"table": {"key": "00000000000000bb", "inverse_key": "00000000000000dd"}})";
+  for (const char* name : {"forward_table_00000000000000aa.bin", "forward_table_00000000000000bb.bin",
+                           "inverse_table_00000000000000cc.bin", "inverse_table_00000000000000dd.bin"})
     std::ofstream(lab.directory / "cache" / name) << "table";
   for (const char* hostile : {"..", ".", "../sessions", ""}) {
     status = remove(hostile, &response);
@@ -493,8 +498,11 @@ TEST_F(ApiFixture, ASessionIsDeletedWithItsOwnCacheEntriesAndTheAuditLogSaysWho)
   ASSERT_TRUE(status.ok()) << status.error_message();
   EXPECT_GE(response.files_removed(), 9u);  // session.json, journal, 7 frames, ...
   EXPECT_GT(response.bytes_removed(), 7u * 160 * 120 * 2);
-  ASSERT_EQ(response.cache_entries_removed_size(), 1);
+  ASSERT_EQ(response.cache_entries_removed_size(), 2);
   EXPECT_EQ(response.cache_entries_removed(0), "forward_table_00000000000000aa.bin");
+  EXPECT_EQ(response.cache_entries_removed(1), "inverse_table_00000000000000cc.bin");
+  EXPECT_FALSE(std::filesystem::exists(lab.directory / "cache" / "inverse_table_00000000000000cc.bin"));
+  EXPECT_TRUE(std::filesystem::exists(lab.directory / "cache" / "inverse_table_00000000000000dd.bin"));
   EXPECT_FALSE(std::filesystem::exists(folder));
   EXPECT_FALSE(std::filesystem::exists(lab.directory / "cache" / "forward_table_00000000000000aa.bin"));
   EXPECT_TRUE(std::filesystem::exists(lab.directory / "cache" / "forward_table_00000000000000bb.bin"));

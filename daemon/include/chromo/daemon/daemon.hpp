@@ -68,7 +68,7 @@ class Daemon {
 
   struct DeletedSession {
     std::uint64_t files = 0, bytes = 0;
-    std::vector<std::string> cache_entries;  // forward_table_<key>.bin no other session's results name
+    std::vector<std::string> cache_entries;  // forward_/inverse_table_<key>.bin no other session's results name
   };
   // Deletes a finished session's folder and the cache entries only it used.
   // Throws std::invalid_argument (unknown id), std::logic_error (it runs).

@@ -140,6 +140,8 @@ class InverseTable {
   // Throws std::invalid_argument for invalid settings.
   static std::uint64_t cache_key(const ForwardTable& table, const InverseTableSettings& settings = {});
   static std::string file_name(std::uint64_t key);  // "inverse_table_<16 hex>.bin"
+  // The cache key this table was built or loaded under (cache_key above).
+  std::uint64_t key() const { return key_; }
 
   int key_dims() const { return key_dims_; }
   // Cell of a measurement (its first key_dims() channels; beyond the key
