@@ -95,6 +95,12 @@ FloatImage read_exr(const std::filesystem::path& path) {
     const std::size_t pixels = static_cast<std::size_t>(image.width) * image.height;
     for (auto it = file.header().channels().begin(); it != file.header().channels().end(); ++it)
       image.channel_names.push_back(it.name());
+    // The 64-MP cap bounds one channel; this bounds them all together before
+    // any pixel memory: at most kMaxImageValues floats (1 GiB).
+    if (pixels * image.channel_names.size() > kMaxImageValues)
+      throw ImageError(path.string() + ": " + std::to_string(image.channel_names.size()) + " channels of " +
+                       std::to_string(pixels) + " pixels exceed the cap of " + std::to_string(kMaxImageValues) +
+                       " values");
     image.channels.assign(image.channel_names.size(), std::vector<float>(pixels));
     // Slice::Make places the buffer at the data window's origin in 64-bit
     // arithmetic: a window far from (0, 0) (found by fuzz_exr: min.y of

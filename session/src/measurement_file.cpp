@@ -107,6 +107,7 @@ MeasurementFile read_measurement_file(const fs::path& file) {
     const std::string where = file.string() + ": images[" + std::to_string(k) + "]";
     if (!o.is_object()) throw MeasurementFileError(where + " must be an object");
     MeasurementImage image;
+    if (o.contains("name") && !o["name"].is_string()) throw MeasurementFileError(where + ": 'name' must be a string");
     image.name = o.value("name", "image" + std::to_string(k));
     try {
       image.pixels = files::read_exr(resolve(need_string(o, "file", where)));

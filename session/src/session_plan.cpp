@@ -137,6 +137,21 @@ nlohmann::json to_json(const SessionPlan& plan) {
   return {{"name", plan.name}, {"timing", timing_name(plan.timing)}, {"steps", steps}};
 }
 
+namespace {
+// A count (milliseconds, frames) from a plan: a whole number in [0, 2^32 − 1],
+// `fallback` when absent. nlohmann's get<std::uint32_t>() of 7.8e20 is
+// undefined behaviour (found by fuzz_session_plan), so the value is checked
+// first.
+std::uint32_t read_count(const nlohmann::json& step, const char* key, std::uint32_t fallback) {
+  if (!step.contains(key)) return fallback;
+  const nlohmann::json& value = step.at(key);
+  if (value.is_number_unsigned() && value.get<std::uint64_t>() <= 0xFFFFFFFFull)
+    return static_cast<std::uint32_t>(value.get<std::uint64_t>());
+  throw std::invalid_argument(std::string("session plan: ") + key + ": " + value.dump().substr(0, 64) +
+                              " is not a whole number in [0, 4294967295]");
+}
+}  // namespace
+
 SessionPlan plan_from_json(const nlohmann::json& json) {
   try {
     SessionPlan plan;
@@ -147,9 +162,9 @@ SessionPlan plan_from_json(const nlohmann::json& json) {
       step.name = s.at("name").get<std::string>();
       std::string role = s.value("role", "subject");
       step.role = role == "dark" ? StepRole::kDark : role == "white" ? StepRole::kWhite : StepRole::kSubject;
-      step.settle_ms = s.value("settle_ms", 0u);
+      step.settle_ms = read_count(s, "settle_ms", 0);
       step.exposure_us = s.at("exposure_us").get<double>();
-      step.frames_per_camera = s.value("frames_per_camera", 1u);
+      step.frames_per_camera = read_count(s, "frames_per_camera", 1);
       step.prompt = s.value("prompt", "");
       const auto& illumination = s.at("illumination");
       if (illumination.contains("mix")) {

@@ -26,6 +26,7 @@ class InputFileError : public std::runtime_error {
 // Documented defaults (docs/formats/README.md, "Limits").
 inline constexpr std::uintmax_t kMaxTextFileBytes = 16ull << 20;     // one CSV or JSON file: 16 MiB
 inline constexpr std::uint64_t kMaxImagePixels = 64ull * 1000 * 1000;  // one image: 64 MP (width × height)
+inline constexpr std::uint64_t kMaxImageValues = 256ull << 20;  // one float image's channels × pixels: 1 GiB of floats
 inline constexpr std::uintmax_t kMaxImageFileBytes = 2ull << 30;      // one EXR or TIFF file on disk: 2 GiB
 inline constexpr std::uintmax_t kMaxPngFileBytes = 256ull << 20;      // one PNG file (read whole): 256 MiB
 // A session's journal is the daemon's own record of every frame it accepted:
