@@ -127,7 +127,7 @@ void write_outputs(const std::filesystem::path& out, const std::vector<SeedResul
   chart.commands = "set datafile separator ','\nset key top left\nset style data histograms\n"
                    "set style fill solid 0.8\nset title 'Default estimator on held-out lab scenes (skin cells)'\n"
                    "set xlabel 'scene seed'\nset ylabel 'mean relit dE94 vs truth (six LEDs + D65)'\nset yrange [0:*]\n"
-                   "plot '" + csv.string() + "' using 2:xtic(1) title 'noisy', '' using 4 title 'noise-free'\n";
+                   "plot '" + csv.string() + "' every ::1 using 2:xtic(1) title 'noisy', '' every ::1 using 4 title 'noise-free'\n";
   if (const std::string error = files::draw_chart(chart); !error.empty()) std::printf("chart: %s\n", error.c_str());
   std::printf("wrote %s and %s\n", csv.c_str(), chart.png.c_str());
 }
