@@ -8,9 +8,10 @@
 
 #include <algorithm>
 #include <cstdint>
-#include <optional>
 #include <cstring>
 #include <fstream>
+#include <optional>
+#include <string_view>
 
 #include "chromo/files/bounded_read.hpp"
 
@@ -23,6 +24,49 @@ const std::vector<float>& FloatImage::channel(const std::string& name) const {
   for (const auto& n : channel_names) have += (have.empty() ? "" : ", ") + n;
   throw ImageError("image has no channel '" + name + "' (it has " + have + ")");
 }
+
+namespace {
+
+// OpenEXR's compression codes: NONE 0, RLE 1, ZIPS 2, ZIP 3, PIZ 4, PXR24 5,
+// B44 6, B44A 7 are lossless for FLOAT data; DWAA 8 and DWAB 9 are lossy.
+constexpr int kLastLosslessCompression = 7;
+constexpr int kDwabCompression = 9;
+
+// The most raw pixel bytes one stored byte can stand for, over the lossless
+// compressions: deflate (ZIP, ZIPS) cannot exceed 1032:1, PXR24 first packs
+// 32-bit floats into 24 bits then deflates (1032 · 4/3 = 1376); PIZ's Huffman
+// run codes reach about 410:1, RLE 64:1 (a 2-byte run of at most 128 bytes),
+// B44A 32:3 on flat HALF blocks.
+constexpr double kMaxExrExpansion = 1376.0;
+
+// Bytes per pixel of a chlist attribute: per channel a name, an int32 pixel
+// type (UINT 0, HALF 1, FLOAT 2), four bytes (pLinear, reserved) and the
+// int32 x and y sampling; a null name ends the list.
+template <typename Fail>
+double chlist_bytes_per_pixel(std::string_view list, const Fail& fail) {
+  auto int32_at = [&](std::size_t at) {
+    std::uint32_t v = 0;
+    for (int i = 3; i >= 0; --i) v = (v << 8) | static_cast<unsigned char>(list[at + static_cast<std::size_t>(i)]);
+    return static_cast<std::int32_t>(v);
+  };
+  double bytes = 0;
+  std::size_t at = 0;
+  while (true) {
+    const std::size_t end = list.find('\0', at);
+    if (end == std::string_view::npos) throw fail("channel list unterminated");
+    if (end == at) break;
+    at = end + 1;
+    if (list.size() - at < 16) throw fail("channel list truncated");
+    const std::int32_t type = int32_at(at), x_sampling = int32_at(at + 8), y_sampling = int32_at(at + 12);
+    if (type < 0 || type > 2) throw fail("channel pixel type " + std::to_string(type) + " (0-2 are known)");
+    if (x_sampling < 1 || y_sampling < 1) throw fail("channel sampling below 1");
+    bytes += (type == 1 ? 2.0 : 4.0) / (static_cast<double>(x_sampling) * static_cast<double>(y_sampling));
+    at += 16;
+  }
+  return bytes;
+}
+
+}  // namespace
 
 ExrSize check_exr_file(const std::filesystem::path& path) {
   try {
@@ -58,6 +102,8 @@ ExrSize check_exr_file(const std::filesystem::path& path) {
     return s;
   };
   std::optional<ExrSize> size;
+  std::optional<int> compression;
+  double stored_bytes_per_pixel = 0;  // over every channel, with its sampling
   while (true) {
     const std::string name = read_string("attribute name");
     if (name.empty()) break;
@@ -71,6 +117,12 @@ ExrSize check_exr_file(const std::filesystem::path& path) {
       if (type != "box2i" || length != 16) throw fail("dataWindow is not a box2i");
       const std::int64_t x0 = int32_at(at), y0 = int32_at(at + 4), x1 = int32_at(at + 8), y1 = int32_at(at + 12);
       size = ExrSize{x1 - x0 + 1, y1 - y0 + 1};
+    } else if (name == "compression") {
+      if (type != "compression" || length != 1) throw fail("compression is not a one-byte compression attribute");
+      compression = static_cast<unsigned char>(head[at]);
+    } else if (name == "channels") {
+      if (type != "chlist") throw fail("channels is not a chlist");
+      stored_bytes_per_pixel = chlist_bytes_per_pixel(std::string_view(head).substr(at, static_cast<std::size_t>(length)), fail);
     }
     at += static_cast<std::size_t>(length);
   }
@@ -80,6 +132,23 @@ ExrSize check_exr_file(const std::filesystem::path& path) {
   } catch (const InputFileError& e) {
     throw ImageError(e.what());
   }
+  if (!compression) throw fail("no compression in the header");
+  if (*compression > kLastLosslessCompression)
+    throw fail(*compression <= kDwabCompression
+                   ? "DWAA/DWAB compression is lossy and has no bound on its expansion; store maps losslessly"
+                   : "unknown compression " + std::to_string(*compression));
+  // The pixel data this header declares must fit in what the file holds at
+  // the densest packing any lossless OpenEXR compression reaches: otherwise
+  // the file is truncated or forged, and reading it would first allocate
+  // (and fill) the whole declared image for nothing (found by fuzz_exr: a
+  // 250-byte file declaring a 16-MP row).
+  const double declared_bytes = stored_bytes_per_pixel * static_cast<double>(size->width) * static_cast<double>(size->height);
+  const auto file_bytes = static_cast<double>(std::filesystem::file_size(path));
+  if (declared_bytes > kMaxExrExpansion * file_bytes)
+    throw fail("the header declares " + std::to_string(static_cast<std::uint64_t>(declared_bytes)) +
+               " bytes of pixels, more than " + std::to_string(static_cast<int>(kMaxExrExpansion)) +
+               " times the file's " + std::to_string(static_cast<std::uint64_t>(file_bytes)) +
+               " bytes (no lossless compression packs denser): truncated or not an image");
   return *size;
 }
 
@@ -101,7 +170,8 @@ FloatImage read_exr(const std::filesystem::path& path) {
       throw ImageError(path.string() + ": " + std::to_string(image.channel_names.size()) + " channels of " +
                        std::to_string(pixels) + " pixels exceed the cap of " + std::to_string(kMaxImageValues) +
                        " values");
-    image.channels.assign(image.channel_names.size(), std::vector<float>(pixels));
+    image.channels.resize(image.channel_names.size());
+    for (auto& channel : image.channels) channel.resize(pixels);
     // Slice::Make places the buffer at the data window's origin in 64-bit
     // arithmetic: a window far from (0, 0) (found by fuzz_exr: min.y of
     // -84215046) must not overflow an int computing the base pointer.

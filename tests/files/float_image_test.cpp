@@ -4,12 +4,17 @@
 #include <ImfHeader.h>
 #include <ImfOutputFile.h>
 
+#include <fstream>
+#include <string>
 #include <vector>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "../support/fresh_directory.hpp"
 #include "chromo/files/float_image.hpp"
+
+using ::testing::HasSubstr;
 
 namespace chromo::files {
 namespace {
@@ -48,6 +53,78 @@ TEST(FloatImage, ADataWindowFarFromTheOriginReads) {
   EXPECT_EQ(read.width, 4);
   EXPECT_EQ(read.height, 3);
   EXPECT_EQ(read.channel("Y"), values);
+  std::filesystem::remove_all(dir);
+}
+
+std::string refusal(const std::filesystem::path& path) {
+  try {
+    read_exr(path);
+  } catch (const ImageError& e) {
+    return e.what();
+  }
+  return "(read without error)";
+}
+
+void write_constant(const std::filesystem::path& path, int width, int height, Imf::Compression compression,
+                    Imf::PixelType type) {
+  Imf::Header header(width, height);
+  header.compression() = compression;
+  header.channels().insert("Y", Imf::Channel(type));
+  // All-zero bytes are 0.0 as FLOAT and as HALF: one buffer serves both.
+  const std::size_t value_bytes = type == Imf::HALF ? 2 : 4;
+  std::vector<char> zeros(static_cast<std::size_t>(width) * height * value_bytes, 0);
+  Imf::OutputFile file(path.c_str(), header);
+  Imf::FrameBuffer frame;
+  frame.insert("Y", Imf::Slice(type, zeros.data(), value_bytes, value_bytes * width));
+  file.setFrameBuffer(frame);
+  file.writePixels(height);
+}
+
+// The expansion bound (1376 declared pixel bytes per file byte) must never
+// refuse a real file: a constant image, the most compressible there is,
+// reads back under every lossless compression and both pixel types.
+TEST(FloatImage, ConstantImagesReadUnderEveryLosslessCompression) {
+  const auto dir = testing::fresh_directory("float-image-constant");
+  const std::vector<Imf::Compression> lossless = {Imf::NO_COMPRESSION,  Imf::RLE_COMPRESSION, Imf::ZIPS_COMPRESSION,
+                                                  Imf::ZIP_COMPRESSION, Imf::PIZ_COMPRESSION, Imf::PXR24_COMPRESSION,
+                                                  Imf::B44_COMPRESSION, Imf::B44A_COMPRESSION};
+  for (const auto compression : lossless) {
+    for (const auto type : {Imf::FLOAT, Imf::HALF}) {
+      const auto path = dir / ("c" + std::to_string(compression) + "-" + std::to_string(type) + ".exr");
+      write_constant(path, 2048, 1024, compression, type);
+      const auto declared_bytes = 2048.0 * 1024 * (type == Imf::HALF ? 2 : 4);
+      EXPECT_LT(declared_bytes / static_cast<double>(std::filesystem::file_size(path)), 1376.0) << path;
+      const FloatImage image = read_exr(path);
+      EXPECT_EQ(image.width, 2048) << path;
+      EXPECT_EQ(image.channel("Y")[12345], 0.0f) << path;
+    }
+  }
+  std::filesystem::remove_all(dir);
+}
+
+// fuzz_exr found it: a 297-byte file whose header declares a 16.3-MP row
+// (ZIP) made the reader allocate and fill 65 MB before OpenEXR failed on the
+// missing data (64 MP: 256 MB and 4 s here). Refused from the header now.
+TEST(FloatImage, AFileTooSmallForItsDeclaredPixelsIsRefusedFromTheHeader) {
+  const auto dir = testing::fresh_directory("float-image-forged");
+  write_constant(dir / "real.exr", 4096, 4096, Imf::ZIP_COMPRESSION, Imf::FLOAT);
+  std::string bytes;
+  {
+    std::ifstream in(dir / "real.exr", std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  const auto cut = bytes.size() / 4;
+  std::ofstream(dir / "truncated.exr", std::ios::binary) << bytes.substr(0, cut);
+  EXPECT_THAT(refusal(dir / "truncated.exr"),
+              HasSubstr("truncated.exr: not a readable OpenEXR file: the header declares 67108864 bytes of pixels, "
+                        "more than 1376 times the file's " + std::to_string(cut) + " bytes"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST(FloatImage, LossyDwaCompressionIsRefusedByName) {
+  const auto dir = testing::fresh_directory("float-image-dwa");
+  write_constant(dir / "dwa.exr", 64, 64, Imf::DWAA_COMPRESSION, Imf::HALF);
+  EXPECT_THAT(refusal(dir / "dwa.exr"), HasSubstr("dwa.exr: not a readable OpenEXR file: DWAA/DWAB compression is lossy"));
   std::filesystem::remove_all(dir);
 }
 

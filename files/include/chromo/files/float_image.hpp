@@ -27,7 +27,10 @@ struct FloatImage {
 // Checks an OpenEXR file before any library reads it: a regular file within
 // kMaxImageFileBytes, a single-part, non-deep version 2 header (read by hand,
 // at most 1 MiB) whose data window is within kMaxImagePixels
-// (bounded_read.hpp). Returns the data window's size; ImageError naming the
+// (bounded_read.hpp), a lossless compression (DWAA/DWAB are refused), and
+// whose declared pixel bytes are at most 1376 times the file's size (the
+// densest any lossless OpenEXR compression packs: a truncated or forged file
+// is refused before any pixel memory is allocated). Returns the data window's size; ImageError naming the
 // file and the problem otherwise. read_exr calls it first.
 struct ExrSize {
   std::int64_t width = 0, height = 0;
