@@ -12,6 +12,7 @@
 #include <fstream>
 #include <optional>
 #include <string_view>
+#include <utility>
 
 #include "chromo/files/bounded_read.hpp"
 
@@ -63,7 +64,29 @@ double chlist_bytes_per_pixel(std::string_view list, const Fail& fail) {
     bytes += (type == 1 ? 2.0 : 4.0) / (static_cast<double>(x_sampling) * static_cast<double>(y_sampling));
     at += 16;
   }
+  // OpenEXR reads a channel list up to its null name, not by its declared
+  // size: the two must end together or its reading and ours part ways.
+  if (at + 1 != list.size()) throw fail("channel list's size does not match its entries");
   return bytes;
+}
+
+// OpenEXR reads an attribute of a known fixed-size type by its type, not by
+// the size the file declares, so a size that differs would make its reading
+// of the header part from this one, and it would then take the next bytes as
+// an attribute size it allocates (found by fuzz_exr: a 36-byte `float`).
+// Returns the size a type must have; 0 for the variable-size types, which
+// OpenEXR reads by the declared size (string, stringvector, floatvector,
+// unknown types) or which are checked on their own (chlist, preview).
+std::size_t fixed_attribute_size(const std::string& type) {
+  static const std::pair<const char*, std::size_t> kSizes[] = {
+      {"box2i", 16}, {"box2f", 16},   {"compression", 1},     {"double", 8},  {"envmap", 1},  {"float", 4},
+      {"int", 4},    {"keycode", 28}, {"lineOrder", 1},       {"m33f", 36},   {"m33d", 72},   {"m44f", 64},
+      {"m44d", 128}, {"rational", 8}, {"tiledesc", 9},        {"timecode", 8}, {"v2i", 8},    {"v2f", 8},
+      {"v2d", 16},   {"v3i", 12},     {"v3f", 12},            {"v3d", 24},    {"chromaticities", 32},
+      {"deepImageState", 1}};
+  for (const auto& [name, size] : kSizes)
+    if (type == name) return size;
+  return 0;
 }
 
 }  // namespace
@@ -124,6 +147,20 @@ ExrSize check_exr_file(const std::filesystem::path& path) {
       if (type != "chlist") throw fail("channels is not a chlist");
       stored_bytes_per_pixel = chlist_bytes_per_pixel(std::string_view(head).substr(at, static_cast<std::size_t>(length)), fail);
     }
+    if (const std::size_t fixed = fixed_attribute_size(type); fixed != 0 && static_cast<std::size_t>(length) != fixed)
+      throw fail("header attribute '" + name + "' of type " + type + " has size " + std::to_string(length) + ", not " +
+                 std::to_string(fixed));
+    if (type == "preview") {
+      // Two uint32 (width, height), then width × height RGBA bytes: OpenEXR
+      // allocates by the dimensions, so they must account for the size.
+      if (length < 8) throw fail("preview attribute truncated");
+      const std::uint64_t width = static_cast<std::uint32_t>(int32_at(at)), height = static_cast<std::uint32_t>(int32_at(at + 4));
+      const auto pixel_bytes = static_cast<std::uint64_t>(length) - 8;
+      if ((width != 0 && height > pixel_bytes / 4 / width) || 4 * width * height != pixel_bytes)
+        throw fail("preview size does not match its dimensions");
+    }
+    if (type == "chlist" && name != "channels")
+      chlist_bytes_per_pixel(std::string_view(head).substr(at, static_cast<std::size_t>(length)), fail);
     at += static_cast<std::size_t>(length);
   }
   if (!size) throw fail("no dataWindow in the header");

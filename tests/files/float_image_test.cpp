@@ -121,6 +121,30 @@ TEST(FloatImage, AFileTooSmallForItsDeclaredPixelsIsRefusedFromTheHeader) {
   std::filesystem::remove_all(dir);
 }
 
+// fuzz_exr found it (corpus: regression-float-attribute-of-36-bytes.exr):
+// OpenEXR reads a `float` attribute as 4 bytes whatever size the file
+// declares, so a 36-byte one made its reading of the header part from the
+// project's check, and it then took other bytes for an attribute size and
+// allocated by them (30 s under ASan for a 477-byte file).
+TEST(FloatImage, AnAttributeWhoseSizeDisagreesWithItsTypeIsRefused) {
+  const auto dir = testing::fresh_directory("float-image-attribute");
+  write_exr(dir / "a.exr", FloatImage{2, 2, {"Y"}, {{1, 2, 3, 4}}});
+  std::string bytes;
+  {
+    std::ifstream in(dir / "a.exr", std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  const std::string attribute("pixelAspectRatio\0float\0", 23);
+  const auto at = bytes.find(attribute);
+  ASSERT_NE(at, std::string::npos);
+  bytes[at + attribute.size()] = 36;
+  std::ofstream(dir / "forged.exr", std::ios::binary) << bytes;
+  EXPECT_THAT(refusal(dir / "forged.exr"),
+              HasSubstr("forged.exr: not a readable OpenEXR file: header attribute 'pixelAspectRatio' of type float has "
+                        "size 36, not 4"));
+  std::filesystem::remove_all(dir);
+}
+
 TEST(FloatImage, LossyDwaCompressionIsRefusedByName) {
   const auto dir = testing::fresh_directory("float-image-dwa");
   write_constant(dir / "dwa.exr", 64, 64, Imf::DWAA_COMPRESSION, Imf::HALF);
