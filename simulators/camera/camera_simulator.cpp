@@ -40,7 +40,7 @@ bool CameraSimulatorOptions::IsValid(std::string* error) const {
   GigeVisionDeviceOptions device;
   device.address = address;
   device.serial = serial;
-  device.genicam_xml = "-";
+  device.genicam_xml.assign(1, '-');  // checked by the constructor; any text passes here
   device.faults = faults;
   device.first_block_id = first_block_id;
   if (!device.IsValid(error)) return false;

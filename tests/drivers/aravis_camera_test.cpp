@@ -103,6 +103,7 @@ TEST_F(CameraOnLoopback, WarnsWhenTheSocketBufferIsTooSmallForTheStream) {
   camera_.reset();
   drivers::AravisCameraOptions options;
   options.serial = kSerial;
+  options.address = simulator_->address();
   options.frame_retention_ms = kTestFrameRetentionMs;
   options.socket_buffer_bytes = 65536;  // below four 128 KiB frames whatever rmem_max is
   options.on_warning = [this](const std::string& message) {
