@@ -19,6 +19,7 @@
 #include <thread>
 
 #include "gige_protocol.hpp"
+#include "gvsp_transmission.hpp"
 
 namespace chromo::simulators {
 namespace {
@@ -55,49 +56,6 @@ sockaddr_in socket_address(std::uint32_t ip, std::uint16_t port) {
   a.sin_addr.s_addr = htonl(ip);
   a.sin_port = htons(port);
   return a;
-}
-
-// A sent block kept for resends.
-struct RetainedBlock {
-  std::uint16_t block_id = 0;
-  GvspImageBlock image;
-  std::uint32_t data_bytes_per_packet = 0;
-  std::uint32_t payload_packets = 0;
-  sockaddr_in destination{};
-  std::uint32_t last_packet_id() const { return payload_packets + 1; }
-};
-
-// Builds packet `packet_id` of a block (0 leader, 1..n payload, n+1 trailer) into `out`.
-void build_packet(const RetainedBlock& block, std::uint32_t packet_id, std::vector<std::uint8_t>& out) {
-  const auto& payload = *block.image.payload;
-  auto header = [&](std::uint8_t format, std::size_t body) {
-    out.assign(kGvspHeaderBytes + body, 0);
-    put16(&out[0], kStatusSuccess);
-    put16(&out[2], block.block_id);
-    put32(&out[4], packet_id & 0x00FFFFFFu);
-    out[4] = format;
-  };
-  if (packet_id == 0) {
-    header(kGvspLeader, 36);
-    std::uint8_t* p = &out[kGvspHeaderBytes];
-    put16(p + 2, kPayloadTypeImage);
-    put32(p + 4, static_cast<std::uint32_t>(block.image.timestamp_ticks >> 32));
-    put32(p + 8, static_cast<std::uint32_t>(block.image.timestamp_ticks));
-    put32(p + 12, block.image.pixel_format);
-    put32(p + 16, block.image.width);
-    put32(p + 20, block.image.height);
-    put32(p + 24, block.image.offset_x);
-    put32(p + 28, block.image.offset_y);
-  } else if (packet_id == block.last_packet_id()) {
-    header(kGvspTrailer, 8);
-    put16(&out[kGvspHeaderBytes + 2], kPayloadTypeImage);
-    put32(&out[kGvspHeaderBytes + 4], block.image.height);
-  } else {
-    const std::size_t begin = static_cast<std::size_t>(packet_id - 1) * block.data_bytes_per_packet;
-    const std::size_t size = std::min<std::size_t>(block.data_bytes_per_packet, payload.size() - begin);
-    header(kGvspPayload, size);
-    std::memcpy(&out[kGvspHeaderBytes], payload.data() + begin, size);
-  }
 }
 
 }  // namespace
@@ -150,7 +108,7 @@ struct GigeVisionDevice::Impl {
   Clock::time_point controller_seen;
   WriteHook write_hook;
   std::function<void()> on_control_lost;
-  std::deque<std::shared_ptr<const RetainedBlock>> retained;
+  std::deque<std::shared_ptr<const GvspBlock>> retained;
   std::uint16_t next_block_id = 1;
   GvspFaultOptions faults;
   std::mt19937_64 dice;
@@ -566,7 +524,7 @@ struct GigeVisionDevice::Impl {
       first = get32(data + 4) & 0x00FFFFFF;
       last = get32(data + 8) & 0x00FFFFFF;
     }
-    std::shared_ptr<const RetainedBlock> block;
+    std::shared_ptr<const GvspBlock> block;
     sockaddr_in destination{};
     {
       std::lock_guard lock(mutex);
@@ -581,12 +539,7 @@ struct GigeVisionDevice::Impl {
     if (!block) {
       ++counters.resend_requests_unavailable;
       if (destination.sin_port == 0 || block_id > 0xFFFF) return;
-      std::vector<std::uint8_t> out(kGvspHeaderBytes, 0);
-      put16(&out[0], kStatusPacketUnavailable);
-      put16(&out[2], static_cast<std::uint16_t>(block_id));
-      put32(&out[4], first & 0x00FFFFFF);
-      out[4] = kGvspPayload;
-      send_to(gvsp_socket, out, destination);
+      send_to(gvsp_socket, gvsp_unavailable_packet(static_cast<std::uint16_t>(block_id), first), destination);
       ++counters.packets_sent;
       return;
     }
@@ -594,7 +547,7 @@ struct GigeVisionDevice::Impl {
     last = std::min(last, block->last_packet_id());
     std::vector<std::uint8_t> packet;
     for (std::uint32_t id = first; id <= last; ++id) {
-      build_packet(*block, id, packet);
+      build_gvsp_packet(*block, id, packet);
       send_to(gvsp_socket, packet, block->destination);
       ++counters.packets_sent;
       ++counters.packets_resent;
@@ -603,7 +556,7 @@ struct GigeVisionDevice::Impl {
 
   bool send_block(const GvspImageBlock& image, std::uint16_t* block_id_out) {
     std::lock_guard send_lock(send_mutex);
-    auto block = std::make_shared<RetainedBlock>();
+    auto block = std::make_shared<GvspBlock>();
     GvspFaultOptions fault;
     {
       std::lock_guard lock(mutex);
@@ -626,56 +579,22 @@ struct GigeVisionDevice::Impl {
     if (!block->image.payload) block->image.payload = std::make_shared<const std::vector<std::uint8_t>>();
     if (block_id_out != nullptr) *block_id_out = block->block_id;
 
-    std::uniform_real_distribution<double> roll(0, 1);
-    std::vector<std::pair<Clock::time_point, std::uint32_t>> delayed;
-    std::optional<std::uint32_t> swapped;
+    std::uniform_real_distribution<double> uniform(0, 1);
     std::vector<std::uint8_t> packet;
-    auto send = [&](std::uint32_t id) {
-      build_packet(*block, id, packet);
-      send_to(gvsp_socket, packet, block->destination);
-      ++counters.packets_sent;
-    };
-    auto send_due = [&](bool all) {
-      for (auto it = delayed.begin(); it != delayed.end();) {
-        if (all) std::this_thread::sleep_until(it->first);
-        if (all || it->first <= Clock::now()) {
-          send(it->second);
-          it = delayed.erase(it);
-        } else {
-          ++it;
-        }
-      }
-    };
-    const std::uint32_t last = block->last_packet_id();
-    for (std::uint32_t id = 0; id <= last; ++id) {
-      send_due(false);
-      double loss, delay, reorder;
-      {
-        std::lock_guard lock(mutex);
-        loss = roll(dice), delay = roll(dice), reorder = roll(dice);
-      }
-      if (loss < fault.loss_probability) {
-        ++counters.packets_dropped;
-        continue;
-      }
-      if (delay < fault.delay_probability) {
-        ++counters.packets_delayed;
-        delayed.emplace_back(Clock::now() + std::chrono::microseconds(fault.delay_us), id);
-        continue;
-      }
-      if (!swapped && id != last && reorder < fault.reorder_probability) {
-        ++counters.packets_reordered;
-        swapped = id;
-        continue;
-      }
-      send(id);
-      if (swapped) {
-        send(*swapped);
-        swapped.reset();
-      }
-    }
-    if (swapped) send(*swapped);
-    send_due(true);
+    const TransmissionCounts faulted = transmit_with_faults(
+        block->last_packet_id(), fault,
+        [&] {
+          std::lock_guard lock(mutex);
+          return uniform(dice);
+        },
+        [&](std::uint32_t id) {
+          build_gvsp_packet(*block, id, packet);
+          send_to(gvsp_socket, packet, block->destination);
+          ++counters.packets_sent;
+        });
+    counters.packets_dropped += faulted.dropped;
+    counters.packets_delayed += faulted.delayed;
+    counters.packets_reordered += faulted.reordered;
     ++counters.blocks_sent;
     return true;
   }

@@ -78,6 +78,7 @@ TEST(ChromoSim, PrintsWhereDevicesListenServesThemAndStopsOnCtrlC) {
 TEST(ChromoSim, BadArgumentsExitWithStatusTwo) {
   for (std::vector<std::string> args : {std::vector<std::string>{"--fixed-light", "no-such-light"},
                                         std::vector<std::string>{"--sensor-width", "5"},
+                                        std::vector<std::string>{"--camera-address", "10.0.0.1"},
                                         std::vector<std::string>{"--no-such-option"}}) {
     ChromoSimProcess sim(args);
     sim.read_until("never printed");
