@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
-#include <optional>
 #include <thread>
 #include <utility>
 
@@ -58,7 +57,8 @@ TransmissionCounts transmit_with_faults(std::uint32_t last_packet_id, const Gvsp
   using Clock = std::chrono::steady_clock;
   TransmissionCounts counts;
   std::vector<std::pair<Clock::time_point, std::uint32_t>> held;  // delayed packets, in due order
-  std::optional<std::uint32_t> swapped;
+  constexpr std::uint32_t kNone = 0xFFFFFFFFu;  // no packet waiting to be swapped
+  std::uint32_t swapped = kNone;
   auto send_due = [&](bool all) {
     for (auto it = held.begin(); it != held.end();) {
       if (all) std::this_thread::sleep_until(it->first);
@@ -82,18 +82,18 @@ TransmissionCounts transmit_with_faults(std::uint32_t last_packet_id, const Gvsp
       held.emplace_back(Clock::now() + std::chrono::microseconds(faults.delay_us), id);
       continue;
     }
-    if (!swapped && id != last_packet_id && reorder < faults.reorder_probability) {
+    if (swapped == kNone && id != last_packet_id && reorder < faults.reorder_probability) {
       ++counts.reordered;
       swapped = id;
       continue;
     }
     send(id);
-    if (swapped) {
-      send(*swapped);
-      swapped.reset();
+    if (swapped != kNone) {
+      send(swapped);
+      swapped = kNone;
     }
   }
-  if (swapped) send(*swapped);
+  if (swapped != kNone) send(swapped);
   send_due(true);
   return counts;
 }
