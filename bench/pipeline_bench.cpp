@@ -4,9 +4,9 @@
 //
 //   pipeline_bench [--short] [--seconds S] [--dir DIR] [--no-chart]
 //
-// The link is real: the camera simulator (simulators/, Aravis' fake GigE
-// Vision camera on 127.0.0.1:3956, rendering a white target under a fixed
-// light) sends GVSP packets (8000-byte jumbo packets: loopback's MTU allows
+// The link is real: the camera simulator (simulators/, the project's GigE
+// Vision device side on its own loopback address 127.77.x.y, rendering a
+// white target under a fixed light, or a test pattern) sends GVSP packets (8000-byte jumbo packets: loopback's MTU allows
 // them, NOTES.md); the daemon's driver (AravisCamera: Aravis' UDP stream
 // receiver, resend requests, the copy into a Frame) receives them; the
 // callback hands each complete frame to the real FramePipeline, which writes
@@ -25,7 +25,7 @@
 // if 5 MP at 23 fps loses frames, lower rates are tried to find the highest
 // rate sustained with zero loss.
 //
-// Holds the GigE Vision port: run it under the lock (flock /tmp/chromo-gige.lock).
+// Each run's simulator binds an address of its own: no machine-wide lock.
 #include <stdexcept>
 #include <dirent.h>
 #include <sys/syscall.h>
@@ -43,7 +43,6 @@
 #include <sstream>
 #include <thread>
 
-#include <arv.h>
 #include <fmt/format.h>
 
 #include "chart.hpp"
@@ -105,28 +104,6 @@ class StageOfThread {
   std::map<long, std::string> stages_;
 };
 
-// Aravis' own fake GigE Vision camera with its built-in test pattern: the
-// same GVCP/GVSP stack (and fake-camera thread) as the CameraSimulator,
-// without the scene rendering and camera noise model, whose cost caps the
-// simulator's frame rate (measured by the "simulator" runs).
-class PatternCamera {
- public:
-  PatternCamera(const std::string& serial, int width, int height)
-      : gv_(arv_gv_fake_camera_new("127.0.0.1", serial.c_str())) {
-    if (gv_ == nullptr || !arv_gv_fake_camera_is_running(gv_))
-      throw std::runtime_error("pattern camera: cannot listen on 127.0.0.1:3956 (another camera simulator running?)");
-    ArvFakeCamera* camera = arv_gv_fake_camera_get_fake_camera(gv_);
-    arv_fake_camera_write_register(camera, 0x11c, static_cast<guint32>(width));   // SensorWidth
-    arv_fake_camera_write_register(camera, 0x118, static_cast<guint32>(height));  // SensorHeight
-  }
-  ~PatternCamera() { g_object_unref(gv_); }
-  PatternCamera(const PatternCamera&) = delete;
-  PatternCamera& operator=(const PatternCamera&) = delete;
-
- private:
-  ArvGvFakeCamera* gv_;
-};
-
 enum class Source { kSimulator, kPattern };
 
 struct RunSpec {
@@ -164,27 +141,26 @@ RunResult run(const RunSpec& spec, const std::filesystem::path& root, const std:
   auto scene = std::make_shared<const simulators::Scene>(simulators::make_white_target_scene(64, 64));
   StageOfThread stage_of;
   stage_of.note("trigger+main");
-  std::unique_ptr<simulators::CameraSimulator> simulator;
-  std::unique_ptr<PatternCamera> pattern;
-  if (spec.source == Source::kSimulator) {
-    simulator = std::make_unique<simulators::CameraSimulator>(
-        camera_options, std::make_shared<simulators::FixedSpectrumIllumination>(light), scene);
-    simulator->set_exposure_hook([&stage_of] { stage_of.note("simulator render+send"); });
-  } else {
-    pattern = std::make_unique<PatternCamera>(serial, spec.width, spec.height);
-  }
+  // The pattern camera is the same device side without the scene rendering
+  // and camera noise model, whose cost caps the simulator's frame rate
+  // (measured by the "simulator" runs).
+  camera_options.test_pattern = spec.source == Source::kPattern;
+  auto simulator = std::make_unique<simulators::CameraSimulator>(
+      camera_options, std::make_shared<simulators::FixedSpectrumIllumination>(light), scene);
+  simulator->set_exposure_hook([&stage_of, pattern = camera_options.test_pattern] {
+    stage_of.note(pattern ? "pattern camera send" : "simulator render+send");
+  });
 
   drivers::AravisCameraOptions options;
   options.serial = serial;
+  options.address = simulator->address();
   options.packet_size_bytes = 8000;  // jumbo packets on loopback
   options.buffer_count = 16;
   options.frame_retention_ms = 500;
   options.on_warning = [](const std::string& warning) { std::cout << "driver warning: " << warning << "\n"; };
   auto camera = drivers::AravisCamera::open(options);
   // Free-running at the frame rate: the simulated camera paces its own
-  // exposures (Aravis' fake camera serves software triggers only on its
-  // internal frame clock, which coalesces triggers; free-run is what a
-  // camera streaming at line rate does anyway).
+  // exposures, as a camera streaming at line rate does.
   drivers::CameraSettings settings;
   settings.pixel_format = drivers::PixelFormat::kMono8;
   settings.exposure_us = 5000;

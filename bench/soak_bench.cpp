@@ -14,8 +14,7 @@
 //   soak_bench [--sessions 100] [--warmup 10] [--work DIR] [--results DIR] [--check]
 //
 // --check: exit status 1 when a target is missed (the ctest, 10 sessions).
-// Holds the GigE Vision port (the virtual lab): run under the lock
-// (flock /work/.gige.lock).
+// chromod's virtual-lab camera binds a loopback address of its own: no lock.
 #include <fcntl.h>
 #include <signal.h>
 #include <spawn.h>

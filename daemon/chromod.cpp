@@ -76,7 +76,6 @@ int main(int argc, char** argv) {
     DeviceSet devices;
     if (config.devices.empty()) {
       VirtualLabOptions lab_options;
-      lab_options.run_dir = config.runtime_dir;
       auto lab = start_virtual_lab(lab_options);
       config.devices = lab.devices;
       if (config.mixes.empty()) config.mixes = lab.mixes;

@@ -124,12 +124,17 @@ const std::set<std::string> kCameraCaptureSettings{"pixel_format", "roi", "gain_
 
 std::unique_ptr<drivers::Camera> open_aravis(const DeviceConfig& config) {
   auto known = kCameraCaptureSettings;
-  known.insert({"packet_size_bytes", "buffer_count", "socket_buffer_bytes", "frame_retention_ms"});
+  known.insert({"packet_size_bytes", "buffer_count", "socket_buffer_bytes", "frame_retention_ms", "ip_address"});
   Settings s(config, known);
   camera_capture_settings(config);  // validates pixel_format, roi, gain_db before connecting
   drivers::AravisCameraOptions options;
   if (config.address.empty()) throw std::invalid_argument("address: the camera's serial number is missing");
   options.serial = config.address;
+  if (config.settings.contains("ip_address")) {
+    if (!config.settings.at("ip_address").is_string())
+      throw std::invalid_argument("settings.ip_address: must be a string (IPv4 a.b.c.d)");
+    options.address = config.settings.at("ip_address").get<std::string>();
+  }
   options.packet_size_bytes = static_cast<int>(s.integer("packet_size_bytes", 0, 0, 16000));
   options.buffer_count = static_cast<int>(s.integer("buffer_count", options.buffer_count, 2, 256));
   options.socket_buffer_bytes =

@@ -22,6 +22,8 @@ bool VirtualLabOptions::IsValid(std::string* error) const {
   if (!(led_time_scale >= 1 && led_time_scale <= 100000)) return fail("led_time_scale: must be in [1, 100000]");
   if (camera_serial.empty() || camera_serial.size() > 15)
     return fail("camera_serial: must be 1-15 characters (GigE Vision bootstrap)");
+  if (!camera_address.empty() && (!camera_address.starts_with("127.") || camera_address.size() > 15))
+    return fail("camera_address: must be empty or an address in 127.0.0.0/8");
   DeviceConfig probe;
   probe.settings = {{"pixel_format", pixel_format}};
   try {
@@ -51,7 +53,7 @@ struct VirtualLabSimulators::Impl {
     camera_options.sensor_width = options.sensor_width;
     camera_options.sensor_height = options.sensor_height;
     camera_options.camera_model.seed = options.seed;
-    camera_options.genicam_dir = options.run_dir;
+    camera_options.address = options.camera_address;
     // The camera sees the LEDs (the lamp's port is closed during captures);
     // the lab outlives the camera simulator (declared first): non-owning.
     const std::shared_ptr<const simulators::SphereIllumination> light(std::shared_ptr<void>(), &lab.lab());
@@ -95,7 +97,10 @@ VirtualLab start_virtual_lab(const VirtualLabOptions& options) {
        nlohmann::json::object()},
       {"cam0", DeviceKind::kCamera, "aravis", options.camera_serial,
        // Small socket buffer: enough for a few 640x480 frames, within a default rmem_max.
-       {{"pixel_format", options.pixel_format}, {"socket_buffer_bytes", 4 << 20}, {"frame_retention_ms", 500}}},
+       {{"pixel_format", options.pixel_format},
+        {"ip_address", simulators->camera().address()},
+        {"socket_buffer_bytes", 4 << 20},
+        {"frame_retention_ms", 500}}},
       {"spec0", DeviceKind::kSpectrometer, "virtual-usb", "in-process USB transport of the simulated USB2000+",
        nlohmann::json::object()},
   };
@@ -112,7 +117,8 @@ VirtualLab start_virtual_lab(const VirtualLabOptions& options) {
   lab.device_set.lab_time_scale = options.led_time_scale;
   lab.mixes = default_virtual_lab_mixes();
   lab.description = "LED controller simulator on Modbus TCP 127.0.0.1:" + std::to_string(simulators->modbus_port()) +
-                    ", GigE Vision camera simulator " + options.camera_serial + " on 127.0.0.1:3956 (" +
+                    ", GigE Vision camera simulator " + options.camera_serial + " on " +
+                    simulators->camera().address() + ":3956 (" +
                     std::to_string(options.sensor_width) + "x" + std::to_string(options.sensor_height) + " " +
                     options.pixel_format + "), simulated USB2000+ spectrometer and reference lamp; real drivers; "
                     "LED lab time " + std::to_string(static_cast<int>(options.led_time_scale)) + "x";

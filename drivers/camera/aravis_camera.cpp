@@ -2,6 +2,7 @@
 // the frame lifecycle.
 #include "chromo/drivers/camera/aravis_camera.hpp"
 
+#include <arpa/inet.h>
 #include <arv.h>
 
 #include <algorithm>
@@ -89,6 +90,11 @@ bool AravisCameraOptions::IsValid(std::string* error) const {
     return false;
   };
   if (serial.empty()) return fail("serial is empty");
+  if (!address.empty()) {
+    in_addr parsed{};
+    if (inet_pton(AF_INET, address.c_str(), &parsed) != 1)
+      return fail("address \"" + address.substr(0, 40) + "\" is not an IPv4 address (a.b.c.d)");
+  }
   if (buffer_count < 2 || buffer_count > 256) return fail("buffer_count must be 2-256");
   if (socket_buffer_bytes < 65536) return fail("socket_buffer_bytes must be at least 65536");
   if (packet_size_bytes != 0 && (packet_size_bytes < 576 || packet_size_bytes > 16000))
@@ -140,7 +146,7 @@ struct AravisCamera::Impl {
 
   mutable std::mutex stats_mutex;
   StreamStatistics stats;
-  std::uint64_t resent_base = 0, missing_base = 0;  // counters of streams already destroyed
+  std::uint64_t resent_base = 0, missing_base = 0, requests_base = 0;  // counters of streams already destroyed
 
   std::atomic<bool> link_lost{false};
   std::atomic<bool> link_is_up{true};
@@ -163,6 +169,28 @@ struct AravisCamera::Impl {
 
   // Discovery and the GVCP handshake, without control_mutex (they take seconds
   // when the camera is absent). Returns the new device and its address.
+  ArvCamera* connect(std::string* address) const {
+    return options.address.empty() ? connect_by_serial(address) : connect_by_address(address);
+  }
+
+  // Unicast: Aravis opens a device id that is an IP address directly.
+  ArvCamera* connect_by_address(std::string* address) const {
+    GErrorSlot error;
+    ArvCamera* opened = arv_camera_new(options.address.c_str(), error.out());
+    if (opened == nullptr)
+      throw DeviceError(DeviceError::Kind::kNotFound, device_name, "open GigE Vision device at " + options.address,
+                        error ? error.message() : "nothing answered there");
+    const char* serial = arv_camera_get_device_serial_number(opened, error.out());
+    const std::string found = serial != nullptr ? serial : "";
+    if (found != options.serial) {
+      g_object_unref(opened);
+      throw DeviceError(DeviceError::Kind::kRefused, device_name, "open GigE Vision device at " + options.address,
+                        "it has serial \"" + found + "\", not \"" + options.serial + "\"");
+    }
+    *address = options.address;
+    return opened;
+  }
+
   ArvCamera* connect_by_serial(std::string* address) const {
     std::string device_id;
     {
@@ -405,12 +433,15 @@ struct AravisCamera::Impl {
   void update_transfer_counters(ArvStream* s, bool stream_ending) {
     guint64 resent = 0, missing = 0;
     arv_gv_stream_get_statistics(ARV_GV_STREAM(s), &resent, &missing);
+    const guint64 requests = arv_stream_get_info_uint64_by_name(s, "n_resend_requests");
     std::lock_guard lock(stats_mutex);
     stats.resent_packets = resent_base + resent;
     stats.missing_packets = missing_base + missing;
+    stats.resend_requests = requests_base + requests;
     if (stream_ending) {
       resent_base += resent;
       missing_base += missing;
+      requests_base += requests;
     }
   }
 
@@ -493,7 +524,7 @@ struct AravisCamera::Impl {
     for (;;) {
       try {
         std::string address;
-        ArvCamera* opened = connect_by_serial(&address);
+        ArvCamera* opened = connect(&address);
         std::lock_guard lock(control_mutex);
         try {
           install_camera_locked(opened, address);
@@ -540,7 +571,7 @@ std::unique_ptr<AravisCamera> AravisCamera::open(const AravisCameraOptions& opti
   impl->device_name = "camera " + options.serial;
   {
     std::string address;
-    ArvCamera* opened = impl->connect_by_serial(&address);
+    ArvCamera* opened = impl->connect(&address);
     std::lock_guard lock(impl->control_mutex);
     try {
       impl->install_camera_locked(opened, address);

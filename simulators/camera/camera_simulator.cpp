@@ -1,71 +1,22 @@
+// CameraSimulator: see camera_simulator.hpp; the transport is the project's
+// GigeVisionDevice, the registers are camera_registers.hpp.
 #include "chromo/simulators/camera/camera_simulator.hpp"
-#include "chromo/drivers/camera.hpp"
-
-#include <arv.h>
-#include <unistd.h>
 
 #include <opencv2/imgproc.hpp>
 
-#include <cmath>
+#include <algorithm>
+#include <chrono>
 #include <cstring>
-#include <filesystem>
-#include <fstream>
 #include <stdexcept>
+
+#include "camera_registers.hpp"
+#include "gige_protocol.hpp"
 
 namespace chromo::simulators {
 namespace {
 
-// Registers of Aravis' fake camera (arvfakecamera.h) and ours.
-constexpr guint32 kRegisterSensorWidth = 0x11c;
-constexpr guint32 kRegisterSensorHeight = 0x118;
-constexpr guint32 kRegisterOffsetX = 0x130;
-constexpr guint32 kRegisterOffsetY = 0x134;
-constexpr guint32 kRegisterTriggerMode = 0x300;
-constexpr guint32 kRegisterFakeTriggerSource = 0x304;  // pinned to 1: the fake thread fires on 0x30c
-constexpr guint32 kRegisterTriggerSoftware = 0x30c;
-constexpr guint32 kRegisterTriggerSource = 0x3f4;      // our TriggerSource: 0 = Line0, 1 = Software
-
-void replace_once(std::string& text, const std::string& from, const std::string& to) {
-  const auto at = text.find(from);
-  if (at == std::string::npos || text.find(from, at + 1) != std::string::npos)
-    throw std::runtime_error("camera simulator: Aravis' fake-camera GenICam XML changed (no unique '" + from +
-                             "'); update camera_simulator.cpp");
-  text.replace(at, from.size(), to);
-}
-
-// Aravis' built-in fake-camera description, amended (see the header).
-std::string simulator_genicam_xml() {
-  ArvFakeCamera* probe = arv_fake_camera_new("probe");
-  size_t size = 0;
-  const char* xml = arv_fake_camera_get_genicam_xml(probe, &size);
-  std::string text(xml, size);
-  g_object_unref(probe);
-
-  replace_once(text, "<pFeature>GainRaw</pFeature>", "<pFeature>Gain</pFeature>");
-  const auto gain_begin = text.find("<Integer Name=\"GainRaw\"");
-  const auto gain_end = text.find("</Integer>", gain_begin);
-  if (gain_begin == std::string::npos || gain_end == std::string::npos)
-    throw std::runtime_error("camera simulator: no GainRaw in Aravis' fake-camera XML");
-  text.replace(gain_begin, gain_end + std::strlen("</Integer>") - gain_begin,
-               "<Float Name=\"Gain\" NameSpace=\"Standard\">\n"
-               "\t\t<Description>Analog gain in dB.</Description>\n"
-               "\t\t<pValue>GainConverter</pValue>\n\t\t<Min>0.0</Min>\n\t\t<Max>24.0</Max>\n\t\t<Unit>dB</Unit>\n"
-               "\t</Float>\n\n"
-               "\t<Converter Name=\"GainConverter\" NameSpace=\"Custom\">\n"
-               "\t\t<FormulaTo>FROM * 100</FormulaTo>\n\t\t<FormulaFrom>TO / 100</FormulaFrom>\n"
-               "\t\t<pValue>GainRawRegister</pValue>\n\t</Converter>");
-  replace_once(text, "<pValue>PixelFormatRegister</pValue>",
-               "<EnumEntry Name=\"Mono12\" NameSpace=\"Standard\">\n\t\t\t<Value>17825797</Value>\n\t\t</EnumEntry>\n"
-               "\t\t<EnumEntry Name=\"BayerRG12\" NameSpace=\"Standard\">\n\t\t\t<Value>17825809</Value>\n\t\t</EnumEntry>\n"
-               "\t\t<EnumEntry Name=\"BayerRG16\" NameSpace=\"Standard\">\n\t\t\t<Value>17825839</Value>\n\t\t</EnumEntry>\n"
-               "\t\t<pValue>PixelFormatRegister</pValue>");
-  const auto source_begin = text.find("<IntReg Name=\"TriggerSourceRegister\"");
-  if (source_begin == std::string::npos) throw std::runtime_error("camera simulator: no TriggerSourceRegister in XML");
-  const auto address = text.find("<Address>0x304</Address>", source_begin);
-  if (address == std::string::npos) throw std::runtime_error("camera simulator: TriggerSourceRegister moved");
-  text.replace(address, std::strlen("<Address>0x304</Address>"), "<Address>0x3f4</Address>");
-  return text;
-}
+namespace reg = camera_registers;
+using Clock = std::chrono::steady_clock;
 
 SensorLayout layout_of(drivers::ColourLayout layout) {
   switch (layout) {
@@ -78,14 +29,6 @@ SensorLayout layout_of(drivers::ColourLayout layout) {
 
 }  // namespace
 
-struct CameraSimulator::Fake {
-  ArvGvFakeCamera* gv = nullptr;
-  ~Fake() {
-    if (gv != nullptr) g_object_unref(gv);
-  }
-  ArvFakeCamera* camera() const { return arv_gv_fake_camera_get_fake_camera(gv); }
-};
-
 bool CameraSimulatorOptions::IsValid(std::string* error) const {
   auto fail = [&](const std::string& message) {
     if (error != nullptr) *error = message;
@@ -94,6 +37,13 @@ bool CameraSimulatorOptions::IsValid(std::string* error) const {
   if (serial.empty() || serial.size() > 15) return fail("serial must be 1-15 characters (GigE Vision bootstrap)");
   if (sensor_width < 16 || sensor_height < 16 || sensor_width > 4096 || sensor_height > 4096)
     return fail("sensor size must be 16-4096 pixels");
+  GigeVisionDeviceOptions device;
+  device.address = address;
+  device.serial = serial;
+  device.genicam_xml.assign(1, '-');  // checked by the constructor; any text passes here
+  device.faults = faults;
+  device.first_block_id = first_block_id;
+  if (!device.IsValid(error)) return false;
   return camera_model.IsValid(error);
 }
 
@@ -106,112 +56,208 @@ CameraSimulator::CameraSimulator(CameraSimulatorOptions options, std::shared_ptr
   std::string error;
   if (!options_.IsValid(&error)) throw std::invalid_argument("CameraSimulatorOptions: " + error);
   if (!illumination_ || !scene_) throw std::invalid_argument("CameraSimulator: illumination and scene are required");
-  genicam_path_ = ((options_.genicam_dir.empty() ? std::filesystem::temp_directory_path() : options_.genicam_dir) /
-                   ("chromo-camera-sim-" + std::to_string(::getpid()) + "-" + options_.serial + ".xml"))
-                      .string();
-  start_fake();
+  GigeVisionDeviceOptions device;
+  device.address = options_.address;
+  device.serial = options_.serial;
+  device.model = "CHROMO-SIM-CAM";
+  device.genicam_xml = reg::genicam_xml(device.model);
+  device.camera_register_base = reg::kBase;
+  device.camera_register_count = reg::kCount;
+  device.faults = options_.faults;
+  device.first_block_id = options_.first_block_id;
+  device_ = std::make_unique<GigeVisionDevice>(std::move(device));
+  device_->set_write_hook([this](std::uint32_t address, std::uint32_t value,
+                                 const GigeVisionDevice::RegisterReader& read) {
+    return on_register_write(address, value, read);
+  });
+  device_->set_on_control_lost([this] {
+    std::lock_guard lock(acquisition_mutex_);
+    acquiring_ = false;
+    acquisition_cv_.notify_all();
+  });
+  power_on();
 }
 
 CameraSimulator::~CameraSimulator() { power_off(); }
 
-void CameraSimulator::start_fake() {
-  auto fake = std::make_unique<Fake>();
-  // Aravis reads the GenICam file when the fake camera is made: the file
-  // exists only for that call.
-  {
-    std::ofstream xml(genicam_path_);
-    xml << simulator_genicam_xml();
-    if (!xml.flush()) throw std::runtime_error("camera simulator " + options_.serial + ": cannot write " + genicam_path_);
+void CameraSimulator::apply_power_on_registers() {
+  device_->set_camera_register(reg::kSensorWidth, options_.sensor_width);
+  device_->set_camera_register(reg::kSensorHeight, options_.sensor_height);
+  device_->set_camera_register(reg::kWidth, std::min(512, options_.sensor_width));
+  device_->set_camera_register(reg::kHeight, std::min(512, options_.sensor_height));
+  device_->set_camera_register(reg::kOffsetX, 0);
+  device_->set_camera_register(reg::kOffsetY, 0);
+  device_->set_camera_register(reg::kPixelFormat, drivers::pixel_format_info(options_.pixel_format).pfnc_code);
+  device_->set_camera_register(reg::kAcquisitionMode, reg::kModeContinuous);
+  device_->set_camera_register(reg::kFramePeriodUs, 100000);
+  device_->set_camera_register(reg::kExposureUs, 10000);
+  device_->set_camera_register(reg::kGainCentiDb, 0);
+  device_->set_camera_register(reg::kTriggerMode, 0);
+  device_->set_camera_register(reg::kTriggerSource, reg::kSourceSoftware);
+  device_->set_camera_register(reg::kTriggerActivation, 0);
+  device_->set_camera_register(reg::kAcquisitionActive, 0);
+  std::lock_guard lock(acquisition_mutex_);
+  acquiring_ = single_frame_ = trigger_on_ = false;
+  trigger_source_ = reg::kSourceSoftware;
+  frame_period_us_ = 100000;
+  pending_triggers_ = 0;
+}
+
+// Validates a controller's write and mirrors the acquisition state. Runs on
+// the device's GVCP thread under its lock: registers only through `read`.
+std::uint16_t CameraSimulator::on_register_write(std::uint32_t address, std::uint32_t value,
+                                                 const GigeVisionDevice::RegisterReader& read) {
+  using namespace gige;
+  std::lock_guard lock(acquisition_mutex_);
+  const bool image_format = address == reg::kWidth || address == reg::kHeight || address == reg::kOffsetX ||
+                            address == reg::kOffsetY || address == reg::kPixelFormat;
+  if (image_format && acquiring_) return kStatusBusy;  // the transport layer's parameters are locked
+  const std::uint32_t sensor_width = read(reg::kSensorWidth), sensor_height = read(reg::kSensorHeight);
+  switch (address) {
+    case reg::kSensorWidth:
+    case reg::kSensorHeight:
+    case reg::kAcquisitionActive: return kStatusWriteProtect;
+    case reg::kWidth: return value >= 1 && value + read(reg::kOffsetX) <= sensor_width ? kStatusSuccess : kStatusInvalidParameter;
+    case reg::kHeight:
+      return value >= 1 && value + read(reg::kOffsetY) <= sensor_height ? kStatusSuccess : kStatusInvalidParameter;
+    case reg::kOffsetX: return value + read(reg::kWidth) <= sensor_width ? kStatusSuccess : kStatusInvalidParameter;
+    case reg::kOffsetY: return value + read(reg::kHeight) <= sensor_height ? kStatusSuccess : kStatusInvalidParameter;
+    case reg::kPixelFormat: return drivers::pixel_format_from_pfnc(value) ? kStatusSuccess : kStatusInvalidParameter;
+    case reg::kAcquisitionMode:
+      return value == reg::kModeContinuous || value == reg::kModeSingleFrame ? kStatusSuccess : kStatusInvalidParameter;
+    case reg::kFramePeriodUs:
+      if (value < 1000 || value > 10000000) return kStatusInvalidParameter;
+      frame_period_us_ = value;
+      break;
+    case reg::kExposureUs: return value >= 10 && value <= 10000000 ? kStatusSuccess : kStatusInvalidParameter;
+    case reg::kGainCentiDb: return value <= 2400 ? kStatusSuccess : kStatusInvalidParameter;
+    case reg::kTriggerMode:
+      if (value > 1) return kStatusInvalidParameter;
+      trigger_on_ = value == 1;
+      pending_triggers_ = 0;
+      break;
+    case reg::kTriggerSource:
+      if (value != reg::kSourceLine0 && value != reg::kSourceSoftware) return kStatusInvalidParameter;
+      trigger_source_ = value;
+      break;
+    case reg::kTriggerActivation: return value == 0 ? kStatusSuccess : kStatusInvalidParameter;
+    case reg::kAcquisitionStart:
+      acquiring_ = true;
+      single_frame_ = read(reg::kAcquisitionMode) == reg::kModeSingleFrame;
+      pending_triggers_ = 0;
+      break;
+    case reg::kAcquisitionStop:
+      acquiring_ = false;
+      pending_triggers_ = 0;
+      break;
+    case reg::kTriggerSoftware:
+      if (acquiring_ && trigger_on_ && trigger_source_ == reg::kSourceSoftware) ++pending_triggers_;
+      break;
+    default: return kStatusInvalidAddress;  // inside the block but not a register
   }
-  fake->gv = arv_gv_fake_camera_new_full(options_.interface_address.c_str(), options_.serial.c_str(),
-                                         genicam_path_.c_str());
-  std::error_code ignored;
-  std::filesystem::remove(genicam_path_, ignored);
-  if (fake->gv == nullptr || !arv_gv_fake_camera_is_running(fake->gv))
-    throw std::runtime_error("camera simulator " + options_.serial + ": cannot listen for GigE Vision on " +
-                             options_.interface_address + ":" + std::to_string(kGvcpPort) +
-                             " (is another camera simulator running?)");
-  ArvFakeCamera* camera = fake->camera();
-  arv_fake_camera_write_register(camera, kRegisterSensorWidth, options_.sensor_width);
-  arv_fake_camera_write_register(camera, kRegisterSensorHeight, options_.sensor_height);
-  arv_fake_camera_write_register(camera, 0x100, std::min(512, options_.sensor_width));   // Width
-  arv_fake_camera_write_register(camera, 0x104, std::min(512, options_.sensor_height));  // Height
-  arv_fake_camera_write_register(camera, kRegisterFakeTriggerSource, 1);
-  arv_fake_camera_write_register(camera, kRegisterTriggerSource, 1);
-  g_object_set(fake->gv, "gvsp-lost-ratio", packet_loss_ratio_, nullptr);
+  acquisition_cv_.notify_all();
+  return kStatusSuccess;
+}
+
+void CameraSimulator::start_acquisition_thread() {
+  {
+    std::lock_guard lock(acquisition_mutex_);
+    quit_ = false;
+  }
   frame_index_ = 0;
-  arv_fake_camera_set_fill_pattern(
-      camera,
-      [](ArvBuffer* buffer, void* self, guint32 exposure_us, guint32 gain, ArvPixelFormat format) {
-        fill_frame(buffer, self, exposure_us, gain, static_cast<std::uint32_t>(format));
-      },
-      this);
-  live_camera_ = camera;
-  fake_ = std::move(fake);
+  acquisition_thread_ = std::thread([this] { acquisition_loop(); });
 }
 
-void CameraSimulator::set_scene(std::shared_ptr<const Scene> scene) {
-  if (!scene) throw std::invalid_argument("CameraSimulator::set_scene: null scene");
-  std::lock_guard lock(render_mutex_);
-  scene_ = std::move(scene);
-}
-
-void CameraSimulator::set_exposure_hook(std::function<void()> hook) {
-  std::lock_guard lock(render_mutex_);
-  exposure_hook_ = std::move(hook);
-}
-
-void CameraSimulator::set_packet_loss_ratio(double ratio) {
-  if (!(ratio >= 0 && ratio <= 1)) throw std::invalid_argument("packet loss ratio must be 0-1");
-  packet_loss_ratio_ = ratio;
-  if (fake_) g_object_set(fake_->gv, "gvsp-lost-ratio", ratio, nullptr);
-}
-
-void CameraSimulator::power_off() {
-  fake_.reset();  // joins the fake camera's thread: no frame is being rendered after this
-  live_camera_ = nullptr;
-}
-
-void CameraSimulator::power_on() {
-  if (!fake_) start_fake();
-}
-
-bool CameraSimulator::powered() const { return fake_ != nullptr; }
-
-void CameraSimulator::pulse_trigger_input() {
-  if (!fake_) return;
-  guint32 mode = 0, source = 1;
-  arv_fake_camera_read_register(fake_->camera(), kRegisterTriggerMode, &mode);
-  arv_fake_camera_read_register(fake_->camera(), kRegisterTriggerSource, &source);
-  if (mode == 1 && source == 0) arv_fake_camera_write_register(fake_->camera(), kRegisterTriggerSoftware, 1);
-}
-
-cv::Mat CameraSimulator::sensor_response(const spectral::Spectrum& irradiance) const {
-  std::shared_ptr<const Scene> scene;
+void CameraSimulator::stop_acquisition_thread() {
   {
-    std::lock_guard lock(render_mutex_);
-    scene = scene_;
+    std::lock_guard lock(acquisition_mutex_);
+    quit_ = true;
   }
-  const cv::Mat at_scene = scene->render(model_.weights(irradiance));
-  cv::Mat at_sensor;
-  cv::resize(at_scene, at_sensor, cv::Size(options_.sensor_width, options_.sensor_height), 0, 0, cv::INTER_LINEAR);
-  return at_sensor;
+  acquisition_cv_.notify_all();
+  if (acquisition_thread_.joinable()) acquisition_thread_.join();
 }
 
-void CameraSimulator::fill_frame(void* buffer, void* self, std::uint32_t exposure_us, std::uint32_t gain_centi_db,
-                                 std::uint32_t pixel_format) {
-  static_cast<CameraSimulator*>(self)->render_into(buffer, exposure_us, gain_centi_db, pixel_format);
+void CameraSimulator::acquisition_loop() {
+  std::unique_lock lock(acquisition_mutex_);
+  auto next_frame = Clock::now();
+  bool was_acquiring = false;
+  while (!quit_) {
+    if (!acquiring_) {
+      if (was_acquiring) {
+        lock.unlock();
+        device_->set_camera_register(reg::kAcquisitionActive, 0);
+        lock.lock();
+        was_acquiring = false;
+      }
+      acquisition_cv_.wait(lock, [this] { return quit_ || acquiring_; });
+      next_frame = Clock::now();
+      continue;
+    }
+    if (!was_acquiring) {
+      lock.unlock();
+      device_->set_camera_register(reg::kAcquisitionActive, 1);
+      lock.lock();
+      was_acquiring = true;
+      continue;  // the state may have changed meanwhile
+    }
+    if (trigger_on_) {
+      if (pending_triggers_ == 0) {
+        acquisition_cv_.wait(lock, [this] { return quit_ || !acquiring_ || !trigger_on_ || pending_triggers_ > 0; });
+        continue;
+      }
+      --pending_triggers_;
+    } else {
+      if (acquisition_cv_.wait_until(lock, next_frame, [this] { return quit_ || !acquiring_ || trigger_on_; }))
+        continue;
+      const auto period = std::chrono::microseconds(frame_period_us_);
+      next_frame += period;
+      if (next_frame < Clock::now() - period) next_frame = Clock::now();  // no burst after a stall
+    }
+    lock.unlock();
+    produce_frame();
+    lock.lock();
+    if (single_frame_) acquiring_ = false;
+  }
 }
 
-void CameraSimulator::render_into(void* arv_buffer, std::uint32_t exposure_us, std::uint32_t gain_centi_db,
-                                  std::uint32_t pixel_format) {
-  auto* buffer = static_cast<ArvBuffer*>(arv_buffer);
+void CameraSimulator::produce_frame() {
+  const int width = static_cast<int>(device_->camera_register(reg::kWidth));
+  const int height = static_cast<int>(device_->camera_register(reg::kHeight));
+  const int offset_x = static_cast<int>(device_->camera_register(reg::kOffsetX));
+  const int offset_y = static_cast<int>(device_->camera_register(reg::kOffsetY));
+  const std::uint32_t pfnc = device_->camera_register(reg::kPixelFormat);
+  const double exposure_us = device_->camera_register(reg::kExposureUs);
+  const double gain_db = device_->camera_register(reg::kGainCentiDb) / 100.0;
+  const auto known = drivers::pixel_format_from_pfnc(pfnc);
+  if (!known) return;  // the write hook admits only the table's formats
+  const drivers::PixelFormatInfo& format = drivers::pixel_format_info(*known);
+
   std::function<void()> hook;
   {
     std::lock_guard lock(render_mutex_);
     hook = exposure_hook_;
   }
+  const std::uint64_t timestamp = device_->now_ticks();
   if (hook) hook();  // the LED controller's trigger input sees the exposure start
+  GvspImageBlock block;
+  block.pixel_format = pfnc;
+  block.width = width;
+  block.height = height;
+  block.offset_x = offset_x;
+  block.offset_y = offset_y;
+  block.timestamp_ticks = timestamp;
+  if (options_.test_pattern) {
+    auto pattern = std::make_shared<std::vector<std::uint8_t>>(format.frame_bytes(width, height));
+    const std::size_t row_bytes = pattern->size() / static_cast<std::size_t>(height);
+    const auto frame = static_cast<std::uint8_t>(frame_index_++);
+    for (int y = 0; y < height; ++y)
+      for (std::size_t x = 0; x < row_bytes; ++x)
+        (*pattern)[static_cast<std::size_t>(y) * row_bytes + x] = static_cast<std::uint8_t>(x + y + frame);
+    ++frames_rendered_;
+    block.payload = std::move(pattern);
+    device_->send_block(block);
+    return;
+  }
   const spectral::Spectrum irradiance = illumination_->irradiance_now();
   cv::Mat response;
   {
@@ -226,26 +272,16 @@ void CameraSimulator::render_into(void* arv_buffer, std::uint32_t exposure_us, s
     }
     response = cached_response_;
   }
-  const int width = arv_buffer_get_image_width(buffer), height = arv_buffer_get_image_height(buffer);
-  guint32 offset_x = 0, offset_y = 0;
-  auto* camera = static_cast<ArvFakeCamera*>(live_camera_.load());
-  arv_fake_camera_read_register(camera, kRegisterOffsetX, &offset_x);
-  arv_fake_camera_read_register(camera, kRegisterOffsetY, &offset_y);
-  const cv::Rect window(static_cast<int>(offset_x), static_cast<int>(offset_y), width, height);
-  if ((window & cv::Rect(0, 0, response.cols, response.rows)) != window) return;  // GenICam limits prevent this
-  const auto known = drivers::pixel_format_from_pfnc(pixel_format);
-  if (!known) return;  // the GenICam enumeration offers only the table's formats
-  const drivers::PixelFormatInfo& format = drivers::pixel_format_info(*known);
+  const cv::Rect window(offset_x, offset_y, width, height);
+  if ((window & cv::Rect(0, 0, response.cols, response.rows)) != window) return;  // the write hook prevents this
   const cv::Mat dn = model_.expose(response(window), layout_of(format.layout), window.x, window.y, exposure_us,
-                                   gain_centi_db / 100.0, frame_index_++);
+                                   gain_db, frame_index_++);
   ++frames_rendered_;
 
-  std::size_t ignored = 0;
-  auto* out = static_cast<std::uint8_t*>(const_cast<void*>(arv_buffer_get_data(buffer, &ignored)));
-  if (out == nullptr) return;
+  auto payload = std::make_shared<std::vector<std::uint8_t>>(format.frame_bytes(width, height));
+  std::uint8_t* out = payload->data();
   const int adc_bits = model_.options().adc_bits;
-  const int channels = dn.channels();
-  const auto count = static_cast<std::size_t>(width) * height * channels;
+  const auto count = static_cast<std::size_t>(width) * height * dn.channels();
   const auto* in = dn.ptr<std::uint16_t>();  // continuous: freshly allocated
   if (format.bytes_per_sample == 1) {
     for (std::size_t i = 0; i < count; ++i) out[i] = static_cast<std::uint8_t>(in[i] >> (adc_bits - 8));
@@ -256,6 +292,70 @@ void CameraSimulator::render_into(void* arv_buffer, std::uint32_t exposure_us, s
       std::memcpy(out + 2 * i, &v, 2);  // little-endian, as GigE Vision pixel data
     }
   }
+  block.payload = std::move(payload);
+  device_->send_block(block);
+}
+
+void CameraSimulator::set_scene(std::shared_ptr<const Scene> scene) {
+  if (!scene) throw std::invalid_argument("CameraSimulator::set_scene: null scene");
+  std::lock_guard lock(render_mutex_);
+  scene_ = std::move(scene);
+}
+
+void CameraSimulator::set_exposure_hook(std::function<void()> hook) {
+  std::lock_guard lock(render_mutex_);
+  exposure_hook_ = std::move(hook);
+}
+
+std::string CameraSimulator::address() const { return device_->address(); }
+
+void CameraSimulator::set_faults(const GvspFaultOptions& faults) {
+  device_->set_faults(faults);
+  options_.faults = faults;
+}
+
+void CameraSimulator::set_packet_loss_ratio(double ratio) {
+  GvspFaultOptions faults;
+  faults.loss_probability = ratio;
+  faults.seed = options_.faults.seed;
+  set_faults(faults);
+}
+
+GigeVisionDeviceCounters CameraSimulator::device_counters() const { return device_->counters(); }
+
+void CameraSimulator::power_off() {
+  if (!device_->running()) return;
+  stop_acquisition_thread();  // no frame is being rendered after this
+  device_->stop();
+}
+
+void CameraSimulator::power_on() {
+  if (device_->running()) return;
+  device_->start();
+  apply_power_on_registers();
+  start_acquisition_thread();
+}
+
+bool CameraSimulator::powered() const { return device_->running(); }
+
+void CameraSimulator::pulse_trigger_input() {
+  std::lock_guard lock(acquisition_mutex_);
+  if (acquiring_ && trigger_on_ && trigger_source_ == reg::kSourceLine0) {
+    ++pending_triggers_;
+    acquisition_cv_.notify_all();
+  }
+}
+
+cv::Mat CameraSimulator::sensor_response(const spectral::Spectrum& irradiance) const {
+  std::shared_ptr<const Scene> scene;
+  {
+    std::lock_guard lock(render_mutex_);
+    scene = scene_;
+  }
+  const cv::Mat at_scene = scene->render(model_.weights(irradiance));
+  cv::Mat at_sensor;
+  cv::resize(at_scene, at_sensor, cv::Size(options_.sensor_width, options_.sensor_height), 0, 0, cv::INTER_LINEAR);
+  return at_sensor;
 }
 
 }  // namespace chromo::simulators

@@ -5,7 +5,8 @@
 // Devices: the LED controller simulator (Modbus TCP on 127.0.0.1 and Modbus
 // RTU on a pseudo-terminal; its HID device side and the spectrometer sit
 // behind in-process seams and cannot be reached from another process), and
-// the GigE Vision camera simulator (127.0.0.1:3956), which renders the scene
+// the GigE Vision camera simulator (its own loopback address 127.x.y.z:3956,
+// --camera-address or one picked at random in 127.77.0.0/16), which renders the scene
 // under what the LED lab emits and raises the LED controller's hardware
 // trigger input on every exposure. --fixed-light replaces the LED lab's light
 // by a fixed spectrum (the LED controller still runs).
@@ -30,6 +31,7 @@ using namespace chromo;
 
 struct SimArguments {
   std::string camera_serial = "CHROMO-SIM-CAM";
+  std::string camera_address;  // empty: random in 127.77.0.0/16
   int sensor_width = 1024, sensor_height = 1024;
   int scene_size = 512;
   std::uint64_t seed = 1;
@@ -74,6 +76,7 @@ int run(const SimArguments& args) {
 
   simulators::CameraSimulatorOptions camera_options;
   camera_options.serial = args.camera_serial;
+  camera_options.address = args.camera_address;
   camera_options.sensor_width = args.sensor_width;
   camera_options.sensor_height = args.sensor_height;
   camera_options.camera_model.seed = args.seed;
@@ -88,7 +91,7 @@ int run(const SimArguments& args) {
   camera.set_exposure_hook([&leds] { leds.trigger(); });
   const auto led_info = leds.lab().info();
 
-  std::cout << "camera: GigE Vision on " << camera_options.interface_address << ":"
+  std::cout << "camera: GigE Vision on " << camera.address() << ":"
             << simulators::CameraSimulator::kGvcpPort << " serial " << camera_options.serial << " (sensor "
             << camera_options.sensor_width << "x" << camera_options.sensor_height
             << ", Bayer RG / mono / RGB8 formats, packet loss " << args.packet_loss << ")\n";
@@ -131,7 +134,11 @@ int main(int argc, char** argv) {
                  "(wavelength_nm,R,G,B)")
       ->capture_default_str();
   app.add_flag("--white-target", args.white_target, "Show the white reference target instead of skin");
-  app.add_option("--packet-loss", args.packet_loss, "Fraction of GVSP packets dropped")->check(CLI::Range(0.0, 1.0))->capture_default_str();
+  app.add_option("--camera-address", args.camera_address,
+                 "Loopback address of the camera simulator, 127.a.b.c (default: a free one in 127.77.0.0/16)");
+  app.add_option("--packet-loss", args.packet_loss,
+                 "Fraction of GVSP packets dropped on first transmission (resend requests are answered)")
+      ->check(CLI::Range(0.0, 0.5))->capture_default_str();
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -18,6 +18,8 @@ TEST(ChromoSimDaemon, ConfiguredRealBackendsRunASessionAgainstChromoSim) {
   const std::string banner = sim.read_until("running");
   const int port = chromo::testing::printed_modbus_port(banner);
   ASSERT_NE(port, -1) << banner;
+  const std::string camera_address = chromo::testing::printed_camera_address(banner);
+  ASSERT_TRUE(camera_address.starts_with("127.77.")) << banner;
 
   auto directory = testing::fresh_directory("chromo-sim-daemon");
   nlohmann::json json{
@@ -28,7 +30,8 @@ TEST(ChromoSimDaemon, ConfiguredRealBackendsRunASessionAgainstChromoSim) {
        {{{"name", "sphere"}, {"kind", "led_controller"}, {"backend", "modbus-tcp"},
          {"address", "127.0.0.1:" + std::to_string(port)}, {"settings", {{"unit_id", 1}, {"response_timeout_ms", 300}}}},
         {{"name", "cam0"}, {"kind", "camera"}, {"backend", "aravis"}, {"address", "CHROMO-SIMDMN"},
-         {"settings", {{"pixel_format", "BayerRG12"}, {"frame_retention_ms", 500}, {"socket_buffer_bytes", 4194304}}}}}},
+         {"settings", {{"pixel_format", "BayerRG12"}, {"ip_address", camera_address}, {"frame_retention_ms", 500},
+                       {"socket_buffer_bytes", 4194304}}}}}},
       {"mixes", {{"d65", {{"W57", 0.8}, {"R", 0.05}, {"G", 0.1}, {"B", 0.25}}},
                  {"w57", {{"W57", 0.8}}},
                  {"w57+blue", {{"W57", 0.8}, {"B", 0.4}}}}}};

@@ -1,10 +1,10 @@
 #pragma once
 // Helpers of the daemon tests: a Daemon on the virtual lab (the device
 // simulators on their real protocols: Modbus TCP LED controller, GigE Vision
-// camera on 127.0.0.1:3956, simulated USB2000+, all through the real
-// drivers), with small frames, in a fresh temporary sessions folder. Faults
-// are switched on the simulators (TestLab::simulators). Every test using it
-// holds the ctest lock "gige_loopback" (tests/CMakeLists.txt).
+// camera on a loopback address of its own, 127.77.x.y:3956, simulated
+// USB2000+, all through the real drivers), with small frames, in a fresh
+// temporary sessions folder. Faults are switched on the simulators
+// (TestLab::simulators). Labs of parallel tests do not collide.
 
 #include <chrono>
 #include <filesystem>

@@ -47,31 +47,40 @@ ZStats bayer_z_scores(const drivers::Frame& frame, const cv::Mat& sensor_respons
   return z;
 }
 
-TEST_F(CameraOnLoopback, DiscoversAndOpensBySerial) {
-  bool found = false;
-  for (const auto& info : drivers::discover_gige_cameras())
-    if (info.serial == kSerial) {
-      found = true;
-      EXPECT_EQ(info.address, "127.0.0.1");
-    }
-  EXPECT_TRUE(found);
+TEST_F(CameraOnLoopback, OpensByAddressAndChecksTheSerial) {
+  const std::string address = simulator_->address();
+  EXPECT_TRUE(address.starts_with("127.77.")) << address;
   const auto info = camera_->info();
   EXPECT_EQ(info.serial, kSerial);
+  EXPECT_EQ(info.address, address);
+  EXPECT_EQ(info.vendor, "Chromosphere");
   EXPECT_EQ(info.sensor_width, 256);
   EXPECT_EQ(info.sensor_height, 256);
   for (auto format : {PixelFormat::kMono8, PixelFormat::kBayerRG8, PixelFormat::kBayerRG12, PixelFormat::kBayerRG16,
-                      PixelFormat::kMono12, PixelFormat::kRgb8})
+                      PixelFormat::kMono12, PixelFormat::kMono16, PixelFormat::kRgb8})
     EXPECT_NE(std::find(info.pixel_formats.begin(), info.pixel_formats.end(), format), info.pixel_formats.end());
 
   drivers::AravisCameraOptions options;
   options.serial = "NO-SUCH-CAMERA";
+  options.address = address;  // a camera answers there, with another serial
+  try {
+    drivers::AravisCamera::open(options);
+    FAIL() << "opened a camera with another serial";
+  } catch (const DeviceError& e) {
+    EXPECT_EQ(e.kind(), DeviceError::Kind::kRefused);
+    EXPECT_NE(std::string(e.what()).find("NO-SUCH-CAMERA"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(kSerial), std::string::npos) << e.what();
+  }
+  options.address = "127.77.0.0";  // never picked: nothing answers there
   try {
     drivers::AravisCamera::open(options);
     FAIL() << "opened a camera that does not exist";
   } catch (const DeviceError& e) {
     EXPECT_EQ(e.kind(), DeviceError::Kind::kNotFound);
-    EXPECT_NE(std::string(e.what()).find("NO-SUCH-CAMERA"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("127.77.0.0"), std::string::npos) << e.what();
   }
+  options.address = "not-an-address";
+  EXPECT_THROW(drivers::AravisCamera::open(options), std::invalid_argument);
 }
 
 TEST_F(CameraOnLoopback, RejectsSettingsOutsideTheSensorAndKeepsThePreviousOnes) {
@@ -94,6 +103,7 @@ TEST_F(CameraOnLoopback, WarnsWhenTheSocketBufferIsTooSmallForTheStream) {
   camera_.reset();
   drivers::AravisCameraOptions options;
   options.serial = kSerial;
+  options.address = simulator_->address();
   options.frame_retention_ms = kTestFrameRetentionMs;
   options.socket_buffer_bytes = 65536;  // below four 128 KiB frames whatever rmem_max is
   options.on_warning = [this](const std::string& message) {
@@ -166,16 +176,16 @@ TEST_F(CameraOnLoopback, FramesMatchTheSceneUnderTheLedStateSetOverModbus) {
   simulator_ = std::make_unique<simulators::CameraSimulator>(sim_options, lab_light, small_skin_scene());
   drivers::AravisCameraOptions options;
   options.serial = kSerial;
+  options.address = simulator_->address();
   options.frame_retention_ms = kTestFrameRetentionMs;
   options.on_warning = [](const std::string&) {};
   camera_ = drivers::AravisCamera::open(options);
   camera_->configure(settings(PixelFormat::kBayerRG16));
   FrameSink sink;
   camera_->start_stream(sink.callback());
-  // This test is about the pixels. Aravis' fake camera ignores resend
-  // requests, so a datagram dropped on loopback ends that frame as kTimeout
-  // (delivery and its statuses are PacketLoss... and FreeRun...'s business):
-  // up to three triggers for one complete frame, every frame accounted for.
+  // This test is about the pixels (delivery and its statuses are
+  // PacketLoss... and FreeRun...'s business): up to three triggers for one
+  // complete frame, every frame accounted for.
   std::vector<drivers::Frame> frames;
   for (int attempt = 0; attempt < 3; ++attempt) {
     ASSERT_TRUE(trigger_and_wait(sink));
@@ -245,7 +255,7 @@ TEST_F(CameraOnLoopback, HardwareTriggerFramesAndTheLedHookFireOnEachExposure) {
 }
 
 TEST_F(CameraOnLoopback, FreeRunDeliversConsecutiveFramesAtTheFrameRateAcrossTheBlockIdWrap) {
-  // Aravis' fake camera starts its 16-bit block ids at 65401: 150 frames cross 65535 -> 1.
+  // The fixture's simulator starts its 16-bit block ids at 65400: 150 frames cross 65535 -> 1.
   auto s = settings(PixelFormat::kMono8, {0, 0, 64, 64});
   s.trigger_mode = drivers::TriggerMode::kFreeRun;
   s.frame_rate_hz = 100;
@@ -269,7 +279,7 @@ TEST_F(CameraOnLoopback, FreeRunDeliversConsecutiveFramesAtTheFrameRateAcrossThe
   // Mean period from the camera's timestamps, skipping the first (unaligned) frame.
   const double period_ms =
       (frames.back().camera_timestamp_ns - frames[1].camera_timestamp_ns) / 1e6 / static_cast<double>(frames.size() - 2);
-  // The fake camera paces itself with its own thread's sleeps: on a loaded
+  // The simulator paces itself with its own thread's sleeps: on a loaded
   // machine periods stretch, they do not shrink.
   EXPECT_GE(period_ms, 9.5);
   EXPECT_LT(period_ms, 15.0);
@@ -282,7 +292,12 @@ TEST_F(CameraOnLoopback, PacketLossGivesFailedFramesNeverDuplicatesNeverSilentLo
   // failed) before the next one starts.
   open_camera(500);
   camera_->configure(settings(PixelFormat::kBayerRG8));
-  simulator_->set_packet_loss_ratio(0.02);  // ~50 packets per frame: about 2 frames in 3 lose one
+  // ~50 packets per frame: about 2 frames in 3 lose one, and this camera
+  // (like one without a resend buffer) ignores the resend requests.
+  simulators::GvspFaultOptions faults;
+  faults.loss_probability = 0.02;
+  faults.answer_resend_requests = false;
+  simulator_->set_faults(faults);
   FrameSink sink;
   camera_->start_stream(sink.callback());
   constexpr int kTriggers = 24;

@@ -1,7 +1,7 @@
 #pragma once
-// A camera simulator on 127.0.0.1 and the driver opened on it, for the camera
-// tests. The GVCP port is fixed (3956): these tests hold the ctest resource
-// lock "gige_loopback".
+// A camera simulator on its own loopback address (127.77.x.y, picked at
+// random) and the driver opened on it by address, for the camera tests. Each
+// test's simulator has its own address, so test processes run in parallel.
 
 #include <gtest/gtest.h>
 
@@ -82,6 +82,7 @@ class CameraOnLoopback : public ::testing::Test {
     sim_options.serial = kSerial;
     sim_options.sensor_width = 256;
     sim_options.sensor_height = 256;
+    sim_options.first_block_id = 65400;  // the 16-bit block id wraps after 135 frames
     simulator_ = std::make_unique<simulators::CameraSimulator>(sim_options, illumination_, small_skin_scene());
     open_camera(kTestFrameRetentionMs);
   }
@@ -90,6 +91,7 @@ class CameraOnLoopback : public ::testing::Test {
     camera_.reset();
     drivers::AravisCameraOptions options;
     options.serial = kSerial;
+    options.address = simulator_->address();
     options.frame_retention_ms = frame_retention_ms;
     options.socket_buffer_bytes = 4u << 20;
     options.watchdog_period_ms = 200;

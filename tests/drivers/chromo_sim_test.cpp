@@ -23,7 +23,10 @@ TEST(ChromoSim, PrintsWhereDevicesListenServesThemAndStopsOnCtrlC) {
   ChromoSimProcess sim({"--camera-serial", "CHROMO-SIMTEST", "--sensor-width", "128", "--sensor-height", "128",
                         "--scene-size", "64"});
   const std::string banner = sim.read_until("running");
-  EXPECT_NE(banner.find("camera: GigE Vision on 127.0.0.1:3956 serial CHROMO-SIMTEST"), std::string::npos) << banner;
+  const std::string camera_address = printed_camera_address(banner);
+  EXPECT_TRUE(camera_address.starts_with("127.77.")) << banner;
+  EXPECT_NE(banner.find("camera: GigE Vision on " + camera_address + ":3956 serial CHROMO-SIMTEST"), std::string::npos)
+      << banner;
   EXPECT_NE(banner.find("Modbus RTU on /dev/pts/"), std::string::npos) << banner;
   const int modbus_port = printed_modbus_port(banner);
   ASSERT_GT(modbus_port, 0) << banner;
@@ -31,6 +34,7 @@ TEST(ChromoSim, PrintsWhereDevicesListenServesThemAndStopsOnCtrlC) {
   {
     drivers::AravisCameraOptions options;
     options.serial = "CHROMO-SIMTEST";
+    options.address = camera_address;
     options.frame_retention_ms = 2000;  // chromo-sim renders on a loaded 2-core machine (see camera_fixture.hpp)
     options.socket_buffer_bytes = 1u << 20;
     options.on_warning = [](const std::string&) {};
@@ -74,6 +78,7 @@ TEST(ChromoSim, PrintsWhereDevicesListenServesThemAndStopsOnCtrlC) {
 TEST(ChromoSim, BadArgumentsExitWithStatusTwo) {
   for (std::vector<std::string> args : {std::vector<std::string>{"--fixed-light", "no-such-light"},
                                         std::vector<std::string>{"--sensor-width", "5"},
+                                        std::vector<std::string>{"--camera-address", "10.0.0.1"},
                                         std::vector<std::string>{"--no-such-option"}}) {
     ChromoSimProcess sim(args);
     sim.read_until("never printed");

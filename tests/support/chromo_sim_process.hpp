@@ -75,4 +75,14 @@ inline int printed_modbus_port(const std::string& banner) {
   return at == std::string::npos ? -1 : std::stoi(banner.substr(at + key.size()));
 }
 
+// The camera simulator's address from "camera: GigE Vision on A:3956 ..."; "" if absent.
+inline std::string printed_camera_address(const std::string& banner) {
+  const std::string key = "camera: GigE Vision on ";
+  const auto at = banner.find(key);
+  if (at == std::string::npos) return "";
+  const auto begin = at + key.size();
+  const auto colon = banner.find(':', begin);
+  return colon == std::string::npos ? "" : banner.substr(begin, colon - begin);
+}
+
 }  // namespace chromo::testing

@@ -6,8 +6,9 @@
 //
 //   LED controller "sphere"  LedControllerSimulator on Modbus TCP 127.0.0.1:<free port>
 //                            ← drivers' Modbus TCP LedController (backend "modbus-tcp")
-//   camera "cam0"            CameraSimulator, GigE Vision on 127.0.0.1:3956 (Aravis fake
-//                            camera) rendering the scene under the LEDs' light; its
+//   camera "cam0"            CameraSimulator, GigE Vision on its own loopback address
+//                            127.77.x.y:3956 (the project's device side, setting
+//                            ip_address of cam0) rendering the scene under the LEDs' light; its
 //                            exposures are the controller's hardware trigger input
 //                            ← AravisCamera (backend "aravis")
 //   spectrometer "spec0"     simulated USB2000+ behind the USB transport seam, looking
@@ -20,9 +21,10 @@
 // operator's job in the real sphere). DeviceSet::reference_lamp switches the
 // lamp calibration runs measure first.
 //
-// Only one camera simulator may run per machine (GigE Vision's fixed port
-// 3956): start_virtual_lab throws std::runtime_error when the port is taken.
-// Tests that start one hold the ctest lock "gige_loopback".
+// Each virtual lab's camera simulator binds an address of its own
+// (VirtualLabOptions::camera_address, or one picked at random in
+// 127.77.0.0/16), so labs run side by side; start_virtual_lab throws
+// std::runtime_error when an explicit address is taken.
 //
 // Lifetime: the simulators live in VirtualLab::simulators, which the
 // DeviceSet also keeps alive (destroyed after the drivers). Thread rules:
@@ -54,7 +56,7 @@ struct VirtualLabOptions {
   double led_time_scale = 300;     // lab seconds per wall-clock second (LED warm-up, drift)
   std::uint64_t seed = 1;          // scene and camera noise
   int scene_threads = 0;           // building the skin scene (0 = all cores)
-  std::filesystem::path run_dir;   // the camera simulator's GenICam file while it starts; empty = temp folder
+  std::string camera_address;      // the camera simulator's 127.a.b.c; empty = random in 127.77.0.0/16
 
   bool IsValid(std::string* error) const;
 };

@@ -142,8 +142,9 @@ struct StreamStatistics {
   std::uint64_t completed = 0;
   std::uint64_t failed = 0;           // delivered with a failure status
   std::uint64_t lost_before_driver = 0;  // gaps in the camera's frame ids
-  std::uint64_t resent_packets = 0;
-  std::uint64_t missing_packets = 0;
+  std::uint64_t resend_requests = 0;  // packets the receiver asked the device to send again
+  std::uint64_t resent_packets = 0;   // ... that then arrived
+  std::uint64_t missing_packets = 0;  // packets never received
   std::uint64_t reconnects = 0;
 };
 

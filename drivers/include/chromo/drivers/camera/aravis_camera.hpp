@@ -1,12 +1,18 @@
 #pragma once
 // AravisCamera: the Camera interface (camera.hpp) over a GigE Vision camera,
 // through Aravis 0.8. The camera simulator (simulators/camera) is a real GigE
-// Vision device on 127.0.0.1, so tests run exactly this code.
+// Vision device on its own loopback address 127.x.y.z, so tests run exactly
+// this code.
 //
-// Opening: discover_gige_cameras() lists the GigE Vision devices Aravis finds
-// (broadcast discovery on every interface, loopback included); open() finds
-// the one whose serial number matches AravisCameraOptions::serial and takes
-// the control channel. DeviceError kNotFound when no device has that serial.
+// Opening: with AravisCameraOptions::address set ("127.77.3.9", "10.0.0.12"),
+// open() asks Aravis for the device at that address (unicast GVCP, no
+// broadcast discovery) and checks that its bootstrap serial number is
+// AravisCameraOptions::serial (DeviceError kNotFound when nothing answers
+// there, kRefused when another serial answers). Without an address,
+// discover_gige_cameras() lists the GigE Vision devices Aravis finds
+// (broadcast discovery on every interface) and open() takes the one whose
+// serial number matches. Either way the driver then takes the control
+// channel; a reconnect looks the camera up the same way.
 //
 // Receive path (docs/camera.md, NOTES.md): the stream uses the standard UDP
 // socket (Aravis' packet socket is disabled: it receives nothing on loopback),
@@ -15,7 +21,9 @@
 // flight, or 100 ms of free-running data) a warning goes to on_warning once
 // per configure(). Packet resends are requested (Aravis' default); frames
 // whose packets are still missing after frame_retention_ms complete with
-// FrameStatus::kMissingPackets or kTimeout.
+// FrameStatus::kMissingPackets or kTimeout. StreamStatistics carries Aravis'
+// receiver counters: resend_requests (packets asked for again),
+// resent_packets (packets that arrived after a request) and missing_packets.
 //
 // Frame lifecycle: `buffer_count` ArvBuffers are pushed into the stream; the
 // driver's stream thread pops each filled buffer, copies it into a Frame,
@@ -50,6 +58,7 @@ namespace chromo::drivers {
 
 struct AravisCameraOptions {
   std::string serial;                       // required: the device's serial number
+  std::string address;                      // IPv4 of the device; "" = find it by broadcast discovery
   int buffer_count = 8;                     // ArvBuffers in the stream's pool
   std::size_t socket_buffer_bytes = 32u << 20;  // capped at net.core.rmem_max
   int packet_size_bytes = 0;                // 0 = leave the device's (1400 on the simulator)

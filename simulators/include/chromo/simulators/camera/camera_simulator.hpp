@@ -1,64 +1,82 @@
 #pragma once
-// CameraSimulator: a real GigE Vision camera on loopback, built on Aravis'
-// ArvGvFakeCamera, whose frames are the virtual lab's scene rendered under
-// whatever the SphereIllumination emits at the moment of exposure, through the
-// CameraModel (Bayer mosaic, noise, 12-bit ADC).
+// CameraSimulator: a real GigE Vision camera on its own loopback address
+// (the project's GigeVisionDevice, gige_vision_device.hpp), whose frames are
+// the virtual lab's scene rendered under whatever the SphereIllumination
+// emits at the moment of exposure, through the CameraModel (Bayer mosaic,
+// noise, 12-bit ADC).
 //
-// GenICam description: Aravis' own fake-camera XML, taken from the library at
-// run time and amended (written to a temporary file for
-// arv_gv_fake_camera_new_full): a float `Gain` in dB (register 0x110 holds
-// hundredths of a dB) instead of GainRaw; Mono12, BayerRG12 and BayerRG16
-// pixel formats (16-bit containers); TriggerSource moved to register 0x3f4 so
-// that the hardware trigger line can be simulated (pulse_trigger_input()).
+// GenICam description: the simulator's own (camera_registers.hpp,
+// docs/protocols/gige-vision.md), served from device memory: SensorWidth/
+// Height, Width/Height/OffsetX/OffsetY, PixelFormat (Mono8/12/16,
+// BayerRG8/12/16, RGB8; 12-bit formats in 16-bit containers), PayloadSize,
+// AcquisitionMode (Continuous, SingleFrame), AcquisitionStart/Stop,
+// AcquisitionFrameRate, TriggerSelector (FrameStart), TriggerMode,
+// TriggerSource (Line0, Software), TriggerActivation, TriggerSoftware,
+// ExposureTime (us), Gain (dB, register in hundredths of a dB).
 //
 // Pixel encoding of the 12-bit ADC value: 8-bit formats carry DN >> 4,
 // *12 formats DN, *16 formats DN << 4.
 //
-// Frames: on each exposure the simulator calls the exposure hook (the LED
-// simulator's hardware trigger input, if attached), then reads
-// SphereIllumination::irradiance_now(), renders the scene (response cached
-// while the irradiance is unchanged), resamples it bilinearly to the sensor,
-// crops the ROI and reads it out through the CameraModel. Frame k of a
-// power cycle uses noise seed (CameraModelOptions::seed, k).
+// Frames: while acquiring, one frame per period (TriggerMode Off) or per
+// trigger (TriggerMode On: TriggerSoftware with TriggerSource Software, or
+// pulse_trigger_input() with TriggerSource Line0). On each exposure the
+// simulator calls the exposure hook (the LED simulator's hardware trigger
+// input, if attached), then reads SphereIllumination::irradiance_now(),
+// renders the scene (response cached while the irradiance is unchanged),
+// resamples it bilinearly to the sensor, crops the ROI and reads it out
+// through the CameraModel. Frame k of a power cycle uses noise seed
+// (CameraModelOptions::seed, k).
 //
-// Network: GVCP on <interface_address>:3956 (fixed by GigE Vision), so only
-// one simulator per address and machine at a time (tests take the ctest
-// resource lock "gige_loopback"). The constructor throws std::runtime_error
-// when the port is taken.
+// Network: GVCP on <address>:3956, GVSP from the same address. options.address
+// empty = an address picked at random in 127.77.0.0/16 (address() says which),
+// so any number of simulators run at once on one machine; an explicit
+// address must lie in 127.0.0.0/8. The constructor throws std::runtime_error
+// when the address is taken. Nothing is written to disk.
 //
-// Faults: set_packet_loss_ratio() drops that fraction of GVSP packets (the
-// fake camera ignores resend requests, so lost packets stay lost);
-// power_off()/power_on() make the camera disappear (control and stream
-// channels closed) and come back with power-on defaults, as a power cycle.
+// Faults: set_faults() (GvspFaultOptions: packet loss, reordering, delay on
+// first transmissions; resend requests are answered from the last 8 blocks)
+// with device_counters() saying what happened; set_packet_loss_ratio(r) is
+// set_faults with loss only. power_off()/power_on() make the camera
+// disappear (control and stream channels closed) and come back on the same
+// address with power-on defaults, as a power cycle.
 //
-// Thread rules: all methods from one control thread; rendering runs on the
-// fake camera's thread; the illumination and the exposure hook are called
-// from that thread. Lifetime: the illumination and scene are shared_ptr'd.
+// Thread rules: all methods from one control thread, except
+// pulse_trigger_input() and the read-only accessors (any thread). Rendering
+// runs on the simulator's acquisition thread; the illumination and the
+// exposure hook are called from that thread. Lifetime: the illumination and
+// scene are shared_ptr'd; destroying the simulator stops acquisition and
+// closes the sockets before returning.
 
 #include <atomic>
 #include <cstdint>
 #include <functional>
-#include <filesystem>
 #include <memory>
 #include <mutex>
+#include <condition_variable>
+#include <thread>
 #include <string>
 
+#include "chromo/drivers/camera.hpp"
 #include "chromo/simulators/camera/camera_model.hpp"
+#include "chromo/simulators/camera/gige_vision_device.hpp"
 #include "chromo/simulators/scene/scene.hpp"
 #include "chromo/simulators/sphere_illumination.hpp"
 
 namespace chromo::simulators {
 
 struct CameraSimulatorOptions {
-  std::string serial = "CHROMO-SIM-CAM";
-  std::string interface_address = "127.0.0.1";
+  std::string serial = "CHROMO-SIM-CAM";  // 1-15 characters
+  std::string address;                    // "" = random in 127.77.0.0/16; else 127.a.b.c
   int sensor_width = 1024;
   int sensor_height = 1024;
+  drivers::PixelFormat pixel_format = drivers::PixelFormat::kMono8;  // power-on PixelFormat
   CameraModelOptions camera_model;
-  // Where the GenICam XML Aravis's fake camera reads is written for the
-  // moment it starts (the file is removed as soon as the camera has read it,
-  // so a killed process leaves nothing); empty = the system's temporary folder.
-  std::filesystem::path genicam_dir;
+  GvspFaultOptions faults;
+  std::uint16_t first_block_id = 1;  // GVSP block id after power-on (tests: 65400 crosses the 16-bit wrap soon)
+  // true: frames are a moving test pattern (byte (x + y + frame) mod 256 in
+  // every sample), without the scene, the illumination or the noise model:
+  // the transport alone, for benches of the link.
+  bool test_pattern = false;
 
   bool IsValid(std::string* error) const;
 };
@@ -80,7 +98,11 @@ class CameraSimulator {
   // Called at the start of every exposure, on the simulator's thread.
   void set_exposure_hook(std::function<void()> hook);
 
-  void set_packet_loss_ratio(double ratio);  // 0-1
+  // "127.a.b.c": where GVCP listens (the driver's AravisCameraOptions::address).
+  std::string address() const;
+  void set_faults(const GvspFaultOptions& faults);  // std::invalid_argument when invalid
+  void set_packet_loss_ratio(double ratio);         // 0-0.5, other faults off
+  GigeVisionDeviceCounters device_counters() const;
   void power_off();
   void power_on();
   bool powered() const;
@@ -96,16 +118,18 @@ class CameraSimulator {
   std::uint64_t frames_rendered() const { return frames_rendered_; }
 
  private:
-  struct Fake;
-  static void fill_frame(void* buffer, void* self, std::uint32_t exposure_us, std::uint32_t gain_centi_db,
-                         std::uint32_t pixel_format);
-  void render_into(void* buffer, std::uint32_t exposure_us, std::uint32_t gain_centi_db, std::uint32_t pixel_format);
-  void start_fake();
+  void apply_power_on_registers();
+  std::uint16_t on_register_write(std::uint32_t address, std::uint32_t value,
+                                  const GigeVisionDevice::RegisterReader& read);
+  void acquisition_loop();
+  void produce_frame();
+  void start_acquisition_thread();
+  void stop_acquisition_thread();
 
   CameraSimulatorOptions options_;
   CameraModel model_;
   std::shared_ptr<const SphereIllumination> illumination_;
-  std::string genicam_path_;
+  std::unique_ptr<GigeVisionDevice> device_;
 
   mutable std::mutex render_mutex_;  // scene, hook, cache
   std::shared_ptr<const Scene> scene_;
@@ -114,13 +138,22 @@ class CameraSimulator {
   std::shared_ptr<const Scene> cached_scene_;
   cv::Mat cached_response_;  // sensor resolution
 
-  std::unique_ptr<Fake> fake_;
-  // The fake camera the render callback reads registers from (ArvFakeCamera*);
-  // it stays valid while fake_ is being destroyed and its thread joined.
-  std::atomic<void*> live_camera_{nullptr};
-  double packet_loss_ratio_ = 0;
+  // Acquisition state, mirrored from the registers by the write hook. Lock
+  // order: the device's lock (hook) before acquisition_mutex_; the
+  // acquisition thread calls the device only without acquisition_mutex_.
+  std::mutex acquisition_mutex_;
+  std::condition_variable acquisition_cv_;
+  bool quit_ = false;
+  bool acquiring_ = false;
+  bool single_frame_ = false;
+  bool trigger_on_ = false;
+  std::uint32_t trigger_source_ = 1;
+  std::uint32_t frame_period_us_ = 100000;
+  int pending_triggers_ = 0;
+  std::thread acquisition_thread_;
+
   std::atomic<std::uint64_t> frames_rendered_{0};
-  std::uint64_t frame_index_ = 0;  // per power cycle, on the fake camera's thread
+  std::uint64_t frame_index_ = 0;  // per power cycle, on the acquisition thread
 };
 
 }  // namespace chromo::simulators
