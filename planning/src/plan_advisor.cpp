@@ -263,7 +263,7 @@ PlanPrediction predict_plan(const PlanDescription& plan, const calibration::LedL
   const std::vector<Reference> refs = references_of(options);
   const std::vector<SkinParameters> skins = draw_population(options.population);
   const Eigen::Matrix3Xd z = normal_samples(options.delta_e_samples);
-  const Eigen::Matrix4d prior = box_information();
+  const Eigen::Matrix4d prior = options.box_prior ? box_information() : Eigen::Matrix4d::Zero();
   std::vector<SkinResult> results(skins.size());
 
 #pragma omp parallel for num_threads(options.threads) schedule(dynamic)

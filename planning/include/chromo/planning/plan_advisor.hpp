@@ -121,6 +121,10 @@ struct AdvisorOptions {
   SkinPopulation population;
   std::vector<ReferenceIlluminant> references;  // empty: default_reference_illuminants()
   int delta_e_samples = 256;    // standard-normal samples per ΔE94 expectation (even, 16-65536)
+  // Add the parameter box's information (12/width² per parameter) to the
+  // Fisher information. Off: the plain Cramér-Rao bound (a parameter the plan
+  // cannot see then has an unbounded σ).
+  bool box_prior = true;
   int threads = 1;              // 1-64
   bool IsValid(std::string* error) const;
 };
