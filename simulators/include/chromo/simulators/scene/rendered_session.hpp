@@ -121,7 +121,7 @@ struct RenderedSession {
   double exposure_us = 0;
   double scene_seconds = 0, camera_seconds = 0, measurement_seconds = 0;  // wall clock per stage (of the render)
   bool loaded_from_cache = false;
-  std::vector<CaptureMotion> motion;  // the noisy chain's W57 and W57+blue captures (always filled)
+  std::vector<CaptureMotion> motion;  // the noisy chain's W57 and W57+blue captures (empty when loaded from the cache)
   double plan_seconds = 0;            // the plan's timeline, first step to the end of the last
   std::size_t pixels() const { return truth.size(); }
 };

@@ -11,7 +11,7 @@
 //   tremor:  N(0, σ_mm²) per axis, N(0, σ_deg²), drawn per capture (seed, capture index)
 //
 // converted to scene pixels with mm_per_scene_pixel, about the sensor's
-// centre. Default amplitudes (docs/virtual-lab.md, "Subject motion"): a
+// centre. Default amplitudes (docs/camera.md, "Subject motion"): a
 // supported forearm drifts about 0.1 mm/s sideways and 0.2 mm/s along the
 // optical axis and turns 0.05°/s; physiological tremor of a supported limb is
 // tens of micrometres (σ 0.02 mm, 0.01°). These are the orders of magnitude
