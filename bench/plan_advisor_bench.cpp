@@ -82,7 +82,7 @@ int main(int argc, char** argv) {
   const std::filesystem::path out(out_dir);
   std::filesystem::create_directories(out);
 
-  const calibration::LedLibrary library = calibration::nominal_led_library();
+  const calibration::LedLibrary library = simulators::lab_led_library();  // the lab's units: real exposures
   const planning::CameraNoise camera;
   const std::vector<NamedPlan> plans = bench_plans(library);
   std::ofstream csv(out / "advisor.csv");
@@ -126,7 +126,7 @@ int main(int argc, char** argv) {
        fmt::format("set datafile separator ','\nset grid\nset key top left\nset logscale xy\n"
                    "set title 'Plan advisor: predicted vs Monte Carlo mean relit {{/Symbol D}}E94 (plans × populations × seeds)'\n"
                    "set xlabel 'Monte Carlo fits (bounded least squares)'\nset ylabel 'predicted (Fisher information)'\n"
-                   "f(x)=x\nplot [0.1:5] '{0}' every ::1 using ($2 eq 'skin' ? $6 : 1/0):5 with points pt 7 title 'skin box', "
+                   "f(x)=x\nplot [0.1:5] '{0}' every ::1 using 6:(strcol(2) eq 'skin' ? $5 : 1/0) with points pt 7 title 'skin box', "
                    "'{0}' every ::1 using 6:(strcol(2) eq 'interior' ? $5 : 1/0) with points pt 6 ps 1.5 title 'interior box', "
                    "f(x) with lines lc 'black' title 'equal', 1.25*x with lines dt 2 lc 'gray' title '±25%', 0.75*x with lines dt 2 lc 'gray' notitle\n",
                    data));

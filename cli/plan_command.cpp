@@ -15,6 +15,7 @@
 #include "chromo/files/gnuplot_chart.hpp"
 #include "chromo/planning/plan_advisor.hpp"
 #include "chromo/planning/plan_description.hpp"
+#include "chromo/simulators/scene/rendered_session.hpp"
 #include "chromo/spectral/camera.hpp"
 #include "commands.hpp"
 
@@ -23,7 +24,7 @@ namespace {
 
 struct PlanCompareOptions {
   std::vector<std::string> plans;
-  std::string library;           // empty: the built-in nominal library
+  std::string library = "lab";   // "lab", "nominal" or an LED library JSON
   std::string camera = "nikon_d5100";
   std::string population = "skin";  // "skin" (MODEL.md's skin box) or "interior"
   int skins = 64;
@@ -55,8 +56,12 @@ planning::PlanDescription load_plan(const std::string& argument, const calibrati
 }
 
 int run_plan_compare(const PlanCompareOptions& o) {
-  const calibration::LedLibrary library =
-      o.library.empty() ? calibration::nominal_led_library() : calibration::load_led_library(o.library);
+  // Capture times need a library in the camera model's irradiance units: the
+  // virtual lab's true LEDs are; the nominal library's spectra are relative
+  // (radiant flux 1 per white COB), so its exposures are only relative.
+  const calibration::LedLibrary library = o.library == "lab"       ? simulators::lab_led_library()
+                                          : o.library == "nominal" ? calibration::nominal_led_library()
+                                                                   : calibration::load_led_library(o.library);
   planning::CameraNoise camera;
   camera.sensitivity = spectral::builtin_camera(o.camera);
   planning::AdvisorOptions options;
@@ -101,7 +106,7 @@ int run_plan_compare(const PlanCompareOptions& o) {
     std::cout << out.dump(2) << "\n";
   } else {
     fmt::print("# plan advisor: {} skins ({} population, seed {}), camera {}, library {}\n", options.population.count,
-               o.population, o.seed, o.camera, o.library.empty() ? "built-in nominal" : o.library);
+               o.population, o.seed, o.camera, o.library);
     fmt::print("# σ: Cramér-Rao RMS over the skins; ΔE94: predicted mean relit ΔE94; MC: Monte Carlo fits' mean, "
                "ratio = predicted/MC, bound = share of fits on a range edge\n");
     fmt::print("{:<18} {:>3} {:>9} {:>9} {:>8} {:>8} {:>7} {:>7}", "plan", "ch", "subject_s", "refs_s", "σCm", "σCh",
@@ -160,7 +165,9 @@ void add_plan_command(CLI::App& app, int& exit_status) {
       "compare", "predicted parameter σ, relit ΔE94 and capture time of plans (built-in names: method, method-blue, "
                  "multispectral, d65, each optionally @N frames; or plan JSON files)");
   compare->add_option("plans", options->plans, "plans (default: method method@4 method-blue multispectral multispectral@4)");
-  compare->add_option("--library", options->library, "LED library JSON (default: the built-in nominal library)");
+  compare->add_option("--library", options->library,
+                      "lab (the virtual lab's true LEDs, in the camera model's units), nominal, or an LED library JSON")
+      ->capture_default_str();
   compare->add_option("--camera", options->camera, "built-in camera sensitivity")->capture_default_str();
   compare->add_option("--population", options->population, "skin | interior")->capture_default_str();
   compare->add_option("--skins", options->skins, "skins averaged over (1-100000)")->capture_default_str();

@@ -242,6 +242,22 @@ bool RenderedSessionOptions::IsValid(std::string* error) const {
   return true;
 }
 
+calibration::LedLibrary lab_led_library() {
+  LedLab leds([] {
+    LedLabOptions o;
+    o.start_warm = true;
+    return o;
+  }());
+  calibration::LedLibrary library = calibration::nominal_led_library();
+  library.source = "measured";
+  for (std::size_t t = 0; t < spectral::kLedTypeCount; ++t) {
+    drivers::DriveLevels drive{};
+    drive[t] = 1.0;
+    library.leds[t].ladder = {{1.0, std::nullopt, std::nullopt, true, leds.emit_settled(drive)}};
+  }
+  return library;
+}
+
 RenderedSession render_session(const RenderedSessionOptions& options) {
   if (std::string error; !options.IsValid(&error)) throw std::invalid_argument("RenderedSessionOptions: " + error);
   RenderedSession out;
@@ -253,13 +269,7 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
     o.start_warm = true;
     return o;
   }());
-  out.library = calibration::nominal_led_library();
-  out.library.source = "measured";
-  for (std::size_t t = 0; t < spectral::kLedTypeCount; ++t) {
-    drivers::DriveLevels drive{};
-    drive[t] = 1.0;
-    out.library.leds[t].ladder = {{1.0, std::nullopt, std::nullopt, true, leds.emit_settled(drive)}};
-  }
+  out.library = lab_led_library();
   const char* const kMixes[3] = {"d65", "w57", "w57+blue"};
   const CameraModel camera{CameraModelOptions{}};
   std::vector<SceneWeights> weights;

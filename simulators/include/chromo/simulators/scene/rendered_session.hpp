@@ -126,6 +126,13 @@ struct RenderedSession {
   std::size_t pixels() const { return truth.size(); }
 };
 
+// The LED library a perfect calibration run measures in the virtual lab:
+// each LED type's true emission alone at full drive, warmed up (LedLab,
+// true_leds.hpp), in SphereIllumination units — the units the camera model's
+// quantum scale is given in, so exposures computed from it are the lab's.
+// render_session's library (source "measured").
+calibration::LedLibrary lab_led_library();
+
 // Throws std::invalid_argument for bad options (naming the field).
 RenderedSession render_session(const RenderedSessionOptions& options);
 
