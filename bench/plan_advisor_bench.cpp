@@ -136,7 +136,7 @@ int main(int argc, char** argv) {
                    "set xlabel 'subject capture time (s)'\nset ylabel 'mean relit {{/Symbol D}}E94'\n"
                    "plot '{0}' every ::1 using 4:((strcol(2) eq 'skin' && $3 == 1) ? $5 : 1/0) with points pt 7 ps 1.5 title 'predicted', "
                    "'{0}' every ::1 using 4:((strcol(2) eq 'skin' && $3 == 1) ? $6 : 1/0) with points pt 6 ps 2 title 'Monte Carlo', "
-                   "'{0}' every ::1 using 4:((strcol(2) eq 'skin' && $3 == 1) ? $5 : 1/0):1 with labels offset 0,1 notitle\n",
+                   "'{0}' every ::1 using 4:((strcol(2) eq 'skin' && $3 == 1) ? $5 : 1/0):1 with labels noenhanced offset 0,1 notitle\n",
                    data));
   fmt::print("# charts: {}/advisor_predicted_vs_mc.png, advisor_accuracy_vs_time.png\n", out.string());
 
@@ -168,8 +168,8 @@ int main(int argc, char** argv) {
        fmt::format("set datafile separator ','\nset grid\nset key top left\n"
                    "set title 'Subject motion: registration error vs time since the reference capture'\n"
                    "set xlabel 'time since the reference (D65) subject capture (s)'\nset ylabel 'registration error (measurement px)'\n"
-                   "plot '{0}' every ::1 using 4:6 with linespoints pt 7 title 'largest over the image', "
-                   "'{0}' every ::1 using 4:7 with linespoints pt 6 title 'RMS over the image'\n",
+                   "plot '{0}' every ::1 using 4:6 with points pt 7 ps 1.5 title 'largest over the image', "
+                   "'{0}' every ::1 using 4:7 with points pt 6 ps 1.5 title 'RMS over the image'\n",
                    (out / "motion.csv").string()));
   fmt::print("# chart: {}/motion_registration_error.png\n", out.string());
   return 0;

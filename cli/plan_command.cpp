@@ -144,7 +144,7 @@ int run_plan_compare(const PlanCompareOptions& o) {
         "set xlabel 'subject capture time (s)'\nset ylabel 'mean relit {{/Symbol D}}E94'\nset logscale x\n"
         "plot '{0}' every ::1 using 2:3 with points pt 7 ps 1.5 title 'predicted (Fisher)', "
         "'{0}' every ::1 using 2:4 with points pt 6 ps 2 title 'Monte Carlo fits', "
-        "'{0}' every ::1 using 2:3:1 with labels offset 0,1 notitle\n",
+        "'{0}' every ::1 using 2:3:1 with labels noenhanced offset 0,1 notitle\n",
         csv.string());
     if (const std::string error = files::draw_chart(chart); !error.empty()) {
       std::cerr << "chromo plan compare: chart: " << error << "\n";
