@@ -11,7 +11,7 @@
 #   scripts/bench.sh [NAME...]   (default: every bench; NAME as in bench/CMakeLists.txt)
 set -euo pipefail
 cd "$(dirname "$0")/.."
-all=(forward_model_bench mix_solver_bench estimation_bench fast_budget_bench spatial_flags_bench pipeline_bench)
+all=(forward_model_bench mix_solver_bench estimation_bench fast_budget_bench spatial_flags_bench pipeline_bench plan_advisor_bench)
 benches=("$@")
 [[ ${#benches[@]} -eq 0 ]] && benches=("${all[@]}")
 for name in "${benches[@]}"; do
@@ -33,6 +33,7 @@ for name in "${benches[@]}"; do
   case "${name}" in
     pipeline_bench) printout=bench/results/pipeline_bench.txt ;;
     mix_solver_bench) printout=bench/results/mix_solver.txt ;;
+    plan_advisor_bench) printout=bench/results/plan_advisor/plan_advisor_bench_output.txt ;;
     *) printout="bench/results/${name}_output.txt" ;;
   esac
   "build/release/bin/${name}" "${args[@]}" | tee "${printout}"

@@ -26,7 +26,8 @@ for _candidate in _candidates:
 import grpc  # noqa: E402
 from chromosphere.v1 import (devices_pb2, devices_pb2_grpc, estimation_pb2, estimation_pb2_grpc,  # noqa: E402
                              leds_pb2, leds_pb2_grpc, maps_pb2, maps_pb2_grpc, operations_pb2,
-                             operations_pb2_grpc, sessions_pb2, sessions_pb2_grpc)
+                             operations_pb2_grpc, planning_pb2, planning_pb2_grpc, sessions_pb2,
+                             sessions_pb2_grpc)
 
 FINAL_STATES = {
     operations_pb2.OPERATION_STATE_SUCCEEDED,
@@ -74,6 +75,8 @@ class Client:
         self.results_service = estimation_pb2_grpc.ResultsServiceStub(self.channel)
         # Relight, Flush, ImportMaps, ExportProfiles (docs/maps.md); synchronous calls.
         self.maps = maps_pb2_grpc.MapsServiceStub(self.channel)
+        # The plan advisor (docs/plan-advisor.md); synchronous.
+        self.planning = planning_pb2_grpc.PlanServiceStub(self.channel)
 
     def list_devices(self):
         return self.devices.ListDevices(devices_pb2.ListDevicesRequest()).devices
@@ -105,6 +108,23 @@ class Client:
         request = maps_pb2.RelightRequest(session_id=session_id, maps_file=maps_file, illuminant=illuminant,
                                           label=label, photograph_file=photograph_file)
         return self.maps.Relight(request, timeout=timeout)
+
+    def compare_plans(self, plans, skins=0, seed=0, interior_population=False, monte_carlo_draws=0, timeout=120):
+        """The plan advisor on the daemon's LED library and camera (docs/plan-advisor.md): for each plan
+        (a built-in name such as "method", "multispectral@4", or a planning_pb2.PlanDescription) its
+        capture time, σ per parameter, predicted relit ΔE94 per illuminant and, with monte_carlo_draws,
+        the Monte Carlo check. Returns ComparePlansResponse; a bad plan raises grpc.RpcError
+        INVALID_ARGUMENT naming the field."""
+        choices = []
+        for plan in plans:
+            if isinstance(plan, str):
+                choices.append(planning_pb2.PlanChoice(builtin=plan))
+            else:
+                choices.append(planning_pb2.PlanChoice(description=plan))
+        request = planning_pb2.ComparePlansRequest(plans=choices, skins=skins, seed=seed,
+                                                   interior_population=interior_population,
+                                                   monte_carlo_draws=monte_carlo_draws)
+        return self.planning.ComparePlans(request, timeout=timeout)
 
     def delete_session(self, session_id):
         """Deletes a finished session's folder and the table-cache entries only it used; returns

@@ -278,6 +278,11 @@ std::optional<drivers::DriveLevels> Calibrations::solved_mix(const std::string& 
   return levels;
 }
 
+std::shared_ptr<const calibration::LedLibrary> Calibrations::library() const {
+  std::lock_guard lock(mutex_);
+  return library_;
+}
+
 std::string Calibrations::library_path() const {
   std::lock_guard lock(mutex_);
   return library_path_.string();

@@ -81,7 +81,7 @@ struct Server::Services {
     peers.set_token_id(services::token_id(daemon.config().token));
     for (auto make : {services::make_device_service, services::make_led_service, services::make_operation_service,
                       services::make_session_service, services::make_calibration_service, services::make_results_service,
-                      services::make_event_service, services::make_maps_service})
+                      services::make_event_service, services::make_maps_service, services::make_plan_service})
       all.push_back(make(daemon, guard));
   }
 };

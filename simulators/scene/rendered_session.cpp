@@ -181,6 +181,45 @@ void store_cached(const std::filesystem::path& file, std::uint64_t key, const Re
   }
 }
 
+// The registration's error against the true motion, on the measurement grid
+// (sensor coordinates s = 2m + 0.5 of a 2×2 cell's centre).
+std::vector<CaptureMotion> capture_motion(const session::MethodMeasurement& m,
+                                          const std::map<std::string, std::pair<double, SubjectPose>>& poses,
+                                          int sensor_width, int sensor_height) {
+  std::vector<CaptureMotion> out;
+  const char* const mixes[2] = {"w57", "w57+blue"};  // build_method_measurement's report order
+  const char* const names[2] = {"W57", "W57+blue"};
+  for (std::size_t k = 0; k < m.registration.size() && k < 2; ++k) {
+    const auto& [t, pose] = poses.at(mixes[k]);
+    const cv::Matx23d truth = pose_matrix(pose, 0.5 * (sensor_width - 1), 0.5 * (sensor_height - 1));
+    const session::RegistrationResult& found = m.registration[k].result;
+    CaptureMotion c;
+    c.capture = names[k];
+    c.seconds_since_reference = t;
+    c.pose = pose;
+    c.found_motion_px = m.registration[k].motion_px;
+    double sum = 0;
+    int count = 0;
+    for (int gy = 0; gy < 9; ++gy)
+      for (int gx = 0; gx < 9; ++gx) {
+        const double mx = (m.width - 1) * gx / 8.0, my = (m.height - 1) * gy / 8.0;
+        // The found transform applies only when the capture was warped.
+        const bool warped = m.registration[k].warped;
+        const double fx = warped ? found.warp[0][0] * mx + found.warp[0][1] * my + found.warp[0][2] : mx;
+        const double fy = warped ? found.warp[1][0] * mx + found.warp[1][1] * my + found.warp[1][2] : my;
+        const cv::Vec3d sensor(2 * mx + 0.5, 2 * my + 0.5, 1.0);
+        const cv::Vec2d moved = truth * sensor;
+        const double tx = (moved[0] - 0.5) / 2, ty = (moved[1] - 0.5) / 2;
+        const double e = std::hypot(fx - tx, fy - ty);
+        c.registration_error_max_px = std::max(c.registration_error_max_px, e);
+        sum += e * e, ++count;
+      }
+    c.registration_error_rms_px = std::sqrt(sum / count);
+    out.push_back(c);
+  }
+  return out;
+}
+
 }  // namespace
 
 bool RenderedSessionOptions::IsValid(std::string* error) const {
@@ -197,7 +236,26 @@ bool RenderedSessionOptions::IsValid(std::string* error) const {
   if (!(white_fill > 0.05 && white_fill < 0.99)) return fail("white_fill: must be in (0.05, 0.99)");
   if (threads < 1) return fail("threads: must be >= 1");
   if (band_rows < 1) return fail("band_rows: must be >= 1");
+  if (!motion.IsValid(error)) return false;
+  if (settle_ms > 60000) return fail("settle_ms: must be 0-60000");
+  if (!(readout_ms >= 0 && readout_ms <= 10000)) return fail("readout_ms: must be 0-10000");
   return true;
+}
+
+calibration::LedLibrary lab_led_library() {
+  LedLab leds([] {
+    LedLabOptions o;
+    o.start_warm = true;
+    return o;
+  }());
+  calibration::LedLibrary library = calibration::nominal_led_library();
+  library.source = "measured";
+  for (std::size_t t = 0; t < spectral::kLedTypeCount; ++t) {
+    drivers::DriveLevels drive{};
+    drive[t] = 1.0;
+    library.leds[t].ladder = {{1.0, std::nullopt, std::nullopt, true, leds.emit_settled(drive)}};
+  }
+  return library;
 }
 
 RenderedSession render_session(const RenderedSessionOptions& options) {
@@ -211,13 +269,7 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
     o.start_warm = true;
     return o;
   }());
-  out.library = calibration::nominal_led_library();
-  out.library.source = "measured";
-  for (std::size_t t = 0; t < spectral::kLedTypeCount; ++t) {
-    drivers::DriveLevels drive{};
-    drive[t] = 1.0;
-    out.library.leds[t].ladder = {{1.0, std::nullopt, std::nullopt, true, leds.emit_settled(drive)}};
-  }
+  out.library = lab_led_library();
   const char* const kMixes[3] = {"d65", "w57", "w57+blue"};
   const CameraModel camera{CameraModelOptions{}};
   std::vector<SceneWeights> weights;
@@ -236,7 +288,7 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
                     (c.quantum_scale_e_per_us * brightest);
   std::filesystem::path cached;
   std::uint64_t key = 0;
-  if (!options.cache_dir.empty()) {
+  if (!options.cache_dir.empty() && !options.motion.enabled) {
     key = cache_key(options, weights, out.exposure_us, c);
     cached = cache_file(options.cache_dir, key);
     if (load_cached(cached, key, out)) return out;
@@ -257,7 +309,26 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
   // Frames of the standard plan through the daemon's capture builder.
   session::StandardPlanOptions plan_options;
   plan_options.exposure_us = out.exposure_us;
+  plan_options.settle_ms = options.settle_ms;
   const session::SessionPlan plan = session::standard_plan(plan_options);
+  // The plan's timeline: each subject step's exposure mid-point, relative to the first subject step's.
+  std::vector<double> exposure_mid_s(plan.steps.size());
+  double clock_s = 0, reference_s = -1;
+  for (std::size_t s = 0; s < plan.steps.size(); ++s) {
+    exposure_mid_s[s] = clock_s + plan.steps[s].settle_ms / 1000.0 + out.exposure_us / 2e6;
+    if (plan.steps[s].role == session::StepRole::kSubject && reference_s < 0) reference_s = exposure_mid_s[s];
+    clock_s += plan.steps[s].settle_ms / 1000.0 + out.exposure_us / 1e6 + options.readout_ms / 1000.0;
+  }
+  out.plan_seconds = clock_s;
+  std::map<std::string, std::pair<double, SubjectPose>> poses;  // per mix: time since the reference, pose
+  {
+    int subject_index = 0;
+    for (std::size_t s = 0; s < plan.steps.size(); ++s)
+      if (plan.steps[s].role == session::StepRole::kSubject) {
+        const double t = exposure_mid_s[s] - reference_s;
+        poses[plan.steps[s].illumination.mix] = {t, subject_pose(options.motion, t, subject_index++)};
+      }
+  }
   const session::CaptureSources sources{out.library, "true LED emission at full drive (rendered session)",
                                c.sensitivity, "builtin:nikon_d5100", kWhiteTargetReflectance};
   const cv::Size sensor(options.sensor_width, options.sensor_height);
@@ -273,7 +344,7 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
         drive = out.mixes.at(step.illumination.mix);
         const int k = static_cast<int>(std::find(std::begin(kMixes), std::end(kMixes), step.illumination.mix) - kMixes);
         if (step.role == session::StepRole::kWhite) response = cv::Mat(sensor, CV_32FC3, white_response.at(step.illumination.mix));
-        else response = scene.responses[k];
+        else response = move_subject(scene.responses[k], poses.at(step.illumination.mix).second);
       }
       if (noisy) {
         const cv::Mat dn = camera.expose(response, SensorLayout::kBayerRGGB, 0, 0, out.exposure_us, 0, s);
@@ -301,6 +372,7 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
       out.noise_free.set.channels[k].noise = out.noisy.set.channels[k].noise;
   }
   out.measurement_seconds = seconds_since(start);
+  out.motion = capture_motion(out.noisy, poses, options.sensor_width, options.sensor_height);
 
   // Truth per 2×2 cell.
   out.width = options.sensor_width / 2, out.height = options.sensor_height / 2;

@@ -6,5 +6,6 @@ target_sources(simulators PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/external_maps_scene.cpp
   ${CMAKE_CURRENT_LIST_DIR}/synthetic.cpp
   ${CMAKE_CURRENT_LIST_DIR}/rendered_session.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/subject_motion.cpp
 )
 target_link_libraries(simulators PUBLIC OpenCV::imgproc OpenCV::core PRIVATE OpenMP::OpenMP_CXX OpenCV::imgcodecs)

@@ -38,6 +38,27 @@ print('out_dir', response.out_dir)
     grep -Eq "^relit [1-7][0-9]{2}$" "$work/out" || fail "relight did not relight most of the 32x24 pixels"
     out_dir=$(sed -n 's/^out_dir //p' "$work/out")
     [[ "$out_dir" == products/relight-* && -f "$work/maps/$out_dir/relit.png" ]] || fail "no relit.png in products/"
+    # The plan advisor through the Python client (docs/plan-advisor.md): advice, and a bad plan refused naming the field.
+    CHROMO_PY_STUBS="$stubs" t /usr/bin/python3 -c "
+import sys
+sys.path.insert(0, '$source/clients/python')
+import grpc
+from chromosphere_client import Client
+from chromosphere.v1 import planning_pb2
+client = Client('unix:$work/s.sock')
+response = client.compare_plans(['method', 'multispectral@4'], skins=8, monte_carlo_draws=1)
+for advice in response.plans:
+    print('plan', advice.plan, len(advice.channels), round(advice.predicted_delta_e94_mean, 3), advice.fits)
+bad = planning_pb2.PlanDescription(name='bad', captures=[planning_pb2.PlannedCapture(name='a', white_fill=0.5)])
+try:
+    client.compare_plans([bad])
+except grpc.RpcError as error:
+    print('refused', error.code().name, error.details())
+" >"$work/out" 2>&1 || fail "compare_plans exited $?"
+    grep -Eq "^plan method 4 [0-9.]+ 8$" "$work/out" || fail "no advice for the method"
+    grep -Eq "^plan multispectral@4 18 [0-9.]+ 8$" "$work/out" || fail "no advice for multispectral@4"
+    grep -q "^refused INVALID_ARGUMENT plans\[0\].description.captures\[0\].drive: at least one LED type must be on$" "$work/out" ||
+      fail "a bad plan was not refused naming the field"
     ;;
   cli)
     export CHROMO_DAEMON="unix:$work/s.sock"

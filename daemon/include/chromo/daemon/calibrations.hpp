@@ -82,6 +82,8 @@ class Calibrations {
   std::optional<drivers::DriveLevels> solved_mix(const std::string& mix) const;
   // The library file in use ("" when none).
   std::string library_path() const;
+  // The library in use (null when none): the plan advisor predicts from it.
+  std::shared_ptr<const calibration::LedLibrary> library() const;
 
  private:
   // The work of a calibration operation: the run, then the library and the

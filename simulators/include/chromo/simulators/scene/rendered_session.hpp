@@ -52,6 +52,7 @@
 #include "chromo/drivers/led_controller.hpp"
 #include "chromo/session/method_measurement.hpp"
 #include "chromo/estimation/skin_parameters.hpp"
+#include "chromo/simulators/scene/subject_motion.hpp"
 
 namespace chromo::simulators {
 
@@ -79,8 +80,29 @@ struct RenderedSessionOptions {
   // files/binary_cache.hpp cache (magic "CHRSESS1"), written durably; a
   // damaged file is re-rendered.
   std::filesystem::path cache_dir;
+  // Subject motion between captures (subject_motion.hpp; off by default, so
+  // the pinned figures of existing tests and benches stand). With motion on,
+  // each subject capture is rendered at its pose at the moment of its
+  // exposure on the plan's timeline: every step takes settle_ms + exposure +
+  // readout_ms (one frame per step), from the dark on; the cache is not used.
+  SubjectMotionOptions motion;
+  std::uint32_t settle_ms = 50;   // the standard plan's LED settling per step, 0-60000
+  double readout_ms = 43;         // frame readout (23 frames/s, NOTES.md), 0-10000
 
   bool IsValid(std::string* error) const;
+};
+
+// One moved subject capture and what the registration made of it.
+struct CaptureMotion {
+  std::string capture;               // "W57", "W57+blue"
+  double seconds_since_reference = 0;  // after the D65' subject capture
+  SubjectPose pose;                  // the truth (scene pixels, sensor grid)
+  // |found − true| of the registration's map from the reference grid to
+  // this capture's, in measurement pixels over a 9×9 grid spanning the image:
+  // the largest and the RMS (0 when nothing moved and nothing was found).
+  double registration_error_max_px = 0;
+  double registration_error_rms_px = 0;
+  double found_motion_px = 0;        // RegistrationReport::motion_px
 };
 
 // 2: the file is a files/binary_cache.hpp file (length and checksum).
@@ -99,8 +121,17 @@ struct RenderedSession {
   double exposure_us = 0;
   double scene_seconds = 0, camera_seconds = 0, measurement_seconds = 0;  // wall clock per stage (of the render)
   bool loaded_from_cache = false;
+  std::vector<CaptureMotion> motion;  // the noisy chain's W57 and W57+blue captures (empty when loaded from the cache)
+  double plan_seconds = 0;            // the plan's timeline, first step to the end of the last
   std::size_t pixels() const { return truth.size(); }
 };
+
+// The LED library a perfect calibration run measures in the virtual lab:
+// each LED type's true emission alone at full drive, warmed up (LedLab,
+// true_leds.hpp), in SphereIllumination units — the units the camera model's
+// quantum scale is given in, so exposures computed from it are the lab's.
+// render_session's library (source "measured").
+calibration::LedLibrary lab_led_library();
 
 // Throws std::invalid_argument for bad options (naming the field).
 RenderedSession render_session(const RenderedSessionOptions& options);

@@ -1,0 +1,201 @@
+// The plan advisor (planning/): its noise model against simulated frames, its
+// Fisher prediction against the Monte Carlo fit, frames, plans compared, the
+// virtual lab camera's constants, and bad input.
+#include <gtest/gtest.h>
+
+#include <Eigen/Core>
+#include <cmath>
+
+#include "chromo/calibration/led_library.hpp"
+#include "chromo/planning/plan_advisor.hpp"
+#include "chromo/planning/plan_description.hpp"
+#include "chromo/simulators/camera/camera_model.hpp"
+#include "chromo/spectral/led_type.hpp"
+
+namespace chromo::planning {
+namespace {
+
+const calibration::LedLibrary& library() {
+  static const calibration::LedLibrary l = calibration::nominal_led_library();
+  return l;
+}
+
+AdvisorOptions small_interior(int count) {
+  AdvisorOptions o;
+  o.population = interior_population();
+  o.population.count = count;
+  o.threads = 2;
+  return o;
+}
+
+TEST(PlanAdvisor, CameraDefaultsAreTheVirtualLabCamera) {
+  const CameraNoise advisor;
+  const simulators::CameraModelOptions lab;
+  EXPECT_EQ(advisor.full_well_e, lab.full_well_e);
+  EXPECT_EQ(advisor.read_noise_e, lab.read_noise_e);
+  EXPECT_EQ(advisor.adc_bits, lab.adc_bits);
+  EXPECT_EQ(advisor.black_level_dn, lab.black_level_dn);
+  EXPECT_EQ(advisor.quantum_scale_e_per_us, lab.quantum_scale_e_per_us);
+  EXPECT_NEAR(advisor.electrons_per_dn(), lab.gain_e_per_dn, 1e-9);
+}
+
+TEST(PlanAdvisor, ExposurePutsTheWhiteAtItsFillInTheLabCamera) {
+  // The advisor's exposure for each capture, read out by the virtual lab's
+  // camera model, gives the white's brightest channel white_fill of full scale.
+  const PlanDescription plan = builtin_plan("method", library());
+  const CaptureTime time = capture_time(plan, library(), CameraNoise{});
+  const simulators::CameraModel camera{simulators::CameraModelOptions{}};
+  std::array<spectral::Spectrum, spectral::kLedTypeCount> per_drive;
+  for (int t = 0; t < spectral::kLedTypeCount; ++t) per_drive[t] = library().leds[t].spectrum_per_unit_drive();
+  for (std::size_t k = 0; k < plan.captures.size(); ++k) {
+    spectral::Spectrum light;
+    for (int t = 0; t < spectral::kLedTypeCount; ++t) light += per_drive[t] * plan.captures[k].drive[t];
+    const Eigen::Vector3d white = camera.weights(light) * spectral::Spectrum::constant(0.99).values().matrix();
+    const double dn = camera.expected_dn(white.maxCoeff(), time.captures[k].exposure_us, 0) - 16;
+    EXPECT_NEAR(dn / 4095, plan.captures[k].white_fill, 1e-3) << plan.captures[k].name;
+  }
+  EXPECT_GT(time.subject_s, 0);
+  EXPECT_GT(time.reference_s, 0);
+}
+
+TEST(PlanAdvisor, CovarianceMatchesSimulatedFrames) {
+  // The first-order covariance against 6000 simulated measurements of one
+  // skin, the method's difference channel included.
+  const PlanDescription plan = builtin_plan("method", library());
+  const estimation::SkinParameters skin{0.05, 0.04, 0.6, 0.03};
+  const ChannelStatistics stats = channel_statistics(plan, library(), CameraNoise{}, skin);
+  const int n = static_cast<int>(stats.value.size());
+  ASSERT_EQ(n, 4);
+  const ChannelStatistics sim = simulated_channel_statistics(plan, library(), CameraNoise{}, skin, 6000, 3);
+  const Eigen::MatrixXd model = Eigen::Map<const Eigen::MatrixXd>(stats.covariance.data(), n, n);
+  const Eigen::MatrixXd frames = Eigen::Map<const Eigen::MatrixXd>(sim.covariance.data(), n, n);
+  for (int i = 0; i < n; ++i) {
+    EXPECT_NEAR(sim.value[i], stats.value[i], 4 * std::sqrt(model(i, i) / 6000)) << i;
+    // The sample variance of 6000 draws is within ±6% (3.3σ) of the truth.
+    EXPECT_NEAR(frames(i, i) / model(i, i), 1.0, 0.06) << i;
+  }
+  // The blue difference channel is noisier than the D65' blue channel.
+  EXPECT_GT(model(3, 3), model(2, 2));
+}
+
+TEST(PlanAdvisor, FisherPredictionAgreesWithMonteCarloOnInteriorSkin) {
+  for (const char* name : {"method", "multispectral"}) {
+    const PlanDescription plan = builtin_plan(name, library());
+    const AdvisorOptions options = small_interior(24);
+    const PlanPrediction prediction = predict_plan(plan, library(), CameraNoise{}, options);
+    MonteCarloOptions mc;
+    mc.draws_per_skin = 8;
+    const MonteCarloCheck check = monte_carlo_check(plan, library(), CameraNoise{}, options, mc, prediction);
+    EXPECT_EQ(check.fits, 24 * 8) << name;
+    EXPECT_GT(prediction.delta_e94_mean, 0) << name;
+    EXPECT_GT(check.ratio, 0.8) << name << ": predicted " << prediction.delta_e94_mean << " MC " << check.delta_e94_mean;
+    EXPECT_LT(check.ratio, 1.25) << name << ": predicted " << prediction.delta_e94_mean << " MC " << check.delta_e94_mean;
+    // Cm, which every plan sees, within 30% of the fits' RMS error. Ch, βm
+    // and Che are nearly degenerate on some skins: there the box prior caps
+    // the prediction while the bounded fit, which knows no prior, wanders
+    // to the range's edges (measured: predicted/MC σ about 0.5-0.8;
+    // docs/plan-advisor.md), so they are only required to be reported.
+    EXPECT_NEAR(prediction.sigma.cm / check.rms_error.cm, 1.0, 0.3) << name;
+    EXPECT_GT(prediction.sigma.ch, 0) << name;
+    EXPECT_GT(check.bound_share, 0) << name;
+  }
+}
+
+TEST(PlanAdvisor, MoreFramesReduceSigmaBySquareRootOfFrames) {
+  PlanDescription one = builtin_plan("method", library());
+  PlanDescription four = builtin_plan("method@4", library());
+  one.dark_frames = 1, four.dark_frames = 4;  // every raw quantity averaged 4×
+  AdvisorOptions options = small_interior(16);
+  options.box_prior = false;  // the box's information is the one thing that does not scale with frames
+  const PlanPrediction p1 = predict_plan(one, library(), CameraNoise{}, options);
+  const PlanPrediction p4 = predict_plan(four, library(), CameraNoise{}, options);
+  EXPECT_NEAR(p1.sigma.cm / p4.sigma.cm, 2.0, 0.04);
+  EXPECT_NEAR(p1.sigma.ch / p4.sigma.ch, 2.0, 0.04);
+  EXPECT_NEAR(p1.delta_e94_mean / p4.delta_e94_mean, 2.0, 0.1);
+  EXPECT_GT(p4.time.subject_s, 3 * p1.time.subject_s);
+}
+
+TEST(PlanAdvisor, MultispectralPredictsLowerErrorThanTheMethodUnderA) {
+  const AdvisorOptions options = small_interior(16);
+  const PlanPrediction method = predict_plan(builtin_plan("method", library()), library(), CameraNoise{}, options);
+  const PlanPrediction multi = predict_plan(builtin_plan("multispectral", library()), library(), CameraNoise{}, options);
+  ASSERT_EQ(method.illuminants[1], "A");
+  EXPECT_LT(multi.delta_e94[1], method.delta_e94[1]);
+  EXPECT_EQ(multi.channels.size(), 18u);
+  EXPECT_EQ(method.channels.size(), 4u);
+  EXPECT_EQ(method.channels[3], "W57+blue-W57.B");
+}
+
+TEST(PlanAdvisor, BadPlansAreRefusedNamingTheField) {
+  PlanDescription plan = builtin_plan("method", library());
+  std::string error;
+  plan.captures[1].white_fill = 1.5;
+  EXPECT_FALSE(plan.IsValid(&error));
+  EXPECT_EQ(error, "captures[1].white_fill: must be in (0, 1]");
+  EXPECT_THROW(predict_plan(plan, library(), CameraNoise{}), std::invalid_argument);
+  plan = builtin_plan("method", library());
+  plan.channels[3].minus = "W56";
+  EXPECT_FALSE(plan.IsValid(&error));
+  EXPECT_EQ(error, "channels[3].minus: no capture named 'W56'");
+  plan = builtin_plan("method", library());
+  plan.captures[0].drive = {};
+  EXPECT_FALSE(plan.IsValid(&error));
+  EXPECT_EQ(error, "captures[0].drive: at least one LED type must be on");
+  plan = builtin_plan("method", library());
+  plan.captures[2].frames = 0;
+  EXPECT_FALSE(plan.IsValid(&error));
+  EXPECT_EQ(error, "captures[2].frames: must be 1-1000");
+  EXPECT_THROW(builtin_plan("method@0", library()), std::invalid_argument);
+  EXPECT_THROW(builtin_plan("hyperspectral", library()), std::invalid_argument);
+
+  // A channel whose white sees nothing: R under the blue LED minus itself is refused above;
+  // W57 − W57+blue in B is negative.
+  plan = builtin_plan("method", library());
+  plan.channels[3] = {"W57", 2, "W57+blue"};
+  try {
+    predict_plan(plan, library(), CameraNoise{});
+    ADD_FAILURE() << "a channel with a negative white passed";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("channels[3]"), std::string::npos) << e.what();
+  }
+  CameraNoise camera;
+  camera.adc_bits = 40;
+  try {
+    predict_plan(builtin_plan("method", library()), library(), camera);
+    ADD_FAILURE() << "a 40-bit camera passed";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()), "camera: adc_bits: must be 8-16");
+  }
+  AdvisorOptions options;
+  options.population.low.cm = 0.0;
+  EXPECT_THROW(predict_plan(builtin_plan("method", library()), library(), CameraNoise{}, options), std::invalid_argument);
+}
+
+TEST(PlanAdvisor, JsonFormRoundTripsAndNamesBadFields) {
+  const PlanDescription method = builtin_plan("method", library());
+  const PlanDescription back = plan_from_json(to_json(method));
+  ASSERT_EQ(back.captures.size(), 3u);
+  EXPECT_EQ(back.channels.size(), 4u);
+  for (int t = 0; t < spectral::kLedTypeCount; ++t) EXPECT_EQ(back.captures[2].drive[t], method.captures[2].drive[t]);
+  auto refused = [](const char* text) {
+    try {
+      plan_from_json(nlohmann::json::parse(text));
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_EQ(refused(R"({"name": "x", "captures": [{"name": "a", "drive": {"UV": 1}}]})"),
+            "captures[0].drive.UV: not an LED type (W57, W40, W27, R, G, B)");
+  EXPECT_EQ(refused(R"({"name": "x", "captures": [{"name": "a", "drive": {"B": 1}, "frames": 2.5}]})"),
+            "captures[0].frames: must be a whole number");
+  EXPECT_EQ(refused(R"({"name": "x", "captures": [{"name": "a", "drive": {"B": 1}}],
+                        "channels": [{"capture": "a", "camera_channel": "Y"}]})"),
+            "channels[0].camera_channel: must be \"R\", \"G\" or \"B\"");
+  EXPECT_EQ(refused(R"({"captures": []})"), "name: required");
+  EXPECT_EQ(refused(R"({"name": "x", "captures": [{"name": "a", "drive": {"B": 2}}]})"),
+            "captures[0].drive.B: must be in [0, 1]");
+}
+
+}  // namespace
+}  // namespace chromo::planning
