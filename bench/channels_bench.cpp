@@ -38,6 +38,8 @@
 #include "chart.hpp"
 #include "chromo/estimation/estimator.hpp"
 #include "chromo/estimation/forward_table.hpp"
+#include "chromo/simulators/scene/rendered_session.hpp"
+#include "chromo/simulators/scene/scene.hpp"
 #include "chromo/simulators/scene/synthetic.hpp"
 #include "chromo/spectral/cie.hpp"
 #include "relit_accuracy.hpp"
@@ -126,6 +128,54 @@ struct Row {
   Run r;
 };
 
+// The virtual lab (simulators/scene/rendered_session.hpp): each plan's
+// session rendered from the lab's physics for a held-out scene seed (its own
+// skin fields, vein, ink, marker, hair, highlights, camera noise), through
+// the daemon's capture builder and measurement; the default estimator per
+// pixel (fast, auto; no spatial pass) on the noisy and noise-free cells.
+constexpr int kRegions = 6;  // skin, vein, tattoo, marker, hair, specular
+struct LabRow {
+  std::string plan;
+  std::uint64_t seed;
+  int channels = 0;
+  Accuracy noisy, clean;
+  double noisy_a = 0, clean_a = 0;
+  double flagged[kRegions] = {};
+  double us_per_cell = 0;
+};
+
+LabRow run_lab(const std::string& plan, std::uint64_t seed, int sensor_width, int sensor_height) {
+  simulators::RenderedSessionOptions ro;
+  ro.sensor_width = sensor_width, ro.sensor_height = sensor_height, ro.seed = seed, ro.threads = 2, ro.plan = plan;
+  const simulators::RenderedSession lab = simulators::render_session(ro);
+  LabRow row;
+  row.plan = plan, row.seed = seed, row.channels = lab.noisy.set.size();
+  std::vector<bool> skin(lab.pixels());
+  for (std::size_t i = 0; i < lab.pixels(); ++i) skin[i] = lab.region[i] == static_cast<std::uint8_t>(simulators::SceneRegion::kSkin);
+  const Relit truth = relight(lab.truth);
+  auto table = std::make_shared<const estimation::ForwardTable>(
+      estimation::ForwardTable::build(lab.noisy.set, estimation::TableGrid{}, 2));
+  estimation::EstimatorOptions options;
+  options.threads = 2;
+  const estimation::Estimator estimator(table, lab.noisy.set, options);
+  std::vector<estimation::PixelEstimate> noisy(lab.pixels()), clean(lab.pixels());
+  const auto summary = estimator.estimate(lab.noisy.measured, noisy);
+  estimator.estimate(lab.noise_free.measured, clean);
+  row.noisy = accuracy(truth, lab.truth, noisy, skin);
+  row.clean = accuracy(truth, lab.truth, clean, skin);
+  row.noisy_a = relit_a(lab.truth, noisy, skin);
+  row.clean_a = relit_a(lab.truth, clean, skin);
+  std::size_t count[kRegions] = {}, flagged[kRegions] = {};
+  for (std::size_t i = 0; i < lab.pixels(); ++i) {
+    if (lab.region[i] >= kRegions) continue;
+    ++count[lab.region[i]];
+    if (noisy[i].flag != estimation::PixelFlag::kExplained) ++flagged[lab.region[i]];
+  }
+  for (int k = 0; k < kRegions; ++k) row.flagged[k] = count[k] ? double(flagged[k]) / count[k] : 0;
+  row.us_per_cell = summary.seconds * options.threads * 1e6 / lab.pixels();
+  return row;
+}
+
 }  // namespace
 }  // namespace chromo::bench
 
@@ -136,9 +186,13 @@ int main(int argc, char** argv) {
   std::vector<std::uint64_t> seeds{101, 102, 103, 104, 105, 106};
   int pixels = 6000;
   std::string out = "bench/results";
+  std::vector<std::uint64_t> lab_seeds{11, 12, 13, 14, 15, 16};
+  std::vector<int> lab_sensor{256, 192};
   app.add_option("--seeds", seeds, "held-out scene seeds")->delimiter(',');
   app.add_option("--pixels", pixels, "pixels per synthetic frame")->check(CLI::Range(100, 10'000'000));
   app.add_option("--out", out, "output directory");
+  app.add_option("--lab-seeds", lab_seeds, "held-out virtual-lab scene seeds (none: skip the lab)")->delimiter(',');
+  app.add_option("--lab-sensor", lab_sensor, "virtual-lab sensor W H (even)")->expected(2);
   CLI11_PARSE(app, argc, argv);
 
   std::vector<Row> rows;
@@ -220,6 +274,51 @@ int main(int argc, char** argv) {
               mean_de["multispectral/camera/auto"] / mean_de["method/camera/auto"],
               mean_de["multispectral+method/camera/auto"] / mean_de["method/camera/auto"]);
 
+  // The virtual lab, per plan and held-out seed.
+  std::vector<LabRow> lab_rows;
+  for (const std::string& plan : {"standard", "multispectral", "multispectral+method"})
+    for (std::uint64_t seed : lab_seeds) lab_rows.push_back(run_lab(plan, seed, lab_sensor[0], lab_sensor[1]));
+  if (!lab_rows.empty()) {
+    std::printf("\nvirtual lab: %dx%d sensor (2x2 binned cells), one frame per step, each plan's steps at their "
+                "own exposure (standard: one for all), fast/auto per pixel, no spatial pass\n",
+                lab_sensor[0], lab_sensor[1]);
+    std::printf("%-21s %4s %6s %8s %8s %8s %8s %8s %8s %7s %7s %7s %7s %7s %7s %8s\n", "plan", "ch", "seed", "noisy",
+                "noisy", "noisy", "clean", "clean", "clean", "skin", "vein", "tattoo", "marker", "hair", "spec", "us/cell");
+    std::printf("%-21s %4s %6s %8s %8s %8s %8s %8s %8s %7s %7s %7s %7s %7s %7s\n", "", "", "", "dE all", "dE D65",
+                "dE A", "dE all", "dE D65", "dE A", "flag", "flag", "flag", "flag", "flag", "flag");
+    for (const LabRow& r : lab_rows)
+      std::printf("%-21s %4d %6llu %8.4f %8.4f %8.4f %8.4f %8.4f %8.4f %6.2f%% %6.1f%% %6.1f%% %6.1f%% %6.1f%% %6.1f%% %8.2f\n",
+                  r.plan.c_str(), r.channels, static_cast<unsigned long long>(r.seed), r.noisy.de_all, r.noisy.de_d65,
+                  r.noisy_a, r.clean.de_all, r.clean.de_d65, r.clean_a, 100 * r.flagged[0], 100 * r.flagged[1],
+                  100 * r.flagged[2], 100 * r.flagged[3], 100 * r.flagged[4], 100 * r.flagged[5], r.us_per_cell);
+    std::printf("spread over the %zu lab seeds (mean [min, max]):\n", lab_seeds.size());
+    std::map<std::string, double> lab_mean;
+    for (const std::string& plan : {"standard", "multispectral", "multispectral+method"}) {
+      std::vector<const LabRow*> rs;
+      for (const LabRow& r : lab_rows)
+        if (r.plan == plan) rs.push_back(&r);
+      auto spread = [&](auto get) {
+        double sum = 0, lo = get(*rs[0]), hi = lo;
+        for (const LabRow* r : rs) sum += get(*r), lo = std::min(lo, get(*r)), hi = std::max(hi, get(*r));
+        return std::array<double, 3>{sum / rs.size(), lo, hi};
+      };
+      const auto n = spread([](const LabRow& r) { return r.noisy.de_all; });
+      const auto nd = spread([](const LabRow& r) { return 0.5 * (r.noisy.de_d65 + r.noisy_a); });
+      const auto c = spread([](const LabRow& r) { return r.clean.de_all; });
+      const auto sk = spread([](const LabRow& r) { return r.flagged[0]; });
+      const auto ink = spread([](const LabRow& r) { return 0.5 * (r.flagged[2] + r.flagged[3]); });
+      const auto us = spread([](const LabRow& r) { return r.us_per_cell; });
+      lab_mean[plan + "/noisy_d65_a"] = nd[0];
+      std::printf("  %-21s noisy dE all %.3f [%.3f, %.3f]  noisy (D65+A)/2 %.3f [%.3f, %.3f]  clean dE all %.4f [%.4f, "
+                  "%.4f]  skin flagged %.2f%% [%.2f, %.2f]  tattoo+marker %.1f%% [%.1f, %.1f]  %.2f us/cell [%.2f, %.2f]\n",
+                  plan.c_str(), n[0], n[1], n[2], nd[0], nd[1], nd[2], c[0], c[1], c[2], 100 * sk[0], 100 * sk[1],
+                  100 * sk[2], 100 * ink[0], 100 * ink[1], 100 * ink[2], us[0], us[1], us[2]);
+      bars.push_back({"lab " + plan + " noisy", n[0]});
+    }
+    std::printf("target: lab noisy multispectral / standard, relit under D65 and A (<= 0.6): %.2f\n",
+                lab_mean["multispectral/noisy_d65_a"] / lab_mean["standard/noisy_d65_a"]);
+  }
+
   const std::filesystem::path dir = out;
   std::filesystem::create_directories(dir);
   {
@@ -232,6 +331,17 @@ int main(int argc, char** argv) {
           << "," << row.r.accuracy.bm << "," << row.r.accuracy.che << "," << row.r.order4 << "," << row.r.flagged[0]
           << "," << row.r.flagged[1] << "," << row.r.flagged[2] << "," << row.r.flagged[3] << "," << row.r.flagged[4]
           << "," << row.r.us_per_pixel << "\n";
+  }
+  {
+    std::ofstream csv(dir / "channels_lab.csv");
+    csv << "plan,channels,seed,noisy_de_all,noisy_de_d65,noisy_de_a,clean_de_all,clean_de_d65,clean_de_a,flag_skin,"
+           "flag_vein,flag_tattoo,flag_marker,flag_hair,flag_specular,us_per_cell\n";
+    for (const LabRow& r : lab_rows) {
+      csv << r.plan << "," << r.channels << "," << r.seed << "," << r.noisy.de_all << "," << r.noisy.de_d65 << ","
+          << r.noisy_a << "," << r.clean.de_all << "," << r.clean.de_d65 << "," << r.clean_a;
+      for (double f : r.flagged) csv << "," << f;
+      csv << "," << r.us_per_cell << "\n";
+    }
   }
   write_bar_chart(dir / "channels.png", "relit dE94 (6 LEDs + D65) on skin, fast/auto, mean over held-out seeds",
                   "mean dE94", bars, true);

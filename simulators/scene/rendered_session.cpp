@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 
 #include "chromo/calibration/session_mix.hpp"
@@ -53,6 +54,7 @@ std::uint64_t cache_key(const RenderedSessionOptions& o, const std::vector<Scene
   h.add(kCacheFormat.version);
   for (int v : {o.sensor_width, o.sensor_height, o.scene_width, o.scene_height, o.window_x, o.window_y}) h.add(v);
   h.add(o.seed), h.add(o.white_fill), h.add(o.noise_free), h.add(exposure_us);
+  if (o.plan != "standard") h.add(o.plan.data(), o.plan.size());  // (the standard plan's keys as before)
   for (const auto& w : weights) h.add(w.data(), sizeof(double) * w.size());
   for (double v : {camera.quantum_scale_e_per_us, camera.full_well_e, camera.read_noise_e, camera.gain_e_per_dn,
                    camera.black_level_dn})
@@ -109,7 +111,7 @@ session::MethodMeasurement get_measurement(files::CacheReader& r) {
   m.set.camera.name = get_string(r);
   for (auto& c : m.set.camera.rgb) c = get_spectrum(r);
   const auto channels = r.get<std::uint32_t>();
-  if (channels > 16) throw std::runtime_error("bad channel count");
+  if (channels > 4096) throw std::runtime_error("bad channel count");
   for (std::uint32_t k = 0; k < channels; ++k) {
     estimation::MeasurementChannel c;
     c.name = get_string(r);
@@ -121,7 +123,7 @@ session::MethodMeasurement get_measurement(files::CacheReader& r) {
   m.width = r.get<std::int32_t>(), m.height = r.get<std::int32_t>();
   m.measured = r.get_vector<float>(std::uint64_t{1} << 32);
   const auto reports = r.get<std::uint32_t>();
-  if (reports > 16) throw std::runtime_error("bad registration count");
+  if (reports > 4096) throw std::runtime_error("bad registration count");
   for (std::uint32_t k = 0; k < reports; ++k) {
     session::RegistrationReport report;
     report.image = get_string(r), report.reference = get_string(r), report.channel = get_string(r);
@@ -152,7 +154,8 @@ bool load_cached(const std::filesystem::path& file, std::uint64_t key, RenderedS
     s.truth = r.get_vector<estimation::SkinParameters>(std::uint64_t{1} << 28);
     s.region = r.get_vector<std::uint8_t>(std::uint64_t{1} << 28);
     const std::size_t pixels = static_cast<std::size_t>(s.width) * s.height;
-    if (!r.at_end() || s.truth.size() != pixels || s.region.size() != pixels || s.noisy.measured.size() != pixels * 4)
+    if (!r.at_end() || s.truth.size() != pixels || s.region.size() != pixels ||
+        s.noisy.measured.size() != pixels * s.noisy.set.channels.size())
       return false;
     out.width = s.width, out.height = s.height;
     out.scene_seconds = s.scene_seconds, out.camera_seconds = s.camera_seconds, out.measurement_seconds = s.measurement_seconds;
@@ -197,6 +200,7 @@ bool RenderedSessionOptions::IsValid(std::string* error) const {
   if (!(white_fill > 0.05 && white_fill < 0.99)) return fail("white_fill: must be in (0.05, 0.99)");
   if (threads < 1) return fail("threads: must be >= 1");
   if (band_rows < 1) return fail("band_rows: must be >= 1");
+  if (!session::builtin_plan(plan)) return fail("plan: must be a built-in plan (standard, multispectral, multispectral+method)");
   return true;
 }
 
@@ -218,22 +222,57 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
     drive[t] = 1.0;
     out.library.leds[t].ladder = {{1.0, std::nullopt, std::nullopt, true, leds.emit_settled(drive)}};
   }
-  const char* const kMixes[3] = {"d65", "w57", "w57+blue"};
+  // The plan's illumination states (one per subject step, in plan order):
+  // a mix solved as a calibrated daemon would, or the step's own weights.
   const CameraModel camera{CameraModelOptions{}};
+  const CameraModelOptions& c = camera.options();
+  const bool standard = options.plan == "standard";
+  session::SessionPlan plan = *session::builtin_plan(options.plan);
+  std::vector<std::string> state_names;
+  std::map<std::string, int> state_of_step;  // subject and white steps → state index
+  for (const session::Step& step : plan.steps) {
+    if (step.role != session::StepRole::kSubject) continue;
+    const std::string name = step.illumination.kind == session::Illumination::Kind::kMix
+                                 ? step.illumination.mix
+                                 : step.name.substr(std::string("subject_").size());
+    if (step.illumination.kind == session::Illumination::Kind::kMix)
+      out.mixes[name] = calibration::solve_session_mix(out.library, name, "camera", false).weights;
+    else
+      out.mixes[name] = step.illumination.weights;
+    state_names.push_back(name);
+  }
+  for (const session::Step& step : plan.steps) {
+    if (step.role == session::StepRole::kDark) continue;
+    const std::string name = step.illumination.kind == session::Illumination::Kind::kMix
+                                 ? step.illumination.mix
+                                 : step.name.substr(step.name.find('_') + 1);
+    state_of_step[step.name] =
+        static_cast<int>(std::find(state_names.begin(), state_names.end(), name) - state_names.begin());
+  }
   std::vector<SceneWeights> weights;
-  std::map<std::string, cv::Vec3f> white_response;
+  std::vector<cv::Vec3f> white_response;
+  std::vector<double> brightest_of_state;
   double brightest = 0;
-  for (const char* mix : kMixes) {
-    out.mixes[mix] = calibration::solve_session_mix(out.library, mix, "camera", false).weights;
-    const auto w = camera.weights(leds.emit_settled(out.mixes[mix]));
+  for (const std::string& name : state_names) {
+    const auto w = camera.weights(leds.emit_settled(out.mixes[name]));
     weights.emplace_back(w);
     const Eigen::Vector3d white = w * white_target_reflectance().values().matrix();
-    white_response[mix] = cv::Vec3f(static_cast<float>(white[0]), static_cast<float>(white[1]), static_cast<float>(white[2]));
+    white_response.emplace_back(static_cast<float>(white[0]), static_cast<float>(white[1]), static_cast<float>(white[2]));
+    brightest_of_state.push_back(white.maxCoeff());
     brightest = std::max(brightest, white.maxCoeff());
   }
-  const CameraModelOptions& c = camera.options();
-  out.exposure_us = (options.white_fill * camera.max_dn() - c.black_level_dn) * c.gain_e_per_dn /
-                    (c.quantum_scale_e_per_us * brightest);
+  auto exposure_for = [&](double white_dn_rate) {
+    return (options.white_fill * camera.max_dn() - c.black_level_dn) * c.gain_e_per_dn / (c.quantum_scale_e_per_us * white_dn_rate);
+  };
+  // The standard plan: one exposure for every step (its brightest white at
+  // white_fill). Other plans: each state its own exposure (a capture of one
+  // LED type alone fills the scale as its own white allows), the dark at the
+  // longest.
+  out.exposure_us = exposure_for(brightest);
+  std::vector<double> state_exposure_us;
+  for (double b : brightest_of_state) state_exposure_us.push_back(standard ? out.exposure_us : exposure_for(b));
+  double dark_exposure_us = out.exposure_us;
+  for (double e : state_exposure_us) dark_exposure_us = std::max(dark_exposure_us, e);
   std::filesystem::path cached;
   std::uint64_t key = 0;
   if (!options.cache_dir.empty()) {
@@ -254,10 +293,9 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
   const SkinSceneResponse scene = render_skin_scene(scene_options, weights, options.band_rows);
   out.scene_seconds = seconds_since(start);
 
-  // Frames of the standard plan through the daemon's capture builder.
-  session::StandardPlanOptions plan_options;
-  plan_options.exposure_us = out.exposure_us;
-  const session::SessionPlan plan = session::standard_plan(plan_options);
+  // Frames of the plan through the daemon's capture builder.
+  for (session::Step& step : plan.steps)
+    step.exposure_us = step.role == session::StepRole::kDark ? dark_exposure_us : state_exposure_us[state_of_step.at(step.name)];
   const session::CaptureSources sources{out.library, "true LED emission at full drive (rendered session)",
                                c.sensitivity, "builtin:nikon_d5100", kWhiteTargetReflectance};
   const cv::Size sensor(options.sensor_width, options.sensor_height);
@@ -270,33 +308,37 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
       if (step.role == session::StepRole::kDark) {
         response = cv::Mat(sensor, CV_32FC3, cv::Scalar::all(0));
       } else {
-        drive = out.mixes.at(step.illumination.mix);
-        const int k = static_cast<int>(std::find(std::begin(kMixes), std::end(kMixes), step.illumination.mix) - kMixes);
-        if (step.role == session::StepRole::kWhite) response = cv::Mat(sensor, CV_32FC3, white_response.at(step.illumination.mix));
+        const int k = state_of_step.at(step.name);
+        drive = out.mixes.at(state_names[k]);
+        if (step.role == session::StepRole::kWhite) response = cv::Mat(sensor, CV_32FC3, white_response[k]);
         else response = scene.responses[k];
       }
       if (noisy) {
-        const cv::Mat dn = camera.expose(response, SensorLayout::kBayerRGGB, 0, 0, out.exposure_us, 0, s);
-        builder.add_frame(frame_record(step, s, drive, out.exposure_us, dn, drivers::PixelFormat::kBayerRG12), bytes_of(dn));
+        const cv::Mat dn = camera.expose(response, SensorLayout::kBayerRGGB, 0, 0, step.exposure_us, 0, s);
+        builder.add_frame(frame_record(step, s, drive, step.exposure_us, dn, drivers::PixelFormat::kBayerRG12), bytes_of(dn));
       } else {
         cv::Mat dn16;  // the 16-bit encoding: DN << 4, here with the fraction kept to 1/16 DN
-        camera.expected(response, SensorLayout::kBayerRGGB, 0, 0, out.exposure_us, 0)
+        camera.expected(response, SensorLayout::kBayerRGGB, 0, 0, step.exposure_us, 0)
             .convertTo(dn16, CV_16U, 16.0);
-        builder.add_frame(frame_record(step, s, drive, out.exposure_us, dn16, drivers::PixelFormat::kBayerRG16),
+        builder.add_frame(frame_record(step, s, drive, step.exposure_us, dn16, drivers::PixelFormat::kBayerRG16),
                           bytes_of(dn16));
       }
     }
-    return builder.captures();
+    return builder;
+  };
+  auto measurement = [&](const session::SessionCaptureBuilder& builder) {
+    return standard ? session::build_method_measurement(builder.captures())
+                    : session::build_plan_measurement(builder.plan_captures());
   };
   start = Clock::now();
-  const session::MethodCaptures noisy_captures = captures(true);
-  session::MethodCaptures clean_captures;
-  if (options.noise_free) clean_captures = captures(false);
+  const session::SessionCaptureBuilder noisy_captures = captures(true);
+  std::optional<session::SessionCaptureBuilder> clean_captures;
+  if (options.noise_free) clean_captures.emplace(captures(false));
   out.camera_seconds = seconds_since(start);
   start = Clock::now();
-  out.noisy = session::build_method_measurement(noisy_captures);
+  out.noisy = measurement(noisy_captures);
   if (options.noise_free) {
-    out.noise_free = session::build_method_measurement(clean_captures);
+    out.noise_free = measurement(*clean_captures);
     for (std::size_t k = 0; k < out.noise_free.set.channels.size(); ++k)
       out.noise_free.set.channels[k].noise = out.noisy.set.channels[k].noise;
   }
