@@ -172,7 +172,9 @@ TEST(ManyChannels, ChiSquaredFlagsInkBeyondSixSigmaAndSpareSkin) {
   EXPECT_GE(multispectral.ink_counted, 100);  // of 200 examined
   EXPECT_GE(multispectral.ink_beyond_6_sigma, 0.95);
   EXPECT_LE(multispectral.skin, 0.01);
-  if (method.ink_counted >= 10) EXPECT_GE(method.ink_beyond_6_sigma, 0.95);
+  if (method.ink_counted >= 10) {
+    EXPECT_GE(method.ink_beyond_6_sigma, 0.95);
+  }
   EXPECT_LE(method.skin, 0.01);
   std::printf("ink/marker > 6σ from skin (of 200): method %d pixels, %.1f%% flagged; multispectral %d pixels, %.1f%% flagged; "
               "skin flagged: method %.2f%%, multispectral %.2f%%\n",
