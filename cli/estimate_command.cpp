@@ -66,13 +66,13 @@ estimation::EstimatorOptions estimator_options(const EstimateOptions& options) {
 int run_estimate_session(const EstimateOptions& options) {
   const fs::path folder = options.input;
   session::CaptureSources sources;
-  session::MethodCaptures captures;
+  session::StoredSessionCaptures captures;
   try {
     std::string library = options.led_library;
     if (library.empty() && fs::exists(folder / "results" / "led_library.json"))
       library = (folder / "results" / "led_library.json").string();
     sources = session::resolve_capture_sources(library, options.camera, options.white_reflectance);
-    captures = session::read_session_captures(folder, sources);
+    captures = session::read_any_session_captures(folder, sources);
   } catch (const std::exception& e) {
     std::cerr << "chromo estimate: " << e.what() << "\n";
     return kExitBadInput;
@@ -91,7 +91,9 @@ int run_estimate_session(const EstimateOptions& options) {
   try {
     files::OutputBatch files(options.out);  // removed again (with the directory it made) unless committed
     try {
-      result = maps::estimate_method_captures(captures, eo, options.out, stage_in(files), {}, extra.dump());
+      result = captures.method
+                   ? maps::estimate_method_captures(*captures.method, eo, options.out, stage_in(files), {}, extra.dump())
+                   : maps::estimate_plan_captures(*captures.plan, eo, options.out, stage_in(files), {}, extra.dump());
     } catch (const std::invalid_argument& e) {
       std::cerr << "chromo estimate: " << folder.string() << ": " << e.what() << "\n";
       return kExitBadInput;

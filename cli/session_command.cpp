@@ -1,6 +1,9 @@
 // chromo session run|watch|list|show|cancel|pause|resume|delete: capture sessions on chromod.
 #include <unistd.h>
 
+#include <algorithm>
+#include <optional>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 
@@ -12,6 +15,8 @@
 #include "chromosphere/v1/operations.grpc.pb.h"
 #include "chromosphere/v1/sessions.grpc.pb.h"
 #include "commands.hpp"
+#include "plan_advice.hpp"
+#include "chromo/session/session_plan.hpp"
 #include "daemon_client.hpp"
 
 namespace chromo::cli {
@@ -33,27 +38,23 @@ void run(SessionOptions& options, int& exit_status) {
   DaemonConnection daemon(options.address);
   pb::StartSessionRequest request;
   if (!options.plan_file.empty()) {
-    std::string text;
-    try {
-      text = files::read_text_file(options.plan_file, "session plan");
-    } catch (const files::InputFileError& error) {
-      std::cerr << "chromo: --plan " << error.what() << "\n";
-      exit_status = kExitBadInput;
-      return;
+    // A built-in plan by name (the standard-plan options apply), else a plan file.
+    session::StandardPlanOptions builtin_options;
+    builtin_options.timing = options.hardware ? session::Timing::kHardware : session::Timing::kSoftware;
+    if (options.exposure_us > 0) builtin_options.exposure_us = options.exposure_us;
+    if (options.frames_per_camera > 0) builtin_options.frames_per_camera = options.frames_per_camera;
+    builtin_options.operator_prompts = options.prompts;
+    std::optional<session::SessionPlan> plan = session::builtin_plan(options.plan_file, builtin_options);
+    if (!plan) {
+      try {
+        plan = session::read_plan_file(options.plan_file);
+      } catch (const std::invalid_argument& error) {
+        std::cerr << "chromo: --plan " << error.what() << "\n";
+        exit_status = kExitBadInput;
+        return;
+      }
     }
-    auto json = nlohmann::json::parse(text, nullptr, false);
-    if (json.is_discarded()) {
-      std::cerr << "chromo: --plan " << options.plan_file << ": not valid JSON\n";
-      exit_status = kExitBadInput;
-      return;
-    }
-    try {
-      proto::to_proto(session::plan_from_json(json), request.mutable_plan());
-    } catch (const std::invalid_argument& error) {
-      std::cerr << "chromo: --plan " << options.plan_file << ": " << error.what() << "\n";
-      exit_status = kExitBadInput;
-      return;
-    }
+    proto::to_proto(*plan, request.mutable_plan());
   } else {
     request.set_standard(true);
     request.set_timing(options.hardware ? pb::TIMING_HARDWARE : pb::TIMING_SOFTWARE);
@@ -116,6 +117,49 @@ void show(SessionOptions& options, int& exit_status) {
                              frame.camera(), frame.sequence(), frame.file(), frame.exposure_us());
 }
 
+// `chromo session plans`: the built-in plans, then plan files (FILE
+// arguments, and every *.json in --plan-dir), with their capture count,
+// the estimator's channels, the capture time (subject: first to last subject
+// exposure; references apart) and the predicted accuracy when the plan
+// advisor provides one (plan_advice.hpp). A bad plan file: its field named,
+// exit 2, nothing else printed.
+void list_plans(const std::vector<std::string>& files, const std::string& plan_dir, int& exit_status) {
+  std::vector<std::pair<std::string, session::SessionPlan>> plans;
+  for (const std::string& name : session::builtin_plan_names()) plans.emplace_back("built-in", *session::builtin_plan(name));
+  std::vector<std::string> paths = files;
+  if (!plan_dir.empty()) {
+    std::error_code ec;
+    if (!std::filesystem::is_directory(plan_dir, ec)) {
+      std::cerr << "chromo: session plans: --plan-dir " << plan_dir << ": not a directory\n";
+      exit_status = kExitBadInput;
+      return;
+    }
+    std::vector<std::string> found;
+    for (const auto& entry : std::filesystem::directory_iterator(plan_dir))
+      if (entry.path().extension() == ".json") found.push_back(entry.path().string());
+    std::sort(found.begin(), found.end());
+    paths.insert(paths.end(), found.begin(), found.end());
+  }
+  for (const std::string& path : paths) {
+    try {
+      plans.emplace_back(path, session::read_plan_file(path));
+    } catch (const std::invalid_argument& error) {
+      std::cerr << "chromo: session plans: " << error.what() << "\n";
+      exit_status = kExitBadInput;
+      return;
+    }
+  }
+  std::cout << fmt::format("{:<24} {:>8} {:>8} {:>10} {:>12} {:>7} {:>10}  {}\n", "plan", "captures", "channels",
+                           "subject_s", "references_s", "frames", "pred_dE94", "source");
+  for (const auto& [source, plan] : plans) {
+    const session::PlanTiming t = session::plan_timing(plan);
+    const auto predicted = predicted_relit_delta_e94(plan);
+    std::cout << fmt::format("{:<24} {:>8} {:>8} {:>10.2f} {:>12.2f} {:>7} {:>10}  {}\n", plan.name, t.captures,
+                             t.channels, t.subject_time_s, t.reference_time_s, t.frames_per_camera,
+                             predicted ? fmt::format("{:.2f}", *predicted) : std::string("-"), source);
+  }
+}
+
 }  // namespace
 
 // Streams the operation to its end with a live progress line (redrawn in
@@ -162,7 +206,7 @@ void add_session_command(CLI::App& app, int& exit_status) {
 
   auto* run_command = session->add_subcommand("run", "start a session (the standard one unless --plan) and follow it");
   add_daemon_options(*run_command, options->address);
-  run_command->add_option("--plan", options->plan_file, "session plan JSON (docs/formats/session.md, \"plan\")");
+  run_command->add_option("--plan", options->plan_file, "a built-in plan (standard, multispectral, multispectral+method; see `chromo session plans`) or a plan file (JSON, docs/formats/session.md \"plan\")");
   run_command->add_option("--subject", options->subject, "free text stored with the session");
   run_command->add_option("--name", options->name, "session name ([A-Za-z0-9_+.-])");
   run_command->add_option("--exposure-us", options->exposure_us, "standard plan: exposure (default 20000)");
@@ -171,6 +215,14 @@ void add_session_command(CLI::App& app, int& exit_status) {
   run_command->add_flag("--prompts", options->prompts, "standard plan: pause for the operator before white and subject");
   run_command->add_flag("--detach", options->detach, "print the id and return at once");
   run_command->callback([&exit_status, options] { run(*options, exit_status); });
+
+  auto* plans_command = session->add_subcommand(
+      "plans", "the built-in plans and plan files: captures, channels, capture time (no daemon needed)");
+  auto plan_files = std::make_shared<std::vector<std::string>>();
+  auto plan_dir = std::make_shared<std::string>();
+  plans_command->add_option("files", *plan_files, "plan files (JSON, docs/formats/session.md \"plan\")");
+  plans_command->add_option("--plan-dir", *plan_dir, "also every *.json plan file in this directory");
+  plans_command->callback([&exit_status, plan_files, plan_dir] { list_plans(*plan_files, *plan_dir, exit_status); });
 
   auto* watch_command = session->add_subcommand("watch", "follow a session's progress to its end");
   add_daemon_options(*watch_command, options->address);

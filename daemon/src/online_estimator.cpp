@@ -68,7 +68,10 @@ void OnlineEstimator::consume(const CapturedFrame& captured, const StoredFrame& 
       // frames leave the measurement set unchanged, as they do when the
       // controller applied the same levels), and left in the disk cache for
       // `chromo estimate SESSION_DIR`.
-      prepared_ = maps::prepare_tables(session::method_set_from_references(builder_->captures()), options_.estimation);
+      prepared_ = maps::prepare_tables(builder_->is_method_plan()
+                                           ? session::method_set_from_references(builder_->captures())
+                                           : session::plan_set_from_references(builder_->plan_captures()),
+                                       options_.estimation);
       table_prepared_ = true;
       table_prepare_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
     }
@@ -79,7 +82,6 @@ void OnlineEstimator::consume(const CapturedFrame& captured, const StoredFrame& 
 }
 
 void OnlineEstimator::estimate_now() {
-  const auto captures = builder_->captures();
   nlohmann::ordered_json extra{{"session_id", session_.id},
                                {"source", "chromod on-line estimator"},
                                {"camera", builder_->camera()},
@@ -94,12 +96,17 @@ void OnlineEstimator::estimate_now() {
   // SESSION_DIR` reproduces these maps from the folder alone.
   files::write_file_durably(results / "led_library.json", calibration::led_library_to_json(sources_->led_library),
                      options_.budget);
-  result_ = maps::estimate_method_captures(
-      captures, options_.estimation, results,
-      [this](const std::filesystem::path& path, const std::function<void(const std::filesystem::path&)>& produce) {
-        files::commit_file_durably(path, options_.budget, produce);
-      },
-      session_.progress, extra.dump(), prepared_ ? &*prepared_ : nullptr);
+  const maps::FileCommit commit = [this](const std::filesystem::path& path,
+                                         const std::function<void(const std::filesystem::path&)>& produce) {
+    files::commit_file_durably(path, options_.budget, produce);
+  };
+  // The method's session, or any other plan (multispectral, an operator's).
+  if (builder_->is_method_plan())
+    result_ = maps::estimate_method_captures(builder_->captures(), options_.estimation, results, commit, session_.progress,
+                                             extra.dump(), prepared_ ? &*prepared_ : nullptr);
+  else
+    result_ = maps::estimate_plan_captures(builder_->plan_captures(), options_.estimation, results, commit,
+                                           session_.progress, extra.dump(), prepared_ ? &*prepared_ : nullptr);
   prepared_.reset();  // the tables' memory goes back before the next session
 }
 

@@ -150,7 +150,7 @@ void Estimator::predict(const SkinParameters& p, double* out) const { table_->pr
 PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const {
   PixelEstimate out;
   const int c_count = channels();
-  double measured[kMaxChannels], weight[kMaxChannels];
+  ChannelBuffer<double> measured(c_count), weight(c_count);
   bool dark = true;
   for (int c = 0; c < c_count; ++c) {
     if (!std::isfinite(m[c])) {
@@ -197,8 +197,8 @@ PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const
   out.order = static_cast<std::uint8_t>(order);
   out.parameters = table_->from_grid(chosen.x);
   out.chi2 = static_cast<float>(chosen.chi2);
-  double predicted[kMaxChannels];
-  if (chosen.has_prediction) std::copy_n(chosen.predicted, c_count, predicted);
+  ChannelBuffer<double> predicted(c_count);
+  if (chosen.has_prediction && c_count == Fit::kPredictedChannels) std::copy_n(chosen.predicted, c_count, predicted.data());
   else table_->predict(chosen.x, predicted);
   double sum = 0;
   bool darker_everywhere = true;
@@ -237,7 +237,7 @@ Fit Estimator::specular_fit(const double* measured, const double* weight, const 
   for (int c = 1; c < c_count; ++c) smallest = std::min(smallest, measured[c]);
   Fit best;
   best.chi2 = std::numeric_limits<double>::infinity();
-  double diffuse[kMaxChannels];
+  ChannelBuffer<double> diffuse(c_count);
   GridPoint x = start;
   for (int step = 1; step <= kSpecularSteps; ++step) {
     const double s = smallest * step / (kSpecularSteps + 1.0);

@@ -78,7 +78,7 @@ void FastInverter::init() {
 
 GridPoint FastInverter::coarse_search(const double* measured, const double* weight) const {
   const int channels = table_->channels();
-  float m[kMaxChannels], w[kMaxChannels];
+  ChannelBuffer<float> m(channels), w(channels);
   for (int c = 0; c < channels; ++c) m[c] = static_cast<float>(measured[c]), w[c] = static_cast<float>(weight[c]);
   // Level 1: the kCoarseCandidates smallest χ² (NaN never enters), computed
   // a block of nodes at a time, one channel after the other (the same sum
@@ -137,7 +137,7 @@ GridPoint FastInverter::coarse_search(const double* measured, const double* weig
 
 bool FastInverter::in_occupied_cell(const double* measured) const {
   const int channels = table_->channels();
-  float m[kMaxChannels];
+  ChannelBuffer<float> m(channels);
   for (int c = 0; c < channels; ++c) m[c] = static_cast<float>(measured[c]);
   const std::uint32_t box = inverse_->box_of(m), cell_index = inverse_->cell_at(box);
   if (cell_index == InverseTable::kNoCell) return false;
@@ -446,8 +446,8 @@ Fit FastInverter::fit(const double* measured, const double* weight, int order, F
 }
 
 Fit FastInverter::fit_by_search(const double* measured, const double* weight, int order) const {
-  float m[kMaxChannels], w[kMaxChannels];
   const int channels = table_->channels();
+  ChannelBuffer<float> m(channels), w(channels);
   for (int c = 0; c < channels; ++c) m[c] = static_cast<float>(measured[c]), w[c] = static_cast<float>(weight[c]);
   const std::uint32_t cell_index = inverse_->cell_of(m);
   GridPoint start;

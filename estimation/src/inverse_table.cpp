@@ -18,6 +18,10 @@ namespace chromo::estimation {
 
 using namespace detail;
 
+namespace {
+constexpr int kMaxKeyDimsForKey = InverseTable::kMaxKeyDims;
+}  // namespace
+
 bool InverseTableSettings::IsValid(std::string* error) const {
   bool all_zero = true;
   for (double s : relative_sigma) {
@@ -31,6 +35,11 @@ bool InverseTableSettings::IsValid(std::string* error) const {
     if (error) *error = "relative_sigma must be all zero or all > 0";
     return false;
   }
+  for (double s : channel_relative_sigma)
+    if (!(s > 0 && std::isfinite(s))) {
+      if (error) *error = "channel_relative_sigma must be finite and > 0";
+      return false;
+    }
   return true;
 }
 
@@ -44,7 +53,18 @@ InverseTableSettings InverseTableSettings::completed_for(const MeasurementSet& s
   InverseTableSettings out = *this;
   if (set.size() == 4 && std::all_of(relative_sigma.begin(), relative_sigma.end(), [](double s) { return s == 0; }))
     out.relative_sigma = from_noise(set);
+  if (set.size() > 4 && channel_relative_sigma.empty())
+    for (const MeasurementChannel& c : set.channels) out.channel_relative_sigma.push_back(std::sqrt(c.noise.variance(0.2)) / 0.2);
   return out;
+}
+
+std::vector<double> InverseTableSettings::quantised_channel_sigma(int channels) const {
+  std::vector<double> q(std::max(channels, 0), 1.0);
+  if (static_cast<int>(channel_relative_sigma.size()) != channels || channels == 0) return q;
+  const double smallest = *std::min_element(channel_relative_sigma.begin(), channel_relative_sigma.end());
+  if (!(smallest > 0)) return q;
+  for (int c = 0; c < channels; ++c) q[c] = std::exp2(std::round(2 * std::log2(channel_relative_sigma[c] / smallest)) / 2);
+  return q;
 }
 
 std::array<double, 4> InverseTableSettings::quantised_sigma() const {
@@ -73,18 +93,29 @@ std::uint64_t InverseTable::cache_key(const ForwardTable& table, const InverseTa
     h.add(setting);
   h.add(settings.presolve_empty_cells);
   for (double q : settings.quantised_sigma()) h.add(q);  // the pre-solved fits' weights
+  if (table.channels() > kMaxKeyDimsForKey)
+    for (double q : settings.quantised_channel_sigma(table.channels())) h.add(q);  // the key's whitening
   return h.h;
 }
 
 std::string InverseTable::file_name(std::uint64_t key) { return files::cache_file_name("inverse_table", key); }
 
 void InverseTable::key_of(const float* values, float* key) const {
-  float centred[4];
-  for (int k = 0; k < key_dims_; ++k) centred[k] = inverse_table_key(values[k]) - key_mean_[k];
-  for (int a = 0; a < key_dims_; ++a) {
-    float sum = 0;
-    for (int k = 0; k < key_dims_; ++k) sum += key_axes_[a * 4 + k] * centred[k];
-    key[a] = sum;
+  const int channels = key_channels_;
+  if (channels <= kMaxKeyDims) {  // square rotation, no whitening: the 4-channel tables' key as before
+    float centred[kMaxKeyDims];
+    for (int k = 0; k < channels; ++k) centred[k] = inverse_table_key(values[k]) - key_mean_[k];
+    for (int a = 0; a < key_dims_; ++a) {
+      float sum = 0;
+      for (int k = 0; k < channels; ++k) sum += key_axes_[a * channels + k] * centred[k];
+      key[a] = sum;
+    }
+    return;
+  }
+  for (int a = 0; a < key_dims_; ++a) key[a] = 0;
+  for (int c = 0; c < channels; ++c) {
+    const float centred = inverse_table_key(values[c]) * key_whiten_[c] - key_mean_[c];
+    for (int a = 0; a < key_dims_; ++a) key[a] += key_axes_[a * channels + c] * centred;
   }
 }
 
@@ -112,18 +143,23 @@ double InverseTable::filled_share() const {
 }
 
 // The cache file's payload (files/binary_cache.hpp holds magic, version,
-// key, length and checksum): the key space's dimensions and bins, its mean,
-// axes, minimum and scale, the cell index, the cells, the occupied cells'
+// key, length and checksum): the key space's dimensions and bins, the
+// channel count, the captured variance, the per-channel whitening and mean,
+// the axes (dims × channels), minimum and scale, the cell index, the cells, the occupied cells'
 // count, the bucket nodes and the branches (each array: uint64 count, then
 // the elements).
 std::vector<std::uint8_t> InverseTable::encode() const {
   files::CacheWriter out;
-  out.reserve(2 * sizeof(std::int32_t) + sizeof key_mean_ + sizeof key_axes_ + sizeof key_min_ + sizeof key_scale_ +
+  out.reserve(3 * sizeof(std::int32_t) + sizeof(double) + 3 * sizeof(std::uint64_t) +
+              (key_whiten_.size() + key_mean_.size() + key_axes_.size()) * sizeof(float) + sizeof key_min_ + sizeof key_scale_ +
               5 * sizeof(std::uint64_t) + cell_index_.size() * sizeof(std::uint32_t) + cells_.size() * sizeof(Cell) +
               bucket_nodes_.size() * sizeof(std::uint32_t) + branches_.size() * sizeof(Branch));
   out.put<std::int32_t>(key_dims_);
   out.put<std::int32_t>(kBins);
-  out.put(key_mean_), out.put(key_axes_), out.put(key_min_), out.put(key_scale_);
+  out.put<std::int32_t>(key_channels_);
+  out.put<double>(captured_variance_);
+  out.put_vector(key_whiten_), out.put_vector(key_mean_), out.put_vector(key_axes_);
+  out.put(key_min_), out.put(key_scale_);
   out.put_vector(cell_index_);
   out.put_vector(cells_);
   out.put<std::uint64_t>(occupied_cells_);
@@ -140,11 +176,18 @@ bool InverseTable::decode(std::span<const std::uint8_t> payload, std::uint64_t k
   files::CacheReader in(payload);
   key_ = key;
   const auto dims = in.get<std::int32_t>(), bins = in.get<std::int32_t>();
-  if (!in.ok() || dims < 1 || dims > 4 || bins != kBins) return fail("bad header");
-  key_dims_ = dims;
-  in.get_bytes(key_mean_, sizeof key_mean_), in.get_bytes(key_axes_, sizeof key_axes_);
+  const auto channels = in.get<std::int32_t>();
+  if (!in.ok() || dims < 1 || dims > kMaxKeyDims || bins != kBins || channels < dims || channels > 1 << 16)
+    return fail("bad header");
+  key_dims_ = dims, key_channels_ = channels;
+  captured_variance_ = in.get<double>();
+  key_whiten_ = in.get_vector<float>(channels), key_mean_ = in.get_vector<float>(channels);
+  key_axes_ = in.get_vector<float>(std::uint64_t(dims) * channels);
   in.get_bytes(key_min_, sizeof key_min_), in.get_bytes(key_scale_, sizeof key_scale_);
   if (!in.ok()) return fail("truncated header");
+  if (key_whiten_.size() != std::size_t(channels) || key_mean_.size() != std::size_t(channels) ||
+      key_axes_.size() != std::size_t(dims) * channels)
+    return fail("key space of the wrong size");
   std::uint64_t box_cells = 1;
   for (int k = 0; k < dims; ++k) box_cells *= kBins;
   cell_index_ = in.get_vector<std::uint32_t>(box_cells);
@@ -194,7 +237,8 @@ std::shared_ptr<const InverseTable> InverseTable::load_or_build(std::shared_ptr<
     auto loaded = std::make_shared<InverseTable>();
     std::string why;
     const auto payload = files::read_cache(file, kCacheFormat, key, &why);
-    if (payload && loaded->decode(*payload, key, &why) && loaded->bucket_nodes_.size() == table->grid().node_count()) {
+    if (payload && loaded->decode(*payload, key, &why) && loaded->bucket_nodes_.size() == table->grid().node_count() &&
+        loaded->key_channels_ == table->channels()) {
       if (rebuilt) *rebuilt = false;
       slot = loaded;
       return loaded;

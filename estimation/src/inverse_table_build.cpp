@@ -80,7 +80,7 @@ std::vector<InverseTable::Branch> solve_cell(const Inverter& solver, const NodeI
                                              const std::uint32_t* nodes, std::uint32_t count, const double* centre) {
   const ForwardTable& table = solver.table();
   const int channels = table.channels();
-  double weight[kMaxChannels];
+  ChannelBuffer<double> weight(channels);
   for (int c = 0; c < channels; ++c) weight[c] = 1.0 / (0.01 * std::max(centre[c], 1e-4));
   // Groups: union of axis neighbours within the bucket (nodes are sorted).
   std::vector<int> parent(count);
@@ -138,7 +138,7 @@ std::vector<InverseTable::Branch> solve_cell(const Inverter& solver, const NodeI
     if (s.chi2 > solutions.front().chi2 + kBranchChi2Margin) break;
     if (static_cast<int>(branches.size()) == InverseTable::kMaxBranches) break;
     InverseTable::Branch b{};
-    double m0[kMaxChannels], jacobian[kMaxChannels * 4];
+    ChannelBuffer<double> m0(table.channels()), jacobian(std::size_t(table.channels()) * 4);
     table.predict(s.x, m0, jacobian);
     for (int k = 0; k < 4; ++k) b.x0[k] = static_cast<float>(s.x[k]);
     for (int c = 0; c < std::min(channels, 4); ++c) b.m0[c] = static_cast<float>(m0[c]);
@@ -171,7 +171,7 @@ std::optional<InverseTable::Branch> solve_slice(const ExhaustiveInverter& solver
   const Fit polished = solver.refine(centre, weight, 2, f.x, kBranchIterations);
   if (polished.chi2 < f.chi2) f = polished;
   if (!std::isfinite(f.chi2)) return std::nullopt;
-  double m0[kMaxChannels], jacobian[kMaxChannels * 4];
+  ChannelBuffer<double> m0(table.channels()), jacobian(std::size_t(table.channels()) * 4);
   table.predict(f.x, m0, jacobian);
   InverseTable::Branch b{};
   bool held[4] = {false, false, true, true};
@@ -197,12 +197,19 @@ InverseTable InverseTable::build(std::shared_ptr<const ForwardTable> table_ptr, 
   InverseTable t;
   t.key_ = cache_key(table, settings);
   const int channels = table.channels();
-  t.key_dims_ = std::min(channels, 4);
+  t.key_channels_ = channels;
+  t.key_dims_ = std::min(channels, kMaxKeyDims);
   const std::size_t node_count = table.grid().node_count();
   const std::vector<float>& v = table.values();
   const int dims = t.key_dims_;
-  // Principal axes of the nodes' pseudo-log keys.
-  {
+  // Per-channel whitening (more than four channels: 1/relative σ).
+  t.key_whiten_.assign(channels, 1.0f);
+  if (channels > kMaxKeyDims) {
+    const std::vector<double> sigma = settings.quantised_channel_sigma(channels);
+    for (int c = 0; c < channels; ++c) t.key_whiten_[c] = static_cast<float>(1.0 / sigma[c]);
+  }
+  // Principal axes of the nodes' (whitened) pseudo-log keys.
+  if (channels <= kMaxKeyDims) {
     Eigen::Vector4d mean = Eigen::Vector4d::Zero();
     Eigen::Matrix4d second = Eigen::Matrix4d::Zero();
     for (std::size_t i = 0; i < node_count; ++i) {
@@ -214,16 +221,45 @@ InverseTable InverseTable::build(std::shared_ptr<const ForwardTable> table_ptr, 
     mean /= double(node_count);
     const Eigen::Matrix4d covariance = second / double(node_count) - mean * mean.transpose();
     const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> solver(covariance.topLeftCorner(dims, dims));
+    t.key_mean_.assign(channels, 0.0f);
+    t.key_axes_.assign(std::size_t(dims) * channels, 0.0f);
     for (int d = 0; d < dims; ++d) t.key_mean_[d] = static_cast<float>(mean[d]);
     for (int a = 0; a < dims; ++a)  // largest variance first
-      for (int d = 0; d < dims; ++d) t.key_axes_[a * 4 + d] = static_cast<float>(solver.eigenvectors()(d, dims - 1 - a));
+      for (int d = 0; d < dims; ++d)
+        t.key_axes_[a * channels + d] = static_cast<float>(solver.eigenvectors()(d, dims - 1 - a));
+  } else {
+    // The measurement's principal subspace: the kMaxKeyDims leading axes of
+    // the whitened keys' covariance (accumulated in blocks of nodes).
+    Eigen::VectorXd mean = Eigen::VectorXd::Zero(channels);
+    Eigen::MatrixXd second = Eigen::MatrixXd::Zero(channels, channels);
+    constexpr std::size_t kBlock = 4096;
+    Eigen::MatrixXd block(channels, kBlock);
+    for (std::size_t first = 0; first < node_count; first += kBlock) {
+      const std::size_t count = std::min(kBlock, node_count - first);
+      for (std::size_t i = 0; i < count; ++i)
+        for (int c = 0; c < channels; ++c)
+          block(c, Eigen::Index(i)) = inverse_table_key(v[(first + i) * channels + c]) * t.key_whiten_[c];
+      const auto used = block.leftCols(Eigen::Index(count));
+      mean += used.rowwise().sum();
+      second.noalias() += used * used.transpose();
+    }
+    mean /= double(node_count);
+    const Eigen::MatrixXd covariance = second / double(node_count) - mean * mean.transpose();
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> solver(covariance);
+    t.key_mean_.resize(channels);
+    for (int c = 0; c < channels; ++c) t.key_mean_[c] = static_cast<float>(mean[c]);
+    t.key_axes_.assign(std::size_t(dims) * channels, 0.0f);
+    double captured = 0;
+    for (int a = 0; a < dims; ++a) {
+      captured += solver.eigenvalues()[channels - 1 - a];
+      for (int c = 0; c < channels; ++c)
+        t.key_axes_[a * channels + c] = static_cast<float>(solver.eigenvectors()(c, channels - 1 - a));
+    }
+    // The key's centring folds into the mean: key = axes · (whitened − mean).
+    t.captured_variance_ = captured / std::max(solver.eigenvalues().sum(), 1e-300);
   }
   std::vector<float> keys(node_count * dims);
-  for (std::size_t i = 0; i < node_count; ++i) {
-    float values[4] = {};
-    for (int k = 0; k < dims; ++k) values[k] = v[i * channels + k];
-    t.key_of(values, keys.data() + i * dims);
-  }
+  for (std::size_t i = 0; i < node_count; ++i) t.key_of(v.data() + i * channels, keys.data() + i * dims);
   for (int k = 0; k < dims; ++k) {
     float lo = std::numeric_limits<float>::infinity(), hi = -lo;
     for (std::size_t i = 0; i < node_count; ++i) lo = std::min(lo, keys[i * dims + k]), hi = std::max(hi, keys[i * dims + k]);
@@ -278,21 +314,18 @@ InverseTable InverseTable::build(std::shared_ptr<const ForwardTable> table_ptr, 
   for (std::uint32_t box = 0; box < box_cells; ++box)
     if (t.cell_index_[box] != kNoCell) box_of_cell[t.cell_index_[box]] = box;
   const int thread_count = threads > 0 ? threads : omp_get_num_procs();
+  // Branches in key space need a cell centre in measurement space: tables of
+  // more than four channels (a key of fewer dimensions) hold buckets only.
+  const std::ptrdiff_t solved_cells = channels <= kMaxKeyDims ? static_cast<std::ptrdiff_t>(occupied) : 0;
 #pragma omp parallel for num_threads(thread_count) schedule(dynamic, 64)
-  for (std::ptrdiff_t cell = 0; cell < static_cast<std::ptrdiff_t>(occupied); ++cell) {
-    double centre[kMaxChannels] = {};
+  for (std::ptrdiff_t cell = 0; cell < solved_cells; ++cell) {
+    double centre[kMaxKeyDims] = {};
     std::array<float, 4> bin{};
     std::uint32_t box = box_of_cell[cell];
     for (int k = 0; k < dims; ++k, box /= kBins) bin[k] = static_cast<float>(box % kBins);
     const std::array<double, 4> key_centre = t.box_centre(bin);
     std::copy_n(key_centre.begin(), dims, centre);
-    // Channels beyond the key (tables of more than four channels): the mean of the bucket's nodes.
     const Cell& c = t.cells_[cell];
-    for (int ch = dims; ch < channels; ++ch) {
-      double sum = 0;
-      for (std::uint32_t k = 0; k < c.bucket_count; ++k) sum += v[std::size_t(t.bucket_nodes_[c.bucket_begin + k]) * channels + ch];
-      centre[ch] = sum / c.bucket_count;
-    }
     per_cell[cell] = solve_cell(solver, index, t.bucket_nodes_.data() + c.bucket_begin, c.bucket_count, centre);
     if (with_slice) {
       double weight[4];
@@ -355,7 +388,7 @@ std::array<double, 4> InverseTable::box_centre(std::array<float, 4> bin) const {
   std::array<double, 4> centre{};
   for (int d = 0; d < key_dims_; ++d) {
     float key = key_mean_[d];
-    for (int a = 0; a < key_dims_; ++a) key += key_axes_[a * 4 + d] * rotated[a];
+    for (int a = 0; a < key_dims_; ++a) key += key_axes_[a * key_channels_ + d] * rotated[a];
     centre[d] = value_of_key(key);
   }
   return centre;
@@ -417,7 +450,7 @@ void InverseTable::presolve_empty_cells(std::shared_ptr<const ForwardTable> tabl
     const Fit polished = fast.refine(centre.data(), weight, 4, f.x, kBranchIterations);
     if (polished.chi2 < f.chi2) f = polished;
     if (!std::isfinite(f.chi2)) continue;
-    double m0[kMaxChannels], jacobian[kMaxChannels * 4];
+    ChannelBuffer<double> m0(table.channels()), jacobian(std::size_t(table.channels()) * 4);
     table.predict(f.x, m0, jacobian);
     Branch& b = solved[slot];
     bool held[4];

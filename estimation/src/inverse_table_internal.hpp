@@ -9,9 +9,11 @@
 
 namespace chromo::estimation::detail {
 
+// Version 7: the key space of any channel count (channel count, captured
+// variance, per-channel whitening and mean, key_dims × channels axes).
 // Version 6: the file is a files/binary_cache.hpp file (its checksum and the
 // key hash are the one byte-wise Fnv1a; version 5 hashed 8-byte words).
-inline constexpr files::CacheFormat kCacheFormat{{'C', 'H', 'R', 'O', 'M', 'O', 'I', 'T'}, 6};
+inline constexpr files::CacheFormat kCacheFormat{{'C', 'H', 'R', 'O', 'M', 'O', 'I', 'T'}, 7};
 // Build settings (part of the cache key).
 inline constexpr int kMaxSeedsPerCell = 12;     // LM solves per cell, best groups first
 inline constexpr int kBranchIterations = 40;    // LM iterations per solve

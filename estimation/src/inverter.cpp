@@ -9,7 +9,7 @@
 namespace chromo::estimation {
 
 double Inverter::chi2_at(const double* measured, const double* weight, const GridPoint& x) const {
-  double predicted[kMaxChannels];
+  ChannelBuffer<double> predicted(table_->channels());
   table_->predict(x, predicted);
   double chi2 = 0;
   for (int c = 0; c < table_->channels(); ++c) {
@@ -40,9 +40,9 @@ Fit Inverter::refine(const double* measured, const double* weight, int order, Gr
   if (dims == 2) x[2] = bm_2d_coordinate(), x[3] = 0;
   for (int k = 0; k < 4; ++k) x[k] = std::clamp(x[k], 0.0, nodes[k] - 1.0);
 
-  double predicted[kMaxChannels], jacobian[kMaxChannels * 4];
+  ChannelBuffer<double> predicted(channels), jacobian(std::size_t(channels) * 4);
   auto evaluate = [&](const GridPoint& at, bool with_jacobian) {
-    interpolate(at, predicted, with_jacobian ? jacobian : nullptr);
+    interpolate(at, predicted, with_jacobian ? jacobian.data() : nullptr);
     double chi2 = 0;
     for (int c = 0; c < channels; ++c) {
       const double r = (predicted[c] - measured[c]) * weight[c];
@@ -178,7 +178,7 @@ void scan_row_any(int channels, const float* row, int count, int stride, const f
 GridPoint Inverter::node_search(const double* measured, const double* weight, int order, int stride) const {
   const auto n = table_->nodes();
   const int channels = table_->channels();
-  float m[kMaxChannels], w[kMaxChannels];
+  ChannelBuffer<float> m(channels), w(channels);
   for (int c = 0; c < channels; ++c) m[c] = static_cast<float>(measured[c]), w[c] = static_cast<float>(weight[c]);
   float best = std::numeric_limits<float>::infinity();
   GridPoint best_x{0, 0, bm_2d_coordinate(), 0};

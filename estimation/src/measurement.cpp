@@ -16,9 +16,6 @@ Eigen::MatrixXd MeasurementSet::weights() const {
 
 void MeasurementSet::validate() const {
   if (channels.empty()) throw std::invalid_argument("measurement set has no channels");
-  if (size() > kMaxChannels)
-    throw std::invalid_argument("measurement set has " + std::to_string(size()) + " channels; at most " +
-                                std::to_string(kMaxChannels) + " are supported");
   for (const MeasurementChannel& c : channels) {
     if (c.camera_channel < 0 || c.camera_channel > 2)
       throw std::invalid_argument("channel '" + c.name + "': camera channel " + std::to_string(c.camera_channel) +

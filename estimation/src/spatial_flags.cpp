@@ -142,8 +142,10 @@ TestLevels test_levels(const NeighbourhoodOptions& options, int channels) {
 // whether it is tested, and per kMisfitBlock-px block M⁻¹ (noise plus the
 // skin's misfit; none where noise alone).
 constexpr int kMisfitBlock = 4;
-using Matrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxChannels, kMaxChannels>;
-using Vector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxChannels, 1>;
+// Any channel count: the per-pixel loops below reuse preallocated vectors
+// (no allocation per pixel).
+using Matrix = Eigen::MatrixXd;
+using Vector = Eigen::VectorXd;
 struct Deviation {
   std::vector<cv::Mat> u, sigmas;
   cv::Mat tested;
@@ -161,9 +163,11 @@ struct Deviation {
 };
 
 // The one-sided matched filter of u = v along the direction a (in u's
-// units): w = aᵀM⁻¹v / √(aᵀM⁻¹a), N(0, 1) under noise plus misfit; −∞ for a = 0.
-double matched_statistic(const Vector& a, const Vector& v, const Matrix* misfit_inverse) {
-  const Vector ma = misfit_inverse ? Vector(*misfit_inverse * a) : a;
+// units): w = aᵀM⁻¹v / √(aᵀM⁻¹a), N(0, 1) under noise plus misfit; −∞ for a
+// = 0. scratch: a vector of a's size (overwritten).
+double matched_statistic(const Vector& a, const Vector& v, const Matrix* misfit_inverse, Vector& scratch) {
+  if (misfit_inverse) scratch.noalias() = *misfit_inverse * a;
+  const Vector& ma = misfit_inverse ? scratch : a;
   const double norm2 = ma.dot(a);
   return norm2 > 0 ? ma.dot(v) / std::sqrt(norm2) : -std::numeric_limits<double>::infinity();
 }
@@ -330,13 +334,14 @@ void flag_level(const Estimator& estimator, Level& level, const NeighbourhoodOpt
     cv::Mat next(height, width, CV_8U, cv::Scalar(0)), rim;
     cv::dilate(good == 0, rim, cv::Mat::ones(3, 3, CV_8U));
     cv::Mat white(height, width, CV_8U, cv::Scalar(0)), mixed(height, width, CV_8U, cv::Scalar(0));
-    Vector v(channels), a(channels);
+    Vector v(channels), a(channels), mv(channels), scratch(channels);
     for (int y = 0; y < height; ++y)
       for (int x = 0; x < width; ++x) {
         if (!dev.tested.at<std::uint8_t>(y, x)) continue;
         dev.u_at(y, x, v);
         const Matrix* misfit_inverse = dev.misfit_inverse(y, x);
-        const double t = misfit_inverse ? v.dot(*misfit_inverse * v) : v.squaredNorm();
+        if (misfit_inverse) mv.noalias() = *misfit_inverse * v;
+        const double t = misfit_inverse ? v.dot(mv) : v.squaredNorm();
         if (t > (rim.at<std::uint8_t>(y, x) ? rim_threshold : deviation_threshold)) next.at<std::uint8_t>(y, x) = 1;
         // A white surface reflection s adds s/σ_c to z_c: the matched
         // one-sided test along a_c = 1/σ_c against the same noise plus misfit.
@@ -344,12 +349,12 @@ void flag_level(const Estimator& estimator, Level& level, const NeighbourhoodOpt
         // same test along that direction.
         if (options.grow_reflections) {
           for (int c = 0; c < channels; ++c) a[c] = 1 / dev.sigmas[c].at<float>(y, x);
-          if (matched_statistic(a, v, misfit_inverse) > white_threshold) white.at<std::uint8_t>(y, x) = 1;
+          if (matched_statistic(a, v, misfit_inverse, scratch) > white_threshold) white.at<std::uint8_t>(y, x) = 1;
         }
         if (options.grow_mixtures && material_count.at<float>(y, x) > 0) {
           for (int c = 0; c < channels; ++c)
             a[c] = (material_mean[c].at<float>(y, x) - back[c].at<float>(y, x)) / dev.sigmas[c].at<float>(y, x);
-          if (matched_statistic(a, v, misfit_inverse) > levels.mixture) mixed.at<std::uint8_t>(y, x) = 1;
+          if (matched_statistic(a, v, misfit_inverse, scratch) > levels.mixture) mixed.at<std::uint8_t>(y, x) = 1;
         }
       }
     const bool changed = cv::countNonZero(next != candidate) > 0;

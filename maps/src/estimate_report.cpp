@@ -232,14 +232,15 @@ bool same_measurement_set(const estimation::MeasurementSet& a, const estimation:
   return true;
 }
 
-MethodEstimationResult estimate_method_captures(const session::MethodCaptures& captures, const MethodEstimationOptions& options,
-                                                const fs::path& out_dir, const FileCommit& commit,
-                                                const files::Progress& progress, const std::string& extra_json,
-                                                const PreparedTables* prepared) {
-  const auto start = std::chrono::steady_clock::now();
+namespace {
+
+// Everything after the measurement: tables, estimate, spatial pass, report.
+MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m, const spectral::CameraSensitivity& camera,
+                                            std::chrono::steady_clock::time_point start, double measurement_seconds,
+                                            const MethodEstimationOptions& options, const fs::path& out_dir,
+                                            const FileCommit& commit, const files::Progress& progress,
+                                            const std::string& extra_json, const PreparedTables* prepared) {
   auto t = start;
-  session::MethodMeasurement m = session::build_method_measurement(captures, options.registration);
-  const double measurement_seconds = seconds_since(t);
 
   // The tables: kept in memory since the references were in (the on-line
   // estimator), else loaded from the disk cache or built.
@@ -266,7 +267,7 @@ MethodEstimationResult estimate_method_captures(const session::MethodCaptures& c
   const double neighbourhood_seconds = seconds_since(t);
 
   t = std::chrono::steady_clock::now();
-  result.relit = compare_with_photographs(estimates, m.photographs, captures.camera, options.estimator.threads);
+  result.relit = compare_with_photographs(estimates, m.photographs, camera, options.estimator.threads);
   const double relit_seconds = seconds_since(t);
   result.registration = m.registration;
 
@@ -310,6 +311,28 @@ MethodEstimationResult estimate_method_captures(const session::MethodCaptures& c
   report.extra_json = extra.dump();
   result.summary_json = write_estimate_report(out_dir, report, commit);
   return result;
+}
+
+}  // namespace
+
+MethodEstimationResult estimate_method_captures(const session::MethodCaptures& captures, const MethodEstimationOptions& options,
+                                                const fs::path& out_dir, const FileCommit& commit,
+                                                const files::Progress& progress, const std::string& extra_json,
+                                                const PreparedTables* prepared) {
+  const auto start = std::chrono::steady_clock::now();
+  const session::MethodMeasurement m = session::build_method_measurement(captures, options.registration);
+  return estimate_measurement(m, captures.camera, start, seconds_since(start), options, out_dir, commit, progress,
+                              extra_json, prepared);
+}
+
+MethodEstimationResult estimate_plan_captures(const session::PlanCaptures& captures, const MethodEstimationOptions& options,
+                                              const fs::path& out_dir, const FileCommit& commit,
+                                              const files::Progress& progress, const std::string& extra_json,
+                                              const PreparedTables* prepared) {
+  const auto start = std::chrono::steady_clock::now();
+  const session::MethodMeasurement m = session::build_plan_measurement(captures, options.registration);
+  return estimate_measurement(m, captures.camera, start, seconds_since(start), options, out_dir, commit, progress,
+                              extra_json, prepared);
 }
 
 }  // namespace chromo::maps

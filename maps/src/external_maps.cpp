@@ -12,6 +12,7 @@
 #include <numeric>
 #include <stdexcept>
 
+#include "chromo/estimation/channel_buffer.hpp"
 #include "chromo/files/bounded_read.hpp"
 #include "chromo/files/float_image.hpp"
 #include "chromo/maps/relight.hpp"
@@ -108,10 +109,9 @@ class PriorFit {
         const double cost = this->cost(x, measured, weight, prior_x0, prior_x1);
         if (cost < best_cost) best_cost = cost, best = x;
       }
-    // Fixed size: rows past channels + 2 stay zero and add nothing.
-    Eigen::Matrix<double, estimation::kMaxChannels + 2, 1> r = Eigen::Matrix<double, estimation::kMaxChannels + 2, 1>::Zero();
-    Eigen::Matrix<double, estimation::kMaxChannels + 2, 4> J;
-    double value[estimation::kMaxChannels], jacobian[estimation::kMaxChannels * 4];
+    Eigen::VectorXd r = Eigen::VectorXd::Zero(channels + 2);
+    Eigen::Matrix<double, Eigen::Dynamic, 4> J(channels + 2, 4);
+    estimation::ChannelBuffer<double> value(channels), jacobian(std::size_t(channels) * 4);
     double lambda = 1e-3;
     estimation::GridPoint x = best;
     double cost = best_cost;
@@ -151,7 +151,7 @@ class PriorFit {
 
  private:
   double cost(const estimation::GridPoint& x, const double* measured, const double* weight, double p0, double p1) const {
-    double value[estimation::kMaxChannels];
+    estimation::ChannelBuffer<double> value(table_.channels());
     table_.predict(x, value);
     double sum = 0;
     for (int c = 0; c < table_.channels(); ++c) sum += std::pow((value[c] - measured[c]) * weight[c], 2);
@@ -398,7 +398,7 @@ ImportResult import_external_maps(const ExternalMaps& external, const session::M
     return out;
   };
   auto chi2_2d = [&](std::size_t item, double log_cm_value, double log_ch_value) {
-    double predicted[estimation::kMaxChannels];
+    estimation::ChannelBuffer<double> predicted(table->channels());
     table->predict(table->to_grid({std::pow(10.0, log_cm_value), std::pow(10.0, log_ch_value), 0.7, 0.0}), predicted);
     double sum = 0;
     for (int c = 0; c < channels; ++c)

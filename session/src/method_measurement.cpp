@@ -1,5 +1,6 @@
 #include "chromo/session/method_measurement.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -145,7 +146,101 @@ References references_of(const MethodCaptures& captures) {
   return r;
 }
 
+struct PlanReferences {
+  std::vector<Reference> references;
+  estimation::MeasurementSet set;
+};
+
+PlanReferences plan_references_of(const PlanCaptures& captures) {
+  const RgbImage& dark = captures.dark;
+  check_image(dark, dark, "dark capture");
+  const double rho = captures.white_reflectance;
+  if (!(rho > 0 && rho <= 1)) throw std::invalid_argument("white_reflectance: must be in (0, 1]");
+  if (captures.captures.empty()) throw std::invalid_argument("the plan has no capture of the subject");
+  PlanReferences r;
+  std::array<double, 3> dark_variance{}, dark_mean{};
+  for (int c = 0; c < 3; ++c) {
+    dark_variance[c] = flat_noise_variance(dark.planes[c], dark.width, dark.height);
+    dark_mean[c] = mean_of(dark.planes[c]);
+  }
+  r.set.camera = captures.camera;
+  for (const IlluminatedCapture& capture : captures.captures) {
+    r.references.push_back(reference_of(capture, dark));
+    const Reference& k = r.references.back();
+    for (int c = 0; c < 3; ++c) {
+      const double W = k.white_mean[c], Vd = dark_variance[c], Vw = k.white_variance[c];
+      estimation::ChannelNoise noise;
+      noise.read_sigma = std::max(std::sqrt(Vd) / W, 1e-5);
+      noise.shot_coefficient = std::max(2 * Vw - Vd, 0.0) / (W * W);
+      noise.saturation_albedo = rho * (1.0 - dark_mean[c]) / W;
+      r.set.channels.push_back({capture.name + "." + kChannelNames[c], capture.illuminant, c, noise});
+    }
+  }
+  r.set.validate();
+  return r;
+}
+
 }  // namespace
+
+estimation::MeasurementSet plan_set_from_references(const PlanCaptures& captures) {
+  return plan_references_of(captures).set;
+}
+
+MethodMeasurement build_plan_measurement(const PlanCaptures& captures, const RegistrationOptions& options) {
+  PlanReferences references = plan_references_of(captures);
+  const RgbImage& dark = captures.dark;
+  const double rho = captures.white_reflectance;
+  const int width = dark.width, height = dark.height;
+  const std::size_t n = dark.pixels();
+  std::vector<Normalised> normalised;
+  for (std::size_t k = 0; k < captures.captures.size(); ++k)
+    normalised.push_back(normalise(captures.captures[k], references.references[k], dark, rho));
+
+  MethodMeasurement m;
+  m.width = width, m.height = height;
+  m.set = std::move(references.set);
+  const IlluminatedCapture& first = captures.captures.front();
+  for (std::size_t k = 1; k < normalised.size(); ++k) {
+    Normalised& moving = normalised[k];
+    const Reference& reference = references.references[k];
+    const int channel = static_cast<int>(std::max_element(reference.white_mean.begin(), reference.white_mean.end()) -
+                                         reference.white_mean.begin());
+    RegistrationResult r = register_channel(normalised.front().albedo[channel], moving.albedo[channel], width, height, options);
+    const double motion = corner_displacement_px(r, width, height);
+    const bool warped = motion > kWarpThresholdPx;
+    if (warped) {
+      for (auto& plane : moving.albedo) plane = warp_channel(plane, width, height, r);
+      std::vector<float> s(moving.saturated.begin(), moving.saturated.end());
+      s = warp_channel(s, width, height, r);
+      for (std::size_t i = 0; i < n; ++i) moving.saturated[i] = std::isfinite(s[i]) && s[i] > 0;
+    }
+    m.registration.push_back({"subject under " + captures.captures[k].name, "subject under " + first.name,
+                              kChannelNames[channel], r, motion, warped});
+  }
+  const int channels = m.set.size();
+  m.measured.resize(n * channels);
+  for (std::size_t i = 0; i < n; ++i) {
+    float* out = &m.measured[i * channels];
+    bool saturated = false;
+    for (std::size_t k = 0; k < normalised.size(); ++k) {
+      for (int c = 0; c < 3; ++c) out[k * 3 + c] = normalised[k].albedo[c][i];
+      saturated = saturated || normalised[k].saturated[i];
+    }
+    if (saturated) {
+      ++m.saturated_pixels;
+      for (int c = 0; c < channels; ++c)
+        if (std::isfinite(out[c]))
+          out[c] = std::max(out[c], static_cast<float>(m.set.channels[c].noise.saturation_albedo));
+    }
+  }
+  for (std::size_t k = 0; k < normalised.size(); ++k) {
+    const Normalised& a = normalised[k];
+    Photograph photo{captures.captures[k].name, captures.captures[k].illuminant, std::vector<Eigen::Vector3d>(n)};
+    for (std::size_t i = 0; i < n; ++i) photo.rgb[i] = {a.albedo[0][i], a.albedo[1][i], a.albedo[2][i]};
+    m.photographs.push_back(std::move(photo));
+  }
+  return m;
+}
 
 estimation::MeasurementSet method_set_from_references(const MethodCaptures& captures) { return references_of(captures).set; }
 

@@ -4,6 +4,7 @@
 #include "chromo/calibration/led_library_io.hpp"
 #include "chromo/spectral/table.hpp"
 
+#include <cstdio>
 #include <fstream>
 #include <stdexcept>
 
@@ -23,6 +24,32 @@ std::string mix_key(const std::string& mix) {
 
 const char* const kMixes[3] = {"d65", "w57", "w57+blue"};
 
+// The illumination state a lit step's white and subject are paired by:
+// the method's mix ("d65", "w57", "w57+blue"; any blue ratio), or the drive
+// weights ("weights:0,0,0,0,0,1"). Empty for an unlit step.
+std::string state_key(const Illumination& illumination) {
+  if (illumination.kind == Illumination::Kind::kMix) return mix_key(illumination.mix);
+  if (illumination.kind != Illumination::Kind::kWeights) return {};
+  std::string key = "weights:";
+  bool lit = false;
+  for (std::size_t i = 0; i < illumination.weights.size(); ++i) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%s%.9g", i ? "," : "", illumination.weights[i]);
+    key += text;
+    lit = lit || illumination.weights[i] > 0;
+  }
+  return lit ? key : std::string();
+}
+
+// A capture's name in the measurement's channel names: D65', W57, W57+blue
+// for the method's mixes, else the subject step's name without "subject_".
+std::string capture_name(const std::string& state, const std::string& subject_step) {
+  if (state == "d65") return "D65'";
+  if (state == "w57") return "W57";
+  if (state == "w57+blue") return "W57+blue";
+  return subject_step.rfind("subject_", 0) == 0 ? subject_step.substr(8) : subject_step;
+}
+
 }  // namespace
 
 SessionCaptureBuilder::SessionCaptureBuilder(const SessionPlan& plan, CaptureSources sources)
@@ -32,23 +59,29 @@ SessionCaptureBuilder::SessionCaptureBuilder(const SessionPlan& plan, CaptureSou
     if (step.role == StepRole::kDark) {
       key = "dark";
     } else {
-      if (step.illumination.kind != Illumination::Kind::kMix || mix_key(step.illumination.mix).empty())
-        throw std::invalid_argument("step " + step.name +
-                                    ": lit by explicit weights or an unknown mix; the method's estimation needs the "
-                                    "mixes d65, w57 and w57+blue");
-      key = std::string(step.role == StepRole::kWhite ? "white:" : "subject:") + mix_key(step.illumination.mix);
+      const std::string state = state_key(step.illumination);
+      if (state.empty())
+        throw std::invalid_argument("step " + step.name + ": a " + role_name(step.role) +
+                                    " step needs light (a mix or non-zero LED weights) for the estimation");
+      key = std::string(step.role == StepRole::kWhite ? "white:" : "subject:") + state;
+      if (step.role == StepRole::kSubject) states_.push_back({state, step.name});
     }
     if (steps_.count(key)) throw std::invalid_argument("step " + step.name + ": a second " + key + " step");
     steps_[key] = StepSum{step.name, step.frames_per_camera, {}, {}};
     key_of_step_[step.name] = key;
   }
   std::string missing;
-  for (std::string key : {"dark"}) if (!steps_.count(key)) missing += " dark";
-  for (const char* mix : kMixes)
-    for (const char* role : {"white:", "subject:"})
-      if (!steps_.count(std::string(role) + mix)) missing += std::string(" ") + role + mix;
+  if (!steps_.count("dark")) missing += " dark";
+  if (states_.empty()) missing += " subject (no lit subject step)";
+  for (const auto& [state, step] : states_)
+    if (!steps_.count("white:" + state)) missing += " white:" + state + " (the white reference of " + step + ")";
+  for (const auto& [key, sum] : steps_)
+    if (key.rfind("white:", 0) == 0 && !steps_.count("subject:" + key.substr(6)))
+      missing += " subject:" + key.substr(6) + " (for " + sum.step + ")";
   if (!missing.empty())
-    throw std::invalid_argument("the plan is not the method's standard session: no step for" + missing);
+    throw std::invalid_argument("the plan cannot be estimated: no step for" + missing);
+  method_plan_ = states_.size() == 3;
+  for (const char* mix : kMixes) method_plan_ = method_plan_ && steps_.count(std::string("subject:") + mix);
 }
 
 bool SessionCaptureBuilder::add_frame(const FrameRecord& record, std::span<const std::uint8_t> samples) {
@@ -123,7 +156,30 @@ RgbImage SessionCaptureBuilder::mean_image(const StepSum& s) const {
   return image;
 }
 
+PlanCaptures SessionCaptureBuilder::plan_captures() const {
+  if (!references_complete()) throw std::logic_error("captures: missing " + missing());
+  PlanCaptures c;
+  c.camera = sources_.camera;
+  c.white_reflectance = sources_.white_reflectance;
+  c.dark = mean_image(steps_.at("dark"));
+  for (const auto& [state, step] : states_) {
+    const StepSum& white = steps_.at("white:" + state);
+    const StepSum& subject = steps_.at("subject:" + state);
+    IlluminatedCapture capture;
+    capture.name = capture_name(state, step);
+    capture.white = mean_image(white);
+    capture.subject = mean_image(subject);
+    capture.illuminant = (white.illuminant_sum + subject.illuminant_sum) /
+                         static_cast<double>(std::max(1u, white.frames.frames() + subject.frames.frames()));
+    c.captures.push_back(std::move(capture));
+  }
+  return c;
+}
+
 MethodCaptures SessionCaptureBuilder::captures() const {
+  if (!method_plan_)
+    throw std::invalid_argument("the plan is not the method's standard session (subjects under exactly d65, w57 and "
+                                "w57+blue); use plan_captures()");
   if (!references_complete()) throw std::logic_error("captures: missing " + missing());
   MethodCaptures c;
   c.camera = sources_.camera;
@@ -173,14 +229,31 @@ std::size_t add_stored_frames(SessionCaptureBuilder& builder, const std::filesys
   return added;
 }
 
-MethodCaptures read_session_captures(const std::filesystem::path& folder, const CaptureSources& sources) {
+namespace {
+SessionCaptureBuilder stored_session_builder(const std::filesystem::path& folder, const CaptureSources& sources) {
   if (!std::filesystem::exists(folder / "journal.jsonl"))
     throw std::invalid_argument(folder.string() + ": not a session folder (no journal.jsonl)");
   SessionCaptureBuilder builder(read_session_plan(folder), sources);
   add_stored_frames(builder, folder);
   if (!builder.complete())
     throw std::invalid_argument(folder.string() + ": the session's frames are incomplete (" + builder.missing() + ")");
+  return builder;
+}
+}  // namespace
+
+MethodCaptures read_session_captures(const std::filesystem::path& folder, const CaptureSources& sources) {
+  const SessionCaptureBuilder builder = stored_session_builder(folder, sources);
+  if (!builder.is_method_plan())
+    throw std::invalid_argument(folder.string() + ": the session's plan is not the method's standard session");
   return builder.captures();
+}
+
+StoredSessionCaptures read_any_session_captures(const std::filesystem::path& folder, const CaptureSources& sources) {
+  const SessionCaptureBuilder builder = stored_session_builder(folder, sources);
+  StoredSessionCaptures out;
+  if (builder.is_method_plan()) out.method = builder.captures();
+  else out.plan = builder.plan_captures();
+  return out;
 }
 
 CaptureSources resolve_capture_sources(const std::string& led_library, const std::string& camera,

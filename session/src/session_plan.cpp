@@ -4,6 +4,8 @@
 #include <set>
 #include <stdexcept>
 
+#include "chromo/files/bounded_read.hpp"
+
 namespace chromo::session {
 
 bool is_valid_name(const std::string& name) {
@@ -181,6 +183,142 @@ SessionPlan plan_from_json(const nlohmann::json& json) {
     return plan;
   } catch (const nlohmann::json::exception& error) {
     throw std::invalid_argument(std::string("session plan: ") + error.what());
+  }
+}
+
+}  // namespace chromo::session
+
+namespace chromo::session {
+
+SessionPlan multispectral_plan(const StandardPlanOptions& options, bool with_method_states) {
+  SessionPlan plan;
+  plan.name = with_method_states ? "multispectral+method" : "multispectral";
+  plan.timing = options.timing;
+  auto step = [&](std::string name, StepRole role, Illumination illumination, std::string prompt = {}) {
+    Step s;
+    s.name = std::move(name);
+    s.role = role;
+    s.illumination = std::move(illumination);
+    s.settle_ms = options.settle_ms;
+    s.exposure_us = options.exposure_us;
+    s.frames_per_camera = options.frames_per_camera;
+    if (options.operator_prompts) s.prompt = std::move(prompt);
+    plan.steps.push_back(std::move(s));
+  };
+  // The illumination states, in capture order.
+  std::vector<std::pair<std::string, Illumination>> states;
+  for (auto type : spectral::kAllLedTypes) {
+    Illumination alone;
+    alone.kind = Illumination::Kind::kWeights;
+    alone.weights[static_cast<std::size_t>(spectral::led_type_index(type))] = 1.0;
+    states.emplace_back(std::string(spectral::led_type_name(type)), alone);
+  }
+  if (with_method_states)
+    for (const char* mix : {"d65", "w57", "w57+blue"}) {
+      Illumination m;
+      m.kind = Illumination::Kind::kMix;
+      m.mix = mix;
+      states.emplace_back(mix, m);
+    }
+  step("dark", StepRole::kDark, Illumination{}, "Close the sphere (dark frame)");
+  for (std::size_t i = 0; i < states.size(); ++i)
+    step("white_" + states[i].first, StepRole::kWhite, states[i].second, i == 0 ? "Place the white reference target" : "");
+  for (std::size_t i = 0; i < states.size(); ++i)
+    step("subject_" + states[i].first, StepRole::kSubject, states[i].second, i == 0 ? "Place the subject" : "");
+  return plan;
+}
+
+std::vector<std::string> builtin_plan_names() { return {"standard", "multispectral", "multispectral+method"}; }
+
+std::optional<SessionPlan> builtin_plan(const std::string& name, const StandardPlanOptions& options) {
+  if (name == "standard") return standard_plan(options);
+  if (name == "multispectral") return multispectral_plan(options, false);
+  if (name == "multispectral+method") return multispectral_plan(options, true);
+  return std::nullopt;
+}
+
+PlanTiming plan_timing(const SessionPlan& plan) {
+  PlanTiming t;
+  bool d65 = false, w57 = false, w57_blue = false;
+  for (const Step& step : plan.steps) {
+    const double seconds = step.settle_ms / 1000.0 + step.exposure_us * 1e-6 * step.frames_per_camera;
+    t.frames_per_camera += step.frames_per_camera;
+    if (step.role != StepRole::kSubject) {
+      t.reference_time_s += seconds;
+      continue;
+    }
+    t.subject_time_s += seconds;
+    ++t.captures;
+    if (step.illumination.kind == Illumination::Kind::kMix) {
+      d65 = d65 || step.illumination.mix == "d65";
+      w57 = w57 || step.illumination.mix == "w57";
+      w57_blue = w57_blue || step.illumination.mix.rfind("w57+blue", 0) == 0;
+    }
+  }
+  // The method's session (subjects under exactly d65, w57, w57+blue) gives the
+  // method's four channels; any other plan R, G, B per capture.
+  t.channels = t.captures == 3 && d65 && w57 && w57_blue ? 4 : 3 * t.captures;
+  return t;
+}
+
+namespace {
+
+// Fields plan_from_json would read leniently, checked strictly for a file an
+// operator wrote: an unknown LED name in weights, a role other than the three.
+void check_plan_json(const nlohmann::json& plan) {
+  if (!plan.is_object()) throw std::invalid_argument("plan: not a JSON object");
+  if (!plan.contains("steps") || !plan.at("steps").is_array()) throw std::invalid_argument("steps: missing or not a list");
+  const auto& steps = plan.at("steps");
+  for (std::size_t i = 0; i < steps.size(); ++i) {
+    const std::string field = "steps[" + std::to_string(i) + "].";
+    const auto& s = steps[i];
+    if (!s.is_object()) throw std::invalid_argument(field.substr(0, field.size() - 1) + ": not a JSON object");
+    if (s.contains("role")) {
+      const auto& role = s.at("role");
+      if (!role.is_string() || (role != "dark" && role != "white" && role != "subject"))
+        throw std::invalid_argument(field + "role: must be dark, white or subject, got " + role.dump().substr(0, 64));
+    }
+    if (!s.contains("exposure_us") || !s.at("exposure_us").is_number())
+      throw std::invalid_argument(field + "exposure_us: missing or not a number");
+    if (!s.contains("illumination") || !s.at("illumination").is_object())
+      throw std::invalid_argument(field + "illumination: missing or not an object (dark, mix or weights)");
+    const auto& illumination = s.at("illumination");
+    if (illumination.contains("mix") && !illumination.at("mix").is_string())
+      throw std::invalid_argument(field + "illumination.mix: not a string");
+    if (illumination.contains("weights")) {
+      const auto& weights = illumination.at("weights");
+      if (!weights.is_object()) throw std::invalid_argument(field + "illumination.weights: not an object");
+      for (const auto& [name, value] : weights.items()) {
+        if (!spectral::parse_led_type(name))
+          throw std::invalid_argument(field + "illumination.weights." + name.substr(0, 32) +
+                                      ": not an LED type (W57, W40, W27, R, G, B)");
+        if (!value.is_number())
+          throw std::invalid_argument(field + "illumination.weights." + name + ": not a number");
+      }
+    }
+  }
+}
+
+}  // namespace
+
+SessionPlan read_plan_file(const std::string& path) {
+  std::string text;
+  try {
+    text = files::read_text_file(path, "session plan");
+  } catch (const files::InputFileError& error) {
+    throw std::invalid_argument(error.what());
+  }
+  auto json = nlohmann::json::parse(text, nullptr, false);
+  if (json.is_discarded()) throw std::invalid_argument(path + ": not valid JSON");
+  if (json.is_object() && json.contains("plan") && !json.contains("steps")) json = json.at("plan");
+  try {
+    check_plan_json(json);
+    SessionPlan plan = plan_from_json(json);
+    std::string error;
+    if (!plan.IsValid(&error)) throw std::invalid_argument(error);
+    return plan;
+  } catch (const std::invalid_argument& error) {
+    throw std::invalid_argument(path + ": " + error.what());
   }
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 
 #include "chromo/calibration/session_mix.hpp"
@@ -53,6 +54,7 @@ std::uint64_t cache_key(const RenderedSessionOptions& o, const std::vector<Scene
   h.add(kCacheFormat.version);
   for (int v : {o.sensor_width, o.sensor_height, o.scene_width, o.scene_height, o.window_x, o.window_y}) h.add(v);
   h.add(o.seed), h.add(o.white_fill), h.add(o.noise_free), h.add(exposure_us);
+  if (o.plan != "standard") h.add(o.plan.data(), o.plan.size());  // (the standard plan's keys as before)
   for (const auto& w : weights) h.add(w.data(), sizeof(double) * w.size());
   for (double v : {camera.quantum_scale_e_per_us, camera.full_well_e, camera.read_noise_e, camera.gain_e_per_dn,
                    camera.black_level_dn})
@@ -109,7 +111,7 @@ session::MethodMeasurement get_measurement(files::CacheReader& r) {
   m.set.camera.name = get_string(r);
   for (auto& c : m.set.camera.rgb) c = get_spectrum(r);
   const auto channels = r.get<std::uint32_t>();
-  if (channels > 16) throw std::runtime_error("bad channel count");
+  if (channels > 4096) throw std::runtime_error("bad channel count");
   for (std::uint32_t k = 0; k < channels; ++k) {
     estimation::MeasurementChannel c;
     c.name = get_string(r);
@@ -121,7 +123,7 @@ session::MethodMeasurement get_measurement(files::CacheReader& r) {
   m.width = r.get<std::int32_t>(), m.height = r.get<std::int32_t>();
   m.measured = r.get_vector<float>(std::uint64_t{1} << 32);
   const auto reports = r.get<std::uint32_t>();
-  if (reports > 16) throw std::runtime_error("bad registration count");
+  if (reports > 4096) throw std::runtime_error("bad registration count");
   for (std::uint32_t k = 0; k < reports; ++k) {
     session::RegistrationReport report;
     report.image = get_string(r), report.reference = get_string(r), report.channel = get_string(r);
@@ -152,7 +154,8 @@ bool load_cached(const std::filesystem::path& file, std::uint64_t key, RenderedS
     s.truth = r.get_vector<estimation::SkinParameters>(std::uint64_t{1} << 28);
     s.region = r.get_vector<std::uint8_t>(std::uint64_t{1} << 28);
     const std::size_t pixels = static_cast<std::size_t>(s.width) * s.height;
-    if (!r.at_end() || s.truth.size() != pixels || s.region.size() != pixels || s.noisy.measured.size() != pixels * 4)
+    if (!r.at_end() || s.truth.size() != pixels || s.region.size() != pixels ||
+        s.noisy.measured.size() != pixels * s.noisy.set.channels.size())
       return false;
     out.width = s.width, out.height = s.height;
     out.scene_seconds = s.scene_seconds, out.camera_seconds = s.camera_seconds, out.measurement_seconds = s.measurement_seconds;
@@ -183,18 +186,19 @@ void store_cached(const std::filesystem::path& file, std::uint64_t key, const Re
 
 // The registration's error against the true motion, on the measurement grid
 // (sensor coordinates s = 2m + 0.5 of a 2×2 cell's centre).
+// moved_states: the states whose subject captures were registered, in the
+// measurement's report order (every state after the plan's first).
 std::vector<CaptureMotion> capture_motion(const session::MethodMeasurement& m,
                                           const std::map<std::string, std::pair<double, SubjectPose>>& poses,
-                                          int sensor_width, int sensor_height) {
+                                          const std::vector<std::string>& moved_states, int sensor_width,
+                                          int sensor_height) {
   std::vector<CaptureMotion> out;
-  const char* const mixes[2] = {"w57", "w57+blue"};  // build_method_measurement's report order
-  const char* const names[2] = {"W57", "W57+blue"};
-  for (std::size_t k = 0; k < m.registration.size() && k < 2; ++k) {
-    const auto& [t, pose] = poses.at(mixes[k]);
+  for (std::size_t k = 0; k < m.registration.size() && k < moved_states.size(); ++k) {
+    const auto& [t, pose] = poses.at(moved_states[k]);
     const cv::Matx23d truth = pose_matrix(pose, 0.5 * (sensor_width - 1), 0.5 * (sensor_height - 1));
     const session::RegistrationResult& found = m.registration[k].result;
     CaptureMotion c;
-    c.capture = names[k];
+    c.capture = moved_states[k] == "w57" ? "W57" : moved_states[k] == "w57+blue" ? "W57+blue" : moved_states[k];
     c.seconds_since_reference = t;
     c.pose = pose;
     c.found_motion_px = m.registration[k].motion_px;
@@ -239,6 +243,7 @@ bool RenderedSessionOptions::IsValid(std::string* error) const {
   if (!motion.IsValid(error)) return false;
   if (settle_ms > 60000) return fail("settle_ms: must be 0-60000");
   if (!(readout_ms >= 0 && readout_ms <= 10000)) return fail("readout_ms: must be 0-10000");
+  if (!session::builtin_plan(plan)) return fail("plan: must be a built-in plan (standard, multispectral, multispectral+method)");
   return true;
 }
 
@@ -270,22 +275,58 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
     return o;
   }());
   out.library = lab_led_library();
-  const char* const kMixes[3] = {"d65", "w57", "w57+blue"};
+  // The plan's illumination states (one per subject step, in plan order):
+  // a mix solved as a calibrated daemon would, or the step's own weights.
   const CameraModel camera{CameraModelOptions{}};
+  const CameraModelOptions& c = camera.options();
+  const bool standard = options.plan == "standard";
+  session::SessionPlan plan = *session::builtin_plan(options.plan);
+  for (session::Step& step : plan.steps) step.settle_ms = options.settle_ms;
+  std::vector<std::string> state_names;
+  std::map<std::string, int> state_of_step;  // subject and white steps → state index
+  for (const session::Step& step : plan.steps) {
+    if (step.role != session::StepRole::kSubject) continue;
+    const std::string name = step.illumination.kind == session::Illumination::Kind::kMix
+                                 ? step.illumination.mix
+                                 : step.name.substr(std::string("subject_").size());
+    if (step.illumination.kind == session::Illumination::Kind::kMix)
+      out.mixes[name] = calibration::solve_session_mix(out.library, name, "camera", false).weights;
+    else
+      out.mixes[name] = step.illumination.weights;
+    state_names.push_back(name);
+  }
+  for (const session::Step& step : plan.steps) {
+    if (step.role == session::StepRole::kDark) continue;
+    const std::string name = step.illumination.kind == session::Illumination::Kind::kMix
+                                 ? step.illumination.mix
+                                 : step.name.substr(step.name.find('_') + 1);
+    state_of_step[step.name] =
+        static_cast<int>(std::find(state_names.begin(), state_names.end(), name) - state_names.begin());
+  }
   std::vector<SceneWeights> weights;
-  std::map<std::string, cv::Vec3f> white_response;
+  std::vector<cv::Vec3f> white_response;
+  std::vector<double> brightest_of_state;
   double brightest = 0;
-  for (const char* mix : kMixes) {
-    out.mixes[mix] = calibration::solve_session_mix(out.library, mix, "camera", false).weights;
-    const auto w = camera.weights(leds.emit_settled(out.mixes[mix]));
+  for (const std::string& name : state_names) {
+    const auto w = camera.weights(leds.emit_settled(out.mixes[name]));
     weights.emplace_back(w);
     const Eigen::Vector3d white = w * white_target_reflectance().values().matrix();
-    white_response[mix] = cv::Vec3f(static_cast<float>(white[0]), static_cast<float>(white[1]), static_cast<float>(white[2]));
+    white_response.emplace_back(static_cast<float>(white[0]), static_cast<float>(white[1]), static_cast<float>(white[2]));
+    brightest_of_state.push_back(white.maxCoeff());
     brightest = std::max(brightest, white.maxCoeff());
   }
-  const CameraModelOptions& c = camera.options();
-  out.exposure_us = (options.white_fill * camera.max_dn() - c.black_level_dn) * c.gain_e_per_dn /
-                    (c.quantum_scale_e_per_us * brightest);
+  auto exposure_for = [&](double white_dn_rate) {
+    return (options.white_fill * camera.max_dn() - c.black_level_dn) * c.gain_e_per_dn / (c.quantum_scale_e_per_us * white_dn_rate);
+  };
+  // The standard plan: one exposure for every step (its brightest white at
+  // white_fill). Other plans: each state its own exposure (a capture of one
+  // LED type alone fills the scale as its own white allows), the dark at the
+  // longest.
+  out.exposure_us = exposure_for(brightest);
+  std::vector<double> state_exposure_us;
+  for (double b : brightest_of_state) state_exposure_us.push_back(standard ? out.exposure_us : exposure_for(b));
+  double dark_exposure_us = out.exposure_us;
+  for (double e : state_exposure_us) dark_exposure_us = std::max(dark_exposure_us, e);
   std::filesystem::path cached;
   std::uint64_t key = 0;
   if (!options.cache_dir.empty() && !options.motion.enabled) {
@@ -306,27 +347,27 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
   const SkinSceneResponse scene = render_skin_scene(scene_options, weights, options.band_rows);
   out.scene_seconds = seconds_since(start);
 
-  // Frames of the standard plan through the daemon's capture builder.
-  session::StandardPlanOptions plan_options;
-  plan_options.exposure_us = out.exposure_us;
-  plan_options.settle_ms = options.settle_ms;
-  const session::SessionPlan plan = session::standard_plan(plan_options);
-  // The plan's timeline: each subject step's exposure mid-point, relative to the first subject step's.
+  // Frames of the plan through the daemon's capture builder.
+  for (session::Step& step : plan.steps)
+    step.exposure_us = step.role == session::StepRole::kDark ? dark_exposure_us : state_exposure_us[state_of_step.at(step.name)];
+  // The plan's timeline: each subject step's exposure mid-point, relative
+  // to the first subject step's, and the subject's pose then (per state).
   std::vector<double> exposure_mid_s(plan.steps.size());
   double clock_s = 0, reference_s = -1;
   for (std::size_t s = 0; s < plan.steps.size(); ++s) {
-    exposure_mid_s[s] = clock_s + plan.steps[s].settle_ms / 1000.0 + out.exposure_us / 2e6;
-    if (plan.steps[s].role == session::StepRole::kSubject && reference_s < 0) reference_s = exposure_mid_s[s];
-    clock_s += plan.steps[s].settle_ms / 1000.0 + out.exposure_us / 1e6 + options.readout_ms / 1000.0;
+    const session::Step& step = plan.steps[s];
+    exposure_mid_s[s] = clock_s + step.settle_ms / 1000.0 + step.exposure_us / 2e6;
+    if (step.role == session::StepRole::kSubject && reference_s < 0) reference_s = exposure_mid_s[s];
+    clock_s += step.settle_ms / 1000.0 + step.exposure_us / 1e6 + options.readout_ms / 1000.0;
   }
   out.plan_seconds = clock_s;
-  std::map<std::string, std::pair<double, SubjectPose>> poses;  // per mix: time since the reference, pose
+  std::map<std::string, std::pair<double, SubjectPose>> poses;  // per state: time since the reference, pose
   {
     int subject_index = 0;
     for (std::size_t s = 0; s < plan.steps.size(); ++s)
       if (plan.steps[s].role == session::StepRole::kSubject) {
         const double t = exposure_mid_s[s] - reference_s;
-        poses[plan.steps[s].illumination.mix] = {t, subject_pose(options.motion, t, subject_index++)};
+        poses[state_names[state_of_step.at(plan.steps[s].name)]] = {t, subject_pose(options.motion, t, subject_index++)};
       }
   }
   const session::CaptureSources sources{out.library, "true LED emission at full drive (rendered session)",
@@ -341,38 +382,43 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
       if (step.role == session::StepRole::kDark) {
         response = cv::Mat(sensor, CV_32FC3, cv::Scalar::all(0));
       } else {
-        drive = out.mixes.at(step.illumination.mix);
-        const int k = static_cast<int>(std::find(std::begin(kMixes), std::end(kMixes), step.illumination.mix) - kMixes);
-        if (step.role == session::StepRole::kWhite) response = cv::Mat(sensor, CV_32FC3, white_response.at(step.illumination.mix));
-        else response = move_subject(scene.responses[k], poses.at(step.illumination.mix).second);
+        const int k = state_of_step.at(step.name);
+        drive = out.mixes.at(state_names[k]);
+        if (step.role == session::StepRole::kWhite) response = cv::Mat(sensor, CV_32FC3, white_response[k]);
+        else response = move_subject(scene.responses[k], poses.at(state_names[k]).second);
       }
       if (noisy) {
-        const cv::Mat dn = camera.expose(response, SensorLayout::kBayerRGGB, 0, 0, out.exposure_us, 0, s);
-        builder.add_frame(frame_record(step, s, drive, out.exposure_us, dn, drivers::PixelFormat::kBayerRG12), bytes_of(dn));
+        const cv::Mat dn = camera.expose(response, SensorLayout::kBayerRGGB, 0, 0, step.exposure_us, 0, s);
+        builder.add_frame(frame_record(step, s, drive, step.exposure_us, dn, drivers::PixelFormat::kBayerRG12), bytes_of(dn));
       } else {
         cv::Mat dn16;  // the 16-bit encoding: DN << 4, here with the fraction kept to 1/16 DN
-        camera.expected(response, SensorLayout::kBayerRGGB, 0, 0, out.exposure_us, 0)
+        camera.expected(response, SensorLayout::kBayerRGGB, 0, 0, step.exposure_us, 0)
             .convertTo(dn16, CV_16U, 16.0);
-        builder.add_frame(frame_record(step, s, drive, out.exposure_us, dn16, drivers::PixelFormat::kBayerRG16),
+        builder.add_frame(frame_record(step, s, drive, step.exposure_us, dn16, drivers::PixelFormat::kBayerRG16),
                           bytes_of(dn16));
       }
     }
-    return builder.captures();
+    return builder;
+  };
+  auto measurement = [&](const session::SessionCaptureBuilder& builder) {
+    return standard ? session::build_method_measurement(builder.captures())
+                    : session::build_plan_measurement(builder.plan_captures());
   };
   start = Clock::now();
-  const session::MethodCaptures noisy_captures = captures(true);
-  session::MethodCaptures clean_captures;
-  if (options.noise_free) clean_captures = captures(false);
+  const session::SessionCaptureBuilder noisy_captures = captures(true);
+  std::optional<session::SessionCaptureBuilder> clean_captures;
+  if (options.noise_free) clean_captures.emplace(captures(false));
   out.camera_seconds = seconds_since(start);
   start = Clock::now();
-  out.noisy = session::build_method_measurement(noisy_captures);
+  out.noisy = measurement(noisy_captures);
   if (options.noise_free) {
-    out.noise_free = session::build_method_measurement(clean_captures);
+    out.noise_free = measurement(*clean_captures);
     for (std::size_t k = 0; k < out.noise_free.set.channels.size(); ++k)
       out.noise_free.set.channels[k].noise = out.noisy.set.channels[k].noise;
   }
   out.measurement_seconds = seconds_since(start);
-  out.motion = capture_motion(out.noisy, poses, options.sensor_width, options.sensor_height);
+  out.motion = capture_motion(out.noisy, poses, std::vector<std::string>(state_names.begin() + 1, state_names.end()),
+                              options.sensor_width, options.sensor_height);
 
   // Truth per 2×2 cell.
   out.width = options.sensor_width / 2, out.height = options.sensor_height / 2;

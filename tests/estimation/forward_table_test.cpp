@@ -26,8 +26,8 @@ TEST(ForwardTable, NodesEqualTheDirectModel) {
     const SkinParameters p{table->node_value(0, i_cm), table->node_value(1, i_ch), table->node_value(2, i_bm),
                            table->node_value(3, i_che)};
     const Eigen::VectorXd direct = w * model.albedo(p).values().matrix();
-    double interpolated[kMaxChannels];
-    table->predict(table->to_grid(p), interpolated);
+    std::vector<double> interpolated(table->channels());
+    table->predict(table->to_grid(p), interpolated.data());
     for (int c = 0; c < set.size(); ++c) {
       EXPECT_NEAR(table->node(i_cm, i_ch, i_bm, i_che)[c], direct[c], 1e-6 * std::max(1.0, direct[c]));
       EXPECT_NEAR(interpolated[c], direct[c], 1e-5);
@@ -67,13 +67,13 @@ TEST(ForwardTable, InterpolationErrorUnderD65IsBelowTwoHundredthsDeltaE94) {
 TEST(ForwardTable, JacobianMatchesFiniteDifferences) {
   const auto table = testing::method_table();
   const GridPoint x{12.3, 20.7, 5.4, 3.2};
-  double v[kMaxChannels], jac[kMaxChannels * 4];
-  table->predict(x, v, jac);
+  std::vector<double> v(table->channels()), jac(table->channels() * 4);
+  table->predict(x, v.data(), jac.data());
   for (int k = 0; k < 4; ++k) {
     GridPoint a = x, b = x;
     a[k] -= 1e-4, b[k] += 1e-4;
-    double va[kMaxChannels], vb[kMaxChannels];
-    table->predict(a, va), table->predict(b, vb);
+    std::vector<double> va(table->channels()), vb(table->channels());
+    table->predict(a, va.data()), table->predict(b, vb.data());
     for (int c = 0; c < table->channels(); ++c) EXPECT_NEAR(jac[c * 4 + k], (vb[c] - va[c]) / 2e-4, 1e-6);
   }
 }

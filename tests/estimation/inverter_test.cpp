@@ -32,10 +32,10 @@ TEST(FastInverter, NodeValuesAreFittedExactly) {
     const int i_ch = std::uniform_int_distribution<int>(0, n[1] - 1)(rng);
     const int i_bm = std::uniform_int_distribution<int>(0, n[2] - 1)(rng);
     const int i_che = std::uniform_int_distribution<int>(0, n[3] - 1)(rng);
-    double m[kMaxChannels];
+    std::vector<double> m(table->channels());
     const float* v = table->node(i_cm, i_ch, i_bm, i_che);
     for (int c = 0; c < table->channels(); ++c) m[c] = v[c];
-    const Fit f = fast.fit(m, w.data(), 4);
+    const Fit f = fast.fit(m.data(), w.data(), 4);
     if (f.chi2 <= FastInverterOptions{}.converged_chi2) ++exact;
   }
   EXPECT_GE(exact, trials * 99 / 100);
@@ -60,9 +60,9 @@ TEST(FastInverter, ReachesTheExhaustiveResidualOnNoiseFreeSkin) {
   int close = 0;
   double fast_sum = 0;
   for (std::size_t i = 0; i < f.pixels(); ++i) {
-    double m[kMaxChannels];
+    std::vector<double> m(table->channels());
     for (int c = 0; c < c_count; ++c) m[c] = f.clean[i * c_count + c];
-    const Fit a = fast.fit(m, w.data(), 4), b = exhaustive.fit(m, w.data(), 4);
+    const Fit a = fast.fit(m.data(), w.data(), 4), b = exhaustive.fit(m.data(), w.data(), 4);
     fast_sum += a.chi2;
     if (a.chi2 <= b.chi2 + 0.01) ++close;
   }

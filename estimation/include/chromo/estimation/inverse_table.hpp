@@ -2,15 +2,29 @@
 // InverseTable: a pre-solved inverse of a ForwardTable in measurement space,
 // what FastInverter looks a pixel up in.
 //
-// Key space: a monotone pseudo-logarithm of each of the first key_dims() =
-// min(channels, 4) channel values (the float's exponent plus its mantissa
-// read linearly: log2 to within 0.086, exact at powers of two, and computed
-// from the bits in two instructions), rotated onto the principal axes of the
-// table nodes' keys (the gamut is a thin curved sheet: along its thin
-// direction βm and Che change the channels by a few per cent only, and
-// unrotated bins would each span the whole βm range), then cut into kBins
-// bins per axis between the smallest and largest key of any table node.
-// Most of the 48⁴ cells are empty.
+// Key space: a monotone pseudo-logarithm of every channel value (the
+// float's exponent plus its mantissa read linearly: log2 to within 0.086,
+// exact at powers of two, and computed from the bits in two instructions),
+// rotated onto the principal axes of the table nodes' keys (the gamut is a
+// thin curved sheet: along its thin direction βm and Che change the channels
+// by a few per cent only, and unrotated bins would each span the whole βm
+// range), then cut into kBins bins per axis between the smallest and largest
+// key of any table node. Most of the 48⁴ cells are empty.
+//  - Up to four channels: key_dims() = channels, the rotation is square.
+//  - More channels (a multispectral plan's 18-24 and beyond): each channel's
+//    pseudo-log is first divided by its relative noise σ_c/value
+//    (InverseTableSettings::channel_relative_sigma: the noise-whitened
+//    measurement, in which every channel's noise is equal), and the key is
+//    the projection on the kMaxKeyDims = 4 principal axes of the nodes'
+//    whitened keys: the measurement's principal subspace. The 4-D skin
+//    model fills a 4-D manifold of the C-dimensional measurement space, so
+//    four components hold nearly all of its variance whatever C (the
+//    build reports the share, captured_variance()), and the key, the cell
+//    index and its memory stay those of a 4-channel table. Noise off the
+//    subspace does not move the key (and the noise along it is averaged
+//    over all channels). Such tables hold buckets only (FastInverter's
+//    search path seeds from them); the branches, the empty cells' pre-solved
+//    fits and the 2D fits below are built for 4-channel tables.
 //
 // Per occupied cell:
 //  - a bucket: the table nodes whose predicted values fall in the cell (the
@@ -92,20 +106,31 @@ struct InverseTableSettings {
   // All zero: equal relative noise (the Estimator fills them in from its
   // measurement set's noise models, from_noise()).
   std::array<double, 4> relative_sigma = {};
+  // Tables of more than four channels: every channel's relative noise
+  // (σ/value, any common scale), which whitens the key (see above); rounded
+  // to half-octaves like relative_sigma (quantised_channel_sigma()). Empty:
+  // equal noise. Ignored for tables of up to four channels.
+  std::vector<double> channel_relative_sigma;
   bool IsValid(std::string* error) const;
   // relative_sigma from a set's noise models (σ/value at albedo 0.2 per
   // channel; the first four channels).
   static std::array<double, 4> from_noise(const MeasurementSet& set);
-  // These settings for a 4-channel `set`: relative_sigma from_noise(set)
-  // where it is all zero (what the Estimator builds), else unchanged.
+  // These settings for `set`: a 4-channel set's relative_sigma
+  // from_noise(set) where it is all zero, a set of more than four channels'
+  // channel_relative_sigma from its noise models where it is empty (what the
+  // Estimator builds); otherwise unchanged.
   InverseTableSettings completed_for(const MeasurementSet& set) const;
   // The ratios the build weighs with: 2^(round(2·log2(σ_c/σ_min))/2), or all 1.
   std::array<double, 4> quantised_sigma() const;
+  // The same rounding of channel_relative_sigma for `channels` channels (all 1
+  // when it is empty or has another length).
+  std::vector<double> quantised_channel_sigma(int channels) const;
 };
 
 class InverseTable {
  public:
   static constexpr int kBins = 48;
+  static constexpr int kMaxKeyDims = 4;  // the key's dimensions for any channel count
   static constexpr int kMaxBranches = 8;
   static constexpr std::uint32_t kNoCell = 0xffffffffu;
 
@@ -144,8 +169,12 @@ class InverseTable {
   std::uint64_t key() const { return key_; }
 
   int key_dims() const { return key_dims_; }
-  // Cell of a measurement (its first key_dims() channels; beyond the key
-  // box: the box's edge cell); kNoCell for an empty cell or a non-finite key.
+  int key_channels() const { return key_channels_; }  // the forward table's channel count
+  // Share of the nodes' whitened key variance on the key's axes (1 for tables
+  // of up to four channels).
+  double captured_variance() const { return captured_variance_; }
+  // Cell of a measurement (all key_channels() values; beyond the key box:
+  // the box's edge cell); kNoCell for an empty cell or a non-finite key.
   std::uint32_t cell_of(const float* measured) const;
   // The key-box cell of a measurement (index over all kBins^key_dims() cells,
   // occupied or not); kNoCell for a non-finite key.
@@ -165,10 +194,13 @@ class InverseTable {
   double filled_share() const;
 
  private:
-  int key_dims_ = 0;
-  float key_mean_[4] = {}, key_axes_[16] = {};  // principal axes of the nodes' keys (rows)
+  int key_dims_ = 0, key_channels_ = 0;
+  double captured_variance_ = 1;
+  std::vector<float> key_whiten_;  // per channel: 1/relative σ (1 for up to four channels)
+  std::vector<float> key_mean_;    // per channel: mean whitened key of the nodes
+  std::vector<float> key_axes_;    // key_dims_ rows of key_channels_: principal axes of the nodes' keys
   float key_min_[4] = {}, key_scale_[4] = {};
-  void key_of(const float* values, float* key) const;  // pseudo-log, centred, rotated
+  void key_of(const float* values, float* key) const;  // pseudo-log, whitened, centred, rotated
   std::uint64_t key_ = 0;
   std::vector<std::uint32_t> cell_index_;   // per key-box cell: index into cells_, or kNoCell
   std::vector<Cell> cells_;                 // occupied cells, then the pre-solved empty cells

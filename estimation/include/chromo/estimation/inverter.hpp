@@ -52,6 +52,7 @@
 #include <string_view>
 #include <vector>
 
+#include "chromo/estimation/channel_buffer.hpp"
 #include "chromo/estimation/forward_table.hpp"
 #include "chromo/estimation/inverse_table.hpp"
 
@@ -62,9 +63,11 @@ struct Fit {
   double chi2 = 0;     // weighted residual
   int iterations = 0;  // LM iterations used
   // The table's prediction at x when the inverter has it at hand (callers
-  // need not interpolate again); channels() values.
+  // need not interpolate again): only the fast inverter's four-channel path
+  // sets it (kPredictedChannels values); any other fit leaves it false.
+  static constexpr int kPredictedChannels = 4;
   bool has_prediction = false;
-  double predicted[kMaxChannels] = {};
+  double predicted[kPredictedChannels] = {};
 };
 
 class Inverter {

@@ -11,7 +11,9 @@
 //   same difference of the white references: its illuminant is the spectrum
 //   "mix − W57" (the blue LED's light as the sphere delivers it).
 // Any other list works (W57 alone: 3 channels; both captures: 6; a direct blue
-// capture: R, G, B + B under the blue LED). Values are linear albedo: 1 is a
+// capture: R, G, B + B under the blue LED; a multispectral plan: R, G, B under
+// each LED type alone, 18 channels and more; there is no upper limit).
+// Values are linear albedo: 1 is a
 // perfect white under that illuminant (MODEL.md's camera normalisation).
 //
 // Noise (per channel, in albedo units): σ² = read_sigma² + shot_coefficient · a,
@@ -31,8 +33,6 @@
 #include "chromo/spectral/spectrum.hpp"
 
 namespace chromo::estimation {
-
-inline constexpr int kMaxChannels = 8;  // measurement vectors are at most this long
 
 struct ChannelNoise {
   double read_sigma = 0.002;        // albedo units
@@ -61,8 +61,8 @@ struct MeasurementSet {
   int size() const { return static_cast<int>(channels.size()); }
   // Row c: the weights w(λ) with channel value = Σ w·albedo (camera_weights row).
   Eigen::MatrixXd weights() const;
-  // Throws std::invalid_argument naming the problem (no channels, > kMaxChannels,
-  // bad camera channel, illuminant with no power in the channel).
+  // Throws std::invalid_argument naming the problem (no channels, bad camera
+  // channel, illuminant with no power in the channel). Any number of channels.
   void validate() const;
 };
 

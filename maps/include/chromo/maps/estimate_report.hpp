@@ -125,4 +125,14 @@ MethodEstimationResult estimate_method_captures(const session::MethodCaptures& c
                                                 const std::string& extra_json = "{}",
                                                 const PreparedTables* prepared = nullptr);
 
+// The same for the captures of any plan (session::PlanCaptures: the
+// multispectral plans, an operator's): session::build_plan_measurement (3
+// channels per capture), then the same tables, estimate, spatial pass and
+// report; relit ΔE94 against every capture's photograph.
+MethodEstimationResult estimate_plan_captures(const session::PlanCaptures& captures, const MethodEstimationOptions& options,
+                                              const std::filesystem::path& out_dir, const FileCommit& commit,
+                                              const files::Progress& progress = {},
+                                              const std::string& extra_json = "{}",
+                                              const PreparedTables* prepared = nullptr);
+
 }  // namespace chromo::maps

@@ -95,6 +95,32 @@ struct MethodMeasurement {
 
 MethodMeasurement build_method_measurement(const MethodCaptures& captures, const RegistrationOptions& options = {});
 
+// The captures of any plan (session_plan.hpp: the method's, the
+// multispectral one, an operator's): the dark and, per illumination state
+// that has a subject step, its white reference and the subject, in plan
+// order.
+struct PlanCaptures {
+  spectral::CameraSensitivity camera;
+  double white_reflectance = 0.99;
+  RgbImage dark;
+  std::vector<IlluminatedCapture> captures;
+};
+
+// Any plan's measurement: R, G and B albedo of every capture against its own
+// white (the formula above per capture; channel names "<capture>.R", ...),
+// 3 × captures channels, each with the noise estimated from its dark and
+// white exactly as for the method's D65' channels. Every capture after the
+// first is registered to the first (ECC on the camera channel with the most
+// white signal in the moving capture, the same channel of the first) and
+// warped when it moved, as above. No difference channel is formed: a plan
+// that lights the blue LED alone measures it directly. photographs: one per
+// capture. Errors as build_method_measurement (naming the capture); fewer
+// than one capture is std::invalid_argument.
+MethodMeasurement build_plan_measurement(const PlanCaptures& captures, const RegistrationOptions& options = {});
+
+// Its measurement set alone, from the dark and white captures.
+estimation::MeasurementSet plan_set_from_references(const PlanCaptures& captures);
+
 // The measurement set alone (illuminants and noise), from the dark and white
 // captures: known before the subject is captured, so a streaming caller can
 // build the forward table early. Equal to build_method_measurement(...).set.

@@ -6,11 +6,16 @@
 // so both give bit-identical captures for the same frames (a TIFF holds the
 // frame's samples unchanged).
 //
-// Which step is which: the dark step (role dark), and for each of the mixes
-// "d65" (D65'), "w57" and "w57+blue" (also "w57+blue:R") one white and one
-// subject step. A plan without all seven, or with a step lit by explicit
-// weights, is not the method's session: SessionCaptureBuilder's constructor
-// throws std::invalid_argument saying what is missing.
+// Which step is which: the dark step (role dark), and per illumination state
+// one white and one subject step, paired by their illumination: the same mix
+// ("d65", "w57", "w57+blue", any blue ratio) or the same LED drive weights.
+// A plan without a dark, with a subject state that has no white (or a white
+// no subject), with an unlit white or subject step, or with a state twice, is
+// refused: the constructor throws std::invalid_argument saying what is
+// missing. The method's standard session (subjects under exactly d65, w57
+// and w57+blue: is_method_plan()) gives MethodCaptures (captures()); any
+// plan gives PlanCaptures (plan_captures(): the multispectral plans, an
+// operator's).
 //
 // Frames: only the first camera that delivers a frame is used (its name is
 // kept); its frames are summed per step exactly as they came (FrameSums,
@@ -29,6 +34,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <set>
 #include <span>
 #include <string>
@@ -76,8 +82,14 @@ class SessionCaptureBuilder {
   std::string missing() const;
   const std::string& camera() const { return camera_; }
 
-  // Throws std::logic_error unless references_complete() (subjects then empty) / complete().
+  // The plan's subjects are under exactly the method's three mixes.
+  bool is_method_plan() const { return method_plan_; }
+
+  // Throws std::logic_error unless references_complete() (subjects then
+  // empty) / complete(); captures() std::invalid_argument unless
+  // is_method_plan().
   MethodCaptures captures() const;
+  PlanCaptures plan_captures() const;
 
  private:
   struct StepSum {
@@ -93,6 +105,9 @@ class SessionCaptureBuilder {
   // Keys: "dark", "white:d65", "subject:d65", "white:w57", ... (kept in plan order in steps_).
   std::map<std::string, StepSum> steps_;
   std::map<std::string, std::string> key_of_step_;
+  // Illumination states with a subject step, in plan order: (state key, subject step name).
+  std::vector<std::pair<std::string, std::string>> states_;
+  bool method_plan_ = false;
 };
 
 // Adds the session folder's stored frames (journal frame records, TIFFs)
@@ -110,5 +125,13 @@ SessionPlan read_session_plan(const std::filesystem::path& folder);
 // folder and what is wrong (not a session, not the method's plan, frames
 // missing, unreadable TIFF).
 MethodCaptures read_session_captures(const std::filesystem::path& folder, const CaptureSources& sources);
+
+// The stored frames of any estimable session: `method` set for the method's
+// standard session, `plan` for any other plan (errors as above).
+struct StoredSessionCaptures {
+  std::optional<MethodCaptures> method;
+  std::optional<PlanCaptures> plan;
+};
+StoredSessionCaptures read_any_session_captures(const std::filesystem::path& folder, const CaptureSources& sources);
 
 }  // namespace chromo::session

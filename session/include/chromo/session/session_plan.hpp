@@ -57,6 +57,46 @@ struct StandardPlanOptions {
 };
 SessionPlan standard_plan(const StandardPlanOptions& options = {});
 
+// The built-in multispectral plan ("multispectral"): dark; then for each of
+// the six LED types alone at full drive (weights: that type 1, the others
+// 0) its white reference and the subject. 6 illumination states × R, G, B =
+// 18 channels for the estimator (build_plan_measurement). With
+// with_method_states (plan "multispectral+method") the method's three mixes
+// (d65, w57, w57+blue) follow, each with its white: 9 states, 27 channels.
+// Steps: all white references first, then the subjects (the subject holds
+// still from its first exposure to its last), as in standard_plan().
+SessionPlan multispectral_plan(const StandardPlanOptions& options = {}, bool with_method_states = false);
+
+// Names of the built-in plans: "standard", "multispectral", "multispectral+method".
+std::vector<std::string> builtin_plan_names();
+// A built-in plan by name (std::nullopt for another name).
+std::optional<SessionPlan> builtin_plan(const std::string& name, const StandardPlanOptions& options = {});
+
+// A plan's timing summary for `chromo session plans`: the illumination states
+// that have a subject step (captures), the estimator's channels (the
+// method's four for its standard session, else R, G, B per capture), and
+// the capture time, split as the issue asks:
+// subject_time_s from the first subject exposure's start to the last one's
+// end (settle, exposure × frames of every subject step; the time the
+// subject must hold still), reference_time_s the same sum over the dark and
+// white steps (reported apart: they need no subject). A capture may later
+// carry its own exposure and frame count (the per-step fields already do):
+// the sums read them per step.
+struct PlanTiming {
+  int captures = 0;
+  int channels = 0;
+  double subject_time_s = 0;
+  double reference_time_s = 0;
+  std::uint64_t frames_per_camera = 0;
+};
+PlanTiming plan_timing(const SessionPlan& plan);
+
+// A plan file (JSON, the "plan" object of docs/formats/session.md, or an
+// object holding it under "plan"): parsed and validated. Throws
+// std::invalid_argument naming the file and the first bad field
+// ("steps[2].exposure_us: ...").
+SessionPlan read_plan_file(const std::string& path);
+
 // Bounds shared with the API's validation.
 inline constexpr std::size_t kMaxNameBytes = 64;
 inline constexpr std::size_t kMaxTextBytes = 4096;

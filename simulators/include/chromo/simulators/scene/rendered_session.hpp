@@ -65,6 +65,14 @@ struct RenderedSessionOptions {
   int scene_width = 0, scene_height = 0;
   int window_x = 0, window_y = 0;
   std::uint64_t seed = 5;    // scene and camera noise
+  // A built-in plan (session::builtin_plan): "standard" (the method's
+  // session, everything as described above), "multispectral" or
+  // "multispectral+method": their illumination states (the method's mixes
+  // solved as above, the LED types alone at full drive), each step at its own
+  // exposure (its state's brightest white channel at white_fill; the dark at
+  // the longest), the captures through SessionCaptureBuilder::plan_captures
+  // and session::build_plan_measurement (3 channels per capture).
+  std::string plan = "standard";
   double white_fill = 0.85;  // expected DN of the brightest white channel / full scale
   bool noise_free = true;    // also render the noise-free chain
   int threads = 2;
@@ -117,8 +125,8 @@ struct RenderedSession {
   std::vector<estimation::SkinParameters> truth;   // per measurement pixel
   std::vector<std::uint8_t> region;                // SceneRegion per pixel, or kMixedCell
   calibration::LedLibrary library;
-  std::map<std::string, drivers::DriveLevels> mixes;  // "d65", "w57", "w57+blue"
-  double exposure_us = 0;
+  std::map<std::string, drivers::DriveLevels> mixes;  // per state: "d65", "w57", "w57+blue"; "W57" ... "B" (alone)
+  double exposure_us = 0;  // the standard plan's (all steps); other plans: the brightest state's
   double scene_seconds = 0, camera_seconds = 0, measurement_seconds = 0;  // wall clock per stage (of the render)
   bool loaded_from_cache = false;
   std::vector<CaptureMotion> motion;  // the noisy chain's W57 and W57+blue captures (empty when loaded from the cache)

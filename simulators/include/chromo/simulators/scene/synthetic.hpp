@@ -26,6 +26,8 @@
 
 #include <cstdint>
 #include <span>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "chromo/estimation/measurement.hpp"
@@ -67,6 +69,29 @@ struct SyntheticFrame {
 
 // The noise of every channel in `set` is replaced by options.noise's.
 SyntheticFrame make_synthetic_frame(estimation::MeasurementSet& set, const SyntheticOptions& options);
+
+// Per-channel camera noise of a plan whose exposure puts each capture's
+// brightest white channel at full scale (as an operator sets it; the
+// noise's full_scale_albedo is that channel's): a channel that receives the
+// share s = W_c / max W of its capture's white signal (W = Σ camera × its
+// illuminant; channels with the same illuminant are one capture) has, in
+// albedo units, read σ / s and shot coefficient / s. Each channel's noise
+// becomes noise.channel_noise() scaled so; the method's difference channel
+// ("blue.B", method_measurement_set) gets √2 × the read σ (two captures) and,
+// alone with its illuminant, s = 1 (which favours it). Saturation: the noise's.
+void set_exposure_noise(estimation::MeasurementSet& set, const CameraNoiseModel& noise);
+
+// `clean` (pixels × set.size()) plus Gaussian noise of each channel's own
+// model at the clean value (ChannelNoise::variance), clipped at 0 and at
+// the saturation albedo; NaN stays NaN. Deterministic in seed.
+std::vector<float> add_channel_noise(std::span<const float> clean, const estimation::MeasurementSet& set,
+                                     std::uint64_t seed);
+
+// R, G and B under each named illuminant (a plan's captures), in order:
+// "<name>.R", ... Noise: `noise` for every channel.
+estimation::MeasurementSet capture_measurement_set(
+    const spectral::CameraSensitivity& camera,
+    const std::vector<std::pair<std::string, spectral::Spectrum>>& captures, const estimation::ChannelNoise& noise = {});
 
 // Skin parameters drawn as make_synthetic_frame draws them.
 std::vector<estimation::SkinParameters> random_skin_parameters(int count, const estimation::SkinParameters& low, const estimation::SkinParameters& high,

@@ -1,0 +1,54 @@
+// `chromo session plans` on the real binary (no daemon): the built-in plans
+// with their captures, channels and capture time; plan files listed beside
+// them; a plan file with a bad field refused naming it (exit 2).
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "chromo/session/session_plan.hpp"
+#include "run_chromo.hpp"
+
+namespace {
+namespace fs = std::filesystem;
+using testing::HasSubstr;
+using testing::Not;
+
+class SessionPlans : public ::testing::Test {
+ protected:
+  fs::path dir = fs::temp_directory_path() / ("chromo_session_plans_test_" + std::to_string(::getpid()));
+  void SetUp() override { fs::create_directories(dir / "plans"); }
+  void TearDown() override { fs::remove_all(dir); }
+};
+
+TEST_F(SessionPlans, ListsTheBuiltInPlansAndPlanFiles) {
+  chromo::session::StandardPlanOptions slow;
+  slow.exposure_us = 100000;  // 0.1 s
+  slow.frames_per_camera = 4;
+  chromo::session::SessionPlan mine = chromo::session::multispectral_plan(slow);
+  mine.name = "my_multispectral";
+  std::ofstream(dir / "plans" / "mine.json") << chromo::session::to_json(mine).dump(1);
+  const Result r = run_chromo("session plans --plan-dir " + (dir / "plans").string());
+  ASSERT_EQ(r.exit_status, 0) << r.output;
+  // name, captures, channels, subject s, references s, frames, predicted (no advisor yet: -)
+  EXPECT_THAT(r.output, HasSubstr("standard"));
+  EXPECT_THAT(r.output, testing::ContainsRegex("standard +3 +4 +0\\.21 +0\\.28 +7 +-"));
+  EXPECT_THAT(r.output, testing::ContainsRegex("multispectral +6 +18 +0\\.42 +0\\.49 +13 +-"));
+  EXPECT_THAT(r.output, testing::ContainsRegex("multispectral\\+method +9 +27 "));
+  // 6 subject steps × (50 ms settle + 4 × 0.1 s); 7 reference steps alike.
+  EXPECT_THAT(r.output, testing::ContainsRegex("my_multispectral +6 +18 +2\\.70 +3\\.15 +52 +- +.*mine\\.json"));
+}
+
+TEST_F(SessionPlans, APlanFileWithABadFieldIsRefusedByName) {
+  nlohmann::json plan = chromo::session::to_json(chromo::session::multispectral_plan());
+  plan["steps"][4]["illumination"]["weights"]["UV"] = 1.0;
+  std::ofstream(dir / "bad.json") << plan.dump();
+  const Result r = run_chromo("session plans " + (dir / "bad.json").string());
+  EXPECT_EQ(r.exit_status, 2) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("steps[4].illumination.weights.UV: not an LED type"));
+  EXPECT_THAT(r.output, Not(HasSubstr("multispectral ")));  // nothing listed
+}
+
+}  // namespace
