@@ -120,6 +120,10 @@ drivers::DriveLevels Daemon::resolve_mix(const std::string& mix) const {
   if (auto solved = calibrations_->solved_mix(mix)) return *solved;
   auto found = config_.mixes.find(mix);
   if (found != config_.mixes.end()) return found->second;
+  // "w57:R": W57 alone as in "w57+blue:R", whose W57 level is the configured w57+blue's.
+  if (mix.rfind("w57:", 0) == 0) {
+    if (auto base = config_.mixes.find("w57"); base != config_.mixes.end()) return base->second;
+  }
   // "w57+blue:R": the blue level scaled by R relative to the configured w57+blue.
   const std::string prefix = "w57+blue:";
   if (mix.rfind(prefix, 0) == 0) {

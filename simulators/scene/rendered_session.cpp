@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 
 #include "chromo/calibration/session_mix.hpp"
@@ -47,12 +48,15 @@ std::span<const std::uint8_t> bytes_of(const cv::Mat& m) {
 constexpr files::CacheFormat kCacheFormat{{'C', 'H', 'R', 'S', 'E', 'S', 'S', '1'}, kRenderedSessionVersion};
 
 std::uint64_t cache_key(const RenderedSessionOptions& o, const std::vector<SceneWeights>& weights,
-                        double exposure_us, const CameraModelOptions& camera) {
+                        const std::map<std::string, double>& exposures, const CameraModelOptions& camera) {
   files::Fnv1a h;
   h.add(kCacheFormat.magic);
   h.add(kCacheFormat.version);
-  for (int v : {o.sensor_width, o.sensor_height, o.scene_width, o.scene_height, o.window_x, o.window_y}) h.add(v);
-  h.add(o.seed), h.add(o.white_fill), h.add(o.noise_free), h.add(exposure_us);
+  for (int v : {o.sensor_width, o.sensor_height, o.scene_width, o.scene_height, o.window_x, o.window_y,
+                o.frames_per_capture})
+    h.add(v);
+  h.add(o.seed), h.add(o.white_fill), h.add(o.noise_free), h.add(o.exposure_per_capture), h.add(o.blue_ratio);
+  for (const auto& [step, exposure_us] : exposures) h.add(exposure_us);
   for (const auto& w : weights) h.add(w.data(), sizeof(double) * w.size());
   for (double v : {camera.quantum_scale_e_per_us, camera.full_well_e, camera.read_noise_e, camera.gain_e_per_dn,
                    camera.black_level_dn})
@@ -102,6 +106,8 @@ void put_measurement(files::CacheWriter& w, const session::MethodMeasurement& m)
     w.put(r.result), w.put(r.motion_px), w.put(r.warped);
   }
   w.put<std::uint64_t>(m.saturated_pixels);
+  w.put<std::uint32_t>(static_cast<std::uint32_t>(m.exposures.size()));
+  for (const auto& e : m.exposures) put_string(w, e.capture), w.put(e.exposure_us), w.put(e.frames);
 }
 
 session::MethodMeasurement get_measurement(files::CacheReader& r) {
@@ -131,6 +137,15 @@ session::MethodMeasurement get_measurement(files::CacheReader& r) {
     m.registration.push_back(std::move(report));
   }
   m.saturated_pixels = r.get<std::uint64_t>();
+  const auto exposures = r.get<std::uint32_t>();
+  if (exposures > 16) throw std::runtime_error("bad exposure count");
+  for (std::uint32_t k = 0; k < exposures; ++k) {
+    session::MethodMeasurement::CaptureExposure e;
+    e.capture = get_string(r);
+    e.exposure_us = r.get<double>();
+    e.frames = r.get<std::uint32_t>();
+    m.exposures.push_back(std::move(e));
+  }
   return m;
 }
 
@@ -197,6 +212,8 @@ bool RenderedSessionOptions::IsValid(std::string* error) const {
   if (!(white_fill > 0.05 && white_fill < 0.99)) return fail("white_fill: must be in (0.05, 0.99)");
   if (threads < 1) return fail("threads: must be >= 1");
   if (band_rows < 1) return fail("band_rows: must be >= 1");
+  if (!(blue_ratio >= 0 && blue_ratio <= 100)) return fail("blue_ratio: must be in [0, 100] (0: the plain w57+blue mix)");
+  if (frames_per_capture < 1 || frames_per_capture > 64) return fail("frames_per_capture: must be in [1, 64]");
   return true;
 }
 
@@ -219,25 +236,53 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
     out.library.leds[t].ladder = {{1.0, std::nullopt, std::nullopt, true, leds.emit_settled(drive)}};
   }
   const char* const kMixes[3] = {"d65", "w57", "w57+blue"};
+  std::string ratio;
+  if (options.blue_ratio > 0) {
+    char text[32];
+    std::snprintf(text, sizeof text, ":%g", options.blue_ratio);
+    ratio = text;
+  }
   const CameraModel camera{CameraModelOptions{}};
   std::vector<SceneWeights> weights;
   std::map<std::string, cv::Vec3f> white_response;
+  std::map<std::string, double> brightest_of;
   double brightest = 0;
   for (const char* mix : kMixes) {
-    out.mixes[mix] = calibration::solve_session_mix(out.library, mix, "camera", false).weights;
+    out.mixes[mix] = calibration::solve_session_mix(out.library, std::string(mix) + (mix == std::string("d65") ? "" : ratio),
+                                                    "camera", false)
+                         .weights;
     const auto w = camera.weights(leds.emit_settled(out.mixes[mix]));
     weights.emplace_back(w);
     const Eigen::Vector3d white = w * white_target_reflectance().values().matrix();
     white_response[mix] = cv::Vec3f(static_cast<float>(white[0]), static_cast<float>(white[1]), static_cast<float>(white[2]));
+    brightest_of[mix] = white.maxCoeff();
+    out.white_response[mix] = {white[0], white[1], white[2]};
     brightest = std::max(brightest, white.maxCoeff());
   }
   const CameraModelOptions& c = camera.options();
-  out.exposure_us = (options.white_fill * camera.max_dn() - c.black_level_dn) * c.gain_e_per_dn /
-                    (c.quantum_scale_e_per_us * brightest);
+  auto exposure_for = [&](double brightest_response) {
+    return (options.white_fill * camera.max_dn() - c.black_level_dn) * c.gain_e_per_dn /
+           (c.quantum_scale_e_per_us * brightest_response);
+  };
+  out.exposure_us = exposure_for(brightest);
+  // The plan the daemon would run, and each step's exposure as its metering would set it.
+  session::StandardPlanOptions plan_options;
+  plan_options.exposure_us = out.exposure_us;
+  plan_options.frames_per_camera = static_cast<std::uint32_t>(options.frames_per_capture);
+  plan_options.blue_ratio = options.blue_ratio;
+  if (options.exposure_per_capture) plan_options.meter_white_share = options.white_fill;
+  const session::SessionPlan plan = session::standard_plan(plan_options);
+  auto mix_of = [](const std::string& mix) { return mix.substr(0, mix.find(':')); };
+  for (const auto& step : plan.steps) {
+    double exposure = step.exposure_us;
+    if (step.meter_white_share > 0) exposure = exposure_for(brightest_of.at(mix_of(step.illumination.mix)));
+    else if (!step.exposure_from.empty()) exposure = out.exposure_us_of_step.at(step.exposure_from);
+    out.exposure_us_of_step[step.name] = exposure;
+  }
   std::filesystem::path cached;
   std::uint64_t key = 0;
   if (!options.cache_dir.empty()) {
-    key = cache_key(options, weights, out.exposure_us, c);
+    key = cache_key(options, weights, out.exposure_us_of_step, c);
     cached = cache_file(options.cache_dir, key);
     if (load_cached(cached, key, out)) return out;
   }
@@ -255,9 +300,6 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
   out.scene_seconds = seconds_since(start);
 
   // Frames of the standard plan through the daemon's capture builder.
-  session::StandardPlanOptions plan_options;
-  plan_options.exposure_us = out.exposure_us;
-  const session::SessionPlan plan = session::standard_plan(plan_options);
   const session::CaptureSources sources{out.library, "true LED emission at full drive (rendered session)",
                                c.sensitivity, "builtin:nikon_d5100", kWhiteTargetReflectance};
   const cv::Size sensor(options.sensor_width, options.sensor_height);
@@ -265,25 +307,30 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
     session::SessionCaptureBuilder builder(plan, sources);
     for (std::size_t s = 0; s < plan.steps.size(); ++s) {
       const session::Step& step = plan.steps[s];
+      const double exposure_us = out.exposure_us_of_step.at(step.name);
       cv::Mat response;
       drivers::DriveLevels drive{};
       if (step.role == session::StepRole::kDark) {
         response = cv::Mat(sensor, CV_32FC3, cv::Scalar::all(0));
       } else {
-        drive = out.mixes.at(step.illumination.mix);
-        const int k = static_cast<int>(std::find(std::begin(kMixes), std::end(kMixes), step.illumination.mix) - kMixes);
-        if (step.role == session::StepRole::kWhite) response = cv::Mat(sensor, CV_32FC3, white_response.at(step.illumination.mix));
+        const std::string mix = mix_of(step.illumination.mix);
+        drive = out.mixes.at(mix);
+        const int k = static_cast<int>(std::find(std::begin(kMixes), std::end(kMixes), mix) - kMixes);
+        if (step.role == session::StepRole::kWhite) response = cv::Mat(sensor, CV_32FC3, white_response.at(mix));
         else response = scene.responses[k];
       }
-      if (noisy) {
-        const cv::Mat dn = camera.expose(response, SensorLayout::kBayerRGGB, 0, 0, out.exposure_us, 0, s);
-        builder.add_frame(frame_record(step, s, drive, out.exposure_us, dn, drivers::PixelFormat::kBayerRG12), bytes_of(dn));
-      } else {
-        cv::Mat dn16;  // the 16-bit encoding: DN << 4, here with the fraction kept to 1/16 DN
-        camera.expected(response, SensorLayout::kBayerRGGB, 0, 0, out.exposure_us, 0)
-            .convertTo(dn16, CV_16U, 16.0);
-        builder.add_frame(frame_record(step, s, drive, out.exposure_us, dn16, drivers::PixelFormat::kBayerRG16),
-                          bytes_of(dn16));
+      for (std::uint32_t f = 0; f < step.frames_per_camera; ++f) {
+        // Frame f of step s: its own noise (the first frame's as before frames per capture).
+        const std::uint64_t frame_index = s + 1000 * static_cast<std::uint64_t>(f);
+        if (noisy) {
+          const cv::Mat dn = camera.expose(response, SensorLayout::kBayerRGGB, 0, 0, exposure_us, 0, frame_index);
+          builder.add_frame(frame_record(step, s, drive, exposure_us, dn, drivers::PixelFormat::kBayerRG12), bytes_of(dn));
+        } else {
+          cv::Mat dn16;  // the 16-bit encoding: DN << 4, here with the fraction kept to 1/16 DN
+          camera.expected(response, SensorLayout::kBayerRGGB, 0, 0, exposure_us, 0).convertTo(dn16, CV_16U, 16.0);
+          builder.add_frame(frame_record(step, s, drive, exposure_us, dn16, drivers::PixelFormat::kBayerRG16),
+                            bytes_of(dn16));
+        }
       }
     }
     return builder.captures();

@@ -7,7 +7,7 @@
 // frame's samples unchanged).
 //
 // Which step is which: the dark step (role dark), and for each of the mixes
-// "d65" (D65'), "w57" and "w57+blue" (also "w57+blue:R") one white and one
+// "d65" (D65'), "w57" (also "w57:R") and "w57+blue" (also "w57+blue:R") one white and one
 // subject step. A plan without all seven, or with a step lit by explicit
 // weights, is not the method's session: SessionCaptureBuilder's constructor
 // throws std::invalid_argument saying what is missing.
@@ -15,7 +15,9 @@
 // Frames: only the first camera that delivers a frame is used (its name is
 // kept); its frames are summed per step exactly as they came (FrameSums,
 // frame_sums.hpp: the accumulator derived data is written from too), and the
-// mean is taken when the captures are made: BayerRG frames binned 2×2 (R,
+// mean is taken when the captures are made (each image carries its frame
+// count and exposure; a step's frames must share one exposure, else
+// add_frame throws naming the step): BayerRG frames binned 2×2 (R,
 // mean of the two G, B per cell: half resolution, colours without
 // interpolation), RGB8 used as is, mono formats refused. Values are in units
 // of the format's full scale (255, 4095, 65535).
@@ -85,6 +87,7 @@ class SessionCaptureBuilder {
     std::uint32_t expected = 0;
     FrameSums frames;  // the builder's camera's frames of the step
     spectral::Spectrum illuminant_sum;
+    double exposure_us = 0;  // of the step's frames (all alike)
   };
   RgbImage mean_image(const StepSum& s) const;
 
