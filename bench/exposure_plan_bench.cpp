@@ -137,7 +137,7 @@ int bench_main(int argc, char** argv) {
   CLI::App app{"the standard plan before and after exposure per capture, on virtual-lab scenes"};
   std::vector<std::uint64_t> seeds{5, 11, 12, 13};
   std::vector<int> sensor{2592, 1944};
-  double blue_ratio = 4;
+  double blue_ratio = 8;
   int frames = 1;
   std::filesystem::path out = "bench/results";
   app.add_option("--seeds", seeds, "scene seeds")->delimiter(',');
