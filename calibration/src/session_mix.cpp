@@ -20,10 +20,11 @@ MixSolverOptions session_mix_solver_options(const std::string& objective, bool h
 SolvedMix solve_session_mix(const LedLibrary& library, const std::string& target,
                             const std::string& objective, bool hold_chromaticity) {
   const MixSolverOptions options = session_mix_solver_options(objective, hold_chromaticity);
-  const bool w57_alone = target == "w57";
+  // "w57" / "w57:R": W57 alone at its level in "w57+blue" / "w57+blue:R".
+  const bool w57_alone = target == "w57" || target.rfind("w57:", 0) == 0;
   MixTarget mix_target;
   try {
-    mix_target = parse_mix_target(w57_alone ? "w57+blue" : target, library, options.camera);
+    mix_target = parse_mix_target(w57_alone ? "w57+blue" + target.substr(3) : target, library, options.camera);
   } catch (const std::exception& e) {
     throw std::invalid_argument("target: " + std::string(e.what()));
   }
@@ -43,7 +44,8 @@ SolvedMix solve_session_mix(const LedLibrary& library, const std::string& target
                     {"cct_K", summary.rendering.cct_K},
                     {"camera_de00_mean", summary.camera_de00.mean},
                     {"camera_de00_max", summary.camera_de00.max}};
-  solved.summary = (w57_alone ? std::string("w57: the W57 level of the w57+blue solve, other LEDs off. ") : std::string()) +
+  solved.summary = (w57_alone ? target + ": the W57 level of the w57+blue" + target.substr(3) + " solve, other LEDs off. "
+                              : std::string()) +
                    summary.BriefReport();
   return solved;
 }

@@ -394,6 +394,39 @@ const std::vector<Key>& estimation_keys() {
   return keys;
 }
 
+void read_section(const json& value, const std::vector<Key>& keys, const std::string& section, DaemonConfig& config);
+
+const std::vector<Key>& capture_keys() {
+  static const std::vector<Key> keys = {
+      bool_key("exposure_per_capture", [](DaemonConfig& c) -> auto& { return c.capture.exposure_per_capture; }),
+      number_key("white_share", 0, 1, true, [](DaemonConfig& c) -> auto& { return c.capture.white_share; }),
+      unsigned_key("frames_per_capture", 1, session::kMaxFramesPerCamera,
+                   [](DaemonConfig& c) -> auto& { return c.capture.frames_per_capture; }),
+      number_key("blue_ratio", 0, 100, false, [](DaemonConfig& c) -> auto& { return c.capture.blue_ratio; }),
+  };
+  return keys;
+}
+
+const std::vector<Key>& hazard_keys() {
+  static const std::vector<Key> keys = {
+      number_key("w57_full_drive_irradiance_W_per_m2", 0, 1e5, true,
+                 [](DaemonConfig& c) -> auto& { return c.hazard.w57_full_drive_irradiance_W_per_m2; }),
+      number_key("limit_J_per_m2_sr", 0, 1e12, true, [](DaemonConfig& c) -> auto& { return c.hazard.limit_J_per_m2_sr; }),
+      number_key("frame_allowance_ms", 0, 60000, false, [](DaemonConfig& c) -> auto& { return c.hazard.frame_allowance_ms; }),
+  };
+  return keys;
+}
+
+// A section of keys ("estimation", "capture", "hazard"): read and checked key by key.
+Key section_key(std::string name, const std::vector<Key>& (*keys)()) {
+  return {name, [=](const json& v, DaemonConfig& c) { read_section(v, keys(), name, c); },
+          [=](const DaemonConfig& c) {
+            for (const auto& key : keys())
+              if (auto error = key.check(c); !error.empty()) return "." + key.name + ": " + error;
+            return std::string();
+          }};
+}
+
 void read_section(const json& value, const std::vector<Key>& keys, const std::string& section, DaemonConfig& config) {
   if (!value.is_object()) throw std::invalid_argument(shown(value) + " is not a JSON object");
   for (const auto& [name, item] : value.items()) {
@@ -476,12 +509,9 @@ const std::vector<Key>& top_level_keys() {
            }
        },
        [](const DaemonConfig&) { return std::string(); }},  // names: IsValid
-      {"estimation", [](const json& v, DaemonConfig& c) { read_section(v, estimation_keys(), "estimation", c); },
-       [](const DaemonConfig& c) {
-         for (const auto& key : estimation_keys())
-           if (auto error = key.check(c); !error.empty()) return "." + key.name + ": " + error;
-         return std::string();
-       }},
+      section_key("estimation", estimation_keys),
+      section_key("capture", capture_keys),
+      section_key("hazard", hazard_keys),
   };
   return keys;
 }
@@ -491,8 +521,10 @@ const std::vector<Key>& top_level_keys() {
 std::vector<std::string> config_key_names() {
   std::vector<std::string> names;
   for (const auto& key : top_level_keys())
-    if (key.name != "estimation") names.push_back(key.name);
+    if (key.name != "estimation" && key.name != "capture" && key.name != "hazard") names.push_back(key.name);
   for (const auto& key : estimation_keys()) names.push_back("estimation." + key.name);
+  for (const auto& key : capture_keys()) names.push_back("capture." + key.name);
+  for (const auto& key : hazard_keys()) names.push_back("hazard." + key.name);
   return names;
 }
 

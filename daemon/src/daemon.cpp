@@ -120,6 +120,10 @@ drivers::DriveLevels Daemon::resolve_mix(const std::string& mix) const {
   if (auto solved = calibrations_->solved_mix(mix)) return *solved;
   auto found = config_.mixes.find(mix);
   if (found != config_.mixes.end()) return found->second;
+  // "w57:R": W57 alone as in "w57+blue:R", whose W57 level is the configured w57+blue's.
+  if (mix.rfind("w57:", 0) == 0) {
+    if (auto base = config_.mixes.find("w57"); base != config_.mixes.end()) return base->second;
+  }
   // "w57+blue:R": the blue level scaled by R relative to the configured w57+blue.
   const std::string prefix = "w57+blue:";
   if (mix.rfind(prefix, 0) == 0) {
@@ -132,6 +136,36 @@ drivers::DriveLevels Daemon::resolve_mix(const std::string& mix) const {
     }
   }
   throw std::invalid_argument("mix \"" + mix + "\": no weights for it (configure \"mixes\" or run a calibration)");
+}
+
+session::CaptureSources Daemon::light_sources() const {
+  std::string library = config_.estimation.led_library;
+  if (library.empty()) library = calibrations_->library_path();
+  if (library.empty()) library = config_.led_library.string();
+  return session::resolve_capture_sources(library, config_.estimation.camera_sensitivity,
+                                          config_.estimation.white_reflectance);
+}
+
+session::PlanHazard Daemon::plan_hazard(const session::SessionPlan& plan,
+                                        const std::map<std::string, double>& exposure_us_of_step) const {
+  const session::CaptureSources sources = light_sources();
+  auto levels = [this](const session::Step& step) {
+    switch (step.illumination.kind) {
+      case session::Illumination::Kind::kDark: return drivers::DriveLevels{};
+      case session::Illumination::Kind::kWeights: return step.illumination.weights;
+      case session::Illumination::Kind::kMix: return resolve_mix(step.illumination.mix);
+    }
+    return drivers::DriveLevels{};
+  };
+  return session::plan_blue_light_hazard(plan, levels, sources.led_library, config_.hazard, exposure_us_of_step);
+}
+
+session::StandardPlanOptions Daemon::standard_plan_options() const {
+  session::StandardPlanOptions options;
+  options.frames_per_camera = config_.capture.frames_per_capture;
+  options.blue_ratio = config_.capture.blue_ratio;
+  if (config_.capture.exposure_per_capture) options.meter_white_share = config_.capture.white_share;
+  return options;
 }
 
 session::OperationRecord Daemon::start_calibration(const CalibrationRequest& request) {
@@ -155,6 +189,9 @@ session::OperationRecord Daemon::start_session(session::SessionPlan plan, const 
         throw std::invalid_argument("plan.steps[" + std::to_string(i) + "].mix: " + failure.what());
       }
     }
+  const session::PlanHazard hazard = plan_hazard(plan);
+  if (!hazard.within_limit())
+    throw std::invalid_argument(hazard.describe() + ": beyond the limit, refused (hazard.limit_J_per_m2_sr, docs/config.md)");
   std::string led_error;
   auto* led = devices_.led_controller("", &led_error);
   if (!led) throw std::runtime_error("LED controller: " + led_error);
@@ -183,6 +220,10 @@ session::OperationRecord Daemon::start_session(session::SessionPlan plan, const 
     auto created = store_.create(plan, subject, devices);
     const std::uint64_t expected = plan.frames_per_camera_total() * devices_.cameras.size();
     created.journal->append({{"type", "session_started"}, {"expected_frames", expected}});
+    nlohmann::json hazard_record = hazard.to_json();
+    hazard_record["type"] = "blue_light_hazard";
+    hazard_record["exposures"] = "planned (metered steps: their first guess; checked again once metered)";
+    created.journal->append(hazard_record);
 
     session::OperationRecord record;
     record.id = created.id;
@@ -252,6 +293,30 @@ OperationRunner::Outcome Daemon::run_session(RunningOperation& running, const se
     for (auto& camera : devices_.cameras) context.cameras.push_back(camera.get());
     context.resolve_mix = [this](const std::string& mix) { return resolve_mix(mix); };
     context.place_in_sphere = devices_.place_in_sphere;
+    try {
+      const session::CaptureSources sources = light_sources();
+      context.predict_white_rgb = [sources](const drivers::DriveLevels& drive) -> std::optional<std::array<double, 3>> {
+        spectral::Spectrum light;
+        for (auto type : spectral::kAllLedTypes)
+          light += sources.led_library.led(type).spectrum_per_unit_drive() *
+                   drive[static_cast<std::size_t>(spectral::led_type_index(type))];
+        std::array<double, 3> rgb{};
+        for (int c = 0; c < 3; ++c) rgb[c] = (sources.camera.rgb[c].values() * light.values()).sum() * sources.white_reflectance;
+        return rgb;
+      };
+    } catch (const std::exception&) {
+      // No library or camera data: metering starts from the plan's exposure each time.
+    }
+    context.check_hazard = [this, plan, journal](const std::map<std::string, double>& exposures) {
+      const session::PlanHazard metered = plan_hazard(plan, exposures);
+      nlohmann::json record = metered.to_json();
+      record["type"] = "blue_light_hazard";
+      record["exposures"] = "metered";
+      journal->append(record);
+      return metered.within_limit() ? std::string()
+                                    : metered.describe() + ": beyond the limit with the metered exposures, refused "
+                                                           "before the subject's first frame (hazard.limit_J_per_m2_sr)";
+    };
     context.frame_timeout_ms = config_.frame_timeout_ms;
     context.frame_attempts = config_.frame_attempts;
     try {

@@ -1,8 +1,10 @@
 #include "chromo/daemon/sequencer.hpp"
 
+#include <algorithm>
 #include <condition_variable>
 #include <thread>
 
+#include "chromo/daemon/exposure_metering.hpp"
 #include "chromo/drivers/device_error.hpp"
 
 namespace chromo::daemon {
@@ -39,6 +41,11 @@ struct CameraCollector {
   session::FrameRecord pending;  // the frame being taken: step, LED state, exposure (camera fields come with it)
   std::chrono::steady_clock::time_point trigger_time;
   bool streaming = false;  // sequencer thread only
+  double exposure_us = -1;  // configured (sequencer thread only)
+  bool metering = false;    // the frame being taken is a metering frame: kept here, not stored
+  FrameLevels metered;      // levels of the last metering frame
+  std::string metering_error;
+  std::array<double, 3> dark{};  // mean dark level per channel (share of full scale), from the dark step's frames
 };
 
 class Run {
@@ -105,7 +112,18 @@ class Run {
                           {"exposure_us", step.exposure_us}, {"settle_ms", step.settle_ms},
                           {"timing", session::timing_name(c_.plan.timing)}});
       if (!c_.control->sleep_unless_cancelled(std::chrono::milliseconds(step.settle_ms))) return cancelled();
-      if (!ensure_exposure(step.exposure_us)) return cancelled();
+      if (step.role == session::StepRole::kSubject && !hazard_checked_) {
+        hazard_checked_ = true;
+        if (c_.check_hazard) {
+          const std::string refusal = c_.check_hazard(known_exposures());
+          if (!refusal.empty()) {
+            c_.journal->append({{"type", "hazard_refused"}, {"step", step.name}, {"message", refusal}});
+            return {session::OperationState::kFailed, refusal};
+          }
+        }
+      }
+      if (step.meter_white_share > 0 && !meter(step, static_cast<int>(index), levels)) return cancelled();
+      if (!ensure_exposure(exposures_of(step))) return cancelled();
       for (std::uint32_t frame = 0; frame < step.frames_per_camera; ++frame) {
         if (c_.control->cancel_requested()) return cancelled();
         session::FrameRecord pending;
@@ -115,7 +133,7 @@ class Run {
         pending.frame_in_step = frame;
         pending.exposure_us = step.exposure_us;
         pending.led = led;
-        if (!take_frame(step, static_cast<int>(index), frame, pending)) return cancelled();
+        if (!take_frame(step, static_cast<int>(index), frame, pending, false)) return cancelled();
         if (auto error = c_.pipeline->storage_error(); !error.empty()) return {session::OperationState::kFailed, error};
         frames_done_ += c_.cameras.size();
         report_progress();
@@ -130,7 +148,8 @@ class Run {
 
   // Triggers every camera and waits for one complete frame from each;
   // retries failed frames. False when cancelled.
-  bool take_frame(const session::Step& step, int index, std::uint32_t frame_in_step, const session::FrameRecord& pending) {
+  bool take_frame(const session::Step& step, int index, std::uint32_t frame_in_step, const session::FrameRecord& pending,
+                  bool metering) {
     for (auto& collector : collectors_) {
       std::uint32_t attempts = 0;
       while (true) {
@@ -140,6 +159,9 @@ class Run {
           std::lock_guard lock(collector->mutex);
           collector->pending = pending;
           collector->pending.camera = collector->camera->config.name;
+          collector->pending.exposure_us = collector->exposure_us;
+          collector->metering = metering;
+          collector->metering_error.clear();
           collector->trigger_time = std::chrono::steady_clock::now();
           before = collector->delivered;
         }
@@ -152,10 +174,15 @@ class Run {
         }
         if (failure.empty()) {
           std::unique_lock lock(collector->mutex);
-          auto deadline = std::chrono::steady_clock::now() + std::chrono::microseconds(static_cast<long long>(step.exposure_us)) +
+          auto deadline = std::chrono::steady_clock::now() +
+                          std::chrono::microseconds(static_cast<long long>(collector->exposure_us)) +
                           std::chrono::milliseconds(c_.frame_timeout_ms);
           bool got = collector->arrived.wait_until(lock, deadline, [&] { return collector->delivered > before; });
-          if (got && collector->last_status == drivers::FrameStatus::kComplete) break;
+          if (got && collector->last_status == drivers::FrameStatus::kComplete) {
+            if (metering && !collector->metering_error.empty())
+              throw std::runtime_error("camera \"" + collector->camera->config.name + "\": " + collector->metering_error);
+            break;
+          }
           failure = got ? frame_status_reason(collector->last_status) : "no frame within the timeout";
           if (!got) {
             lock.unlock();
@@ -252,19 +279,24 @@ class Run {
   }
 
   // Cameras take settings only while they do not stream (AravisCamera): when
-  // a step's exposure differs from the one configured, the streams stop, the
+  // a camera's exposure differs from the one configured, the streams stop, the
   // cameras are configured, the streams start again. A camera that does not
   // answer pauses the session naming it; resume retries. False when cancelled.
-  bool ensure_exposure(double exposure_us) {
-    if (exposure_us == configured_exposure_us_) return true;
+  // exposure_us: one per camera (collectors_ order).
+  bool ensure_exposure(const std::vector<double>& exposure_us) {
+    bool same = true;
+    for (std::size_t k = 0; k < collectors_.size(); ++k) same = same && collectors_[k]->exposure_us == exposure_us[k];
+    if (same) return true;
     while (true) {
       if (c_.control->cancel_requested()) return false;
       std::string failing, failure;
       try {
         stop_streams();
-        for (auto& collector : collectors_) {
-          failing = collector->camera->config.name;
-          configure_camera(*collector->camera, exposure_us);
+        for (std::size_t k = 0; k < collectors_.size(); ++k) {
+          failing = collectors_[k]->camera->config.name;
+          collectors_[k]->exposure_us = -1;
+          configure_camera(*collectors_[k]->camera, exposure_us[k]);
+          collectors_[k]->exposure_us = exposure_us[k];
         }
         for (auto& collector : collectors_) {
           failing = collector->camera->config.name;
@@ -273,7 +305,6 @@ class Run {
           collector->camera->device->start_stream([this, raw](drivers::Frame&& frame) { on_frame(*raw, std::move(frame)); });
           collector->streaming = true;
         }
-        configured_exposure_us_ = exposure_us;
         return true;
       } catch (const DeviceError& error) {
         if (!is_unanswered(error)) throw;
@@ -283,6 +314,112 @@ class Run {
       c_.control->pause_by_daemon();
       if (!pause_point("camera \"" + failing + "\" does not answer (" + failure + "); resume to retry")) return false;
     }
+  }
+
+  // The exposure of each camera for a step: metered (its own or exposure_from's), else the plan's.
+  std::vector<double> exposures_of(const session::Step& step) const {
+    const std::string& metered_at = step.meter_white_share > 0 ? step.name : step.exposure_from;
+    if (!metered_at.empty()) {
+      auto found = metered_.find(metered_at);
+      if (found == metered_.end())
+        throw std::logic_error("step " + step.name + ": no exposure metered at step " + metered_at);
+      return found->second;
+    }
+    return std::vector<double>(collectors_.size(), step.exposure_us);
+  }
+
+  // Every step's exposure as far as known (metered steps: the longest over the cameras).
+  std::map<std::string, double> known_exposures() const {
+    std::map<std::string, double> out;
+    for (const auto& step : c_.plan.steps) {
+      const std::string& metered_at = step.meter_white_share > 0 ? step.name : step.exposure_from;
+      auto found = metered_.find(metered_at);
+      if (!metered_at.empty() && found != metered_.end())
+        out[step.name] = *std::max_element(found->second.begin(), found->second.end());
+    }
+    return out;
+  }
+
+  // Meters the white of a step (see sequencer.hpp): sets metered_[step.name].
+  bool meter(const session::Step& step, int index, const DriveLevels& levels) {
+    constexpr int kMaxMeteringFrames = 6;
+    const std::optional<std::array<double, 3>> predicted =
+        c_.predict_white_rgb ? c_.predict_white_rgb(levels) : std::nullopt;
+    std::vector<double> exposure(collectors_.size(), step.exposure_us);
+    std::vector<MeteringTarget> targets(collectors_.size());
+    for (std::size_t k = 0; k < collectors_.size(); ++k) {
+      auto& camera = *collectors_[k]->camera;
+      drivers::CameraInfo info;
+      {
+        std::lock_guard lock(camera.mutex);
+        info = camera.device->info();
+      }
+      targets[k].white_share = step.meter_white_share;
+      targets[k].dark = collectors_[k]->dark;
+      if (info.exposure_min_us > 0) targets[k].min_exposure_us = info.exposure_min_us;
+      targets[k].max_exposure_us = info.exposure_max_us > 0 ? std::min(info.exposure_max_us, session::kMaxExposureUs)
+                                                            : session::kMaxExposureUs;
+      if (predicted && last_metered_prediction_ && !last_metered_exposure_.empty()) {
+        const double now = *std::max_element(predicted->begin(), predicted->end());
+        const double before = *std::max_element(last_metered_prediction_->begin(), last_metered_prediction_->end());
+        if (now > 0 && before > 0)
+          exposure[k] = last_metered_exposure_[k] * (before / now) * (step.meter_white_share / last_metered_share_);
+      }
+      exposure[k] = std::clamp(exposure[k], targets[k].min_exposure_us, targets[k].max_exposure_us);
+    }
+    const std::vector<double> first_guess = exposure;
+    std::vector<bool> done(collectors_.size(), false), at_limit(collectors_.size(), false);
+    std::vector<int> frames(collectors_.size(), 0);
+    std::vector<double> reached(collectors_.size(), 0), measured_at(collectors_.size(), 0);
+    for (int attempt = 0; attempt < kMaxMeteringFrames; ++attempt) {
+      if (!ensure_exposure(exposure)) return false;
+      session::FrameRecord pending;
+      pending.step = step.name;
+      pending.step_index = index;
+      pending.role = step.role;
+      if (!take_frame(step, index, 0, pending, true)) return false;
+      bool all_done = true;
+      for (std::size_t k = 0; k < collectors_.size(); ++k) {
+        if (done[k]) continue;
+        ++frames[k];
+        const FrameLevels& seen = collectors_[k]->metered;
+        reached[k] = seen.mean[seen.brightest_channel()];
+        const MeteringDecision d = next_metering_exposure(exposure[k], seen, targets[k]);
+        if (d.at_limit) at_limit[k] = true;
+        measured_at[k] = exposure[k];
+        done[k] = d.done;
+        // Within the tolerance: the last small correction is applied too.
+        if (!d.at_limit) exposure[k] = d.next_exposure_us;
+        all_done = all_done && done[k];
+      }
+      if (all_done) break;
+    }
+    for (std::size_t k = 0; k < collectors_.size(); ++k) {
+      c_.journal->append({{"type", "exposure_metered"},
+                          {"step", step.name},
+                          {"camera", collectors_[k]->camera->config.name},
+                          {"exposure_us", exposure[k]},
+                          {"first_guess_us", first_guess[k]},
+                          {"white_share", reached[k]},
+                          {"white_share_measured_at_us", measured_at[k]},
+                          {"target_share", step.meter_white_share},
+                          {"metering_frames", frames[k]},
+                          {"converged", static_cast<bool>(done[k])},
+                          {"at_limit", static_cast<bool>(at_limit[k])}});
+      if (at_limit[k])
+        report_message("step " + step.name + ": camera \"" + collectors_[k]->camera->config.name +
+                       "\": the white reaches " + std::to_string(reached[k]) + " of full scale at the exposure limit " +
+                       std::to_string(exposure[k]) + " us (target " + std::to_string(step.meter_white_share) + ")");
+    }
+    metered_[step.name] = exposure;
+    last_metered_exposure_ = exposure;
+    last_metered_prediction_ = predicted;
+    last_metered_share_ = step.meter_white_share;
+    return true;
+  }
+
+  void report_message(const std::string& message) {
+    update([&](session::OperationRecord& r) { r.message = message; });
   }
 
   void stop_streams() {
@@ -301,6 +438,37 @@ class Run {
       std::lock_guard lock(collector.mutex);
       captured.record = collector.pending;
       captured.trigger_time = collector.trigger_time;
+    }
+    bool metering = false;
+    {
+      std::lock_guard lock(collector.mutex);
+      metering = collector.metering;
+    }
+    if (complete && metering) {
+      FrameLevels levels;
+      std::string error;
+      try {
+        levels = frame_levels(frame.data, frame.width, frame.height, frame.pixel_format);
+      } catch (const std::exception& failure) {
+        error = failure.what();
+      }
+      std::lock_guard lock(collector.mutex);
+      collector.metered = levels;
+      collector.metering_error = error;
+      collector.last_status = drivers::FrameStatus::kComplete;
+      ++collector.delivered;
+      collector.arrived.notify_all();
+      return;
+    }
+    if (complete && captured.record.role == session::StepRole::kDark) {
+      try {  // the dark level the metering subtracts (the mean over the dark step's frames)
+        const FrameLevels levels = frame_levels(frame.data, frame.width, frame.height, frame.pixel_format);
+        std::lock_guard lock(collector.mutex);
+        const double n = static_cast<double>(captured.record.frame_in_step);
+        for (int c = 0; c < 3; ++c) collector.dark[c] = (collector.dark[c] * n + levels.mean[c]) / (n + 1);
+      } catch (const std::exception&) {
+        // A frame the pipeline will refuse anyway; the metering then assumes no dark level.
+      }
     }
     if (complete) {
       session::FrameRecord& r = captured.record;
@@ -390,7 +558,11 @@ class Run {
   std::vector<std::unique_ptr<CameraCollector>> collectors_;
   std::chrono::steady_clock::time_point start_;
   std::uint64_t expected_ = 0, frames_done_ = 0;
-  double configured_exposure_us_ = -1;
+  std::map<std::string, std::vector<double>> metered_;  // metered white step → exposure per camera
+  std::vector<double> last_metered_exposure_;
+  std::optional<std::array<double, 3>> last_metered_prediction_;
+  double last_metered_share_ = 1;
+  bool hazard_checked_ = false;
 };
 
 }  // namespace

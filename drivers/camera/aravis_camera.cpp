@@ -238,6 +238,10 @@ struct AravisCamera::Impl {
     for (guint i = 0; i < n_formats; ++i)
       if (auto format = from_arv(static_cast<ArvPixelFormat>(formats[i]))) fresh.pixel_formats.push_back(*format);
     g_free(formats);
+    double exposure_min = 0, exposure_max = 0;
+    arv_camera_get_exposure_time_bounds(camera, &exposure_min, &exposure_max, error.out());
+    if (error) fail("read ExposureTime bounds", error);
+    fresh.exposure_min_us = exposure_min, fresh.exposure_max_us = exposure_max;
     info = std::move(fresh);
   }
 

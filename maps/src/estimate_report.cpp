@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <limits>
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -72,6 +74,33 @@ std::string neighbourhood_report_json(bool flags, bool order_pooling, const esti
                                 {"order_changed_to_4", summary.order_to_4},
                                 {"order_changed_to_2", summary.order_to_2}}
       .dump();
+}
+
+std::vector<ChannelSnr> channel_snr(const estimation::MeasurementSet& set, std::span<const float> measured,
+                                    std::span<const estimation::PixelEstimate> estimates, double white_reflectance) {
+  const std::size_t channels = static_cast<std::size_t>(set.size());
+  std::vector<double> sum(channels, 0.0);
+  std::size_t skin = 0;
+  for (std::size_t i = 0; i < estimates.size() && (i + 1) * channels <= measured.size(); ++i) {
+    if (estimates[i].flag != estimation::PixelFlag::kExplained) continue;
+    bool finite = true;
+    for (std::size_t c = 0; c < channels; ++c) finite = finite && std::isfinite(measured[i * channels + c]);
+    if (!finite) continue;
+    for (std::size_t c = 0; c < channels; ++c) sum[c] += measured[i * channels + c];
+    ++skin;
+  }
+  std::vector<ChannelSnr> out;
+  for (std::size_t c = 0; c < channels; ++c) {
+    const auto& noise = set.channels[c].noise;
+    ChannelSnr r;
+    r.channel = set.channels[c].name;
+    r.white = white_reflectance / std::sqrt(noise.variance(white_reflectance));
+    r.skin_pixels = skin;
+    r.skin_albedo = skin ? sum[c] / static_cast<double>(skin) : std::numeric_limits<double>::quiet_NaN();
+    r.skin = skin ? r.skin_albedo / std::sqrt(noise.variance(r.skin_albedo)) : std::numeric_limits<double>::quiet_NaN();
+    out.push_back(std::move(r));
+  }
+  return out;
 }
 
 std::string write_estimate_report(const fs::path& dir, const EstimateReport& report, const FileCommit& commit) {
@@ -285,6 +314,14 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
                      {"shot_coefficient", c.noise.shot_coefficient},
                      {"saturation_albedo", c.noise.saturation_albedo}};
   extra["noise"] = noise;
+  nlohmann::ordered_json snr = nlohmann::ordered_json::object();
+  for (const auto& c : channel_snr(m.set, m.measured, estimates, captures.white_reflectance))
+    snr[c.channel] = {{"white", c.white}, {"skin", c.skin}, {"skin_albedo", c.skin_albedo}, {"skin_pixels", c.skin_pixels}};
+  extra["snr"] = snr;
+  nlohmann::ordered_json exposures = nlohmann::ordered_json::array();
+  for (const auto& e : m.exposures)
+    exposures.push_back({{"capture", e.capture}, {"exposure_us", e.exposure_us}, {"frames", e.frames}});
+  extra["captures"] = exposures;
   extra["saturated_pixels"] = m.saturated_pixels;
   extra["neighbourhood"] = nlohmann::ordered_json::parse(
       neighbourhood_report_json(options.neighbourhood.flags, options.neighbourhood.pool_order, neighbourhood));

@@ -69,6 +69,8 @@ Status from_proto(const pb::SessionPlan& plan, const std::string& field, session
     step.settle_ms = s.settle_ms();
     step.exposure_us = s.exposure_us();
     step.frames_per_camera = s.frames_per_camera();
+    step.meter_white_share = s.meter_white_share();
+    step.exposure_from = s.exposure_from();
     step.prompt = s.prompt();
     out->steps.push_back(std::move(step));
   }
@@ -92,6 +94,8 @@ void to_proto(const session::SessionPlan& plan, pb::SessionPlan* out) {
     s->set_settle_ms(step.settle_ms);
     s->set_exposure_us(step.exposure_us);
     s->set_frames_per_camera(step.frames_per_camera);
+    s->set_meter_white_share(step.meter_white_share);
+    s->set_exposure_from(step.exposure_from);
     s->set_prompt(step.prompt);
   }
 }

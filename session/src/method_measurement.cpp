@@ -103,43 +103,66 @@ Normalised normalise(const IlluminatedCapture& capture, const Reference& referen
 struct References {
   Reference broadband, base, with_blue;
   estimation::MeasurementSet set;
+  double base_to_mix = 1;  // s = t_mix / t_W57: the W57 capture's signals on the mix's exposure
 };
+
+double frames_of(const RgbImage& image) { return std::max<double>(1.0, static_cast<double>(image.frames)); }
+
+// A subject and its white reference at one exposure (their ratio is the albedo).
+void check_same_exposure(const IlluminatedCapture& capture) {
+  const double w = capture.white.exposure_us, s = capture.subject.exposure_us;
+  if (w > 0 && s > 0 && std::abs(w - s) > 1e-6 * std::max(w, s))
+    throw std::invalid_argument("subject under " + capture.name + ": taken at " + std::to_string(s) +
+                                " us, its white reference at " + std::to_string(w) +
+                                " us; the albedo needs both at one exposure");
+}
 
 References references_of(const MethodCaptures& captures) {
   const RgbImage& dark = captures.dark;
   check_image(dark, dark, "dark capture");
   const double rho = captures.white_reflectance;
   if (!(rho > 0 && rho <= 1)) throw std::invalid_argument("white_reflectance: must be in (0, 1]");
+  for (const auto* capture : {&captures.broadband, &captures.base, &captures.with_blue}) check_same_exposure(*capture);
   References r{reference_of(captures.broadband, dark), reference_of(captures.base, dark),
                reference_of(captures.with_blue, dark), {}};
-  std::array<double, 3> dark_variance{}, dark_mean{};
+  const double t_mix = captures.with_blue.white.exposure_us, t_base = captures.base.white.exposure_us;
+  if (t_mix > 0 && t_base > 0) r.base_to_mix = t_mix / t_base;
+  const double s = r.base_to_mix;
+  std::array<double, 3> dark_variance{}, dark_mean{}, read_variance{};
   for (int c = 0; c < 3; ++c) {
     dark_variance[c] = flat_noise_variance(dark.planes[c], dark.width, dark.height);
     dark_mean[c] = mean_of(dark.planes[c]);
+    read_variance[c] = dark_variance[c] * frames_of(dark);  // one frame's
   }
-  auto albedo_noise = [&](const Reference& k, int c) {
-    const double W = k.white_mean[c], Vd = dark_variance[c], Vw = k.white_variance[c];
+  // One frame's shot variance of capture k's white in channel c.
+  auto white_shot = [&](const Reference& k, const IlluminatedCapture& capture, int c) {
+    return std::max(k.white_variance[c] * frames_of(capture.white) - read_variance[c], 0.0);
+  };
+  auto albedo_noise = [&](const Reference& k, const IlluminatedCapture& capture, int c) {
+    const double W = k.white_mean[c], R = read_variance[c], Ns = frames_of(capture.subject);
     estimation::ChannelNoise noise;
-    noise.read_sigma = std::max(std::sqrt(Vd) / W, 1e-5);
-    noise.shot_coefficient = std::max(2 * Vw - Vd, 0.0) / (W * W);
+    noise.read_sigma = std::max(std::sqrt(R / Ns) / W, 1e-5);
+    noise.shot_coefficient = (white_shot(k, capture, c) / Ns + k.white_variance[c]) / (W * W);
     noise.saturation_albedo = rho * (1.0 - dark_mean[c]) / W;
     return noise;
   };
-  const double D = r.with_blue.white_mean[2] - r.base.white_mean[2];
+  const double D = r.with_blue.white_mean[2] - s * r.base.white_mean[2];
   if (!(D > 1e-3))
     throw std::invalid_argument("W57+blue − W57: the white reference's B channel gains " + std::to_string(D) +
                                 " of full scale; the blue-only response needs more blue in the W57+blue mix");
   r.set.camera = captures.camera;
   for (int c = 0; c < 3; ++c)
     r.set.channels.push_back({"D65'." + std::string(kChannelNames[c]), captures.broadband.illuminant, c,
-                              albedo_noise(r.broadband, c)});
+                              albedo_noise(r.broadband, captures.broadband, c)});
   spectral::Spectrum blue_illuminant = captures.with_blue.illuminant - captures.base.illuminant;
   blue_illuminant = spectral::Spectrum(blue_illuminant.values().max(0.0));
   estimation::ChannelNoise blue_noise;
-  const double Vd = dark_variance[2], Vm = r.with_blue.white_variance[2], Vb = r.base.white_variance[2];
-  blue_noise.read_sigma =
-      std::max(std::sqrt(2 * Vd + 0.5 * (std::max(Vm - Vd, 0.0) + std::max(Vb - Vd, 0.0))) / D, 1e-5);
-  blue_noise.shot_coefficient = (Vm + Vb) / (D * D);
+  const double R = read_variance[2];
+  const double subject_variance =
+      (R + 0.5 * white_shot(r.with_blue, captures.with_blue, 2)) / frames_of(captures.with_blue.subject) +
+      s * s * (R + 0.5 * white_shot(r.base, captures.base, 2)) / frames_of(captures.base.subject);
+  blue_noise.read_sigma = std::max(std::sqrt(subject_variance) / D, 1e-5);
+  blue_noise.shot_coefficient = (r.with_blue.white_variance[2] + s * s * r.base.white_variance[2]) / (D * D);
   blue_noise.saturation_albedo = rho * (1.0 - dark_mean[2]) / D;
   r.set.channels.push_back({"blue.B", blue_illuminant, 2, blue_noise});
   r.set.validate();
@@ -278,7 +301,9 @@ MethodMeasurement build_method_measurement(const MethodCaptures& captures, const
   for (std::size_t i = 0; i < n; ++i) {
     float* out = &m.measured[i * channels];
     for (int c = 0; c < 3; ++c) out[c] = broadband.albedo[c][i];
-    const float wm = references.with_blue.white_signal[2][i], wb = references.base.white_signal[2][i];
+    const float wm = references.with_blue.white_signal[2][i];
+    const float wb = references.base_to_mix == 1 ? references.base.white_signal[2][i]
+                                                 : static_cast<float>(references.base_to_mix * references.base.white_signal[2][i]);
     const float difference = wm - wb;
     out[3] = difference > 1e-3f ? (with_blue.albedo[2][i] * wm - base.albedo[2][i] * wb) / difference : kNaN;
     if (broadband.saturated[i] || base.saturated[i] || with_blue.saturated[i]) {
@@ -289,6 +314,11 @@ MethodMeasurement build_method_measurement(const MethodCaptures& captures, const
     }
   }
 
+  m.exposures.push_back({"dark", dark.exposure_us, dark.frames});
+  for (const IlluminatedCapture* capture : {&captures.broadband, &captures.base, &captures.with_blue}) {
+    m.exposures.push_back({"white " + capture->name, capture->white.exposure_us, capture->white.frames});
+    m.exposures.push_back({"subject " + capture->name, capture->subject.exposure_us, capture->subject.frames});
+  }
   const std::pair<const Normalised*, const IlluminatedCapture*> photographed[] = {
       {&broadband, &captures.broadband}, {&base, &captures.base}, {&with_blue, &captures.with_blue}};
   for (const auto& [k, capture] : photographed) {

@@ -18,6 +18,7 @@ namespace {
 
 std::string mix_key(const std::string& mix) {
   if (mix == "d65" || mix == "w57") return mix;
+  if (mix.rfind("w57:", 0) == 0) return "w57";
   if (mix == "w57+blue" || mix.rfind("w57+blue:", 0) == 0) return "w57+blue";
   return {};
 }
@@ -107,7 +108,11 @@ bool SessionCaptureBuilder::add_frame(const FrameRecord& record, std::span<const
                     record.led->drive[static_cast<std::size_t>(spectral::led_type_index(type))];
   }
   StepSum& s = steps_[key->second];
+  if (s.frames.frames() > 0 && record.exposure_us != s.exposure_us)
+    throw std::invalid_argument("step " + step + ": a frame at " + std::to_string(record.exposure_us) +
+                                " us among frames at " + std::to_string(s.exposure_us) + " us (camera " + camera_ + ")");
   s.frames.add(record, samples);  // checks the size and that the step's frames agree
+  s.exposure_us = record.exposure_us;
   s.illuminant_sum += illuminant;
   return true;
 }
@@ -139,6 +144,8 @@ RgbImage SessionCaptureBuilder::mean_image(const StepSum& s) const {
   if (f.frames() == 0) return image;
   const bool bayer = f.format().layout == drivers::ColourLayout::kBayerRGGB;
   image.width = bayer ? f.width() / 2 : f.width(), image.height = bayer ? f.height() / 2 : f.height();
+  image.frames = f.frames();
+  image.exposure_us = s.exposure_us;
   const auto pixels = static_cast<std::size_t>(image.width) * static_cast<std::size_t>(image.height);
   for (auto& plane : image.planes) plane.resize(pixels);
   for (int y = 0; y < image.height; ++y)

@@ -1,6 +1,7 @@
 #include "chromo/session/session_plan.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <set>
 #include <stdexcept>
 
@@ -17,7 +18,7 @@ bool is_valid_name(const std::string& name) {
 
 bool is_valid_mix(const std::string& mix) {
   if (mix == "d65" || mix == "w57" || mix == "w57+blue") return true;
-  const std::string prefix = "w57+blue:";
+  const std::string prefix = mix.rfind("w57:", 0) == 0 ? "w57:" : "w57+blue:";
   if (mix.rfind(prefix, 0) != 0 || mix.size() > prefix.size() + 16) return false;
   try {
     std::size_t used = 0;
@@ -58,9 +59,28 @@ bool SessionPlan::IsValid(std::string* error) const {
                       ": must be in [0, 1], got " + std::to_string(level));
       }
     } else if (step.illumination.kind == Illumination::Kind::kMix && !is_valid_mix(step.illumination.mix)) {
-      return fail(field + "mix: must be d65, w57, w57+blue or w57+blue:R with R in (0, 100], got \"" +
+      return fail(field + "mix: must be d65, w57, w57+blue, w57+blue:R or w57:R with R in (0, 100], got \"" +
                   step.illumination.mix.substr(0, 80) + "\"");
     }
+    if (!(step.meter_white_share >= 0 && step.meter_white_share <= 1))
+      return fail(field + "meter_white_share: must be in (0, 1] (0: not metered), got " +
+                  std::to_string(step.meter_white_share));
+    if (step.meter_white_share > 0) {
+      if (step.role != StepRole::kWhite || step.illumination.kind == Illumination::Kind::kDark)
+        return fail(field + "meter_white_share: only a lit white step is metered (the white target is what is metered)");
+      if (!step.exposure_from.empty()) return fail(field + "exposure_from: a metered step meters its own exposure");
+    }
+    if (!step.exposure_from.empty()) {
+      bool found = false;
+      for (std::size_t j = 0; j < i; ++j)
+        found = found || (steps[j].name == step.exposure_from && steps[j].meter_white_share > 0);
+      if (!found)
+        return fail(field + "exposure_from: \"" + step.exposure_from.substr(0, 80) +
+                    "\" is not an earlier metered white step");
+    }
+    if (step.metered() && timing == Timing::kHardware)
+      return fail(field + "meter_white_share: exposure metering needs software timing (a hardware-timed plan arms "
+                          "every state before the first frame)");
   }
   return true;
 }
@@ -75,7 +95,9 @@ SessionPlan standard_plan(const StandardPlanOptions& options) {
   SessionPlan plan;
   plan.name = "standard";
   plan.timing = options.timing;
-  auto step = [&](std::string name, StepRole role, Illumination illumination, std::string prompt = {}) {
+  const bool metered = options.meter_white_share > 0;
+  auto step = [&](std::string name, StepRole role, Illumination illumination, std::string prompt = {},
+                  std::string exposure_from = {}) {
     Step s;
     s.name = std::move(name);
     s.role = role;
@@ -84,6 +106,10 @@ SessionPlan standard_plan(const StandardPlanOptions& options) {
     s.exposure_us = options.exposure_us;
     s.frames_per_camera = options.frames_per_camera;
     if (options.operator_prompts) s.prompt = std::move(prompt);
+    if (metered && !exposure_from.empty()) {
+      if (exposure_from == s.name) s.meter_white_share = options.meter_white_share;
+      else s.exposure_from = std::move(exposure_from);
+    }
     plan.steps.push_back(std::move(s));
   };
   auto mix = [](std::string name) {
@@ -92,13 +118,21 @@ SessionPlan standard_plan(const StandardPlanOptions& options) {
     illumination.mix = std::move(name);
     return illumination;
   };
+  char ratio[32] = "";
+  if (options.blue_ratio > 0) std::snprintf(ratio, sizeof ratio, ":%g", options.blue_ratio);
+  const std::string w57 = std::string("w57") + ratio, w57_blue = std::string("w57+blue") + ratio;
   step("dark", StepRole::kDark, Illumination{}, "Close the sphere (dark frame)");
-  step("white_d65", StepRole::kWhite, mix("d65"), "Place the white reference target");
-  step("white_w57", StepRole::kWhite, mix("w57"));
-  step("white_w57+blue", StepRole::kWhite, mix("w57+blue"));
-  step("subject_d65", StepRole::kSubject, mix("d65"), "Place the subject");
-  step("subject_w57", StepRole::kSubject, mix("w57"));
-  step("subject_w57+blue", StepRole::kSubject, mix("w57+blue"));
+  step("white_d65", StepRole::kWhite, mix("d65"), "Place the white reference target", "white_d65");
+  if (metered) {  // W57 takes the exposure metered under W57+blue: one exposure for the blue-only difference
+    step("white_w57+blue", StepRole::kWhite, mix(w57_blue), {}, "white_w57+blue");
+    step("white_w57", StepRole::kWhite, mix(w57), {}, "white_w57+blue");
+  } else {
+    step("white_w57", StepRole::kWhite, mix(w57));
+    step("white_w57+blue", StepRole::kWhite, mix(w57_blue));
+  }
+  step("subject_d65", StepRole::kSubject, mix("d65"), "Place the subject", "white_d65");
+  step("subject_w57", StepRole::kSubject, mix(w57), {}, "white_w57+blue");
+  step("subject_w57+blue", StepRole::kSubject, mix(w57_blue), {}, "white_w57+blue");
   return plan;
 }
 
@@ -122,6 +156,8 @@ nlohmann::json to_json(const SessionPlan& plan) {
                      {"exposure_us", step.exposure_us},
                      {"frames_per_camera", step.frames_per_camera}};
     if (!step.prompt.empty()) s["prompt"] = step.prompt;
+    if (step.meter_white_share > 0) s["meter_white_share"] = step.meter_white_share;
+    if (!step.exposure_from.empty()) s["exposure_from"] = step.exposure_from;
     switch (step.illumination.kind) {
       case Illumination::Kind::kDark: s["illumination"] = {{"dark", true}}; break;
       case Illumination::Kind::kMix: s["illumination"] = {{"mix", step.illumination.mix}}; break;
@@ -168,6 +204,13 @@ SessionPlan plan_from_json(const nlohmann::json& json) {
       step.exposure_us = s.at("exposure_us").get<double>();
       step.frames_per_camera = read_count(s, "frames_per_camera", 1);
       step.prompt = s.value("prompt", "");
+      if (s.contains("meter_white_share")) {
+        const auto& share = s.at("meter_white_share");
+        if (!share.is_number() || !std::isfinite(share.get<double>()))
+          throw std::invalid_argument("session plan: meter_white_share: " + share.dump().substr(0, 64) + " is not a number");
+        step.meter_white_share = share.get<double>();
+      }
+      step.exposure_from = s.value("exposure_from", "");
       const auto& illumination = s.at("illumination");
       if (illumination.contains("mix")) {
         step.illumination.kind = Illumination::Kind::kMix;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <optional>
 #include <stdexcept>
 
@@ -48,12 +49,15 @@ std::span<const std::uint8_t> bytes_of(const cv::Mat& m) {
 constexpr files::CacheFormat kCacheFormat{{'C', 'H', 'R', 'S', 'E', 'S', 'S', '1'}, kRenderedSessionVersion};
 
 std::uint64_t cache_key(const RenderedSessionOptions& o, const std::vector<SceneWeights>& weights,
-                        double exposure_us, const CameraModelOptions& camera) {
+                        const std::map<std::string, double>& exposures, const CameraModelOptions& camera) {
   files::Fnv1a h;
   h.add(kCacheFormat.magic);
   h.add(kCacheFormat.version);
-  for (int v : {o.sensor_width, o.sensor_height, o.scene_width, o.scene_height, o.window_x, o.window_y}) h.add(v);
-  h.add(o.seed), h.add(o.white_fill), h.add(o.noise_free), h.add(exposure_us);
+  for (int v : {o.sensor_width, o.sensor_height, o.scene_width, o.scene_height, o.window_x, o.window_y,
+                o.frames_per_capture})
+    h.add(v);
+  h.add(o.seed), h.add(o.white_fill), h.add(o.noise_free), h.add(o.exposure_per_capture), h.add(o.blue_ratio);
+  for (const auto& [step, exposure_us] : exposures) h.add(exposure_us);
   if (o.plan != "standard") h.add(o.plan.data(), o.plan.size());  // (the standard plan's keys as before)
   for (const auto& w : weights) h.add(w.data(), sizeof(double) * w.size());
   for (double v : {camera.quantum_scale_e_per_us, camera.full_well_e, camera.read_noise_e, camera.gain_e_per_dn,
@@ -104,6 +108,8 @@ void put_measurement(files::CacheWriter& w, const session::MethodMeasurement& m)
     w.put(r.result), w.put(r.motion_px), w.put(r.warped);
   }
   w.put<std::uint64_t>(m.saturated_pixels);
+  w.put<std::uint32_t>(static_cast<std::uint32_t>(m.exposures.size()));
+  for (const auto& e : m.exposures) put_string(w, e.capture), w.put(e.exposure_us), w.put(e.frames);
 }
 
 session::MethodMeasurement get_measurement(files::CacheReader& r) {
@@ -133,6 +139,15 @@ session::MethodMeasurement get_measurement(files::CacheReader& r) {
     m.registration.push_back(std::move(report));
   }
   m.saturated_pixels = r.get<std::uint64_t>();
+  const auto exposures = r.get<std::uint32_t>();
+  if (exposures > 16) throw std::runtime_error("bad exposure count");
+  for (std::uint32_t k = 0; k < exposures; ++k) {
+    session::MethodMeasurement::CaptureExposure e;
+    e.capture = get_string(r);
+    e.exposure_us = r.get<double>();
+    e.frames = r.get<std::uint32_t>();
+    m.exposures.push_back(std::move(e));
+  }
   return m;
 }
 
@@ -244,6 +259,8 @@ bool RenderedSessionOptions::IsValid(std::string* error) const {
   if (settle_ms > 60000) return fail("settle_ms: must be 0-60000");
   if (!(readout_ms >= 0 && readout_ms <= 10000)) return fail("readout_ms: must be 0-10000");
   if (!session::builtin_plan(plan)) return fail("plan: must be a built-in plan (standard, multispectral, multispectral+method)");
+  if (!(blue_ratio >= 0 && blue_ratio <= 100)) return fail("blue_ratio: must be in [0, 100] (0: the plain w57+blue mix)");
+  if (frames_per_capture < 1 || frames_per_capture > 64) return fail("frames_per_capture: must be in [1, 64]");
   return true;
 }
 
@@ -275,33 +292,48 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
     return o;
   }());
   out.library = lab_led_library();
-  // The plan's illumination states (one per subject step, in plan order):
-  // a mix solved as a calibrated daemon would, or the step's own weights.
   const CameraModel camera{CameraModelOptions{}};
   const CameraModelOptions& c = camera.options();
+
+  // The plan the daemon would run. The standard plan as chromod builds it
+  // (exposure per capture: its whites metered, `w57+blue:R`); another
+  // built-in plan as listed (each capture exposed for its own white).
   const bool standard = options.plan == "standard";
-  session::SessionPlan plan = *session::builtin_plan(options.plan);
+  session::StandardPlanOptions plan_options;
+  plan_options.frames_per_camera = static_cast<std::uint32_t>(options.frames_per_capture);
+  session::SessionPlan plan;
+  if (standard) {
+    plan_options.blue_ratio = options.blue_ratio;
+    if (options.exposure_per_capture) plan_options.meter_white_share = options.white_fill;
+    plan = session::standard_plan(plan_options);
+  } else {
+    plan = *session::builtin_plan(options.plan, plan_options);
+  }
   for (session::Step& step : plan.steps) step.settle_ms = options.settle_ms;
+
+  // The plan's illumination states (one per subject step, in plan order): a
+  // mix solved as a calibrated daemon would (keyed without its ":R"), or the
+  // step's own weights.
+  auto mix_of = [](const std::string& mix) { return mix.substr(0, mix.find(':')); };
+  auto state_name = [&](const session::Step& step) {
+    return step.illumination.kind == session::Illumination::Kind::kMix ? mix_of(step.illumination.mix)
+                                                                       : step.name.substr(step.name.find('_') + 1);
+  };
   std::vector<std::string> state_names;
   std::map<std::string, int> state_of_step;  // subject and white steps → state index
   for (const session::Step& step : plan.steps) {
     if (step.role != session::StepRole::kSubject) continue;
-    const std::string name = step.illumination.kind == session::Illumination::Kind::kMix
-                                 ? step.illumination.mix
-                                 : step.name.substr(std::string("subject_").size());
+    const std::string name = state_name(step);
     if (step.illumination.kind == session::Illumination::Kind::kMix)
-      out.mixes[name] = calibration::solve_session_mix(out.library, name, "camera", false).weights;
+      out.mixes[name] = calibration::solve_session_mix(out.library, step.illumination.mix, "camera", false).weights;
     else
       out.mixes[name] = step.illumination.weights;
     state_names.push_back(name);
   }
   for (const session::Step& step : plan.steps) {
     if (step.role == session::StepRole::kDark) continue;
-    const std::string name = step.illumination.kind == session::Illumination::Kind::kMix
-                                 ? step.illumination.mix
-                                 : step.name.substr(step.name.find('_') + 1);
     state_of_step[step.name] =
-        static_cast<int>(std::find(state_names.begin(), state_names.end(), name) - state_names.begin());
+        static_cast<int>(std::find(state_names.begin(), state_names.end(), state_name(step)) - state_names.begin());
   }
   std::vector<SceneWeights> weights;
   std::vector<cv::Vec3f> white_response;
@@ -312,25 +344,36 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
     weights.emplace_back(w);
     const Eigen::Vector3d white = w * white_target_reflectance().values().matrix();
     white_response.emplace_back(static_cast<float>(white[0]), static_cast<float>(white[1]), static_cast<float>(white[2]));
+    out.white_response[name] = {white[0], white[1], white[2]};
     brightest_of_state.push_back(white.maxCoeff());
     brightest = std::max(brightest, white.maxCoeff());
   }
-  auto exposure_for = [&](double white_dn_rate) {
-    return (options.white_fill * camera.max_dn() - c.black_level_dn) * c.gain_e_per_dn / (c.quantum_scale_e_per_us * white_dn_rate);
+  auto exposure_for = [&](double brightest_response) {
+    return (options.white_fill * camera.max_dn() - c.black_level_dn) * c.gain_e_per_dn /
+           (c.quantum_scale_e_per_us * brightest_response);
   };
-  // The standard plan: one exposure for every step (its brightest white at
-  // white_fill). Other plans: each state its own exposure (a capture of one
-  // LED type alone fills the scale as its own white allows), the dark at the
-  // longest.
+  // Each step's exposure. The standard plan: one exposure for every step
+  // (its brightest white at white_fill), or with exposure per capture each
+  // metered white at white_fill and the steps that take an earlier white's
+  // exposure at that. Other plans: each state its own exposure, the dark at
+  // the longest.
   out.exposure_us = exposure_for(brightest);
-  std::vector<double> state_exposure_us;
-  for (double b : brightest_of_state) state_exposure_us.push_back(standard ? out.exposure_us : exposure_for(b));
   double dark_exposure_us = out.exposure_us;
-  for (double e : state_exposure_us) dark_exposure_us = std::max(dark_exposure_us, e);
+  if (!standard)
+    for (double b : brightest_of_state) dark_exposure_us = std::max(dark_exposure_us, exposure_for(b));
+  for (session::Step& step : plan.steps) {
+    double exposure = out.exposure_us;
+    if (step.role == session::StepRole::kDark) exposure = dark_exposure_us;
+    else if (!standard) exposure = exposure_for(brightest_of_state[state_of_step.at(step.name)]);
+    else if (step.meter_white_share > 0) exposure = exposure_for(brightest_of_state[state_of_step.at(step.name)]);
+    else if (!step.exposure_from.empty()) exposure = out.exposure_us_of_step.at(step.exposure_from);
+    out.exposure_us_of_step[step.name] = exposure;
+    step.exposure_us = exposure;
+  }
   std::filesystem::path cached;
   std::uint64_t key = 0;
   if (!options.cache_dir.empty() && !options.motion.enabled) {
-    key = cache_key(options, weights, out.exposure_us, c);
+    key = cache_key(options, weights, out.exposure_us_of_step, c);
     cached = cache_file(options.cache_dir, key);
     if (load_cached(cached, key, out)) return out;
   }
@@ -347,18 +390,16 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
   const SkinSceneResponse scene = render_skin_scene(scene_options, weights, options.band_rows);
   out.scene_seconds = seconds_since(start);
 
-  // Frames of the plan through the daemon's capture builder.
-  for (session::Step& step : plan.steps)
-    step.exposure_us = step.role == session::StepRole::kDark ? dark_exposure_us : state_exposure_us[state_of_step.at(step.name)];
   // The plan's timeline: each subject step's exposure mid-point, relative
   // to the first subject step's, and the subject's pose then (per state).
   std::vector<double> exposure_mid_s(plan.steps.size());
   double clock_s = 0, reference_s = -1;
   for (std::size_t s = 0; s < plan.steps.size(); ++s) {
     const session::Step& step = plan.steps[s];
-    exposure_mid_s[s] = clock_s + step.settle_ms / 1000.0 + step.exposure_us / 2e6;
+    const double frames = step.frames_per_camera;
+    exposure_mid_s[s] = clock_s + step.settle_ms / 1000.0 + frames * step.exposure_us / 2e6;
     if (step.role == session::StepRole::kSubject && reference_s < 0) reference_s = exposure_mid_s[s];
-    clock_s += step.settle_ms / 1000.0 + step.exposure_us / 1e6 + options.readout_ms / 1000.0;
+    clock_s += step.settle_ms / 1000.0 + frames * (step.exposure_us / 1e6 + options.readout_ms / 1000.0);
   }
   out.plan_seconds = clock_s;
   std::map<std::string, std::pair<double, SubjectPose>> poses;  // per state: time since the reference, pose
@@ -370,6 +411,8 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
         poses[state_names[state_of_step.at(plan.steps[s].name)]] = {t, subject_pose(options.motion, t, subject_index++)};
       }
   }
+
+  // Frames of the plan through the daemon's capture builder.
   const session::CaptureSources sources{out.library, "true LED emission at full drive (rendered session)",
                                c.sensitivity, "builtin:nikon_d5100", kWhiteTargetReflectance};
   const cv::Size sensor(options.sensor_width, options.sensor_height);
@@ -377,6 +420,7 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
     session::SessionCaptureBuilder builder(plan, sources);
     for (std::size_t s = 0; s < plan.steps.size(); ++s) {
       const session::Step& step = plan.steps[s];
+      const double exposure_us = step.exposure_us;
       cv::Mat response;
       drivers::DriveLevels drive{};
       if (step.role == session::StepRole::kDark) {
@@ -387,15 +431,18 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
         if (step.role == session::StepRole::kWhite) response = cv::Mat(sensor, CV_32FC3, white_response[k]);
         else response = move_subject(scene.responses[k], poses.at(state_names[k]).second);
       }
-      if (noisy) {
-        const cv::Mat dn = camera.expose(response, SensorLayout::kBayerRGGB, 0, 0, step.exposure_us, 0, s);
-        builder.add_frame(frame_record(step, s, drive, step.exposure_us, dn, drivers::PixelFormat::kBayerRG12), bytes_of(dn));
-      } else {
-        cv::Mat dn16;  // the 16-bit encoding: DN << 4, here with the fraction kept to 1/16 DN
-        camera.expected(response, SensorLayout::kBayerRGGB, 0, 0, step.exposure_us, 0)
-            .convertTo(dn16, CV_16U, 16.0);
-        builder.add_frame(frame_record(step, s, drive, step.exposure_us, dn16, drivers::PixelFormat::kBayerRG16),
-                          bytes_of(dn16));
+      for (std::uint32_t f = 0; f < step.frames_per_camera; ++f) {
+        // Frame f of step s: its own noise (the first frame's as before frames per capture).
+        const std::uint64_t frame_index = s + 1000 * static_cast<std::uint64_t>(f);
+        if (noisy) {
+          const cv::Mat dn = camera.expose(response, SensorLayout::kBayerRGGB, 0, 0, exposure_us, 0, frame_index);
+          builder.add_frame(frame_record(step, s, drive, exposure_us, dn, drivers::PixelFormat::kBayerRG12), bytes_of(dn));
+        } else {
+          cv::Mat dn16;  // the 16-bit encoding: DN << 4, here with the fraction kept to 1/16 DN
+          camera.expected(response, SensorLayout::kBayerRGGB, 0, 0, exposure_us, 0).convertTo(dn16, CV_16U, 16.0);
+          builder.add_frame(frame_record(step, s, drive, exposure_us, dn16, drivers::PixelFormat::kBayerRG16),
+                            bytes_of(dn16));
+        }
       }
     }
     return builder;

@@ -33,6 +33,10 @@ const Spectrum& illuminant_d65() {
   static const Spectrum s = embedded_spectrum("cie_d65.csv", "S_D65");
   return s;
 }
+const Spectrum& blue_light_hazard_weighting() {
+  static const Spectrum s = embedded_spectrum("blue_light_hazard_iec62471.csv", "B");
+  return s;
+}
 const Spectrum& illuminant_d50() {
   static const Spectrum s = embedded_spectrum("cie_d50.csv", "S_D50");
   return s;

@@ -160,6 +160,18 @@ TEST(DaemonConfig, RefusesEveryProbeOfIssue19NamingTheKey) {
       {{{"mixes", {{"d65", {{"W57", 1.5}}}}}}, "cfg: mixes.d65.W57: 1.5 is outside [0"},
       {{{"mixes", {{"d65", {{"W57", "high"}}}}}}, "cfg: mixes.d65.W57: \"high\" is not a number"},
       {{{"devices", {{{"name", "a"}, {"kind", "camera"}}}}}, "cfg: devices[0].backend: missing"},
+      // Issue 20: capture and hazard keys.
+      {{{"capture", {{"white_share", 0}}}}, "cfg: capture.white_share: 0 is outside (0.0, 1.0]"},
+      {{{"capture", {{"white_share", 1.2}}}}, "cfg: capture.white_share: 1.2 is outside (0.0, 1.0]"},
+      {{{"capture", {{"frames_per_capture", 0}}}}, "cfg: capture.frames_per_capture: 0 is outside [1, 1000]"},
+      {{{"capture", {{"frames_per_capture", 100000}}}}, "cfg: capture.frames_per_capture: 100000 is outside [1, 1000]"},
+      {{{"capture", {{"blue_ratio", -1}}}}, "cfg: capture.blue_ratio: -1 is outside [0.0, 100.0]"},
+      {{{"capture", {{"exposure_per_capture", "yes"}}}}, "cfg: capture.exposure_per_capture: \"yes\" is not true or false"},
+      {{{"hazard", {{"w57_full_drive_irradiance_W_per_m2", -3}}}},
+       "cfg: hazard.w57_full_drive_irradiance_W_per_m2: -3 is outside (0"},
+      {{{"hazard", {{"limit_J_per_m2_sr", 0}}}}, "cfg: hazard.limit_J_per_m2_sr: 0 is outside (0"},
+      {{{"hazard", {{"frame_allowance_ms", -1}}}}, "cfg: hazard.frame_allowance_ms: -1 is outside [0"},
+      {{{"hazard", {{"limit", 1}}}}, "cfg: hazard: unknown key \"limit\""},
   };
   for (const auto& probe : probes) {
     const std::string error = refused(probe.json);

@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <map>
+
 #include "chromo/session/session_plan.hpp"
 
 namespace chromo::session {
@@ -61,6 +63,59 @@ TEST(SessionPlan, JsonRoundTrip) {
   EXPECT_EQ(to_json(back), to_json(plan));
   EXPECT_EQ(back.timing, Timing::kHardware);
   EXPECT_EQ(back.frames_per_camera_total(), 21u);
+}
+
+}  // namespace
+}  // namespace chromo::session
+
+namespace chromo::session {
+namespace {
+
+TEST(SessionPlan, MeteredStandardPlanMetersD65AndW57PlusBlueAndSharesTheirExposures) {
+  const auto plan = standard_plan({.meter_white_share = 0.8, .blue_ratio = 4});
+  std::map<std::string, const Step*> by_name;
+  for (const auto& step : plan.steps) by_name[step.name] = &step;
+  EXPECT_DOUBLE_EQ(by_name.at("white_d65")->meter_white_share, 0.8);
+  EXPECT_DOUBLE_EQ(by_name.at("white_w57+blue")->meter_white_share, 0.8);
+  EXPECT_EQ(by_name.at("white_w57")->exposure_from, "white_w57+blue");
+  EXPECT_EQ(by_name.at("subject_d65")->exposure_from, "white_d65");
+  EXPECT_EQ(by_name.at("subject_w57")->exposure_from, "white_w57+blue");
+  EXPECT_EQ(by_name.at("subject_w57+blue")->exposure_from, "white_w57+blue");
+  EXPECT_FALSE(by_name.at("dark")->metered());
+  EXPECT_EQ(by_name.at("subject_w57")->illumination.mix, "w57:4");
+  EXPECT_EQ(by_name.at("subject_w57+blue")->illumination.mix, "w57+blue:4");
+  std::string error;
+  EXPECT_TRUE(plan.IsValid(&error)) << error;
+  EXPECT_EQ(to_json(plan_from_json(to_json(plan))), to_json(plan));
+  EXPECT_TRUE(is_valid_mix("w57:2.5"));
+  EXPECT_FALSE(is_valid_mix("w57:0"));
+}
+
+TEST(SessionPlan, BadMeteringIsRefusedNamingTheField) {
+  std::string error;
+  auto plan = standard_plan({.meter_white_share = 0.8});
+  plan.steps[1].meter_white_share = 1.5;
+  EXPECT_FALSE(plan.IsValid(&error));
+  EXPECT_EQ(error.rfind("steps[1].meter_white_share:", 0), 0u) << error;
+
+  plan = standard_plan({.meter_white_share = 0.8});
+  plan.steps[0].meter_white_share = 0.5;  // the dark step
+  EXPECT_FALSE(plan.IsValid(&error));
+  EXPECT_EQ(error.rfind("steps[0].meter_white_share:", 0), 0u) << error;
+
+  plan = standard_plan({.meter_white_share = 0.8});
+  plan.steps[4].exposure_from = "subject_w57";  // not an earlier metered white
+  EXPECT_FALSE(plan.IsValid(&error));
+  EXPECT_EQ(error.rfind("steps[4].exposure_from:", 0), 0u) << error;
+
+  plan = standard_plan({.timing = Timing::kHardware, .meter_white_share = 0.8});
+  EXPECT_FALSE(plan.IsValid(&error));
+  EXPECT_NE(error.find("software timing"), std::string::npos) << error;
+
+  EXPECT_THROW(plan_from_json(nlohmann::json::parse(
+                   R"({"name": "p", "steps": [{"name": "w", "role": "white", "exposure_us": 1, "meter_white_share": "x",
+                       "illumination": {"mix": "d65"}}]})")),
+               std::invalid_argument);
 }
 
 }  // namespace

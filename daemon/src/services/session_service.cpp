@@ -20,9 +20,9 @@ class SessionServiceImpl final : public pb::SessionService::Service {
       if (request->plan_source_case() == pb::StartSessionRequest::kPlan) {
         if (Status s = from_proto(request->plan(), "plan", &plan); !s.ok()) return s;
       } else if (request->plan_source_case() == pb::StartSessionRequest::kStandard && request->standard()) {
-        session::StandardPlanOptions options;
+        session::StandardPlanOptions options = daemon_.standard_plan_options();
         if (Status s = standard_options(request->timing(), request->exposure_us(), request->frames_per_camera(),
-                                        request->operator_prompts(), &options);
+                                        request->operator_prompts(), request->fixed_exposure(), &options);
             !s.ok())
           return s;
         plan = session::standard_plan(options);
@@ -38,9 +38,9 @@ class SessionServiceImpl final : public pb::SessionService::Service {
   }
   Status GetStandardPlan(ServerContext* context, const pb::GetStandardPlanRequest* request, pb::SessionPlan* response) override {
     return guard_(context, [&] {
-      session::StandardPlanOptions options;
+      session::StandardPlanOptions options = daemon_.standard_plan_options();
       if (Status s = standard_options(request->timing(), request->exposure_us(), request->frames_per_camera(),
-                                      request->operator_prompts(), &options);
+                                      request->operator_prompts(), request->fixed_exposure(), &options);
           !s.ok())
         return s;
       to_proto(session::standard_plan(options), response);
@@ -92,9 +92,12 @@ class SessionServiceImpl final : public pb::SessionService::Service {
   }
 
  private:
-  static Status standard_options(int timing, double exposure_us, std::uint32_t frames, bool prompts, session::StandardPlanOptions* options) {
+  // `options` comes with the configuration's capture choices (Daemon::standard_plan_options).
+  static Status standard_options(int timing, double exposure_us, std::uint32_t frames, bool prompts, bool fixed_exposure,
+                                 session::StandardPlanOptions* options) {
     if (!pb::Timing_IsValid(timing)) return invalid("timing: unknown value " + std::to_string(timing));
     options->timing = timing == pb::TIMING_HARDWARE ? session::Timing::kHardware : session::Timing::kSoftware;
+    if (fixed_exposure || options->timing == session::Timing::kHardware) options->meter_white_share = 0;
     if (exposure_us != 0) {
       if (!(exposure_us > 0 && exposure_us <= session::kMaxExposureUs)) return invalid("exposure_us: must be in (0, 10000000]");
       options->exposure_us = exposure_us;

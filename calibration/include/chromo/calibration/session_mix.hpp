@@ -26,7 +26,8 @@ struct SolvedMix {
 // The drive levels of a mix `target` ("d65", "w57", "w57+blue[:R]", "cct:K",
 // a CSV path) from `library` under `objective` ("spectral", "xyz",
 // "camera"), as sessions get them (Calibrations::solved_mix uses "camera").
-// "w57" is W57 alone at the level it has in the w57+blue solve, so that the
+// "w57" ("w57:R") is W57 alone at the level it has in the w57+blue
+// (w57+blue:R) solve, so that the
 // method's blue-only response (W57+blue) − W57 holds exactly. std::invalid_argument
 // naming "target"/"objective" for a bad request or an unusable solve.
 // (library is left empty.) A pure function.

@@ -21,6 +21,7 @@
 
 #include "chromo/drivers/led_controller.hpp"
 #include "chromo/files/runtime_dir.hpp"
+#include "chromo/session/plan_hazard.hpp"
 
 namespace chromo::daemon {
 
@@ -46,6 +47,14 @@ struct EstimationConfig {
   std::string cache_dir;         // forward tables; empty = $CHROMO_CACHE_DIR or ~/.cache/chromosphere
   std::uint64_t cache_limit_bytes = 2ull << 30;  // table cache bound (least recently used evicted)
   int threads = 0;               // 0 = all cores
+};
+
+// How the standard plan captures (docs/config.md "Capture"; session_plan.hpp).
+struct CaptureConfig {
+  bool exposure_per_capture = true;  // meter each illumination's white (false: one exposure for all steps)
+  double white_share = 0.8;          // the metered white's brightest channel, share of full scale, (0, 1]
+  std::uint32_t frames_per_capture = 1;  // frames per step of the standard plan when a request leaves it 0
+  double blue_ratio = 8;             // the standard plan's w57+blue:R (0: the plain "w57+blue")
 };
 
 struct DaemonConfig {
@@ -78,6 +87,8 @@ struct DaemonConfig {
   // LED library (the mix solver's weights from the library otherwise).
   std::map<std::string, drivers::DriveLevels> mixes;
   EstimationConfig estimation;
+  CaptureConfig capture;
+  session::BlueLightHazardOptions hazard;  // docs/config.md "Blue-light hazard"
 
   // The checks between keys (listening, token with TCP, TLS pair); the
   // per-key checks are in parse_config.

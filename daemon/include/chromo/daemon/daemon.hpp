@@ -11,6 +11,7 @@
 // Lifetime: the destructor cancels a running session or calibration and
 // joins its thread; a session then ends CANCELLED on disk. Thread-safe.
 
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -18,6 +19,7 @@
 
 #include "chromo/daemon/calibrations.hpp"
 #include "chromo/daemon/config.hpp"
+#include "chromo/session/session_captures.hpp"
 #include "chromo/daemon/device_set.hpp"
 #include "chromo/files/durable_file.hpp"
 #include "chromo/daemon/operation_runner.hpp"
@@ -58,6 +60,15 @@ class Daemon {
   // std::logic_error (another operation runs), std::runtime_error (devices).
   session::OperationRecord start_session(session::SessionPlan plan, const std::string& subject);
   drivers::DriveLevels resolve_mix(const std::string& mix) const;
+  // The plan's blue-light hazard dose for the subject's eyes (session/plan_hazard.hpp)
+  // with the daemon's LED library and `hazard` configuration; exposures of
+  // metered steps when known. start_session refuses a plan beyond the limit
+  // (std::invalid_argument naming the plan, the dose and the limit).
+  session::PlanHazard plan_hazard(const session::SessionPlan& plan,
+                                  const std::map<std::string, double>& exposure_us_of_step = {}) const;
+  // The standard plan as the configuration's `capture` keys make it (exposure
+  // per capture, white share, frames, blue ratio), before the request's own choices.
+  session::StandardPlanOptions standard_plan_options() const;
   // A calibration run (calibrations.hpp); same errors as start_session.
   session::OperationRecord start_calibration(const CalibrationRequest& request);
   Calibrations& calibrations() { return *calibrations_; }
@@ -79,6 +90,9 @@ class Daemon {
   // data and the on-line estimator's results, and the journal's last records.
   OperationRunner::Outcome run_session(RunningOperation& running, const session::SessionPlan& plan,
                                        const std::shared_ptr<session::Journal>& journal, const std::filesystem::path& folder);
+
+  // The LED library and camera sensitivity the estimator would use (resolve_capture_sources).
+  session::CaptureSources light_sources() const;
 
   DaemonConfig config_;
   DeviceSet devices_;

@@ -12,6 +12,24 @@
 // exposure, and the streams start again) → for each frame: trigger every
 // camera and wait for one frame from each.
 //
+// Exposure per capture (session_plan.hpp): a white step with
+// meter_white_share > 0 is metered after its settle time: per camera, a
+// metering frame of the white target (not stored, not given to the pipeline)
+// at a first guess, then at the exposure exposure_metering.hpp computes from
+// it, until the brightest channel is within 3% of the share, the camera's
+// ExposureTime range stops it (the frames are then taken at the limit and the
+// journal says what share the white reached), or 6 metering frames. The
+// first guess: the step's exposure_us for the first metered step; for later
+// ones the previous metered exposure scaled by the LED library's prediction
+// of the two whites' brightest channels (predict_white_rgb) when there is
+// one. Each metering is a journal record "exposure_metered" (step, camera,
+// exposure_us, white_share reached, target, frames, at_limit); the step's
+// frames and those of every step naming it in exposure_from are taken at
+// that exposure per camera (FrameRecord::exposure_us). Before the first
+// subject step, check_hazard (when set) is given the exposures now known:
+// a non-empty answer ends the session FAILED with it, before any subject
+// frame (the daemon's blue-light hazard limit, session/plan_hazard.hpp).
+//
 // Hardware timing: the whole sequence (one state per frame) is armed on the
 // controller before the first step; it advances on the camera's
 // exposure-active edge, so the daemon only triggers the cameras. State 0 of
@@ -37,7 +55,10 @@
 // Thread rules: run() on the session's own thread; everything else it talks
 // to (registry, control, pipeline) is thread-safe.
 
+#include <array>
 #include <functional>
+#include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -60,6 +81,13 @@ struct SequencerContext {
   // Drive levels of a named mix; throws std::invalid_argument when unknown.
   std::function<drivers::DriveLevels(const std::string& mix)> resolve_mix;
   std::function<void(session::StepRole)> place_in_sphere;  // optional (DeviceSet::place_in_sphere)
+  // Optional: the white target's camera response (R, G, B, any common scale)
+  // under these drive levels, predicted from the LED library and the camera
+  // sensitivity; the first guess of a metered exposure after the first.
+  std::function<std::optional<std::array<double, 3>>(const drivers::DriveLevels&)> predict_white_rgb;
+  // Optional: "" when the plan's blue-light dose with these exposures (per
+  // step, the longest over the cameras) is within the limit, else the refusal.
+  std::function<std::string(const std::map<std::string, double>& exposure_us_of_step)> check_hazard;
   std::uint32_t frame_timeout_ms = 3000;
   std::uint32_t frame_attempts = 3;
 };

@@ -117,6 +117,7 @@ struct CameraInfo {
   std::string vendor, model, serial, address;  // address: IP or device id
   int sensor_width = 0, sensor_height = 0;
   std::vector<PixelFormat> pixel_formats;
+  double exposure_min_us = 0, exposure_max_us = 0;  // GenICam ExposureTime range (0: not known)
 };
 
 enum class FrameStatus {

@@ -50,6 +50,19 @@ struct EstimateReport {
   std::string extra_json = "{}";  // a JSON object whose members are added to summary.json
 };
 
+// Each measurement channel's signal-to-noise ratio by its noise model
+// (measurement.hpp: σ² = read_sigma² + shot_coefficient·a): on the white
+// reference (a = ρ_white) and on the skin, a = the channel's mean over the
+// pixels the estimator explained (flag 0; NaN when none). summary.json's
+// "snr" (`docs/formats/session.md`). A pure function.
+struct ChannelSnr {
+  std::string channel;
+  double white = 0, skin = 0, skin_albedo = 0;
+  std::size_t skin_pixels = 0;
+};
+std::vector<ChannelSnr> channel_snr(const estimation::MeasurementSet& set, std::span<const float> measured,
+                                    std::span<const estimation::PixelEstimate> estimates, double white_reflectance);
+
 // Writes the folder's files (the directory must exist) and returns summary.json's text.
 std::string write_estimate_report(const std::filesystem::path& dir, const EstimateReport& report,
                                   const FileCommit& commit);

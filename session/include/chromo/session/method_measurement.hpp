@@ -16,7 +16,8 @@
 // each capture is normalised by its own white first, then the W57 and
 // W57+blue albedo images are registered to the D65' one (ECC on G,
 // registration.hpp) and warped onto its grid, and the blue-only channel is
-// formed there as a_mix,B·w_mix,B − a_W57,B·w_W57,B over w_mix,B − w_W57,B
+// formed there as a_mix,B·w_mix,B − s·a_W57,B·w_W57,B over w_mix,B − s·w_W57,B
+// (s = t_mix/t_W57, below; 1 at one exposure)
 // (w = white − dark at the reference pixel), which equals the formula above
 // when nothing moved. A capture whose registration moves no image corner by
 // more than 0.1 px is not warped (that motion is registration noise, and a
@@ -25,15 +26,26 @@
 // Noise (measurement.hpp's model), estimated from the captures themselves:
 // the per-pixel noise variance of the dark and of each white image is half
 // the mean squared difference of horizontally adjacent pixels (a flat target:
-// slow flat-field variation cancels). For albedo a under capture k, channel c,
-// with W = mean(white − dark), V_d, V_w the dark and white noise variances:
-//   σ²(a) ≈ [V_d + a·(V_w − V_d)] / W²  (subject)  +  a²·V_w / W²  (white; a² ≤ a)
-//   → read_sigma = √V_d / W,  shot_coefficient = (2·V_w − V_d) / W²
-// and for the blue-only channel (two subject and two white captures; the
-// subject's shot noise at albedo 0.5 of both captures folded into read_sigma,
-// as measurement.hpp asks):
-//   read_sigma² = [2·V_d + 0.5·(V_w,mix − V_d + V_w,W57 − V_d)] / D²,
-//   shot_coefficient = (V_w,mix + V_w,W57) / D²,   D = W_mix,B − W_W57,B.
+// slow flat-field variation cancels). Each image is the mean of its step's
+// frames (RgbImage::frames = N), so that variance is already the N-frame
+// mean's; the per-frame read variance is R = N_d·V_d (the dark's) and the
+// per-frame shot variance of the white S = N_w·V_w − R. For albedo a under
+// capture k, channel c, with W = mean(white − dark) and N_s subject frames:
+//   σ²(a) ≈ (R + a·S)/(N_s·W²)  (subject)  +  a²·V_w / W²  (white; a² ≤ a)
+//   → read_sigma = √(R/N_s) / W,  shot_coefficient = (S/N_s + V_w) / W²
+// (one frame each: read_sigma = √V_d/W, shot_coefficient = (2·V_w − V_d)/W²).
+// A subject and its white reference must share one exposure (the albedo is
+// their ratio); std::invalid_argument otherwise. The blue-only channel may
+// combine two exposures t_mix and t_W57 (RgbImage::exposure_us): the W57
+// capture's signals are scaled by s = t_mix/t_W57 onto the mix's exposure
+// (a camera linear in exposure above the dark; s = 1 when both share one
+// exposure, as the standard plans do), and with D = W_mix,B − s·W_W57,B, the
+// subject's shot noise at albedo 0.5 folded into read_sigma as
+// measurement.hpp asks:
+//   read_sigma² = [(R + 0.5·S_mix)/N_s,mix + s²·(R + 0.5·S_W57)/N_s,W57] / D²,
+//   shot_coefficient = (V_w,mix + s²·V_w,W57) / D².
+// The dark mean's own noise (a fixed offset per pixel, common to all
+// captures) is not part of the model.
 // Saturation: a pixel whose raw subject value is at or above 0.999 of full
 // scale in a channel gets that channel set to the channel's saturation albedo
 // (so the estimator flags it kSaturated); saturation_albedo = ρ·(1 − dark)/W.
@@ -45,6 +57,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -58,6 +71,8 @@ namespace chromo::session {
 struct RgbImage {
   int width = 0, height = 0;
   std::array<std::vector<float>, 3> planes;  // R, G, B; width × height each, row-major
+  std::uint32_t frames = 1;  // how many frames this is the mean of
+  double exposure_us = 0;    // the frames' exposure (0: not known; taken as equal to the others')
   std::size_t pixels() const { return static_cast<std::size_t>(width) * height; }
 };
 
@@ -91,6 +106,14 @@ struct MethodMeasurement {
   std::vector<RegistrationReport> registration;
   std::vector<Photograph> photographs;  // D65', W57, W57+blue
   std::size_t saturated_pixels = 0;     // pixels with a raw subject value at full scale
+  // Each capture's exposure and frame count, in the order dark, then white
+  // and subject under D65', W57, W57+blue ("white D65'", "subject W57", ...).
+  struct CaptureExposure {
+    std::string capture;
+    double exposure_us = 0;
+    std::uint32_t frames = 1;
+  };
+  std::vector<CaptureExposure> exposures;
 };
 
 MethodMeasurement build_method_measurement(const MethodCaptures& captures, const RegistrationOptions& options = {});

@@ -8,7 +8,7 @@
 //
 // Which step is which: the dark step (role dark), and per illumination state
 // one white and one subject step, paired by their illumination: the same mix
-// ("d65", "w57", "w57+blue", any blue ratio) or the same LED drive weights.
+// ("d65", "w57", "w57+blue"; "w57:R" and "w57+blue:R" with any blue ratio R) or the same LED drive weights.
 // A plan without a dark, with a subject state that has no white (or a white
 // no subject), with an unlit white or subject step, or with a state twice, is
 // refused: the constructor throws std::invalid_argument saying what is
@@ -20,7 +20,9 @@
 // Frames: only the first camera that delivers a frame is used (its name is
 // kept); its frames are summed per step exactly as they came (FrameSums,
 // frame_sums.hpp: the accumulator derived data is written from too), and the
-// mean is taken when the captures are made: BayerRG frames binned 2×2 (R,
+// mean is taken when the captures are made (each image carries its frame
+// count and exposure; a step's frames must share one exposure, else
+// add_frame throws naming the step): BayerRG frames binned 2×2 (R,
 // mean of the two G, B per cell: half resolution, colours without
 // interpolation), RGB8 used as is, mono formats refused. Values are in units
 // of the format's full scale (255, 4095, 65535).
@@ -97,6 +99,7 @@ class SessionCaptureBuilder {
     std::uint32_t expected = 0;
     FrameSums frames;  // the builder's camera's frames of the step
     spectral::Spectrum illuminant_sum;
+    double exposure_us = 0;  // of the step's frames (all alike)
   };
   RgbImage mean_image(const StepSum& s) const;
 

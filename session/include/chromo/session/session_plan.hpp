@@ -6,6 +6,16 @@
 // The standard session of the method (standard_plan()): dark; then the white
 // reference and the subject, each under D65', W57 alone and W57+blue. The
 // blue-only response is (W57+blue) − W57, computed later from the stored frames.
+//
+// Exposure per capture (docs/daemon.md "Exposure per capture"): a white step
+// with meter_white_share > 0 is metered: before its frames the sequencer
+// takes metering frames of the white target under the step's light and sets,
+// per camera, the exposure that puts the white's brightest colour channel at
+// that share of full scale (exposure_us is only the first guess). A step with
+// exposure_from = NAME takes its frames at the exposure the earlier white step
+// NAME metered for each camera, so a subject and its white reference share one
+// exposure. Metering needs software timing (hardware-timed plans arm every
+// state before the first frame).
 
 #include <array>
 #include <cstdint>
@@ -25,7 +35,7 @@ enum class StepRole { kDark, kWhite, kSubject };
 struct Illumination {
   enum class Kind { kDark, kWeights, kMix } kind = Kind::kDark;
   drivers::DriveLevels weights{};  // kWeights
-  std::string mix;                 // kMix: "d65", "w57", "w57+blue[:R]"
+  std::string mix;                 // kMix: "d65", "w57[:R]", "w57+blue[:R]"
 };
 
 struct Step {
@@ -36,6 +46,9 @@ struct Step {
   double exposure_us = 20000;
   std::uint32_t frames_per_camera = 1;
   std::string prompt;  // non-empty: pause before the step until resumed
+  double meter_white_share = 0;  // (0, 1]: meter this white step (0: exposure_us as given)
+  std::string exposure_from;     // the earlier metered white step whose exposure this step uses
+  bool metered() const { return meter_white_share > 0 || !exposure_from.empty(); }
 };
 
 struct SessionPlan {
@@ -54,6 +67,14 @@ struct StandardPlanOptions {
   std::uint32_t frames_per_camera = 1;
   std::uint32_t settle_ms = 50;
   bool operator_prompts = false;  // pause for "place the white target" / "place the subject"
+  // > 0: exposure per capture: the whites of D65' and W57+blue are metered to
+  // this share of full scale, the W57 white and every subject take the
+  // exposure of their illumination's metered white (W57 shares W57+blue's, so
+  // the blue-only difference is formed at one exposure). 0: exposure_us for all.
+  double meter_white_share = 0;
+  // > 0: the W57+blue mix is "w57+blue:R" and W57 "w57:R" with R = blue_ratio
+  // (the blue LED's camera-B response R times W57's); 0: "w57+blue" and "w57".
+  double blue_ratio = 0;
 };
 SessionPlan standard_plan(const StandardPlanOptions& options = {});
 
@@ -106,7 +127,8 @@ inline constexpr std::uint32_t kMaxSettleMs = 60000;
 inline constexpr double kMaxExposureUs = 10e6;
 // [A-Za-z0-9_+.-]{1,64}
 bool is_valid_name(const std::string& name);
-// "d65", "w57", "w57+blue" or "w57+blue:R" with R in (0, 100].
+// "d65", "w57", "w57+blue", "w57+blue:R" or "w57:R" with R in (0, 100]
+// ("w57:R": W57 alone at its level in the "w57+blue:R" mix).
 bool is_valid_mix(const std::string& mix);
 
 nlohmann::json to_json(const SessionPlan& plan);

@@ -21,6 +21,9 @@ struct Observer {
 
 const Observer& cie1931_observer();
 const Spectrum& illuminant_d65();
+// IEC 62471 (CIE S 009) blue-light hazard weighting B(λ), dimensionless, 1 at
+// 435-440 nm (data/blue_light_hazard_iec62471.csv).
+const Spectrum& blue_light_hazard_weighting();
 const Spectrum& illuminant_d50();
 const Spectrum& illuminant_a();
 

@@ -24,6 +24,9 @@
 //                 BayerRG12 frame per step as the lab camera sends it; the
 //                 exposure (all steps) puts the brightest white channel at
 //                 white_fill of full scale, as an operator would set it;
+//                 with exposure_per_capture each illumination's white is
+//                 exposed to white_fill (the metered plan; W57 shares
+//                 W57+blue's), and the dark keeps the single exposure;
 //   noise-free    the same readout without noise (CameraModel::expected):
 //                 BayerRG16 frames of the expected DN·16 (the lab camera's 16-bit
 //                 encoding; steps of 1/16 DN);
@@ -42,6 +45,7 @@
 //
 // Thread rules: a pure function of its options (uses `threads` cores).
 
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <map>
@@ -74,6 +78,14 @@ struct RenderedSessionOptions {
   // and session::build_plan_measurement (3 channels per capture).
   std::string plan = "standard";
   double white_fill = 0.85;  // expected DN of the brightest white channel / full scale
+  // Exposure per capture (session_plan.hpp's standard plan with
+  // meter_white_share = white_fill): the D65' and W57+blue whites each at
+  // white_fill (W57 at W57+blue's exposure), each subject at its white's;
+  // the dark at the single exposure. false: one exposure for every step, set
+  // on the brightest white of the three (the plan before exposure metering).
+  bool exposure_per_capture = false;
+  double blue_ratio = 0;        // > 0: the mixes "w57+blue:R" and "w57:R" (0: "w57+blue", "w57")
+  int frames_per_capture = 1;   // frames of every step, averaged by the capture builder (1-64)
   bool noise_free = true;    // also render the noise-free chain
   int threads = 2;
   int band_rows = 128;       // scene rows rendered at a time
@@ -116,7 +128,9 @@ struct CaptureMotion {
 // 2: the file is a files/binary_cache.hpp file (length and checksum).
 // 3: the capture builder sums raw samples exactly and bins the mean
 //    (session/frame_sums.hpp), which rounds the last bits differently.
-inline constexpr std::uint32_t kRenderedSessionVersion = 3;
+// 4: exposure per capture, blue ratio and frames per capture (options and key).
+// 5: any built-in plan (its name in the key), merged with 4.
+inline constexpr std::uint32_t kRenderedSessionVersion = 5;
 inline constexpr std::uint8_t kMixedCell = 255;  // a 2×2 cell whose sites have different regions
 
 struct RenderedSession {
@@ -125,8 +139,10 @@ struct RenderedSession {
   std::vector<estimation::SkinParameters> truth;   // per measurement pixel
   std::vector<std::uint8_t> region;                // SceneRegion per pixel, or kMixedCell
   calibration::LedLibrary library;
-  std::map<std::string, drivers::DriveLevels> mixes;  // per state: "d65", "w57", "w57+blue"; "W57" ... "B" (alone)
-  double exposure_us = 0;  // the standard plan's (all steps); other plans: the brightest state's
+  std::map<std::string, drivers::DriveLevels> mixes;  // per state: "d65", "w57", "w57+blue" (keys without ":R"); "W57" ... "B" (alone)
+  double exposure_us = 0;  // the single exposure: the brightest state's white at white_fill (every step's in the standard plan unless exposure_per_capture)
+  std::map<std::string, double> exposure_us_of_step;  // each step of the plan
+  std::map<std::string, std::array<double, 3>> white_response;  // CameraModel response of the white target per state
   double scene_seconds = 0, camera_seconds = 0, measurement_seconds = 0;  // wall clock per stage (of the render)
   bool loaded_from_cache = false;
   std::vector<CaptureMotion> motion;  // the noisy chain's W57 and W57+blue captures (empty when loaded from the cache)

@@ -1,0 +1,214 @@
+// The standard plan before and after exposure per capture (issue 20), side
+// by side on the same virtual-lab scenes: the standard session rendered from
+// the lab's physics (simulators/scene/rendered_session.hpp) under
+//
+//   before  one exposure for every step, set so that the brightest white of
+//           the three (D65') sits at 0.85 of full scale; mixes "w57+blue", "w57";
+//   after   exposure per capture: the D65' and W57+blue whites each metered
+//           to 0.85 of full scale, W57 at W57+blue's exposure, each subject at
+//           its white's; mixes "w57+blue:R", "w57:R" (--blue-ratio R);
+//
+// both with --frames frames per capture. Per plan and scene seed: the
+// blue-only channel's relative noise on the white beside D65' B's (predicted
+// from the camera model's shot and read noise; measured: the estimator's
+// noise figure, which session::build_method_measurement estimates from the
+// dark and white frames), and the fast inverter's relit ΔE94 against the
+// truth on the skin cells (six LEDs + D65), 4D model and auto model, noisy
+// frames; then the spread over the seeds.
+//
+//   exposure_plan_bench [--seeds 5,11,12,13] [--sensor W H] [--blue-ratio R] [--frames N] [--out DIR]
+//
+// Writes DIR/exposure_plan.csv and DIR/exposure_plan.png (relit ΔE94 per seed, before and after).
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "chromo/estimation/estimator.hpp"
+#include "chromo/estimation/forward_table.hpp"
+#include "chromo/files/gnuplot_chart.hpp"
+#include "chromo/simulators/camera/camera_model.hpp"
+#include "chromo/simulators/scene/rendered_session.hpp"
+#include "chromo/simulators/scene/scene.hpp"
+#include "relit_accuracy.hpp"
+
+namespace chromo::bench {
+namespace {
+
+struct PlanResult {
+  double blue_relative_predicted = 0, d65_b_relative_predicted = 0;  // σ/ρ on the white, camera model
+  double blue_relative_measured = 0, d65_b_relative_measured = 0;    // σ/ρ on the white, estimator's noise figure
+  double exposure_d65_us = 0, exposure_blue_us = 0;
+  Accuracy fast4d, fastauto;
+};
+
+struct SeedResult {
+  std::uint64_t seed = 0;
+  PlanResult before, after;
+};
+
+// Relative noise σ(ρ)/ρ of a channel on the white by its noise figure.
+double relative_noise(const estimation::ChannelNoise& noise, double rho) { return std::sqrt(noise.variance(rho)) / rho; }
+
+// The camera model's prediction for a white of response `response` (per
+// channel) at `exposure_us`, N frames averaged for subject, white and dark:
+// the albedo of a white photographed against the white reference has
+// variance 2σ²/S² (subject and reference alike, the dark's noise aside).
+double predicted_relative(const simulators::CameraModel& camera, double response, double exposure_us, int frames) {
+  const double signal = camera.expected_dn(response, exposure_us, 0) - camera.options().black_level_dn;
+  return std::sqrt(2.0 / frames) * camera.noise_sigma_dn(response, exposure_us, 0) / signal;
+}
+double predicted_blue_relative(const simulators::CameraModel& camera, double mix, double base, double exposure_us,
+                               int frames) {
+  const double d = camera.expected_dn(mix, exposure_us, 0) - camera.expected_dn(base, exposure_us, 0);
+  const double v = std::pow(camera.noise_sigma_dn(mix, exposure_us, 0), 2) + std::pow(camera.noise_sigma_dn(base, exposure_us, 0), 2);
+  return std::sqrt(2.0 * v / frames) / d;
+}
+
+Accuracy estimate_skin(const simulators::RenderedSession& lab, estimation::ModelChoice model, const Relit& truth_relit,
+                       const std::vector<bool>& skin) {
+  auto table = std::make_shared<const estimation::ForwardTable>(
+      estimation::ForwardTable::build(lab.noisy.set, estimation::TableGrid{}, 2));
+  estimation::EstimatorOptions options;
+  options.method = estimation::InverterMethod::kFast;
+  options.model = model;
+  options.threads = 2;
+  const estimation::Estimator estimator(table, lab.noisy.set, options);
+  std::vector<estimation::PixelEstimate> e(lab.pixels());
+  estimator.estimate(lab.noisy.measured, e);
+  return accuracy(truth_relit, lab.truth, e, skin);
+}
+
+PlanResult run_plan(std::uint64_t seed, int width, int height, bool per_capture, double blue_ratio, int frames) {
+  simulators::RenderedSessionOptions ro;
+  ro.sensor_width = width, ro.sensor_height = height, ro.seed = seed, ro.threads = 2;
+  ro.noise_free = false;
+  ro.exposure_per_capture = per_capture;
+  ro.blue_ratio = per_capture ? blue_ratio : 0;
+  ro.frames_per_capture = frames;
+  const simulators::RenderedSession lab = simulators::render_session(ro);
+  PlanResult r;
+  const simulators::CameraModel camera{simulators::CameraModelOptions{}};
+  r.exposure_d65_us = lab.exposure_us_of_step.at("subject_d65");
+  r.exposure_blue_us = lab.exposure_us_of_step.at("subject_w57+blue");
+  r.d65_b_relative_predicted = predicted_relative(camera, lab.white_response.at("d65")[2], r.exposure_d65_us, frames);
+  r.blue_relative_predicted = predicted_blue_relative(camera, lab.white_response.at("w57+blue")[2],
+                                                      lab.white_response.at("w57")[2], r.exposure_blue_us, frames);
+  const double rho = simulators::kWhiteTargetReflectance;
+  r.d65_b_relative_measured = relative_noise(lab.noisy.set.channels[2].noise, rho);
+  r.blue_relative_measured = relative_noise(lab.noisy.set.channels[3].noise, rho);
+  std::vector<bool> skin(lab.pixels());
+  for (std::size_t i = 0; i < lab.pixels(); ++i)
+    skin[i] = lab.region[i] == static_cast<std::uint8_t>(simulators::SceneRegion::kSkin);
+  const Relit truth = relight(lab.truth);
+  r.fast4d = estimate_skin(lab, estimation::ModelChoice::k4d, truth, skin);
+  r.fastauto = estimate_skin(lab, estimation::ModelChoice::kAuto, truth, skin);
+  return r;
+}
+
+void print_plan(const char* label, const PlanResult& p) {
+  std::printf("  %-7s exposure D65' %7.0f us, W57(+blue) %7.0f us | rel. noise on white: blue-only %.4f (pred %.4f), "
+              "D65' B %.4f (pred %.4f), ratio %.2f | relit dE94 fast/4d %.3f (D65 %.3f), fast/auto %.3f\n",
+              label, p.exposure_d65_us, p.exposure_blue_us, p.blue_relative_measured, p.blue_relative_predicted,
+              p.d65_b_relative_measured, p.d65_b_relative_predicted, p.blue_relative_measured / p.d65_b_relative_measured,
+              p.fast4d.de_all, p.fast4d.de_d65, p.fastauto.de_all);
+}
+
+struct Spread {
+  double mean = 0, min = 1e300, max = -1e300;
+};
+template <typename Get>
+Spread spread(const std::vector<SeedResult>& results, Get get) {
+  Spread s;
+  for (const auto& r : results) {
+    const double v = get(r);
+    s.mean += v / static_cast<double>(results.size());
+    s.min = std::min(s.min, v), s.max = std::max(s.max, v);
+  }
+  return s;
+}
+
+int bench_main(int argc, char** argv) {
+  CLI::App app{"the standard plan before and after exposure per capture, on virtual-lab scenes"};
+  std::vector<std::uint64_t> seeds{5, 11, 12, 13};
+  std::vector<int> sensor{2592, 1944};
+  double blue_ratio = 8;
+  int frames = 1;
+  std::filesystem::path out = "bench/results";
+  app.add_option("--seeds", seeds, "scene seeds")->delimiter(',');
+  app.add_option("--sensor", sensor, "sensor W H (even)")->expected(2);
+  app.add_option("--blue-ratio", blue_ratio, "R of the metered plan's w57+blue:R")->check(CLI::Range(0.1, 100.0));
+  app.add_option("--frames", frames, "frames per capture (both plans)")->check(CLI::Range(1, 64));
+  app.add_option("--out", out, "where the CSV and chart go");
+  CLI11_PARSE(app, argc, argv);
+  std::filesystem::create_directories(out);
+  std::printf("sensor %dx%d, %d frame(s) per capture; after: exposure per capture (white at 0.85 of full scale), "
+              "w57+blue:%g\n", sensor[0], sensor[1], frames, blue_ratio);
+  std::vector<SeedResult> results;
+  for (std::uint64_t seed : seeds) {
+    SeedResult r;
+    r.seed = seed;
+    r.before = run_plan(seed, sensor[0], sensor[1], false, 0, frames);
+    r.after = run_plan(seed, sensor[0], sensor[1], true, blue_ratio, frames);
+    std::printf("seed %llu\n", static_cast<unsigned long long>(seed));
+    print_plan("before", r.before);
+    print_plan("after", r.after);
+    std::fflush(stdout);
+    results.push_back(r);
+  }
+  std::printf("spread over %zu seeds (mean [min, max]):\n", results.size());
+  auto show = [&](const char* what, auto get_before, auto get_after) {
+    const Spread b = spread(results, get_before), a = spread(results, get_after);
+    std::printf("  %-44s before %.4f [%.4f, %.4f]   after %.4f [%.4f, %.4f]\n", what, b.mean, b.min, b.max, a.mean,
+                a.min, a.max);
+  };
+  show("relit dE94 fast/4d noisy (six LEDs + D65)", [](const SeedResult& r) { return r.before.fast4d.de_all; },
+       [](const SeedResult& r) { return r.after.fast4d.de_all; });
+  show("relit dE94 fast/auto noisy (six LEDs + D65)", [](const SeedResult& r) { return r.before.fastauto.de_all; },
+       [](const SeedResult& r) { return r.after.fastauto.de_all; });
+  show("blue-only / D65' B relative noise on white", [](const SeedResult& r) {
+    return r.before.blue_relative_measured / r.before.d65_b_relative_measured;
+  }, [](const SeedResult& r) { return r.after.blue_relative_measured / r.after.d65_b_relative_measured; });
+  show("blue-only relative noise on white", [](const SeedResult& r) { return r.before.blue_relative_measured; },
+       [](const SeedResult& r) { return r.after.blue_relative_measured; });
+
+  const auto csv = out / "exposure_plan.csv";
+  {
+    std::ofstream f(csv);
+    f << "seed,before_de_fast4d,after_de_fast4d,before_de_fastauto,after_de_fastauto,before_blue_rel_noise,"
+         "after_blue_rel_noise,before_d65b_rel_noise,after_d65b_rel_noise,before_blue_rel_pred,after_blue_rel_pred\n";
+    for (const auto& r : results)
+      f << r.seed << "," << r.before.fast4d.de_all << "," << r.after.fast4d.de_all << "," << r.before.fastauto.de_all
+        << "," << r.after.fastauto.de_all << "," << r.before.blue_relative_measured << ","
+        << r.after.blue_relative_measured << "," << r.before.d65_b_relative_measured << ","
+        << r.after.d65_b_relative_measured << "," << r.before.blue_relative_predicted << ","
+        << r.after.blue_relative_predicted << "\n";
+  }
+  files::GnuplotChart chart;
+  chart.png = out / "exposure_plan.png";
+  chart.commands = "set datafile separator ','\nset key top right\nset style data histograms\nset style fill solid 0.8\n"
+                   "set title 'Standard plan before and after exposure per capture (skin cells, noisy)'\n"
+                   "set xlabel 'scene seed'\nset ylabel 'relit dE94 vs truth, fast/4d (six LEDs + D65)'\nset yrange [0:*]\n"
+                   "plot '" + csv.string() + "' every ::1 using 2:xtic(1) title 'before: one exposure', '' every ::1 using 3 "
+                   "title 'after: exposure per capture'\n";
+  if (const std::string error = files::draw_chart(chart); !error.empty()) std::printf("chart: %s\n", error.c_str());
+  std::printf("wrote %s and %s\n", csv.c_str(), (out / "exposure_plan.png").c_str());
+  return 0;
+}
+
+}  // namespace
+}  // namespace chromo::bench
+
+int main(int argc, char** argv) {
+  try {
+    return chromo::bench::bench_main(argc, argv);
+  } catch (const std::exception& error) {
+    std::fprintf(stderr, "exposure_plan_bench: %s\n", error.what());
+    return 1;
+  }
+}

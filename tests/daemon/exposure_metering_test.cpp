@@ -1,0 +1,92 @@
+// Exposure metering's arithmetic (daemon/exposure_metering.hpp) on frames
+// made here: levels per Bayer colour, and the next exposure of a linear
+// camera converging on the target share, clipping, and the camera's limits.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "chromo/daemon/exposure_metering.hpp"
+
+namespace chromo::daemon {
+namespace {
+
+// A BayerRG12 frame (16-bit samples) whose R, G, B sites hold these DN.
+std::vector<std::uint8_t> bayer_frame(int width, int height, std::uint16_t r, std::uint16_t g, std::uint16_t b) {
+  std::vector<std::uint8_t> bytes(static_cast<std::size_t>(width) * height * 2);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const std::uint16_t v = (y % 2 == 0 && x % 2 == 0) ? r : (y % 2 && x % 2) ? b : g;
+      std::memcpy(&bytes[(static_cast<std::size_t>(y) * width + x) * 2], &v, 2);
+    }
+  return bytes;
+}
+
+TEST(ExposureMetering, LevelsPerBayerColourAndClippedShare) {
+  const auto frame = bayer_frame(8, 6, 1000, 2000, 4095);
+  const FrameLevels levels = frame_levels(frame, 8, 6, drivers::PixelFormat::kBayerRG12);
+  EXPECT_NEAR(levels.mean[0], 1000.0 / 4095, 1e-12);
+  EXPECT_NEAR(levels.mean[1], 2000.0 / 4095, 1e-12);
+  EXPECT_NEAR(levels.mean[2], 1.0, 1e-12);
+  EXPECT_DOUBLE_EQ(levels.clipped[2], 1.0);
+  EXPECT_DOUBLE_EQ(levels.clipped[0], 0.0);
+  EXPECT_EQ(levels.brightest_channel(), 2);
+  EXPECT_THROW(frame_levels(frame, 8, 5, drivers::PixelFormat::kBayerRG12), std::invalid_argument);
+}
+
+// A linear camera: mean = dark + rate·t (clipped at 1).
+FrameLevels linear(double rate_per_us, double dark, double exposure_us) {
+  FrameLevels levels;
+  const double v = dark + rate_per_us * exposure_us;
+  levels.mean = {0.5 * std::min(v, 1.0), std::min(v, 1.0), 0.3 * std::min(v, 1.0)};
+  levels.clipped = {0, v >= 1 ? 0.5 : 0.0, 0};
+  return levels;
+}
+
+TEST(ExposureMetering, ConvergesOnTheTargetShareOfALinearCamera) {
+  MeteringTarget target;
+  target.white_share = 0.8;
+  target.dark = {0.004, 0.004, 0.004};
+  double t = 2000;
+  int frames = 0;
+  MeteringDecision d;
+  do {
+    d = next_metering_exposure(t, linear(1e-5, 0.004, t), target);
+    t = d.next_exposure_us;
+    ++frames;
+  } while (!d.done && frames < 6);
+  EXPECT_TRUE(d.done);
+  EXPECT_FALSE(d.at_limit);
+  EXPECT_LE(frames, 2);
+  EXPECT_NEAR(linear(1e-5, 0.004, t).mean[1], 0.8, 1e-9);
+}
+
+TEST(ExposureMetering, ClippedFramesHalveAndLimitsStop) {
+  MeteringTarget target;
+  target.white_share = 0.8;
+  target.min_exposure_us = 100, target.max_exposure_us = 50000;
+  // Clipped: the mean says too little, so at most half.
+  MeteringDecision d = next_metering_exposure(40000, linear(1e-4, 0, 40000), target);
+  EXPECT_TRUE(d.clipped);
+  EXPECT_FALSE(d.done);
+  EXPECT_LE(d.next_exposure_us, 20000);
+  // Too dark even at the maximum: done, at the limit, the maximum kept.
+  d = next_metering_exposure(50000, linear(1e-6, 0, 50000), target);
+  EXPECT_TRUE(d.done);
+  EXPECT_TRUE(d.at_limit);
+  EXPECT_DOUBLE_EQ(d.next_exposure_us, 50000);
+  // Below the maximum but wanting more: clamped to it, measured there next.
+  d = next_metering_exposure(20000, linear(1e-6, 0, 20000), target);
+  EXPECT_FALSE(d.done);
+  EXPECT_DOUBLE_EQ(d.next_exposure_us, 50000);
+  // Clipped at the minimum: done, at the limit.
+  d = next_metering_exposure(100, linear(1, 0, 100), target);
+  EXPECT_TRUE(d.done);
+  EXPECT_TRUE(d.at_limit);
+  // No signal: a much longer exposure.
+  d = next_metering_exposure(1000, linear(0, 0, 1000), target);
+  EXPECT_DOUBLE_EQ(d.next_exposure_us, 16000);
+}
+
+}  // namespace
+}  // namespace chromo::daemon
