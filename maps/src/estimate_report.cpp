@@ -265,7 +265,7 @@ namespace {
 
 // Everything after the measurement: tables, estimate, spatial pass, report.
 MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m, const spectral::CameraSensitivity& camera,
-                                            std::chrono::steady_clock::time_point start, double measurement_seconds,
+                                            double white_reflectance, std::chrono::steady_clock::time_point start, double measurement_seconds,
                                             const MethodEstimationOptions& options, const fs::path& out_dir,
                                             const FileCommit& commit, const files::Progress& progress,
                                             const std::string& extra_json, const PreparedTables* prepared) {
@@ -315,7 +315,7 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
                      {"saturation_albedo", c.noise.saturation_albedo}};
   extra["noise"] = noise;
   nlohmann::ordered_json snr = nlohmann::ordered_json::object();
-  for (const auto& c : channel_snr(m.set, m.measured, estimates, captures.white_reflectance))
+  for (const auto& c : channel_snr(m.set, m.measured, estimates, white_reflectance))
     snr[c.channel] = {{"white", c.white}, {"skin", c.skin}, {"skin_albedo", c.skin_albedo}, {"skin_pixels", c.skin_pixels}};
   extra["snr"] = snr;
   nlohmann::ordered_json exposures = nlohmann::ordered_json::array();
@@ -358,7 +358,7 @@ MethodEstimationResult estimate_method_captures(const session::MethodCaptures& c
                                                 const PreparedTables* prepared) {
   const auto start = std::chrono::steady_clock::now();
   const session::MethodMeasurement m = session::build_method_measurement(captures, options.registration);
-  return estimate_measurement(m, captures.camera, start, seconds_since(start), options, out_dir, commit, progress,
+  return estimate_measurement(m, captures.camera, captures.white_reflectance, start, seconds_since(start), options, out_dir, commit, progress,
                               extra_json, prepared);
 }
 
@@ -368,7 +368,7 @@ MethodEstimationResult estimate_plan_captures(const session::PlanCaptures& captu
                                               const PreparedTables* prepared) {
   const auto start = std::chrono::steady_clock::now();
   const session::MethodMeasurement m = session::build_plan_measurement(captures, options.registration);
-  return estimate_measurement(m, captures.camera, start, seconds_since(start), options, out_dir, commit, progress,
+  return estimate_measurement(m, captures.camera, captures.white_reflectance, start, seconds_since(start), options, out_dir, commit, progress,
                               extra_json, prepared);
 }
 
