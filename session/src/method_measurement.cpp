@@ -181,20 +181,25 @@ PlanReferences plan_references_of(const PlanCaptures& captures) {
   if (!(rho > 0 && rho <= 1)) throw std::invalid_argument("white_reflectance: must be in (0, 1]");
   if (captures.captures.empty()) throw std::invalid_argument("the plan has no capture of the subject");
   PlanReferences r;
-  std::array<double, 3> dark_variance{}, dark_mean{};
+  // The method's noise model (references_of), per capture: one frame's read
+  // variance from the averaged dark, the subject's read and shot noise
+  // divided by its own frame count, the white's as averaged.
+  std::array<double, 3> read_variance{}, dark_mean{};
   for (int c = 0; c < 3; ++c) {
-    dark_variance[c] = flat_noise_variance(dark.planes[c], dark.width, dark.height);
+    read_variance[c] = flat_noise_variance(dark.planes[c], dark.width, dark.height) * frames_of(dark);
     dark_mean[c] = mean_of(dark.planes[c]);
   }
   r.set.camera = captures.camera;
   for (const IlluminatedCapture& capture : captures.captures) {
+    check_same_exposure(capture);
     r.references.push_back(reference_of(capture, dark));
     const Reference& k = r.references.back();
     for (int c = 0; c < 3; ++c) {
-      const double W = k.white_mean[c], Vd = dark_variance[c], Vw = k.white_variance[c];
+      const double W = k.white_mean[c], R = read_variance[c], Ns = frames_of(capture.subject);
+      const double white_shot = std::max(k.white_variance[c] * frames_of(capture.white) - R, 0.0);  // one frame's
       estimation::ChannelNoise noise;
-      noise.read_sigma = std::max(std::sqrt(Vd) / W, 1e-5);
-      noise.shot_coefficient = std::max(2 * Vw - Vd, 0.0) / (W * W);
+      noise.read_sigma = std::max(std::sqrt(R / Ns) / W, 1e-5);
+      noise.shot_coefficient = (white_shot / Ns + k.white_variance[c]) / (W * W);
       noise.saturation_albedo = rho * (1.0 - dark_mean[c]) / W;
       r.set.channels.push_back({capture.name + "." + kChannelNames[c], capture.illuminant, c, noise});
     }
@@ -325,6 +330,11 @@ MethodMeasurement build_method_measurement(const MethodCaptures& captures, const
     Photograph photo{capture->name, capture->illuminant, std::vector<Eigen::Vector3d>(n)};
     for (std::size_t i = 0; i < n; ++i) photo.rgb[i] = {k->albedo[0][i], k->albedo[1][i], k->albedo[2][i]};
     m.photographs.push_back(std::move(photo));
+  }
+  m.exposures.push_back({"dark", dark.exposure_us, dark.frames});
+  for (const IlluminatedCapture& capture : captures.captures) {
+    m.exposures.push_back({"white " + capture.name, capture.white.exposure_us, capture.white.frames});
+    m.exposures.push_back({"subject " + capture.name, capture.subject.exposure_us, capture.subject.frames});
   }
   return m;
 }

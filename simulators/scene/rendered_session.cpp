@@ -140,7 +140,7 @@ session::MethodMeasurement get_measurement(files::CacheReader& r) {
   }
   m.saturated_pixels = r.get<std::uint64_t>();
   const auto exposures = r.get<std::uint32_t>();
-  if (exposures > 16) throw std::runtime_error("bad exposure count");
+  if (exposures > 4096) throw std::runtime_error("bad exposure count");
   for (std::uint32_t k = 0; k < exposures; ++k) {
     session::MethodMeasurement::CaptureExposure e;
     e.capture = get_string(r);
