@@ -7,6 +7,8 @@
 
 #include <filesystem>
 #include <fstream>
+#include <regex>
+#include <string>
 
 #include "chromo/session/session_plan.hpp"
 #include "run_chromo.hpp"
@@ -32,13 +34,29 @@ TEST_F(SessionPlans, ListsTheBuiltInPlansAndPlanFiles) {
   std::ofstream(dir / "plans" / "mine.json") << chromo::session::to_json(mine).dump(1);
   const Result r = run_chromo("session plans --plan-dir " + (dir / "plans").string());
   ASSERT_EQ(r.exit_status, 0) << r.output;
-  // name, captures, channels, subject s, references s, frames, predicted (no advisor yet: -)
+  // name, captures, channels, subject s, references s, frames, predicted relit ΔE94 (the plan advisor)
   EXPECT_THAT(r.output, HasSubstr("standard"));
-  EXPECT_THAT(r.output, testing::ContainsRegex("standard +3 +4 +0\\.21 +0\\.28 +7 +-"));
-  EXPECT_THAT(r.output, testing::ContainsRegex("multispectral +6 +18 +0\\.42 +0\\.49 +13 +-"));
+  EXPECT_THAT(r.output, testing::ContainsRegex("standard +3 +4 +0\\.21 +0\\.28 +7 +[0-9.]+ "));
+  EXPECT_THAT(r.output, testing::ContainsRegex("multispectral +6 +18 +0\\.42 +0\\.49 +13 +[0-9.]+ "));
   EXPECT_THAT(r.output, testing::ContainsRegex("multispectral\\+method +9 +27 "));
   // 6 subject steps × (50 ms settle + 4 × 0.1 s); 7 reference steps alike.
-  EXPECT_THAT(r.output, testing::ContainsRegex("my_multispectral +6 +18 +2\\.70 +3\\.15 +52 +- +.*mine\\.json"));
+  EXPECT_THAT(r.output, testing::ContainsRegex("my_multispectral +6 +18 +2\\.70 +3\\.15 +52 +[0-9.]+ +.*mine\\.json"));
+  // The advisor's ordering (docs/plan-advisor.md): the six LED types one at
+  // a time beat the method's four channels, and 4 frames beat 1.
+  auto predicted = [&](const std::string& plan) {
+    std::smatch m;
+    const std::regex row("(^|\\n)" + plan + " +[0-9]+ +[0-9]+ +[0-9.]+ +[0-9.]+ +[0-9]+ +([0-9.]+) ");
+    if (!std::regex_search(r.output, m, row)) return -1.0;
+    return std::stod(m[2].str());
+  };
+  const double standard = predicted("standard"), multispectral = predicted("multispectral"),
+               four_frames = predicted("my_multispectral");
+  EXPECT_GT(standard, 0.2);
+  EXPECT_LT(standard, 3.0);
+  EXPECT_LT(multispectral, standard);
+  EXPECT_GT(multispectral, 0.0);
+  EXPECT_LT(four_frames, multispectral);
+  EXPECT_GT(four_frames, 0.0);
 }
 
 TEST_F(SessionPlans, APlanFileWithABadFieldIsRefusedByName) {
