@@ -267,6 +267,11 @@ MethodMeasurement build_plan_measurement(const PlanCaptures& captures, const Reg
     for (std::size_t i = 0; i < n; ++i) photo.rgb[i] = {a.albedo[0][i], a.albedo[1][i], a.albedo[2][i]};
     m.photographs.push_back(std::move(photo));
   }
+  m.exposures.push_back({"dark", dark.exposure_us, dark.frames});
+  for (const IlluminatedCapture& capture : captures.captures) {
+    m.exposures.push_back({"white " + capture.name, capture.white.exposure_us, capture.white.frames});
+    m.exposures.push_back({"subject " + capture.name, capture.subject.exposure_us, capture.subject.frames});
+  }
   return m;
 }
 
@@ -330,11 +335,6 @@ MethodMeasurement build_method_measurement(const MethodCaptures& captures, const
     Photograph photo{capture->name, capture->illuminant, std::vector<Eigen::Vector3d>(n)};
     for (std::size_t i = 0; i < n; ++i) photo.rgb[i] = {k->albedo[0][i], k->albedo[1][i], k->albedo[2][i]};
     m.photographs.push_back(std::move(photo));
-  }
-  m.exposures.push_back({"dark", dark.exposure_us, dark.frames});
-  for (const IlluminatedCapture& capture : captures.captures) {
-    m.exposures.push_back({"white " + capture.name, capture.white.exposure_us, capture.white.frames});
-    m.exposures.push_back({"subject " + capture.name, capture.subject.exposure_us, capture.subject.frames});
   }
   return m;
 }
