@@ -56,6 +56,7 @@
 #include <atomic>
 #include <cstdlib>
 #include <chrono>
+#include <cerrno>
 #include <cstring>
 #include <deque>
 #include <fstream>
