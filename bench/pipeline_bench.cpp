@@ -418,7 +418,7 @@ RunResult run(const RunSpec& spec, const std::filesystem::path& root) {
 std::string limit_of(const RunResult& r) {
   if (r.zero_loss()) return "-";
   std::vector<std::string> causes;
-  if (static_cast<double>(r.sent) < 0.98 * static_cast<double>(r.triggered))
+  if (static_cast<double>(r.sent + static_cast<std::uint64_t>(r.spec.cameras)) < 0.97 * static_cast<double>(r.triggered))
     causes.push_back(fmt::format("senders behind ({} of {} sent; their threads {:.0f}% CPU)", r.sent, r.triggered, r.cpu(kSenderStage)));
   if (r.receive_buffer_errors > 0)
     causes.push_back(fmt::format("socket buffer ({} datagrams dropped on full receive buffers)", r.receive_buffer_errors));
@@ -454,7 +454,7 @@ void print(const RunResult& r) {
     std::cout << "   received per camera:";
     for (auto n : r.received_by_camera) std::cout << " " << n;
   }
-  std::cout << "\n    limit: " << limit_of(r) << "\n";
+  std::cout << "\n    limit: " << limit_of(r) << std::endl;  // each step as it ends
 }
 
 std::vector<double> parse_list(const std::string& option, const std::string& text) {
