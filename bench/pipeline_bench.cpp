@@ -556,7 +556,7 @@ void write_sweep_chart(const std::vector<SweepStep>& steps, const std::filesyste
   chart.commands =
       "set title '5 MP Mono8 pattern cameras over loopback GigE Vision into storage: stored vs offered'\n"
       "set xlabel 'offered, all cameras (MB/s; 1 Gb/s = 115 MB/s)'\nset ylabel 'stored with acknowledgement (MB/s)'\n"
-      "set grid\nset key top left\nset xrange [0:*]\nset yrange [0:*]\n" + plot + "\n";
+      "set termoption noenhanced\nset grid\nset key top left\nset xrange [0:*]\nset yrange [0:*]\n" + plot + "\n";
   if (const std::string failed = files::draw_chart(chart, script_path); !failed.empty())
     std::fprintf(stderr, "chart: %s; figures are in %s\n", failed.c_str(), data_path.c_str());
 }

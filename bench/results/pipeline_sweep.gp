@@ -3,6 +3,7 @@ set output '/work/wt-pipebench/bench/results/pipeline_sweep.png'
 set title '5 MP Mono8 pattern cameras over loopback GigE Vision into storage: stored vs offered'
 set xlabel 'offered, all cameras (MB/s; 1 Gb/s = 115 MB/s)'
 set ylabel 'stored with acknowledgement (MB/s)'
+set termoption noenhanced
 set grid
 set key top left
 set xrange [0:*]
