@@ -521,7 +521,10 @@ void summarize(const std::vector<SweepStep>& steps) {
                                best->spec.fps * key.second, best->stored_mb_per_s);
     else
       std::cout << "no step ran with zero loss";
-    if (next) std::cout << fmt::format("; at {:g} fps/camera: {} of {} lost; limit: {}", next->spec.fps, next->lost, next->triggered, limit_of(*next));
+    if (next)
+      std::cout << fmt::format("; at {:g} fps/camera: {} of {} due not received, {} failed, {} gaps, {} unacknowledged; limit: {}",
+                               next->spec.fps, next->lost, next->triggered, next->failed, next->gaps, next->unacknowledged,
+                               limit_of(*next));
     else std::cout << "; no lossy step in the sweep";
     std::cout << "\n";
   }
