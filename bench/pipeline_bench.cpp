@@ -168,8 +168,9 @@ class RmemMaxRaise {
     std::snprintf(g_saved_rmem_max, sizeof g_saved_rmem_max, "%llu\n", static_cast<unsigned long long>(saved_));
     for (int signal_number : {SIGINT, SIGTERM, SIGHUP}) ::signal(signal_number, restore_rmem_max_and_reraise);
     if (!write_rmem_max(fmt::format("{}\n", bytes).c_str()) || read_rmem_max() != bytes) {
+      const int write_error = errno;
       restore();
-      throw std::runtime_error(fmt::format("cannot set {} to {} (root needed): {}", kRmemMaxPath, bytes, std::strerror(errno)));
+      throw std::runtime_error(fmt::format("cannot set {} to {} (root needed): {}", kRmemMaxPath, bytes, std::strerror(write_error)));
     }
   }
   ~RmemMaxRaise() { restore(); }
