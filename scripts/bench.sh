@@ -6,7 +6,7 @@
 # as root and writes it back itself (also on SIGINT/SIGTERM). Speeds are CPU and wall-clock
 # figures: run on an otherwise idle machine. pipeline_bench's camera
 # simulators bind loopback addresses of their own (no lock). All of them:
-# about 12 minutes on 2 cores once the lab session is cached (the first run
+# about 15 minutes on 2 cores (pipeline_bench's sweep ~4) once the lab session is cached (the first run
 # renders it, ~35 s).
 #
 #   scripts/bench.sh [NAME...]   (default: every bench; NAME as in bench/CMakeLists.txt)
