@@ -91,6 +91,25 @@ std::uint64_t SessionPlan::frames_per_camera_total() const {
   return total;
 }
 
+namespace {
+
+// A built-in plan's step: the options' settle, exposure and frames; the
+// operator prompt only when prompts are on.
+Step built_in_step(const StandardPlanOptions& options, std::string name, StepRole role, Illumination illumination,
+                   std::string prompt) {
+  Step s;
+  s.name = std::move(name);
+  s.role = role;
+  s.illumination = std::move(illumination);
+  s.settle_ms = options.settle_ms;
+  s.exposure_us = options.exposure_us;
+  s.frames_per_camera = options.frames_per_camera;
+  if (options.operator_prompts) s.prompt = std::move(prompt);
+  return s;
+}
+
+}  // namespace
+
 SessionPlan standard_plan(const StandardPlanOptions& options) {
   SessionPlan plan;
   plan.name = "standard";
@@ -98,14 +117,7 @@ SessionPlan standard_plan(const StandardPlanOptions& options) {
   const bool metered = options.meter_white_share > 0;
   auto step = [&](std::string name, StepRole role, Illumination illumination, std::string prompt = {},
                   std::string exposure_from = {}) {
-    Step s;
-    s.name = std::move(name);
-    s.role = role;
-    s.illumination = std::move(illumination);
-    s.settle_ms = options.settle_ms;
-    s.exposure_us = options.exposure_us;
-    s.frames_per_camera = options.frames_per_camera;
-    if (options.operator_prompts) s.prompt = std::move(prompt);
+    Step s = built_in_step(options, std::move(name), role, std::move(illumination), std::move(prompt));
     if (metered && !exposure_from.empty()) {
       if (exposure_from == s.name) s.meter_white_share = options.meter_white_share;
       else s.exposure_from = std::move(exposure_from);
@@ -238,15 +250,7 @@ SessionPlan multispectral_plan(const StandardPlanOptions& options, bool with_met
   plan.name = with_method_states ? "multispectral+method" : "multispectral";
   plan.timing = options.timing;
   auto step = [&](std::string name, StepRole role, Illumination illumination, std::string prompt = {}) {
-    Step s;
-    s.name = std::move(name);
-    s.role = role;
-    s.illumination = std::move(illumination);
-    s.settle_ms = options.settle_ms;
-    s.exposure_us = options.exposure_us;
-    s.frames_per_camera = options.frames_per_camera;
-    if (options.operator_prompts) s.prompt = std::move(prompt);
-    plan.steps.push_back(std::move(s));
+    plan.steps.push_back(built_in_step(options, std::move(name), role, std::move(illumination), std::move(prompt)));
   };
   // The illumination states, in capture order.
   std::vector<std::pair<std::string, Illumination>> states;
