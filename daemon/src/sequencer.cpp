@@ -530,7 +530,7 @@ class Run {
         // The controller is gone; nothing more to switch off from here.
       }
     }
-    c_.pipeline->drain();
+    c_.pipeline->drain_storage();  // the estimator may go on: the daemon drains it
   }
 
   SequencerOutcome cancelled() { return {session::OperationState::kCancelled, ""}; }

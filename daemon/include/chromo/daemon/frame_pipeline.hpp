@@ -98,8 +98,8 @@ class FramePipeline {
     std::size_t estimator_queue_frames = 8;
     // Optional: every stored frame is added here by the storage thread, after
     // its journal record is fsynced (derived data is written from it). Owned
-    // by the caller, who reads it only after drain() and keeps it alive
-    // until the pipeline is destroyed.
+    // by the caller, who reads it only after drain_storage() (or drain()) and
+    // keeps it alive until the pipeline is destroyed.
     session::SessionFrameSums* stored_sums = nullptr;
   };
   FramePipeline(std::filesystem::path folder, session::Journal& journal, files::StorageBudget* budget, Options options,
