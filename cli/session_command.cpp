@@ -112,6 +112,13 @@ void show(SessionOptions& options, int& exit_status) {
     std::cout << fmt::format("  {:2} {:<20} {:<8} {:>4} frames  {}\n", step.index(), step.name(),
                              pb::StepRole_Name(step.role()).substr(std::string("STEP_ROLE_").size()), step.frames_stored(),
                              step.completed() ? "completed" : "not completed");
+  // Where the time went (journal record times; "-" for a phase not reached).
+  const auto& timeline = detail.timeline();
+  auto seconds = [](double s) { return s < 0 ? std::string("-") : fmt::format("{:.1f} s", s); };
+  std::cout << fmt::format("timeline capture {} (subject {}), then derived data {} and maps {} after the last frame; "
+                           "total {}\n",
+                           seconds(timeline.capture_s()), seconds(timeline.subject_s()), seconds(timeline.derived_s()),
+                           seconds(timeline.estimation_s()), seconds(timeline.total_s()));
   for (const auto& frame : detail.frames())
     std::cout << fmt::format("  frame {:4} {:<18} {:<6} seq {:<5} {} exposure {} us\n", frame.index(), frame.step(),
                              frame.camera(), frame.sequence(), frame.file(), frame.exposure_us());
