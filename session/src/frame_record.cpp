@@ -101,6 +101,8 @@ nlohmann::json to_json(const FrameRecord& r) {
                       {"sequence", r.sequence},
                       {"camera_frame_id", r.camera_frame_id},
                       {"camera_timestamp_ns", r.camera_timestamp_ns},
+                      {"trigger_id", r.trigger_id},
+                      {"camera_trigger_count", r.camera_trigger_count},
                       {"host_timestamp_ns", r.host_timestamp_ns},
                       {"width", r.width},
                       {"height", r.height},
@@ -133,6 +135,8 @@ FrameRecord frame_record_from_json(const nlohmann::json& json) {
   r.sequence = number_or<std::uint64_t>(json, "sequence", 0);
   r.camera_frame_id = number_or<std::uint64_t>(json, "camera_frame_id", 0);
   r.camera_timestamp_ns = number_or<std::uint64_t>(json, "camera_timestamp_ns", 0);
+  r.trigger_id = number_or<std::uint64_t>(json, "trigger_id", 0);
+  r.camera_trigger_count = number_or<std::uint64_t>(json, "camera_trigger_count", 0);
   r.host_timestamp_ns = number_or<std::int64_t>(json, "host_timestamp_ns", 0);
   if (const auto led = json.find("led"); led != json.end() && led->is_object() && led->contains("drive")) {
     FrameLedState state;
