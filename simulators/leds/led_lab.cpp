@@ -178,6 +178,11 @@ void LedLab::connect_trigger_output(std::function<void()> input) {
   trigger_outputs_.push_back(std::move(input));
 }
 
+void LedLab::disconnect_trigger_outputs() {
+  std::lock_guard lock(output_mutex_);
+  trigger_outputs_.clear();
+}
+
 int LedLab::trigger_count() const {
   std::lock_guard lock(mutex_);
   return trigger_count_;

@@ -91,6 +91,8 @@ class LedLab final : public SphereIllumination {
   std::uint32_t trigger_pulses() const;  // pulses fired so far (the last one's number)
   // Wires an input to the trigger output; it is called on the firing thread.
   void connect_trigger_output(std::function<void()> input);
+  // Unwires every input (before the objects behind them go away).
+  void disconnect_trigger_outputs();
 
   // ---- faults ----
   void inject_flux_loss(spectral::LedType type, double fraction);  // 0.05 = 5 % less flux
