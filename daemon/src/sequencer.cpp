@@ -115,7 +115,7 @@ class Run {
       if (!with_led("read_status", [&](drivers::LedController& device) { status = device.read_status(); }))
         return cancelled();
       // Hardware timing: the controller moves to this step's state on the
-      // first exposure edge, so before it the status still shows the state
+      // step's first trigger pulse, so before it the status still shows the state
       // of the previous frame; the frames were taken under the armed levels.
       session::FrameLedState led;
       led.drive = hardware ? levels : status.applied.drive;
