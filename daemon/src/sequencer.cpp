@@ -250,7 +250,7 @@ class Run {
       ++collector->missed;
       const std::string& name = collector->camera->config.name;
       names.push_back(name);
-      listing += (listing.empty() ? "" : ", ") + ("\"" + name + "\" (" + problem + ")");
+      listing += (listing.empty() ? "" : ", ") + ("camera \"" + name + "\" (" + problem + ")");
       const std::string reason = problem.substr(0, problem.find(':'));
       c_.pipeline->record_lost(reason);
       c_.journal->append({{"type", "frame_lost"}, {"step", step.name}, {"camera", name}, {"trigger_id", trigger_id},
