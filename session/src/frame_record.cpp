@@ -101,12 +101,13 @@ nlohmann::json to_json(const FrameRecord& r) {
                       {"sequence", r.sequence},
                       {"camera_frame_id", r.camera_frame_id},
                       {"camera_timestamp_ns", r.camera_timestamp_ns},
-                      {"trigger_id", r.trigger_id},
-                      {"camera_trigger_count", r.camera_trigger_count},
                       {"host_timestamp_ns", r.host_timestamp_ns},
                       {"width", r.width},
                       {"height", r.height},
                       {"pixel_format", std::string(drivers::pixel_format_name(r.pixel_format))}};
+  // Absent (0) in records of frames taken before triggers were numbered.
+  if (r.trigger_id != 0) json["trigger_id"] = r.trigger_id;
+  if (r.camera_trigger_count != 0) json["camera_trigger_count"] = r.camera_trigger_count;
   if (r.led) json["led"] = to_json(*r.led);
   return json;
 }
