@@ -10,7 +10,10 @@
 // streaming: when the exposure changes the streams stop, the cameras are
 // configured with the configuration's pixel format/ROI/gain and the step's
 // exposure, and the streams start again) → for each frame: one synchronised
-// capture (below).
+// capture (below) → the step is complete (journal "step_completed") once its
+// frames are stored (FramePipeline::drain_storage); the next step does not
+// wait for the on-line estimator, which prepares its tables from the
+// references while the subject steps are captured.
 //
 // Synchronised capture (docs/camera.md): the LED controller is the trigger
 // master. Per capture the sequencer asks it to fire one pulse
@@ -31,7 +34,7 @@
 // frame, or a frame with a count it was never sent (its count and the
 // sequencer's disagree: its stream is restarted) spoils the capture: each
 // such camera gets a "frame_lost" journal record naming it with the trigger
-// id and reason (timeout, missing_packets, ..., trigger_mismatch), the other
+// id and reason (no_frame, missing_packets, ..., trigger_mismatch), the other
 // cameras' frames of that trigger are discarded, a "capture_retaken" record
 // and the operation's message say so, and a new trigger is fired for every
 // camera. Frames of an earlier trigger arriving later are discarded
