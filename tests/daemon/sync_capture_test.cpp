@@ -48,7 +48,9 @@ struct TwoCameraSphere {
   }
   ~TwoCameraSphere() { leds.lab().disconnect_trigger_outputs(); }
 
-  std::vector<DeviceConfig> devices() const {
+  // software_cam1: cam1's input is not wired (no trigger_input): the
+  // daemon's fallback triggers it by software.
+  std::vector<DeviceConfig> devices(bool software_cam1 = false) const {
     std::vector<DeviceConfig> out{{"sphere", DeviceKind::kLedController, "modbus-tcp",
                                    "127.0.0.1:" + std::to_string(modbus_port), nlohmann::json::object()}};
     for (std::size_t k = 0; k < cameras.size(); ++k)
@@ -58,6 +60,7 @@ struct TwoCameraSphere {
                       {"trigger_input", "Line0"},
                       {"socket_buffer_bytes", 4 << 20},
                       {"frame_retention_ms", 500}}});
+    if (software_cam1) out.back().settings.erase("trigger_input");
     return out;
   }
 };
@@ -71,17 +74,17 @@ struct SessionRun {
   std::uint32_t pulses = 0;
 };
 
-SessionRun run_session(std::uint64_t seed, session::Timing timing) {
+SessionRun run_session(std::uint64_t seed, session::Timing timing, bool software_cam1 = false) {
   const auto directory = fresh_directory("sync-capture-" + std::to_string(seed));
   auto sphere = std::make_shared<TwoCameraSphere>();
-  DeviceSet devices = builtin_backends().open(sphere->devices());
+  DeviceSet devices = builtin_backends().open(sphere->devices(software_cam1));
   for (const auto& camera : devices.cameras) EXPECT_TRUE(camera->open_error.empty()) << camera->open_error;
   devices.keep_alive.push_back(sphere);
   DaemonConfig config;
   config.unix_socket = (directory / "chromod.sock").string();
   config.sessions_dir = directory / "sessions";
   config.mixes = default_virtual_lab_mixes();
-  config.devices = sphere->devices();
+  config.devices = sphere->devices(software_cam1);
   config.frame_timeout_ms = 1000;  // a dropped trigger costs this
   config.frame_attempts = 30;      // drops in a row must not pause the session
   for (std::size_t k = 0; k < sphere->cameras.size(); ++k) {
@@ -109,7 +112,7 @@ SessionRun run_session(std::uint64_t seed, session::Timing timing) {
   return run;
 }
 
-void check_run(const SessionRun& run, std::uint64_t seed) {
+void check_run(const SessionRun& run, std::uint64_t seed, bool software_cam1 = false) {
   SCOPED_TRACE("seed " + std::to_string(seed));
   ASSERT_EQ(run.final.state, session::OperationState::kSucceeded) << run.final.error << " / " << run.final.message;
   ASSERT_TRUE(run.info);
@@ -154,7 +157,7 @@ void check_run(const SessionRun& run, std::uint64_t seed) {
     EXPECT_EQ(no_frame[name], run.ignored[k] + camera.at("late_frames_discarded").get<std::uint64_t>() +
                                   camera.at("failed_frames_discarded").get<std::uint64_t>())
         << name;
-    EXPECT_EQ(camera.at("trigger").get<std::string>(), "hardware");
+    EXPECT_EQ(camera.at("trigger").get<std::string>(), software_cam1 && k == 1 ? "software" : "hardware");
   }
   // Each spoiled trigger was retaken once for every camera, counted.
   EXPECT_EQ(retaken, spoiled_triggers.size());
@@ -198,6 +201,13 @@ TEST(SyncCapture, HardwareTimedLightFollowsTheControllersOwnPulseThroughRetakes)
     ASSERT_EQ(means.size(), 2u);
     EXPECT_NEAR(means[0], means[1], 0.05 * std::max(means[0], means[1]) + 2.0) << "step " << where.first;
   }
+}
+
+TEST(SyncCapture, ACameraWithoutLine0WiringIsTriggeredBySoftwareWithTheSameTriggerIds) {
+  const std::uint64_t seed = 5;
+  const SessionRun run = run_session(seed, session::Timing::kSoftware, true);
+  check_run(run, seed, true);
+  EXPECT_GT(run.ignored[0] + run.ignored[1], 0u) << "seed 5 dropped no trigger";
 }
 
 }  // namespace
