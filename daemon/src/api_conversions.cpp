@@ -121,6 +121,7 @@ void to_proto(const session::SessionInfo& info, bool include_frames, pb::Session
     f->set_sequence(frame.sequence);
     f->set_camera_frame_id(frame.camera_frame_id);
     f->set_camera_timestamp_ns(frame.camera_timestamp_ns);
+    f->set_trigger_id(frame.trigger_id);
     f->set_file(frame.file);
     f->set_status("complete");
     f->set_exposure_us(frame.exposure_us);

@@ -3,6 +3,7 @@
 // wrong type or out of range throws std::invalid_argument naming
 // "settings.<key>" (DeviceSet::open adds the device's name); a device that
 // does not answer becomes its open_error instead.
+#include <cctype>
 #include <charconv>
 #include <set>
 #include <stdexcept>
@@ -120,7 +121,7 @@ std::unique_ptr<drivers::Spectrometer> open_usb_spectrometer(const DeviceConfig&
   return drivers::make_usb_spectrometer(config.address);
 }
 
-const std::set<std::string> kCameraCaptureSettings{"pixel_format", "roi", "gain_db"};
+const std::set<std::string> kCameraCaptureSettings{"pixel_format", "roi", "gain_db", "trigger_input"};
 
 std::unique_ptr<drivers::Camera> open_aravis(const DeviceConfig& config) {
   auto known = kCameraCaptureSettings;
@@ -140,6 +141,7 @@ std::unique_ptr<drivers::Camera> open_aravis(const DeviceConfig& config) {
   options.socket_buffer_bytes =
       static_cast<std::size_t>(s.integer("socket_buffer_bytes", static_cast<long long>(options.socket_buffer_bytes), 65536, 1ll << 30));
   options.frame_retention_ms = static_cast<int>(s.integer("frame_retention_ms", options.frame_retention_ms, 10, 60000));
+  if (config.settings.contains("trigger_input")) options.hardware_trigger_line = config.settings.at("trigger_input").get<std::string>();
   if (std::string error; !options.IsValid(&error)) throw std::invalid_argument("settings: " + error);
   return drivers::AravisCamera::open(options);
 }
@@ -174,6 +176,16 @@ drivers::CameraSettings camera_capture_settings(const DeviceConfig& config) {
         throw std::invalid_argument("settings.roi." + key + ": must be an integer in [0, 65535]");
     }
     settings.roi = {roi.value("x", 0), roi.value("y", 0), roi.value("width", 0), roi.value("height", 0)};
+  }
+  // Wired to the LED controller's trigger output: hardware-triggered on that
+  // input line; otherwise the sequencer triggers the camera by software.
+  settings.trigger_mode = drivers::TriggerMode::kSoftware;
+  if (json.contains("trigger_input")) {
+    const auto& line = json.at("trigger_input");
+    const bool valid = line.is_string() && line.get<std::string>().size() == 5 &&
+                       line.get<std::string>().starts_with("Line") && std::isdigit(static_cast<unsigned char>(line.get<std::string>()[4]));
+    if (!valid) throw std::invalid_argument("settings.trigger_input: must be \"Line0\" … \"Line9\" (the input wired to the LED controller's trigger output)");
+    settings.trigger_mode = drivers::TriggerMode::kHardware;
   }
   return settings;
 }

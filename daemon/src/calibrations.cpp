@@ -52,6 +52,9 @@ class LockedLeds final : public drivers::LedController, LockedCalls<drivers::Led
   }
   void advance_sequence() override { call([&] { device().advance_sequence(); }); }
   void disarm_sequence() override { call([&] { device().disarm_sequence(); }); }
+  std::uint32_t fire_trigger(std::uint32_t pulse_width_us) override {
+    return call([&] { return device().fire_trigger(pulse_width_us); });
+  }
 };
 
 class LockedSpectrometer final : public drivers::Spectrometer, LockedCalls<drivers::Spectrometer> {

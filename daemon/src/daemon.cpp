@@ -196,8 +196,6 @@ session::OperationRecord Daemon::start_session(session::SessionPlan plan, const 
   auto* led = devices_.led_controller("", &led_error);
   if (!led) throw std::runtime_error("LED controller: " + led_error);
   if (devices_.cameras.empty()) throw std::runtime_error("no camera configured");
-  if (plan.timing == session::Timing::kHardware && devices_.cameras.size() != 1)
-    throw std::invalid_argument("plan.timing: hardware timing needs exactly one camera wired to the controller's trigger input");
   if (plan.timing == session::Timing::kHardware && led->device) {
     // The controller holds the whole sequence: a resting state plus one state per frame.
     int capacity = 0;

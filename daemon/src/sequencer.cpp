@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <condition_variable>
+#include <map>
+#include <optional>
 #include <thread>
 
 #include "chromo/daemon/exposure_metering.hpp"
@@ -30,22 +32,36 @@ bool is_unanswered(const DeviceError& error) {
   return error.kind() == DeviceError::Kind::kTimeout || error.kind() == DeviceError::Kind::kDisconnected;
 }
 
-// One camera's frames as they arrive, routed to the pipeline with the
-// metadata of the frame being taken.
+// The trigger output's pulse: long enough for any camera's input filter.
+constexpr std::uint32_t kTriggerPulseWidthUs = 100;
+
+// One camera's side of the captures: what it owes (the trigger it was sent
+// last, by its own count since its stream started) and what it answered.
+// The stream thread fills the answer; the sequencer thread reads it.
 struct CameraCollector {
   NamedDevice<drivers::Camera>* camera = nullptr;
+  bool hardware_triggered = false;  // its trigger input is wired to the LED controller's output (const)
   std::mutex mutex;
   std::condition_variable arrived;
-  std::uint64_t delivered = 0;  // frames (complete or not) since start
-  drivers::FrameStatus last_status = drivers::FrameStatus::kComplete;
-  session::FrameRecord pending;  // the frame being taken: step, LED state, exposure (camera fields come with it)
-  std::chrono::steady_clock::time_point trigger_time;
-  bool streaming = false;  // sequencer thread only
-  double exposure_us = -1;  // configured (sequencer thread only)
-  bool metering = false;    // the frame being taken is a metering frame: kept here, not stored
-  FrameLevels metered;      // levels of the last metering frame
-  std::string metering_error;
-  std::array<double, 3> dark{};  // mean dark level per channel (share of full scale), from the dark step's frames
+  // Guarded by mutex:
+  std::uint64_t triggers_sent = 0;   // the camera's count of the last trigger it was sent (0 after a stream start)
+  std::map<std::uint64_t, std::uint64_t> trigger_of_count;  // camera count -> trigger id (the controller's pulse)
+  std::uint64_t awaited_count = 0;   // the trigger a capture waits for, by the camera's count; 0 = none
+  bool answered = false;             // the camera answered the awaited trigger (complete, failed or mismatched)
+  drivers::FrameStatus answer_status = drivers::FrameStatus::kComplete;
+  std::string answer_problem;        // why an answer does not count ("" when it does)
+  std::optional<drivers::Frame> answer;  // the complete frame of the awaited trigger
+  std::uint64_t late_frames = 0;     // complete frames of earlier triggers, discarded
+  std::uint64_t failed_frames = 0;   // failed frames of no awaited trigger, discarded (lost)
+  // Sequencer thread only:
+  bool streaming = false;
+  bool resync = false;               // its count may disagree with triggers_sent: restart its stream
+  std::uint64_t reconnects_at_start = 0;
+  double exposure_us = -1;           // configured
+  FrameLevels metered;               // levels of the last metering frame
+  std::array<double, 3> dark{};      // mean dark level per channel (share of full scale), from the dark step's frames
+  std::uint32_t dark_frames = 0;
+  std::uint64_t missed = 0;          // captures it spoiled (named in the journal)
 };
 
 class Run {
@@ -99,7 +115,7 @@ class Run {
       if (!with_led("read_status", [&](drivers::LedController& device) { status = device.read_status(); }))
         return cancelled();
       // Hardware timing: the controller moves to this step's state on the
-      // first exposure edge, so before it the status still shows the state
+      // step's first trigger pulse, so before it the status still shows the state
       // of the previous frame; the frames were taken under the armed levels.
       session::FrameLedState led;
       led.drive = hardware ? levels : status.applied.drive;
@@ -146,69 +162,180 @@ class Run {
     return {session::OperationState::kSucceeded, ""};
   }
 
-  // Triggers every camera and waits for one complete frame from each;
-  // retries failed frames. False when cancelled.
+  // One capture: every camera's frame of one trigger (see sequencer.hpp,
+  // "Synchronised capture"). The LED controller fires a pulse (the hardware-
+  // triggered cameras expose on it, a kTriggerOutput sequence shows the
+  // frame's state before it), the other cameras are software-triggered with
+  // the same trigger id; the capture counts only when every camera answered
+  // that trigger, else it is retaken for all. False when cancelled.
   bool take_frame(const session::Step& step, int index, std::uint32_t frame_in_step, const session::FrameRecord& pending,
                   bool metering) {
-    for (auto& collector : collectors_) {
-      std::uint32_t attempts = 0;
-      while (true) {
-        if (c_.control->cancel_requested()) return false;
-        std::uint64_t before;
-        {
-          std::lock_guard lock(collector->mutex);
-          collector->pending = pending;
-          collector->pending.camera = collector->camera->config.name;
-          collector->pending.exposure_us = collector->exposure_us;
-          collector->metering = metering;
-          collector->metering_error.clear();
-          collector->trigger_time = std::chrono::steady_clock::now();
-          before = collector->delivered;
-        }
-        std::string failure;
+    std::uint32_t attempts = 0;
+    while (true) {
+      if (c_.control->cancel_requested()) return false;
+      if (!resync_streams()) return false;
+      for (auto& collector : collectors_) {
+        std::lock_guard lock(collector->mutex);
+        collector->awaited_count = ++collector->triggers_sent;
+        collector->answered = false;
+        collector->answer.reset();
+        collector->answer_problem.clear();
+      }
+      const auto trigger_time = std::chrono::steady_clock::now();
+      std::uint32_t trigger_id = 0;
+      if (!with_led("fire_trigger", [&](drivers::LedController& device) {
+            trigger_id = device.fire_trigger(kTriggerPulseWidthUs);
+          }))
+        return false;
+      ++triggers_fired_;
+      for (auto& collector : collectors_) {
+        std::lock_guard lock(collector->mutex);
+        collector->trigger_of_count[collector->awaited_count] = trigger_id;
+        while (collector->trigger_of_count.size() > 256) collector->trigger_of_count.erase(collector->trigger_of_count.begin());
+      }
+      for (auto& collector : collectors_) {
+        if (collector->hardware_triggered) continue;
         try {
           std::lock_guard device_lock(collector->camera->mutex);
           collector->camera->device->software_trigger();
         } catch (const DeviceError& error) {
-          failure = error.what();
+          collector->resync = true;  // whether the camera counted that trigger is unknown
+          std::lock_guard lock(collector->mutex);
+          collector->answered = true;
+          collector->answer_status = drivers::FrameStatus::kError;
+          collector->answer_problem = std::string("camera_unreachable: ") + error.what();
         }
-        if (failure.empty()) {
-          std::unique_lock lock(collector->mutex);
-          auto deadline = std::chrono::steady_clock::now() +
-                          std::chrono::microseconds(static_cast<long long>(collector->exposure_us)) +
-                          std::chrono::milliseconds(c_.frame_timeout_ms);
-          bool got = collector->arrived.wait_until(lock, deadline, [&] { return collector->delivered > before; });
-          if (got && collector->last_status == drivers::FrameStatus::kComplete) {
-            if (metering && !collector->metering_error.empty())
-              throw std::runtime_error("camera \"" + collector->camera->config.name + "\": " + collector->metering_error);
-            break;
-          }
-          failure = got ? frame_status_reason(collector->last_status) : "no frame within the timeout";
-          if (!got) {
-            lock.unlock();
-            c_.pipeline->record_lost("timeout");
-            c_.journal->append({{"type", "frame_lost"}, {"step", step.name}, {"camera", collector->camera->config.name},
-                                {"reason", "timeout"}});
-          }
-        } else {
-          c_.pipeline->record_lost("camera_unreachable");
-          c_.journal->append({{"type", "frame_lost"}, {"step", step.name}, {"camera", collector->camera->config.name},
-                              {"reason", "camera_unreachable"}, {"detail", failure}});
-        }
-        report_progress();
-        if (++attempts < c_.frame_attempts) {
-          if (c_.plan.timing == session::Timing::kHardware && !arm_from(static_cast<std::size_t>(index), frame_in_step)) return false;
-          continue;
-        }
-        c_.control->pause_by_daemon();
-        if (!pause_point("camera \"" + collector->camera->config.name + "\" delivered no complete frame in " +
-                         std::to_string(attempts) + " attempts (last: " + failure + "); resume to retry"))
-          return false;
-        attempts = 0;
-        if (c_.plan.timing == session::Timing::kHardware && !arm_from(static_cast<std::size_t>(index), frame_in_step)) return false;
       }
+      double longest_exposure_us = 0;
+      for (const auto& collector : collectors_) longest_exposure_us = std::max(longest_exposure_us, collector->exposure_us);
+      const auto deadline = std::chrono::steady_clock::now() +
+                            std::chrono::microseconds(static_cast<long long>(longest_exposure_us)) +
+                            std::chrono::milliseconds(c_.frame_timeout_ms);
+      // Judge each camera's answer and stop waiting for it, in one step: a
+      // frame arriving after this is late and discarded.
+      std::vector<std::pair<CameraCollector*, std::string>> missed;
+      std::vector<drivers::Frame> frames;
+      for (auto& collector : collectors_) {
+        std::unique_lock lock(collector->mutex);
+        collector->arrived.wait_until(lock, deadline, [&] { return collector->answered; });
+        std::string problem;
+        if (!collector->answered) problem = "no_frame";
+        else if (!collector->answer_problem.empty()) problem = collector->answer_problem;
+        else if (collector->answer_status != drivers::FrameStatus::kComplete) problem = frame_status_reason(collector->answer_status);
+        collector->awaited_count = 0;
+        if (problem.empty()) frames.push_back(std::move(*collector->answer));
+        else missed.emplace_back(collector.get(), problem);
+        collector->answer.reset();
+      }
+      if (missed.empty()) {
+        deliver_capture(frames, pending, trigger_id, trigger_time, metering);
+        return true;
+      }
+      if (!retake(step, static_cast<std::size_t>(index), frame_in_step, trigger_id, missed, frames.size(), attempts))
+        return false;
     }
+  }
+
+  // A capture one camera or more spoiled: named and counted in the journal,
+  // the other cameras' frames of that trigger discarded; pauses after
+  // frame_attempts captures in a row. False when cancelled.
+  bool retake(const session::Step& step, std::size_t index, std::uint32_t frame_in_step, std::uint32_t trigger_id,
+              const std::vector<std::pair<CameraCollector*, std::string>>& missed, std::size_t discarded,
+              std::uint32_t& attempts) {
+    ++retakes_;
+    discarded_frames_ += discarded;
+    nlohmann::json names = nlohmann::json::array();
+    std::string listing;
+    for (const auto& [collector, problem] : missed) {
+      ++collector->missed;
+      const std::string& name = collector->camera->config.name;
+      names.push_back(name);
+      listing += (listing.empty() ? "" : ", ") + ("camera \"" + name + "\" (" + problem + ")");
+      const std::string reason = problem.substr(0, problem.find(':'));
+      c_.pipeline->record_lost(reason);
+      c_.journal->append({{"type", "frame_lost"}, {"step", step.name}, {"camera", name}, {"trigger_id", trigger_id},
+                          {"reason", reason}, {"detail", problem}});
+      if (reason == "trigger_mismatch") collector->resync = true;
+    }
+    c_.journal->append({{"type", "capture_retaken"}, {"step", step.name}, {"trigger_id", trigger_id},
+                        {"cameras", names}, {"discarded_frames", discarded}, {"retakes", retakes_}});
+    report_message("step " + step.name + ": trigger " + std::to_string(trigger_id) + " missed by " + listing +
+                   "; capture retaken for every camera");
+    report_progress();
+    if (++attempts >= c_.frame_attempts) {
+      c_.control->pause_by_daemon();
+      if (!pause_point("step " + step.name + ": " + listing + " missed " + std::to_string(attempts) +
+                       " triggers in a row; resume to retry"))
+        return false;
+      attempts = 0;
+    }
+    // Hardware timing: the missed trigger advanced the armed sequence; arm it
+    // again from this frame so that the retake's trigger shows its state.
+    if (c_.plan.timing == session::Timing::kHardware && !arm_from(index, frame_in_step)) return false;
     return true;
+  }
+
+  // Every camera answered trigger_id: the frames become the capture
+  // (metering levels, or the pipeline with their records).
+  void deliver_capture(std::vector<drivers::Frame>& frames, const session::FrameRecord& pending, std::uint32_t trigger_id,
+                       std::chrono::steady_clock::time_point trigger_time, bool metering) {
+    for (std::size_t k = 0; k < collectors_.size(); ++k) {
+      CameraCollector& collector = *collectors_[k];
+      drivers::Frame& frame = frames[k];
+      if (metering) {
+        try {
+          collector.metered = frame_levels(frame.data, frame.width, frame.height, frame.pixel_format);
+        } catch (const std::exception& failure) {
+          throw std::runtime_error("camera \"" + collector.camera->config.name + "\": " + failure.what());
+        }
+        continue;
+      }
+      if (pending.role == session::StepRole::kDark) {
+        try {  // the dark level the metering subtracts (the mean over the dark step's frames)
+          const FrameLevels levels = frame_levels(frame.data, frame.width, frame.height, frame.pixel_format);
+          const double n = collector.dark_frames++;
+          for (int c = 0; c < 3; ++c) collector.dark[c] = (collector.dark[c] * n + levels.mean[c]) / (n + 1);
+        } catch (const std::exception&) {
+          // A frame the pipeline will refuse anyway; the metering then assumes no dark level.
+        }
+      }
+      CapturedFrame captured;
+      captured.trigger_time = trigger_time;
+      session::FrameRecord& r = captured.record;
+      r = pending;
+      r.camera = collector.camera->config.name;
+      r.exposure_us = collector.exposure_us;
+      r.sequence = frame.sequence;
+      r.camera_frame_id = frame.camera_frame_id;
+      r.camera_timestamp_ns = frame.camera_timestamp_ns;
+      r.trigger_id = trigger_id;
+      r.camera_trigger_count = frame.trigger_count.value_or(0);
+      r.host_timestamp_ns =
+          std::chrono::duration_cast<std::chrono::nanoseconds>(frame.host_timestamp.time_since_epoch()).count();
+      r.width = frame.width;
+      r.height = frame.height;
+      r.pixel_format = frame.pixel_format;
+      captured.samples = std::move(frame.data);
+      c_.pipeline->submit(std::move(captured));
+    }
+  }
+
+  // Restarts the streams when a camera's trigger count may no longer match
+  // the sequencer's (a trigger it may or may not have counted, a frame
+  // answering a trigger it was never sent, a reconnect of the driver, which
+  // restarts acquisition): AcquisitionStart resets the camera's count.
+  // False when cancelled.
+  bool resync_streams() {
+    bool needed = false;
+    for (auto& collector : collectors_) {
+      std::lock_guard lock(collector->camera->mutex);
+      needed = needed || collector->resync ||
+               collector->camera->device->statistics().reconnects != collector->reconnects_at_start;
+    }
+    if (!needed) return true;
+    std::vector<double> exposure;
+    for (const auto& collector : collectors_) exposure.push_back(collector->exposure_us);
+    return ensure_exposure(exposure, true);
   }
 
   // Calls the LED controller; when it does not answer, pauses with a clear
@@ -234,8 +361,9 @@ class Run {
   }
 
   // Arms the hardware sequence from (step, frame) to the end. State 0 is the
-  // resting state (LEDs dark) shown until the first exposure: the controller
-  // advances on each exposure's rising edge, so frame k is taken under state k.
+  // resting state (LEDs dark) shown until the first trigger: the controller
+  // advances on each pulse of its own trigger output before the pulse leaves,
+  // so the capture of pulse k is taken under state k.
   bool arm_from(std::size_t step_index, std::uint32_t frame) {
     std::vector<LedState> states(1);
     for (std::size_t s = step_index; s < c_.plan.steps.size(); ++s) {
@@ -245,7 +373,7 @@ class Run {
         states.push_back(state);
     }
     return with_led("arm_sequence", [&](drivers::LedController& device) {
-      device.arm_sequence(states, drivers::SequenceTrigger::kHardwareRisingEdge);
+      device.arm_sequence(states, drivers::SequenceTrigger::kTriggerOutput);
     });
   }
 
@@ -273,7 +401,7 @@ class Run {
       if (!camera->device) throw std::runtime_error("camera \"" + camera->config.name + "\" is not open: " + camera->open_error);
       auto collector = std::make_unique<CameraCollector>();
       collector->camera = camera;
-      collector->pending.camera = camera->config.name;
+      collector->hardware_triggered = camera_capture_settings(camera->config).trigger_mode == drivers::TriggerMode::kHardware;
       collectors_.push_back(std::move(collector));
     }
   }
@@ -283,8 +411,9 @@ class Run {
   // cameras are configured, the streams start again. A camera that does not
   // answer pauses the session naming it; resume retries. False when cancelled.
   // exposure_us: one per camera (collectors_ order).
-  bool ensure_exposure(const std::vector<double>& exposure_us) {
-    bool same = true;
+  // restart: restart the streams even when the exposures are unchanged.
+  bool ensure_exposure(const std::vector<double>& exposure_us, bool restart = false) {
+    bool same = !restart;
     for (std::size_t k = 0; k < collectors_.size(); ++k) same = same && collectors_[k]->exposure_us == exposure_us[k];
     if (same) return true;
     while (true) {
@@ -302,8 +431,16 @@ class Run {
           failing = collector->camera->config.name;
           CameraCollector* raw = collector.get();
           std::lock_guard lock(collector->camera->mutex);
+          {
+            std::lock_guard counts(collector->mutex);  // AcquisitionStart resets the camera's trigger count
+            collector->triggers_sent = 0;
+            collector->trigger_of_count.clear();
+            collector->awaited_count = 0;
+          }
+          collector->reconnects_at_start = collector->camera->device->statistics().reconnects;
           collector->camera->device->start_stream([this, raw](drivers::Frame&& frame) { on_frame(*raw, std::move(frame)); });
           collector->streaming = true;
+          collector->resync = false;
         }
         return true;
       } catch (const DeviceError& error) {
@@ -431,80 +568,76 @@ class Run {
     }
   }
 
+  // Stream thread: files the frame as the answer to the awaited trigger, or
+  // discards it (a frame of an earlier trigger, counted and journalled).
   void on_frame(CameraCollector& collector, drivers::Frame&& frame) {
-    CapturedFrame captured;
+    const std::string& camera = collector.camera->config.name;
     const bool complete = frame.status == drivers::FrameStatus::kComplete;
+    nlohmann::json discarded;
     {
       std::lock_guard lock(collector.mutex);
-      captured.record = collector.pending;
-      captured.trigger_time = collector.trigger_time;
-    }
-    bool metering = false;
-    {
-      std::lock_guard lock(collector.mutex);
-      metering = collector.metering;
-    }
-    if (complete && metering) {
-      FrameLevels levels;
-      std::string error;
-      try {
-        levels = frame_levels(frame.data, frame.width, frame.height, frame.pixel_format);
-      } catch (const std::exception& failure) {
-        error = failure.what();
+      const bool awaiting = collector.awaited_count != 0 && !collector.answered;
+      if (!complete) {
+        if (awaiting) {  // the awaited trigger's frame, failed (a failed frame carries no count)
+          collector.answered = true;
+          collector.answer_status = frame.status;
+        } else {
+          discarded = {{"reason", frame_status_reason(frame.status)}};
+          ++collector.failed_frames;
+        }
+      } else if (!frame.trigger_count) {  // a camera that sends no count: taken as the awaited trigger's
+        if (awaiting) {
+          collector.answered = true;
+          collector.answer_status = drivers::FrameStatus::kComplete;
+          collector.answer = std::move(frame);
+        } else {
+          discarded = {{"reason", "late"}};
+          ++collector.late_frames;
+        }
+      } else if (awaiting && *frame.trigger_count == collector.awaited_count) {
+        collector.answered = true;
+        collector.answer_status = drivers::FrameStatus::kComplete;
+        collector.answer = std::move(frame);
+      } else if (*frame.trigger_count <= collector.triggers_sent &&
+                 (collector.awaited_count == 0 || *frame.trigger_count < collector.awaited_count)) {
+        const auto found = collector.trigger_of_count.find(*frame.trigger_count);
+        discarded = {{"reason", "late"}, {"camera_trigger_count", *frame.trigger_count}};
+        if (found != collector.trigger_of_count.end()) discarded["trigger_id"] = found->second;
+        ++collector.late_frames;
+      } else {  // a count the camera was never sent: its count and the sequencer's disagree
+        discarded = {{"reason", "trigger_mismatch"}, {"camera_trigger_count", *frame.trigger_count}};
+        if (awaiting) {
+          collector.answered = true;
+          collector.answer_status = drivers::FrameStatus::kComplete;
+          collector.answer_problem = "trigger_mismatch: the frame answers the camera's trigger " +
+                                     std::to_string(*frame.trigger_count) + ", expected " +
+                                     std::to_string(collector.awaited_count);
+        }
       }
-      std::lock_guard lock(collector.mutex);
-      collector.metered = levels;
-      collector.metering_error = error;
-      collector.last_status = drivers::FrameStatus::kComplete;
-      ++collector.delivered;
       collector.arrived.notify_all();
-      return;
     }
-    if (complete && captured.record.role == session::StepRole::kDark) {
-      try {  // the dark level the metering subtracts (the mean over the dark step's frames)
-        const FrameLevels levels = frame_levels(frame.data, frame.width, frame.height, frame.pixel_format);
-        std::lock_guard lock(collector.mutex);
-        const double n = static_cast<double>(captured.record.frame_in_step);
-        for (int c = 0; c < 3; ++c) collector.dark[c] = (collector.dark[c] * n + levels.mean[c]) / (n + 1);
-      } catch (const std::exception&) {
-        // A frame the pipeline will refuse anyway; the metering then assumes no dark level.
-      }
+    if (discarded.is_null()) return;
+    // A failed frame of no awaited trigger is lost (as every failed frame);
+    // a complete one answered an earlier trigger, or one the camera was
+    // never sent: discarded (the awaited trigger's loss is the capture's).
+    const bool lost = discarded["reason"] != "late" && discarded["reason"] != "trigger_mismatch";
+    if (lost) c_.pipeline->record_lost(discarded["reason"]);
+    try {
+      discarded["type"] = lost ? "frame_lost" : "frame_discarded";
+      discarded["camera"] = camera;
+      discarded["sequence"] = frame.sequence;
+      c_.journal->append(discarded);
+    } catch (const std::exception&) {
+      // Storage is failing: the pipeline reports it and the sequencer stops.
     }
-    if (complete) {
-      session::FrameRecord& r = captured.record;
-      r.sequence = frame.sequence;
-      r.camera_frame_id = frame.camera_frame_id;
-      r.camera_timestamp_ns = frame.camera_timestamp_ns;
-      r.host_timestamp_ns =
-          std::chrono::duration_cast<std::chrono::nanoseconds>(frame.host_timestamp.time_since_epoch()).count();
-      r.width = frame.width;
-      r.height = frame.height;
-      r.pixel_format = frame.pixel_format;
-      captured.samples = std::move(frame.data);
-      c_.pipeline->submit(std::move(captured));
-    } else {
-      const std::string reason = frame_status_reason(frame.status);
-      c_.pipeline->record_lost(reason);
-      try {
-        c_.journal->append({{"type", "frame_lost"}, {"step", captured.record.step}, {"camera", captured.record.camera},
-                            {"reason", reason}, {"sequence", frame.sequence}});
-      } catch (const std::exception&) {
-        // Storage is failing: the pipeline reports it and the sequencer stops.
-      }
-    }
-    std::lock_guard lock(collector.mutex);
-    collector.last_status = complete ? drivers::FrameStatus::kComplete : frame.status;
-    ++collector.delivered;
-    collector.arrived.notify_all();
   }
 
-  // The configuration's pixel format, ROI and gain (validated when the
-  // device was opened; the device's first format when none is configured),
-  // this exposure, software trigger.
+  // The configuration's pixel format, ROI, gain and trigger (validated when
+  // the device was opened; the device's first format when none is
+  // configured; hardware trigger on trigger_input, else software), this exposure.
   void configure_camera(NamedDevice<drivers::Camera>& camera, double exposure_us) {
     drivers::CameraSettings settings = camera_capture_settings(camera.config);
     settings.exposure_us = exposure_us;
-    settings.trigger_mode = drivers::TriggerMode::kSoftware;
     std::lock_guard lock(camera.mutex);
     if (!camera.config.settings.contains("pixel_format") && !camera.device->info().pixel_formats.empty())
       settings.pixel_format = camera.device->info().pixel_formats.front();
@@ -521,6 +654,7 @@ class Run {
       } catch (const std::exception&) {
       }
     }
+    journal_trigger_summary();
     if (c_.led && c_.led->device) {
       try {
         std::lock_guard lock(c_.led->mutex);
@@ -531,6 +665,24 @@ class Run {
       }
     }
     c_.pipeline->drain_storage();  // the estimator may go on: the daemon drains it
+  }
+
+  // The session's trigger counts: one record, after the streams stopped.
+  void journal_trigger_summary() {
+    nlohmann::json cameras = nlohmann::json::object();
+    for (const auto& collector : collectors_) {
+      std::lock_guard lock(collector->mutex);
+      cameras[collector->camera->config.name] = {{"missed", collector->missed},
+                                                 {"late_frames_discarded", collector->late_frames},
+                                                 {"failed_frames_discarded", collector->failed_frames},
+                                                 {"trigger", collector->hardware_triggered ? "hardware" : "software"}};
+    }
+    try {
+      c_.journal->append({{"type", "trigger_summary"}, {"triggers", triggers_fired_}, {"retakes", retakes_},
+                          {"discarded_frames", discarded_frames_}, {"cameras", cameras}});
+    } catch (const std::exception&) {
+      // Storage is failing: the outcome says so already.
+    }
   }
 
   SequencerOutcome cancelled() { return {session::OperationState::kCancelled, ""}; }
@@ -558,6 +710,7 @@ class Run {
   std::vector<std::unique_ptr<CameraCollector>> collectors_;
   std::chrono::steady_clock::time_point start_;
   std::uint64_t expected_ = 0, frames_done_ = 0;
+  std::uint64_t triggers_fired_ = 0, retakes_ = 0, discarded_frames_ = 0;
   std::map<std::string, std::vector<double>> metered_;  // metered white step → exposure per camera
   std::vector<double> last_metered_exposure_;
   std::optional<std::array<double, 3>> last_metered_prediction_;

@@ -60,7 +60,10 @@ struct VirtualLabSimulators::Impl {
     camera = std::make_unique<simulators::CameraSimulator>(camera_options, light, skin);
     // The camera's exposures are the controller's hardware trigger input (as in chromo-sim).
     camera->set_exposure_hook([leds = &lab.lab()] { leds->trigger(); });
+    // The controller's trigger output is wired to the camera's Line0 (cam0's trigger_input).
+    lab.lab().connect_trigger_output([raw = camera.get()] { raw->pulse_trigger_input(); });
   }
+  ~Impl() { lab.lab().disconnect_trigger_outputs(); }  // before the camera goes
   simulators::CalibrationLab lab;
   std::shared_ptr<const simulators::Scene> skin, white;
   std::unique_ptr<simulators::CameraSimulator> camera;
@@ -99,6 +102,7 @@ VirtualLab start_virtual_lab(const VirtualLabOptions& options) {
        // Small socket buffer: enough for a few 640x480 frames, within a default rmem_max.
        {{"pixel_format", options.pixel_format},
         {"ip_address", simulators->camera().address()},
+        {"trigger_input", "Line0"},
         {"socket_buffer_bytes", 4 << 20},
         {"frame_retention_ms", 500}}},
       {"spec0", DeviceKind::kSpectrometer, "virtual-usb", "in-process USB transport of the simulated USB2000+",

@@ -135,6 +135,11 @@ struct AravisCamera::Impl {
   CameraInfo info;
   std::optional<CameraSettings> settings;  // last configure()d, restored after a reconnect
   CameraSettings applied;
+  // The trigger-count chunk: parser from the device's XML (made once), and
+  // whether the configured settings enabled it. Written by configure (stream
+  // stopped), read by the stream thread.
+  ArvChunkParser* chunk_parser = nullptr;
+  std::atomic<bool> trigger_count_chunk{false};
   bool streaming = false;  // between start_stream() and stop_stream()
   FrameCallback on_frame;
   std::thread stream_thread;
@@ -324,12 +329,49 @@ struct AravisCamera::Impl {
         break;
       }
     }
+    configure_trigger_count_chunk_locked(s.trigger_mode != TriggerMode::kFreeRun);
     CameraSettings read_back = s;
     read_back.exposure_us = arv_camera_get_exposure_time(camera, error.out());
     if (error) fail("read ExposureTime", error);
     if (arv_camera_is_gain_available(camera, nullptr)) read_back.gain_db = arv_camera_get_gain(camera, error.out());
     read_back.roi = Roi{s.roi.x, s.roi.y, width, height};
     applied = read_back;
+  }
+
+  // Chunk data with the trigger count while triggered, when the device has it;
+  // chunks off otherwise. Before the stream's buffers are sized (PayloadSize grows).
+  void configure_trigger_count_chunk_locked(bool triggered) {
+    trigger_count_chunk = false;
+    if (options.trigger_count_chunk.empty() || !arv_camera_are_chunks_available(camera, nullptr)) return;
+    GErrorSlot error;
+    guint n = 0;
+    const char** entries = arv_camera_dup_available_enumerations_as_strings(camera, "ChunkSelector", &n, error.out());
+    if (error) fail("read ChunkSelector entries", error);
+    bool listed = false;
+    for (guint i = 0; i < n; ++i) listed = listed || options.trigger_count_chunk == entries[i];
+    g_free(entries);
+    if (!listed || !triggered) {
+      arv_camera_set_chunk_mode(camera, FALSE, error.out());
+      if (error) fail("set ChunkModeActive=false", error);
+      return;
+    }
+    arv_camera_set_chunks(camera, options.trigger_count_chunk.c_str(), error.out());
+    if (error) fail("enable chunk " + options.trigger_count_chunk, error);
+    if (chunk_parser == nullptr) chunk_parser = arv_camera_create_chunk_parser(camera);
+    trigger_count_chunk = chunk_parser != nullptr;
+  }
+
+  // The trigger count a complete buffer carries, if any.
+  std::optional<std::uint64_t> trigger_count_of(ArvBuffer* buffer) {
+    if (!trigger_count_chunk || !arv_buffer_has_chunks(buffer)) return std::nullopt;
+    GError* error = nullptr;
+    const std::string feature = "Chunk" + options.trigger_count_chunk;
+    const gint64 value = arv_chunk_parser_get_integer_value(chunk_parser, buffer, feature.c_str(), &error);
+    if (error != nullptr) {
+      g_error_free(error);
+      return std::nullopt;
+    }
+    return static_cast<std::uint64_t>(value);
   }
 
   std::string hardware_line_locked() {
@@ -474,7 +516,14 @@ struct AravisCamera::Impl {
         frame.pixel_format = *format;
         frame.width = arv_buffer_get_image_width(buffer);
         frame.height = arv_buffer_get_image_height(buffer);
-        frame.data.assign(data, data + size);
+        // The image only: chunk data (if any) follows it in the buffer.
+        const std::size_t image_bytes = pixel_format_info(*format).frame_bytes(frame.width, frame.height);
+        if (size < image_bytes) {
+          frame.status = FrameStatus::kError;
+        } else {
+          frame.data.assign(data, data + image_bytes);
+          frame.trigger_count = trigger_count_of(buffer);
+        }
       }
     }
     {
@@ -602,6 +651,7 @@ AravisCamera::~AravisCamera() {
     arv_camera_stop_acquisition(impl_->camera, error.out());
   }
   impl_->release_device_locked();
+  if (impl_->chunk_parser != nullptr) g_object_unref(impl_->chunk_parser);
 }
 
 CameraInfo AravisCamera::info() const {

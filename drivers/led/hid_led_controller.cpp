@@ -48,7 +48,7 @@ class HidLedController final : public LedController {
     detail::validate_sequence(states, info_, device_);
     auto count = static_cast<std::uint16_t>(states.size());
     std::vector<std::uint8_t> begin{static_cast<std::uint8_t>(count & 0xFF), static_cast<std::uint8_t>(count >> 8),
-                                    static_cast<std::uint8_t>(trigger == SequenceTrigger::kSoftware ? 1 : 0)};
+                                    trigger_code(trigger)};
     transact(hid::kSequenceBegin, begin, "begin sequence");
     for (std::uint16_t k = 0; k < count; ++k) {
       std::vector<std::uint8_t> payload{static_cast<std::uint8_t>(k & 0xFF), static_cast<std::uint8_t>(k >> 8)};
@@ -62,7 +62,23 @@ class HidLedController final : public LedController {
   void advance_sequence() override { transact(hid::kSequenceAdvance, {}, "advance sequence"); }
   void disarm_sequence() override { transact(hid::kSequenceDisarm, {}, "disarm sequence"); }
 
+  std::uint32_t fire_trigger(std::uint32_t pulse_width_us) override {
+    detail::validate_trigger_pulse(pulse_width_us, device_);
+    const std::uint8_t width[hid::kFireTriggerPayloadSize] = {static_cast<std::uint8_t>(pulse_width_us & 0xFF),
+                                                              static_cast<std::uint8_t>(pulse_width_us >> 8)};
+    return hid_reports::parse_fire_trigger_payload(transact(hid::kFireTrigger, width, "fire trigger"), device_);
+  }
+
  private:
+  static std::uint8_t trigger_code(SequenceTrigger trigger) {
+    switch (trigger) {
+      case SequenceTrigger::kHardwareRisingEdge: return hid::kTriggerHardwareEdge;
+      case SequenceTrigger::kSoftware: return hid::kTriggerSoftware;
+      case SequenceTrigger::kTriggerOutput: return hid::kTriggerOwnOutput;
+    }
+    return hid::kTriggerHardwareEdge;
+  }
+
   // Sends one command and returns the payload of its reply. Replies to
   // earlier commands that timed out are recognised by their sequence number
   // and skipped; anything else out of sequence is a protocol error.

@@ -110,7 +110,13 @@ LedStatus parse_status_payload(std::span<const std::uint8_t> p, const std::strin
     status.temperature_C[i] = static_cast<std::int16_t>(u16(p, 22 + 2 * i)) / 100.0;
     status.channel_faults[i] = p[34 + i];
   }
+  status.trigger_pulses = u32(p, 40);
   return status;
+}
+
+std::uint32_t parse_fire_trigger_payload(std::span<const std::uint8_t> p, const std::string& device) {
+  require_size(p, hid::kFireTriggerReplySize, "fire trigger", device);
+  return u32(p, 0);
 }
 
 std::string status_name(std::uint8_t status) {

@@ -66,4 +66,12 @@ void check_applied_state(const LedState& requested, const LedStatus& status, con
     throw DeviceError(DeviceError::Kind::kFault, device, "set state", "applied, but the device reports " + faults);
 }
 
+void validate_trigger_pulse(std::uint32_t pulse_width_us, const std::string& device) {
+  if (pulse_width_us < kMinTriggerPulseWidthUs || pulse_width_us > kMaxTriggerPulseWidthUs)
+    throw DeviceError(DeviceError::Kind::kInvalidRequest, device,
+                      "fire trigger pulse of " + std::to_string(pulse_width_us) + " us",
+                      "pulse width must be " + std::to_string(kMinTriggerPulseWidthUs) + "-" +
+                          std::to_string(kMaxTriggerPulseWidthUs) + " us");
+}
+
 }  // namespace chromo::drivers::detail

@@ -17,5 +17,7 @@ void validate_sequence(std::span<const LedState> states, const LedControllerInfo
 // controller fault, or a fault on a channel the state drives above zero.
 void check_applied_state(const LedState& requested, const LedStatus& status, const std::string& device);
 std::string describe_faults(std::uint32_t faults);
+// fire_trigger's width within [kMinTriggerPulseWidthUs, kMaxTriggerPulseWidthUs].
+void validate_trigger_pulse(std::uint32_t pulse_width_us, const std::string& device);
 
 }  // namespace chromo::drivers::detail

@@ -97,8 +97,7 @@ class ModbusLedController final : public LedController {
       call("write sequence table",
            modbus_write_registers(ctx_.get(), address, static_cast<int>(table.size()), table.data()));
     }
-    std::vector<std::uint16_t> block{0, 0, static_cast<std::uint16_t>(states.size()),
-                                     static_cast<std::uint16_t>(trigger == SequenceTrigger::kSoftware ? 1 : 0)};
+    std::vector<std::uint16_t> block{0, 0, static_cast<std::uint16_t>(states.size()), trigger_code(trigger)};
     run_command(map::kCommandArmSequence, block, "arm sequence", map::kHoldCommandCode);
   }
 
@@ -112,7 +111,23 @@ class ModbusLedController final : public LedController {
     run_command(map::kCommandDisarm, block, "disarm sequence", map::kHoldCommandCode);
   }
 
+  std::uint32_t fire_trigger(std::uint32_t pulse_width_us) override {
+    detail::validate_trigger_pulse(pulse_width_us, device_);
+    // code, sequence, length, trigger (unchanged: 0s are ignored by FIRE_TRIGGER), pulse width
+    std::vector<std::uint16_t> block{0, 0, 0, 0, static_cast<std::uint16_t>(pulse_width_us)};
+    return run_command(map::kCommandFireTrigger, block, "fire trigger", map::kHoldCommandCode).trigger_pulses;
+  }
+
  private:
+  static std::uint16_t trigger_code(SequenceTrigger trigger) {
+    switch (trigger) {
+      case SequenceTrigger::kHardwareRisingEdge: return map::kTriggerHardwareEdge;
+      case SequenceTrigger::kSoftware: return map::kTriggerSoftware;
+      case SequenceTrigger::kTriggerOutput: return map::kTriggerOwnOutput;
+    }
+    return map::kTriggerHardwareEdge;
+  }
+
   // Writes drive[6], zone, PWM high, PWM low at `out`.
   static void put_state(const LedState& state, std::uint16_t* out) {
     for (int i = 0; i < kLedTypeCount; ++i) out[i] = level_to_register(state.drive[i]);

@@ -71,6 +71,7 @@ StatusRegisters decode_status_registers(std::span<const std::uint16_t> regs, con
   const std::uint16_t position = at(kInSequencePosition);
   status.sequence_position = position == 0xFFFF ? -1 : position;
   status.controller_faults = at(kInControllerFaults);
+  status.trigger_pulses = join32(at(kInTriggerPulsesHigh), at(kInTriggerPulsesHigh + 1));
   out.ack_sequence = at(kInAckSequence);
   out.command_result = at(kInCommandResult);
   return out;

@@ -105,6 +105,9 @@ nlohmann::json to_json(const FrameRecord& r) {
                       {"width", r.width},
                       {"height", r.height},
                       {"pixel_format", std::string(drivers::pixel_format_name(r.pixel_format))}};
+  // Absent (0) in records of frames taken before triggers were numbered.
+  if (r.trigger_id != 0) json["trigger_id"] = r.trigger_id;
+  if (r.camera_trigger_count != 0) json["camera_trigger_count"] = r.camera_trigger_count;
   if (r.led) json["led"] = to_json(*r.led);
   return json;
 }
@@ -133,6 +136,8 @@ FrameRecord frame_record_from_json(const nlohmann::json& json) {
   r.sequence = number_or<std::uint64_t>(json, "sequence", 0);
   r.camera_frame_id = number_or<std::uint64_t>(json, "camera_frame_id", 0);
   r.camera_timestamp_ns = number_or<std::uint64_t>(json, "camera_timestamp_ns", 0);
+  r.trigger_id = number_or<std::uint64_t>(json, "trigger_id", 0);
+  r.camera_trigger_count = number_or<std::uint64_t>(json, "camera_trigger_count", 0);
   r.host_timestamp_ns = number_or<std::int64_t>(json, "host_timestamp_ns", 0);
   if (const auto led = json.find("led"); led != json.end() && led->is_object() && led->contains("drive")) {
     FrameLedState state;

@@ -52,6 +52,11 @@ std::string enumeration(const std::string& name, const std::string& register_nam
   return text + "    <pValue>" + register_name + "</pValue>\n  </Enumeration>\n";
 }
 
+std::string boolean(const std::string& name, const std::string& register_name) {
+  return "  <Boolean Name=\"" + name + "\" NameSpace=\"Standard\">\n    <pValue>" + register_name +
+         "</pValue>\n    <OnValue>1</OnValue>\n    <OffValue>0</OffValue>\n  </Boolean>\n";
+}
+
 std::string command(const std::string& name, const std::string& register_name) {
   return "  <Command Name=\"" + name + "\" NameSpace=\"Standard\">\n    <pValue>" + register_name +
          "</pValue>\n    <CommandValue>1</CommandValue>\n  </Command>\n";
@@ -85,7 +90,8 @@ std::string genicam_xml(const std::string& model_name) {
       << "xmlns=\"http://www.genicam.org/GenApi/Version_1_1\" "
       << "xmlns:xsi=\"http://www.w3.org/2001/XMLSchema-instance\" "
       << "xsi:schemaLocation=\"http://www.genicam.org/GenApi/Version_1_1 GenApiSchema_Version_1_1.xsd\">\n";
-  xml << category("Root", {"DeviceControl", "ImageFormatControl", "AcquisitionControl", "AnalogControl"});
+  xml << category("Root",
+                  {"DeviceControl", "ImageFormatControl", "AcquisitionControl", "AnalogControl", "ChunkDataControl"});
   xml << category("DeviceControl", {"DeviceVendorName", "DeviceModelName", "DeviceVersion", "DeviceManufacturerInfo",
                                     "DeviceSerialNumber", "DeviceID", "DeviceUserID"});
   xml << string_reg("DeviceVendorName", 0x48, 32, "RO") << string_reg("DeviceModelName", 0x68, 32, "RO")
@@ -116,7 +122,10 @@ std::string genicam_xml(const std::string& model_name) {
   xml << "  <IntSwissKnife Name=\"PayloadSize\" NameSpace=\"Standard\">\n"
          "    <pVariable Name=\"WIDTH\">Width</pVariable>\n    <pVariable Name=\"HEIGHT\">Height</pVariable>\n"
          "    <pVariable Name=\"PIXELFORMAT\">PixelFormat</pVariable>\n"
-         "    <Formula>WIDTH * HEIGHT * ((PIXELFORMAT&gt;&gt;16)&amp;0xFF) / 8</Formula>\n"
+         "    <pVariable Name=\"CHUNKMODE\">ChunkModeActiveRegister</pVariable>\n"
+         "    <pVariable Name=\"CHUNKENABLE\">ChunkEnableRegister</pVariable>\n"
+         "    <Formula>WIDTH * HEIGHT * ((PIXELFORMAT&gt;&gt;16)&amp;0xFF) / 8 + CHUNKMODE * CHUNKENABLE * " +
+             std::to_string(kChunkOverheadBytes) + "</Formula>\n"
          "  </IntSwissKnife>\n";
 
   xml << category("AcquisitionControl",
@@ -150,6 +159,21 @@ std::string genicam_xml(const std::string& model_name) {
   xml << category("AnalogControl", {"Gain"});
   xml << scaled_float("Gain", "GainRegister", "FROM * 100", "TO / 100", "0.0", "24.0", "dB")
       << int_reg("GainRegister", kGainCentiDb, "RW");
+
+  // Chunk data: the camera's count of FrameStart triggers since AcquisitionStart.
+  xml << category("ChunkDataControl", {"ChunkModeActive", "ChunkSelector", "ChunkEnable", "ChunkTriggerCount"});
+  xml << boolean("ChunkModeActive", "ChunkModeActiveRegister") << int_reg("ChunkModeActiveRegister", kChunkModeActive, "RW")
+      << enumeration("ChunkSelector", "ChunkSelectorRegister", {{"TriggerCount", 0}})
+      << int_reg("ChunkSelectorRegister", kChunkSelector, "RW") << boolean("ChunkEnable", "ChunkEnableRegister")
+      << int_reg("ChunkEnableRegister", kChunkEnable, "RW");
+  xml << "  <Integer Name=\"ChunkTriggerCount\" NameSpace=\"Custom\">\n    <pValue>ChunkTriggerCountRegister</pValue>\n"
+         "  </Integer>\n"
+         "  <IntReg Name=\"ChunkTriggerCountRegister\" NameSpace=\"Custom\">\n    <Address>0x0</Address>\n"
+         "    <Length>" << kTriggerCountChunkBytes << "</Length>\n    <AccessMode>RO</AccessMode>\n"
+         "    <pPort>TriggerCountChunkPort</pPort>\n    <Sign>Unsigned</Sign>\n    <Endianess>BigEndian</Endianess>\n"
+         "  </IntReg>\n"
+         "  <Port Name=\"TriggerCountChunkPort\" NameSpace=\"Custom\">\n    <ChunkID>" << std::hex
+      << kTriggerCountChunkId << std::dec << "</ChunkID>\n  </Port>\n";
 
   xml << "  <Port Name=\"Device\" NameSpace=\"Standard\">\n  </Port>\n</RegisterDescription>\n";
   return xml.str();

@@ -27,6 +27,18 @@ inline constexpr std::uint32_t kTriggerSource = kBase + 0x3C;     // 0 Line0, 1 
 inline constexpr std::uint32_t kTriggerActivation = kBase + 0x40; // 0 RisingEdge
 inline constexpr std::uint32_t kTriggerSoftware = kBase + 0x44;   // command: write 1
 inline constexpr std::uint32_t kAcquisitionActive = kBase + 0x48; // RO, 1 while acquiring
+inline constexpr std::uint32_t kChunkModeActive = kBase + 0x4C;   // 0/1; not while acquiring
+inline constexpr std::uint32_t kChunkSelector = kBase + 0x50;     // 0 TriggerCount (the only chunk)
+inline constexpr std::uint32_t kChunkEnable = kBase + 0x54;       // 0/1, of the selected chunk; not while acquiring
+
+// Chunk data (GVSP payload type 0x4001): [image][image id, length][count u64
+// big-endian][TriggerCount id, length]; ids and lengths big-endian u32.
+inline constexpr std::uint32_t kImageChunkId = 0x00000001;
+inline constexpr std::uint32_t kTriggerCountChunkId = 0x54524743;  // "TRGC"
+inline constexpr std::uint32_t kTriggerCountChunkBytes = 8;
+inline constexpr std::uint32_t kChunkTrailerBytes = 8;  // id, length
+// Bytes the chunks add to a frame: the image's trailer, the count and its trailer.
+inline constexpr std::uint32_t kChunkOverheadBytes = 2 * kChunkTrailerBytes + kTriggerCountChunkBytes;
 
 inline constexpr std::uint32_t kModeContinuous = 1, kModeSingleFrame = 2;
 inline constexpr std::uint32_t kSourceLine0 = 0, kSourceSoftware = 1;

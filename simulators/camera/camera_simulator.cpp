@@ -47,6 +47,19 @@ bool CameraSimulatorOptions::IsValid(std::string* error) const {
   return camera_model.IsValid(error);
 }
 
+bool TriggerFaultOptions::IsValid(std::string* error) const {
+  if (!(ignore_probability >= 0 && ignore_probability <= 0.5)) {
+    if (error != nullptr) *error = "ignore_probability must be in [0, 0.5]";
+    return false;
+  }
+  for (std::uint64_t number : ignore_triggers)
+    if (number == 0) {
+      if (error != nullptr) *error = "ignore_triggers: trigger numbers start at 1";
+      return false;
+    }
+  return true;
+}
+
 CameraSimulator::CameraSimulator(CameraSimulatorOptions options, std::shared_ptr<const SphereIllumination> illumination,
                                  std::shared_ptr<const Scene> scene)
     : options_(std::move(options)),
@@ -96,11 +109,15 @@ void CameraSimulator::apply_power_on_registers() {
   device_->set_camera_register(reg::kTriggerSource, reg::kSourceSoftware);
   device_->set_camera_register(reg::kTriggerActivation, 0);
   device_->set_camera_register(reg::kAcquisitionActive, 0);
+  device_->set_camera_register(reg::kChunkModeActive, 0);
+  device_->set_camera_register(reg::kChunkSelector, 0);
+  device_->set_camera_register(reg::kChunkEnable, 0);
   std::lock_guard lock(acquisition_mutex_);
   acquiring_ = single_frame_ = trigger_on_ = false;
   trigger_source_ = reg::kSourceSoftware;
   frame_period_us_ = 100000;
-  pending_triggers_ = 0;
+  pending_triggers_.clear();
+  trigger_count_ = 0;
 }
 
 // Validates a controller's write and mirrors the acquisition state. Runs on
@@ -110,7 +127,8 @@ std::uint16_t CameraSimulator::on_register_write(std::uint32_t address, std::uin
   using namespace gige;
   std::lock_guard lock(acquisition_mutex_);
   const bool image_format = address == reg::kWidth || address == reg::kHeight || address == reg::kOffsetX ||
-                            address == reg::kOffsetY || address == reg::kPixelFormat;
+                            address == reg::kOffsetY || address == reg::kPixelFormat ||
+                            address == reg::kChunkModeActive || address == reg::kChunkEnable;  // the payload's size
   if (image_format && acquiring_) return kStatusBusy;  // the transport layer's parameters are locked
   const std::uint32_t sensor_width = read(reg::kSensorWidth), sensor_height = read(reg::kSensorHeight);
   switch (address) {
@@ -134,7 +152,7 @@ std::uint16_t CameraSimulator::on_register_write(std::uint32_t address, std::uin
     case reg::kTriggerMode:
       if (value > 1) return kStatusInvalidParameter;
       trigger_on_ = value == 1;
-      pending_triggers_ = 0;
+      pending_triggers_.clear();
       break;
     case reg::kTriggerSource:
       if (value != reg::kSourceLine0 && value != reg::kSourceSoftware) return kStatusInvalidParameter;
@@ -144,15 +162,19 @@ std::uint16_t CameraSimulator::on_register_write(std::uint32_t address, std::uin
     case reg::kAcquisitionStart:
       acquiring_ = true;
       single_frame_ = read(reg::kAcquisitionMode) == reg::kModeSingleFrame;
-      pending_triggers_ = 0;
+      pending_triggers_.clear();
+      trigger_count_ = 0;
       break;
     case reg::kAcquisitionStop:
       acquiring_ = false;
-      pending_triggers_ = 0;
+      pending_triggers_.clear();
       break;
     case reg::kTriggerSoftware:
-      if (acquiring_ && trigger_on_ && trigger_source_ == reg::kSourceSoftware) ++pending_triggers_;
+      if (acquiring_ && trigger_on_ && trigger_source_ == reg::kSourceSoftware) accept_trigger_locked();
       break;
+    case reg::kChunkModeActive:
+    case reg::kChunkEnable: return value <= 1 ? kStatusSuccess : kStatusInvalidParameter;
+    case reg::kChunkSelector: return value == 0 ? kStatusSuccess : kStatusInvalidParameter;
     default: return kStatusInvalidAddress;  // inside the block but not a register
   }
   acquisition_cv_.notify_all();
@@ -200,12 +222,14 @@ void CameraSimulator::acquisition_loop() {
       was_acquiring = true;
       continue;  // the state may have changed meanwhile
     }
+    std::uint64_t trigger_count = 0;  // free-running frames answer no trigger
     if (trigger_on_) {
-      if (pending_triggers_ == 0) {
-        acquisition_cv_.wait(lock, [this] { return quit_ || !acquiring_ || !trigger_on_ || pending_triggers_ > 0; });
+      if (pending_triggers_.empty()) {
+        acquisition_cv_.wait(lock, [this] { return quit_ || !acquiring_ || !trigger_on_ || !pending_triggers_.empty(); });
         continue;
       }
-      --pending_triggers_;
+      trigger_count = pending_triggers_.front();
+      pending_triggers_.pop_front();
     } else {
       if (acquisition_cv_.wait_until(lock, next_frame, [this] { return quit_ || !acquiring_ || trigger_on_; }))
         continue;
@@ -214,13 +238,54 @@ void CameraSimulator::acquisition_loop() {
       if (next_frame < Clock::now() - period) next_frame = Clock::now();  // no burst after a stall
     }
     lock.unlock();
-    produce_frame();
+    produce_frame(trigger_count);
     lock.lock();
     if (single_frame_) acquiring_ = false;
   }
 }
 
-void CameraSimulator::produce_frame() {
+void CameraSimulator::accept_trigger_locked() {
+  ++trigger_count_;
+  const std::uint64_t number = ++triggers_received_;
+  const bool listed = std::find(trigger_faults_.ignore_triggers.begin(), trigger_faults_.ignore_triggers.end(),
+                                number) != trigger_faults_.ignore_triggers.end();
+  const bool rolled = trigger_faults_.ignore_probability > 0 &&
+                      std::uniform_real_distribution<double>(0, 1)(trigger_dice_) < trigger_faults_.ignore_probability;
+  if (listed || rolled) {
+    ++triggers_ignored_;
+    return;
+  }
+  pending_triggers_.push_back(trigger_count_);
+  acquisition_cv_.notify_all();
+}
+
+void CameraSimulator::set_trigger_faults(const TriggerFaultOptions& faults) {
+  std::string error;
+  if (!faults.IsValid(&error)) throw std::invalid_argument("TriggerFaultOptions: " + error);
+  std::lock_guard lock(acquisition_mutex_);
+  trigger_faults_ = faults;
+  trigger_dice_.seed(faults.seed);
+}
+
+namespace {
+
+// The block's payload: the image alone, or (chunk mode with TriggerCount
+// enabled) the image chunk and the TriggerCount chunk (camera_registers.hpp).
+void append_chunks(std::vector<std::uint8_t>& payload, std::uint64_t trigger_count) {
+  const auto image_bytes = static_cast<std::uint32_t>(payload.size());
+  auto put32 = [&](std::uint32_t v) {
+    for (int i = 0; i < 4; ++i) payload.push_back(static_cast<std::uint8_t>(v >> (24 - 8 * i)));
+  };
+  put32(reg::kImageChunkId);
+  put32(image_bytes);
+  for (int i = 0; i < 8; ++i) payload.push_back(static_cast<std::uint8_t>(trigger_count >> (56 - 8 * i)));
+  put32(reg::kTriggerCountChunkId);
+  put32(reg::kTriggerCountChunkBytes);
+}
+
+}  // namespace
+
+void CameraSimulator::produce_frame(std::uint64_t trigger_count) {
   const int width = static_cast<int>(device_->camera_register(reg::kWidth));
   const int height = static_cast<int>(device_->camera_register(reg::kHeight));
   const int offset_x = static_cast<int>(device_->camera_register(reg::kOffsetX));
@@ -246,6 +311,9 @@ void CameraSimulator::produce_frame() {
   block.offset_x = offset_x;
   block.offset_y = offset_y;
   block.timestamp_ticks = timestamp;
+  const bool chunks = device_->camera_register(reg::kChunkModeActive) == 1 &&
+                      device_->camera_register(reg::kChunkEnable) == 1;
+  block.has_chunks = chunks;
   if (options_.test_pattern) {
     auto pattern = std::make_shared<std::vector<std::uint8_t>>(format.frame_bytes(width, height));
     const std::size_t row_bytes = pattern->size() / static_cast<std::size_t>(height);
@@ -254,6 +322,7 @@ void CameraSimulator::produce_frame() {
       for (std::size_t x = 0; x < row_bytes; ++x)
         (*pattern)[static_cast<std::size_t>(y) * row_bytes + x] = static_cast<std::uint8_t>(x + y + frame);
     ++frames_rendered_;
+    if (chunks) append_chunks(*pattern, trigger_count);
     block.payload = std::move(pattern);
     device_->send_block(block);
     return;
@@ -292,6 +361,7 @@ void CameraSimulator::produce_frame() {
       std::memcpy(out + 2 * i, &v, 2);  // little-endian, as GigE Vision pixel data
     }
   }
+  if (chunks) append_chunks(*payload, trigger_count);
   block.payload = std::move(payload);
   device_->send_block(block);
 }
@@ -340,10 +410,7 @@ bool CameraSimulator::powered() const { return device_->running(); }
 
 void CameraSimulator::pulse_trigger_input() {
   std::lock_guard lock(acquisition_mutex_);
-  if (acquiring_ && trigger_on_ && trigger_source_ == reg::kSourceLine0) {
-    ++pending_triggers_;
-    acquisition_cv_.notify_all();
-  }
+  if (acquiring_ && trigger_on_ && trigger_source_ == reg::kSourceLine0) accept_trigger_locked();
 }
 
 cv::Mat CameraSimulator::sensor_response(const spectral::Spectrum& irradiance) const {

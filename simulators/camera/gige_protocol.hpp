@@ -91,6 +91,7 @@ inline constexpr std::uint8_t kGvspLeader = 0x01;
 inline constexpr std::uint8_t kGvspTrailer = 0x02;
 inline constexpr std::uint8_t kGvspPayload = 0x03;
 inline constexpr std::uint16_t kPayloadTypeImage = 0x0001;
+inline constexpr std::uint16_t kPayloadTypeChunkFlag = 0x4000;  // "extended chunk": the block ends in chunks
 
 inline void put16(std::uint8_t* at, std::uint16_t value) {
   at[0] = static_cast<std::uint8_t>(value >> 8);

@@ -22,7 +22,7 @@ void build_gvsp_packet(const GvspBlock& block, std::uint32_t packet_id, std::vec
   if (packet_id == 0) {
     header(kGvspLeader, 36);
     std::uint8_t* p = &out[kGvspHeaderBytes];
-    put16(p + 2, kPayloadTypeImage);
+    put16(p + 2, block.image.has_chunks ? kPayloadTypeImage | kPayloadTypeChunkFlag : kPayloadTypeImage);
     put32(p + 4, static_cast<std::uint32_t>(block.image.timestamp_ticks >> 32));
     put32(p + 8, static_cast<std::uint32_t>(block.image.timestamp_ticks));
     put32(p + 12, block.image.pixel_format);
@@ -32,7 +32,8 @@ void build_gvsp_packet(const GvspBlock& block, std::uint32_t packet_id, std::vec
     put32(p + 28, block.image.offset_y);
   } else if (packet_id == block.last_packet_id()) {
     header(kGvspTrailer, 8);
-    put16(&out[kGvspHeaderBytes + 2], kPayloadTypeImage);
+    put16(&out[kGvspHeaderBytes + 2], block.image.has_chunks ? kPayloadTypeImage | kPayloadTypeChunkFlag
+                                                              : kPayloadTypeImage);
     put32(&out[kGvspHeaderBytes + 4], block.image.height);
   } else {
     const std::size_t begin = static_cast<std::size_t>(packet_id - 1) * block.data_bytes_per_packet;

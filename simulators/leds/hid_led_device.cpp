@@ -128,6 +128,7 @@ std::vector<std::uint8_t> HidLedDevice::handle(std::span<const std::uint8_t> rep
           for (double t : s.temperature_C)
             append_u16(payload, static_cast<std::uint16_t>(static_cast<std::int16_t>(std::lround(t * 100))));
           for (std::uint32_t f : s.channel_faults) payload.push_back(static_cast<std::uint8_t>(f));
+          append_u32(payload, s.trigger_pulses);
         }
         break;
       case hid::kSetOutput:
@@ -139,13 +140,14 @@ std::vector<std::uint8_t> HidLedDevice::handle(std::span<const std::uint8_t> rep
       case hid::kSequenceBegin:
         if (need(3)) {
           int count = u16_at(in, 0);
-          if (count < 1 || count > lab_.info().sequence_capacity || in[2] > 1) {
+          if (count < 1 || count > lab_.info().sequence_capacity || in[2] > hid::kTriggerOwnOutput) {
             status = hid::kOutOfRange;
           } else {
             loading_.assign(count, drivers::LedState{});
             loaded_.assign(count, false);
-            loading_trigger_ = in[2] == 0 ? drivers::SequenceTrigger::kHardwareRisingEdge
-                                          : drivers::SequenceTrigger::kSoftware;
+            loading_trigger_ = in[2] == hid::kTriggerHardwareEdge ? drivers::SequenceTrigger::kHardwareRisingEdge
+                               : in[2] == hid::kTriggerSoftware   ? drivers::SequenceTrigger::kSoftware
+                                                                  : drivers::SequenceTrigger::kTriggerOutput;
           }
         }
         break;
@@ -173,6 +175,13 @@ std::vector<std::uint8_t> HidLedDevice::handle(std::span<const std::uint8_t> rep
         break;
       case hid::kSequenceDisarm:
         if (need(0)) lab_.disarm();
+        break;
+      case hid::kFireTrigger:
+        if (need(hid::kFireTriggerPayloadSize)) {
+          std::uint32_t pulse = 0;
+          status = status_of(lab_.fire_trigger_output(u16_at(in, 0), &pulse));
+          if (status == hid::kOk) append_u32(payload, pulse);
+        }
         break;
       default: status = hid::kUnknownCommand;
     }

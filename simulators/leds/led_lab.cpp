@@ -1,6 +1,7 @@
 #include "chromo/simulators/leds/led_lab.hpp"
 
 #include <cmath>
+#include <stdexcept>
 
 #include "chromo/spectral/resample.hpp"
 
@@ -64,6 +65,7 @@ drivers::LedStatus LedLab::status() const {
   status.applied.pwm_frequency_hz = pwm_frequency_hz_;
   status.output_enabled = output_enabled_;
   status.sequence_position = sequence_position_;
+  status.trigger_pulses = trigger_pulses_;
   for (int i = 0; i < spectral::kLedTypeCount; ++i) {
     status.temperature_C[i] = over_temperature_[i] ? options_.over_temperature_limit_C + 10 : temperature_C_[i];
     bool driven = false;
@@ -143,6 +145,42 @@ void LedLab::trigger() {
   if (sequence_position_ + 1 < static_cast<int>(sequence_.size()) &&
       apply_locked(sequence_[sequence_position_ + 1]) == LabResult::kOk)
     ++sequence_position_;
+}
+
+LabResult LedLab::fire_trigger_output(std::uint32_t pulse_width_us, std::uint32_t* pulse_number) {
+  if (pulse_width_us < drivers::kMinTriggerPulseWidthUs || pulse_width_us > drivers::kMaxTriggerPulseWidthUs)
+    return LabResult::kOutOfRange;
+  {
+    std::lock_guard lock(mutex_);
+    *pulse_number = ++trigger_pulses_;
+    if (sequence_position_ >= 0 && sequence_trigger_ == SequenceTrigger::kTriggerOutput &&
+        sequence_position_ + 1 < static_cast<int>(sequence_.size()) &&
+        apply_locked(sequence_[sequence_position_ + 1]) == LabResult::kOk)
+      ++sequence_position_;
+  }
+  std::vector<std::function<void()>> inputs;
+  {
+    std::lock_guard lock(output_mutex_);
+    inputs = trigger_outputs_;
+  }
+  for (const auto& input : inputs) input();
+  return LabResult::kOk;
+}
+
+std::uint32_t LedLab::trigger_pulses() const {
+  std::lock_guard lock(mutex_);
+  return trigger_pulses_;
+}
+
+void LedLab::connect_trigger_output(std::function<void()> input) {
+  if (!input) throw std::invalid_argument("LedLab::connect_trigger_output: empty input");
+  std::lock_guard lock(output_mutex_);
+  trigger_outputs_.push_back(std::move(input));
+}
+
+void LedLab::disconnect_trigger_outputs() {
+  std::lock_guard lock(output_mutex_);
+  trigger_outputs_.clear();
 }
 
 int LedLab::trigger_count() const {

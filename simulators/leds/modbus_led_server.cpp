@@ -233,6 +233,7 @@ void ModbusLedServer::handle_request(const unsigned char* query, int length) {
       status.sequence_position < 0 ? 0xFFFF : static_cast<std::uint16_t>(status.sequence_position);
   in[map::kInControllerFaults] = static_cast<std::uint16_t>(status.controller_faults);
   in[map::kInCommandResult] = impl.result;
+  put_u32(&in[map::kInTriggerPulsesHigh], status.trigger_pulses);
   impl.mapping->tab_bits[map::kCoilOutputEnable] = status.output_enabled ? 1 : 0;
 
   if (modbus_reply(impl.ctx, query, length, impl.mapping) < 0) return;
@@ -250,14 +251,20 @@ void ModbusLedServer::handle_request(const unsigned char* query, int length) {
       case map::kCommandArmSequence: {
         int count = hold[map::kHoldSequenceLength];
         int trigger = hold[map::kHoldSequenceTrigger];
-        if (count < 1 || count > map::kMaxSequenceStates || trigger > 1) {
+        if (count < 1 || count > map::kMaxSequenceStates || trigger > map::kTriggerOwnOutput) {
           result = LabResult::kOutOfRange;
           break;
         }
         std::vector<drivers::LedState> states;
         for (int k = 0; k < count; ++k) states.push_back(read_state(&hold[map::kHoldSequenceTable + k * map::kSequenceStride]));
-        result = lab_.arm(states, trigger == 0 ? drivers::SequenceTrigger::kHardwareRisingEdge
-                                               : drivers::SequenceTrigger::kSoftware);
+        result = lab_.arm(states, trigger == map::kTriggerHardwareEdge ? drivers::SequenceTrigger::kHardwareRisingEdge
+                                  : trigger == map::kTriggerSoftware     ? drivers::SequenceTrigger::kSoftware
+                                                                         : drivers::SequenceTrigger::kTriggerOutput);
+        break;
+      }
+      case map::kCommandFireTrigger: {
+        std::uint32_t pulse = 0;
+        result = lab_.fire_trigger_output(hold[map::kHoldTriggerPulseWidthUs], &pulse);
         break;
       }
       case map::kCommandAdvance: result = lab_.advance(); break;

@@ -8,7 +8,8 @@
 // the GigE Vision camera simulator (its own loopback address 127.x.y.z:3956,
 // --camera-address or one picked at random in 127.77.0.0/16), which renders the scene
 // under what the LED lab emits and raises the LED controller's hardware
-// trigger input on every exposure. --fixed-light replaces the LED lab's light
+// trigger input on every exposure; the controller's trigger output is wired
+// to the camera's Line0 (the trigger master, docs/camera.md). --fixed-light replaces the LED lab's light
 // by a fixed spectrum (the LED controller still runs).
 #include <CLI/CLI.hpp>
 
@@ -89,6 +90,7 @@ int run(const SimArguments& args) {
   simulators::CameraSimulator camera(camera_options, fixed_light ? fixed_light : lab_light, scene);
   camera.set_packet_loss_ratio(args.packet_loss);
   camera.set_exposure_hook([&leds] { leds.trigger(); });
+  leds.lab().connect_trigger_output([&camera] { camera.pulse_trigger_input(); });  // the trigger master's output → Line0
   const auto led_info = leds.lab().info();
 
   std::cout << "camera: GigE Vision on " << camera.address() << ":"
@@ -97,7 +99,7 @@ int run(const SimArguments& args) {
             << ", Bayer RG / mono / RGB8 formats, packet loss " << args.packet_loss << ")\n";
   std::cout << "led controller: Modbus TCP on 127.0.0.1:" << modbus_port << " unit 1; Modbus RTU on "
             << modbus_pty << " unit 1 (model " << led_info.model << ", serial " << led_info.serial
-            << "); hardware trigger input wired to the camera's exposures\n";
+            << "); trigger output wired to the camera's Line0, trigger input to its exposures\n";
   std::cout << "light: "
             << (fixed_light ? "fixed " + args.fixed_light + " spectrum (--fixed-light), not the LEDs"
                             : std::string("the LED lab (true LED spectra, drift, warm-up)"))
@@ -109,6 +111,7 @@ int run(const SimArguments& args) {
   sigwait(&stop_signals, &signal_number);
   std::cout << "chromo-sim: " << (signal_number == SIGINT ? "SIGINT" : "SIGTERM") << ", stopping ("
             << camera.frames_rendered() << " camera frames rendered)" << std::endl;
+  leds.lab().disconnect_trigger_outputs();  // before the camera goes
   return 0;
 }
 

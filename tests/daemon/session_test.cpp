@@ -109,19 +109,24 @@ TEST(Session, StandardSessionStoresEveryFrameWithMetadataAndDerivedData) {
   EXPECT_EQ(compared, 7 + 3);  // a mean per step, an albedo per mix (one camera)
 }
 
-TEST(Session, HardwareTimedSequenceAdvancesOnTheCameraExposure) {
+TEST(Session, HardwareTimedSequenceAdvancesOnTheControllersOwnTriggerPulse) {
   TestLab lab("hardware");
   auto daemon = lab.daemon();
   auto plan = quick_standard_plan(2);
   plan.timing = session::Timing::kHardware;
   const int triggers_before = lab.simulators->leds().trigger_count();
+  const std::uint32_t pulses_before = lab.simulators->leds().trigger_pulses();
   auto started = daemon->start_session(plan, "");
   auto final = wait_final(*daemon, started.id);
   ASSERT_EQ(final.state, session::OperationState::kSucceeded) << final.error;
   auto info = daemon->session(started.id);
   ASSERT_EQ(info->frames.size(), 14u);
-  // Every exposure was an edge on the controller's trigger input ...
+  // The controller fired one pulse per frame on its output (the camera's
+  // Line0; the sequence advanced on it), and every exposure was an edge on
+  // its trigger input ...
+  EXPECT_EQ(lab.simulators->leds().trigger_pulses() - pulses_before, 14u);
   EXPECT_EQ(lab.simulators->leds().trigger_count() - triggers_before, 14);
+  for (const auto& frame : info->frames) EXPECT_GT(frame.trigger_id, pulses_before);
   // ... and frame k shows state k: dark frames are black, the second frame
   // of each lit step too shows its own step's light (not the next one's).
   EXPECT_LT(bayer_site_mean(frame_of(*info, "dark", 1), kGreen), 40.0);

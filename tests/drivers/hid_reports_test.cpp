@@ -75,6 +75,12 @@ TEST(HidReports, RejectsShortOversizedAndMalformedReports) {
 
   EXPECT_EQ(kind_of([] { hr::parse_info_payload(Bytes(45, 0), "dev"); }), DeviceError::Kind::kProtocol);
   EXPECT_EQ(kind_of([] { hr::parse_status_payload(Bytes(41, 0), "dev"); }), DeviceError::Kind::kProtocol);
+  EXPECT_EQ(kind_of([] { hr::parse_status_payload(Bytes(40, 0), "dev"); }), DeviceError::Kind::kProtocol);  // before the pulse counter
+  Bytes status(44, 0);
+  status[40] = 0x02, status[41] = 0x01, status[43] = 0x80;  // trigger pulses, u32 little endian
+  EXPECT_EQ(hr::parse_status_payload(status, "dev").trigger_pulses, 0x80000102u);
+  EXPECT_EQ(hr::parse_fire_trigger_payload(Bytes{7, 0, 0, 0}, "dev"), 7u);
+  EXPECT_EQ(kind_of([] { hr::parse_fire_trigger_payload(Bytes(3, 0), "dev"); }), DeviceError::Kind::kProtocol);
   Bytes bad_mode(46, 0);
   bad_mode[0] = 7;
   bad_mode[1] = 1;

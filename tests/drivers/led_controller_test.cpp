@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <vector>
 
 #include "chromo/drivers/device_error.hpp"
@@ -142,6 +143,45 @@ TEST_P(LedControllerTest, HardwareSequenceAdvancesOnTheTriggerInput) {
   EXPECT_THROW(led->advance_sequence(), DeviceError);  // not a software sequence: refused
   led->disarm_sequence();
   EXPECT_EQ(led->read_status().sequence_position, -1);
+}
+
+TEST_P(LedControllerTest, FiresNumberedTriggerPulsesAndRefusesBadWidthsUnsent) {
+  auto led = connect();
+  std::atomic<int> edges{0};  // the wired input (a camera's Line0)
+  sim_.lab().connect_trigger_output([&] { ++edges; });
+  EXPECT_EQ(led->read_status().trigger_pulses, 0u);
+  EXPECT_EQ(led->fire_trigger(100), 1u);
+  EXPECT_EQ(led->fire_trigger(drivers::kMinTriggerPulseWidthUs), 2u);
+  EXPECT_EQ(led->fire_trigger(drivers::kMaxTriggerPulseWidthUs), 3u);
+  EXPECT_EQ(edges.load(), 3);
+  EXPECT_EQ(led->read_status().trigger_pulses, 3u);
+  for (std::uint32_t width : {0u, drivers::kMaxTriggerPulseWidthUs + 1}) {
+    try {
+      led->fire_trigger(width);
+      ADD_FAILURE() << "a " << width << " us pulse was accepted";
+    } catch (const DeviceError& error) {
+      EXPECT_EQ(error.kind(), DeviceError::Kind::kInvalidRequest);
+      EXPECT_NE(std::string(error.what()).find("pulse width"), std::string::npos) << error.what();
+    }
+  }
+  EXPECT_EQ(sim_.lab().trigger_pulses(), 3u);  // nothing was sent
+  EXPECT_EQ(edges.load(), 3);
+}
+
+TEST_P(LedControllerTest, TriggerOutputSequenceShowsTheNextStateBeforeThePulseLeaves) {
+  auto led = connect();
+  std::vector<LedState> states;
+  for (int k = 0; k < 5; ++k) states.push_back(state_of({k / 10.0, 0, 0, 0, 0, 0}));
+  led->arm_sequence(states, drivers::SequenceTrigger::kTriggerOutput);
+  std::vector<double> at_edge;  // W57 as the lab emits it when the pulse reaches the input
+  sim_.lab().connect_trigger_output([&] { at_edge.push_back(sim_.lab().status().applied.drive[0]); });
+  sim_.trigger();  // an edge on the trigger *input* does not move an output-triggered sequence
+  EXPECT_EQ(led->read_status().sequence_position, 0);
+  for (int k = 1; k <= 3; ++k) EXPECT_EQ(led->fire_trigger(100), static_cast<std::uint32_t>(k));
+  ASSERT_EQ(at_edge.size(), 3u);
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(at_edge[k], (k + 1) / 10.0, 1e-4) << k;
+  EXPECT_EQ(led->read_status().sequence_position, 3);
+  EXPECT_THROW(led->advance_sequence(), DeviceError);  // not a software sequence: refused
 }
 
 TEST_P(LedControllerTest, SoftwareSequenceAdvancesOnCommand) {

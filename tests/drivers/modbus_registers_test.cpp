@@ -66,7 +66,9 @@ TEST(ModbusRegisters, DecodesTheStatusBlock) {
   at(kInSequencePosition) = 0xFFFF;
   at(kInAckSequence) = 77;
   at(kInCommandResult) = 3;
+  at(kInTriggerPulsesHigh) = 0x0001, at(kInTriggerPulsesHigh + 1) = 0x0002;  // high word first
   const StatusRegisters s = decode_status_registers(r, "dev");
+  EXPECT_EQ(s.status.trigger_pulses, 65538u);
   EXPECT_DOUBLE_EQ(s.status.applied.drive[0], 1.0);
   EXPECT_DOUBLE_EQ(s.status.temperature_C[1], -2.5);
   EXPECT_FALSE(s.status.applied.zone.has_value());

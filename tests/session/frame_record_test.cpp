@@ -42,6 +42,8 @@ FrameRecord full_record() {
   r.sequence = 42;
   r.camera_frame_id = 65402;
   r.camera_timestamp_ns = 1796185667800005000ull;
+  r.trigger_id = 318;
+  r.camera_trigger_count = 17;
   r.host_timestamp_ns = 1796185667802151000ll;
   r.width = 192;
   r.height = 144;
@@ -55,6 +57,8 @@ TEST(FrameRecord, JournalRecordRoundTripsEveryField) {
   EXPECT_EQ(json["type"], "frame");
   EXPECT_EQ(json["pixel_format"], "BayerRG12");
   EXPECT_EQ(json["role"], "white");
+  EXPECT_EQ(json["trigger_id"], 318);
+  EXPECT_EQ(json["camera_trigger_count"], 17);
   EXPECT_EQ(json["led"]["drive"]["B"], 0.8678416113527123);
   EXPECT_EQ(json["led"]["drive"]["W27"], 0.25);
   EXPECT_EQ(frame_record_from_json(json), record);
@@ -79,6 +83,7 @@ TEST(FrameRecord, FormatOneRecordsReadAndWriteBackUnchanged) {
     EXPECT_EQ(to_json(record), json) << json.dump();
     ASSERT_TRUE(record.led);
     EXPECT_EQ(record.pixel_format, drivers::PixelFormat::kBayerRG12);
+    EXPECT_EQ(record.trigger_id, 0u);  // written before triggers were numbered
   }
   EXPECT_EQ(frames, 7);
 }

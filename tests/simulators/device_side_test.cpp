@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <modbus/modbus.h>
+
 #include <vector>
 
 #include "chromo/drivers/device_error.hpp"
@@ -53,6 +55,60 @@ TEST(HidLedDevice, AnswersBadCommandsWithTheDocumentedStatus) {
   wrong_id[0] = 0x02;
   EXPECT_EQ(hid_status(*device, wrong_id), 0x06);
   EXPECT_FALSE(sim.lab().output_enabled());                         // nothing acted on
+}
+
+TEST(HidLedDevice, FireTriggerRefusesBadWidthsAndNumbersGoodPulses) {
+  LedControllerSimulator sim;
+  auto device = sim.make_hid_transport();
+  EXPECT_EQ(hid_status(*device, command(0x0A, {0x00, 0x00})), 0x03);  // 0 us: out of range
+  EXPECT_EQ(hid_status(*device, command(0x0A, {0x11, 0x27})), 0x03);  // 10001 us: out of range
+  EXPECT_EQ(hid_status(*device, command(0x0A, {100})), 0x02);         // one byte: bad length
+  EXPECT_EQ(hid_status(*device, command(0x05, {1, 0, 3})), 0x03);     // sequence trigger 3: unknown
+  EXPECT_EQ(sim.lab().trigger_pulses(), 0u);                          // nothing fired
+  device->write_report(command(0x0A, {0x10, 0x27}));                  // 10000 us
+  Bytes reply(128);
+  ASSERT_EQ(device->read_report(reply, 10), 64u);
+  EXPECT_EQ(reply[3], 0x00);
+  ASSERT_EQ(reply[4], 4);  // the pulse's number, u32 little endian
+  EXPECT_EQ(reply[5] | reply[6] << 8 | reply[7] << 16 | reply[8] << 24, 1);
+  EXPECT_EQ(sim.lab().trigger_pulses(), 1u);
+}
+
+// Writes the command block at 0x0009 (code, sequence, length, trigger, pulse
+// width) in one FC 16 and returns the result code (input register 0x002C)
+// after checking the acknowledged sequence (0x0029).
+int modbus_result(modbus_t* ctx, std::vector<std::uint16_t> block) {
+  EXPECT_EQ(modbus_write_registers(ctx, 0x0009, static_cast<int>(block.size()), block.data()),
+            static_cast<int>(block.size()));
+  std::uint16_t status[4] = {};
+  EXPECT_EQ(modbus_read_input_registers(ctx, 0x0029, 4, status), 4);
+  EXPECT_EQ(status[0], block[1]);
+  return status[3];
+}
+
+std::uint32_t modbus_pulses(modbus_t* ctx) {
+  std::uint16_t pulses[2] = {};
+  EXPECT_EQ(modbus_read_input_registers(ctx, 0x002D, 2, pulses), 2);
+  return std::uint32_t(pulses[0]) << 16 | pulses[1];
+}
+
+TEST(ModbusLedServer, FireTriggerRefusesBadWidthsAndCountsGoodPulses) {
+  LedControllerSimulator sim;
+  const int port = sim.start_modbus_tcp();
+  modbus_t* ctx = modbus_new_tcp("127.0.0.1", port);
+  ASSERT_NE(ctx, nullptr);
+  ASSERT_EQ(modbus_connect(ctx), 0);
+  EXPECT_EQ(modbus_result(ctx, {5, 1, 0, 0, 0}), 2);      // FIRE_TRIGGER 0 us: out of range
+  EXPECT_EQ(modbus_result(ctx, {5, 2, 0, 0, 10001}), 2);  // 10001 us: out of range
+  EXPECT_EQ(modbus_pulses(ctx), 0u);
+  EXPECT_EQ(modbus_result(ctx, {5, 3, 0, 0, 100}), 0);
+  EXPECT_EQ(modbus_result(ctx, {5, 4, 0, 0, 1}), 0);
+  EXPECT_EQ(modbus_pulses(ctx), 2u);
+  EXPECT_EQ(sim.lab().trigger_pulses(), 2u);
+  EXPECT_EQ(modbus_result(ctx, {2, 5, 1, 3, 0}), 2);      // ARM_SEQUENCE with trigger 3: out of range
+  EXPECT_EQ(sim.lab().status().sequence_position, -1);
+  modbus_close(ctx);
+  modbus_free(ctx);
 }
 
 TEST(UsbSpectrometerDevice, IgnoresMalformedCommandsLikeTheDevice) {

@@ -93,8 +93,10 @@ class BackendRegistry {
 BackendRegistry builtin_backends();
 
 // What a camera's configuration fixes for every capture: settings
-// pixel_format, roi {x, y, width, height}, gain_db (the sequencer adds the
-// exposure and the trigger mode per step). std::invalid_argument naming
+// pixel_format, roi {x, y, width, height}, gain_db, and the trigger mode:
+// kHardware when trigger_input ("Line0"…"Line9") says the camera's input is
+// wired to the LED controller's trigger output, else kSoftware (the sequencer
+// adds the exposure per step). std::invalid_argument naming
 // "settings.<key>" when one is invalid.
 drivers::CameraSettings camera_capture_settings(const DeviceConfig& config);
 

@@ -9,11 +9,43 @@
 // settle_ms → configure exposure (cameras take settings only while not
 // streaming: when the exposure changes the streams stop, the cameras are
 // configured with the configuration's pixel format/ROI/gain and the step's
-// exposure, and the streams start again) → for each frame: trigger every
-// camera and wait for one frame from each → the step is complete (journal
-// "step_completed") once its frames are stored (FramePipeline::drain_storage);
-// the next step does not wait for the on-line estimator, which prepares its
-// tables from the references while the subject steps are captured.
+// exposure, and the streams start again) → for each frame: one synchronised
+// capture (below) → the step is complete (journal "step_completed") once its
+// frames are stored (FramePipeline::drain_storage); the next step does not
+// wait for the on-line estimator, which prepares its tables from the
+// references while the subject steps are captured.
+//
+// Synchronised capture (docs/camera.md): the LED controller is the trigger
+// master. Per capture the sequencer asks it to fire one pulse
+// (LedController::fire_trigger, 100 us); the controller numbers it (the
+// capture's trigger id) and its trigger output is wired to the trigger input
+// of every camera configured with trigger_input ("Line0"), which expose on
+// it (hardware trigger). Cameras without trigger_input are software-
+// triggered right after the pulse and their frames get the same trigger id
+// (the fallback; sub-millisecond alignment then is not guaranteed). Each
+// camera counts the triggers it received since its stream started and sends
+// the count with the frame (GVSP chunk data, drivers::Frame::trigger_count);
+// the sequencer keeps, per camera, which trigger id each count stands for
+// (the count restarts with every stream start, so the map is per stream).
+// A capture completes when every camera delivered a complete frame whose
+// count is the awaited one; then all its frames go to the pipeline, each
+// FrameRecord with trigger_id and camera_trigger_count. A camera that
+// answered nothing within its longest exposure + frame_timeout_ms, a failed
+// frame, or a frame with a count it was never sent (its count and the
+// sequencer's disagree: its stream is restarted) spoils the capture: each
+// such camera gets a "frame_lost" journal record naming it with the trigger
+// id and reason (no_frame, missing_packets, ..., trigger_mismatch), the other
+// cameras' frames of that trigger are discarded, a "capture_retaken" record
+// and the operation's message say so, and a new trigger is fired for every
+// camera. Frames of an earlier trigger arriving later are discarded
+// ("frame_discarded", reason late, with the trigger id they answered), never
+// stored as a later capture's; so no stored capture mixes triggers. A
+// camera without the count chunk has each complete frame taken as the
+// awaited trigger's (weaker: a frame later than the timeout would pass).
+// After frame_attempts spoiled captures in a row the session pauses naming
+// the cameras; resume retries. At the end a "trigger_summary" record gives
+// the triggers fired, retakes, discarded frames and per camera the captures
+// it missed and its late frames.
 //
 // Exposure per capture (session_plan.hpp): a white step with
 // meter_white_share > 0 is metered after its settle time: per camera, a
@@ -34,22 +66,23 @@
 // frame (the daemon's blue-light hazard limit, session/plan_hazard.hpp).
 //
 // Hardware timing: the whole sequence (one state per frame) is armed on the
-// controller before the first step; it advances on the camera's
-// exposure-active edge, so the daemon only triggers the cameras. State 0 of
-// the armed sequence is a dark resting state; exposure k's rising edge moves
-// the controller to state k, so frame k is taken under it. The frames'
-// "led.drive" is the armed state (the status read at the step's start still
-// shows the previous frame's). After a lost frame the rest of the sequence is
-// armed again from that frame.
+// controller before the first step (SequenceTrigger::kTriggerOutput); it
+// advances on the controller's own trigger pulse, before the pulse leaves,
+// so light and cameras cannot disagree: the daemon only fires. State 0 of
+// the armed sequence is a dark resting state; pulse k moves the controller
+// to state k, so capture k is taken under it. The frames' "led.drive" is the
+// armed state (the status read at the step's start still shows the previous
+// frame's). After a spoiled capture the rest of the sequence is armed again
+// from that frame.
 //
 // Faults:
 //  - the LED controller does not answer (DeviceError kTimeout/kDisconnected):
 //    the operation is PAUSED with a message naming the controller and the
 //    request; resume retries the step; cancel ends it.
-//  - a camera delivers a failed frame or none within exposure +
-//    frame_timeout_ms: counted lost with its reason, triggered again up to
-//    frame_attempts times, then PAUSED (message names the camera); resume retries.
-//    A camera that does not answer while being configured pauses likewise.
+//  - a camera misses a capture (above): counted lost with its reason, the
+//    capture retaken for every camera up to frame_attempts times, then
+//    PAUSED (message names the cameras); resume retries. A camera that does
+//    not answer while being configured pauses likewise.
 //  - storage fails (disk full): the session ends FAILED at once, with the
 //    reason; frames already stored stay intact.
 // Cancel is honoured at every frame boundary and during waits; the LEDs are

@@ -9,7 +9,9 @@
 //   camera "cam0"            CameraSimulator, GigE Vision on its own loopback address
 //                            127.77.x.y:3956 (the project's device side, setting
 //                            ip_address of cam0) rendering the scene under the LEDs' light; its
-//                            exposures are the controller's hardware trigger input
+//                            exposures are the controller's hardware trigger input, its
+//                            Line0 is wired to the controller's trigger output
+//                            (trigger_input "Line0": the controller triggers it)
 //                            ← AravisCamera (backend "aravis")
 //   spectrometer "spec0"     simulated USB2000+ behind the USB transport seam, looking
 //                            into the sphere (LEDs + the reference lamp)

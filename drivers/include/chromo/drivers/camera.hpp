@@ -133,6 +133,11 @@ struct Frame {
   std::uint64_t camera_frame_id = 0;  // the device's block id
   FrameStatus status = FrameStatus::kComplete;
   std::uint64_t camera_timestamp_ns = 0;
+  // The camera's count of the trigger this frame answered (1 = the first
+  // trigger after the stream started; the device's chunk data), when the
+  // camera sends it; nullopt for free-running frames, failed frames and
+  // cameras without the chunk.
+  std::optional<std::uint64_t> trigger_count;
   std::chrono::system_clock::time_point host_timestamp;
   int width = 0, height = 0;
   PixelFormat pixel_format = PixelFormat::kMono8;

@@ -70,11 +70,19 @@ struct LedStatus {
   std::array<std::uint32_t, kLedTypeCount> channel_faults{};
   std::uint32_t controller_faults = kLedFaultNone;
   int sequence_position = -1;  // index of the state being shown in an armed sequence, -1 when none
+  // Pulses fired on the trigger output since power-on (fire_trigger), wrapping
+  // at 2^32: the number of the last pulse, 0 before the first.
+  std::uint32_t trigger_pulses = 0;
 };
+
+// The trigger output's pulse width limits (fire_trigger), microseconds.
+inline constexpr std::uint32_t kMinTriggerPulseWidthUs = 1;
+inline constexpr std::uint32_t kMaxTriggerPulseWidthUs = 10000;
 
 enum class SequenceTrigger {
   kHardwareRisingEdge,  // advance on the trigger input's rising edge (camera exposure-active)
   kSoftware,            // advance on advance_sequence()
+  kTriggerOutput,       // advance on the controller's own trigger output pulse (fire_trigger), before the pulse leaves
 };
 
 class LedController {
@@ -96,6 +104,16 @@ class LedController {
   virtual void arm_sequence(std::span<const LedState> states, SequenceTrigger trigger) = 0;
   virtual void advance_sequence() = 0;  // only for SequenceTrigger::kSoftware
   virtual void disarm_sequence() = 0;
+
+  // Trigger master: fires one pulse of pulse_width_us on the controller's
+  // trigger output (wired to every camera's trigger input, Line0) and returns
+  // its number (LedStatus::trigger_pulses after it: pulses count from 1 after
+  // power-on and wrap at 2^32). A sequence armed with kTriggerOutput shows
+  // its next state before the pulse leaves, so the light the cameras expose
+  // under is the one this pulse numbers. Returns once the device has
+  // acknowledged the pulse as sent. DeviceError(kInvalidRequest) for a width
+  // outside [kMinTriggerPulseWidthUs, kMaxTriggerPulseWidthUs] (nothing sent).
+  virtual std::uint32_t fire_trigger(std::uint32_t pulse_width_us) = 0;
 };
 
 }  // namespace chromo::drivers

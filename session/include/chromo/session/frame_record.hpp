@@ -57,6 +57,12 @@ struct FrameRecord {
   std::uint64_t camera_frame_id = 0;
   std::uint64_t camera_timestamp_ns = 0;
   std::int64_t host_timestamp_ns = 0;  // system clock, since the Unix epoch
+  // The trigger the frame answered: the LED controller's pulse number (every
+  // camera's frame of one capture has the same), 0 in records without one;
+  // and the camera's own count of that trigger since its stream started
+  // (chunk data), 0 when the camera sent none.
+  std::uint64_t trigger_id = 0;
+  std::uint64_t camera_trigger_count = 0;
   int width = 0, height = 0;
   drivers::PixelFormat pixel_format = drivers::PixelFormat::kMono8;
 

@@ -66,6 +66,10 @@ struct AravisCameraOptions {
   int watchdog_period_ms = 500;
   int reconnect_retry_ms = 500;
   std::string hardware_trigger_line;        // "" = first "Line*" entry of TriggerSource
+  // The ChunkSelector entry whose chunk (feature "Chunk" + this name) counts
+  // the triggers the camera received since AcquisitionStart; enabled when the
+  // device lists it and the camera is triggered (Frame::trigger_count), "" = never.
+  std::string trigger_count_chunk = "TriggerCount";
   // Warnings (socket buffer too small, restore failures). Default: stderr.
   std::function<void(const std::string&)> on_warning;
 

@@ -30,6 +30,8 @@ Reply parse_reply(std::span<const std::uint8_t> report, const std::string& devic
 
 LedControllerInfo parse_info_payload(std::span<const std::uint8_t> payload, const std::string& device);
 LedStatus parse_status_payload(std::span<const std::uint8_t> payload, const std::string& device);
+// FIRE_TRIGGER's reply: the pulse's number.
+std::uint32_t parse_fire_trigger_payload(std::span<const std::uint8_t> payload, const std::string& device);
 
 // "out of range" etc., for error messages.
 std::string status_name(std::uint8_t status);

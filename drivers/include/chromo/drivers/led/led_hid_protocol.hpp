@@ -33,12 +33,18 @@ enum Command : std::uint8_t {
   kSetState = 0x02,       // state payload (kStatePayloadSize) → empty, once applied
   kGetStatus = 0x03,      // → status payload (kStatusPayloadSize)
   kSetOutput = 0x04,      // [0] 0 off / 1 on → empty
-  kSequenceBegin = 0x05,  // [0..1] state count, [2] trigger (0 hardware, 1 software) → empty
+  kSequenceBegin = 0x05,  // [0..1] state count, [2] trigger (0 hardware, 1 software, 2 own trigger output) → empty
   kSequenceState = 0x06,  // [0..1] index, then a state payload → empty
   kSequenceArm = 0x07,    // → empty; needs every state of the begun sequence
   kSequenceAdvance = 0x08,
   kSequenceDisarm = 0x09,
+  kFireTrigger = 0x0A,    // [0..1] pulse width us (1-10000) → [0..3] the pulse's number (u32)
 };
+
+// Sequence trigger codes (kSequenceBegin byte 2).
+inline constexpr std::uint8_t kTriggerHardwareEdge = 0, kTriggerSoftware = 1, kTriggerOwnOutput = 2;
+inline constexpr int kFireTriggerPayloadSize = 2;
+inline constexpr int kFireTriggerReplySize = 4;
 
 enum Status : std::uint8_t {
   kOk = 0x00,
@@ -60,7 +66,7 @@ inline constexpr int kInfoPayloadSize = 46;
 // Status payload: [0] output enabled, [1..2] sequence position (i16, -1 none),
 // [3..4] controller faults, [5] applied zone, [6..9] applied PWM Hz,
 // [10..21] applied drive u16 ×6, [22..33] temperatures i16 centi-°C ×6,
-// [34..39] channel fault bits u8 ×6.
-inline constexpr int kStatusPayloadSize = 40;
+// [34..39] channel fault bits u8 ×6, [40..43] trigger output pulses fired (u32).
+inline constexpr int kStatusPayloadSize = 44;
 
 }  // namespace chromo::drivers::led_hid

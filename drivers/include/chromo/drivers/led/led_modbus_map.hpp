@@ -25,8 +25,9 @@ inline constexpr int kHoldPwmHzLow = 0x0008;
 inline constexpr int kHoldCommandCode = 0x0009;     // see Command
 inline constexpr int kHoldCommandSequence = 0x000A; // the device acts when this changes
 inline constexpr int kHoldSequenceLength = 0x000B;  // states in the sequence table (arm)
-inline constexpr int kHoldSequenceTrigger = 0x000C; // 0 hardware rising edge, 1 software
-inline constexpr int kHoldStagingCount = 0x000D;    // registers 0x0000..0x000C
+inline constexpr int kHoldSequenceTrigger = 0x000C; // 0 hardware rising edge, 1 software, 2 own trigger output
+inline constexpr int kHoldTriggerPulseWidthUs = 0x000D;  // FIRE_TRIGGER: pulse width, us (1-10000)
+inline constexpr int kHoldStagingCount = 0x000E;    // registers 0x0000..0x000D
 // Sequence table: state k at kHoldSequenceTable + k * kSequenceStride:
 // drive[6], zone, pwm high, pwm low, reserved (0).
 inline constexpr int kHoldSequenceTable = 0x0100;
@@ -40,7 +41,11 @@ enum Command : std::uint16_t {
   kCommandArmSequence = 2,    // arm the sequence table (length, trigger)
   kCommandAdvance = 3,        // software trigger of an armed kSoftware sequence
   kCommandDisarm = 4,
+  kCommandFireTrigger = 5,    // one pulse on the trigger output (width in kHoldTriggerPulseWidthUs)
 };
+
+// Sequence trigger codes (kHoldSequenceTrigger).
+inline constexpr std::uint16_t kTriggerHardwareEdge = 0, kTriggerSoftware = 1, kTriggerOwnOutput = 2;
 
 // ---- Input registers (function code 4) ----
 inline constexpr int kInProtocolVersion = 0x0000;
@@ -61,6 +66,7 @@ inline constexpr int kInAckSequence = 0x0029;      // last command sequence proc
 inline constexpr int kInSequencePosition = 0x002A; // 0xFFFF = no sequence armed
 inline constexpr int kInControllerFaults = 0x002B; // LedFault bits
 inline constexpr int kInCommandResult = 0x002C;    // CommandResult of the last command
+inline constexpr int kInTriggerPulsesHigh = 0x002D; // 2 registers: pulses fired on the trigger output (u32)
 inline constexpr int kInTemperature0 = 0x0030;     // 6 registers, centi-°C, signed
 inline constexpr int kInChannelFaults0 = 0x0038;   // 6 registers, LedFault bits
 inline constexpr int kInStatusFirst = 0x0020;      // status block: 0x0020..0x003D
@@ -70,7 +76,7 @@ inline constexpr int kInputRegisterCount = 0x0040;
 enum CommandResult : std::uint16_t {
   kResultOk = 0,
   kResultUnknownCommand = 1,
-  kResultOutOfRange = 2,   // zone, PWM frequency or sequence length outside the device's limits
+  kResultOutOfRange = 2,   // zone, PWM frequency, sequence length, trigger or pulse width outside the limits
   kResultBadState = 3,     // e.g. advance without an armed software sequence
   kResultFault = 4,        // refused: controller over-temperature
 };

@@ -33,6 +33,14 @@
 // address must lie in 127.0.0.0/8. The constructor throws std::runtime_error
 // when the address is taken. Nothing is written to disk.
 //
+// Triggers: the camera counts the FrameStart triggers it receives while
+// acquiring with TriggerMode On (Line0 edges or TriggerSoftware commands,
+// whichever TriggerSource says), from 1 after each AcquisitionStart; with
+// ChunkModeActive and ChunkEnable[TriggerCount] every triggered frame carries
+// the count of the trigger it answered as GVSP chunk data (ChunkTriggerCount).
+// set_trigger_faults() makes the camera ignore chosen triggers (counted, no
+// exposure, no frame), as a camera that misses a trigger does.
+//
 // Faults: set_faults() (GvspFaultOptions: packet loss, reordering, delay on
 // first transmissions; resend requests are answered from the last 8 blocks)
 // with device_counters() saying what happened; set_packet_loss_ratio(r) is
@@ -53,8 +61,11 @@
 #include <memory>
 #include <mutex>
 #include <condition_variable>
+#include <deque>
+#include <random>
 #include <thread>
 #include <string>
+#include <vector>
 
 #include "chromo/drivers/camera.hpp"
 #include "chromo/simulators/camera/camera_model.hpp"
@@ -81,6 +92,18 @@ struct CameraSimulatorOptions {
   bool IsValid(std::string* error) const;
 };
 
+// Triggers the camera receives but does not answer (no exposure, no frame;
+// the trigger is still counted). Numbers are the camera's triggers since the
+// simulator was made (1 = the first trigger received), whatever acquisition
+// restarts or power cycles happen in between: triggers_received() counts them.
+struct TriggerFaultOptions {
+  std::vector<std::uint64_t> ignore_triggers;  // these trigger numbers
+  double ignore_probability = 0;               // and each other trigger with this probability, [0, 0.5]
+  std::uint64_t seed = 1;                      // the dice
+
+  bool IsValid(std::string* error) const;
+};
+
 class CameraSimulator {
  public:
   static constexpr int kGvcpPort = 3956;
@@ -101,6 +124,9 @@ class CameraSimulator {
   // "127.a.b.c": where GVCP listens (the driver's AravisCameraOptions::address).
   std::string address() const;
   void set_faults(const GvspFaultOptions& faults);  // std::invalid_argument when invalid
+  void set_trigger_faults(const TriggerFaultOptions& faults);  // std::invalid_argument when invalid; any thread
+  std::uint64_t triggers_received() const { return triggers_received_; }  // since construction
+  std::uint64_t triggers_ignored() const { return triggers_ignored_; }    // of them, not answered (faults)
   void set_packet_loss_ratio(double ratio);         // 0-0.5, other faults off
   GigeVisionDeviceCounters device_counters() const;
   void power_off();
@@ -122,7 +148,10 @@ class CameraSimulator {
   std::uint16_t on_register_write(std::uint32_t address, std::uint32_t value,
                                   const GigeVisionDevice::RegisterReader& read);
   void acquisition_loop();
-  void produce_frame();
+  void produce_frame(std::uint64_t trigger_count);
+  // A trigger reached the camera (acquisition_mutex_ held): counts it and
+  // queues its frame unless the faults say to ignore it.
+  void accept_trigger_locked();
   void start_acquisition_thread();
   void stop_acquisition_thread();
 
@@ -149,7 +178,11 @@ class CameraSimulator {
   bool trigger_on_ = false;
   std::uint32_t trigger_source_ = 1;
   std::uint32_t frame_period_us_ = 100000;
-  int pending_triggers_ = 0;
+  std::deque<std::uint64_t> pending_triggers_;  // counts (since AcquisitionStart) of triggers to answer
+  std::uint64_t trigger_count_ = 0;             // since AcquisitionStart
+  TriggerFaultOptions trigger_faults_;
+  std::mt19937_64 trigger_dice_;
+  std::atomic<std::uint64_t> triggers_received_{0}, triggers_ignored_{0};
   std::thread acquisition_thread_;
 
   std::atomic<std::uint64_t> frames_rendered_{0};

@@ -107,6 +107,10 @@ struct GvspImageBlock {
   std::uint32_t pixel_format = 0;  // PFNC
   std::uint32_t width = 0, height = 0, offset_x = 0, offset_y = 0;
   std::uint64_t timestamp_ticks = 0;  // device clock, 1 GHz ticks
+  // true: the payload is chunk data (the image as the first chunk, then
+  // others, each followed by its id and length, big-endian) and the leader
+  // says so (payload type 0x4001, image with extended chunk).
+  bool has_chunks = false;
   std::shared_ptr<const std::vector<std::uint8_t>> payload;
 };
 

@@ -16,6 +16,11 @@
 // - Hardware trigger: trigger() is the trigger input's rising edge (the camera
 //   simulator calls it on exposure-active); it advances an armed
 //   kHardwareRisingEdge sequence.
+// - Trigger output (the sphere's trigger master): fire_trigger_output()
+//   numbers a pulse (1, 2, ... since construction), advances an armed
+//   kTriggerOutput sequence, and only then calls every input wired with
+//   connect_trigger_output() (the cameras' Line0), outside the lab's lock, so
+//   the cameras expose under the state the pulse stands for.
 //
 // Faults on demand (all reversible):
 //   inject_flux_loss / inject_peak_shift  — a degraded LED type (truth only:
@@ -31,6 +36,7 @@
 // Thread rules: every method may be called from any thread.
 
 #include <chrono>
+#include <functional>
 #include <mutex>
 #include <optional>
 #include <vector>
@@ -78,6 +84,15 @@ class LedLab final : public SphereIllumination {
   void disarm();
   void trigger();        // hardware trigger input, rising edge
   int trigger_count() const;
+  // One pulse on the trigger output: kOutOfRange for a width outside
+  // [kMinTriggerPulseWidthUs, kMaxTriggerPulseWidthUs] (nothing fired), else
+  // kOk with the pulse's number in *pulse_number.
+  LabResult fire_trigger_output(std::uint32_t pulse_width_us, std::uint32_t* pulse_number);
+  std::uint32_t trigger_pulses() const;  // pulses fired so far (the last one's number)
+  // Wires an input to the trigger output; it is called on the firing thread.
+  void connect_trigger_output(std::function<void()> input);
+  // Unwires every input (before the objects behind them go away).
+  void disconnect_trigger_outputs();
 
   // ---- faults ----
   void inject_flux_loss(spectral::LedType type, double fraction);  // 0.05 = 5 % less flux
@@ -122,6 +137,9 @@ class LedLab final : public SphereIllumination {
   drivers::SequenceTrigger sequence_trigger_ = drivers::SequenceTrigger::kHardwareRisingEdge;
   int sequence_position_ = -1;
   int trigger_count_ = 0;
+  std::uint32_t trigger_pulses_ = 0;
+  std::mutex output_mutex_;  // the wired inputs; never held with mutex_
+  std::vector<std::function<void()>> trigger_outputs_;
   std::array<double, spectral::kLedTypeCount> flux_loss_{}, peak_shift_nm_{};
   std::array<bool, spectral::kLedTypeCount> dead_{}, over_temperature_{};
   bool unresponsive_ = false;
