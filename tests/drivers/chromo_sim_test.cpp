@@ -25,7 +25,7 @@ TEST(ChromoSim, PrintsWhereDevicesListenServesThemAndStopsOnCtrlC) {
   const std::string banner = sim.read_until("running");
   const std::string camera_address = printed_camera_address(banner);
   EXPECT_TRUE(camera_address.starts_with("127.77.")) << banner;
-  EXPECT_NE(banner.find("camera: GigE Vision on " + camera_address + ":3956 serial CHROMO-SIMTEST"), std::string::npos)
+  EXPECT_NE(banner.find("camera cam0: GigE Vision on " + camera_address + ":3956 serial CHROMO-SIMTEST"), std::string::npos)
       << banner;
   EXPECT_NE(banner.find("Modbus RTU on /dev/pts/"), std::string::npos) << banner;
   const int modbus_port = printed_modbus_port(banner);
