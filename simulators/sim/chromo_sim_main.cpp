@@ -85,6 +85,8 @@ int run(const SimArguments& args) {
   sigaddset(&stop_signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
 
+  // The camera list first: a bad one is refused before anything starts.
+  const std::vector<simulators::LabCamera> lab_cameras = lab_cameras_of(args);
   std::shared_ptr<const simulators::SphereIllumination> fixed_light;
   if (!args.fixed_light.empty()) {
     spectral::Spectrum light = spectral::illuminant_by_name_or_file(args.fixed_light);
@@ -113,7 +115,6 @@ int run(const SimArguments& args) {
   const std::string modbus_pty = leds.start_modbus_rtu();
   // The lab outlives the camera simulators (declared first): a non-owning pointer.
   const std::shared_ptr<const simulators::SphereIllumination> lab_light(std::shared_ptr<void>(), &leds.lab());
-  const std::vector<simulators::LabCamera> lab_cameras = lab_cameras_of(args);
   std::vector<std::unique_ptr<simulators::CameraSimulator>> cameras;
   for (std::size_t i = 0; i < lab_cameras.size(); ++i) {
     const simulators::LabCamera& lab_camera = lab_cameras[i];
