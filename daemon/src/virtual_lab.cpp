@@ -47,8 +47,7 @@ bool VirtualLabOptions::IsValid(std::string* error) const {
 }
 
 std::string VirtualLabOptions::serial_of(std::size_t index) const {
-  if (index < cameras.size() && !cameras[index].serial.empty()) return cameras[index].serial;
-  return index == 0 ? camera_serial : camera_serial.substr(0, 12) + "-" + std::to_string(index);
+  return simulators::lab_camera_serial(cameras.at(index), camera_serial, index);
 }
 
 simulators::CameraSimulatorOptions VirtualLabOptions::camera_simulator_options(

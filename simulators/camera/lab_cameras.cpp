@@ -156,6 +156,11 @@ std::vector<LabCamera> read_lab_cameras(const json& list) {
   return cameras;
 }
 
+std::string lab_camera_serial(const LabCamera& camera, const std::string& first_serial, std::size_t index) {
+  if (!camera.serial.empty()) return camera.serial;
+  return index == 0 ? first_serial : first_serial.substr(0, 13) + std::to_string(index);
+}
+
 std::optional<CameraView> lab_camera_view(const LabCamera& camera) {
   if (!camera.pose) return std::nullopt;
   const LabCameraPose& pose = *camera.pose;

@@ -119,9 +119,7 @@ int run(const SimArguments& args) {
   for (std::size_t i = 0; i < lab_cameras.size(); ++i) {
     const simulators::LabCamera& lab_camera = lab_cameras[i];
     simulators::CameraSimulatorOptions camera_options;
-    camera_options.serial = !lab_camera.serial.empty() ? lab_camera.serial
-                            : i == 0                 ? args.camera_serial
-                                                     : args.camera_serial.substr(0, 12) + "-" + std::to_string(i);
+    camera_options.serial = simulators::lab_camera_serial(lab_camera, args.camera_serial, i);
     camera_options.address = lab_camera.address;
     camera_options.sensor_width = lab_camera.sensor_width;
     camera_options.sensor_height = lab_camera.sensor_height;
@@ -174,7 +172,7 @@ int main(int argc, char** argv) {
   SimArguments args;
   app.add_option("--camera-serial", args.camera_serial,
                  "GigE Vision serial number of the (first) camera simulator (with --cameras: camera k > 0 "
-                 "without a serial of its own gets the first 12 characters and -k)")
+                 "without a serial of its own gets the first 13 characters and k)")
       ->capture_default_str();
   auto* cameras = app.add_option("--cameras", args.cameras_file,
                                  "JSON list of cameras to start (as chromod's virtual_lab.cameras, docs/config.md)");

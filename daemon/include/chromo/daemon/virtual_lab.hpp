@@ -59,7 +59,7 @@ struct VirtualLabOptions {
   double patch_width_mm = 80;      // the skin patch's physical width, for posed cameras
   int scene_size = 256;            // skin and white-target scenes (square), seen by every camera
   // The first camera's serial when its entry names none; camera k > 0 gets
-  // the first 12 characters of it and "-k".
+  // the first 13 characters of it and k (simulators::lab_camera_serial).
   std::string camera_serial = "CHROMO-VLAB-CAM";
   double led_time_scale = 300;     // lab seconds per wall-clock second (LED warm-up, drift)
   std::uint64_t seed = 1;          // scene and camera noise
@@ -67,7 +67,8 @@ struct VirtualLabOptions {
 
   // Names the key: "cameras[1].sensor_width: ...".
   bool IsValid(std::string* error) const;
-  // The serial of camera `index` (its entry's, else derived from camera_serial).
+  // The serial of camera `index` (its entry's, else derived from camera_serial;
+  // std::out_of_range beyond the list).
   std::string serial_of(std::size_t index) const;
   // The simulator options of camera `index` (std::out_of_range beyond) with
   // the sensitivity it renders with; its noise seed is seed + index.

@@ -58,6 +58,11 @@ struct LabCamera {
 // The JSON list (array of objects) as LabCameras; at least one camera.
 std::vector<LabCamera> read_lab_cameras(const nlohmann::json& list);
 
+// Camera `index`'s serial: its entry's, else `first_serial` for camera 0
+// and the first 13 characters of it followed by the index for the others
+// (15 characters at most for up to 64 cameras).
+std::string lab_camera_serial(const LabCamera& camera, const std::string& first_serial, std::size_t index);
+
 // The camera's view of a patch (none without a pose): intrinsics from its
 // sensor and lens, looking at the patch centre from its orbit.
 std::optional<CameraView> lab_camera_view(const LabCamera& camera);
