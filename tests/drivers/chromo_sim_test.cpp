@@ -113,11 +113,17 @@ TEST(ChromoSim, StartsEveryCameraOfTheList) {
     options.on_warning = [](const std::string&) {};
     auto camera = drivers::AravisCamera::open(options);
     EXPECT_EQ(camera->info().sensor_width, width) << serial;
+    drivers::CameraSettings settings;
+    settings.pixel_format = drivers::PixelFormat::kMono8;
+    camera->configure(settings);
     FrameSink sink;
     camera->start_stream(sink.callback());
     camera->software_trigger();
     EXPECT_TRUE(sink.wait_for_count(1, std::chrono::milliseconds(3000))) << serial;
     camera->stop_stream();
+    const auto frames = sink.take();
+    ASSERT_FALSE(frames.empty()) << serial;
+    EXPECT_EQ(frames[0].width, width) << serial;
   }
   EXPECT_EQ(sim.stop_with(SIGINT), 0);
   std::ofstream(dir / "bad.json") << R"([{"name": "a"}, {"name": "b", "pose": {"azimuth_deg": 120}}])";
