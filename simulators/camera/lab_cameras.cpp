@@ -20,10 +20,11 @@ std::string shown(const json& value) {
 }
 
 int read_int(const json& value, int min, int max) {
-  if (!value.is_number_integer() || (value.is_number_unsigned() && value.get<std::uint64_t>() > 1u << 30) ||
-      value.get<std::int64_t>() < min || value.get<std::int64_t>() > max)
-    throw std::invalid_argument(shown(value) + " is not an integer in [" + std::to_string(min) + ", " +
-                                std::to_string(max) + "]");
+  const std::string range = "[" + std::to_string(min) + ", " + std::to_string(max) + "]";
+  if (!value.is_number_integer()) throw std::invalid_argument(shown(value) + " is not an integer in " + range);
+  const bool large = value.is_number_unsigned() && value.get<std::uint64_t>() > static_cast<std::uint64_t>(max);
+  if (large || value.get<std::int64_t>() < min || value.get<std::int64_t>() > max)
+    throw std::invalid_argument(shown(value) + " is outside " + range);
   return static_cast<int>(value.get<std::int64_t>());
 }
 
