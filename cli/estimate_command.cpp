@@ -14,8 +14,8 @@
 #include <nlohmann/json.hpp>
 
 #include "chromo/maps/estimate_report.hpp"
+#include "chromo/session/plan_hazard.hpp"
 #include "chromo/session/session_captures.hpp"
-#include "chromo/maps/estimate_report.hpp"
 #include "chromo/estimation/estimator.hpp"
 #include "chromo/session/measurement_file.hpp"
 #include "chromo/files/output_batch.hpp"
@@ -67,12 +67,14 @@ int run_estimate_session(const EstimateOptions& options) {
   const fs::path folder = options.input;
   session::CaptureSources sources;
   session::StoredSessionCaptures captures;
+  nlohmann::ordered_json hazard;
   try {
     std::string library = options.led_library;
     if (library.empty() && fs::exists(folder / "results" / "led_library.json"))
       library = (folder / "results" / "led_library.json").string();
     sources = session::resolve_capture_sources(library, options.camera, options.white_reflectance);
     captures = session::read_any_session_captures(folder, sources);
+    hazard = session::recorded_blue_light_hazard(folder / "journal.jsonl");
   } catch (const std::exception& e) {
     std::cerr << "chromo estimate: " << e.what() << "\n";
     return kExitBadInput;
@@ -86,7 +88,8 @@ int run_estimate_session(const EstimateOptions& options) {
                                {"source", "chromo estimate SESSION_DIR"},
                                {"led_library", sources.led_library_source},
                                {"camera_sensitivity", sources.camera_source},
-                               {"white_reflectance", sources.white_reflectance}};
+                               {"white_reflectance", sources.white_reflectance},
+                               {"blue_light_hazard", hazard}};
   maps::MethodEstimationResult result;
   try {
     files::OutputBatch files(options.out);  // removed again (with the directory it made) unless committed

@@ -13,6 +13,22 @@ namespace {
 
 constexpr double kFixedExposureWhiteShare = 0.85;
 
+// A step's drive levels: a named mix solved from the library as the daemon
+// solves it (camera objective), or the step's own weights; dark for a dark step.
+drivers::DriveLevels step_drive(const session::SessionPlan& plan, const session::Step& step,
+                                const calibration::LedLibrary& library) {
+  switch (step.illumination.kind) {
+    case session::Illumination::Kind::kDark: return drivers::DriveLevels{};
+    case session::Illumination::Kind::kWeights: return step.illumination.weights;
+    case session::Illumination::Kind::kMix: break;
+  }
+  try {
+    return calibration::solve_session_mix(library, step.illumination.mix, "camera", false).weights;
+  } catch (const std::exception& e) {
+    throw std::invalid_argument(plan.name + ": step " + step.name + ": " + e.what());
+  }
+}
+
 }  // namespace
 
 std::optional<planning::PlanDescription> advisor_plan(const session::SessionPlan& plan,
@@ -29,15 +45,7 @@ std::optional<planning::PlanDescription> advisor_plan(const session::SessionPlan
     planning::PlannedCapture capture;
     const session::IlluminationState state = session::illumination_state(step);
     capture.name = state.name;
-    if (step.illumination.kind == session::Illumination::Kind::kMix) {
-      try {
-        capture.drive = calibration::solve_session_mix(library, step.illumination.mix, "camera", false).weights;
-      } catch (const std::exception& e) {
-        throw std::invalid_argument(plan.name + ": step " + step.name + ": " + e.what());
-      }
-    } else {
-      capture.drive = step.illumination.weights;
-    }
+    capture.drive = step_drive(plan, step, library);
     capture.frames = static_cast<int>(step.frames_per_camera);
     capture.settle_ms = static_cast<int>(step.settle_ms);
     if (const auto white = white_of.find(state.key); white != white_of.end()) {
@@ -64,6 +72,13 @@ std::optional<double> predicted_relit_delta_e94(const session::SessionPlan& plan
   planning::CameraNoise camera;
   camera.sensitivity = spectral::builtin_camera("nikon_d5100");
   return planning::predict_plan(*description, library, camera).delta_e94_mean;
+}
+
+session::PlanHazard planned_blue_light_hazard(const session::SessionPlan& plan) {
+  const calibration::LedLibrary library = simulators::lab_led_library();
+  return session::plan_blue_light_hazard(
+      plan, [&](const session::Step& step) { return step_drive(plan, step, library); }, library,
+      session::BlueLightHazardOptions{});
 }
 
 }  // namespace chromo::cli

@@ -20,6 +20,7 @@
 
 #include "chromo/calibration/led_library.hpp"
 #include "chromo/planning/plan_description.hpp"
+#include "chromo/session/plan_hazard.hpp"
 #include "chromo/session/session_plan.hpp"
 
 namespace chromo::cli {
@@ -32,5 +33,13 @@ std::optional<planning::PlanDescription> advisor_plan(const session::SessionPlan
 // The advisor's prediction (64 skins of the whole range), or std::nullopt
 // when the plan has nothing it can predict (no subject step).
 std::optional<double> predicted_relit_delta_e94(const session::SessionPlan& plan);
+
+// The plan's blue-light hazard dose for the subject's eyes (IEC 62471,
+// session/plan_hazard.hpp) at its planned exposures, from the same library
+// and chromod's default absolute scale and allowance (BlueLightHazardOptions'
+// defaults: docs/config.md "hazard"). A metered plan's planned exposures are
+// its first guesses; chromod checks the dose again once metered.
+// std::invalid_argument naming the step when a mix cannot be solved.
+session::PlanHazard planned_blue_light_hazard(const session::SessionPlan& plan);
 
 }  // namespace chromo::cli

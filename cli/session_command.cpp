@@ -112,6 +112,13 @@ void show(SessionOptions& options, int& exit_status) {
     std::cout << fmt::format("  {:2} {:<20} {:<8} {:>4} frames  {}\n", step.index(), step.name(),
                              pb::StepRole_Name(step.role()).substr(std::string("STEP_ROLE_").size()), step.frames_stored(),
                              step.completed() ? "completed" : "not completed");
+  // Where the time went (journal record times; "-" for a phase not reached).
+  const auto& timeline = detail.timeline();
+  auto seconds = [](double s) { return s < 0 ? std::string("-") : fmt::format("{:.1f} s", s); };
+  std::cout << fmt::format("timeline capture {} (subject {}), then derived data {} and maps {} after the last frame; "
+                           "total {}\n",
+                           seconds(timeline.capture_s()), seconds(timeline.subject_s()), seconds(timeline.derived_s()),
+                           seconds(timeline.estimation_s()), seconds(timeline.total_s()));
   for (const auto& frame : detail.frames())
     std::cout << fmt::format("  frame {:4} {:<18} {:<6} seq {:<5} {} exposure {} us\n", frame.index(), frame.step(),
                              frame.camera(), frame.sequence(), frame.file(), frame.exposure_us());
@@ -120,8 +127,8 @@ void show(SessionOptions& options, int& exit_status) {
 // `chromo session plans`: the built-in plans, then plan files (FILE
 // arguments, and every *.json in --plan-dir), with their capture count,
 // the estimator's channels, the capture time (subject: first to last subject
-// exposure; references apart) and the predicted accuracy when the plan
-// advisor provides one (plan_advice.hpp). A bad plan file: its field named,
+// exposure; references apart), the predicted accuracy when the plan
+// advisor provides one and the planned blue-light hazard dose (plan_advice.hpp). A bad plan file: its field named,
 // exit 2, nothing else printed.
 void list_plans(const std::vector<std::string>& files, const std::string& plan_dir, int& exit_status) {
   std::vector<std::pair<std::string, session::SessionPlan>> plans;
@@ -149,15 +156,28 @@ void list_plans(const std::vector<std::string>& files, const std::string& plan_d
       return;
     }
   }
-  std::cout << fmt::format("{:<24} {:>8} {:>8} {:>10} {:>12} {:>7} {:>10}  {}\n", "plan", "captures", "channels",
-                           "subject_s", "references_s", "frames", "pred_dE94", "source");
+  std::cout << fmt::format("{:<24} {:>8} {:>8} {:>10} {:>12} {:>7} {:>10} {:>12}  {}\n", "plan", "captures", "channels",
+                           "subject_s", "references_s", "frames", "pred_dE94", "blue_dose", "source");
   for (const auto& [source, plan] : plans) {
     const session::PlanTiming t = session::plan_timing(plan);
-    const auto predicted = predicted_relit_delta_e94(plan);
-    std::cout << fmt::format("{:<24} {:>8} {:>8} {:>10.2f} {:>12.2f} {:>7} {:>10}  {}\n", plan.name, t.captures,
-                             t.channels, t.subject_time_s, t.reference_time_s, t.frames_per_camera,
-                             predicted ? fmt::format("{:.2f}", *predicted) : std::string("-"), source);
+    // Both predictions solve the plan's mixes from the lab's library; a mix
+    // the solver reports unusable leaves them "-", with the reason below.
+    std::string predicted = "-", dose = "-", note;
+    try {
+      if (const auto delta_e = predicted_relit_delta_e94(plan)) predicted = fmt::format("{:.2f}", *delta_e);
+      const session::PlanHazard hazard = planned_blue_light_hazard(plan);
+      dose = fmt::format("{:.4g}", hazard.dose_J_per_m2_sr);
+      if (!hazard.within_limit()) note = "\n  beyond the default blue-light limit: chromod refuses it";
+    } catch (const std::invalid_argument& error) {
+      note = std::string("\n  no prediction: ") + error.what();
+    }
+    std::cout << fmt::format("{:<24} {:>8} {:>8} {:>10.2f} {:>12.2f} {:>7} {:>10} {:>12}  {}{}\n", plan.name,
+                             t.captures, t.channels, t.subject_time_s, t.reference_time_s, t.frames_per_camera,
+                             predicted, dose, source, note);
   }
+  std::cout << fmt::format("blue_dose: IEC 62471 blue-light L_B*t for the subject's eyes, J/(m2 sr), planned exposures, "
+                           "chromod's default scale (hazard.* in docs/config.md); limit {:.4g}\n",
+                           session::BlueLightHazardOptions{}.limit_J_per_m2_sr);
 }
 
 }  // namespace

@@ -98,6 +98,11 @@ class Client:
         # The stream ended early (daemon stopping): ask once more.
         return self.operations.GetOperation(operations_pb2.GetOperationRequest(id=operation_id)) if last else None
 
+    def session(self, session_id, include_frames=False):
+        """The session's SessionDetail: plan, steps, frames (with include_frames) and its timeline,
+        the seconds each phase took (capture, subject, derived data, maps; -1 for a phase not reached)."""
+        return self.sessions.GetSession(sessions_pb2.GetSessionRequest(id=session_id, include_frames=include_frames))
+
     def results(self, session_id):
         return self.results_service.GetResults(estimation_pb2.GetResultsRequest(session_id=session_id))
 

@@ -4,7 +4,7 @@
     python3 clients/python/run_session_example.py [TARGET] [--token T]   (default: chromod's default socket)
 
 Prints one progress line per update, then the session folder, the result
-state and the stored frame count. Exit status 0 when the session succeeded.
+state, the stored frame count and where the time went. Exit status 0 when the session succeeded.
 """
 import argparse
 import sys
@@ -36,6 +36,9 @@ def main():
     print(f"folder: {results.folder}")
     print(f"frames stored: {final.counters.stored}")
     print(f"results: {results.state} {results.reason}")
+    timeline = client.session(operation.id).timeline
+    print(f"timeline: capture {timeline.capture_s:.1f} s (subject {timeline.subject_s:.1f} s), "
+          f"maps {timeline.estimation_s:.1f} s after the last frame, total {timeline.total_s:.1f} s")
     client.close()
     return 0 if state_name(final.state) == "succeeded" else 1
 

@@ -106,6 +106,12 @@ void to_proto(const session::SessionInfo& info, bool include_frames, pb::Session
     step->set_completed(info.steps[i].completed);
     step->set_frames_stored(info.steps[i].frames_stored);
   }
+  auto* timeline = out->mutable_timeline();
+  timeline->set_capture_s(info.timeline.capture_s);
+  timeline->set_subject_s(info.timeline.subject_s);
+  timeline->set_derived_s(info.timeline.derived_s);
+  timeline->set_estimation_s(info.timeline.estimation_s);
+  timeline->set_total_s(info.timeline.total_s);
   if (!include_frames) return;
   for (const auto& frame : info.frames) {
     auto* f = out->add_frames();

@@ -325,19 +325,21 @@ OperationRunner::Outcome Daemon::run_session(RunningOperation& running, const se
     } catch (const std::exception& error) {
       outcome = {session::OperationState::kFailed, error.what()};
     }
+    // Every frame is stored, so the sums are complete: derived data is
+    // written while the on-line estimator may still be estimating the maps.
+    pipeline.drain_storage();
+    stored_sums_error = pipeline.stored_sums_error();
+    if (outcome.state == session::OperationState::kSucceeded) {
+      operations_.update(id, [](session::OperationRecord& r) { r.message = "writing derived data"; });
+      try {
+        if (!stored_sums_error.empty()) throw std::runtime_error(stored_sums_error);
+        session::write_derived_data(folder, plan, stored_sums, config_.estimation.white_reflectance, *journal, &budget_);
+      } catch (const std::exception& error) {
+        outcome = {session::OperationState::kFailed, std::string("derived data: ") + error.what()};
+      }
+    }
     pipeline.drain();
     counters = pipeline.counters();
-    stored_sums_error = pipeline.stored_sums_error();
-  }
-  std::string derived_error;
-  if (outcome.state == session::OperationState::kSucceeded) {
-    operations_.update(id, [](session::OperationRecord& r) { r.message = "writing derived data"; });
-    try {
-      if (!stored_sums_error.empty()) throw std::runtime_error(stored_sums_error);
-      session::write_derived_data(folder, plan, stored_sums, config_.estimation.white_reflectance, *journal, &budget_);
-    } catch (const std::exception& error) {
-      outcome = {session::OperationState::kFailed, std::string("derived data: ") + error.what()};
-    }
   }
   if (estimator_) {
     // The maps: catches up on skipped frames, estimates if not done yet, and

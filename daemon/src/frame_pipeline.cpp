@@ -78,6 +78,11 @@ void FramePipeline::drain() {
   });
 }
 
+void FramePipeline::drain_storage() {
+  std::unique_lock lock(mutex_);
+  idle_.wait(lock, [&] { return storage_queue_.empty() && !storing_; });
+}
+
 session::PipelineCounters FramePipeline::counters() const {
   std::lock_guard lock(mutex_);
   return counters_;
@@ -142,7 +147,6 @@ void FramePipeline::storage_loop() {
 
     lock.lock();
     counters_.storage_cpu_ms = thread_cpu_ms();
-    storing_ = false;
     if (failed_before || !error.empty()) {
       if (storage_error_.empty()) storage_error_ = error;
       ++counters_.lost;
@@ -180,6 +184,7 @@ void FramePipeline::storage_loop() {
         estimator_wake_.notify_one();
       }
     }
+    storing_ = false;  // only now: drain_storage() returns after on_stored_ acknowledged the frame
     idle_.notify_all();
   }
 }

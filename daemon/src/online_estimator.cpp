@@ -3,6 +3,7 @@
 #include <chrono>
 
 #include "chromo/calibration/led_library_io.hpp"
+#include "chromo/session/plan_hazard.hpp"
 #include "chromo/spectral/table.hpp"
 
 namespace chromo::daemon {
@@ -92,7 +93,8 @@ void OnlineEstimator::estimate_now() {
                                {"camera_sensitivity", sources_->camera_source},
                                {"white_reflectance", sources_->white_reflectance},
                                {"frames_read_back_from_storage", read_back_},
-                               {"table_prepared_during_capture_s", table_prepare_seconds_}};
+                               {"table_prepared_during_capture_s", table_prepare_seconds_},
+                               {"blue_light_hazard", session::recorded_blue_light_hazard(session_.folder / "journal.jsonl")}};
   const std::filesystem::path results = session_.folder / "results";
   std::filesystem::create_directories(results);
   // The LED library the illuminants came from, so that `chromo estimate

@@ -138,7 +138,7 @@ class Run {
         frames_done_ += c_.cameras.size();
         report_progress();
       }
-      c_.pipeline->drain();
+      c_.pipeline->drain_storage();  // not the estimator: the next step does not wait for its tables
       if (auto error = c_.pipeline->storage_error(); !error.empty()) return {session::OperationState::kFailed, error};
       c_.journal->append({{"type", "step_completed"}, {"step", step.name}, {"index", index},
                           {"frames", step.frames_per_camera * c_.cameras.size()}});
@@ -530,7 +530,7 @@ class Run {
         // The controller is gone; nothing more to switch off from here.
       }
     }
-    c_.pipeline->drain();
+    c_.pipeline->drain_storage();  // the estimator may go on: the daemon drains it
   }
 
   SequencerOutcome cancelled() { return {session::OperationState::kCancelled, ""}; }

@@ -5,6 +5,7 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "chromo/session/journal.hpp"
 #include "chromo/spectral/cie.hpp"
 
 namespace chromo::session {
@@ -80,6 +81,17 @@ PlanHazard plan_blue_light_hazard(const SessionPlan& plan, const StepLevels& lev
     out.steps.push_back(std::move(h));
   }
   return out;
+}
+
+nlohmann::ordered_json recorded_blue_light_hazard(const std::filesystem::path& journal_path) {
+  nlohmann::json last;
+  for (const nlohmann::json& record : read_journal(journal_path).records)
+    if (const auto type = record.find("type"); type != record.end() && *type == "blue_light_hazard") last = record;
+  if (last.is_object()) {
+    last.erase("type");
+    last.erase("t");
+  }
+  return nlohmann::ordered_json::parse(last.dump());  // summary.json is an ordered object
 }
 
 }  // namespace chromo::session

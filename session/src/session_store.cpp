@@ -159,6 +159,7 @@ SessionInfo SessionStore::read_session(const std::filesystem::path& folder) cons
       info.results = record;
     }
   }
+  info.timeline = session_timeline(journal.records);
   std::size_t completed = 0;
   for (const auto& step : info.steps) completed += step.completed ? 1 : 0;
   info.record.progress = info.steps.empty() ? 0 : static_cast<double>(completed) / static_cast<double>(info.steps.size());

@@ -57,6 +57,25 @@ TEST_F(SessionPlans, ListsTheBuiltInPlansAndPlanFiles) {
   EXPECT_GT(multispectral, 0.0);
   EXPECT_LT(four_frames, multispectral);
   EXPECT_GT(four_frames, 0.0);
+
+  // The blue-light dose column (IEC 62471 L_B·t, session/plan_hazard.hpp): the
+  // same six mixes lit longer give a dose in proportion to the lit time,
+  // settle + frames × (exposure + 100 ms allowance) per subject step.
+  auto dose = [&](const std::string& plan) {
+    std::smatch m;
+    const std::regex row("(^|\\n)" + plan + " +[0-9]+ +[0-9]+ +[0-9.]+ +[0-9.]+ +[0-9]+ +[0-9.]+ +([0-9.e+-]+) ");
+    if (!std::regex_search(r.output, m, row)) return -1.0;
+    return std::stod(m[2].str());
+  };
+  const chromo::session::StandardPlanOptions defaults;
+  const double lit_default = defaults.settle_ms / 1e3 + defaults.frames_per_camera * (defaults.exposure_us / 1e6 + 0.1);
+  const double lit_slow = slow.settle_ms / 1e3 + slow.frames_per_camera * (slow.exposure_us / 1e6 + 0.1);
+  ASSERT_GT(dose("multispectral"), 0.0) << r.output;
+  EXPECT_NEAR(dose("my_multispectral") / dose("multispectral"), lit_slow / lit_default, 1e-3 * lit_slow / lit_default)
+      << r.output;
+  EXPECT_GT(dose("standard"), 0.0);
+  EXPECT_LT(dose("standard"), 1e6);  // within IEC 62471's exempt-group limit
+  EXPECT_THAT(r.output, HasSubstr("blue_dose: IEC 62471"));
 }
 
 TEST_F(SessionPlans, APlanFileWithABadFieldIsRefusedByName) {

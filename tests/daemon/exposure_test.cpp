@@ -147,6 +147,21 @@ TEST(ExposurePerCapture, MeteredSessionPutsEachWhiteAtTheTargetShareAndNFramesDi
       EXPECT_EQ(capture.at("frames").get<std::uint32_t>(), kFrames);
     }
   EXPECT_TRUE(found) << summary.at("captures").dump();
+
+  // summary.json: the blue-light dose with the metered exposures (the
+  // journal's last hazard record), which depends on them.
+  const auto& hazard = summary.at("blue_light_hazard");
+  EXPECT_EQ(hazard.at("exposures"), "metered");
+  EXPECT_EQ(hazard.at("plan"), "standard");
+  EXPECT_GT(hazard.at("dose_J_per_m2_sr").get<double>(), 0.0);
+  EXPECT_TRUE(hazard.at("within_limit").get<bool>());
+  EXPECT_EQ(hazard.at("steps").size(), 3u);
+  for (const auto& step : hazard.at("steps")) {
+    const std::string name = step.at("step");
+    EXPECT_NEAR(step.at("lit_s").get<double>(),
+                (exposure[name] / 1e6 + lab.config.hazard.frame_allowance_ms / 1e3) * kFrames, 1e-9)  // settle 0
+        << name;
+  }
 }
 
 TEST(BlueLightHazard, PlanBeyondTheLimitIsRefusedAndNothingIsCaptured) {

@@ -22,6 +22,8 @@ case "$mode" in
       --subject "ctest" >"$work/out" 2>&1 || fail "example exited $?"
     grep -q "succeeded" "$work/out" || fail "no success reported"
     grep -q "frames stored: 7" "$work/out" || fail "not 7 frames"
+    grep -Eq "^timeline: capture [0-9.]+ s \(subject [0-9.]+ s\), maps [0-9.]+ s after the last frame, total [0-9.]+ s$" "$work/out" ||
+      fail "no timeline from the Python client"
     # The Maps service through the Python client (docs/maps.md).
     t "$chromo" make-maps-test-data --out "$work/scene" --width 32 --height 24 >"$work/out" 2>&1 || fail "test data"
     t "$chromo" estimate "$work/scene/MEASUREMENT.json" --out "$work/maps/est" --cache-dir "$work/cache" >"$work/out" 2>&1 ||
@@ -70,6 +72,9 @@ except grpc.RpcError as error:
     t "$chromo" session show "$id" --frames >"$work/out" 2>&1 || fail "show exited $?"
     [[ $(grep -c "completed$" "$work/out") == 7 ]] || fail "not 7 completed steps"
     [[ $(grep -c "^  frame" "$work/out") == 14 ]] || fail "not 14 frames listed"
+    # Where the time went, from the journal: every phase of a finished session is known.
+    grep -Eq "^timeline capture [0-9.]+ s \(subject [0-9.]+ s\), then derived data [0-9.]+ s and maps [0-9.]+ s after the last frame; total [0-9.]+ s$" "$work/out" ||
+      fail "no timeline: $(grep timeline "$work/out")"
     # Before a calibration the daemon has no LED library: the solver says so.
     set +e
     t "$chromo" solve d65 >"$work/out" 2>&1; [[ $? != 0 ]] || fail "solve without a library succeeded"

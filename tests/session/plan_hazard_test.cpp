@@ -3,9 +3,13 @@
 // lit time per subject step, and bad options refused naming the field.
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
 #include <numbers>
+#include <unistd.h>
 
 #include "chromo/calibration/led_library.hpp"
+#include "chromo/session/journal.hpp"
 #include "chromo/session/plan_hazard.hpp"
 #include "chromo/spectral/cie.hpp"
 
@@ -70,6 +74,31 @@ TEST(PlanHazard, WeightingIsIec62471TableAndDoseIsRadianceTimesLitTime) {
   EXPECT_FALSE(options.IsValid(&error));
   EXPECT_EQ(error.rfind("w57_full_drive_irradiance_W_per_m2:", 0), 0u) << error;
   EXPECT_THROW(plan_blue_light_hazard(plan, levels, library, options), std::invalid_argument);
+}
+
+// summary.json's "blue_light_hazard": the journal's last record of the dose
+// (the metered one follows the planned one), whatever else the journal holds.
+TEST(PlanHazard, TheRecordedDoseIsTheJournalsLastHazardRecord) {
+  const auto folder = std::filesystem::temp_directory_path() / ("chromo_hazard_record_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(folder);
+  const auto path = folder / "journal.jsonl";
+  EXPECT_TRUE(recorded_blue_light_hazard(path).is_null());  // no journal yet
+  {
+    Journal journal(path, nullptr);
+    journal.append({{"type", "session_started"}, {"expected_frames", 7}});
+    EXPECT_TRUE(recorded_blue_light_hazard(path).is_null());  // none recorded
+    journal.append({{"type", "blue_light_hazard"}, {"exposures", "planned"}, {"dose_J_per_m2_sr", 1.5}});
+    journal.append({{"type", 3}, {"note", "a type that is not a string is skipped"}});
+    journal.append({{"type", "blue_light_hazard"}, {"exposures", "metered"}, {"dose_J_per_m2_sr", 2.5}});
+    journal.append({{"type", "frame"}, {"step", "subject_d65"}});
+  }
+  std::ofstream(path, std::ios::app) << R"({"type": "blue_light_hazard", "dose_J_per_m2_sr": 9)";  // torn tail
+  const nlohmann::ordered_json recorded = recorded_blue_light_hazard(path);
+  EXPECT_EQ(recorded.value("exposures", ""), "metered");
+  EXPECT_DOUBLE_EQ(recorded.value("dose_J_per_m2_sr", 0.0), 2.5);
+  EXPECT_FALSE(recorded.contains("type"));
+  EXPECT_FALSE(recorded.contains("t"));
+  std::filesystem::remove_all(folder);
 }
 
 }  // namespace

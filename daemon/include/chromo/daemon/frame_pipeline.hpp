@@ -23,7 +23,7 @@
 // storage_error() is set, further frames are refused (counted lost with reason
 // "storage_stopped"), and nothing already stored is touched.
 //
-// Thread rules: submit() and record_lost() from any thread; drain() and the
+// Thread rules: submit() and record_lost() from any thread; drain(), drain_storage() and the
 // destructor from the owner's thread. Counters are atomic snapshots.
 
 #include <atomic>
@@ -98,8 +98,8 @@ class FramePipeline {
     std::size_t estimator_queue_frames = 8;
     // Optional: every stored frame is added here by the storage thread, after
     // its journal record is fsynced (derived data is written from it). Owned
-    // by the caller, who reads it only after drain() and keeps it alive
-    // until the pipeline is destroyed.
+    // by the caller, who reads it only after drain_storage() (or drain()) and
+    // keeps it alive until the pipeline is destroyed.
     session::SessionFrameSums* stored_sums = nullptr;
   };
   FramePipeline(std::filesystem::path folder, session::Journal& journal, files::StorageBudget* budget, Options options,
@@ -117,6 +117,11 @@ class FramePipeline {
   // Waits until every submitted frame is stored (or storage failed) and the
   // estimator has consumed its queue.
   void drain();
+  // Waits until every submitted frame is stored (or storage failed), whatever
+  // the estimator is doing: a step is complete once its frames are safe, and
+  // the next step's capture does not wait for the estimator (its tables are
+  // prepared while the subject steps are captured).
+  void drain_storage();
   session::PipelineCounters counters() const;
   // Empty while storage works; the reason storage stopped otherwise.
   std::string storage_error() const;

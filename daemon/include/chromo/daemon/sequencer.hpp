@@ -10,7 +10,10 @@
 // streaming: when the exposure changes the streams stop, the cameras are
 // configured with the configuration's pixel format/ROI/gain and the step's
 // exposure, and the streams start again) → for each frame: trigger every
-// camera and wait for one frame from each.
+// camera and wait for one frame from each → the step is complete (journal
+// "step_completed") once its frames are stored (FramePipeline::drain_storage);
+// the next step does not wait for the on-line estimator, which prepares its
+// tables from the references while the subject steps are captured.
 //
 // Exposure per capture (session_plan.hpp): a white step with
 // meter_white_share > 0 is metered after its settle time: per camera, a

@@ -28,6 +28,7 @@
 //
 // Thread rules: pure functions.
 
+#include <filesystem>
 #include <functional>
 #include <map>
 #include <string>
@@ -79,5 +80,14 @@ using StepLevels = std::function<drivers::DriveLevels(const Step&)>;
 PlanHazard plan_blue_light_hazard(const SessionPlan& plan, const StepLevels& levels, const calibration::LedLibrary& library,
                                   const BlueLightHazardOptions& options,
                                   const std::map<std::string, double>& exposure_us_of_step = {});
+
+// What a session recorded of its dose: the last "blue_light_hazard" record of
+// the journal at journal_path (the metered one when the session metered its
+// whites, else the planned one), without "type" and "t"; null when the
+// journal has none (a folder from before the hazard check, or a hand-made
+// one). The session's summary.json reports it as "blue_light_hazard".
+// Throws files::InputFileError naming the path when the journal cannot be
+// read (not a regular file, beyond the journal size cap).
+nlohmann::ordered_json recorded_blue_light_hazard(const std::filesystem::path& journal_path);
 
 }  // namespace chromo::session

@@ -31,6 +31,7 @@
 #include "chromo/session/journal.hpp"
 #include "chromo/session/operation_record.hpp"
 #include "chromo/session/session_plan.hpp"
+#include "chromo/session/session_timeline.hpp"
 
 namespace chromo::session {
 
@@ -54,6 +55,7 @@ struct SessionInfo {
   std::vector<StepProgress> steps;
   std::vector<FrameRecord> frames;  // the journal's frame records, in storage order
   nlohmann::json results;           // the last "results" record (null if none)
+  SessionTimeline timeline;         // where its time went (session_timeline.hpp)
   bool torn_journal_tail = false;
   // Frame records that did not parse (frame_record_from_json; should be 0):
   // counted as stored, left out of `frames`; the first one's error.
