@@ -13,14 +13,6 @@ namespace {
 
 constexpr double kFixedExposureWhiteShare = 0.85;
 
-std::string state_of(const session::Step& step) {
-  if (step.illumination.kind == session::Illumination::Kind::kMix) {
-    const std::string& mix = step.illumination.mix;
-    return mix.substr(0, mix.find(':'));
-  }
-  return step.name.substr(step.name.find('_') + 1);
-}
-
 // A step's drive levels: a named mix solved from the library as the daemon
 // solves it (camera objective), or the step's own weights; dark for a dark step.
 drivers::DriveLevels step_drive(const session::SessionPlan& plan, const session::Step& step,
@@ -43,19 +35,20 @@ std::optional<planning::PlanDescription> advisor_plan(const session::SessionPlan
                                                       const calibration::LedLibrary& library) {
   planning::PlanDescription description;
   description.name = plan.name;
-  std::map<std::string, const session::Step*> white_of;
+  std::map<std::string, const session::Step*> white_of;  // by illumination state key
   for (const session::Step& step : plan.steps) {
-    if (step.role == session::StepRole::kWhite) white_of[state_of(step)] = &step;
+    if (step.role == session::StepRole::kWhite) white_of[session::illumination_state(step).key] = &step;
     if (step.role == session::StepRole::kDark) description.dark_frames = static_cast<int>(step.frames_per_camera);
   }
   for (const session::Step& step : plan.steps) {
     if (step.role != session::StepRole::kSubject) continue;
     planning::PlannedCapture capture;
-    capture.name = state_of(step);
+    const session::IlluminationState state = session::illumination_state(step);
+    capture.name = state.name;
     capture.drive = step_drive(plan, step, library);
     capture.frames = static_cast<int>(step.frames_per_camera);
     capture.settle_ms = static_cast<int>(step.settle_ms);
-    if (const auto white = white_of.find(capture.name); white != white_of.end()) {
+    if (const auto white = white_of.find(state.key); white != white_of.end()) {
       capture.white_frames = static_cast<int>(white->second->frames_per_camera);
       capture.white_fill =
           white->second->meter_white_share > 0 ? white->second->meter_white_share : kFixedExposureWhiteShare;

@@ -76,6 +76,8 @@ int main(int argc, char** argv) {
     DeviceSet devices;
     if (config.devices.empty()) {
       VirtualLabOptions lab_options;
+      lab_options.cameras = config.virtual_lab.cameras;
+      lab_options.patch_width_mm = config.virtual_lab.patch_width_mm;
       auto lab = start_virtual_lab(lab_options);
       config.devices = lab.devices;
       if (config.mixes.empty()) config.mixes = lab.mixes;

@@ -17,6 +17,7 @@
 #include "chromo/estimation/estimator.hpp"
 #include "chromo/session/session_plan.hpp"
 #include "chromo/spectral/camera.hpp"
+#include "chromo/daemon/virtual_lab.hpp"
 
 namespace chromo::daemon {
 
@@ -417,13 +418,50 @@ const std::vector<Key>& hazard_keys() {
   return keys;
 }
 
+const std::vector<Key>& virtual_lab_keys() {
+  static const std::vector<Key> keys = {
+      {"cameras",
+       [](const json& v, DaemonConfig& c) {
+         try {
+           c.virtual_lab.cameras = simulators::read_lab_cameras(v);
+         } catch (const std::invalid_argument& error) {
+           throw NestedError(error.what());  // "[1].sensor_width: ..." or ": ..."
+         }
+       },
+       [](const DaemonConfig& c) {  // the sensitivity files, read as what they are
+         for (std::size_t i = 0; i < c.virtual_lab.cameras.size(); ++i) {
+           const std::string& source = c.virtual_lab.cameras[i].sensitivity;
+           if (source.empty()) continue;
+           if (auto error = camera_sensitivity_error(source); !error.empty())
+             return "[" + std::to_string(i) + "].sensitivity: " + error;
+         }
+         return std::string();
+       }},
+      number_key("patch_width_mm", 0, 10000, true, [](DaemonConfig& c) -> auto& { return c.virtual_lab.patch_width_mm; }),
+  };
+  return keys;
+}
+
+// The virtual lab's checks between keys (names against the lab's other
+// devices, every posed camera seeing the patch): VirtualLabOptions'.
+std::string virtual_lab_error(const DaemonConfig& c) {
+  VirtualLabOptions options;
+  options.cameras = c.virtual_lab.cameras;
+  options.patch_width_mm = c.virtual_lab.patch_width_mm;
+  std::string error;
+  return options.IsValid(&error) ? std::string() : "." + error;
+}
+
 // A section of keys ("estimation", "capture", "hazard"): read and checked key by key.
-Key section_key(std::string name, const std::vector<Key>& (*keys)()) {
+// `between`, if given, checks the section's keys together after each key's own check.
+Key section_key(std::string name, const std::vector<Key>& (*keys)(),
+                std::string (*between)(const DaemonConfig&) = nullptr) {
   return {name, [=](const json& v, DaemonConfig& c) { read_section(v, keys(), name, c); },
           [=](const DaemonConfig& c) {
             for (const auto& key : keys())
-              if (auto error = key.check(c); !error.empty()) return "." + key.name + ": " + error;
-            return std::string();
+              if (auto error = key.check(c); !error.empty())
+                return "." + key.name + (error.front() == '[' ? "" : ": ") + error;
+            return between ? between(c) : std::string();
           }};
 }
 
@@ -512,6 +550,7 @@ const std::vector<Key>& top_level_keys() {
       section_key("estimation", estimation_keys),
       section_key("capture", capture_keys),
       section_key("hazard", hazard_keys),
+      section_key("virtual_lab", virtual_lab_keys, virtual_lab_error),
   };
   return keys;
 }
@@ -521,10 +560,12 @@ const std::vector<Key>& top_level_keys() {
 std::vector<std::string> config_key_names() {
   std::vector<std::string> names;
   for (const auto& key : top_level_keys())
-    if (key.name != "estimation" && key.name != "capture" && key.name != "hazard") names.push_back(key.name);
+    if (key.name != "estimation" && key.name != "capture" && key.name != "hazard" && key.name != "virtual_lab")
+      names.push_back(key.name);
   for (const auto& key : estimation_keys()) names.push_back("estimation." + key.name);
   for (const auto& key : capture_keys()) names.push_back("capture." + key.name);
   for (const auto& key : hazard_keys()) names.push_back("hazard." + key.name);
+  for (const auto& key : virtual_lab_keys()) names.push_back("virtual_lab." + key.name);
   return names;
 }
 

@@ -49,6 +49,7 @@ void OnlineEstimator::begin_session(const SessionStart& start) {
   prepared_.reset();
   result_.reset();
   read_back_ = 0;
+  wanted_camera_ = session::first_camera_only();
   try {
     sources_ = options_.sources();
     builder_ = std::make_unique<session::SessionCaptureBuilder>(start.plan, *sources_);
@@ -59,6 +60,8 @@ void OnlineEstimator::begin_session(const SessionStart& start) {
 
 void OnlineEstimator::consume(const CapturedFrame& captured, const StoredFrame& stored) {
   if (!builder_ || !error_.empty() || result_) return;
+  // One camera's maps: the first camera's frames (the builder keeps cameras apart).
+  if (!wanted_camera_(captured.record)) return;
   try {
     builder_->add_frame(captured.record, captured.samples);
     consumed_.insert(stored.index);
@@ -122,7 +125,7 @@ nlohmann::json OnlineEstimator::end_session(const SessionEnd& end) {
   if (error_.empty() && !result_) {
     // Catch up: the frames the pipeline skipped are in storage.
     try {
-      read_back_ = session::add_stored_frames(*builder_, session_.folder, consumed_);
+      read_back_ = session::add_stored_frames(*builder_, session_.folder, consumed_, wanted_camera_);
       if (!builder_->complete()) {
         error_ = "frames missing: " + builder_->missing();
       } else {

@@ -1,9 +1,11 @@
 #include "chromo/daemon/virtual_lab.hpp"
 
 #include <atomic>
+#include <set>
 #include <stdexcept>
 
 #include "chromo/session/frame_files.hpp"
+#include "chromo/session/session_plan.hpp"
 #include "chromo/drivers/spectrometer_factory.hpp"
 #include "chromo/simulators/calibration_lab.hpp"
 #include "chromo/simulators/camera/camera_simulator.hpp"
@@ -16,22 +18,53 @@ bool VirtualLabOptions::IsValid(std::string* error) const {
     if (error) *error = message;
     return false;
   };
-  if (sensor_width < 16 || sensor_width > 4096 || sensor_height < 16 || sensor_height > 4096)
-    return fail("sensor_width/sensor_height: must be in [16, 4096]");
+  if (cameras.empty()) return fail("cameras: the lab needs at least one camera");
   if (scene_size < 16 || scene_size > 2048) return fail("scene_size: must be in [16, 2048]");
-  if (!(led_time_scale >= 1 && led_time_scale <= 100000)) return fail("led_time_scale: must be in [1, 100000]");
+  if (!(patch_width_mm > 0 && patch_width_mm <= 10000)) return fail("patch_width_mm: must be in (0, 10000]");
   if (camera_serial.empty() || camera_serial.size() > 15)
     return fail("camera_serial: must be 1-15 characters (GigE Vision bootstrap)");
-  if (!camera_address.empty() && (!camera_address.starts_with("127.") || camera_address.size() > 15))
-    return fail("camera_address: must be empty or an address in 127.0.0.0/8");
-  DeviceConfig probe;
-  probe.settings = {{"pixel_format", pixel_format}};
-  try {
-    camera_capture_settings(probe);
-  } catch (const std::invalid_argument& e) {
-    return fail(e.what());
+  std::set<std::string> names, addresses, serials;
+  for (std::size_t i = 0; i < cameras.size(); ++i) {
+    const simulators::LabCamera& camera = cameras[i];
+    const std::string at = "cameras[" + std::to_string(i) + "].";
+    if (!session::is_valid_name(camera.name)) return fail(at + "name: must match [A-Za-z0-9_+.-]{1,64}");
+    if (camera.name == "sphere" || camera.name == "spec0")
+      return fail(at + "name: \"" + camera.name + "\" is the lab's LED controller or spectrometer");
+    if (!names.insert(camera.name).second) return fail(at + "name: \"" + camera.name + "\" is used twice");
+    if (!camera.address.empty() && !addresses.insert(camera.address).second)
+      return fail(at + "address: \"" + camera.address + "\" is used twice");
+    if (!serials.insert(serial_of(i)).second) return fail(at + "serial: \"" + serial_of(i) + "\" is used twice");
+    const simulators::CameraSimulatorOptions simulator = camera_simulator_options(i, simulators::CameraModelOptions{}.sensitivity);
+    if (std::string problem; !simulator.IsValid(&problem)) return fail(at.substr(0, at.size() - 1) + ": " + problem);
+    if (simulator.view) try {  // the square patch wholly in front of the camera
+        simulators::patch_to_image_homography(*simulator.view, {scene_size, scene_size, patch_width_mm / scene_size});
+      } catch (const std::invalid_argument& e) {
+        return fail(at + "pose: " + e.what());
+      }
   }
+  if (!(led_time_scale >= 1 && led_time_scale <= 100000)) return fail("led_time_scale: must be in [1, 100000]");
   return true;
+}
+
+std::string VirtualLabOptions::serial_of(std::size_t index) const {
+  return simulators::lab_camera_serial(cameras.at(index), camera_serial, index);
+}
+
+simulators::CameraSimulatorOptions VirtualLabOptions::camera_simulator_options(
+    std::size_t index, const spectral::CameraSensitivity& sensitivity) const {
+  const simulators::LabCamera& camera = cameras.at(index);
+  simulators::CameraSimulatorOptions options;
+  options.serial = serial_of(index);
+  options.address = camera.address;
+  options.sensor_width = camera.sensor_width;
+  options.sensor_height = camera.sensor_height;
+  options.pixel_format = camera.pixel_format;
+  options.view = simulators::lab_camera_view(camera);
+  options.patch_width_mm = patch_width_mm;
+  options.camera_model.sensitivity = sensitivity;
+  // Each camera its own noise: camera k draws from seed + k.
+  options.camera_model.seed = seed + index;
+  return options;
 }
 
 struct VirtualLabSimulators::Impl {
@@ -48,25 +81,24 @@ struct VirtualLabSimulators::Impl {
     skin = std::make_shared<const simulators::Scene>(simulators::make_skin_scene(skin_options));
     white = std::make_shared<const simulators::Scene>(
         simulators::make_white_target_scene(options.scene_size, options.scene_size));
-    simulators::CameraSimulatorOptions camera_options;
-    camera_options.serial = options.camera_serial;
-    camera_options.sensor_width = options.sensor_width;
-    camera_options.sensor_height = options.sensor_height;
-    camera_options.camera_model.seed = options.seed;
-    camera_options.address = options.camera_address;
-    // The camera sees the LEDs (the lamp's port is closed during captures);
-    // the lab outlives the camera simulator (declared first): non-owning.
+    // The cameras see the LEDs (the lamp's port is closed during captures);
+    // the lab outlives the camera simulators (declared first): non-owning.
     const std::shared_ptr<const simulators::SphereIllumination> light(std::shared_ptr<void>(), &lab.lab());
-    camera = std::make_unique<simulators::CameraSimulator>(camera_options, light, skin);
-    // The camera's exposures are the controller's hardware trigger input (as in chromo-sim).
-    camera->set_exposure_hook([leds = &lab.lab()] { leds->trigger(); });
-    // The controller's trigger output is wired to the camera's Line0 (cam0's trigger_input).
-    lab.lab().connect_trigger_output([raw = camera.get()] { raw->pulse_trigger_input(); });
+    const spectral::CameraSensitivity lab_sensitivity = simulators::CameraModelOptions{}.sensitivity;
+    for (std::size_t i = 0; i < options.cameras.size(); ++i) {
+      const auto sensitivity = simulators::lab_camera_sensitivity(options.cameras[i], lab_sensitivity);
+      cameras.push_back(std::make_unique<simulators::CameraSimulator>(
+          options.camera_simulator_options(i, sensitivity), light, skin));
+      // The controller's trigger output is wired to every camera's Line0 (trigger_input "Line0").
+      lab.lab().connect_trigger_output([raw = cameras.back().get()] { raw->pulse_trigger_input(); });
+    }
+    // The first camera's exposures are the controller's hardware trigger input (as in chromo-sim).
+    cameras.front()->set_exposure_hook([leds = &lab.lab()] { leds->trigger(); });
   }
   ~Impl() { lab.lab().disconnect_trigger_outputs(); }  // before the camera goes
   simulators::CalibrationLab lab;
   std::shared_ptr<const simulators::Scene> skin, white;
-  std::unique_ptr<simulators::CameraSimulator> camera;
+  std::vector<std::unique_ptr<simulators::CameraSimulator>> cameras;
   std::atomic<bool> white_shown{false};
 };
 
@@ -79,14 +111,16 @@ VirtualLabSimulators::VirtualLabSimulators(const VirtualLabOptions& options) {
 VirtualLabSimulators::~VirtualLabSimulators() = default;
 
 simulators::LedLab& VirtualLabSimulators::leds() { return impl_->lab.lab(); }
-simulators::CameraSimulator& VirtualLabSimulators::camera() { return *impl_->camera; }
+simulators::CameraSimulator& VirtualLabSimulators::camera() { return *impl_->cameras.front(); }
+simulators::CameraSimulator& VirtualLabSimulators::camera(std::size_t index) { return *impl_->cameras.at(index); }
+std::size_t VirtualLabSimulators::camera_count() const { return impl_->cameras.size(); }
 simulators::CalibrationLab& VirtualLabSimulators::calibration_lab() { return impl_->lab; }
 
 void VirtualLabSimulators::place_in_sphere(session::StepRole role) {
   if (role == session::StepRole::kDark) return;
   const bool white = role == session::StepRole::kWhite;
   if (impl_->white_shown.exchange(white) == white) return;
-  impl_->camera->set_scene(white ? impl_->white : impl_->skin);
+  for (auto& camera : impl_->cameras) camera->set_scene(white ? impl_->white : impl_->skin);
 }
 
 bool VirtualLabSimulators::showing_white_target() const { return impl_->white_shown; }
@@ -95,19 +129,26 @@ VirtualLab start_virtual_lab(const VirtualLabOptions& options) {
   VirtualLab lab;
   lab.simulators = std::make_shared<VirtualLabSimulators>(options);
   auto simulators = lab.simulators;
-  lab.devices = {
-      {"sphere", DeviceKind::kLedController, "modbus-tcp", "127.0.0.1:" + std::to_string(simulators->modbus_port()),
-       nlohmann::json::object()},
-      {"cam0", DeviceKind::kCamera, "aravis", options.camera_serial,
-       // Small socket buffer: enough for a few 640x480 frames, within a default rmem_max.
-       {{"pixel_format", options.pixel_format},
-        {"ip_address", simulators->camera().address()},
-        {"trigger_input", "Line0"},
-        {"socket_buffer_bytes", 4 << 20},
-        {"frame_retention_ms", 500}}},
-      {"spec0", DeviceKind::kSpectrometer, "virtual-usb", "in-process USB transport of the simulated USB2000+",
-       nlohmann::json::object()},
-  };
+  lab.devices.push_back({"sphere", DeviceKind::kLedController, "modbus-tcp",
+                         "127.0.0.1:" + std::to_string(simulators->modbus_port()), nlohmann::json::object()});
+  std::string camera_description;
+  for (std::size_t i = 0; i < options.cameras.size(); ++i) {
+    const simulators::LabCamera& camera = options.cameras[i];
+    const std::string format(drivers::pixel_format_name(camera.pixel_format));
+    const std::string address = simulators->camera(i).address();
+    lab.devices.push_back({camera.name, DeviceKind::kCamera, "aravis", options.serial_of(i),
+                           // Small socket buffer: enough for a few 640x480 frames, within a default rmem_max.
+                           {{"pixel_format", format},
+                            {"ip_address", address},
+                            {"trigger_input", "Line0"},
+                            {"socket_buffer_bytes", 4 << 20},
+                            {"frame_retention_ms", 500}}});
+    camera_description += (i == 0 ? "" : ", ") + camera.name + " " + options.serial_of(i) + " on " + address +
+                          ":3956 (" + std::to_string(camera.sensor_width) + "x" +
+                          std::to_string(camera.sensor_height) + " " + format + (camera.pose ? ", posed" : "") + ")";
+  }
+  lab.devices.push_back({"spec0", DeviceKind::kSpectrometer, "virtual-usb",
+                         "in-process USB transport of the simulated USB2000+", nlohmann::json::object()});
   BackendRegistry registry = builtin_backends();
   // The real USB2000+ driver over the simulator's in-process transport (the
   // simulated spectrometer has no libusb device node to open).
@@ -121,10 +162,8 @@ VirtualLab start_virtual_lab(const VirtualLabOptions& options) {
   lab.device_set.lab_time_scale = options.led_time_scale;
   lab.mixes = default_virtual_lab_mixes();
   lab.description = "LED controller simulator on Modbus TCP 127.0.0.1:" + std::to_string(simulators->modbus_port()) +
-                    ", GigE Vision camera simulator " + options.camera_serial + " on " +
-                    simulators->camera().address() + ":3956 (" +
-                    std::to_string(options.sensor_width) + "x" + std::to_string(options.sensor_height) + " " +
-                    options.pixel_format + "), simulated USB2000+ spectrometer and reference lamp; real drivers; "
+                    ", GigE Vision camera simulator" + (options.cameras.size() > 1 ? "s " : " ") +
+                    camera_description + ", simulated USB2000+ spectrometer and reference lamp; real drivers; "
                     "LED lab time " + std::to_string(static_cast<int>(options.led_time_scale)) + "x";
   return lab;
 }

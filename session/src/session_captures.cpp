@@ -16,40 +16,7 @@ namespace chromo::session {
 
 namespace {
 
-std::string mix_key(const std::string& mix) {
-  if (mix == "d65" || mix == "w57") return mix;
-  if (mix.rfind("w57:", 0) == 0) return "w57";
-  if (mix == "w57+blue" || mix.rfind("w57+blue:", 0) == 0) return "w57+blue";
-  return {};
-}
-
 const char* const kMixes[3] = {"d65", "w57", "w57+blue"};
-
-// The illumination state a lit step's white and subject are paired by:
-// the method's mix ("d65", "w57", "w57+blue"; any blue ratio), or the drive
-// weights ("weights:0,0,0,0,0,1"). Empty for an unlit step.
-std::string state_key(const Illumination& illumination) {
-  if (illumination.kind == Illumination::Kind::kMix) return mix_key(illumination.mix);
-  if (illumination.kind != Illumination::Kind::kWeights) return {};
-  std::string key = "weights:";
-  bool lit = false;
-  for (std::size_t i = 0; i < illumination.weights.size(); ++i) {
-    char text[32];
-    std::snprintf(text, sizeof text, "%s%.9g", i ? "," : "", illumination.weights[i]);
-    key += text;
-    lit = lit || illumination.weights[i] > 0;
-  }
-  return lit ? key : std::string();
-}
-
-// A capture's name in the measurement's channel names: D65', W57, W57+blue
-// for the method's mixes, else the subject step's name without "subject_".
-std::string capture_name(const std::string& state, const std::string& subject_step) {
-  if (state == "d65") return "D65'";
-  if (state == "w57") return "W57";
-  if (state == "w57+blue") return "W57+blue";
-  return subject_step.rfind("subject_", 0) == 0 ? subject_step.substr(8) : subject_step;
-}
 
 }  // namespace
 
@@ -60,78 +27,98 @@ SessionCaptureBuilder::SessionCaptureBuilder(const SessionPlan& plan, CaptureSou
     if (step.role == StepRole::kDark) {
       key = "dark";
     } else {
-      const std::string state = state_key(step.illumination);
+      const IlluminationState illumination = illumination_state(step);
+      const std::string& state = illumination.key;
       if (state.empty())
         throw std::invalid_argument("step " + step.name + ": a " + role_name(step.role) +
                                     " step needs light (a mix or non-zero LED weights) for the estimation");
       key = std::string(step.role == StepRole::kWhite ? "white:" : "subject:") + state;
-      if (step.role == StepRole::kSubject) states_.push_back({state, step.name});
+      if (step.role == StepRole::kSubject) states_.push_back({state, capture_name(illumination), step.name});
     }
-    if (steps_.count(key)) throw std::invalid_argument("step " + step.name + ": a second " + key + " step");
-    steps_[key] = StepSum{step.name, step.frames_per_camera, {}, {}};
+    if (plan_steps_.count(key)) throw std::invalid_argument("step " + step.name + ": a second " + key + " step");
+    plan_steps_[key] = StepSum{step.name, step.frames_per_camera, {}, {}};
     key_of_step_[step.name] = key;
   }
   std::string missing;
-  if (!steps_.count("dark")) missing += " dark";
+  if (!plan_steps_.count("dark")) missing += " dark";
   if (states_.empty()) missing += " subject (no lit subject step)";
-  for (const auto& [state, step] : states_)
-    if (!steps_.count("white:" + state)) missing += " white:" + state + " (the white reference of " + step + ")";
-  for (const auto& [key, sum] : steps_)
-    if (key.rfind("white:", 0) == 0 && !steps_.count("subject:" + key.substr(6)))
+  for (const State& state : states_)
+    if (!plan_steps_.count("white:" + state.key))
+      missing += " white:" + state.key + " (the white reference of " + state.subject_step + ")";
+  for (const auto& [key, sum] : plan_steps_)
+    if (key.rfind("white:", 0) == 0 && !plan_steps_.count("subject:" + key.substr(6)))
       missing += " subject:" + key.substr(6) + " (for " + sum.step + ")";
   if (!missing.empty())
     throw std::invalid_argument("the plan cannot be estimated: no step for" + missing);
   method_plan_ = states_.size() == 3;
-  for (const char* mix : kMixes) method_plan_ = method_plan_ && steps_.count(std::string("subject:") + mix);
+  for (const char* mix : kMixes) method_plan_ = method_plan_ && plan_steps_.count(std::string("subject:") + mix);
 }
 
-bool SessionCaptureBuilder::add_frame(const FrameRecord& record, std::span<const std::uint8_t> samples) {
+const std::string& SessionCaptureBuilder::camera() const {
+  static const std::string none;
+  return cameras_.empty() ? none : cameras_.front();
+}
+
+const SessionCaptureBuilder::StepSums& SessionCaptureBuilder::sums_of(const std::string& camera) const {
+  const auto found = by_camera_.find(camera);
+  return found == by_camera_.end() ? plan_steps_ : found->second;
+}
+
+void SessionCaptureBuilder::add_frame(const FrameRecord& record, std::span<const std::uint8_t> samples) {
   const std::string& step = record.step;
   auto key = key_of_step_.find(step);
   if (key == key_of_step_.end()) throw std::invalid_argument("frame of step \"" + step + "\": not in the plan");
-  if (camera_.empty()) camera_ = record.camera;
-  if (record.camera != camera_) return false;
+  const std::string& camera = record.camera;
+  const std::string where = "step " + step + " (camera " + camera + ")";
   const auto& format = drivers::pixel_format_info(record.pixel_format);
   if (format.layout == drivers::ColourLayout::kMono)
-    throw std::invalid_argument("step " + step + ": pixel format \"" + std::string(format.name) +
+    throw std::invalid_argument(where + ": pixel format \"" + std::string(format.name) +
                                 "\" has no colour; the estimator needs BayerRG or RGB8 frames");
   const bool bayer = format.layout == drivers::ColourLayout::kBayerRGGB;
   if (record.width <= 0 || record.height <= 0 || (bayer && (record.width % 2 || record.height % 2)))
-    throw std::invalid_argument("step " + step + ": a " + std::to_string(record.width) + "×" +
+    throw std::invalid_argument(where + ": a " + std::to_string(record.width) + "×" +
                                 std::to_string(record.height) + " frame (Bayer frames need even sizes)");
   spectral::Spectrum illuminant;
   if (key->second != "dark") {
     if (!record.led)
-      throw std::invalid_argument("step " + step + ": the frame's record has no led.drive (the applied LED levels)");
+      throw std::invalid_argument(where + ": the frame's record has no led.drive (the applied LED levels)");
     for (auto type : spectral::kAllLedTypes)
       illuminant += sources_.led_library.led(type).spectrum_per_unit_drive() *
                     record.led->drive[static_cast<std::size_t>(spectral::led_type_index(type))];
   }
-  StepSum& s = steps_[key->second];
+  // A camera's first frame goes into a fresh sum, kept only once the frame is in.
+  const auto existing = by_camera_.find(camera);
+  StepSum fresh;
+  StepSum& s = existing == by_camera_.end() ? (fresh = plan_steps_.at(key->second)) : existing->second.at(key->second);
   if (s.frames.frames() > 0 && record.exposure_us != s.exposure_us)
-    throw std::invalid_argument("step " + step + ": a frame at " + std::to_string(record.exposure_us) +
-                                " us among frames at " + std::to_string(s.exposure_us) + " us (camera " + camera_ + ")");
+    throw std::invalid_argument(where + ": a frame at " + std::to_string(record.exposure_us) + " us among frames at " +
+                                std::to_string(s.exposure_us) + " us");
   s.frames.add(record, samples);  // checks the size and that the step's frames agree
   s.exposure_us = record.exposure_us;
   s.illuminant_sum += illuminant;
-  return true;
+  if (existing == by_camera_.end()) {  // the camera's first frame: its own sums from the plan's
+    StepSums sums = plan_steps_;
+    sums.at(key->second) = std::move(fresh);
+    by_camera_.emplace(camera, std::move(sums));
+    cameras_.push_back(camera);
+  }
 }
 
-bool SessionCaptureBuilder::references_complete() const {
-  for (const auto& [key, s] : steps_)
+bool SessionCaptureBuilder::references_complete(const std::string& camera) const {
+  for (const auto& [key, s] : sums_of(camera))
     if (key.rfind("subject:", 0) != 0 && s.frames.frames() < s.expected) return false;
   return true;
 }
 
-bool SessionCaptureBuilder::complete() const {
-  for (const auto& [key, s] : steps_)
+bool SessionCaptureBuilder::complete(const std::string& camera) const {
+  for (const auto& [key, s] : sums_of(camera))
     if (s.frames.frames() < s.expected) return false;
   return true;
 }
 
-std::string SessionCaptureBuilder::missing() const {
+std::string SessionCaptureBuilder::missing(const std::string& camera) const {
   std::string out;
-  for (const auto& [key, s] : steps_)
+  for (const auto& [key, s] : sums_of(camera))
     if (s.frames.frames() < s.expected)
       out += (out.empty() ? "" : ", ") + s.step + ": " + std::to_string(s.frames.frames()) + " of " +
              std::to_string(s.expected) + " frames";
@@ -163,17 +150,18 @@ RgbImage SessionCaptureBuilder::mean_image(const StepSum& s) const {
   return image;
 }
 
-PlanCaptures SessionCaptureBuilder::plan_captures() const {
-  if (!references_complete()) throw std::logic_error("captures: missing " + missing());
+PlanCaptures SessionCaptureBuilder::plan_captures(const std::string& camera) const {
+  if (!references_complete(camera)) throw std::logic_error("captures of camera \"" + camera + "\": missing " + missing(camera));
+  const StepSums& steps = sums_of(camera);
   PlanCaptures c;
   c.camera = sources_.camera;
   c.white_reflectance = sources_.white_reflectance;
-  c.dark = mean_image(steps_.at("dark"));
-  for (const auto& [state, step] : states_) {
-    const StepSum& white = steps_.at("white:" + state);
-    const StepSum& subject = steps_.at("subject:" + state);
+  c.dark = mean_image(steps.at("dark"));
+  for (const State& state : states_) {
+    const StepSum& white = steps.at("white:" + state.key);
+    const StepSum& subject = steps.at("subject:" + state.key);
     IlluminatedCapture capture;
-    capture.name = capture_name(state, step);
+    capture.name = state.capture_name;
     capture.white = mean_image(white);
     capture.subject = mean_image(subject);
     capture.illuminant = (white.illuminant_sum + subject.illuminant_sum) /
@@ -183,21 +171,22 @@ PlanCaptures SessionCaptureBuilder::plan_captures() const {
   return c;
 }
 
-MethodCaptures SessionCaptureBuilder::captures() const {
+MethodCaptures SessionCaptureBuilder::captures(const std::string& camera) const {
   if (!method_plan_)
     throw std::invalid_argument("the plan is not the method's standard session (subjects under exactly d65, w57 and "
                                 "w57+blue); use plan_captures()");
-  if (!references_complete()) throw std::logic_error("captures: missing " + missing());
+  if (!references_complete(camera)) throw std::logic_error("captures of camera \"" + camera + "\": missing " + missing(camera));
+  const StepSums& steps = sums_of(camera);
   MethodCaptures c;
   c.camera = sources_.camera;
   c.white_reflectance = sources_.white_reflectance;
-  c.dark = mean_image(steps_.at("dark"));
+  c.dark = mean_image(steps.at("dark"));
   const std::pair<IlluminatedCapture*, const char*> targets[] = {
       {&c.broadband, "d65"}, {&c.base, "w57"}, {&c.with_blue, "w57+blue"}};
   for (const auto& [target, mix] : targets) {
-    const StepSum& white = steps_.at(std::string("white:") + mix);
-    const StepSum& subject = steps_.at(std::string("subject:") + mix);
-    target->name = std::string(mix) == "d65" ? "D65'" : std::string(mix) == "w57" ? "W57" : "W57+blue";
+    const StepSum& white = steps.at(std::string("white:") + mix);
+    const StepSum& subject = steps.at(std::string("subject:") + mix);
+    target->name = capture_name({mix, mix});
     target->white = mean_image(white);
     target->subject = mean_image(subject);
     // The illuminant as the sphere emitted it for both captures (white and subject).
@@ -226,14 +215,24 @@ SessionPlan read_session_plan(const std::filesystem::path& folder) {
 }
 
 std::size_t add_stored_frames(SessionCaptureBuilder& builder, const std::filesystem::path& folder,
-                              const std::set<std::uint64_t>& already_added) {
+                              const std::set<std::uint64_t>& already_added,
+                              const std::function<bool(const FrameRecord&)>& wanted) {
   std::size_t added = 0;
   for_each_stored_frame(
       folder, [&](std::uint64_t index) { return already_added.count(index) == 0; },
       [&](const FrameRecord& record, std::span<const std::uint8_t> samples) {
-        if (builder.add_frame(record, samples)) ++added;
+        if (wanted && !wanted(record)) return;
+        builder.add_frame(record, samples);
+        ++added;
       });
   return added;
+}
+
+std::function<bool(const FrameRecord&)> first_camera_only() {
+  return [camera = std::string()](const FrameRecord& record) mutable {
+    if (camera.empty()) camera = record.camera;
+    return record.camera == camera;
+  };
 }
 
 namespace {
@@ -241,7 +240,7 @@ SessionCaptureBuilder stored_session_builder(const std::filesystem::path& folder
   if (!std::filesystem::exists(folder / "journal.jsonl"))
     throw std::invalid_argument(folder.string() + ": not a session folder (no journal.jsonl)");
   SessionCaptureBuilder builder(read_session_plan(folder), sources);
-  add_stored_frames(builder, folder);
+  add_stored_frames(builder, folder, {}, first_camera_only());
   if (!builder.complete())
     throw std::invalid_argument(folder.string() + ": the session's frames are incomplete (" + builder.missing() + ")");
   return builder;

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <set>
 #include <stdexcept>
 
@@ -14,6 +15,38 @@ bool is_valid_name(const std::string& name) {
   for (char c : name)
     if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '+' || c == '.' || c == '-')) return false;
   return name != "." && name != "..";
+}
+
+IlluminationState illumination_state(const Step& step) {
+  const Illumination& illumination = step.illumination;
+  IlluminationState state;
+  if (illumination.kind == Illumination::Kind::kMix) {
+    state.key = illumination.mix.substr(0, illumination.mix.find(':'));
+    state.name = state.key;
+    return state;
+  }
+  if (illumination.kind != Illumination::Kind::kWeights) return state;
+  std::string key = "weights:";
+  bool lit = false;
+  for (std::size_t i = 0; i < illumination.weights.size(); ++i) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%s%.9g", i ? "," : "", illumination.weights[i]);
+    key += text;
+    lit = lit || illumination.weights[i] > 0;
+  }
+  if (!lit) return state;
+  state.key = key;
+  state.name = step.name;
+  for (const char* prefix : {"subject_", "white_"})
+    if (step.name.starts_with(prefix) && step.name.size() > std::strlen(prefix)) state.name = step.name.substr(std::strlen(prefix));
+  return state;
+}
+
+std::string capture_name(const IlluminationState& state) {
+  if (state.key == "d65") return "D65'";
+  if (state.key == "w57") return "W57";
+  if (state.key == "w57+blue") return "W57+blue";
+  return state.name;
 }
 
 bool is_valid_mix(const std::string& mix) {

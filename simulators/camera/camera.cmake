@@ -6,4 +6,5 @@ target_sources(simulators PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/camera_genicam_xml.cpp
   ${CMAKE_CURRENT_LIST_DIR}/gige_vision_device.cpp
   ${CMAKE_CURRENT_LIST_DIR}/gvsp_transmission.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/lab_cameras.cpp
 )

@@ -44,6 +44,13 @@ bool CameraSimulatorOptions::IsValid(std::string* error) const {
   device.faults = faults;
   device.first_block_id = first_block_id;
   if (!device.IsValid(error)) return false;
+  if (!(patch_width_mm > 0 && patch_width_mm <= 10000)) return fail("patch_width_mm must be in (0, 10000]");
+  if (view) {
+    if (view->intrinsics.width_px != sensor_width || view->intrinsics.height_px != sensor_height)
+      return fail("view: the intrinsics' size must be the sensor's");
+    std::string view_error;
+    if (!view->IsValid(&view_error)) return fail("view: " + view_error);
+  }
   return camera_model.IsValid(error);
 }
 
@@ -69,6 +76,7 @@ CameraSimulator::CameraSimulator(CameraSimulatorOptions options, std::shared_ptr
   std::string error;
   if (!options_.IsValid(&error)) throw std::invalid_argument("CameraSimulatorOptions: " + error);
   if (!illumination_ || !scene_) throw std::invalid_argument("CameraSimulator: illumination and scene are required");
+  check_view(*scene_);
   GigeVisionDeviceOptions device;
   device.address = options_.address;
   device.serial = options_.serial;
@@ -333,9 +341,7 @@ void CameraSimulator::produce_frame(std::uint64_t trigger_count) {
     std::lock_guard lock(render_mutex_);
     if (cached_response_.empty() || cached_scene_ != scene_ ||
         !(cached_irradiance_.values() == irradiance.values()).all()) {
-      const cv::Mat at_scene = scene_->render(model_.weights(irradiance));
-      cv::resize(at_scene, cached_response_, cv::Size(options_.sensor_width, options_.sensor_height), 0, 0,
-                 cv::INTER_LINEAR);
+      cached_response_ = to_sensor(scene_->render(model_.weights(irradiance)));
       cached_irradiance_ = irradiance;
       cached_scene_ = scene_;
     }
@@ -368,6 +374,7 @@ void CameraSimulator::produce_frame(std::uint64_t trigger_count) {
 
 void CameraSimulator::set_scene(std::shared_ptr<const Scene> scene) {
   if (!scene) throw std::invalid_argument("CameraSimulator::set_scene: null scene");
+  check_view(*scene);
   std::lock_guard lock(render_mutex_);
   scene_ = std::move(scene);
 }
@@ -419,7 +426,21 @@ cv::Mat CameraSimulator::sensor_response(const spectral::Spectrum& irradiance) c
     std::lock_guard lock(render_mutex_);
     scene = scene_;
   }
-  const cv::Mat at_scene = scene->render(model_.weights(irradiance));
+  return to_sensor(scene->render(model_.weights(irradiance)));
+}
+
+void CameraSimulator::check_view(const Scene& scene) const {
+  if (!options_.view) return;
+  try {
+    patch_to_image_homography(*options_.view,
+                              {scene.width(), scene.height(), options_.patch_width_mm / scene.width()});
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument("CameraSimulator " + options_.serial + ": " + e.what());
+  }
+}
+
+cv::Mat CameraSimulator::to_sensor(const cv::Mat& at_scene) const {
+  if (options_.view) return render_view(at_scene, *options_.view, options_.patch_width_mm / at_scene.cols);
   cv::Mat at_sensor;
   cv::resize(at_scene, at_sensor, cv::Size(options_.sensor_width, options_.sensor_height), 0, 0, cv::INTER_LINEAR);
   return at_sensor;

@@ -311,29 +311,26 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
   }
   for (session::Step& step : plan.steps) step.settle_ms = options.settle_ms;
 
-  // The plan's illumination states (one per subject step, in plan order): a
-  // mix solved as a calibrated daemon would (keyed without its ":R"), or the
-  // step's own weights.
-  auto mix_of = [](const std::string& mix) { return mix.substr(0, mix.find(':')); };
-  auto state_name = [&](const session::Step& step) {
-    return step.illumination.kind == session::Illumination::Kind::kMix ? mix_of(step.illumination.mix)
-                                                                       : step.name.substr(step.name.find('_') + 1);
-  };
-  std::vector<std::string> state_names;
+  // The plan's illumination states (one per subject step, in plan order,
+  // paired with their whites by session::illumination_state): a mix solved
+  // as a calibrated daemon would (named without its ":R"), or the step's own
+  // weights.
+  std::vector<std::string> state_names, state_keys;
   std::map<std::string, int> state_of_step;  // subject and white steps → state index
   for (const session::Step& step : plan.steps) {
     if (step.role != session::StepRole::kSubject) continue;
-    const std::string name = state_name(step);
+    const session::IlluminationState state = session::illumination_state(step);
     if (step.illumination.kind == session::Illumination::Kind::kMix)
-      out.mixes[name] = calibration::solve_session_mix(out.library, step.illumination.mix, "camera", false).weights;
+      out.mixes[state.name] = calibration::solve_session_mix(out.library, step.illumination.mix, "camera", false).weights;
     else
-      out.mixes[name] = step.illumination.weights;
-    state_names.push_back(name);
+      out.mixes[state.name] = step.illumination.weights;
+    state_names.push_back(state.name);
+    state_keys.push_back(state.key);
   }
   for (const session::Step& step : plan.steps) {
     if (step.role == session::StepRole::kDark) continue;
-    state_of_step[step.name] =
-        static_cast<int>(std::find(state_names.begin(), state_names.end(), state_name(step)) - state_names.begin());
+    const std::string key = session::illumination_state(step).key;
+    state_of_step[step.name] = static_cast<int>(std::find(state_keys.begin(), state_keys.end(), key) - state_keys.begin());
   }
   std::vector<SceneWeights> weights;
   std::vector<cv::Vec3f> white_response;

@@ -5,21 +5,28 @@
 // Devices: the LED controller simulator (Modbus TCP on 127.0.0.1 and Modbus
 // RTU on a pseudo-terminal; its HID device side and the spectrometer sit
 // behind in-process seams and cannot be reached from another process), and
-// the GigE Vision camera simulator (its own loopback address 127.x.y.z:3956,
-// --camera-address or one picked at random in 127.77.0.0/16), which renders the scene
-// under what the LED lab emits and raises the LED controller's hardware
-// trigger input on every exposure; the controller's trigger output is wired
-// to the camera's Line0 (the trigger master, docs/camera.md). --fixed-light replaces the LED lab's light
-// by a fixed spectrum (the LED controller still runs).
+// the GigE Vision camera simulators, each on its own loopback address
+// 127.x.y.z:3956 (--camera-address or one picked at random in
+// 127.77.0.0/16), which render their view of the scene under what the LED
+// lab emits. One camera from the --camera-*/--sensor-* options, or every
+// camera of --cameras FILE (a JSON list, as chromod's virtual_lab.cameras:
+// simulators/camera/lab_cameras.hpp, docs/config.md). The controller's
+// trigger output is wired to every camera's Line0 (the trigger master,
+// docs/camera.md) and the first camera's exposures raise the controller's
+// hardware trigger input. --fixed-light replaces the LED lab's light by a
+// fixed spectrum (the LED controller still runs).
 #include <CLI/CLI.hpp>
 
 #include <csignal>
 #include <cstdio>
 #include <iostream>
 #include <memory>
+#include <vector>
 
 #include "chromo/simulators/camera/camera_simulator.hpp"
 #include "chromo/simulators/camera/fixed_illumination.hpp"
+#include "chromo/simulators/camera/lab_cameras.hpp"
+#include "chromo/files/bounded_read.hpp"
 #include "chromo/simulators/leds/led_controller_simulator.hpp"
 #include "chromo/simulators/scene/scene.hpp"
 #include "chromo/spectral/camera.hpp"
@@ -42,7 +49,35 @@ struct SimArguments {
   bool white_target = false;
   double packet_loss = 0;
   std::string camera_sensitivity = "nikon_d5100";
+  std::string cameras_file;  // JSON list of cameras; empty: one camera from the options above
+  double patch_width_mm = 80;
 };
+
+// The cameras to start: the --cameras list, or one from the single-camera options.
+std::vector<simulators::LabCamera> lab_cameras_of(const SimArguments& args) {
+  if (args.cameras_file.empty()) {
+    simulators::LabCamera camera;
+    camera.serial = args.camera_serial;
+    camera.address = args.camera_address;
+    camera.sensor_width = args.sensor_width;
+    camera.sensor_height = args.sensor_height;
+    camera.pixel_format = drivers::PixelFormat::kMono8;  // the power-on PixelFormat, as before
+    return {camera};
+  }
+  std::string text;
+  try {
+    text = files::read_text_file(args.cameras_file, "camera list");
+  } catch (const files::InputFileError& e) {
+    throw std::invalid_argument(e.what());
+  }
+  const auto json = nlohmann::json::parse(text, nullptr, false);
+  if (json.is_discarded()) throw std::invalid_argument(args.cameras_file + ": not valid JSON");
+  try {
+    return simulators::read_lab_cameras(json);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(args.cameras_file + ": cameras" + e.what());
+  }
+}
 
 int run(const SimArguments& args) {
   // Block the stop signals before any thread starts, then wait for them here.
@@ -52,6 +87,8 @@ int run(const SimArguments& args) {
   sigaddset(&stop_signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
 
+  // The camera list first: a bad one is refused before anything starts.
+  const std::vector<simulators::LabCamera> lab_cameras = lab_cameras_of(args);
   std::shared_ptr<const simulators::SphereIllumination> fixed_light;
   if (!args.fixed_light.empty()) {
     spectral::Spectrum light = spectral::illuminant_by_name_or_file(args.fixed_light);
@@ -75,31 +112,44 @@ int run(const SimArguments& args) {
     scene = std::make_shared<const simulators::Scene>(simulators::make_skin_scene(scene_options));
   }
 
-  simulators::CameraSimulatorOptions camera_options;
-  camera_options.serial = args.camera_serial;
-  camera_options.address = args.camera_address;
-  camera_options.sensor_width = args.sensor_width;
-  camera_options.sensor_height = args.sensor_height;
-  camera_options.camera_model.seed = args.seed;
-  camera_options.camera_model.sensitivity = sensitivity;
   simulators::LedControllerSimulator leds;
   const int modbus_port = leds.start_modbus_tcp(args.modbus_port);
   const std::string modbus_pty = leds.start_modbus_rtu();
-  // The lab outlives the camera simulator (declared first): a non-owning pointer.
+  // The lab outlives the camera simulators (declared first): a non-owning pointer.
   const std::shared_ptr<const simulators::SphereIllumination> lab_light(std::shared_ptr<void>(), &leds.lab());
-  simulators::CameraSimulator camera(camera_options, fixed_light ? fixed_light : lab_light, scene);
-  camera.set_packet_loss_ratio(args.packet_loss);
-  camera.set_exposure_hook([&leds] { leds.trigger(); });
-  leds.lab().connect_trigger_output([&camera] { camera.pulse_trigger_input(); });  // the trigger master's output → Line0
+  std::vector<std::unique_ptr<simulators::CameraSimulator>> cameras;
+  for (std::size_t i = 0; i < lab_cameras.size(); ++i) {
+    const simulators::LabCamera& lab_camera = lab_cameras[i];
+    simulators::CameraSimulatorOptions camera_options;
+    camera_options.serial = simulators::lab_camera_serial(lab_camera, args.camera_serial, i);
+    camera_options.address = lab_camera.address;
+    camera_options.sensor_width = lab_camera.sensor_width;
+    camera_options.sensor_height = lab_camera.sensor_height;
+    camera_options.pixel_format = lab_camera.pixel_format;
+    camera_options.view = simulators::lab_camera_view(lab_camera);
+    camera_options.patch_width_mm = args.patch_width_mm;
+    camera_options.camera_model.seed = args.seed + i;  // each camera its own noise
+    camera_options.camera_model.sensitivity = simulators::lab_camera_sensitivity(lab_camera, sensitivity);
+    cameras.push_back(std::make_unique<simulators::CameraSimulator>(camera_options, fixed_light ? fixed_light : lab_light,
+                                                                    scene));
+    cameras.back()->set_packet_loss_ratio(args.packet_loss);
+    // The trigger master's output → every camera's Line0.
+    leds.lab().connect_trigger_output([raw = cameras.back().get()] { raw->pulse_trigger_input(); });
+  }
+  cameras.front()->set_exposure_hook([&leds] { leds.trigger(); });  // the first camera's exposures → trigger input
   const auto led_info = leds.lab().info();
 
-  std::cout << "camera: GigE Vision on " << camera.address() << ":"
-            << simulators::CameraSimulator::kGvcpPort << " serial " << camera_options.serial << " (sensor "
-            << camera_options.sensor_width << "x" << camera_options.sensor_height
-            << ", Bayer RG / mono / RGB8 formats, packet loss " << args.packet_loss << ")\n";
+  for (std::size_t i = 0; i < cameras.size(); ++i) {
+    const auto& options = cameras[i]->options();
+    std::cout << "camera " << lab_cameras[i].name << ": GigE Vision on " << cameras[i]->address() << ":"
+              << simulators::CameraSimulator::kGvcpPort << " serial " << options.serial << " (sensor "
+              << options.sensor_width << "x" << options.sensor_height << ", power-on "
+              << drivers::pixel_format_name(options.pixel_format) << ", Bayer RG / mono / RGB8 formats, "
+              << (options.view ? "posed" : "filled with the patch") << ", packet loss " << args.packet_loss << ")\n";
+  }
   std::cout << "led controller: Modbus TCP on 127.0.0.1:" << modbus_port << " unit 1; Modbus RTU on "
             << modbus_pty << " unit 1 (model " << led_info.model << ", serial " << led_info.serial
-            << "); trigger output wired to the camera's Line0, trigger input to its exposures\n";
+            << "); trigger output wired to every camera's Line0, trigger input to the first camera's exposures\n";
   std::cout << "light: "
             << (fixed_light ? "fixed " + args.fixed_light + " spectrum (--fixed-light), not the LEDs"
                             : std::string("the LED lab (true LED spectra, drift, warm-up)"))
@@ -110,8 +160,13 @@ int run(const SimArguments& args) {
   int signal_number = 0;
   sigwait(&stop_signals, &signal_number);
   std::cout << "chromo-sim: " << (signal_number == SIGINT ? "SIGINT" : "SIGTERM") << ", stopping ("
-            << camera.frames_rendered() << " camera frames rendered)" << std::endl;
-  leds.lab().disconnect_trigger_outputs();  // before the camera goes
+            << [&] {
+                 std::uint64_t frames = 0;
+                 for (const auto& camera : cameras) frames += camera->frames_rendered();
+                 return frames;
+               }()
+            << " camera frames rendered)" << std::endl;
+  leds.lab().disconnect_trigger_outputs();  // before the cameras go
   return 0;
 }
 
@@ -120,10 +175,18 @@ int run(const SimArguments& args) {
 int main(int argc, char** argv) {
   CLI::App app{"chromo-sim: the Chromosphere virtual lab (device simulators on their real protocols)"};
   SimArguments args;
-  app.add_option("--camera-serial", args.camera_serial, "GigE Vision serial number of the camera simulator")
+  app.add_option("--camera-serial", args.camera_serial,
+                 "GigE Vision serial number of the (first) camera simulator (with --cameras: camera k > 0 "
+                 "without a serial of its own gets the first 13 characters and k)")
       ->capture_default_str();
-  app.add_option("--sensor-width", args.sensor_width, "Sensor width, pixels")->check(CLI::Range(16, 4096))->capture_default_str();
-  app.add_option("--sensor-height", args.sensor_height, "Sensor height, pixels")->check(CLI::Range(16, 4096))->capture_default_str();
+  auto* cameras = app.add_option("--cameras", args.cameras_file,
+                                 "JSON list of cameras to start (as chromod's virtual_lab.cameras, docs/config.md)");
+  app.add_option("--patch-width-mm", args.patch_width_mm, "Width of the skin patch posed cameras look at, mm")
+      ->check(CLI::Range(0.001, 10000.0))->capture_default_str();
+  app.add_option("--sensor-width", args.sensor_width, "Sensor width, pixels (one camera)")
+      ->check(CLI::Range(16, 4096))->capture_default_str()->excludes(cameras);
+  app.add_option("--sensor-height", args.sensor_height, "Sensor height, pixels (one camera)")
+      ->check(CLI::Range(16, 4096))->capture_default_str()->excludes(cameras);
   app.add_option("--scene-size", args.scene_size, "Scene resolution (square), pixels")->check(CLI::Range(16, 2048))->capture_default_str();
   app.add_option("--seed", args.seed, "Seed of the scene and of the camera noise")->capture_default_str();
   app.add_option("--modbus-port", args.modbus_port, "Modbus TCP port of the LED controller (0 = any free port)")
@@ -138,7 +201,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_flag("--white-target", args.white_target, "Show the white reference target instead of skin");
   app.add_option("--camera-address", args.camera_address,
-                 "Loopback address of the camera simulator, 127.a.b.c (default: a free one in 127.77.0.0/16)");
+                 "Loopback address of the camera simulator, 127.a.b.c (default: a free one in 127.77.0.0/16)")
+      ->excludes(cameras);
   app.add_option("--packet-loss", args.packet_loss,
                  "Fraction of GVSP packets dropped on first transmission (resend requests are answered)")
       ->check(CLI::Range(0.0, 0.5))->capture_default_str();

@@ -220,6 +220,35 @@ TEST(DaemonConfig, ChecksFilesByWhatTheyHold) {
   fs::remove_all(dir);
 }
 
+TEST(DaemonConfig, VirtualLabCamerasAreReadAndRefusedKeyByKey) {
+  const DaemonConfig defaults = parse_config(nlohmann::json::object(), "cfg");
+  ASSERT_EQ(defaults.virtual_lab.cameras.size(), 1u);
+  EXPECT_EQ(defaults.virtual_lab.cameras[0].name, "cam0");
+  const DaemonConfig two = parse_config(nlohmann::json::parse(R"({"virtual_lab": {"patch_width_mm": 60, "cameras": [
+      {"name": "cam0"},
+      {"name": "side", "sensor_width": 320, "sensor_height": 240, "pixel_format": "Mono12",
+       "pose": {"distance_mm": 250, "azimuth_deg": 30, "focal_length_mm": 4}}]}})"),
+                                        "cfg");
+  ASSERT_EQ(two.virtual_lab.cameras.size(), 2u);
+  EXPECT_EQ(two.virtual_lab.cameras[1].name, "side");
+  EXPECT_EQ(two.virtual_lab.patch_width_mm, 60);
+  EXPECT_EQ(refused({{"virtual_lab", {{"cameras", {{{"name", "a"}, {"sensor_height", 5000}}}}}}})
+                .rfind("cfg: virtual_lab.cameras[0].sensor_height: 5000 is outside [16, 4096]", 0),
+            0u);
+  EXPECT_EQ(refused({{"virtual_lab", {{"cameras", nlohmann::json::array()}}}}),
+            "cfg: virtual_lab.cameras: the lab needs at least one camera");
+  EXPECT_EQ(refused({{"virtual_lab", {{"cameras", {{{"name", "sphere"}}}}}}}),
+            "cfg: virtual_lab.cameras[0].name: \"sphere\" is the lab's LED controller or spectrometer");
+  EXPECT_EQ(refused({{"virtual_lab", {{"cameras", {{{"name", "a"}, {"sensitivity", "/no/such.csv"}}}}}}}),
+            "cfg: virtual_lab.cameras[0].sensitivity: /no/such.csv: no such file");
+  // 30 mm away, swung 85 degrees: most of an 80 mm patch is behind the camera.
+  EXPECT_EQ(refused({{"virtual_lab",
+                      {{"cameras", {{{"name", "a"}, {"pose", {{"distance_mm", 30}, {"azimuth_deg", 85}}}}}}}}})
+                .rfind("cfg: virtual_lab.cameras[0].pose: camera view: the patch is not wholly in front", 0),
+            0u);
+  EXPECT_EQ(refused({{"virtual_lab", {{"lenses", 1}}}}).rfind("cfg: virtual_lab: unknown key \"lenses\"", 0), 0u);
+}
+
 TEST(DaemonConfig, TheDefaultSocketAndRunFilesAreNotUnderTmp) {
   const DaemonConfig config;
   EXPECT_FALSE(config.runtime_dir.empty());

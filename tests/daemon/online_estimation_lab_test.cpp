@@ -32,8 +32,8 @@ constexpr double kExposureUs = 4000;
 
 TEST(OnlineEstimationOnTheVirtualLab, CalibratedStandardSessionEndsInMapsThatMatchTheScene) {
   TestLab lab("online-estimation-lab");
-  lab.lab_options.sensor_width = 320;
-  lab.lab_options.sensor_height = 240;
+  lab.lab_options.cameras.front().sensor_width = 320;
+  lab.lab_options.cameras.front().sensor_height = 240;
   lab.lab_options.scene_size = 128;
   lab.config.estimation.cache_dir = (fs::temp_directory_path() / "chromo-test-forward-tables").string();
   lab.config.estimation.threads = 2;

@@ -29,8 +29,8 @@ using chromo::testing::fresh_directory;
 // Small frames keep the suite fast: 160x120 BayerRG12 (16-bit containers).
 inline VirtualLabOptions small_lab_options() {
   VirtualLabOptions options;
-  options.sensor_width = 160;
-  options.sensor_height = 120;
+  options.cameras.front().sensor_width = 160;
+  options.cameras.front().sensor_height = 120;
   options.scene_size = 64;
   options.scene_threads = 1;
   options.camera_serial = "CHROMO-TEST-CAM";
@@ -56,8 +56,7 @@ struct TestLab {
     std::error_code ignored;
     std::filesystem::remove_all(directory, ignored);
   }
-  // A new virtual lab (the previous daemon must be gone: one camera
-  // simulator per machine) and a Daemon on its devices.
+  // A new virtual lab (the previous one is stopped first) and a Daemon on its devices.
   std::unique_ptr<Daemon> daemon() {
     simulators.reset();
     auto lab = start_virtual_lab(lab_options);

@@ -4,9 +4,12 @@
 
 #include <chrono>
 #include <string>
+#include <fstream>
 #include <thread>
+#include <tuple>
 
 #include "../support/chromo_sim_process.hpp"
+#include "../support/fresh_directory.hpp"
 #include "camera_fixture.hpp"
 #include "chromo/drivers/led_controller_factory.hpp"
 
@@ -25,7 +28,7 @@ TEST(ChromoSim, PrintsWhereDevicesListenServesThemAndStopsOnCtrlC) {
   const std::string banner = sim.read_until("running");
   const std::string camera_address = printed_camera_address(banner);
   EXPECT_TRUE(camera_address.starts_with("127.77.")) << banner;
-  EXPECT_NE(banner.find("camera: GigE Vision on " + camera_address + ":3956 serial CHROMO-SIMTEST"), std::string::npos)
+  EXPECT_NE(banner.find("camera cam0: GigE Vision on " + camera_address + ":3956 serial CHROMO-SIMTEST"), std::string::npos)
       << banner;
   EXPECT_NE(banner.find("Modbus RTU on /dev/pts/"), std::string::npos) << banner;
   const int modbus_port = printed_modbus_port(banner);
@@ -79,11 +82,55 @@ TEST(ChromoSim, BadArgumentsExitWithStatusTwo) {
   for (std::vector<std::string> args : {std::vector<std::string>{"--fixed-light", "no-such-light"},
                                         std::vector<std::string>{"--sensor-width", "5"},
                                         std::vector<std::string>{"--camera-address", "10.0.0.1"},
-                                        std::vector<std::string>{"--no-such-option"}}) {
+                                        std::vector<std::string>{"--no-such-option"},
+                                        std::vector<std::string>{"--cameras", "/no/such/cameras.json"}}) {
     ChromoSimProcess sim(args);
     sim.read_until("never printed");
     EXPECT_EQ(sim.stop_with(0), 2) << args[0];  // signal 0: just wait for the exit
   }
+}
+
+// chromo-sim --cameras FILE starts every camera of the list (it once started
+// only the first), each on its own address, with its own sensor and format.
+TEST(ChromoSim, StartsEveryCameraOfTheList) {
+  const auto dir = fresh_directory("chromo-sim-cameras");
+  std::ofstream(dir / "cameras.json") << R"([
+    {"name": "top", "serial": "CHROMO-TOP", "sensor_width": 96, "sensor_height": 64},
+    {"name": "side", "serial": "CHROMO-SIDE", "sensor_width": 80, "sensor_height": 48, "pixel_format": "Mono12",
+     "pose": {"distance_mm": 300, "azimuth_deg": 25, "focal_length_mm": 1}}])";
+  ChromoSimProcess sim({"--cameras", (dir / "cameras.json").string(), "--scene-size", "32"});
+  const std::string banner = sim.read_until("running");
+  const std::string top = printed_camera_address(banner, "top"), side = printed_camera_address(banner, "side");
+  ASSERT_TRUE(top.starts_with("127.77.")) << banner;
+  ASSERT_TRUE(side.starts_with("127.77.")) << banner;
+  EXPECT_NE(top, side);
+  for (const auto& [serial, address, width] :
+       {std::tuple{"CHROMO-TOP", top, 96}, std::tuple{"CHROMO-SIDE", side, 80}}) {
+    drivers::AravisCameraOptions options;
+    options.serial = serial;
+    options.address = address;
+    options.frame_retention_ms = 2000;
+    options.on_warning = [](const std::string&) {};
+    auto camera = drivers::AravisCamera::open(options);
+    EXPECT_EQ(camera->info().sensor_width, width) << serial;
+    drivers::CameraSettings settings;
+    settings.pixel_format = drivers::PixelFormat::kMono8;
+    camera->configure(settings);
+    FrameSink sink;
+    camera->start_stream(sink.callback());
+    camera->software_trigger();
+    EXPECT_TRUE(sink.wait_for_count(1, std::chrono::milliseconds(3000))) << serial;
+    camera->stop_stream();
+    const auto frames = sink.take();
+    ASSERT_FALSE(frames.empty()) << serial;
+    EXPECT_EQ(frames[0].width, width) << serial;
+  }
+  EXPECT_EQ(sim.stop_with(SIGINT), 0);
+  std::ofstream(dir / "bad.json") << R"([{"name": "a"}, {"name": "b", "pose": {"azimuth_deg": 120}}])";
+  ChromoSimProcess bad({"--cameras", (dir / "bad.json").string()});
+  bad.read_until("never printed");
+  EXPECT_EQ(bad.stop_with(0), 2);
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

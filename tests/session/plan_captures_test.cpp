@@ -6,8 +6,11 @@
 
 #include <cmath>
 #include <filesystem>
+#include <cstring>
 #include <fstream>
+#include <map>
 
+#include "chromo/calibration/led_library.hpp"
 #include "chromo/session/method_measurement.hpp"
 #include "chromo/session/session_captures.hpp"
 #include "chromo/session/session_plan.hpp"
@@ -136,6 +139,121 @@ TEST(PlanCaptureBuilder, PairsWhitesAndSubjectsByIllumination) {
     EXPECT_NE(std::string(e.what()).find(plan.steps[8].name), std::string::npos) << e.what();
   }
   EXPECT_THROW(multispectral.captures(), std::invalid_argument);  // not the method's session
+}
+
+// One camera's frame of a step: every sample `value` (of full scale 4095 for
+// BayerRG12 in 16-bit samples, 255 for RGB8).
+struct TestFrame {
+  FrameRecord record;
+  std::vector<std::uint8_t> samples;
+};
+TestFrame test_frame(const Step& step, const std::string& camera, drivers::PixelFormat format, int width, int height,
+                     int value, double exposure_us) {
+  TestFrame f;
+  f.record.step = step.name;
+  f.record.role = step.role;
+  f.record.camera = camera;
+  f.record.width = width;
+  f.record.height = height;
+  f.record.pixel_format = format;
+  f.record.exposure_us = exposure_us;
+  FrameLedState led;
+  if (step.illumination.kind == Illumination::Kind::kWeights) led.drive = step.illumination.weights;
+  else if (step.illumination.kind == Illumination::Kind::kMix) led.drive = {0.8, 0, 0, 0.05, 0.1, 0.25};
+  f.record.led = led;
+  const auto& info = drivers::pixel_format_info(format);
+  const std::size_t count = static_cast<std::size_t>(width) * height * info.samples_per_pixel;
+  if (info.bytes_per_sample == 1) {
+    f.samples.assign(count, static_cast<std::uint8_t>(value));
+  } else {
+    const auto v = static_cast<std::uint16_t>(value);
+    f.samples.resize(2 * count);
+    for (std::size_t i = 0; i < count; ++i) std::memcpy(f.samples.data() + 2 * i, &v, 2);
+  }
+  return f;
+}
+
+// Two cameras of different sensors, formats and exposures, their frames
+// interleaved step by step: each camera's captures hold its frames only,
+// under the method's plan and under a multispectral one alike.
+TEST(PlanCaptureBuilder, KeepsEachCameraApartUnderAnyPlan) {
+  CaptureSources sources;
+  sources.camera = spectral::builtin_camera("nikon_d5100");
+  sources.led_library = calibration::nominal_led_library();
+  for (const SessionPlan& plan : {standard_plan(), multispectral_plan()}) {
+    SCOPED_TRACE(plan.name);
+    SessionCaptureBuilder builder(plan, sources);
+    // Camera "a": 8x6 BayerRG12 at 1000 us, value 100 + 10·step; "b": 5x3 RGB8 at 3000 us, value 50 + 3·step.
+    auto value_a = [](std::size_t k) { return 100 + 10 * static_cast<int>(k); };
+    auto value_b = [](std::size_t k) { return 50 + 3 * static_cast<int>(k); };
+    for (std::size_t k = 0; k < plan.steps.size(); ++k) {
+      const Step& step = plan.steps[k];
+      for (std::uint32_t n = 0; n < step.frames_per_camera; ++n) {
+        const auto a = test_frame(step, "a", drivers::PixelFormat::kBayerRG12, 8, 6, value_a(k), 1000);
+        builder.add_frame(a.record, a.samples);
+        if (k + 1 == plan.steps.size()) continue;  // "b" misses the last step's frames for now
+        const auto b = test_frame(step, "b", drivers::PixelFormat::kRgb8, 5, 3, value_b(k), 3000);
+        builder.add_frame(b.record, b.samples);
+      }
+    }
+    ASSERT_EQ(builder.cameras(), (std::vector<std::string>{"a", "b"}));
+    EXPECT_EQ(builder.camera(), "a");
+    EXPECT_TRUE(builder.complete("a"));
+    EXPECT_TRUE(builder.references_complete("b"));
+    EXPECT_FALSE(builder.complete("b"));
+    EXPECT_EQ(builder.missing("b"),
+              plan.steps.back().name + ": 0 of " + std::to_string(plan.steps.back().frames_per_camera) + " frames");
+    EXPECT_FALSE(builder.references_complete("c"));  // no frames at all
+    // A frame that cannot be used is refused naming its camera, and adds no camera.
+    const auto mono = test_frame(plan.steps[0], "c", drivers::PixelFormat::kMono12, 8, 6, 7, 1000);
+    try {
+      builder.add_frame(mono.record, mono.samples);
+      ADD_FAILURE() << "a mono frame was accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("(camera c)"), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(builder.cameras().size(), 2u);
+    const auto last = test_frame(plan.steps.back(), "b", drivers::PixelFormat::kRgb8, 5, 3,
+                                 value_b(plan.steps.size() - 1), 3000);
+    for (std::uint32_t n = 0; n < plan.steps.back().frames_per_camera; ++n) builder.add_frame(last.record, last.samples);
+    EXPECT_TRUE(builder.complete("b"));
+
+    std::map<std::string, std::size_t> index_of;
+    for (std::size_t k = 0; k < plan.steps.size(); ++k) index_of[plan.steps[k].name] = k;
+    std::size_t dark = 0;
+    while (plan.steps[dark].role != StepRole::kDark) ++dark;
+    for (const std::string camera : {"a", "b"}) {
+      const PlanCaptures captures = builder.plan_captures(camera);
+      const bool is_a = camera == "a";
+      const double full = is_a ? 4095 : 255;
+      auto value = [&](std::size_t k) { return (is_a ? value_a(k) : value_b(k)) / full; };
+      EXPECT_EQ(captures.dark.width, is_a ? 4 : 5);  // Bayer binned 2x2; RGB as is
+      EXPECT_EQ(captures.dark.height, 3);
+      EXPECT_FLOAT_EQ(captures.dark.planes[1][0], static_cast<float>(value(dark)));
+      std::size_t subjects = 0;
+      for (const Step& step : plan.steps) subjects += step.role == StepRole::kSubject;
+      ASSERT_EQ(captures.captures.size(), subjects);
+      for (const IlluminatedCapture& capture : captures.captures) {
+        // Each capture's white and subject are the camera's own frames of the paired steps.
+        std::size_t subject = 0, white = 0;
+        for (std::size_t k = 0; k < plan.steps.size(); ++k) {
+          if (plan.steps[k].role == StepRole::kDark) continue;
+          if (capture_name(illumination_state(plan.steps[k])) != capture.name) continue;
+          (plan.steps[k].role == StepRole::kSubject ? subject : white) = k;
+        }
+        EXPECT_FLOAT_EQ(capture.subject.planes[0][0], static_cast<float>(value(subject))) << capture.name;
+        EXPECT_FLOAT_EQ(capture.white.planes[2].back(), static_cast<float>(value(white))) << capture.name;
+        EXPECT_EQ(capture.subject.exposure_us, is_a ? 1000 : 3000);
+        EXPECT_EQ(capture.white.width, is_a ? 4 : 5);
+      }
+    }
+    if (builder.is_method_plan()) {
+      EXPECT_FLOAT_EQ(builder.captures().broadband.subject.planes[0][0],
+                      builder.captures("a").broadband.subject.planes[0][0]);
+      EXPECT_EQ(builder.captures("b").broadband.subject.width, 5);
+    }
+    EXPECT_THROW(builder.plan_captures("c"), std::logic_error);
+  }
 }
 
 RgbImage flat(int width, int height, std::array<float, 3> value) {

@@ -76,10 +76,13 @@ inline int printed_modbus_port(const std::string& banner) {
 }
 
 // The camera simulator's address from "camera: GigE Vision on A:3956 ..."; "" if absent.
-inline std::string printed_camera_address(const std::string& banner) {
-  const std::string key = "camera: GigE Vision on ";
-  const auto at = banner.find(key);
+// The address chromo-sim printed for camera `name` (its line "camera NAME:
+// GigE Vision on A:3956 ..."), the first camera's when name is empty.
+inline std::string printed_camera_address(const std::string& banner, const std::string& name = "") {
+  const std::string key = ": GigE Vision on ";
+  std::size_t at = name.empty() ? banner.find(key) : banner.find("camera " + name + key);
   if (at == std::string::npos) return "";
+  if (!name.empty()) at += 7 + name.size();
   const auto begin = at + key.size();
   const auto colon = banner.find(':', begin);
   return colon == std::string::npos ? "" : banner.substr(begin, colon - begin);

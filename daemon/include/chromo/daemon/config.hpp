@@ -22,6 +22,7 @@
 #include "chromo/drivers/led_controller.hpp"
 #include "chromo/files/runtime_dir.hpp"
 #include "chromo/session/plan_hazard.hpp"
+#include "chromo/simulators/camera/lab_cameras.hpp"
 
 namespace chromo::daemon {
 
@@ -57,6 +58,13 @@ struct CaptureConfig {
   double blue_ratio = 8;             // the standard plan's w57+blue:R (0: the plain "w57+blue")
 };
 
+// The built-in virtual lab (docs/config.md "The built-in virtual lab"):
+// used only when no devices are configured.
+struct VirtualLabConfig {
+  std::vector<simulators::LabCamera> cameras = {simulators::LabCamera{}};  // default: cam0, 640x480 BayerRG12
+  double patch_width_mm = 80;  // the skin patch's width, for posed cameras
+};
+
 struct DaemonConfig {
   // The daemon's own folder for its socket and the virtual lab's run files
   // (files/runtime_dir.hpp; never /tmp). Created 0700 at start.
@@ -89,6 +97,7 @@ struct DaemonConfig {
   EstimationConfig estimation;
   CaptureConfig capture;
   session::BlueLightHazardOptions hazard;  // docs/config.md "Blue-light hazard"
+  VirtualLabConfig virtual_lab;
 
   // The checks between keys (listening, token with TCP, TLS pair); the
   // per-key checks are in parse_config.

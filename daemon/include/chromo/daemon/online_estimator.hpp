@@ -11,6 +11,8 @@
 // inverter's inverse table (maps::prepare_tables: into the disk cache too),
 // and keeps both in memory until the estimate, so the last frame is followed
 // by the estimate itself, with no table reload.
+// With several cameras it estimates the first camera to deliver a frame
+// (the capture builder keeps every camera's frames apart).
 // When the subject's last frame is in it estimates the maps tile by tile on
 // options.estimation.estimator.threads threads (0 = all cores) and writes
 // <session>/results/ (estimate_report.hpp: maps.exr, previews, summary.json),
@@ -95,6 +97,8 @@ class OnlineEstimator final : public FrameConsumer {
   std::optional<maps::PreparedTables> prepared_;  // from the references until the estimate
   std::optional<maps::MethodEstimationResult> result_;
   std::size_t read_back_ = 0;
+  // The camera whose maps are made: the first to deliver a frame (live or read back).
+  std::function<bool(const session::FrameRecord&)> wanted_camera_;
 };
 
 }  // namespace chromo::daemon

@@ -6,12 +6,16 @@
 //
 //   LED controller "sphere"  LedControllerSimulator on Modbus TCP 127.0.0.1:<free port>
 //                            ← drivers' Modbus TCP LedController (backend "modbus-tcp")
-//   camera "cam0"            CameraSimulator, GigE Vision on its own loopback address
-//                            127.77.x.y:3956 (the project's device side, setting
-//                            ip_address of cam0) rendering the scene under the LEDs' light; its
-//                            exposures are the controller's hardware trigger input, its
-//                            Line0 is wired to the controller's trigger output
-//                            (trigger_input "Line0": the controller triggers it)
+//   cameras ("cam0" by       one CameraSimulator per VirtualLabOptions::cameras entry
+//   default)                 (simulators/camera/lab_cameras.hpp: sensor, pixel format,
+//                            pose, sensitivity), GigE Vision each on its own loopback
+//                            address 127.77.x.y:3956 (the project's device side, setting
+//                            the device's ip_address) rendering its view of the scene
+//                            under the LEDs' light. Every camera's Line0 is wired to the
+//                            controller's trigger output (trigger_input "Line0": the
+//                            controller, the trigger master, triggers them all); the
+//                            first camera's exposure-active line is the controller's
+//                            trigger input, as in chromo-sim
 //                            ← AravisCamera (backend "aravis")
 //   spectrometer "spec0"     simulated USB2000+ behind the USB transport seam, looking
 //                            into the sphere (LEDs + the reference lamp)
@@ -23,10 +27,10 @@
 // operator's job in the real sphere). DeviceSet::reference_lamp switches the
 // lamp calibration runs measure first.
 //
-// Each virtual lab's camera simulator binds an address of its own
-// (VirtualLabOptions::camera_address, or one picked at random in
-// 127.77.0.0/16), so labs run side by side; start_virtual_lab throws
-// std::runtime_error when an explicit address is taken.
+// Each camera simulator binds an address of its own (its LabCamera::address,
+// or one picked at random in 127.77.0.0/16), so cameras and labs run side by
+// side; start_virtual_lab throws std::runtime_error when an explicit address
+// is taken.
 //
 // Lifetime: the simulators live in VirtualLab::simulators, which the
 // DeviceSet also keeps alive (destroyed after the drivers). Thread rules:
@@ -40,6 +44,7 @@
 #include <vector>
 
 #include "chromo/daemon/device_set.hpp"
+#include "chromo/simulators/camera/lab_cameras.hpp"
 
 namespace chromo::simulators {
 class CalibrationLab;
@@ -50,17 +55,28 @@ class LedLab;
 namespace chromo::daemon {
 
 struct VirtualLabOptions {
-  int sensor_width = 640;          // camera sensor, pixels (small: the pipeline stores every frame)
-  int sensor_height = 480;
-  int scene_size = 256;            // skin and white-target scenes (square), resampled to the sensor
-  std::string pixel_format = "BayerRG12";
+  // The cameras, each a device of that name (default: "cam0", 640x480
+  // BayerRG12, filling its sensor with the patch: small, the pipeline
+  // stores every frame). Names must differ from "sphere" and "spec0".
+  std::vector<simulators::LabCamera> cameras = {simulators::LabCamera{}};
+  double patch_width_mm = 80;      // the skin patch's physical width, for posed cameras
+  int scene_size = 256;            // skin and white-target scenes (square), seen by every camera
+  // The first camera's serial when its entry names none; camera k > 0 gets
+  // the first 13 characters of it and k (simulators::lab_camera_serial).
   std::string camera_serial = "CHROMO-VLAB-CAM";
   double led_time_scale = 300;     // lab seconds per wall-clock second (LED warm-up, drift)
   std::uint64_t seed = 1;          // scene and camera noise
   int scene_threads = 0;           // building the skin scene (0 = all cores)
-  std::string camera_address;      // the camera simulator's 127.a.b.c; empty = random in 127.77.0.0/16
 
+  // Names the key: "cameras[1].sensor_width: ...".
   bool IsValid(std::string* error) const;
+  // The serial of camera `index` (its entry's, else derived from camera_serial;
+  // std::out_of_range beyond the list).
+  std::string serial_of(std::size_t index) const;
+  // The simulator options of camera `index` (std::out_of_range beyond) with
+  // the sensitivity it renders with; its noise seed is seed + index.
+  simulators::CameraSimulatorOptions camera_simulator_options(std::size_t index,
+                                                              const spectral::CameraSensitivity& sensitivity) const;
 };
 
 // The running simulators, for the daemon's wiring and for tests' faults.
@@ -70,7 +86,10 @@ class VirtualLabSimulators {
   ~VirtualLabSimulators();
 
   simulators::LedLab& leds();                   // truth + faults (set_unresponsive, dead channel...)
-  simulators::CameraSimulator& camera();        // faults: set_packet_loss_ratio, power_off/power_on
+  simulators::CameraSimulator& camera();        // the first camera: faults (set_packet_loss_ratio, power_off/power_on)
+  // The camera of options.cameras[index] (std::out_of_range beyond).
+  simulators::CameraSimulator& camera(std::size_t index);
+  std::size_t camera_count() const;
   simulators::CalibrationLab& calibration_lab();
   int modbus_port() const { return modbus_port_; }
   // Shows the white target (kWhite) or the skin patch (kSubject); kDark leaves the scene.

@@ -7,8 +7,10 @@
 // frame's samples unchanged).
 //
 // Which step is which: the dark step (role dark), and per illumination state
-// one white and one subject step, paired by their illumination: the same mix
-// ("d65", "w57", "w57+blue"; "w57:R" and "w57+blue:R" with any blue ratio R) or the same LED drive weights.
+// one white and one subject step, paired by their illumination
+// (illumination_state(), session_plan.hpp): the same mix ("d65", "w57",
+// "w57+blue"; "w57:R" and "w57+blue:R" with any blue ratio R) or the same LED
+// drive weights.
 // A plan without a dark, with a subject state that has no white (or a white
 // no subject), with an unlit white or subject step, or with a state twice, is
 // refused: the constructor throws std::invalid_argument saying what is
@@ -17,8 +19,12 @@
 // plan gives PlanCaptures (plan_captures(): the multispectral plans, an
 // operator's).
 //
-// Frames: only the first camera that delivers a frame is used (its name is
-// kept); its frames are summed per step exactly as they came (FrameSums,
+// Cameras: every camera's frames are kept apart, under any plan: each camera
+// has its own sums per step, so its dark, white references, exposures and
+// subject captures are its own, and captures(camera) / plan_captures(camera)
+// never hold another camera's frame. cameras() lists them in the order their
+// first frame came; the overloads without a camera are the first camera's
+// (camera()). A camera's frames are summed per step exactly as they came (FrameSums,
 // frame_sums.hpp: the accumulator derived data is written from too), and the
 // mean is taken when the captures are made (each image carries its frame
 // count and exposure; a step's frames must share one exposure, else
@@ -35,6 +41,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <optional>
 #include <set>
@@ -70,61 +77,86 @@ class SessionCaptureBuilder {
 
   // One frame: samples as the camera sent them (16-bit samples in host
   // order), described by its record (step, camera, geometry, pixel format, the
-  // applied LED levels). Frames of another camera than the first are ignored
-  // (returns false). Throws std::invalid_argument naming the step for a frame
-  // that cannot be used (mono, odd size, size change, unknown step, no LED
-  // levels on a lit step).
-  bool add_frame(const FrameRecord& record, std::span<const std::uint8_t> samples);
+  // applied LED levels), added to its camera's sums. Throws
+  // std::invalid_argument naming the step and camera for a frame that cannot
+  // be used (mono, odd size, size change, unknown step, no LED levels on a
+  // lit step, an exposure unlike the step's other frames); nothing is added then.
+  void add_frame(const FrameRecord& record, std::span<const std::uint8_t> samples);
 
-  // The dark and the three white steps have all their frames.
-  bool references_complete() const;
-  // Every step of the method has all its frames.
-  bool complete() const;
-  // What is still missing, e.g. "subject_w57: 0 of 1 frames" (empty when complete).
-  std::string missing() const;
-  const std::string& camera() const { return camera_; }
+  // The cameras that delivered frames, in the order of their first frame.
+  const std::vector<std::string>& cameras() const { return cameras_; }
+  // The first of them ("" before any frame).
+  const std::string& camera() const;
+
+  // The camera's dark and white steps have all their frames (a camera with
+  // no frames has none).
+  bool references_complete(const std::string& camera) const;
+  // Every step of the plan has all the camera's frames.
+  bool complete(const std::string& camera) const;
+  // What the camera still misses, e.g. "subject_w57: 0 of 1 frames" (empty when complete).
+  std::string missing(const std::string& camera) const;
+  bool references_complete() const { return references_complete(camera()); }
+  bool complete() const { return complete(camera()); }
+  std::string missing() const { return missing(camera()); }
 
   // The plan's subjects are under exactly the method's three mixes.
   bool is_method_plan() const { return method_plan_; }
 
-  // Throws std::logic_error unless references_complete() (subjects then
-  // empty) / complete(); captures() std::invalid_argument unless
-  // is_method_plan().
-  MethodCaptures captures() const;
-  PlanCaptures plan_captures() const;
+  // The camera's captures (its frames only). Throw std::logic_error unless
+  // references_complete(camera) (subjects then empty); captures()
+  // std::invalid_argument unless is_method_plan().
+  MethodCaptures captures(const std::string& camera) const;
+  PlanCaptures plan_captures(const std::string& camera) const;
+  MethodCaptures captures() const { return captures(camera()); }
+  PlanCaptures plan_captures() const { return plan_captures(camera()); }
 
  private:
   struct StepSum {
     std::string step;
     std::uint32_t expected = 0;
-    FrameSums frames;  // the builder's camera's frames of the step
+    FrameSums frames;  // one camera's frames of the step
     spectral::Spectrum illuminant_sum;
     double exposure_us = 0;  // of the step's frames (all alike)
   };
+  // Keys: "dark", "white:d65", "subject:d65", "white:w57", ...
+  using StepSums = std::map<std::string, StepSum>;
   RgbImage mean_image(const StepSum& s) const;
+  // The camera's sums (the plan's empty ones for a camera without frames).
+  const StepSums& sums_of(const std::string& camera) const;
 
   CaptureSources sources_;
-  std::string camera_;
-  // Keys: "dark", "white:d65", "subject:d65", "white:w57", ... (kept in plan order in steps_).
-  std::map<std::string, StepSum> steps_;
+  StepSums plan_steps_;                        // the plan's steps, no frames
+  std::map<std::string, StepSums> by_camera_;  // each camera's own sums
+  std::vector<std::string> cameras_;
   std::map<std::string, std::string> key_of_step_;
-  // Illumination states with a subject step, in plan order: (state key, subject step name).
-  std::vector<std::pair<std::string, std::string>> states_;
+  // Illumination states with a subject step, in plan order.
+  struct State {
+    std::string key;           // illumination_state().key
+    std::string capture_name;  // capture_name(): D65', W57, W57+blue or the state's name
+    std::string subject_step;
+  };
+  std::vector<State> states_;
   bool method_plan_ = false;
 };
 
 // Adds the session folder's stored frames (journal frame records, TIFFs)
-// whose storage index is not in `already_added`; returns how many it added.
-// Throws std::invalid_argument naming the file for an unreadable frame.
+// whose storage index is not in `already_added` and whose record `wanted`
+// accepts (empty: every frame); returns how many it added. Throws
+// std::invalid_argument naming the file for an unreadable frame.
 std::size_t add_stored_frames(SessionCaptureBuilder& builder, const std::filesystem::path& folder,
-                              const std::set<std::uint64_t>& already_added = {});
+                              const std::set<std::uint64_t>& already_added = {},
+                              const std::function<bool(const FrameRecord&)>& wanted = {});
+
+// A frame filter that takes the first camera it sees and then only its frames
+// (the single-camera estimation's choice of camera: the first to deliver).
+std::function<bool(const FrameRecord&)> first_camera_only();
 
 // The plan of a session folder (session.json); std::invalid_argument naming
 // the folder when it is not a session.
 SessionPlan read_session_plan(const std::filesystem::path& folder);
 
-// The stored frames of a session folder (its journal's frame records, TIFFs)
-// through a SessionCaptureBuilder. Throws std::invalid_argument naming the
+// The stored frames of a session folder's first camera (its journal's frame
+// records, TIFFs) through a SessionCaptureBuilder. Throws std::invalid_argument naming the
 // folder and what is wrong (not a session, not the method's plan, frames
 // missing, unreadable TIFF).
 MethodCaptures read_session_captures(const std::filesystem::path& folder, const CaptureSources& sources);

@@ -131,6 +131,22 @@ bool is_valid_name(const std::string& name);
 // ("w57:R": W57 alone at its level in the "w57+blue:R" mix).
 bool is_valid_mix(const std::string& mix);
 
+// The illumination state of a step, which pairs a white reference with its
+// subject step: the one rule of the capture builder, the rendered session
+// and the plan advisor.
+//   key:  the mix without its blue ratio ("d65", "w57", "w57+blue"), or the
+//         LED weights ("weights:0,0,0,0,0,1"); "" for a dark or unlit step
+//   name: the mix without its ratio, or the step's name without its role's
+//         prefix ("subject_", "white_"); "" when the key is
+struct IlluminationState {
+  std::string key;
+  std::string name;
+};
+IlluminationState illumination_state(const Step& step);
+// A capture's name among a measurement's channel names: D65', W57 and
+// W57+blue for the method's mixes, else the state's name.
+std::string capture_name(const IlluminationState& state);
+
 nlohmann::json to_json(const SessionPlan& plan);
 // Throws std::invalid_argument naming the field.
 SessionPlan plan_from_json(const nlohmann::json& json);

@@ -23,7 +23,9 @@
 // simulator calls the exposure hook (the LED simulator's hardware trigger
 // input, if attached), then reads SphereIllumination::irradiance_now(),
 // renders the scene (response cached while the irradiance is unchanged),
-// resamples it bilinearly to the sensor, crops the ROI and reads it out
+// brings it to the sensor (options.view: the camera's perspective view of
+// the planar patch, camera_view.hpp; none: resampled bilinearly to fill the
+// sensor), crops the ROI and reads it out
 // through the CameraModel. Frame k of a power cycle uses noise seed
 // (CameraModelOptions::seed, k).
 //
@@ -60,6 +62,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <condition_variable>
 #include <deque>
 #include <random>
@@ -70,6 +73,7 @@
 #include "chromo/drivers/camera.hpp"
 #include "chromo/simulators/camera/camera_model.hpp"
 #include "chromo/simulators/camera/gige_vision_device.hpp"
+#include "chromo/simulators/scene/camera_view.hpp"
 #include "chromo/simulators/scene/scene.hpp"
 #include "chromo/simulators/sphere_illumination.hpp"
 
@@ -88,6 +92,13 @@ struct CameraSimulatorOptions {
   // every sample), without the scene, the illumination or the noise model:
   // the transport alone, for benches of the link.
   bool test_pattern = false;
+  // Where the camera stands and its lens: the sensor sees the scene as a
+  // planar patch patch_width_mm wide (its pixels square) in perspective,
+  // dark where there is no patch; view->intrinsics' size is the sensor's.
+  // None: the scene resampled to fill the sensor (a square-on camera
+  // framing the patch exactly, as before views existed).
+  std::optional<CameraView> view;
+  double patch_width_mm = 80;
 
   bool IsValid(std::string* error) const;
 };
@@ -117,6 +128,8 @@ class CameraSimulator {
   const CameraSimulatorOptions& options() const { return options_; }
   const CameraModel& camera_model() const { return model_; }
 
+  // Throws std::invalid_argument (nothing changed) for a null scene or one
+  // the view does not have wholly in front of the camera.
   void set_scene(std::shared_ptr<const Scene> scene);
   // Called at the start of every exposure, on the simulator's thread.
   void set_exposure_hook(std::function<void()> hook);
@@ -144,6 +157,10 @@ class CameraSimulator {
   std::uint64_t frames_rendered() const { return frames_rendered_; }
 
  private:
+  // A scene-resolution response brought to the sensor (view or resampling).
+  cv::Mat to_sensor(const cv::Mat& at_scene) const;
+  // Throws std::invalid_argument when the view does not see `scene` wholly in front.
+  void check_view(const Scene& scene) const;
   void apply_power_on_registers();
   std::uint16_t on_register_write(std::uint32_t address, std::uint32_t value,
                                   const GigeVisionDevice::RegisterReader& read);
