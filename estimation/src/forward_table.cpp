@@ -138,6 +138,7 @@ void ForwardTable::predict(const GridPoint& x, double* value, double* jacobian) 
     case 3: return accumulate_corners<3>(corner_values, weight, dweight, 3, value, jacobian);
     case 4: return accumulate_corners<4>(corner_values, weight, dweight, 4, value, jacobian);
     case 6: return accumulate_corners<6>(corner_values, weight, dweight, 6, value, jacobian);
+    case 21: return accumulate_corners<21>(corner_values, weight, dweight, 21, value, jacobian);  // AppearanceTable
     default: return accumulate_corners<0>(corner_values, weight, dweight, channels_, value, jacobian);
   }
 }

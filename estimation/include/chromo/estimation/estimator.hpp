@@ -50,6 +50,7 @@
 #include <span>
 #include <string>
 
+#include "chromo/estimation/appearance.hpp"
 #include "chromo/estimation/forward_table.hpp"
 #include "chromo/files/progress.hpp"
 #include <optional>
@@ -84,6 +85,10 @@ struct PixelEstimate {
 struct EstimatorOptions {
   InverterMethod method = InverterMethod::kFast;
   ModelChoice model = ModelChoice::kAuto;
+  // The auto model's order rule (step 3): order 2 where the 2D fit's
+  // appearance is within this factor × the 4D fit's appearance uncertainty.
+  double order_appearance_factor = 2.0;
+  // The spatial pass's pooled likelihood-ratio test (spatial_flags.hpp).
   double order_significance = 0.01;
   double flag_significance = 0.001;
   double dark_albedo = 0.01;
@@ -147,6 +152,7 @@ class Estimator {
   EstimatorOptions options_;
   std::unique_ptr<Inverter> inverter_;
   std::unique_ptr<Inverter> inverter_2d_;
+  std::shared_ptr<const AppearanceTable> appearance_;  // the auto model's order rule; null for 2d / 4d
   // The specular test (step 5 above): the best 4D fit of measured − s over the
   // scanned s, continued from `start`; chi2 = ∞ when no s reaches min_specular.
   static constexpr int kSpecularSteps = 8;
@@ -154,7 +160,6 @@ class Estimator {
   static constexpr double kHopelessChi2Factor = 10;
   static constexpr int kSpecularContinuationIterations = 4;
   Fit specular_fit(const double* measured, const double* weight, const GridPoint& start) const;
-  double order_threshold_ = 0;
   double flag_threshold_[5] = {};  // by free parameters (index 2 and 4)
 };
 
