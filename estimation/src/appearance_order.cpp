@@ -3,43 +3,37 @@
 #include <Eigen/Core>
 #include <Eigen/LU>
 #include <cmath>
-#include <limits>
 
 #include "chromo/estimation/channel_buffer.hpp"
 
 namespace chromo::estimation::detail {
 
-double appearance_uncertainty(const ForwardTable& table, const AppearanceTable& appearance, const double* weight,
+double appearance_uncertainty(const ForwardTable& table, const AppearanceTable& appearance,
                               const double* camera_variance, const GridPoint& x4, double* lab4) {
   constexpr int kLab = AppearanceTable::kChannels;
   const int channels = table.channels();
   ChannelBuffer<double> value(channels), jacobian(channels * 4);
   table.predict(x4, value, jacobian);
-  Eigen::Matrix4d a = Eigen::Matrix4d::Zero(), b = Eigen::Matrix4d::Zero();
+  // Information of the data (Jᵀ V⁻¹ J) plus that of the box the fit is held
+  // in: a uniform distribution over an axis of n − 1 grid units has variance
+  // (n − 1)²/12. Without it a parameter the channels barely see gets a
+  // linearised spread far beyond its range (measured: the RMS ΔE*ab of noisy
+  // synthetic 4D fits 1.6 where the unbounded covariance said 14).
+  const auto nodes = table.nodes();
+  Eigen::Matrix4d information = Eigen::Matrix4d::Zero();
+  for (int k = 0; k < 4; ++k) information(k, k) = 12.0 / ((nodes[k] - 1.0) * (nodes[k] - 1.0));
   for (int c = 0; c < channels; ++c) {
     const Eigen::Map<const Eigen::Vector4d> j(jacobian.data() + 4 * c);
-    const double w2 = weight[c] * weight[c];
-    const Eigen::Matrix4d jj = j * j.transpose();
-    a += w2 * jj;
-    b += w2 * w2 * camera_variance[c] * jj;
+    information.noalias() += (j / camera_variance[c]) * j.transpose();
   }
   double g[kLab * 4];
   appearance.lab(x4, lab4, g);
-  // Scale A to a unit diagonal so that the singularity check does not depend
-  // on the units of the grid axes or the weights.
+  // Scaled to a unit diagonal before the inverse: the information spans many
+  // orders of magnitude between well and poorly determined axes.
   Eigen::Vector4d scale;
-  for (int k = 0; k < 4; ++k) {
-    if (!(a(k, k) > 0)) return std::numeric_limits<double>::infinity();
-    scale(k) = 1 / std::sqrt(a(k, k));
-  }
-  const Eigen::Matrix4d unit = scale.asDiagonal() * a * scale.asDiagonal();
-  Eigen::Matrix4d unit_inverse;
-  bool invertible = false;
-  double determinant = 0;
-  unit.computeInverseAndDetWithCheck(unit_inverse, determinant, invertible, 1e-12);
-  if (!invertible || !(determinant > 1e-12)) return std::numeric_limits<double>::infinity();
-  const Eigen::Matrix4d a_inverse = scale.asDiagonal() * unit_inverse * scale.asDiagonal();
-  const Eigen::Matrix4d covariance = a_inverse * b * a_inverse;
+  for (int k = 0; k < 4; ++k) scale(k) = 1 / std::sqrt(information(k, k));
+  const Eigen::Matrix4d unit = scale.asDiagonal() * information * scale.asDiagonal();
+  const Eigen::Matrix4d covariance = scale.asDiagonal() * unit.inverse() * scale.asDiagonal();
   double sum = 0;
   for (int l = 0; l < AppearanceTable::kIlluminants; ++l) {
     double variance = 0;

@@ -9,15 +9,14 @@
 namespace chromo::estimation::detail {
 
 // How far the 4D fit's appearance moves with the camera noise: the fit's
-// parameter covariance Σ = A⁻¹ B A⁻¹ (A = Jᵀ diag(w²) J, B = Jᵀ diag(w⁴ σ²) J:
-// the weighted least squares the fit solved, with J the table's Jacobian at
-// x4, w the fit's weights and σ² the camera noise variance alone, not the
-// model-error term of the weights), mapped to Lab by the appearance
-// Jacobian G per illuminant: sqrt(trace(G Σ Gᵀ)), the RMS ΔE*ab of the 4D
-// fit's appearance, averaged over the illuminants. +∞ when A is singular
-// (the channels do not determine four parameters). Writes the Lab of x4
-// (AppearanceTable::kChannels values) to lab4.
-double appearance_uncertainty(const ForwardTable& table, const AppearanceTable& appearance, const double* weight,
+// parameter covariance Σ = (Jᵀ V⁻¹ J + P)⁻¹ (J the table's Jacobian at x4,
+// V the camera noise variance alone, not the model-error term of the fit's
+// weights; P the box the fit is bounded to, as the information of a uniform
+// distribution over each axis: 12 / (nodes − 1)² in grid units), mapped to
+// Lab by the appearance Jacobian G per illuminant: sqrt(trace(G Σ Gᵀ)), the
+// RMS ΔE*ab of the 4D fit's appearance, averaged over the illuminants.
+// Writes the Lab of x4 (AppearanceTable::kChannels values) to lab4.
+double appearance_uncertainty(const ForwardTable& table, const AppearanceTable& appearance,
                               const double* camera_variance, const GridPoint& x4, double* lab4);
 
 // Mean over the illuminants of ΔE*ab between lab4 and the Lab of x2.

@@ -199,7 +199,7 @@ PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const
       for (int c = 0; c < c_count; ++c) variance[c] = set_.channels[c].noise.variance(measured[c]);
       double lab4[AppearanceTable::kChannels];
       const double uncertainty =
-          detail::appearance_uncertainty(*table_, *appearance_, weight, variance, chosen.x, lab4);
+          detail::appearance_uncertainty(*table_, *appearance_, variance, chosen.x, lab4);
       const Fit fit2 = inv.fit(measured, weight, 2);
       out.order_statistic = static_cast<float>(std::max(fit2.chi2 - chosen.chi2, 0.0));
       // A pixel only the 4D fit explains keeps order 4: a pixel one order
