@@ -58,18 +58,25 @@ MeasurementSet AppearanceTable::reference_set() {
   return set;
 }
 
-AppearanceTable::AppearanceTable(std::shared_ptr<const ForwardTable> table) : table_(std::move(table)) {
+AppearanceTable::AppearanceTable(std::shared_ptr<const ForwardTable> table, const TableGrid& measurement_grid)
+    : table_(std::move(table)) {
   if (!table_ || table_->channels() != kChannels)
     throw std::invalid_argument("appearance table: needs a table of " + std::to_string(kChannels) +
                                 " channels (X, Y, Z under the reference illuminants)");
+  std::string error;
+  if (!measurement_grid.IsValid(&error)) throw std::invalid_argument("appearance table: measurement grid: " + error);
+  const std::array<int, 4> from = {measurement_grid.cm_nodes, measurement_grid.ch_nodes, measurement_grid.bm_nodes,
+                                   measurement_grid.che_nodes};
+  const std::array<int, 4> to = table_->nodes();
+  for (int k = 0; k < 4; ++k) scale_[k] = (to[k] - 1.0) / (from[k] - 1.0);
 }
 
-std::shared_ptr<const AppearanceTable> AppearanceTable::load_or_build(const TableGrid& grid,
+std::shared_ptr<const AppearanceTable> AppearanceTable::load_or_build(const TableGrid& measurement_grid,
                                                                       const std::filesystem::path& cache_dir,
                                                                       int threads) {
   const std::filesystem::path dir = cache_dir.empty() ? ForwardTable::default_cache_dir() : cache_dir;
   return std::make_shared<const AppearanceTable>(
-      ForwardTable::load_or_build(reference_set(), grid, dir, nullptr, threads));
+      ForwardTable::load_or_build(reference_set(), kGrid, dir, nullptr, threads), measurement_grid);
 }
 
 std::shared_ptr<const AppearanceTable> AppearanceTable::shared(const TableGrid& grid,
@@ -88,7 +95,8 @@ std::shared_ptr<const AppearanceTable> AppearanceTable::shared(const TableGrid& 
 
 void AppearanceTable::lab(const GridPoint& x, double* lab, double* jacobian) const {
   double xyz[kChannels], dxyz[kChannels * 4];
-  table_->predict(x, xyz, jacobian ? dxyz : nullptr);
+  const GridPoint own = {x[0] * scale_[0], x[1] * scale_[1], x[2] * scale_[2], x[3] * scale_[3]};
+  table_->predict(own, xyz, jacobian ? dxyz : nullptr);
   for (int l = 0; l < kIlluminants; ++l) {
     double f[3], df[3];
     for (int i = 0; i < 3; ++i) lab_f(xyz[3 * l + i], &f[i], &df[i]);
@@ -100,7 +108,7 @@ void AppearanceTable::lab(const GridPoint& x, double* lab, double* jacobian) con
     const double* dx = dxyz + 3 * l * 4;  // rows X, Y, Z of this illuminant
     double* j = jacobian + 3 * l * 4;
     for (int k = 0; k < 4; ++k) {
-      const double fx = df[0] * dx[k], fy = df[1] * dx[4 + k], fz = df[2] * dx[8 + k];
+      const double fx = df[0] * dx[k] * scale_[k], fy = df[1] * dx[4 + k] * scale_[k], fz = df[2] * dx[8 + k] * scale_[k];
       j[k] = 116.0 * fy;
       j[4 + k] = 500.0 * (fx - fy);
       j[8 + k] = 200.0 * (fy - fz);
