@@ -1,5 +1,6 @@
 #include "chromo/estimation/appearance.hpp"
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -93,20 +94,25 @@ std::shared_ptr<const AppearanceTable> AppearanceTable::shared(const TableGrid& 
   return table;
 }
 
-void AppearanceTable::lab(const GridPoint& x, double* lab, double* jacobian) const {
-  double xyz[kChannels], dxyz[kChannels * 4];
+void AppearanceTable::xyz(const GridPoint& x, double* xyz) const {
   const GridPoint own = {x[0] * scale_[0], x[1] * scale_[1], x[2] * scale_[2], x[3] * scale_[3]};
-  table_->predict(own, xyz, jacobian ? dxyz : nullptr);
+  table_->predict(own, xyz);
+}
+
+void AppearanceTable::at(const GridPoint& x, Point& out) const {
+  double dxyz[kChannels * 4];
+  const GridPoint own = {x[0] * scale_[0], x[1] * scale_[1], x[2] * scale_[2], x[3] * scale_[3]};
+  table_->predict(own, out.xyz, dxyz);
   for (int l = 0; l < kIlluminants; ++l) {
-    double f[3], df[3];
-    for (int i = 0; i < 3; ++i) lab_f(xyz[3 * l + i], &f[i], &df[i]);
-    double* out = lab + 3 * l;
-    out[0] = 116.0 * f[1] - 16.0;
-    out[1] = 500.0 * (f[0] - f[1]);
-    out[2] = 200.0 * (f[1] - f[2]);
-    if (!jacobian) continue;
+    double f[3];
+    double* df = out.f_slope + 3 * l;
+    for (int i = 0; i < 3; ++i) lab_f(out.xyz[3 * l + i], &f[i], &df[i]);
+    double* lab = out.lab + 3 * l;
+    lab[0] = 116.0 * f[1] - 16.0;
+    lab[1] = 500.0 * (f[0] - f[1]);
+    lab[2] = 200.0 * (f[1] - f[2]);
     const double* dx = dxyz + 3 * l * 4;  // rows X, Y, Z of this illuminant
-    double* j = jacobian + 3 * l * 4;
+    double* j = out.jacobian + 3 * l * 4;
     for (int k = 0; k < 4; ++k) {
       const double fx = df[0] * dx[k] * scale_[k], fy = df[1] * dx[4 + k] * scale_[k], fz = df[2] * dx[8 + k] * scale_[k];
       j[k] = 116.0 * fy;
@@ -114,6 +120,21 @@ void AppearanceTable::lab(const GridPoint& x, double* lab, double* jacobian) con
       j[8 + k] = 200.0 * (fy - fz);
     }
   }
+}
+
+void AppearanceTable::lab(const GridPoint& x, double* lab, double* jacobian) const {
+  Point p;
+  at(x, p);
+  std::copy_n(p.lab, kChannels, lab);
+  if (jacobian) std::copy_n(p.jacobian, kChannels * 4, jacobian);
+}
+
+double AppearanceTable::linear_delta_e(const Point& from, const double* xyz, int l) {
+  const double* df = from.f_slope + 3 * l;
+  const double fx = df[0] * (xyz[3 * l] - from.xyz[3 * l]), fy = df[1] * (xyz[3 * l + 1] - from.xyz[3 * l + 1]),
+               fz = df[2] * (xyz[3 * l + 2] - from.xyz[3 * l + 2]);
+  const double dl = 116.0 * fy, da = 500.0 * (fx - fy), db = 200.0 * (fy - fz);
+  return std::sqrt(dl * dl + da * da + db * db);
 }
 
 }  // namespace chromo::estimation

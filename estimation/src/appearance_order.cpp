@@ -9,8 +9,7 @@
 namespace chromo::estimation::detail {
 
 double appearance_uncertainty(const ForwardTable& table, const AppearanceTable& appearance,
-                              const double* camera_variance, const GridPoint& x4, double* lab4) {
-  constexpr int kLab = AppearanceTable::kChannels;
+                              const double* camera_variance, const GridPoint& x4, AppearanceTable::Point& at4) {
   const int channels = table.channels();
   ChannelBuffer<double> value(channels), jacobian(channels * 4);
   table.predict(x4, value, jacobian);
@@ -26,8 +25,8 @@ double appearance_uncertainty(const ForwardTable& table, const AppearanceTable& 
     const Eigen::Map<const Eigen::Vector4d> j(jacobian.data() + 4 * c);
     information.noalias() += (j / camera_variance[c]) * j.transpose();
   }
-  double g[kLab * 4];
-  appearance.lab(x4, lab4, g);
+  appearance.at(x4, at4);
+  const double* g = at4.jacobian;
   // Scaled to a unit diagonal before the inverse: the information spans many
   // orders of magnitude between well and poorly determined axes.
   Eigen::Vector4d scale;
@@ -46,15 +45,11 @@ double appearance_uncertainty(const ForwardTable& table, const AppearanceTable& 
   return sum / AppearanceTable::kIlluminants;
 }
 
-double appearance_difference(const AppearanceTable& appearance, const double* lab4, const GridPoint& x2) {
-  double lab2[AppearanceTable::kChannels];
-  appearance.lab(x2, lab2);
+double appearance_difference(const AppearanceTable& appearance, const AppearanceTable::Point& at4, const GridPoint& x2) {
+  double xyz2[AppearanceTable::kChannels];
+  appearance.xyz(x2, xyz2);
   double sum = 0;
-  for (int l = 0; l < AppearanceTable::kIlluminants; ++l) {
-    const double dl = lab2[3 * l] - lab4[3 * l], da = lab2[3 * l + 1] - lab4[3 * l + 1],
-                 db = lab2[3 * l + 2] - lab4[3 * l + 2];
-    sum += std::sqrt(dl * dl + da * da + db * db);
-  }
+  for (int l = 0; l < AppearanceTable::kIlluminants; ++l) sum += AppearanceTable::linear_delta_e(at4, xyz2, l);
   return sum / AppearanceTable::kIlluminants;
 }
 

@@ -15,11 +15,12 @@ namespace chromo::estimation::detail {
 // distribution over each axis: 12 / (nodes − 1)² in grid units), mapped to
 // Lab by the appearance Jacobian G per illuminant: sqrt(trace(G Σ Gᵀ)), the
 // RMS ΔE*ab of the 4D fit's appearance, averaged over the illuminants.
-// Writes the Lab of x4 (AppearanceTable::kChannels values) to lab4.
+// Writes the appearance at x4 to `at4`.
 double appearance_uncertainty(const ForwardTable& table, const AppearanceTable& appearance,
-                              const double* camera_variance, const GridPoint& x4, double* lab4);
+                              const double* camera_variance, const GridPoint& x4, AppearanceTable::Point& at4);
 
-// Mean over the illuminants of ΔE*ab between lab4 and the Lab of x2.
-double appearance_difference(const AppearanceTable& appearance, const double* lab4, const GridPoint& x2);
+// Mean over the illuminants of ΔE*ab between the appearance at4 and that of
+// x2, linearised at at4 (AppearanceTable::linear_delta_e).
+double appearance_difference(const AppearanceTable& appearance, const AppearanceTable::Point& at4, const GridPoint& x2);
 
 }  // namespace chromo::estimation::detail

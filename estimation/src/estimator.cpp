@@ -197,16 +197,15 @@ PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const
       // uncertainty from the camera noise.
       ChannelBuffer<double> variance(c_count);
       for (int c = 0; c < c_count; ++c) variance[c] = set_.channels[c].noise.variance(measured[c]);
-      double lab4[AppearanceTable::kChannels];
-      const double uncertainty =
-          detail::appearance_uncertainty(*table_, *appearance_, variance, chosen.x, lab4);
+      AppearanceTable::Point at4;
+      const double uncertainty = detail::appearance_uncertainty(*table_, *appearance_, variance, chosen.x, at4);
       const Fit fit2 = inv.fit(measured, weight, 2);
       out.order_statistic = static_cast<float>(std::max(fit2.chi2 - chosen.chi2, 0.0));
       // A pixel only the 4D fit explains keeps order 4: a pixel one order
       // explains is not flagged for the rule picking the other.
       const bool only_4d_explains = fit2.chi2 > flag_threshold_[2] && chosen.chi2 <= flag_threshold_[4];
       if (!only_4d_explains &&
-          detail::appearance_difference(*appearance_, lab4, fit2.x) <= options_.order_appearance_factor * uncertainty)
+          detail::appearance_difference(*appearance_, at4, fit2.x) <= options_.order_appearance_factor * uncertainty)
         chosen = fit2, order = 2;
     }
   }

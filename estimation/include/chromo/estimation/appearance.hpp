@@ -64,6 +64,19 @@ class AppearanceTable {
   // jacobian (optional): kChannels × 4, row-major, d lab / d x.
   void lab(const GridPoint& x, double* lab, double* jacobian = nullptr) const;
 
+  // The same at x with what a linearised Lab difference needs: the
+  // normalised tristimulus values and the slope of the CIE f at each.
+  struct Point {
+    double lab[kChannels], jacobian[kChannels * 4], xyz[kChannels], f_slope[kChannels];
+  };
+  void at(const GridPoint& x, Point& out) const;
+  // Normalised X/Xn, Y/Yn, Z/Zn per illuminant at x (no Lab: no cube roots).
+  void xyz(const GridPoint& x, double* xyz) const;
+  // ΔE*ab between `from` and the tristimulus values xyz, linearised at
+  // `from` (exact to first order; the rule compares differences of a few
+  // ΔE), for illuminant l.
+  static double linear_delta_e(const Point& from, const double* xyz, int l);
+
  private:
   std::shared_ptr<const ForwardTable> table_;
   std::array<double, 4> scale_{};  // appearance-grid units per measurement-grid unit
