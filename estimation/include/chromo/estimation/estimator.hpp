@@ -13,12 +13,13 @@
 //  3. Model order. model = k4d or k2d: that order. kAuto: fit both and
 //     compare what they look like (AppearanceTable: CIELAB under the six LED
 //     types and D65): D = mean over those illuminants of ΔE*ab between the
-//     2D and the 4D fit; U = the 4D fit's own appearance uncertainty from the
-//     camera noise (its parameter covariance (JᵀWJ)⁻¹JᵀWVWJ(JᵀWJ)⁻¹, J the
-//     table's Jacobian, W the fit's weights, V the camera noise variance
-//     alone, mapped to Lab by the appearance Jacobian: RMS ΔE*ab, averaged
-//     over the illuminants; +∞ where the channels do not determine four
-//     parameters). Order 2 when D ≤ order_appearance_factor · U, else 4: 4D
+//     2D and the 4D fit (linearised at the 4D fit's colour); U = the 4D
+//     fit's own appearance uncertainty from the camera noise (its parameter
+//     covariance (Jᵀ V⁻¹ J + P)⁻¹, J the table's Jacobian at the 4D fit, V
+//     the camera noise variance alone (not the model-error term of the
+//     weights), P the parameter box as a uniform prior, mapped to Lab by the
+//     appearance Jacobian: RMS ΔE*ab, averaged over the illuminants).
+//     Order 2 when D ≤ order_appearance_factor · U (default k = 1), else 4: 4D
 //     only where βm and Che change the predicted appearance by more than
 //     their uncertainty. Noise-free data declared so (U ≈ 0) get order 4
 //     wherever the fits differ, so the 2D choice never costs accuracy where
