@@ -766,8 +766,31 @@ void run_lab_methods(BenchRun& run, const LabFrames& frames) {
 }
 
 // The lab's fast 4D against the targets and against exhaustive.
+// The auto model's order rule against the fixed orders (issue 20's target:
+// noise-free within 1.15× of the 4D fit, noisy no worse than it): relit
+// ΔE94 (six LEDs + D65) of fast auto, fast 4D and 2D, and auto / 4D.
+void print_order_ratios(const std::vector<RunResult>& runs, const std::string& prefix, const char* label) {
+  for (const char* noise : {"noise-free", "noisy"}) {
+    const RunResult *automatic = nullptr, *four = nullptr, *two = nullptr;
+    for (const RunResult& r : runs) {
+      if (r.noise != noise) continue;
+      if (r.method == prefix + "fast" && r.model == "auto") automatic = &r;
+      if (r.method == prefix + "fast" && r.model == "4d") four = &r;
+      if (r.method == prefix + "2d") two = &r;
+    }
+    if (!automatic || !four) continue;
+    std::printf("%s %s: relit ΔE94 auto %.4f, 4d %.4f, 2d %s; auto/4d x%.3f (target: noise-free <= 1.15, noisy "
+                "<= 1); speed auto/4d x%.2f; auto at order 4 on %.1f%%\n",
+                label, noise, automatic->acc.de_all, four->acc.de_all,
+                two ? std::to_string(two->acc.de_all).substr(0, 6).c_str() : "-", automatic->acc.de_all / four->acc.de_all,
+                automatic->pixels_per_second / four->pixels_per_second,
+                100.0 * automatic->order4 / std::max<std::size_t>(1, automatic->order2 + automatic->order4));
+  }
+}
+
 void print_lab_targets(const BenchRun& run) {
   const auto& scene_runs = run.scene_runs;
+  print_order_ratios(scene_runs, "lab:", "lab");
   for (const char* noise : {"noise-free", "noisy"}) {
     const RunResult *fast = nullptr, *ex = nullptr;
     for (const RunResult& r : scene_runs) {
@@ -854,6 +877,7 @@ bool run_virtual_lab(BenchRun& run) {
 // The synthetic runs' ratios: fast against exhaustive and 2D, and the targets.
 void print_ratios(const BenchRun& run) {
   const auto& runs = run.runs;
+  print_order_ratios(runs, "", "synthetic");
   auto find = [&](const std::string& m, const std::string& model, const std::string& noise) -> const RunResult* {
     for (const RunResult& r : runs)
       if (r.method == m && r.model == model && r.noise == noise) return &r;

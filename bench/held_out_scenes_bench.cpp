@@ -5,10 +5,15 @@
 // (Cm, Ch, βm, Che) and places its own vein, tattoo ink, marker, hair and
 // highlights, and its own camera noise. Per seed and for the spread over the
 // held-out seeds (mean, min, max): relit ΔE94 against the truth on the skin
-// cells (six LEDs + D65, and D65 alone), noisy and noise-free, each
-// parameter's error, and the share of each scene region flagged.
+// cells (six LEDs + D65, and D65 alone) of the auto model (with and without
+// the spatial pass's pooled order), the 4D and the 2D model, and auto / 4D,
+// on the noisy frames, the noise-free frames with the camera's noise declared
+// (as the daemon tells the estimator) and the noise-free frames declared
+// noise-free (read σ 1e-6); the share of skin at order 4; each parameter's
+// error, and the share of each scene region flagged.
 //
 //   held_out_scenes_bench [--seeds 11,12,13,14,15,16] [--sensor W H] [--out DIR]
+//                         [--order-factor K] [--tuning-only]
 //
 // Writes DIR/held_out_scenes.csv and DIR/held_out_scenes.png (relit ΔE94 per
 // seed). The tuning seed's row is printed first, for reference, and is not
@@ -17,6 +22,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -36,24 +43,69 @@ namespace {
 constexpr std::uint64_t kTuningSeed = 5;
 constexpr int kRegions = 6;  // skin, vein, tattoo, marker, hair, specular
 
+// The estimator configurations run on every measurement: the default (auto
+// model, spatial pass with its pooled order), the auto model with the spatial
+// pass's flags but no pooled order, and the fixed orders (spatial flags on).
+enum Config { kAuto, kAutoNoPool, k4d, k2d, kConfigs };
+constexpr const char* kConfigNames[kConfigs] = {"auto", "auto-nopool", "4d", "2d"};
+
+struct ConfigResult {
+  Accuracy acc;                    // relit, on explained skin cells
+  double flagged[kRegions] = {};   // share of each region's cells flagged
+  double order4 = 0;               // share of explained skin cells at order 4
+};
+
 struct SeedResult {
   std::uint64_t seed = 0;
-  Accuracy noisy, noise_free;          // on skin cells, explained ones
-  double flagged[kRegions] = {};       // share of each region's cells flagged (noisy, with the spatial pass)
+  // noisy; noise-free with the camera's noise declared (as the daemon does);
+  // noise-free declared noise-free (read σ 1e-6, no shot noise).
+  ConfigResult noisy[kConfigs], noise_free[kConfigs], declared[kConfigs];
   std::size_t region_cells[kRegions] = {};
 };
 
-// The default estimator on one measurement: per pixel, then the spatial pass.
-std::vector<estimation::PixelEstimate> estimate(const session::MethodMeasurement& m, int width, int height) {
-  auto table = std::make_shared<const estimation::ForwardTable>(
-      estimation::ForwardTable::build(m.set, estimation::TableGrid{}, 2));
+// The lab's measurement set told that its data have no camera noise.
+estimation::MeasurementSet declared_noise_free(estimation::MeasurementSet set) {
+  for (estimation::MeasurementChannel& c : set.channels) c.noise.read_sigma = 1e-6, c.noise.shot_coefficient = 0;
+  return set;
+}
+
+// The auto model's appearance factor k (--order-factor; the default's unless given).
+double order_factor = estimation::EstimatorOptions{}.order_appearance_factor;
+
+// One configuration on one measurement: per pixel, then the spatial pass.
+std::vector<estimation::PixelEstimate> estimate(std::shared_ptr<const estimation::ForwardTable> table,
+                                                const estimation::MeasurementSet& set, std::span<const float> measured,
+                                                int width, int height, Config config) {
   estimation::EstimatorOptions options;
   options.threads = 2;
-  const estimation::Estimator estimator(table, m.set, options);
-  std::vector<estimation::PixelEstimate> e(m.measured.size() / static_cast<std::size_t>(m.set.size()));
-  estimation::EstimateSummary summary = estimator.estimate(m.measured, e);
-  estimation::refine_with_neighbourhood(estimator, m.measured, width, height, e, summary);
+  options.order_appearance_factor = order_factor;
+  options.model = config == k4d ? estimation::ModelChoice::k4d
+                  : config == k2d ? estimation::ModelChoice::k2d
+                                  : estimation::ModelChoice::kAuto;
+  const estimation::Estimator estimator(table, set, options);
+  std::vector<estimation::PixelEstimate> e(measured.size() / static_cast<std::size_t>(set.size()));
+  estimation::EstimateSummary summary = estimator.estimate(measured, e);
+  estimation::NeighbourhoodOptions no;
+  no.pool_order = config == kAuto;
+  estimation::refine_with_neighbourhood(estimator, measured, width, height, e, summary, no);
   return e;
+}
+
+ConfigResult score(const simulators::RenderedSession& lab, const Relit& truth, const std::vector<bool>& skin,
+                   const std::vector<estimation::PixelEstimate>& e) {
+  ConfigResult r;
+  r.acc = accuracy(truth, lab.truth, e, skin);
+  std::size_t flagged[kRegions] = {}, cells[kRegions] = {}, order4 = 0, explained_skin = 0;
+  for (std::size_t i = 0; i < lab.pixels(); ++i) {
+    if (lab.region[i] >= kRegions) continue;  // white target, mixed cells
+    ++cells[lab.region[i]];
+    const bool explained = e[i].flag == estimation::PixelFlag::kExplained;
+    if (!explained) ++flagged[lab.region[i]];
+    if (explained && skin[i]) ++explained_skin, order4 += e[i].order == 4;
+  }
+  for (int k = 0; k < kRegions; ++k) r.flagged[k] = cells[k] ? static_cast<double>(flagged[k]) / cells[k] : 0.0;
+  r.order4 = explained_skin ? static_cast<double>(order4) / explained_skin : 0.0;
+  return r;
 }
 
 SeedResult run_seed(std::uint64_t seed, int sensor_width, int sensor_height) {
@@ -63,38 +115,52 @@ SeedResult run_seed(std::uint64_t seed, int sensor_width, int sensor_height) {
   SeedResult r;
   r.seed = seed;
   std::vector<bool> skin(lab.pixels());
-  for (std::size_t i = 0; i < lab.pixels(); ++i)
-    skin[i] = lab.region[i] == static_cast<std::uint8_t>(simulators::SceneRegion::kSkin);
-  const Relit truth = relight(lab.truth);
-  const auto noisy = estimate(lab.noisy, lab.width, lab.height);
-  const auto noise_free = estimate(lab.noise_free, lab.width, lab.height);
-  r.noisy = accuracy(truth, lab.truth, noisy, skin);
-  r.noise_free = accuracy(truth, lab.truth, noise_free, skin);
-  std::size_t flagged[kRegions] = {};
   for (std::size_t i = 0; i < lab.pixels(); ++i) {
-    if (lab.region[i] >= kRegions) continue;  // white target, mixed cells
-    ++r.region_cells[lab.region[i]];
-    if (noisy[i].flag != estimation::PixelFlag::kExplained) ++flagged[lab.region[i]];
+    skin[i] = lab.region[i] == static_cast<std::uint8_t>(simulators::SceneRegion::kSkin);
+    if (lab.region[i] < kRegions) ++r.region_cells[lab.region[i]];
   }
-  for (int k = 0; k < kRegions; ++k)
-    r.flagged[k] = r.region_cells[k] ? static_cast<double>(flagged[k]) / r.region_cells[k] : 0.0;
+  const Relit truth = relight(lab.truth);
+  // One table per set of channel weights (the noise does not enter it).
+  auto table_for = [&, cached = std::shared_ptr<const estimation::ForwardTable>()](
+                       const estimation::MeasurementSet& set) mutable {
+    if (!cached || cached->key() != estimation::ForwardTable::cache_key(set, estimation::TableGrid{}))
+      cached = std::make_shared<const estimation::ForwardTable>(
+          estimation::ForwardTable::build(set, estimation::TableGrid{}, 2));
+    return cached;
+  };
+  const estimation::MeasurementSet declared = declared_noise_free(lab.noise_free.set);
+  for (int c = 0; c < kConfigs; ++c) {
+    const Config config = static_cast<Config>(c);
+    r.noisy[c] = score(lab, truth, skin,
+                       estimate(table_for(lab.noisy.set), lab.noisy.set, lab.noisy.measured, lab.width, lab.height, config));
+    r.noise_free[c] = score(lab, truth, skin,
+                            estimate(table_for(lab.noise_free.set), lab.noise_free.set, lab.noise_free.measured,
+                                     lab.width, lab.height, config));
+    r.declared[c] = score(lab, truth, skin,
+                          estimate(table_for(declared), declared, lab.noise_free.measured, lab.width, lab.height, config));
+  }
   return r;
 }
 
 void print_header() {
-  std::printf("%6s %9s %9s %9s %9s %8s %8s %8s %8s", "seed", "noisy", "noisy", "clean", "clean", "|dlogCm|",
-              "|dlogCh|", "|dBm|", "|dChe|");
-  for (int k = 0; k < kRegions; ++k) std::printf(" %9.9s", simulators::region_name(static_cast<simulators::SceneRegion>(k)));
-  std::printf("\n%6s %9s %9s %9s %9s %8s %8s %8s %8s", "", "dE all", "dE D65", "dE all", "dE D65", "noisy", "noisy",
-              "noisy", "noisy");
-  for (int k = 0; k < kRegions; ++k) std::printf(" %9s", "flagged");
-  std::printf("\n");
+  std::printf("relit dE94 on explained skin cells (six LEDs + D65); order 4 = share of them at order 4\n");
+  std::printf("%6s %-22s %8s %8s %8s %8s %8s %9s %8s %8s %8s\n", "seed", "data", "auto", "no-pool", "4d", "2d",
+              "auto/4d", "nopool/4d", "order4", "skin flg", "4d flg");
 }
 
-void print_row(const char* label, const SeedResult& r) {
-  std::printf("%6s %9.3f %9.3f %9.3f %9.3f %8.3f %8.3f %8.3f %8.4f", label, r.noisy.de_all, r.noisy.de_d65,
-              r.noise_free.de_all, r.noise_free.de_d65, r.noisy.log_cm, r.noisy.log_ch, r.noisy.bm, r.noisy.che);
-  for (int k = 0; k < kRegions; ++k) std::printf(" %8.1f%%", 100 * r.flagged[k]);
+void print_rows(const char* label, const SeedResult& r) {
+  const struct {
+    const char* name;
+    const ConfigResult* c;
+  } data[3] = {{"noisy", r.noisy}, {"noise-free (declared σ)", r.noise_free}, {"noise-free (σ ≈ 0)", r.declared}};
+  for (const auto& d : data)
+    std::printf("%6s %-22s %8.4f %8.4f %8.4f %8.4f %8.3f %9.3f %7.1f%% %7.2f%% %7.2f%%\n", label, d.name,
+                d.c[kAuto].acc.de_all, d.c[kAutoNoPool].acc.de_all, d.c[k4d].acc.de_all, d.c[k2d].acc.de_all,
+                d.c[kAuto].acc.de_all / d.c[k4d].acc.de_all, d.c[kAutoNoPool].acc.de_all / d.c[k4d].acc.de_all,
+                100 * d.c[kAuto].order4, 100 * d.c[kAuto].flagged[0], 100 * d.c[k4d].flagged[0]);
+  std::printf("%6s %-22s", label, "noisy default flagged");
+  for (int k = 0; k < kRegions; ++k)
+    std::printf(" %s %.1f%%", simulators::region_name(static_cast<simulators::SceneRegion>(k)), 100 * r.noisy[kAuto].flagged[k]);
   std::printf("\n");
 }
 
@@ -103,7 +169,7 @@ template <class Get>
 void print_spread(const char* name, const std::vector<SeedResult>& results, Get get) {
   double sum = 0, low = get(results.front()), high = low;
   for (const auto& r : results) sum += get(r), low = std::min(low, get(r)), high = std::max(high, get(r));
-  std::printf("  %-34s mean %8.4f  min %8.4f  max %8.4f\n", name, sum / results.size(), low, high);
+  std::printf("  %-44s mean %8.4f  min %8.4f  max %8.4f\n", name, sum / results.size(), low, high);
 }
 
 void write_outputs(const std::filesystem::path& out, const std::vector<SeedResult>& results) {
@@ -111,23 +177,33 @@ void write_outputs(const std::filesystem::path& out, const std::vector<SeedResul
   const auto csv = out / "held_out_scenes.csv";
   {
     std::ofstream f(csv);
-    f << "seed,noisy_de_all,noisy_de_d65,clean_de_all,clean_de_d65,log_cm,log_ch,bm,che";
+    f << "seed";
+    for (const char* data : {"noisy", "clean", "declared"})
+      for (const char* config : kConfigNames) f << "," << data << "_" << config << "_de_all";
+    f << ",noisy_de_d65,clean_de_d65,log_cm,log_ch,bm,che,order4_noisy,order4_clean,order4_declared";
     for (int k = 0; k < kRegions; ++k) f << ",flagged_" << simulators::region_name(static_cast<simulators::SceneRegion>(k));
-    f << "\n";
+    f << ",skin_flagged_noisy_4d\n";
     for (const auto& r : results) {
-      f << r.seed << "," << r.noisy.de_all << "," << r.noisy.de_d65 << "," << r.noise_free.de_all << ","
-        << r.noise_free.de_d65 << "," << r.noisy.log_cm << "," << r.noisy.log_ch << "," << r.noisy.bm << ","
-        << r.noisy.che;
-      for (double v : r.flagged) f << "," << v;
-      f << "\n";
+      f << r.seed;
+      for (const ConfigResult* d : {r.noisy, r.noise_free, r.declared})
+        for (int c = 0; c < kConfigs; ++c) f << "," << d[c].acc.de_all;
+      const Accuracy& a = r.noisy[kAuto].acc;
+      f << "," << a.de_d65 << "," << r.noise_free[kAuto].acc.de_d65 << "," << a.log_cm << "," << a.log_ch << ","
+        << a.bm << "," << a.che << "," << r.noisy[kAuto].order4 << "," << r.noise_free[kAuto].order4 << ","
+        << r.declared[kAuto].order4;
+      for (double v : r.noisy[kAuto].flagged) f << "," << v;
+      f << "," << r.noisy[k4d].flagged[0] << "\n";
     }
   }
   files::GnuplotChart chart;
   chart.png = out / "held_out_scenes.png";
   chart.commands = "set datafile separator ','\nset key top left\nset style data histograms\n"
-                   "set style fill solid 0.8\nset title 'Default estimator on held-out lab scenes (skin cells)'\n"
+                   "set style fill solid 0.8\nset title 'Held-out lab scenes (skin cells): auto model against 4D and 2D'\n"
                    "set xlabel 'scene seed'\nset ylabel 'mean relit dE94 vs truth (six LEDs + D65)'\nset yrange [0:*]\n"
-                   "plot '" + csv.string() + "' every ::1 using 2:xtic(1) title 'noisy', '' every ::1 using 4 title 'noise-free'\n";
+                   "plot '" + csv.string() + "' every ::1 using 2:xtic(1) title 'noisy auto', '' every ::1 using 4 "
+                   "title 'noisy 4D', '' every ::1 using 6 title 'noise-free auto', '' every ::1 using 8 title "
+                   "'noise-free 4D', '' every ::1 using 10 title 'noise-free (declared) auto', '' every ::1 using 12 "
+                   "title 'noise-free (declared) 4D'\n";
   if (const std::string error = files::draw_chart(chart); !error.empty()) std::printf("chart: %s\n", error.c_str());
   std::printf("wrote %s and %s\n", csv.c_str(), chart.png.c_str());
 }
@@ -140,6 +216,9 @@ int run(int argc, char** argv) {
   app.add_option("--seeds", seeds, "held-out scene seeds (not the tuning seed 5)")->delimiter(',');
   app.add_option("--sensor", sensor, "sensor width and height (even)")->expected(2);
   app.add_option("--out", out, "folder for the CSV and the chart");
+  bool tuning_only = false;
+  app.add_option("--order-factor", order_factor, "the auto model's appearance factor k (tuning)");
+  app.add_flag("--tuning-only", tuning_only, "the tuning seed alone (for --order-factor sweeps)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -150,22 +229,44 @@ int run(int argc, char** argv) {
                  static_cast<unsigned long long>(kTuningSeed));
     return 2;
   }
-  std::printf("default estimator (fast, auto, spatial pass) on %dx%d-sensor lab sessions (%dx%d cells)\n", sensor[0],
-              sensor[1], sensor[0] / 2, sensor[1] / 2);
+  std::printf("fast inverter on %dx%d-sensor lab sessions (%dx%d cells); auto = the default (appearance order "
+              "rule, k = %.3g, spatial pass with pooled order)\n", sensor[0], sensor[1], sensor[0] / 2, sensor[1] / 2,
+              order_factor);
   print_header();
-  print_row("5 (t)", run_seed(kTuningSeed, sensor[0], sensor[1]));
+  print_rows("5 (t)", run_seed(kTuningSeed, sensor[0], sensor[1]));
+  if (tuning_only) return 0;
   std::vector<SeedResult> results;
   for (std::uint64_t seed : seeds) {
     results.push_back(run_seed(seed, sensor[0], sensor[1]));
-    print_row(std::to_string(seed).c_str(), results.back());
+    print_rows(std::to_string(seed).c_str(), results.back());
+    std::fflush(stdout);
   }
   std::printf("spread over %zu held-out seeds:\n", results.size());
-  print_spread("noisy relit dE94, six LEDs + D65", results, [](const SeedResult& r) { return r.noisy.de_all; });
-  print_spread("noisy relit dE94, D65", results, [](const SeedResult& r) { return r.noisy.de_d65; });
-  print_spread("noise-free relit dE94, six LEDs + D65", results, [](const SeedResult& r) { return r.noise_free.de_all; });
+  const struct {
+    const char* name;
+    ConfigResult (SeedResult::*data)[kConfigs];
+  } data[3] = {{"noisy", &SeedResult::noisy}, {"noise-free (declared σ)", &SeedResult::noise_free},
+               {"noise-free (σ ≈ 0)", &SeedResult::declared}};
+  for (const auto& d : data) {
+    for (int c = 0; c < kConfigs; ++c) {
+      const std::string name = std::string(d.name) + " " + kConfigNames[c] + " relit dE94";
+      print_spread(name.c_str(), results, [&](const SeedResult& r) { return (r.*d.data)[c].acc.de_all; });
+    }
+    for (int c : {kAuto, kAutoNoPool}) {
+      const std::string name = std::string(d.name) + " " + kConfigNames[c] + " / 4d";
+      print_spread(name.c_str(), results,
+                   [&](const SeedResult& r) { return (r.*d.data)[c].acc.de_all / (r.*d.data)[k4d].acc.de_all; });
+    }
+    print_spread((std::string(d.name) + " auto skin flagged").c_str(), results,
+                 [&](const SeedResult& r) { return (r.*d.data)[kAuto].flagged[0]; });
+    print_spread((std::string(d.name) + " 4d skin flagged").c_str(), results,
+                 [&](const SeedResult& r) { return (r.*d.data)[k4d].flagged[0]; });
+  }
+  print_spread("noisy relit dE94 D65 (auto)", results, [](const SeedResult& r) { return r.noisy[kAuto].acc.de_d65; });
   for (int k = 0; k < kRegions; ++k) {
-    const std::string name = std::string(simulators::region_name(static_cast<simulators::SceneRegion>(k))) + " flagged";
-    print_spread(name.c_str(), results, [k](const SeedResult& r) { return r.flagged[k]; });
+    const std::string name = std::string("noisy auto ") +
+                             simulators::region_name(static_cast<simulators::SceneRegion>(k)) + " flagged";
+    print_spread(name.c_str(), results, [k](const SeedResult& r) { return r.noisy[kAuto].flagged[k]; });
   }
   write_outputs(out, results);
   return 0;

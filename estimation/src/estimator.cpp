@@ -10,6 +10,8 @@
 #include <mutex>
 #include <stdexcept>
 
+#include "appearance_order.hpp"
+
 namespace chromo::estimation {
 
 std::string_view method_name(InverterMethod method) {
@@ -91,6 +93,8 @@ bool EstimatorOptions::IsValid(std::string* error) const {
     return false;
   };
   if (!(order_significance > 0 && order_significance < 1)) return fail("order_significance must be in (0, 1)");
+  if (!(order_appearance_factor > 0) || !std::isfinite(order_appearance_factor))
+    return fail("order_appearance_factor must be finite and > 0");
   if (!(flag_significance > 0 && flag_significance < 1)) return fail("flag_significance must be in (0, 1)");
   if (!(dark_albedo >= 0)) return fail("dark_albedo must be >= 0");
   if (!(min_specular > 0)) return fail("min_specular must be > 0");
@@ -132,13 +136,13 @@ Estimator::Estimator(std::shared_ptr<const ForwardTable> table, MeasurementSet s
   // The 2D fit of the auto test: the fast inverter's own order-2 path, or the
   // exhaustive slice search for the exhaustive reference.
   const int c = set_.size();
-  order_threshold_ = std::min(c, 4) > 2 ? chi_squared_quantile(1 - options_.order_significance, std::min(c, 4) - 2) : 0;
   for (int free : {2, 4}) flag_threshold_[free] = chi_squared_quantile(1 - options_.flag_significance, std::max(c - free, 1));
   options_.fast.inverse_table = options_.fast.inverse_table.completed_for(set_);
   // A pre-solved fit the flag test would reject always gets the search path.
   options_.fast.presolved_accept_chi2 =
       std::max(options_.fast.converged_chi2, std::min(options_.fast.presolved_accept_chi2, flag_threshold_[4]));
   inverter_ = make_inverter(options_.method, table_, options_.cache_dir, options_.fast);
+  if (options_.model == ModelChoice::kAuto) appearance_ = AppearanceTable::shared(table_->grid(), options_.cache_dir);
 }
 
 double Estimator::weight(int channel, double albedo) const {
@@ -148,6 +152,8 @@ double Estimator::weight(int channel, double albedo) const {
 void Estimator::predict(const SkinParameters& p, double* out) const { table_->predict(table_->to_grid(p), out); }
 
 PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const {
+  if (model == ModelChoice::kAuto && options_.method != InverterMethod::k2d && !appearance_)
+    throw std::logic_error("estimate_pixel: the auto model needs an Estimator built with model auto (its appearance table)");
   PixelEstimate out;
   const int c_count = channels();
   ChannelBuffer<double> measured(c_count), weight(c_count);
@@ -184,14 +190,23 @@ PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const
     // (χ²₂ ≥ χ²₄): the 2D fit (the search path, for such a pixel) is skipped
     // and the pixel keeps order 4.
     const bool hopeless = chosen.chi2 > kHopelessChi2Factor * flag_threshold_[2];
-    if (model == ModelChoice::kAuto && order_threshold_ > 0 && !hopeless) {
+    if (model == ModelChoice::kAuto && !hopeless) {
+      // The appearance rule (step 3 of the header): order 2 only where the
+      // 2D fit looks under the reference illuminants like the 4D fit, to
+      // within order_appearance_factor × the 4D fit's own appearance
+      // uncertainty from the camera noise.
+      ChannelBuffer<double> variance(c_count);
+      for (int c = 0; c < c_count; ++c) variance[c] = set_.channels[c].noise.variance(measured[c]);
+      AppearanceTable::Point at4;
+      const double uncertainty = detail::appearance_uncertainty(*table_, *appearance_, variance, chosen.x, at4);
       const Fit fit2 = inv.fit(measured, weight, 2);
       out.order_statistic = static_cast<float>(std::max(fit2.chi2 - chosen.chi2, 0.0));
-      // Order 2 where 4D does not lower χ² by more than noise would, unless
-      // the 2D fit fails the flag test that the 4D fit passes: a pixel one
-      // order explains is not flagged for the test picking the other.
+      // A pixel only the 4D fit explains keeps order 4: a pixel one order
+      // explains is not flagged for the rule picking the other.
       const bool only_4d_explains = fit2.chi2 > flag_threshold_[2] && chosen.chi2 <= flag_threshold_[4];
-      if (fit2.chi2 - chosen.chi2 <= order_threshold_ && !only_4d_explains) chosen = fit2, order = 2;
+      if (!only_4d_explains &&
+          detail::appearance_difference(*appearance_, at4, fit2.x) <= options_.order_appearance_factor * uncertainty)
+        chosen = fit2, order = 2;
     }
   }
   out.order = static_cast<std::uint8_t>(order);

@@ -5,9 +5,13 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <random>
 #include <unistd.h>
 
+#include "chromo/estimation/appearance.hpp"
 #include "chromo/estimation/skin_model.hpp"
+#include "chromo/spectral/colorimetry.hpp"
+#include "chromo/spectral/lab_illuminants.hpp"
 #include "chromo/simulators/scene/synthetic.hpp"
 #include "chromo/spectral/cie.hpp"
 #include "chromo/spectral/delta_e.hpp"
@@ -33,6 +37,66 @@ TEST(ForwardTable, NodesEqualTheDirectModel) {
       EXPECT_NEAR(interpolated[c], direct[c], 1e-5);
     }
   }
+}
+
+// The auto model's appearance table: CIELAB under the six LEDs and D65 at a
+// node of its own grid (measurement-grid coordinates, every second node)
+// equals the direct model's colour; between nodes it stays close to it; its
+// Jacobian is the derivative of the interpolant (central differences inside
+// one cell).
+TEST(AppearanceTable, LabMatchesTheModelAndItsJacobianTheInterpolant) {
+  const auto appearance = AppearanceTable::shared(TableGrid{}, {});
+  const auto illuminants = spectral::relight_illuminants();
+  ASSERT_EQ(static_cast<int>(illuminants.size()), AppearanceTable::kIlluminants);
+  const SkinModel model;
+  for (const GridPoint& node : {GridPoint{4, 10, 14, 0}, GridPoint{30, 20, 4, 16}, GridPoint{40, 40, 20, 20}}) {
+    double lab[AppearanceTable::kChannels];
+    appearance->lab(node, lab);
+    const spectral::Spectrum albedo = model.albedo(testing::method_table()->from_grid(node));
+    for (int l = 0; l < AppearanceTable::kIlluminants; ++l) {
+      const spectral::Spectrum& e = illuminants[l].spectrum;
+      const spectral::Lab direct =
+          spectral::lab_from_xyz(spectral::xyz_of_reflectance(albedo, e), spectral::white_point(e));
+      EXPECT_NEAR(lab[3 * l], direct.L, 2e-4) << illuminants[l].name;
+      EXPECT_NEAR(lab[3 * l + 1], direct.a, 2e-4) << illuminants[l].name;
+      EXPECT_NEAR(lab[3 * l + 2], direct.b, 2e-4) << illuminants[l].name;
+    }
+  }
+  // Between nodes: mean ΔE*ab against the direct model over random points.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(0, 1);
+  const auto n = testing::method_table()->nodes();
+  double sum = 0, worst = 0;
+  const int points = 300;
+  for (int i = 0; i < points; ++i) {
+    const GridPoint x{u(rng) * (n[0] - 1), u(rng) * (n[1] - 1), u(rng) * (n[2] - 1), u(rng) * (n[3] - 1)};
+    double lab[AppearanceTable::kChannels];
+    appearance->lab(x, lab);
+    const spectral::Spectrum albedo = model.albedo(testing::method_table()->from_grid(x));
+    for (int l = 0; l < AppearanceTable::kIlluminants; ++l) {
+      const spectral::Spectrum& e = illuminants[l].spectrum;
+      const spectral::Lab d = spectral::lab_from_xyz(spectral::xyz_of_reflectance(albedo, e), spectral::white_point(e));
+      const double de = std::hypot(lab[3 * l] - d.L, lab[3 * l + 1] - d.a, lab[3 * l + 2] - d.b);
+      sum += de, worst = std::max(worst, de);
+    }
+  }
+  std::printf("appearance table between nodes: mean dE*ab %.4f, max %.3f\n", sum / (points * 7), worst);
+  EXPECT_LT(sum / (points * 7), 0.1);  // measured 0.066, max 0.98
+  const GridPoint x{12.3, 25.6, 8.45, 3.2};
+  double lab[AppearanceTable::kChannels], jacobian[AppearanceTable::kChannels * 4];
+  appearance->lab(x, lab, jacobian);
+  for (int k = 0; k < 4; ++k) {
+    GridPoint up = x, down = x;
+    up[k] += 1e-4, down[k] -= 1e-4;
+    double lab_up[AppearanceTable::kChannels], lab_down[AppearanceTable::kChannels];
+    appearance->lab(up, lab_up);
+    appearance->lab(down, lab_down);
+    for (int i = 0; i < AppearanceTable::kChannels; ++i) {
+      const double numeric = (lab_up[i] - lab_down[i]) / 2e-4;
+      EXPECT_NEAR(jacobian[i * 4 + k], numeric, 1e-4 * std::max(1.0, std::abs(numeric))) << i << " " << k;
+    }
+  }
+  EXPECT_THROW(AppearanceTable(testing::method_table(), TableGrid{}), std::invalid_argument);
 }
 
 TEST(ForwardTable, TwoDModelIsASliceOfNodes) {

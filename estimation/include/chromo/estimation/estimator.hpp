@@ -10,13 +10,26 @@
 //  1. NaN/inf → kNonFinite; any channel ≥ its saturation_albedo → kSaturated;
 //     every channel < dark_albedo → kDark. Parameters 0, order 0.
 //  2. Weights 1/σ_c, σ_c² = camera noise (measurement.hpp) + (model_sigma_relative·a_c)².
-//  3. Model order. model = k4d or k2d: that order. kAuto: fit both; choose 4
-//     only when χ²₂ − χ²₄ exceeds the (1 − order_significance) quantile of χ²
-//     with (min(C, 4) − 2) degrees of freedom (C channels): the likelihood-ratio
-//     test of the nested models under Gaussian camera noise. At the default
-//     significance 0.01 a pixel of a 2D-model scene is given order 4 by noise
-//     alone 1% of the time. A pixel whose χ²₄ is ten times the 2D flag
-//     threshold is unexplained with either order: no 2D fit, order 4.
+//  3. Model order. model = k4d or k2d: that order. kAuto: fit both and
+//     compare what they look like (AppearanceTable: CIELAB under the six LED
+//     types and D65): D = mean over those illuminants of ΔE*ab between the
+//     2D and the 4D fit (linearised at the 4D fit's colour); U = the 4D
+//     fit's own appearance uncertainty from the camera noise (its parameter
+//     covariance (Jᵀ V⁻¹ J + P)⁻¹, J the table's Jacobian at the 4D fit, V
+//     the camera noise variance alone (not the model-error term of the
+//     weights), P the parameter box as a uniform prior, mapped to Lab by the
+//     appearance Jacobian: RMS ΔE*ab, averaged over the illuminants).
+//     Order 2 when D ≤ order_appearance_factor · U (default k = 1), else 4: 4D
+//     only where βm and Che change the predicted appearance by more than
+//     their uncertainty. Noise-free data declared so (U ≈ 0) get order 4
+//     wherever the fits differ, so the 2D choice never costs accuracy where
+//     the data determine 4D; data declared noisy while they are not (the lab's
+//     noise-free frames carry the camera's noise figure) get 2D within k·U.
+//     A pixel whose 2D fit fails the flag test while its 4D fit passes keeps
+//     order 4; a pixel whose χ²₄ is ten times the 2D flag threshold is
+//     unexplained with either order: no 2D fit, order 4. An Estimator built
+//     for k2d or k4d holds no appearance table: estimate_pixel(…, kAuto) on
+//     it throws std::logic_error.
 //  4. Explained? The chosen fit's χ² is compared with the (1 −
 //     flag_significance) quantile of χ² with max(C − free parameters, 1)
 //     degrees of freedom (with as many channels as parameters a pixel inside
@@ -50,6 +63,7 @@
 #include <span>
 #include <string>
 
+#include "chromo/estimation/appearance.hpp"
 #include "chromo/estimation/forward_table.hpp"
 #include "chromo/files/progress.hpp"
 #include <optional>
@@ -75,7 +89,8 @@ struct PixelEstimate {
   float residual = 0;   // RMS of predicted − measured over the channels, albedo units
   float chi2 = 0;       // noise-weighted residual of the chosen fit
   // χ²₂ − χ²₄ when the auto model fitted both orders (the likelihood-ratio
-  // statistic; spatial_flags.hpp pools it over regions), else 0.
+  // statistic; spatial_flags.hpp pools it over regions), else 0. The order
+  // itself follows the appearance rule (step 3).
   float order_statistic = 0;
   std::uint8_t order = 0;   // 2 or 4; 0 for pixels flagged before fitting
   PixelFlag flag = PixelFlag::kExplained;
@@ -84,6 +99,11 @@ struct PixelEstimate {
 struct EstimatorOptions {
   InverterMethod method = InverterMethod::kFast;
   ModelChoice model = ModelChoice::kAuto;
+  // The auto model's order rule (step 3): order 2 where the 2D fit's
+  // appearance is within this factor k × the 4D fit's appearance uncertainty
+  // (tuned on the lab's seed 5, docs/estimation.md).
+  double order_appearance_factor = 1.0;
+  // The spatial pass's pooled likelihood-ratio test (spatial_flags.hpp).
   double order_significance = 0.01;
   double flag_significance = 0.001;
   double dark_albedo = 0.01;
@@ -147,6 +167,7 @@ class Estimator {
   EstimatorOptions options_;
   std::unique_ptr<Inverter> inverter_;
   std::unique_ptr<Inverter> inverter_2d_;
+  std::shared_ptr<const AppearanceTable> appearance_;  // the auto model's order rule; null for 2d / 4d
   // The specular test (step 5 above): the best 4D fit of measured − s over the
   // scanned s, continued from `start`; chi2 = ∞ when no s reaches min_specular.
   static constexpr int kSpecularSteps = 8;
@@ -154,7 +175,6 @@ class Estimator {
   static constexpr double kHopelessChi2Factor = 10;
   static constexpr int kSpecularContinuationIterations = 4;
   Fit specular_fit(const double* measured, const double* weight, const GridPoint& start) const;
-  double order_threshold_ = 0;
   double flag_threshold_[5] = {};  // by free parameters (index 2 and 4)
 };
 
