@@ -82,6 +82,8 @@ std::vector<estimation::PixelEstimate> estimate(std::shared_ptr<const estimation
   options.model = config == k4d ? estimation::ModelChoice::k4d
                   : config == k2d ? estimation::ModelChoice::k2d
                                   : estimation::ModelChoice::kAuto;
+  // As the daemon and `chromo estimate` do: with the pooled order, the per-pixel rule is the likelihood ratio.
+  if (config == kAuto) options.order_rule = estimation::EstimatorOptions::OrderRule::kLikelihoodRatio;
   const estimation::Estimator estimator(table, set, options);
   std::vector<estimation::PixelEstimate> e(measured.size() / static_cast<std::size_t>(set.size()));
   estimation::EstimateSummary summary = estimator.estimate(measured, e);

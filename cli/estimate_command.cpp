@@ -167,7 +167,9 @@ int run_estimate(const EstimateOptions& options) {
   }
   const double table_seconds = seconds_since(t);
 
-  const estimation::EstimatorOptions eo = estimator_options(options);
+  estimation::EstimatorOptions eo = estimator_options(options);
+  // The pooled order replaces every explained pixel's: the per-pixel rule is then the cheap one (estimator.hpp).
+  if (options.order_pooling) eo.order_rule = estimation::EstimatorOptions::OrderRule::kLikelihoodRatio;
   t = std::chrono::steady_clock::now();
   const estimation::Estimator estimator(table, set, eo);
   const double inverter_setup_seconds = seconds_since(t);

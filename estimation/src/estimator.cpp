@@ -142,7 +142,9 @@ Estimator::Estimator(std::shared_ptr<const ForwardTable> table, MeasurementSet s
   options_.fast.presolved_accept_chi2 =
       std::max(options_.fast.converged_chi2, std::min(options_.fast.presolved_accept_chi2, flag_threshold_[4]));
   inverter_ = make_inverter(options_.method, table_, options_.cache_dir, options_.fast);
-  if (options_.model == ModelChoice::kAuto) appearance_ = AppearanceTable::shared(table_->grid(), options_.cache_dir);
+  if (options_.model == ModelChoice::kAuto && options_.order_rule == EstimatorOptions::OrderRule::kAppearance)
+    appearance_ = AppearanceTable::shared(table_->grid(), options_.cache_dir);
+  order_threshold_ = std::min(c, 4) > 2 ? chi_squared_quantile(1 - options_.order_significance, std::min(c, 4) - 2) : 0;
 }
 
 double Estimator::weight(int channel, double albedo) const {
@@ -152,7 +154,8 @@ double Estimator::weight(int channel, double albedo) const {
 void Estimator::predict(const SkinParameters& p, double* out) const { table_->predict(table_->to_grid(p), out); }
 
 PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const {
-  if (model == ModelChoice::kAuto && options_.method != InverterMethod::k2d && !appearance_)
+  if (model == ModelChoice::kAuto && options_.method != InverterMethod::k2d && !appearance_ &&
+      options_.order_rule == EstimatorOptions::OrderRule::kAppearance)
     throw std::logic_error("estimate_pixel: the auto model needs an Estimator built with model auto (its appearance table)");
   PixelEstimate out;
   const int c_count = channels();
@@ -190,7 +193,14 @@ PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const
     // (χ²₂ ≥ χ²₄): the 2D fit (the search path, for such a pixel) is skipped
     // and the pixel keeps order 4.
     const bool hopeless = chosen.chi2 > kHopelessChi2Factor * flag_threshold_[2];
-    if (model == ModelChoice::kAuto && !hopeless) {
+    if (model == ModelChoice::kAuto && !hopeless && options_.order_rule == EstimatorOptions::OrderRule::kLikelihoodRatio) {
+      // The likelihood-ratio test: order 2 where 4D does not lower χ² by
+      // more than noise would, unless only the 4D fit explains the pixel.
+      const Fit fit2 = inv.fit(measured, weight, 2);
+      out.order_statistic = static_cast<float>(std::max(fit2.chi2 - chosen.chi2, 0.0));
+      const bool only_4d_explains = fit2.chi2 > flag_threshold_[2] && chosen.chi2 <= flag_threshold_[4];
+      if (fit2.chi2 - chosen.chi2 <= order_threshold_ && !only_4d_explains) chosen = fit2, order = 2;
+    } else if (model == ModelChoice::kAuto && !hopeless) {
       // The appearance rule (step 3 of the header): order 2 only where the
       // 2D fit looks under the reference illuminants like the 4D fit, to
       // within order_appearance_factor × the 4D fit's own appearance

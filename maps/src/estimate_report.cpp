@@ -241,6 +241,9 @@ PreparedTables prepare_tables(const estimation::MeasurementSet& set, const Metho
   t = std::chrono::steady_clock::now();
   estimation::EstimatorOptions estimator_options = options.estimator;
   if (estimator_options.cache_dir.empty()) estimator_options.cache_dir = options.cache_dir;  // the inverse table too
+  // The pooled order replaces every explained pixel's: the per-pixel rule is then the cheap one (estimator.hpp).
+  if (options.neighbourhood.pool_order)
+    estimator_options.order_rule = estimation::EstimatorOptions::OrderRule::kLikelihoodRatio;
   prepared.estimator = std::make_shared<const estimation::Estimator>(prepared.table, set, estimator_options);
   prepared.inverter_seconds = seconds_since(t);
   return prepared;

@@ -159,6 +159,40 @@ TEST(Estimator, TwoDSceneGetsOrderTwoAndIsNoWorseThanTheFourDFit) {
   EXPECT_LE(r.de_auto, r.de_4d);
 }
 
+// The likelihood-ratio rule (EstimatorOptions::order_rule, what the per-pixel
+// order is when the spatial pass pools it): the same 2D scene, where 4D
+// lowers χ² by no more than noise would on ~99% of pixels; and noise-free 4D
+// skin declared noise-free, where every pixel's χ² drop is beyond noise.
+TEST(Estimator, TheLikelihoodRatioRuleIsTheNestedModelsTest) {
+  MeasurementSet set = testing::method_set();
+  simulators::SyntheticOptions o = in_gamut_skin(1500, 1.0);
+  o.low.bm = o.high.bm = 0.7;
+  o.low.che = o.high.che = 0.0;
+  const simulators::SyntheticFrame frame = simulators::make_synthetic_frame(set, o);
+  EstimatorOptions options;
+  options.order_rule = EstimatorOptions::OrderRule::kLikelihoodRatio;
+  const Estimator ratio(testing::method_table(), set, options);
+  std::vector<PixelEstimate> e(frame.pixels());
+  const EstimateSummary s = ratio.estimate(frame.noisy, e);
+  EXPECT_LE(s.order4, 0.05 * frame.pixels());  // 1% by noise at significance 0.01, a few more at the gamut's edges
+  int two = 0;
+  for (const auto& p : e)
+    if (p.flag == PixelFlag::kExplained && p.order == 2) {
+      ++two;
+      EXPECT_LE(p.order_statistic, 9.2104);  // χ² with 2 degrees of freedom, 0.99 quantile
+    }
+  EXPECT_GT(two, 0);
+
+  simulators::SyntheticOptions four = in_gamut_skin(400);
+  four.low.bm = 0.1, four.high.bm = 0.5;
+  four.low.che = 0.02, four.high.che = 0.1;
+  four.seed = 71;
+  const simulators::SyntheticFrame clean = simulators::make_synthetic_frame(set, four);
+  const Estimator declared(testing::method_table(), declared_noise_free(set), options);
+  std::vector<PixelEstimate> c(clean.pixels());
+  EXPECT_GE(declared.estimate(clean.clean, c).order4, 0.95 * clean.pixels());
+}
+
 // Light to brown skin (Cm ≤ 0.15) with βm and Che far from the 2D model's
 // (0.7, 0): at the bench's camera noise their effect on the appearance
 // exceeds the 4D fit's uncertainty on most pixels.

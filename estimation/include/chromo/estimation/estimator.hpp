@@ -29,7 +29,8 @@
 //     order 4; a pixel whose χ²₄ is ten times the 2D flag threshold is
 //     unexplained with either order: no 2D fit, order 4. An Estimator built
 //     for k2d or k4d holds no appearance table: estimate_pixel(…, kAuto) on
-//     it throws std::logic_error.
+//     it throws std::logic_error. order_rule = kLikelihoodRatio replaces the
+//     appearance rule by the likelihood-ratio test (EstimatorOptions).
 //  4. Explained? The chosen fit's χ² is compared with the (1 −
 //     flag_significance) quantile of χ² with max(C − free parameters, 1)
 //     degrees of freedom (with as many channels as parameters a pixel inside
@@ -103,6 +104,16 @@ struct EstimatorOptions {
   // appearance is within this factor k × the 4D fit's appearance uncertainty
   // (tuned on the lab's seed 5, docs/estimation.md).
   double order_appearance_factor = 1.0;
+  // Which rule step 3 applies. kLikelihoodRatio: order 4 only when χ²₂ − χ²₄
+  // exceeds the (1 − order_significance) quantile of χ² with min(C, 4) − 2
+  // degrees of freedom (the rule before the appearance rule; no appearance
+  // table is built). The spatial pass's pooled order (spatial_flags.hpp)
+  // decides every explained pixel's order by that same test pooled over a
+  // window, so maps::prepare_tables and `chromo estimate` choose it whenever
+  // order pooling is on: the appearance rule's cost (≈ 1.2-2× per cell) is
+  // then not paid for an order the pooling replaces.
+  enum class OrderRule { kAppearance, kLikelihoodRatio };
+  OrderRule order_rule = OrderRule::kAppearance;
   // The spatial pass's pooled likelihood-ratio test (spatial_flags.hpp).
   double order_significance = 0.01;
   double flag_significance = 0.001;
@@ -167,7 +178,8 @@ class Estimator {
   EstimatorOptions options_;
   std::unique_ptr<Inverter> inverter_;
   std::unique_ptr<Inverter> inverter_2d_;
-  std::shared_ptr<const AppearanceTable> appearance_;  // the auto model's order rule; null for 2d / 4d
+  std::shared_ptr<const AppearanceTable> appearance_;  // the auto model's appearance rule; null otherwise
+  double order_threshold_ = 0;                          // kLikelihoodRatio: the χ²₂ − χ²₄ quantile
   // The specular test (step 5 above): the best 4D fit of measured − s over the
   // scanned s, continued from `start`; chi2 = ∞ when no s reaches min_specular.
   static constexpr int kSpecularSteps = 8;
