@@ -145,15 +145,29 @@ AutoAgainst4d auto_against_4d(const MeasurementSet& set, const simulators::Synth
   return r;
 }
 
+// Noisy skin of the 2D model (βm = 0.7, Che = 0, 1,500 pixels at the camera's noise).
+simulators::SyntheticFrame two_d_scene(MeasurementSet& set) {  // make_synthetic_frame sets its noise
+  simulators::SyntheticOptions o = in_gamut_skin(1500, 1.0);
+  o.low.bm = o.high.bm = 0.7;
+  o.low.che = o.high.che = 0.0;
+  return simulators::make_synthetic_frame(set, o);
+}
+
+// Skin whose βm (0.1-0.5) and Che (0.02-0.1) are far from the 2D model's (400 pixels, seed 71).
+simulators::SyntheticFrame four_d_scene(MeasurementSet& set) {
+  simulators::SyntheticOptions o = in_gamut_skin(400);
+  o.low.bm = 0.1, o.high.bm = 0.5;
+  o.low.che = 0.02, o.high.che = 0.1;
+  o.seed = 71;
+  return simulators::make_synthetic_frame(set, o);
+}
+
 // Noisy skin of the 2D model (βm = 0.7, Che = 0): the 4D fit's βm and Che
 // follow the noise, and the rule keeps order 2 where that moves the
 // appearance by less than the 4D fit's uncertainty.
 TEST(Estimator, TwoDSceneGetsOrderTwoAndIsNoWorseThanTheFourDFit) {
   MeasurementSet set = testing::method_set();
-  simulators::SyntheticOptions o = in_gamut_skin(1500, 1.0);
-  o.low.bm = o.high.bm = 0.7;
-  o.low.che = o.high.che = 0.0;
-  const simulators::SyntheticFrame frame = simulators::make_synthetic_frame(set, o);
+  const simulators::SyntheticFrame frame = two_d_scene(set);
   const AutoAgainst4d r = auto_against_4d(set, frame, true);
   EXPECT_LE(r.order4, 0.35);  // measured 0.263; relit 0.963 against 1.194
   EXPECT_LE(r.de_auto, r.de_4d);
@@ -165,10 +179,7 @@ TEST(Estimator, TwoDSceneGetsOrderTwoAndIsNoWorseThanTheFourDFit) {
 // skin declared noise-free, where every pixel's χ² drop is beyond noise.
 TEST(Estimator, TheLikelihoodRatioRuleIsTheNestedModelsTest) {
   MeasurementSet set = testing::method_set();
-  simulators::SyntheticOptions o = in_gamut_skin(1500, 1.0);
-  o.low.bm = o.high.bm = 0.7;
-  o.low.che = o.high.che = 0.0;
-  const simulators::SyntheticFrame frame = simulators::make_synthetic_frame(set, o);
+  const simulators::SyntheticFrame frame = two_d_scene(set);
   EstimatorOptions options;
   options.order_rule = EstimatorOptions::OrderRule::kLikelihoodRatio;
   const Estimator ratio(testing::method_table(), set, options);
@@ -183,11 +194,7 @@ TEST(Estimator, TheLikelihoodRatioRuleIsTheNestedModelsTest) {
     }
   EXPECT_GT(two, 0);
 
-  simulators::SyntheticOptions four = in_gamut_skin(400);
-  four.low.bm = 0.1, four.high.bm = 0.5;
-  four.low.che = 0.02, four.high.che = 0.1;
-  four.seed = 71;
-  const simulators::SyntheticFrame clean = simulators::make_synthetic_frame(set, four);
+  const simulators::SyntheticFrame clean = four_d_scene(set);
   const Estimator declared(testing::method_table(), declared_noise_free(set), options);
   std::vector<PixelEstimate> c(clean.pixels());
   EXPECT_GE(declared.estimate(clean.clean, c).order4, 0.95 * clean.pixels());
@@ -212,11 +219,7 @@ TEST(Estimator, FourDSceneGetsOrderFour) {
 // pixels and several times worse.
 TEST(Estimator, NoiseFreeFourDSkinGetsOrderFourAndTheFourDAccuracy) {
   MeasurementSet set = testing::method_set();
-  simulators::SyntheticOptions o = in_gamut_skin(400);
-  o.low.bm = 0.1, o.high.bm = 0.5;
-  o.low.che = 0.02, o.high.che = 0.1;
-  o.seed = 71;
-  const simulators::SyntheticFrame frame = simulators::make_synthetic_frame(set, o);
+  const simulators::SyntheticFrame frame = four_d_scene(set);
   const AutoAgainst4d r = auto_against_4d(declared_noise_free(set), frame, false);
   EXPECT_GE(r.order4, 0.99);
   EXPECT_LE(r.de_auto, 1.15 * r.de_4d);
