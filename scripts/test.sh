@@ -5,9 +5,9 @@ cd "$(dirname "$0")/.."
 scripts/setup.sh
 scripts/build.sh
 # A failed test runs once more before the suite fails: the GigE Vision camera
-# tests on loopback lose a frame now and then (Aravis' fake camera ignores
-# resend requests, so one dropped datagram times a frame out). A test that
-# fails twice fails the suite; ctest's log keeps both runs.
+# tests on loopback depend on the kernel delivering datagrams on a loaded
+# machine (the device side answers resends, but a test's timeouts are
+# finite). A test that fails twice fails the suite; ctest's log keeps both runs.
 ctest --preset release -j2 --repeat until-pass:2 "$@"
 # The fuzz smoke (tests/fuzz/README.md): the libFuzzer harnesses, built with
 # clang into build/fuzz (only the libraries they need), each run for 10 s on

@@ -56,8 +56,10 @@ void keyed(const std::string& key, Read read) {
 LabCameraPose read_pose(const json& value) {
   if (!value.is_object()) throw std::invalid_argument(shown(value) + " is not a JSON object");
   LabCameraPose pose;
-  for (const auto& [key, item] : value.items()) {
-    const json& v = item;
+  for (const auto& entry : value.items()) {
+    // Not a structured binding: clang 14 (the fuzz build) cannot capture one in a lambda.
+    const std::string& key = entry.key();
+    const json& v = entry.value();
     keyed("." + key, [&] {
       if (key == "distance_mm") pose.distance_mm = read_number(v, 0, 100000, true);
       else if (key == "azimuth_deg") pose.azimuth_deg = read_number(v, -90, 90, true);
@@ -86,8 +88,9 @@ LabCamera read_camera(const json& entry) {
   if (!entry.is_object()) throw std::invalid_argument(" must be a JSON object");
   if (!entry.contains("name")) throw std::invalid_argument("name: missing");
   LabCamera camera;
-  for (const auto& [key, item] : entry.items()) {
-    const json& v = item;
+  for (const auto& field : entry.items()) {
+    const std::string& key = field.key();  // not a structured binding (clang 14, as in read_pose)
+    const json& v = field.value();
     if (key == "pose") {
       try {
         camera.pose = read_pose(v);

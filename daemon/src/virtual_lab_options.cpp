@@ -1,0 +1,70 @@
+// VirtualLabOptions' checks and the camera simulators' options it gives:
+// apart from virtual_lab.cpp (which starts the lab) so that the
+// configuration reader, which checks virtual_lab.cameras with them, links
+// without the devices (the fuzz_config harness compiles it alone).
+#include <set>
+#include <stdexcept>
+
+#include "chromo/daemon/virtual_lab.hpp"
+#include "chromo/session/session_plan.hpp"
+#include "chromo/simulators/camera/camera_simulator.hpp"
+#include "chromo/simulators/camera/lab_cameras.hpp"
+#include "chromo/simulators/scene/camera_view.hpp"
+
+namespace chromo::daemon {
+
+bool VirtualLabOptions::IsValid(std::string* error) const {
+  auto fail = [&](const std::string& message) {
+    if (error) *error = message;
+    return false;
+  };
+  if (cameras.empty()) return fail("cameras: the lab needs at least one camera");
+  if (scene_size < 16 || scene_size > 2048) return fail("scene_size: must be in [16, 2048]");
+  if (!(patch_width_mm > 0 && patch_width_mm <= 10000)) return fail("patch_width_mm: must be in (0, 10000]");
+  if (camera_serial.empty() || camera_serial.size() > 15)
+    return fail("camera_serial: must be 1-15 characters (GigE Vision bootstrap)");
+  std::set<std::string> names, addresses, serials;
+  for (std::size_t i = 0; i < cameras.size(); ++i) {
+    const simulators::LabCamera& camera = cameras[i];
+    const std::string at = "cameras[" + std::to_string(i) + "].";
+    if (!session::is_valid_name(camera.name)) return fail(at + "name: must match [A-Za-z0-9_+.-]{1,64}");
+    if (camera.name == "sphere" || camera.name == "spec0")
+      return fail(at + "name: \"" + camera.name + "\" is the lab's LED controller or spectrometer");
+    if (!names.insert(camera.name).second) return fail(at + "name: \"" + camera.name + "\" is used twice");
+    if (!camera.address.empty() && !addresses.insert(camera.address).second)
+      return fail(at + "address: \"" + camera.address + "\" is used twice");
+    if (!serials.insert(serial_of(i)).second) return fail(at + "serial: \"" + serial_of(i) + "\" is used twice");
+    const simulators::CameraSimulatorOptions simulator = camera_simulator_options(i, simulators::CameraModelOptions{}.sensitivity);
+    if (std::string problem; !simulator.IsValid(&problem)) return fail(at.substr(0, at.size() - 1) + ": " + problem);
+    if (simulator.view) try {  // the square patch wholly in front of the camera
+        simulators::patch_to_image_homography(*simulator.view, {scene_size, scene_size, patch_width_mm / scene_size});
+      } catch (const std::invalid_argument& e) {
+        return fail(at + "pose: " + e.what());
+      }
+  }
+  if (!(led_time_scale >= 1 && led_time_scale <= 100000)) return fail("led_time_scale: must be in [1, 100000]");
+  return true;
+}
+
+std::string VirtualLabOptions::serial_of(std::size_t index) const {
+  return simulators::lab_camera_serial(cameras.at(index), camera_serial, index);
+}
+
+simulators::CameraSimulatorOptions VirtualLabOptions::camera_simulator_options(
+    std::size_t index, const spectral::CameraSensitivity& sensitivity) const {
+  const simulators::LabCamera& camera = cameras.at(index);
+  simulators::CameraSimulatorOptions options;
+  options.serial = serial_of(index);
+  options.address = camera.address;
+  options.sensor_width = camera.sensor_width;
+  options.sensor_height = camera.sensor_height;
+  options.pixel_format = camera.pixel_format;
+  options.view = simulators::lab_camera_view(camera);
+  options.patch_width_mm = patch_width_mm;
+  options.camera_model.sensitivity = sensitivity;
+  // Each camera its own noise: camera k draws from seed + k.
+  options.camera_model.seed = seed + index;
+  return options;
+}
+
+}  // namespace chromo::daemon
