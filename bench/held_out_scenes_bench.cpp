@@ -231,9 +231,9 @@ int run(int argc, char** argv) {
                  static_cast<unsigned long long>(kTuningSeed));
     return 2;
   }
-  std::printf("fast inverter on %dx%d-sensor lab sessions (%dx%d cells); auto = the default (appearance order "
-              "rule, k = %.3g, spatial pass with pooled order)\n", sensor[0], sensor[1], sensor[0] / 2, sensor[1] / 2,
-              order_factor);
+  std::printf("fast inverter on %dx%d-sensor lab sessions (%dx%d cells); auto = the default (spatial pass with "
+              "the pooled likelihood-ratio order); no-pool = the appearance order rule per pixel, k = %.3g\n",
+              sensor[0], sensor[1], sensor[0] / 2, sensor[1] / 2, order_factor);
   print_header();
   print_rows("5 (t)", run_seed(kTuningSeed, sensor[0], sensor[1]));
   if (tuning_only) return 0;
