@@ -52,19 +52,8 @@ std::string VirtualLabOptions::serial_of(std::size_t index) const {
 
 simulators::CameraSimulatorOptions VirtualLabOptions::camera_simulator_options(
     std::size_t index, const spectral::CameraSensitivity& sensitivity) const {
-  const simulators::LabCamera& camera = cameras.at(index);
-  simulators::CameraSimulatorOptions options;
-  options.serial = serial_of(index);
-  options.address = camera.address;
-  options.sensor_width = camera.sensor_width;
-  options.sensor_height = camera.sensor_height;
-  options.pixel_format = camera.pixel_format;
-  options.view = simulators::lab_camera_view(camera);
-  options.patch_width_mm = patch_width_mm;
-  options.camera_model.sensitivity = sensitivity;
-  // Each camera its own noise: camera k draws from seed + k.
-  options.camera_model.seed = seed + index;
-  return options;
+  return simulators::lab_camera_simulator_options(cameras.at(index), index, camera_serial, patch_width_mm, seed,
+                                                  sensitivity);
 }
 
 }  // namespace chromo::daemon

@@ -153,6 +153,21 @@ double Estimator::weight(int channel, double albedo) const {
 
 void Estimator::predict(const SkinParameters& p, double* out) const { table_->predict(table_->to_grid(p), out); }
 
+bool Estimator::two_d_suffices(const ChannelBuffer<double>& measured, const Fit& fit4, const Fit& fit2) const {
+  if (options_.order_rule == EstimatorOptions::OrderRule::kLikelihoodRatio)
+    // 4D does not lower χ² by more than noise would.
+    return fit2.chi2 - fit4.chi2 <= order_threshold_;
+  // The appearance rule (step 3 of the header): the 2D fit looks under the
+  // reference illuminants like the 4D fit, to within order_appearance_factor
+  // × the 4D fit's own appearance uncertainty from the camera noise.
+  const int c_count = channels();
+  ChannelBuffer<double> variance(c_count);
+  for (int c = 0; c < c_count; ++c) variance[c] = set_.channels[c].noise.variance(measured[c]);
+  AppearanceTable::Point at4;
+  const double uncertainty = detail::appearance_uncertainty(*table_, *appearance_, variance, fit4.x, at4);
+  return detail::appearance_difference(*appearance_, at4, fit2.x) <= options_.order_appearance_factor * uncertainty;
+}
+
 PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const {
   if (model == ModelChoice::kAuto && options_.method != InverterMethod::k2d && !appearance_ &&
       options_.order_rule == EstimatorOptions::OrderRule::kAppearance)
@@ -193,30 +208,13 @@ PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const
     // (χ²₂ ≥ χ²₄): the 2D fit (the search path, for such a pixel) is skipped
     // and the pixel keeps order 4.
     const bool hopeless = chosen.chi2 > kHopelessChi2Factor * flag_threshold_[2];
-    if (model == ModelChoice::kAuto && !hopeless && options_.order_rule == EstimatorOptions::OrderRule::kLikelihoodRatio) {
-      // The likelihood-ratio test: order 2 where 4D does not lower χ² by
-      // more than noise would, unless only the 4D fit explains the pixel.
+    if (model == ModelChoice::kAuto && !hopeless) {
       const Fit fit2 = inv.fit(measured, weight, 2);
       out.order_statistic = static_cast<float>(std::max(fit2.chi2 - chosen.chi2, 0.0));
+      // A pixel only the 4D fit explains keeps order 4 under either rule: a
+      // pixel one order explains is not flagged for the rule picking the other.
       const bool only_4d_explains = fit2.chi2 > flag_threshold_[2] && chosen.chi2 <= flag_threshold_[4];
-      if (fit2.chi2 - chosen.chi2 <= order_threshold_ && !only_4d_explains) chosen = fit2, order = 2;
-    } else if (model == ModelChoice::kAuto && !hopeless) {
-      // The appearance rule (step 3 of the header): order 2 only where the
-      // 2D fit looks under the reference illuminants like the 4D fit, to
-      // within order_appearance_factor × the 4D fit's own appearance
-      // uncertainty from the camera noise.
-      ChannelBuffer<double> variance(c_count);
-      for (int c = 0; c < c_count; ++c) variance[c] = set_.channels[c].noise.variance(measured[c]);
-      AppearanceTable::Point at4;
-      const double uncertainty = detail::appearance_uncertainty(*table_, *appearance_, variance, chosen.x, at4);
-      const Fit fit2 = inv.fit(measured, weight, 2);
-      out.order_statistic = static_cast<float>(std::max(fit2.chi2 - chosen.chi2, 0.0));
-      // A pixel only the 4D fit explains keeps order 4: a pixel one order
-      // explains is not flagged for the rule picking the other.
-      const bool only_4d_explains = fit2.chi2 > flag_threshold_[2] && chosen.chi2 <= flag_threshold_[4];
-      if (!only_4d_explains &&
-          detail::appearance_difference(*appearance_, at4, fit2.x) <= options_.order_appearance_factor * uncertainty)
-        chosen = fit2, order = 2;
+      if (!only_4d_explains && two_d_suffices(measured, chosen, fit2)) chosen = fit2, order = 2;
     }
   }
   out.order = static_cast<std::uint8_t>(order);

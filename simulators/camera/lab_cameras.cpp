@@ -181,4 +181,20 @@ spectral::CameraSensitivity lab_camera_sensitivity(const LabCamera& camera,
   return spectral::read_camera_sensitivity(camera.sensitivity);
 }
 
+CameraSimulatorOptions lab_camera_simulator_options(const LabCamera& camera, std::size_t index,
+                                                    const std::string& first_serial, double patch_width_mm,
+                                                    std::uint64_t seed, const spectral::CameraSensitivity& sensitivity) {
+  CameraSimulatorOptions options;
+  options.serial = lab_camera_serial(camera, first_serial, index);
+  options.address = camera.address;
+  options.sensor_width = camera.sensor_width;
+  options.sensor_height = camera.sensor_height;
+  options.pixel_format = camera.pixel_format;
+  options.view = lab_camera_view(camera);
+  options.patch_width_mm = patch_width_mm;
+  options.camera_model.sensitivity = sensitivity;
+  options.camera_model.seed = seed + index;
+  return options;
+}
+
 }  // namespace chromo::simulators

@@ -120,16 +120,9 @@ int run(const SimArguments& args) {
   std::vector<std::unique_ptr<simulators::CameraSimulator>> cameras;
   for (std::size_t i = 0; i < lab_cameras.size(); ++i) {
     const simulators::LabCamera& lab_camera = lab_cameras[i];
-    simulators::CameraSimulatorOptions camera_options;
-    camera_options.serial = simulators::lab_camera_serial(lab_camera, args.camera_serial, i);
-    camera_options.address = lab_camera.address;
-    camera_options.sensor_width = lab_camera.sensor_width;
-    camera_options.sensor_height = lab_camera.sensor_height;
-    camera_options.pixel_format = lab_camera.pixel_format;
-    camera_options.view = simulators::lab_camera_view(lab_camera);
-    camera_options.patch_width_mm = args.patch_width_mm;
-    camera_options.camera_model.seed = args.seed + i;  // each camera its own noise
-    camera_options.camera_model.sensitivity = simulators::lab_camera_sensitivity(lab_camera, sensitivity);
+    const simulators::CameraSimulatorOptions camera_options = simulators::lab_camera_simulator_options(
+        lab_camera, i, args.camera_serial, args.patch_width_mm, args.seed,
+        simulators::lab_camera_sensitivity(lab_camera, sensitivity));
     cameras.push_back(std::make_unique<simulators::CameraSimulator>(camera_options, fixed_light ? fixed_light : lab_light,
                                                                     scene));
     cameras.back()->set_packet_loss_ratio(args.packet_loss);

@@ -187,6 +187,8 @@ class Estimator {
   static constexpr double kHopelessChi2Factor = 10;
   static constexpr int kSpecularContinuationIterations = 4;
   Fit specular_fit(const double* measured, const double* weight, const GridPoint& start) const;
+  // Step 3's rule (EstimatorOptions::order_rule): may the pixel take the 2D fit?
+  bool two_d_suffices(const ChannelBuffer<double>& measured, const Fit& fit4, const Fit& fit2) const;
   double flag_threshold_[5] = {};  // by free parameters (index 2 and 4)
 };
 

@@ -72,4 +72,13 @@ std::optional<CameraView> lab_camera_view(const LabCamera& camera);
 spectral::CameraSensitivity lab_camera_sensitivity(const LabCamera& camera,
                                                    const spectral::CameraSensitivity& fallback);
 
+// Camera `index` of a lab as its simulator's options: its serial
+// (lab_camera_serial), address, sensor, pixel format and view of a patch
+// `patch_width_mm` wide, `sensitivity` (lab_camera_sensitivity, resolved by
+// the caller), and its own noise: camera k draws from `seed` + k. The one
+// conversion chromod's built-in lab and chromo-sim share.
+CameraSimulatorOptions lab_camera_simulator_options(const LabCamera& camera, std::size_t index,
+                                                    const std::string& first_serial, double patch_width_mm,
+                                                    std::uint64_t seed, const spectral::CameraSensitivity& sensitivity);
+
 }  // namespace chromo::simulators
