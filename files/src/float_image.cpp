@@ -5,12 +5,15 @@
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
 #include <ImfOutputFile.h>
+#include <ImfThreading.h>
 
 #include <algorithm>
 #include <cstdint>
 #include <cstring>
 #include <fstream>
+#include <mutex>
 #include <optional>
+#include <thread>
 #include <string_view>
 #include <utility>
 
@@ -223,11 +226,36 @@ FloatImage read_exr(const std::filesystem::path& path) {
   }
 }
 
-void write_exr(const std::filesystem::path& path, const FloatImage& image) {
+int exr_writer_threads(int threads) {
+  if (threads < 0) throw std::invalid_argument("EXR writer threads: " + std::to_string(threads) + " (0 = all cores, 1 = one)");
+  return threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
+namespace {
+
+// OpenEXR compresses a file's line blocks as tasks on its one global thread
+// pool, which has no thread until asked (globalThreadCount() is 0): the pool
+// grows to the most threads any write asked for and never shrinks.
+void ensure_exr_pool(int threads) {
+  static std::mutex mutex;
+  const std::lock_guard lock(mutex);
+  if (Imf::globalThreadCount() < threads) Imf::setGlobalThreadCount(threads);
+}
+
+}  // namespace
+
+void write_exr(const std::filesystem::path& path, const FloatImage& image, const ExrWriteOptions& options) {
+  const int threads = exr_writer_threads(options.threads);
+  if (options.zip_level < -1 || options.zip_level > 9)
+    throw std::invalid_argument("EXR zip_level: " + std::to_string(options.zip_level) + " (-1 = OpenEXR's default, 0-9)");
   try {
     Imf::Header header(image.width, image.height);
+    header.compression() = Imf::ZIP_COMPRESSION;
+    if (options.zip_level >= 0) header.zipCompressionLevel() = options.zip_level;
     for (const auto& name : image.channel_names) header.channels().insert(name, Imf::Channel(Imf::FLOAT));
-    Imf::OutputFile file(path.c_str(), header);
+    // One thread: the caller's alone (no pool task), as before threading.
+    if (threads > 1) ensure_exr_pool(threads);
+    Imf::OutputFile file(path.c_str(), header, threads > 1 ? threads : 0);
     Imf::FrameBuffer frame;
     for (std::size_t c = 0; c < image.channel_names.size(); ++c)
       frame.insert(image.channel_names[c],

@@ -1,9 +1,15 @@
 #include "chromo/session/derived_data.hpp"
 
+#include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <exception>
+#include <functional>
 #include <limits>
 #include <map>
+#include <thread>
 
+#include "chromo/files/float_image.hpp"
 #include "chromo/session/frame_files.hpp"
 
 namespace chromo::session {
@@ -33,27 +39,38 @@ std::string illumination_key(const Step& step) {
 }  // namespace
 
 void write_derived_data(const std::filesystem::path& folder, const SessionPlan& plan, const SessionFrameSums& sums,
-                        double white_reflectance, Journal& journal, files::StorageBudget* budget) {
+                        double white_reflectance, Journal& journal, files::StorageBudget* budget,
+                        const DerivedDataOptions& options) {
   if (!(white_reflectance > 0 && white_reflectance <= 1))
     throw std::invalid_argument("derived data: white_reflectance must be in (0, 1], not " +
                                 std::to_string(white_reflectance));
+  if (options.threads < 0)
+    throw std::invalid_argument("derived data: threads must be >= 0, not " + std::to_string(options.threads));
   const float rho = static_cast<float>(white_reflectance);
   const auto& means = sums.by_step_and_camera();  // (step, camera)
   std::filesystem::create_directories(folder / "derived");
-  auto write = [&](const std::string& name, const FrameSums& like, std::vector<FloatChannel> channels,
-                   nlohmann::json extra) {
-    write_float_exr(folder / "derived" / name, like.width(), like.height(), channels, budget);
-    extra["type"] = "derived";
-    extra["file"] = "derived/" + name;
-    journal.append(extra);
+  // One job per file: its channels are made and written by the job (so at
+  // most `threads` files' pixels are in memory at once); the journal records
+  // follow in this order once every file is written.
+  struct File {
+    std::string name;
+    const FrameSums* like;
+    std::function<std::vector<FloatChannel>()> channels;
+    nlohmann::json record;
   };
+  std::vector<File> outputs;
   for (const auto& [key, mean] : means) {
-    std::vector<FloatChannel> channels;
-    const int samples = mean.format().samples_per_pixel;
-    auto names = channel_names(samples);
-    for (int c = 0; c < samples; ++c) channels.push_back({names[static_cast<std::size_t>(c)], mean.mean_channel(c)});
-    write(key.first + "-" + key.second + "-mean.exr", mean, std::move(channels),
-          {{"kind", "mean"}, {"step", key.first}, {"camera", key.second}, {"frames", mean.frames()}});
+    const FrameSums* m = &mean;
+    outputs.push_back({key.first + "-" + key.second + "-mean.exr", m,
+                     [m] {
+                       std::vector<FloatChannel> channels;
+                       const int samples = m->format().samples_per_pixel;
+                       auto names = channel_names(samples);
+                       for (int c = 0; c < samples; ++c)
+                         channels.push_back({names[static_cast<std::size_t>(c)], m->mean_channel(c)});
+                       return channels;
+                     },
+                     {{"kind", "mean"}, {"step", key.first}, {"camera", key.second}, {"frames", mean.frames()}}});
   }
   // Albedo per subject step.
   std::map<std::string, const Step*> dark_steps, white_by_illumination;
@@ -61,35 +78,74 @@ void write_derived_data(const std::filesystem::path& folder, const SessionPlan& 
     if (step.role == StepRole::kDark) dark_steps[step.name] = &step;
     if (step.role == StepRole::kWhite) white_by_illumination[illumination_key(step)] = &step;
   }
-  if (dark_steps.empty()) return;
-  const std::string dark = dark_steps.begin()->first;
-  for (const auto& step : plan.steps) {
-    if (step.role != StepRole::kSubject) continue;
-    auto white = white_by_illumination.find(illumination_key(step));
-    if (white == white_by_illumination.end()) continue;
-    for (const auto& [key, subject] : means) {
-      if (key.first != step.name) continue;
-      auto d = means.find({dark, key.second});
-      auto w = means.find({white->second->name, key.second});
-      if (d == means.end() || w == means.end() || d->second.sums().size() != subject.sums().size() ||
-          w->second.sums().size() != subject.sums().size())
-        continue;
-      std::vector<FloatChannel> channels;
-      const int samples = subject.format().samples_per_pixel;
-      auto names = channel_names(samples);
-      for (int c = 0; c < samples; ++c) {
-        auto s = subject.mean_channel(c), dk = d->second.mean_channel(c), wh = w->second.mean_channel(c);
-        std::vector<float> albedo(s.size());
-        for (std::size_t i = 0; i < s.size(); ++i) {
-          float denominator = wh[i] - dk[i];
-          albedo[i] = denominator > 1e-3f ? rho * (s[i] - dk[i]) / denominator : std::numeric_limits<float>::quiet_NaN();
-        }
-        channels.push_back({names[static_cast<std::size_t>(c)], std::move(albedo)});
+  if (!dark_steps.empty()) {
+    const std::string dark = dark_steps.begin()->first;
+    for (const auto& step : plan.steps) {
+      if (step.role != StepRole::kSubject) continue;
+      auto white = white_by_illumination.find(illumination_key(step));
+      if (white == white_by_illumination.end()) continue;
+      for (const auto& [key, subject] : means) {
+        if (key.first != step.name) continue;
+        auto d = means.find({dark, key.second});
+        auto w = means.find({white->second->name, key.second});
+        if (d == means.end() || w == means.end() || d->second.sums().size() != subject.sums().size() ||
+            w->second.sums().size() != subject.sums().size())
+          continue;
+        const FrameSums *s = &subject, *dk = &d->second, *wh = &w->second;
+        outputs.push_back({"albedo-" + illumination_key(step) + "-" + key.second + ".exr", s,
+                         [s, dk, wh, rho] {
+                           std::vector<FloatChannel> channels;
+                           const int samples = s->format().samples_per_pixel;
+                           auto names = channel_names(samples);
+                           for (int c = 0; c < samples; ++c) {
+                             auto sv = s->mean_channel(c), dv = dk->mean_channel(c), wv = wh->mean_channel(c);
+                             std::vector<float> albedo(sv.size());
+                             for (std::size_t i = 0; i < sv.size(); ++i) {
+                               const float denominator = wv[i] - dv[i];
+                               albedo[i] = denominator > 1e-3f ? rho * (sv[i] - dv[i]) / denominator
+                                                               : std::numeric_limits<float>::quiet_NaN();
+                             }
+                             channels.push_back({names[static_cast<std::size_t>(c)], std::move(albedo)});
+                           }
+                           return channels;
+                         },
+                         {{"kind", "albedo"}, {"step", step.name}, {"camera", key.second},
+                          {"white_step", white->second->name}, {"dark_step", dark},
+                          {"white_reflectance", white_reflectance}}});
       }
-      write("albedo-" + illumination_key(step) + "-" + key.second + ".exr", subject, std::move(channels),
-            {{"kind", "albedo"}, {"step", step.name}, {"camera", key.second}, {"white_step", white->second->name},
-             {"dark_step", dark}, {"white_reflectance", white_reflectance}});
     }
+  }
+  // The files on `threads` workers, each file's blocks compressed on the
+  // worker's own thread: whole files in parallel need no pool and keep every
+  // core busy with the channel arithmetic too.
+  const int threads = std::min<int>(files::exr_writer_threads(options.threads), static_cast<int>(outputs.size()));
+  const files::ExrWriteOptions exr{threads > 1 ? 1 : files::exr_writer_threads(options.threads), options.zip_level};
+  std::vector<std::exception_ptr> failed(outputs.size());
+  std::atomic<std::size_t> next{0};
+  std::atomic<bool> stop{false};
+  auto work = [&] {
+    for (std::size_t i = next++; i < outputs.size() && !stop; i = next++) {
+      try {
+        const File& f = outputs[i];
+        write_float_exr(folder / "derived" / f.name, f.like->width(), f.like->height(), f.channels(), budget, exr);
+      } catch (...) {
+        failed[i] = std::current_exception();
+        stop = true;  // no new file once one failed
+      }
+    }
+  };
+  std::vector<std::thread> workers;
+  for (int t = 1; t < threads; ++t) workers.emplace_back(work);
+  work();
+  for (auto& w : workers) w.join();
+  // Recorded in order up to the first failure, which is then rethrown (as
+  // when the files were written one after another).
+  for (std::size_t i = 0; i < outputs.size(); ++i) {
+    if (failed[i]) std::rethrow_exception(failed[i]);
+    nlohmann::json record = outputs[i].record;
+    record["type"] = "derived";
+    record["file"] = "derived/" + outputs[i].name;
+    journal.append(record);
   }
 }
 

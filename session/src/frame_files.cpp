@@ -95,23 +95,24 @@ TiffImage read_tiff(const std::filesystem::path& path) {
 }
 
 void write_float_exr(const std::filesystem::path& path, int width, int height,
-                     const std::vector<FloatChannel>& channels, files::StorageBudget* budget) {
+                     std::vector<FloatChannel> channels, files::StorageBudget* budget,
+                     const files::ExrWriteOptions& exr) {
   const auto pixels = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
   for (const auto& channel : channels)
     if (channel.values.size() != pixels)
       throw std::invalid_argument("EXR channel " + channel.name + ": " + std::to_string(channel.values.size()) +
                                   " values for " + std::to_string(pixels) + " pixels");
-  // files::write_exr writes FLOAT channels with OpenEXR's default (ZIP)
-  // compression; here it fills the temporary file of the durable commit.
+  // files::write_exr writes FLOAT channels, ZIP compressed; here it fills
+  // the temporary file of the durable commit.
   files::FloatImage image;
   image.width = width;
   image.height = height;
-  for (const auto& channel : channels) {
-    image.channel_names.push_back(channel.name);
-    image.channels.push_back(channel.values);
+  for (auto& channel : channels) {
+    image.channel_names.push_back(std::move(channel.name));
+    image.channels.push_back(std::move(channel.values));
   }
   files::commit_file_durably(path, budget,
-                      [&](const std::filesystem::path& temporary) { files::write_exr(temporary, image); });
+                      [&](const std::filesystem::path& temporary) { files::write_exr(temporary, image, exr); });
 }
 
 }  // namespace chromo::session

@@ -38,6 +38,19 @@ struct ExrSize {
 ExrSize check_exr_file(const std::filesystem::path& path);
 
 FloatImage read_exr(const std::filesystem::path& path);
-void write_exr(const std::filesystem::path& path, const FloatImage& image);
+
+// How write_exr compresses. Always ZIP (deflate per 16 scanlines, lossless:
+// docs/formats/session.md); the blocks are compressed on `threads` threads
+// (OpenEXR's global pool, grown to the most any write asked for; 0 = all
+// cores, 1 = the caller's thread alone). zip_level: deflate's 0-9, -1 =
+// OpenEXR's default (4): the same format, any reader reads every level.
+struct ExrWriteOptions {
+  int threads = 0;
+  int zip_level = -1;
+};
+// Threads a write with `threads` uses (0 → the machine's cores);
+// std::invalid_argument below 0.
+int exr_writer_threads(int threads);
+void write_exr(const std::filesystem::path& path, const FloatImage& image, const ExrWriteOptions& options = {});
 
 }  // namespace chromo::files

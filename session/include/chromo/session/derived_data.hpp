@@ -22,10 +22,23 @@
 
 namespace chromo::session {
 
-// Writes into folder/derived/ and appends to `journal`. Throws
-// std::invalid_argument unless white_reflectance is in (0, 1]; a failed write
-// throws as files::commit_file_durably.
+// How the files are written: `threads` files at a time, each compressed on
+// its worker's thread (0 = one per core; 1 = one after another on the
+// caller's thread), ZIP at zip_level (files::ExrWriteOptions; -1 = OpenEXR's
+// default). Every setting writes the same pixels; only the bytes of the
+// deflate stream depend on the level.
+struct DerivedDataOptions {
+  int threads = 0;
+  int zip_level = -1;
+};
+
+// Writes into folder/derived/ and appends to `journal` (the records in the
+// order above: means by (step, camera), then albedo by plan step). Throws
+// std::invalid_argument unless white_reflectance is in (0, 1] and threads
+// >= 0; a failed write throws as files::commit_file_durably, after the
+// files before it in that order were recorded.
 void write_derived_data(const std::filesystem::path& folder, const SessionPlan& plan, const SessionFrameSums& sums,
-                        double white_reflectance, Journal& journal, files::StorageBudget* budget);
+                        double white_reflectance, Journal& journal, files::StorageBudget* budget,
+                        const DerivedDataOptions& options = {});
 
 }  // namespace chromo::session

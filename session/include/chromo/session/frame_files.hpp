@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "chromo/files/durable_file.hpp"
+#include "chromo/files/float_image.hpp"
 #include "chromo/session/frame_record.hpp"
 
 namespace chromo::session {
@@ -38,7 +39,9 @@ struct FloatChannel {
   std::string name;
   std::vector<float> values;  // width × height, row-major
 };
+// exr: the ZIP blocks' threads and level (files/float_image.hpp).
 void write_float_exr(const std::filesystem::path& path, int width, int height,
-                     const std::vector<FloatChannel>& channels, files::StorageBudget* budget);
+                     std::vector<FloatChannel> channels, files::StorageBudget* budget,
+                     const files::ExrWriteOptions& exr = {});
 
 }  // namespace chromo::session
