@@ -162,6 +162,7 @@ void ForwardTable::predict(const GridPoint& x, double* value, double* jacobian) 
     case 3: return accumulate_corners<3>(corner_values, weight, dweight, 3, value, jacobian);
     case 4: return accumulate_corners<4>(corner_values, weight, dweight, 4, value, jacobian);
     case 6: return accumulate_corners<6>(corner_values, weight, dweight, 6, value, jacobian);
+    case 9: return accumulate_corners<9>(corner_values, weight, dweight, 9, value, jacobian);  // maps::RelitTable of three photographs
     case 21: return accumulate_corners_by_corner<21>(corner_values, weight, dweight, value, jacobian);  // AppearanceTable
     default: return accumulate_corners<0>(corner_values, weight, dweight, channels_, value, jacobian);
   }

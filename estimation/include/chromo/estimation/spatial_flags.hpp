@@ -101,7 +101,8 @@
 // cells).
 //
 // Thread rules: free functions over caller-owned buffers; reentrant. They use
-// OpenCV (single call, OpenCV's own threads).
+// OpenCV (single call, OpenCV's own threads); the order pooling's refits run
+// on `threads` OpenMP threads.
 
 #include <span>
 #include <string>
@@ -136,6 +137,9 @@ struct NeighbourhoodOptions {
   // refine_with_neighbourhood(): which of the two parts to run.
   bool flags = true;
   bool pool_order = true;
+  // pool_model_order's refits (independent pixels): on this many threads;
+  // 0 = the estimator's (EstimatorOptions::threads). The same maps either way.
+  int threads = 0;
   bool IsValid(std::string* error) const;
 };
 
