@@ -2,8 +2,11 @@
 
 #include "chromo/estimation/inverter.hpp"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <chrono>
+#include <future>
 #include <cmath>
 #include <limits>
 #include <cstdio>
@@ -11,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "chromo/maps/map_previews.hpp"
+#include "chromo/maps/relit_table.hpp"
 #include "chromo/estimation/skin_model.hpp"
 
 namespace chromo::maps {
@@ -27,20 +31,6 @@ std::string hex_key(std::uint64_t key) {
   char text[17];
   std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(key));
   return text;
-}
-
-// OpenCV picks its image writer by the file's extension, which a commit's
-// temporary name does not have: write beside it with ".png", then rename.
-void write_png_to(const fs::path& temporary, const std::function<void(const fs::path&)>& write) {
-  const fs::path png = temporary.string() + ".png";
-  try {
-    write(png);
-    fs::rename(png, temporary);
-  } catch (...) {
-    std::error_code ignored;
-    fs::remove(png, ignored);
-    throw;
-  }
 }
 
 nlohmann::ordered_json stats_json(const DeltaEStats& s) {
@@ -103,7 +93,9 @@ std::vector<ChannelSnr> channel_snr(const estimation::MeasurementSet& set, std::
   return out;
 }
 
-std::string write_estimate_report(const fs::path& dir, const EstimateReport& report, const FileCommit& commit) {
+std::string write_estimate_report(const fs::path& dir, const EstimateReport& report, const FileCommit& commit,
+                                  int writer_threads) {
+  const int threads = files::exr_writer_threads(writer_threads);
   const std::size_t pixels = static_cast<std::size_t>(report.width) * report.height;
   if (report.estimates.size() != pixels) throw std::invalid_argument("estimate report: estimates do not fill the image");
   files::FloatImage maps;
@@ -155,35 +147,64 @@ std::string write_estimate_report(const fs::path& dir, const EstimateReport& rep
   for (const auto& [key, value] : extra.items()) s[key] = value;
   const std::string summary_text = s.dump(2) + "\n";
 
-  commit(dir / "maps.exr", [&](const fs::path& t) { files::write_exr(t, maps); });
+  // The previews are drawn and encoded on other threads while this one
+  // compresses maps.exr (itself on OpenEXR's pool); then each file is
+  // committed in turn from this thread.
   struct Preview {
     const char* file;
     int channel;
     double low, high;
     bool log;
   };
-  for (const Preview& p : {Preview{"cm.png", 0, estimation::kCmRange.min, estimation::kCmRange.max, true},
-                           Preview{"ch.png", 1, estimation::kChRange.min, estimation::kChRange.max, true}, Preview{"bm.png", 2, 0.0, 1.0, false},
-                           Preview{"che.png", 3, 0.0, 0.1, false},
-                           Preview{"residual.png", 4, 0.0, std::max(quantile(0.99), 1e-6), false}})
-    commit(dir / p.file, [&](const fs::path& t) {
-      write_png_to(t, [&](const fs::path& png) {
-        write_map_png(png, maps.channels[p.channel], report.width, report.height, p.low, p.high, p.log,
-                      maps.channel_names[p.channel], hide);
-      });
-    });
+  const std::vector<Preview> previews = {
+      Preview{"cm.png", 0, estimation::kCmRange.min, estimation::kCmRange.max, true},
+      Preview{"ch.png", 1, estimation::kChRange.min, estimation::kChRange.max, true},
+      Preview{"bm.png", 2, 0.0, 1.0, false},
+      Preview{"che.png", 3, 0.0, 0.1, false},
+      Preview{"residual.png", 4, 0.0, std::max(quantile(0.99), 1e-6), false}};
   std::vector<std::string> flag_names;
   for (int f = 0; f < estimation::kPixelFlagCount; ++f) flag_names.emplace_back(estimation::pixel_flag_name(static_cast<estimation::PixelFlag>(f)));
-  commit(dir / "flags.png", [&](const fs::path& t) {
-    write_png_to(t, [&](const fs::path& png) {
-      write_category_png(png, maps.channels[6], report.width, report.height, flag_names);
+  struct Encoded {
+    std::string file;
+    std::vector<std::uint8_t> bytes;
+  };
+  std::vector<Encoded> encoded(previews.size() + 2);
+  auto encode = [&](std::size_t i) {
+    if (i < previews.size()) {
+      const Preview& p = previews[i];
+      encoded[i] = {p.file, encode_map_png(maps.channels[p.channel], report.width, report.height, p.low, p.high, p.log,
+                                           maps.channel_names[p.channel], hide)};
+    } else if (i == previews.size()) {
+      encoded[i] = {"flags.png", encode_category_png(maps.channels[6], report.width, report.height, flag_names)};
+    } else {
+      encoded[i] = {"order.png",
+                    encode_category_png(maps.channels[5], report.width, report.height, {"none", "", "2D", "", "4D"})};
+    }
+  };
+  auto encode_all = [&] {
+#pragma omp parallel for schedule(dynamic) num_threads(std::max(1, threads - 1)) if (threads > 2)
+    for (std::size_t i = 0; i < encoded.size(); ++i) encode(i);
+  };
+  const files::ExrWriteOptions exr{threads};
+  if (threads > 1) {
+    auto previews_done = std::async(std::launch::async, encode_all);
+    try {
+      commit(dir / "maps.exr", [&](const fs::path& t) { files::write_exr(t, maps, exr); });
+    } catch (...) {
+      previews_done.wait();
+      throw;
+    }
+    previews_done.get();
+  } else {
+    commit(dir / "maps.exr", [&](const fs::path& t) { files::write_exr(t, maps, exr); });
+    for (std::size_t i = 0; i < encoded.size(); ++i) encode(i);
+  }
+  for (const Encoded& e : encoded)
+    commit(dir / e.file, [&](const fs::path& t) {
+      std::ofstream out(t, std::ios::binary);
+      out.write(reinterpret_cast<const char*>(e.bytes.data()), static_cast<std::streamsize>(e.bytes.size()));
+      if (!out.flush()) throw std::runtime_error("cannot write " + t.string());
     });
-  });
-  commit(dir / "order.png", [&](const fs::path& t) {
-    write_png_to(t, [&](const fs::path& png) {
-      write_category_png(png, maps.channels[5], report.width, report.height, {"none", "", "2D", "", "4D"});
-    });
-  });
   commit(dir / "summary.json", [&](const fs::path& t) {
     std::ofstream out(t);
     out << summary_text;
@@ -192,37 +213,59 @@ std::string write_estimate_report(const fs::path& dir, const EstimateReport& rep
   return summary_text;
 }
 
+std::string_view relit_model_name(RelitModel model) { return model == RelitModel::kExact ? "exact" : "table"; }
+
 std::vector<RelitComparison> compare_with_photographs(std::span<const estimation::PixelEstimate> estimates,
                                                       const std::vector<session::Photograph>& photographs,
-                                                      const spectral::CameraSensitivity& camera, int threads) {
+                                                      const spectral::CameraSensitivity& camera,
+                                                      const RelitComparisonOptions& options) {
+  for (const auto& photo : photographs)
+    if (photo.rgb.size() != estimates.size())
+      throw std::invalid_argument("photograph " + photo.name + ": size differs from the maps");
   std::vector<std::size_t> included;
   for (std::size_t i = 0; i < estimates.size(); ++i)
     // Explained pixels only: a specular pixel's parameters are the skin under
     // the reflection, so its reconstruction lacks the highlight by design.
     if (estimates[i].flag == estimation::PixelFlag::kExplained) included.push_back(i);
-  // The reconstruction's camera RGB under each illuminant, chunk by chunk (albedo spectra once per chunk).
+  // The reconstruction's camera RGB under each illuminant.
   std::vector<std::vector<Eigen::Vector3d>> reconstructed(photographs.size(),
                                                           std::vector<Eigen::Vector3d>(included.size()));
-  std::vector<spectral::CameraWeights> weights;
-  for (const auto& photo : photographs) weights.push_back(spectral::camera_weights(camera, photo.illuminant));
-  static const estimation::SkinModel model;
-  constexpr std::size_t kChunk = 16384;
-  std::vector<estimation::SkinParameters> parameters;
-  std::vector<spectral::Spectrum> albedo;
-  for (std::size_t begin = 0; begin < included.size(); begin += kChunk) {
-    const std::size_t end = std::min(included.size(), begin + kChunk);
-    parameters.resize(end - begin);
-    albedo.resize(end - begin);
-    for (std::size_t k = begin; k < end; ++k) parameters[k - begin] = estimates[included[k]].parameters;
-    model.albedo_batch(parameters, albedo, threads);
-    for (std::size_t p = 0; p < photographs.size(); ++p)
-      for (std::size_t k = begin; k < end; ++k) reconstructed[p][k] = weights[p] * albedo[k - begin].values().matrix();
+  const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
+  if (options.model == RelitModel::kTable && !photographs.empty()) {
+    std::vector<spectral::Spectrum> illuminants;
+    for (const auto& photo : photographs) illuminants.push_back(photo.illuminant);
+    const RelitTable table(camera, illuminants, options.grid, options.cache_dir, options.threads);
+    const auto count = static_cast<std::ptrdiff_t>(included.size());
+#pragma omp parallel num_threads(threads)
+    {
+      std::vector<Eigen::Vector3d> rgb(photographs.size());
+#pragma omp for schedule(static)
+      for (std::ptrdiff_t k = 0; k < count; ++k) {
+        table.rgb(estimates[included[static_cast<std::size_t>(k)]].parameters, rgb.data());
+        for (std::size_t p = 0; p < photographs.size(); ++p) reconstructed[p][static_cast<std::size_t>(k)] = rgb[p];
+      }
+    }
+  } else {
+    // The exact model, chunk by chunk (albedo spectra once per chunk).
+    std::vector<spectral::CameraWeights> weights;
+    for (const auto& photo : photographs) weights.push_back(spectral::camera_weights(camera, photo.illuminant));
+    static const estimation::SkinModel model;
+    constexpr std::size_t kChunk = 16384;
+    std::vector<estimation::SkinParameters> parameters;
+    std::vector<spectral::Spectrum> albedo;
+    for (std::size_t begin = 0; begin < included.size(); begin += kChunk) {
+      const std::size_t end = std::min(included.size(), begin + kChunk);
+      parameters.resize(end - begin);
+      albedo.resize(end - begin);
+      for (std::size_t k = begin; k < end; ++k) parameters[k - begin] = estimates[included[k]].parameters;
+      model.albedo_batch(parameters, albedo, options.threads);
+      for (std::size_t p = 0; p < photographs.size(); ++p)
+        for (std::size_t k = begin; k < end; ++k) reconstructed[p][k] = weights[p] * albedo[k - begin].values().matrix();
+    }
   }
   std::vector<RelitComparison> out;
   std::vector<Eigen::Vector3d> photographed(included.size());
   for (std::size_t p = 0; p < photographs.size(); ++p) {
-    if (photographs[p].rgb.size() != estimates.size())
-      throw std::invalid_argument("photograph " + photographs[p].name + ": size differs from the maps");
     for (std::size_t k = 0; k < included.size(); ++k) photographed[k] = photographs[p].rgb[included[k]];
     out.push_back({photographs[p].name,
                    photo_delta_e94(photographed, reconstructed[p], camera, photographs[p].illuminant)});
@@ -299,7 +342,12 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
   const double neighbourhood_seconds = seconds_since(t);
 
   t = std::chrono::steady_clock::now();
-  result.relit = compare_with_photographs(estimates, m.photographs, camera, options.estimator.threads);
+  RelitComparisonOptions relit_options;
+  relit_options.model = options.relit_model;
+  relit_options.grid = table->grid();
+  relit_options.cache_dir = options.cache_dir.empty() ? estimation::ForwardTable::default_cache_dir() : options.cache_dir;
+  relit_options.threads = options.estimator.threads;
+  result.relit = compare_with_photographs(estimates, m.photographs, camera, relit_options);
   const double relit_seconds = seconds_since(t);
   result.registration = m.registration;
 
@@ -333,6 +381,7 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
   extra["relit_delta_e94"] = {
       {"against", "the captured photographs (camera RGB albedo → XYZ by the ColorChecker-fitted matrix per illuminant)"},
       {"pixels", "explained (flag 0)"},
+      {"reconstruction", relit_model_name(options.relit_model)},
       {"by_illuminant", relit}};
 
   EstimateReport report;
@@ -349,11 +398,34 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
                       {"relit_comparison", relit_seconds},
                       {"total_before_writing", seconds_since(start)}};
   report.extra_json = extra.dump();
-  result.summary_json = write_estimate_report(out_dir, report, commit);
+  const auto writing = std::chrono::steady_clock::now();
+  result.summary_json = write_estimate_report(out_dir, report, commit, options.writer_threads);
+  result.timings_s = report.timings_s;
+  result.timings_s.insert(result.timings_s.begin() + 3, std::pair<std::string, double>("estimate", result.summary.seconds));
+  result.timings_s.emplace_back("writing", seconds_since(writing));
   return result;
 }
 
 }  // namespace
+
+double MethodEstimationResult::seconds(const std::string& stage) const {
+  for (const auto& [name, value] : timings_s)
+    if (name == stage) return value;
+  return 0;
+}
+
+MethodEstimationResult estimate_method_measurement(const session::MethodMeasurement& measurement,
+                                                   const spectral::CameraSensitivity& camera, double white_reflectance,
+                                                   double measurement_seconds, const MethodEstimationOptions& options,
+                                                   const fs::path& out_dir, const FileCommit& commit,
+                                                   const files::Progress& progress, const std::string& extra_json,
+                                                   const PreparedTables* prepared) {
+  const auto start = std::chrono::steady_clock::now() -
+                     std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                         std::chrono::duration<double>(measurement_seconds));
+  return estimate_measurement(measurement, camera, white_reflectance, start, measurement_seconds, options, out_dir,
+                              commit, progress, extra_json, prepared);
+}
 
 MethodEstimationResult estimate_method_captures(const session::MethodCaptures& captures, const MethodEstimationOptions& options,
                                                 const fs::path& out_dir, const FileCommit& commit,

@@ -15,11 +15,14 @@ void save(const std::filesystem::path& path, const cv::Mat& image) {
   if (!cv::imwrite(path.string(), image)) throw files::ImageError(path.string() + ": cannot write PNG");
 }
 
-}  // namespace
+std::vector<std::uint8_t> encode(const cv::Mat& image) {
+  std::vector<std::uint8_t> bytes;
+  if (!cv::imencode(".png", image, bytes)) throw files::ImageError("cannot encode a preview as PNG");
+  return bytes;
+}
 
-void write_map_png(const std::filesystem::path& path, const std::vector<float>& values, int width, int height,
-                   double low, double high, bool log_scale, const std::string& label,
-                   const std::vector<std::uint8_t>& hide) {
+cv::Mat map_canvas(const std::vector<float>& values, int width, int height, double low, double high, bool log_scale,
+                   const std::string& label, const std::vector<std::uint8_t>& hide) {
   auto normalise = [&](double v) {
     if (log_scale) v = std::log(std::max(v, 1e-12));
     const double lo = log_scale ? std::log(low) : low, hi = log_scale ? std::log(high) : high;
@@ -49,11 +52,10 @@ void write_map_png(const std::filesystem::path& path, const std::vector<float>& 
   std::snprintf(buffer, sizeof buffer, "%.4g", low);
   text(buffer, bar_height - 22);
   text(label + (log_scale ? " (log)" : ""), bar_height / 2);
-  save(path, canvas);
+  return canvas;
 }
 
-void write_category_png(const std::filesystem::path& path, const std::vector<float>& codes, int width, int height,
-                        const std::vector<std::string>& names) {
+cv::Mat category_canvas(const std::vector<float>& codes, int width, int height, const std::vector<std::string>& names) {
   static const cv::Vec3b kColours[] = {{60, 60, 60},   {255, 0, 255}, {0, 255, 255}, {0, 0, 0},
                                        {255, 255, 255}, {255, 0, 0},  {0, 0, 255},   {0, 200, 0}};
   const int n = static_cast<int>(std::size(kColours));
@@ -70,7 +72,31 @@ void write_category_png(const std::filesystem::path& path, const std::vector<flo
     cv::putText(canvas, std::to_string(k) + " " + names[k], cv::Point(width + 26, y + 11), cv::FONT_HERSHEY_SIMPLEX,
                 0.4, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
   }
-  save(path, canvas);
+  return canvas;
+}
+
+}  // namespace
+
+void write_map_png(const std::filesystem::path& path, const std::vector<float>& values, int width, int height,
+                   double low, double high, bool log_scale, const std::string& label,
+                   const std::vector<std::uint8_t>& hide) {
+  save(path, map_canvas(values, width, height, low, high, log_scale, label, hide));
+}
+
+void write_category_png(const std::filesystem::path& path, const std::vector<float>& codes, int width, int height,
+                        const std::vector<std::string>& names) {
+  save(path, category_canvas(codes, width, height, names));
+}
+
+std::vector<std::uint8_t> encode_map_png(const std::vector<float>& values, int width, int height, double low,
+                                         double high, bool log_scale, const std::string& label,
+                                         const std::vector<std::uint8_t>& hide) {
+  return encode(map_canvas(values, width, height, low, high, log_scale, label, hide));
+}
+
+std::vector<std::uint8_t> encode_category_png(const std::vector<float>& codes, int width, int height,
+                                              const std::vector<std::string>& names) {
+  return encode(category_canvas(codes, width, height, names));
 }
 
 }  // namespace chromo::maps

@@ -16,7 +16,8 @@
 // estimate_method_captures() is the whole estimation of a standard session's
 // captures (method_measurement.hpp → forward table from the disk cache →
 // estimation::Estimator tile by tile on options.threads → the spatial second pass →
-// relit ΔE94 against the captured photographs → the folder above); the daemon and `chromo estimate
+// relit ΔE94 against the captured photographs (the reconstruction from a
+// RelitTable by default) → the folder above); the daemon and `chromo estimate
 // SESSION_DIR` both call it, so they give the same maps for the same frames.
 //
 // Thread rules: free functions; the estimator runs on its own threads.
@@ -26,6 +27,7 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -63,19 +65,39 @@ struct ChannelSnr {
 std::vector<ChannelSnr> channel_snr(const estimation::MeasurementSet& set, std::span<const float> measured,
                                     std::span<const estimation::PixelEstimate> estimates, double white_reflectance);
 
-// Writes the folder's files (the directory must exist) and returns summary.json's text.
+// Writes the folder's files (the directory must exist) and returns
+// summary.json's text. writer_threads (0 = all cores, 1 = one): the previews
+// are drawn and PNG-encoded in parallel while maps.exr is compressed on
+// OpenEXR's pool (files::ExrWriteOptions); `commit` is still called for one
+// file at a time, from the calling thread, in the order listed above.
 std::string write_estimate_report(const std::filesystem::path& dir, const EstimateReport& report,
-                                  const FileCommit& commit);
+                                  const FileCommit& commit, int writer_threads = 0);
 
 // ΔE94 of the reconstruction against one captured photograph.
 struct RelitComparison {
   std::string illuminant;  // "D65'", "W57", "W57+blue"
   DeltaEStats delta_e94;
 };
+// How the reconstruction's camera RGB is computed.
+//  kTable: interpolated in a RelitTable (relit_table.hpp) of the
+//          photographs' illuminants on `grid`, cached in cache_dir (empty: in
+//          memory only): one 16-corner interpolation per pixel;
+//  kExact: the skin model evaluated per pixel (81 wavelengths), ≈ 30× the
+//          time at 5 MP (bench/estimate_stages_bench.cpp, with the
+//          difference it makes to the statistics).
+enum class RelitModel { kExact, kTable };
+std::string_view relit_model_name(RelitModel model);  // "exact", "table"
+struct RelitComparisonOptions {
+  RelitModel model = RelitModel::kTable;
+  estimation::TableGrid grid;
+  std::filesystem::path cache_dir;
+  int threads = 0;  // 0 = all cores
+};
 // Over explained pixels (flag kExplained) with a finite photograph.
 std::vector<RelitComparison> compare_with_photographs(std::span<const estimation::PixelEstimate> estimates,
                                                       const std::vector<session::Photograph>& photographs,
-                                                      const spectral::CameraSensitivity& camera, int threads = 0);
+                                                      const spectral::CameraSensitivity& camera,
+                                                      const RelitComparisonOptions& options = {});
 
 // summary.json's "neighbourhood" object (JSON text): which parts of the
 // spatial second pass ran (spatial_flags.hpp) and what they changed.
@@ -93,6 +115,11 @@ struct MethodEstimationOptions {
   estimation::TableGrid grid;
   std::filesystem::path cache_dir; // forward (and, unless estimator.cache_dir, inverse) tables; empty: default
   session::RegistrationOptions registration;
+  // The relit comparison's reconstruction (compare_with_photographs), its
+  // table on `grid` in cache_dir.
+  RelitModel relit_model = RelitModel::kTable;
+  // The report's files (write_estimate_report): 0 = all cores, 1 = one after another on one thread.
+  int writer_threads = 0;
 };
 
 struct MethodEstimationResult {
@@ -101,6 +128,12 @@ struct MethodEstimationResult {
   double pixels_per_second = 0;
   std::vector<RelitComparison> relit;
   std::vector<session::RegistrationReport> registration;
+  // Wall seconds per stage, in order: summary.json's timings_s
+  // (measurement_and_registration, table, inverter_setup, estimate,
+  // neighbourhood, relit_comparison, total_before_writing) and "writing"
+  // (the report's files), which summary.json cannot hold.
+  std::vector<std::pair<std::string, double>> timings_s;
+  double seconds(const std::string& stage) const;  // 0 when absent
 };
 
 // The forward table and the inverter of one measurement set, made before the
@@ -137,6 +170,17 @@ MethodEstimationResult estimate_method_captures(const session::MethodCaptures& c
                                                 const files::Progress& progress = {},
                                                 const std::string& extra_json = "{}",
                                                 const PreparedTables* prepared = nullptr);
+
+// What estimate_method_captures does once the measurement is made (a
+// measurement built elsewhere: the benches' rendered sessions); its
+// timings_s start with measurement_seconds.
+MethodEstimationResult estimate_method_measurement(const session::MethodMeasurement& measurement,
+                                                   const spectral::CameraSensitivity& camera, double white_reflectance,
+                                                   double measurement_seconds, const MethodEstimationOptions& options,
+                                                   const std::filesystem::path& out_dir, const FileCommit& commit,
+                                                   const files::Progress& progress = {},
+                                                   const std::string& extra_json = "{}",
+                                                   const PreparedTables* prepared = nullptr);
 
 // The same for the captures of any plan (session::PlanCaptures: the
 // multispectral plans, an operator's): session::build_plan_measurement (3

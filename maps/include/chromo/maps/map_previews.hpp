@@ -21,4 +21,13 @@ void write_map_png(const std::filesystem::path& path, const std::vector<float>& 
 void write_category_png(const std::filesystem::path& path, const std::vector<float>& codes, int width, int height,
                         const std::vector<std::string>& names);
 
+// The same PNG files' bytes, for a caller that writes them itself
+// (write_estimate_report encodes its previews in parallel). Throws
+// files::ImageError when encoding fails.
+std::vector<std::uint8_t> encode_map_png(const std::vector<float>& values, int width, int height, double low,
+                                         double high, bool log_scale, const std::string& label,
+                                         const std::vector<std::uint8_t>& hide);
+std::vector<std::uint8_t> encode_category_png(const std::vector<float>& codes, int width, int height,
+                                              const std::vector<std::string>& names);
+
 }  // namespace chromo::maps
