@@ -4,7 +4,9 @@
 #include <ImfHeader.h>
 #include <ImfOutputFile.h>
 
+#include <cstring>
 #include <fstream>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -29,6 +31,41 @@ TEST(FloatImage, WritesAndReadsBackEveryChannel) {
   EXPECT_EQ(read.channel("A"), written.channels[0]);
   EXPECT_EQ(read.channel("B"), written.channels[1]);
   EXPECT_THROW(read.channel("C"), ImageError);
+  std::filesystem::remove_all(dir);
+}
+
+// Threads and ZIP level change how the blocks are compressed, never the
+// pixels: every setting reads back the same floats (noise, NaN and ±∞
+// included), and a lower level is a valid ZIP file any reader opens.
+TEST(FloatImage, EveryThreadCountAndZipLevelWritesTheSamePixels) {
+  const auto dir = testing::fresh_directory("float-image-threads");
+  FloatImage written{301, 97, {"Y", "Z"}, {std::vector<float>(301 * 97), std::vector<float>(301 * 97)}};
+  std::uint32_t seed = 7;
+  for (std::size_t i = 0; i < written.channels[0].size(); ++i) {
+    seed = seed * 1664525u + 1013904223u;
+    written.channels[0][i] = static_cast<float>(seed >> 8) / 16777216.0f;
+    written.channels[1][i] = static_cast<float>(i % 301) * 0.25f;
+  }
+  written.channels[0][5] = std::numeric_limits<float>::quiet_NaN();
+  written.channels[1][6] = std::numeric_limits<float>::infinity();
+  int file = 0;
+  for (const ExrWriteOptions options : {ExrWriteOptions{1, -1}, ExrWriteOptions{2, -1}, ExrWriteOptions{0, 1},
+                                        ExrWriteOptions{3, 9}, ExrWriteOptions{1, 0}}) {
+    const auto path = dir / ("f" + std::to_string(file++) + ".exr");
+    write_exr(path, written, options);
+    const FloatImage read = read_exr(path);
+    for (std::size_t c = 0; c < 2; ++c)
+      ASSERT_EQ(0, std::memcmp(read.channels[c].data(), written.channels[c].data(), read.channels[c].size() * 4))
+          << options.threads << " " << options.zip_level;
+  }
+  // Level 1 compresses the smooth channel less tightly than level 9, but compresses it.
+  EXPECT_LT(std::filesystem::file_size(dir / "f3.exr"), std::filesystem::file_size(dir / "f2.exr") + 1);
+  EXPECT_LT(std::filesystem::file_size(dir / "f2.exr"), 2u * 301u * 97u * 4u);
+  EXPECT_THROW(write_exr(dir / "bad.exr", written, {-1, -1}), std::invalid_argument);
+  EXPECT_THROW(write_exr(dir / "bad.exr", written, {1, 10}), std::invalid_argument);
+  EXPECT_FALSE(std::filesystem::exists(dir / "bad.exr"));
+  EXPECT_EQ(exr_writer_threads(3), 3);
+  EXPECT_GE(exr_writer_threads(0), 1);
   std::filesystem::remove_all(dir);
 }
 

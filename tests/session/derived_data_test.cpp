@@ -1,0 +1,113 @@
+// Derived data written one file after another and on several threads
+// (derived_data.hpp, DerivedDataOptions): the same files, pixels and journal
+// records, and a bad setting refused before anything is written.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <fstream>
+
+#include "../support/fresh_directory.hpp"
+#include "chromo/files/float_image.hpp"
+#include "chromo/session/derived_data.hpp"
+#include "chromo/session/frame_sums.hpp"
+#include "chromo/session/journal.hpp"
+
+namespace chromo::session {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Every step of the standard plan, two cameras, one noisy 12-bit frame each.
+SessionFrameSums sums_of(const SessionPlan& plan, int width, int height) {
+  SessionFrameSums sums;
+  std::uint64_t index = 0;
+  std::uint32_t seed = 99;
+  for (std::size_t s = 0; s < plan.steps.size(); ++s)
+    for (const char* camera : {"cam0", "cam1"}) {
+      FrameRecord record;
+      record.index = index++;
+      record.step = plan.steps[s].name;
+      record.step_index = static_cast<int>(s);
+      record.role = plan.steps[s].role;
+      record.camera = camera;
+      record.width = width, record.height = height;
+      record.pixel_format = drivers::PixelFormat::kBayerRG12;
+      std::vector<std::uint8_t> samples(static_cast<std::size_t>(width) * height * 2);
+      const std::uint16_t base = record.role == StepRole::kDark ? 64 : record.role == StepRole::kWhite ? 3000 : 1500;
+      for (std::size_t i = 0; i < samples.size() / 2; ++i) {
+        seed = seed * 1664525u + 1013904223u;
+        const auto value = static_cast<std::uint16_t>(base + (seed >> 24));
+        std::memcpy(&samples[2 * i], &value, 2);
+      }
+      sums.add(record, samples);
+    }
+  return sums;
+}
+
+std::vector<nlohmann::json> derived_records(const fs::path& journal) {
+  std::vector<nlohmann::json> out;
+  std::ifstream in(journal);
+  for (std::string line; std::getline(in, line);) {
+    auto record = nlohmann::json::parse(line);
+    record.erase("t");
+    out.push_back(record);
+  }
+  return out;
+}
+
+TEST(DerivedData, EveryThreadCountWritesTheSameFilesAndRecordsInTheSameOrder) {
+  const SessionPlan plan = standard_plan();
+  const SessionFrameSums sums = sums_of(plan, 64, 48);
+  const fs::path root = testing::fresh_directory("derived-threads");
+  std::vector<std::vector<nlohmann::json>> records;
+  int variant = 0;
+  for (const DerivedDataOptions options : {DerivedDataOptions{1, -1}, DerivedDataOptions{0, -1}, DerivedDataOptions{3, 1}}) {
+    const fs::path folder = root / std::to_string(variant++);
+    fs::create_directories(folder);
+    {
+      Journal journal(folder / "journal.jsonl", nullptr);
+      write_derived_data(folder, plan, sums, 0.99, journal, nullptr, options);
+    }
+    records.push_back(derived_records(folder / "journal.jsonl"));
+  }
+  ASSERT_EQ(records[0].size(), 7u * 2 + 3 * 2);  // a mean per step and camera, an albedo per mix and camera
+  EXPECT_EQ(records[1], records[0]);
+  EXPECT_EQ(records[2], records[0]);
+  for (const auto& record : records[0]) {
+    const std::string file = record["file"];
+    const auto first = files::read_exr(root / "0" / file);
+    for (const char* other : {"1", "2"}) {
+      const auto read = files::read_exr(root / other / file);
+      ASSERT_EQ(read.channel_names, first.channel_names) << file;
+      for (std::size_t c = 0; c < read.channels.size(); ++c)
+        EXPECT_EQ(0, std::memcmp(read.channels[c].data(), first.channels[c].data(), read.channels[c].size() * 4))
+            << other << " " << file;
+    }
+  }
+  const fs::path bad = root / "bad";
+  fs::create_directories(bad);
+  Journal journal(bad / "journal.jsonl", nullptr);
+  EXPECT_THROW(write_derived_data(bad, plan, sums, 0.99, journal, nullptr, {-1, -1}), std::invalid_argument);
+  EXPECT_FALSE(fs::exists(bad / "derived"));
+  fs::remove_all(root);
+}
+
+// A write that fails (the storage budget is full) is thrown after the files
+// before it were recorded, and no record names a file that is not there.
+TEST(DerivedData, AFailedWriteRecordsOnlyTheFilesThatExist) {
+  const SessionPlan plan = standard_plan();
+  const SessionFrameSums sums = sums_of(plan, 64, 48);
+  const fs::path folder = testing::fresh_directory("derived-full");
+  files::StorageBudget budget(20000);  // a few of the small files
+  {
+    Journal journal(folder / "journal.jsonl", nullptr);
+    EXPECT_THROW(write_derived_data(folder, plan, sums, 0.99, journal, &budget, {2, -1}), files::StorageFullError);
+  }
+  const auto records = derived_records(folder / "journal.jsonl");
+  EXPECT_LT(records.size(), 20u);
+  for (const auto& record : records) EXPECT_TRUE(fs::exists(folder / record["file"].get<std::string>())) << record;
+  fs::remove_all(folder);
+}
+
+}  // namespace
+}  // namespace chromo::session
