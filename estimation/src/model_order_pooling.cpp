@@ -1,6 +1,5 @@
 // pool_model_order (spatial_flags.hpp): the model order decided over a
 // window of pixels, the part of the spatial pass that is not about flags.
-#include <omp.h>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -38,8 +37,7 @@ NeighbourhoodSummary pool_model_order(const Estimator& estimator, std::span<cons
     threshold[n] = chi_squared_quantile(1 - estimator.options().order_significance, dof * n);
   // The refits are independent pixels: on options.threads (by default the
   // estimator's, as estimate() runs them), each writing only its own estimate.
-  const int wanted = options.threads > 0 ? options.threads : estimator.options().threads;
-  const int threads = wanted > 0 ? wanted : omp_get_max_threads();
+  const int threads = detail::spatial_threads(estimator, options);
   const auto count = static_cast<std::ptrdiff_t>(estimates.size());
   std::size_t to_4 = 0, to_2 = 0;
 #pragma omp parallel for schedule(dynamic, 4096) num_threads(threads) reduction(+ : to_4, to_2)

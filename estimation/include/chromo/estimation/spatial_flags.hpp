@@ -101,8 +101,9 @@
 // cells).
 //
 // Thread rules: free functions over caller-owned buffers; reentrant. They use
-// OpenCV (single call, OpenCV's own threads); the order pooling's refits run
-// on `threads` OpenMP threads.
+// OpenCV (single call, OpenCV's own threads); their per-pixel work (the
+// background's least-squares solves, the deviation tests, the order
+// pooling's refits) runs on `threads` OpenMP threads, each pixel its own.
 
 #include <span>
 #include <string>
@@ -137,8 +138,9 @@ struct NeighbourhoodOptions {
   // refine_with_neighbourhood(): which of the two parts to run.
   bool flags = true;
   bool pool_order = true;
-  // pool_model_order's refits (independent pixels): on this many threads;
-  // 0 = the estimator's (EstimatorOptions::threads). The same maps either way.
+  // The per-pixel work of both parts (independent pixels): on this many
+  // threads; 0 = the estimator's (EstimatorOptions::threads, 0 = all cores).
+  // The same flags and maps on any count.
   int threads = 0;
   bool IsValid(std::string* error) const;
 };

@@ -1,0 +1,74 @@
+#!/usr/bin/env bash
+# One standard session on chromod's virtual lab from a configuration file,
+# timed: how long the lab took to start (its scene prepared, the camera
+# simulators listening: until chromod's socket answers), then the session's
+# timeline from its journal (`chromo session show`: capture, derived data and
+# maps after the last frame) and, from the journal's records, how the capture
+# splits into the steps' own time (settle + exposure per frame) and the rest
+# (rendering the frames in the camera simulators and sending them).
+#
+#   scripts/timed-lab-session.sh CONFIG.json [SESSIONS_DIR]
+#
+# E.g. scripts/timed-lab-session.sh scripts/lab-two-5mp-cameras.json (two 5-MP
+# BayerRG12 cameras, issue 21 part 5). Assumes a build in build/release.
+# Stops the daemon it started on exit.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+config=${1:?usage: scripts/timed-lab-session.sh CONFIG.json [SESSIONS_DIR]}
+sessions=${2:-timed-sessions}
+bin=build/release/bin
+mkdir -p "$sessions"
+run_dir=$(mktemp -d "$sessions/.chromod-run-XXXXXX")
+socket="$run_dir/chromod.sock"
+export CHROMO_DAEMON="unix:$socket"
+
+started_ns=$(date +%s%N)
+CHROMO_RUNTIME_DIR="$run_dir" "$bin/chromod" --config "$config" --socket "$socket" --sessions-dir "$sessions" \
+  >"$run_dir/chromod.log" 2>&1 &
+daemon_pid=$!
+trap 'kill "$daemon_pid" 2>/dev/null; wait "$daemon_pid" 2>/dev/null || true; rm -rf "$run_dir"' EXIT
+until "$bin/chromo" status >/dev/null 2>&1; do
+  kill -0 "$daemon_pid" 2>/dev/null || { cat "$run_dir/chromod.log" >&2; exit 1; }
+  sleep 0.05
+done
+ready_ns=$(date +%s%N)
+echo "lab preparation (chromod start until its socket answers: scene, simulators, drivers): $(( (ready_ns - started_ns) / 1000000 )) ms"
+grep -m3 "camera simulator\|virtual lab" "$run_dir/chromod.log" || true
+
+session_start_ns=$(date +%s%N)
+started=$("$bin/chromo" session run --detach --subject "timed session" --exposure-us 10000)
+id=$(sed -n 's/^session \([^ ]*\) started$/\1/p' <<<"$started")
+[[ -n "$id" ]] || { echo "timed-lab-session: no session id in: $started" >&2; exit 1; }
+"$bin/chromo" session watch "$id" >/dev/null || true
+done_ns=$(date +%s%N)
+"$bin/chromo" session show "$id" | grep -i "timeline\|state" || true
+echo "session request to its end (client's clock): $(( (done_ns - session_start_ns) / 1000000 )) ms"
+# The capture's split, from the journal: each frame's arrival after its step
+# started, less the step's settle and exposure, is the frame's rendering and
+# transfer in the lab (the slowest camera's frame ends the step).
+python3 - "$sessions/$id/journal.jsonl" <<'PY'
+import json, sys, datetime
+records = [json.loads(line) for line in open(sys.argv[1])]
+def t(r): return datetime.datetime.fromisoformat(r["t"].replace("Z", "+00:00")).timestamp()
+steps, frames = {}, {}
+for r in records:
+    if r.get("type") == "step_started": steps[r.get("step")] = r
+    if r.get("type") == "frame": frames.setdefault(r["step"], []).append(r)
+own = rest = 0.0
+for name, start in steps.items():
+    if name not in frames: continue
+    last = max(t(f) for f in frames[name])
+    exposure = max(f.get("exposure_us", 0) for f in frames[name]) / 1e6
+    settle = start.get("settle_ms", 0) / 1e3
+    own += settle + exposure
+    rest += last - t(start) - settle - exposure
+cameras = sorted({f.get("camera") for fs in frames.values() for f in fs})
+print(f"capture split over {len(steps)} steps, cameras {', '.join(cameras)}: settle + exposure {own:.2f} s, "
+      f"rendering + transfer + storage of the frames {rest:.2f} s")
+for r in records:
+    if r.get("type") == "results":
+        print("results:", r.get("state"), "estimate_seconds", r.get("estimate_seconds"), "pixels", r.get("pixels"))
+PY
+summary="$sessions/$id/results/summary.json"
+[[ -f "$summary" ]] && python3 -c "import json,sys; print('results timings_s:', json.load(open(sys.argv[1]))['timings_s'])" "$summary"
+echo "session folder: $sessions/$id"
