@@ -89,7 +89,17 @@ struct Spread {
 struct Run {
   maps::MethodEstimationResult result;
   double total = 0;  // wall seconds of the whole call
+  double cpu = 0;    // CPU seconds of the process over the call (all threads; steadier on a shared machine)
 };
+
+// The machine's 1-minute load average (/proc/loadavg): the figures are wall
+// and CPU seconds on a machine other work may share.
+double load_average() {
+  std::ifstream in("/proc/loadavg");
+  double load = -1;
+  in >> load;
+  return load;
+}
 
 maps::FileCommit direct_commit() {
   return [](const fs::path& path, const std::function<void(const fs::path&)>& produce) { produce(path); };
@@ -99,10 +109,12 @@ Run run_estimate(const simulators::RenderedSession& lab, const maps::PreparedTab
                  maps::MethodEstimationOptions options, const fs::path& dir) {
   fs::create_directories(dir);
   const auto t = std::chrono::steady_clock::now();
+  const CpuClock cpu;
   Run run;
   run.result = maps::estimate_method_measurement(lab.noisy, lab.noisy.set.camera, 0.99, 0, options, dir, direct_commit(),
                                                  {}, "{}", &tables);
   run.total = seconds_since(t);
+  run.cpu = cpu.seconds();
   return run;
 }
 
@@ -243,14 +255,14 @@ int bench_main(int argc, char** argv) {
   std::printf("estimate_stages_bench: %dx%d BayerRG12 sensor -> %dx%d cells, seeds", sensor_width, sensor_height,
               sensor_width / 2, sensor_height / 2);
   for (auto s : seeds) std::printf(" %llu", static_cast<unsigned long long>(s));
-  std::printf(", %d estimator threads\n", threads);
+  std::printf(", %d estimator threads; load average %.2f\n", threads, load_average());
 
   Spread before_stage[kStageCount], after_stage[kStageCount], ratio_stage[kStageCount], before_total, after_total,
-      ratio_total, render_s, prepare_s, maps_pixels_differing;
+      ratio_total, before_cpu, after_cpu, ratio_cpu, render_s, prepare_s, maps_pixels_differing;
   std::map<std::string, Spread> relit_shift_mean, relit_shift_median, relit_shift_p95, table_mean, table_p95, table_max;
   std::vector<std::string> illuminant_names;
   std::ofstream csv(out / "estimate_stages.csv");
-  csv << "seed,config,estimate_s,neighbourhood_s,relit_comparison_s,writing_s,total_s\n";
+  csv << "seed,config,estimate_s,neighbourhood_s,relit_comparison_s,writing_s,total_s,total_cpu_s\n";
 
   for (const std::uint64_t seed : seeds) {
     simulators::RenderedSessionOptions ro;
@@ -284,9 +296,12 @@ int bench_main(int argc, char** argv) {
     }
     before_total.add(b.total), after_total.add(a.total), ratio_total.add(a.total / b.total);
     std::printf("  %-18s %9.3f %9.3f %9.3f\n", "total", b.total, a.total, a.total / b.total);
+    before_cpu.add(b.cpu), after_cpu.add(a.cpu), ratio_cpu.add(a.cpu / b.cpu);
+    std::printf("  %-18s %9.3f %9.3f %9.3f\n", "total CPU s", b.cpu, a.cpu, a.cpu / b.cpu);
     for (const auto& [name, r] : {std::pair<const char*, const Run*>{"before", &b}, std::pair<const char*, const Run*>{"after", &a}})
       csv << seed << "," << name << "," << r->result.seconds("estimate") << "," << r->result.seconds("neighbourhood") << ","
-          << r->result.seconds("relit_comparison") << "," << r->result.seconds("writing") << "," << r->total << "\n";
+          << r->result.seconds("relit_comparison") << "," << r->result.seconds("writing") << "," << r->total << ","
+          << r->cpu << "\n";
 
     const MapsDifference d = compare_maps(dir / "before" / "maps.exr", dir / "after" / "maps.exr");
     maps_pixels_differing.add(static_cast<double>(d.pixels_differing));
@@ -311,7 +326,7 @@ int bench_main(int argc, char** argv) {
     fs::remove_all(dir);
   }
 
-  std::printf("\nspread over %zu seeds, mean [min, max]:\n", seeds.size());
+  std::printf("\nspread over %zu seeds, mean [min, max] (load average now %.2f):\n", seeds.size(), load_average());
   std::printf("  render (not in the estimate) %s s; tables prepared %s s\n", render_s.text("%.1f").c_str(),
               prepare_s.text("%.2f").c_str());
   std::printf("  %-18s %-26s %-26s %s\n", "stage (wall s)", "before", "after", "after/before");
@@ -320,6 +335,8 @@ int bench_main(int argc, char** argv) {
                 ratio_stage[s].text().c_str());
   std::printf("  %-18s %-26s %-26s %s\n", "total", before_total.text().c_str(), after_total.text().c_str(),
               ratio_total.text().c_str());
+  std::printf("  %-18s %-26s %-26s %s\n", "total CPU s", before_cpu.text().c_str(), after_cpu.text().c_str(),
+              ratio_cpu.text().c_str());
   std::printf("  maps.exr pixels differing after vs before: %s\n", maps_pixels_differing.text("%.0f").c_str());
   for (const std::string& name : illuminant_names)
     std::printf("  %-9s relit ΔE94 statistic, table − exact: mean %s, median %s, p95 %s; per pixel table vs exact ΔE94: "
@@ -361,7 +378,7 @@ int bench_main(int argc, char** argv) {
                                       : ", PIXELS DIFFER"));
       bars.push_back({std::string("derived ") + (v == 0 ? "before" : v == 1 ? "after" : "zip-1"), r.seconds});
       csv << "derived," << (v == 0 ? "before" : v == 1 ? "after" : "zip-1") << ",,,," << r.seconds << "," << r.seconds
-          << "\n";
+          << ",\n";
     }
     fs::remove_all(scratch / "derived-0");
     fs::remove_all(scratch / "derived-1");
