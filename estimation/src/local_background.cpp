@@ -1,5 +1,4 @@
 // The local quadratic background of the spatial pass (spatial_internal.hpp).
-#include <omp.h>
 #include <opencv2/imgproc.hpp>
 
 #include <array>
@@ -30,12 +29,7 @@ cv::Mat filter(const cv::Mat& src, const cv::Mat& kx, const cv::Mat& ky) {
 // linear fit leaves the curvature of the skin's own variation (a few % of
 // albedo over σ = 6 px) in the deviation; the quadratic one does not. NaN where
 // the neighbourhood has too little support.
-int spatial_threads(const Estimator& estimator, const NeighbourhoodOptions& options) {
-  const int wanted = options.threads > 0 ? options.threads : estimator.options().threads;
-  return wanted > 0 ? wanted : omp_get_max_threads();
-}
-
-std::vector<cv::Mat> background(const std::vector<cv::Mat>& values, const cv::Mat& good, double sigma, int threads) {
+std::vector<cv::Mat> background(const std::vector<cv::Mat>& values, const cv::Mat& good, double sigma) {
   constexpr int kTerms = 6;
   constexpr int kPowers[kTerms][2] = {{0, 0}, {1, 0}, {0, 1}, {2, 0}, {1, 1}, {0, 2}};
   std::array<cv::Mat, 5> k;
@@ -51,7 +45,6 @@ std::vector<cv::Mat> background(const std::vector<cv::Mat>& values, const cv::Ma
   for (int i = 1; i < kTerms; ++i) ridge[i] = 1e-3 * std::pow(sigma * sigma, kPowers[i][0] + kPowers[i][1]);
   std::vector<std::array<float, kTerms>> q(static_cast<std::size_t>(rows) * cols);
   std::vector<char> supported(q.size(), 0);
-#pragma omp parallel for schedule(static) num_threads(threads)
   for (int y = 0; y < rows; ++y)
     for (int x = 0; x < cols; ++x) {
       const double m0 = moment[0][0].at<float>(y, x);
@@ -73,7 +66,6 @@ std::vector<cv::Mat> background(const std::vector<cv::Mat>& values, const cv::Ma
     std::array<cv::Mat, kTerms> r;
     for (int t = 0; t < kTerms; ++t) r[t] = filter(wv, k[kPowers[t][0]], k[kPowers[t][1]]);
     cv::Mat b(v.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
-#pragma omp parallel for schedule(static) num_threads(threads)
     for (int y = 0; y < rows; ++y)
       for (int x = 0; x < cols; ++x) {
         const std::size_t i = static_cast<std::size_t>(y) * cols + x;

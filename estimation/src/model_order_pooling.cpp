@@ -28,25 +28,18 @@ NeighbourhoodSummary pool_model_order(const Estimator& estimator, std::span<cons
     statistic.at<float>(y, x) = e.order_statistic;
   }
   const cv::Size window(options.order_window_px, options.order_window_px);
-  cv::Mat count_window, sum;
-  cv::boxFilter(tested, count_window, CV_32F, window, cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
+  cv::Mat count, sum;
+  cv::boxFilter(tested, count, CV_32F, window, cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
   cv::boxFilter(statistic, sum, CV_32F, window, cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
   const int max_count = options.order_window_px * options.order_window_px;
   std::vector<double> threshold(max_count + 1, 0);
   for (int n = 1; n <= max_count; ++n)
     threshold[n] = chi_squared_quantile(1 - estimator.options().order_significance, dof * n);
-  // The refits are independent pixels: on options.threads (by default the
-  // estimator's, as estimate() runs them), each writing only its own estimate.
-  const int threads = detail::spatial_threads(estimator, options);
-  const auto count = static_cast<std::ptrdiff_t>(estimates.size());
-  std::size_t to_4 = 0, to_2 = 0;
-#pragma omp parallel for schedule(dynamic, 4096) num_threads(threads) reduction(+ : to_4, to_2)
-  for (std::ptrdiff_t k = 0; k < count; ++k) {
-    const auto p = static_cast<std::size_t>(k);
+  for (std::size_t p = 0; p < estimates.size(); ++p) {
     PixelEstimate& e = estimates[p];
     const int y = static_cast<int>(p / width), x = static_cast<int>(p % width);
     if (!tested.at<float>(y, x)) continue;
-    const int n = std::clamp(static_cast<int>(std::lround(count_window.at<float>(y, x))), 1, max_count);
+    const int n = std::clamp(static_cast<int>(std::lround(count.at<float>(y, x))), 1, max_count);
     const int decided = sum.at<float>(y, x) > threshold[n] ? 4 : 2;
     if (decided == e.order) continue;
     PixelEstimate refit = estimator.estimate_pixel(measured.data() + p * channels,
@@ -54,9 +47,8 @@ NeighbourhoodSummary pool_model_order(const Estimator& estimator, std::span<cons
     if (decided == 2 && refit.flag != PixelFlag::kExplained) continue;  // the 2D model does not explain it alone
     refit.order_statistic = e.order_statistic;
     e = refit;
-    ++(decided == 4 ? to_4 : to_2);
+    ++(decided == 4 ? summary.order_to_4 : summary.order_to_2);
   }
-  summary.order_to_4 = to_4, summary.order_to_2 = to_2;
   return summary;
 }
 

@@ -36,7 +36,6 @@ bool NeighbourhoodOptions::IsValid(std::string* error) const {
   if (order_window_px < 1 || order_window_px > 63) return fail("order_window_px must be 1-63");
   if (block_px < 0 || block_px > 64) return fail("block_px must be 0 (from the image size) or 1-64");
   if (reference_width_px < 16) return fail("reference_width_px must be >= 16");
-  if (threads < 0) return fail("threads must be >= 0 (0: the estimator's)");
   return true;
 }
 
@@ -175,7 +174,7 @@ double matched_statistic(const Vector& a, const Vector& v, const Matrix* misfit_
 
 Deviation deviation(const Estimator& estimator, const Level& level, const cv::Mat& good, const cv::Mat& steady,
                     const cv::Mat& deviating, const cv::Mat& source, const std::vector<cv::Mat>& back,
-                    const NeighbourhoodOptions& options, int threads) {
+                    const NeighbourhoodOptions& options) {
   const int channels = estimator.channels(), width = level.width, height = level.height;
   const std::vector<cv::Mat>& values = level.values;
   const cv::Mat h = kernel(options.deviation_sigma_px, 0);
@@ -186,7 +185,6 @@ Deviation deviation(const Estimator& estimator, const Level& level, const cv::Ma
   for (int c = 0; c < channels; ++c) {
     z[c] = cv::Mat(height, width, CV_32F, cv::Scalar(0));
     sigmas[c] = cv::Mat(height, width, CV_32F, cv::Scalar(1));
-#pragma omp parallel for schedule(static) num_threads(threads)
     for (int y = 0; y < height; ++y)
       for (int x = 0; x < width; ++x) {
         const float b = back[c].at<float>(y, x);
@@ -208,7 +206,6 @@ Deviation deviation(const Estimator& estimator, const Level& level, const cv::Ma
     const cv::Mat sum_g = filter(*cls, h, h), sum_g2 = filter(*cls, h2, h2);
     std::vector<cv::Mat> z_mean(channels);
     for (int c = 0; c < channels; ++c) z_mean[c] = filter(z[c].mul(*cls), h, h);
-#pragma omp parallel for schedule(static) num_threads(threads)
     for (int y = 0; y < height; ++y)
       for (int x = 0; x < width; ++x) {
         if (!cls->at<float>(y, x) || !std::isfinite(back[0].at<float>(y, x))) continue;
@@ -253,11 +250,8 @@ Deviation deviation(const Estimator& estimator, const Level& level, const cv::Ma
   // Per block: M⁻¹, or none (noise alone: M = I).
   std::vector<Matrix> inverse(static_cast<std::size_t>(block_cols) * block_rows);
   std::vector<char> misfit(inverse.size(), 0);
-#pragma omp parallel num_threads(threads)
-  {
   Matrix e(channels, channels);
   Eigen::SelfAdjointEigenSolver<Matrix> eigen(channels);
-#pragma omp for schedule(static)
   for (int by = 0; by < block_rows; ++by)
     for (int bx = 0; bx < block_cols; ++bx) {
       const double mass = moment_mass.at<float>(by, bx);
@@ -275,7 +269,6 @@ Deviation deviation(const Estimator& estimator, const Level& level, const cv::Ma
       inverse[i] = eigen.eigenvectors() * lambda.cwiseInverse().asDiagonal() * eigen.eigenvectors().transpose();
       misfit[i] = 1;
     }
-  }
   return {std::move(u), std::move(sigmas), std::move(tested), block_cols, std::move(inverse), std::move(misfit)};
 }
 
@@ -283,7 +276,6 @@ Deviation deviation(const Estimator& estimator, const Level& level, const cv::Ma
 // kJoined and kHole. All windows in the level's pixels.
 void flag_level(const Estimator& estimator, Level& level, const NeighbourhoodOptions& options,
                 NeighbourhoodSummary& summary) {
-  const int threads = detail::spatial_threads(estimator, options);
   const int channels = estimator.channels(), width = level.width, height = level.height;
   const TestLevels levels = test_levels(options, channels);
   const double deviation_threshold = levels.deviation, rim_threshold = levels.rim, white_threshold = levels.white;
@@ -332,22 +324,17 @@ void flag_level(const Estimator& estimator, Level& level, const NeighbourhoodOpt
                cv::Size(2 * options.exclusion_px + 1, 2 * options.exclusion_px + 1)));
     steady.copyTo(source);
     source.setTo(0, flagged_band);
-    const std::vector<cv::Mat> back = background(values, source, options.background_sigma_px, threads);
+    const std::vector<cv::Mat> back = background(values, source, options.background_sigma_px);
     auto join = [&](int y, int x) {
       level.state.at<std::uint8_t>(y, x) = kJoined, candidate.at<std::uint8_t>(y, x) = 0;
       for (int c = 0; c < channels; ++c) level.background[c].at<float>(y, x) = back[c].at<float>(y, x);
     };
 
-    const Deviation dev = deviation(estimator, level, good, steady, deviating, source, back, options, threads);
+    const Deviation dev = deviation(estimator, level, good, steady, deviating, source, back, options);
     cv::Mat next(height, width, CV_8U, cv::Scalar(0)), rim;
     cv::dilate(good == 0, rim, cv::Mat::ones(3, 3, CV_8U));
     cv::Mat white(height, width, CV_8U, cv::Scalar(0)), mixed(height, width, CV_8U, cv::Scalar(0));
-    // Each pixel's tests read the pass's inputs and write only its own
-    // (y, x): rows on the spatial threads.
-#pragma omp parallel num_threads(threads)
-    {
     Vector v(channels), a(channels), mv(channels), scratch(channels);
-#pragma omp for schedule(static)
     for (int y = 0; y < height; ++y)
       for (int x = 0; x < width; ++x) {
         if (!dev.tested.at<std::uint8_t>(y, x)) continue;
@@ -370,7 +357,6 @@ void flag_level(const Estimator& estimator, Level& level, const NeighbourhoodOpt
           if (matched_statistic(a, v, misfit_inverse, scratch) > levels.mixture) mixed.at<std::uint8_t>(y, x) = 1;
         }
       }
-    }
     const bool changed = cv::countNonZero(next != candidate) > 0;
     candidate = next;
     if (changed && ++settling < 6) continue;  // let the deviating set settle before deciding

@@ -23,11 +23,7 @@ cv::Mat filter(const cv::Mat& src, const cv::Mat& kx, const cv::Mat& ky);
 // Per channel, the local quadratic fit (normalised convolution of order 2:
 // weighted least squares on 1, u, v, u², uv, v² with Gaussian weights σ) of
 // the values where `good` is 1, evaluated at every pixel; NaN where the
-// neighbourhood has too little support. Its per-pixel solves on `threads`
-// OpenMP threads (each pixel its own: the same result on any count).
-std::vector<cv::Mat> background(const std::vector<cv::Mat>& values, const cv::Mat& good, double sigma, int threads);
-
-// The spatial pass's threads: options.threads, else the estimator's, else all cores.
-int spatial_threads(const Estimator& estimator, const NeighbourhoodOptions& options);
+// neighbourhood has too little support.
+std::vector<cv::Mat> background(const std::vector<cv::Mat>& values, const cv::Mat& good, double sigma);
 
 }  // namespace chromo::estimation::detail

@@ -2,8 +2,6 @@
 
 #include "chromo/estimation/inverter.hpp"
 
-#include <omp.h>
-
 #include <algorithm>
 #include <chrono>
 #include <future>
@@ -230,21 +228,13 @@ std::vector<RelitComparison> compare_with_photographs(std::span<const estimation
   // The reconstruction's camera RGB under each illuminant.
   std::vector<std::vector<Eigen::Vector3d>> reconstructed(photographs.size(),
                                                           std::vector<Eigen::Vector3d>(included.size()));
-  const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
   if (options.model == RelitModel::kTable && !photographs.empty()) {
     std::vector<spectral::Spectrum> illuminants;
     for (const auto& photo : photographs) illuminants.push_back(photo.illuminant);
     const RelitTable table(camera, illuminants, options.grid, options.cache_dir, options.threads);
-    const auto count = static_cast<std::ptrdiff_t>(included.size());
-#pragma omp parallel num_threads(threads)
-    {
-      std::vector<Eigen::Vector3d> rgb(photographs.size());
-#pragma omp for schedule(static)
-      for (std::ptrdiff_t k = 0; k < count; ++k) {
-        table.rgb(estimates[included[static_cast<std::size_t>(k)]].parameters, rgb.data());
-        for (std::size_t p = 0; p < photographs.size(); ++p) reconstructed[p][static_cast<std::size_t>(k)] = rgb[p];
-      }
-    }
+    std::vector<estimation::SkinParameters> parameters(included.size());
+    for (std::size_t k = 0; k < included.size(); ++k) parameters[k] = estimates[included[k]].parameters;
+    reconstructed = table.rgb(parameters, options.threads);
   } else {
     // The exact model, chunk by chunk (albedo spectra once per chunk).
     std::vector<spectral::CameraWeights> weights;

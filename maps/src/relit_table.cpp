@@ -1,5 +1,7 @@
 #include "chromo/maps/relit_table.hpp"
 
+#include <omp.h>
+
 #include <stdexcept>
 #include <string>
 
@@ -32,6 +34,22 @@ void RelitTable::rgb(const estimation::SkinParameters& p, Eigen::Vector3d* out) 
   }
   table_->predict(table_->to_grid(p), values);
   for (std::size_t i = 0; i < illuminants_; ++i) out[i] = Eigen::Vector3d(values[3 * i], values[3 * i + 1], values[3 * i + 2]);
+}
+
+std::vector<std::vector<Eigen::Vector3d>> RelitTable::rgb(std::span<const estimation::SkinParameters> parameters,
+                                                          int threads) const {
+  std::vector<std::vector<Eigen::Vector3d>> out(illuminants_, std::vector<Eigen::Vector3d>(parameters.size()));
+  const auto count = static_cast<std::ptrdiff_t>(parameters.size());
+#pragma omp parallel num_threads(threads > 0 ? threads : omp_get_max_threads())
+  {
+    std::vector<Eigen::Vector3d> one(illuminants_);
+#pragma omp for schedule(static)
+    for (std::ptrdiff_t k = 0; k < count; ++k) {
+      rgb(parameters[static_cast<std::size_t>(k)], one.data());
+      for (std::size_t i = 0; i < illuminants_; ++i) out[i][static_cast<std::size_t>(k)] = one[i];
+    }
+  }
+  return out;
 }
 
 }  // namespace chromo::maps

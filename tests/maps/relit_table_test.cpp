@@ -66,12 +66,11 @@ TEST(RelitTable, InterpolatedColourIsWithinItsToleranceOfTheExactModel) {
   const RelitTable table(camera(), illuminants, estimation::TableGrid{}, {}, 2);
   for (std::uint64_t seed : {1, 2, 3}) {
     const auto skin = simulators::random_skin_parameters(3000, {0.005, 0.005, 0, 0}, {0.3, 0.2, 1, 0.1}, seed);
-    std::vector<std::vector<Eigen::Vector3d>> from_table(illuminants.size(), std::vector<Eigen::Vector3d>(skin.size()));
-    std::vector<Eigen::Vector3d> rgb(illuminants.size());
-    for (std::size_t k = 0; k < skin.size(); ++k) {
-      table.rgb(skin[k], rgb.data());
-      for (std::size_t i = 0; i < illuminants.size(); ++i) from_table[i][k] = rgb[i];
-    }
+    const auto from_table = table.rgb(skin, 2);
+    // The batch is the single-pixel lookup, pixel by pixel.
+    std::vector<Eigen::Vector3d> one(illuminants.size());
+    table.rgb(skin[17], one.data());
+    for (std::size_t i = 0; i < illuminants.size(); ++i) EXPECT_EQ(from_table[i][17], one[i]);
     for (std::size_t i = 0; i < illuminants.size(); ++i) {
       const DeltaEStats s = photo_delta_e94(relit_camera_rgb(skin, camera(), illuminants[i]), from_table[i], camera(),
                                             illuminants[i]);
@@ -95,7 +94,7 @@ TEST(RelitTable, IsCachedLikeTheForwardTable) {
 }
 
 // A tiny lab session estimated twice on the same tables: as before (exact
-// relit comparison, refits and files on one thread) and with the defaults.
+// relit comparison, files on one thread) and with the defaults.
 // The maps are the same pixels and the previews the same bytes; the relit
 // statistics agree within the table's tolerance.
 TEST(RelitTable, EstimateWithTheDefaultsMatchesTheExactOneThreadPath) {
@@ -113,7 +112,6 @@ TEST(RelitTable, EstimateWithTheDefaultsMatchesTheExactOneThreadPath) {
   MethodEstimationOptions before = after;
   before.relit_model = RelitModel::kExact;
   before.writer_threads = 1;
-  before.neighbourhood.threads = 1;
   const PreparedTables tables = prepare_tables(lab.noisy.set, after);
   const fs::path out = testing::fresh_directory("relit-table-estimate");
   const FileCommit commit = [](const fs::path& path, const std::function<void(const fs::path&)>& produce) { produce(path); };

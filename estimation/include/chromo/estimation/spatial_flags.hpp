@@ -101,9 +101,7 @@
 // cells).
 //
 // Thread rules: free functions over caller-owned buffers; reentrant. They use
-// OpenCV (single call, OpenCV's own threads); their per-pixel work (the
-// background's least-squares solves, the deviation tests, the order
-// pooling's refits) runs on `threads` OpenMP threads, each pixel its own.
+// OpenCV (single call, OpenCV's own threads).
 
 #include <span>
 #include <string>
@@ -138,10 +136,6 @@ struct NeighbourhoodOptions {
   // refine_with_neighbourhood(): which of the two parts to run.
   bool flags = true;
   bool pool_order = true;
-  // The per-pixel work of both parts (independent pixels): on this many
-  // threads; 0 = the estimator's (EstimatorOptions::threads, 0 = all cores).
-  // The same flags and maps on any count.
-  int threads = 0;
   bool IsValid(std::string* error) const;
 };
 

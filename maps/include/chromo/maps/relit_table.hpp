@@ -20,6 +20,7 @@
 #include <filesystem>
 #include <memory>
 #include <span>
+#include <vector>
 
 #include "chromo/estimation/forward_table.hpp"
 #include "chromo/spectral/camera.hpp"
@@ -37,6 +38,9 @@ class RelitTable {
   std::size_t illuminants() const { return illuminants_; }
   // Camera RGB of `p` under each illuminant: out[i] for illuminant i.
   void rgb(const estimation::SkinParameters& p, Eigen::Vector3d* out) const;
+  // The same for many: [illuminant][parameter set], on `threads` threads (0 = all cores).
+  std::vector<std::vector<Eigen::Vector3d>> rgb(std::span<const estimation::SkinParameters> parameters,
+                                                int threads = 0) const;
   bool rebuilt() const { return rebuilt_; }  // not in the disk cache (or no cache)
   const estimation::ForwardTable& table() const { return *table_; }
 
