@@ -347,8 +347,10 @@ int bench_main(int argc, char** argv) {
 
   std::vector<Bar> bars;
   for (int s = 0; s < kStageCount; ++s) {
-    bars.push_back({std::string(kStages[s]) + " before", before_stage[s].mean()});
-    bars.push_back({std::string(kStages[s]) + " after", after_stage[s].mean()});
+    std::string label = kStages[s];
+    std::replace(label.begin(), label.end(), '_', ' ');  // gnuplot reads '_' as a subscript
+    bars.push_back({label + " before", before_stage[s].mean()});
+    bars.push_back({label + " after", after_stage[s].mean()});
   }
   bars.push_back({"total before", before_total.mean()});
   bars.push_back({"total after", after_total.mean()});
