@@ -82,9 +82,9 @@ struct RelitComparison {
 //  kTable: interpolated in a RelitTable (relit_table.hpp) of the
 //          photographs' illuminants on `grid`, cached in cache_dir (empty: in
 //          memory only): one 16-corner interpolation per pixel;
-//  kExact: the skin model evaluated per pixel (81 wavelengths), ≈ 30× the
-//          time at 5 MP (bench/estimate_stages_bench.cpp, with the
-//          difference it makes to the statistics).
+//  kExact: the skin model evaluated per pixel (81 wavelengths): ≈ 5× the
+//          comparison's time at 5 MP; the table moves its statistics by
+//          ≤ 0.004 ΔE94 (bench/estimate_stages_bench.cpp, bench/README.md).
 enum class RelitModel { kExact, kTable };
 std::string_view relit_model_name(RelitModel model);  // "exact", "table"
 struct RelitComparisonOptions {
