@@ -1,6 +1,6 @@
 // chromod: the Chromosphere control daemon. See docs/config.md.
 //
-//   chromod [--config FILE] [--socket PATH] [--sessions-dir DIR]
+//   chromod [--config FILE] [--socket PATH] [--sessions-dir DIR] [--tcp HOST:PORT] [--web HOST:PORT]
 //
 // Without --config it runs the built-in virtual lab. Prints one line
 // "chromod: listening on unix:PATH" (and the TCP port) once it accepts calls;
@@ -16,6 +16,7 @@
 #include "chromo/daemon/daemon.hpp"
 #include "chromo/daemon/server.hpp"
 #include "chromo/daemon/virtual_lab.hpp"
+#include "chromo/daemon/web_server.hpp"
 #include "chromo/files/binary_cache.hpp"
 
 namespace {
@@ -43,11 +44,13 @@ int main(int argc, char** argv) {
   using namespace chromo::daemon;
   namespace files = chromo::files;
   CLI::App app{"chromod: the Chromosphere control daemon"};
-  std::string config_file, socket, sessions_dir, tcp_address;
+  std::string config_file, socket, sessions_dir, tcp_address, web_address;
   app.add_option("--config", config_file, "configuration file (docs/config.md); none = the virtual lab");
   app.add_option("--socket", socket, "Unix socket path (overrides the configuration)");
   app.add_option("--sessions-dir", sessions_dir, "sessions folder (overrides the configuration)");
   app.add_option("--tcp", tcp_address, "TCP address host:port (overrides; needs a token in the configuration)");
+  app.add_option("--web", web_address,
+                 "serve the operator's web view on host:port (overrides web_address; needs a token, and TLS off loopback)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -70,6 +73,7 @@ int main(int argc, char** argv) {
     if (!socket.empty()) json["unix_socket"] = socket;
     if (!sessions_dir.empty()) json["sessions_dir"] = sessions_dir;
     if (!tcp_address.empty()) json["tcp_address"] = tcp_address;
+    if (!web_address.empty()) json["web_address"] = web_address;
     DaemonConfig config = parse_config(json, config_file.empty() ? "configuration" : config_file);
     create_runtime_dir(config.runtime_dir);
     files::set_cache_limit_bytes(config.estimation.cache_limit_bytes);
@@ -99,12 +103,23 @@ int main(int argc, char** argv) {
     if (server.tcp_port() != 0)
       std::cout << "chromod: listening on tcp port " << server.tcp_port()
                 << (config.tls_certificate_file.empty() ? " (no TLS)" : " (TLS)") << "\n";
+    std::unique_ptr<WebServer> web;
+    if (!config.web_address.empty()) {
+      if (config.web_dir.empty()) config.web_dir = CHROMO_DEFAULT_WEB_DIR;
+      web = std::make_unique<WebServer>(config, server.in_process_channel(),
+                                        [&server](const std::string& who, const std::string& action, const std::string& error) {
+                                          server.audit(who, action, error);
+                                        });
+      std::cout << "chromod: web view on " << (config.tls_certificate_file.empty() ? "http" : "https") << "://"
+                << config.web_address.substr(0, config.web_address.rfind(':')) << ":" << web->port() << "/\n";
+    }
     std::cout << "chromod: sessions in " << std::filesystem::absolute(config.sessions_dir).string() << std::endl;
     std::thread stopper([&] {
       int signal = 0;
       sigwait(&signals, &signal);
       std::cout << "chromod: signal " << signal << ", stopping" << std::endl;
-      server.shutdown();
+      server.shutdown();  // ends the API's streams, and with them the web view's event streams
+      if (web) web->stop();
     });
     server.wait();
     stopper.join();

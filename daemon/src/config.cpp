@@ -33,6 +33,13 @@ std::string device_kind_name(DeviceKind kind) {
   return "unknown";
 }
 
+bool is_loopback_address(const std::string& host_port) {
+  const auto colon = host_port.rfind(':');
+  std::string host = colon == std::string::npos ? host_port : host_port.substr(0, colon);
+  if (host.size() >= 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
+  return host == "localhost" || host == "::1" || host.rfind("127.", 0) == 0;
+}
+
 bool DaemonConfig::IsValid(std::string* error) const {
   auto fail = [&](const std::string& message) {
     if (error) *error = message;
@@ -47,6 +54,11 @@ bool DaemonConfig::IsValid(std::string* error) const {
     return fail("tcp_insecure: TCP without TLS needs \"tcp_insecure\": true (or tls_certificate_file and tls_private_key_file)");
   if (tcp_insecure && !tls_certificate_file.empty())
     return fail("tcp_insecure: true contradicts tls_certificate_file (TLS is on)");
+  if (!web_address.empty() && token.size() < 16)
+    return fail("token: the web view (web_address) needs a token of at least 16 characters to log in with");
+  if (!web_address.empty() && tls_certificate_file.empty() && !is_loopback_address(web_address))
+    return fail("web_address: \"" + web_address +
+                "\" is not a loopback address: the web view needs TLS there (tls_certificate_file and tls_private_key_file)");
   if (max_streams < 1 || max_streams > 1024) return fail("max_streams: must be in [1, 1024]");
   if (storage_queue_frames < 1 || storage_queue_frames > 100000) return fail("storage_queue_frames: must be in [1, 100000]");
   if (estimator_queue_frames > 100000) return fail("estimator_queue_frames: must be at most 100000");
@@ -324,6 +336,14 @@ Key string_key(std::string name, Get get, std::function<std::string(const std::s
 std::string any_string(const std::string&) { return {}; }
 std::string optional_folder(const std::string& path) { return path.empty() ? std::string() : folder_error_tried(path); }
 
+// A folder that must exist already (never created): the web view's files.
+std::string optional_existing_folder(const std::string& path) {
+  if (path.empty()) return {};
+  std::error_code error;
+  if (!fs::is_directory(path, error)) return path + ": not an existing folder";
+  return {};
+}
+
 drivers::DriveLevels read_levels(const json& value) {
   if (!value.is_object()) throw std::invalid_argument(shown(value) + " is not an object of LED levels");
   drivers::DriveLevels levels{};
@@ -515,6 +535,8 @@ const std::vector<Key>& top_level_keys() {
       bool_key("tcp_insecure", [](DaemonConfig& c) -> auto& { return c.tcp_insecure; }),  // with TLS or token: IsValid
       unsigned_key("max_streams", 1, 1024, [](DaemonConfig& c) -> auto& { return c.max_streams; }),
       string_key("maps_dir", [](DaemonConfig& c) -> auto& { return c.maps_dir; }, optional_folder),
+      string_key("web_address", [](DaemonConfig& c) -> auto& { return c.web_address; }, tcp_address_error),
+      string_key("web_dir", [](DaemonConfig& c) -> auto& { return c.web_dir; }, optional_existing_folder),
       string_key("sessions_dir", [](DaemonConfig& c) -> auto& { return c.sessions_dir; },
                  [](const std::string& v) { return folder_error_tried(v); }),
       unsigned_key("storage_limit_bytes", 0, std::numeric_limits<std::int64_t>::max(),

@@ -170,6 +170,7 @@ session::StandardPlanOptions Daemon::standard_plan_options() const {
 
 session::OperationRecord Daemon::start_calibration(const CalibrationRequest& request) {
   ensure_idle();  // before the request's checks, as the runner checks again
+  previews_.stop_free_runs();  // the live view's free runs leave the cameras to the calibration
   return calibrations_->start(request);
 }
 
@@ -289,6 +290,11 @@ OperationRunner::Outcome Daemon::run_session(RunningOperation& running, const se
     context.control = &running.control();
     context.led = devices_.led_controller("", nullptr);
     for (auto& camera : devices_.cameras) context.cameras.push_back(camera.get());
+    previews_.stop_free_runs();  // the cameras are the session's now; the live view shows its frames
+    context.on_frame_seen = [this, source = "session:" + id](const std::string& camera, const drivers::Frame& frame,
+                                                           double exposure_us) {
+      previews_.offer(camera, frame, exposure_us, source);
+    };
     context.resolve_mix = [this](const std::string& mix) { return resolve_mix(mix); };
     context.place_in_sphere = devices_.place_in_sphere;
     try {

@@ -573,6 +573,7 @@ class Run {
   void on_frame(CameraCollector& collector, drivers::Frame&& frame) {
     const std::string& camera = collector.camera->config.name;
     const bool complete = frame.status == drivers::FrameStatus::kComplete;
+    if (complete && c_.on_frame_seen) c_.on_frame_seen(camera, frame, collector.exposure_us);
     nlohmann::json discarded;
     {
       std::lock_guard lock(collector.mutex);

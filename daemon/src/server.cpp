@@ -81,7 +81,8 @@ struct Server::Services {
     peers.set_token_id(services::token_id(daemon.config().token));
     for (auto make : {services::make_device_service, services::make_led_service, services::make_operation_service,
                       services::make_session_service, services::make_calibration_service, services::make_results_service,
-                      services::make_event_service, services::make_maps_service, services::make_plan_service})
+                      services::make_event_service, services::make_maps_service, services::make_plan_service,
+                      services::make_camera_service})
       all.push_back(make(daemon, guard));
   }
 };
@@ -150,6 +151,18 @@ void Server::shutdown() {
   if (!created_socket_.empty() && std::filesystem::is_socket(std::filesystem::symlink_status(created_socket_, error)))
     std::filesystem::remove(created_socket_, error);
   created_socket_.clear();
+}
+
+std::shared_ptr<grpc::Channel> Server::in_process_channel() {
+  if (!server_) throw std::logic_error("the gRPC server has stopped");
+  grpc::ChannelArguments arguments;
+  arguments.SetMaxReceiveMessageSize(64 << 20);  // map data for the web view's results page
+  return server_->InProcessChannel(arguments);
+}
+
+void Server::audit(const std::string& who, const std::string& action, const std::string& error) {
+  const grpc::Status outcome = error.empty() ? grpc::Status::OK : grpc::Status(grpc::StatusCode::UNAUTHENTICATED, error);
+  services_->audit.record(who, action, outcome, nlohmann::json::object());
 }
 
 void Server::wait() {

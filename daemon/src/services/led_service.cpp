@@ -30,7 +30,9 @@ class LedServiceImpl final : public pb::LedService::Service {
       if (Status s = from_proto(request->state(), "state", &state); !s.ok()) return s;
       auto* led = find(request->controller());
       if (!led) return Status(StatusCode::NOT_FOUND, "controller: " + error_);
-      daemon_.ensure_idle();
+      if (daemon_.operations().any_active())
+        return Status(StatusCode::FAILED_PRECONDITION,
+                      "a session or calibration is running: its plan drives the LEDs; set them once it has ended (or cancel it)");
       std::lock_guard lock(led->mutex);
       if (!led->device) return Status(StatusCode::UNAVAILABLE, led->config.name + ": " + led->open_error);
       if (request->has_output_enabled()) led->device->set_output_enabled(request->output_enabled());

@@ -13,6 +13,7 @@
 //   event_service.cpp        EventService        events.proto
 //   maps_service.cpp         MapsService         maps.proto (docs/maps.md)
 //   plan_service.cpp         PlanService         planning.proto (docs/plan-advisor.md)
+//   camera_service.cpp       CameraService       cameras.proto (docs/web.md)
 //
 // Thread rules: gRPC calls the handlers on its own threads, concurrently; a
 // service holds references to the Daemon (thread-safe) and the Guard.
@@ -183,5 +184,6 @@ std::unique_ptr<grpc::Service> make_event_service(Daemon& daemon, Guard& guard);
 // synchronously on the gRPC handler thread; the library writes crash-safe.
 std::unique_ptr<grpc::Service> make_maps_service(Daemon& daemon, Guard& guard);
 std::unique_ptr<grpc::Service> make_plan_service(Daemon& daemon, Guard& guard);
+std::unique_ptr<grpc::Service> make_camera_service(Daemon& daemon, Guard& guard);
 
 }  // namespace chromo::daemon::services

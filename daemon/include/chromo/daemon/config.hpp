@@ -79,6 +79,10 @@ struct DaemonConfig {
   bool tcp_insecure = false;              // plaintext TCP, loopback peers only; needed when TCP has no TLS
   std::uint32_t max_streams = 64;         // concurrent streaming calls (Subscribe, WatchOperation); beyond: RESOURCE_EXHAUSTED
   std::filesystem::path maps_dir;         // the maps API's folder for work without a session; empty = none
+  // The operator's web view (docs/web.md): host:port; empty = off. Needs the
+  // token; a non-loopback address needs TLS (the same certificate and key).
+  std::string web_address;
+  std::filesystem::path web_dir;          // the built front end; empty = the one this chromod was built with
 
   std::filesystem::path sessions_dir = "chromod-sessions";
   std::uint64_t storage_limit_bytes = 0;  // 0 = the disk is the limit (see durable_file.hpp)
@@ -120,6 +124,10 @@ DaemonConfig parse_config(const nlohmann::json& json, const std::string& origin 
 // to be given to parse_config, after command-line overrides if any.
 nlohmann::json read_config_json(const std::filesystem::path& path);
 DaemonConfig read_config_file(const std::filesystem::path& path);
+
+// True for "127.x.y.z:port", "localhost:port" and "[::1]:port": addresses
+// only this machine reaches (the web view needs TLS anywhere else).
+bool is_loopback_address(const std::string& host_port);
 
 // The names of every key the table knows ("unix_socket", "estimation.method", ...).
 std::vector<std::string> config_key_names();

@@ -24,6 +24,7 @@
 #include "chromo/files/durable_file.hpp"
 #include "chromo/daemon/operation_runner.hpp"
 #include "chromo/daemon/operations.hpp"
+#include "chromo/daemon/preview_hub.hpp"
 #include "chromo/session/session_store.hpp"
 
 namespace chromo::daemon {
@@ -54,6 +55,8 @@ class Daemon {
   OperationRegistry& operations() { return operations_; }
   EventBus& events() { return events_; }
   session::SessionStore& store() { return store_; }
+  // The cameras' latest frames for the live view (preview_hub.hpp).
+  PreviewHub& previews() { return previews_; }
 
   std::vector<DeviceReport> probe_devices();
   // Validated plan; throws std::invalid_argument (naming the field),
@@ -101,6 +104,7 @@ class Daemon {
   std::unique_ptr<FrameConsumer> owned_estimator_;
   EventBus events_;
   OperationRegistry operations_{events_};
+  PreviewHub previews_{devices_, [this] { return operations_.any_active(); }};
   session::SessionStore store_;
   // Runs sessions and calibrations; ~Daemon() stops it first, since the work
   // uses the members around it.

@@ -124,6 +124,9 @@ struct SequencerContext {
   // Optional: "" when the plan's blue-light dose with these exposures (per
   // step, the longest over the cameras) is within the limit, else the refusal.
   std::function<std::string(const std::map<std::string, double>& exposure_us_of_step)> check_hazard;
+  // Optional: every complete frame a camera delivers, before it is sorted
+  // (the live view's preview_hub.hpp); runs on the camera's stream thread.
+  std::function<void(const std::string& camera, const drivers::Frame&, double exposure_us)> on_frame_seen;
   std::uint32_t frame_timeout_ms = 3000;
   std::uint32_t frame_attempts = 3;
 };

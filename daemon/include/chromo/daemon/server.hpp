@@ -22,6 +22,7 @@
 #include "chromo/daemon/daemon.hpp"
 
 namespace grpc {
+class Channel;
 class Server;
 }
 
@@ -36,6 +37,11 @@ class Server {
   void wait();
   // The TCP port actually bound (useful with tcp_address "127.0.0.1:0"); 0 without TCP.
   int tcp_port() const { return tcp_port_; }
+  // A channel to this server inside the process (the web view's bridge to the
+  // API); calls over it are TCP-like peers: they need the bearer token.
+  std::shared_ptr<grpc::Channel> in_process_channel();
+  // One line in the audit log (<sessions_dir>/audit.jsonl); error empty = ok.
+  void audit(const std::string& who, const std::string& action, const std::string& error);
 
   struct Services;
 
