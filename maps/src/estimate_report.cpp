@@ -14,6 +14,7 @@
 #include "chromo/maps/map_previews.hpp"
 #include "chromo/maps/relit_table.hpp"
 #include "chromo/estimation/skin_model.hpp"
+#include "delta_e_json.hpp"
 
 namespace chromo::maps {
 
@@ -29,10 +30,6 @@ std::string hex_key(std::uint64_t key) {
   char text[17];
   std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(key));
   return text;
-}
-
-nlohmann::ordered_json stats_json(const DeltaEStats& s) {
-  return {{"mean", s.mean}, {"median", s.median}, {"p95", s.p95}, {"max", s.max}, {"pixels", s.pixels}};
 }
 
 }  // namespace
@@ -367,7 +364,7 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
   extra["neighbourhood"] = nlohmann::ordered_json::parse(
       neighbourhood_report_json(options.neighbourhood.flags, options.neighbourhood.pool_order, neighbourhood));
   nlohmann::ordered_json relit = nlohmann::ordered_json::object();
-  for (const auto& r : result.relit) relit[r.illuminant] = stats_json(r.delta_e94);
+  for (const auto& r : result.relit) relit[r.illuminant] = delta_e_stats_json(r.delta_e94);
   extra["relit_delta_e94"] = {
       {"against", "the captured photographs (camera RGB albedo → XYZ by the ColorChecker-fitted matrix per illuminant)"},
       {"pixels", "explained (flag 0)"},
