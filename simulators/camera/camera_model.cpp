@@ -128,7 +128,8 @@ cv::Mat CameraModel::expose(const cv::Mat& response_rgb, SensorLayout layout, in
     auto read = [&](double response) -> std::uint16_t {
       const double mean_e = std::max(r.electrons_per_response * response, 0.0);
       double e;
-      if (mean_e < kExactPoissonBelowElectrons) e = static_cast<double>(readout_random::poisson_by_inversion(mean_e, rng));
+      if (mean_e == 0) e = 0;  // Poisson(0): no light, no draw (dark captures)
+      else if (mean_e < kExactPoissonBelowElectrons) e = static_cast<double>(readout_random::poisson_by_inversion(mean_e, rng));
       else e = mean_e + std::sqrt(mean_e) * normal(rng);
       e = std::clamp(e, 0.0, full_well) + read_noise * normal(rng);
       return static_cast<std::uint16_t>(std::floor(std::clamp(black + e * dn_per_e, 0.0, r.max_dn) + 0.5));
