@@ -178,16 +178,8 @@ nlohmann::json OnlineEstimator::end_session(const SessionEnd& end) {
     return record;
   }
   const auto& r = *first_ok->result;
-  nlohmann::json flags = nlohmann::json::object();
-  for (int f = 0; f < estimation::kPixelFlagCount; ++f)
-    flags[std::string(estimation::pixel_flag_name(static_cast<estimation::PixelFlag>(f)))] = r.summary.flag_counts[f];
-  nlohmann::json relit = nlohmann::json::object();
-  for (const auto& c : r.relit)
-    relit[c.illuminant] = {{"mean", c.delta_e94.mean},
-                           {"median", c.delta_e94.median},
-                           {"p95", c.delta_e94.p95},
-                           {"max", c.delta_e94.max},
-                           {"pixels", c.delta_e94.pixels}};
+  // Its flag counts and relit ΔE94 as its index entry has them.
+  const auto first_entry = nlohmann::json::parse(maps::camera_entry_json(*first_ok));
   // The headline numbers are the first estimated camera's; "cameras" lists every camera.
   const std::string first_folder = first_ok->folder.empty() ? "results/" : "results/" + first_ok->folder + "/";
   return {{"type", "results"},
@@ -201,8 +193,8 @@ nlohmann::json OnlineEstimator::end_session(const SessionEnd& end) {
           {"pixels_per_second", r.pixels_per_second},
           {"estimate_seconds", r.summary.seconds},
           {"frames_read_back", read_back_},
-          {"flag_counts", flags},
-          {"relit_delta_e94", relit},
+          {"flag_counts", first_entry["flag_counts"]},
+          {"relit_delta_e94", first_entry["relit_delta_e94"]},
           {"cameras", cameras}};
 }
 
