@@ -32,6 +32,41 @@ std::string hex_key(std::uint64_t key) {
   return text;
 }
 
+<<<<<<< HEAD
+=======
+nlohmann::ordered_json stats_json(const DeltaEStats& s) {
+  return {{"mean", s.mean}, {"median", s.median}, {"p95", s.p95}, {"max", s.max}, {"pixels", s.pixels}};
+}
+
+// Outside the camera's footprint of a white reference: no parameters (NaN), flag no_reference.
+void mark_no_reference(const session::MethodMeasurement& m, std::vector<estimation::PixelEstimate>& estimates,
+                       estimation::EstimateSummary& summary) {
+  if (m.no_reference.size() != estimates.size()) return;
+  constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+  for (std::size_t i = 0; i < estimates.size(); ++i) {
+    if (!m.no_reference[i]) continue;
+    estimation::PixelEstimate& e = estimates[i];
+    --summary.flag_counts[static_cast<int>(e.flag)];
+    if (e.order == 2) --summary.order2;
+    if (e.order == 4) --summary.order4;
+    e = estimation::PixelEstimate{};
+    e.parameters = {kNaN, kNaN, kNaN, kNaN};
+    e.residual = kNaN;
+    e.flag = estimation::PixelFlag::kNoReference;
+    ++summary.flag_counts[static_cast<int>(e.flag)];
+  }
+}
+
+}  // namespace
+
+namespace {
+std::vector<int> skipped_levels(std::uint32_t mask) {
+  std::vector<int> levels;
+  for (int l = 31; l > 0; --l)
+    if (mask & (1u << l)) levels.push_back(l);
+  return levels;
+}
+>>>>>>> percam
 }  // namespace
 
 std::string registration_report_json(std::span<const session::RegistrationReport> registration) {
@@ -46,7 +81,8 @@ std::string registration_report_json(std::span<const session::RegistrationReport
                    {"correlation", r.result.correlation},
                    {"motion_px", r.motion_px},
                    {"warped", r.warped},
-                   {"residual_motion_px", r.result.residual_motion_px}});
+                   {"residual_motion_px", r.result.residual_motion_px},
+                   {"skipped_pyramid_levels", skipped_levels(r.result.skipped_levels)}});
   return out.dump();
 }
 
@@ -260,13 +296,18 @@ std::vector<RelitComparison> compare_with_photographs(std::span<const estimation
   return out;
 }
 
-PreparedTables prepare_tables(const estimation::MeasurementSet& set, const MethodEstimationOptions& options) {
+PreparedTables prepare_tables(const estimation::MeasurementSet& set, const MethodEstimationOptions& options,
+                              std::span<const PreparedTables* const> earlier) {
   PreparedTables prepared;
   prepared.set = set;
   auto t = std::chrono::steady_clock::now();
-  prepared.table = estimation::ForwardTable::load_or_build(
-      set, options.grid, options.cache_dir.empty() ? estimation::ForwardTable::default_cache_dir() : options.cache_dir,
-      &prepared.table_rebuilt, options.estimator.threads);
+  const std::uint64_t key = earlier.empty() ? 0 : estimation::ForwardTable::cache_key(set, options.grid);
+  for (const PreparedTables* other : earlier)
+    if (other && other->table && other->table->key() == key) prepared.table = other->table;
+  if (!prepared.table)
+    prepared.table = estimation::ForwardTable::load_or_build(
+        set, options.grid, options.cache_dir.empty() ? estimation::ForwardTable::default_cache_dir() : options.cache_dir,
+        &prepared.table_rebuilt, options.estimator.threads);
   prepared.table_seconds = seconds_since(t);
   t = std::chrono::steady_clock::now();
   estimation::EstimatorOptions estimator_options = options.estimator;
@@ -327,6 +368,7 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
     neighbourhood = estimation::refine_with_neighbourhood(estimator, m.measured, m.width, m.height, estimates, result.summary,
                                               options.neighbourhood);
   const double neighbourhood_seconds = seconds_since(t);
+  mark_no_reference(m, estimates, result.summary);
 
   t = std::chrono::steady_clock::now();
   RelitComparisonOptions relit_options;
@@ -337,6 +379,7 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
   result.relit = compare_with_photographs(estimates, m.photographs, camera, relit_options);
   const double relit_seconds = seconds_since(t);
   result.registration = m.registration;
+  result.table_key = table->key();
 
   auto extra = nlohmann::ordered_json::parse(extra_json);
   if (!extra.is_object()) throw std::invalid_argument("extra_json is not a JSON object");
@@ -361,6 +404,7 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
     exposures.push_back({{"capture", e.capture}, {"exposure_us", e.exposure_us}, {"frames", e.frames}});
   extra["captures"] = exposures;
   extra["saturated_pixels"] = m.saturated_pixels;
+  extra["no_reference_pixels"] = m.no_reference_pixels;
   extra["neighbourhood"] = nlohmann::ordered_json::parse(
       neighbourhood_report_json(options.neighbourhood.flags, options.neighbourhood.pool_order, neighbourhood));
   nlohmann::ordered_json relit = nlohmann::ordered_json::object();

@@ -132,7 +132,8 @@ struct CaptureMotion {
 // 5: any built-in plan (its name in the key), merged with 4.
 // 6: the camera readout's band streams (CameraModel::expose): another
 //    realisation of the same noise.
-inline constexpr std::uint32_t kRenderedSessionVersion = 6;
+// 7: RegistrationResult::skipped_levels (coarse levels skipped).
+inline constexpr std::uint32_t kRenderedSessionVersion = 7;
 inline constexpr std::uint8_t kMixedCell = 255;  // a 2×2 cell whose sites have different regions
 
 struct RenderedSession {
