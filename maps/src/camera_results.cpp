@@ -8,18 +8,13 @@
 #include <stdexcept>
 
 #include "chromo/estimation/pixel_flags.hpp"
+#include "chromo/files/binary_cache.hpp"
 
 namespace chromo::maps {
 
 namespace fs = std::filesystem;
 
 namespace {
-
-std::string hex_key(std::uint64_t key) {
-  char text[17];
-  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(key));
-  return text;
-}
 
 nlohmann::ordered_json parse_object(const std::string& text, const char* what) {
   auto json = nlohmann::ordered_json::parse(text);
@@ -127,7 +122,7 @@ std::string camera_entry_json(const CameraEstimate& camera, const std::string& p
   entry["maps_file"] = folder + "maps.exr";
   entry["report_file"] = folder + "summary.json";
   entry["camera_sensitivity"] = camera.camera_sensitivity;
-  entry["table_key"] = hex_key(r.table_key);
+  entry["table_key"] = files::cache_key_hex(r.table_key);
   entry["shared_with"] = camera.shared_with.empty() ? nlohmann::ordered_json() : nlohmann::ordered_json(camera.shared_with);
   entry["pixels"] = r.summary.pixels;
   entry["explained"] = r.summary.flag_counts[0];

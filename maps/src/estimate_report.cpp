@@ -14,6 +14,7 @@
 #include "chromo/maps/map_previews.hpp"
 #include "chromo/maps/relit_table.hpp"
 #include "chromo/estimation/skin_model.hpp"
+#include "chromo/files/binary_cache.hpp"
 #include "delta_e_json.hpp"
 
 namespace chromo::maps {
@@ -24,18 +25,6 @@ namespace {
 
 double seconds_since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-}
-
-std::string hex_key(std::uint64_t key) {
-  char text[17];
-  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(key));
-  return text;
-}
-
-<<<<<<< HEAD
-=======
-nlohmann::ordered_json stats_json(const DeltaEStats& s) {
-  return {{"mean", s.mean}, {"median", s.median}, {"p95", s.p95}, {"max", s.max}, {"pixels", s.pixels}};
 }
 
 // Outside the camera's footprint of a white reference: no parameters (NaN), flag no_reference.
@@ -57,16 +46,13 @@ void mark_no_reference(const session::MethodMeasurement& m, std::vector<estimati
   }
 }
 
-}  // namespace
-
-namespace {
 std::vector<int> skipped_levels(std::uint32_t mask) {
   std::vector<int> levels;
   for (int l = 31; l > 0; --l)
     if (mask & (1u << l)) levels.push_back(l);
   return levels;
 }
->>>>>>> percam
+
 }  // namespace
 
 std::string registration_report_json(std::span<const session::RegistrationReport> registration) {
@@ -383,11 +369,11 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
 
   auto extra = nlohmann::ordered_json::parse(extra_json);
   if (!extra.is_object()) throw std::invalid_argument("extra_json is not a JSON object");
-  extra["table"] = {{"key", hex_key(table->key())}, {"nodes", table->grid().node_count()}, {"rebuilt", rebuilt}, {"tables_in_memory", in_memory}};
+  extra["table"] = {{"key", files::cache_key_hex(table->key())}, {"nodes", table->grid().node_count()}, {"rebuilt", rebuilt}, {"tables_in_memory", in_memory}};
   // The fast inverter's inverse table in the cache, so deleting the session
   // can remove the entries only it used (docs/daemon.md).
   if (const auto* fast = dynamic_cast<const estimation::FastInverter*>(&estimator.inverter()))
-    extra["table"]["inverse_key"] = hex_key(fast->inverse_table().key());
+    extra["table"]["inverse_key"] = files::cache_key_hex(fast->inverse_table().key());
   extra["registration"] = nlohmann::ordered_json::parse(registration_report_json(m.registration));
   nlohmann::ordered_json noise = nlohmann::ordered_json::object();
   for (const auto& c : m.set.channels)
