@@ -11,12 +11,12 @@
 #
 # --two-5mp: the session on two 5-MP cameras (scripts/lab-two-5mp-cameras.json,
 # issue 21 part 5), then where its time went (scripts/session_split.py);
-# --small: the built-in lab's one 640x480 camera. The default is --small
-# until every camera of the 5-MP lab gets its own metering and maps (branch
-# percam); then it becomes --two-5mp.
+# the default: every camera metered on its lit region and mapped into
+# results/<camera>/ (docs/maps.md, "Several cameras");
+# --small: the built-in lab's one 640x480 camera (a quicker look).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-lab=small
+lab=two-5mp
 case "${1:-}" in
   "") ;;
   --small) lab=small ;;
