@@ -7,6 +7,7 @@
 #include <time.h>
 
 #include <chrono>
+#include <fstream>
 
 namespace chromo::bench {
 
@@ -37,6 +38,15 @@ class ElapsedClock {
  private:
   double start_;
 };
+
+// The machine's 1-minute load average (/proc/loadavg; -1 when unreadable):
+// wall and CPU figures are taken on a machine other work may share.
+inline double load_average() {
+  std::ifstream in("/proc/loadavg");
+  double load = -1;
+  in >> load;
+  return load;
+}
 
 using CpuClock = ElapsedClock<process_cpu_seconds>;       // all threads
 using ThreadCpuClock = ElapsedClock<thread_cpu_seconds>;  // the calling thread (one-thread breakdowns)

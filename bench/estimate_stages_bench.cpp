@@ -96,15 +96,6 @@ struct Run {
   double cpu = 0;    // CPU seconds of the process over the call (all threads; steadier on a shared machine)
 };
 
-// The machine's 1-minute load average (/proc/loadavg): the figures are wall
-// and CPU seconds on a machine other work may share.
-double load_average() {
-  std::ifstream in("/proc/loadavg");
-  double load = -1;
-  in >> load;
-  return load;
-}
-
 maps::FileCommit direct_commit() {
   return [](const fs::path& path, const std::function<void(const fs::path&)>& produce) { produce(path); };
 }

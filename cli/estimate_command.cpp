@@ -7,12 +7,18 @@
 // daemon's own SessionCaptureBuilder and estimate_method_captures(), so the
 // maps equal the on-line estimator's for the same frames and LED library.
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
+#include <algorithm>
 #include <chrono>
 #include <fstream>
 #include <iostream>
+#include <map>
+#include <memory>
+#include <optional>
 #include <nlohmann/json.hpp>
 
+#include "chromo/maps/camera_results.hpp"
 #include "chromo/maps/estimate_report.hpp"
 #include "chromo/session/plan_hazard.hpp"
 #include "chromo/session/session_captures.hpp"
@@ -42,6 +48,7 @@ struct EstimateOptions {
   // Session folders only.
   std::string led_library;  // empty: <session>/results/led_library.json, else as chromod (newest measured, nominal)
   std::string camera = "builtin:nikon_d5100";
+  std::vector<std::string> camera_of;  // NAME=SPEC: one camera's sensitivity
   double white_reflectance = 0.99;
 };
 
@@ -62,18 +69,42 @@ estimation::EstimatorOptions estimator_options(const EstimateOptions& options) {
   return eo;
 }
 
-// A stored session folder: the same captures and estimation as chromod's on-line estimator.
+// Prints one camera's figures (prefix: "camera NAME: " with several cameras).
+void print_camera_result(const maps::MethodEstimationResult& result, const EstimateOptions& options,
+                         const std::string& prefix) {
+  fmt::print("{}{} pixels, method {} model {}: {:.3f} s ({:.0f} pixels/s); {} explained, {} flagged\n", prefix,
+             result.summary.pixels, options.method, options.model, result.summary.seconds, result.pixels_per_second,
+             result.summary.flag_counts[0], result.summary.pixels - result.summary.flag_counts[0]);
+  for (const auto& r : result.relit)
+    fmt::print("{}relit ΔE94 against the photograph under {}: mean {:.3f}, median {:.3f}, p95 {:.3f}\n", prefix,
+               r.illuminant, r.delta_e94.mean, r.delta_e94.median, r.delta_e94.p95);
+}
+
+// A stored session folder: the same captures and estimation as chromod's
+// on-line estimator, every camera (maps/camera_results.hpp).
 int run_estimate_session(const EstimateOptions& options) {
   const fs::path folder = options.input;
   session::CaptureSources sources;
-  session::StoredSessionCaptures captures;
+  std::optional<session::SessionCaptureBuilder> builder;
+  std::map<std::string, std::string> unusable;  // cameras whose frames the builder refused
   nlohmann::ordered_json hazard;
   try {
     std::string library = options.led_library;
     if (library.empty() && fs::exists(folder / "results" / "led_library.json"))
       library = (folder / "results" / "led_library.json").string();
-    sources = session::resolve_capture_sources(library, options.camera, options.white_reflectance);
-    captures = session::read_any_session_captures(folder, sources);
+    std::map<std::string, std::string> camera_of;
+    for (const std::string& entry : options.camera_of) {
+      const auto equals = entry.find('=');
+      if (equals == std::string::npos || equals == 0 || equals + 1 == entry.size())
+        throw std::invalid_argument("--camera-of: \"" + entry + "\" is not NAME=SPEC (builtin:NAME or a CSV)");
+      camera_of[entry.substr(0, equals)] = entry.substr(equals + 1);
+    }
+    sources = session::resolve_capture_sources(library, options.camera, options.white_reflectance, camera_of);
+    builder.emplace(session::read_stored_session(folder, sources, &unusable));
+    for (const auto& [name, spec] : camera_of)
+      if (std::find(builder->cameras().begin(), builder->cameras().end(), name) == builder->cameras().end())
+        throw std::invalid_argument("--camera-of: the session has no camera \"" + name + "\" (its cameras: " +
+                                    fmt::format("{}", fmt::join(builder->cameras(), ", ")) + ")");
     hazard = session::recorded_blue_light_hazard(folder / "journal.jsonl");
   } catch (const std::exception& e) {
     std::cerr << "chromo estimate: " << e.what() << "\n";
@@ -87,16 +118,25 @@ int run_estimate_session(const EstimateOptions& options) {
   nlohmann::ordered_json extra{{"session", fs::absolute(folder).string()},
                                {"source", "chromo estimate SESSION_DIR"},
                                {"led_library", sources.led_library_source},
-                               {"camera_sensitivity", sources.camera_source},
                                {"white_reflectance", sources.white_reflectance},
                                {"blue_light_hazard", hazard}};
-  maps::MethodEstimationResult result;
+  std::vector<maps::CameraEstimate> cameras;
   try {
-    files::OutputBatch files(options.out);  // removed again (with the directory it made) unless committed
+    // One batch per folder written: OUT, and OUT/<camera> with several
+    // cameras; each is removed again (with the directory it made) unless
+    // committed. The camera batches go first, so OUT is empty when its batch goes.
+    const fs::path out_dir = (fs::path(options.out) / "x").parent_path().lexically_normal();
+    files::OutputBatch out_batch(options.out);
+    std::map<fs::path, std::unique_ptr<files::OutputBatch>> camera_batches;
+    const maps::FileCommit commit = [&](const fs::path& path, const std::function<void(const fs::path&)>& produce) {
+      const fs::path dir = path.parent_path().lexically_normal();
+      if (dir == out_dir) return produce(out_batch.temporary(path.filename().string()));
+      auto& batch = camera_batches[dir];
+      if (!batch) batch = std::make_unique<files::OutputBatch>(dir);
+      produce(batch->temporary(path.filename().string()));
+    };
     try {
-      result = captures.method
-                   ? maps::estimate_method_captures(*captures.method, eo, options.out, stage_in(files), {}, extra.dump())
-                   : maps::estimate_plan_captures(*captures.plan, eo, options.out, stage_in(files), {}, extra.dump());
+      cameras = maps::estimate_session_cameras({&*builder, nullptr, extra.dump(), unusable}, eo, options.out, commit);
     } catch (const std::invalid_argument& e) {
       std::cerr << "chromo estimate: " << folder.string() << ": " << e.what() << "\n";
       return kExitBadInput;
@@ -104,17 +144,24 @@ int run_estimate_session(const EstimateOptions& options) {
       std::cerr << "chromo estimate: " << folder.string() << ": " << e.what() << "\n";
       return kExitBadInput;
     }
-    files.commit();
+    std::size_t failed = 0;
+    for (const auto& camera : cameras)
+      if (!camera.ok) {
+        camera_batches.erase((fs::path(options.out) / camera.folder).lexically_normal());
+        std::cerr << "chromo estimate: " << folder.string() << ": camera " << camera.camera << ": " << camera.reason
+                  << "\n";
+        ++failed;
+      }
+    if (failed == cameras.size()) return kExitBadInput;
+    for (auto& [dir, batch] : camera_batches) batch->commit();
+    out_batch.commit();
   } catch (const std::exception& e) {
     std::cerr << "chromo estimate: writing " << options.out << ": " << e.what() << "\n";
     return kExitFailure;
   }
-  fmt::print("{} pixels, method {} model {}: {:.3f} s ({:.0f} pixels/s); {} explained, {} flagged\n",
-             result.summary.pixels, options.method, options.model, result.summary.seconds, result.pixels_per_second,
-             result.summary.flag_counts[0], result.summary.pixels - result.summary.flag_counts[0]);
-  for (const auto& r : result.relit)
-    fmt::print("relit ΔE94 against the photograph under {}: mean {:.3f}, median {:.3f}, p95 {:.3f}\n", r.illuminant,
-               r.delta_e94.mean, r.delta_e94.median, r.delta_e94.p95);
+  for (const auto& camera : cameras)
+    if (camera.ok)
+      print_camera_result(*camera.result, options, cameras.size() > 1 ? "camera " + camera.camera + ": " : "");
   return kExitOk;
 }
 
@@ -250,6 +297,8 @@ void add_estimate_command(CLI::App& app, int& exit_status) {
                   "SESSION_DIR only: LED library (default: the session's results/led_library.json, else as chromod)");
   cmd->add_option("--camera", options->camera, "SESSION_DIR only: camera sensitivity, builtin:NAME or a CSV")
       ->capture_default_str();
+  cmd->add_option("--camera-of", options->camera_of,
+                  "SESSION_DIR only: one camera's sensitivity, NAME=builtin:NAME or NAME=CSV (repeatable; others use --camera)");
   cmd->add_option("--white-reflectance", options->white_reflectance, "SESSION_DIR only: ρ of the white target")
       ->capture_default_str();
   cmd->callback([options, &exit_status] { exit_status = run_estimate(*options); });

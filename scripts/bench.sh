@@ -12,7 +12,7 @@
 #   scripts/bench.sh [NAME...]   (default: every bench; NAME as in bench/CMakeLists.txt)
 set -euo pipefail
 cd "$(dirname "$0")/.."
-all=(forward_model_bench mix_solver_bench estimation_bench fast_budget_bench spatial_flags_bench estimate_stages_bench pipeline_bench plan_advisor_bench)
+all=(forward_model_bench mix_solver_bench estimation_bench fast_budget_bench spatial_flags_bench estimate_stages_bench camera_frame_bench pipeline_bench plan_advisor_bench)
 benches=("$@")
 [[ ${#benches[@]} -eq 0 ]] && benches=("${all[@]}")
 for name in "${benches[@]}"; do

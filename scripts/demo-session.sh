@@ -3,23 +3,35 @@
 # standard session end to end over the socket API (live progress), and print
 # where the frames, the derived albedo, the maps and the report are.
 #
-#   scripts/demo-session.sh [SESSIONS_DIR]     (default: ./demo-sessions)
+#   scripts/demo-session.sh [--config FILE] [SESSIONS_DIR]     (default: ./demo-sessions)
 #
+# --config FILE: chromod's configuration (docs/config.md), e.g. a lab of
+# other cameras (scripts/lab-two-5mp-cameras.json: two 5-MP cameras);
+# without it chromod runs its built-in virtual lab (one 640x480 camera).
 # Assumes a build in build/release (scripts/build.sh). Stops the daemon it
 # started on exit.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=build/release/bin
+config_args=()
+if [[ ${1:-} == --config ]]; then
+  [[ -n ${2:-} ]] || { echo "demo-session: --config needs a FILE" >&2; exit 2; }
+  [[ -f $2 ]] || { echo "demo-session: --config $2: no such file" >&2; exit 2; }
+  config_args=(--config "$2")
+  shift 2
+fi
+[[ ${1:-} != -* ]] || { echo "demo-session: unknown option '$1' (usage: demo-session.sh [--config FILE] [SESSIONS_DIR])" >&2; exit 2; }
 sessions=${1:-demo-sessions}
 # The daemon's socket and run files go in a folder of the demo's own (never /tmp).
 mkdir -p "$sessions"
 run_dir=$(mktemp -d "$sessions/.chromod-run-XXXXXX")
 socket="$run_dir/chromod.sock"
 
-CHROMO_RUNTIME_DIR="$run_dir" "$bin/chromod" --socket "$socket" --sessions-dir "$sessions" &
+CHROMO_RUNTIME_DIR="$run_dir" "$bin/chromod" "${config_args[@]}" --socket "$socket" --sessions-dir "$sessions" &
 daemon_pid=$!
 trap 'kill "$daemon_pid" 2>/dev/null; wait "$daemon_pid" 2>/dev/null || true; rm -rf "$run_dir"' EXIT
-for _ in $(seq 100); do [[ -S "$socket" ]] && break; sleep 0.1; done
+# (A lab of 5-MP cameras prepares its scenes before it listens: up to ~10 s.)
+for _ in $(seq 600); do [[ -S "$socket" ]] && break; kill -0 "$daemon_pid" 2>/dev/null || exit 1; sleep 0.1; done
 
 export CHROMO_DAEMON="unix:$socket"
 "$bin/chromo" status

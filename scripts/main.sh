@@ -6,8 +6,23 @@
 # through the real drivers, the D65' mix solved from it, and the daemon's
 # standard capture session over its socket API, ending in chromophore maps and
 # a report (chromod's on-line estimator) whose place and headline numbers it prints.
+#
+#   scripts/main.sh [--two-5mp | --small]
+#
+# --two-5mp: the session on two 5-MP cameras (scripts/lab-two-5mp-cameras.json,
+# issue 21 part 5), then where its time went (scripts/session_split.py);
+# the default: every camera metered on its lit region and mapped into
+# results/<camera>/ (docs/maps.md, "Several cameras");
+# --small: the built-in lab's one 640x480 camera (a quicker look).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+lab=two-5mp
+case "${1:-}" in
+  "") ;;
+  --small) lab=small ;;
+  --two-5mp) lab=two-5mp ;;
+  *) echo "main.sh: unknown option '$1' (usage: scripts/main.sh [--two-5mp | --small])" >&2; exit 2 ;;
+esac
 scripts/setup.sh
 scripts/build.sh
 bin=build/release/bin
@@ -22,5 +37,13 @@ echo "== 2. LED library measured on the virtual lab (Modbus TCP + USB2000+ proto
 echo "== 3. D65' from the measured library (camera objective, chromaticity held)"
 "$bin/chromo" leds solve --target d65 --objective camera --hold-chromaticity
 
-echo "== 4. the standard capture session through chromod, estimated on line into maps and a report"
-scripts/demo-session.sh "$CHROMO_HOME/sessions"
+if [[ $lab == two-5mp ]]; then
+  echo "== 4. the standard capture session on two 5-MP cameras through chromod, estimated on line into maps and a report"
+  scripts/demo-session.sh --config scripts/lab-two-5mp-cameras.json "$CHROMO_HOME/sessions" | tee "$CHROMO_HOME/main-session.log"
+  id=$(sed -n 's/^session \([^ ]*\) started$/\1/p' "$CHROMO_HOME/main-session.log")
+  echo "== 5. where the session's time went"
+  scripts/session_split.py "$CHROMO_HOME/sessions/$id"
+else
+  echo "== 4. the standard capture session through chromod (one 640x480 camera), estimated on line into maps and a report"
+  scripts/demo-session.sh "$CHROMO_HOME/sessions"
+fi

@@ -3,9 +3,11 @@
 # timed: how long the lab took to start (its scene prepared, the camera
 # simulators listening: until chromod's socket answers), then the session's
 # timeline from its journal (`chromo session show`: capture, derived data and
-# maps after the last frame) and, from the journal's records, how the capture
-# splits into the steps' own time (settle + exposure per frame) and the rest
-# (rendering the frames in the camera simulators and sending them).
+# maps after the last frame) and, from the journal's records
+# (scripts/session_split.py), how the capture splits into the steps' own time
+# (settle + exposure per frame), the white steps' metering and the rest
+# (rendering the frames in the camera simulators, sending and storing them),
+# and the derived data and maps after the last frame.
 #
 #   scripts/timed-lab-session.sh CONFIG.json [SESSIONS_DIR]
 #
@@ -43,32 +45,6 @@ id=$(sed -n 's/^session \([^ ]*\) started$/\1/p' <<<"$started")
 done_ns=$(date +%s%N)
 "$bin/chromo" session show "$id" | grep -i "timeline\|state" || true
 echo "session request to its end (client's clock): $(( (done_ns - session_start_ns) / 1000000 )) ms"
-# The capture's split, from the journal: each frame's arrival after its step
-# started, less the step's settle and exposure, is the frame's rendering and
-# transfer in the lab (the slowest camera's frame ends the step).
-python3 - "$sessions/$id/journal.jsonl" <<'PY'
-import json, sys, datetime
-records = [json.loads(line) for line in open(sys.argv[1])]
-def t(r): return datetime.datetime.fromisoformat(r["t"].replace("Z", "+00:00")).timestamp()
-steps, frames = {}, {}
-for r in records:
-    if r.get("type") == "step_started": steps[r.get("step")] = r
-    if r.get("type") == "frame": frames.setdefault(r["step"], []).append(r)
-own = rest = 0.0
-for name, start in steps.items():
-    if name not in frames: continue
-    last = max(t(f) for f in frames[name])
-    exposure = max(f.get("exposure_us", 0) for f in frames[name]) / 1e6
-    settle = start.get("settle_ms", 0) / 1e3
-    own += settle + exposure
-    rest += last - t(start) - settle - exposure
-cameras = sorted({f.get("camera") for fs in frames.values() for f in fs})
-print(f"capture split over {len(steps)} steps, cameras {', '.join(cameras)}: settle + exposure {own:.2f} s, "
-      f"rendering + transfer + storage of the frames {rest:.2f} s")
-for r in records:
-    if r.get("type") == "results":
-        print("results:", r.get("state"), "estimate_seconds", r.get("estimate_seconds"), "pixels", r.get("pixels"))
-PY
-summary="$sessions/$id/results/summary.json"
-[[ -f "$summary" ]] && python3 -c "import json,sys; print('results timings_s:', json.load(open(sys.argv[1]))['timings_s'])" "$summary"
+# Where the session's time went, from its records; the lab's preparation apart.
+scripts/session_split.py "$sessions/$id" --lab-preparation-s "$(( (ready_ns - started_ns) / 1000000 ))e-3"
 echo "session folder: $sessions/$id"

@@ -9,11 +9,10 @@
 
 #include "chromo/calibration/response_calibration.hpp"
 #include "chromo/drivers/device_error.hpp"
+#include "led_count.hpp"
 
 namespace chromo::calibration {
 namespace {
-
-constexpr int kLeds = spectral::kLedTypeCount;
 
 void sleep_s(double seconds) {
   if (seconds > 0) std::this_thread::sleep_for(std::chrono::duration<double>(seconds));

@@ -9,11 +9,10 @@
 
 #include "chromo/drivers/device_error.hpp"
 #include "chromo/spectral/colorimetry.hpp"
+#include "led_count.hpp"
 
 namespace chromo::calibration {
 namespace {
-
-constexpr int kLeds = spectral::kLedTypeCount;
 
 std::string names(const std::vector<LedType>& types) {
   std::string text;

@@ -8,14 +8,13 @@
 
 #include "chromo/spectral/cie.hpp"
 #include "chromo/spectral/colorimetry.hpp"
+#include "led_count.hpp"
 
 namespace chromo::calibration {
 namespace {
 
 using SpectraArray = std::array<spectral::Spectrum, spectral::kLedTypeCount>;
 using DriveArray = std::array<double, spectral::kLedTypeCount>;
-constexpr int kLeds = spectral::kLedTypeCount;
-
 double luminance(const spectral::Spectrum& s) { return spectral::xyz_of_light(s).Y; }
 
 struct SolveOutcome {

@@ -106,6 +106,24 @@ class Client:
     def results(self, session_id):
         return self.results_service.GetResults(estimation_pb2.GetResultsRequest(session_id=session_id))
 
+    def camera_results(self, session_id):
+        """Every camera's results of a session as a dict by camera name: state ("available" or
+        "unavailable"), reason, maps_file, report_file, camera_sensitivity, shared_with (the camera
+        whose tables it shared, or "") and summary (ResultsSummary). A one-camera session has one."""
+        results = self.results(session_id)
+        cameras = {}
+        for camera in results.cameras:
+            cameras[camera.camera] = {
+                "state": estimation_pb2.ResultsState.Name(camera.state).replace("RESULTS_STATE_", "").lower(),
+                "reason": camera.reason,
+                "maps_file": camera.maps_file,
+                "report_file": camera.report_file,
+                "camera_sensitivity": camera.camera_sensitivity,
+                "shared_with": camera.shared_with,
+                "summary": camera.summary,
+            }
+        return cameras
+
     def relight(self, maps_file, illuminant, label="", photograph_file="", session_id="", timeout=120):
         """Relit albedo (and a panel against the photograph) in a new folder of the daemon's; returns
         RelightResponse, whose out_dir and files are relative to the session folder (or the daemon's

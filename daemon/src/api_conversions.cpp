@@ -132,6 +132,54 @@ void to_proto(const session::SessionInfo& info, bool include_frames, pb::Session
   }
 }
 
+namespace {
+// A results record's (or one camera entry's) headline numbers.
+void results_summary_to_proto(const nlohmann::json& r, const std::string& method, const std::string& model,
+                              std::uint64_t frames_read_back, pb::ResultsSummary* summary) {
+  summary->set_method(method);
+  summary->set_model(model);
+  summary->set_pixels(r.value("pixels", std::uint64_t{0}));
+  summary->set_pixels_per_second(r.value("pixels_per_second", 0.0));
+  summary->set_estimate_seconds(r.value("estimate_seconds", 0.0));
+  summary->set_frames_read_back(frames_read_back);
+  if (r.contains("flag_counts") && r["flag_counts"].is_object())
+    for (const auto& [name, count] : r["flag_counts"].items())
+      if (count.is_number_unsigned()) (*summary->mutable_flag_counts())[name] = count.get<std::uint64_t>();
+  if (r.contains("relit_delta_e94") && r["relit_delta_e94"].is_object())
+    for (const auto& [name, stats] : r["relit_delta_e94"].items()) {
+      pb::DeltaEStatistics s;
+      s.set_mean(stats.value("mean", 0.0));
+      s.set_median(stats.value("median", 0.0));
+      s.set_p95(stats.value("p95", 0.0));
+      s.set_max(stats.value("max", 0.0));
+      s.set_pixels(stats.value("pixels", std::uint64_t{0}));
+      (*summary->mutable_relit_delta_e94())[name] = s;
+    }
+}
+// A results record's "cameras" (a record from before several cameras has none).
+void cameras_to_proto(const nlohmann::json& r, const std::filesystem::path& folder, const std::string& method,
+                      const std::string& model, std::uint64_t read_back, pb::Results* out) {
+  if (!r.contains("cameras") || !r["cameras"].is_array()) return;
+  for (const auto& entry : r["cameras"]) {
+    if (!entry.is_object()) continue;
+    auto* camera = out->add_cameras();
+    camera->set_camera(entry.value("name", ""));
+    if (entry.value("state", "") != "ok") {
+      camera->set_state(pb::RESULTS_STATE_UNAVAILABLE);
+      camera->set_reason(entry.value("reason", ""));
+      continue;
+    }
+    camera->set_state(pb::RESULTS_STATE_AVAILABLE);
+    camera->set_maps_file((folder / entry.value("maps_file", "")).string());
+    camera->set_report_file((folder / entry.value("report_file", "")).string());
+    camera->set_camera_sensitivity(entry.value("camera_sensitivity", ""));
+    if (entry.contains("shared_with") && entry["shared_with"].is_string())
+      camera->set_shared_with(entry["shared_with"].get<std::string>());
+    results_summary_to_proto(entry, method, model, read_back, camera->mutable_summary());
+  }
+}
+}  // namespace
+
 void results_to_proto(const session::SessionInfo& info, pb::Results* out) {
   out->set_session_id(info.record.id);
   out->set_folder(info.record.folder);
@@ -152,26 +200,10 @@ void results_to_proto(const session::SessionInfo& info, pb::Results* out) {
     if (buffer.str().size() <= (1u << 20)) out->set_summary_json(buffer.str());
     // Headline numbers: from the results record (written with the report).
     const auto& r = info.results;
-    auto* summary = out->mutable_summary();
-    summary->set_method(r.value("method", ""));
-    summary->set_model(r.value("model", ""));
-    summary->set_pixels(r.value("pixels", std::uint64_t{0}));
-    summary->set_pixels_per_second(r.value("pixels_per_second", 0.0));
-    summary->set_estimate_seconds(r.value("estimate_seconds", 0.0));
-    summary->set_frames_read_back(r.value("frames_read_back", std::uint64_t{0}));
-    if (r.contains("flag_counts") && r["flag_counts"].is_object())
-      for (const auto& [name, count] : r["flag_counts"].items())
-        if (count.is_number_unsigned()) (*summary->mutable_flag_counts())[name] = count.get<std::uint64_t>();
-    if (r.contains("relit_delta_e94") && r["relit_delta_e94"].is_object())
-      for (const auto& [name, stats] : r["relit_delta_e94"].items()) {
-        pb::DeltaEStatistics s;
-        s.set_mean(stats.value("mean", 0.0));
-        s.set_median(stats.value("median", 0.0));
-        s.set_p95(stats.value("p95", 0.0));
-        s.set_max(stats.value("max", 0.0));
-        s.set_pixels(stats.value("pixels", std::uint64_t{0}));
-        (*summary->mutable_relit_delta_e94())[name] = s;
-      }
+    const std::string method = r.value("method", ""), model = r.value("model", "");
+    const auto read_back = r.value("frames_read_back", std::uint64_t{0});
+    results_summary_to_proto(r, method, model, read_back, out->mutable_summary());
+    cameras_to_proto(r, folder, method, model, read_back, out);
     return;
   }
   out->set_state(pb::RESULTS_STATE_UNAVAILABLE);
@@ -181,6 +213,7 @@ void results_to_proto(const session::SessionInfo& info, pb::Results* out) {
   else
     out->set_reason(info.results.is_null() ? "no on-line estimator in this daemon: frames and derived albedo are stored"
                                            : info.results.value("reason", "estimation did not produce maps"));
+  if (!info.results.is_null()) cameras_to_proto(info.results, folder, "", "", 0, out);
 }
 
 void to_proto(const Event& event, pb::Event* out) {

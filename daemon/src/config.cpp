@@ -406,6 +406,26 @@ const std::vector<Key>& estimation_keys() {
       string_key("led_library", [](DaemonConfig& c) -> auto& { return c.estimation.led_library; }, led_library_error),
       string_key("camera_sensitivity", [](DaemonConfig& c) -> auto& { return c.estimation.camera_sensitivity; },
                  camera_sensitivity_error),
+      {"camera_sensitivities",
+       [](const json& v, DaemonConfig& c) {
+         if (!v.is_object()) throw std::invalid_argument(shown(v) + " is not a JSON object (camera name: sensitivity)");
+         std::map<std::string, std::string> sensitivities;
+         for (auto item = v.begin(); item != v.end(); ++item) {
+           if (item.key().empty()) throw std::invalid_argument("a camera name is empty");
+           if (!item.value().is_string())
+             throw NestedError("[\"" + item.key() + "\"]: " + shown(item.value()) +
+                               " is not a string (builtin:NAME or a CSV)");
+           sensitivities[item.key()] = item.value().get<std::string>();
+         }
+         c.estimation.camera_sensitivities = std::move(sensitivities);
+       },
+       [](const DaemonConfig& c) {  // each one read as what it is
+         for (auto entry = c.estimation.camera_sensitivities.begin(); entry != c.estimation.camera_sensitivities.end();
+              ++entry)
+           if (auto error = camera_sensitivity_error(entry->second); !error.empty())
+             return "[\"" + entry->first + "\"]: " + error;
+         return std::string();
+       }},
       number_key("white_reflectance", 0, 1, true, [](DaemonConfig& c) -> auto& { return c.estimation.white_reflectance; }),
       string_key("cache_dir", [](DaemonConfig& c) -> auto& { return c.estimation.cache_dir; }, optional_folder),
       unsigned_key("cache_limit_bytes", 1ull << 20, 1ull << 50,

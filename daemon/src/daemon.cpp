@@ -252,12 +252,15 @@ OperationRunner::Outcome Daemon::run_session(RunningOperation& running, const se
     event.log = text;
     events_.publish(std::move(event));
   };
-  if (estimator_)
+  if (estimator_) {
+    std::vector<std::string> cameras;
+    for (auto& camera : devices_.cameras) cameras.push_back(camera->config.name);
     estimator_->begin_session({id, folder, plan, {[&, id](double fraction, const std::string& message) {
                                  operations_.update(id, [&](session::OperationRecord& r) {
                                    r.message = message + " " + std::to_string(static_cast<int>(fraction * 100)) + "%";
                                  });
-                               }, {}}});
+                               }, {}}, cameras});
+  }
   // Every stored frame, summed as it is stored: derived data is written from
   // these sums (a session re-processed from its folder fills them from the
   // stored frames: session::add_stored_frames).

@@ -11,15 +11,19 @@ int FrameLevels::brightest_channel() const {
   return static_cast<int>(std::max_element(mean.begin(), mean.end()) - mean.begin());
 }
 
-FrameLevels frame_levels(std::span<const std::uint8_t> samples, int width, int height, drivers::PixelFormat format) {
+FrameLevels frame_levels(std::span<const std::uint8_t> samples, int width, int height, drivers::PixelFormat format,
+                         FrameRegion region) {
   const auto& info = drivers::pixel_format_info(format);
   if (width <= 0 || height <= 0 || samples.size() != info.frame_bytes(width, height))
     throw std::invalid_argument("metering frame: " + std::to_string(samples.size()) + " bytes for a " +
                                 std::to_string(width) + "x" + std::to_string(height) + " " + std::string(info.name) +
                                 " frame");
   const double full = info.full_scale();
-  std::array<double, 3> sum{};
-  std::array<std::uint64_t, 3> count{}, at_full{};
+  const auto top = static_cast<std::uint32_t>(info.full_scale());
+  // Each channel's histogram of sample values (0 … full scale; a value above
+  // it counts as full scale).
+  std::array<std::vector<std::uint64_t>, 3> histogram;
+  for (auto& h : histogram) h.assign(top + 1, 0);
   auto sample = [&](std::size_t i) -> std::uint32_t {
     if (info.bytes_per_sample == 1) return samples[i];
     std::uint16_t v;
@@ -32,15 +36,33 @@ FrameLevels frame_levels(std::span<const std::uint8_t> samples, int width, int h
         int c = s;
         if (info.layout == drivers::ColourLayout::kBayerRGGB) c = (y % 2 == 0 && x % 2 == 0) ? 0 : (y % 2 && x % 2) ? 2 : 1;
         else if (info.layout == drivers::ColourLayout::kMono) c = 0;
-        const std::uint32_t v = sample((static_cast<std::size_t>(y) * width + x) * info.samples_per_pixel + s);
-        sum[c] += v, ++count[c];
-        if (v >= info.full_scale()) ++at_full[c];
+        ++histogram[c][std::min(sample((static_cast<std::size_t>(y) * width + x) * info.samples_per_pixel + s), top)];
       }
   FrameLevels levels;
   for (int c = 0; c < 3; ++c) {
-    const int from = info.layout == drivers::ColourLayout::kMono ? 0 : c;
-    levels.mean[c] = count[from] ? sum[from] / (full * static_cast<double>(count[from])) : 0.0;
-    levels.clipped[c] = count[from] ? static_cast<double>(at_full[from]) / static_cast<double>(count[from]) : 0.0;
+    const auto& h = histogram[info.layout == drivers::ColourLayout::kMono ? 0 : c];
+    std::uint64_t count = 0;
+    for (auto n : h) count += n;
+    if (count == 0) continue;
+    // The value below which a share q of the samples lie.
+    auto percentile = [&](double q) {
+      const auto wanted = static_cast<std::uint64_t>(q * static_cast<double>(count - 1));
+      std::uint64_t below = 0;
+      for (std::uint32_t v = 0; v <= top; ++v)
+        if ((below += h[v]) > wanted) return v;
+      return top;
+    };
+    std::uint32_t from = 0;
+    if (region == FrameRegion::kLit) {
+      const std::uint32_t low = percentile(kLitLowPercentile), high = percentile(kLitHighPercentile);
+      if (2.0 * low < high) from = low + (high - low + 1) / 2;  // a dark surround: the lit part only
+    }
+    double sum = 0;
+    std::uint64_t in_region = 0;
+    for (std::uint32_t v = from; v <= top; ++v) sum += static_cast<double>(v) * static_cast<double>(h[v]), in_region += h[v];
+    levels.mean[c] = in_region ? sum / (full * static_cast<double>(in_region)) : 0.0;
+    levels.clipped[c] = in_region ? static_cast<double>(h[top]) / static_cast<double>(in_region) : 0.0;
+    levels.region_share[c] = static_cast<double>(in_region) / static_cast<double>(count);
   }
   return levels;
 }

@@ -28,7 +28,8 @@ std::unique_ptr<OnlineEstimator> make_online_estimator(const EstimationConfig& c
   options.sources = [config, daemon_led_library] {
     std::string library = config.led_library;
     if (library.empty() && daemon_led_library) library = daemon_led_library();
-    return session::resolve_capture_sources(library, config.camera_sensitivity, config.white_reflectance);
+    return session::resolve_capture_sources(library, config.camera_sensitivity, config.white_reflectance,
+                                            config.camera_sensitivities);
   };
   options.budget = budget;
   return std::make_unique<OnlineEstimator>(std::move(options));
@@ -44,12 +45,12 @@ void OnlineEstimator::begin_session(const SessionStart& start) {
   builder_.reset();
   consumed_.clear();
   error_.clear();
-  table_prepared_ = false;
-  table_prepare_seconds_ = 0;
-  prepared_.reset();
-  result_.reset();
+  camera_errors_.clear();
+  table_prepare_seconds_.clear();
+  prepared_.clear();
+  cameras_.clear();
+  estimated_ = false;
   read_back_ = 0;
-  wanted_camera_ = session::first_camera_only();
   try {
     sources_ = options_.sources();
     builder_ = std::make_unique<session::SessionCaptureBuilder>(start.plan, *sources_);
@@ -58,61 +59,87 @@ void OnlineEstimator::begin_session(const SessionStart& start) {
   }
 }
 
+bool OnlineEstimator::every_camera_complete() const {
+  const auto& delivered = builder_->cameras();
+  // Without the session's camera list, the end of the session says when.
+  if (session_.cameras.empty() || delivered.size() < session_.cameras.size()) return false;
+  for (const auto& camera : delivered)
+    if (!builder_->complete(camera)) return false;
+  return true;
+}
+
+void OnlineEstimator::prepare_tables_of(const std::string& camera) {
+  // The subject is not captured yet: build (or load) the tables now. Kept
+  // in memory until the estimate (it uses them when the subject's frames
+  // leave the measurement set unchanged, as they do when the controller
+  // applied the same levels), and left in the disk cache for `chromo
+  // estimate SESSION_DIR`. A camera with another camera's sensitivity and
+  // illuminants shares that camera's forward table.
+  const auto t = std::chrono::steady_clock::now();
+  std::vector<const maps::PreparedTables*> earlier;
+  for (const auto& [name, tables] : prepared_) earlier.push_back(&tables);
+  prepared_[camera] = maps::prepare_tables(builder_->is_method_plan()
+                                               ? session::method_set_from_references(builder_->captures(camera))
+                                               : session::plan_set_from_references(builder_->plan_captures(camera)),
+                                           options_.estimation, earlier);
+  table_prepare_seconds_[camera] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
 void OnlineEstimator::consume(const CapturedFrame& captured, const StoredFrame& stored) {
-  if (!builder_ || !error_.empty() || result_) return;
-  // One camera's maps: the first camera's frames (the builder keeps cameras apart).
-  if (!wanted_camera_(captured.record)) return;
+  if (!builder_ || !error_.empty() || estimated_) return;
+  const std::string& camera = captured.record.camera;
   try {
     builder_->add_frame(captured.record, captured.samples);
     consumed_.insert(stored.index);
-    if (!table_prepared_ && builder_->references_complete()) {
-      // The subject is not captured yet: build (or load) the table now.
-      const auto t = std::chrono::steady_clock::now();
-      // Kept in memory until the estimate (it uses them when the subject's
-      // frames leave the measurement set unchanged, as they do when the
-      // controller applied the same levels), and left in the disk cache for
-      // `chromo estimate SESSION_DIR`.
-      prepared_ = maps::prepare_tables(builder_->is_method_plan()
-                                           ? session::method_set_from_references(builder_->captures())
-                                           : session::plan_set_from_references(builder_->plan_captures()),
-                                       options_.estimation);
-      table_prepared_ = true;
-      table_prepare_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+  } catch (const std::exception& e) {
+    // One camera's unusable frame fails the session's estimate only when it is the one camera.
+    if (session_.cameras.size() <= 1) error_ = e.what();
+    else camera_errors_.emplace(camera, e.what());
+    return;
+  }
+  try {
+    if (!prepared_.count(camera) && !table_prepare_seconds_.count(camera) && builder_->references_complete(camera)) {
+      table_prepare_seconds_[camera] = 0;  // tried once
+      prepare_tables_of(camera);
     }
-    if (builder_->complete()) estimate_now();
+  } catch (const std::exception&) {
+    // The estimate names what is wrong with this camera's references.
+  }
+  try {
+    if (every_camera_complete()) estimate_now();
   } catch (const std::exception& e) {
     error_ = e.what();
   }
 }
 
 void OnlineEstimator::estimate_now() {
+  estimated_ = true;
+  nlohmann::ordered_json prepare_seconds = nlohmann::ordered_json::object();
+  for (const auto& [camera, seconds] : table_prepare_seconds_) prepare_seconds[camera] = seconds;
   nlohmann::ordered_json extra{{"session_id", session_.id},
                                {"source", "chromod on-line estimator"},
-                               {"camera", builder_->camera()},
                                {"led_library", sources_->led_library_source},
-                               {"camera_sensitivity", sources_->camera_source},
                                {"white_reflectance", sources_->white_reflectance},
                                {"frames_read_back_from_storage", read_back_},
-                               {"table_prepared_during_capture_s", table_prepare_seconds_},
+                               {"table_prepared_during_capture_s",
+                                table_prepare_seconds_.size() == 1 ? nlohmann::ordered_json(table_prepare_seconds_.begin()->second)
+                                                                   : prepare_seconds},
                                {"blue_light_hazard", session::recorded_blue_light_hazard(session_.folder / "journal.jsonl")}};
   const std::filesystem::path results = session_.folder / "results";
   std::filesystem::create_directories(results);
   // The LED library the illuminants came from, so that `chromo estimate
   // SESSION_DIR` reproduces these maps from the folder alone.
   files::write_file_durably(results / "led_library.json", calibration::led_library_to_json(sources_->led_library),
-                     options_.budget);
+                            options_.budget);
   const maps::FileCommit commit = [this](const std::filesystem::path& path,
                                          const std::function<void(const std::filesystem::path&)>& produce) {
+    std::filesystem::create_directories(path.parent_path());
     files::commit_file_durably(path, options_.budget, produce);
   };
-  // The method's session, or any other plan (multispectral, an operator's).
-  if (builder_->is_method_plan())
-    result_ = maps::estimate_method_captures(builder_->captures(), options_.estimation, results, commit, session_.progress,
-                                             extra.dump(), prepared_ ? &*prepared_ : nullptr);
-  else
-    result_ = maps::estimate_plan_captures(builder_->plan_captures(), options_.estimation, results, commit,
-                                           session_.progress, extra.dump(), prepared_ ? &*prepared_ : nullptr);
-  prepared_.reset();  // the tables' memory goes back before the next session
+  // The method's session, or any other plan (multispectral, an operator's), every camera.
+  cameras_ = maps::estimate_session_cameras({builder_.get(), &prepared_, extra.dump(), camera_errors_},
+                                            options_.estimation, results, commit, session_.progress);
+  prepared_.clear();  // the tables' memory goes back before the next session
 }
 
 nlohmann::json OnlineEstimator::unavailable(const std::string& reason) const {
@@ -122,11 +149,12 @@ nlohmann::json OnlineEstimator::unavailable(const std::string& reason) const {
 nlohmann::json OnlineEstimator::end_session(const SessionEnd& end) {
   if (!end.succeeded) return nullptr;
   if (!builder_ && error_.empty()) return nullptr;
-  if (error_.empty() && !result_) {
+  if (error_.empty() && !estimated_) {
     // Catch up: the frames the pipeline skipped are in storage.
     try {
-      read_back_ = session::add_stored_frames(*builder_, session_.folder, consumed_, wanted_camera_);
-      if (!builder_->complete()) {
+      read_back_ = session::add_stored_frames(*builder_, session_.folder, consumed_, {},
+                                              session_.cameras.size() <= 1 ? nullptr : &camera_errors_);
+      if (builder_->cameras().size() <= 1 && camera_errors_.empty() && !builder_->complete()) {
         error_ = "frames missing: " + builder_->missing();
       } else {
         estimate_now();
@@ -136,29 +164,38 @@ nlohmann::json OnlineEstimator::end_session(const SessionEnd& end) {
     }
   }
   if (!error_.empty()) return unavailable(error_);
-  const auto& r = *result_;
-  nlohmann::json flags = nlohmann::json::object();
-  for (int f = 0; f < estimation::kPixelFlagCount; ++f)
-    flags[std::string(estimation::pixel_flag_name(static_cast<estimation::PixelFlag>(f)))] = r.summary.flag_counts[f];
-  nlohmann::json relit = nlohmann::json::object();
-  for (const auto& c : r.relit)
-    relit[c.illuminant] = {{"mean", c.delta_e94.mean},
-                           {"median", c.delta_e94.median},
-                           {"p95", c.delta_e94.p95},
-                           {"max", c.delta_e94.max},
-                           {"pixels", c.delta_e94.pixels}};
+  const maps::CameraEstimate* first_ok = nullptr;
+  nlohmann::json cameras = nlohmann::json::array();
+  std::string reasons;
+  for (const auto& camera : cameras_) {
+    cameras.push_back(nlohmann::json::parse(maps::camera_entry_json(camera, "results/")));
+    if (camera.ok && !first_ok) first_ok = &camera;
+    if (!camera.ok) reasons += (reasons.empty() ? "" : "; ") + camera.camera + ": " + camera.reason;
+  }
+  if (!first_ok) {
+    nlohmann::json record = unavailable(reasons);
+    record["cameras"] = cameras;
+    return record;
+  }
+  const auto& r = *first_ok->result;
+  // Its flag counts and relit ΔE94 as its index entry has them.
+  const auto first_entry = nlohmann::json::parse(maps::camera_entry_json(*first_ok));
+  // The headline numbers are the first estimated camera's; "cameras" lists every camera.
+  const std::string first_folder = first_ok->folder.empty() ? "results/" : "results/" + first_ok->folder + "/";
   return {{"type", "results"},
           {"state", "available"},
-          {"maps_file", "results/maps.exr"},
+          {"maps_file", first_folder + "maps.exr"},
           {"report_file", "results/summary.json"},
+          {"camera", first_ok->camera},
           {"method", std::string(estimation::method_name(options_.estimation.estimator.method))},
           {"model", std::string(estimation::model_name(options_.estimation.estimator.model))},
           {"pixels", r.summary.pixels},
           {"pixels_per_second", r.pixels_per_second},
           {"estimate_seconds", r.summary.seconds},
           {"frames_read_back", read_back_},
-          {"flag_counts", flags},
-          {"relit_delta_e94", relit}};
+          {"flag_counts", first_entry["flag_counts"]},
+          {"relit_delta_e94", first_entry["relit_delta_e94"]},
+          {"cameras", cameras}};
 }
 
 }  // namespace chromo::daemon

@@ -284,7 +284,7 @@ class Run {
       drivers::Frame& frame = frames[k];
       if (metering) {
         try {
-          collector.metered = frame_levels(frame.data, frame.width, frame.height, frame.pixel_format);
+          collector.metered = frame_levels(frame.data, frame.width, frame.height, frame.pixel_format, FrameRegion::kLit);
         } catch (const std::exception& failure) {
           throw std::runtime_error("camera \"" + collector.camera->config.name + "\": " + failure.what());
         }

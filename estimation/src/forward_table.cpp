@@ -18,7 +18,7 @@ namespace {
 
 // Version 2: the file is a files/binary_cache.hpp file (version 1 had no
 // payload length or checksum).
-constexpr files::CacheFormat kCacheFormat{{'C', 'H', 'R', 'O', 'M', 'O', 'F', 'T'}, 2};
+constexpr files::CacheFormat kForwardTableCacheFormat{{'C', 'H', 'R', 'O', 'M', 'O', 'F', 'T'}, 2};
 
 struct Axis {
   double min, max;
@@ -170,8 +170,8 @@ void ForwardTable::predict(const GridPoint& x, double* value, double* jacobian) 
 
 std::uint64_t ForwardTable::cache_key(const MeasurementSet& set, const TableGrid& grid) {
   files::Fnv1a h;
-  h.add(kCacheFormat.magic);
-  h.add(kCacheFormat.version);
+  h.add(kForwardTableCacheFormat.magic);
+  h.add(kForwardTableCacheFormat.version);
   h.add(grid.cm_nodes), h.add(grid.ch_nodes), h.add(grid.bm_nodes), h.add(grid.che_nodes);
   for (const Axis& a : kAxes) h.add(a.min), h.add(a.max), h.add(a.log);
   const Eigen::MatrixXd w = set.weights();
@@ -247,7 +247,7 @@ std::shared_ptr<const ForwardTable> ForwardTable::load_or_build(const Measuremen
   const std::uint64_t key = cache_key(set, grid);
   const std::filesystem::path file = cache_dir / files::cache_file_name("forward_table", key);
   const std::int32_t dims[5] = {grid.cm_nodes, grid.ch_nodes, grid.bm_nodes, grid.che_nodes, set.size()};
-  if (const auto payload = files::read_cache(file, kCacheFormat, key)) {
+  if (const auto payload = files::read_cache(file, kForwardTableCacheFormat, key)) {
     // Payload: the five dimensions (int32), then the values (float).
     files::CacheReader in(*payload);
     std::int32_t stored_dims[5];
@@ -272,7 +272,7 @@ std::shared_ptr<const ForwardTable> ForwardTable::load_or_build(const Measuremen
   out.put_bytes(dims, sizeof dims);
   out.put_bytes(t->values_.data(), t->values_.size() * sizeof(float));
   try {
-    files::write_cache(file, kCacheFormat, key, out.take_bytes());
+    files::write_cache(file, kForwardTableCacheFormat, key, out.take_bytes());
   } catch (const std::exception&) {
     // A cache that cannot be written is not an error: the table is in memory.
   }

@@ -97,11 +97,13 @@ std::uint64_t trim_cache_folder(const fs::path& dir, std::uint64_t limit_bytes, 
   return removed;
 }
 
-std::string cache_file_name(const std::string& stem, std::uint64_t key) {
+std::string cache_key_hex(std::uint64_t key) {
   char hex[17];
   std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(key));
-  return stem + "_" + hex + ".bin";
+  return hex;
 }
+
+std::string cache_file_name(const std::string& stem, std::uint64_t key) { return stem + "_" + cache_key_hex(key) + ".bin"; }
 
 std::optional<std::vector<std::uint8_t>> read_cache(const fs::path& file, const CacheFormat& format,
                                                     std::uint64_t key, std::string* why) {

@@ -14,6 +14,8 @@
 #include "chromo/maps/map_previews.hpp"
 #include "chromo/maps/relit_table.hpp"
 #include "chromo/estimation/skin_model.hpp"
+#include "chromo/files/binary_cache.hpp"
+#include "delta_e_json.hpp"
 
 namespace chromo::maps {
 
@@ -25,14 +27,30 @@ double seconds_since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
-std::string hex_key(std::uint64_t key) {
-  char text[17];
-  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(key));
-  return text;
+// Outside the camera's footprint of a white reference: no parameters (NaN), flag no_reference.
+void mark_no_reference(const session::MethodMeasurement& m, std::vector<estimation::PixelEstimate>& estimates,
+                       estimation::EstimateSummary& summary) {
+  if (m.no_reference.size() != estimates.size()) return;
+  constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+  for (std::size_t i = 0; i < estimates.size(); ++i) {
+    if (!m.no_reference[i]) continue;
+    estimation::PixelEstimate& e = estimates[i];
+    --summary.flag_counts[static_cast<int>(e.flag)];
+    if (e.order == 2) --summary.order2;
+    if (e.order == 4) --summary.order4;
+    e = estimation::PixelEstimate{};
+    e.parameters = {kNaN, kNaN, kNaN, kNaN};
+    e.residual = kNaN;
+    e.flag = estimation::PixelFlag::kNoReference;
+    ++summary.flag_counts[static_cast<int>(e.flag)];
+  }
 }
 
-nlohmann::ordered_json stats_json(const DeltaEStats& s) {
-  return {{"mean", s.mean}, {"median", s.median}, {"p95", s.p95}, {"max", s.max}, {"pixels", s.pixels}};
+std::vector<int> skipped_levels(std::uint32_t mask) {
+  std::vector<int> levels;
+  for (int l = 31; l > 0; --l)
+    if (mask & (1u << l)) levels.push_back(l);
+  return levels;
 }
 
 }  // namespace
@@ -49,7 +67,8 @@ std::string registration_report_json(std::span<const session::RegistrationReport
                    {"correlation", r.result.correlation},
                    {"motion_px", r.motion_px},
                    {"warped", r.warped},
-                   {"residual_motion_px", r.result.residual_motion_px}});
+                   {"residual_motion_px", r.result.residual_motion_px},
+                   {"skipped_pyramid_levels", skipped_levels(r.result.skipped_levels)}});
   return out.dump();
 }
 
@@ -263,13 +282,18 @@ std::vector<RelitComparison> compare_with_photographs(std::span<const estimation
   return out;
 }
 
-PreparedTables prepare_tables(const estimation::MeasurementSet& set, const MethodEstimationOptions& options) {
+PreparedTables prepare_tables(const estimation::MeasurementSet& set, const MethodEstimationOptions& options,
+                              std::span<const PreparedTables* const> earlier) {
   PreparedTables prepared;
   prepared.set = set;
   auto t = std::chrono::steady_clock::now();
-  prepared.table = estimation::ForwardTable::load_or_build(
-      set, options.grid, options.cache_dir.empty() ? estimation::ForwardTable::default_cache_dir() : options.cache_dir,
-      &prepared.table_rebuilt, options.estimator.threads);
+  const std::uint64_t key = earlier.empty() ? 0 : estimation::ForwardTable::cache_key(set, options.grid);
+  for (const PreparedTables* other : earlier)
+    if (other && other->table && other->table->key() == key) prepared.table = other->table;
+  if (!prepared.table)
+    prepared.table = estimation::ForwardTable::load_or_build(
+        set, options.grid, options.cache_dir.empty() ? estimation::ForwardTable::default_cache_dir() : options.cache_dir,
+        &prepared.table_rebuilt, options.estimator.threads);
   prepared.table_seconds = seconds_since(t);
   t = std::chrono::steady_clock::now();
   estimation::EstimatorOptions estimator_options = options.estimator;
@@ -330,6 +354,7 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
     neighbourhood = estimation::refine_with_neighbourhood(estimator, m.measured, m.width, m.height, estimates, result.summary,
                                               options.neighbourhood);
   const double neighbourhood_seconds = seconds_since(t);
+  mark_no_reference(m, estimates, result.summary);
 
   t = std::chrono::steady_clock::now();
   RelitComparisonOptions relit_options;
@@ -340,14 +365,15 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
   result.relit = compare_with_photographs(estimates, m.photographs, camera, relit_options);
   const double relit_seconds = seconds_since(t);
   result.registration = m.registration;
+  result.table_key = table->key();
 
   auto extra = nlohmann::ordered_json::parse(extra_json);
   if (!extra.is_object()) throw std::invalid_argument("extra_json is not a JSON object");
-  extra["table"] = {{"key", hex_key(table->key())}, {"nodes", table->grid().node_count()}, {"rebuilt", rebuilt}, {"tables_in_memory", in_memory}};
+  extra["table"] = {{"key", files::cache_key_hex(table->key())}, {"nodes", table->grid().node_count()}, {"rebuilt", rebuilt}, {"tables_in_memory", in_memory}};
   // The fast inverter's inverse table in the cache, so deleting the session
   // can remove the entries only it used (docs/daemon.md).
   if (const auto* fast = dynamic_cast<const estimation::FastInverter*>(&estimator.inverter()))
-    extra["table"]["inverse_key"] = hex_key(fast->inverse_table().key());
+    extra["table"]["inverse_key"] = files::cache_key_hex(fast->inverse_table().key());
   extra["registration"] = nlohmann::ordered_json::parse(registration_report_json(m.registration));
   nlohmann::ordered_json noise = nlohmann::ordered_json::object();
   for (const auto& c : m.set.channels)
@@ -364,10 +390,11 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
     exposures.push_back({{"capture", e.capture}, {"exposure_us", e.exposure_us}, {"frames", e.frames}});
   extra["captures"] = exposures;
   extra["saturated_pixels"] = m.saturated_pixels;
+  extra["no_reference_pixels"] = m.no_reference_pixels;
   extra["neighbourhood"] = nlohmann::ordered_json::parse(
       neighbourhood_report_json(options.neighbourhood.flags, options.neighbourhood.pool_order, neighbourhood));
   nlohmann::ordered_json relit = nlohmann::ordered_json::object();
-  for (const auto& r : result.relit) relit[r.illuminant] = stats_json(r.delta_e94);
+  for (const auto& r : result.relit) relit[r.illuminant] = delta_e_stats_json(r.delta_e94);
   extra["relit_delta_e94"] = {
       {"against", "the captured photographs (camera RGB albedo → XYZ by the ColorChecker-fitted matrix per illuminant)"},
       {"pixels", "explained (flag 0)"},

@@ -83,7 +83,8 @@ ParameterMaps empty_maps(int width, int height) {
 }
 
 bool measurable(estimation::PixelFlag flag) {
-  return flag != estimation::PixelFlag::kNonFinite && flag != estimation::PixelFlag::kSaturated && flag != estimation::PixelFlag::kDark;
+  return flag != estimation::PixelFlag::kNonFinite && flag != estimation::PixelFlag::kSaturated && flag != estimation::PixelFlag::kDark &&
+         flag != estimation::PixelFlag::kNoReference;
 }
 
 // The augmented per-pixel fit (header): χ² of the measurement plus the prior

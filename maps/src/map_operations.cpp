@@ -15,6 +15,7 @@
 #include "chromo/spectral/delta_e.hpp"
 #include "chromo/spectral/srgb.hpp"
 #include "chromo/spectral/table.hpp"
+#include "delta_e_json.hpp"
 
 namespace chromo::maps {
 namespace fs = std::filesystem;
@@ -54,10 +55,6 @@ NamedSpectrum illuminant_field(const std::string& text) {
   } catch (const std::invalid_argument& e) {
     throw field_error("illuminant", e.what());
   }
-}
-
-ordered_json stats_json(const DeltaEStats& s) {
-  return {{"mean", s.mean}, {"median", s.median}, {"p95", s.p95}, {"max", s.max}, {"pixels", s.pixels}};
 }
 
 std::string number(double v, int digits = 2) {
@@ -190,7 +187,7 @@ RelightSummary relight_to_files(const RelightOptions& options) {
     files::write_exr(files.temporary("delta_e94.exr"), de_image);
     j["photograph"] = options.photograph.string();
     j["camera"] = options.camera;
-    j["photo_delta_e94"] = stats_json(summary.photo_delta_e94);
+    j["photo_delta_e94"] = delta_e_stats_json(summary.photo_delta_e94);
     j["heat_map_max"] = top;
   }
   summary.json = j.dump(2) + "\n";
@@ -278,7 +275,7 @@ FlushSummary flush_to_files(const FlushOptions& options) {
   j["clamped_share"] = summary.edit.clamped_share;
   j["clamped"] = {{"cm", summary.edit.clamped_cm}, {"ch", summary.edit.clamped_ch}, {"bm", summary.edit.clamped_bm},
                   {"che", summary.edit.clamped_che}};
-  j["change_delta_e94"] = stats_json(summary.change_delta_e94);
+  j["change_delta_e94"] = delta_e_stats_json(summary.change_delta_e94);
   summary.json = j.dump(2) + "\n";
 
   std::string factors;
@@ -415,7 +412,7 @@ ImportMapsSummary import_maps_to_files(const ImportMapsOptions& options) {
   j["compared_pixels"] = r.search_4d.stats.pixels;
   ordered_json table = ordered_json::array();
   for (const MethodResult* m : {&r.mapped_2d, &r.augmented, &r.search_4d})
-    table.push_back({{"method", m->name}, {"delta_e94", stats_json(m->stats)}});
+    table.push_back({{"method", m->name}, {"delta_e94", delta_e_stats_json(m->stats)}});
   j["mean_delta_e94"] = {{"2D mapping", r.mapped_2d.stats.mean},
                          {"augmented", r.augmented.stats.mean},
                          {"4D search", r.search_4d.stats.mean}};

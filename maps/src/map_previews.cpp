@@ -57,7 +57,8 @@ cv::Mat map_canvas(const std::vector<float>& values, int width, int height, doub
 
 cv::Mat category_canvas(const std::vector<float>& codes, int width, int height, const std::vector<std::string>& names) {
   static const cv::Vec3b kColours[] = {{60, 60, 60},   {255, 0, 255}, {0, 255, 255}, {0, 0, 0},
-                                       {255, 255, 255}, {255, 0, 0},  {0, 0, 255},   {0, 200, 0}};
+                                       {255, 255, 255}, {255, 0, 0},  {0, 0, 255},   {0, 200, 0},
+                                       {128, 128, 128}};
   const int n = static_cast<int>(std::size(kColours));
   const int legend_height = static_cast<int>(names.size()) * 18 + 10;
   cv::Mat canvas(std::max(height, legend_height), width + 190, CV_8UC3, cv::Scalar(255, 255, 255));

@@ -25,35 +25,94 @@ void check_image(const RgbImage& image, const RgbImage& like, const std::string&
 }
 
 // Noise variance of a flat image: half the mean squared difference of
-// horizontally adjacent finite pixels.
-double flat_noise_variance(const std::vector<float>& plane, int width, int height) {
+// horizontally adjacent finite pixels (both inside `mask` when one is given).
+double flat_noise_variance(const std::vector<float>& plane, int width, int height,
+                           const std::vector<std::uint8_t>& mask = {}) {
   double sum = 0;
   std::size_t count = 0;
   for (int y = 0; y < height; ++y)
     for (int x = 0; x + 1 < width; ++x) {
-      const double a = plane[static_cast<std::size_t>(y) * width + x], b = plane[static_cast<std::size_t>(y) * width + x + 1];
+      const std::size_t i = static_cast<std::size_t>(y) * width + x;
+      if (!mask.empty() && !(mask[i] && mask[i + 1])) continue;
+      const double a = plane[i], b = plane[i + 1];
       if (std::isfinite(a) && std::isfinite(b)) sum += (a - b) * (a - b), ++count;
     }
   return count ? sum / (2.0 * static_cast<double>(count)) : 0.0;
 }
 
-double mean_of(const std::vector<float>& values) {
+double mean_of(const std::vector<float>& values, const std::vector<std::uint8_t>& mask = {}) {
   double sum = 0;
   std::size_t count = 0;
-  for (float v : values)
-    if (std::isfinite(v)) sum += v, ++count;
+  for (std::size_t i = 0; i < values.size(); ++i)
+    if ((mask.empty() || mask[i]) && std::isfinite(values[i])) sum += values[i], ++count;
   return count ? sum / static_cast<double>(count) : 0.0;
 }
+
+}  // namespace
+
+ReferenceFootprint white_reference_footprint(const RgbImage& white, const RgbImage& dark) {
+  const std::size_t n = dark.pixels();
+  ReferenceFootprint out;
+  // The signal summed over R, G, B, and its noise where the white is unlit
+  // (the white's and the dark's read noise: twice the dark's variance).
+  std::vector<float> signal(n, 0.0f);
+  double unlit_variance = 0;
+  for (int c = 0; c < 3; ++c) {
+    for (std::size_t i = 0; i < n; ++i) signal[i] += white.planes[c][i] - dark.planes[c][i];
+    unlit_variance += 2 * flat_noise_variance(dark.planes[c], dark.width, dark.height);
+  }
+  std::vector<float> finite;
+  finite.reserve(n);
+  for (float v : signal)
+    if (std::isfinite(v)) finite.push_back(v);
+  double high = 0;
+  if (!finite.empty()) {
+    const auto at = finite.begin() + static_cast<std::ptrdiff_t>(0.99 * static_cast<double>(finite.size() - 1));
+    std::nth_element(finite.begin(), at, finite.end());
+    high = *at;
+  }
+  out.threshold = std::max(kFootprintShare * high, kFootprintNoiseSigmas * std::sqrt(unlit_variance));
+  out.inside.assign(n, 1);
+  // Nothing lit above the noise: the whole frame, as a camera that sees
+  // the target everywhere (the white check below then names the capture).
+  if (!(high > out.threshold)) {
+    out.inside_pixels = n;
+    out.interior = out.inside;
+    return out;
+  }
+  for (std::size_t i = 0; i < n; ++i) out.inside[i] = std::isfinite(signal[i]) && signal[i] > out.threshold;
+  // The interior: inside pixels whose 8 neighbours are inside too (a
+  // footprint's edge pixels see part of the target and part of the dark).
+  out.interior.assign(n, 0);
+  const int w = dark.width, h = dark.height;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      bool all = true;
+      for (int dy = -1; dy <= 1 && all; ++dy)
+        for (int dx = -1; dx <= 1 && all; ++dx) {
+          const int yy = std::clamp(y + dy, 0, h - 1), xx = std::clamp(x + dx, 0, w - 1);
+          all = out.inside[static_cast<std::size_t>(yy) * w + xx] != 0;
+        }
+      out.interior[static_cast<std::size_t>(y) * w + x] = all;
+    }
+  for (auto v : out.inside) out.inside_pixels += v;
+  return out;
+}
+
+namespace {
 
 struct Reference {  // one illumination's white reference, dark-subtracted
   std::array<std::vector<float>, 3> white_signal;  // white − dark
   std::array<double, 3> white_mean{}, white_variance{};
+  ReferenceFootprint footprint;  // where the camera sees the white target
 };
 
 Reference reference_of(const IlluminatedCapture& capture, const RgbImage& dark) {
   check_image(capture.white, dark, "white reference under " + capture.name);
   const std::size_t n = dark.pixels();
   Reference out;
+  out.footprint = white_reference_footprint(capture.white, dark);
+  const auto& interior = out.footprint.interior;
   for (int c = 0; c < 3; ++c) {
     const auto &w = capture.white.planes[c], &d = dark.planes[c];
     auto& ws = out.white_signal[c];
@@ -67,8 +126,10 @@ Reference reference_of(const IlluminatedCapture& capture, const RgbImage& dark) 
       throw std::invalid_argument("white reference under " + capture.name + ": channel " + kChannelNames[c] + " is at full scale on " +
                                   std::to_string(100.0 * static_cast<double>(clipped) / static_cast<double>(n)) +
                                   "% of its pixels (saturated): shorten the exposure or dim the mix");
-    out.white_mean[c] = mean_of(ws);
-    out.white_variance[c] = flat_noise_variance(w, dark.width, dark.height);
+    // Over the camera's footprint of the target only: a posed camera sees
+    // it in perspective, dark around it.
+    out.white_mean[c] = mean_of(ws, interior);
+    out.white_variance[c] = flat_noise_variance(w, dark.width, dark.height, interior);
     if (!(out.white_mean[c] > 1e-3))
       throw std::invalid_argument("white reference under " + capture.name + ": channel " + kChannelNames[c] +
                                   " is no brighter than the dark capture (white − dark = " +
@@ -78,7 +139,7 @@ Reference reference_of(const IlluminatedCapture& capture, const RgbImage& dark) 
 }
 
 struct Normalised {
-  std::array<std::vector<float>, 3> albedo;  // ρ·(subject − dark)/(white − dark), NaN where white ≤ dark
+  std::array<std::vector<float>, 3> albedo;  // ρ·(subject − dark)/(white − dark), NaN where white ≤ dark or outside the footprint
   std::vector<std::uint8_t> saturated;       // any raw subject channel at full scale
 };
 
@@ -92,8 +153,9 @@ Normalised normalise(const IlluminatedCapture& capture, const Reference& referen
     const auto& ws = reference.white_signal[c];
     auto& a = out.albedo[c];
     a.resize(n);
+    const auto& inside = reference.footprint.inside;
     for (std::size_t i = 0; i < n; ++i) {
-      a[i] = ws[i] > 1e-3f ? static_cast<float>(rho * (s[i] - d[i]) / ws[i]) : kNaN;
+      a[i] = inside[i] && ws[i] > 1e-3f ? static_cast<float>(rho * (s[i] - d[i]) / ws[i]) : kNaN;
       if (s[i] >= kRawSaturated) out.saturated[i] = 1;
     }
   }
@@ -167,6 +229,16 @@ References references_of(const MethodCaptures& captures) {
   r.set.channels.push_back({"blue.B", blue_illuminant, 2, blue_noise});
   r.set.validate();
   return r;
+}
+
+// Pixels outside the footprint of any white reference the measurement uses.
+void mark_no_reference(MethodMeasurement& m, const std::vector<const Reference*>& references) {
+  m.no_reference.assign(static_cast<std::size_t>(m.width) * m.height, 0);
+  for (const Reference* reference : references)
+    for (std::size_t i = 0; i < m.no_reference.size(); ++i)
+      if (!reference->footprint.inside[i]) m.no_reference[i] = 1;
+  m.no_reference_pixels = 0;
+  for (auto v : m.no_reference) m.no_reference_pixels += v;
 }
 
 struct PlanReferences {
@@ -245,6 +317,9 @@ MethodMeasurement build_plan_measurement(const PlanCaptures& captures, const Reg
     m.registration.push_back({"subject under " + captures.captures[k].name, "subject under " + first.name,
                               kChannelNames[channel], r, motion, warped});
   }
+  std::vector<const Reference*> used;
+  for (const Reference& reference : references.references) used.push_back(&reference);
+  mark_no_reference(m, used);
   const int channels = m.set.size();
   m.measured.resize(n * channels);
   for (std::size_t i = 0; i < n; ++i) {
@@ -306,6 +381,7 @@ MethodMeasurement build_method_measurement(const MethodCaptures& captures, const
         {"subject under " + capture.name, "subject under " + captures.broadband.name, "G", r, motion, warped});
   }
 
+  mark_no_reference(m, {&references.broadband, &references.base, &references.with_blue});
   const int channels = m.set.size();
   m.measured.resize(n * channels);
   for (std::size_t i = 0; i < n; ++i) {

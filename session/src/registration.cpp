@@ -52,19 +52,29 @@ RegistrationResult estimate_registration(const std::vector<float>& reference, co
   }
   cv::Mat warp = cv::Mat::eye(2, 3, CV_32F);
   double correlation = 0;
+  std::uint32_t skipped = 0;
   for (int level = static_cast<int>(ref_pyramid.size()) - 1; level >= 0; --level) {
+    const cv::Mat before = warp.clone();
     try {
       correlation = cv::findTransformECC(ref_pyramid[level], mov_pyramid[level], warp, cv::MOTION_EUCLIDEAN,
                                          cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS,
                                                           options.max_iterations, options.epsilon),
                                          mask_pyramid[level], 5);
     } catch (const cv::Exception& e) {
-      throw RegistrationError(std::string("registration (ECC) did not converge at pyramid level ") +
-                              std::to_string(level) + ": " + e.what());
+      // A coarse level that does not converge (a posed view's small
+      // footprint leaves little texture there) is skipped: the finer
+      // levels start from the warp found so far. The finest must converge.
+      if (level == 0)
+        throw RegistrationError(std::string("registration (ECC) did not converge at pyramid level ") +
+                                std::to_string(level) + ": " + e.what());
+      warp = before;
+      skipped |= 1u << level;
     }
     if (level > 0) warp.at<float>(0, 2) *= 2, warp.at<float>(1, 2) *= 2;
   }
-  return from_warp(warp, correlation);
+  RegistrationResult result = from_warp(warp, correlation);
+  result.skipped_levels = skipped;
+  return result;
 }
 
 std::vector<float> warp_channel(const std::vector<float>& moving, int width, int height, const RegistrationResult& r) {

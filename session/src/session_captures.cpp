@@ -154,7 +154,7 @@ PlanCaptures SessionCaptureBuilder::plan_captures(const std::string& camera) con
   if (!references_complete(camera)) throw std::logic_error("captures of camera \"" + camera + "\": missing " + missing(camera));
   const StepSums& steps = sums_of(camera);
   PlanCaptures c;
-  c.camera = sources_.camera;
+  c.camera = sources_.sensitivity_of(camera).sensitivity;
   c.white_reflectance = sources_.white_reflectance;
   c.dark = mean_image(steps.at("dark"));
   for (const State& state : states_) {
@@ -178,7 +178,7 @@ MethodCaptures SessionCaptureBuilder::captures(const std::string& camera) const 
   if (!references_complete(camera)) throw std::logic_error("captures of camera \"" + camera + "\": missing " + missing(camera));
   const StepSums& steps = sums_of(camera);
   MethodCaptures c;
-  c.camera = sources_.camera;
+  c.camera = sources_.sensitivity_of(camera).sensitivity;
   c.white_reflectance = sources_.white_reflectance;
   c.dark = mean_image(steps.at("dark"));
   const std::pair<IlluminatedCapture*, const char*> targets[] = {
@@ -194,6 +194,10 @@ MethodCaptures SessionCaptureBuilder::captures(const std::string& camera) const 
                                                                                std::max(1u, white.frames.frames() + subject.frames.frames()));
   }
   return c;
+}
+
+std::string SessionCaptureBuilder::sensitivity_source(const std::string& camera) const {
+  return sources_.sensitivity_of(camera).source;
 }
 
 SessionPlan read_session_plan(const std::filesystem::path& folder) {
@@ -216,13 +220,23 @@ SessionPlan read_session_plan(const std::filesystem::path& folder) {
 
 std::size_t add_stored_frames(SessionCaptureBuilder& builder, const std::filesystem::path& folder,
                               const std::set<std::uint64_t>& already_added,
-                              const std::function<bool(const FrameRecord&)>& wanted) {
+                              const std::function<bool(const FrameRecord&)>& wanted,
+                              std::map<std::string, std::string>* unusable) {
   std::size_t added = 0;
   for_each_stored_frame(
       folder, [&](std::uint64_t index) { return already_added.count(index) == 0; },
       [&](const FrameRecord& record, std::span<const std::uint8_t> samples) {
         if (wanted && !wanted(record)) return;
-        builder.add_frame(record, samples);
+        if (!unusable) {
+          builder.add_frame(record, samples);
+        } else {
+          try {
+            builder.add_frame(record, samples);
+          } catch (const std::invalid_argument& error) {
+            unusable->emplace(record.camera, error.what());
+            return;
+          }
+        }
         ++added;
       });
   return added;
@@ -247,6 +261,25 @@ SessionCaptureBuilder stored_session_builder(const std::filesystem::path& folder
 }
 }  // namespace
 
+SessionCaptureBuilder read_stored_session(const std::filesystem::path& folder, const CaptureSources& sources,
+                                          std::map<std::string, std::string>* unusable) {
+  if (!std::filesystem::exists(folder / "journal.jsonl"))
+    throw std::invalid_argument(folder.string() + ": not a session folder (no journal.jsonl)");
+  SessionCaptureBuilder builder(read_session_plan(folder), sources);
+  std::map<std::string, std::string> refused;
+  add_stored_frames(builder, folder, {}, {}, &refused);
+  // One camera in all: its refused frame is the session's error, as before.
+  std::set<std::string> cameras(builder.cameras().begin(), builder.cameras().end());
+  for (const auto& [camera, reason] : refused) cameras.insert(camera);
+  if (cameras.size() == 1 && !refused.empty()) throw std::invalid_argument(refused.begin()->second);
+  if (unusable) *unusable = std::move(refused);
+  if (builder.cameras().empty() && cameras.empty())
+    throw std::invalid_argument(folder.string() + ": the session stored no frame");
+  if (builder.cameras().size() == 1 && !builder.complete())
+    throw std::invalid_argument(folder.string() + ": the session's frames are incomplete (" + builder.missing() + ")");
+  return builder;
+}
+
 MethodCaptures read_session_captures(const std::filesystem::path& folder, const CaptureSources& sources) {
   const SessionCaptureBuilder builder = stored_session_builder(folder, sources);
   if (!builder.is_method_plan())
@@ -262,8 +295,13 @@ StoredSessionCaptures read_any_session_captures(const std::filesystem::path& fol
   return out;
 }
 
+CameraSensitivitySource CaptureSources::sensitivity_of(const std::string& camera_name) const {
+  if (auto found = camera_of.find(camera_name); found != camera_of.end()) return found->second;
+  return {camera, camera_source};
+}
+
 CaptureSources resolve_capture_sources(const std::string& led_library, const std::string& camera,
-                                       double white_reflectance) {
+                                       double white_reflectance, const std::map<std::string, std::string>& camera_of) {
   CaptureSources sources;
   try {
     std::filesystem::path path = led_library;
@@ -279,13 +317,18 @@ CaptureSources resolve_capture_sources(const std::string& led_library, const std
   } catch (const spectral::DataError& error) {
     throw std::invalid_argument(std::string("estimation.led_library: ") + error.what());
   }
-  try {
-    sources.camera = camera.rfind("builtin:", 0) == 0 ? spectral::builtin_camera(camera.substr(8))
-                                                      : spectral::read_camera_sensitivity(camera);
-  } catch (const std::exception& error) {
-    throw std::invalid_argument("estimation.camera_sensitivity: " + camera + ": " + error.what());
-  }
+  auto read_sensitivity = [](const std::string& spec, const std::string& what) {
+    try {
+      return spec.rfind("builtin:", 0) == 0 ? spectral::builtin_camera(spec.substr(8))
+                                            : spectral::read_camera_sensitivity(spec);
+    } catch (const std::exception& error) {
+      throw std::invalid_argument(what + ": " + spec + ": " + error.what());
+    }
+  };
+  sources.camera = read_sensitivity(camera, "estimation.camera_sensitivity");
   sources.camera_source = camera;
+  for (const auto& [name, spec] : camera_of)
+    sources.camera_of[name] = {read_sensitivity(spec, "estimation.camera_sensitivities[\"" + name + "\"]"), spec};
   if (!(white_reflectance > 0 && white_reflectance <= 1))
     throw std::invalid_argument("estimation.white_reflectance: must be in (0, 1]");
   sources.white_reflectance = white_reflectance;

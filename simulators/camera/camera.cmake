@@ -2,6 +2,7 @@
 # GVCP/GVSP device side, docs/protocols/gige-vision.md; no Aravis here).
 target_sources(simulators PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/camera_model.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/readout_random.cpp
   ${CMAKE_CURRENT_LIST_DIR}/camera_simulator.cpp
   ${CMAKE_CURRENT_LIST_DIR}/camera_genicam_xml.cpp
   ${CMAKE_CURRENT_LIST_DIR}/gige_vision_device.cpp

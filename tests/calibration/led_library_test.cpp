@@ -14,7 +14,7 @@
 namespace chromo::calibration {
 namespace {
 
-using testing::HasSubstr;
+using ::testing::HasSubstr;
 
 TEST(NominalLedLibrary, HasSixValidLedsWithTheDocumentedFluxAndPeaks) {
   const LedLibrary lib = nominal_led_library();
@@ -37,7 +37,7 @@ TEST(LedLibraryIo, SaveThenLoadGivesTheSameLibrary) {
                                                                   spectral::Spectrum::constant(1.0)};
   lib.leds[0].ladder.insert(lib.leds[0].ladder.begin(),
                             LedSpectrumSample{0.5, 41.25, 12000.0, true, lib.leds[0].ladder[0].spectrum * 0.5});
-  const std::filesystem::path path = testing::TempDir() + "/" + led_library_file_name(lib);
+  const std::filesystem::path path = ::testing::TempDir() + "/" + led_library_file_name(lib);
   save_led_library(lib, path);
   EXPECT_EQ(path.filename().string(), "led-library-20261122T160000Z.json");
   const LedLibrary back = load_led_library(path);
@@ -111,13 +111,13 @@ TEST(LedLibraryIo, MalformedFilesAreRefusedNamingTheField) {
 TEST(LedLibraryIo, SavingAnInvalidLibraryIsRefusedAndWritesNothing) {
   LedLibrary lib = nominal_led_library();
   lib.leds[2].ladder.clear();
-  const std::filesystem::path path = testing::TempDir() + "/invalid-library.json";
+  const std::filesystem::path path = ::testing::TempDir() + "/invalid-library.json";
   EXPECT_THROW(save_led_library(lib, path), spectral::DataError);
   EXPECT_FALSE(std::filesystem::exists(path));
 }
 
 TEST(LedLibraryStore, LatestLibraryIsTheNewestTimestampUnderChromoHome) {
-  const std::filesystem::path home = testing::TempDir() + "/chromo_home_store";
+  const std::filesystem::path home = ::testing::TempDir() + "/chromo_home_store";
   std::filesystem::remove_all(home);
   setenv("CHROMO_HOME", home.c_str(), 1);
   EXPECT_EQ(led_library_directory(), home / "leds");

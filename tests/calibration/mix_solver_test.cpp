@@ -12,7 +12,7 @@
 namespace chromo::calibration {
 namespace {
 
-using testing::HasSubstr;
+using ::testing::HasSubstr;
 
 MixSolverOptions options_for(MixObjective objective, bool hold = false) {
   MixSolverOptions o;
@@ -177,7 +177,7 @@ TEST(MixTarget, ParsesEveryDocumentedFormAndRefusesTheRest) {
   EXPECT_EQ(parse_mix_target("w57+blue", lib, camera).name, "w57+blue:1");
   EXPECT_EQ(parse_mix_target("cct:5000", lib, camera).name, "cct:5000");
   EXPECT_NEAR(parse_mix_target("cct:6500", lib, camera).spectrum[20], d65_target().spectrum[20], 0.5);
-  const std::string file = testing::TempDir() + "/flat_target.csv";
+  const std::string file = ::testing::TempDir() + "/flat_target.csv";
   std::ofstream(file) << "wavelength_nm,value\n300,1\n900,1\n";
   EXPECT_EQ(parse_mix_target(file, lib, camera).spectrum[40], 1.0);
   auto error = [&](const std::string& spec) {

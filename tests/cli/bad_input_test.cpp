@@ -21,8 +21,8 @@
 namespace {
 namespace fs = std::filesystem;
 using namespace chromo;
-using testing::HasSubstr;
-using testing::Not;
+using ::testing::HasSubstr;
+using ::testing::Not;
 
 std::string slurp(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);

@@ -28,7 +28,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using namespace chromo;
-using testing::HasSubstr;
+using ::testing::HasSubstr;
 
 Result run(const std::string& arguments) { return run_chromo(arguments); }
 
@@ -123,7 +123,7 @@ TEST_F(EstimateCommand, WritesMapsPreviewsAndSummary) {
   Imf::InputFile file((dir / "out" / "maps.exr").c_str());
   std::vector<std::string> names;
   for (auto it = file.header().channels().begin(); it != file.header().channels().end(); ++it) names.push_back(it.name());
-  EXPECT_THAT(names, testing::UnorderedElementsAre("Cm", "Ch", "Bm", "Che", "residual", "order", "flags"));
+  EXPECT_THAT(names, ::testing::UnorderedElementsAre("Cm", "Ch", "Bm", "Che", "residual", "order", "flags"));
   std::vector<float> cm(kWidth * kHeight), flags(kWidth * kHeight);
   Imf::FrameBuffer frame;
   frame.insert("Cm", Imf::Slice(Imf::FLOAT, (char*)cm.data(), sizeof(float), sizeof(float) * kWidth));

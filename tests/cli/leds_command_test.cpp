@@ -12,15 +12,15 @@
 #include "chromo/calibration/led_library_io.hpp"
 #include "run_chromo.hpp"
 
-using testing::HasSubstr;
+using ::testing::HasSubstr;
 
 namespace {
 
-class ChromoLeds : public testing::Test {
+class ChromoLeds : public ::testing::Test {
  protected:
   void SetUp() override {
-    home_ = std::filesystem::path(testing::TempDir()) /
-            ("chromo_leds_" + std::string(testing::UnitTest::GetInstance()->current_test_info()->name()));
+    home_ = std::filesystem::path(::testing::TempDir()) /
+            ("chromo_leds_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
     std::filesystem::remove_all(home_);
     std::filesystem::create_directories(home_);
   }

@@ -9,14 +9,14 @@
 
 #include "run_chromo.hpp"
 
-using testing::HasSubstr;
+using ::testing::HasSubstr;
 namespace fs = std::filesystem;
 
 namespace {
 
 struct MapsCommands : ::testing::Test {
   // One folder per test and process: ctest runs the tests of this file in parallel.
-  fs::path dir = fs::path(testing::TempDir()) /
+  fs::path dir = fs::path(::testing::TempDir()) /
                  ("chromo-maps-" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) + "-" +
                   std::to_string(::getpid()));
   std::string d(const std::string& name) const { return (dir / name).string(); }

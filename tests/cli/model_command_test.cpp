@@ -9,7 +9,7 @@
 
 #include "run_chromo.hpp"
 
-using testing::HasSubstr;
+using ::testing::HasSubstr;
 
 namespace {
 
@@ -64,14 +64,14 @@ TEST(ChromoModel, MalformedCommandLinesAreRefusedWithExitStatus2) {
 }
 
 TEST(ChromoModel, IlluminantFromCsvFile) {
-  const std::string good = testing::TempDir() + "/flat.csv";
+  const std::string good = ::testing::TempDir() + "/flat.csv";
   std::ofstream(good) << "# equal-energy\nwavelength_nm,value\n300,1\n900,1\n";
   Result r = run_chromo("model --cm 0.05 --ch 0.03 --json --illuminant " + good);
   ASSERT_EQ(r.exit_status, 0) << r.output;
   const auto j = nlohmann::json::parse(r.output);
   EXPECT_NEAR(j["xyz"]["Y"].get<double>(), 15.9, 1.0);
 
-  const std::string bad = testing::TempDir() + "/bad.csv";
+  const std::string bad = ::testing::TempDir() + "/bad.csv";
   std::ofstream(bad) << "wavelength_nm,value\n400,1\n700,oops\n";
   r = run_chromo("model --cm 0.05 --ch 0.03 --illuminant " + bad);
   EXPECT_EQ(r.exit_status, 2);

@@ -11,7 +11,7 @@
 
 #include "run_chromo.hpp"
 
-using testing::HasSubstr;
+using ::testing::HasSubstr;
 
 namespace {
 

@@ -16,13 +16,13 @@
 #include "chromo/files/temporary_file.hpp"
 #include "run_chromo.hpp"
 
-using testing::HasSubstr;
+using ::testing::HasSubstr;
 namespace fs = std::filesystem;
 
 namespace {
 
 fs::path fresh_dir(const std::string& name) {
-  const fs::path dir = fs::path(testing::TempDir()) / name;
+  const fs::path dir = fs::path(::testing::TempDir()) / name;
   fs::remove_all(dir);
   return dir;
 }

@@ -15,8 +15,8 @@
 
 namespace {
 namespace fs = std::filesystem;
-using testing::HasSubstr;
-using testing::Not;
+using ::testing::HasSubstr;
+using ::testing::Not;
 
 class SessionPlans : public ::testing::Test {
  protected:
@@ -36,11 +36,11 @@ TEST_F(SessionPlans, ListsTheBuiltInPlansAndPlanFiles) {
   ASSERT_EQ(r.exit_status, 0) << r.output;
   // name, captures, channels, subject s, references s, frames, predicted relit ΔE94 (the plan advisor)
   EXPECT_THAT(r.output, HasSubstr("standard"));
-  EXPECT_THAT(r.output, testing::ContainsRegex("standard +3 +4 +0\\.21 +0\\.28 +7 +[0-9.]+ "));
-  EXPECT_THAT(r.output, testing::ContainsRegex("multispectral +6 +18 +0\\.42 +0\\.49 +13 +[0-9.]+ "));
-  EXPECT_THAT(r.output, testing::ContainsRegex("multispectral\\+method +9 +27 "));
+  EXPECT_THAT(r.output, ::testing::ContainsRegex("standard +3 +4 +0\\.21 +0\\.28 +7 +[0-9.]+ "));
+  EXPECT_THAT(r.output, ::testing::ContainsRegex("multispectral +6 +18 +0\\.42 +0\\.49 +13 +[0-9.]+ "));
+  EXPECT_THAT(r.output, ::testing::ContainsRegex("multispectral\\+method +9 +27 "));
   // 6 subject steps × (50 ms settle + 4 × 0.1 s); 7 reference steps alike.
-  EXPECT_THAT(r.output, testing::ContainsRegex("my_multispectral +6 +18 +2\\.70 +3\\.15 +52 +[0-9.]+ +.*mine\\.json"));
+  EXPECT_THAT(r.output, ::testing::ContainsRegex("my_multispectral +6 +18 +2\\.70 +3\\.15 +52 +[0-9.]+ +.*mine\\.json"));
   // The advisor's ordering (docs/plan-advisor.md): the six LED types one at
   // a time beat the method's four channels, and 4 frames beat 1.
   auto predicted = [&](const std::string& plan) {

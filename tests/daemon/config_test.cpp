@@ -249,6 +249,23 @@ TEST(DaemonConfig, VirtualLabCamerasAreReadAndRefusedKeyByKey) {
   EXPECT_EQ(refused({{"virtual_lab", {{"lenses", 1}}}}).rfind("cfg: virtual_lab: unknown key \"lenses\"", 0), 0u);
 }
 
+TEST(DaemonConfig, PerCameraSensitivitiesAreReadAndEachFileChecked) {
+  const DaemonConfig config = parse_config(
+      nlohmann::json::parse(R"({"estimation": {"camera_sensitivities": {"side": "builtin:canon_eos_5d_mark_ii"}}})"),
+      "cfg");
+  ASSERT_EQ(config.estimation.camera_sensitivities.size(), 1u);
+  EXPECT_EQ(config.estimation.camera_sensitivities.at("side"), "builtin:canon_eos_5d_mark_ii");
+  EXPECT_TRUE(parse_config(nlohmann::json::object(), "cfg").estimation.camera_sensitivities.empty());
+  EXPECT_EQ(refused({{"estimation", {{"camera_sensitivities", {{"side", "/no/such.csv"}}}}}}),
+            "cfg: estimation.camera_sensitivities[\"side\"]: /no/such.csv: no such file");
+  EXPECT_EQ(refused({{"estimation", {{"camera_sensitivities", {{"side", 5}}}}}})
+                .rfind("cfg: estimation.camera_sensitivities[\"side\"]: 5 is not a string", 0),
+            0u);
+  EXPECT_EQ(refused({{"estimation", {{"camera_sensitivities", "builtin:nikon_d5100"}}}})
+                .rfind("cfg: estimation.camera_sensitivities: ", 0),
+            0u);
+}
+
 TEST(DaemonConfig, TheDefaultSocketAndRunFilesAreNotUnderTmp) {
   const DaemonConfig config;
   EXPECT_FALSE(config.runtime_dir.empty());

@@ -34,6 +34,37 @@ TEST(ExposureMetering, LevelsPerBayerColourAndClippedShare) {
   EXPECT_THROW(frame_levels(frame, 8, 5, drivers::PixelFormat::kBayerRG12), std::invalid_argument);
 }
 
+// A posed camera's white: lit sites inside a centred rectangle of a quarter
+// of the frame, the dark level (64 DN) around it.
+TEST(ExposureMetering, TheLitRegionIsMeteredWithoutItsDarkSurround) {
+  const int width = 40, height = 30;
+  auto frame = bayer_frame(width, height, 64, 64, 64);
+  const auto lit = bayer_frame(width, height, 1000, 2000, 3000);
+  for (int y = height / 4; y < 3 * height / 4; ++y)
+    for (int x = width / 4; x < 3 * width / 4; ++x)
+      std::memcpy(&frame[(static_cast<std::size_t>(y) * width + x) * 2], &lit[(static_cast<std::size_t>(y) * width + x) * 2], 2);
+  const FrameLevels whole = frame_levels(frame, width, height, drivers::PixelFormat::kBayerRG12);
+  const FrameLevels region = frame_levels(frame, width, height, drivers::PixelFormat::kBayerRG12, FrameRegion::kLit);
+  EXPECT_NEAR(region.mean[0], 1000.0 / 4095, 1e-12);
+  EXPECT_NEAR(region.mean[1], 2000.0 / 4095, 1e-12);
+  EXPECT_NEAR(region.mean[2], 3000.0 / 4095, 1e-12);
+  EXPECT_NEAR(region.region_share[1], 0.25, 0.01);
+  EXPECT_LT(whole.mean[1], 0.35 * 2000.0 / 4095);  // the surround pulls the whole frame's mean down
+  // Clipping inside the lit part is the lit part's share.
+  for (int x = width / 4; x < width / 2; ++x) {
+    const std::uint16_t full = 4095;
+    std::memcpy(&frame[(static_cast<std::size_t>(height / 2) * width + x) * 2], &full, 2);
+  }
+  const FrameLevels clipped = frame_levels(frame, width, height, drivers::PixelFormat::kBayerRG12, FrameRegion::kLit);
+  const FrameLevels clipped_whole = frame_levels(frame, width, height, drivers::PixelFormat::kBayerRG12);
+  EXPECT_GT(clipped.clipped[1], 3 * clipped_whole.clipped[1]);
+  // A frame lit everywhere meters the same in both regions.
+  const auto flat = bayer_frame(width, height, 1000, 2000, 3000);
+  const FrameLevels a = frame_levels(flat, width, height, drivers::PixelFormat::kBayerRG12);
+  const FrameLevels b = frame_levels(flat, width, height, drivers::PixelFormat::kBayerRG12, FrameRegion::kLit);
+  for (int c = 0; c < 3; ++c) EXPECT_DOUBLE_EQ(a.mean[c], b.mean[c]);
+}
+
 // A linear camera: mean = dark + rate·t (clipped at 1).
 FrameLevels linear(double rate_per_us, double dark, double exposure_us) {
   FrameLevels levels;

@@ -39,10 +39,7 @@ TEST(OnlineEstimationOnTheVirtualLab, CalibratedStandardSessionEndsInMapsThatMat
   lab.config.estimation.threads = 2;
   auto daemon = lab.daemon();
 
-  CalibrationRequest calibration;
-  calibration.drive_levels = {0.5, 1.0};
-  calibration.warmup_ms = 100;
-  auto calibrated = wait_final(*daemon, daemon->start_calibration(calibration).id);
+  auto calibrated = testing::run_quick_calibration(*daemon);
   ASSERT_EQ(calibrated.state, session::OperationState::kSucceeded) << calibrated.error;
 
   auto started = daemon->start_session(testing::quick_standard_plan(1, kExposureUs), "forearm");

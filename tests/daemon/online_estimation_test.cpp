@@ -186,8 +186,17 @@ TEST_F(Fixture, StreamedSessionPublishesMapsReportAndResultsRecord) {
   for (const char* file : {"maps.exr", "summary.json", "cm.png", "ch.png", "bm.png", "che.png", "residual.png",
                            "flags.png", "order.png", "led_library.json"})
     EXPECT_TRUE(fs::exists(streamed.folder / "results" / file)) << file;
-  for (const auto& entry : fs::directory_iterator(streamed.folder / "results"))
+  for (const auto& entry : fs::directory_iterator(streamed.folder / "results")) {
     EXPECT_EQ(entry.path().filename().string().find(".tmp-"), std::string::npos) << entry.path();
+    EXPECT_FALSE(entry.is_directory()) << entry.path();  // one camera: no results/<camera>/
+  }
+  // One camera: the layout of before several cameras, and the record lists it.
+  ASSERT_EQ(streamed.results["cameras"].size(), 1u) << streamed.results.dump();
+  EXPECT_EQ(streamed.results["cameras"][0]["name"], "cam0");
+  EXPECT_EQ(streamed.results["cameras"][0]["state"], "ok");
+  EXPECT_EQ(streamed.results["cameras"][0]["maps_file"], "results/maps.exr");
+  EXPECT_EQ(streamed.results["maps_file"], "results/maps.exr");
+  EXPECT_EQ(streamed.results["report_file"], "results/summary.json");
 
   std::ifstream in(streamed.folder / "results" / "summary.json");
   const auto summary = nlohmann::json::parse(in);
@@ -195,6 +204,9 @@ TEST_F(Fixture, StreamedSessionPublishesMapsReportAndResultsRecord) {
   EXPECT_EQ(summary["model"], "auto");
   EXPECT_EQ(summary["pixels"], kSceneSize * kSceneSize);
   EXPECT_GT(summary["pixels_per_second"].get<double>(), 0);
+  EXPECT_EQ(summary["camera"], "cam0");
+  EXPECT_FALSE(summary.contains("cameras"));  // the camera's report itself, not an index
+  EXPECT_EQ(summary["no_reference_pixels"], 0);  // the white fills the frame
   ASSERT_EQ(summary["registration"].size(), 2u);
   for (const auto& r : summary["registration"]) EXPECT_LT(r["residual_motion_px"].get<double>(), 0.5) << r.dump();
   // Relit against the photographs under each captured illuminant.

@@ -116,4 +116,13 @@ inline session::OperationRecord wait_final(Daemon& daemon, const std::string& id
   return wait_for(daemon, id, [](const session::OperationRecord& r) { return session::is_final(r.state); });
 }
 
+// The quick calibration the on-line estimation tests start from: drive
+// levels 0.5 and 1, 100 ms warm-up (30 s of LED time at the lab's 300x).
+inline session::OperationRecord run_quick_calibration(Daemon& daemon) {
+  CalibrationRequest calibration;
+  calibration.drive_levels = {0.5, 1.0};
+  calibration.warmup_ms = 100;
+  return wait_final(daemon, daemon.start_calibration(calibration).id);
+}
+
 }  // namespace chromo::daemon::testing

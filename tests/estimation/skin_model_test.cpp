@@ -12,7 +12,7 @@
 using namespace chromo::estimation;
 using chromo::spectral::kGridSize;
 using chromo::spectral::Spectrum;
-using testing::HasSubstr;
+using ::testing::HasSubstr;
 
 namespace {
 

@@ -16,7 +16,7 @@
 namespace chromo::files {
 namespace {
 namespace fs = std::filesystem;
-using testing::HasSubstr;
+using ::testing::HasSubstr;
 
 class BoundedRead : public ::testing::Test {
  protected:

@@ -7,7 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 using namespace chromo::maps;
-using testing::HasSubstr;
+using ::testing::HasSubstr;
 
 namespace {
 
@@ -49,7 +49,7 @@ TEST(EditMask, PolygonAndBadShapes) {
 }
 
 TEST(EditMask, MaskImageMustMatchTheMaps) {
-  const std::string path = testing::TempDir() + "/mask.png";
+  const std::string path = ::testing::TempDir() + "/mask.png";
   cv::Mat image = cv::Mat::zeros(40, 30, CV_8U);
   cv::rectangle(image, {5, 5}, {20, 20}, cv::Scalar(255), cv::FILLED);
   ASSERT_TRUE(cv::imwrite(path, image));
@@ -62,7 +62,7 @@ TEST(EditMask, MaskImageMustMatchTheMaps) {
   } catch (const std::runtime_error& e) {
     EXPECT_THAT(e.what(), HasSubstr("mask is 30x40 but the maps are 64x64"));
   }
-  EXPECT_THROW(read_mask_image(testing::TempDir() + "/none.png", 30, 40, 0.0), std::runtime_error);
+  EXPECT_THROW(read_mask_image(::testing::TempDir() + "/none.png", 30, 40, 0.0), std::runtime_error);
 }
 
 TEST(ScaleParameters, FlushingScalesInsideTheMaskAndClampsToRanges) {

@@ -7,6 +7,7 @@
 #include <fstream>
 
 #include "../support/fresh_directory.hpp"
+#include "../support/session_sample.hpp"
 #include "chromo/files/float_image.hpp"
 #include "chromo/session/derived_data.hpp"
 #include "chromo/session/frame_files.hpp"
@@ -19,7 +20,6 @@ namespace chromo::session {
 namespace {
 
 namespace fs = std::filesystem;
-const fs::path kSample = fs::path(CHROMO_TEST_DATA_DIR) / "session-format-1";
 
 FrameRecord full_record() {
   FrameRecord r;
@@ -75,7 +75,7 @@ TEST(FrameRecord, JournalRecordRoundTripsEveryField) {
 // record and writes back as the same JSON (less the journal's "t").
 TEST(FrameRecord, FormatOneRecordsReadAndWriteBackUnchanged) {
   int frames = 0;
-  for (auto json : read_journal(kSample / "journal.jsonl").records) {
+  for (auto json : read_journal(testing::kSessionFormatOneSample / "journal.jsonl").records) {
     if (json.value("type", "") != "frame") continue;
     ++frames;
     const FrameRecord record = frame_record_from_json(json);
@@ -151,7 +151,7 @@ TEST(FrameSums, LiveAndReadBackGiveTheSameSumsCapturesAndDerivedData) {
   const SessionPlan plan = standard_plan(options);
   auto created = store.create(plan, "", nlohmann::json::array());
   const CaptureSources sources =
-      resolve_capture_sources((kSample / "results" / "led_library.json").string(), "builtin:nikon_d5100", 0.99);
+      resolve_capture_sources((testing::kSessionFormatOneSample / "results" / "led_library.json").string(), "builtin:nikon_d5100", 0.99);
 
   SessionFrameSums live;
   SessionCaptureBuilder live_builder(plan, sources);

@@ -7,6 +7,7 @@
 #include <fstream>
 
 #include "../support/fresh_directory.hpp"
+#include "../support/session_sample.hpp"
 #include "chromo/calibration/led_library_io.hpp"
 #include "chromo/maps/estimate_report.hpp"
 #include "chromo/session/session_captures.hpp"
@@ -16,18 +17,17 @@ namespace chromo::session {
 namespace {
 
 namespace fs = std::filesystem;
-const fs::path kSample = fs::path(CHROMO_TEST_DATA_DIR) / "session-format-1";
 
 // The sources the daemon used for the sample: its LED library (results/),
 // the built-in camera, ρ_white 0.99.
 CaptureSources sample_sources() {
-  return resolve_capture_sources((kSample / "results" / "led_library.json").string(), "builtin:nikon_d5100", 0.99);
+  return resolve_capture_sources((testing::kSessionFormatOneSample / "results" / "led_library.json").string(), "builtin:nikon_d5100", 0.99);
 }
 
 TEST(SessionFormat, FormatOneFolderReadsBackWithItsPlanAndFrames) {
   files::StorageBudget budget;
   SessionStore store(testing::fresh_directory("session-format-store"), &budget);
-  const SessionInfo info = store.read_session(kSample);
+  const SessionInfo info = store.read_session(testing::kSessionFormatOneSample);
   EXPECT_EQ(info.format_version, 1);
   EXPECT_EQ(info.record.state, OperationState::kSucceeded);
   EXPECT_EQ(info.subject, "sample forearm");
@@ -44,7 +44,7 @@ TEST(SessionFormat, FormatOneFolderReadsBackWithItsPlanAndFrames) {
 }
 
 TEST(SessionFormat, FormatOneFolderGivesTheCapturesAndEstimates) {
-  const MethodCaptures captures = read_session_captures(kSample, sample_sources());
+  const MethodCaptures captures = read_session_captures(testing::kSessionFormatOneSample, sample_sources());
   // BayerRG12 192×144 binned 2×2.
   EXPECT_EQ(captures.dark.width, 96);
   EXPECT_EQ(captures.dark.height, 72);
@@ -89,7 +89,7 @@ TEST(SessionFormat, ARefusedStartLeavesNoFolder) {
 
 TEST(SessionFormat, UnknownFormatIsRefusedNamingTheField) {
   const fs::path folder = testing::fresh_directory("session-format-future");
-  fs::copy(kSample, folder, fs::copy_options::recursive | fs::copy_options::overwrite_existing);
+  fs::copy(testing::kSessionFormatOneSample, folder, fs::copy_options::recursive | fs::copy_options::overwrite_existing);
   std::ifstream in(folder / "session.json");
   auto session = nlohmann::json::parse(in);
   in.close();

@@ -41,7 +41,7 @@ TEST(Camera, ResponseIsTheSensitivityIlluminantWeightedMean) {
 
 TEST(Camera, UnknownCameraAndBadFileAreErrors) {
   EXPECT_THROW(builtin_camera("hasselblad"), DataError);
-  const std::string path = testing::TempDir() + "/cam_missing_b.csv";
+  const std::string path = ::testing::TempDir() + "/cam_missing_b.csv";
   std::ofstream(path) << "wavelength_nm,R,G\n380,1,1\n780,1,1\n";
   EXPECT_THROW(read_camera_sensitivity(path), DataError);
   std::remove(path.c_str());

@@ -6,7 +6,7 @@
 #include <vector>
 
 using namespace chromo::spectral;
-using testing::HasSubstr;
+using ::testing::HasSubstr;
 
 namespace {
 

@@ -5,7 +5,7 @@
 
 using chromo::spectral::DataError;
 using chromo::spectral::parse_table;
-using testing::HasSubstr;
+using ::testing::HasSubstr;
 
 namespace {
 

@@ -153,7 +153,7 @@ std::string name_or_file(const Folder& folder, const char* field, const std::str
   return looks_like_file ? folder.input(field, value, true).string() : value;
 }
 
-void to_proto(const maps::DeltaEStats& s, pb::DeltaEStatistics* out) {
+void delta_e_to_proto(const maps::DeltaEStats& s, pb::DeltaEStatistics* out) {
   out->set_mean(s.mean), out->set_median(s.median), out->set_p95(s.p95), out->set_max(s.max);
   out->set_pixels(s.pixels);
 }
@@ -193,7 +193,7 @@ class MapsServiceImpl final : public pb::MapsService::Service {
       response->set_width(s.width), response->set_height(s.height);
       response->set_relit_pixels(s.relit_pixels);
       response->set_compared(s.compared);
-      to_proto(s.photo_delta_e94, response->mutable_photo_delta_e94());
+      delta_e_to_proto(s.photo_delta_e94, response->mutable_photo_delta_e94());
       add_files(files, o.out, s.files, response);
       response->set_summary_json(s.json);
     });
@@ -232,7 +232,7 @@ class MapsServiceImpl final : public pb::MapsService::Service {
       response->set_pixels_touched(r.edit.pixels_touched);
       response->set_values_clamped(r.edit.values_clamped);
       response->set_clamped_share(r.edit.clamped_share);
-      to_proto(r.change_delta_e94, response->mutable_change_delta_e94());
+      delta_e_to_proto(r.change_delta_e94, response->mutable_change_delta_e94());
       add_files(files, o.out, r.files, response);
       response->set_summary_json(r.json);
     });
@@ -254,9 +254,9 @@ class MapsServiceImpl final : public pb::MapsService::Service {
       o.out = files.output("import-maps", request->label());
       if (request->prior_sigma_log10() != 0) o.import.prior_sigma_log10 = request->prior_sigma_log10();
       const auto s = maps::import_maps_to_files(o);
-      to_proto(s.result.mapped_2d.stats, response->mutable_mapped_2d());
-      to_proto(s.result.augmented.stats, response->mutable_augmented());
-      to_proto(s.result.search_4d.stats, response->mutable_search_4d());
+      delta_e_to_proto(s.result.mapped_2d.stats, response->mutable_mapped_2d());
+      delta_e_to_proto(s.result.augmented.stats, response->mutable_augmented());
+      delta_e_to_proto(s.result.search_4d.stats, response->mutable_search_4d());
       response->set_melanin_increasing(s.result.cm_mapping.increasing);
       response->set_hemoglobin_increasing(s.result.ch_mapping.increasing);
       add_files(files, o.out, s.files, response);

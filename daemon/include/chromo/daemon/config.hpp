@@ -44,6 +44,8 @@ struct EstimationConfig {
   std::string model = "auto";    // auto (χ² test per pixel), 2d, 4d
   std::string led_library;       // LED library file; empty = newest measured one, else the nominal one
   std::string camera_sensitivity = "builtin:nikon_d5100";  // or a CSV wavelength_nm,R,G,B
+  // Per camera (device name → builtin:NAME or a CSV), overriding camera_sensitivity for that camera's maps.
+  std::map<std::string, std::string> camera_sensitivities;
   double white_reflectance = 0.99;  // ρ of the white reference target
   std::string cache_dir;         // forward tables; empty = $CHROMO_CACHE_DIR or ~/.cache/chromosphere
   std::uint64_t cache_limit_bytes = 2ull << 30;  // table cache bound (least recently used evicted)

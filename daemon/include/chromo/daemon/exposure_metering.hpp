@@ -4,8 +4,15 @@
 // the next exposure. Pure functions; the sequencer takes the frames.
 //
 // Levels: per colour channel (Bayer RGGB sites, RGB8's three samples, mono:
-// one channel shown as R = G = B), the mean sample over the whole frame as a
-// share of the format's full scale, and the share of samples at full scale.
+// one channel shown as R = G = B), the mean sample over a region of the frame
+// as a share of the format's full scale, and the share of the region's
+// samples at full scale. Regions: kWhole, the whole frame; kLit, the part
+// that sees the lit target (issue 21: a posed camera sees the white target
+// in perspective with dark around it, and a whole-frame mean would drive the
+// target into clipping): per channel, when the frame has a dark surround
+// (its 2nd percentile below half its 98th), the samples at or above the
+// midpoint of the two; otherwise the whole frame, so a camera whose target
+// fills the frame meters as with kWhole. The sequencer meters on kLit.
 //
 // Next exposure from a frame taken at exposure t: with b the brightest
 // channel's mean and d that channel's dark level (the session's dark frames;
@@ -30,12 +37,17 @@ namespace chromo::daemon {
 
 struct FrameLevels {
   std::array<double, 3> mean{};     // R, G, B: share of full scale
-  std::array<double, 3> clipped{};  // share of the channel's samples at full scale
+  std::array<double, 3> clipped{};  // share of the region's samples at full scale
+  std::array<double, 3> region_share{};  // share of the channel's samples in the region
   int brightest_channel() const;
 };
 
+enum class FrameRegion { kWhole, kLit };
+inline constexpr double kLitLowPercentile = 0.02, kLitHighPercentile = 0.98;
+
 // Throws std::invalid_argument when the samples do not match the geometry.
-FrameLevels frame_levels(std::span<const std::uint8_t> samples, int width, int height, drivers::PixelFormat format);
+FrameLevels frame_levels(std::span<const std::uint8_t> samples, int width, int height, drivers::PixelFormat format,
+                         FrameRegion region = FrameRegion::kWhole);
 
 struct MeteringTarget {
   double white_share = 0.8;         // the brightest channel's mean, share of full scale

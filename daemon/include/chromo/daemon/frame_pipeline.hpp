@@ -36,6 +36,7 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -78,6 +79,9 @@ class FrameConsumer {
     session::SessionPlan plan;  // the plan the sequencer runs (session.json's "plan")
     // Progress of the consumer's own work (0-1) with a short message; any thread.
     files::Progress progress;
+    // The session's cameras (device names); empty: not known, the consumer
+    // waits for the end of the session to know which delivered.
+    std::vector<std::string> cameras;
   };
   struct SessionEnd {
     bool succeeded = false;  // the plan ran to its end (else results are not attempted)

@@ -11,12 +11,18 @@
 // inverter's inverse table (maps::prepare_tables: into the disk cache too),
 // and keeps both in memory until the estimate, so the last frame is followed
 // by the estimate itself, with no table reload.
-// With several cameras it estimates the first camera to deliver a frame
-// (the capture builder keeps every camera's frames apart).
-// When the subject's last frame is in it estimates the maps tile by tile on
-// options.estimation.estimator.threads threads (0 = all cores) and writes
-// <session>/results/ (estimate_report.hpp: maps.exr, previews, summary.json),
-// every file crash-safe (durable_file.hpp, charged to the storage budget).
+// Every camera is estimated from its own frames (the capture builder keeps
+// them apart; each camera's tables are prepared once its own references are
+// in, shared in memory between cameras with the same sensitivity). When
+// every camera of the session (SessionStart::cameras) has all its frames,
+// or at the end of the session when that list is empty, it estimates every
+// camera tile by tile on options.estimation.estimator.threads threads (0 =
+// all cores) with maps::estimate_session_cameras and writes
+// <session>/results/ (one camera: maps.exr, previews, summary.json there;
+// several: results/<camera>/… and the index results/summary.json,
+// camera_results.hpp), every file crash-safe (durable_file.hpp, charged to
+// the storage budget). A camera that cannot be estimated is listed with its
+// reason; the others are published.
 //
 // Falling behind: the pipeline's estimator queue is bounded; a frame that
 // does not fit is skipped by the pipeline (counted "queue_full", an event
@@ -29,19 +35,23 @@
 //   {"type": "results", "state": "available", "maps_file": "results/maps.exr",
 //    "report_file": "results/summary.json", "method", "model", "pixels",
 //    "pixels_per_second", "estimate_seconds", "frames_read_back",
-//    "flag_counts": {...}, "relit_delta_e94": {"D65'": {"mean", "median", "p95"}, ...}}
+//    "flag_counts": {...}, "relit_delta_e94": {"D65'": {"mean", "median", "p95"}, ...},
+//    "camera": the camera of these headline numbers (the first estimated),
+//    "cameras": [every camera's entry, maps::camera_entry_json with paths under results/]}
+// (several cameras: maps_file is the first estimated camera's, report_file the index)
 // or {"type": "results", "state": "unavailable", "reason": "..."} (not the
 // method's plan, mono frames, unusable references, a write that failed).
 // A session that did not succeed gets no record.
 //
 // The same computation runs offline on a stored session (`chromo estimate
-// SESSION_DIR`): session::read_session_captures() + estimate_method_captures().
+// SESSION_DIR`): session::read_stored_session() + maps::estimate_session_cameras().
 //
 // Thread rules: begin_session/end_session on the session's thread, consume on
 // the pipeline's estimator thread; the daemon runs one session at a time and
 // the pipeline's drain() orders them. Options are fixed at construction.
 
 #include <functional>
+#include <map>
 #include <memory>
 #include <optional>
 #include <set>
@@ -51,6 +61,7 @@
 #include "chromo/files/durable_file.hpp"
 #include "chromo/daemon/frame_pipeline.hpp"
 #include "chromo/session/session_captures.hpp"
+#include "chromo/maps/camera_results.hpp"
 #include "chromo/maps/estimate_report.hpp"
 
 namespace chromo::daemon {
@@ -84,6 +95,8 @@ class OnlineEstimator final : public FrameConsumer {
 
  private:
   void estimate_now();
+  bool every_camera_complete() const;
+  void prepare_tables_of(const std::string& camera);
   nlohmann::json unavailable(const std::string& reason) const;
 
   OnlineEstimatorOptions options_;
@@ -92,13 +105,12 @@ class OnlineEstimator final : public FrameConsumer {
   std::unique_ptr<session::SessionCaptureBuilder> builder_;
   std::set<std::uint64_t> consumed_;      // storage indices already added
   std::string error_;                     // first reason this session cannot be estimated
-  bool table_prepared_ = false;
-  double table_prepare_seconds_ = 0;
-  std::optional<maps::PreparedTables> prepared_;  // from the references until the estimate
-  std::optional<maps::MethodEstimationResult> result_;
+  std::map<std::string, std::string> camera_errors_;  // a camera's unusable frame (several cameras)
+  std::map<std::string, double> table_prepare_seconds_;       // per camera, once its references were in
+  std::map<std::string, maps::PreparedTables> prepared_;  // per camera, from the references until the estimate
+  std::vector<maps::CameraEstimate> cameras_;
+  bool estimated_ = false;
   std::size_t read_back_ = 0;
-  // The camera whose maps are made: the first to deliver a frame (live or read back).
-  std::function<bool(const session::FrameRecord&)> wanted_camera_;
 };
 
 }  // namespace chromo::daemon

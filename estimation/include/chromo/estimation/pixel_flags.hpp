@@ -2,7 +2,8 @@
 // Per-pixel flag codes of the estimator's output (maps.exr "flags" channel,
 // summary.json "flag_counts"). 0: the model explains the pixel. Otherwise one
 // code saying why not, checked in this order (1-6 per pixel by Estimator, 7 by
-// the spatial second pass of spatial_flags.hpp):
+// the spatial second pass of spatial_flags.hpp, 8 where the measurement has
+// no white reference):
 
 #include <cstdint>
 #include <string_view>
@@ -23,13 +24,16 @@ enum class PixelFlag : std::uint8_t {
                              // around it and either touches a flagged region or differs from it
                              // by more than a Cm/Ch change (spatial_flags.hpp): weak tattoo or
                              // marker rims, weak highlights (fitted parameters kept, not to be trusted)
+  kNoReference = 8,          // outside the camera's footprint of the white reference (a posed camera
+                             // sees the target in perspective): no albedo, parameters NaN
+                             // (session/method_measurement.hpp, set after the estimate by maps/)
 };
-inline constexpr int kPixelFlagCount = 8;
+inline constexpr int kPixelFlagCount = 9;
 
 constexpr std::string_view pixel_flag_name(PixelFlag flag) {
   constexpr std::string_view kNames[kPixelFlagCount] = {
       "explained", "non_finite", "saturated", "dark", "specular", "unexplained_absorber", "unexplained_colour",
-      "neighbourhood"};
+      "neighbourhood", "no_reference"};
   return kNames[static_cast<int>(flag)];
 }
 

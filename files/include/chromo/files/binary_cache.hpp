@@ -66,6 +66,9 @@ struct CacheFormat {
 // "<stem>_<key as 16 hex digits>.bin", e.g. "forward_table_00ab…ef.bin".
 std::string cache_file_name(const std::string& stem, std::uint64_t key);
 
+// A cache key as the 16 lower-case hex digits file names and reports show.
+std::string cache_key_hex(std::uint64_t key);
+
 // The payload of `file` when it is intact and of this format and key;
 // std::nullopt otherwise (see above), with *why (optional) saying which check
 // failed, e.g. "another key", "checksum mismatch (corrupted bytes)", for a

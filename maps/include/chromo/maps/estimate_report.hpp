@@ -22,6 +22,7 @@
 //
 // Thread rules: free functions; the estimator runs on its own threads.
 
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <memory>
@@ -128,6 +129,7 @@ struct MethodEstimationResult {
   double pixels_per_second = 0;
   std::vector<RelitComparison> relit;
   std::vector<session::RegistrationReport> registration;
+  std::uint64_t table_key = 0;  // the forward table's cache key (summary.json's table.key)
   // Wall seconds per stage, in order: summary.json's timings_s
   // (measurement_and_registration, table, inverter_setup, estimate,
   // neighbourhood, relit_comparison, total_before_writing) and "writing"
@@ -153,7 +155,11 @@ struct PreparedTables {
   double table_seconds = 0;     // loading or building the forward table
   double inverter_seconds = 0;  // setting up the inverter (the fast one loads or builds its inverse table)
 };
-PreparedTables prepare_tables(const estimation::MeasurementSet& set, const MethodEstimationOptions& options);
+// earlier: tables prepared for other cameras of the session; one whose
+// forward table has this set's cache key (the same sensitivity and
+// illuminants) lends it, shared in memory instead of loaded again.
+PreparedTables prepare_tables(const estimation::MeasurementSet& set, const MethodEstimationOptions& options,
+                              std::span<const PreparedTables* const> earlier = {});
 
 // Every number the tables depend on is equal (camera, channels, illuminants, noise).
 bool same_measurement_set(const estimation::MeasurementSet& a, const estimation::MeasurementSet& b);

@@ -23,6 +23,11 @@
 // more than 0.1 px is not warped (that motion is registration noise, and a
 // warp would blank the border row); the report says which were warped.
 //
+// Footprint: a white reference's mean and noise are taken over the camera's
+// footprint of the target only (white_reference_footprint below); outside
+// the footprint of any white a pixel uses, its albedo is NaN and it is
+// listed in MethodMeasurement::no_reference.
+//
 // Noise (measurement.hpp's model), estimated from the captures themselves:
 // the per-pixel noise variance of the dark and of each white image is half
 // the mean squared difference of horizontally adjacent pixels (a flat target:
@@ -114,7 +119,30 @@ struct MethodMeasurement {
     std::uint32_t frames = 1;
   };
   std::vector<CaptureExposure> exposures;
+  // 1 where the pixel is outside the camera's footprint of a white reference
+  // it needs (white_reference_footprint): no albedo there (the estimator's
+  // maps are NaN and flagged no_reference, maps::estimate_method_captures).
+  std::vector<std::uint8_t> no_reference;
+  std::size_t no_reference_pixels = 0;
 };
+
+// Where a camera sees the white reference target (issue 21: a posed camera
+// sees the planar target in perspective, dark around it). With the signal
+// s = Σ_RGB (white − dark) per pixel, a pixel is inside when s exceeds
+// max(kFootprintShare · the 99th percentile of s, kFootprintNoiseSigmas · the
+// noise of s on an unlit pixel, √(2·Σ dark variance)); a frame lit nowhere
+// above that is inside everywhere (the white checks then name the capture).
+// interior: inside pixels whose 8 neighbours are inside too; the white's mean
+// and noise are taken there (an edge pixel sees part target, part dark). A
+// camera whose target fills the frame has every pixel inside and interior.
+inline constexpr double kFootprintShare = 0.25;
+inline constexpr double kFootprintNoiseSigmas = 8;
+struct ReferenceFootprint {
+  std::vector<std::uint8_t> inside, interior;
+  std::size_t inside_pixels = 0;
+  double threshold = 0;  // on s, share of full scale
+};
+ReferenceFootprint white_reference_footprint(const RgbImage& white, const RgbImage& dark);
 
 MethodMeasurement build_method_measurement(const MethodCaptures& captures, const RegistrationOptions& options = {});
 

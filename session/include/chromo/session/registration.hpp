@@ -6,11 +6,14 @@
 //
 // Residual motion: after warping, ECC is run once more between the reference
 // and the warped image; the largest displacement that remaining transform
-// gives any image corner is reported (pixels). A registration that does not
-// converge throws RegistrationError naming what failed; nothing is warped.
+// gives any image corner is reported (pixels). A coarse pyramid level where
+// ECC does not converge is skipped (listed in skipped_levels; the next finer
+// level starts from the warp so far); when the finest level does not
+// converge, RegistrationError names what failed and nothing is warped.
 //
 // Thread rules: free functions, reentrant (OpenCV may use its own threads).
 
+#include <cstdint>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -34,6 +37,7 @@ struct RegistrationResult {
   double correlation = 0;                 // ECC's enhanced correlation at the end
   double residual_motion_px = 0;          // see above
   double warp[2][3] = {{1, 0, 0}, {0, 1, 0}};
+  std::uint32_t skipped_levels = 0;       // bit l set: coarse pyramid level l (> 0) did not converge, skipped
 };
 
 // reference_channel, moving_channel: width × height floats (row-major).

@@ -56,20 +56,31 @@
 
 namespace chromo::session {
 
+struct CameraSensitivitySource {
+  spectral::CameraSensitivity sensitivity;
+  std::string source;  // "builtin:nikon_d5100" or a CSV path
+};
+
 struct CaptureSources {
   calibration::LedLibrary led_library;
   std::string led_library_source;  // where it came from (for the report)
-  spectral::CameraSensitivity camera;
+  spectral::CameraSensitivity camera;  // every camera's unless camera_of names it
   std::string camera_source;       // "builtin:nikon_d5100" or a CSV path
   double white_reflectance = 0.99;
+  // Per camera (by the frames' camera name): its own spectral sensitivity.
+  std::map<std::string, CameraSensitivitySource> camera_of;
+  CameraSensitivitySource sensitivity_of(const std::string& camera_name) const;
 };
 
 // The sources chromod uses: the LED library at `led_library` (empty: the
 // newest measured one in calibration::led_library_directory(), else the
 // nominal built-in one), the camera "builtin:NAME" or a CSV of
-// wavelength_nm,R,G,B, ρ_white. Throws std::invalid_argument naming the file.
+// wavelength_nm,R,G,B, ρ_white, and per camera name a sensitivity of the
+// same kinds (camera_of). Throws std::invalid_argument naming the file
+// (estimation.camera_sensitivities["NAME"]: … for a camera's).
 CaptureSources resolve_capture_sources(const std::string& led_library, const std::string& camera,
-                                       double white_reflectance);
+                                       double white_reflectance,
+                                       const std::map<std::string, std::string>& camera_of = {});
 
 class SessionCaptureBuilder {
  public:
@@ -98,6 +109,9 @@ class SessionCaptureBuilder {
   bool references_complete() const { return references_complete(camera()); }
   bool complete() const { return complete(camera()); }
   std::string missing() const { return missing(camera()); }
+
+  // Where the camera's spectral sensitivity came from (CaptureSources::camera_source).
+  std::string sensitivity_source(const std::string& camera) const;
 
   // The plan's subjects are under exactly the method's three mixes.
   bool is_method_plan() const { return method_plan_; }
@@ -143,9 +157,13 @@ class SessionCaptureBuilder {
 // whose storage index is not in `already_added` and whose record `wanted`
 // accepts (empty: every frame); returns how many it added. Throws
 // std::invalid_argument naming the file for an unreadable frame.
+// unusable (optional): a frame the builder refuses is recorded there under
+// its camera (the first reason per camera) instead of thrown, so one
+// camera's unusable frames do not stop the others'.
 std::size_t add_stored_frames(SessionCaptureBuilder& builder, const std::filesystem::path& folder,
                               const std::set<std::uint64_t>& already_added = {},
-                              const std::function<bool(const FrameRecord&)>& wanted = {});
+                              const std::function<bool(const FrameRecord&)>& wanted = {},
+                              std::map<std::string, std::string>* unusable = nullptr);
 
 // A frame filter that takes the first camera it sees and then only its frames
 // (the single-camera estimation's choice of camera: the first to deliver).
@@ -160,6 +178,17 @@ SessionPlan read_session_plan(const std::filesystem::path& folder);
 // folder and what is wrong (not a session, not the method's plan, frames
 // missing, unreadable TIFF).
 MethodCaptures read_session_captures(const std::filesystem::path& folder, const CaptureSources& sources);
+
+// Every camera's stored frames of a session folder in one builder (the
+// per-camera estimation, maps/camera_results.hpp). Throws
+// std::invalid_argument naming the folder (not a session, no frame stored,
+// an unreadable TIFF, or the frames of a one-camera session incomplete); a
+// camera of several with missing frames is left to the caller
+// (complete(camera), missing(camera)).
+// unusable: as add_stored_frames (a session of several cameras; with one
+// camera its refused frame is thrown).
+SessionCaptureBuilder read_stored_session(const std::filesystem::path& folder, const CaptureSources& sources,
+                                          std::map<std::string, std::string>* unusable = nullptr);
 
 // The stored frames of any estimable session: `method` set for the method's
 // standard session, `plan` for any other plan (errors as above).

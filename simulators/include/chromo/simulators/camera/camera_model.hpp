@@ -14,6 +14,13 @@
 // (irradiance peak ≈ 1) and 10 ms gives roughly half the full well in green.
 // Layouts: Bayer RGGB (R at even row, even column of the *sensor*, so an ROI
 // offset shifts the phase), three channels per pixel, or mono.
+//
+// Poisson(electrons) is drawn exactly below 30 electrons and as the normal
+// approximation electrons + √electrons·N(0, 1) (clamped at 0) above.
+// Random streams (readout_random.hpp): one xoshiro256+ stream per band of 32
+// rows of the window, seeded from (seed, frame index, band) alone, normal
+// variates by the ziggurat; the bands are read out on `readout_threads`
+// OpenMP threads, and the frame is the same for any thread count.
 // Thread rules: immutable after construction; expose() may run concurrently.
 
 #include <opencv2/core.hpp>
@@ -38,6 +45,7 @@ struct CameraModelOptions {
   int adc_bits = 12;
   double black_level_dn = 16;
   std::uint64_t seed = 1;  // frame k's noise is a function of (seed, k) only
+  int readout_threads = 0;  // threads reading a frame's bands out (0 = OpenMP's default); never changes the frame
 
   bool IsValid(std::string* error) const;
 };
@@ -61,13 +69,28 @@ class CameraModel {
   // Returns CV_16U (mono, Bayer) or CV_16UC3 (three-channel) DN in 0..max_dn().
   cv::Mat expose(const cv::Mat& response_rgb, SensorLayout layout, int phase_x, int phase_y, double exposure_us,
                  double gain_db, std::uint64_t frame_index) const;
+  // The readout before its band streams (until issue 21 part 5): the same
+  // statistics from one std::mt19937_64 stream over the whole window,
+  // std::normal_distribution and std::poisson_distribution, on one thread;
+  // another realisation of the noise than expose(). Kept as the baseline of
+  // bench/camera_frame_bench and the statistical reference of the tests.
+  cv::Mat expose_single_stream(const cv::Mat& response_rgb, SensorLayout layout, int phase_x, int phase_y,
+                               double exposure_us, double gain_db, std::uint64_t frame_index) const;
   // The same readout without noise: expected_dn() of every sample (no shot,
   // read or quantisation noise; full well and ADC range as hard clamps), as
   // CV_32F (mono, Bayer) or CV_32FC3 DN — the noise-free frame of a bench.
   cv::Mat expected(const cv::Mat& response_rgb, SensorLayout layout, int phase_x, int phase_y, double exposure_us,
                    double gain_db) const;
 
+  // Below this mean the shot noise is drawn as an exact Poisson variate.
+  static constexpr double kExactPoissonBelowElectrons = 30;
+
  private:
+  struct Readout {  // one frame's scales
+    double electrons_per_response, e_per_dn, max_dn;
+  };
+  Readout readout(double exposure_us, double gain_db) const;
+
   CameraModelOptions options_;
   double green_norm_;  // Σ S_G Δλ
 };

@@ -130,7 +130,10 @@ struct CaptureMotion {
 //    (session/frame_sums.hpp), which rounds the last bits differently.
 // 4: exposure per capture, blue ratio and frames per capture (options and key).
 // 5: any built-in plan (its name in the key), merged with 4.
-inline constexpr std::uint32_t kRenderedSessionVersion = 5;
+// 6: the camera readout's band streams (CameraModel::expose): another
+//    realisation of the same noise.
+// 7: RegistrationResult::skipped_levels (coarse levels skipped).
+inline constexpr std::uint32_t kRenderedSessionVersion = 7;
 inline constexpr std::uint8_t kMixedCell = 255;  // a 2×2 cell whose sites have different regions
 
 struct RenderedSession {

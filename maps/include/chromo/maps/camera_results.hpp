@@ -1,0 +1,95 @@
+#pragma once
+// A session's estimation camera by camera (issue 21 part 4): what chromod's
+// on-line estimator and `chromo estimate SESSION_DIR` both run, so their maps
+// stay identical.
+//
+// Every camera that delivered frames is estimated from its own frames only
+// (session::SessionCaptureBuilder keeps cameras apart: its own dark, white
+// references, noise and exposures) with estimate_method_captures() (the
+// method's standard session) or estimate_plan_captures() (any other plan).
+//
+// Layout of results/ (docs/maps.md "Several cameras"):
+//  - one camera: the report's files directly in results/ (maps.exr,
+//    summary.json, previews), exactly as before the lab had several cameras;
+//  - several cameras: results/<camera>/ holds each camera's report and
+//    results/summary.json is the index (camera_results_index_json()).
+// A camera whose captures cannot be estimated (std::invalid_argument,
+// session::RegistrationError) is listed "failed" with its reason and nothing
+// of it is written; the others are still estimated and published. With one
+// camera its error is thrown, as before.
+//
+// Tables: cameras whose measurement sets give the same forward-table key (the
+// same sensitivity and illuminants) share one table (the disk cache's file,
+// or the on-line estimator's table in memory); the index names the earlier
+// camera as "shared_with".
+//
+// Thread rules: free functions on values; the estimation runs on its own threads.
+
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "chromo/maps/estimate_report.hpp"
+#include "chromo/session/session_captures.hpp"
+
+namespace chromo::maps {
+
+// Whether a camera name can be its results folder: 1-64 of [A-Za-z0-9_.+-],
+// not "." or "..". A camera named otherwise fails with that reason.
+bool usable_camera_folder_name(const std::string& camera);
+
+// Where a camera's report goes: results_dir itself when the session has one
+// camera, results_dir/<camera> otherwise.
+std::filesystem::path camera_results_dir(const std::filesystem::path& results_dir, const std::string& camera,
+                                         std::size_t camera_count);
+
+// One camera's outcome.
+struct CameraEstimate {
+  std::string camera;
+  bool ok = false;
+  std::string reason;                 // why it failed (ok false)
+  std::string folder;                 // relative to results/: "" (one camera) or the camera's name
+  std::string camera_sensitivity;     // where its spectral sensitivity came from
+  std::string shared_with;            // an earlier camera whose forward table this one used ("" none)
+  std::optional<MethodEstimationResult> result;  // ok only
+};
+
+// The per-camera options: the tables prepared during capture (the on-line
+// estimator; by camera name) and members added to every report's summary.json.
+struct SessionCamerasInput {
+  const session::SessionCaptureBuilder* builder = nullptr;  // every camera complete
+  std::map<std::string, PreparedTables> const* prepared = nullptr;
+  std::string extra_json = "{}";  // added to each camera's summary.json and to the index
+  // Cameras whose frames the builder refused (camera → the first reason):
+  // listed failed with it, in or beside the builder's cameras.
+  std::map<std::string, std::string> unusable;
+};
+
+// Estimates every camera of input.builder (in cameras() order) into
+// results_dir as above; with several cameras also writes the index. Throws
+// as estimate_method_captures() when the session has one camera, or when no
+// camera has frames (std::invalid_argument).
+std::vector<CameraEstimate> estimate_session_cameras(const SessionCamerasInput& input,
+                                                     const MethodEstimationOptions& options,
+                                                     const std::filesystem::path& results_dir, const FileCommit& commit,
+                                                     const files::Progress& progress = {});
+
+// results/summary.json of a session with several cameras:
+//   {...extra, "cameras": [{"name", "state": "ok"|"failed", "reason" (failed),
+//    "folder", "maps_file", "report_file" (relative to results/),
+//    "camera_sensitivity", "table_key", "shared_with" (null: none), "pixels",
+//    "explained", "estimate_seconds", "flag_counts", "relit_delta_e94"}]}
+std::string camera_results_index_json(const std::vector<CameraEstimate>& cameras, const std::string& extra_json = "{}");
+
+// One camera's key figures as a JSON object (the index's entry; chromod's
+// results record carries the same array, paths prefixed by path_prefix).
+std::string camera_entry_json(const CameraEstimate& camera, const std::string& path_prefix = "");
+
+// The forward-table key each camera shares: camera name of the first camera
+// with the same key, for every later camera with it.
+void mark_shared_tables(std::vector<CameraEstimate>& cameras);
+
+}  // namespace chromo::maps

@@ -1,0 +1,153 @@
+#include "chromo/maps/camera_results.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+
+#include "chromo/estimation/pixel_flags.hpp"
+#include "chromo/files/binary_cache.hpp"
+
+namespace chromo::maps {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+nlohmann::ordered_json parse_object(const std::string& text, const char* what) {
+  auto json = nlohmann::ordered_json::parse(text);
+  if (!json.is_object()) throw std::invalid_argument(std::string(what) + " is not a JSON object");
+  return json;
+}
+
+// One camera's estimation into `dir` (its name added to summary.json).
+MethodEstimationResult estimate_camera(const SessionCamerasInput& input, const std::string& camera,
+                                       const MethodEstimationOptions& options, const fs::path& dir,
+                                       const FileCommit& commit, const files::Progress& progress) {
+  const session::SessionCaptureBuilder& builder = *input.builder;
+  if (!builder.complete(camera)) throw std::invalid_argument("frames missing: " + builder.missing(camera));
+  auto extra = parse_object(input.extra_json, "extra_json");
+  extra["camera"] = camera;
+  extra["camera_sensitivity"] = builder.sensitivity_source(camera);
+  const PreparedTables* prepared = nullptr;
+  if (input.prepared)
+    if (auto found = input.prepared->find(camera); found != input.prepared->end()) prepared = &found->second;
+  if (builder.is_method_plan())
+    return estimate_method_captures(builder.captures(camera), options, dir, commit, progress, extra.dump(), prepared);
+  return estimate_plan_captures(builder.plan_captures(camera), options, dir, commit, progress, extra.dump(), prepared);
+}
+
+}  // namespace
+
+bool usable_camera_folder_name(const std::string& camera) {
+  if (camera.empty() || camera.size() > 64 || camera == "." || camera == "..") return false;
+  for (unsigned char c : camera)
+    if (!(std::isalnum(c) || c == '_' || c == '.' || c == '+' || c == '-')) return false;
+  return true;
+}
+
+fs::path camera_results_dir(const fs::path& results_dir, const std::string& camera, std::size_t camera_count) {
+  return camera_count <= 1 ? results_dir : results_dir / camera;
+}
+
+void mark_shared_tables(std::vector<CameraEstimate>& cameras) {
+  for (std::size_t k = 0; k < cameras.size(); ++k) {
+    if (!cameras[k].ok) continue;
+    for (std::size_t j = 0; j < k; ++j)
+      if (cameras[j].ok && cameras[j].result->table_key == cameras[k].result->table_key) {
+        cameras[k].shared_with = cameras[j].camera;
+        break;
+      }
+  }
+}
+
+std::vector<CameraEstimate> estimate_session_cameras(const SessionCamerasInput& input,
+                                                     const MethodEstimationOptions& options, const fs::path& results_dir,
+                                                     const FileCommit& commit, const files::Progress& progress) {
+  if (!input.builder) throw std::invalid_argument("estimate_session_cameras: no capture builder");
+  std::vector<std::string> names = input.builder->cameras();
+  for (const auto& [camera, reason] : input.unusable)
+    if (std::find(names.begin(), names.end(), camera) == names.end()) names.push_back(camera);
+  if (names.empty()) throw std::invalid_argument("no camera delivered a frame");
+  std::vector<CameraEstimate> out;
+  for (const std::string& camera : names) {
+    CameraEstimate e;
+    e.camera = camera;
+    e.camera_sensitivity = input.builder->sensitivity_source(camera);
+    const auto refused = input.unusable.find(camera);
+    if (names.size() == 1) {  // the one-camera layout; errors go to the caller
+      if (refused != input.unusable.end()) throw std::invalid_argument(refused->second);
+      e.result = estimate_camera(input, camera, options, results_dir, commit, progress);
+      e.ok = true;
+      out.push_back(std::move(e));
+      return out;
+    }
+    e.folder = camera;
+    try {
+      if (refused != input.unusable.end()) throw std::invalid_argument(refused->second);
+      if (!usable_camera_folder_name(camera))
+        throw std::invalid_argument("camera name \"" + camera +
+                                    "\" cannot name its results folder (1-64 of A-Z a-z 0-9 _ . + -)");
+      e.result = estimate_camera(input, camera, options, camera_results_dir(results_dir, camera, names.size()), commit,
+                                 progress);
+      e.ok = true;
+    } catch (const std::invalid_argument& error) {
+      e.reason = error.what();
+    } catch (const session::RegistrationError& error) {
+      e.reason = error.what();
+    }
+    out.push_back(std::move(e));
+  }
+  mark_shared_tables(out);
+  const std::string index = camera_results_index_json(out, input.extra_json);
+  commit(results_dir / "summary.json", [&](const fs::path& temporary) {
+    std::ofstream out(temporary);
+    out << index;
+    if (!out.flush()) throw std::runtime_error("cannot write " + temporary.string());
+  });
+  return out;
+}
+
+std::string camera_entry_json(const CameraEstimate& camera, const std::string& path_prefix) {
+  nlohmann::ordered_json entry{{"name", camera.camera}, {"state", camera.ok ? "ok" : "failed"}};
+  if (!camera.ok) {
+    entry["reason"] = camera.reason;
+    return entry.dump();
+  }
+  const std::string folder = path_prefix + (camera.folder.empty() ? "" : camera.folder + "/");
+  const auto& r = *camera.result;
+  entry["folder"] = camera.folder;
+  entry["maps_file"] = folder + "maps.exr";
+  entry["report_file"] = folder + "summary.json";
+  entry["camera_sensitivity"] = camera.camera_sensitivity;
+  entry["table_key"] = files::cache_key_hex(r.table_key);
+  entry["shared_with"] = camera.shared_with.empty() ? nlohmann::ordered_json() : nlohmann::ordered_json(camera.shared_with);
+  entry["pixels"] = r.summary.pixels;
+  entry["explained"] = r.summary.flag_counts[0];
+  entry["estimate_seconds"] = r.summary.seconds;
+  entry["pixels_per_second"] = r.pixels_per_second;
+  nlohmann::ordered_json flags = nlohmann::ordered_json::object();
+  for (int f = 0; f < estimation::kPixelFlagCount; ++f)
+    flags[std::string(estimation::pixel_flag_name(static_cast<estimation::PixelFlag>(f)))] = r.summary.flag_counts[f];
+  entry["flag_counts"] = flags;
+  nlohmann::ordered_json relit = nlohmann::ordered_json::object();
+  for (const auto& c : r.relit)
+    relit[c.illuminant] = {{"mean", c.delta_e94.mean},
+                           {"median", c.delta_e94.median},
+                           {"p95", c.delta_e94.p95},
+                           {"max", c.delta_e94.max},
+                           {"pixels", c.delta_e94.pixels}};
+  entry["relit_delta_e94"] = relit;
+  return entry.dump();
+}
+
+std::string camera_results_index_json(const std::vector<CameraEstimate>& cameras, const std::string& extra_json) {
+  auto index = parse_object(extra_json, "extra_json");
+  index["cameras"] = nlohmann::ordered_json::array();
+  for (const auto& camera : cameras) index["cameras"].push_back(nlohmann::ordered_json::parse(camera_entry_json(camera)));
+  return index.dump(2) + "\n";
+}
+
+}  // namespace chromo::maps
