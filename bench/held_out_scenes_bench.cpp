@@ -35,6 +35,7 @@
 #include "chromo/files/gnuplot_chart.hpp"
 #include "chromo/simulators/scene/rendered_session.hpp"
 #include "chromo/simulators/scene/scene.hpp"
+#include "noise_declaration.hpp"
 #include "relit_accuracy.hpp"
 
 namespace chromo::bench {
@@ -62,12 +63,6 @@ struct SeedResult {
   ConfigResult noisy[kConfigs], noise_free[kConfigs], declared[kConfigs];
   std::size_t region_cells[kRegions] = {};
 };
-
-// The lab's measurement set told that its data have no camera noise.
-estimation::MeasurementSet declared_noise_free(estimation::MeasurementSet set) {
-  for (estimation::MeasurementChannel& c : set.channels) c.noise.read_sigma = 1e-6, c.noise.shot_coefficient = 0;
-  return set;
-}
 
 // The auto model's appearance factor k (--order-factor; the default's unless given).
 double order_factor = estimation::EstimatorOptions{}.order_appearance_factor;
