@@ -84,22 +84,6 @@ struct Run {
   double order4 = 0;        // share of explained skin pixels given order 4
 };
 
-double relit_a(const std::vector<estimation::SkinParameters>& truth, const std::vector<estimation::PixelEstimate>& e,
-               const std::vector<bool>& mask) {
-  static const estimation::SkinModel model;
-  const spectral::Spectrum& a = spectral::illuminant_a();
-  const spectral::Xyz white = spectral::white_point(a);
-  double sum = 0;
-  std::size_t n = 0;
-  for (std::size_t i = 0; i < e.size(); ++i) {
-    if (!mask[i] || e[i].flag != estimation::PixelFlag::kExplained) continue;
-    const spectral::Lab t = spectral::lab_from_xyz(spectral::xyz_of_reflectance(model.albedo(truth[i]), a), white);
-    const spectral::Lab x = spectral::lab_from_xyz(spectral::xyz_of_reflectance(model.albedo(e[i].parameters), a), white);
-    sum += spectral::delta_e94(t, x), ++n;
-  }
-  return n ? sum / n : 0.0;
-}
-
 Run run(const std::shared_ptr<const estimation::ForwardTable>& table, const estimation::MeasurementSet& set,
         const simulators::SyntheticFrame& frame, const std::vector<float>& measured, const Relit& truth_relit,
         estimation::ModelChoice model) {
@@ -121,7 +105,7 @@ Run run(const std::shared_ptr<const estimation::ForwardTable>& table, const esti
   }
   Run r;
   r.accuracy = accuracy(truth_relit, frame.truth, e, skin);
-  r.de_a = relit_a(frame.truth, e, skin);
+  r.de_a = relit_under_a(frame.truth, e, skin);
   for (int k = 0; k < simulators::kSyntheticKindCount; ++k) r.flagged[k] = count[k] ? double(flagged[k]) / count[k] : 0;
   r.us_per_pixel = summary.seconds * options.threads * 1e6 / frame.pixels();
   r.order4 = explained_skin ? double(order4) / explained_skin : 0;
@@ -180,8 +164,8 @@ LabRow run_lab(const std::string& plan, std::uint64_t seed, int sensor_width, in
   }
   row.noisy = accuracy(truth, lab.truth, noisy, skin);
   row.clean = accuracy(truth, lab.truth, clean, skin);
-  row.noisy_a = relit_a(lab.truth, noisy, skin);
-  row.clean_a = relit_a(lab.truth, clean, skin);
+  row.noisy_a = relit_under_a(lab.truth, noisy, skin);
+  row.clean_a = relit_under_a(lab.truth, clean, skin);
   std::size_t count[kRegions] = {}, flagged[kRegions] = {};
   for (std::size_t i = 0; i < lab.pixels(); ++i) {
     if (lab.region[i] >= kRegions) continue;
