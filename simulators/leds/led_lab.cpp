@@ -15,6 +15,7 @@ LedLab::LedLab(LedLabOptions options) : options_(std::move(options)) {
   if (options_.zone_count < 1) options_.zone_count = 1;
   for (int i = 0; i < spectral::kLedTypeCount; ++i) reference_[i] = load_reference_spectrum(options_.leds[i]);
   zone_drive_.assign(options_.zone_count, drivers::DriveLevels{});
+  zone_polarisation_.assign(options_.zone_count, drivers::PolarisationPerType{});
   pwm_frequency_hz_ = options_.drive_mode == DriveMode::kPwmDuty ? options_.initial_pwm_frequency_hz : 0.0;
   for (int i = 0; i < spectral::kLedTypeCount; ++i)
     temperature_C_[i] = options_.ambient_C + (options_.start_warm ? options_.leds[i].junction_rise_full_K : 0.0);
@@ -33,6 +34,7 @@ drivers::LedControllerInfo LedLab::info() const {
     info.min_pwm_frequency_hz = options_.min_pwm_frequency_hz;
     info.max_pwm_frequency_hz = options_.max_pwm_frequency_hz;
   }
+  info.polariser_banks = options_.polariser_banks;
   return info;
 }
 
@@ -79,10 +81,19 @@ drivers::LedStatus LedLab::status() const {
   return status;
 }
 
+bool LedLab::polarisation_allowed(const LedState& state) const {
+  for (int i = 0; i < spectral::kLedTypeCount; ++i)
+    if (static_cast<int>(state.polarisation[i]) >= drivers::kPolarisationCodeCount ||
+        (state.polarisation[i] != drivers::Polarisation::kUnpolarised && !options_.polariser_banks[i]))
+      return false;
+  return true;
+}
+
 LabResult LedLab::apply_locked(const LedState& state) {
   for (double level : state.drive)
     if (!(level >= 0 && level <= 1)) return LabResult::kOutOfRange;
   if (state.zone && (*state.zone < 0 || *state.zone >= options_.zone_count)) return LabResult::kOutOfRange;
+  if (!polarisation_allowed(state)) return LabResult::kBadPolarisation;
   if (state.pwm_frequency_hz != 0) {
     if (options_.drive_mode != DriveMode::kPwmDuty) return LabResult::kOutOfRange;
     if (state.pwm_frequency_hz < options_.min_pwm_frequency_hz || state.pwm_frequency_hz > options_.max_pwm_frequency_hz)
@@ -95,9 +106,20 @@ LabResult LedLab::apply_locked(const LedState& state) {
   update_thermal_locked();  // temperatures up to now under the old drive
   if (state.pwm_frequency_hz != 0) pwm_frequency_hz_ = state.pwm_frequency_hz;
   for (int z = 0; z < options_.zone_count; ++z)
-    if (!state.zone || *state.zone == z) zone_drive_[z] = state.drive;
+    if (!state.zone || *state.zone == z) {
+      zone_drive_[z] = state.drive;
+      zone_polarisation_[z] = state.polarisation;
+    }
   last_applied_ = state;
   return LabResult::kOk;
+}
+
+drivers::PolarisationPerType LedLab::polarisation_in_zone(int zone) const {
+  std::lock_guard lock(mutex_);
+  if (zone < 0 || zone >= options_.zone_count)
+    throw std::out_of_range("LedLab::polarisation_in_zone: zone " + std::to_string(zone) + " of " +
+                            std::to_string(options_.zone_count));
+  return zone_polarisation_[zone];
 }
 
 LabResult LedLab::apply(const LedState& state) {
@@ -119,6 +141,8 @@ bool LedLab::output_enabled() const {
 LabResult LedLab::arm(const std::vector<LedState>& states, SequenceTrigger trigger) {
   std::lock_guard lock(mutex_);
   if (states.empty() || static_cast<int>(states.size()) > options_.sequence_capacity) return LabResult::kOutOfRange;
+  for (const LedState& state : states)
+    if (!polarisation_allowed(state)) return LabResult::kBadPolarisation;
   LabResult first = apply_locked(states.front());
   if (first != LabResult::kOk) return first;
   sequence_ = states;

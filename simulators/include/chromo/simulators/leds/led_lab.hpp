@@ -62,12 +62,16 @@ struct LedLabOptions {
   std::string model = "CHROMO-LED6-SIM";
   std::string serial = "SIM-LED-0001";
   int firmware_major = 1, firmware_minor = 0;
+  // LED types with a cross and a parallel bank (docs/polarisation.md). None by
+  // default: a sphere without polarisers, which answers exactly as before.
+  std::array<bool, spectral::kLedTypeCount> polariser_banks{};
   TrueLedSet leds = default_true_leds();
 };
 
 // What the firmware answers to a request (the front-ends translate it into
 // their protocol's result codes).
-enum class LabResult { kOk, kOutOfRange, kBadState, kFault };
+// kBadPolarisation: cross or parallel asked of an LED type without a polariser bank.
+enum class LabResult { kOk, kOutOfRange, kBadState, kFault, kBadPolarisation };
 
 class LedLab final : public SphereIllumination {
  public:
@@ -106,6 +110,9 @@ class LedLab final : public SphereIllumination {
   spectral::Spectrum irradiance_now() const override;
   double irradiance_at_nm(double wavelength_nm) const override;
   double junction_temperature_C(spectral::LedType type) const;
+  // The polarisation each LED type is driven with in `zone` (the truth the
+  // camera simulators render; docs/polarisation.md).
+  drivers::PolarisationPerType polarisation_in_zone(int zone) const;
   // Jumps every junction to its equilibrium for the present drive (a warm-up
   // without waiting).
   void settle_thermal();
@@ -122,6 +129,8 @@ class LedLab final : public SphereIllumination {
   using Clock = std::chrono::steady_clock;
   void update_thermal_locked() const;
   LabResult apply_locked(const drivers::LedState& state);
+  // Every code known, and cross/parallel only for types with a polariser bank.
+  bool polarisation_allowed(const drivers::LedState& state) const;
   std::vector<Emission> emissions_locked(int type) const;
   double target_temperature_locked(int type) const;
   bool channel_emits_locked(int type) const;
@@ -130,6 +139,7 @@ class LedLab final : public SphereIllumination {
   std::array<FineSpectrum, spectral::kLedTypeCount> reference_;
   mutable std::mutex mutex_;
   std::vector<drivers::DriveLevels> zone_drive_;
+  std::vector<drivers::PolarisationPerType> zone_polarisation_;  // which bank each type drives, per zone
   drivers::LedState last_applied_;
   double pwm_frequency_hz_ = 0;
   bool output_enabled_ = false;
