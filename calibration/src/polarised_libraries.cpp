@@ -4,11 +4,18 @@
 #include <string>
 
 namespace chromo::calibration {
+namespace {
+
+const std::optional<LedLibrary>& library_slot(const PolarisedLedLibraries& libraries, drivers::Polarisation state) {
+  return state == drivers::Polarisation::kCross      ? libraries.cross
+         : state == drivers::Polarisation::kParallel ? libraries.parallel
+                                                     : libraries.unpolarised;
+}
+
+}  // namespace
 
 const LedLibrary& PolarisedLedLibraries::for_state(drivers::Polarisation state) const {
-  const std::optional<LedLibrary>& library = state == drivers::Polarisation::kCross      ? cross
-                                             : state == drivers::Polarisation::kParallel ? parallel
-                                                                                         : unpolarised;
+  const std::optional<LedLibrary>& library = library_slot(*this, state);
   if (!library)
     throw std::invalid_argument(std::string("no LED library for the ") + drivers::polarisation_name(state) +
                                 " polarisation state: calibrate the sphere in that state first");
@@ -33,9 +40,7 @@ std::map<drivers::Polarisation, MixSummary> solve_mix_per_state(
   std::map<drivers::Polarisation, MixSummary> mixes;
   for (drivers::Polarisation state :
        {drivers::Polarisation::kUnpolarised, drivers::Polarisation::kCross, drivers::Polarisation::kParallel}) {
-    const std::optional<LedLibrary>& library = state == drivers::Polarisation::kCross      ? libraries.cross
-                                               : state == drivers::Polarisation::kParallel ? libraries.parallel
-                                                                                           : libraries.unpolarised;
+    const std::optional<LedLibrary>& library = library_slot(libraries, state);
     if (library) mixes.emplace(state, solve_mix(*library, target_for(*library), options));
   }
   return mixes;

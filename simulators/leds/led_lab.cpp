@@ -13,6 +13,9 @@ using drivers::SequenceTrigger;
 
 LedLab::LedLab(LedLabOptions options) : options_(std::move(options)) {
   if (options_.zone_count < 1) options_.zone_count = 1;
+  std::string film_error;
+  if (!options_.polariser_film.IsValid(&film_error))
+    throw std::invalid_argument("LedLabOptions::polariser_film: " + film_error);
   for (int i = 0; i < spectral::kLedTypeCount; ++i) reference_[i] = load_reference_spectrum(options_.leds[i]);
   zone_drive_.assign(options_.zone_count, drivers::DriveLevels{});
   zone_polarisation_.assign(options_.zone_count, drivers::PolarisationPerType{});
@@ -280,11 +283,13 @@ std::vector<LedLab::Emission> LedLab::emissions_locked(int type) const {
   double thermal_flux = std::max(0.0, 1.0 - p.flux_loss_per_K * delta_T);
   double common_shift = p.peak_shift_nm_per_K * delta_T + peak_shift_nm_[type];
   double zone_weight = 1.0 / options_.zone_count;
-  for (const auto& drive : zone_drive_) {
-    double level = drive[type];
+  for (std::size_t zone = 0; zone < zone_drive_.size(); ++zone) {
+    double level = zone_drive_[zone][type];
     if (level <= 0) continue;
     Emission e;
     e.shift_nm = common_shift;
+    if (options_.polariser_banks[type])
+      e.filtered_banks = zone_polarisation_[zone][type] == drivers::Polarisation::kUnpolarised ? 2 : 1;
     double electrical = level;
     if (options_.drive_mode == DriveMode::kConstantCurrent) {
       electrical *= (1.0 - p.droop * level) / (1.0 - p.droop);
@@ -296,12 +301,17 @@ std::vector<LedLab::Emission> LedLab::emissions_locked(int type) const {
   return emissions;
 }
 
+double LedLab::film_factor(const Emission& e, double wavelength_nm) const {
+  return e.filtered_banks == 0 ? 1.0 : e.filtered_banks * options_.polariser_film.transmission_at(wavelength_nm);
+}
+
 double LedLab::irradiance_at_nm(double wavelength_nm) const {
   std::lock_guard lock(mutex_);
   update_thermal_locked();
   double sum = 0;
   for (int i = 0; i < spectral::kLedTypeCount; ++i)
-    for (const Emission& e : emissions_locked(i)) sum += e.scale * reference_[i].at(wavelength_nm - e.shift_nm);
+    for (const Emission& e : emissions_locked(i))
+      sum += e.scale * reference_[i].at(wavelength_nm - e.shift_nm) * film_factor(e, wavelength_nm);
   return sum;
 }
 
@@ -313,8 +323,12 @@ spectral::Spectrum LedLab::irradiance_now() const {
     for (const Emission& e : emissions_locked(i)) {
       std::vector<double> shifted(reference_[i].wavelength_nm);
       for (double& nm : shifted) nm += e.shift_nm;
-      total += e.scale * spectral::resample_to_grid(shifted, reference_[i].value,
-                                                    options_.leds[i].spectrum_file, spectral::OutsideRange::kZero);
+      spectral::Spectrum emitted = e.scale * spectral::resample_to_grid(shifted, reference_[i].value,
+                                                                        options_.leds[i].spectrum_file,
+                                                                        spectral::OutsideRange::kZero);
+      if (e.filtered_banks > 0)
+        for (int k = 0; k < spectral::kGridSize; ++k) emitted[k] *= film_factor(e, spectral::grid_wavelength_nm(k));
+      total += emitted;
     }
   return total;
 }

@@ -43,6 +43,7 @@
 
 #include "chromo/drivers/led_controller.hpp"
 #include "chromo/simulators/leds/true_leds.hpp"
+#include "chromo/simulators/polarisation/polariser_optics.hpp"
 #include "chromo/simulators/sphere_illumination.hpp"
 
 namespace chromo::simulators {
@@ -65,6 +66,11 @@ struct LedLabOptions {
   // LED types with a cross and a parallel bank (docs/polarisation.md). None by
   // default: a sphere without polarisers, which answers exactly as before.
   std::array<bool, spectral::kLedTypeCount> polariser_banks{};
+  // The film in front of every bank (truth side): a bank emits its LEDs'
+  // light times the film's transmission of unpolarised light; the
+  // unpolarised state drives both banks (twice that). Types without banks
+  // emit as before.
+  PolariserFilm polariser_film;
   TrueLedSet leds = default_true_leds();
 };
 
@@ -125,7 +131,9 @@ class LedLab final : public SphereIllumination {
   struct Emission {  // one LED type in one zone, as it emits now
     double scale = 0;
     double shift_nm = 0;
+    int filtered_banks = 0;  // 0: no polariser film; 1 or 2 banks behind the film
   };
+  double film_factor(const Emission& e, double wavelength_nm) const;
   using Clock = std::chrono::steady_clock;
   void update_thermal_locked() const;
   LabResult apply_locked(const drivers::LedState& state);
