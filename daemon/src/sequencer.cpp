@@ -109,6 +109,7 @@ class Run {
       if (!hardware) {
         LedState state;
         state.drive = levels;
+        state.polarisation.fill(step.polarisation);
         if (!with_led("set_state", [&](drivers::LedController& device) { device.set_state(state); })) return cancelled();
       }
       drivers::LedStatus status;
@@ -369,6 +370,7 @@ class Run {
     for (std::size_t s = step_index; s < c_.plan.steps.size(); ++s) {
       LedState state;
       state.drive = resolve(c_.plan.steps[s]);
+      state.polarisation.fill(c_.plan.steps[s].polarisation);
       for (std::uint32_t f = (s == step_index ? frame : 0); f < c_.plan.steps[s].frames_per_camera; ++f)
         states.push_back(state);
     }

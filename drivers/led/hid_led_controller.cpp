@@ -31,7 +31,7 @@ class HidLedController final : public LedController {
 
   void set_state(const LedState& state) override {
     detail::validate_state(state, info_, device_);
-    transact(hid::kSetState, hid_reports::encode_state_payload(state), "set state");
+    transact(hid::kSetState, hid_reports::encode_state_payload(state, info_.has_polarisers()), "set state");
     detail::check_applied_state(state, read_status(), device_);
   }
 
@@ -52,7 +52,7 @@ class HidLedController final : public LedController {
     transact(hid::kSequenceBegin, begin, "begin sequence");
     for (std::uint16_t k = 0; k < count; ++k) {
       std::vector<std::uint8_t> payload{static_cast<std::uint8_t>(k & 0xFF), static_cast<std::uint8_t>(k >> 8)};
-      std::vector<std::uint8_t> state = hid_reports::encode_state_payload(states[k]);
+      std::vector<std::uint8_t> state = hid_reports::encode_state_payload(states[k], info_.has_polarisers());
       payload.insert(payload.end(), state.begin(), state.end());
       transact(hid::kSequenceState, payload, "load sequence state " + std::to_string(k));
     }

@@ -5,6 +5,7 @@
 
 #include "chromo/drivers/device_error.hpp"
 #include "chromo/drivers/led/led_hid_protocol.hpp"
+#include "polarisation_word.hpp"
 
 namespace chromo::drivers::hid_reports {
 namespace {
@@ -31,6 +32,13 @@ void require_size(std::span<const std::uint8_t> payload, int size, const char* w
     malformed(device, std::string(what) + " payload of " + std::to_string(payload.size()) + " bytes, expected " +
                           std::to_string(size));
 }
+// A payload of a sphere without polarisers (`plain` bytes) or with them (`polarised`).
+void require_either_size(std::span<const std::uint8_t> payload, int plain, int polarised, const char* what,
+                         const std::string& device) {
+  if (payload.size() != static_cast<std::size_t>(plain) && payload.size() != static_cast<std::size_t>(polarised))
+    malformed(device, std::string(what) + " payload of " + std::to_string(payload.size()) + " bytes, expected " +
+                          std::to_string(plain) + " or, with polarisers, " + std::to_string(polarised));
+}
 
 }  // namespace
 
@@ -45,7 +53,7 @@ std::vector<std::uint8_t> encode_command(std::uint8_t sequence, std::uint8_t com
   return report;
 }
 
-std::vector<std::uint8_t> encode_state_payload(const LedState& state) {
+std::vector<std::uint8_t> encode_state_payload(const LedState& state, bool polarised) {
   std::vector<std::uint8_t> payload;
   payload.push_back(state.zone ? static_cast<std::uint8_t>(*state.zone) : hid::kAllZones);
   auto hz = static_cast<std::uint32_t>(std::lround(state.pwm_frequency_hz));
@@ -54,6 +62,11 @@ std::vector<std::uint8_t> encode_state_payload(const LedState& state) {
     auto v = static_cast<std::uint16_t>(std::lround(level * hid::kDriveFullScale));
     payload.push_back(static_cast<std::uint8_t>(v & 0xFF));
     payload.push_back(static_cast<std::uint8_t>(v >> 8));
+  }
+  if (polarised) {
+    const std::uint16_t word = detail::encode_polarisation_word(state.polarisation);
+    payload.push_back(static_cast<std::uint8_t>(word & 0xFF));
+    payload.push_back(static_cast<std::uint8_t>(word >> 8));
   }
   return payload;
 }
@@ -81,7 +94,7 @@ Reply parse_reply(std::span<const std::uint8_t> report, const std::string& devic
 }
 
 LedControllerInfo parse_info_payload(std::span<const std::uint8_t> p, const std::string& device) {
-  require_size(p, hid::kInfoPayloadSize, "info", device);
+  require_either_size(p, hid::kInfoPayloadSize, hid::kPolarisedInfoPayloadSize, "info", device);
   if (p[0] > 1) malformed(device, "unknown drive mode " + std::to_string(p[0]));
   LedControllerInfo info;
   info.drive_mode = p[0] == 0 ? DriveMode::kPwmDuty : DriveMode::kConstantCurrent;
@@ -93,11 +106,13 @@ LedControllerInfo parse_info_payload(std::span<const std::uint8_t> p, const std:
   info.firmware_version = std::to_string(p[12]) + "." + std::to_string(p[13]);
   info.model = text(p, 14);
   info.serial = text(p, 30);
+  if (p.size() == static_cast<std::size_t>(hid::kPolarisedInfoPayloadSize))
+    info.polariser_banks = detail::decode_polariser_bank_mask(p[46], device, "info: polariser bank mask (byte 46)");
   return info;
 }
 
 LedStatus parse_status_payload(std::span<const std::uint8_t> p, const std::string& device) {
-  require_size(p, hid::kStatusPayloadSize, "status", device);
+  require_either_size(p, hid::kStatusPayloadSize, hid::kPolarisedStatusPayloadSize, "status", device);
   LedStatus status;
   if (p[0] > 1) malformed(device, "output enable byte " + std::to_string(p[0]));
   status.output_enabled = p[0] == 1;
@@ -111,6 +126,9 @@ LedStatus parse_status_payload(std::span<const std::uint8_t> p, const std::strin
     status.channel_faults[i] = p[34 + i];
   }
   status.trigger_pulses = u32(p, 40);
+  if (p.size() == static_cast<std::size_t>(hid::kPolarisedStatusPayloadSize))
+    status.applied.polarisation =
+        detail::decode_polarisation_word(u16(p, 44), device, "status: applied polarisation (bytes 44-45)");
   return status;
 }
 
@@ -128,6 +146,9 @@ std::string status_name(std::uint8_t status) {
     case hid::kBadState: return "not in a state to do it";
     case hid::kFault: return "refused: controller fault";
     case hid::kMalformed: return "malformed report";
+    case hid::kBadPolarisation:
+      return "bad polarisation (state payload bytes 17-18: a code above 2, bits 12-15 set, or cross/parallel for "
+             "an LED type without a polariser bank)";
     default: return "unknown status " + std::to_string(status);
   }
 }

@@ -3,6 +3,7 @@ pkg_check_modules(LIBMODBUS REQUIRED IMPORTED_TARGET libmodbus)
 pkg_check_modules(HIDAPI REQUIRED IMPORTED_TARGET hidapi-hidraw)
 target_sources(drivers PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/led_state_rules.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/polarisation_word.cpp
   ${CMAKE_CURRENT_LIST_DIR}/modbus_led_controller.cpp
   ${CMAKE_CURRENT_LIST_DIR}/modbus_registers.cpp
   ${CMAKE_CURRENT_LIST_DIR}/hid_reports.cpp

@@ -16,6 +16,16 @@ void validate_state(const LedState& state, const LedControllerInfo& info, const 
       refuse("drive level of " + std::string(led_type_name(type)) + " is " + std::to_string(level) +
              ", outside [0, 1]");
   }
+  for (LedType type : spectral::kAllLedTypes) {
+    const int i = led_type_index(type);
+    const Polarisation polarisation = state.polarisation[i];
+    if (static_cast<int>(polarisation) >= kPolarisationCodeCount)
+      refuse("polarisation of " + std::string(led_type_name(type)) + " is code " +
+             std::to_string(static_cast<int>(polarisation)) + " (0 unpolarised, 1 cross, 2 parallel)");
+    if (polarisation != Polarisation::kUnpolarised && !info.polariser_banks[i])
+      refuse("polarisation of " + std::string(led_type_name(type)) + " is " + polarisation_name(polarisation) +
+             ", but the sphere has no polariser bank for " + std::string(led_type_name(type)) + " (unpolarised only)");
+  }
   if (state.zone && (*state.zone < 0 || *state.zone >= info.zone_count))
     refuse("zone " + std::to_string(*state.zone) + " does not exist (device has " +
            std::to_string(info.zone_count) + ")");

@@ -19,6 +19,7 @@
 #include "chromo/drivers/led/modbus_registers.hpp"
 #include "chromo/drivers/led_controller_factory.hpp"
 #include "led_state_rules.hpp"
+#include "polarisation_word.hpp"
 
 namespace chromo::drivers {
 namespace {
@@ -62,8 +63,11 @@ class ModbusLedController final : public LedController {
 
   void set_state(const LedState& state) override {
     detail::validate_state(state, info_, device_);
-    std::vector<std::uint16_t> block(map::kHoldCommandSequence + 1, 0);
+    // A sphere without polarisers gets the version-1 write (0x0000-0x000A);
+    // with polarisers the staging block reaches the polarisation word.
+    std::vector<std::uint16_t> block(info_.has_polarisers() ? map::kHoldStagingCount : map::kHoldCommandSequence + 1, 0);
     put_state(state, block.data());
+    if (info_.has_polarisers()) block[map::kHoldPolarisation] = detail::encode_polarisation_word(state.polarisation);
     LedStatus status = run_command(map::kCommandApplyState, block, "set state");
     detail::check_applied_state(state, status, device_);
   }
@@ -92,7 +96,7 @@ class ModbusLedController final : public LedController {
     for (std::size_t first = 0; first < states.size(); first += kStatesPerWrite) {
       std::size_t count = std::min<std::size_t>(kStatesPerWrite, states.size() - first);
       std::vector<std::uint16_t> table(count * map::kSequenceStride, 0);
-      for (std::size_t k = 0; k < count; ++k) put_state(states[first + k], &table[k * map::kSequenceStride]);
+      for (std::size_t k = 0; k < count; ++k) put_table_state(states[first + k], &table[k * map::kSequenceStride]);
       int address = map::kHoldSequenceTable + static_cast<int>(first) * map::kSequenceStride;
       call("write sequence table",
            modbus_write_registers(ctx_.get(), address, static_cast<int>(table.size()), table.data()));
@@ -128,7 +132,12 @@ class ModbusLedController final : public LedController {
     return map::kTriggerHardwareEdge;
   }
 
-  // Writes drive[6], zone, PWM high, PWM low at `out`.
+  // Writes drive[6], zone, PWM high, PWM low at `out` (and, for a sequence
+  // table entry, the polarisation word after them).
+  static void put_table_state(const LedState& state, std::uint16_t* out) {
+    put_state(state, out);
+    out[map::kSequencePolarisationOffset] = detail::encode_polarisation_word(state.polarisation);
+  }
   static void put_state(const LedState& state, std::uint16_t* out) {
     for (int i = 0; i < kLedTypeCount; ++i) out[i] = level_to_register(state.drive[i]);
     out[6] = state.zone ? static_cast<std::uint16_t>(*state.zone) : map::kAllZones;
@@ -158,6 +167,11 @@ class ModbusLedController final : public LedController {
       case map::kResultOutOfRange: throw DeviceError(Kind::kRefused, device_, request, "refused: out of range");
       case map::kResultBadState: throw DeviceError(Kind::kRefused, device_, request, "refused: not in a state to do it");
       case map::kResultUnknownCommand: throw DeviceError(Kind::kRefused, device_, request, "refused: unknown command");
+      case map::kResultBadPolarisation:
+        throw DeviceError(Kind::kRefused, device_, request,
+                          "refused: bad polarisation (holding register 0x000E, or a sequence entry's polarisation "
+                          "word: a code above 2, bits 12-15 set, or cross/parallel for an LED type without a "
+                          "polariser bank)");
       default:
         throw DeviceError(Kind::kProtocol, device_, request, "unknown result code " + std::to_string(last_result_));
     }

@@ -4,6 +4,7 @@
 
 #include "chromo/drivers/device_error.hpp"
 #include "chromo/drivers/led/led_modbus_map.hpp"
+#include "polarisation_word.hpp"
 
 namespace chromo::drivers::led_modbus {
 namespace {
@@ -51,6 +52,8 @@ LedControllerInfo decode_info_registers(std::span<const std::uint16_t> regs, con
   info.firmware_version = std::to_string(firmware >> 8) + "." + std::to_string(firmware & 0xFF);
   info.serial = registers_to_ascii(regs.subspan(kInSerial, 8));
   info.model = registers_to_ascii(regs.subspan(kInModel, 8));
+  info.polariser_banks =
+      detail::decode_polariser_bank_mask(regs[kInPolariserBanks], device, "info: polariser banks (input register 0x0009)");
   if (info.zone_count < 1)
     throw DeviceError(Kind::kProtocol, device, "read info", "zone count " + std::to_string(info.zone_count));
   return info;
@@ -72,6 +75,8 @@ StatusRegisters decode_status_registers(std::span<const std::uint16_t> regs, con
   status.sequence_position = position == 0xFFFF ? -1 : position;
   status.controller_faults = at(kInControllerFaults);
   status.trigger_pulses = join32(at(kInTriggerPulsesHigh), at(kInTriggerPulsesHigh + 1));
+  status.applied.polarisation = detail::decode_polarisation_word(
+      at(kInAppliedPolarisation), device, "status: applied polarisation (input register 0x003E)");
   out.ack_sequence = at(kInAckSequence);
   out.command_result = at(kInCommandResult);
   return out;

@@ -17,7 +17,28 @@ bool is_valid_name(const std::string& name) {
   return name != "." && name != "..";
 }
 
+namespace {
+IlluminationState unpolarised_illumination_state(const Step& step);
+}  // namespace
+
 IlluminationState illumination_state(const Step& step) {
+  IlluminationState state = unpolarised_illumination_state(step);
+  if (!state.key.empty() && step.polarisation == drivers::Polarisation::kParallel) {
+    state.key += ":parallel";
+    state.name += " parallel";
+  }
+  return state;
+}
+
+std::optional<drivers::Polarisation> parse_polarisation(const std::string& text) {
+  for (drivers::Polarisation polarisation :
+       {drivers::Polarisation::kUnpolarised, drivers::Polarisation::kCross, drivers::Polarisation::kParallel})
+    if (text == drivers::polarisation_name(polarisation)) return polarisation;
+  return std::nullopt;
+}
+
+namespace {
+IlluminationState unpolarised_illumination_state(const Step& step) {
   const Illumination& illumination = step.illumination;
   IlluminationState state;
   if (illumination.kind == Illumination::Kind::kMix) {
@@ -41,11 +62,13 @@ IlluminationState illumination_state(const Step& step) {
     if (step.name.starts_with(prefix) && step.name.size() > std::strlen(prefix)) state.name = step.name.substr(std::strlen(prefix));
   return state;
 }
+}  // namespace
 
 std::string capture_name(const IlluminationState& state) {
   if (state.key == "d65") return "D65'";
   if (state.key == "w57") return "W57";
   if (state.key == "w57+blue") return "W57+blue";
+  if (state.key == "d65:parallel") return "D65' parallel";
   return state.name;
 }
 
@@ -95,6 +118,15 @@ bool SessionPlan::IsValid(std::string* error) const {
       return fail(field + "mix: must be d65, w57, w57+blue, w57+blue:R or w57:R with R in (0, 100], got \"" +
                   step.illumination.mix.substr(0, 80) + "\"");
     }
+    if (static_cast<int>(step.polarisation) >= drivers::kPolarisationCodeCount)
+      return fail(field + "polarisation: unknown code " + std::to_string(static_cast<int>(step.polarisation)));
+    if (!illumination_state(step).key.empty() && step.polarisation != drivers::Polarisation::kParallel)
+      for (std::size_t j = 0; j < i; ++j)
+        if (!illumination_state(steps[j]).key.empty() && steps[j].polarisation != drivers::Polarisation::kParallel &&
+            steps[j].polarisation != step.polarisation)
+          return fail(field + "polarisation: " + drivers::polarisation_name(step.polarisation) + ", but steps[" +
+                      std::to_string(j) + "] is " + drivers::polarisation_name(steps[j].polarisation) +
+                      ": a plan's lit steps are either cross or unpolarised (parallel steps may join either)");
     if (!(step.meter_white_share >= 0 && step.meter_white_share <= 1))
       return fail(field + "meter_white_share: must be in (0, 1] (0: not metered), got " +
                   std::to_string(step.meter_white_share));
@@ -178,6 +210,30 @@ SessionPlan standard_plan(const StandardPlanOptions& options) {
   step("subject_d65", StepRole::kSubject, mix("d65"), "Place the subject", "white_d65");
   step("subject_w57", StepRole::kSubject, mix(w57), {}, "white_w57+blue");
   step("subject_w57+blue", StepRole::kSubject, mix(w57_blue), {}, "white_w57+blue");
+  if (options.polarised) {
+    for (Step& s : plan.steps)
+      if (s.role != StepRole::kDark) s.polarisation = drivers::Polarisation::kCross;
+    // One parallel capture of the broadband light (parallel − cross is the
+    // surface layer): its white after the other whites, its subject right
+    // after the cross D65' subject, so the subject barely moves between the two.
+    auto parallel_d65 = [&](std::string name, StepRole role, std::string exposure_from) {
+      Step s = built_in_step(options, std::move(name), role, mix("d65"), {});
+      if (metered && exposure_from == s.name) s.meter_white_share = options.meter_white_share;
+      else if (metered) s.exposure_from = std::move(exposure_from);
+      s.polarisation = drivers::Polarisation::kParallel;
+      return s;
+    };
+    auto after = [&](const std::string& name) {
+      for (std::size_t i = 0; i < plan.steps.size(); ++i)
+        if (plan.steps[i].name == name) return plan.steps.begin() + static_cast<std::ptrdiff_t>(i) + 1;
+      return plan.steps.end();
+    };
+    std::string last_white;
+    for (const Step& s : plan.steps)
+      if (s.role == StepRole::kWhite) last_white = s.name;
+    plan.steps.insert(after(last_white), parallel_d65("white_d65_parallel", StepRole::kWhite, "white_d65_parallel"));
+    plan.steps.insert(after("subject_d65"), parallel_d65("subject_d65_parallel", StepRole::kSubject, "white_d65_parallel"));
+  }
   return plan;
 }
 
@@ -203,6 +259,8 @@ nlohmann::json to_json(const SessionPlan& plan) {
     if (!step.prompt.empty()) s["prompt"] = step.prompt;
     if (step.meter_white_share > 0) s["meter_white_share"] = step.meter_white_share;
     if (!step.exposure_from.empty()) s["exposure_from"] = step.exposure_from;
+    if (step.polarisation != drivers::Polarisation::kUnpolarised)
+      s["polarisation"] = drivers::polarisation_name(step.polarisation);
     switch (step.illumination.kind) {
       case Illumination::Kind::kDark: s["illumination"] = {{"dark", true}}; break;
       case Illumination::Kind::kMix: s["illumination"] = {{"mix", step.illumination.mix}}; break;
@@ -256,6 +314,15 @@ SessionPlan plan_from_json(const nlohmann::json& json) {
         step.meter_white_share = share.get<double>();
       }
       step.exposure_from = s.value("exposure_from", "");
+      if (s.contains("polarisation")) {
+        const std::string text = s.at("polarisation").get<std::string>();
+        const std::optional<drivers::Polarisation> polarisation = parse_polarisation(text);
+        if (!polarisation)
+          throw std::invalid_argument("session plan: steps[" + std::to_string(plan.steps.size()) +
+                                      "].polarisation: \"" + text.substr(0, 64) +
+                                      "\" is not unpolarised, cross or parallel");
+        step.polarisation = *polarisation;
+      }
       const auto& illumination = s.at("illumination");
       if (illumination.contains("mix")) {
         step.illumination.kind = Illumination::Kind::kMix;

@@ -4,9 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <utility>
 
 #include "chromo/drivers/led/led_hid_protocol.hpp"
+#include "device_polarisation_word.hpp"
 
 namespace chromo::simulators {
 
@@ -33,8 +35,15 @@ void append_text(std::vector<std::uint8_t>& out, const std::string& text) {
     out.push_back(i < static_cast<int>(text.size()) ? static_cast<std::uint8_t>(text[i]) : 0);
 }
 
-drivers::LedState state_at(std::span<const std::uint8_t> payload) {
+// A 17-byte state is unpolarised; a 19-byte one carries the polarisation
+// word in bytes 17-18. nullopt for a word the firmware refuses.
+std::optional<drivers::LedState> state_at(std::span<const std::uint8_t> payload) {
   drivers::LedState state;
+  if (payload.size() == hid::kPolarisedStatePayloadSize) {
+    const auto polarisation = device_polarisation::read_word(u16_at(payload, hid::kStatePayloadSize));
+    if (!polarisation) return std::nullopt;
+    state.polarisation = *polarisation;
+  }
   if (payload[0] != hid::kAllZones) state.zone = payload[0];
   state.pwm_frequency_hz = u32_at(payload, 1);
   for (int i = 0; i < spectral::kLedTypeCount; ++i) state.drive[i] = u16_at(payload, 5 + 2 * i) / 65535.0;
@@ -47,6 +56,7 @@ std::uint8_t status_of(LabResult result) {
     case LabResult::kOutOfRange: return hid::kOutOfRange;
     case LabResult::kBadState: return hid::kBadState;
     case LabResult::kFault: return hid::kFault;
+    case LabResult::kBadPolarisation: return hid::kBadPolarisation;
   }
   return hid::kBadState;
 }
@@ -98,6 +108,12 @@ std::vector<std::uint8_t> HidLedDevice::handle(std::span<const std::uint8_t> rep
       status = hid::kBadLength;
       return false;
     };
+    // A state after `prefix` bytes: 17 bytes, or 19 on a sphere with polarisers.
+    const bool polarised = lab_.info().has_polarisers();
+    auto need_state = [&](std::size_t prefix) {
+      if (polarised && in.size() == prefix + hid::kPolarisedStatePayloadSize) return true;
+      return need(prefix + hid::kStatePayloadSize);
+    };
     switch (command) {
       case hid::kGetInfo:
         if (need(0)) {
@@ -111,10 +127,14 @@ std::vector<std::uint8_t> HidLedDevice::handle(std::span<const std::uint8_t> rep
           payload.push_back(static_cast<std::uint8_t>(lab_.options().firmware_minor));
           append_text(payload, info.model);
           append_text(payload, info.serial);
+          if (info.has_polarisers()) payload.push_back(static_cast<std::uint8_t>(device_polarisation::bank_mask(info.polariser_banks)));
         }
         break;
       case hid::kSetState:
-        if (need(hid::kStatePayloadSize)) status = status_of(lab_.apply(state_at(in)));
+        if (need_state(0)) {
+          const std::optional<drivers::LedState> state = state_at(in);
+          status = state ? status_of(lab_.apply(*state)) : hid::kBadPolarisation;
+        }
         break;
       case hid::kGetStatus:
         if (need(0)) {
@@ -129,6 +149,7 @@ std::vector<std::uint8_t> HidLedDevice::handle(std::span<const std::uint8_t> rep
             append_u16(payload, static_cast<std::uint16_t>(static_cast<std::int16_t>(std::lround(t * 100))));
           for (std::uint32_t f : s.channel_faults) payload.push_back(static_cast<std::uint8_t>(f));
           append_u32(payload, s.trigger_pulses);
+          if (polarised) append_u16(payload, device_polarisation::write_word(s.applied.polarisation));
         }
         break;
       case hid::kSetOutput:
@@ -152,12 +173,15 @@ std::vector<std::uint8_t> HidLedDevice::handle(std::span<const std::uint8_t> rep
         }
         break;
       case hid::kSequenceState:
-        if (need(2 + hid::kStatePayloadSize)) {
+        if (need_state(2)) {
           std::size_t index = u16_at(in, 0);
+          const std::optional<drivers::LedState> state = state_at(in.subspan(2));
           if (index >= loading_.size()) {
             status = hid::kOutOfRange;
+          } else if (!state) {
+            status = hid::kBadPolarisation;
           } else {
-            loading_[index] = state_at(in.subspan(2));
+            loading_[index] = *state;
             loaded_[index] = true;
           }
         }

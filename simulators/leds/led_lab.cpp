@@ -13,8 +13,12 @@ using drivers::SequenceTrigger;
 
 LedLab::LedLab(LedLabOptions options) : options_(std::move(options)) {
   if (options_.zone_count < 1) options_.zone_count = 1;
+  std::string film_error;
+  if (!options_.polariser_film.IsValid(&film_error))
+    throw std::invalid_argument("LedLabOptions::polariser_film: " + film_error);
   for (int i = 0; i < spectral::kLedTypeCount; ++i) reference_[i] = load_reference_spectrum(options_.leds[i]);
   zone_drive_.assign(options_.zone_count, drivers::DriveLevels{});
+  zone_polarisation_.assign(options_.zone_count, drivers::PolarisationPerType{});
   pwm_frequency_hz_ = options_.drive_mode == DriveMode::kPwmDuty ? options_.initial_pwm_frequency_hz : 0.0;
   for (int i = 0; i < spectral::kLedTypeCount; ++i)
     temperature_C_[i] = options_.ambient_C + (options_.start_warm ? options_.leds[i].junction_rise_full_K : 0.0);
@@ -33,6 +37,7 @@ drivers::LedControllerInfo LedLab::info() const {
     info.min_pwm_frequency_hz = options_.min_pwm_frequency_hz;
     info.max_pwm_frequency_hz = options_.max_pwm_frequency_hz;
   }
+  info.polariser_banks = options_.polariser_banks;
   return info;
 }
 
@@ -79,10 +84,19 @@ drivers::LedStatus LedLab::status() const {
   return status;
 }
 
+bool LedLab::polarisation_allowed(const LedState& state) const {
+  for (int i = 0; i < spectral::kLedTypeCount; ++i)
+    if (static_cast<int>(state.polarisation[i]) >= drivers::kPolarisationCodeCount ||
+        (state.polarisation[i] != drivers::Polarisation::kUnpolarised && !options_.polariser_banks[i]))
+      return false;
+  return true;
+}
+
 LabResult LedLab::apply_locked(const LedState& state) {
   for (double level : state.drive)
     if (!(level >= 0 && level <= 1)) return LabResult::kOutOfRange;
   if (state.zone && (*state.zone < 0 || *state.zone >= options_.zone_count)) return LabResult::kOutOfRange;
+  if (!polarisation_allowed(state)) return LabResult::kBadPolarisation;
   if (state.pwm_frequency_hz != 0) {
     if (options_.drive_mode != DriveMode::kPwmDuty) return LabResult::kOutOfRange;
     if (state.pwm_frequency_hz < options_.min_pwm_frequency_hz || state.pwm_frequency_hz > options_.max_pwm_frequency_hz)
@@ -95,9 +109,20 @@ LabResult LedLab::apply_locked(const LedState& state) {
   update_thermal_locked();  // temperatures up to now under the old drive
   if (state.pwm_frequency_hz != 0) pwm_frequency_hz_ = state.pwm_frequency_hz;
   for (int z = 0; z < options_.zone_count; ++z)
-    if (!state.zone || *state.zone == z) zone_drive_[z] = state.drive;
+    if (!state.zone || *state.zone == z) {
+      zone_drive_[z] = state.drive;
+      zone_polarisation_[z] = state.polarisation;
+    }
   last_applied_ = state;
   return LabResult::kOk;
+}
+
+drivers::PolarisationPerType LedLab::polarisation_in_zone(int zone) const {
+  std::lock_guard lock(mutex_);
+  if (zone < 0 || zone >= options_.zone_count)
+    throw std::out_of_range("LedLab::polarisation_in_zone: zone " + std::to_string(zone) + " of " +
+                            std::to_string(options_.zone_count));
+  return zone_polarisation_[zone];
 }
 
 LabResult LedLab::apply(const LedState& state) {
@@ -119,6 +144,8 @@ bool LedLab::output_enabled() const {
 LabResult LedLab::arm(const std::vector<LedState>& states, SequenceTrigger trigger) {
   std::lock_guard lock(mutex_);
   if (states.empty() || static_cast<int>(states.size()) > options_.sequence_capacity) return LabResult::kOutOfRange;
+  for (const LedState& state : states)
+    if (!polarisation_allowed(state)) return LabResult::kBadPolarisation;
   LabResult first = apply_locked(states.front());
   if (first != LabResult::kOk) return first;
   sequence_ = states;
@@ -256,11 +283,13 @@ std::vector<LedLab::Emission> LedLab::emissions_locked(int type) const {
   double thermal_flux = std::max(0.0, 1.0 - p.flux_loss_per_K * delta_T);
   double common_shift = p.peak_shift_nm_per_K * delta_T + peak_shift_nm_[type];
   double zone_weight = 1.0 / options_.zone_count;
-  for (const auto& drive : zone_drive_) {
-    double level = drive[type];
+  for (std::size_t zone = 0; zone < zone_drive_.size(); ++zone) {
+    double level = zone_drive_[zone][type];
     if (level <= 0) continue;
     Emission e;
     e.shift_nm = common_shift;
+    if (options_.polariser_banks[type])
+      e.filtered_banks = zone_polarisation_[zone][type] == drivers::Polarisation::kUnpolarised ? 2 : 1;
     double electrical = level;
     if (options_.drive_mode == DriveMode::kConstantCurrent) {
       electrical *= (1.0 - p.droop * level) / (1.0 - p.droop);
@@ -272,12 +301,17 @@ std::vector<LedLab::Emission> LedLab::emissions_locked(int type) const {
   return emissions;
 }
 
+double LedLab::film_factor(const Emission& e, double wavelength_nm) const {
+  return e.filtered_banks == 0 ? 1.0 : e.filtered_banks * options_.polariser_film.transmission_at(wavelength_nm);
+}
+
 double LedLab::irradiance_at_nm(double wavelength_nm) const {
   std::lock_guard lock(mutex_);
   update_thermal_locked();
   double sum = 0;
   for (int i = 0; i < spectral::kLedTypeCount; ++i)
-    for (const Emission& e : emissions_locked(i)) sum += e.scale * reference_[i].at(wavelength_nm - e.shift_nm);
+    for (const Emission& e : emissions_locked(i))
+      sum += e.scale * reference_[i].at(wavelength_nm - e.shift_nm) * film_factor(e, wavelength_nm);
   return sum;
 }
 
@@ -289,8 +323,12 @@ spectral::Spectrum LedLab::irradiance_now() const {
     for (const Emission& e : emissions_locked(i)) {
       std::vector<double> shifted(reference_[i].wavelength_nm);
       for (double& nm : shifted) nm += e.shift_nm;
-      total += e.scale * spectral::resample_to_grid(shifted, reference_[i].value,
-                                                    options_.leds[i].spectrum_file, spectral::OutsideRange::kZero);
+      spectral::Spectrum emitted = e.scale * spectral::resample_to_grid(shifted, reference_[i].value,
+                                                                        options_.leds[i].spectrum_file,
+                                                                        spectral::OutsideRange::kZero);
+      if (e.filtered_banks > 0)
+        for (int k = 0; k < spectral::kGridSize; ++k) emitted[k] *= film_factor(e, spectral::grid_wavelength_nm(k));
+      total += emitted;
     }
   return total;
 }

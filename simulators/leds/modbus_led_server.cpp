@@ -15,10 +15,12 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <optional>
 #include <stdexcept>
 #include <vector>
 
 #include "chromo/drivers/led/led_modbus_map.hpp"
+#include "device_polarisation_word.hpp"
 
 namespace chromo::simulators {
 
@@ -67,9 +69,14 @@ void put_u32(std::uint16_t* registers, double value) {
   registers[1] = static_cast<std::uint16_t>(v & 0xFFFF);
 }
 
-// The device's reading of a state block: drive[6], zone, PWM high, PWM low.
-drivers::LedState read_state(const std::uint16_t* registers) {
+// The device's reading of a state block: drive[6], zone, PWM high, PWM low,
+// and the polarisation word (the staging block's 0x000E, or the table
+// entry's tenth register); nullopt for a word the firmware refuses.
+std::optional<drivers::LedState> read_state(const std::uint16_t* registers, std::uint16_t polarisation_word) {
+  const auto polarisation = device_polarisation::read_word(polarisation_word);
+  if (!polarisation) return std::nullopt;
   drivers::LedState state;
+  state.polarisation = *polarisation;
   for (int i = 0; i < spectral::kLedTypeCount; ++i) state.drive[i] = registers[i] / 65535.0;
   if (registers[6] != map::kAllZones) state.zone = registers[6];
   state.pwm_frequency_hz = (std::uint32_t(registers[7]) << 16) | registers[8];
@@ -82,6 +89,7 @@ std::uint16_t result_code(LabResult result) {
     case LabResult::kOutOfRange: return map::kResultOutOfRange;
     case LabResult::kBadState: return map::kResultBadState;
     case LabResult::kFault: return map::kResultFault;
+    case LabResult::kBadPolarisation: return map::kResultBadPolarisation;
   }
   return map::kResultBadState;
 }
@@ -104,6 +112,7 @@ ModbusLedServer::ModbusLedServer(LedLab& lab) : lab_(lab), impl_(std::make_uniqu
       static_cast<std::uint16_t>(lab_.options().firmware_major << 8 | lab_.options().firmware_minor);
   put_ascii(&in[map::kInSerial], 8, info.serial);
   put_ascii(&in[map::kInModel], 8, info.model);
+  in[map::kInPolariserBanks] = device_polarisation::bank_mask(info.polariser_banks);
   impl_->mapping->tab_registers[map::kHoldZone] = map::kAllZones;
 }
 
@@ -234,6 +243,7 @@ void ModbusLedServer::handle_request(const unsigned char* query, int length) {
   in[map::kInControllerFaults] = static_cast<std::uint16_t>(status.controller_faults);
   in[map::kInCommandResult] = impl.result;
   put_u32(&in[map::kInTriggerPulsesHigh], status.trigger_pulses);
+  in[map::kInAppliedPolarisation] = device_polarisation::write_word(status.applied.polarisation);
   impl.mapping->tab_bits[map::kCoilOutputEnable] = status.output_enabled ? 1 : 0;
 
   if (modbus_reply(impl.ctx, query, length, impl.mapping) < 0) return;
@@ -247,7 +257,11 @@ void ModbusLedServer::handle_request(const unsigned char* query, int length) {
     impl.last_command_sequence = hold[map::kHoldCommandSequence];
     LabResult result = LabResult::kOk;
     switch (hold[map::kHoldCommandCode]) {
-      case map::kCommandApplyState: result = lab_.apply(read_state(hold)); break;
+      case map::kCommandApplyState: {
+        const std::optional<drivers::LedState> state = read_state(hold, hold[map::kHoldPolarisation]);
+        result = state ? lab_.apply(*state) : LabResult::kBadPolarisation;
+        break;
+      }
       case map::kCommandArmSequence: {
         int count = hold[map::kHoldSequenceLength];
         int trigger = hold[map::kHoldSequenceTrigger];
@@ -256,7 +270,16 @@ void ModbusLedServer::handle_request(const unsigned char* query, int length) {
           break;
         }
         std::vector<drivers::LedState> states;
-        for (int k = 0; k < count; ++k) states.push_back(read_state(&hold[map::kHoldSequenceTable + k * map::kSequenceStride]));
+        for (int k = 0; k < count; ++k) {
+          const std::uint16_t* entry = &hold[map::kHoldSequenceTable + k * map::kSequenceStride];
+          const std::optional<drivers::LedState> state = read_state(entry, entry[map::kSequencePolarisationOffset]);
+          if (!state) break;
+          states.push_back(*state);
+        }
+        if (static_cast<int>(states.size()) < count) {
+          result = LabResult::kBadPolarisation;
+          break;
+        }
         result = lab_.arm(states, trigger == map::kTriggerHardwareEdge ? drivers::SequenceTrigger::kHardwareRisingEdge
                                   : trigger == map::kTriggerSoftware     ? drivers::SequenceTrigger::kSoftware
                                                                          : drivers::SequenceTrigger::kTriggerOutput);

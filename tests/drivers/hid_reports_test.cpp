@@ -41,11 +41,43 @@ TEST(HidReports, SetStateCommandMatchesTheDocumentedLayout) {
   state.drive = {1.0, 0.5, 0, 0, 0, 0};
   state.pwm_frequency_hz = 1000;
   state.zone = 2;
-  Bytes report = hr::encode_command(0x2A, 0x02, hr::encode_state_payload(state));
+  Bytes report = hr::encode_command(0x2A, 0x02, hr::encode_state_payload(state, false));
   // docs/protocols/led-hid.md, "Example": id, seq, command, length 17, zone,
   // 1000 Hz = E8 03 00 00, W57 = FF FF, W40 = 80 00 (32768), rest zero.
   Bytes expected = reply_report({0x01, 0x2A, 0x02, 17, 0x02, 0xE8, 0x03, 0x00, 0x00, 0xFF, 0xFF, 0x00, 0x80});
   EXPECT_EQ(report, expected);
+}
+
+TEST(HidReports, PolarisedStateStatusAndInfoFollowTheDocumentedLayout) {
+  drivers::LedState state;
+  state.polarisation[0] = drivers::Polarisation::kCross;     // W57: bits 0-1 = 1
+  state.polarisation[5] = drivers::Polarisation::kParallel;  // B: bits 10-11 = 2
+  const Bytes plain = hr::encode_state_payload(state, false);
+  const Bytes polarised = hr::encode_state_payload(state, true);
+  ASSERT_EQ(plain.size(), 17u);
+  ASSERT_EQ(polarised.size(), 19u);
+  EXPECT_EQ(Bytes(polarised.begin(), polarised.begin() + 17), plain);
+  EXPECT_EQ(polarised[17], 0x01);
+  EXPECT_EQ(polarised[18], 0x08);
+
+  Bytes status(46, 0);
+  status[44] = 0x01, status[45] = 0x08;
+  EXPECT_EQ(hr::parse_status_payload(status, "dev").applied.polarisation, state.polarisation);
+  EXPECT_EQ(hr::parse_status_payload(Bytes(44, 0), "dev").applied.polarisation, drivers::PolarisationPerType{});
+  std::string message;
+  status[45] = 0x10;  // bit 12
+  EXPECT_EQ(kind_of([&] { hr::parse_status_payload(status, "dev"); }, &message), DeviceError::Kind::kProtocol);
+  EXPECT_NE(message.find("bytes 44-45"), std::string::npos) << message;
+  EXPECT_EQ(kind_of([&] { hr::parse_status_payload(Bytes(45, 0), "dev"); }, &message), DeviceError::Kind::kProtocol);
+  EXPECT_NE(message.find("expected 44 or, with polarisers, 46"), std::string::npos) << message;
+
+  Bytes info(47, 0);
+  info[1] = 1;
+  info[46] = 0x3F;
+  EXPECT_TRUE(hr::parse_info_payload(info, "dev").has_polarisers());
+  info[46] = 0x40;
+  EXPECT_EQ(kind_of([&] { hr::parse_info_payload(info, "dev"); }, &message), DeviceError::Kind::kProtocol);
+  EXPECT_NE(message.find("byte 46"), std::string::npos) << message;
 }
 
 TEST(HidReports, ParsesAReply) {

@@ -78,4 +78,36 @@ TEST(ModbusRegisters, DecodesTheStatusBlock) {
 }
 
 }  // namespace
+TEST(ModbusRegisters, DecodesThePolarisationRegistersAndRefusesBadOnes) {
+  auto info_registers = good_info();
+  EXPECT_FALSE(decode_info_registers(info_registers, "dev").has_polarisers());  // 0: no polarisers
+  info_registers[kInPolariserBanks] = 0x21;  // W57 and B
+  const LedControllerInfo info = decode_info_registers(info_registers, "dev");
+  EXPECT_EQ(info.polariser_banks, (std::array<bool, kLedTypeCount>{true, false, false, false, false, true}));
+  info_registers[kInPolariserBanks] = 0x40;
+  try {
+    decode_info_registers(info_registers, "dev");
+    ADD_FAILURE() << "bank bit 6 accepted";
+  } catch (const DeviceError& e) {
+    EXPECT_EQ(e.kind(), DeviceError::Kind::kProtocol);
+    EXPECT_NE(std::string(e.what()).find("input register 0x0009"), std::string::npos) << e.what();
+  }
+  std::vector<std::uint16_t> r(kInStatusCount, 0);
+  r[kInAppliedPolarisation - kInStatusFirst] = 0x0809;  // W57 cross, W40 parallel, B parallel
+  const PolarisationPerType applied = decode_status_registers(r, "dev").status.applied.polarisation;
+  EXPECT_EQ(applied, (PolarisationPerType{Polarisation::kCross, Polarisation::kParallel, Polarisation::kUnpolarised,
+                                          Polarisation::kUnpolarised, Polarisation::kUnpolarised,
+                                          Polarisation::kParallel}));
+  for (std::uint16_t bad : {std::uint16_t{0x0003}, std::uint16_t{0x0C00}, std::uint16_t{0x1000}}) {
+    r[kInAppliedPolarisation - kInStatusFirst] = bad;
+    try {
+      decode_status_registers(r, "dev");
+      ADD_FAILURE() << bad;
+    } catch (const DeviceError& e) {
+      EXPECT_EQ(e.kind(), DeviceError::Kind::kProtocol);
+      EXPECT_NE(std::string(e.what()).find("input register 0x003E"), std::string::npos) << e.what();
+    }
+  }
+}
+
 }  // namespace chromo::drivers::led_modbus

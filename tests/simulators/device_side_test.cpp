@@ -6,6 +6,7 @@
 
 #include <modbus/modbus.h>
 
+#include <optional>
 #include <vector>
 
 #include "chromo/drivers/device_error.hpp"
@@ -109,6 +110,140 @@ TEST(ModbusLedServer, FireTriggerRefusesBadWidthsAndCountsGoodPulses) {
   EXPECT_EQ(sim.lab().status().sequence_position, -1);
   modbus_close(ctx);
   modbus_free(ctx);
+}
+
+// ---- Polarisation (docs/polarisation.md): the device's own reading of the fields ----
+
+LedLabOptions polarised_sphere() {  // banks for every LED type but red (index 3)
+  LedLabOptions options;
+  options.polariser_banks.fill(true);
+  options.polariser_banks[3] = false;
+  return options;
+}
+
+// Writes the staging block 0x0000-0x000E (W57 at `w57_level`, all zones,
+// PWM 0, APPLY_STATE, `sequence`, polarisation word) and returns the result code.
+int modbus_apply(modbus_t* ctx, std::uint16_t w57_level, std::uint16_t sequence, std::uint16_t polarisation_word) {
+  std::vector<std::uint16_t> block(15, 0);
+  block[0] = w57_level;
+  block[6] = 0xFFFF;
+  block[9] = 1;
+  block[10] = sequence;
+  block[14] = polarisation_word;
+  EXPECT_EQ(modbus_write_registers(ctx, 0, 15, block.data()), 15);
+  std::uint16_t status[4] = {};
+  EXPECT_EQ(modbus_read_input_registers(ctx, 0x0029, 4, status), 4);
+  EXPECT_EQ(status[0], sequence);
+  return status[3];
+}
+
+TEST(ModbusLedServer, RefusesBadPolarisationWordsWithResultFiveAndChangesNothing) {
+  LedControllerSimulator sim(polarised_sphere());
+  modbus_t* ctx = modbus_new_tcp("127.0.0.1", sim.start_modbus_tcp());
+  ASSERT_NE(ctx, nullptr);
+  ASSERT_EQ(modbus_connect(ctx), 0);
+  std::uint16_t banks = 0;
+  ASSERT_EQ(modbus_read_input_registers(ctx, 0x0009, 1, &banks), 1);
+  EXPECT_EQ(banks, 0x37);  // W57, W40, W27, G, B
+  EXPECT_EQ(modbus_apply(ctx, 1000, 1, 0x0001 | 0x0800), 0);  // W57 cross, B parallel
+  const drivers::PolarisationPerType applied = sim.lab().polarisation_in_zone(0);
+  EXPECT_EQ(applied[0], drivers::Polarisation::kCross);
+  EXPECT_EQ(applied[5], drivers::Polarisation::kParallel);
+  std::uint16_t word = 0;
+  ASSERT_EQ(modbus_read_input_registers(ctx, 0x003E, 1, &word), 1);
+  EXPECT_EQ(word, 0x0801);
+  EXPECT_EQ(modbus_apply(ctx, 2000, 2, 0x0003), 5);  // code 3 for W57
+  EXPECT_EQ(modbus_apply(ctx, 2000, 3, 0x1000), 5);  // bit 12
+  EXPECT_EQ(modbus_apply(ctx, 2000, 4, 0x0040), 5);  // red cross: red has no bank
+  EXPECT_NEAR(sim.lab().status().applied.drive[0], 1000 / 65535.0, 1e-12);  // nothing changed
+  EXPECT_EQ(sim.lab().polarisation_in_zone(0), applied);
+  // A sequence table entry's tenth register is its polarisation word.
+  std::vector<std::uint16_t> entry{1000, 0, 0, 0, 0, 0, 0xFFFF, 0, 0, 0x0003};
+  ASSERT_EQ(modbus_write_registers(ctx, 0x0100, 10, entry.data()), 10);
+  EXPECT_EQ(modbus_result(ctx, {2, 5, 1, 1, 0}), 5);
+  EXPECT_EQ(sim.lab().status().sequence_position, -1);
+  modbus_close(ctx);
+  modbus_free(ctx);
+}
+
+TEST(ModbusLedServer, VersionOneClientGetsUnpolarisedLight) {
+  for (bool polarised : {false, true}) {
+    LedControllerSimulator sim(polarised ? polarised_sphere() : LedLabOptions{});
+    modbus_t* ctx = modbus_new_tcp("127.0.0.1", sim.start_modbus_tcp());
+    ASSERT_NE(ctx, nullptr);
+    ASSERT_EQ(modbus_connect(ctx), 0);
+    std::uint16_t banks = 0xAAAA;
+    ASSERT_EQ(modbus_read_input_registers(ctx, 0x0009, 1, &banks), 1);
+    EXPECT_EQ(banks, polarised ? 0x37 : 0);
+    // The version-1 write: 0x0000-0x000A only.
+    std::vector<std::uint16_t> block{30000, 0, 0, 0, 0, 0, 0xFFFF, 0, 0, 1, 7};
+    ASSERT_EQ(modbus_write_registers(ctx, 0, 11, block.data()), 11);
+    std::uint16_t status[31] = {};
+    ASSERT_EQ(modbus_read_input_registers(ctx, 0x0020, 31, status), 31);
+    EXPECT_EQ(status[0x29 - 0x20], 7);  // acknowledged
+    EXPECT_EQ(status[0x2C - 0x20], 0);  // OK
+    EXPECT_EQ(status[0], 30000);
+    EXPECT_EQ(status[0x3E - 0x20], 0);  // unpolarised
+    EXPECT_EQ(sim.lab().polarisation_in_zone(0), drivers::PolarisationPerType{});
+    if (!polarised) EXPECT_EQ(modbus_apply(ctx, 1000, 8, 0x0001), 5);  // cross without polarisers
+    modbus_close(ctx);
+    modbus_free(ctx);
+  }
+}
+
+// Sends a command report and returns the whole reply.
+Bytes hid_reply(HidLedDevice& device, const Bytes& report) {
+  device.write_report(report);
+  Bytes reply(128);
+  EXPECT_EQ(device.read_report(reply, 10), 64u);
+  reply.resize(64);
+  return reply;
+}
+
+Bytes hid_state(std::uint16_t w57_level, std::optional<std::uint16_t> polarisation_word) {
+  Bytes payload{0xFF, 0, 0, 0, 0, static_cast<std::uint8_t>(w57_level & 0xFF), static_cast<std::uint8_t>(w57_level >> 8)};
+  payload.resize(17, 0);
+  if (polarisation_word) {
+    payload.push_back(static_cast<std::uint8_t>(*polarisation_word & 0xFF));
+    payload.push_back(static_cast<std::uint8_t>(*polarisation_word >> 8));
+  }
+  return payload;
+}
+
+TEST(HidLedDevice, SphereWithoutPolarisersAnswersTheVersionOneLayout) {
+  LedControllerSimulator sim;
+  auto device = sim.make_hid_transport();
+  EXPECT_EQ(hid_reply(*device, command(0x01, {}))[4], 46);  // info: no polariser bank byte
+  EXPECT_EQ(hid_reply(*device, command(0x03, {}))[4], 44);  // status: no polarisation word
+  EXPECT_EQ(hid_status(*device, command(0x02, hid_state(1000, 0))), 0x02);  // 19 bytes: bad length, as before
+  EXPECT_EQ(hid_status(*device, command(0x02, hid_state(1000, std::nullopt))), 0x00);
+  EXPECT_NEAR(sim.lab().status().applied.drive[0], 1000 / 65535.0, 1e-12);
+}
+
+TEST(HidLedDevice, PolarisedSphereTakesTheWordAndRefusesBadOnesWithStatusSeven) {
+  LedControllerSimulator sim(polarised_sphere());
+  auto device = sim.make_hid_transport();
+  Bytes info = hid_reply(*device, command(0x01, {}));
+  ASSERT_EQ(info[4], 47);
+  EXPECT_EQ(info[5 + 46], 0x37);
+  EXPECT_EQ(hid_status(*device, command(0x02, hid_state(1000, 0x0802))), 0x00);  // W57 parallel, B parallel
+  EXPECT_EQ(sim.lab().polarisation_in_zone(0)[0], drivers::Polarisation::kParallel);
+  Bytes status = hid_reply(*device, command(0x03, {}));
+  ASSERT_EQ(status[4], 46);
+  EXPECT_EQ(status[5 + 44] | status[5 + 45] << 8, 0x0802);
+  EXPECT_EQ(hid_status(*device, command(0x02, hid_state(2000, 0x0003))), 0x07);  // code 3
+  EXPECT_EQ(hid_status(*device, command(0x02, hid_state(2000, 0x8000))), 0x07);  // bit 15
+  EXPECT_EQ(hid_status(*device, command(0x02, hid_state(2000, 0x0080))), 0x07);  // red parallel: no bank
+  Bytes sequence_state{0, 0};
+  Bytes bad = hid_state(2000, 0x0003);
+  sequence_state.insert(sequence_state.end(), bad.begin(), bad.end());
+  EXPECT_EQ(hid_status(*device, command(0x05, {1, 0, 1})), 0x00);
+  EXPECT_EQ(hid_status(*device, command(0x06, sequence_state)), 0x07);
+  EXPECT_EQ(hid_status(*device, command(0x07, {})), 0x04);  // the bad state was not loaded
+  EXPECT_NEAR(sim.lab().status().applied.drive[0], 1000 / 65535.0, 1e-12);  // nothing changed
+  EXPECT_EQ(sim.lab().polarisation_in_zone(0)[0], drivers::Polarisation::kParallel);
+  EXPECT_EQ(hid_status(*device, command(0x02, hid_state(3000, std::nullopt))), 0x00);  // 17 bytes: unpolarised
+  EXPECT_EQ(sim.lab().polarisation_in_zone(0), drivers::PolarisationPerType{});
 }
 
 TEST(UsbSpectrometerDevice, IgnoresMalformedCommandsLikeTheDevice) {

@@ -43,15 +43,44 @@ struct LedControllerInfo {
   int sequence_capacity = 0;        // max states in a hardware-timed sequence
   double min_pwm_frequency_hz = 0;  // only for kPwmDuty
   double max_pwm_frequency_hz = 0;
+  // LED types with a cross and a parallel bank (docs/polarisation.md); all
+  // false on a sphere without polarisers, which accepts only kUnpolarised.
+  std::array<bool, kLedTypeCount> polariser_banks{};
+  bool has_polarisers() const {
+    for (bool bank : polariser_banks)
+      if (bank) return true;
+    return false;
+  }
 };
 
 // Drive levels of the six LED types, each in [0, 1].
 using DriveLevels = std::array<double, kLedTypeCount>;
 
+// Polarisation of an LED type's light relative to the cameras' fixed
+// analysers (docs/polarisation.md). A sphere with polarisers has, for each
+// LED type it lists in LedControllerInfo::polariser_banks, two banks: one
+// behind polarisers crossed to the analysers (kCross) and one behind
+// polarisers rotated by 90 degrees (kParallel). kUnpolarised drives an LED
+// type's only bank on a sphere without polarisers, and both banks at the
+// level on a sphere with them (their light adds up to unpolarised light).
+enum class Polarisation : std::uint8_t { kUnpolarised = 0, kCross = 1, kParallel = 2 };
+inline constexpr int kPolarisationCodeCount = 3;
+using PolarisationPerType = std::array<Polarisation, kLedTypeCount>;  // indexed by led_type_index()
+// "unpolarised", "cross", "parallel"; "unknown" for any other code.
+inline const char* polarisation_name(Polarisation polarisation) {
+  switch (polarisation) {
+    case Polarisation::kUnpolarised: return "unpolarised";
+    case Polarisation::kCross: return "cross";
+    case Polarisation::kParallel: return "parallel";
+  }
+  return "unknown";
+}
+
 struct LedState {
   DriveLevels drive{};            // indexed by led_type_index()
   double pwm_frequency_hz = 0;    // kPwmDuty devices; 0 = keep the current frequency
   std::optional<int> zone;        // nullopt = all zones
+  PolarisationPerType polarisation{};  // all kUnpolarised by default
 };
 
 // Fault bits per channel and for the whole controller.

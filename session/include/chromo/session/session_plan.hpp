@@ -48,6 +48,10 @@ struct Step {
   std::string prompt;  // non-empty: pause before the step until resumed
   double meter_white_share = 0;  // (0, 1]: meter this white step (0: exposure_us as given)
   std::string exposure_from;     // the earlier metered white step whose exposure this step uses
+  // The light's polarisation (docs/polarisation.md), for every LED type of the
+  // step's state; JSON "polarisation", absent = unpolarised. A plan's lit steps
+  // are either cross or unpolarised; parallel steps may join either.
+  drivers::Polarisation polarisation = drivers::Polarisation::kUnpolarised;
   bool metered() const { return meter_white_share > 0 || !exposure_from.empty(); }
 };
 
@@ -75,6 +79,11 @@ struct StandardPlanOptions {
   // > 0: the W57+blue mix is "w57+blue:R" and W57 "w57:R" with R = blue_ratio
   // (the blue LED's camera-B response R times W57's); 0: "w57+blue" and "w57".
   double blue_ratio = 0;
+  // A sphere with polariser banks (docs/polarisation.md): every lit step
+  // cross-polarised (the skin model's diffuse light), then one parallel
+  // capture of the broadband light (white_d65_parallel, subject_d65_parallel:
+  // parallel − cross is the surface layer). false: the unpolarised plan of before.
+  bool polarised = false;
 };
 SessionPlan standard_plan(const StandardPlanOptions& options = {});
 
@@ -135,16 +144,22 @@ bool is_valid_mix(const std::string& mix);
 // subject step: the one rule of the capture builder, the rendered session
 // and the plan advisor.
 //   key:  the mix without its blue ratio ("d65", "w57", "w57+blue"), or the
-//         LED weights ("weights:0,0,0,0,0,1"); "" for a dark or unlit step
+//         LED weights ("weights:0,0,0,0,0,1"); "" for a dark or unlit step;
+//         ":parallel" appended for a parallel-polarised step, so a white
+//         reference pairs with subjects of its own polarisation state (cross
+//         and unpolarised steps are the method's captures and never meet in
+//         one plan)
 //   name: the mix without its ratio, or the step's name without its role's
-//         prefix ("subject_", "white_"); "" when the key is
+//         prefix ("subject_", "white_"); "" when the key is; " parallel"
+//         appended for a parallel step
 struct IlluminationState {
   std::string key;
   std::string name;
 };
 IlluminationState illumination_state(const Step& step);
 // A capture's name among a measurement's channel names: D65', W57 and
-// W57+blue for the method's mixes, else the state's name.
+// W57+blue for the method's mixes ("D65' parallel" for its parallel
+// capture), else the state's name.
 std::string capture_name(const IlluminationState& state);
 
 nlohmann::json to_json(const SessionPlan& plan);
@@ -152,5 +167,7 @@ nlohmann::json to_json(const SessionPlan& plan);
 SessionPlan plan_from_json(const nlohmann::json& json);
 std::string role_name(StepRole role);
 std::string timing_name(Timing timing);
+// "unpolarised", "cross", "parallel" (the plan's JSON values); nullopt for another text.
+std::optional<drivers::Polarisation> parse_polarisation(const std::string& text);
 
 }  // namespace chromo::session

@@ -17,7 +17,9 @@ namespace chromo::drivers::hid_reports {
 std::vector<std::uint8_t> encode_command(std::uint8_t sequence, std::uint8_t command,
                                          std::span<const std::uint8_t> payload);
 // Zone: nullopt → all zones. Levels are clamped to nothing: validate first.
-std::vector<std::uint8_t> encode_state_payload(const LedState& state);
+// With `polarised` (the sphere has polariser banks) the 19-byte state with
+// the polarisation word, else the 17-byte state of a sphere without them.
+std::vector<std::uint8_t> encode_state_payload(const LedState& state, bool polarised);
 
 struct Reply {
   std::uint8_t sequence = 0;

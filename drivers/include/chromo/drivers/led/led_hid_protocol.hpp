@@ -54,19 +54,28 @@ enum Status : std::uint8_t {
   kBadState = 0x04,       // e.g. arm before all states were loaded, advance when not armed
   kFault = 0x05,          // refused because of a controller fault (over-temperature)
   kMalformed = 0x06,      // report id, length byte or padding wrong
+  kBadPolarisation = 0x07,  // state payload bytes 17-18: code 3, bits 12-15, or cross/parallel without a bank
 };
 
 // State payload: [0] zone (or kAllZones), [1..4] PWM frequency Hz (u32, 0 = keep),
 // [5..16] six drive levels u16 (W57, W40, W27, R, G, B).
+// A sphere with polarisers also takes [17..18] the polarisation word (u16,
+// LED type i in bits 2i..2i+1: 0 unpolarised, 1 cross, 2 parallel); a
+// 17-byte state is unpolarised (docs/polarisation.md).
 inline constexpr int kStatePayloadSize = 17;
+inline constexpr int kPolarisedStatePayloadSize = 19;
 // Info payload: [0] drive mode (0 PWM, 1 constant current), [1] zone count,
 // [2..3] sequence capacity, [4..7] min PWM Hz, [8..11] max PWM Hz,
 // [12] firmware major, [13] firmware minor, [14..29] model, [30..45] serial.
+// A sphere with polarisers adds [46] the polariser bank mask (bit i: LED type i).
 inline constexpr int kInfoPayloadSize = 46;
+inline constexpr int kPolarisedInfoPayloadSize = 47;
 // Status payload: [0] output enabled, [1..2] sequence position (i16, -1 none),
 // [3..4] controller faults, [5] applied zone, [6..9] applied PWM Hz,
 // [10..21] applied drive u16 ×6, [22..33] temperatures i16 centi-°C ×6,
 // [34..39] channel fault bits u8 ×6, [40..43] trigger output pulses fired (u32).
+// A sphere with polarisers adds [44..45] the applied polarisation word (u16).
 inline constexpr int kStatusPayloadSize = 44;
+inline constexpr int kPolarisedStatusPayloadSize = 46;
 
 }  // namespace chromo::drivers::led_hid

@@ -27,11 +27,14 @@ inline constexpr int kHoldCommandSequence = 0x000A; // the device acts when this
 inline constexpr int kHoldSequenceLength = 0x000B;  // states in the sequence table (arm)
 inline constexpr int kHoldSequenceTrigger = 0x000C; // 0 hardware rising edge, 1 software, 2 own trigger output
 inline constexpr int kHoldTriggerPulseWidthUs = 0x000D;  // FIRE_TRIGGER: pulse width, us (1-10000)
-inline constexpr int kHoldStagingCount = 0x000E;    // registers 0x0000..0x000D
+inline constexpr int kHoldPolarisation = 0x000E;    // APPLY: polarisation word (2 bits per LED type, docs/polarisation.md)
+inline constexpr int kHoldStagingCount = 0x000F;    // registers 0x0000..0x000E
 // Sequence table: state k at kHoldSequenceTable + k * kSequenceStride:
-// drive[6], zone, pwm high, pwm low, reserved (0).
+// drive[6], zone, pwm high, pwm low, polarisation word (0 = unpolarised:
+// the register was reserved, written 0, before polarisers).
 inline constexpr int kHoldSequenceTable = 0x0100;
 inline constexpr int kSequenceStride = 10;
+inline constexpr int kSequencePolarisationOffset = 9;
 inline constexpr int kMaxSequenceStates = 64;
 inline constexpr int kHoldRegisterCount = kHoldSequenceTable + kSequenceStride * kMaxSequenceStates;
 
@@ -55,6 +58,7 @@ inline constexpr int kInSequenceCapacity = 0x0003;
 inline constexpr int kInMinPwmHzHigh = 0x0004;     // 2 registers
 inline constexpr int kInMaxPwmHzHigh = 0x0006;     // 2 registers
 inline constexpr int kInFirmwareVersion = 0x0008;  // major << 8 | minor
+inline constexpr int kInPolariserBanks = 0x0009;   // bit i: LED type i has a cross and a parallel bank; 0 = no polarisers
 inline constexpr int kInSerial = 0x0010;           // 8 registers: 16 ASCII bytes, high byte first, NUL padded
 inline constexpr int kInModel = 0x0018;            // 8 registers
 inline constexpr int kInInfoCount = 0x0020;        // info block: registers 0x0000..0x001F
@@ -69,8 +73,9 @@ inline constexpr int kInCommandResult = 0x002C;    // CommandResult of the last 
 inline constexpr int kInTriggerPulsesHigh = 0x002D; // 2 registers: pulses fired on the trigger output (u32)
 inline constexpr int kInTemperature0 = 0x0030;     // 6 registers, centi-°C, signed
 inline constexpr int kInChannelFaults0 = 0x0038;   // 6 registers, LedFault bits
-inline constexpr int kInStatusFirst = 0x0020;      // status block: 0x0020..0x003D
-inline constexpr int kInStatusCount = 0x001E;
+inline constexpr int kInAppliedPolarisation = 0x003E;  // polarisation word of the applied state
+inline constexpr int kInStatusFirst = 0x0020;      // status block: 0x0020..0x003E
+inline constexpr int kInStatusCount = 0x001F;
 inline constexpr int kInputRegisterCount = 0x0040;
 
 enum CommandResult : std::uint16_t {
@@ -79,7 +84,11 @@ enum CommandResult : std::uint16_t {
   kResultOutOfRange = 2,   // zone, PWM frequency, sequence length, trigger or pulse width outside the limits
   kResultBadState = 3,     // e.g. advance without an armed software sequence
   kResultFault = 4,        // refused: controller over-temperature
+  kResultBadPolarisation = 5,  // polarisation word: code 3, bits 12-15, or cross/parallel for a type without a bank
 };
+
+// Polarisation word: LED type i (W57, W40, W27, R, G, B) in bits 2i..2i+1.
+inline constexpr std::uint16_t kPolarisationUnpolarised = 0, kPolarisationCross = 1, kPolarisationParallel = 2;
 
 // ---- Coils (function codes 1, 5, 15) ----
 inline constexpr int kCoilOutputEnable = 0x0000;

@@ -43,6 +43,7 @@
 
 #include "chromo/drivers/led_controller.hpp"
 #include "chromo/simulators/leds/true_leds.hpp"
+#include "chromo/simulators/polarisation/polariser_optics.hpp"
 #include "chromo/simulators/sphere_illumination.hpp"
 
 namespace chromo::simulators {
@@ -62,12 +63,21 @@ struct LedLabOptions {
   std::string model = "CHROMO-LED6-SIM";
   std::string serial = "SIM-LED-0001";
   int firmware_major = 1, firmware_minor = 0;
+  // LED types with a cross and a parallel bank (docs/polarisation.md). None by
+  // default: a sphere without polarisers, which answers exactly as before.
+  std::array<bool, spectral::kLedTypeCount> polariser_banks{};
+  // The film in front of every bank (truth side): a bank emits its LEDs'
+  // light times the film's transmission of unpolarised light; the
+  // unpolarised state drives both banks (twice that). Types without banks
+  // emit as before.
+  PolariserFilm polariser_film;
   TrueLedSet leds = default_true_leds();
 };
 
 // What the firmware answers to a request (the front-ends translate it into
 // their protocol's result codes).
-enum class LabResult { kOk, kOutOfRange, kBadState, kFault };
+// kBadPolarisation: cross or parallel asked of an LED type without a polariser bank.
+enum class LabResult { kOk, kOutOfRange, kBadState, kFault, kBadPolarisation };
 
 class LedLab final : public SphereIllumination {
  public:
@@ -106,6 +116,9 @@ class LedLab final : public SphereIllumination {
   spectral::Spectrum irradiance_now() const override;
   double irradiance_at_nm(double wavelength_nm) const override;
   double junction_temperature_C(spectral::LedType type) const;
+  // The polarisation each LED type is driven with in `zone` (the truth the
+  // camera simulators render; docs/polarisation.md).
+  drivers::PolarisationPerType polarisation_in_zone(int zone) const;
   // Jumps every junction to its equilibrium for the present drive (a warm-up
   // without waiting).
   void settle_thermal();
@@ -118,10 +131,14 @@ class LedLab final : public SphereIllumination {
   struct Emission {  // one LED type in one zone, as it emits now
     double scale = 0;
     double shift_nm = 0;
+    int filtered_banks = 0;  // 0: no polariser film; 1 or 2 banks behind the film
   };
+  double film_factor(const Emission& e, double wavelength_nm) const;
   using Clock = std::chrono::steady_clock;
   void update_thermal_locked() const;
   LabResult apply_locked(const drivers::LedState& state);
+  // Every code known, and cross/parallel only for types with a polariser bank.
+  bool polarisation_allowed(const drivers::LedState& state) const;
   std::vector<Emission> emissions_locked(int type) const;
   double target_temperature_locked(int type) const;
   bool channel_emits_locked(int type) const;
@@ -130,6 +147,7 @@ class LedLab final : public SphereIllumination {
   std::array<FineSpectrum, spectral::kLedTypeCount> reference_;
   mutable std::mutex mutex_;
   std::vector<drivers::DriveLevels> zone_drive_;
+  std::vector<drivers::PolarisationPerType> zone_polarisation_;  // which bank each type drives, per zone
   drivers::LedState last_applied_;
   double pwm_frequency_hz_ = 0;
   bool output_enabled_ = false;
