@@ -197,6 +197,18 @@ session::OperationRecord Daemon::start_session(session::SessionPlan plan, const 
   auto* led = devices_.led_controller("", &led_error);
   if (!led) throw std::runtime_error("LED controller: " + led_error);
   if (devices_.cameras.empty()) throw std::runtime_error("no camera configured");
+  if (led->device) {  // polarised steps need polariser banks (docs/polarisation.md)
+    bool has_polarisers = false;
+    {
+      std::lock_guard device_lock(led->mutex);
+      has_polarisers = led->device->info().has_polarisers();
+    }
+    for (std::size_t i = 0; i < plan.steps.size() && !has_polarisers; ++i)
+      if (plan.steps[i].polarisation != drivers::Polarisation::kUnpolarised)
+        throw std::invalid_argument("plan.steps[" + std::to_string(i) + "].polarisation: " +
+                                    drivers::polarisation_name(plan.steps[i].polarisation) + ", but LED controller \"" +
+                                    led->config.name + "\" has no polariser banks (docs/polarisation.md)");
+  }
   if (plan.timing == session::Timing::kHardware && led->device) {
     // The controller holds the whole sequence: a resting state plus one state per frame.
     int capacity = 0;

@@ -17,6 +17,15 @@ using drivers::LedState;
 
 namespace {
 
+// A step's polarisation on the LED types it drives; undriven types stay
+// unpolarised (a type without polariser banks may then sit out a cross step).
+drivers::PolarisationPerType driven_polarisation(const DriveLevels& levels, drivers::Polarisation polarisation) {
+  drivers::PolarisationPerType per_type{};
+  for (std::size_t i = 0; i < levels.size(); ++i)
+    if (levels[i] > 0) per_type[i] = polarisation;
+  return per_type;
+}
+
 std::string frame_status_reason(drivers::FrameStatus status) {
   switch (status) {
     case drivers::FrameStatus::kMissingPackets: return "missing_packets";
@@ -109,7 +118,7 @@ class Run {
       if (!hardware) {
         LedState state;
         state.drive = levels;
-        state.polarisation.fill(step.polarisation);
+        state.polarisation = driven_polarisation(levels, step.polarisation);
         if (!with_led("set_state", [&](drivers::LedController& device) { device.set_state(state); })) return cancelled();
       }
       drivers::LedStatus status;
@@ -370,7 +379,7 @@ class Run {
     for (std::size_t s = step_index; s < c_.plan.steps.size(); ++s) {
       LedState state;
       state.drive = resolve(c_.plan.steps[s]);
-      state.polarisation.fill(c_.plan.steps[s].polarisation);
+      state.polarisation = driven_polarisation(state.drive, c_.plan.steps[s].polarisation);
       for (std::uint32_t f = (s == step_index ? frame : 0); f < c_.plan.steps[s].frames_per_camera; ++f)
         states.push_back(state);
     }

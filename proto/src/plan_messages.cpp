@@ -71,6 +71,11 @@ Status from_proto(const pb::SessionPlan& plan, const std::string& field, session
     step.frames_per_camera = s.frames_per_camera();
     step.meter_white_share = s.meter_white_share();
     step.exposure_from = s.exposure_from();
+    if (!pb::Polarisation_IsValid(s.polarisation()))
+      return {StatusCode::INVALID_ARGUMENT, step_field + ".polarisation: unknown value " + std::to_string(s.polarisation())};
+    step.polarisation = s.polarisation() == pb::POLARISATION_CROSS      ? drivers::Polarisation::kCross
+                        : s.polarisation() == pb::POLARISATION_PARALLEL ? drivers::Polarisation::kParallel
+                                                                        : drivers::Polarisation::kUnpolarised;
     step.prompt = s.prompt();
     out->steps.push_back(std::move(step));
   }
@@ -96,6 +101,9 @@ void to_proto(const session::SessionPlan& plan, pb::SessionPlan* out) {
     s->set_frames_per_camera(step.frames_per_camera);
     s->set_meter_white_share(step.meter_white_share);
     s->set_exposure_from(step.exposure_from);
+    s->set_polarisation(step.polarisation == drivers::Polarisation::kCross      ? pb::POLARISATION_CROSS
+                        : step.polarisation == drivers::Polarisation::kParallel ? pb::POLARISATION_PARALLEL
+                                                                                : pb::POLARISATION_UNPOLARISED);
     s->set_prompt(step.prompt);
   }
 }

@@ -353,6 +353,18 @@ TEST(Session, InvalidPlansAndUnknownMixesAreRefusedBeforeAnythingIsWritten) {
   auto plan = quick_standard_plan();
   plan.steps[1].settle_ms = 70000;
   EXPECT_THROW(daemon->start_session(plan, ""), std::invalid_argument);
+  auto cross = quick_standard_plan();  // the lab's sphere has no polariser banks
+  std::erase_if(cross.steps, [](const session::Step& step) { return step.illumination.mix == "w57+blue"; });
+  for (auto& step : cross.steps)
+    if (step.role != session::StepRole::kDark) step.polarisation = drivers::Polarisation::kCross;
+  try {
+    daemon->start_session(cross, "");
+    FAIL() << "accepted a cross-polarised plan on a sphere without polarisers";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_NE(std::string(error.what()).find("plan.steps[1].polarisation: cross, but LED controller"),
+              std::string::npos)
+        << error.what();
+  }
   EXPECT_TRUE(std::filesystem::is_empty(lab.config.sessions_dir));
 }
 

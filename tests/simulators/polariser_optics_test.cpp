@@ -81,7 +81,7 @@ TEST(PolarisedCapture, CrossIsDiffuseOnlyWithinTheExtinctionLeakAndParallelMinus
   EXPECT_NEAR(diffuse + cross[at_550] * surface, diffuse, 0.0016);
   // ... and (parallel − cross)/2 is the surface layer within 2% (1.96/2).
   EXPECT_NEAR((parallel[at_550] - cross[at_550]) * surface / 2, surface, 0.02 * surface);
-  // In the blue (1:20) the leak is 9.1% and the difference 18% short.
+  // In the blue (1:20) the cross capture keeps 0.181 of the surface layer and (parallel − cross)/2 is 18% short.
   EXPECT_NEAR(cross[at_400], 80.0 / 441.0, 1e-9);
   EXPECT_NEAR((parallel[at_400] - cross[at_400]) / 2, 361.0 / 441.0, 1e-9);
 }
