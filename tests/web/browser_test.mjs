@@ -41,6 +41,7 @@ const time = (name, started) => { figures[name] = Math.round(performance.now() -
 
 // Starts chromod; resolves with its web view's origin once it listens.
 let daemon = null;
+let browser = null;
 function startDaemon(port = 0) {
   daemon = spawn(chromod, ['--config', path.join(home, 'chromod.json'), '--socket', path.join(runDir, 'chromod.sock'),
     '--sessions-dir', path.join(home, 'sessions'), '--web', `127.0.0.1:${port}`],
@@ -74,6 +75,16 @@ async function api(service, method, body, headers = {}) {
   return { status: reply.status, json: await reply.json() };
 }
 
+// page.waitForFunction evaluates a string in the page, which the page's CSP
+// (no unsafe-eval) refuses: poll page.evaluate from here instead.
+async function waitUntil(page, predicate, argument, timeoutMs, what) {
+  const deadline = performance.now() + timeoutMs;
+  while (!(await page.evaluate(predicate, argument))) {
+    if (performance.now() > deadline) throw new Error(`timed out after ${timeoutMs} ms waiting for ${what}`);
+    await new Promise((resolve) => setTimeout(resolve, 100));
+  }
+}
+
 async function meanBrightness(page) {
   return page.evaluate(() => {
     const canvas = document.querySelector('canvas.picture');
@@ -85,8 +96,8 @@ async function meanBrightness(page) {
 }
 async function waitForNewFrames(page, count) {
   const before = Number(await page.locator('canvas.picture').getAttribute('data-frames') ?? 0);
-  await page.waitForFunction((target) => Number(document.querySelector('canvas.picture')?.dataset.frames ?? 0) >= target,
-    before + count, { timeout: 20000 });
+  await waitUntil(page, (target) => Number(document.querySelector('canvas.picture')?.dataset.frames ?? 0) >= target,
+    before + count, 20000, `${count} new preview frames`);
 }
 
 // Tab through the page: every visible control of nav and main must take the
@@ -130,7 +141,7 @@ async function main() {
   assert.equal(crossOrigin.status, 403, 'a cross-origin POST must be refused');
   console.log(`cross-origin POST refused: ${crossOrigin.status} ${crossOrigin.json.error}`);
 
-  const browser = await playwright.chromium.launch({ executablePath: chromium, headless: true, args: ['--no-sandbox'] });
+  browser = await playwright.chromium.launch({ executablePath: chromium, headless: true, args: ['--no-sandbox'] });
   const context = await browser.newContext({ viewport: { width: 1280, height: 800 } });
   const page = await context.newPage();
   page.on('pageerror', (error) => console.log(`[page error] ${error.message}`));
@@ -163,7 +174,7 @@ async function main() {
   await waitForNewFrames(page, 2);
   const setLeds = async (level, enabled) => {
     for (const label of ['W57 (cool white)', 'W40 (neutral white)', 'W27 (warm white)', 'Red', 'Green', 'Blue'])
-      await page.getByLabel(label).fill(String(level));
+      await page.getByLabel(label, { exact: true }).fill(String(level));
     await page.getByLabel('Output enabled').setChecked(enabled);
     await pressOn(page, page.getByRole('button', { name: 'Set LEDs' }), 'Enter');
     await page.getByText('LED state applied').waitFor();
@@ -183,7 +194,7 @@ async function main() {
   await page.getByText(/applied: exposure 5000 µs/).waitFor();
   const cameras = await api('CameraService', 'ListCameras', {});
   assert.equal(cameras.json.cameras[0].exposure_us, 5000);
-  await page.waitForFunction(() => document.querySelector('.facts')?.textContent.includes('5000 µs'), null, { timeout: 10000 });
+  await waitUntil(page, () => document.querySelector('.facts')?.textContent.includes('5000 µs'), null, 10000, 'a frame at 5000 µs');
   await page.screenshot({ path: path.join(screenshotDir, 'live.png') });
   await checkKeyboardAndWidth(page, 'live');
 
@@ -210,8 +221,8 @@ async function main() {
   await pressOn(page, page.getByRole('link', { name: 'Sessions' }), 'Enter');
   await page.getByRole('heading', { name: 'Start a session' }).waitFor();
   await page.getByRole('cell', { name: 'subject_d65' }).first().waitFor();
-  await page.getByLabel('Subject').fill('browser test forearm');
-  await page.getByLabel('Exposure (µs)').fill('10000');
+  await page.getByLabel('Subject', { exact: true }).fill('browser test forearm');
+  await page.getByLabel('Exposure (µs)', { exact: true }).fill('10000');
   started = performance.now();
   await pressOn(page, page.getByRole('button', { name: 'Start session' }), 'Enter');
   await page.getByText(/session .* started/).waitFor();
@@ -258,8 +269,8 @@ async function main() {
   }
   const filesRoute = await fetch(`${origin}/api/files/${sessionId}/results/summary.json`, { headers: { Cookie: cookie } });
   if (filesRoute.status === 200) {
-    await page.waitForFunction(() => [...document.querySelectorAll('.map img')].every((image) => image.complete && image.naturalWidth > 0),
-      null, { timeout: 20000 });
+    await waitUntil(page, () => [...document.querySelectorAll('.map img')].every((image) => image.complete && image.naturalWidth > 0),
+      null, 20000, 'the map previews');
     console.log('map previews shown');
   } else {
     console.log(`NOTE: GET /api/files answers ${filesRoute.status}: map pictures not checked (the backend's files route is not in this chromod)`);
@@ -310,6 +321,7 @@ try {
   console.error(`FAIL: ${error.stack ?? error}`);
   process.exitCode = 1;
 } finally {
+  if (browser) await browser.close().catch(() => {});
   await stopDaemon();
   rmSync(home, { recursive: true, force: true });
 }
