@@ -282,7 +282,10 @@ async function main() {
   await page.getByLabel('Illuminant').selectOption('D65');
   started = performance.now();
   await pressOn(page, page.getByRole('button', { name: 'Relight' }), 'Enter');
-  await page.waitForSelector('.relight-output[data-relit]', { timeout: 120000 });
+  await waitUntil(page, () => document.querySelector('.relight-output[data-relit]') ||
+    document.querySelector('.relight-message.error'), null, 120000, 'the relit figures');
+  const relightError = await page.locator('.relight-message.error').count();
+  assert.equal(relightError, 0, `relight refused: ${relightError && await page.locator('.relight-message').textContent()}`);
   time('relight_s', started);
   const shownRelight = JSON.parse(await page.locator('.relight-output').getAttribute('data-relit'));
   const camera = results.json.cameras[0];

@@ -44,20 +44,21 @@ export function field(labelText, control) {
 }
 
 // A region that says what went wrong (role=alert) or what happened (status).
-export function messageArea() {
-  const area = h('p', { class: 'message', role: 'status', 'aria-live': 'polite' });
+export function messageArea(name = '') {
+  const base = `message ${name}`.trim();
+  const area = h('p', { class: base, role: 'status', 'aria-live': 'polite' });
   return {
     element: area,
     error(error) {
-      area.className = 'message error';
+      area.className = `${base} error`;
       area.textContent = error?.code ? `${error.message} (${error.code})` : String(error?.message ?? error);
     },
     info(text) {
-      area.className = 'message info';
+      area.className = `${base} info`;
       area.textContent = text;
     },
     clear() {
-      area.className = 'message';
+      area.className = base;
       area.textContent = '';
     },
   };

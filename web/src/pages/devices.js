@@ -3,7 +3,7 @@
 // daemon's LED library (drive levels and figures of merit).
 import * as api from '../api.js';
 import { h, field, messageArea, table, enumName, formatNumber } from '../dom.js';
-import { barChart, colourOf } from '../plot.js';
+import { barChart, colourOf, linePlot } from '../plot.js';
 import { operationView } from '../operation.js';
 import { LED_CHANNELS } from './live.js';
 
@@ -32,12 +32,40 @@ function devicesSection() {
     h('button', { type: 'button', onclick: refresh }, 'Refresh devices'), message.element);
 }
 
+const LIBRARY_KEYS = { W57: 'w57', W40: 'w40', W27: 'w27', R: 'red', G: 'green', B: 'blue' };
+
+// The mix's spectrum (Σ weight × spectrum per unit drive) against the target,
+// D65 scaled to the mix's power (a D65' target); W57 mixes are shown alone.
+function mixSpectrumPlot(library, weights, target, title) {
+  const mix = library.wavelength_nm.map((_, i) => library.leds.reduce((sum, led) =>
+    sum + (weights[LIBRARY_KEYS[led.led]] ?? 0) * led.spectrum_per_unit_drive[i], 0));
+  const series = [{ name: 'mix', x: library.wavelength_nm, y: mix }];
+  if (target === 'd65') {
+    const mixPower = mix.reduce((a, b) => a + b, 0);
+    const d65Power = library.d65.reduce((a, b) => a + b, 0);
+    series.push({ name: 'target D65', x: library.wavelength_nm, y: library.d65.map((v) => (v * mixPower) / d65Power), dashed: true });
+  }
+  return linePlot(series, { title: `${title}: mix spectrum against its target`, xLabel: 'wavelength (nm)', width: 420, height: 200 });
+}
+
 function mixesSection() {
   const body = h('div', { class: 'mixes' });
+  const spectra = h('div', { class: 'library' });
   const message = messageArea();
   const refresh = async () => {
     message.clear();
     body.replaceChildren();
+    let library = null;
+    try {
+      library = await api.call('CalibrationService', 'GetLedLibrary', {});
+      spectra.replaceChildren(
+        linePlot(library.leds.map((led) => ({ name: led.led, x: library.wavelength_nm, y: led.spectrum_per_unit_drive })),
+          { title: `LED library (${library.source}, ${library.created_utc}): spectrum per unit drive`, xLabel: 'wavelength (nm)' }),
+        h('p', { class: 'muted' }, `LED library ${library.library}: ` +
+          library.leds.map((led) => `${led.led} ${led.description} (ladder ${led.drive_levels.join(', ')}; limit ${led.max_drive_level})`).join('; ')));
+    } catch (error) {
+      spectra.replaceChildren(h('p', { class: 'message error' }, `LED library: ${error.message} (${error.code})`));
+    }
     for (const [target, title, objective, hold] of MIX_TARGETS) {
       try {
         const mix = await api.call('CalibrationService', 'SolveMix', { target, objective, hold_chromaticity: hold });
@@ -46,6 +74,7 @@ function mixesSection() {
         body.append(h('figure', { class: 'mix', 'data-target': target },
           barChart(LED_CHANNELS.map(([key], i) => ({ name: key, value: weights[key] ?? 0, colour: colourOf(i) })),
             { title: `${title}: drive levels`, yMax: 1 }),
+          library ? mixSpectrumPlot(library, weights, target, title) : null,
           h('figcaption', {}, `${title}: ${mix.summary}`),
           table(['Figure of merit', 'Value'], figures.map(([name, value]) => [name, formatNumber(value, 4)]), `${title}: figures of merit`),
           h('p', { class: 'muted' }, `library: ${mix.library}`)));
@@ -56,7 +85,7 @@ function mixesSection() {
   };
   refresh();
   return { section: h('section', { class: 'card', 'aria-labelledby': 'mixes-heading' },
-    h('h3', { id: 'mixes-heading' }, 'Solved mixes'), body,
+    h('h3', { id: 'mixes-heading' }, 'LED library and solved mixes'), spectra, body,
     h('button', { type: 'button', onclick: refresh }, 'Solve the mixes again'), message.element), refresh };
 }
 

@@ -55,7 +55,7 @@ function relightSection(results) {
   camera.addEventListener('change', suggestPhotograph);
   illuminant.addEventListener('change', suggestPhotograph);
   suggestPhotograph();
-  const message = messageArea();
+  const message = messageArea('relight-message');
   const output = h('div', { class: 'relight-output', 'aria-live': 'polite' });
   const form = h('form', { class: 'inline' },
     field('Camera', camera), field('Illuminant', illuminant), field('Photograph to compare (in the session folder)', photograph),
