@@ -47,14 +47,9 @@ function relightSection(results) {
   const cameras = results.cameras?.length ? results.cameras : [{ camera: '', maps_file: results.maps_file }];
   const camera = h('select', {}, cameras.map((c, i) => h('option', { value: String(i) }, c.camera || 'the camera')));
   const illuminant = h('select', {}, ILLUMINANTS.map((name) => h('option', { value: name }, name)));
+  // An RGB albedo EXR in the session folder (e.g. from a colour camera's
+  // export); the session's own derived albedo is raw (one channel Y).
   const photograph = h('input', { type: 'text', placeholder: 'none', spellcheck: false });
-  const suggestPhotograph = () => {
-    const name = cameras[Number(camera.value)].camera;
-    photograph.value = illuminant.value === 'D65' && name ? `derived/albedo-d65-${name}.exr` : '';
-  };
-  camera.addEventListener('change', suggestPhotograph);
-  illuminant.addEventListener('change', suggestPhotograph);
-  suggestPhotograph();
   const message = messageArea('relight-message');
   const output = h('div', { class: 'relight-output', 'aria-live': 'polite' });
   const form = h('form', { class: 'inline' },
@@ -69,7 +64,8 @@ function relightSection(results) {
       const reply = await api.call('MapsService', 'Relight', {
         session_id: results.session_id, maps_file: relativeTo(results.folder, chosen.maps_file),
         illuminant: illuminant.value, photograph_file: photograph.value.trim() });
-      message.info(`relit ${reply.relit_pixels} of ${reply.width}×${reply.height} pixels under ${reply.illuminant}`);
+      message.info(`relit ${reply.relit_pixels} of ${reply.width}×${reply.height} pixels under ${reply.illuminant}` +
+        (reply.compared ? '' : ' (no photograph given: no ΔE94)'));
       const images = reply.files.filter((file) => file.endsWith('.png'));
       output.append(
         reply.compared ? deltaETable({ [reply.illuminant]: reply.photo_delta_e94 }, 'ΔE94 of the reconstruction against the photograph') : null,
@@ -77,7 +73,8 @@ function relightSection(results) {
           h('img', { src: api.fileUrl(results.session_id, file), alt: `relit under ${reply.illuminant}: ${file.split('/').pop()}` }),
           h('figcaption', {}, file.split('/').pop())))),
         h('ul', { class: 'files' }, reply.files.map((file) => h('li', {}, h('a', { href: api.fileUrl(results.session_id, file), download: '' }, file)))));
-      output.dataset.relit = JSON.stringify(reply.photo_delta_e94 ?? {});
+      output.dataset.relit = JSON.stringify({ relit_pixels: reply.relit_pixels, width: reply.width, height: reply.height,
+        compared: reply.compared, photo_delta_e94: reply.compared ? reply.photo_delta_e94 : null });
     } catch (error) {
       message.error(error);
     }
