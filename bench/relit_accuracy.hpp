@@ -70,4 +70,21 @@ inline Accuracy accuracy(const Relit& truth, std::span<const estimation::SkinPar
   return a;
 }
 
+// Mean relit ΔE94 under CIE A (not one of the relight illuminants) over
+// pixels where mask is set and the estimate is explained.
+inline double relit_under_a(std::span<const estimation::SkinParameters> truth,
+                            std::span<const estimation::PixelEstimate> e, const std::vector<bool>& mask) {
+  static const estimation::SkinModel model;
+  const spectral::Spectrum& a = spectral::illuminant_a();
+  const spectral::Xyz white = spectral::white_point(a);
+  const auto lab = [&](const estimation::SkinParameters& p) {
+    return spectral::lab_from_xyz(spectral::xyz_of_reflectance(model.albedo(p), a), white);
+  };
+  double sum = 0;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < e.size(); ++i)
+    if (mask[i] && e[i].flag == estimation::PixelFlag::kExplained) sum += spectral::delta_e94(lab(truth[i]), lab(e[i].parameters)), ++n;
+  return n ? sum / n : 0.0;
+}
+
 }  // namespace chromo::bench

@@ -9,7 +9,8 @@ and exposure, the white steps' exposure metering (a metered step's start to
 its last `exposure_metered` record, less its settle) and the rest: rendering
 the frames in the lab's camera simulators, sending and storing them. Then,
 after the last frame: the derived data (last `derived` record) and each
-`results` record (the maps published; per camera when the record names one),
+`results` record (the maps published: one record when every camera's are,
+with each camera's own timings from its summary),
 with results/summary.json's (or results/<camera>/summary.json's) timings.
 The total runs from the first step's start to the last maps.
 
@@ -105,17 +106,22 @@ def main():
     end = last_frame
     results = [r for r in records if r["type"] == "results"]
     for r in results:
-        camera = r.get("camera")
-        label = f"maps of {camera}" if camera else "maps"
+        # One record when every camera's maps are published; "camera" names
+        # the headline camera, "cameras" lists them all (several cameras).
+        names = [c.get("name") for c in r.get("cameras", []) if c.get("name")]
+        label = f"maps of all {len(names)} cameras" if len(names) > 1 else "maps"
         if r.get("state") != "available":
             print(f"  {label}: unavailable ({r.get('reason', 'no reason given')})")
             continue
         end = max(end, seconds(r))
         line(f"  {label} published, after the last frame", seconds(r) - last_frame,
-             f" (estimate {r.get('estimate_seconds', float('nan')):.1f} s, {r.get('pixels', 0)} cells)")
-        timings = summary_timings(args.session_dir, camera)
-        if timings:
-            print("    " + ", ".join(f"{name} {value:.2f} s" for name, value in timings.items()))
+             f" (estimate of {r.get('camera', 'the camera')} {r.get('estimate_seconds', float('nan')):.1f} s, "
+             f"{r.get('pixels', 0)} cells)")
+        for camera in names if len(names) > 1 else [None]:
+            timings = summary_timings(args.session_dir, camera)
+            if timings:
+                prefix = f"{camera}: " if camera else ""
+                print("    " + prefix + ", ".join(f"{name} {value:.2f} s" for name, value in timings.items()))
     if not results:
         print("  no results record (the session did not succeed, or no maps were made)")
     line("  total, first step's start to the last maps", end - first)

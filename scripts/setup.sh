@@ -17,10 +17,18 @@ packages=(
   libopenexr-dev libtiff-dev
   # devices
   libusb-1.0-0-dev libhidapi-dev libmodbus-dev libaravis-dev aravis-tools
-  # socket API and the Python client
+  # socket API and the Python client; the web view's HTTP(S) server
   protobuf-compiler libprotobuf-dev libgrpc++-dev protobuf-compiler-grpc
   python3 python3-grpcio python3-protobuf
+  libcpp-httplib-dev
+  # the web view's browser test (tests/web/): Debian's Chromium, driven by npm's playwright-core
+  chromium
 )
+# The web view's front end builds with Node.js and npm (web/); a machine that
+# has them already (any version >= 18) keeps its own.
+if ! command -v node >/dev/null || ! command -v npm >/dev/null; then
+  packages+=(nodejs npm)
+fi
 
 missing=()
 for package in "${packages[@]}"; do

@@ -24,7 +24,8 @@ for _candidate in _candidates:
         break
 
 import grpc  # noqa: E402
-from chromosphere.v1 import (devices_pb2, devices_pb2_grpc, estimation_pb2, estimation_pb2_grpc,  # noqa: E402
+from chromosphere.v1 import (cameras_pb2, cameras_pb2_grpc, common_pb2,  # noqa: E402
+                             devices_pb2, devices_pb2_grpc, estimation_pb2, estimation_pb2_grpc,
                              leds_pb2, leds_pb2_grpc, maps_pb2, maps_pb2_grpc, operations_pb2,
                              operations_pb2_grpc, planning_pb2, planning_pb2_grpc, sessions_pb2,
                              sessions_pb2_grpc)
@@ -77,9 +78,46 @@ class Client:
         self.maps = maps_pb2_grpc.MapsServiceStub(self.channel)
         # The plan advisor (docs/plan-advisor.md); synchronous.
         self.planning = planning_pb2_grpc.PlanServiceStub(self.channel)
+        self.cameras = cameras_pb2_grpc.CameraServiceStub(self.channel)
 
     def list_devices(self):
         return self.devices.ListDevices(devices_pb2.ListDevicesRequest()).devices
+
+    def list_cameras(self):
+        """Every camera: name, model, sensor size, pixel formats, the live view's exposure and pixel
+        format, and the driver's error when unreachable (CameraDescription)."""
+        return self.cameras.ListCameras(cameras_pb2.ListCamerasRequest()).cameras
+
+    def set_camera_settings(self, camera="", exposure_us=None, pixel_format=""):
+        """Sets the live view's exposure (µs) and/or pixel format of one camera ("" = the only one);
+        returns its CameraDescription. Refused (FAILED_PRECONDITION, saying why) during a session or
+        calibration."""
+        request = cameras_pb2.SetCameraSettingsRequest(camera=camera, pixel_format=pixel_format)
+        if exposure_us is not None:
+            request.exposure_us = exposure_us
+        return self.cameras.SetCameraSettings(request)
+
+    def preview(self, camera="", rate_hz=10.0, width=480, count=None, timeout=None):
+        """Yields PreviewFrame messages (JPEG, clipped-pixel mask, 64-bin histogram, exposure, source:
+        "free_run" or "session:<id>") at up to rate_hz; stops after `count` frames when given."""
+        request = cameras_pb2.StreamPreviewRequest(camera=camera, rate_hz=rate_hz, width=width)
+        stream = self.cameras.StreamPreview(request, timeout=timeout)
+        try:
+            for number, frame in enumerate(stream, 1):
+                yield frame
+                if count is not None and number >= count:
+                    break
+        finally:
+            stream.cancel()
+
+    def set_leds(self, output_enabled=None, controller="", **drive):
+        """Sets the LED drive levels (w57, w40, w27, red, green, blue, each 0-1; others 0) and, when
+        given, the output enable; returns the LedStatus once applied. Refused during a session."""
+        request = leds_pb2.SetLedStateRequest(controller=controller,
+                                              state=leds_pb2.LedState(drive=common_pb2.DriveLevels(**drive)))
+        if output_enabled is not None:
+            request.output_enabled = output_enabled
+        return self.leds.SetLedState(request)
 
     def start_standard_session(self, subject="", exposure_us=0.0, frames_per_camera=0):
         request = sessions_pb2.StartSessionRequest(standard=True, subject=subject, exposure_us=exposure_us,

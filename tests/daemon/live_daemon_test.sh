@@ -61,6 +61,30 @@ except grpc.RpcError as error:
     grep -Eq "^plan multispectral@4 18 [0-9.]+ 8$" "$work/out" || fail "no advice for multispectral@4"
     grep -q "^refused INVALID_ARGUMENT plans\[0\].description.captures\[0\].drive: at least one LED type must be on$" "$work/out" ||
       fail "a bad plan was not refused naming the field"
+    # The cameras through the Python client (docs/web.md): list, settings, the preview stream, LEDs.
+    CHROMO_PY_STUBS="$stubs" t /usr/bin/python3 -c "
+import sys
+sys.path.insert(0, '$source/clients/python')
+import grpc
+from chromosphere_client import Client
+client = Client('unix:$work/s.sock')
+for camera in client.list_cameras():
+    print('camera', camera.name, camera.sensor_width, camera.sensor_height, camera.pixel_format)
+print('exposure', client.set_camera_settings('cam0', exposure_us=5000).exposure_us)
+print('leds', round(client.set_leds(output_enabled=True, w57=0.5).applied.drive.w57, 3))
+frames = list(client.preview('cam0', rate_hz=10, width=160, count=3, timeout=30))
+print('preview', len(frames), frames[-1].width, frames[-1].height, len(frames[-1].histogram), frames[-1].exposure_us,
+      frames[0].sequence < frames[-1].sequence, len(frames[-1].jpeg) > 100)
+try:
+    client.set_camera_settings('nosuchcamera', exposure_us=1000)
+except grpc.RpcError as error:
+    print('refused', error.code().name)
+" >"$work/out" 2>&1 || fail "cameras exited $?"
+    grep -Eq "^camera cam0 640 480 BayerRG12$" "$work/out" || fail "no camera listed"
+    grep -q "^exposure 5000.0$" "$work/out" || fail "exposure not set"
+    grep -q "^leds 0.5$" "$work/out" || fail "LEDs not set"
+    grep -Eq "^preview 3 160 120 64 5000.0 True True$" "$work/out" || fail "no preview frames"
+    grep -Eq "^refused (NOT_FOUND|INVALID_ARGUMENT)$" "$work/out" || fail "an unknown camera was not refused"
     ;;
   cli)
     export CHROMO_DAEMON="unix:$work/s.sock"

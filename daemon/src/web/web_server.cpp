@@ -57,14 +57,17 @@ std::string content_type_of(const fs::path& file) {
       {".html", "text/html; charset=utf-8"}, {".js", "text/javascript; charset=utf-8"},
       {".css", "text/css; charset=utf-8"},   {".json", "application/json"},
       {".svg", "image/svg+xml"},             {".png", "image/png"},
-      {".ico", "image/x-icon"},              {".map", "application/json"}};
+      {".ico", "image/x-icon"},              {".map", "application/json"},
+      {".jsonl", "application/x-ndjson"},    {".csv", "text/csv; charset=utf-8"},
+      {".exr", "image/x-exr"}};
   auto found = types.find(file.extension().string());
   return found == types.end() ? "application/octet-stream" : found->second;
 }
 
-// A request path's file inside `root`, or nullopt: only [A-Za-z0-9_.-/]
-// segments, none empty or starting with '.', and the resolved file must be a
-// regular file under the resolved root.
+// A request path's file inside `root`, or nullopt: only [A-Za-z0-9_.+:-/]
+// segments (a session's derived files are named "albedo-w57+blue:8-cam0.exr"),
+// none empty or starting with '.', and the resolved file must be a regular
+// file under the resolved root (a symbolic link out of it is refused).
 std::optional<fs::path> static_file(const fs::path& root, std::string path) {
   if (path.empty() || path == "/") path = "/index.html";
   if (path.size() > 256 || path.front() != '/') return std::nullopt;
@@ -74,7 +77,8 @@ std::optional<fs::path> static_file(const fs::path& root, std::string path) {
     const std::string segment = path.substr(start, end - start);
     if (segment.empty() || segment.front() == '.') return std::nullopt;
     for (char c : segment)
-      if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.')) return std::nullopt;
+      if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.' || c == '+' || c == ':'))
+        return std::nullopt;
     start = end + 1;
   }
   std::error_code error;
@@ -85,6 +89,12 @@ std::optional<fs::path> static_file(const fs::path& root, std::string path) {
   const auto relative = file.lexically_relative(base);
   if (relative.empty() || *relative.begin() == "..") return std::nullopt;
   return file;
+}
+
+void serve_file(const fs::path& file, httplib::Response& response) {
+  std::ifstream in(file, std::ios::binary);
+  std::string body((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  response.set_content(body, content_type_of(file));
 }
 
 }  // namespace
@@ -263,6 +273,20 @@ struct WebServer::State {
       r.set_header("Cache-Control", "no-store");
       r.set_content(reply.json, "application/json");
     });
+    // A session's own files (maps.exr, previews, summary.json, the journal):
+    // only inside that session's folder, after log-in (the pre-routing check).
+    http->Get(R"(/api/files/([A-Za-z0-9_-][A-Za-z0-9_.-]{0,127})/(.+))", [this](const httplib::Request& q, httplib::Response& r) {
+      const std::string id = q.matches[1], relative = q.matches[2];
+      const auto file = static_file(config.sessions_dir / id, "/" + relative);
+      if (!file) {
+        r.status = 404;
+        r.set_content(web::error_json("no file \"" + relative.substr(0, 256) + "\" in session \"" + id + "\"", "NOT_FOUND"),
+                      "application/json");
+        return;
+      }
+      serve_file(*file, r);
+      r.set_header("Cache-Control", "no-store");
+    });
     http->Get(R"(/.*)", [this](const httplib::Request& q, httplib::Response& r) {
       const auto file = static_file(config.web_dir, q.path);
       if (!file) {
@@ -270,10 +294,8 @@ struct WebServer::State {
         r.set_content("not found: " + q.path.substr(0, 256) + "\n", "text/plain; charset=utf-8");
         return;
       }
-      std::ifstream in(*file, std::ios::binary);
-      std::string body((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+      serve_file(*file, r);
       r.set_header("Cache-Control", file->extension() == ".html" ? "no-store" : "no-cache");
-      r.set_content(body, content_type_of(*file));
     });
   }
 };

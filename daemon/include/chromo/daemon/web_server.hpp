@@ -15,6 +15,9 @@
 //   for lab automation (the web layer goes over the API, not around it).
 //   GET /api/stream/preview and /api/stream/events are server-sent events
 //   over CameraService.StreamPreview and EventService.Subscribe.
+// - GET /api/files/<session id>/<path>: a file of that session's folder
+//   (config.sessions_dir/<id>; results/maps.exr, previews, summary.json),
+//   never one outside it (the same rules as the static files).
 // - Every POST must carry an Origin equal to this server's (cross-origin:
 //   403); every response carries a Content-Security-Policy without inline
 //   script, Referrer-Policy same-origin, X-Content-Type-Options nosniff.
