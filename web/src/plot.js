@@ -1,5 +1,5 @@
-// SVG charts: line plots (spectra), bar charts (histogram, drive levels) and
-// colour bars. Sizes in SVG user units; the CSS scales them to their box.
+// SVG charts: line plots (spectra) and bar charts (histogram, drive levels).
+// Sizes in SVG user units; the CSS scales them to their box.
 import { s, formatNumber } from './dom.js';
 
 const PALETTE = ['#4e79a7', '#f28e2b', '#e15759', '#76b7b2', '#59a14f', '#edc948', '#b07aa1', '#ff9da7', '#9c755f'];
@@ -49,28 +49,5 @@ export function barChart(bars, { width = 360, height = 140, title = '', yMax = n
       width: Math.max(0.5, barWidth - 1), height: barHeight, fill: bar.colour ?? colour }));
     if (labels) svg.append(s('text', { x: margin.left + (i + 0.5) * barWidth, y: height - 6, class: 'tick', 'text-anchor': 'middle' }, bar.name));
   });
-  return svg;
-}
-
-// The viridis-like colour map used for maps and their colour bars: t in [0, 1] → [r, g, b].
-const STOPS = [[68, 1, 84], [59, 82, 139], [33, 145, 140], [94, 201, 98], [253, 231, 37]];
-export function colourMap(t) {
-  const clamped = Math.min(1, Math.max(0, Number.isFinite(t) ? t : 0));
-  const position = clamped * (STOPS.length - 1);
-  const i = Math.min(STOPS.length - 2, Math.floor(position));
-  const f = position - i;
-  return STOPS[i].map((c, k) => Math.round(c + (STOPS[i + 1][k] - c) * f));
-}
-
-export function colourBar(minimum, maximum, units, { width = 280, height = 44 } = {}) {
-  const svg = s('svg', { viewBox: `0 0 ${width} ${height}`, role: 'img', class: 'colour-bar',
-    'aria-label': `colour bar from ${formatNumber(minimum)} to ${formatNumber(maximum)} ${units}` });
-  const gradient = s('linearGradient', { id: `bar-${Math.random().toString(36).slice(2)}` });
-  STOPS.forEach((stop, i) => gradient.append(s('stop', { offset: `${(100 * i) / (STOPS.length - 1)}%`, 'stop-color': `rgb(${stop.join(',')})` })));
-  svg.append(s('defs', {}, gradient));
-  svg.append(s('rect', { x: 4, y: 4, width: width - 8, height: 16, fill: `url(#${gradient.id})` }));
-  svg.append(s('text', { x: 4, y: 36, class: 'tick' }, formatNumber(minimum)));
-  svg.append(s('text', { x: width / 2, y: 36, class: 'tick', 'text-anchor': 'middle' }, units));
-  svg.append(s('text', { x: width - 4, y: 36, class: 'tick', 'text-anchor': 'end' }, formatNumber(maximum)));
   return svg;
 }
