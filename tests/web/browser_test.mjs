@@ -61,7 +61,12 @@ function stopDaemon() {
   return new Promise((resolve) => {
     if (!daemon || daemon.exitCode !== null) return resolve();
     daemon.removeAllListeners('exit');
-    daemon.on('exit', () => resolve());
+    const stubborn = setTimeout(() => {
+      console.error('FAIL: chromod did not stop within 15 s of SIGTERM; killed');
+      process.exitCode = 1;
+      daemon.kill('SIGKILL');
+    }, 15000);
+    daemon.on('exit', () => { clearTimeout(stubborn); resolve(); });
     daemon.kill('SIGTERM');
   });
 }
@@ -191,7 +196,10 @@ async function main() {
   // Camera settings from the page: the exposure the API then reports.
   await page.getByLabel('Exposure (µs)').fill('5000');
   await pressOn(page, page.getByRole('button', { name: 'Apply camera settings' }), 'Space');
-  await page.getByText(/applied: exposure 5000 µs/).waitFor();
+  await waitUntil(page, () => document.querySelector('section.camera .message.info, section.camera form + .message.error'), null, 30000,
+    'the camera settings answer');
+  const cameraAnswer = await page.locator('section.camera form + .message').textContent();
+  assert.match(cameraAnswer, /applied: exposure 5000 µs/, `camera settings from the page: ${cameraAnswer}`);
   const cameras = await api('CameraService', 'ListCameras', {});
   assert.equal(cameras.json.cameras[0].exposure_us, 5000);
   await waitUntil(page, () => document.querySelector('.facts')?.textContent.includes('5000 µs'), null, 10000, 'a frame at 5000 µs');
@@ -271,14 +279,14 @@ async function main() {
     }
     console.log(`results of ${camera.camera}: page figures equal the API's (${Object.keys(camera.summary.relit_delta_e94).join(', ')})`);
   }
-  const filesRoute = await fetch(`${origin}/api/files/${sessionId}/results/summary.json`, { headers: { Cookie: cookie } });
-  if (filesRoute.status === 200) {
-    await waitUntil(page, () => [...document.querySelectorAll('.map img')].every((image) => image.complete && image.naturalWidth > 0),
-      null, 20000, 'the map previews');
-    console.log('map previews shown');
-  } else {
-    console.log(`NOTE: GET /api/files answers ${filesRoute.status}: map pictures not checked (the backend's files route is not in this chromod)`);
-  }
+  // The files the page links to come from GET /api/files, as the API names them.
+  const reportPath = results.json.cameras[0].report_file.slice(results.json.folder.length + 1);
+  const report = await fetch(`${origin}/api/files/${sessionId}/${reportPath}`, { headers: { Cookie: cookie } });
+  assert.equal(report.status, 200, `GET /api/files/${sessionId}/${reportPath}`);
+  await page.locator(`a[href$="${reportPath}"]`).first().waitFor();
+  await waitUntil(page, () => [...document.querySelectorAll('.map img')].every((image) => image.complete && image.naturalWidth > 0),
+    null, 20000, 'the map previews');
+  console.log(`map previews shown (${await page.locator('.map img').count()}), files linked`);
   await page.getByLabel('Illuminant').selectOption('D65');
   started = performance.now();
   await pressOn(page, page.getByRole('button', { name: 'Relight' }), 'Enter');
