@@ -67,8 +67,8 @@ function relightSection(results) {
       message.info(`relit ${reply.relit_pixels} of ${reply.width}×${reply.height} pixels under ${reply.illuminant}` +
         (reply.compared ? '' : ' (no photograph given: no ΔE94)'));
       const images = reply.files.filter((file) => file.endsWith('.png'));
+      if (reply.compared) output.append(deltaETable({ [reply.illuminant]: reply.photo_delta_e94 }, 'ΔE94 of the reconstruction against the photograph'));
       output.append(
-        reply.compared ? deltaETable({ [reply.illuminant]: reply.photo_delta_e94 }, 'ΔE94 of the reconstruction against the photograph') : null,
         h('div', { class: 'panels' }, images.map((file) => h('figure', {},
           h('img', { src: api.fileUrl(results.session_id, file), alt: `relit under ${reply.illuminant}: ${file.split('/').pop()}` }),
           h('figcaption', {}, file.split('/').pop())))),
