@@ -1,5 +1,6 @@
 // The socket API over real gRPC channels: the Unix socket, TCP with the bearer
 // token, TLS; validation of hostile input; health.
+#include <algorithm>
 #include <sys/stat.h>
 
 #include <unistd.h>
@@ -595,6 +596,12 @@ TEST_F(ApiFixture, CalibrationRunAndMixSolveOverTheApi) {
     pb::SolveMixResponse response;
     EXPECT_EQ(calibration->SolveMix(&context, solve, &response).error_code(), StatusCode::FAILED_PRECONDITION);
   }
+  {  // Nor is there a library to plot.
+    grpc::ClientContext context;
+    pb::GetLedLibraryResponse library;
+    EXPECT_EQ(calibration->GetLedLibrary(&context, pb::GetLedLibraryRequest{}, &library).error_code(),
+              StatusCode::FAILED_PRECONDITION);
+  }
   {  // Invalid requests name the field and start nothing.
     grpc::ClientContext c1, c2;
     pb::StartCalibrationRequest bad;
@@ -634,6 +641,34 @@ TEST_F(ApiFixture, CalibrationRunAndMixSolveOverTheApi) {
   EXPECT_EQ(solved.library(), (std::filesystem::path(final.folder()) / "led-library.json").string());
   EXPECT_TRUE(solved.figures().contains("rmse"));
   EXPECT_FALSE(solved.summary().empty());
+  {  // The measured library for plotting: six LED types on the grid, the solved
+     // W57+blue mix puts its power where W57 and blue have theirs.
+    grpc::ClientContext library_context;
+    pb::GetLedLibraryResponse library;
+    ASSERT_TRUE(calibration->GetLedLibrary(&library_context, pb::GetLedLibraryRequest{}, &library).ok());
+    EXPECT_EQ(library.library(), solved.library());
+    EXPECT_EQ(library.source(), "measured");
+    ASSERT_EQ(library.wavelength_nm_size(), 81);
+    EXPECT_EQ(library.wavelength_nm(0), 380.0);
+    EXPECT_EQ(library.wavelength_nm(80), 780.0);
+    ASSERT_EQ(library.d65_size(), 81);
+    EXPECT_NEAR(library.d65(36), 100.0, 1.0);  // 560 nm
+    ASSERT_EQ(library.leds_size(), 6);
+    const std::vector<std::string> names = {"W57", "W40", "W27", "R", "G", "B"};
+    for (int i = 0; i < 6; ++i) {
+      const auto& led = library.leds(i);
+      EXPECT_EQ(led.led(), names[i]);
+      ASSERT_EQ(led.spectrum_per_unit_drive_size(), 81);
+      EXPECT_EQ(led.drive_levels_size(), 2) << led.led();  // the ladder asked for: 0.5, 1
+      EXPECT_GT(*std::max_element(led.spectrum_per_unit_drive().begin(), led.spectrum_per_unit_drive().end()), 0.0);
+    }
+    const auto peak_nm = [&](int led) {
+      const auto& s = library.leds(led).spectrum_per_unit_drive();
+      return library.wavelength_nm(static_cast<int>(std::max_element(s.begin(), s.end()) - s.begin()));
+    };
+    EXPECT_LT(peak_nm(5), 490.0);  // blue
+    EXPECT_GT(peak_nm(3), 600.0);  // red
+  }
   grpc::ClientContext bad_context;
   solve.set_target("/etc/passwd.csv");
   auto refused = calibration->SolveMix(&bad_context, solve, &solved);

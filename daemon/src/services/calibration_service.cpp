@@ -1,6 +1,9 @@
 // CalibrationService: the mix solver on the daemon's LED library and calibration runs (calibration.proto).
 #include <string>
 
+#include "chromo/calibration/led_library.hpp"
+#include "chromo/spectral/cie.hpp"
+#include "chromo/spectral/grid.hpp"
 #include "chromosphere/v1/calibration.grpc.pb.h"
 #include "services.hpp"
 
@@ -44,6 +47,27 @@ class CalibrationServiceImpl final : public pb::CalibrationService::Service {
       // Field-naming std::invalid_argument → INVALID_ARGUMENT; another
       // operation running or no reference lamp → FAILED_PRECONDITION.
       to_proto(daemon_.start_calibration(calibration), response);
+      return Status::OK;
+    });
+  }
+
+  Status GetLedLibrary(ServerContext* context, const pb::GetLedLibraryRequest*, pb::GetLedLibraryResponse* response) override {
+    return guard_(context, [&] {
+      const auto library = daemon_.calibrations().library();
+      if (!library) throw std::logic_error("no LED library: run a calibration (chromo calibrate) or configure led_library");
+      response->set_library(daemon_.calibrations().library_path());
+      response->set_source(library->source);
+      response->set_created_utc(library->created_utc);
+      for (int i = 0; i < spectral::kGridSize; ++i) response->add_wavelength_nm(spectral::grid_wavelength_nm(i));
+      for (double value : spectral::illuminant_d65().values()) response->add_d65(value);
+      for (const auto& record : library->leds) {
+        auto* led = response->add_leds();
+        led->set_led(std::string(spectral::led_type_name(record.type)));
+        led->set_description(record.description);
+        led->set_max_drive_level(record.max_drive_level);
+        for (const auto& rung : record.ladder) led->add_drive_levels(rung.drive_level);
+        for (double value : record.spectrum_per_unit_drive().values()) led->add_spectrum_per_unit_drive(value);
+      }
       return Status::OK;
     });
   }

@@ -1,0 +1,343 @@
+// The web view in a real browser (issue 22; docs/web.md): Debian's chromium
+// driven by playwright-core (web/package.json) against a real chromod on the
+// built-in virtual lab (one 640x480 camera) on loopback.
+//
+//   node tests/web/browser_test.mjs CHROMOD WEB_DIR SCREENSHOT_DIR
+//
+// Exit 0 pass, 1 fail, 77 skipped (no chromium, or web/node_modules missing).
+import { createRequire } from 'node:module';
+import { spawn } from 'node:child_process';
+import { existsSync, mkdtempSync, mkdirSync, writeFileSync, rmSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+import assert from 'node:assert/strict';
+
+const SKIP = 77;
+const [chromod, webDir, screenshotDir] = process.argv.slice(2);
+const chromium = process.env.CHROMO_CHROMIUM ?? '/usr/bin/chromium';
+const repository = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '../..');
+if (!existsSync(chromium)) {
+  console.log(`SKIPPED: no chromium at ${chromium} (scripts/setup.sh installs it)`);
+  process.exit(SKIP);
+}
+let playwright;
+try {
+  playwright = createRequire(path.join(repository, 'web/package.json'))('playwright-core');
+} catch (error) {
+  console.log(`SKIPPED: playwright-core not installed in web/node_modules (build the target web): ${error.message}`);
+  process.exit(SKIP);
+}
+assert.ok(chromod && existsSync(chromod), `chromod: ${chromod} does not exist`);
+assert.ok(existsSync(path.join(webDir, 'app.js')), `web dir ${webDir}: no app.js (build the target web)`);
+
+const TOKEN = 'browser-test-token-0123456789abcdef';
+const home = mkdtempSync(path.join(tmpdir(), 'chromo-web-test-'));
+const runDir = path.join(home, 'run');
+mkdirSync(runDir);
+writeFileSync(path.join(home, 'chromod.json'), JSON.stringify({ token: TOKEN, web_dir: webDir }));
+const figures = {};
+const time = (name, started) => { figures[name] = Math.round(performance.now() - started); };
+
+// Starts chromod; resolves with its web view's origin once it listens.
+let daemon = null;
+let browser = null;
+function startDaemon(port = 0) {
+  daemon = spawn(chromod, ['--config', path.join(home, 'chromod.json'), '--socket', path.join(runDir, 'chromod.sock'),
+    '--sessions-dir', path.join(home, 'sessions'), '--web', `127.0.0.1:${port}`],
+  { env: { ...process.env, CHROMO_HOME: home, CHROMO_RUNTIME_DIR: runDir }, stdio: ['ignore', 'pipe', 'pipe'] });
+  daemon.stderr.on('data', (data) => process.stderr.write(`[chromod] ${data}`));
+  return new Promise((resolve, reject) => {
+    let output = '';
+    daemon.stdout.on('data', (data) => {
+      output += data;
+      const listening = output.match(/web view on (http:\/\/[0-9.]+:[0-9]+)\//);
+      if (listening) resolve(listening[1]);
+    });
+    daemon.on('exit', (code) => reject(new Error(`chromod exited (${code}) before listening: ${output}`)));
+  });
+}
+function stopDaemon() {
+  return new Promise((resolve) => {
+    if (!daemon || daemon.exitCode !== null) return resolve();
+    daemon.removeAllListeners('exit');
+    const stubborn = setTimeout(() => {
+      console.error('FAIL: chromod did not stop within 15 s of SIGTERM; killed');
+      process.exitCode = 1;
+      daemon.kill('SIGKILL');
+    }, 15000);
+    daemon.on('exit', () => { clearTimeout(stubborn); resolve(); });
+    daemon.kill('SIGTERM');
+  });
+}
+
+// The API from the test itself (node's fetch), with its own log-in cookie.
+let origin;
+let cookie = '';
+async function api(service, method, body, headers = {}) {
+  const reply = await fetch(`${origin}/api/${service}/${method}`, { method: 'POST',
+    headers: { 'Content-Type': 'application/json', Origin: origin, Cookie: cookie, ...headers }, body: JSON.stringify(body) });
+  return { status: reply.status, json: await reply.json() };
+}
+
+// page.waitForFunction evaluates a string in the page, which the page's CSP
+// (no unsafe-eval) refuses: poll page.evaluate from here instead.
+async function waitUntil(page, predicate, argument, timeoutMs, what) {
+  const deadline = performance.now() + timeoutMs;
+  while (!(await page.evaluate(predicate, argument))) {
+    if (performance.now() > deadline) throw new Error(`timed out after ${timeoutMs} ms waiting for ${what}`);
+    await new Promise((resolve) => setTimeout(resolve, 100));
+  }
+}
+
+async function meanBrightness(page) {
+  return page.evaluate(() => {
+    const canvas = document.querySelector('canvas.picture');
+    const data = canvas.getContext('2d').getImageData(0, 0, canvas.width, canvas.height).data;
+    let sum = 0;
+    for (let i = 0; i < data.length; i += 4) sum += data[i] + data[i + 1] + data[i + 2];
+    return sum / (3 * data.length / 4);
+  });
+}
+async function waitForNewFrames(page, count) {
+  const before = Number(await page.locator('canvas.picture').getAttribute('data-frames') ?? 0);
+  await waitUntil(page, (target) => Number(document.querySelector('canvas.picture')?.dataset.frames ?? 0) >= target,
+    before + count, 20000, `${count} new preview frames`);
+}
+
+// Tab through the page: every visible control of nav and main must take the
+// focus, and nothing may scroll sideways at 1280x800.
+async function checkKeyboardAndWidth(page, name) {
+  const width = await page.evaluate(() => ({ scroll: document.documentElement.scrollWidth, client: document.documentElement.clientWidth }));
+  assert.ok(width.scroll <= width.client, `${name}: horizontal scrolling at 1280x800 (${width.scroll} > ${width.client})`);
+  const controls = await page.evaluate(() => {
+    const all = [...document.querySelectorAll('nav a, nav button, main a[href], main button, main input, main select, main textarea')];
+    return all.filter((e) => !e.disabled && e.getClientRects().length > 0).map((e, i) => { e.dataset.tabProbe = String(i); return i; }).length;
+  });
+  const reached = new Set();
+  await page.evaluate(() => document.activeElement?.blur());
+  for (let presses = 0; presses < controls * 2 + 20 && reached.size < controls; ++presses) {
+    await page.keyboard.press('Tab');
+    const probe = await page.evaluate(() => document.activeElement?.dataset?.tabProbe ?? null);
+    if (probe !== null) reached.add(probe);
+  }
+  assert.equal(reached.size, controls, `${name}: Tab reached ${reached.size} of ${controls} controls`);
+  console.log(`${name}: Tab reaches all ${controls} controls; page width ${width.scroll} px`);
+}
+
+async function pressOn(page, locator, key) {
+  await locator.focus();
+  await page.keyboard.press(key);
+}
+
+async function main() {
+  origin = await startDaemon();
+  const port = new URL(origin).port;
+  console.log(`chromod web view on ${origin}`);
+
+  // A cross-origin POST is refused, even with a valid cookie.
+  const login = await fetch(`${origin}/login`, { method: 'POST', headers: { 'Content-Type': 'application/json', Origin: origin },
+    body: JSON.stringify({ token: TOKEN }) });
+  assert.equal(login.status, 200);
+  cookie = login.headers.get('set-cookie').split(';')[0];
+  assert.match(login.headers.get('set-cookie'), /HttpOnly/i);
+  assert.match(login.headers.get('set-cookie'), /SameSite=Strict/i);
+  const crossOrigin = await api('LedService', 'GetLedState', {}, { Origin: 'http://evil.example' });
+  assert.equal(crossOrigin.status, 403, 'a cross-origin POST must be refused');
+  console.log(`cross-origin POST refused: ${crossOrigin.status} ${crossOrigin.json.error}`);
+
+  browser = await playwright.chromium.launch({ executablePath: chromium, headless: true, args: ['--no-sandbox'] });
+  const context = await browser.newContext({ viewport: { width: 1280, height: 800 } });
+  const page = await context.newPage();
+  page.on('pageerror', (error) => console.log(`[page error] ${error.message}`));
+  await page.goto(origin);
+
+  // A wrong token is refused, the right one logs in (keyboard: type, Enter).
+  await page.getByLabel('Token').fill('not-the-token-at-all');
+  await page.keyboard.press('Enter');
+  await page.getByText(/wrong token/).waitFor();
+  await page.screenshot({ path: path.join(screenshotDir, 'login.png') });
+  await checkKeyboardAndWidth(page, 'log-in');
+  await page.getByLabel('Token').fill(TOKEN);
+  await page.keyboard.press('Enter');
+  await page.getByRole('heading', { name: 'Live' }).waitFor();
+
+  // An inline script is refused by the Content-Security-Policy.
+  const csp = await page.evaluate(() => new Promise((resolve) => {
+    let violated = false;
+    document.addEventListener('securitypolicyviolation', () => { violated = true; });
+    const script = document.createElement('script');
+    script.textContent = 'window.inlineScriptRan = true;';
+    document.body.append(script);
+    setTimeout(() => resolve({ violated, ran: window.inlineScriptRan === true }), 300);
+  }));
+  assert.equal(csp.ran, false, 'an inline script ran');
+  assert.equal(csp.violated, true, 'no securitypolicyviolation for the inline script');
+  console.log('inline script refused by CSP (securitypolicyviolation fired)');
+
+  // Live: the picture changes when the LED state changes (set from the page).
+  await waitForNewFrames(page, 2);
+  const setLeds = async (level, enabled) => {
+    for (const label of ['W57 (cool white)', 'W40 (neutral white)', 'W27 (warm white)', 'Red', 'Green', 'Blue'])
+      await page.getByLabel(label, { exact: true }).fill(String(level));
+    await page.getByLabel('Output enabled').setChecked(enabled);
+    await pressOn(page, page.getByRole('button', { name: 'Set LEDs' }), 'Enter');
+    await page.getByText('LED state applied').waitFor();
+    await waitForNewFrames(page, 3);
+  };
+  await setLeds(0, false);
+  const dark = await meanBrightness(page);
+  await setLeds(0.6, true);
+  const lit = await meanBrightness(page);
+  console.log(`live picture mean brightness: LEDs off ${dark.toFixed(1)}, all at 0.6 ${lit.toFixed(1)}`);
+  assert.ok(lit - dark > 5, `the live picture did not change with the LED state (${dark} → ${lit})`);
+  const ledState = await api('LedService', 'GetLedState', {});
+  assert.equal(ledState.json.applied.drive.w57, 0.6);
+  // Camera settings from the page: the exposure the API then reports.
+  await page.getByLabel('Exposure (µs)').fill('5000');
+  await pressOn(page, page.getByRole('button', { name: 'Apply camera settings' }), 'Space');
+  await waitUntil(page, () => document.querySelector('section.camera .message.info, section.camera form + .message.error'), null, 30000,
+    'the camera settings answer');
+  const cameraAnswer = await page.locator('section.camera form + .message').textContent();
+  assert.match(cameraAnswer, /applied: exposure 5000 µs/, `camera settings from the page: ${cameraAnswer}`);
+  const cameras = await api('CameraService', 'ListCameras', {});
+  assert.equal(cameras.json.cameras[0].exposure_us, 5000);
+  await waitUntil(page, () => document.querySelector('.facts')?.textContent.includes('5000 µs'), null, 10000, 'a frame at 5000 µs');
+  await page.screenshot({ path: path.join(screenshotDir, 'live.png') });
+  await checkKeyboardAndWidth(page, 'live');
+
+  // Devices and calibration: navigate by keyboard, calibrate from the page.
+  await pressOn(page, page.getByRole('link', { name: 'Devices and calibration' }), 'Enter');
+  await page.getByRole('heading', { name: 'Devices', exact: true }).waitFor();
+  const devices = await api('DeviceService', 'ListDevices', {});
+  for (const device of devices.json.devices) await page.getByRole('cell', { name: device.name, exact: true }).first().waitFor();
+  await page.getByLabel(/Drive levels \(comma-separated/).fill('0.5, 1');
+  let started = performance.now();
+  await pressOn(page, page.getByRole('button', { name: 'Start calibration' }), 'Enter');
+  await page.waitForSelector('.operation[data-state="OPERATION_STATE_SUCCEEDED"]', { timeout: 300000 });
+  time('calibration_ms', started);
+  await page.waitForSelector('.mix[data-target="d65"]', { timeout: 60000 });
+  const mix = await api('CalibrationService', 'SolveMix', { target: 'd65', objective: 'MIX_OBJECTIVE_CAMERA', hold_chromaticity: true });
+  for (const [name, value] of Object.entries(mix.json.figures)) {
+    const shown = await page.locator('.mix[data-target="d65"] tr').filter({ has: page.getByRole('cell', { name, exact: true }) })
+      .first().locator('td').nth(1).textContent();
+    assert.equal(Number(shown), Number(Number(value).toPrecision(4)), `d65 figure ${name}: page ${shown}, API ${value}`);
+  }
+  await page.screenshot({ path: path.join(screenshotDir, 'devices.png'), fullPage: true });
+  await checkKeyboardAndWidth(page, 'devices');
+
+  // Sessions: the standard session from the page; interactions timed during it.
+  await pressOn(page, page.getByRole('link', { name: 'Sessions' }), 'Enter');
+  await page.getByRole('heading', { name: 'Start a session' }).waitFor();
+  await page.getByRole('cell', { name: 'subject_d65' }).first().waitFor();
+  await page.getByLabel('Subject', { exact: true }).fill('browser test forearm');
+  await page.getByLabel('Exposure (µs)', { exact: true }).fill('10000');
+  started = performance.now();
+  await pressOn(page, page.getByRole('button', { name: 'Start session' }), 'Enter');
+  await page.getByText(/session .* started/).waitFor();
+  const sessionId = await page.locator('.operation').getAttribute('data-operation-id');
+  const latencies = [];
+  while (true) {
+    const state = await page.locator('.operation').getAttribute('data-state');
+    if (!['OPERATION_STATE_RUNNING', 'OPERATION_STATE_PENDING'].includes(state)) break;
+    const operation = await api('OperationService', 'GetOperation', { id: sessionId });
+    const estimating = Number(operation.json.counters?.estimated ?? 0) > 0;
+    const clicked = performance.now();
+    const answered = page.waitForResponse((reply) => reply.url().endsWith('/api/SessionService/ListSessions'));
+    await pressOn(page, page.getByRole('button', { name: 'Refresh the list' }), 'Enter');
+    await answered;
+    await page.evaluate(() => new Promise((resolve) => requestAnimationFrame(() => resolve())));
+    if (estimating) latencies.push(performance.now() - clicked);
+    await page.waitForTimeout(500);
+  }
+  time('session_ms', started);
+  console.log(`session ${sessionId} from the page: ${figures.session_ms} ms`);
+  assert.equal(await page.locator('.operation').getAttribute('data-state'), 'OPERATION_STATE_SUCCEEDED');
+  latencies.sort((a, b) => a - b);
+  if (latencies.length) {
+    figures.interaction_during_estimation_ms = { count: latencies.length, median: Math.round(latencies[latencies.length >> 1]),
+      max: Math.round(latencies.at(-1)) };
+    console.log(`interactions during estimation: ${JSON.stringify(figures.interaction_during_estimation_ms)} ms (target 200 ms)`);
+    assert.ok(latencies.at(-1) < 2000, `an interaction during estimation took ${latencies.at(-1)} ms`);
+  }
+  await page.getByRole('link', { name: `Results of ${sessionId}` }).waitFor();
+  await page.screenshot({ path: path.join(screenshotDir, 'sessions.png'), fullPage: true });
+  await checkKeyboardAndWidth(page, 'sessions');
+
+  // Results: the page's figures are the API's; relight one.
+  await pressOn(page, page.getByRole('link', { name: `Results of ${sessionId}` }), 'Enter');
+  await page.getByText(/results available/).waitFor({ timeout: 30000 });
+  const results = await api('ResultsService', 'GetResults', { session_id: sessionId });
+  assert.equal(results.json.state, 'RESULTS_STATE_AVAILABLE');
+  for (const camera of results.json.cameras) {
+    const section = page.locator(`section[data-camera="${camera.camera}"]`);
+    for (const [illuminant, statistics] of Object.entries(camera.summary.relit_delta_e94)) {
+      const cells = await section.locator('tr').filter({ has: page.getByRole('cell', { name: illuminant, exact: true }) }).first()
+        .locator('td').allTextContents();
+      assert.equal(Number(cells[1]), Number(statistics.mean.toPrecision(3)), `${camera.camera} ${illuminant} mean ΔE94`);
+      assert.equal(Number(cells[3]), Number(statistics.p95.toPrecision(3)), `${camera.camera} ${illuminant} p95 ΔE94`);
+    }
+    console.log(`results of ${camera.camera}: page figures equal the API's (${Object.keys(camera.summary.relit_delta_e94).join(', ')})`);
+  }
+  // The files the page links to come from GET /api/files, as the API names them.
+  const reportPath = results.json.cameras[0].report_file.slice(results.json.folder.length + 1);
+  const report = await fetch(`${origin}/api/files/${sessionId}/${reportPath}`, { headers: { Cookie: cookie } });
+  assert.equal(report.status, 200, `GET /api/files/${sessionId}/${reportPath}`);
+  await page.locator(`a[href$="${reportPath}"]`).first().waitFor();
+  await waitUntil(page, () => [...document.querySelectorAll('.map img')].every((image) => image.complete && image.naturalWidth > 0),
+    null, 20000, 'the map previews');
+  console.log(`map previews shown (${await page.locator('.map img').count()}), files linked`);
+  await page.getByLabel('Illuminant').selectOption('D65');
+  started = performance.now();
+  await pressOn(page, page.getByRole('button', { name: 'Relight' }), 'Enter');
+  await waitUntil(page, () => document.querySelector('.relight-output[data-relit]') ||
+    document.querySelector('.relight-message.error'), null, 120000, 'the relit figures');
+  const relightError = await page.locator('.relight-message.error').count();
+  assert.equal(relightError, 0, `relight refused: ${relightError && await page.locator('.relight-message').textContent()}`);
+  time('relight_ms', started);
+  const shownRelight = JSON.parse(await page.locator('.relight-output').getAttribute('data-relit'));
+  const camera = results.json.cameras[0];
+  const relight = await api('MapsService', 'Relight', { session_id: sessionId, illuminant: 'D65',
+    maps_file: camera.maps_file.slice(results.json.folder.length + 1) });
+  assert.equal(relight.status, 200, JSON.stringify(relight.json));
+  assert.deepEqual(shownRelight, { relit_pixels: relight.json.relit_pixels, width: relight.json.width, height: relight.json.height,
+    compared: false, photo_delta_e94: null }, 'relit under D65: page and API differ');
+  assert.ok(Number(relight.json.relit_pixels) > 0);
+  await page.getByText(`relit ${relight.json.relit_pixels} of ${relight.json.width}×${relight.json.height} pixels under`).waitFor();
+  console.log(`relit under D65: ${relight.json.relit_pixels} of ${relight.json.width}x${relight.json.height} pixels (page and API agree)`);
+  await page.screenshot({ path: path.join(screenshotDir, 'results.png'), fullPage: true });
+  await checkKeyboardAndWidth(page, 'results');
+
+  // The daemon going away is shown, and the page recovers when it returns.
+  await pressOn(page, page.getByRole('link', { name: 'Live' }), 'Enter');
+  await stopDaemon();
+  started = performance.now();
+  await page.locator('#connection').filter({ hasText: 'does not answer' }).waitFor({ timeout: 15000 });
+  time('daemon_gone_shown_ms', started);
+  await page.screenshot({ path: path.join(screenshotDir, 'daemon-away.png') });
+  origin = await startDaemon(port);
+  started = performance.now();
+  await page.locator('#connection').waitFor({ state: 'hidden', timeout: 30000 });
+  time('daemon_back_shown_ms', started);
+  // The restarted daemon knows no log-ins: the page asks again, then streams.
+  await page.getByLabel('Token').fill(TOKEN);
+  await page.keyboard.press('Enter');
+  await page.getByRole('heading', { name: 'Live' }).waitFor();
+  await waitForNewFrames(page, 2);
+  console.log('daemon away shown and recovered');
+
+  await browser.close();
+  console.log(`timings: ${JSON.stringify(figures)}`);
+}
+
+try {
+  await main();
+  console.log('PASS');
+} catch (error) {
+  console.error(`FAIL: ${error.stack ?? error}`);
+  process.exitCode = 1;
+} finally {
+  if (browser) await browser.close().catch(() => {});
+  await stopDaemon();
+  rmSync(home, { recursive: true, force: true });
+}

@@ -1,0 +1,95 @@
+// Small DOM helpers: elements from tags and properties (no innerHTML, no
+// inline styles: the page's Content-Security-Policy allows neither).
+
+const SVG_NS = 'http://www.w3.org/2000/svg';
+
+function append(parent, children) {
+  for (const child of children.flat()) {
+    if (child === null || child === undefined || child === false) continue;
+    parent.append(child instanceof Node ? child : String(child));
+  }
+}
+
+// h('button', {type: 'button', onclick: f, class: 'x'}, 'Text')
+export function h(tag, properties = {}, ...children) {
+  const element = document.createElement(tag);
+  for (const [key, value] of Object.entries(properties)) {
+    if (value === undefined || value === null || value === false) continue;
+    if (key.startsWith('on')) element.addEventListener(key.slice(2), value);
+    else if (key === 'class') element.className = value;
+    else if (key in element && key !== 'list' && key !== 'form') element[key] = value;
+    else element.setAttribute(key, value === true ? '' : value);
+  }
+  append(element, children);
+  return element;
+}
+
+export function s(tag, attributes = {}, ...children) {
+  const element = document.createElementNS(SVG_NS, tag);
+  for (const [key, value] of Object.entries(attributes)) element.setAttribute(key, value);
+  append(element, children);
+  return element;
+}
+
+let uniqueCounter = 0;
+export function uniqueId(prefix) {
+  uniqueCounter += 1;
+  return `${prefix}-${uniqueCounter}`;
+}
+
+// A labelled form control: <label for=id>text</label><control id=id>.
+export function field(labelText, control) {
+  if (!control.id) control.id = uniqueId('field');
+  return h('div', { class: 'field' }, h('label', { htmlFor: control.id }, labelText), control);
+}
+
+// A region that says what went wrong (role=alert) or what happened (status).
+export function messageArea(name = '') {
+  const base = `message ${name}`.trim();
+  const area = h('p', { class: base, role: 'status', 'aria-live': 'polite' });
+  return {
+    element: area,
+    error(error) {
+      area.className = `${base} error`;
+      area.textContent = error?.code ? `${error.message} (${error.code})` : String(error?.message ?? error);
+    },
+    info(text) {
+      area.className = `${base} info`;
+      area.textContent = text;
+    },
+    clear() {
+      area.className = base;
+      area.textContent = '';
+    },
+  };
+}
+
+export function table(headers, rows, caption) {
+  return h(
+    'table',
+    {},
+    caption ? h('caption', {}, caption) : null,
+    h('thead', {}, h('tr', {}, headers.map((header) => h('th', { scope: 'col' }, header)))),
+    h('tbody', {}, rows.map((row) => h('tr', {}, row.map((cell) => h('td', {}, cell))))),
+  );
+}
+
+export function formatNumber(value, digits = 3) {
+  if (value === undefined || value === null || value === '') return '–';
+  const number = Number(value);
+  if (!Number.isFinite(number)) return String(value);
+  if (Number.isInteger(number) && Math.abs(number) < 1e9) return String(number);
+  return number.toPrecision(digits);
+}
+
+// "OPERATION_STATE_RUNNING" -> "running"
+export function enumName(value, prefix) {
+  return String(value ?? '').replace(prefix, '').toLowerCase().replaceAll('_', ' ');
+}
+
+export function decodeBase64(text) {
+  const binary = atob(text ?? '');
+  const bytes = new Uint8Array(binary.length);
+  for (let i = 0; i < binary.length; ++i) bytes[i] = binary.charCodeAt(i);
+  return bytes;
+}

@@ -1,0 +1,126 @@
+// Devices and calibration: each device's health with the driver's error,
+// starting an LED calibration and following it, and the mixes solved on the
+// daemon's LED library (drive levels and figures of merit).
+import * as api from '../api.js';
+import { h, field, messageArea, table, enumName, formatNumber } from '../dom.js';
+import { barChart, colourOf, linePlot } from '../plot.js';
+import { operationView } from '../operation.js';
+import { LED_CHANNELS } from './live.js';
+
+const MIX_TARGETS = [['d65', "D65' (camera objective)", 'MIX_OBJECTIVE_CAMERA', true],
+  ['w57', 'W57', 'MIX_OBJECTIVE_CAMERA', false], ['w57+blue', 'W57 + blue', 'MIX_OBJECTIVE_CAMERA', false]];
+
+function devicesSection() {
+  const body = h('div', {});
+  const message = messageArea();
+  const refresh = async () => {
+    message.clear();
+    try {
+      const { devices = [] } = await api.call('DeviceService', 'ListDevices', {});
+      body.replaceChildren(table(['Name', 'Kind', 'Backend', 'Address', 'Health', 'Error or fault', 'Info'],
+        devices.map((device) => [device.name, enumName(device.kind, 'DEVICE_KIND_'), device.backend, device.address,
+          h('span', { class: `health ${enumName(device.health, 'DEVICE_HEALTH_')}` }, enumName(device.health, 'DEVICE_HEALTH_')),
+          device.detail || '–', Object.entries(device.info ?? {}).map(([k, v]) => `${k}: ${v}`).join('; ')]),
+        'Devices'));
+    } catch (error) {
+      message.error(error);
+    }
+  };
+  refresh();
+  return h('section', { class: 'card', 'aria-labelledby': 'devices-heading' },
+    h('h3', { id: 'devices-heading' }, 'Devices'), body,
+    h('button', { type: 'button', onclick: refresh }, 'Refresh devices'), message.element);
+}
+
+const LIBRARY_KEYS = { W57: 'w57', W40: 'w40', W27: 'w27', R: 'red', G: 'green', B: 'blue' };
+
+// The mix's spectrum (Σ weight × spectrum per unit drive) against the target,
+// D65 scaled to the mix's power (a D65' target); W57 mixes are shown alone.
+function mixSpectrumPlot(library, weights, target, title) {
+  const mix = library.wavelength_nm.map((_, i) => library.leds.reduce((sum, led) =>
+    sum + (weights[LIBRARY_KEYS[led.led]] ?? 0) * led.spectrum_per_unit_drive[i], 0));
+  const series = [{ name: 'mix', x: library.wavelength_nm, y: mix }];
+  if (target === 'd65') {
+    const mixPower = mix.reduce((a, b) => a + b, 0);
+    const d65Power = library.d65.reduce((a, b) => a + b, 0);
+    series.push({ name: 'target D65', x: library.wavelength_nm, y: library.d65.map((v) => (v * mixPower) / d65Power), dashed: true });
+  }
+  return linePlot(series, { title: `${title}: mix spectrum against its target`, xLabel: 'wavelength (nm)', width: 420, height: 200 });
+}
+
+function mixesSection() {
+  const body = h('div', { class: 'mixes' });
+  const spectra = h('div', { class: 'library' });
+  const message = messageArea();
+  const refresh = async () => {
+    message.clear();
+    body.replaceChildren();
+    let library = null;
+    try {
+      library = await api.call('CalibrationService', 'GetLedLibrary', {});
+      spectra.replaceChildren(
+        linePlot(library.leds.map((led) => ({ name: led.led, x: library.wavelength_nm, y: led.spectrum_per_unit_drive })),
+          { title: `LED library (${library.source}, ${library.created_utc}): spectrum per unit drive`, xLabel: 'wavelength (nm)' }),
+        h('p', { class: 'muted' }, `LED library ${library.library}: ` +
+          library.leds.map((led) => `${led.led} ${led.description} (ladder ${led.drive_levels.join(', ')}; limit ${led.max_drive_level})`).join('; ')));
+    } catch (error) {
+      spectra.replaceChildren(h('p', { class: 'message error' }, `LED library: ${error.message} (${error.code})`));
+    }
+    for (const [target, title, objective, hold] of MIX_TARGETS) {
+      try {
+        const mix = await api.call('CalibrationService', 'SolveMix', { target, objective, hold_chromaticity: hold });
+        const weights = mix.weights ?? {};
+        const figures = Object.entries(mix.figures ?? {}).sort(([a], [b]) => a.localeCompare(b));
+        body.append(h('figure', { class: 'mix', 'data-target': target },
+          barChart(LED_CHANNELS.map(([key], i) => ({ name: key, value: weights[key] ?? 0, colour: colourOf(i) })),
+            { title: `${title}: drive levels`, yMax: 1 }),
+          library ? mixSpectrumPlot(library, weights, target, title) : null,
+          h('figcaption', {}, `${title}: ${mix.summary}`),
+          table(['Figure of merit', 'Value'], figures.map(([name, value]) => [name, formatNumber(value, 4)]), `${title}: figures of merit`),
+          h('p', { class: 'muted' }, `library: ${mix.library}`)));
+      } catch (error) {
+        body.append(h('p', { class: 'message error' }, `${title}: ${error.message} (${error.code})`));
+      }
+    }
+  };
+  refresh();
+  return { section: h('section', { class: 'card', 'aria-labelledby': 'mixes-heading' },
+    h('h3', { id: 'mixes-heading' }, 'LED library and solved mixes'), spectra, body,
+    h('button', { type: 'button', onclick: refresh }, 'Solve the mixes again'), message.element), refresh };
+}
+
+function calibrationSection(onCalibrated) {
+  const levels = h('input', { type: 'text', placeholder: 'default ladder', inputMode: 'decimal' });
+  const warmup = h('input', { type: 'number', min: 0, max: 600000, step: 1, value: 0 });
+  const message = messageArea();
+  const progress = operationView({ controls: true, onFinished: onCalibrated });
+  const form = h('form', { class: 'inline' },
+    field('Drive levels (comma-separated, each in (0, 1])', levels), field('Warm-up (ms)', warmup),
+    h('button', { type: 'submit' }, 'Start calibration'));
+  form.addEventListener('submit', async (event) => {
+    event.preventDefault();
+    message.clear();
+    const driveLevels = levels.value.split(',').map((text) => text.trim()).filter(Boolean).map(Number);
+    if (driveLevels.some((level) => !(level > 0 && level <= 1))) {
+      message.error({ message: `drive levels: each must be in (0, 1], got "${levels.value}"` });
+      return;
+    }
+    try {
+      progress.follow(await api.call('CalibrationService', 'StartCalibration',
+        { drive_levels: driveLevels, warmup_ms: Number(warmup.value) }));
+    } catch (error) {
+      message.error(error);
+    }
+  });
+  return { section: h('section', { class: 'card', 'aria-labelledby': 'calibration-heading' },
+    h('h3', { id: 'calibration-heading' }, 'LED calibration'),
+    h('p', {}, 'Measures every LED type with the spectrometer at each drive level and stores the LED library.'),
+    form, message.element, progress.element), close: progress.close };
+}
+
+export function mountDevices(container) {
+  const mixes = mixesSection();
+  const calibration = calibrationSection(() => mixes.refresh());
+  container.append(h('h2', {}, 'Devices and calibration'), devicesSection(), calibration.section, mixes.section);
+  return () => calibration.close();
+}

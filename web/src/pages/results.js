@@ -1,0 +1,112 @@
+// Results: a session's estimation results (ResultsService.GetResults): the
+// headline figures, each camera's maps (the previews chromod wrote next to
+// maps.exr) and links to the files; relighting (MapsService.Relight) under
+// the offered illuminants with the photograph | reconstruction | ΔE94 panel
+// and its figures.
+import * as api from '../api.js';
+import { h, field, messageArea, table, enumName, formatNumber } from '../dom.js';
+
+const ILLUMINANTS = ['D65', 'D50', 'A', '4000K', 'W57', 'W40', 'W27', 'R', 'G', 'B'];
+const MAP_PREVIEWS = [['cm', 'Cm (melanin)'], ['ch', 'Ch (hemoglobin)'], ['bm', 'βm (melanin blend)'],
+  ['che', 'Che (epidermal hemoglobin)'], ['residual', 'Residual'], ['order', 'Model order'], ['flags', 'Flags']];
+
+function relativeTo(folder, path) {
+  const prefix = folder.endsWith('/') ? folder : `${folder}/`;
+  return path.startsWith(prefix) ? path.slice(prefix.length) : path;
+}
+
+function deltaETable(statistics, caption) {
+  return table(['Illuminant', 'Mean', 'Median', 'p95', 'Max', 'Pixels'],
+    Object.entries(statistics ?? {}).map(([name, s]) => [name, formatNumber(s.mean, 3), formatNumber(s.median, 3),
+      formatNumber(s.p95, 3), formatNumber(s.max, 3), s.pixels]), caption);
+}
+
+function cameraResults(results, camera) {
+  const folder = relativeTo(results.folder, camera.maps_file).replace(/[^/]*$/, '');
+  const summary = camera.summary ?? {};
+  const maps = h('div', { class: 'maps' }, MAP_PREVIEWS.map(([key, title]) =>
+    h('figure', { class: 'map' },
+      h('img', { src: api.fileUrl(results.session_id, `${folder}${key}.png`), alt: `${camera.camera}: ${title} map`, loading: 'lazy' }),
+      h('figcaption', {}, title))));
+  return h('section', { class: 'card', 'aria-label': `Results of camera ${camera.camera}`, 'data-camera': camera.camera },
+    h('h3', {}, `Camera ${camera.camera}: ${enumName(camera.state, 'RESULTS_STATE_')}`),
+    camera.reason ? h('p', { class: 'message error' }, camera.reason) : null,
+    h('p', {}, `estimator ${summary.method}, model ${summary.model}: ${summary.pixels} pixels in ${formatNumber(summary.estimate_seconds)} s ` +
+      `(${formatNumber(summary.pixels_per_second, 4)} pixels/s); sensitivity ${camera.camera_sensitivity}`),
+    deltaETable(summary.relit_delta_e94, `${camera.camera}: relit ΔE94 against the photographs`),
+    table(['Flag', 'Pixels'], Object.entries(summary.flag_counts ?? {}).map(([flag, count]) => [flag, count]), `${camera.camera}: flags`),
+    maps,
+    h('ul', { class: 'files' },
+      [camera.maps_file, camera.report_file].map((file) => {
+        const relative = relativeTo(results.folder, file);
+        return h('li', {}, h('a', { href: api.fileUrl(results.session_id, relative), download: '' }, relative));
+      })));
+}
+
+function relightSection(results) {
+  const cameras = results.cameras?.length ? results.cameras : [{ camera: '', maps_file: results.maps_file }];
+  const camera = h('select', {}, cameras.map((c, i) => h('option', { value: String(i) }, c.camera || 'the camera')));
+  const illuminant = h('select', {}, ILLUMINANTS.map((name) => h('option', { value: name }, name)));
+  // An RGB albedo EXR in the session folder (e.g. from a colour camera's
+  // export); the session's own derived albedo is raw (one channel Y).
+  const photograph = h('input', { type: 'text', placeholder: 'none', spellcheck: false });
+  const message = messageArea('relight-message');
+  const output = h('div', { class: 'relight-output', 'aria-live': 'polite' });
+  const form = h('form', { class: 'inline' },
+    field('Camera', camera), field('Illuminant', illuminant), field('Photograph to compare (in the session folder)', photograph),
+    h('button', { type: 'submit' }, 'Relight'));
+  form.addEventListener('submit', async (event) => {
+    event.preventDefault();
+    message.info('relighting…');
+    output.replaceChildren();
+    const chosen = cameras[Number(camera.value)];
+    try {
+      const reply = await api.call('MapsService', 'Relight', {
+        session_id: results.session_id, maps_file: relativeTo(results.folder, chosen.maps_file),
+        illuminant: illuminant.value, photograph_file: photograph.value.trim() });
+      message.info(`relit ${reply.relit_pixels} of ${reply.width}×${reply.height} pixels under ${reply.illuminant}` +
+        (reply.compared ? '' : ' (no photograph given: no ΔE94)'));
+      const images = reply.files.filter((file) => file.endsWith('.png'));
+      if (reply.compared) output.append(deltaETable({ [reply.illuminant]: reply.photo_delta_e94 }, 'ΔE94 of the reconstruction against the photograph'));
+      output.append(
+        h('div', { class: 'panels' }, images.map((file) => h('figure', {},
+          h('img', { src: api.fileUrl(results.session_id, file), alt: `relit under ${reply.illuminant}: ${file.split('/').pop()}` }),
+          h('figcaption', {}, file.split('/').pop())))),
+        h('ul', { class: 'files' }, reply.files.map((file) => h('li', {}, h('a', { href: api.fileUrl(results.session_id, file), download: '' }, file)))));
+      output.dataset.relit = JSON.stringify({ relit_pixels: reply.relit_pixels, width: reply.width, height: reply.height,
+        compared: reply.compared, photo_delta_e94: reply.compared ? reply.photo_delta_e94 : null });
+    } catch (error) {
+      message.error(error);
+    }
+  });
+  return h('section', { class: 'card', 'aria-labelledby': 'relight-heading' },
+    h('h3', { id: 'relight-heading' }, 'Relight'), form, message.element, output);
+}
+
+export function mountResults(container, sessionId) {
+  const choose = h('select', { name: 'session' }, h('option', { value: '' }, 'choose a session'));
+  const body = h('div', {});
+  const message = messageArea();
+  const show = async (id) => {
+    body.replaceChildren();
+    message.clear();
+    if (!id) return;
+    try {
+      const results = await api.call('ResultsService', 'GetResults', { session_id: id });
+      body.dataset.sessionId = id;
+      body.append(h('p', { class: 'results-state' }, `Session ${id}: results ${enumName(results.state, 'RESULTS_STATE_')}`,
+        results.reason ? ` — ${results.reason}` : ''));
+      if (results.state !== 'RESULTS_STATE_AVAILABLE') return;
+      body.append(relightSection(results), ...(results.cameras ?? []).map((camera) => cameraResults(results, camera)));
+    } catch (error) {
+      message.error(error);
+    }
+  };
+  choose.addEventListener('change', () => { location.hash = `#results/${encodeURIComponent(choose.value)}`; });
+  api.call('SessionService', 'ListSessions', { limit: 100 }).then(({ sessions = [] }) => {
+    for (const session of sessions)
+      choose.append(h('option', { value: session.id, selected: session.id === sessionId }, `${session.id} (${enumName(session.operation?.state, 'OPERATION_STATE_')})`));
+  }, (error) => message.error(error));
+  container.append(h('h2', {}, 'Results'), field('Session', choose), message.element, body);
+  show(sessionId);
+}
