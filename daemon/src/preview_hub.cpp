@@ -78,7 +78,7 @@ void PreviewHub::offer(const std::string& camera, const drivers::Frame& frame, d
 
 void PreviewHub::start_free_run_locked(const std::string& name) {
   auto& state = state_locked(name);
-  if (state.free_running || state.watchers == 0 || busy_()) return;
+  if (state.free_running || state.stopping || state.watchers == 0 || busy_()) return;
   auto& device = camera(name);
   if (!device.device) throw std::runtime_error("camera \"" + name + "\": " + device.open_error);
   const LiveSettings live = settings_locked(name);
@@ -108,6 +108,7 @@ void PreviewHub::stop_free_run_locked(const std::string& name) {
   if (!state.free_running) return;
   auto& device = camera(name);
   state.free_running = false;
+  state.stopping = true;
   // The stream's callback takes mutex_: release it while the driver joins its thread.
   mutex_.unlock();
   try {
@@ -115,9 +116,13 @@ void PreviewHub::stop_free_run_locked(const std::string& name) {
     device.device->stop_stream();
   } catch (...) {
     mutex_.lock();
+    state.stopping = false;
+    changed_.notify_all();
     throw;
   }
   mutex_.lock();
+  state.stopping = false;
+  changed_.notify_all();  // a watcher that found the stop in progress starts the next run
 }
 
 void PreviewHub::stop_free_runs() {
@@ -153,10 +158,17 @@ std::shared_ptr<const HubFrame> PreviewHub::Watch::next(std::chrono::millisecond
   // A faster watcher than the free run was started for: restart it at the new rate.
   if (state.free_running && *state.rates_hz.rbegin() > state.free_run_rate_hz + 1e-9) hub_.stop_free_run_locked(camera_);
   hub_.start_free_run_locked(camera_);
-  const bool arrived = hub_.changed_.wait_for(lock, timeout, [&] {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  const auto fresh = [&] {
     auto& current = hub_.state_locked(camera_);
     return current.latest && current.latest->serial > last_serial_;
-  });
+  };
+  bool arrived = fresh();
+  while (!arrived && hub_.changed_.wait_until(lock, deadline) != std::cv_status::timeout) {
+    hub_.start_free_run_locked(camera_);  // after a stop that was in progress (no-op when running)
+    arrived = fresh();
+  }
+  arrived = arrived || fresh();
   if (!arrived) return nullptr;
   auto latest = hub_.state_locked(camera_).latest;
   last_serial_ = latest->serial;

@@ -5,6 +5,7 @@
 // files kept inside their folders, the API bridge answering as the API does,
 // bad JSON refused with nothing changed, the preview stream, and camera
 // settings refused during a session.
+#include <atomic>
 #include <bitset>
 #include <fstream>
 #include <regex>
@@ -329,6 +330,38 @@ TEST_F(WebFixture, ThePreviewStreamDeliversDownscaledFramesWithHistogramAndClipp
   }
   // Sequences grow: each update is a newer frame.
   EXPECT_LT(std::stoull(frames[0]["sequence"].get<std::string>()), std::stoull(frames[2]["sequence"].get<std::string>()));
+}
+
+// Settings changed while the live view streams: each change restarts the
+// free run. A watcher starting the run again while a stop was still joining
+// the camera's stream deadlocked the hub once (the stream's last callback
+// waited for the hub, the watcher for the camera, the stop for the stream).
+TEST_F(WebFixture, SettingsChangedWhileThePreviewStreamsAreAnsweredAndTheStreamGoesOn) {
+  const std::string cookie = log_in();
+  std::atomic<bool> done{false};
+  std::atomic<int> frames{0};
+  std::thread watcher([&] {
+    httplib::Client c("127.0.0.1", web->port());
+    c.set_read_timeout(60, 0);
+    c.Get("/api/stream/preview?rate_hz=20&width=64", {{"Cookie", cookie}}, [&](const char* data, std::size_t size) {
+      for (std::size_t i = 0; i + 5 < size; ++i) frames += std::string_view(data + i, 5) == "data:";
+      return !done;
+    });
+  });
+  for (int i = 0; i < 20 && frames == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  for (int i = 0; i < 12; ++i) {
+    auto c = client();
+    c.set_read_timeout(10, 0);
+    auto r = c.Post("/api/CameraService/SetCameraSettings", {{"Origin", origin}, {"Cookie", cookie}},
+                    nlohmann::json{{"camera", "cam0"}, {"exposure_us", 1000 + 500 * i}}.dump(), "application/json");
+    ASSERT_TRUE(r) << "change " << i << " got no answer in 10 s";
+    EXPECT_EQ(r->status, 200) << r->body;
+  }
+  const int before = frames;
+  for (int i = 0; i < 50 && frames <= before; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_GT(frames.load(), before) << "the stream stopped after the changes";
+  done = true;
+  watcher.join();
 }
 
 TEST_F(WebFixture, CameraSettingsAreRefusedDuringASessionSayingWhy) {

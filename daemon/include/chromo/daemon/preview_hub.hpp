@@ -89,6 +89,10 @@ class PreviewHub {
     int watchers = 0;
     std::multiset<double> rates_hz;
     bool free_running = false;
+    // A stop is joining the camera's stream with the hub's mutex released: no
+    // start until it ends (a start would hold the mutex the stream's last
+    // callback waits for, while waiting for the device the stop holds).
+    bool stopping = false;
     double free_run_rate_hz = 0;
     std::optional<LiveSettings> settings;
     std::shared_ptr<const HubFrame> latest;
