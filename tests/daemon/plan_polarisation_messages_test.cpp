@@ -1,4 +1,4 @@
-// The API's plan messages carry each step's polarisation (proto/sessions.proto
+// The API's plan messages carry each step's polarisation (proto/chromosphere/v1/sessions.proto
 // Step.polarisation, docs/polarisation.md): a polarised plan survives the
 // round trip, an unknown value is refused naming the step.
 
