@@ -6,7 +6,9 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include <cmath>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <set>
 
@@ -97,6 +99,56 @@ TEST_F(MapsApi, RelightFlushAndProfilesWriteTheirFiles) {
     EXPECT_THAT(response.out_dir(), StartsWith("products/profiles-"));
     EXPECT_TRUE(fs::exists(data / response.out_dir() / "index.exr"));
   }
+}
+
+// GetMap: each output cell is the map's value at the cell's centre (the web
+// view shows the value under the cursor); NaN stays NaN; bad requests name the field.
+TEST_F(MapsApi, GetMapSamplesAChannelAtCellCentresAndRefusesBadRequests) {
+  const int w = 48, h = 32;
+  std::vector<float> cm(static_cast<std::size_t>(w) * h);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) cm[static_cast<std::size_t>(y) * w + x] = 0.01f + 0.001f * x + 0.0001f * y;
+  cm[static_cast<std::size_t>(3) * w + 5] = std::numeric_limits<float>::quiet_NaN();  // map cell (2, 1)'s centre
+  files::write_exr(data / "gradient.exr", files::FloatImage{w, h, {"Cm", "flags"}, {cm, std::vector<float>(cm.size(), 0.0f)}});
+  auto get = [&](const std::string& file, const std::string& channel, std::uint32_t max_width, pb::GetMapResponse* out) {
+    grpc::ClientContext context;
+    pb::GetMapRequest request;
+    request.set_maps_file(file), request.set_channel(channel), request.set_max_width(max_width);
+    return stub->GetMap(&context, request, out);
+  };
+  pb::GetMapResponse map;
+  const grpc::Status got = get("gradient.exr", "Cm", 24, &map);
+  ASSERT_TRUE(got.ok()) << got.error_code() << " " << got.error_message();
+  EXPECT_EQ(map.width(), 24u);
+  EXPECT_EQ(map.height(), 16u);
+  EXPECT_EQ(map.source_width(), 48u);
+  EXPECT_THAT(std::vector<std::string>(map.channels().begin(), map.channels().end()), ::testing::ElementsAre("Cm", "flags"));
+  ASSERT_EQ(map.values_size(), 24 * 16);
+  for (int y = 0; y < 16; ++y)
+    for (int x = 0; x < 24; ++x) {
+      const float v = map.values(y * 24 + x);
+      if (x == 2 && y == 1) {
+        EXPECT_TRUE(std::isnan(v));
+        continue;
+      }
+      EXPECT_FLOAT_EQ(v, 0.01f + 0.001f * (2 * x + 1) + 0.0001f * (2 * y + 1)) << x << "," << y;
+    }
+  EXPECT_FLOAT_EQ(map.min(), 0.01f + 0.001f + 0.0001f);
+  EXPECT_FLOAT_EQ(map.max(), 0.01f + 0.001f * 47 + 0.0001f * 31);
+  pb::GetMapResponse small;  // never upscaled
+  ASSERT_TRUE(get("gradient.exr", "flags", 1024, &small).ok());
+  EXPECT_EQ(small.width(), 48u);
+
+  pb::GetMapResponse refused;
+  grpc::Status s = get("gradient.exr", "Hb", 0, &refused);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(s.error_message(), HasSubstr("channel: \"Hb\" is not in the file (it has Cm, flags)"));
+  s = get("gradient.exr", "Cm", 8, &refused);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(s.error_message(), HasSubstr("max_width"));
+  s = get("../outside.exr", "Cm", 0, &refused);
+  EXPECT_NE(s.error_code(), grpc::StatusCode::OK);
+  EXPECT_THAT(s.error_message(), HasSubstr("maps_file"));
 }
 
 TEST_F(MapsApi, ImportMapsGivesTheTableTwoComparison) {

@@ -1,4 +1,7 @@
 // MapsService: relight, flush, import-maps and profile export on session files (services.hpp, docs/maps.md).
+#include <algorithm>
+#include <cmath>
+#include <limits>
 #include <ctime>
 #include <filesystem>
 #include <mutex>
@@ -6,6 +9,7 @@
 #include <random>
 #include <string>
 
+#include "chromo/files/float_image.hpp"
 #include "chromo/maps/map_operations.hpp"
 #include "chromosphere/v1/maps.grpc.pb.h"
 #include "services.hpp"
@@ -174,6 +178,38 @@ double scale_field(double value, const char* field) {
 class MapsServiceImpl final : public pb::MapsService::Service {
  public:
   MapsServiceImpl(Daemon& daemon, Guard& guard) : daemon_(daemon), guard_(guard) {}
+
+  Status GetMap(ServerContext* context, const pb::GetMapRequest* request, pb::GetMapResponse* response) override {
+    return run(context, request->session_id(), [&](const Folder& files) {
+      const std::uint32_t max_width = request->max_width() == 0 ? 320 : request->max_width();
+      if (max_width < 16 || max_width > 1024)
+        throw Refusal{{StatusCode::INVALID_ARGUMENT, "max_width: must be 16-1024 (0: 320)"}};
+      const files::FloatImage image = files::read_exr(files.input("maps_file", request->maps_file(), true));
+      for (const std::string& name : image.channel_names) response->add_channels(name);
+      const auto found = std::find(image.channel_names.begin(), image.channel_names.end(), request->channel());
+      if (found == image.channel_names.end()) {
+        std::string names;
+        for (const std::string& name : image.channel_names) names += (names.empty() ? "" : ", ") + name;
+        throw Refusal{{StatusCode::INVALID_ARGUMENT, "channel: \"" + request->channel() + "\" is not in the file (it has " + names + ")"}};
+      }
+      const std::vector<float>& values = image.channels[static_cast<std::size_t>(found - image.channel_names.begin())];
+      const int width = std::min<int>(static_cast<int>(max_width), image.width);
+      const int height = std::max(1, static_cast<int>(std::lround(static_cast<double>(image.height) * width / image.width)));
+      response->set_width(width), response->set_height(height);
+      response->set_source_width(image.width), response->set_source_height(image.height);
+      float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+      for (int y = 0; y < height; ++y) {
+        const int sy = std::min(image.height - 1, static_cast<int>((y + 0.5) * image.height / height));
+        for (int x = 0; x < width; ++x) {
+          const int sx = std::min(image.width - 1, static_cast<int>((x + 0.5) * image.width / width));
+          const float v = values[static_cast<std::size_t>(sy) * image.width + sx];
+          response->add_values(v);
+          if (std::isfinite(v)) lo = std::min(lo, v), hi = std::max(hi, v);
+        }
+      }
+      response->set_min(std::isfinite(lo) ? lo : 0), response->set_max(std::isfinite(hi) ? hi : 0);
+    });
+  }
 
   Status Relight(ServerContext* context, const pb::RelightRequest* request, pb::RelightResponse* response) override {
     return run(context, request->session_id(), [&](const Folder& files) {
