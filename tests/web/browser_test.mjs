@@ -287,6 +287,24 @@ async function main() {
   await waitUntil(page, () => [...document.querySelectorAll('.map img')].every((image) => image.complete && image.naturalWidth > 0),
     null, 20000, 'the map previews');
   console.log(`map previews shown (${await page.locator('.map img').count()}), files linked`);
+  // The value under the cursor is GetMap's value of that cell: by keyboard
+  // (arrow keys on the focused map) and by mouse.
+  const mapsFile = results.json.cameras[0].maps_file.slice(results.json.folder.length + 1);
+  const cmMap = await api('MapsService', 'GetMap', { session_id: sessionId, maps_file: mapsFile, channel: 'Cm', max_width: 480 });
+  assert.equal(cmMap.status, 200, JSON.stringify(cmMap.json));
+  const canvas = page.locator('.map-canvas').first();
+  await waitUntil(page, () => document.querySelector('.map-canvas[data-channel="Cm"]') !== null, null, 20000, 'the Cm map');
+  await canvas.focus();
+  for (let i = 0; i < 5; ++i) await page.keyboard.press('ArrowRight');
+  for (let i = 0; i < 3; ++i) await page.keyboard.press('ArrowDown');
+  const byKeyboard = await page.locator('.map-value').first().getAttribute('data-value');
+  assert.equal(Number(byKeyboard), Number(cmMap.json.values[3 * cmMap.json.width + 5]), 'keyboard cursor (5, 3): page and GetMap differ');
+  const box = await canvas.boundingBox();
+  const [cx, cy] = [Math.floor(cmMap.json.width / 2), Math.floor(cmMap.json.height / 2)];
+  await page.mouse.move(box.x + (cx + 0.5) * box.width / cmMap.json.width, box.y + (cy + 0.5) * box.height / cmMap.json.height);
+  const byMouse = await page.locator('.map-value').first().getAttribute('data-value');
+  assert.equal(Number(byMouse), Number(cmMap.json.values[cy * cmMap.json.width + cx]), 'mouse cursor at the centre: page and GetMap differ');
+  console.log(`value under the cursor equals GetMap's (Cm ${byKeyboard} at cell 5,3; ${byMouse} at the centre)`);
   await page.getByLabel('Illuminant').selectOption('D65');
   started = performance.now();
   await pressOn(page, page.getByRole('button', { name: 'Relight' }), 'Enter');

@@ -1,10 +1,12 @@
 // Results: a session's estimation results (ResultsService.GetResults): the
-// headline figures, each camera's maps (the previews chromod wrote next to
-// maps.exr) and links to the files; relighting (MapsService.Relight) under
+// headline figures, each camera's maps (any channel of maps.exr drawn with its
+// colour bar and the value under the cursor; the previews chromod wrote next
+// to maps.exr) and links to the files; relighting (MapsService.Relight) under
 // the offered illuminants with the photograph | reconstruction | ΔE94 panel
 // and its figures.
 import * as api from '../api.js';
 import { h, field, messageArea, table, enumName, formatNumber } from '../dom.js';
+import { mapExplorer } from '../map_explorer.js';
 
 const ILLUMINANTS = ['D65', 'D50', 'A', '4000K', 'W57', 'W40', 'W27', 'R', 'G', 'B'];
 const MAP_PREVIEWS = [['cm', 'Cm (melanin)'], ['ch', 'Ch (hemoglobin)'], ['bm', 'βm (melanin blend)'],
@@ -35,6 +37,7 @@ function cameraResults(results, camera) {
       `(${formatNumber(summary.pixels_per_second, 4)} pixels/s); sensitivity ${camera.camera_sensitivity}`),
     deltaETable(summary.relit_delta_e94, `${camera.camera}: relit ΔE94 against the photographs`),
     table(['Flag', 'Pixels'], Object.entries(summary.flag_counts ?? {}).map(([flag, count]) => [flag, count]), `${camera.camera}: flags`),
+    mapExplorer(results.session_id, relativeTo(results.folder, camera.maps_file), camera.camera),
     maps,
     h('ul', { class: 'files' },
       [camera.maps_file, camera.report_file].map((file) => {
