@@ -15,6 +15,7 @@ import assert from 'node:assert/strict';
 
 const SKIP = 77;
 const [chromod, webDir, screenshotDir] = process.argv.slice(2);
+mkdirSync(screenshotDir, { recursive: true });
 const chromium = process.env.CHROMO_CHROMIUM ?? '/usr/bin/chromium';
 const repository = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '../..');
 if (!existsSync(chromium)) {
