@@ -16,7 +16,7 @@ bool is_white_target(const Scene& scene, int x, int y) {
 // The highlight make_skin_scene added to pixel (x, y) of its window (0 where it added none).
 double added_highlight(const Scene& scene, const SkinSceneOptions& options, int x, int y) {
   if (scene.regions().at<std::uint8_t>(y, x) != static_cast<std::uint8_t>(SceneRegion::kSpecular)) return 0;
-  return skin_scene_added_reflection(options.width, options.height, x + options.column_begin, y + options.row_begin);
+  return skin_scene_surface_highlight(options, x + options.column_begin, y + options.row_begin);
 }
 
 }  // namespace
@@ -68,6 +68,20 @@ cv::Mat render_polarised_skin(const Scene& scene, const SkinSceneOptions& option
       }
     }
   return out;
+}
+
+SkinSceneResponse render_polarised_skin_scene(const SkinSceneOptions& options, const std::vector<SceneWeights>& weights,
+                                              const std::vector<drivers::Polarisation>& states,
+                                              const std::optional<PolarisedSphere>& sphere, int band_rows) {
+  if (!sphere) return render_skin_scene(options, weights, band_rows);
+  if (states.size() != weights.size())
+    throw std::invalid_argument("render_polarised_skin_scene: one polarisation state per weights matrix");
+  std::vector<int> channels;
+  for (const SceneWeights& w : weights) channels.push_back(static_cast<int>(w.rows()));
+  return render_skin_scene_bands(options, channels, band_rows,
+                                 [&](const Scene& scene, const SkinSceneOptions& band, std::size_t k) {
+                                   return render_polarised_skin(scene, band, weights[k], states[k], sphere);
+                                 });
 }
 
 }  // namespace chromo::simulators

@@ -72,7 +72,70 @@ bool SkinSceneOptions::IsValid(std::string* error) const {
     if (error != nullptr) *error = "columns: column_begin + column_count must lie within the scene's width";
     return false;
   }
+  if (oily.count < 0 || oily.count > 64) {
+    if (error != nullptr) *error = "oily.count must be 0-64";
+    return false;
+  }
+  if (oily.count > 0 &&
+      !(oily.sigma_reflectance > 0 && oily.min_sigma > 0 && oily.max_sigma >= oily.min_sigma &&
+        oily.min_roughness_rad > 0 && oily.max_roughness_rad >= oily.min_roughness_rad && oily.min_radius_px >= 2 &&
+        oily.max_radius_px >= oily.min_radius_px)) {
+    if (error != nullptr)
+      *error = "oily: sigma_reflectance > 0, 0 < min_sigma <= max_sigma, 0 < min_roughness_rad <= max_roughness_rad, "
+               "2 <= min_radius_px <= max_radius_px";
+    return false;
+  }
   return true;
+}
+
+namespace {
+
+struct OilyRegion {
+  double x, y, radius, roughness_rad, strength;
+};
+
+// The regions of options.oily, from their own seeded stream (the scene's
+// other features keep theirs), placed over the skin (left of the white strip).
+std::vector<OilyRegion> oily_regions(const SkinSceneOptions& options) {
+  std::vector<OilyRegion> regions;
+  const OilyHighlights& o = options.oily;
+  if (o.count == 0) return regions;
+  std::mt19937_64 rng(options.seed ^ 0x6f696c79ULL);  // "oily"
+  std::uniform_real_distribution<double> unit(0, 1);
+  const double scale = options.width / 512.0;
+  for (int k = 0; k < o.count; ++k) {
+    const double share = o.count > 1 ? static_cast<double>(k) / (o.count - 1) : 0.0;
+    const double n_sigma = o.min_sigma * std::pow(o.max_sigma / o.min_sigma, share);
+    const double radius = (o.min_radius_px + (o.max_radius_px - o.min_radius_px) * unit(rng)) * scale;
+    const double x = radius + unit(rng) * std::max(0.0, 0.88 * options.width - 2 * radius);
+    const double y = radius + unit(rng) * std::max(0.0, options.height - 2 * radius);
+    const double roughness = o.min_roughness_rad + (o.max_roughness_rad - o.min_roughness_rad) * unit(rng);
+    regions.push_back({x, y, radius, roughness, n_sigma * o.sigma_reflectance});
+  }
+  return regions;
+}
+
+double standard_normal_cdf(double z) { return 0.5 * std::erfc(-z / std::sqrt(2.0)); }
+
+}  // namespace
+
+double skin_scene_oily_reflection(const SkinSceneOptions& options, double x, double y) {
+  constexpr double kDomeTilt = 40 * M_PI / 180, kLitPolar = 70 * M_PI / 180, kFade = 0.2;
+  double sum = 0;
+  for (const OilyRegion& region : oily_regions(options)) {
+    const double r = std::hypot(x - region.x, y - region.y) / region.radius;
+    if (r >= 1) continue;
+    const double coverage = std::clamp((1 - r) / kFade, 0.0, 1.0);
+    const double mirror = 2 * kDomeTilt * r, spread = 2 * region.roughness_rad;
+    const double lit = standard_normal_cdf((kLitPolar - mirror) / spread) / standard_normal_cdf(kLitPolar / spread);
+    sum += region.strength * coverage * lit;
+  }
+  return sum;
+}
+
+double skin_scene_surface_highlight(const SkinSceneOptions& options, double x, double y) {
+  const double highlight = options.highlight ? skin_scene_added_reflection(options.width, options.height, x, y) : 0.0;
+  return (highlight > 0.006 ? highlight : 0.0) + skin_scene_oily_reflection(options, x, y);
 }
 
 Scene make_white_target_scene(int width, int height) {
@@ -215,8 +278,8 @@ Scene make_skin_scene(const SkinSceneOptions& options) {
         a = (1 - hair_cover) * a + hair_cover * hair;
         region = SceneRegion::kHair;
       }
-      const double reflection = skin_scene_added_reflection(w, h, x, y);
-      if (reflection > 0.006) {
+      const double reflection = skin_scene_surface_highlight(options, x, y);
+      if (reflection > 0) {
         a += Spectrum::constant(reflection);  // surface reflection: flat, on top of the diffuse albedo
         region = SceneRegion::kSpecular;
       }
@@ -230,16 +293,15 @@ Scene make_skin_scene(const SkinSceneOptions& options) {
   return scene;
 }
 
-SkinSceneResponse render_skin_scene(const SkinSceneOptions& options, const std::vector<SceneWeights>& weights,
-                                    int band_rows) {
+SkinSceneResponse render_skin_scene_bands(const SkinSceneOptions& options, const std::vector<int>& channels, int band_rows,
+                                          const BandRender& render) {
   std::string error;
   if (!options.IsValid(&error)) throw std::invalid_argument("SkinSceneOptions: " + error);
   if (band_rows < 1) throw std::invalid_argument("render_skin_scene: band_rows must be >= 1");
   const int first = options.row_begin, rows = options.row_count > 0 ? options.row_count : options.height;
   const int cols = options.column_count > 0 ? options.column_count : options.width;
   SkinSceneResponse out;
-  for (const SceneWeights& w : weights)
-    out.responses.emplace_back(rows, cols, CV_32FC(static_cast<int>(w.rows())));
+  for (int n : channels) out.responses.emplace_back(rows, cols, CV_32FC(n));
   out.regions.create(rows, cols, CV_8U);
   for (cv::Mat* m : {&out.cm, &out.ch, &out.bm, &out.che}) m->create(rows, cols, CV_32F);
   for (int y = 0; y < rows; y += band_rows) {
@@ -248,7 +310,7 @@ SkinSceneResponse render_skin_scene(const SkinSceneOptions& options, const std::
     band.row_count = std::min(band_rows, rows - y);
     const Scene scene = make_skin_scene(band);
     const cv::Rect target(0, y, cols, band.row_count);
-    for (std::size_t k = 0; k < weights.size(); ++k) scene.render(weights[k]).copyTo(out.responses[k](target));
+    for (std::size_t k = 0; k < channels.size(); ++k) render(scene, band, k).copyTo(out.responses[k](target));
     scene.regions().copyTo(out.regions(target));
     scene.cm().copyTo(out.cm(target));
     scene.ch().copyTo(out.ch(target));
@@ -256,6 +318,14 @@ SkinSceneResponse render_skin_scene(const SkinSceneOptions& options, const std::
     scene.che().copyTo(out.che(target));
   }
   return out;
+}
+
+SkinSceneResponse render_skin_scene(const SkinSceneOptions& options, const std::vector<SceneWeights>& weights,
+                                    int band_rows) {
+  std::vector<int> channels;
+  for (const SceneWeights& w : weights) channels.push_back(static_cast<int>(w.rows()));
+  return render_skin_scene_bands(options, channels, band_rows,
+                                 [&](const Scene& scene, const SkinSceneOptions&, std::size_t k) { return scene.render(weights[k]); });
 }
 
 }  // namespace chromo::simulators

@@ -14,6 +14,7 @@
 #include <opencv2/core.hpp>
 
 #include <optional>
+#include <vector>
 
 #include "chromo/drivers/led_controller.hpp"
 #include "chromo/simulators/polarisation/polariser_optics.hpp"
@@ -40,5 +41,14 @@ cv::Mat skin_surface_layer(const Scene& scene, const SkinSceneOptions& options, 
 // `scene` must be make_skin_scene(options). Without a sphere: Scene::render.
 cv::Mat render_polarised_skin(const Scene& scene, const SkinSceneOptions& options, const SceneWeights& weights,
                               drivers::Polarisation state, const std::optional<PolarisedSphere>& sphere);
+
+// render_skin_scene (scene.hpp) for a polarised sphere: make_skin_scene(options)
+// in bands of band_rows rows, each band's response under weights[k] in
+// states[k] (render_polarised_skin), plus the regions and truth maps.
+// Without a sphere: render_skin_scene. Throws std::invalid_argument for bad
+// options, band_rows < 1, or states of another size than weights.
+SkinSceneResponse render_polarised_skin_scene(const SkinSceneOptions& options, const std::vector<SceneWeights>& weights,
+                                              const std::vector<drivers::Polarisation>& states,
+                                              const std::optional<PolarisedSphere>& sphere, int band_rows = 128);
 
 }  // namespace chromo::simulators

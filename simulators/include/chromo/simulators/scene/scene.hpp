@@ -17,6 +17,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -76,6 +77,22 @@ class Scene {
   cv::Mat regions_, cm_, ch_, bm_, che_;
 };
 
+// Oily regions (docs/polarisation.md, "Oily highlights"): `count` domes of
+// oil film, each adding a flat surface reflection of peak
+// strength_k = n_k · sigma_reflectance, n_k spaced logarithmically from
+// min_sigma to max_sigma over the regions (in σ of the polarised capture's
+// surface map, (parallel − cross)/2, which the caller computes from its
+// camera's noise model), shaped by a roughness-dependent lobe over the
+// sphere's lit directions (skin_scene_oily_reflection). count = 0 (the
+// default): none, and the scene is exactly the scene without this option.
+struct OilyHighlights {
+  int count = 0;                    // 0-64
+  double sigma_reflectance = 0;     // reflectance of one σ (> 0 when count > 0)
+  double min_sigma = 1, max_sigma = 20;
+  double min_roughness_rad = 0.05, max_roughness_rad = 0.35;  // per region, seeded
+  double min_radius_px = 10, max_radius_px = 22;              // at 512 px width, scaled with it
+};
+
 struct SkinSceneOptions {
   int width = 512;
   int height = 512;
@@ -90,6 +107,10 @@ struct SkinSceneOptions {
   int row_count = 0;
   int column_begin = 0;
   int column_count = 0;
+  OilyHighlights oily;
+  // The scene's one highlight (skin_scene_added_reflection). false: none
+  // (the labels of what lies under it, for benches scoring the skin there).
+  bool highlight = true;
 
   bool IsValid(std::string* error) const;
 };
@@ -104,6 +125,25 @@ Scene make_skin_scene(const SkinSceneOptions& options);
 // 0.2 h) with radii 0.08 w and 0.04 h, labelled kSpecular where ≥ 0.006
 // (truth for reporting flagged shares by strength).
 double skin_scene_added_reflection(int width, int height, double x, double y);
+
+// The oily regions' added reflection at scene pixel (x, y) of the
+// options' width × height scene (0 without oily regions). Region k is a
+// dome of radius R_k whose surface normal tilts by t(r) = 40°·r/R_k at
+// distance r from its centre; the design camera's mirror direction is then
+// 2t(r) from the patch normal, and a facet-tilt lobe of standard deviation
+// roughness_k spreads it over 2·roughness_k. The sphere lights directions up
+// to 70° from the patch normal, so the lobe's lit share is
+// Φ((70° − 2t)/(2·roughness_k)) (one-dimensional along the tilt), relative to
+// its value at the dome's top; the oil film covers r < R_k, fading over the
+// last 20% of the radius. reflection = strength_k · coverage · lit share
+// (regions add).
+double skin_scene_oily_reflection(const SkinSceneOptions& options, double x, double y);
+
+// Everything make_skin_scene(options) adds as a flat surface reflection at
+// scene pixel (x, y): the highlight where it exceeds 0.006 plus the oily
+// regions; the pixel is labelled kSpecular where this is > 0 (unless a
+// later region — the white target — covers it).
+double skin_scene_surface_highlight(const SkinSceneOptions& options, double x, double y);
 
 // The share of scene pixel (x, y) the marker stroke's dye covers: 1 within
 // 4·width/512 px of the stroke from (0.5 w, 0.85 h) to (0.85 w, 0.6 h),
@@ -125,6 +165,12 @@ struct SkinSceneResponse {
 using SceneWeights = Eigen::Matrix<double, Eigen::Dynamic, spectral::kGridSize>;
 SkinSceneResponse render_skin_scene(const SkinSceneOptions& options, const std::vector<SceneWeights>& weights,
                                     int band_rows = 128);
+
+// The banding of render_skin_scene with any renderer: response k of a band
+// is render(band's scene, band's options, k), CV_32FC(channels[k]).
+using BandRender = std::function<cv::Mat(const Scene& band, const SkinSceneOptions& band_options, std::size_t k)>;
+SkinSceneResponse render_skin_scene_bands(const SkinSceneOptions& options, const std::vector<int>& channels, int band_rows,
+                                          const BandRender& render);
 
 // A scene that is all white target (for white-reference captures).
 Scene make_white_target_scene(int width, int height);
