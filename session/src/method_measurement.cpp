@@ -164,6 +164,8 @@ Normalised normalise(const IlluminatedCapture& capture, const Reference& referen
 
 struct References {
   Reference broadband, base, with_blue;
+  std::optional<Reference> parallel;             // D65' parallel's white
+  estimation::ChannelNoise parallel_green_noise;  // its G albedo's noise
   estimation::MeasurementSet set;
   double base_to_mix = 1;  // s = t_mix / t_W57: the W57 capture's signals on the mix's exposure
 };
@@ -228,6 +230,11 @@ References references_of(const MethodCaptures& captures) {
   blue_noise.saturation_albedo = rho * (1.0 - dark_mean[2]) / D;
   r.set.channels.push_back({"blue.B", blue_illuminant, 2, blue_noise});
   r.set.validate();
+  if (captures.broadband_parallel) {
+    check_same_exposure(*captures.broadband_parallel);
+    r.parallel = reference_of(*captures.broadband_parallel, dark);
+    r.parallel_green_noise = albedo_noise(*r.parallel, *captures.broadband_parallel, 1);
+  }
   return r;
 }
 
@@ -350,6 +357,35 @@ MethodMeasurement build_plan_measurement(const PlanCaptures& captures, const Reg
   return m;
 }
 
+namespace {
+
+// MethodMeasurement::surface and surface_sigma from D65' parallel against
+// the cross D65', pixel by pixel on the same grid: not registered. The
+// parallel capture is taken right after the cross one (the plan puts it
+// there), and ECC between the two is driven by the very highlights that
+// differ between them (on the rendered lab session it found 6-7 px of
+// motion where there was none), so a warp would do more harm than the
+// subject's motion between two consecutive captures.
+void add_surface_map(MethodMeasurement& m, const MethodCaptures& captures, const References& references,
+                     const Normalised& cross) {
+  const IlluminatedCapture& capture = *captures.broadband_parallel;
+  const Normalised parallel = normalise(capture, *references.parallel, captures.dark, captures.white_reflectance);
+  const std::vector<float>& green = parallel.albedo[1];
+  const estimation::ChannelNoise& cross_noise = m.set.channels[1].noise;
+  const std::size_t n = green.size();
+  m.surface.assign(n, kNaN);
+  m.surface_sigma.assign(n, kNaN);
+  for (std::size_t i = 0; i < n; ++i) {
+    const float p = green[i], c = cross.albedo[1][i];
+    if (!std::isfinite(p) || !std::isfinite(c) || !references.parallel->footprint.inside[i]) continue;
+    m.surface[i] = 0.5f * (p - c);
+    m.surface_sigma[i] = static_cast<float>(
+        0.5 * std::sqrt(cross_noise.variance(std::max(0.0f, c)) + references.parallel_green_noise.variance(std::max(0.0f, p))));
+  }
+}
+
+}  // namespace
+
 estimation::MeasurementSet method_set_from_references(const MethodCaptures& captures) { return references_of(captures).set; }
 
 MethodMeasurement build_method_measurement(const MethodCaptures& captures, const RegistrationOptions& options) {
@@ -382,6 +418,7 @@ MethodMeasurement build_method_measurement(const MethodCaptures& captures, const
   }
 
   mark_no_reference(m, {&references.broadband, &references.base, &references.with_blue});
+  if (captures.broadband_parallel) add_surface_map(m, captures, references, broadband);
   const int channels = m.set.size();
   m.measured.resize(n * channels);
   for (std::size_t i = 0; i < n; ++i) {
@@ -404,6 +441,10 @@ MethodMeasurement build_method_measurement(const MethodCaptures& captures, const
   for (const IlluminatedCapture* capture : {&captures.broadband, &captures.base, &captures.with_blue}) {
     m.exposures.push_back({"white " + capture->name, capture->white.exposure_us, capture->white.frames});
     m.exposures.push_back({"subject " + capture->name, capture->subject.exposure_us, capture->subject.frames});
+  }
+  if (const auto& parallel = captures.broadband_parallel) {
+    m.exposures.push_back({"white " + parallel->name, parallel->white.exposure_us, parallel->white.frames});
+    m.exposures.push_back({"subject " + parallel->name, parallel->subject.exposure_us, parallel->subject.frames});
   }
   const std::pair<const Normalised*, const IlluminatedCapture*> photographed[] = {
       {&broadband, &captures.broadband}, {&base, &captures.base}, {&with_blue, &captures.with_blue}};

@@ -17,6 +17,7 @@ namespace chromo::session {
 namespace {
 
 const char* const kMixes[3] = {"d65", "w57", "w57+blue"};
+const char* const kParallelD65 = "d65:parallel";  // illumination_state of a D65' parallel step
 
 }  // namespace
 
@@ -50,7 +51,9 @@ SessionCaptureBuilder::SessionCaptureBuilder(const SessionPlan& plan, CaptureSou
       missing += " subject:" + key.substr(6) + " (for " + sum.step + ")";
   if (!missing.empty())
     throw std::invalid_argument("the plan cannot be estimated: no step for" + missing);
-  method_plan_ = states_.size() == 3;
+  // The method's three mixes, and on a polarised sphere D65' parallel besides.
+  const bool parallel = plan_steps_.count(std::string("subject:") + kParallelD65) > 0;
+  method_plan_ = states_.size() == (parallel ? 4u : 3u);
   for (const char* mix : kMixes) method_plan_ = method_plan_ && plan_steps_.count(std::string("subject:") + mix);
 }
 
@@ -181,12 +184,13 @@ MethodCaptures SessionCaptureBuilder::captures(const std::string& camera) const 
   c.camera = sources_.sensitivity_of(camera).sensitivity;
   c.white_reflectance = sources_.white_reflectance;
   c.dark = mean_image(steps.at("dark"));
-  const std::pair<IlluminatedCapture*, const char*> targets[] = {
+  std::vector<std::pair<IlluminatedCapture*, const char*>> targets = {
       {&c.broadband, "d65"}, {&c.base, "w57"}, {&c.with_blue, "w57+blue"}};
+  if (steps.count(std::string("subject:") + kParallelD65)) targets.emplace_back(&c.broadband_parallel.emplace(), kParallelD65);
   for (const auto& [target, mix] : targets) {
     const StepSum& white = steps.at(std::string("white:") + mix);
     const StepSum& subject = steps.at(std::string("subject:") + mix);
-    target->name = capture_name({mix, mix});
+    target->name = capture_name({mix, mix});  // "D65' parallel" for d65:parallel
     target->white = mean_image(white);
     target->subject = mean_image(subject);
     // The illuminant as the sphere emitted it for both captures (white and subject).

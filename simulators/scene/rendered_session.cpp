@@ -7,7 +7,11 @@
 #include <optional>
 #include <stdexcept>
 
+#include "chromo/calibration/polarised_libraries.hpp"
 #include "chromo/calibration/session_mix.hpp"
+#include "chromo/estimation/skin_model.hpp"
+#include "chromo/simulators/polarisation/polarised_skin.hpp"
+#include "chromo/simulators/polarisation/skin_surface.hpp"
 #include "chromo/session/session_captures.hpp"
 #include "chromo/session/session_plan.hpp"
 #include "chromo/files/binary_cache.hpp"
@@ -239,6 +243,31 @@ std::vector<CaptureMotion> capture_motion(const session::MethodMeasurement& m,
   return out;
 }
 
+// σ of the surface map (parallel − cross)/2, green, in albedo units, from
+// the camera model: per sensor site the subject's electrons e = a·W/ρ and the
+// white's W (W: the white's green electrons at this exposure), variances
+// e + r² and W + r² (r: read noise), two green sites per 2×2 cell; albedo
+// a = ρ·(s − d)/(w − d) → σ²(a) = (ρ/W)²·(e + r² + (a/ρ)²·(W + r²))/2. The
+// parallel capture sees a + 2·F more (its sheen); the two captures are
+// independent. a: the mean green albedo of the skin model at the scene's
+// mean parameters (scene.hpp), seen through both films by these weights.
+double surface_map_sigma(const CameraModel& camera, double exposure_us, double white_green_response,
+                         const SceneWeights& weights, const spectral::Spectrum& films) {
+  const CameraModelOptions& c = camera.options();
+  const spectral::Spectrum skin = estimation::SkinModel().albedo({0.05, 0.025, 0.7, 0.006});
+  const double filtered_green = (weights.row(1).array() * films.values().transpose()).sum();
+  const double a = (weights.row(1).array() * (films.values() * skin.values()).transpose()).sum() / filtered_green;
+  const double rho = kWhiteTargetReflectance;
+  const double white_e = c.quantum_scale_e_per_us * exposure_us * white_green_response;
+  const double read2 = c.read_noise_e * c.read_noise_e;
+  auto variance = [&](double albedo) {
+    const double e = albedo / rho * white_e;
+    return (rho / white_e) * (rho / white_e) * (e + read2 + (albedo / rho) * (albedo / rho) * (white_e + read2)) / 2;
+  };
+  const double sheen = fresnel_reflectance_unpolarised(kSkinRefractiveIndex, 0.0);
+  return std::sqrt(variance(a) + variance(a + 2 * sheen)) / 2;
+}
+
 }  // namespace
 
 bool RenderedSessionOptions::IsValid(std::string* error) const {
@@ -261,6 +290,11 @@ bool RenderedSessionOptions::IsValid(std::string* error) const {
   if (!session::builtin_plan(plan)) return fail("plan: must be a built-in plan (standard, multispectral, multispectral+method)");
   if (!(blue_ratio >= 0 && blue_ratio <= 100)) return fail("blue_ratio: must be in [0, 100] (0: the plain w57+blue mix)");
   if (frames_per_capture < 1 || frames_per_capture > 64) return fail("frames_per_capture: must be in [1, 64]");
+  if (polarised && plan != "standard") return fail("polarised: only the standard plan is rendered polarised");
+  if (!(extinction_ratio_550nm >= 1 && extinction_ratio_550nm <= 100000))
+    return fail("extinction_ratio_550nm: must be in [1, 100000]");
+  if (oily.count < 0 || oily.count > 64) return fail("oily.count: must be 0-64");
+  if (oily.count > 0 && !polarised) return fail("oily: oily regions are rendered on a polarised session only");
   return true;
 }
 
@@ -294,6 +328,18 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
   out.library = lab_led_library();
   const CameraModel camera{CameraModelOptions{}};
   const CameraModelOptions& c = camera.options();
+  std::optional<PolarisedSphere> sphere;
+  spectral::Spectrum films = spectral::Spectrum::constant(1.0);  // T_P·T_A (1: no films)
+  if (options.polarised) {
+    PolarisedSphere s;
+    s.light_film.extinction_ratio_550nm = options.extinction_ratio_550nm;
+    s.light_film.extinction_ratio_400nm = std::min(s.light_film.extinction_ratio_400nm, options.extinction_ratio_550nm);
+    s.analyser_film = s.light_film;
+    sphere = s;
+    films = diffuse_transmission(s.light_film, s.analyser_film);
+    out.library = calibration::library_through_polariser(out.library, films);
+    out.sheen = fresnel_reflectance_unpolarised(kSkinRefractiveIndex, 0.0);
+  }
 
   // The plan the daemon would run. The standard plan as chromod builds it
   // (exposure per capture: its whites metered, `w57+blue:R`); another
@@ -305,6 +351,7 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
   if (standard) {
     plan_options.blue_ratio = options.blue_ratio;
     if (options.exposure_per_capture) plan_options.meter_white_share = options.white_fill;
+    plan_options.polarised = options.polarised;
     plan = session::standard_plan(plan_options);
   } else {
     plan = *session::builtin_plan(options.plan, plan_options);
@@ -316,10 +363,12 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
   // as a calibrated daemon would (named without its ":R"), or the step's own
   // weights.
   std::vector<std::string> state_names, state_keys;
+  std::vector<drivers::Polarisation> state_polarisation;
   std::map<std::string, int> state_of_step;  // subject and white steps → state index
   for (const session::Step& step : plan.steps) {
     if (step.role != session::StepRole::kSubject) continue;
     const session::IlluminationState state = session::illumination_state(step);
+    state_polarisation.push_back(step.polarisation);
     if (step.illumination.kind == session::Illumination::Kind::kMix)
       out.mixes[state.name] = calibration::solve_session_mix(out.library, step.illumination.mix, "camera", false).weights;
     else
@@ -339,7 +388,7 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
   for (const std::string& name : state_names) {
     const auto w = camera.weights(leds.emit_settled(out.mixes[name]));
     weights.emplace_back(w);
-    const Eigen::Vector3d white = w * white_target_reflectance().values().matrix();
+    const Eigen::Vector3d white = w * (white_target_reflectance().values() * films.values()).matrix();
     white_response.emplace_back(static_cast<float>(white[0]), static_cast<float>(white[1]), static_cast<float>(white[2]));
     out.white_response[name] = {white[0], white[1], white[2]};
     brightest_of_state.push_back(white.maxCoeff());
@@ -369,7 +418,10 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
   }
   std::filesystem::path cached;
   std::uint64_t key = 0;
-  if (!options.cache_dir.empty() && !options.motion.enabled) {
+  if (options.polarised) out.surface_sigma = surface_map_sigma(camera, out.exposure_us_of_step.at("subject_d65"),
+                                                                white_response[state_of_step.at("subject_d65")][1],
+                                                                weights[state_of_step.at("subject_d65")], films);
+  if (!options.cache_dir.empty() && !options.motion.enabled && !options.polarised) {
     key = cache_key(options, weights, out.exposure_us_of_step, c);
     cached = cache_file(options.cache_dir, key);
     if (load_cached(cached, key, out)) return out;
@@ -384,7 +436,10 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
   scene_options.seed = options.seed;
   scene_options.white_patch = false;
   scene_options.threads = options.threads;
-  const SkinSceneResponse scene = render_skin_scene(scene_options, weights, options.band_rows);
+  scene_options.oily = options.oily;
+  scene_options.oily.sigma_reflectance = out.surface_sigma;
+  const SkinSceneResponse scene =
+      render_polarised_skin_scene(scene_options, weights, state_polarisation, sphere, options.band_rows);
   out.scene_seconds = seconds_since(start);
 
   // The plan's timeline: each subject step's exposure mid-point, relative
@@ -489,9 +544,15 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
   return out;
 }
 
-std::vector<float> cell_added_reflection(const RenderedSessionOptions& options) {
+std::vector<float> cell_added_reflection(const RenderedSessionOptions& options, double surface_sigma) {
   const int scene_w = options.scene_width > 0 ? options.scene_width : options.sensor_width;
   const int scene_h = options.scene_height > 0 ? options.scene_height : options.sensor_height;
+  SkinSceneOptions scene;
+  scene.width = scene_w, scene.height = scene_h, scene.seed = options.seed;
+  scene.oily = options.oily;
+  scene.oily.sigma_reflectance = surface_sigma;
+  if (scene.oily.count > 0 && !(surface_sigma > 0))
+    throw std::invalid_argument("cell_added_reflection: oily regions need the session's surface_sigma > 0");
   const int cells_x = options.sensor_width / 2, cells_y = options.sensor_height / 2;
   std::vector<float> reflection(static_cast<std::size_t>(cells_x) * cells_y);
   for (int cy = 0; cy < cells_y; ++cy)
@@ -499,7 +560,8 @@ std::vector<float> cell_added_reflection(const RenderedSessionOptions& options) 
       double sum = 0;
       for (int d = 0; d < 4; ++d)
         sum += skin_scene_added_reflection(scene_w, scene_h, options.window_x + 2 * cx + d % 2,
-                                                       options.window_y + 2 * cy + d / 2);
+                                                       options.window_y + 2 * cy + d / 2) +
+               skin_scene_oily_reflection(scene, options.window_x + 2 * cx + d % 2, options.window_y + 2 * cy + d / 2);
       reflection[static_cast<std::size_t>(cy) * cells_x + cx] = static_cast<float>(sum / 4);
     }
   return reflection;

@@ -121,6 +121,13 @@ TEST(PlanCaptureBuilder, PairsWhitesAndSubjectsByIllumination) {
   EXPECT_FALSE(multispectral.is_method_plan());
   EXPECT_TRUE(SessionCaptureBuilder(standard_plan(), sources).is_method_plan());
   EXPECT_FALSE(SessionCaptureBuilder(multispectral_plan({}, true), sources).is_method_plan());
+  // The polarised standard plan is the method's (cross) plus D65' parallel, which
+  // captures() returns as broadband_parallel; a parallel capture of another mix is not.
+  EXPECT_TRUE(SessionCaptureBuilder(standard_plan({.polarised = true}), sources).is_method_plan());
+  SessionPlan w57_parallel = standard_plan({.polarised = true});
+  for (Step& step : w57_parallel.steps)
+    if (step.name.ends_with("_d65_parallel")) step.illumination.mix = "w57";
+  EXPECT_FALSE(SessionCaptureBuilder(w57_parallel, sources).is_method_plan());
   // A subject without its white, a white without its subject, an unlit subject: refused, named.
   SessionPlan plan = multispectral_plan();
   plan.steps.erase(plan.steps.begin() + 2);  // white_W40

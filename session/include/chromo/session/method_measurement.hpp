@@ -63,6 +63,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -94,6 +95,10 @@ struct MethodCaptures {
   IlluminatedCapture broadband;     // D65'
   IlluminatedCapture base;          // W57 alone
   IlluminatedCapture with_blue;     // W57+blue
+  // A polarised sphere's plan (standard_plan({.polarised = true})): the
+  // three captures above are cross-polarised and this is D65' parallel (its
+  // own white). Absent on an unpolarised sphere.
+  std::optional<IlluminatedCapture> broadband_parallel;
 };
 
 // A capture of the subject as camera RGB albedo (white = 1) on the reference
@@ -124,6 +129,18 @@ struct MethodMeasurement {
   // maps are NaN and flagged no_reference, maps::estimate_method_captures).
   std::vector<std::uint8_t> no_reference;
   std::size_t no_reference_pixels = 0;
+  // With a D65' parallel capture (docs/polarisation.md, "Estimation
+  // outputs"): the surface map S = (a_parallel,G − a_cross,G)/2 per pixel,
+  // G albedo of D65' parallel (on the cross D65' grid as captured: not
+  // registered, method_measurement.cpp says why) minus
+  // the cross D65' G albedo, halved: the surface layer in albedo units (half
+  // of the depolarised light passes either state and is removed by the
+  // white of the same state), NOT corrected for the films' extinction (it is
+  // (ER − 1)²/(ER + 1)² of the surface layer: 2% short at 1:200). And its
+  // σ per pixel from the two captures' noise models (measurement.hpp's).
+  // Both empty without a parallel capture.
+  std::vector<float> surface, surface_sigma;
+  bool polarised() const { return !surface.empty(); }
 };
 
 // Where a camera sees the white reference target (issue 21: a posed camera

@@ -56,6 +56,7 @@
 #include "chromo/drivers/led_controller.hpp"
 #include "chromo/session/method_measurement.hpp"
 #include "chromo/estimation/skin_parameters.hpp"
+#include "chromo/simulators/scene/scene.hpp"
 #include "chromo/simulators/scene/subject_motion.hpp"
 
 namespace chromo::simulators {
@@ -108,6 +109,21 @@ struct RenderedSessionOptions {
   SubjectMotionOptions motion;
   std::uint32_t settle_ms = 50;   // the standard plan's LED settling per step, 0-60000
   double readout_ms = 43;         // frame readout (23 frames/s, NOTES.md), 0-10000
+  // Polarisation (docs/polarisation.md, "Virtual lab physics"): the standard
+  // plan polarised (session::standard_plan({.polarised = true}): the method
+  // cross-polarised plus D65' parallel), every lit capture rendered through
+  // render_polarised_skin with both films (PolariserFilm defaults but the
+  // extinction ratio at 550 nm; its 400 nm value is min(20, that)) at the
+  // design view (leak 0, sheen F(0°)); the LED library is the lab's through
+  // both films (calibration::library_through_polariser with T_P·T_A: what a
+  // per-state calibration through the camera's analyser measures), the mixes
+  // solved on it. Plan "standard" only; the cache is not used.
+  bool polarised = false;
+  double extinction_ratio_550nm = 200;  // 1-100000
+  // Oily regions on the skin (scene.hpp OilyHighlights: count, σ range,
+  // roughness, radius); sigma_reflectance is set here to surface_sigma
+  // (below). count 0: none.
+  OilyHighlights oily;
 
   bool IsValid(std::string* error) const;
 };
@@ -150,6 +166,12 @@ struct RenderedSession {
   bool loaded_from_cache = false;
   std::vector<CaptureMotion> motion;  // the noisy chain's W57 and W57+blue captures (empty when loaded from the cache)
   double plan_seconds = 0;            // the plan's timeline, first step to the end of the last
+  // σ of the surface map (parallel − cross)/2 in albedo units, green, at the
+  // scene's mean skin green albedo, from the camera model (shot, read and
+  // the white reference's noise; 2×2 binning): the unit of the oily
+  // regions' strengths. 0 unless polarised.
+  double surface_sigma = 0;
+  double sheen = 0;                   // F(0°) of the design view (polarised), else 0
   std::size_t pixels() const { return truth.size(); }
 };
 
@@ -164,9 +186,10 @@ calibration::LedLibrary lab_led_library();
 RenderedSession render_session(const RenderedSessionOptions& options);
 
 // Each measurement cell's added surface reflection (make_skin_scene's
-// highlight, skin_scene_added_reflection): the mean over the
+// highlight, skin_scene_added_reflection, plus the oily regions of
+// options.oily with the σ of `surface_sigma`, skin_scene_oily_reflection): the mean over the
 // cell's 2×2 sensor sites, at the scene pixels `options` put them on (scene
 // size and window). Truth for the specular shares per band of reflection.
-std::vector<float> cell_added_reflection(const RenderedSessionOptions& options);
+std::vector<float> cell_added_reflection(const RenderedSessionOptions& options, double surface_sigma = 0);
 
 }  // namespace chromo::simulators
