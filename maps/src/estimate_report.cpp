@@ -10,7 +10,10 @@
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 
+#include "chromo/estimation/highlight_flags.hpp"
+#include "chromo/maps/map_panels.hpp"
 #include "chromo/maps/map_previews.hpp"
 #include "chromo/maps/relit_table.hpp"
 #include "chromo/estimation/skin_model.hpp"
@@ -129,6 +132,11 @@ std::string write_estimate_report(const fs::path& dir, const EstimateReport& rep
     hide[i] = e.flag != estimation::PixelFlag::kExplained && e.flag != estimation::PixelFlag::kSpecular;
     if (e.order > 0) residuals.push_back(e.residual);
   }
+  for (const auto& [name, values] : report.extra_channels) {
+    if (values.size() != pixels) throw std::invalid_argument("estimate report: channel " + name + " does not fill the image");
+    maps.channel_names.push_back(name);
+    maps.channels.push_back(values);
+  }
   std::sort(residuals.begin(), residuals.end());
   auto quantile = [&](double q) {
     return residuals.empty() ? 0.0
@@ -186,7 +194,9 @@ std::string write_estimate_report(const fs::path& dir, const EstimateReport& rep
     std::vector<std::uint8_t> bytes;
   };
   std::vector<Encoded> encoded(previews.size() + 2);
+  for (const auto& [file, bytes] : report.extra_pngs) encoded.push_back({file, bytes});
   auto encode = [&](std::size_t i) {
+    if (i >= previews.size() + 2) return;  // encoded already
     if (i < previews.size()) {
       const Preview& p = previews[i];
       encoded[i] = {p.file, encode_map_png(maps.channels[p.channel], report.width, report.height, p.low, p.high, p.log,
@@ -200,7 +210,7 @@ std::string write_estimate_report(const fs::path& dir, const EstimateReport& rep
   };
   auto encode_all = [&] {
 #pragma omp parallel for schedule(dynamic) num_threads(std::max(1, threads - 1)) if (threads > 2)
-    for (std::size_t i = 0; i < encoded.size(); ++i) encode(i);
+    for (std::size_t i = 0; i < previews.size() + 2; ++i) encode(i);
   };
   const files::ExrWriteOptions exr{threads};
   if (threads > 1) {
@@ -214,7 +224,7 @@ std::string write_estimate_report(const fs::path& dir, const EstimateReport& rep
     previews_done.get();
   } else {
     commit(dir / "maps.exr", [&](const fs::path& t) { files::write_exr(t, maps, exr); });
-    for (std::size_t i = 0; i < encoded.size(); ++i) encode(i);
+    for (std::size_t i = 0; i < previews.size() + 2; ++i) encode(i);
   }
   for (const Encoded& e : encoded)
     commit(dir / e.file, [&](const fs::path& t) {
@@ -323,6 +333,72 @@ bool same_measurement_set(const estimation::MeasurementSet& a, const estimation:
 
 namespace {
 
+// The panel diffuse | surface | combined: the cross D65' photograph (camera
+// RGB albedo shown as linear sRGB), the surface map S (inferno, 0 to its
+// 99th percentile), and the photograph plus S in every channel (the
+// subsurface and surface layers together: what an unpolarised camera sees).
+std::vector<std::uint8_t> encode_polarisation_panel(const session::MethodMeasurement& m) {
+  const std::size_t n = m.surface.size();
+  std::vector<float> diffuse(3 * n), combined(3 * n);
+  const session::Photograph& cross = m.photographs.front();
+  for (std::size_t i = 0; i < n; ++i)
+    for (int c = 0; c < 3; ++c) {
+      diffuse[3 * i + c] = static_cast<float>(cross.rgb[i][c]);
+      combined[3 * i + c] = diffuse[3 * i + c] + (std::isfinite(m.surface[i]) ? std::max(m.surface[i], 0.0f) : 0.0f);
+    }
+  std::vector<double> surface(m.surface.begin(), m.surface.end()), finite;
+  for (double v : surface)
+    if (std::isfinite(v)) finite.push_back(v);
+  double high = 0.1;
+  if (!finite.empty()) {
+    const auto at = finite.begin() + static_cast<std::ptrdiff_t>(0.99 * static_cast<double>(finite.size() - 1));
+    std::nth_element(finite.begin(), at, finite.end());
+    high = std::max(*at, 0.01);
+  }
+  const cv::Mat panel = side_by_side({{"diffuse (cross D65')", srgb_preview(diffuse, m.width, m.height)},
+                                      {"surface (parallel - cross)/2", heat_map_with_bar(surface, m.width, m.height, high, "S")},
+                                      {"combined", srgb_preview(combined, m.width, m.height)}});
+  std::vector<std::uint8_t> bytes;
+  if (!cv::imencode(".png", panel, bytes)) throw std::runtime_error("polarisation.png: PNG encoding failed");
+  return bytes;
+}
+
+// A polarised session's surface map, optical highlight flag and panel; an
+// unpolarised one's summary says how highlights were found instead.
+struct PolarisationOutputs {
+  nlohmann::ordered_json summary;
+  std::vector<std::pair<std::string, std::vector<float>>> channels;
+  std::vector<std::uint8_t> panel;
+};
+
+PolarisationOutputs polarisation_outputs(const session::MethodMeasurement& m, const estimation::EstimateSummary& summary) {
+  PolarisationOutputs out;
+  if (!m.polarised()) {
+    out.summary = {{"detection", "heuristic"},
+                   {"how", "no parallel-polarised capture: highlights are the estimator's specular flag (a white "
+                           "surface reflection removed, pixel_flags.hpp) and the spatial pass's neighbourhood flag"},
+                   {"specular_pixels", summary.flag_counts[static_cast<int>(estimation::PixelFlag::kSpecular)]}};
+    return out;
+  }
+  const estimation::HighlightFlags flags = estimation::flag_highlights(m.surface, m.surface_sigma, m.width, m.height);
+  const estimation::HighlightFlagOptions rule;
+  out.summary = {
+      {"detection", "optical"},
+      {"how", "D65' parallel − D65' cross (docs/polarisation.md)"},
+      {"surface_map", "maps.exr channel surface: (parallel − cross)/2 of the G albedo, the surface layer in albedo units, "
+                      "not corrected for the films' extinction ((ER − 1)²/(ER + 1)² of it)"},
+      {"sheen_reference", flags.sheen_reference},
+      {"rule", "highlight where (S − sheen_reference) ≥ " + std::to_string(rule.pixel_sigmas) +
+                   " σ at the pixel and ≥ " + std::to_string(rule.window_sigmas) + " σ over its 3×3 window"},
+      {"flagged_pixels", flags.flagged},
+      {"information_only", "maps.exr channel highlight; the diffuse maps there still come from the cross-polarised "
+                           "captures, and the flags channel is unchanged"}};
+  std::vector<float> highlight(flags.flag.begin(), flags.flag.end());
+  out.channels = {{"surface", m.surface}, {"highlight", std::move(highlight)}};
+  out.panel = encode_polarisation_panel(m);
+  return out;
+}
+
 // Everything after the measurement: tables, estimate, spatial pass, report.
 MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m, const spectral::CameraSensitivity& camera,
                                             double white_reflectance, std::chrono::steady_clock::time_point start, double measurement_seconds,
@@ -364,6 +440,7 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
   relit_options.threads = options.estimator.threads;
   result.relit = compare_with_photographs(estimates, m.photographs, camera, relit_options);
   const double relit_seconds = seconds_since(t);
+  const PolarisationOutputs polarisation = polarisation_outputs(m, result.summary);
   result.registration = m.registration;
   result.table_key = table->key();
 
@@ -396,7 +473,9 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
   nlohmann::ordered_json relit = nlohmann::ordered_json::object();
   for (const auto& r : result.relit) relit[r.illuminant] = delta_e_stats_json(r.delta_e94);
   extra["relit_delta_e94"] = {
-      {"against", "the captured photographs (camera RGB albedo → XYZ by the ColorChecker-fitted matrix per illuminant)"},
+      {"against", m.polarised() ? "the captured cross-polarised photographs (camera RGB albedo → XYZ by the "
+                                  "ColorChecker-fitted matrix per illuminant)"
+                                : "the captured photographs (camera RGB albedo → XYZ by the ColorChecker-fitted matrix per illuminant)"},
       {"pixels", "explained (flag 0)"},
       {"reconstruction", relit_model_name(options.relit_model)},
       {"by_illuminant", relit}};
@@ -414,7 +493,10 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
                       {"neighbourhood", neighbourhood_seconds},
                       {"relit_comparison", relit_seconds},
                       {"total_before_writing", seconds_since(start)}};
+  extra["highlights"] = polarisation.summary;
   report.extra_json = extra.dump();
+  report.extra_channels = polarisation.channels;
+  if (!polarisation.panel.empty()) report.extra_pngs.emplace_back("polarisation.png", polarisation.panel);
   const auto writing = std::chrono::steady_clock::now();
   result.summary_json = write_estimate_report(out_dir, report, commit, options.writer_threads);
   result.timings_s = report.timings_s;

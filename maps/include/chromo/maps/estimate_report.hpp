@@ -2,7 +2,9 @@
 // An estimation's output folder, written the same way by `chromo estimate`
 // (MEASUREMENT.json or a stored session) and by chromod's on-line estimator:
 //
-//   maps.exr      FLOAT channels Cm, Ch, Bm, Che, residual, order, flags (pixel_flags.hpp)
+//   maps.exr      FLOAT channels Cm, Ch, Bm, Che, residual, order, flags (pixel_flags.hpp);
+//                 a polarised session adds surface and highlight (docs/maps.md)
+//   polarisation.png  a polarised session's panel diffuse | surface | combined
 //   cm.png ch.png bm.png che.png residual.png   false colour with a colour bar
 //   flags.png order.png                         categorical with a legend
 //   summary.json  method, model, size, channels, timings_s, pixels_per_second,
@@ -51,6 +53,11 @@ struct EstimateReport {
   estimation::EstimateSummary summary;
   std::vector<std::pair<std::string, double>> timings_s;  // in order; "estimate" is summary.seconds
   std::string extra_json = "{}";  // a JSON object whose members are added to summary.json
+  // Channels after "flags" in maps.exr (a polarised session's "surface" and
+  // "highlight", docs/maps.md), width × height each.
+  std::vector<std::pair<std::string, std::vector<float>>> extra_channels;
+  // Further PNG files written after the previews (name, encoded bytes).
+  std::vector<std::pair<std::string, std::vector<std::uint8_t>>> extra_pngs;
 };
 
 // Each measurement channel's signal-to-noise ratio by its noise model
