@@ -226,7 +226,7 @@ int bench_main(int argc, char** argv) {
   chart.png = std::filesystem::path(out_dir) / "polarisation.png";
   chart.terminal = "pngcairo size 1000,520 font 'DejaVu Sans,10'";
   chart.commands = "set multiplot layout 1,2 title 'Polarised sphere: optical highlights against the extinction ratio (mean over seeds)'\n"
-                   "set logscale x\nset xlabel 'extinction ratio 1:x at 550 nm'\nset grid\nset key bottom right\n"
+                   "set logscale x\nset xrange [40:1250]\nset xlabel 'extinction ratio 1:x at 550 nm'\nset grid\nset key bottom right\n"
                    "set ylabel '%'\nset yrange [0:105]\n"
                    "plot '" + dat.string() + "' using 1:2 with linespoints title 'flagged at >= 4 sigma', '' using 1:3 with linespoints title 'skin flagged', 95 dt 2 title 'target 95%'\n"
                    "set yrange [0:*]\nset ylabel 'ratio / %'\nset key top right\n"

@@ -2,6 +2,7 @@ set terminal pngcairo size 1000,520 font 'DejaVu Sans,10'
 set output 'bench/results/polarisation.png'
 set multiplot layout 1,2 title 'Polarised sphere: optical highlights against the extinction ratio (mean over seeds)'
 set logscale x
+set xrange [40:1250]
 set xlabel 'extinction ratio 1:x at 550 nm'
 set grid
 set key bottom right

@@ -334,9 +334,10 @@ bool same_measurement_set(const estimation::MeasurementSet& a, const estimation:
 namespace {
 
 // The panel diffuse | surface | combined: the cross D65' photograph (camera
-// RGB albedo shown as linear sRGB), the surface map S (inferno, 0 to its
-// 99th percentile), and the photograph plus S in every channel (the
+// RGB albedo shown as linear sRGB), the surface map S (inferno, 0 to 0.1 for
+// every session, so panels compare: the sheen 0.028 at 28%), and the photograph plus S in every channel (the
 // subsurface and surface layers together: what an unpolarised camera sees).
+constexpr double kPanelSurfaceMax = 0.1;
 std::vector<std::uint8_t> encode_polarisation_panel(const session::MethodMeasurement& m) {
   const std::size_t n = m.surface.size();
   std::vector<float> diffuse(3 * n), combined(3 * n);
@@ -346,17 +347,9 @@ std::vector<std::uint8_t> encode_polarisation_panel(const session::MethodMeasure
       diffuse[3 * i + c] = static_cast<float>(cross.rgb[i][c]);
       combined[3 * i + c] = diffuse[3 * i + c] + (std::isfinite(m.surface[i]) ? std::max(m.surface[i], 0.0f) : 0.0f);
     }
-  std::vector<double> surface(m.surface.begin(), m.surface.end()), finite;
-  for (double v : surface)
-    if (std::isfinite(v)) finite.push_back(v);
-  double high = 0.1;
-  if (!finite.empty()) {
-    const auto at = finite.begin() + static_cast<std::ptrdiff_t>(0.99 * static_cast<double>(finite.size() - 1));
-    std::nth_element(finite.begin(), at, finite.end());
-    high = std::max(*at, 0.01);
-  }
+  const std::vector<double> surface(m.surface.begin(), m.surface.end());
   const cv::Mat panel = side_by_side({{"diffuse (cross D65')", srgb_preview(diffuse, m.width, m.height)},
-                                      {"surface (parallel - cross)/2", heat_map_with_bar(surface, m.width, m.height, high, "S")},
+                                      {"surface (parallel - cross)/2", heat_map_with_bar(surface, m.width, m.height, kPanelSurfaceMax, "S")},
                                       {"combined", srgb_preview(combined, m.width, m.height)}});
   std::vector<std::uint8_t> bytes;
   if (!cv::imencode(".png", panel, bytes)) throw std::runtime_error("polarisation.png: PNG encoding failed");

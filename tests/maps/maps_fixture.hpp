@@ -11,6 +11,7 @@
 #include "../support/fresh_directory.hpp"
 #include "chromo/files/float_image.hpp"
 #include "chromo/maps/profile_table.hpp"
+#include "chromo/simulators/scene/rendered_session.hpp"
 
 namespace chromo::maps::testing {
 
@@ -24,6 +25,17 @@ inline ParameterMaps uniform_maps(int width, int height, float cm, float ch, flo
 
 inline void write_maps(const std::filesystem::path& path, const ParameterMaps& m) {
   files::write_exr(path, {m.width, m.height, {"Cm", "Ch", "Bm", "Che", "flags"}, {m.cm, m.ch, m.bm, m.che, m.flags}});
+}
+
+// A tiny noisy rendered lab session: 128×96 sensor sites on a window of the
+// 5-MP scene with enough texture for the registration.
+inline simulators::RenderedSessionOptions tiny_lab_session_options() {
+  simulators::RenderedSessionOptions o;
+  o.sensor_width = 128, o.sensor_height = 96;
+  o.scene_width = 2592, o.scene_height = 1944;
+  o.window_x = 640, o.window_y = 1680;
+  o.noise_free = false;
+  return o;
 }
 
 // The folder does not exist, or holds nothing.

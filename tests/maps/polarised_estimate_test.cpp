@@ -115,11 +115,7 @@ TEST(PolarisedEstimate, MapsCarryTheSurfaceAndTheOpticalHighlightFlagAndThePanel
 }
 
 TEST(PolarisedEstimate, AnUnpolarisedSessionIsAsBeforeAndSaysHighlightsAreHeuristic) {
-  simulators::RenderedSessionOptions o;
-  o.sensor_width = 128, o.sensor_height = 96;
-  o.scene_width = 2592, o.scene_height = 1944;
-  o.window_x = 640, o.window_y = 1680;
-  o.noise_free = false;
+  simulators::RenderedSessionOptions o = testing::tiny_lab_session_options();
   const simulators::RenderedSession lab = simulators::render_session(o);
   EXPECT_FALSE(lab.noisy.polarised());
   EXPECT_EQ(lab.surface_sigma, 0.0);

@@ -98,12 +98,7 @@ TEST(RelitTable, IsCachedLikeTheForwardTable) {
 // The maps are the same pixels and the previews the same bytes; the relit
 // statistics agree within the table's tolerance.
 TEST(RelitTable, EstimateWithTheDefaultsMatchesTheExactOneThreadPath) {
-  simulators::RenderedSessionOptions ro;
-  ro.sensor_width = 128, ro.sensor_height = 96;
-  ro.scene_width = 2592, ro.scene_height = 1944;
-  ro.window_x = 640, ro.window_y = 1680;
-  ro.noise_free = false;
-  const simulators::RenderedSession lab = simulators::render_session(ro);
+  const simulators::RenderedSession lab = simulators::render_session(testing::tiny_lab_session_options());
   ASSERT_EQ(lab.noisy.photographs.size(), 3u);
 
   MethodEstimationOptions after;
