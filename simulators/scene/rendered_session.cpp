@@ -59,6 +59,7 @@ std::uint64_t cache_key(const RenderedSessionOptions& o, const std::vector<Scene
   h.add(o.seed), h.add(o.white_fill), h.add(o.noise_free), h.add(o.exposure_per_capture), h.add(o.blue_ratio);
   for (const auto& [step, exposure_us] : exposures) h.add(exposure_us);
   if (o.plan != "standard") h.add(o.plan.data(), o.plan.size());  // (the standard plan's keys as before)
+  if (o.reference_frames > 0) h.add(o.reference_frames);          // (keys without it as before)
   for (const auto& w : weights) h.add(w.data(), sizeof(double) * w.size());
   for (double v : {camera.quantum_scale_e_per_us, camera.full_well_e, camera.read_noise_e, camera.gain_e_per_dn,
                    camera.black_level_dn})
@@ -261,6 +262,7 @@ bool RenderedSessionOptions::IsValid(std::string* error) const {
   if (!session::builtin_plan(plan)) return fail("plan: must be a built-in plan (standard, multispectral, multispectral+method)");
   if (!(blue_ratio >= 0 && blue_ratio <= 100)) return fail("blue_ratio: must be in [0, 100] (0: the plain w57+blue mix)");
   if (frames_per_capture < 1 || frames_per_capture > 64) return fail("frames_per_capture: must be in [1, 64]");
+  if (reference_frames < 0 || reference_frames > 64) return fail("reference_frames: must be in [0, 64] (0: frames_per_capture)");
   return true;
 }
 
@@ -301,6 +303,7 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
   const bool standard = options.plan == "standard";
   session::StandardPlanOptions plan_options;
   plan_options.frames_per_camera = static_cast<std::uint32_t>(options.frames_per_capture);
+  plan_options.reference_frames = static_cast<std::uint32_t>(options.reference_frames);
   session::SessionPlan plan;
   if (standard) {
     plan_options.blue_ratio = options.blue_ratio;
