@@ -7,8 +7,11 @@
 //   after   exposure per capture: the D65' and W57+blue whites each metered
 //           to 0.85 of full scale, W57 at W57+blue's exposure, each subject at
 //           its white's; mixes "w57+blue:R", "w57:R" (--blue-ratio R);
+//   refs    after, with --reference-frames N frames of each dark and white
+//           (the subject's frames unchanged: references are not subject time);
 //
-// both with --frames frames per capture. Per plan and scene seed: the
+// all with --frames frames per subject capture (and, before and after, per
+// reference too), the whites metered to --white-fill of full scale. Per plan and scene seed: the
 // blue-only channel's relative noise on the white beside D65' B's (predicted
 // from the camera model's shot and read noise; measured: the estimator's
 // noise figure, which session::build_method_measurement estimates from the
@@ -16,9 +19,10 @@
 // truth on the skin cells (six LEDs + D65), 4D model and auto model, noisy
 // frames; then the spread over the seeds.
 //
-//   exposure_plan_bench [--seeds 5,11,12,13] [--sensor W H] [--blue-ratio R] [--frames N] [--out DIR]
+//   exposure_plan_bench [--seeds 5,11,12,13] [--sensor W H] [--blue-ratio R] [--frames N]
+//                       [--reference-frames N] [--white-fill F] [--out DIR]
 //
-// Writes DIR/exposure_plan.csv and DIR/exposure_plan.png (relit ΔE94 per seed, before and after).
+// Writes DIR/exposure_plan.csv and DIR/exposure_plan.png (relit ΔE94 per seed, the three plans).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -49,7 +53,7 @@ struct PlanResult {
 
 struct SeedResult {
   std::uint64_t seed = 0;
-  PlanResult before, after;
+  PlanResult before, after, refs;
 };
 
 // Relative noise σ(ρ)/ρ of a channel on the white by its noise figure.
@@ -84,13 +88,24 @@ Accuracy estimate_skin(const simulators::RenderedSession& lab, estimation::Model
   return accuracy(truth_relit, lab.truth, e, skin);
 }
 
-PlanResult run_plan(std::uint64_t seed, int width, int height, bool per_capture, double blue_ratio, int frames) {
+struct PlanChoice {
+  bool per_capture = false;
+  double blue_ratio = 0;
+  int frames = 1, reference_frames = 0;
+  double white_fill = 0.85;
+};
+
+PlanResult run_plan(std::uint64_t seed, int width, int height, const PlanChoice& plan) {
+  const bool per_capture = plan.per_capture;
+  const int frames = plan.frames;
   simulators::RenderedSessionOptions ro;
   ro.sensor_width = width, ro.sensor_height = height, ro.seed = seed, ro.threads = 2;
   ro.noise_free = false;
   ro.exposure_per_capture = per_capture;
-  ro.blue_ratio = per_capture ? blue_ratio : 0;
+  ro.blue_ratio = per_capture ? plan.blue_ratio : 0;
   ro.frames_per_capture = frames;
+  ro.reference_frames = plan.reference_frames;
+  ro.white_fill = plan.white_fill;
   const simulators::RenderedSession lab = simulators::render_session(ro);
   PlanResult r;
   const simulators::CameraModel camera{simulators::CameraModelOptions{}};
@@ -138,64 +153,75 @@ int bench_main(int argc, char** argv) {
   std::vector<std::uint64_t> seeds{5, 11, 12, 13};
   std::vector<int> sensor{2592, 1944};
   double blue_ratio = 8;
-  int frames = 1;
+  int frames = 1, reference_frames = 8;
+  double white_fill = 0.85;
   std::filesystem::path out = "bench/results";
   app.add_option("--seeds", seeds, "scene seeds")->delimiter(',');
   app.add_option("--sensor", sensor, "sensor W H (even)")->expected(2);
   app.add_option("--blue-ratio", blue_ratio, "R of the metered plan's w57+blue:R")->check(CLI::Range(0.1, 100.0));
-  app.add_option("--frames", frames, "frames per capture (both plans)")->check(CLI::Range(1, 64));
+  app.add_option("--frames", frames, "frames per subject capture (all plans)")->check(CLI::Range(1, 64));
+  app.add_option("--reference-frames", reference_frames, "the refs plan's frames per dark and white")
+      ->check(CLI::Range(1, 64));
+  app.add_option("--white-fill", white_fill, "the whites' brightest channel, share of full scale")
+      ->check(CLI::Range(0.06, 0.98));
   app.add_option("--out", out, "where the CSV and chart go");
   CLI11_PARSE(app, argc, argv);
   std::filesystem::create_directories(out);
-  std::printf("sensor %dx%d, %d frame(s) per capture; after: exposure per capture (white at 0.85 of full scale), "
-              "w57+blue:%g\n", sensor[0], sensor[1], frames, blue_ratio);
+  std::printf("sensor %dx%d, %d frame(s) per subject capture; white at %.2f of full scale; after: exposure per "
+              "capture, w57+blue:%g; refs: after with %d frames per reference\n",
+              sensor[0], sensor[1], frames, white_fill, blue_ratio, reference_frames);
   std::vector<SeedResult> results;
   for (std::uint64_t seed : seeds) {
     SeedResult r;
     r.seed = seed;
-    r.before = run_plan(seed, sensor[0], sensor[1], false, 0, frames);
-    r.after = run_plan(seed, sensor[0], sensor[1], true, blue_ratio, frames);
+    r.before = run_plan(seed, sensor[0], sensor[1], {false, 0, frames, 0, white_fill});
+    r.after = run_plan(seed, sensor[0], sensor[1], {true, blue_ratio, frames, 0, white_fill});
+    r.refs = run_plan(seed, sensor[0], sensor[1], {true, blue_ratio, frames, reference_frames, white_fill});
     std::printf("seed %llu\n", static_cast<unsigned long long>(seed));
     print_plan("before", r.before);
     print_plan("after", r.after);
+    print_plan("refs", r.refs);
     std::fflush(stdout);
     results.push_back(r);
   }
   std::printf("spread over %zu seeds (mean [min, max]):\n", results.size());
-  auto show = [&](const char* what, auto get_before, auto get_after) {
-    const Spread b = spread(results, get_before), a = spread(results, get_after);
-    std::printf("  %-44s before %.4f [%.4f, %.4f]   after %.4f [%.4f, %.4f]\n", what, b.mean, b.min, b.max, a.mean,
-                a.min, a.max);
+  // One figure per plan: its spread, and refs / after as a ratio.
+  auto show = [&](const char* what, auto get) {
+    const Spread b = spread(results, [&](const SeedResult& r) { return get(r.before); });
+    const Spread a = spread(results, [&](const SeedResult& r) { return get(r.after); });
+    const Spread f = spread(results, [&](const SeedResult& r) { return get(r.refs); });
+    std::printf("  %-44s before %.4f [%.4f, %.4f]   after %.4f [%.4f, %.4f]   refs %.4f [%.4f, %.4f] (refs/after %.3f)\n",
+                what, b.mean, b.min, b.max, a.mean, a.min, a.max, f.mean, f.min, f.max, f.mean / a.mean);
   };
-  show("relit dE94 fast/4d noisy (six LEDs + D65)", [](const SeedResult& r) { return r.before.fast4d.de_all; },
-       [](const SeedResult& r) { return r.after.fast4d.de_all; });
-  show("relit dE94 fast/auto noisy (six LEDs + D65)", [](const SeedResult& r) { return r.before.fastauto.de_all; },
-       [](const SeedResult& r) { return r.after.fastauto.de_all; });
-  show("blue-only / D65' B relative noise on white", [](const SeedResult& r) {
-    return r.before.blue_relative_measured / r.before.d65_b_relative_measured;
-  }, [](const SeedResult& r) { return r.after.blue_relative_measured / r.after.d65_b_relative_measured; });
-  show("blue-only relative noise on white", [](const SeedResult& r) { return r.before.blue_relative_measured; },
-       [](const SeedResult& r) { return r.after.blue_relative_measured; });
+  show("relit dE94 fast/4d noisy (six LEDs + D65)", [](const PlanResult& p) { return p.fast4d.de_all; });
+  show("relit dE94 fast/auto noisy (six LEDs + D65)", [](const PlanResult& p) { return p.fastauto.de_all; });
+  show("blue-only / D65' B relative noise on white",
+       [](const PlanResult& p) { return p.blue_relative_measured / p.d65_b_relative_measured; });
+  show("blue-only relative noise on white", [](const PlanResult& p) { return p.blue_relative_measured; });
+  show("D65' B relative noise on white", [](const PlanResult& p) { return p.d65_b_relative_measured; });
 
   const auto csv = out / "exposure_plan.csv";
   {
     std::ofstream f(csv);
     f << "seed,before_de_fast4d,after_de_fast4d,before_de_fastauto,after_de_fastauto,before_blue_rel_noise,"
-         "after_blue_rel_noise,before_d65b_rel_noise,after_d65b_rel_noise,before_blue_rel_pred,after_blue_rel_pred\n";
+         "after_blue_rel_noise,before_d65b_rel_noise,after_d65b_rel_noise,before_blue_rel_pred,after_blue_rel_pred,"
+         "refs_de_fast4d,refs_de_fastauto,refs_blue_rel_noise,refs_d65b_rel_noise\n";
     for (const auto& r : results)
       f << r.seed << "," << r.before.fast4d.de_all << "," << r.after.fast4d.de_all << "," << r.before.fastauto.de_all
         << "," << r.after.fastauto.de_all << "," << r.before.blue_relative_measured << ","
         << r.after.blue_relative_measured << "," << r.before.d65_b_relative_measured << ","
         << r.after.d65_b_relative_measured << "," << r.before.blue_relative_predicted << ","
-        << r.after.blue_relative_predicted << "\n";
+        << r.after.blue_relative_predicted << "," << r.refs.fast4d.de_all << "," << r.refs.fastauto.de_all << ","
+        << r.refs.blue_relative_measured << "," << r.refs.d65_b_relative_measured << "\n";
   }
   files::GnuplotChart chart;
   chart.png = out / "exposure_plan.png";
   chart.commands = "set datafile separator ','\nset key top right\nset style data histograms\nset style fill solid 0.8\n"
-                   "set title 'Standard plan before and after exposure per capture (skin cells, noisy)'\n"
+                   "set title 'Standard plan: one exposure, exposure per capture, + reference frames (skin, noisy)'\n"
                    "set xlabel 'scene seed'\nset ylabel 'relit dE94 vs truth, fast/4d (six LEDs + D65)'\nset yrange [0:*]\n"
                    "plot '" + csv.string() + "' every ::1 using 2:xtic(1) title 'before: one exposure', '' every ::1 using 3 "
-                   "title 'after: exposure per capture'\n";
+                   "title 'after: exposure per capture', '' every ::1 using 12 title 'refs: after + " +
+                   std::to_string(reference_frames) + " reference frames'\n";
   if (const std::string error = files::draw_chart(chart); !error.empty()) std::printf("chart: %s\n", error.c_str());
   std::printf("wrote %s and %s\n", csv.c_str(), (out / "exposure_plan.png").c_str());
   return 0;

@@ -31,6 +31,7 @@ struct SessionOptions {
   bool hardware = false, prompts = false, detach = false, frames = false;
   double exposure_us = 0;
   unsigned frames_per_camera = 0;
+  unsigned reference_frames = 0;
 };
 
 
@@ -43,6 +44,7 @@ void run(SessionOptions& options, int& exit_status) {
     builtin_options.timing = options.hardware ? session::Timing::kHardware : session::Timing::kSoftware;
     if (options.exposure_us > 0) builtin_options.exposure_us = options.exposure_us;
     if (options.frames_per_camera > 0) builtin_options.frames_per_camera = options.frames_per_camera;
+    if (options.reference_frames > 0) builtin_options.reference_frames = options.reference_frames;
     builtin_options.operator_prompts = options.prompts;
     std::optional<session::SessionPlan> plan = session::builtin_plan(options.plan_file, builtin_options);
     if (!plan) {
@@ -60,6 +62,7 @@ void run(SessionOptions& options, int& exit_status) {
     request.set_timing(options.hardware ? pb::TIMING_HARDWARE : pb::TIMING_SOFTWARE);
     request.set_exposure_us(options.exposure_us);
     request.set_frames_per_camera(options.frames_per_camera);
+    request.set_reference_frames(options.reference_frames);
     request.set_operator_prompts(options.prompts);
   }
   request.set_subject(options.subject);
@@ -230,7 +233,11 @@ void add_session_command(CLI::App& app, int& exit_status) {
   run_command->add_option("--subject", options->subject, "free text stored with the session");
   run_command->add_option("--name", options->name, "session name ([A-Za-z0-9_+.-])");
   run_command->add_option("--exposure-us", options->exposure_us, "standard plan: exposure (default 20000)");
-  run_command->add_option("--frames", options->frames_per_camera, "standard plan: frames per camera and step (default 1)");
+  run_command->add_option("--frames", options->frames_per_camera, "standard plan: frames per camera and subject step (default 1)");
+  run_command->add_option("--reference-frames", options->reference_frames,
+                          "built-in plans: frames per camera of each dark and white reference step (default: the "
+                          "daemon's capture.reference_frames; references are not subject time)")
+      ->check(CLI::Range(1u, 1000u));
   run_command->add_flag("--hardware-timed", options->hardware, "standard plan: the controller advances on the camera's exposure");
   run_command->add_flag("--prompts", options->prompts, "standard plan: pause for the operator before white and subject");
   run_command->add_flag("--detach", options->detach, "print the id and return at once");

@@ -119,9 +119,13 @@ class Client:
             request.output_enabled = output_enabled
         return self.leds.SetLedState(request)
 
-    def start_standard_session(self, subject="", exposure_us=0.0, frames_per_camera=0):
+    def start_standard_session(self, subject="", exposure_us=0.0, frames_per_camera=0, reference_frames=0):
+        """Starts the standard plan. 0 leaves a count to the daemon's configuration
+        (capture.frames_per_capture for each subject step, capture.reference_frames
+        for each dark and white step)."""
         request = sessions_pb2.StartSessionRequest(standard=True, subject=subject, exposure_us=exposure_us,
-                                                   frames_per_camera=frames_per_camera)
+                                                   frames_per_camera=frames_per_camera,
+                                                   reference_frames=reference_frames)
         return self.sessions.StartSession(request)
 
     def wait(self, operation_id, on_update=None):

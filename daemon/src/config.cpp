@@ -443,6 +443,8 @@ const std::vector<Key>& capture_keys() {
       number_key("white_share", 0, 1, true, [](DaemonConfig& c) -> auto& { return c.capture.white_share; }),
       unsigned_key("frames_per_capture", 1, session::kMaxFramesPerCamera,
                    [](DaemonConfig& c) -> auto& { return c.capture.frames_per_capture; }),
+      unsigned_key("reference_frames", 0, session::kMaxFramesPerCamera,
+                   [](DaemonConfig& c) -> auto& { return c.capture.reference_frames; }),
       number_key("blue_ratio", 0, 100, false, [](DaemonConfig& c) -> auto& { return c.capture.blue_ratio; }),
   };
   return keys;

@@ -163,6 +163,7 @@ session::PlanHazard Daemon::plan_hazard(const session::SessionPlan& plan,
 session::StandardPlanOptions Daemon::standard_plan_options() const {
   session::StandardPlanOptions options;
   options.frames_per_camera = config_.capture.frames_per_capture;
+  options.reference_frames = config_.capture.reference_frames;
   options.blue_ratio = config_.capture.blue_ratio;
   if (config_.capture.exposure_per_capture) options.meter_white_share = config_.capture.white_share;
   return options;

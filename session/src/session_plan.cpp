@@ -168,7 +168,9 @@ Step built_in_step(const StandardPlanOptions& options, std::string name, StepRol
   s.illumination = std::move(illumination);
   s.settle_ms = options.settle_ms;
   s.exposure_us = options.exposure_us;
-  s.frames_per_camera = options.frames_per_camera;
+  const bool reference = role == StepRole::kDark || role == StepRole::kWhite;
+  s.frames_per_camera =
+      reference && options.reference_frames > 0 ? options.reference_frames : options.frames_per_camera;
   if (options.operator_prompts) s.prompt = std::move(prompt);
   return s;
 }

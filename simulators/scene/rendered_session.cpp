@@ -63,6 +63,7 @@ std::uint64_t cache_key(const RenderedSessionOptions& o, const std::vector<Scene
   h.add(o.seed), h.add(o.white_fill), h.add(o.noise_free), h.add(o.exposure_per_capture), h.add(o.blue_ratio);
   for (const auto& [step, exposure_us] : exposures) h.add(exposure_us);
   if (o.plan != "standard") h.add(o.plan.data(), o.plan.size());  // (the standard plan's keys as before)
+  if (o.reference_frames > 0) h.add(o.reference_frames);          // (keys without it as before)
   for (const auto& w : weights) h.add(w.data(), sizeof(double) * w.size());
   for (double v : {camera.quantum_scale_e_per_us, camera.full_well_e, camera.read_noise_e, camera.gain_e_per_dn,
                    camera.black_level_dn})
@@ -295,6 +296,7 @@ bool RenderedSessionOptions::IsValid(std::string* error) const {
     return fail("extinction_ratio_550nm: must be in [1, 100000]");
   if (oily.count < 0 || oily.count > 64) return fail("oily.count: must be 0-64");
   if (oily.count > 0 && !polarised) return fail("oily: oily regions are rendered on a polarised session only");
+  if (reference_frames < 0 || reference_frames > 64) return fail("reference_frames: must be in [0, 64] (0: frames_per_capture)");
   return true;
 }
 
@@ -347,6 +349,7 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
   const bool standard = options.plan == "standard";
   session::StandardPlanOptions plan_options;
   plan_options.frames_per_camera = static_cast<std::uint32_t>(options.frames_per_capture);
+  plan_options.reference_frames = static_cast<std::uint32_t>(options.reference_frames);
   session::SessionPlan plan;
   if (standard) {
     plan_options.blue_ratio = options.blue_ratio;

@@ -21,6 +21,34 @@ TEST(SessionPlan, StandardPlanIsTheMethodsSequence) {
   EXPECT_TRUE(standard_plan({.operator_prompts = true}).steps[1].prompt.size() > 0);
 }
 
+// Reference frames: every dark and white step of each built-in plan takes
+// reference_frames, every subject step frames_per_camera; the subject's time
+// (plan_timing) does not change, the references' does.
+TEST(SessionPlan, ReferenceFramesApplyToDarkAndWhiteStepsOnly) {
+  session::StandardPlanOptions options;
+  options.frames_per_camera = 2;
+  for (bool polarised : {false, true})
+    for (const std::string name : {"standard", "multispectral", "multispectral+method"}) {
+      options.polarised = polarised && name == "standard";
+      options.reference_frames = 0;
+      const session::SessionPlan same = *session::builtin_plan(name, options);
+      options.reference_frames = 7;
+      const session::SessionPlan plan = *session::builtin_plan(name, options);
+      ASSERT_EQ(plan.steps.size(), same.steps.size()) << name;
+      int references = 0;
+      for (const session::Step& step : plan.steps) {
+        const bool reference = step.role != session::StepRole::kSubject;
+        references += reference;
+        EXPECT_EQ(step.frames_per_camera, reference ? 7u : 2u) << name << " " << step.name;
+      }
+      for (const session::Step& step : same.steps) EXPECT_EQ(step.frames_per_camera, 2u) << name << " " << step.name;
+      EXPECT_GE(references, 4) << name;
+      const session::PlanTiming t = session::plan_timing(plan), t_same = session::plan_timing(same);
+      EXPECT_DOUBLE_EQ(t.subject_time_s, t_same.subject_time_s) << name;
+      EXPECT_GT(t.reference_time_s, t_same.reference_time_s) << name;
+    }
+}
+
 TEST(SessionPlan, InvalidFieldsAreNamed) {
   std::string error;
   auto plan = standard_plan();

@@ -22,7 +22,7 @@ class SessionServiceImpl final : public pb::SessionService::Service {
       } else if (request->plan_source_case() == pb::StartSessionRequest::kStandard && request->standard()) {
         session::StandardPlanOptions options = daemon_.standard_plan_options();
         if (Status s = standard_options(request->timing(), request->exposure_us(), request->frames_per_camera(),
-                                        request->operator_prompts(), request->fixed_exposure(), &options);
+                                        request->reference_frames(), request->operator_prompts(), request->fixed_exposure(), &options);
             !s.ok())
           return s;
         plan = session::standard_plan(options);
@@ -40,7 +40,7 @@ class SessionServiceImpl final : public pb::SessionService::Service {
     return guard_(context, [&] {
       session::StandardPlanOptions options = daemon_.standard_plan_options();
       if (Status s = standard_options(request->timing(), request->exposure_us(), request->frames_per_camera(),
-                                      request->operator_prompts(), request->fixed_exposure(), &options);
+                                      request->reference_frames(), request->operator_prompts(), request->fixed_exposure(), &options);
           !s.ok())
         return s;
       to_proto(session::standard_plan(options), response);
@@ -93,8 +93,8 @@ class SessionServiceImpl final : public pb::SessionService::Service {
 
  private:
   // `options` comes with the configuration's capture choices (Daemon::standard_plan_options).
-  static Status standard_options(int timing, double exposure_us, std::uint32_t frames, bool prompts, bool fixed_exposure,
-                                 session::StandardPlanOptions* options) {
+  static Status standard_options(int timing, double exposure_us, std::uint32_t frames, std::uint32_t reference_frames,
+                                 bool prompts, bool fixed_exposure, session::StandardPlanOptions* options) {
     if (!pb::Timing_IsValid(timing)) return invalid("timing: unknown value " + std::to_string(timing));
     options->timing = timing == pb::TIMING_HARDWARE ? session::Timing::kHardware : session::Timing::kSoftware;
     if (fixed_exposure || options->timing == session::Timing::kHardware) options->meter_white_share = 0;
@@ -105,6 +105,10 @@ class SessionServiceImpl final : public pb::SessionService::Service {
     if (frames != 0) {
       if (frames > session::kMaxFramesPerCamera) return invalid("frames_per_camera: must be in [1, 1000]");
       options->frames_per_camera = frames;
+    }
+    if (reference_frames != 0) {
+      if (reference_frames > session::kMaxFramesPerCamera) return invalid("reference_frames: must be in [1, 1000]");
+      options->reference_frames = reference_frames;
     }
     options->operator_prompts = prompts;
     return Status::OK;

@@ -56,7 +56,8 @@ struct EstimationConfig {
 struct CaptureConfig {
   bool exposure_per_capture = true;  // meter each illumination's white (false: one exposure for all steps)
   double white_share = 0.8;          // the metered white's brightest channel, share of full scale, (0, 1]
-  std::uint32_t frames_per_capture = 1;  // frames per step of the standard plan when a request leaves it 0
+  std::uint32_t frames_per_capture = 1;  // frames per subject step of the standard plan when a request leaves it 0
+  std::uint32_t reference_frames = 4;   // frames per dark and white step (0: frames_per_capture)
   double blue_ratio = 8;             // the standard plan's w57+blue:R (0: the plain "w57+blue")
 };
 

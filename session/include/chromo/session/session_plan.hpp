@@ -68,7 +68,13 @@ struct SessionPlan {
 struct StandardPlanOptions {
   Timing timing = Timing::kSoftware;
   double exposure_us = 20000;
-  std::uint32_t frames_per_camera = 1;
+  std::uint32_t frames_per_camera = 1;  // frames of every subject step
+  // Frames of the dark and white reference steps (0: frames_per_camera).
+  // The albedo divides each pixel by its white reference, so the white's own
+  // noise adds to every pixel's; averaging more reference frames removes it
+  // without lengthening the time the subject must hold still
+  // (docs/daemon.md "Reference frames").
+  std::uint32_t reference_frames = 0;
   std::uint32_t settle_ms = 50;
   bool operator_prompts = false;  // pause for "place the white target" / "place the subject"
   // > 0: exposure per capture: the whites of D65' and W57+blue are metered to

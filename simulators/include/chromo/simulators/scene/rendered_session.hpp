@@ -86,7 +86,8 @@ struct RenderedSessionOptions {
   // on the brightest white of the three (the plan before exposure metering).
   bool exposure_per_capture = false;
   double blue_ratio = 0;        // > 0: the mixes "w57+blue:R" and "w57:R" (0: "w57+blue", "w57")
-  int frames_per_capture = 1;   // frames of every step, averaged by the capture builder (1-64)
+  int frames_per_capture = 1;   // frames of every subject step, averaged by the capture builder (1-64)
+  int reference_frames = 0;     // frames of the dark and white steps (0: frames_per_capture; 0-64)
   bool noise_free = true;    // also render the noise-free chain
   int threads = 2;
   int band_rows = 128;       // scene rows rendered at a time
