@@ -132,6 +132,16 @@ TEST(CameraPolarisationTest, CrossAndParallelSeparateTheHighlightAndAgreeOnTheWh
   EXPECT_GT(p[green], 1.3 * x[green]);  // the parallel frame keeps the highlight
 }
 
+TEST(CameraPolarisationTest, TheWhiteTargetSceneIsTheSkinScenesWhiteStrip) {
+  PolarisedCameraRig rig(/*banks=*/true);
+  const cv::Mat skin = rig.respond(Polarisation::kCross);
+  rig.camera->set_scene(std::make_shared<const Scene>(make_white_target_scene(kWidth, kHeight)));
+  const cv::Mat white = rig.camera->sensor_response_now();
+  const cv::Vec3d strip = white_mean(skin, *rig.skin);
+  const cv::Scalar target = cv::mean(white);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(strip[c] / target[c], 1.0, 1e-5) << "channel " << c;
+}
+
 TEST(CameraPolarisationTest, MixedStatesAreTheSumOfTheirTypesRenderedAlone) {
   PolarisedCameraRig rig(/*banks=*/true);
   const cv::Mat mixed = rig.respond(Polarisation::kCross, Polarisation::kParallel);

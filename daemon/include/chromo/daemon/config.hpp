@@ -58,6 +58,9 @@ struct CaptureConfig {
   double white_share = 0.8;          // the metered white's brightest channel, share of full scale, (0, 1]
   std::uint32_t frames_per_capture = 1;  // frames per step of the standard plan when a request leaves it 0
   double blue_ratio = 8;             // the standard plan's w57+blue:R (0: the plain "w57+blue")
+  // The standard plan polarised (docs/polarisation.md): "auto" when the LED
+  // controller reports polariser banks on every LED type, "on", "off".
+  std::string polarised_plan = "auto";
 };
 
 // The built-in virtual lab (docs/config.md "The built-in virtual lab"):
@@ -65,6 +68,7 @@ struct CaptureConfig {
 struct VirtualLabConfig {
   std::vector<simulators::LabCamera> cameras = {simulators::LabCamera{}};  // default: cam0, 640x480 BayerRG12
   double patch_width_mm = 80;  // the skin patch's width, for posed cameras
+  bool polarisers = false;     // polariser banks on all six LED types, analysers on the cameras (docs/polarisation.md)
 };
 
 struct DaemonConfig {
