@@ -46,16 +46,25 @@ std::string text(const nlohmann::json& value, const std::string& field) {
   return value.get<std::string>();
 }
 
-// Levels by LED type name; types absent are 0 (as the controller drives them).
-drivers::DriveLevels levels_from_json(const nlohmann::json& json, const std::string& field) {
-  if (!json.is_object()) bad(field, "not an object of LED levels");
-  drivers::DriveLevels levels{};
-  for (const auto& [name, level] : json.items()) {
+// An object keyed by LED type name: read(value, "field.NAME") for each key into
+// its type's slot; types absent keep their default.
+template <typename T, typename Read>
+std::array<T, drivers::kLedTypeCount> per_led_type(const nlohmann::json& json, const std::string& field,
+                                                   const char* what, Read read) {
+  if (!json.is_object()) bad(field, std::string("not an object of ") + what);
+  std::array<T, drivers::kLedTypeCount> values{};
+  for (const auto& [name, value] : json.items()) {
     const auto type = spectral::parse_led_type(name);
     if (!type) bad(field + "." + name, "not an LED type (W57, W40, W27, R, G, B)");
-    levels[static_cast<std::size_t>(spectral::led_type_index(*type))] = number<double>(level, field + "." + name);
+    values[static_cast<std::size_t>(spectral::led_type_index(*type))] = read(value, field + "." + name);
   }
-  return levels;
+  return values;
+}
+
+// Levels by LED type name; types absent are 0 (as the controller drives them).
+drivers::DriveLevels levels_from_json(const nlohmann::json& json, const std::string& field) {
+  return per_led_type<double>(json, field, "LED levels",
+                              [](const nlohmann::json& level, const std::string& name) { return number<double>(level, name); });
 }
 
 template <typename T>
@@ -80,20 +89,16 @@ nlohmann::json polarisation_json(const drivers::PolarisationPerType& polarisatio
   return json;
 }
 
+// Polarisations by LED type name; types absent are unpolarised.
 drivers::PolarisationPerType polarisation_from_json(const nlohmann::json& json, const std::string& field) {
-  if (!json.is_object()) bad(field, "not an object of LED types and polarisations");
-  drivers::PolarisationPerType polarisation{};
-  for (const auto& [name, value] : json.items()) {
-    const auto type = spectral::parse_led_type(name);
-    if (!type) bad(field + "." + name, "not an LED type (W57, W40, W27, R, G, B)");
-    const std::string state = text(value, field + "." + name);
-    auto& slot = polarisation[static_cast<std::size_t>(spectral::led_type_index(*type))];
-    if (state == "unpolarised") slot = drivers::Polarisation::kUnpolarised;
-    else if (state == "cross") slot = drivers::Polarisation::kCross;
-    else if (state == "parallel") slot = drivers::Polarisation::kParallel;
-    else bad(field + "." + name, "\"" + state.substr(0, 32) + "\" is not unpolarised, cross or parallel");
-  }
-  return polarisation;
+  return per_led_type<drivers::Polarisation>(
+      json, field, "LED types and polarisations", [](const nlohmann::json& value, const std::string& name) {
+        const std::string state = text(value, name);
+        for (drivers::Polarisation p : {drivers::Polarisation::kUnpolarised, drivers::Polarisation::kCross,
+                                        drivers::Polarisation::kParallel})
+          if (state == drivers::polarisation_name(p)) return p;
+        bad(name, "\"" + state.substr(0, 32) + "\" is not unpolarised, cross or parallel");
+      });
 }
 
 StepRole parse_role(const std::string& name) {
