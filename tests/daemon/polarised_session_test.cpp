@@ -15,6 +15,8 @@
 #include <cstdio>
 #include <map>
 
+#include "chromo/daemon/api_conversions.hpp"
+#include "chromo/proto/plan_messages.hpp"
 #include "chromo/session/frame_record.hpp"
 #include "chromo/session/journal.hpp"
 #include "chromo/simulators/polarisation/polarised_skin.hpp"
@@ -100,6 +102,14 @@ TEST(PolarisedSession, DaemonRunsThePolarisedStandardPlanAndTheFramesSeparateThe
   EXPECT_EQ(w57_state_of.at("subject_w57"), drivers::Polarisation::kCross);
   EXPECT_EQ(w57_state_of.at("white_d65_parallel"), drivers::Polarisation::kParallel);
   EXPECT_EQ(w57_state_of.at("subject_d65_parallel"), drivers::Polarisation::kParallel);
+  // The API's frames (GetSession with include_frames) carry the same, per LED type.
+  chromosphere::v1::SessionDetail detail;
+  to_proto(daemon->store().read_session(folder), true, &detail);
+  ASSERT_EQ(detail.frames_size(), static_cast<int>(plan.steps.size()));
+  for (const auto& frame : detail.frames()) {
+    ASSERT_EQ(frame.polarisation_size(), spectral::kLedTypeCount) << frame.step();
+    EXPECT_EQ(frame.polarisation(0), proto::polarisation_to_proto(w57_state_of.at(frame.step()))) << frame.step();
+  }
 
   // Albedo of the green sites: (subject − dark) / (white − dark) · ρ_white, per
   // state; the white frame (the target fills the sensor, uniformly lit) by
