@@ -424,10 +424,8 @@ cv::Mat CameraSimulator::render_scene(const std::shared_ptr<const Scene>& scene,
   if (!split || !options_.analyser) return scene->render(model_.weights(irradiance));  // as before
   const CameraAnalyser& analyser = *options_.analyser;
   if (scene != skin_scene_ || !skin_scene_options_) {  // a depolarising target: T_A of the light
-    spectral::Spectrum through_analyser = split->unpolarised + split->cross + split->parallel;  // one reading
-    for (int i = 0; i < spectral::kGridSize; ++i)
-      through_analyser[i] *= analyser.film.transmission_at(spectral::grid_wavelength_nm(i));
-    return scene->render(model_.weights(through_analyser));
+    const spectral::Spectrum light = split->unpolarised + split->cross + split->parallel;  // one reading
+    return scene->render(model_.weights(light * analyser.film.transmission()));
   }
   PolarisedSphere sphere;
   sphere.light_film = split->light_film;

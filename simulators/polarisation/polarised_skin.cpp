@@ -19,14 +19,6 @@ double added_highlight(const Scene& scene, const SkinSceneOptions& options, int 
   return skin_scene_added_reflection(options.width, options.height, x + options.column_begin, y + options.row_begin);
 }
 
-// T_A: what the analyser passes of unpolarised light, on the project grid.
-spectral::Spectrum analyser_transmission(const PolariserFilm& analyser_film) {
-  spectral::Spectrum transmission;
-  for (int i = 0; i < spectral::kGridSize; ++i)
-    transmission[i] = analyser_film.transmission_at(spectral::grid_wavelength_nm(i));
-  return transmission;
-}
-
 }  // namespace
 
 cv::Mat skin_surface_layer(const Scene& scene, const SkinSceneOptions& options, double view_angle_deg) {
@@ -49,7 +41,7 @@ cv::Mat render_polarised_skin(const Scene& scene, const SkinSceneOptions& option
       scene.height() != (options.row_count ? options.row_count : options.height))
     throw std::invalid_argument("render_polarised_skin: the scene is not make_skin_scene(options)");
   const spectral::Spectrum transmission = sphere->light_film_in_illumination
-                                              ? analyser_transmission(sphere->analyser_film)
+                                              ? sphere->analyser_film.transmission()
                                               : diffuse_transmission(sphere->light_film, sphere->analyser_film);
   const spectral::Spectrum factor =
       surface_factor_in_albedo(state, sphere->light_film, sphere->analyser_film, sphere->cross_leak);

@@ -39,12 +39,6 @@ struct PolarisedConnectedLab {
   }
 };
 
-spectral::Spectrum film_transmission(const simulators::PolariserFilm& film) {
-  spectral::Spectrum t;
-  for (int i = 0; i < spectral::kGridSize; ++i) t[i] = film.transmission_at(spectral::grid_wavelength_nm(i));
-  return t;
-}
-
 TEST(PolarisedCalibrationRun, EachStateMeasuresTheLedsThroughItsBanksAsPredicted) {
   PolarisedConnectedLab plain(false), banked(true);
   const CalibrationSummary without_films = plain.measure(drivers::Polarisation::kUnpolarised);
@@ -56,7 +50,7 @@ TEST(PolarisedCalibrationRun, EachStateMeasuresTheLedsThroughItsBanksAsPredicted
   EXPECT_NE(cross.library.leds[0].description.find("cross"), std::string::npos) << cross.library.leds[0].description;
 
   const LedLibrary predicted =
-      library_through_polariser(without_films.library, film_transmission(banked.lab.lab().options().polariser_film));
+      library_through_polariser(without_films.library, banked.lab.lab().options().polariser_film.transmission());
   for (int i = 0; i < spectral::kLedTypeCount; ++i) {
     const spectral::Spectrum& expected = predicted.leds[i].ladder.back().spectrum;
     const spectral::Spectrum& x = cross.library.leds[i].ladder.back().spectrum;
