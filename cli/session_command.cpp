@@ -28,6 +28,7 @@ namespace {
 struct SessionOptions {
   DaemonAddress address;
   std::string plan_file, subject, name, id;
+  std::string polarised = "auto";  // --polarised: auto (the daemon's capture.polarised_plan), on, off
   bool hardware = false, prompts = false, detach = false, frames = false;
   double exposure_us = 0;
   unsigned frames_per_camera = 0;
@@ -64,6 +65,9 @@ void run(SessionOptions& options, int& exit_status) {
     request.set_frames_per_camera(options.frames_per_camera);
     request.set_reference_frames(options.reference_frames);
     request.set_operator_prompts(options.prompts);
+    request.set_polarised(options.polarised == "on"    ? pb::POLARISED_PLAN_ON
+                          : options.polarised == "off" ? pb::POLARISED_PLAN_OFF
+                                                       : pb::POLARISED_PLAN_CONFIGURED);
   }
   request.set_subject(options.subject);
   request.set_name(options.name);
@@ -240,6 +244,12 @@ void add_session_command(CLI::App& app, int& exit_status) {
       ->check(CLI::Range(1u, 1000u));
   run_command->add_flag("--hardware-timed", options->hardware, "standard plan: the controller advances on the camera's exposure");
   run_command->add_flag("--prompts", options->prompts, "standard plan: pause for the operator before white and subject");
+  run_command->add_option("--polarised", options->polarised,
+                          "standard plan: cross-polarised with a parallel D65' capture (docs/polarisation.md): on, off, "
+                          "or auto (the daemon's capture.polarised_plan: polarised when the controller has polariser "
+                          "banks on every LED type)")
+      ->check(CLI::IsMember({"auto", "on", "off"}))
+      ->capture_default_str();
   run_command->add_flag("--detach", options->detach, "print the id and return at once");
   run_command->callback([&exit_status, options] { run(*options, exit_status); });
 

@@ -82,6 +82,7 @@ int main(int argc, char** argv) {
       VirtualLabOptions lab_options;
       lab_options.cameras = config.virtual_lab.cameras;
       lab_options.patch_width_mm = config.virtual_lab.patch_width_mm;
+      lab_options.polarisers = config.virtual_lab.polarisers;
       auto lab = start_virtual_lab(lab_options);
       config.devices = lab.devices;
       if (config.mixes.empty()) config.mixes = lab.mixes;

@@ -79,6 +79,8 @@ bool CalibrationRunOptions::IsValid(std::string* error) const {
   if (!(min_peak_fraction > 0 && min_peak_fraction < 1)) return fail("min_peak_fraction must be in (0, 1)");
   for (int i = 0; i < kLeds; ++i)
     if (!(max_drive_level[i] > 0 && max_drive_level[i] <= 1)) return fail(fmt::format("max_drive_level[{}] is not in (0, 1]", i));
+  if (static_cast<int>(polarisation) >= drivers::kPolarisationCodeCount)
+    return fail(fmt::format("polarisation: unknown code {}", static_cast<int>(polarisation)));
   std::string reader_error;
   if (!reader.IsValid(&reader_error)) return fail("reader: " + reader_error);
   return true;
@@ -149,13 +151,17 @@ CalibrationSummary CalibrationRun::run(const files::Progress& progress) {
       const std::string name(spectral::led_type_name(type));
       LedRecord& record = library.leds[led];
       record.type = type;
-      record.description = "measured by CalibrationRun";
+      record.description = options_.polarisation == drivers::Polarisation::kUnpolarised
+                               ? "measured by CalibrationRun"
+                               : std::string("measured by CalibrationRun through the ") +
+                                     drivers::polarisation_name(options_.polarisation) + " banks";
       record.max_drive_level = options_.max_drive_level[led];
       record.ladder.resize(rungs);
 
       auto drive = [&](double level) {
         drivers::LedState state = off_state();
         state.drive[led] = level;
+        state.polarisation[led] = options_.polarisation;
         leds_.set_state(state);
         switch_led_output(leds_, true);
       };

@@ -128,6 +128,7 @@ void to_proto(const session::SessionInfo& info, bool include_frames, pb::Session
     if (frame.led) {
       to_proto(frame.led->drive, f->mutable_drive());
       for (double t : frame.led->temperature_C) f->add_temperature_c(t);
+      for (drivers::Polarisation p : frame.led->polarisation) f->add_polarisation(proto::polarisation_to_proto(p));
     }
   }
 }

@@ -446,6 +446,12 @@ const std::vector<Key>& capture_keys() {
       unsigned_key("reference_frames", 0, session::kMaxFramesPerCamera,
                    [](DaemonConfig& c) -> auto& { return c.capture.reference_frames; }),
       number_key("blue_ratio", 0, 100, false, [](DaemonConfig& c) -> auto& { return c.capture.blue_ratio; }),
+      string_key("polarised_plan", [](DaemonConfig& c) -> auto& { return c.capture.polarised_plan; },
+                 [](const std::string& value) {
+                   return value == "auto" || value == "on" || value == "off"
+                              ? std::string()
+                              : "\"" + value.substr(0, 32) + "\" is not auto, on or off";
+                 }),
   };
   return keys;
 }
@@ -480,6 +486,7 @@ const std::vector<Key>& virtual_lab_keys() {
          return std::string();
        }},
       number_key("patch_width_mm", 0, 10000, true, [](DaemonConfig& c) -> auto& { return c.virtual_lab.patch_width_mm; }),
+      bool_key("polarisers", [](DaemonConfig& c) -> auto& { return c.virtual_lab.polarisers; }),
   };
   return keys;
 }
@@ -490,6 +497,7 @@ std::string virtual_lab_error(const DaemonConfig& c) {
   VirtualLabOptions options;
   options.cameras = c.virtual_lab.cameras;
   options.patch_width_mm = c.virtual_lab.patch_width_mm;
+  options.polarisers = c.virtual_lab.polarisers;
   std::string error;
   return options.IsValid(&error) ? std::string() : "." + error;
 }

@@ -1,5 +1,7 @@
 #include "chromo/daemon/daemon.hpp"
 
+#include <algorithm>
+
 #include <fstream>
 #include <set>
 
@@ -166,7 +168,18 @@ session::StandardPlanOptions Daemon::standard_plan_options() const {
   options.reference_frames = config_.capture.reference_frames;
   options.blue_ratio = config_.capture.blue_ratio;
   if (config_.capture.exposure_per_capture) options.meter_white_share = config_.capture.white_share;
+  options.polarised = config_.capture.polarised_plan == "on" ||
+                      (config_.capture.polarised_plan == "auto" && controller_polarised_everywhere());
   return options;
+}
+
+bool Daemon::controller_polarised_everywhere() const {
+  if (devices_.led_controllers.size() != 1) return false;  // the session's controller is the only one (led_controller(""))
+  auto& led = devices_.led_controllers.front();
+  if (!led->device) return false;
+  std::lock_guard device_lock(led->mutex);
+  const auto banks = led->device->info().polariser_banks;
+  return std::all_of(banks.begin(), banks.end(), [](bool bank) { return bank; });
 }
 
 session::OperationRecord Daemon::start_calibration(const CalibrationRequest& request) {
@@ -208,7 +221,9 @@ session::OperationRecord Daemon::start_session(session::SessionPlan plan, const 
       if (plan.steps[i].polarisation != drivers::Polarisation::kUnpolarised)
         throw std::invalid_argument("plan.steps[" + std::to_string(i) + "].polarisation: " +
                                     drivers::polarisation_name(plan.steps[i].polarisation) + ", but LED controller \"" +
-                                    led->config.name + "\" has no polariser banks (docs/polarisation.md)");
+                                    led->config.name +
+                                    "\" has no polariser banks (docs/polarisation.md; the standard plan: "
+                                    "capture.polarised_plan \"auto\" or \"off\", or `chromo session run --polarised off`)");
   }
   if (plan.timing == session::Timing::kHardware && led->device) {
     // The controller holds the whole sequence: a resting state plus one state per frame.

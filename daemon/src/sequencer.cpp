@@ -134,6 +134,7 @@ class Run {
       led.channel_faults = status.channel_faults;
       led.controller_faults = status.controller_faults;
       led.sequence_position = status.sequence_position;
+      led.polarisation = hardware ? driven_polarisation(levels, step.polarisation) : status.applied.polarisation;
       c_.journal->append({{"type", "step_started"}, {"step", step.name}, {"index", index}, {"led", session::to_json(led)},
                           {"exposure_us", step.exposure_us}, {"settle_ms", step.settle_ms},
                           {"timing", session::timing_name(c_.plan.timing)}});

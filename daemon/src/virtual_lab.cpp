@@ -17,6 +17,7 @@ struct VirtualLabSimulators::Impl {
       : lab([&] {
           simulators::CalibrationLabOptions lab_options;
           lab_options.leds.time_scale = options.led_time_scale;
+          if (options.polarisers) lab_options.leds.polariser_banks.fill(true);  // all six types
           return lab_options;
         }()) {
     simulators::SkinSceneOptions skin_options;
@@ -34,6 +35,7 @@ struct VirtualLabSimulators::Impl {
       const auto sensitivity = simulators::lab_camera_sensitivity(options.cameras[i], lab_sensitivity);
       cameras.push_back(std::make_unique<simulators::CameraSimulator>(
           options.camera_simulator_options(i, sensitivity), light, skin));
+      cameras.back()->set_skin_scene_options(skin, skin_options);  // its surface layer, seen through an analyser
       // The controller's trigger output is wired to every camera's Line0 (trigger_input "Line0").
       lab.lab().connect_trigger_output([raw = cameras.back().get()] { raw->pulse_trigger_input(); });
     }
@@ -109,7 +111,8 @@ VirtualLab start_virtual_lab(const VirtualLabOptions& options) {
   lab.description = "LED controller simulator on Modbus TCP 127.0.0.1:" + std::to_string(simulators->modbus_port()) +
                     ", GigE Vision camera simulator" + (options.cameras.size() > 1 ? "s " : " ") +
                     camera_description + ", simulated USB2000+ spectrometer and reference lamp; real drivers; "
-                    "LED lab time " + std::to_string(static_cast<int>(options.led_time_scale)) + "x";
+                    "LED lab time " + std::to_string(static_cast<int>(options.led_time_scale)) + "x" +
+                    (options.polarisers ? "; polarised sphere (cross and parallel banks, camera analysers)" : "");
   return lab;
 }
 

@@ -42,6 +42,8 @@ bool VirtualLabOptions::IsValid(std::string* error) const {
         return fail(at + "pose: " + e.what());
       }
   }
+  if (!(polariser_roughness_rad > 0 && polariser_roughness_rad <= 1))
+    return fail("polariser_roughness_rad: must be in (0, 1]");
   if (!(led_time_scale >= 1 && led_time_scale <= 100000)) return fail("led_time_scale: must be in [1, 100000]");
   return true;
 }
@@ -52,8 +54,10 @@ std::string VirtualLabOptions::serial_of(std::size_t index) const {
 
 simulators::CameraSimulatorOptions VirtualLabOptions::camera_simulator_options(
     std::size_t index, const spectral::CameraSensitivity& sensitivity) const {
-  return simulators::lab_camera_simulator_options(cameras.at(index), index, camera_serial, patch_width_mm, seed,
-                                                  sensitivity);
+  simulators::CameraSimulatorOptions options = simulators::lab_camera_simulator_options(
+      cameras.at(index), index, camera_serial, patch_width_mm, seed, sensitivity);
+  if (polarisers) options.analyser = simulators::lab_camera_analyser(cameras.at(index), polariser_roughness_rad);
+  return options;
 }
 
 }  // namespace chromo::daemon

@@ -8,6 +8,12 @@ namespace pb = chromosphere::v1;
 using grpc::Status;
 using grpc::StatusCode;
 
+pb::Polarisation polarisation_to_proto(drivers::Polarisation polarisation) {
+  return polarisation == drivers::Polarisation::kCross      ? pb::POLARISATION_CROSS
+         : polarisation == drivers::Polarisation::kParallel ? pb::POLARISATION_PARALLEL
+                                                            : pb::POLARISATION_UNPOLARISED;
+}
+
 pb::StepRole role_to_proto(session::StepRole role) {
   switch (role) {
     case session::StepRole::kDark: return pb::STEP_ROLE_DARK;
@@ -101,9 +107,7 @@ void to_proto(const session::SessionPlan& plan, pb::SessionPlan* out) {
     s->set_frames_per_camera(step.frames_per_camera);
     s->set_meter_white_share(step.meter_white_share);
     s->set_exposure_from(step.exposure_from);
-    s->set_polarisation(step.polarisation == drivers::Polarisation::kCross      ? pb::POLARISATION_CROSS
-                        : step.polarisation == drivers::Polarisation::kParallel ? pb::POLARISATION_PARALLEL
-                                                                                : pb::POLARISATION_UNPOLARISED);
+    s->set_polarisation(polarisation_to_proto(step.polarisation));
     s->set_prompt(step.prompt);
   }
 }

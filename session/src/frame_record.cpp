@@ -46,16 +46,25 @@ std::string text(const nlohmann::json& value, const std::string& field) {
   return value.get<std::string>();
 }
 
-// Levels by LED type name; types absent are 0 (as the controller drives them).
-drivers::DriveLevels levels_from_json(const nlohmann::json& json, const std::string& field) {
-  if (!json.is_object()) bad(field, "not an object of LED levels");
-  drivers::DriveLevels levels{};
-  for (const auto& [name, level] : json.items()) {
+// An object keyed by LED type name: read(value, "field.NAME") for each key into
+// its type's slot; types absent keep their default.
+template <typename T, typename Read>
+std::array<T, drivers::kLedTypeCount> per_led_type(const nlohmann::json& json, const std::string& field,
+                                                   const char* what, Read read) {
+  if (!json.is_object()) bad(field, std::string("not an object of ") + what);
+  std::array<T, drivers::kLedTypeCount> values{};
+  for (const auto& [name, value] : json.items()) {
     const auto type = spectral::parse_led_type(name);
     if (!type) bad(field + "." + name, "not an LED type (W57, W40, W27, R, G, B)");
-    levels[static_cast<std::size_t>(spectral::led_type_index(*type))] = number<double>(level, field + "." + name);
+    values[static_cast<std::size_t>(spectral::led_type_index(*type))] = read(value, field + "." + name);
   }
-  return levels;
+  return values;
+}
+
+// Levels by LED type name; types absent are 0 (as the controller drives them).
+drivers::DriveLevels levels_from_json(const nlohmann::json& json, const std::string& field) {
+  return per_led_type<double>(json, field, "LED levels",
+                              [](const nlohmann::json& level, const std::string& name) { return number<double>(level, name); });
 }
 
 template <typename T>
@@ -70,6 +79,28 @@ std::array<T, drivers::kLedTypeCount> per_channel(const nlohmann::json& json, co
   return values;
 }
 
+// {"W57": "cross", ...}: the LED types not unpolarised.
+nlohmann::json polarisation_json(const drivers::PolarisationPerType& polarisation) {
+  nlohmann::json json = nlohmann::json::object();
+  for (auto type : spectral::kAllLedTypes) {
+    const drivers::Polarisation p = polarisation[static_cast<std::size_t>(spectral::led_type_index(type))];
+    if (p != drivers::Polarisation::kUnpolarised) json[std::string(spectral::led_type_name(type))] = drivers::polarisation_name(p);
+  }
+  return json;
+}
+
+// Polarisations by LED type name; types absent are unpolarised.
+drivers::PolarisationPerType polarisation_from_json(const nlohmann::json& json, const std::string& field) {
+  return per_led_type<drivers::Polarisation>(
+      json, field, "LED types and polarisations", [](const nlohmann::json& value, const std::string& name) {
+        const std::string state = text(value, name);
+        for (drivers::Polarisation p : {drivers::Polarisation::kUnpolarised, drivers::Polarisation::kCross,
+                                        drivers::Polarisation::kParallel})
+          if (state == drivers::polarisation_name(p)) return p;
+        bad(name, "\"" + state.substr(0, 32) + "\" is not unpolarised, cross or parallel");
+      });
+}
+
 StepRole parse_role(const std::string& name) {
   if (name == "dark") return StepRole::kDark;
   if (name == "white") return StepRole::kWhite;
@@ -80,12 +111,14 @@ StepRole parse_role(const std::string& name) {
 }  // namespace
 
 nlohmann::json to_json(const FrameLedState& led) {
-  return {{"drive", levels_json(led.drive)},
-          {"requested_drive", levels_json(led.requested_drive)},
-          {"temperature_C", led.temperature_C},
-          {"channel_faults", led.channel_faults},
-          {"controller_faults", led.controller_faults},
-          {"sequence_position", led.sequence_position}};
+  nlohmann::json json{{"drive", levels_json(led.drive)},
+                      {"requested_drive", levels_json(led.requested_drive)},
+                      {"temperature_C", led.temperature_C},
+                      {"channel_faults", led.channel_faults},
+                      {"controller_faults", led.controller_faults},
+                      {"sequence_position", led.sequence_position}};
+  if (led.polarisation != drivers::PolarisationPerType{}) json["polarisation"] = polarisation_json(led.polarisation);
+  return json;
 }
 
 nlohmann::json to_json(const FrameRecord& r) {
@@ -147,6 +180,8 @@ FrameRecord frame_record_from_json(const nlohmann::json& json) {
     state.channel_faults = per_channel<std::uint32_t>(*led, "channel_faults");
     state.controller_faults = number_or<std::uint32_t>(*led, "controller_faults", 0, "led.");
     state.sequence_position = number_or<int>(*led, "sequence_position", -1, "led.");
+    if (const auto p = led->find("polarisation"); p != led->end())
+      state.polarisation = polarisation_from_json(*p, "led.polarisation");
     r.led = state;
   }
   return r;

@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "camera_registers.hpp"
+#include "chromo/simulators/polarisation/polarised_skin.hpp"
 #include "gige_protocol.hpp"
 
 namespace chromo::simulators {
@@ -27,7 +28,30 @@ SensorLayout layout_of(drivers::ColourLayout layout) {
   return SensorLayout::kMono;
 }
 
+bool same_light(const spectral::Spectrum& a, const spectral::Spectrum& b) { return (a.values() == b.values()).all(); }
+
+bool same_split(const std::optional<PolarisedIrradiance>& a, const std::optional<PolarisedIrradiance>& b) {
+  if (a.has_value() != b.has_value()) return false;
+  return !a || (same_light(a->unpolarised, b->unpolarised) && same_light(a->cross, b->cross) &&
+                same_light(a->parallel, b->parallel));
+}
+
+bool any_light(const spectral::Spectrum& light) { return (light.values() != 0).any(); }
+
 }  // namespace
+
+bool CameraAnalyser::IsValid(std::string* error) const {
+  if (!film.IsValid(error)) return false;
+  if (!(view_angle_deg >= 0 && view_angle_deg < 90)) {
+    if (error != nullptr) *error = "analyser: view_angle_deg must be in [0, 90)";
+    return false;
+  }
+  if (!(cross_leak >= 0 && cross_leak <= 1)) {
+    if (error != nullptr) *error = "analyser: cross_leak must be in [0, 1]";
+    return false;
+  }
+  return true;
+}
 
 bool CameraSimulatorOptions::IsValid(std::string* error) const {
   auto fail = [&](const std::string& message) {
@@ -51,6 +75,7 @@ bool CameraSimulatorOptions::IsValid(std::string* error) const {
     std::string view_error;
     if (!view->IsValid(&view_error)) return fail("view: " + view_error);
   }
+  if (analyser && !analyser->IsValid(error)) return false;
   return camera_model.IsValid(error);
 }
 
@@ -336,13 +361,16 @@ void CameraSimulator::produce_frame(std::uint64_t trigger_count) {
     return;
   }
   const spectral::Spectrum irradiance = illumination_->irradiance_now();
+  const std::optional<PolarisedIrradiance> split =
+      options_.analyser ? illumination_->polarised_irradiance_now() : std::nullopt;
   cv::Mat response;
   {
     std::lock_guard lock(render_mutex_);
-    if (cached_response_.empty() || cached_scene_ != scene_ ||
-        !(cached_irradiance_.values() == irradiance.values()).all()) {
-      cached_response_ = to_sensor(scene_->render(model_.weights(irradiance)));
+    if (cached_response_.empty() || cached_scene_ != scene_ || !same_light(cached_irradiance_, irradiance) ||
+        !same_split(cached_split_, split)) {
+      cached_response_ = to_sensor(render_scene(scene_, irradiance, split));
       cached_irradiance_ = irradiance;
+      cached_split_ = split;
       cached_scene_ = scene_;
     }
     response = cached_response_;
@@ -377,6 +405,47 @@ void CameraSimulator::set_scene(std::shared_ptr<const Scene> scene) {
   check_view(*scene);
   std::lock_guard lock(render_mutex_);
   scene_ = std::move(scene);
+}
+
+void CameraSimulator::set_skin_scene_options(std::shared_ptr<const Scene> skin, const SkinSceneOptions& options) {
+  if (!skin) throw std::invalid_argument("CameraSimulator::set_skin_scene_options: null scene");
+  if (skin->width() != (options.column_count ? options.column_count : options.width) ||
+      skin->height() != (options.row_count ? options.row_count : options.height))
+    throw std::invalid_argument("CameraSimulator::set_skin_scene_options: the scene is not make_skin_scene(options)");
+  std::lock_guard lock(render_mutex_);
+  skin_scene_ = std::move(skin);
+  skin_scene_options_ = options;
+  cached_response_ = cv::Mat();
+}
+
+// Called with render_mutex_ held (skin_scene_).
+cv::Mat CameraSimulator::render_scene(const std::shared_ptr<const Scene>& scene, const spectral::Spectrum& irradiance,
+                                      const std::optional<PolarisedIrradiance>& split) const {
+  if (!split || !options_.analyser) return scene->render(model_.weights(irradiance));  // as before
+  const CameraAnalyser& analyser = *options_.analyser;
+  if (scene != skin_scene_ || !skin_scene_options_) {  // a depolarising target: T_A of the light
+    const spectral::Spectrum light = split->unpolarised + split->cross + split->parallel;  // one reading
+    return scene->render(model_.weights(light * analyser.film.transmission()));
+  }
+  PolarisedSphere sphere;
+  sphere.light_film = split->light_film;
+  sphere.analyser_film = analyser.film;
+  sphere.view_angle_deg = analyser.view_angle_deg;
+  sphere.cross_leak = analyser.cross_leak;
+  sphere.light_film_in_illumination = true;
+  cv::Mat sum;
+  const std::pair<const spectral::Spectrum*, drivers::Polarisation> parts[] = {
+      {&split->unpolarised, drivers::Polarisation::kUnpolarised},
+      {&split->cross, drivers::Polarisation::kCross},
+      {&split->parallel, drivers::Polarisation::kParallel}};
+  for (const auto& [light, state] : parts) {
+    if (!any_light(*light)) continue;
+    const cv::Mat part = render_polarised_skin(*scene, *skin_scene_options_, model_.weights(*light), state, sphere);
+    if (sum.empty()) sum = part;
+    else sum += part;
+  }
+  if (sum.empty()) return scene->render(model_.weights(irradiance));  // dark: no light in any state
+  return sum;
 }
 
 void CameraSimulator::set_exposure_hook(std::function<void()> hook) {
@@ -427,6 +496,14 @@ cv::Mat CameraSimulator::sensor_response(const spectral::Spectrum& irradiance) c
     scene = scene_;
   }
   return to_sensor(scene->render(model_.weights(irradiance)));
+}
+
+cv::Mat CameraSimulator::sensor_response_now() const {
+  const spectral::Spectrum irradiance = illumination_->irradiance_now();
+  const std::optional<PolarisedIrradiance> split =
+      options_.analyser ? illumination_->polarised_irradiance_now() : std::nullopt;
+  std::lock_guard lock(render_mutex_);
+  return to_sensor(render_scene(scene_, irradiance, split));
 }
 
 void CameraSimulator::check_view(const Scene& scene) const {

@@ -3,11 +3,13 @@
 
 #include <arpa/inet.h>
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 #include <stdexcept>
 
 #include "chromo/session/session_plan.hpp"
+#include "chromo/simulators/polarisation/polariser_pattern.hpp"
 
 namespace chromo::simulators {
 namespace {
@@ -195,6 +197,18 @@ CameraSimulatorOptions lab_camera_simulator_options(const LabCamera& camera, std
   options.camera_model.sensitivity = sensitivity;
   options.camera_model.seed = seed + index;
   return options;
+}
+
+CameraAnalyser lab_camera_analyser(const LabCamera& camera, double roughness_rad) {
+  if (!(roughness_rad > 0)) throw std::invalid_argument("lab_camera_analyser: roughness_rad must be positive");
+  CameraAnalyser analyser;
+  if (!camera.pose || (camera.pose->azimuth_deg == 0 && camera.pose->elevation_deg == 0)) return analyser;
+  const LabCameraPose& pose = *camera.pose;
+  const cv::Vec3d design_view(0, 0, -1);  // the patch normal, toward the cameras (camera_view.hpp's frame)
+  const cv::Vec3d view = cv::normalize(orbit_eye_mm(pose.distance_mm, pose.azimuth_deg, pose.elevation_deg));
+  analyser.view_angle_deg = std::acos(std::clamp(view.dot(design_view), -1.0, 1.0)) * 180.0 / M_PI;
+  analyser.cross_leak = cross_polarisation_leak(design_view, view, roughness_rad, pose.roll_deg).lobe_leak;
+  return analyser;
 }
 
 }  // namespace chromo::simulators

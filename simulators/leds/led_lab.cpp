@@ -1,5 +1,6 @@
 #include "chromo/simulators/leds/led_lab.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -288,8 +289,10 @@ std::vector<LedLab::Emission> LedLab::emissions_locked(int type) const {
     if (level <= 0) continue;
     Emission e;
     e.shift_nm = common_shift;
-    if (options_.polariser_banks[type])
-      e.filtered_banks = zone_polarisation_[zone][type] == drivers::Polarisation::kUnpolarised ? 2 : 1;
+    if (options_.polariser_banks[type]) {
+      e.state = zone_polarisation_[zone][type];
+      e.filtered_banks = e.state == drivers::Polarisation::kUnpolarised ? 2 : 1;
+    }
     double electrical = level;
     if (options_.drive_mode == DriveMode::kConstantCurrent) {
       electrical *= (1.0 - p.droop * level) / (1.0 - p.droop);
@@ -315,22 +318,43 @@ double LedLab::irradiance_at_nm(double wavelength_nm) const {
   return sum;
 }
 
+spectral::Spectrum LedLab::emitted_on_grid_locked(int type, const Emission& e) const {
+  std::vector<double> shifted(reference_[type].wavelength_nm);
+  for (double& nm : shifted) nm += e.shift_nm;
+  spectral::Spectrum emitted = e.scale * spectral::resample_to_grid(shifted, reference_[type].value,
+                                                                    options_.leds[type].spectrum_file,
+                                                                    spectral::OutsideRange::kZero);
+  if (e.filtered_banks > 0)
+    for (int k = 0; k < spectral::kGridSize; ++k) emitted[k] *= film_factor(e, spectral::grid_wavelength_nm(k));
+  return emitted;
+}
+
 spectral::Spectrum LedLab::irradiance_now() const {
   std::lock_guard lock(mutex_);
   update_thermal_locked();
   spectral::Spectrum total;
   for (int i = 0; i < spectral::kLedTypeCount; ++i)
-    for (const Emission& e : emissions_locked(i)) {
-      std::vector<double> shifted(reference_[i].wavelength_nm);
-      for (double& nm : shifted) nm += e.shift_nm;
-      spectral::Spectrum emitted = e.scale * spectral::resample_to_grid(shifted, reference_[i].value,
-                                                                        options_.leds[i].spectrum_file,
-                                                                        spectral::OutsideRange::kZero);
-      if (e.filtered_banks > 0)
-        for (int k = 0; k < spectral::kGridSize; ++k) emitted[k] *= film_factor(e, spectral::grid_wavelength_nm(k));
-      total += emitted;
-    }
+    for (const Emission& e : emissions_locked(i)) total += emitted_on_grid_locked(i, e);
   return total;
+}
+
+std::optional<PolarisedIrradiance> LedLab::polarised_irradiance_now() const {
+  if (std::none_of(options_.polariser_banks.begin(), options_.polariser_banks.end(), [](bool b) { return b; }))
+    return std::nullopt;
+  std::lock_guard lock(mutex_);
+  update_thermal_locked();
+  PolarisedIrradiance split;
+  split.light_film = options_.polariser_film;
+  for (int i = 0; i < spectral::kLedTypeCount; ++i)
+    for (const Emission& e : emissions_locked(i)) {
+      const spectral::Spectrum emitted = emitted_on_grid_locked(i, e);
+      switch (e.state) {
+        case drivers::Polarisation::kCross: split.cross += emitted; break;
+        case drivers::Polarisation::kParallel: split.parallel += emitted; break;
+        default: split.unpolarised += emitted; break;
+      }
+    }
+  return split;
 }
 
 }  // namespace chromo::simulators

@@ -40,7 +40,9 @@ cv::Mat render_polarised_skin(const Scene& scene, const SkinSceneOptions& option
   if (scene.width() != (options.column_count ? options.column_count : options.width) ||
       scene.height() != (options.row_count ? options.row_count : options.height))
     throw std::invalid_argument("render_polarised_skin: the scene is not make_skin_scene(options)");
-  const spectral::Spectrum transmission = diffuse_transmission(sphere->light_film, sphere->analyser_film);
+  const spectral::Spectrum transmission = sphere->light_film_in_illumination
+                                              ? sphere->analyser_film.transmission()
+                                              : diffuse_transmission(sphere->light_film, sphere->analyser_film);
   const spectral::Spectrum factor =
       surface_factor_in_albedo(state, sphere->light_film, sphere->analyser_film, sphere->cross_leak);
   // Per channel: the weights through both films, and what a surface reflection of 1 gives.

@@ -43,6 +43,12 @@ double PolariserFilm::transmission_at(double wavelength_nm) const {
   return std::clamp(t, 1e-6, 0.5);
 }
 
+spectral::Spectrum PolariserFilm::transmission() const {
+  spectral::Spectrum t;
+  for (int i = 0; i < spectral::kGridSize; ++i) t[i] = transmission_at(spectral::grid_wavelength_nm(i));
+  return t;
+}
+
 spectral::Spectrum PolariserFilm::axis_transmittance() const {
   spectral::Spectrum k1;
   for (int i = 0; i < spectral::kGridSize; ++i) {

@@ -47,6 +47,7 @@ struct SimArguments {
   int modbus_port = 0;
   double irradiance_peak = 1.0;
   bool white_target = false;
+  bool polarisers = false;  // banks on all six LED types, analysers on the cameras
   double packet_loss = 0;
   std::string camera_sensitivity = "nikon_d5100";
   std::string cameras_file;  // JSON list of cameras; empty: one camera from the options above
@@ -79,6 +80,9 @@ std::vector<simulators::LabCamera> lab_cameras_of(const SimArguments& args) {
   }
 }
 
+// The skin's highlight lobe for the posed cameras' cross leak (as chromod's virtual lab).
+constexpr double kPolariserRoughnessRad = 0.3;
+
 int run(const SimArguments& args) {
   // Block the stop signals before any thread starts, then wait for them here.
   sigset_t stop_signals;
@@ -105,14 +109,16 @@ int run(const SimArguments& args) {
   if (args.white_target) {
     scene = std::make_shared<const simulators::Scene>(
         simulators::make_white_target_scene(args.scene_size, args.scene_size));
-  } else {
-    simulators::SkinSceneOptions scene_options;
-    scene_options.width = scene_options.height = args.scene_size;
-    scene_options.seed = args.seed;
-    scene = std::make_shared<const simulators::Scene>(simulators::make_skin_scene(scene_options));
   }
+  simulators::SkinSceneOptions scene_options;
+  scene_options.width = scene_options.height = args.scene_size;
+  scene_options.seed = args.seed;
+  if (!args.white_target)
+    scene = std::make_shared<const simulators::Scene>(simulators::make_skin_scene(scene_options));
 
-  simulators::LedControllerSimulator leds;
+  simulators::LedLabOptions lab_options;
+  if (args.polarisers) lab_options.polariser_banks.fill(true);  // docs/polarisation.md: all six types
+  simulators::LedControllerSimulator leds(lab_options);
   const int modbus_port = leds.start_modbus_tcp(args.modbus_port);
   const std::string modbus_pty = leds.start_modbus_rtu();
   // The lab outlives the camera simulators (declared first): a non-owning pointer.
@@ -120,11 +126,13 @@ int run(const SimArguments& args) {
   std::vector<std::unique_ptr<simulators::CameraSimulator>> cameras;
   for (std::size_t i = 0; i < lab_cameras.size(); ++i) {
     const simulators::LabCamera& lab_camera = lab_cameras[i];
-    const simulators::CameraSimulatorOptions camera_options = simulators::lab_camera_simulator_options(
+    simulators::CameraSimulatorOptions camera_options = simulators::lab_camera_simulator_options(
         lab_camera, i, args.camera_serial, args.patch_width_mm, args.seed,
         simulators::lab_camera_sensitivity(lab_camera, sensitivity));
+    if (args.polarisers) camera_options.analyser = simulators::lab_camera_analyser(lab_camera, kPolariserRoughnessRad);
     cameras.push_back(std::make_unique<simulators::CameraSimulator>(camera_options, fixed_light ? fixed_light : lab_light,
                                                                     scene));
+    if (!args.white_target) cameras.back()->set_skin_scene_options(scene, scene_options);
     cameras.back()->set_packet_loss_ratio(args.packet_loss);
     // The trigger master's output → every camera's Line0.
     leds.lab().connect_trigger_output([raw = cameras.back().get()] { raw->pulse_trigger_input(); });
@@ -193,6 +201,9 @@ int main(int argc, char** argv) {
                  "(wavelength_nm,R,G,B)")
       ->capture_default_str();
   app.add_flag("--white-target", args.white_target, "Show the white reference target instead of skin");
+  app.add_flag("--polarisers", args.polarisers,
+               "Polarised sphere: cross and parallel banks on all six LED types, an analyser on every camera "
+               "(docs/polarisation.md)");
   app.add_option("--camera-address", args.camera_address,
                  "Loopback address of the camera simulator, 127.a.b.c (default: a free one in 127.77.0.0/16)")
       ->excludes(cameras);

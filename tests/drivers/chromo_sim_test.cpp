@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cstdio>
 #include <string>
 #include <fstream>
 #include <thread>
@@ -20,6 +21,22 @@ double mean_of(const drivers::Frame& frame) {
   double sum = 0;
   for (auto v : frame.data) sum += v;
   return sum / static_cast<double>(frame.data.size());
+}
+
+// Arms `sequence` hardware-timed (the camera's exposures are the controller's
+// trigger input, so frame k after arming shows state k), triggers the camera
+// once per state after the first, stops the stream and returns every frame
+// it sent (`frames_before` of them taken before). Fewer frames when one timed out.
+std::vector<drivers::Frame> run_sequence(drivers::LedController& leds, drivers::AravisCamera& camera, FrameSink& sink,
+                                         const std::vector<drivers::LedState>& sequence, std::size_t frames_before) {
+  leds.arm_sequence(sequence, drivers::SequenceTrigger::kHardwareRisingEdge);
+  leds.set_output_enabled(true);
+  for (std::size_t k = 1; k < sequence.size(); ++k) {
+    camera.software_trigger();
+    if (!sink.wait_for_count(frames_before + k, std::chrono::milliseconds(3000))) break;
+  }
+  camera.stop_stream();
+  return sink.take();
 }
 
 TEST(ChromoSim, PrintsWhereDevicesListenServesThemAndStopsOnCtrlC) {
@@ -56,14 +73,7 @@ TEST(ChromoSim, PrintsWhereDevicesListenServesThemAndStopsOnCtrlC) {
     std::vector<drivers::LedState> sequence(3);
     sequence[1].drive[spectral::led_type_index(spectral::LedType::kW57)] = 1.0;
     sequence[2].drive[spectral::led_type_index(spectral::LedType::kW57)] = 0.3;
-    leds->arm_sequence(sequence, drivers::SequenceTrigger::kHardwareRisingEdge);
-    leds->set_output_enabled(true);
-    for (std::size_t k = 2; k <= 3; ++k) {
-      camera->software_trigger();
-      ASSERT_TRUE(sink.wait_for_count(k, std::chrono::milliseconds(3000)));
-    }
-    camera->stop_stream();
-    const auto frames = sink.take();
+    const auto frames = run_sequence(*leds, *camera, sink, sequence, 1);
     ASSERT_EQ(frames.size(), 3u);
     for (const auto& frame : frames) {
       EXPECT_EQ(frame.status, drivers::FrameStatus::kComplete);
@@ -75,6 +85,61 @@ TEST(ChromoSim, PrintsWhereDevicesListenServesThemAndStopsOnCtrlC) {
     EXPECT_NEAR((mean_of(frames[2]) - 1.0) / (mean_of(frames[1]) - 1.0), 0.3, 0.04);
     EXPECT_EQ(leds->read_status().sequence_position, 2);
   }
+  EXPECT_EQ(sim.stop_with(SIGINT), 0);
+}
+
+// Mean of a 16-bit (Mono12 in 16-bit containers) frame over a box, in DN.
+double box_mean(const drivers::Frame& frame, int width, int x0, int y0, int x1, int y1) {
+  double sum = 0;
+  for (int y = y0; y < y1; ++y)
+    for (int x = x0; x < x1; ++x) {
+      const std::size_t i = (static_cast<std::size_t>(y) * width + x) * 2;
+      sum += static_cast<double>(frame.data[i] | (frame.data[i + 1] << 8));
+    }
+  return sum / ((x1 - x0) * (y1 - y0));
+}
+
+// --polarisers: the controller reports banks on all six types over Modbus,
+// and the camera sees the skin's highlight in the parallel state only while
+// the white strip is the same in both (docs/polarisation.md).
+TEST(ChromoSim, PolarisersGiveBanksAndACameraThatSeparatesTheHighlight) {
+  ChromoSimProcess sim({"--polarisers", "--camera-serial", "CHROMO-SIMPOL", "--sensor-width", "128",
+                        "--sensor-height", "128", "--scene-size", "64"});
+  const std::string banner = sim.read_until("running");
+  auto leds = drivers::make_modbus_tcp_led_controller("127.0.0.1", printed_modbus_port(banner));
+  for (bool bank : leds->info().polariser_banks) EXPECT_TRUE(bank);
+  drivers::AravisCameraOptions options;
+  options.serial = "CHROMO-SIMPOL";
+  options.address = printed_camera_address(banner);
+  options.frame_retention_ms = 2000;
+  options.socket_buffer_bytes = 1u << 20;
+  options.on_warning = [](const std::string&) {};
+  auto camera = drivers::AravisCamera::open(options);
+  drivers::CameraSettings settings;
+  settings.pixel_format = drivers::PixelFormat::kMono12;
+  settings.exposure_us = 40000;  // the films pass ~0.18 of the light
+  camera->configure(settings);
+  FrameSink sink;
+  camera->start_stream(sink.callback());
+  const int w57 = spectral::led_type_index(spectral::LedType::kW57);
+  // Frame k shows state k (the exposure is the controller's trigger input): off, cross, parallel.
+  std::vector<drivers::LedState> sequence(3);
+  for (std::size_t k = 1; k < 3; ++k) {
+    sequence[k].drive[w57] = 1.0;
+    sequence[k].polarisation[w57] = k == 1 ? drivers::Polarisation::kCross : drivers::Polarisation::kParallel;
+  }
+  const auto frames = run_sequence(*leds, *camera, sink, sequence, 0);
+  ASSERT_EQ(frames.size(), 2u);
+  EXPECT_EQ(leds->read_status().applied.polarisation[w57], drivers::Polarisation::kParallel);
+  // The highlight (scene_added_reflection: 0.3 at (0.65, 0.2) of the patch) and the white strip (the right tenth).
+  const double cross_highlight = box_mean(frames[0], 128, 79, 24, 88, 28);
+  const double parallel_highlight = box_mean(frames[1], 128, 79, 24, 88, 28);
+  const double cross_white = box_mean(frames[0], 128, 118, 8, 126, 120);
+  const double parallel_white = box_mean(frames[1], 128, 118, 8, 126, 120);
+  std::printf("highlight: cross %.1f DN, parallel %.1f DN; white strip: cross %.1f DN, parallel %.1f DN\n",
+              cross_highlight, parallel_highlight, cross_white, parallel_white);
+  EXPECT_GT(parallel_highlight, 1.5 * cross_highlight);
+  EXPECT_NEAR(parallel_white / cross_white, 1.0, 0.02);
   EXPECT_EQ(sim.stop_with(SIGINT), 0);
 }
 

@@ -84,8 +84,24 @@ TEST(FrameRecord, FormatOneRecordsReadAndWriteBackUnchanged) {
     ASSERT_TRUE(record.led);
     EXPECT_EQ(record.pixel_format, drivers::PixelFormat::kBayerRG12);
     EXPECT_EQ(record.trigger_id, 0u);  // written before triggers were numbered
+    EXPECT_EQ(record.led->polarisation, drivers::PolarisationPerType{});  // written before polarisation: unpolarised
   }
   EXPECT_EQ(frames, 7);
+}
+
+TEST(FrameRecord, PolarisationIsRecordedPerLedTypeAndAbsentWhenUnpolarised) {
+  FrameRecord record = full_record();
+  EXPECT_FALSE(to_json(record)["led"].contains("polarisation"));  // unpolarised: as before polarisation
+  record.led->polarisation[static_cast<std::size_t>(spectral::led_type_index(spectral::LedType::kW57))] =
+      drivers::Polarisation::kParallel;
+  record.led->polarisation[static_cast<std::size_t>(spectral::led_type_index(spectral::LedType::kBlue))] =
+      drivers::Polarisation::kCross;
+  const nlohmann::json json = to_json(record);
+  EXPECT_EQ(json["led"]["polarisation"], (nlohmann::json{{"W57", "parallel"}, {"B", "cross"}}));
+  const FrameRecord back = frame_record_from_json(nlohmann::json::parse(json.dump()));
+  EXPECT_EQ(back, record);
+  EXPECT_EQ(back.led->polarisation[static_cast<std::size_t>(spectral::led_type_index(spectral::LedType::kW40))],
+            drivers::Polarisation::kUnpolarised);
 }
 
 TEST(FrameRecord, BadRecordsAreRefusedNamingTheField) {
@@ -116,6 +132,15 @@ TEST(FrameRecord, BadRecordsAreRefusedNamingTheField) {
   j = good;
   j["role"] = "flat";
   refused(j, "role");
+  j = good;
+  j["led"]["polarisation"] = {{"W57", "diagonal"}};
+  refused(j, "led.polarisation.W57: \"diagonal\" is not unpolarised, cross or parallel");
+  j = good;
+  j["led"]["polarisation"] = {{"UV", "cross"}};
+  refused(j, "led.polarisation.UV");
+  j = good;
+  j["led"]["polarisation"] = "cross";
+  refused(j, "led.polarisation: not an object");
 }
 
 TEST(FrameSums, SumsExactlyAndMeansInUnitsOfFullScale) {

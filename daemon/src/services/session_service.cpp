@@ -25,6 +25,7 @@ class SessionServiceImpl final : public pb::SessionService::Service {
                                         request->reference_frames(), request->operator_prompts(), request->fixed_exposure(), &options);
             !s.ok())
           return s;
+        if (Status s = polarised_option(request->polarised(), &options); !s.ok()) return s;
         plan = session::standard_plan(options);
       } else {
         return invalid("plan_source: set standard = true or give a plan");
@@ -43,6 +44,7 @@ class SessionServiceImpl final : public pb::SessionService::Service {
                                       request->reference_frames(), request->operator_prompts(), request->fixed_exposure(), &options);
           !s.ok())
         return s;
+      if (Status s = polarised_option(request->polarised(), &options); !s.ok()) return s;
       to_proto(session::standard_plan(options), response);
       return Status::OK;
     });
@@ -111,6 +113,13 @@ class SessionServiceImpl final : public pb::SessionService::Service {
       options->reference_frames = reference_frames;
     }
     options->operator_prompts = prompts;
+    return Status::OK;
+  }
+  // The request's choice over the configuration's (POLARISED_PLAN_CONFIGURED keeps it).
+  static Status polarised_option(int polarised, session::StandardPlanOptions* options) {
+    if (!pb::PolarisedPlan_IsValid(polarised)) return invalid("polarised: unknown value " + std::to_string(polarised));
+    if (polarised == pb::POLARISED_PLAN_ON) options->polarised = true;
+    if (polarised == pb::POLARISED_PLAN_OFF) options->polarised = false;
     return Status::OK;
   }
   Daemon& daemon_;

@@ -60,6 +60,12 @@ struct CalibrationRunOptions {
   std::array<double, spectral::kLedTypeCount> max_drive_level{1, 1, 1, 1, 1, 1};  // copied into the library
   std::optional<double> ambient_temperature_C;
   std::string notes;
+  // The banks each LED type is measured through (docs/polarisation.md
+  // "Calibration per state"): kCross or kParallel on a sphere with polariser
+  // banks measure that bank's light (the LEDs through its film); kUnpolarised
+  // drives the only bank, or both. The state is named in every LED record's
+  // description. A controller without the bank refuses (kDeviceError).
+  drivers::Polarisation polarisation = drivers::Polarisation::kUnpolarised;
 
   bool IsValid(std::string* error) const;
 };

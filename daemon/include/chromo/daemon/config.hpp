@@ -59,6 +59,9 @@ struct CaptureConfig {
   std::uint32_t frames_per_capture = 1;  // frames per subject step of the standard plan when a request leaves it 0
   std::uint32_t reference_frames = 4;   // frames per dark and white step (0: frames_per_capture)
   double blue_ratio = 8;             // the standard plan's w57+blue:R (0: the plain "w57+blue")
+  // The standard plan polarised (docs/polarisation.md): "auto" when the LED
+  // controller reports polariser banks on every LED type, "on", "off".
+  std::string polarised_plan = "auto";
 };
 
 // The built-in virtual lab (docs/config.md "The built-in virtual lab"):
@@ -66,6 +69,7 @@ struct CaptureConfig {
 struct VirtualLabConfig {
   std::vector<simulators::LabCamera> cameras = {simulators::LabCamera{}};  // default: cam0, 640x480 BayerRG12
   double patch_width_mm = 80;  // the skin patch's width, for posed cameras
+  bool polarisers = false;     // polariser banks on all six LED types, analysers on the cameras (docs/polarisation.md)
 };
 
 struct DaemonConfig {

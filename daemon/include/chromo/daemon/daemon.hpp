@@ -70,8 +70,14 @@ class Daemon {
   session::PlanHazard plan_hazard(const session::SessionPlan& plan,
                                   const std::map<std::string, double>& exposure_us_of_step = {}) const;
   // The standard plan as the configuration's `capture` keys make it (exposure
-  // per capture, white share, frames, blue ratio), before the request's own choices.
+  // per capture, white share, frames, blue ratio, polarised), before the
+  // request's own choices. capture.polarised_plan "auto": polarised when the
+  // LED controller reports polariser banks on every LED type
+  // (polarised_plan_by_default), "on"/"off" forced.
   session::StandardPlanOptions standard_plan_options() const;
+  // Whether the open LED controller reports polariser banks on all six LED
+  // types (false without a controller or with some types unpolarised).
+  bool controller_polarised_everywhere() const;
   // A calibration run (calibrations.hpp); same errors as start_session.
   session::OperationRecord start_calibration(const CalibrationRequest& request);
   Calibrations& calibrations() { return *calibrations_; }

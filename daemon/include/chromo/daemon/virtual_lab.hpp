@@ -67,6 +67,13 @@ struct VirtualLabOptions {
   double led_time_scale = 300;     // lab seconds per wall-clock second (LED warm-up, drift)
   std::uint64_t seed = 1;          // scene and camera noise
   int scene_threads = 0;           // building the skin scene (0 = all cores)
+  // A polarised sphere (docs/polarisation.md): every LED type has a cross
+  // and a parallel bank (the default film) and every camera an analyser,
+  // crossed for the view along the patch normal; a posed camera elsewhere
+  // leaks its view's share (simulators::lab_camera_analyser at this
+  // roughness, radians, of the skin's highlight lobe).
+  bool polarisers = false;
+  double polariser_roughness_rad = 0.3;
 
   // Names the key: "cameras[1].sensor_width: ...".
   bool IsValid(std::string* error) const;
@@ -74,7 +81,8 @@ struct VirtualLabOptions {
   // std::out_of_range beyond the list).
   std::string serial_of(std::size_t index) const;
   // The simulator options of camera `index` (std::out_of_range beyond) with
-  // the sensitivity it renders with; its noise seed is seed + index.
+  // the sensitivity it renders with; its noise seed is seed + index; with
+  // polarisers, its analyser.
   simulators::CameraSimulatorOptions camera_simulator_options(std::size_t index,
                                                               const spectral::CameraSensitivity& sensitivity) const;
 };

@@ -17,6 +17,7 @@
 namespace chromo::proto {
 
 chromosphere::v1::StepRole role_to_proto(session::StepRole role);
+chromosphere::v1::Polarisation polarisation_to_proto(drivers::Polarisation polarisation);
 
 void to_proto(const drivers::DriveLevels& levels, chromosphere::v1::DriveLevels* out);
 drivers::DriveLevels from_proto(const chromosphere::v1::DriveLevels& levels);

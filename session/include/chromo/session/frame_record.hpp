@@ -32,6 +32,11 @@ struct FrameLedState {
   std::array<std::uint32_t, drivers::kLedTypeCount> channel_faults{};
   std::uint32_t controller_faults = 0;
   int sequence_position = -1;  // in an armed sequence; -1 when none
+  // Which bank each LED type was driven through (docs/polarisation.md), as
+  // drive: applied (software timing) or armed (hardware timing). JSON
+  // "polarisation": {"W57": "cross", ...}, only the types not unpolarised,
+  // absent when all are (records of before polarisation read as unpolarised).
+  drivers::PolarisationPerType polarisation{};
 
   bool operator==(const FrameLedState&) const = default;
 };

@@ -10,9 +10,22 @@
 // (W57 alone at full drive, warmed up, peaks near 1). Thread-safe: simulators
 // call it from their own threads.
 
+#include <optional>
+
+#include "chromo/simulators/polarisation/polariser_optics.hpp"
 #include "chromo/spectral/spectrum.hpp"
 
 namespace chromo::simulators {
+
+// The irradiance of a sphere with polariser banks (docs/polarisation.md),
+// split by the polarisation state the light leaves in: light of types driven
+// cross, light of types driven parallel, and unpolarised light (types driven
+// through both banks, and types without banks). The three add up to
+// irradiance_now(); the films' transmission is already in them.
+struct PolarisedIrradiance {
+  spectral::Spectrum unpolarised, cross, parallel;
+  PolariserFilm light_film;  // the film in front of the banks
+};
 
 class SphereIllumination {
  public:
@@ -22,6 +35,9 @@ class SphereIllumination {
   // At any wavelength (nm), from the true fine-resolution spectra: what a
   // spectrometer pixel at that wavelength sees.
   virtual double irradiance_at_nm(double wavelength_nm) const = 0;
+  // The same light split by polarisation state; none for a sphere without
+  // polariser banks (the default: every illumination but such a sphere's).
+  virtual std::optional<PolarisedIrradiance> polarised_irradiance_now() const { return std::nullopt; }
 };
 
 }  // namespace chromo::simulators

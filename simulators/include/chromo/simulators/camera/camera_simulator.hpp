@@ -73,11 +73,23 @@
 #include "chromo/drivers/camera.hpp"
 #include "chromo/simulators/camera/camera_model.hpp"
 #include "chromo/simulators/camera/gige_vision_device.hpp"
+#include "chromo/simulators/polarisation/polariser_optics.hpp"
 #include "chromo/simulators/scene/camera_view.hpp"
 #include "chromo/simulators/scene/scene.hpp"
 #include "chromo/simulators/sphere_illumination.hpp"
 
 namespace chromo::simulators {
+
+// The analyser film on the camera's lens and what its view sees of the
+// sphere's polariser pattern (cross_polarisation_leak; lab_camera_analyser
+// derives both from a pose).
+struct CameraAnalyser {
+  PolariserFilm film;
+  double view_angle_deg = 0;  // the camera's angle from the patch normal (the sheen's F(θ))
+  double cross_leak = 0;      // cross_polarisation_leak(...).lobe_leak; 0 at the design view
+
+  bool IsValid(std::string* error) const;
+};
 
 struct CameraSimulatorOptions {
   std::string serial = "CHROMO-SIM-CAM";  // 1-15 characters
@@ -99,6 +111,8 @@ struct CameraSimulatorOptions {
   // framing the patch exactly, as before views existed).
   std::optional<CameraView> view;
   double patch_width_mm = 80;
+  // The analyser in front of the lens; none: no analyser (see "Polarisation" above).
+  std::optional<CameraAnalyser> analyser;
 
   bool IsValid(std::string* error) const;
 };
@@ -131,6 +145,10 @@ class CameraSimulator {
   // Throws std::invalid_argument (nothing changed) for a null scene or one
   // the view does not have wholly in front of the camera.
   void set_scene(std::shared_ptr<const Scene> scene);
+  // Names the scene that is make_skin_scene(options): with an analyser on a
+  // polarised sphere it is rendered with its surface layer. Throws
+  // std::invalid_argument for a null scene or one whose size is not the options'.
+  void set_skin_scene_options(std::shared_ptr<const Scene> skin, const SkinSceneOptions& options);
   // Called at the start of every exposure, on the simulator's thread.
   void set_exposure_hook(std::function<void()> hook);
 
@@ -153,10 +171,16 @@ class CameraSimulator {
   // Noise-free channel responses (CV_32FC3, R G B) at sensor resolution under
   // `irradiance`: what expose() feeds the CameraModel (tests compare with it).
   cv::Mat sensor_response(const spectral::Spectrum& irradiance) const;
+  // The same under the illumination's light of this moment, polarisation
+  // included: what the next exposure feeds the CameraModel.
+  cv::Mat sensor_response_now() const;
 
   std::uint64_t frames_rendered() const { return frames_rendered_; }
 
  private:
+  // The scene-resolution response to `irradiance` (split: its polarised parts, if any).
+  cv::Mat render_scene(const std::shared_ptr<const Scene>& scene, const spectral::Spectrum& irradiance,
+                       const std::optional<PolarisedIrradiance>& split) const;
   // A scene-resolution response brought to the sensor (view or resampling).
   cv::Mat to_sensor(const cv::Mat& at_scene) const;
   // Throws std::invalid_argument when the view does not see `scene` wholly in front.
@@ -181,6 +205,9 @@ class CameraSimulator {
   std::shared_ptr<const Scene> scene_;
   std::function<void()> exposure_hook_;
   spectral::Spectrum cached_irradiance_;
+  std::optional<PolarisedIrradiance> cached_split_;
+  std::shared_ptr<const Scene> skin_scene_;      // set_skin_scene_options
+  std::optional<SkinSceneOptions> skin_scene_options_;
   std::shared_ptr<const Scene> cached_scene_;
   cv::Mat cached_response_;  // sensor resolution
 

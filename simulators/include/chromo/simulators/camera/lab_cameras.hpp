@@ -81,4 +81,12 @@ CameraSimulatorOptions lab_camera_simulator_options(const LabCamera& camera, std
                                                     const std::string& first_serial, double patch_width_mm,
                                                     std::uint64_t seed, const spectral::CameraSensitivity& sensitivity);
 
+// The analyser of camera `camera` on a polarised sphere whose pattern is
+// designed for the view along the patch normal (docs/polarisation.md
+// "Geometry"): the default film (PolariserFilm{}), the camera's angle from
+// the normal, and its view's lobe leak at `roughness_rad`
+// (cross_polarisation_leak; 0 for a camera without a pose, which looks
+// square-on). Throws std::invalid_argument for roughness_rad ≤ 0.
+CameraAnalyser lab_camera_analyser(const LabCamera& camera, double roughness_rad);
+
 }  // namespace chromo::simulators

@@ -115,6 +115,9 @@ class LedLab final : public SphereIllumination {
   // ---- truth ----
   spectral::Spectrum irradiance_now() const override;
   double irradiance_at_nm(double wavelength_nm) const override;
+  // None when no LED type has banks (the sphere of before); else
+  // irradiance_now() split by the state each type is driven in, per zone.
+  std::optional<PolarisedIrradiance> polarised_irradiance_now() const override;
   double junction_temperature_C(spectral::LedType type) const;
   // The polarisation each LED type is driven with in `zone` (the truth the
   // camera simulators render; docs/polarisation.md).
@@ -132,8 +135,10 @@ class LedLab final : public SphereIllumination {
     double scale = 0;
     double shift_nm = 0;
     int filtered_banks = 0;  // 0: no polariser film; 1 or 2 banks behind the film
+    drivers::Polarisation state = drivers::Polarisation::kUnpolarised;  // of the light leaving (no film: unpolarised)
   };
   double film_factor(const Emission& e, double wavelength_nm) const;
+  spectral::Spectrum emitted_on_grid_locked(int type, const Emission& e) const;
   using Clock = std::chrono::steady_clock;
   void update_thermal_locked() const;
   LabResult apply_locked(const drivers::LedState& state);

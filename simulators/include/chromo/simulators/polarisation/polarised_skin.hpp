@@ -27,6 +27,12 @@ struct PolarisedSphere {
   PolariserFilm analyser_film;   // on the camera lens
   double view_angle_deg = 0;     // the camera's angle from the patch normal (the sheen's F(θ))
   double cross_leak = 0;         // cross_polarisation_leak(...).lobe_leak of this view; 0 at the design view
+  // true: the weights come from light that already passed the light film
+  // (the LED lab's emission includes T_P, and 2·T_P for both banks), so the
+  // render applies only the analyser's transmission T_A and the state's
+  // surface factor: Σ weights·T_A·(diffuse + c_state·surface). The light
+  // film then only sets c_state. The camera simulators render this way.
+  bool light_film_in_illumination = false;
 };
 
 // The surface layer of make_skin_scene(options)'s pixels (its window):
@@ -38,6 +44,7 @@ cv::Mat skin_surface_layer(const Scene& scene, const SkinSceneOptions& options, 
 // (CV_32FC(n) like Scene::render), where diffuse is the scene's albedo
 // without its highlight; on the white target Σ weights·T_P·T_A·ρ_white.
 // Dividing by the white reference of the same state removes T_P·T_A.
+// With sphere->light_film_in_illumination the films' factor is T_A alone.
 // `scene` must be make_skin_scene(options). Without a sphere: Scene::render.
 cv::Mat render_polarised_skin(const Scene& scene, const SkinSceneOptions& options, const SceneWeights& weights,
                               drivers::Polarisation state, const std::optional<PolarisedSphere>& sphere);

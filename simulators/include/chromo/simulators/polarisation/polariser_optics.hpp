@@ -39,6 +39,8 @@ struct PolariserFilm {
   bool IsValid(std::string* error) const;  // ratios ≥ 1, transmissions in (0, 0.5]
   double extinction_ratio_at(double wavelength_nm) const;
   double transmission_at(double wavelength_nm) const;
+  // (k1 + k2)/2, the transmission of unpolarised light, on the project grid.
+  spectral::Spectrum transmission() const;
   // k1 and k2 on the project grid.
   spectral::Spectrum axis_transmittance() const;
   spectral::Spectrum cross_transmittance() const;

@@ -1,0 +1,236 @@
+// The polarised standard session end to end on the virtual lab
+// (docs/polarisation.md): the LED controller simulator with polariser banks
+// on all six types (Modbus TCP), the GigE Vision camera simulator with an
+// analyser at the design view, the real drivers and the Daemon. The daemon
+// picks the polarised standard plan by itself, the journal's frames carry
+// the bank each step drove, and on the subject's highlight the parallel D65'
+// frame exceeds the cross one by the closed form's 2·(ER − 1)²/(ER + 1)² of
+// the surface layer while the white strip agrees after the white reference.
+
+#include <gtest/gtest.h>
+
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <map>
+
+#include "chromo/daemon/api_conversions.hpp"
+#include "chromo/proto/plan_messages.hpp"
+#include "chromo/session/frame_record.hpp"
+#include "chromo/session/journal.hpp"
+#include "chromo/simulators/polarisation/polarised_skin.hpp"
+#include "test_lab.hpp"
+
+namespace chromo::daemon::testing {
+namespace {
+
+// Every site of a stored 16-bit RGGB frame, in DN (green sites: is_green_site).
+cv::Mat mosaic_dn(const std::filesystem::path& tiff) {
+  const auto image = session::read_tiff(tiff);
+  cv::Mat dn(image.height, image.width, CV_64F, cv::Scalar(0));
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x) {
+      const std::size_t i = (static_cast<std::size_t>(y) * image.width + x) * 2;
+      dn.at<double>(y, x) = static_cast<double>(image.data[i] | (image.data[i + 1] << 8));
+    }
+  return dn;
+}
+
+bool is_green_site(int x, int y) { return (x + y) % 2 == 1; }
+
+struct Region {
+  std::vector<cv::Point> pixels;
+  double mean_of(const cv::Mat& values) const {
+    double sum = 0;
+    for (const cv::Point& p : pixels) sum += values.at<double>(p);
+    return sum / static_cast<double>(pixels.size());
+  }
+  // The standard error of mean_of: the pixels' spread / √n (the camera's noise; the
+  // surface layer varies over a highlight, so this overstates it there).
+  double standard_error_of(const cv::Mat& values) const {
+    const double mean = mean_of(values);
+    double squares = 0;
+    for (const cv::Point& p : pixels) squares += (values.at<double>(p) - mean) * (values.at<double>(p) - mean);
+    return std::sqrt(squares / static_cast<double>(pixels.size() - 1) / static_cast<double>(pixels.size()));
+  }
+};
+
+// Four standard errors of a difference of two region means.
+double four_sigma(double error_a, double error_b) { return 4 * std::hypot(error_a, error_b); }
+
+TEST(PolarisedSession, DaemonRunsThePolarisedStandardPlanAndTheFramesSeparateTheSurfaceLayer) {
+  TestLab lab("polarised_session");
+  lab.lab_options.polarisers = true;
+  lab.lab_options.scene_size = 128;
+  // Lab time 100000x: the junctions reach each step's equilibrium within its
+  // settling (τ = 60 s of lab time = 0.6 ms), so the white and the subject
+  // of one illumination are taken under the same light.
+  lab.lab_options.led_time_scale = 100000;
+  lab.config.capture.exposure_per_capture = false;  // one exposure for all: cross and parallel compare directly
+  auto daemon = lab.daemon();
+
+  // capture.polarised_plan "auto": the controller reports banks on every type.
+  session::StandardPlanOptions options = daemon->standard_plan_options();
+  ASSERT_TRUE(options.polarised);
+  options.exposure_us = 10000;  // the films pass ~0.18 of the light (T_P·T_A)
+  options.settle_ms = 20;
+  const session::SessionPlan plan = session::standard_plan(options);
+  const auto started = daemon->start_session(plan, "polarised");
+  const auto done = wait_final(*daemon, started.id);
+  if (done.state != session::OperationState::kSucceeded)
+    for (const auto& json : session::read_journal(std::filesystem::path(done.folder) / "journal.jsonl").records)
+      if (json.value("type", "") != "frame") std::printf("%s\n", json.dump().substr(0, 400).c_str());
+  ASSERT_EQ(done.state, session::OperationState::kSucceeded) << done.message;
+
+  // The journal: every lit frame records its bank; dark frames drive nothing.
+  std::map<std::string, std::filesystem::path> frame_of;
+  std::map<std::string, drivers::Polarisation> w57_state_of;
+  const std::filesystem::path folder = done.folder;
+  for (const auto& json : session::read_journal(folder / "journal.jsonl").records) {
+    if (json.value("type", "") != "frame") continue;
+    const session::FrameRecord record = session::frame_record_from_json(json);
+    ASSERT_TRUE(record.led);
+    frame_of[record.step] = folder / record.file;
+    w57_state_of[record.step] =
+        record.led->polarisation[static_cast<std::size_t>(spectral::led_type_index(spectral::LedType::kW57))];
+  }
+  ASSERT_EQ(frame_of.size(), plan.steps.size());
+  EXPECT_EQ(w57_state_of.at("dark"), drivers::Polarisation::kUnpolarised);
+  EXPECT_EQ(w57_state_of.at("white_d65"), drivers::Polarisation::kCross);
+  EXPECT_EQ(w57_state_of.at("subject_d65"), drivers::Polarisation::kCross);
+  EXPECT_EQ(w57_state_of.at("subject_w57"), drivers::Polarisation::kCross);
+  EXPECT_EQ(w57_state_of.at("white_d65_parallel"), drivers::Polarisation::kParallel);
+  EXPECT_EQ(w57_state_of.at("subject_d65_parallel"), drivers::Polarisation::kParallel);
+  // The API's frames (GetSession with include_frames) carry the same, per LED type.
+  chromosphere::v1::SessionDetail detail;
+  to_proto(daemon->store().read_session(folder), true, &detail);
+  ASSERT_EQ(detail.frames_size(), static_cast<int>(plan.steps.size()));
+  for (const auto& frame : detail.frames()) {
+    ASSERT_EQ(frame.polarisation_size(), spectral::kLedTypeCount) << frame.step();
+    EXPECT_EQ(frame.polarisation(0), proto::polarisation_to_proto(w57_state_of.at(frame.step()))) << frame.step();
+  }
+
+  // Albedo of the green sites: (subject − dark) / (white − dark) · ρ_white, per
+  // state; the white frame (the target fills the sensor, uniformly lit) by
+  // the mean of its green sites.
+  const cv::Mat dark = mosaic_dn(frame_of.at("dark"));
+  auto green_mean = [](const cv::Mat& dn) {
+    double sum = 0;
+    int count = 0;
+    for (int y = 0; y < dn.rows; ++y)
+      for (int x = 0; x < dn.cols; ++x)
+        if (is_green_site(x, y)) sum += dn.at<double>(y, x), ++count;
+    return sum / count;
+  };
+  auto albedo = [&](const std::string& subject, const std::string& white) {
+    const double white_dn = green_mean(mosaic_dn(frame_of.at(white)) - dark);
+    return cv::Mat((mosaic_dn(frame_of.at(subject)) - dark) * (simulators::kWhiteTargetReflectance / white_dn));
+  };
+  const cv::Mat cross = albedo("subject_d65", "white_d65"), parallel = albedo("subject_d65_parallel", "white_d65_parallel");
+
+  // The truth: the lab's skin scene and its surface layer, brought to the sensor as the camera does.
+  simulators::SkinSceneOptions skin;
+  skin.width = skin.height = lab.lab_options.scene_size;
+  skin.seed = lab.lab_options.seed;
+  skin.threads = 1;
+  const simulators::Scene scene = simulators::make_skin_scene(skin);
+  cv::Mat surface, regions;
+  cv::resize(simulators::skin_surface_layer(scene, skin, 0), surface, cross.size(), 0, 0, cv::INTER_LINEAR);
+  cv::resize(scene.regions(), regions, cross.size(), 0, 0, cv::INTER_NEAREST);
+  surface.convertTo(surface, CV_64F);
+  Region highlight, white_strip;
+  for (int y = 2; y < cross.rows - 2; ++y)
+    for (int x = 2; x < cross.cols - 2; ++x) {
+      if (!is_green_site(x, y)) continue;
+      if (surface.at<double>(y, x) > 0.15) highlight.pixels.emplace_back(x, y);
+      bool white = true;  // wholly inside the strip (no resampled edge)
+      for (int dy = -2; dy <= 2; ++dy)
+        for (int dx = -2; dx <= 2; ++dx)
+          white = white && regions.at<std::uint8_t>(y + dy, x + dx) ==
+                               static_cast<std::uint8_t>(simulators::SceneRegion::kWhiteTarget);
+      if (white) white_strip.pixels.push_back({x, y});
+    }
+  ASSERT_GE(highlight.pixels.size(), 20u);
+  ASSERT_GE(white_strip.pixels.size(), 100u);
+
+  // Highlight: parallel − cross = 2·(ER − 1)²/(ER + 1)²·s (design view, leak 0);
+  // the green channel spans ER 1:58.6 (470 nm) to 1:200: 2·[0.934, 0.981]·s.
+  const double s = highlight.mean_of(surface);
+  const double difference = highlight.mean_of(parallel) - highlight.mean_of(cross);
+  // White strip: depolarising, the same albedo in both states (0.99).
+  const double white_cross = white_strip.mean_of(cross), white_parallel = white_strip.mean_of(parallel);
+  std::printf("highlight: %zu green sites, surface layer %.4f, parallel %.4f, cross %.4f, difference %.4f = %.3f s\n",
+              highlight.pixels.size(), s, highlight.mean_of(parallel), highlight.mean_of(cross), difference,
+              difference / s);
+  std::printf("white strip: %zu green sites, cross %.4f, parallel %.4f\n", white_strip.pixels.size(), white_cross,
+              white_parallel);
+  // Noise: the white strip's spread (flat truth) over the highlight's count of sites.
+  const double white_error = white_strip.standard_error_of(cross);
+  const double per_site_noise = white_error * std::sqrt(static_cast<double>(white_strip.pixels.size()));
+  const double highlight_allowance = four_sigma(per_site_noise, per_site_noise) /
+                                     std::sqrt(static_cast<double>(highlight.pixels.size()));
+  const double white_allowance = four_sigma(white_error, white_strip.standard_error_of(parallel));
+  std::printf("noise: %.4f per site; allowances %.4f (highlight), %.4f (white strip)\n", per_site_noise,
+              highlight_allowance, white_allowance);
+  EXPECT_GT(difference, 2 * 0.934 * s - highlight_allowance);
+  EXPECT_LT(difference, 2 * 0.981 * s + highlight_allowance);
+  EXPECT_NEAR(white_parallel, white_cross, white_allowance);
+  EXPECT_NEAR(white_cross, simulators::kWhiteTargetReflectance, white_allowance);
+}
+
+TEST(PolarisedSession, ConfigurationKeysAreReadAndBadValuesRefusedNamingTheKey) {
+  const DaemonConfig config = parse_config(
+      nlohmann::json::parse(R"({"virtual_lab": {"polarisers": true}, "capture": {"polarised_plan": "off"}})"), "cfg");
+  EXPECT_TRUE(config.virtual_lab.polarisers);
+  EXPECT_EQ(config.capture.polarised_plan, "off");
+  EXPECT_EQ(parse_config(nlohmann::json::object(), "cfg").capture.polarised_plan, "auto");
+  auto refused = [](const char* text, const std::string& message) {
+    try {
+      parse_config(nlohmann::json::parse(text), "cfg");
+      ADD_FAILURE() << "accepted " << text;
+    } catch (const std::invalid_argument& error) {
+      EXPECT_NE(std::string(error.what()).find(message), std::string::npos) << error.what();
+    }
+  };
+  refused(R"({"capture": {"polarised_plan": "sometimes"}})",
+          "capture.polarised_plan: \"sometimes\" is not auto, on or off");
+  refused(R"({"virtual_lab": {"polarisers": "yes"}})", "virtual_lab.polarisers");
+}
+
+TEST(PolarisedSession, ThePlanIsPolarisedOnlyWhenEveryTypeHasBanksUnlessForced) {
+  TestLab plain("polarised_plan_plain");
+  auto daemon = plain.daemon();  // no banks
+  EXPECT_FALSE(daemon->standard_plan_options().polarised);
+  EXPECT_FALSE(daemon->controller_polarised_everywhere());
+  plain.config.capture.polarised_plan = "on";
+  daemon = plain.daemon();
+  EXPECT_TRUE(daemon->standard_plan_options().polarised);
+  try {  // forced on a sphere without banks: refused before anything is written
+    daemon->start_session(session::standard_plan(daemon->standard_plan_options()), "refused");
+    ADD_FAILURE() << "a polarised plan started on a sphere without banks";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_NE(std::string(error.what()).find("has no polariser banks"), std::string::npos) << error.what();
+  }
+  TestLab polarised("polarised_plan_off");
+  polarised.lab_options.polarisers = true;
+  polarised.config.capture.polarised_plan = "off";
+  daemon = polarised.daemon();
+  EXPECT_TRUE(daemon->controller_polarised_everywhere());
+  EXPECT_FALSE(daemon->standard_plan_options().polarised);
+}
+
+TEST(PolarisedSession, LabCameraAnalyserLeaksOnlyOffTheDesignView) {
+  simulators::LabCamera square_on;
+  EXPECT_EQ(simulators::lab_camera_analyser(square_on, 0.3).cross_leak, 0);
+  simulators::LabCamera side;
+  side.pose = simulators::LabCameraPose{};
+  side.pose->azimuth_deg = 20;
+  const simulators::CameraAnalyser analyser = simulators::lab_camera_analyser(side, 0.3);
+  EXPECT_NEAR(analyser.view_angle_deg, 20, 1e-9);
+  EXPECT_NEAR(analyser.cross_leak, 0.0107, 0.0005);  // docs/polarisation.md "Geometry": lab camera 1
+  EXPECT_THROW(simulators::lab_camera_analyser(side, 0), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace chromo::daemon::testing
