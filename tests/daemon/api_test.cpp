@@ -82,14 +82,15 @@ TEST_F(ApiFixture, StandardSessionStreamsProgressAndResultsAreFetchedById) {
   pb::StartSessionRequest request;
   request.set_standard(true);
   request.set_exposure_us(1000);
+  request.set_reference_frames(2);  // the dark and the 3 whites: 2 frames each; the 3 subjects 1
   request.set_subject("api test");
   pb::Operation started;
   ASSERT_TRUE(start_session(*channel, request, &started).ok());
   EXPECT_FALSE(started.id().empty());
   auto final = watch_to_end(started.id());
   EXPECT_EQ(final.state(), pb::OPERATION_STATE_SUCCEEDED) << final.error();
-  EXPECT_EQ(final.counters().stored(), 7u);
-  EXPECT_EQ(final.counters().expected(), 7u);
+  EXPECT_EQ(final.counters().stored(), 11u);
+  EXPECT_EQ(final.counters().expected(), 11u);
   EXPECT_DOUBLE_EQ(final.progress(), 1.0);
 
   // From a new connection: the session, its frames and its results by id.
@@ -100,7 +101,9 @@ TEST_F(ApiFixture, StandardSessionStreamsProgressAndResultsAreFetchedById) {
   get.set_include_frames(true);
   pb::SessionDetail detail;
   ASSERT_TRUE(pb::SessionService::NewStub(other)->GetSession(&context, get, &detail).ok());
-  EXPECT_EQ(detail.frames_size(), 7);
+  EXPECT_EQ(detail.frames_size(), 11);
+  EXPECT_EQ(detail.steps(0).frames_stored(), 2u);
+  EXPECT_EQ(detail.steps(6).frames_stored(), 1u);
   EXPECT_EQ(detail.subject(), "api test");
   EXPECT_EQ(detail.steps(6).name(), "subject_w57+blue");
   EXPECT_TRUE(detail.steps(6).completed());
@@ -111,7 +114,7 @@ TEST_F(ApiFixture, StandardSessionStreamsProgressAndResultsAreFetchedById) {
   results_request.set_session_id(started.id());
   pb::Results results;
   ASSERT_TRUE(pb::ResultsService::NewStub(other)->GetResults(&results_context, results_request, &results).ok());
-  EXPECT_EQ(results.frame_files_size(), 7);
+  EXPECT_EQ(results.frame_files_size(), 11);
   EXPECT_EQ(results.folder(), final.folder());
 }
 
@@ -583,7 +586,7 @@ TEST_F(ApiFixture, EventStreamCarriesOperationUpdates) {
   }
   context.TryCancel();
   EXPECT_TRUE(ended);
-  EXPECT_EQ(frames, 7);
+  EXPECT_EQ(frames, 19);  // 4 frames of the dark and each of 3 whites (capture.reference_frames), 1 of each subject
 }
 
 TEST_F(ApiFixture, CalibrationRunAndMixSolveOverTheApi) {

@@ -73,6 +73,7 @@ TEST(Crash, KillNineMidSessionThenRestartReportsInterruptedAndTheFolderIsIntact)
   request.set_standard(true);
   request.set_exposure_us(2000);
   request.set_frames_per_camera(30);
+  request.set_reference_frames(30);
   pb::Operation started;
   {
     grpc::ClientContext context;

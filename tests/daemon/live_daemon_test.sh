@@ -21,7 +21,9 @@ case "$mode" in
     CHROMO_PY_STUBS="$stubs" t /usr/bin/python3 "$source/clients/python/run_session_example.py" "unix:$work/s.sock" \
       --subject "ctest" >"$work/out" 2>&1 || fail "example exited $?"
     grep -q "succeeded" "$work/out" || fail "no success reported"
-    grep -q "frames stored: 7" "$work/out" || fail "not 7 frames"
+    # The standard plan at the configuration's defaults: 4 frames of the dark and of each
+    # of the 3 whites (capture.reference_frames), 1 of each of the 3 subjects.
+    grep -q "frames stored: 19" "$work/out" || fail "not 19 frames"
     grep -Eq "^timeline: capture [0-9.]+ s \(subject [0-9.]+ s\), maps [0-9.]+ s after the last frame, total [0-9.]+ s$" "$work/out" ||
       fail "no timeline from the Python client"
     # The Maps service through the Python client (docs/maps.md).
@@ -90,12 +92,14 @@ except grpc.RpcError as error:
     export CHROMO_DAEMON="unix:$work/s.sock"
     t "$chromo" status >"$work/out" 2>&1 || fail "status exited $?"
     grep -q "cam0.*OK" "$work/out" || fail "camera not OK"
-    t "$chromo" session run --exposure-us 1000 --frames 2 --subject cli >"$work/out" 2>&1 || fail "session run exited $?"
-    grep -q "frames: 14 stored" "$work/out" || fail "counters"
+    # 2 frames of each subject step, 3 of the dark and of each white: 3·2 + 4·3 = 18.
+    t "$chromo" session run --exposure-us 1000 --frames 2 --reference-frames 3 --subject cli >"$work/out" 2>&1 ||
+      fail "session run exited $?"
+    grep -q "frames: 18 stored" "$work/out" || fail "counters"
     id=$(sed -n 's/^session \([^ ]*\) started$/\1/p' "$work/out")
     t "$chromo" session show "$id" --frames >"$work/out" 2>&1 || fail "show exited $?"
     [[ $(grep -c "completed$" "$work/out") == 7 ]] || fail "not 7 completed steps"
-    [[ $(grep -c "^  frame" "$work/out") == 14 ]] || fail "not 14 frames listed"
+    [[ $(grep -c "^  frame" "$work/out") == 18 ]] || fail "not 18 frames listed"
     # Where the time went, from the journal: every phase of a finished session is known.
     grep -Eq "^timeline capture [0-9.]+ s \(subject [0-9.]+ s\), then derived data [0-9.]+ s and maps [0-9.]+ s after the last frame; total [0-9.]+ s$" "$work/out" ||
       fail "no timeline: $(grep timeline "$work/out")"
