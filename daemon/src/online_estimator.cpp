@@ -195,6 +195,7 @@ nlohmann::json OnlineEstimator::end_session(const SessionEnd& end) {
           {"frames_read_back", read_back_},
           {"flag_counts", first_entry["flag_counts"]},
           {"relit_delta_e94", first_entry["relit_delta_e94"]},
+          {"highlights", first_entry["highlights"]},
           {"cameras", cameras}};
 }
 

@@ -487,6 +487,9 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
                       {"relit_comparison", relit_seconds},
                       {"total_before_writing", seconds_since(start)}};
   extra["highlights"] = polarisation.summary;
+  result.highlight_detection = polarisation.summary.value("detection", "");
+  result.highlight_pixels = polarisation.summary.value(polarisation.channels.empty() ? "specular_pixels" : "flagged_pixels",
+                                                       std::uint64_t{0});
   report.extra_json = extra.dump();
   report.extra_channels = polarisation.channels;
   if (!polarisation.panel.empty()) report.extra_pngs.emplace_back("polarisation.png", polarisation.panel);

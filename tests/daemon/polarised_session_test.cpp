@@ -196,6 +196,11 @@ TEST(PolarisedSession, DaemonRunsThePolarisedStandardPlanAndTheFramesSeparateThe
   const auto& highlights = summary.at("highlights");
   EXPECT_EQ(highlights.at("detection"), "optical") << highlights.dump();
   EXPECT_GE(highlights.at("flagged_pixels").get<double>(), 0.25 * highlight.pixels.size()) << highlights.dump();
+  // The API's headline numbers say the same (GetResults: the CLI and the web view show them).
+  chromosphere::v1::Results results;
+  results_to_proto(*info, &results);
+  EXPECT_EQ(results.summary().highlight_detection(), "optical");
+  EXPECT_EQ(results.summary().highlight_pixels(), highlights.at("flagged_pixels").get<std::uint64_t>());
 }
 
 TEST(PolarisedSession, ConfigurationKeysAreReadAndBadValuesRefusedNamingTheKey) {
