@@ -79,6 +79,13 @@ struct Figures {
   double exhaustive_every = 0;                // exhaustive 4D on the subsample, every skin cell
   double fast_subsample_every = 0;            // fast 4D on the same subsample (to compare with exhaustive)
   double oracle_fast = 0;                     // fast 4D on the oracle measurement, every skin cell
+  double table_self_fast = 0;                 // fast 4D on the table's own prediction at the truth, every skin cell
+  double interpolation_rms_pct = 0;           // table's prediction − oracle at the skin truths, RMS over channels, %
+  // On the table's own prediction: the cells the fit leaves more than 0.5
+  // relit ΔE94 off the truth, their share and median χ² (≈ 0: another exact
+  // solution of the four numbers, not a fit that failed).
+  double table_self_far_share = 0, table_self_far_median_chi2 = 0, table_self_median_de = 0;
+  estimation::SkinParameters far_error{0, 0, 0, 0};  // their mean signed error: log10 Cm, log10 Ch, βm, Che
   double explained_share = 0;
   std::vector<std::string> channel_names;
   std::vector<double> deviation_mean_pct, deviation_rms_pct;  // per channel, measured vs oracle
@@ -153,6 +160,49 @@ Figures run(const Configuration& c, std::uint64_t seed, int width, int height, s
   f.fast_every = accuracy(truth, lab.truth, best_fits(fast), skin).de_all;
   f.oracle_fast =
       accuracy(truth, lab.truth, best_fits(estimate(table, set, oracle, estimation::InverterMethod::kFast)), skin).de_all;
+  // The table's own prediction at the truth: what is left is the search
+  // (several parameter sets predicting the same four numbers), not the
+  // table's interpolation error.
+  std::vector<float> table_self(lab.pixels() * channels);
+  std::vector<double> predicted(channels);
+  for (std::size_t i = 0; i < lab.pixels(); ++i) {
+    table->predict(table->to_grid(lab.truth[i]), predicted.data());
+    for (int k = 0; k < channels; ++k) table_self[i * channels + k] = static_cast<float>(predicted[k]);
+  }
+  for (std::size_t i : skin_cells)
+    for (int k = 0; k < channels; ++k) {
+      const double d = 100.0 * (table_self[i * channels + k] - oracle[i * channels + k]) / oracle[i * channels + k];
+      f.interpolation_rms_pct += d * d / (skin_cells.size() * channels);
+    }
+  f.interpolation_rms_pct = std::sqrt(f.interpolation_rms_pct);
+  const auto self_fit = best_fits(estimate(table, set, table_self, estimation::InverterMethod::kFast));
+  f.table_self_fast = accuracy(truth, lab.truth, self_fit, skin).de_all;
+  {
+    std::vector<double> de(skin_cells.size()), far_chi2;
+    std::vector<estimation::SkinParameters> fitted(skin_cells.size());
+    for (std::size_t j = 0; j < skin_cells.size(); ++j) fitted[j] = self_fit[skin_cells[j]].parameters;
+    const Relit relit = relight(fitted);
+    for (std::size_t j = 0; j < skin_cells.size(); ++j) {
+      for (std::size_t l = 0; l < relit.lab.size(); ++l)
+        de[j] += spectral::delta_e94(truth.lab[l][skin_cells[j]], relit.lab[l][j]) / relit.lab.size();
+      if (de[j] > 0.5) {
+        far_chi2.push_back(self_fit[skin_cells[j]].chi2);
+        const estimation::SkinParameters& t = lab.truth[skin_cells[j]];
+        f.far_error.cm += std::log10(fitted[j].cm / t.cm), f.far_error.ch += std::log10(fitted[j].ch / t.ch);
+        f.far_error.bm += fitted[j].bm - t.bm, f.far_error.che += fitted[j].che - t.che;
+      }
+    }
+    auto median = [](std::vector<double> v) {
+      if (v.empty()) return 0.0;
+      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+      return v[v.size() / 2];
+    };
+    f.table_self_far_share = skin_cells.empty() ? 0 : double(far_chi2.size()) / skin_cells.size();
+    f.table_self_far_median_chi2 = median(far_chi2);
+    if (!far_chi2.empty())
+      for (double* e : {&f.far_error.cm, &f.far_error.ch, &f.far_error.bm, &f.far_error.che}) *e /= far_chi2.size();
+    f.table_self_median_de = median(de);
+  }
 
   // The exhaustive search on a fixed subsample of skin cells (evenly spaced).
   const std::size_t n = std::min(exhaustive_cells, skin_cells.size());
@@ -269,6 +319,20 @@ int bench_main(int argc, char** argv) {
     std::printf("\n");
   }
 
+  std::printf("\nthe estimator on exact data (lab as is truths): oracle %s; the table's own prediction at the truth %s; "
+              "the table's interpolation error at the truths (RMS over channels) %.3f%%\n",
+              text(spread(all[0], [](const Figures& f) { return f.oracle_fast; })).c_str(),
+              text(spread(all[0], [](const Figures& f) { return f.table_self_fast; })).c_str(),
+              spread(all[0], [](const Figures& f) { return f.interpolation_rms_pct; }).mean);
+  std::printf("  on the table's own prediction: median cell %s; cells > 0.5 off %s, their median chi2 %s\n",
+              text(spread(all[0], [](const Figures& f) { return f.table_self_median_de; })).c_str(),
+              text(spread(all[0], [](const Figures& f) { return 100 * f.table_self_far_share; }), "%.1f%% [%.1f, %.1f]").c_str(),
+              text(spread(all[0], [](const Figures& f) { return f.table_self_far_median_chi2; }), "%.2g [%.2g, %.2g]").c_str());
+  std::printf("  those cells' mean signed error: log10 Cm %s, log10 Ch %s, betam %s, Che %s\n",
+              text(spread(all[0], [](const Figures& f) { return f.far_error.cm; }), "%+.3f [%+.3f, %+.3f]").c_str(),
+              text(spread(all[0], [](const Figures& f) { return f.far_error.ch; }), "%+.3f [%+.3f, %+.3f]").c_str(),
+              text(spread(all[0], [](const Figures& f) { return f.far_error.bm; }), "%+.3f [%+.3f, %+.3f]").c_str(),
+              text(spread(all[0], [](const Figures& f) { return f.far_error.che; }), "%+.4f [%+.4f, %+.4f]").c_str());
   std::printf("\neach imperfection's share of the floor (fast 4D, every skin cell, mean over seeds):\n");
   const double lab_as_is = bars[0].value, ideal = bars[4].value;
   for (std::size_t c = 1; c <= 3; ++c)
@@ -287,8 +351,10 @@ int bench_main(int argc, char** argv) {
       for (std::uint64_t seed : seeds) rows.push_back(run(kConfigurations[c], seed, sensor[0], sensor[1], 0, grid));
       const Spread lab = spread(rows, [](const Figures& f) { return f.fast_every; });
       const Spread oracle = spread(rows, [](const Figures& f) { return f.oracle_fast; });
-      std::printf("  %-20s measurement %s   oracle %s\n", kConfigurations[c].name.c_str(), text(lab).c_str(),
-                  text(oracle).c_str());
+      std::printf("  %-20s measurement %s   oracle %s   table's own prediction %s   interpolation RMS %.3f%%\n",
+                  kConfigurations[c].name.c_str(), text(lab).c_str(), text(oracle).c_str(),
+                  text(spread(rows, [](const Figures& f) { return f.table_self_fast; })).c_str(),
+                  spread(rows, [](const Figures& f) { return f.interpolation_rms_pct; }).mean);
       for (std::size_t k = 0; k < rows.size(); ++k)
         csv << '"' << kConfigurations[c].name << ", fine table\"," << kConfigurations[c].linear_led_light << ','
             << kConfigurations[c].cell_uniform_scene << ',' << kConfigurations[c].scene_anomalies << ',' << seeds[k]
