@@ -53,6 +53,7 @@
 #include "guarded_main.hpp"
 #include "noise_declaration.hpp"
 #include "relit_accuracy.hpp"
+#include "seed_spread.hpp"
 
 namespace chromo::bench {
 namespace {
@@ -86,6 +87,10 @@ struct Figures {
   // solution of the four numbers, not a fit that failed).
   double table_self_far_share = 0, table_self_far_median_chi2 = 0, table_self_median_de = 0;
   estimation::SkinParameters far_error{0, 0, 0, 0};  // their mean signed error: log10 Cm, log10 Ch, βm, Che
+  // Their fitted parameters through the exact model (not the table) against
+  // the exact model at the truth: RMS over channels and cells, % — small
+  // means two parameter sets the four channels cannot tell apart.
+  double far_exact_difference_pct = 0;
   double explained_share = 0;
   std::vector<std::string> channel_names;
   std::vector<double> deviation_mean_pct, deviation_rms_pct;  // per channel, measured vs oracle
@@ -190,6 +195,11 @@ Figures run(const Configuration& c, std::uint64_t seed, int width, int height, s
         const estimation::SkinParameters& t = lab.truth[skin_cells[j]];
         f.far_error.cm += std::log10(fitted[j].cm / t.cm), f.far_error.ch += std::log10(fitted[j].ch / t.ch);
         f.far_error.bm += fitted[j].bm - t.bm, f.far_error.che += fitted[j].che - t.che;
+        const Eigen::VectorXd at_fit = weights * estimation::SkinModel().albedo(fitted[j]).values().matrix();
+        for (int k = 0; k < channels; ++k) {
+          const double d = 100.0 * (at_fit[k] - oracle[skin_cells[j] * channels + k]) / oracle[skin_cells[j] * channels + k];
+          f.far_exact_difference_pct += d * d;
+        }
       }
     }
     auto median = [](std::vector<double> v) {
@@ -199,8 +209,10 @@ Figures run(const Configuration& c, std::uint64_t seed, int width, int height, s
     };
     f.table_self_far_share = skin_cells.empty() ? 0 : double(far_chi2.size()) / skin_cells.size();
     f.table_self_far_median_chi2 = median(far_chi2);
-    if (!far_chi2.empty())
+    if (!far_chi2.empty()) {
       for (double* e : {&f.far_error.cm, &f.far_error.ch, &f.far_error.bm, &f.far_error.che}) *e /= far_chi2.size();
+      f.far_exact_difference_pct = std::sqrt(f.far_exact_difference_pct / (far_chi2.size() * channels));
+    }
     f.table_self_median_de = median(de);
   }
 
@@ -225,15 +237,6 @@ Figures run(const Configuration& c, std::uint64_t seed, int width, int height, s
   return f;
 }
 
-struct Spread {
-  double mean = 0, lo = 0, hi = 0;
-};
-template <class Get>
-Spread spread(const std::vector<Figures>& rows, Get get) {
-  Spread s{0, get(rows.front()), get(rows.front())};
-  for (const Figures& r : rows) s.mean += get(r) / rows.size(), s.lo = std::min(s.lo, get(r)), s.hi = std::max(s.hi, get(r));
-  return s;
-}
 std::string text(const Spread& s, const char* format = "%.3f [%.3f, %.3f]") {
   char buffer[64];
   std::snprintf(buffer, sizeof buffer, format, s.mean, s.lo, s.hi);
@@ -300,6 +303,8 @@ int bench_main(int argc, char** argv) {
     bars.push_back({c.name, spread(rows, [](const Figures& f) { return f.fast_every; }).mean});
     all.push_back(std::move(rows));
   }
+  bars.push_back({"oracle (exact data)", spread(all[0], [](const Figures& f) { return f.oracle_fast; }).mean});
+  bars.push_back({"table's own prediction", spread(all[0], [](const Figures& f) { return f.table_self_fast; }).mean});
 
   const std::vector<std::string>& channel_names = all.front().front().channel_names;
   std::printf("\nmeasurement - oracle on skin cells, %% of the oracle: signed mean [min, max over seeds] / RMS (mean)\n");
@@ -333,6 +338,8 @@ int bench_main(int argc, char** argv) {
               text(spread(all[0], [](const Figures& f) { return f.far_error.ch; }), "%+.3f [%+.3f, %+.3f]").c_str(),
               text(spread(all[0], [](const Figures& f) { return f.far_error.bm; }), "%+.3f [%+.3f, %+.3f]").c_str(),
               text(spread(all[0], [](const Figures& f) { return f.far_error.che; }), "%+.4f [%+.4f, %+.4f]").c_str());
+  std::printf("  the exact model (no table) at those fits against at the truth: RMS %s%% of the channel\n",
+              text(spread(all[0], [](const Figures& f) { return f.far_exact_difference_pct; })).c_str());
   std::printf("\neach imperfection's share of the floor (fast 4D, every skin cell, mean over seeds):\n");
   const double lab_as_is = bars[0].value, ideal = bars[4].value;
   for (std::size_t c = 1; c <= 3; ++c)
