@@ -49,6 +49,7 @@
 #include "chromo/simulators/scene/rendered_session.hpp"
 #include "chromo/simulators/scene/scene.hpp"
 #include "relit_accuracy.hpp"
+#include "seed_spread.hpp"
 
 namespace chromo::bench {
 namespace {
@@ -138,16 +139,6 @@ Result run(const Case& c, std::uint64_t seed, int sensor_width, int sensor_heigh
   return r;
 }
 
-struct Spread {
-  double mean = 0, lo = 0, hi = 0;
-};
-
-template <class Get>
-Spread spread(const std::vector<Result>& results, Get get) {
-  Spread s{0, get(results.front()), get(results.front())};
-  for (const Result& r : results) s.mean += get(r) / results.size(), s.lo = std::min(s.lo, get(r)), s.hi = std::max(s.hi, get(r));
-  return s;
-}
 
 }  // namespace
 }  // namespace chromo::bench

@@ -126,6 +126,25 @@ struct RenderedSessionOptions {
   // (below). count 0: none.
   OilyHighlights oily;
 
+  // The lab's imperfections, each switchable so bench/lab_floor_bench.cpp
+  // can say what each costs; the defaults are the lab described above.
+  // linear_led_light: every state's light is Σ drive · (the library's
+  // full-drive spectrum per unit drive) over the LED types — exactly the
+  // illuminant the capture builder tells the estimator — instead of the
+  // LedLab's settled emission at those drives (junctions cooler at partial
+  // drive: more flux per unit drive and a shifted peak).
+  bool linear_led_light = false;
+  // cell_uniform_scene: each 2×2 sensor cell (one measurement cell) sees one
+  // scene pixel: the scene rendered at half the sensor's size per side
+  // (scene_width/height and window_x/y halved; all must then be even), each
+  // pixel filling a cell, so the cell's four Bayer sites see one albedo and
+  // its truth is that pixel's parameters.
+  bool cell_uniform_scene = false;
+  // scene_anomalies false: SkinSceneOptions::anomalies = false (the skin
+  // model's albedo under the vein, tattoo, marker, hair and highlight,
+  // labelled as with them). Unpolarised only.
+  bool scene_anomalies = true;
+
   bool IsValid(std::string* error) const;
 };
 
