@@ -32,7 +32,7 @@
 // relative error lab/ideal and LED-only/ideal (what each factor does to the
 // data), and the registration's report (noise-free: nothing should move).
 //
-//   lab_floor_bench [--seeds 11,12,13] [--sensor 256 192] [--plan standard|multispectral] [--fine-table] [--out DIR]
+//   floor_factors_bench [--seeds 11,12,13] [--sensor 256 192] [--plan standard|multispectral] [--fine-table] [--out DIR]
 //
 // Writes DIR/lab_floor_<plan>.csv, DIR/lab_floor_<plan>.png (and .dat, .gp).
 #include <algorithm>
@@ -92,7 +92,7 @@ estimation::MeasurementSet with_true_light(estimation::MeasurementSet set, const
         if (d < best) best = d, replacement = b == n ? true_light[a] : true_light[a] - true_light[b];
       }
     if (best > 1e-6)
-      throw std::runtime_error("lab_floor_bench: channel " + c.name + " matches no state's library light (" +
+      throw std::runtime_error("floor_factors_bench: channel " + c.name + " matches no state's library light (" +
                                std::to_string(best) + ")");
     c.illuminant = replacement;
   }
@@ -167,7 +167,7 @@ int main(int argc, char** argv) {
   app.add_flag("--fine-table", fine_table, "also the ideal cells on a table of 1.5x the nodes per axis (~4 min a seed)");
   CLI11_PARSE(app, argc, argv);
   if (seeds.empty()) {
-    std::fprintf(stderr, "lab_floor_bench: --seeds needs at least one value\n");
+    std::fprintf(stderr, "floor_factors_bench: --seeds needs at least one value\n");
     return 2;
   }
 
@@ -184,7 +184,7 @@ int main(int argc, char** argv) {
   std::filesystem::create_directories(dir);
   std::ofstream csv(dir / ("lab_floor_" + plan + ".csv"));
   csv << "seed,configuration,relit_de94\n";
-  std::printf("lab_floor_bench: plan %s, %dx%d sensor (2x2 binned cells), noise-free frames declared noise-free, relit "
+  std::printf("floor_factors_bench: plan %s, %dx%d sensor (2x2 binned cells), noise-free frames declared noise-free, relit "
               "dE94 on every skin cell (six LEDs + D65)\n",
               plan.c_str(), sensor[0], sensor[1]);
   for (std::uint64_t seed : seeds) {
