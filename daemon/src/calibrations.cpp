@@ -103,6 +103,36 @@ session::OperationRecord record_from_json(const nlohmann::json& j, const std::fi
   return record;
 }
 
+// One CalibrationRun in `state`; its progress is [share_begin, share_end) of the operation's.
+calibration::CalibrationSummary run_state(RunningOperation& running,
+                                                        const calibration::CalibrationRunOptions& base_options,
+                                                        NamedDevice<drivers::LedController>* led,
+                                                        NamedDevice<drivers::Spectrometer>* spectrometer,
+                                                        drivers::Polarisation state, double share_begin,
+                                                        double share_end,
+                                                        const std::function<void(bool on)>& reference_lamp) {
+  calibration::CalibrationRunOptions options = base_options;
+  options.polarisation = state;
+  const files::Progress whole = running.progress();
+  files::Progress part = whole;
+  if (state != drivers::Polarisation::kUnpolarised)
+    part.on_progress = [whole, share_begin, share_end, name = std::string(drivers::polarisation_name(state))](
+                           double fraction, const std::string& step) {
+      whole.report(share_begin + fraction * (share_end - share_begin), name + ": " + step);
+    };
+  LockedLeds leds(*led);
+  LockedSpectrometer meter(*spectrometer);
+  calibration::CalibrationSummary summary;
+  try {
+    calibration::CalibrationRun run(leds, meter, reference_lamp, options);
+    summary = run.run(part);
+  } catch (const std::exception& e) {
+    summary.termination = calibration::CalibrationTermination::kDeviceError;
+    summary.message = e.what();
+  }
+  return summary;
+}
+
 }  // namespace
 
 Calibrations::Calibrations(std::filesystem::path root, std::filesystem::path configured_library, DeviceSet& devices,
@@ -246,7 +276,7 @@ OperationRunner::Outcome Calibrations::run(RunningOperation& running, const Cali
   calibration::CalibrationSummary summary;
   for (std::size_t i = 0; i < states.size(); ++i) {
     summary = run_state(running, options, led, spectrometer, states[i], static_cast<double>(i) / states.size(),
-                        static_cast<double>(i + 1) / states.size());
+                        static_cast<double>(i + 1) / states.size(), devices_.reference_lamp);
     if (states.size() > 1) summary.message = std::string(drivers::polarisation_name(states[i])) + ": " + summary.message;
     if (summary.termination != calibration::CalibrationTermination::kCompleted) break;
     measured.emplace_back(states[i], summary);
@@ -299,34 +329,6 @@ OperationRunner::Outcome Calibrations::run(RunningOperation& running, const Cali
     error = std::string("writing the calibration result: ") + e.what();
   }
   return {state, error, summary.message, std::nullopt};
-}
-
-calibration::CalibrationSummary Calibrations::run_state(RunningOperation& running,
-                                                        const calibration::CalibrationRunOptions& base_options,
-                                                        NamedDevice<drivers::LedController>* led,
-                                                        NamedDevice<drivers::Spectrometer>* spectrometer,
-                                                        drivers::Polarisation state, double share_begin,
-                                                        double share_end) {
-  calibration::CalibrationRunOptions options = base_options;
-  options.polarisation = state;
-  const files::Progress whole = running.progress();
-  files::Progress part = whole;
-  if (state != drivers::Polarisation::kUnpolarised)
-    part.on_progress = [whole, share_begin, share_end, name = std::string(drivers::polarisation_name(state))](
-                           double fraction, const std::string& step) {
-      whole.report(share_begin + fraction * (share_end - share_begin), name + ": " + step);
-    };
-  LockedLeds leds(*led);
-  LockedSpectrometer meter(*spectrometer);
-  calibration::CalibrationSummary summary;
-  try {
-    calibration::CalibrationRun run(leds, meter, devices_.reference_lamp, options);
-    summary = run.run(part);
-  } catch (const std::exception& e) {
-    summary.termination = calibration::CalibrationTermination::kDeviceError;
-    summary.message = e.what();
-  }
-  return summary;
 }
 
 calibration::SolvedMix Calibrations::solve(const std::string& target, const std::string& objective, bool hold_chromaticity) const {

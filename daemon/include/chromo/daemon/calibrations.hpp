@@ -111,11 +111,6 @@ class Calibrations {
                                NamedDevice<drivers::Spectrometer>* spectrometer);
   void use_library(const std::filesystem::path& path,
                    drivers::Polarisation state = drivers::Polarisation::kUnpolarised);
-  // One CalibrationRun in `state`; its progress is [share_begin, share_end) of the operation's.
-  calibration::CalibrationSummary run_state(RunningOperation& running, const calibration::CalibrationRunOptions& options,
-                                            NamedDevice<drivers::LedController>* led,
-                                            NamedDevice<drivers::Spectrometer>* spectrometer,
-                                            drivers::Polarisation state, double share_begin, double share_end);
   // The state's slot in the maps below: the library a step in `state` is lit by.
   drivers::Polarisation library_state(drivers::Polarisation state) const;
 
