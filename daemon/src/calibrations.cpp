@@ -320,7 +320,8 @@ OperationRunner::Outcome Calibrations::run(RunningOperation& running, const Cali
         for (const auto& lin : measured_summary.linearity) {
           auto& deviations = record["summary"]["linearity_max_deviation_percent"];
           const std::string type(spectral::led_type_name(lin.type));
-          deviations[type] = std::max(deviations.value(type, 0.0), lin.max_deviation_percent);
+          const double earlier = deviations.contains(type) ? deviations[type].get<double>() : 0.0;
+          deviations[type] = std::max(earlier, lin.max_deviation_percent);
         }
     }
     files::write_file_durably(folder / kRecordFile, record.dump(2) + "\n", budget_);
