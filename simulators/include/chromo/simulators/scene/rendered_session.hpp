@@ -121,6 +121,11 @@ struct RenderedSessionOptions {
   // solved on it. Plan "standard" only; the cache is not used.
   bool polarised = false;
   double extinction_ratio_550nm = 200;  // 1-100000
+  // The estimator is given the films (MethodCaptures::surface_factors from
+  // surface_factor_in_albedo at the design view): surface maps corrected for
+  // the extinction, cross captures for their surface light. false: the
+  // measurement as without that knowledge (the bench's "before" column).
+  bool estimator_knows_films = true;
   // Oily regions on the skin (scene.hpp OilyHighlights: count, σ range,
   // roughness, radius); sigma_reflectance is set here to surface_sigma
   // (below). count 0: none.
