@@ -426,8 +426,8 @@ double median_of_finite(const std::vector<float>& values) {
 }
 
 // The cross captures' albedo (D65', and W57 and W57+blue on its grid) less
-// the surface light they keep: c_cross,k,c · Ŝ_c (MethodMeasurement::
-// SurfaceCorrection says which Ŝ). Where the parallel capture is saturated
+// the surface light they keep above the sheen's: c_cross,k,c·(S_c − F_c)
+// where S_G stands out (MethodMeasurement::SurfaceCorrection). Where the parallel capture is saturated
 // in a channel its S_c is a lower bound: that channel takes S_G instead (the
 // surface reflection is flat in wavelength to about 1% for η = 1.4).
 void remove_surface_light(MethodMeasurement& m, const MethodCaptures& captures,
@@ -446,13 +446,14 @@ void remove_surface_light(MethodMeasurement& m, const MethodCaptures& captures,
   for (std::size_t i = 0; i < n; ++i) {
     const float g = m.surface[i];
     const bool significant = std::isfinite(g) && g - correction.sheen_reference[1] >= kSurfaceCorrectionSigmas * m.surface_sigma[i];
-    correction.corrected_pixels += significant;
+    if (!significant) continue;
+    ++correction.corrected_pixels;
     for (int c = 0; c < 3; ++c) {
-      double surface = correction.sheen_reference[c];
-      if (significant) surface = parallel_saturated[c][i] || !std::isfinite((*maps[c])[i]) ? g : (*maps[c])[i];
+      const double surface = parallel_saturated[c][i] || !std::isfinite((*maps[c])[i]) ? g : (*maps[c])[i];
+      const double excess = surface - correction.sheen_reference[c];
       for (int k = 0; k < 3; ++k) {
         float& a = cross_captures[k]->albedo[c][i];
-        if (std::isfinite(a)) a -= static_cast<float>(correction.cross_factor[k][c] * surface);
+        if (std::isfinite(a)) a -= static_cast<float>(correction.cross_factor[k][c] * excess);
       }
     }
   }

@@ -117,11 +117,12 @@ struct Photograph {
   std::vector<Eigen::Vector3d> rgb;
 };
 
-// The cross captures are corrected by the surface map itself where the G
-// surface map stands this many σ above the sheen: below it the surface light
-// left in the cross capture is at most c_cross·3σ (about 0.0005 albedo in the
-// blue at 1:50), under the cross capture's own noise, and the sheen
-// reference (a constant) is subtracted instead, adding no noise.
+// The cross captures are corrected by the surface map where the G surface
+// map stands this many σ above the sheen: below it the highlight's surface
+// light left in the cross capture is at most c_cross·3σ (about 0.0005 albedo
+// in the blue at 1:50), under the cross capture's own noise, and nothing is
+// subtracted (no noise added on skin; a one-sided 3σ test passes 0.13% of
+// skin's pixels).
 inline constexpr double kSurfaceCorrectionSigmas = 3.0;
 
 struct MethodMeasurement {
@@ -159,11 +160,14 @@ struct MethodMeasurement {
   // parallel capture.
   std::vector<float> surface, surface_sigma, surface_red, surface_blue;
   // What was done with the surface light (present when the surface factors
-  // were known): the cross captures' albedo in `measured` had c_cross,c·Ŝ_c
-  // subtracted per channel, Ŝ_c = S_c where the G surface map is at least
-  // kSurfaceCorrectionSigmas σ above the sheen reference, else the sheen
-  // reference of the channel (a constant: no noise added on skin).
-  // The photographs stay as captured.
+  // were known): where the G surface map stands at least
+  // kSurfaceCorrectionSigmas σ above the sheen reference F, the cross
+  // captures' albedo in `measured` had c_cross,c·(S_c − F_c) subtracted per
+  // channel (the highlight's surface light; S_G for a channel whose parallel
+  // capture is saturated). Elsewhere, and for the sheen everywhere, the
+  // captures are as before: skin's estimate is unchanged (the sheen leaves
+  // c_cross·F, 0.0017 albedo in B at 1:200, on every pixel alike). The
+  // photographs stay as captured.
   struct SurfaceCorrection {
     std::string source;                       // SurfaceFactors::source
     std::array<double, 3> parallel_minus_cross{};  // c_parallel,c − c_cross,c of D65' (the surface maps' divisor)
