@@ -71,7 +71,9 @@ std::string registration_report_json(std::span<const session::RegistrationReport
                    {"motion_px", r.motion_px},
                    {"warped", r.warped},
                    {"residual_motion_px", r.result.residual_motion_px},
-                   {"skipped_pyramid_levels", skipped_levels(r.result.skipped_levels)}});
+                   {"skipped_pyramid_levels", skipped_levels(r.result.skipped_levels)},
+                   {"method", r.result.method},
+                   {"translation_sigma_px", r.result.translation_sigma_px}});
   return out.dump();
 }
 
