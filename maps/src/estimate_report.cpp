@@ -72,8 +72,9 @@ std::string registration_report_json(std::span<const session::RegistrationReport
                    {"warped", r.warped},
                    {"residual_motion_px", r.result.residual_motion_px},
                    {"skipped_pyramid_levels", skipped_levels(r.result.skipped_levels)},
-                   {"method", r.result.method},
-                   {"translation_sigma_px", r.result.translation_sigma_px}});
+                   {"method", session::registration_method_name(r.result.method)},
+                   {"translation_sigma_px", r.result.translation_sigma_px},
+                   {"residual_method", session::registration_method_name(r.result.residual_method)}});
   return out.dump();
 }
 
@@ -401,9 +402,9 @@ PolarisationOutputs polarisation_outputs(const session::MethodMeasurement& m, co
         {"parallel_minus_cross", correction->parallel_minus_cross},
         {"cross_factor", std::move(cross_factor)},
         {"sheen_reference_rgb", correction->sheen_reference},
-        {"rule", "each cross capture less c_cross·S per channel: S itself where the G surface map is ≥ " +
-                     std::to_string(session::kSurfaceCorrectionSigmas) +
-                     " σ above the sheen reference, else the sheen reference (the parameters come from the corrected "
+        {"rule", "where the G surface map is ≥ " + std::to_string(session::kSurfaceCorrectionSigmas) +
+                     " σ above the sheen reference, each cross capture less c_cross·(S − sheen reference) per channel "
+                     "(the highlight's surface light); elsewhere as captured (the parameters come from the corrected "
                      "captures; the photographs of relit_delta_e94 are as captured)"},
         {"corrected_pixels", correction->corrected_pixels}};
   }

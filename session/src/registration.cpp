@@ -90,7 +90,7 @@ RegistrationResult translation_fallback(const cv::Mat& ref, const cv::Mat& mov, 
   RegistrationResult r;
   r.warp[0][2] = r.shift_x_px = tx;
   r.warp[1][2] = r.shift_y_px = ty;
-  r.method = "translation";
+  r.method = RegistrationMethod::kTranslation;
   r.translation_sigma_px = sigma;
   return r;
 }
@@ -192,7 +192,7 @@ RegistrationResult register_channel(const std::vector<float>& reference, const s
   // The residual by the method that found the warp (ECC would wander on the
   // featureless view that sent it to the fallback).
   const RegistrationResult rest =
-      r.method == "translation"
+      r.method == RegistrationMethod::kTranslation
           ? translation_fallback(wrap(reference, width, height), wrap(warped, width, height),
                                  moving_mask(warped, width, height), "the residual check")
           : estimate_registration(reference, warped, width, height, check);
@@ -204,6 +204,7 @@ RegistrationResult register_channel(const std::vector<float>& reference, const s
       worst = std::max(worst, std::hypot(dx, dy));
     }
   r.residual_motion_px = worst;
+  r.residual_method = rest.method;
   return r;
 }
 

@@ -90,8 +90,8 @@ TEST(Registration, AFeaturelessViewFallsBackToAMeasuredTranslation) {
   const std::vector<float> reference = smooth_view(0, 0, 1.0, 1);
   const std::vector<float> moving = smooth_view(0.4, -0.3, 0.9, 2);
   const RegistrationResult r = register_channel(reference, moving, kWidth, kHeight);
-  std::printf("method %s, shift (%.3f, %.3f) ± %.3f px, rotation %.3f°\n", r.method.c_str(), r.shift_x_px, r.shift_y_px, r.translation_sigma_px, r.rotation_deg);
-  EXPECT_EQ(r.method, "translation");  // ECC finds no optimum on it
+  std::printf("method %s, shift (%.3f, %.3f) ± %.3f px, rotation %.3f°\n", registration_method_name(r.method), r.shift_x_px, r.shift_y_px, r.translation_sigma_px, r.rotation_deg);
+  EXPECT_EQ(r.method, RegistrationMethod::kTranslation);  // ECC finds no optimum on it
   EXPECT_LE(3 * r.translation_sigma_px, kTranslationFallbackUncertaintyPx);
   EXPECT_EQ(r.rotation_deg, 0.0);  // ECC turned it by −78° about the patch's centre
   // moving(x) = view(x + (0.4, −0.3)): the warp onto the reference undoes it.

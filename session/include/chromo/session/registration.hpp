@@ -40,6 +40,14 @@ class RegistrationError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// How a registration was found: ECC, or the translation fallback above.
+// One byte, so RegistrationResult stays trivially copyable (cached by the
+// rendered session, files/binary_cache.hpp).
+enum class RegistrationMethod : std::uint8_t { kEcc = 0, kTranslation = 1 };
+inline const char* registration_method_name(RegistrationMethod m) {
+  return m == RegistrationMethod::kTranslation ? "translation" : "ECC";
+}
+
 struct RegistrationOptions {
   int max_iterations = 200;
   double epsilon = 1e-6;
@@ -53,7 +61,11 @@ struct RegistrationResult {
   double residual_motion_px = 0;          // see above
   double warp[2][3] = {{1, 0, 0}, {0, 1, 0}};
   std::uint32_t skipped_levels = 0;       // bit l set: coarse pyramid level l (> 0) did not converge, skipped
-  std::string method = "ECC";             // or "translation": the fallback above
+  RegistrationMethod method = RegistrationMethod::kEcc;
+  // How the residual check (register_channel) measured residual_motion_px:
+  // ECC on the warped capture, or the fallback where ECC gave no answer
+  // there (an aligned featureless pair is where ECC fails most).
+  RegistrationMethod residual_method = RegistrationMethod::kEcc;
   double translation_sigma_px = 0;        // the fallback's larger standard error of the shift (0 for ECC)
 };
 

@@ -155,7 +155,9 @@ struct CaptureMotion {
 // 6: the camera readout's band streams (CameraModel::expose): another
 //    realisation of the same noise.
 // 7: RegistrationResult::skipped_levels (coarse levels skipped).
-inline constexpr std::uint32_t kRenderedSessionVersion = 7;
+// 8: RegistrationResult::method and translation_sigma_px (the fallback for
+//    featureless captures).
+inline constexpr std::uint32_t kRenderedSessionVersion = 8;
 inline constexpr std::uint8_t kMixedCell = 255;  // a 2×2 cell whose sites have different regions
 
 struct RenderedSession {
