@@ -529,8 +529,15 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
     return builder;
   };
   auto measurement = [&](const session::SessionCaptureBuilder& builder) {
-    return standard ? session::build_method_measurement(builder.captures())
-                    : session::build_plan_measurement(builder.plan_captures());
+    if (!standard) return session::build_plan_measurement(builder.plan_captures());
+    session::MethodCaptures method = builder.captures();
+    if (sphere && options.estimator_knows_films)
+      method.surface_factors = session::SurfaceFactors{
+          surface_factor_in_albedo(drivers::Polarisation::kCross, sphere->light_film, sphere->analyser_film, sphere->cross_leak),
+          surface_factor_in_albedo(drivers::Polarisation::kParallel, sphere->light_film, sphere->analyser_film, sphere->cross_leak),
+          "the rendered session's films (PolariserFilm, 1:" + std::to_string(options.extinction_ratio_550nm) +
+              " at 550 nm, design view)"};
+    return session::build_method_measurement(method);
   };
   start = Clock::now();
   const session::SessionCaptureBuilder noisy_captures = captures(true);

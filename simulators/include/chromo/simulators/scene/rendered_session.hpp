@@ -121,6 +121,11 @@ struct RenderedSessionOptions {
   // solved on it. Plan "standard" only; the cache is not used.
   bool polarised = false;
   double extinction_ratio_550nm = 200;  // 1-100000
+  // The estimator is given the films (MethodCaptures::surface_factors from
+  // surface_factor_in_albedo at the design view): surface maps corrected for
+  // the extinction, cross captures for their surface light. false: the
+  // measurement as without that knowledge (the bench's "before" column).
+  bool estimator_knows_films = true;
   // Oily regions on the skin (scene.hpp OilyHighlights: count, σ range,
   // roughness, radius); sigma_reflectance is set here to surface_sigma
   // (below). count 0: none.
@@ -169,7 +174,9 @@ struct CaptureMotion {
 // 6: the camera readout's band streams (CameraModel::expose): another
 //    realisation of the same noise.
 // 7: RegistrationResult::skipped_levels (coarse levels skipped).
-inline constexpr std::uint32_t kRenderedSessionVersion = 7;
+// 8: RegistrationResult::method and translation_sigma_px (the fallback for
+//    featureless captures).
+inline constexpr std::uint32_t kRenderedSessionVersion = 8;
 inline constexpr std::uint8_t kMixedCell = 255;  // a 2×2 cell whose sites have different regions
 
 struct RenderedSession {
