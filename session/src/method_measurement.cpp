@@ -201,12 +201,14 @@ ExposureLinearity check_subject_exposure(const IlluminatedCapture& capture, cons
 // white's mean signal, R one frame's read variance, S one frame's shot
 // variance of the white, V_w the white mean's variance, N_s subject frames
 // at g times the white's exposure:
-//   σ²(a) = (R + g·a·S)/(N_s·g²·W²) + a²·V_w/W².
+//   σ²(a) = (R + g·a·S)/(N_s·g²·W²) + a²·V_w/W²,
+// the white's a² taken as a/g (a pixel not brighter than the white's signal
+// at the subject's exposure has a ≤ 1/g; at g = 1 the a² ≤ a of before).
 estimation::ChannelNoise capture_noise(double W, double R, double S, double V_w, double Ns, double g, double rho,
                                        double dark_mean) {
   estimation::ChannelNoise noise;
   noise.read_sigma = std::max(std::sqrt(R / Ns) / (g * W), 1e-5);
-  noise.shot_coefficient = (S / (g * Ns) + V_w) / (W * W);
+  noise.shot_coefficient = (S / Ns + V_w) / (g * W * W);
   noise.saturation_albedo = rho * (1.0 - dark_mean) / (g * W);
   return noise;
 }
@@ -258,7 +260,7 @@ References references_of(const MethodCaptures& captures) {
       s * s * (R + 0.5 * g_base * white_shot(r.base, captures.base, 2)) /
           (frames_of(captures.base.subject) * g_base * g_base);
   blue_noise.read_sigma = std::max(std::sqrt(subject_variance) / D, 1e-5);
-  blue_noise.shot_coefficient = (r.with_blue.white_variance[2] + s * s * r.base.white_variance[2]) / (D * D);
+  blue_noise.shot_coefficient = (r.with_blue.white_variance[2] + s * s * r.base.white_variance[2]) / (g_mix * D * D);
   blue_noise.saturation_albedo = rho * (1.0 - dark_mean[2]) / (std::max(g_mix, g_base) * D);
   r.set.channels.push_back({"blue.B", blue_illuminant, 2, blue_noise});
   r.set.validate();

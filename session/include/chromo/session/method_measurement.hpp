@@ -40,8 +40,9 @@
 //   → read_sigma = √(R/N_s) / W,  shot_coefficient = (S/N_s + V_w) / W²
 // (one frame each: read_sigma = √V_d/W, shot_coefficient = (2·V_w − V_d)/W²).
 // A subject at g times its white's exposure (ExposureLinearity below):
-//   σ²(a) = (R + g·a·S)/(N_s·g²·W²) + a²·V_w/W²
-//   → read_sigma = √(R/N_s) / (g·W),  shot_coefficient = (S/(g·N_s) + V_w) / W²,
+//   σ²(a) = (R + g·a·S)/(N_s·g²·W²) + a²·V_w/W²,  the white's a² taken as a/g
+//   (a pixel that does not clip has a ≲ 1/g; at g = 1 this is the a² ≤ a above)
+//   → read_sigma = √(R/N_s) / (g·W),  shot_coefficient = (S/N_s + V_w) / (g·W²),
 // saturation_albedo = ρ·(1 − dark)/(g·W). The blue-only channel may
 // combine two exposures t_mix and t_W57 (RgbImage::exposure_us): the W57
 // capture's signals are scaled by s = t_mix/t_W57 onto the mix's exposure
@@ -50,7 +51,7 @@
 // subject's shot noise at albedo 0.5 folded into read_sigma as
 // measurement.hpp asks:
 //   read_sigma² = [(R + 0.5·g_mix·S_mix)/(N_s,mix·g_mix²) + s²·(R + 0.5·g_W57·S_W57)/(N_s,W57·g_W57²)] / D²,
-//   shot_coefficient = (V_w,mix + s²·V_w,W57) / D².
+//   shot_coefficient = (V_w,mix + s²·V_w,W57) / (g_mix·D²).
 // The dark mean's own noise (a fixed offset per pixel, common to all
 // captures) is not part of the model.
 // Saturation: a pixel whose raw subject value is at or above 0.999 of full
