@@ -9,6 +9,11 @@
 //           its white's; mixes "w57+blue:R", "w57:R" (--blue-ratio R);
 //   refs    after, with --reference-frames N frames of each dark and white
 //           (the subject's frames unchanged: references are not subject time);
+//   subject refs, each subject metered on a first frame of it (its
+//           --subject-percentile in its brightest channel at --subject-fill of
+//           full scale, at most --max-subject-ratio times its white's
+//           exposure), each white scaled by that ratio and checked for
+//           linearity (docs/estimation.md "Exposure per capture");
 //
 // all with --frames frames per subject capture (and, before and after, per
 // reference too), the whites metered to --white-fill of full scale. Per plan and scene seed: the
@@ -20,7 +25,8 @@
 // frames; then the spread over the seeds.
 //
 //   exposure_plan_bench [--seeds 5,11,12,13] [--sensor W H] [--blue-ratio R] [--frames N]
-//                       [--reference-frames N] [--white-fill F] [--out DIR]
+//                       [--reference-frames N] [--white-fill F] [--subject-fill F]
+//                       [--subject-percentile P] [--max-subject-ratio R] [--out DIR]
 //
 // Writes DIR/exposure_plan.csv and DIR/exposure_plan.png (relit ΔE94 per seed, the three plans).
 #include <algorithm>
@@ -48,12 +54,14 @@ struct PlanResult {
   double blue_relative_predicted = 0, d65_b_relative_predicted = 0;  // σ/ρ on the white, camera model
   double blue_relative_measured = 0, d65_b_relative_measured = 0;    // σ/ρ on the white, estimator's noise figure
   double exposure_d65_us = 0, exposure_blue_us = 0;
+  double subject_ratio_d65 = 1, subject_ratio_blue = 1;  // subject exposure / its white's
+  std::size_t saturated_pixels = 0, skin_cells = 0;  // cells with a clipped subject sample; skin cells
   Accuracy fast4d, fastauto;
 };
 
 struct SeedResult {
   std::uint64_t seed = 0;
-  PlanResult before, after, refs;
+  PlanResult before, after, refs, subject;
 };
 
 // Relative noise σ(ρ)/ρ of a channel on the white by its noise figure.
@@ -93,6 +101,7 @@ struct PlanChoice {
   double blue_ratio = 0;
   int frames = 1, reference_frames = 0;
   double white_fill = 0.85;
+  double subject_fill = 0, subject_percentile = 0.99, max_subject_ratio = 8;
 };
 
 PlanResult run_plan(std::uint64_t seed, int width, int height, const PlanChoice& plan) {
@@ -106,20 +115,30 @@ PlanResult run_plan(std::uint64_t seed, int width, int height, const PlanChoice&
   ro.frames_per_capture = frames;
   ro.reference_frames = plan.reference_frames;
   ro.white_fill = plan.white_fill;
+  ro.subject_fill = plan.subject_fill;
+  ro.subject_percentile = plan.subject_percentile;
+  ro.max_subject_exposure_ratio = plan.max_subject_ratio;
   const simulators::RenderedSession lab = simulators::render_session(ro);
   PlanResult r;
   const simulators::CameraModel camera{simulators::CameraModelOptions{}};
   r.exposure_d65_us = lab.exposure_us_of_step.at("subject_d65");
   r.exposure_blue_us = lab.exposure_us_of_step.at("subject_w57+blue");
-  r.d65_b_relative_predicted = predicted_relative(camera, lab.white_response.at("d65")[2], r.exposure_d65_us, frames);
+  r.subject_ratio_d65 = r.exposure_d65_us / lab.exposure_us_of_step.at("white_d65");
+  r.subject_ratio_blue = r.exposure_blue_us / lab.exposure_us_of_step.at("white_w57+blue");
+  r.saturated_pixels = lab.noisy.saturated_pixels;
+  // Predicted at the whites' exposures (subject and white at one exposure: the subject plan's longer
+  // subject exposure is not in the prediction).
+  const double white_d65_us = lab.exposure_us_of_step.at("white_d65"), white_blue_us = lab.exposure_us_of_step.at("white_w57+blue");
+  r.d65_b_relative_predicted = predicted_relative(camera, lab.white_response.at("d65")[2], white_d65_us, frames);
   r.blue_relative_predicted = predicted_blue_relative(camera, lab.white_response.at("w57+blue")[2],
-                                                      lab.white_response.at("w57")[2], r.exposure_blue_us, frames);
+                                                      lab.white_response.at("w57")[2], white_blue_us, frames);
   const double rho = simulators::kWhiteTargetReflectance;
   r.d65_b_relative_measured = relative_noise(lab.noisy.set.channels[2].noise, rho);
   r.blue_relative_measured = relative_noise(lab.noisy.set.channels[3].noise, rho);
   std::vector<bool> skin(lab.pixels());
   for (std::size_t i = 0; i < lab.pixels(); ++i)
     skin[i] = lab.region[i] == static_cast<std::uint8_t>(simulators::SceneRegion::kSkin);
+  r.skin_cells = static_cast<std::size_t>(std::count(skin.begin(), skin.end(), true));
   const Relit truth = relight(lab.truth);
   r.fast4d = estimate_skin(lab, estimation::ModelChoice::k4d, truth, skin);
   r.fastauto = estimate_skin(lab, estimation::ModelChoice::kAuto, truth, skin);
@@ -127,6 +146,11 @@ PlanResult run_plan(std::uint64_t seed, int width, int height, const PlanChoice&
 }
 
 void print_plan(const char* label, const PlanResult& p) {
+  std::printf("  %-7s subject/white exposure D65' %.2f, W57(+blue) %.2f; %zu cells saturated; skin cells explained "
+              "(in the dE94) 4d %.4f, auto %.4f of %zu\n",
+              label, p.subject_ratio_d65, p.subject_ratio_blue, p.saturated_pixels,
+              static_cast<double>(p.fast4d.pixels) / static_cast<double>(p.skin_cells),
+              static_cast<double>(p.fastauto.pixels) / static_cast<double>(p.skin_cells), p.skin_cells);
   std::printf("  %-7s exposure D65' %7.0f us, W57(+blue) %7.0f us | rel. noise on white: blue-only %.4f (pred %.4f), "
               "D65' B %.4f (pred %.4f), ratio %.2f | relit dE94 fast/4d %.3f (D65 %.3f), fast/auto %.3f\n",
               label, p.exposure_d65_us, p.exposure_blue_us, p.blue_relative_measured, p.blue_relative_predicted,
@@ -155,6 +179,7 @@ int bench_main(int argc, char** argv) {
   double blue_ratio = 8;
   int frames = 1, reference_frames = 8;
   double white_fill = 0.85;
+  double subject_fill = 0.85, subject_percentile = 0.99, max_subject_ratio = 8;
   std::filesystem::path out = "bench/results";
   app.add_option("--seeds", seeds, "scene seeds")->delimiter(',');
   app.add_option("--sensor", sensor, "sensor W H (even)")->expected(2);
@@ -164,12 +189,20 @@ int bench_main(int argc, char** argv) {
       ->check(CLI::Range(1, 64));
   app.add_option("--white-fill", white_fill, "the whites' brightest channel, share of full scale")
       ->check(CLI::Range(0.06, 0.98));
+  app.add_option("--subject-fill", subject_fill, "the subject plan's metered percentile, share of full scale")
+      ->check(CLI::Range(0.06, 0.98));
+  app.add_option("--subject-percentile", subject_percentile, "the subject plan's metered percentile of the subject's pixels")
+      ->check(CLI::Range(0.5, 1.0));
+  app.add_option("--max-subject-ratio", max_subject_ratio, "the subject plan's cap on subject / white exposure")
+      ->check(CLI::Range(1.0, 64.0));
   app.add_option("--out", out, "where the CSV and chart go");
   CLI11_PARSE(app, argc, argv);
   std::filesystem::create_directories(out);
   std::printf("sensor %dx%d, %d frame(s) per subject capture; white at %.2f of full scale; after: exposure per "
-              "capture, w57+blue:%g; refs: after with %d frames per reference\n",
-              sensor[0], sensor[1], frames, white_fill, blue_ratio, reference_frames);
+              "capture, w57+blue:%g; refs: after with %d frames per reference; subject: refs with the subjects' %.3f "
+              "percentile metered to %.2f (ratio <= %g)\n",
+              sensor[0], sensor[1], frames, white_fill, blue_ratio, reference_frames, subject_percentile, subject_fill,
+              max_subject_ratio);
   std::vector<SeedResult> results;
   for (std::uint64_t seed : seeds) {
     SeedResult r;
@@ -177,10 +210,14 @@ int bench_main(int argc, char** argv) {
     r.before = run_plan(seed, sensor[0], sensor[1], {false, 0, frames, 0, white_fill});
     r.after = run_plan(seed, sensor[0], sensor[1], {true, blue_ratio, frames, 0, white_fill});
     r.refs = run_plan(seed, sensor[0], sensor[1], {true, blue_ratio, frames, reference_frames, white_fill});
+    r.subject = run_plan(seed, sensor[0], sensor[1],
+                         {true, blue_ratio, frames, reference_frames, white_fill, subject_fill, subject_percentile,
+                          max_subject_ratio});
     std::printf("seed %llu\n", static_cast<unsigned long long>(seed));
     print_plan("before", r.before);
     print_plan("after", r.after);
     print_plan("refs", r.refs);
+    print_plan("subject", r.subject);
     std::fflush(stdout);
     results.push_back(r);
   }
@@ -190,8 +227,11 @@ int bench_main(int argc, char** argv) {
     const Spread b = spread(results, [&](const SeedResult& r) { return get(r.before); });
     const Spread a = spread(results, [&](const SeedResult& r) { return get(r.after); });
     const Spread f = spread(results, [&](const SeedResult& r) { return get(r.refs); });
-    std::printf("  %-44s before %.4f [%.4f, %.4f]   after %.4f [%.4f, %.4f]   refs %.4f [%.4f, %.4f] (refs/after %.3f)\n",
-                what, b.mean, b.min, b.max, a.mean, a.min, a.max, f.mean, f.min, f.max, f.mean / a.mean);
+    const Spread m = spread(results, [&](const SeedResult& r) { return get(r.subject); });
+    std::printf("  %-44s before %.4f [%.4f, %.4f]   after %.4f [%.4f, %.4f]   refs %.4f [%.4f, %.4f] (refs/after %.3f)   "
+                "subject %.4f [%.4f, %.4f] (subject/refs %.3f)\n",
+                what, b.mean, b.min, b.max, a.mean, a.min, a.max, f.mean, f.min, f.max, f.mean / a.mean, m.mean, m.min,
+                m.max, m.mean / f.mean);
   };
   show("relit dE94 fast/4d noisy (six LEDs + D65)", [](const PlanResult& p) { return p.fast4d.de_all; });
   show("relit dE94 fast/auto noisy (six LEDs + D65)", [](const PlanResult& p) { return p.fastauto.de_all; });
@@ -199,29 +239,37 @@ int bench_main(int argc, char** argv) {
        [](const PlanResult& p) { return p.blue_relative_measured / p.d65_b_relative_measured; });
   show("blue-only relative noise on white", [](const PlanResult& p) { return p.blue_relative_measured; });
   show("D65' B relative noise on white", [](const PlanResult& p) { return p.d65_b_relative_measured; });
+  show("skin cells explained, fast/4d (share)",
+       [](const PlanResult& p) { return static_cast<double>(p.fast4d.pixels) / static_cast<double>(p.skin_cells); });
+  show("subject / white exposure, D65'", [](const PlanResult& p) { return p.subject_ratio_d65; });
+  show("subject / white exposure, W57+blue", [](const PlanResult& p) { return p.subject_ratio_blue; });
 
   const auto csv = out / "exposure_plan.csv";
   {
     std::ofstream f(csv);
     f << "seed,before_de_fast4d,after_de_fast4d,before_de_fastauto,after_de_fastauto,before_blue_rel_noise,"
          "after_blue_rel_noise,before_d65b_rel_noise,after_d65b_rel_noise,before_blue_rel_pred,after_blue_rel_pred,"
-         "refs_de_fast4d,refs_de_fastauto,refs_blue_rel_noise,refs_d65b_rel_noise\n";
+         "refs_de_fast4d,refs_de_fastauto,refs_blue_rel_noise,refs_d65b_rel_noise,subject_de_fast4d,subject_de_fastauto,"
+         "subject_ratio_d65,subject_ratio_blue,subject_saturated_cells\n";
     for (const auto& r : results)
       f << r.seed << "," << r.before.fast4d.de_all << "," << r.after.fast4d.de_all << "," << r.before.fastauto.de_all
         << "," << r.after.fastauto.de_all << "," << r.before.blue_relative_measured << ","
         << r.after.blue_relative_measured << "," << r.before.d65_b_relative_measured << ","
         << r.after.d65_b_relative_measured << "," << r.before.blue_relative_predicted << ","
         << r.after.blue_relative_predicted << "," << r.refs.fast4d.de_all << "," << r.refs.fastauto.de_all << ","
-        << r.refs.blue_relative_measured << "," << r.refs.d65_b_relative_measured << "\n";
+        << r.refs.blue_relative_measured << "," << r.refs.d65_b_relative_measured << "," << r.subject.fast4d.de_all << ","
+        << r.subject.fastauto.de_all << "," << r.subject.subject_ratio_d65 << "," << r.subject.subject_ratio_blue << ","
+        << r.subject.saturated_pixels << "\n";
   }
   files::GnuplotChart chart;
   chart.png = out / "exposure_plan.png";
   chart.commands = "set datafile separator ','\nset key top right\nset style data histograms\nset style fill solid 0.8\n"
-                   "set title 'Standard plan: one exposure, exposure per capture, + reference frames (skin, noisy)'\n"
+                   "set title 'Standard plan: one exposure, exposure per capture, + reference frames, + subject exposure (skin, noisy)'\n"
                    "set xlabel 'scene seed'\nset ylabel 'relit dE94 vs truth, fast/4d (six LEDs + D65)'\nset yrange [0:*]\n"
                    "plot '" + csv.string() + "' every ::1 using 2:xtic(1) title 'before: one exposure', '' every ::1 using 3 "
                    "title 'after: exposure per capture', '' every ::1 using 12 title 'refs: after + " +
-                   std::to_string(reference_frames) + " reference frames'\n";
+                   std::to_string(reference_frames) + " reference frames', '' every ::1 using 16 title 'subject: refs + "
+                   "subject exposure metered'\n";
   if (const std::string error = files::draw_chart(chart); !error.empty()) std::printf("chart: %s\n", error.c_str());
   std::printf("wrote %s and %s\n", csv.c_str(), (out / "exposure_plan.png").c_str());
   return 0;

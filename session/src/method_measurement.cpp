@@ -145,8 +145,17 @@ struct Normalised {
   std::vector<std::uint8_t> saturated;       // any raw subject channel at full scale
 };
 
+// g = t_subject / t_white: the subject's exposure over its white's (1 when
+// either is unknown or both are one exposure).
+double subject_gain(const IlluminatedCapture& capture) {
+  const double w = capture.white.exposure_us, s = capture.subject.exposure_us;
+  if (!(w > 0 && s > 0) || std::abs(w - s) <= 1e-6 * std::max(w, s)) return 1.0;
+  return s / w;
+}
+
 Normalised normalise(const IlluminatedCapture& capture, const Reference& reference, const RgbImage& dark, double rho) {
   check_image(capture.subject, dark, "subject under " + capture.name);
+  rho /= subject_gain(capture);  // the white's signal scaled onto the subject's exposure
   const std::size_t n = dark.pixels();
   Normalised out;
   out.saturated.assign(n, 0);
@@ -170,17 +179,40 @@ struct References {
   estimation::ChannelNoise parallel_green_noise;  // its G albedo's noise
   estimation::MeasurementSet set;
   double base_to_mix = 1;  // s = t_mix / t_W57: the W57 capture's signals on the mix's exposure
+  std::vector<ExposureLinearity> linearity;  // per capture
 };
 
 double frames_of(const RgbImage& image) { return std::max<double>(1.0, static_cast<double>(image.frames)); }
 
-// A subject and its white reference at one exposure (their ratio is the albedo).
-void check_same_exposure(const IlluminatedCapture& capture) {
-  const double w = capture.white.exposure_us, s = capture.subject.exposure_us;
-  if (w > 0 && s > 0 && std::abs(w - s) > 1e-6 * std::max(w, s))
-    throw std::invalid_argument("subject under " + capture.name + ": taken at " + std::to_string(s) +
-                                " us, its white reference at " + std::to_string(w) +
-                                " us; the albedo needs both at one exposure");
+// A subject at another exposure than its white: the white's signal is
+// scaled by g, checked against the white at a second exposure when the
+// capture has one (method_measurement.hpp "Exposure per capture").
+ExposureLinearity check_subject_exposure(const IlluminatedCapture& capture, const RgbImage& dark, double tolerance) {
+  const double g = subject_gain(capture);
+  if (!(g > 0 && g <= kMaxSubjectExposureRatio))
+    throw std::invalid_argument("subject under " + capture.name + ": taken at " +
+                                std::to_string(capture.subject.exposure_us) + " us, " + std::to_string(g) +
+                                " times its white reference's " + std::to_string(capture.white.exposure_us) +
+                                " us; the exposure ratio must be in (0, " + std::to_string(kMaxSubjectExposureRatio) + "]");
+  ExposureLinearity out{capture.name, g, 0, 0, 0, false};
+  if (!capture.white_linearity) return out;
+  return check_exposure_linearity(capture, dark, tolerance);
+}
+
+// One frame's variance of a capture's albedo (measurement.hpp's model): W the
+// white's mean signal, R one frame's read variance, S one frame's shot
+// variance of the white, V_w the white mean's variance, N_s subject frames
+// at g times the white's exposure:
+//   σ²(a) = (R + g·a·S)/(N_s·g²·W²) + a²·V_w/W²,
+// the white's a² taken as a/g (a pixel not brighter than the white's signal
+// at the subject's exposure has a ≤ 1/g; at g = 1 the a² ≤ a of before).
+estimation::ChannelNoise capture_noise(double W, double R, double S, double V_w, double Ns, double g, double rho,
+                                       double dark_mean) {
+  estimation::ChannelNoise noise;
+  noise.read_sigma = std::max(std::sqrt(R / Ns) / (g * W), 1e-5);
+  noise.shot_coefficient = (S / Ns + V_w) / (g * W * W);
+  noise.saturation_albedo = rho * (1.0 - dark_mean) / (g * W);
+  return noise;
 }
 
 References references_of(const MethodCaptures& captures) {
@@ -188,9 +220,11 @@ References references_of(const MethodCaptures& captures) {
   check_image(dark, dark, "dark capture");
   const double rho = captures.white_reflectance;
   if (!(rho > 0 && rho <= 1)) throw std::invalid_argument("white_reflectance: must be in (0, 1]");
-  for (const auto* capture : {&captures.broadband, &captures.base, &captures.with_blue}) check_same_exposure(*capture);
-  References r{reference_of(captures.broadband, dark), reference_of(captures.base, dark),
-               reference_of(captures.with_blue, dark), {}};
+  References r;
+  for (const auto* capture : {&captures.broadband, &captures.base, &captures.with_blue})
+    r.linearity.push_back(check_subject_exposure(*capture, dark, captures.linearity_tolerance));
+  r.broadband = reference_of(captures.broadband, dark), r.base = reference_of(captures.base, dark);
+  r.with_blue = reference_of(captures.with_blue, dark);
   const double t_mix = captures.with_blue.white.exposure_us, t_base = captures.base.white.exposure_us;
   if (t_mix > 0 && t_base > 0) r.base_to_mix = t_mix / t_base;
   const double s = r.base_to_mix;
@@ -205,12 +239,8 @@ References references_of(const MethodCaptures& captures) {
     return std::max(k.white_variance[c] * frames_of(capture.white) - read_variance[c], 0.0);
   };
   auto albedo_noise = [&](const Reference& k, const IlluminatedCapture& capture, int c) {
-    const double W = k.white_mean[c], R = read_variance[c], Ns = frames_of(capture.subject);
-    estimation::ChannelNoise noise;
-    noise.read_sigma = std::max(std::sqrt(R / Ns) / W, 1e-5);
-    noise.shot_coefficient = (white_shot(k, capture, c) / Ns + k.white_variance[c]) / (W * W);
-    noise.saturation_albedo = rho * (1.0 - dark_mean[c]) / W;
-    return noise;
+    return capture_noise(k.white_mean[c], read_variance[c], white_shot(k, capture, c), k.white_variance[c],
+                         frames_of(capture.subject), subject_gain(capture), rho, dark_mean[c]);
   };
   const double D = r.with_blue.white_mean[2] - s * r.base.white_mean[2];
   if (!(D > 1e-3))
@@ -224,16 +254,20 @@ References references_of(const MethodCaptures& captures) {
   blue_illuminant = spectral::Spectrum(blue_illuminant.values().max(0.0));
   estimation::ChannelNoise blue_noise;
   const double R = read_variance[2];
+  // Each subject at g times its white's exposure, on the white's scale: (R + 0.5·g·S)/(N_s·g²).
+  const double g_mix = subject_gain(captures.with_blue), g_base = subject_gain(captures.base);
   const double subject_variance =
-      (R + 0.5 * white_shot(r.with_blue, captures.with_blue, 2)) / frames_of(captures.with_blue.subject) +
-      s * s * (R + 0.5 * white_shot(r.base, captures.base, 2)) / frames_of(captures.base.subject);
+      (R + 0.5 * g_mix * white_shot(r.with_blue, captures.with_blue, 2)) /
+          (frames_of(captures.with_blue.subject) * g_mix * g_mix) +
+      s * s * (R + 0.5 * g_base * white_shot(r.base, captures.base, 2)) /
+          (frames_of(captures.base.subject) * g_base * g_base);
   blue_noise.read_sigma = std::max(std::sqrt(subject_variance) / D, 1e-5);
-  blue_noise.shot_coefficient = (r.with_blue.white_variance[2] + s * s * r.base.white_variance[2]) / (D * D);
-  blue_noise.saturation_albedo = rho * (1.0 - dark_mean[2]) / D;
+  blue_noise.shot_coefficient = (r.with_blue.white_variance[2] + s * s * r.base.white_variance[2]) / (g_mix * D * D);
+  blue_noise.saturation_albedo = rho * (1.0 - dark_mean[2]) / (std::max(g_mix, g_base) * D);
   r.set.channels.push_back({"blue.B", blue_illuminant, 2, blue_noise});
   r.set.validate();
   if (captures.broadband_parallel) {
-    check_same_exposure(*captures.broadband_parallel);
+    r.linearity.push_back(check_subject_exposure(*captures.broadband_parallel, dark, captures.linearity_tolerance));
     r.parallel = reference_of(*captures.broadband_parallel, dark);
     r.parallel_green_noise = albedo_noise(*r.parallel, *captures.broadband_parallel, 1);
   }
@@ -252,6 +286,7 @@ void mark_no_reference(MethodMeasurement& m, const std::vector<const Reference*>
 
 struct PlanReferences {
   std::vector<Reference> references;
+  std::vector<ExposureLinearity> linearity;  // per capture
   estimation::MeasurementSet set;
 };
 
@@ -272,17 +307,15 @@ PlanReferences plan_references_of(const PlanCaptures& captures) {
   }
   r.set.camera = captures.camera;
   for (const IlluminatedCapture& capture : captures.captures) {
-    check_same_exposure(capture);
+    r.linearity.push_back(check_subject_exposure(capture, dark, captures.linearity_tolerance));
     r.references.push_back(reference_of(capture, dark));
     const Reference& k = r.references.back();
     for (int c = 0; c < 3; ++c) {
-      const double W = k.white_mean[c], R = read_variance[c], Ns = frames_of(capture.subject);
+      const double R = read_variance[c];
       const double white_shot = std::max(k.white_variance[c] * frames_of(capture.white) - R, 0.0);  // one frame's
-      estimation::ChannelNoise noise;
-      noise.read_sigma = std::max(std::sqrt(R / Ns) / W, 1e-5);
-      noise.shot_coefficient = (white_shot / Ns + k.white_variance[c]) / (W * W);
-      noise.saturation_albedo = rho * (1.0 - dark_mean[c]) / W;
-      r.set.channels.push_back({capture.name + "." + kChannelNames[c], capture.illuminant, c, noise});
+      r.set.channels.push_back({capture.name + "." + kChannelNames[c], capture.illuminant, c,
+                                capture_noise(k.white_mean[c], R, white_shot, k.white_variance[c],
+                                              frames_of(capture.subject), subject_gain(capture), rho, dark_mean[c])});
     }
   }
   r.set.validate();
@@ -308,6 +341,7 @@ MethodMeasurement build_plan_measurement(const PlanCaptures& captures, const Reg
   MethodMeasurement m;
   m.width = width, m.height = height;
   m.set = std::move(references.set);
+  m.linearity = std::move(references.linearity);
   const IlluminatedCapture& first = captures.captures.front();
   for (std::size_t k = 1; k < normalised.size(); ++k) {
     Normalised& moving = normalised[k];
@@ -476,6 +510,7 @@ MethodMeasurement build_method_measurement(const MethodCaptures& captures, const
   MethodMeasurement m;
   m.width = width, m.height = height;
   m.set = std::move(references.set);
+  m.linearity = std::move(references.linearity);
   // Register W57 and W57+blue to D65' on the G albedo, warp all their planes.
   for (auto* moving : {&base, &with_blue}) {
     const IlluminatedCapture& capture = moving == &base ? captures.base : captures.with_blue;

@@ -24,6 +24,8 @@ bool CameraModelOptions::IsValid(std::string* error) const {
   if (!(gain_e_per_dn > 0)) return fail("gain_e_per_dn must be > 0");
   if (adc_bits < 8 || adc_bits > 16) return fail("adc_bits must be 8-16");
   if (!(black_level_dn >= 0)) return fail("black_level_dn must be >= 0");
+  if (!(nonlinearity_at_full_well >= 0 && nonlinearity_at_full_well <= 0.5))
+    return fail("nonlinearity_at_full_well must be in [0, 0.5]");
   if (readout_threads < 0) return fail("readout_threads must be >= 0 (0 = OpenMP's default)");
   if (!(sensitivity.rgb[1].integral() > 0)) return fail("the green sensitivity is zero");
   return true;
@@ -44,8 +46,13 @@ Eigen::Matrix<double, 3, spectral::kGridSize> CameraModel::weights(const spectra
   return w;
 }
 
+double CameraModel::compressed_e(double electrons) const {
+  return electrons * (1.0 - options_.nonlinearity_at_full_well * electrons / options_.full_well_e);
+}
+
 double CameraModel::expected_dn(double response, double exposure_us, double gain_db) const {
-  const double electrons = std::min(options_.quantum_scale_e_per_us * exposure_us * response, options_.full_well_e);
+  const double electrons =
+      compressed_e(std::min(options_.quantum_scale_e_per_us * exposure_us * response, options_.full_well_e));
   const double e_per_dn = options_.gain_e_per_dn / std::pow(10.0, gain_db / 20.0);
   return std::clamp(options_.black_level_dn + electrons / e_per_dn, 0.0, static_cast<double>(max_dn()));
 }
@@ -131,7 +138,7 @@ cv::Mat CameraModel::expose(const cv::Mat& response_rgb, SensorLayout layout, in
       if (mean_e == 0) e = 0;  // Poisson(0): no light, no draw (dark captures)
       else if (mean_e < kExactPoissonBelowElectrons) e = static_cast<double>(readout_random::poisson_by_inversion(mean_e, rng));
       else e = mean_e + std::sqrt(mean_e) * normal(rng);
-      e = std::clamp(e, 0.0, full_well) + read_noise * normal(rng);
+      e = compressed_e(std::clamp(e, 0.0, full_well)) + read_noise * normal(rng);
       return static_cast<std::uint16_t>(std::floor(std::clamp(black + e * dn_per_e, 0.0, r.max_dn) + 0.5));
     };
     const int row_begin = band * readout_random::kBandRows;
@@ -153,7 +160,7 @@ cv::Mat CameraModel::expose_single_stream(const cv::Mat& response_rgb, SensorLay
     double e;
     if (mean_e < kExactPoissonBelowElectrons) e = static_cast<double>(std::poisson_distribution<long>(mean_e)(rng));
     else e = mean_e + std::sqrt(mean_e) * normal(rng);
-    e = std::clamp(e, 0.0, options_.full_well_e) + options_.read_noise_e * normal(rng);
+    e = compressed_e(std::clamp(e, 0.0, options_.full_well_e)) + options_.read_noise_e * normal(rng);
     return static_cast<std::uint16_t>(std::clamp(std::round(options_.black_level_dn + e / r.e_per_dn), 0.0, r.max_dn));
   };
   cv::Mat out = readout_frame(response_rgb, layout, CV_16U);

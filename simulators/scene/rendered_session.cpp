@@ -51,6 +51,33 @@ std::span<const std::uint8_t> bytes_of(const cv::Mat& m) {
   return {m.ptr<std::uint8_t>(), m.total() * m.elemSize()};
 }
 
+// A Bayer RGGB frame (DN) binned 2×2 as the capture builder bins it (R,
+// mean of the two G, B), in units of full scale: the subject metering's view.
+session::RgbImage binned_rgb(const cv::Mat& dn, double full_scale, double exposure_us) {
+  session::RgbImage image;
+  image.width = dn.cols / 2, image.height = dn.rows / 2, image.exposure_us = exposure_us;
+  for (auto& plane : image.planes) plane.resize(image.pixels());
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x) {
+      const std::size_t i = static_cast<std::size_t>(y) * image.width + x;
+      const auto at = [&](int dy, int dx) { return static_cast<double>(dn.at<std::uint16_t>(2 * y + dy, 2 * x + dx)); };
+      image.planes[0][i] = static_cast<float>(at(0, 0) / full_scale);
+      image.planes[1][i] = static_cast<float>(0.5 * (at(0, 1) + at(1, 0)) / full_scale);
+      image.planes[2][i] = static_cast<float>(at(1, 1) / full_scale);
+    }
+  return image;
+}
+
+session::RgbImage flat_rgb(int width, int height, double level, double exposure_us) {
+  session::RgbImage image;
+  image.width = width, image.height = height, image.exposure_us = exposure_us;
+  for (auto& plane : image.planes) plane.assign(image.pixels(), static_cast<float>(level));
+  return image;
+}
+
+// Frame indices of the metering and linearity frames: apart from the plan's (s + 1000·f).
+constexpr std::uint64_t kMeteringFrameIndex = 900000, kLinearityFrameIndex = 910000;
+
 // ---- the on-disk cache ----
 constexpr files::CacheFormat kCacheFormat{{'C', 'H', 'R', 'S', 'E', 'S', 'S', '1'}, kRenderedSessionVersion};
 
@@ -315,6 +342,14 @@ bool RenderedSessionOptions::IsValid(std::string* error) const {
     return fail("cell_uniform_scene: the scene's size and the window's position must be even, the scene at least 32 per side");
   if (!scene_anomalies && polarised) return fail("scene_anomalies: false only on an unpolarised session");
   if (linear_led_light && polarised) return fail("linear_led_light: only on an unpolarised session");
+  if (!(subject_fill == 0 || (subject_fill > 0.05 && subject_fill < 0.99)))
+    return fail("subject_fill: must be 0 (off) or in (0.05, 0.99)");
+  if (subject_fill > 0 && !(exposure_per_capture && plan == "standard"))
+    return fail("subject_fill: needs exposure_per_capture and the standard plan");
+  if (!(subject_percentile > 0 && subject_percentile <= 1)) return fail("subject_percentile: must be in (0, 1]");
+  if (!(max_subject_exposure_ratio >= 1 && max_subject_exposure_ratio <= session::kMaxSubjectExposureRatio))
+    return fail("max_subject_exposure_ratio: must be in [1, 64]");
+  if (!(camera_nonlinearity >= 0 && camera_nonlinearity <= 0.5)) return fail("camera_nonlinearity: must be in [0, 0.5]");
   return true;
 }
 
@@ -334,6 +369,64 @@ calibration::LedLibrary lab_led_library() {
   return library;
 }
 
+namespace {
+
+// RenderedSessionOptions::subject_fill: each subject step's exposure from a
+// first (metering) frame of it at its white's exposure; W57 takes W57+blue's.
+void meter_subjects(const RenderedSessionOptions& options, const CameraModel& camera, const SkinSceneResponse& scene,
+                    const std::map<std::string, int>& state_of_step, session::SessionPlan& plan, RenderedSession& out) {
+  const double full_scale = camera.max_dn();
+  const session::SubjectMetering metering{options.subject_fill, options.subject_percentile,
+                                          options.max_subject_exposure_ratio};
+  const cv::Size sensor(options.sensor_width, options.sensor_height);
+  const double dark_level = camera.options().black_level_dn / full_scale;
+  std::map<std::string, double> ratio_of_step;
+  for (std::size_t s = 0; s < plan.steps.size(); ++s) {
+    const session::Step& step = plan.steps[s];
+    if (step.role != session::StepRole::kSubject || step.name == "subject_w57") continue;
+    const cv::Mat dn = camera.expose(scene.responses[state_of_step.at(step.name)], SensorLayout::kBayerRGGB, 0, 0,
+                                     step.exposure_us, 0, kMeteringFrameIndex + s);
+    const session::RgbImage frame = binned_rgb(dn, full_scale, step.exposure_us);
+    const session::SubjectMeteringResult r = session::meter_subject_exposure(
+        frame, flat_rgb(frame.width, frame.height, dark_level, 0), metering);
+    out.subject_metering[step.name] = r;
+    ratio_of_step[step.name] = r.exposure_ratio;
+  }
+  if (ratio_of_step.count("subject_w57+blue")) {
+    ratio_of_step["subject_w57"] = ratio_of_step["subject_w57+blue"];
+    out.subject_metering["subject_w57"] = out.subject_metering["subject_w57+blue"];
+  }
+  for (session::Step& step : plan.steps) {
+    auto found = ratio_of_step.find(step.name);
+    if (found == ratio_of_step.end()) continue;
+    step.exposure_us *= found->second;
+    out.exposure_us_of_step[step.name] = step.exposure_us;
+  }
+}
+
+// Each scaled white's linearity check: the white at t_white / g (one noisy frame).
+void add_linearity_whites(const CameraModel& camera, const std::vector<cv::Vec3f>& white_response,
+                          const std::map<std::string, int>& state_of_step, const session::SessionPlan& plan,
+                          session::MethodCaptures& method) {
+  for (session::IlluminatedCapture* capture : {&method.broadband, &method.base, &method.with_blue}) {
+    const double t_white = capture->white.exposure_us, t_subject = capture->subject.exposure_us;
+    if (!(t_white > 0) || std::abs(t_subject - t_white) <= 1e-6 * t_white) continue;
+    const std::string white_step = capture == &method.broadband ? "white_d65"
+                                   : capture == &method.base    ? "white_w57"
+                                                                : "white_w57+blue";
+    const std::size_t s = static_cast<std::size_t>(
+        std::find_if(plan.steps.begin(), plan.steps.end(), [&](const session::Step& x) { return x.name == white_step; }) -
+        plan.steps.begin());
+    const double t_check = t_white * t_white / t_subject;
+    const cv::Mat response(2 * capture->white.height, 2 * capture->white.width, CV_32FC3,
+                           white_response[state_of_step.at(white_step)]);
+    const cv::Mat dn = camera.expose(response, SensorLayout::kBayerRGGB, 0, 0, t_check, 0, kLinearityFrameIndex + s);
+    capture->white_linearity = binned_rgb(dn, camera.max_dn(), t_check);
+  }
+}
+
+}  // namespace
+
 RenderedSession render_session(const RenderedSessionOptions& options) {
   if (std::string error; !options.IsValid(&error)) throw std::invalid_argument("RenderedSessionOptions: " + error);
   RenderedSession out;
@@ -346,7 +439,11 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
     return o;
   }());
   out.library = lab_led_library();
-  const CameraModel camera{CameraModelOptions{}};
+  const CameraModel camera{[&] {
+    CameraModelOptions o;
+    o.nonlinearity_at_full_well = options.camera_nonlinearity;
+    return o;
+  }()};
   const CameraModelOptions& c = camera.options();
   std::optional<PolarisedSphere> sphere;
   spectral::Spectrum films = spectral::Spectrum::constant(1.0);  // T_P·T_A (1: no films)
@@ -443,7 +540,8 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
   if (options.polarised) out.surface_sigma = surface_map_sigma(camera, out.exposure_us_of_step.at("subject_d65"),
                                                                 white_response[state_of_step.at("subject_d65")][1],
                                                                 weights[state_of_step.at("subject_d65")], films);
-  if (!options.cache_dir.empty() && !options.motion.enabled && !options.polarised) {
+  if (!options.cache_dir.empty() && !options.motion.enabled && !options.polarised && options.subject_fill == 0 &&
+      options.camera_nonlinearity == 0) {
     key = cache_key(options, weights, out.exposure_us_of_step, c);
     cached = cache_file(options.cache_dir, key);
     if (load_cached(cached, key, out)) return out;
@@ -470,6 +568,7 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
       cv::resize(*m, *m, cv::Size(), 2, 2, cv::INTER_NEAREST);
   }
   out.scene_seconds = seconds_since(start);
+  if (options.subject_fill > 0) meter_subjects(options, camera, scene, state_of_step, plan, out);
 
   // The plan's timeline: each subject step's exposure mid-point, relative
   // to the first subject step's, and the subject's pose then (per state).
@@ -537,6 +636,7 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
           surface_factor_in_albedo(drivers::Polarisation::kParallel, sphere->light_film, sphere->analyser_film, sphere->cross_leak),
           "the rendered session's films (PolariserFilm, 1:" + std::to_string(options.extinction_ratio_550nm) +
               " at 550 nm, design view)"};
+    if (options.subject_fill > 0) add_linearity_whites(camera, white_response, state_of_step, plan, method);
     return session::build_method_measurement(method);
   };
   start = Clock::now();

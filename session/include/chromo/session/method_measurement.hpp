@@ -39,16 +39,19 @@
 //   σ²(a) ≈ (R + a·S)/(N_s·W²)  (subject)  +  a²·V_w / W²  (white; a² ≤ a)
 //   → read_sigma = √(R/N_s) / W,  shot_coefficient = (S/N_s + V_w) / W²
 // (one frame each: read_sigma = √V_d/W, shot_coefficient = (2·V_w − V_d)/W²).
-// A subject and its white reference must share one exposure (the albedo is
-// their ratio); std::invalid_argument otherwise. The blue-only channel may
+// A subject at g times its white's exposure (ExposureLinearity below):
+//   σ²(a) = (R + g·a·S)/(N_s·g²·W²) + a²·V_w/W²,  the white's a² taken as a/g
+//   (a pixel that does not clip has a ≲ 1/g; at g = 1 this is the a² ≤ a above)
+//   → read_sigma = √(R/N_s) / (g·W),  shot_coefficient = (S/N_s + V_w) / (g·W²),
+// saturation_albedo = ρ·(1 − dark)/(g·W). The blue-only channel may
 // combine two exposures t_mix and t_W57 (RgbImage::exposure_us): the W57
 // capture's signals are scaled by s = t_mix/t_W57 onto the mix's exposure
 // (a camera linear in exposure above the dark; s = 1 when both share one
 // exposure, as the standard plans do), and with D = W_mix,B − s·W_W57,B, the
 // subject's shot noise at albedo 0.5 folded into read_sigma as
 // measurement.hpp asks:
-//   read_sigma² = [(R + 0.5·S_mix)/N_s,mix + s²·(R + 0.5·S_W57)/N_s,W57] / D²,
-//   shot_coefficient = (V_w,mix + s²·V_w,W57) / D².
+//   read_sigma² = [(R + 0.5·g_mix·S_mix)/(N_s,mix·g_mix²) + s²·(R + 0.5·g_W57·S_W57)/(N_s,W57·g_W57²)] / D²,
+//   shot_coefficient = (V_w,mix + s²·V_w,W57) / (g_mix·D²).
 // The dark mean's own noise (a fixed offset per pixel, common to all
 // captures) is not part of the model.
 // Saturation: a pixel whose raw subject value is at or above 0.999 of full
@@ -87,11 +90,69 @@ struct IlluminatedCapture {
   std::string name;               // "D65'", "W57", "W57+blue"
   spectral::Spectrum illuminant;  // what the sphere emitted (any common scale)
   RgbImage white, subject;        // the white reference target and the subject under it
+  // The white target under the same light at a second exposure (the subject
+  // at another exposure than its white: the linearity check, below). Absent:
+  // the camera's linearity in exposure is assumed (ExposureLinearity::checked false).
+  std::optional<RgbImage> white_linearity;
 };
+
+// Exposure per capture (docs/estimation.md "Exposure per capture"): a subject
+// may be taken at g = t_subject / t_white times its white's exposure (a skin
+// 2-5× darker than the white then fills the sensor as the white does). The
+// white is not re-taken at the subject's exposure (it would clip): its signal
+// is scaled by the exposure ratio,
+//   albedo = ρ · (subject − dark) / (g · (white − dark)),
+// which holds for a camera linear in exposure above the dark (the virtual
+// lab's: no dark current, so one dark serves every exposure; a camera with
+// dark current needs a dark per exposure, which this builder does not take).
+// The check: the white at a second exposure t2 (white_linearity, e.g. t_white/g,
+// so its signal spans the same range of the sensor as the subject's against
+// the white); the signal ratio mean(white − dark)/mean(white_linearity − dark)
+// over the white's footprint, per channel with signal above 1% of full scale
+// in both, must be t_white/t2 within linearity_tolerance (relative), else
+// std::invalid_argument naming the capture, the exposures and both ratios.
+inline constexpr double kMaxSubjectExposureRatio = 64;
+inline constexpr double kDefaultLinearityTolerance = 0.02;
+struct ExposureLinearity {
+  std::string capture;
+  double subject_exposure_ratio = 1;  // g = t_subject / t_white
+  double exposure_ratio = 0;          // t_white / t2 of the check (0: not checked)
+  double signal_ratio = 0;            // its worst channel's signal ratio
+  double deviation = 0;               // signal_ratio / exposure_ratio − 1 (worst channel)
+  bool checked = false;
+};
+// The check alone (capture.white_linearity must be present): throws as above.
+ExposureLinearity check_exposure_linearity(const IlluminatedCapture& capture, const RgbImage& dark,
+                                           double tolerance = kDefaultLinearityTolerance);
+
+// Metering the subject (exposure per capture): from a frame of the subject at
+// its white's exposure, the exposure ratio g that puts the `percentile` of
+// the subject's pixels in its brightest channel (the channel whose percentile
+// is highest) at `fill` of full scale, the camera taken as linear above the
+// dark: g = (fill − dark) / (level − dark), clamped to [1, max_ratio] (never
+// shorter than the white's, at most max_ratio longer). Pixels above the
+// percentile may clip: build_method_measurement flags a pixel saturated where
+// any raw subject value reaches 0.999 of full scale, whatever the exposure.
+// Pixels outside `mask` (when given: e.g. the white's footprint) are not counted.
+struct SubjectMetering {
+  double fill = 0.85;        // (0, 1)
+  double percentile = 0.99;  // (0, 1]
+  double max_ratio = 8;      // [1, kMaxSubjectExposureRatio]
+};
+struct SubjectMeteringResult {
+  double exposure_ratio = 1;
+  int channel = 0;         // the brightest channel (R, G, B)
+  double level = 0;        // its percentile, share of full scale (dark included)
+  bool capped = false;     // max_ratio reached before fill
+};
+// Throws std::invalid_argument naming the field for bad options or images.
+SubjectMeteringResult meter_subject_exposure(const RgbImage& subject, const RgbImage& dark, const SubjectMetering& options,
+                                             const std::vector<std::uint8_t>& mask = {});
 
 struct MethodCaptures {
   spectral::CameraSensitivity camera;
   double white_reflectance = 0.99;  // ρ_white of the reference target
+  double linearity_tolerance = kDefaultLinearityTolerance;
   RgbImage dark;
   IlluminatedCapture broadband;     // D65'
   IlluminatedCapture base;          // W57 alone
@@ -140,6 +201,9 @@ struct MethodMeasurement {
     std::uint32_t frames = 1;
   };
   std::vector<CaptureExposure> exposures;
+  // Per capture (D65', W57, W57+blue[, D65' parallel] or the plan's): the
+  // subject's exposure ratio and its linearity check.
+  std::vector<ExposureLinearity> linearity;
   // 1 where the pixel is outside the camera's footprint of a white reference
   // it needs (white_reference_footprint): no albedo there (the estimator's
   // maps are NaN and flagged no_reference, maps::estimate_method_captures).
@@ -206,6 +270,7 @@ MethodMeasurement build_method_measurement(const MethodCaptures& captures, const
 struct PlanCaptures {
   spectral::CameraSensitivity camera;
   double white_reflectance = 0.99;
+  double linearity_tolerance = kDefaultLinearityTolerance;
   RgbImage dark;
   std::vector<IlluminatedCapture> captures;
 };

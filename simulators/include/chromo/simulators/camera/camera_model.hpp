@@ -6,7 +6,8 @@
 //
 //   response_c  = Σ_λ S_c(λ)·E(λ)·a(λ)·Δλ / Σ_λ S_G(λ)·Δλ      (c = R, G, B; mono = mean of R, G, B)
 //   electrons   = quantum_scale_e_per_us · exposure_us · response_c
-//   read out    = min(Poisson(electrons), full_well_e)  + Normal(0, read_noise_e)
+//   read out    = compress(min(Poisson(electrons), full_well_e)) + Normal(0, read_noise_e)
+//   compress(e) = e · (1 − nonlinearity_at_full_well · e / full_well_e)   (0: a linear sensor, the default)
 //   DN          = clamp(round(black_level_dn + read_out / e_per_dn), 0, 2^adc_bits − 1)
 //   e_per_dn    = gain_e_per_dn / 10^(gain_db / 20)
 //
@@ -44,6 +45,10 @@ struct CameraModelOptions {
   double gain_e_per_dn = 20000.0 / 4095.0;  // at 0 dB: full well ≈ full ADC scale
   int adc_bits = 12;
   double black_level_dn = 16;
+  // A sensor whose output compresses towards full well (0-0.5; 0 = linear):
+  // at full well the signal reads that share short. What an exposure-ratio
+  // linearity check must catch (docs/estimation.md "Exposure per capture").
+  double nonlinearity_at_full_well = 0;
   std::uint64_t seed = 1;  // frame k's noise is a function of (seed, k) only
   int readout_threads = 0;  // threads reading a frame's bands out (0 = OpenMP's default); never changes the frame
 
@@ -90,6 +95,7 @@ class CameraModel {
     double electrons_per_response, e_per_dn, max_dn;
   };
   Readout readout(double exposure_us, double gain_db) const;
+  double compressed_e(double electrons) const;  // the nonlinearity (identity when 0)
 
   CameraModelOptions options_;
   double green_norm_;  // Σ S_G Δλ

@@ -88,6 +88,21 @@ struct RenderedSessionOptions {
   double blue_ratio = 0;        // > 0: the mixes "w57+blue:R" and "w57:R" (0: "w57+blue", "w57")
   int frames_per_capture = 1;   // frames of every subject step, averaged by the capture builder (1-64)
   int reference_frames = 0;     // frames of the dark and white steps (0: frames_per_capture; 0-64)
+  // Subject exposure metering (docs/estimation.md "Exposure per capture";
+  // the standard plan only; needs exposure_per_capture). > 0: each subject is
+  // metered on a first frame of it at its white's exposure (its own noisy
+  // frame, binned 2×2, frame index apart from the plan's):
+  // session::meter_subject_exposure puts the subject_percentile of its
+  // brightest channel at subject_fill of full scale, the ratio to the white's
+  // exposure in [1, max_subject_exposure_ratio]; W57 takes W57+blue's ratio
+  // (the blue-only difference at one exposure). Each white so scaled is
+  // checked for linearity against the white at t_white / g
+  // (IlluminatedCapture::white_linearity). The cache is not used.
+  double subject_fill = 0;          // 0 (off) or (0.05, 0.99)
+  double subject_percentile = 0.99;  // (0, 1]
+  double max_subject_exposure_ratio = 8;  // [1, 64]
+  // The lab camera's nonlinearity (CameraModelOptions::nonlinearity_at_full_well; 0: linear).
+  double camera_nonlinearity = 0;
   bool noise_free = true;    // also render the noise-free chain
   int threads = 2;
   int band_rows = 128;       // scene rows rendered at a time
@@ -188,6 +203,7 @@ struct RenderedSession {
   std::map<std::string, drivers::DriveLevels> mixes;  // per state: "d65", "w57", "w57+blue" (keys without ":R"); "W57" ... "B" (alone)
   double exposure_us = 0;  // the single exposure: the brightest state's white at white_fill (every step's in the standard plan unless exposure_per_capture)
   std::map<std::string, double> exposure_us_of_step;  // each step of the plan
+  std::map<std::string, session::SubjectMeteringResult> subject_metering;  // per subject step (subject_fill > 0)
   std::map<std::string, std::array<double, 3>> white_response;  // CameraModel response of the white target per state
   double scene_seconds = 0, camera_seconds = 0, measurement_seconds = 0;  // wall clock per stage (of the render)
   bool loaded_from_cache = false;
