@@ -96,7 +96,7 @@ struct IlluminatedCapture {
   std::optional<RgbImage> white_linearity;
 };
 
-// Exposure per capture (docs/estimation.md "Exposure per capture"): a subject
+// Exposure per capture (docs/daemon.md "Subject exposure"): a subject
 // may be taken at g = t_subject / t_white times its white's exposure (a skin
 // 2-5× darker than the white then fills the sensor as the white does). The
 // white is not re-taken at the subject's exposure (it would clip): its signal

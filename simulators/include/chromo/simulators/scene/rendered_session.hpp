@@ -88,7 +88,7 @@ struct RenderedSessionOptions {
   double blue_ratio = 0;        // > 0: the mixes "w57+blue:R" and "w57:R" (0: "w57+blue", "w57")
   int frames_per_capture = 1;   // frames of every subject step, averaged by the capture builder (1-64)
   int reference_frames = 0;     // frames of the dark and white steps (0: frames_per_capture; 0-64)
-  // Subject exposure metering (docs/estimation.md "Exposure per capture";
+  // Subject exposure metering (docs/daemon.md "Subject exposure";
   // the standard plan only; needs exposure_per_capture). > 0: each subject is
   // metered on a first frame of it at its white's exposure (its own noisy
   // frame, binned 2×2, frame index apart from the plan's):
