@@ -461,7 +461,7 @@ double median_of_finite(const std::vector<float>& values) {
 
 // The cross captures' albedo (D65', and W57 and W57+blue on its grid) less
 // the surface light they keep above the sheen's: c_cross,k,c·(S_c − F_c)
-// where S_G stands out (MethodMeasurement::SurfaceCorrection). Where the parallel capture is saturated
+// where S_G stands out (SurfaceCorrection). Where the parallel capture is saturated
 // in a channel its S_c is a lower bound: that channel takes S_G instead (the
 // surface reflection is flat in wavelength to about 1% for η = 1.4).
 void remove_surface_light(MethodMeasurement& m, const MethodCaptures& captures,

@@ -186,6 +186,17 @@ struct Photograph {
 // skin's pixels).
 inline constexpr double kSurfaceCorrectionSigmas = 3.0;
 
+// What a polarised measurement's surface correction used
+// (MethodMeasurement::surface_correction). At namespace scope: clang rejects
+// std::optional::emplace() of a nested struct with member initialisers.
+struct SurfaceCorrection {
+  std::string source;                       // SurfaceFactors::source
+  std::array<double, 3> parallel_minus_cross{};  // c_parallel,c − c_cross,c of D65' (the surface maps' divisor)
+  std::array<std::array<double, 3>, 3> cross_factor{};  // c_cross,c of D65', W57, W57+blue
+  std::array<double, 3> sheen_reference{};  // per channel: median of S_c, capped at F(0°)
+  std::size_t corrected_pixels = 0;         // where S_c itself was subtracted
+};
+
 struct MethodMeasurement {
   estimation::MeasurementSet set;   // D65'.R, D65'.G, D65'.B, blue.B
   int width = 0, height = 0;
@@ -232,13 +243,6 @@ struct MethodMeasurement {
   // captures are as before: skin's estimate is unchanged (the sheen leaves
   // c_cross·F, 0.0017 albedo in B at 1:200, on every pixel alike). The
   // photographs stay as captured.
-  struct SurfaceCorrection {
-    std::string source;                       // SurfaceFactors::source
-    std::array<double, 3> parallel_minus_cross{};  // c_parallel,c − c_cross,c of D65' (the surface maps' divisor)
-    std::array<std::array<double, 3>, 3> cross_factor{};  // c_cross,c of D65', W57, W57+blue
-    std::array<double, 3> sheen_reference{};  // per channel: median of S_c, capped at F(0°)
-    std::size_t corrected_pixels = 0;         // where S_c itself was subtracted
-  };
   std::optional<SurfaceCorrection> surface_correction;
   bool polarised() const { return !surface.empty(); }
 };
