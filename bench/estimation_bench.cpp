@@ -58,6 +58,7 @@
 #include <unordered_set>
 #include <vector>
 
+#include "guarded_main.hpp"
 #include "chromo/simulators/scene/rendered_session.hpp"
 #include "chromo/estimation/estimator.hpp"
 #include "chromo/files/gnuplot_chart.hpp"
@@ -1201,19 +1202,4 @@ static int bench_main(int argc, char** argv) {
   return 0;
 }
 
-// No exception leaves a program (issue 19): std::invalid_argument (bad input)
-// exits 2, anything else 1, each with a message.
-int main(int argc, char** argv) {
-  try {
-    return bench_main(argc, argv);
-  } catch (const std::invalid_argument& e) {
-    std::cerr << "estimation_bench: " << e.what() << "\n";
-    return 2;
-  } catch (const std::exception& e) {
-    std::cerr << "estimation_bench: " << e.what() << "\n";
-    return 1;
-  } catch (...) {
-    std::cerr << "estimation_bench: unknown exception\n";
-    return 1;
-  }
-}
+int main(int argc, char** argv) { return chromo::bench::guarded_main("estimation_bench", bench_main, argc, argv); }

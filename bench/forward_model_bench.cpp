@@ -18,6 +18,7 @@
 #include <random>
 #include <vector>
 
+#include "guarded_main.hpp"
 #include "chromo/estimation/layer_optics.hpp"
 #include "chromo/estimation/skin_model.hpp"
 #include "chart.hpp"
@@ -133,19 +134,4 @@ static int bench_main(int argc, char** argv) {
   return 0;
 }
 
-// No exception leaves a program (issue 19): std::invalid_argument (bad input)
-// exits 2, anything else 1, each with a message.
-int main(int argc, char** argv) {
-  try {
-    return bench_main(argc, argv);
-  } catch (const std::invalid_argument& e) {
-    std::cerr << "forward_model_bench: " << e.what() << "\n";
-    return 2;
-  } catch (const std::exception& e) {
-    std::cerr << "forward_model_bench: " << e.what() << "\n";
-    return 1;
-  } catch (...) {
-    std::cerr << "forward_model_bench: unknown exception\n";
-    return 1;
-  }
-}
+int main(int argc, char** argv) { return chromo::bench::guarded_main("forward_model_bench", bench_main, argc, argv); }

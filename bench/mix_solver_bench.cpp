@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "guarded_main.hpp"
 #include "chromo/calibration/mix_solver.hpp"
 #include "chromo/files/gnuplot_chart.hpp"
 #include "chromo/spectral/colorimetry.hpp"
@@ -127,19 +128,4 @@ static int bench_main(int argc, char** argv) {
   return 0;
 }
 
-// No exception leaves a program (issue 19): std::invalid_argument (bad input)
-// exits 2, anything else 1, each with a message.
-int main(int argc, char** argv) {
-  try {
-    return bench_main(argc, argv);
-  } catch (const std::invalid_argument& e) {
-    std::cerr << "mix_solver_bench: " << e.what() << "\n";
-    return 2;
-  } catch (const std::exception& e) {
-    std::cerr << "mix_solver_bench: " << e.what() << "\n";
-    return 1;
-  } catch (...) {
-    std::cerr << "mix_solver_bench: unknown exception\n";
-    return 1;
-  }
-}
+int main(int argc, char** argv) { return chromo::bench::guarded_main("mix_solver_bench", bench_main, argc, argv); }

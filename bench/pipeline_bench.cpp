@@ -69,6 +69,7 @@
 
 #include <fmt/format.h>
 
+#include "guarded_main.hpp"
 #include "chart.hpp"
 #include "chromo/daemon/frame_pipeline.hpp"
 #include "chromo/files/gnuplot_chart.hpp"
@@ -702,19 +703,4 @@ static int bench_main(int argc, char** argv) {
   return 0;
 }
 
-// No exception leaves a program (issue 19): std::invalid_argument (bad input)
-// exits 2, anything else 1, each with a message.
-int main(int argc, char** argv) {
-  try {
-    return bench_main(argc, argv);
-  } catch (const std::invalid_argument& e) {
-    std::cerr << "pipeline_bench: " << e.what() << "\n";
-    return 2;
-  } catch (const std::exception& e) {
-    std::cerr << "pipeline_bench: " << e.what() << "\n";
-    return 1;
-  } catch (...) {
-    std::cerr << "pipeline_bench: unknown exception\n";
-    return 1;
-  }
-}
+int main(int argc, char** argv) { return chromo::bench::guarded_main("pipeline_bench", bench_main, argc, argv); }

@@ -30,6 +30,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "guarded_main.hpp"
 #include "chromo/simulators/scene/rendered_session.hpp"
 #include "chromo/estimation/estimator.hpp"
 #include "chromo/estimation/forward_table.hpp"
@@ -233,19 +234,4 @@ static int bench_main(int argc, char** argv) {
   return 0;
 }
 
-// No exception leaves a program (issue 19): std::invalid_argument (bad input)
-// exits 2, anything else 1, each with a message.
-int main(int argc, char** argv) {
-  try {
-    return bench_main(argc, argv);
-  } catch (const std::invalid_argument& e) {
-    std::cerr << "spatial_flags_bench: " << e.what() << "\n";
-    return 2;
-  } catch (const std::exception& e) {
-    std::cerr << "spatial_flags_bench: " << e.what() << "\n";
-    return 1;
-  } catch (...) {
-    std::cerr << "spatial_flags_bench: unknown exception\n";
-    return 1;
-  }
-}
+int main(int argc, char** argv) { return chromo::bench::guarded_main("spatial_flags_bench", bench_main, argc, argv); }
