@@ -12,7 +12,7 @@ int FrameLevels::brightest_channel() const {
 }
 
 FrameLevels frame_levels(std::span<const std::uint8_t> samples, int width, int height, drivers::PixelFormat format,
-                         FrameRegion region) {
+                         FrameRegion region, double high_percentile) {
   const auto& info = drivers::pixel_format_info(format);
   if (width <= 0 || height <= 0 || samples.size() != info.frame_bytes(width, height))
     throw std::invalid_argument("metering frame: " + std::to_string(samples.size()) + " bytes for a " +
@@ -52,6 +52,7 @@ FrameLevels frame_levels(std::span<const std::uint8_t> samples, int width, int h
         if ((below += h[v]) > wanted) return v;
       return top;
     };
+    levels.high[c] = static_cast<double>(percentile(std::clamp(high_percentile, 0.0, 1.0))) / full;
     std::uint32_t from = 0;
     if (region == FrameRegion::kLit) {
       const std::uint32_t low = percentile(kLitLowPercentile), high = percentile(kLitHighPercentile);

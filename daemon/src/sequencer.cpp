@@ -8,6 +8,7 @@
 
 #include "chromo/daemon/exposure_metering.hpp"
 #include "chromo/drivers/device_error.hpp"
+#include "chromo/session/method_measurement.hpp"
 
 namespace chromo::daemon {
 
@@ -150,6 +151,7 @@ class Run {
         }
       }
       if (step.meter_white_share > 0 && !meter(step, static_cast<int>(index), levels)) return cancelled();
+      if (step.subject_fill > 0 && !meter_subject(step, static_cast<int>(index))) return cancelled();
       if (!ensure_exposure(exposures_of(step))) return cancelled();
       for (std::uint32_t frame = 0; frame < step.frames_per_camera; ++frame) {
         if (c_.control->cancel_requested()) return cancelled();
@@ -295,7 +297,8 @@ class Run {
       drivers::Frame& frame = frames[k];
       if (metering) {
         try {
-          collector.metered = frame_levels(frame.data, frame.width, frame.height, frame.pixel_format, FrameRegion::kLit);
+          collector.metered = frame_levels(frame.data, frame.width, frame.height, frame.pixel_format, FrameRegion::kLit,
+                                           metering_percentile_);
         } catch (const std::exception& failure) {
           throw std::runtime_error("camera \"" + collector.camera->config.name + "\": " + failure.what());
         }
@@ -465,28 +468,86 @@ class Run {
     }
   }
 
-  // The exposure of each camera for a step: metered (its own or exposure_from's), else the plan's.
+  // The exposure of each camera for a step: metered (its own or exposure_from's), else the plan's;
+  // a subject-metered step's multiplied by its ratio once metered (before: its white's, the metering frame's).
   std::vector<double> exposures_of(const session::Step& step) const {
     const std::string& metered_at = step.meter_white_share > 0 ? step.name : step.exposure_from;
     if (!metered_at.empty()) {
       auto found = metered_.find(metered_at);
       if (found == metered_.end())
         throw std::logic_error("step " + step.name + ": no exposure metered at step " + metered_at);
-      return found->second;
+      std::vector<double> exposure = found->second;
+      const std::string& ratio_at = step.subject_fill > 0 ? step.name : step.subject_ratio_from;
+      if (auto ratio = subject_ratio_.find(ratio_at); !ratio_at.empty() && ratio != subject_ratio_.end())
+        for (std::size_t k = 0; k < exposure.size(); ++k) exposure[k] *= ratio->second[k];
+      return exposure;
     }
     return std::vector<double>(collectors_.size(), step.exposure_us);
   }
 
-  // Every step's exposure as far as known (metered steps: the longest over the cameras).
+  // Every step's exposure as far as known (metered steps: the longest over the
+  // cameras; a subject-metered step not yet metered at its maximum ratio: the
+  // hazard check before the first subject bounds the dose the metering may reach).
   std::map<std::string, double> known_exposures() const {
     std::map<std::string, double> out;
     for (const auto& step : c_.plan.steps) {
       const std::string& metered_at = step.meter_white_share > 0 ? step.name : step.exposure_from;
       auto found = metered_.find(metered_at);
-      if (!metered_at.empty() && found != metered_.end())
-        out[step.name] = *std::max_element(found->second.begin(), found->second.end());
+      if (metered_at.empty() || found == metered_.end()) continue;
+      const std::vector<double> exposure = exposures_of(step);
+      double longest = *std::max_element(exposure.begin(), exposure.end());
+      const std::string& ratio_at = step.subject_fill > 0 ? step.name : step.subject_ratio_from;
+      if (!ratio_at.empty() && !subject_ratio_.count(ratio_at)) longest *= max_subject_ratio(step);
+      out[step.name] = longest;
     }
     return out;
+  }
+
+  double max_subject_ratio(const session::Step& step) const {
+    if (step.subject_fill > 0) return step.max_subject_exposure_ratio;
+    for (const auto& s : c_.plan.steps)
+      if (s.name == step.subject_ratio_from) return s.max_subject_exposure_ratio;
+    return 1;
+  }
+
+  // Meters the subject of a step (Step::subject_fill): one frame of the
+  // subject at its white's exposure, per camera the ratio g that puts its
+  // brightest channel's subject_percentile at subject_fill of full scale
+  // (session::subject_exposure_ratio, the dark level subtracted); sets
+  // subject_ratio_[step.name].
+  bool meter_subject(const session::Step& step, int index) {
+    if (!ensure_exposure(exposures_of(step))) return false;
+    metering_percentile_ = step.subject_percentile;
+    session::FrameRecord pending;
+    pending.step = step.name;
+    pending.step_index = index;
+    pending.role = step.role;
+    const bool taken = take_frame(step, index, 0, pending, true);
+    metering_percentile_ = kWhiteMeteringPercentile;
+    if (!taken) return false;
+    std::vector<double> ratio(collectors_.size(), 1.0);
+    const std::vector<double> white = exposures_of(step);
+    for (std::size_t k = 0; k < collectors_.size(); ++k) {
+      const FrameLevels& seen = collectors_[k]->metered;
+      int brightest = 0;
+      for (int c = 1; c < 3; ++c)
+        if (seen.high[c] - collectors_[k]->dark[c] > seen.high[brightest] - collectors_[k]->dark[brightest]) brightest = c;
+      const double dark = collectors_[k]->dark[brightest];
+      ratio[k] = session::subject_exposure_ratio(seen.high[brightest], dark, step.subject_fill,
+                                                 step.max_subject_exposure_ratio);
+      c_.journal->append({{"type", "subject_metered"},
+                          {"step", step.name},
+                          {"camera", collectors_[k]->camera->config.name},
+                          {"white_exposure_us", white[k]},
+                          {"exposure_us", white[k] * ratio[k]},
+                          {"exposure_ratio", ratio[k]},
+                          {"channel", brightest},
+                          {"percentile", step.subject_percentile},
+                          {"level", seen.high[brightest]},
+                          {"target_fill", step.subject_fill}});
+    }
+    subject_ratio_[step.name] = ratio;
+    return true;
   }
 
   // Meters the white of a step (see sequencer.hpp): sets metered_[step.name].
@@ -725,6 +786,9 @@ class Run {
   std::uint64_t expected_ = 0, frames_done_ = 0;
   std::uint64_t triggers_fired_ = 0, retakes_ = 0, discarded_frames_ = 0;
   std::map<std::string, std::vector<double>> metered_;  // metered white step → exposure per camera
+  std::map<std::string, std::vector<double>> subject_ratio_;  // subject-metered step → g per camera
+  static constexpr double kWhiteMeteringPercentile = 0.99;
+  double metering_percentile_ = kWhiteMeteringPercentile;  // FrameLevels::high of the next metering frame
   std::vector<double> last_metered_exposure_;
   std::optional<std::array<double, 3>> last_metered_prediction_;
   double last_metered_share_ = 1;

@@ -143,6 +143,28 @@ bool SessionPlan::IsValid(std::string* error) const {
         return fail(field + "exposure_from: \"" + step.exposure_from.substr(0, 80) +
                     "\" is not an earlier metered white step");
     }
+    if (!(step.subject_fill >= 0 && step.subject_fill < 1))
+      return fail(field + "subject_fill: must be in (0, 1) (0: not metered), got " + std::to_string(step.subject_fill));
+    if (!(step.subject_percentile > 0 && step.subject_percentile <= 1))
+      return fail(field + "subject_percentile: must be in (0, 1], got " + std::to_string(step.subject_percentile));
+    if (!(step.max_subject_exposure_ratio >= 1 && step.max_subject_exposure_ratio <= 64))
+      return fail(field + "max_subject_exposure_ratio: must be in [1, 64], got " +
+                  std::to_string(step.max_subject_exposure_ratio));
+    if (step.subject_metered()) {
+      if (step.role != StepRole::kSubject || step.exposure_from.empty())
+        return fail(field + "subject_fill: only a subject step that takes its white's metered exposure (exposure_from) "
+                            "is subject-metered");
+      if (step.subject_fill > 0 && !step.subject_ratio_from.empty())
+        return fail(field + "subject_ratio_from: a subject-metered step meters its own ratio");
+    }
+    if (!step.subject_ratio_from.empty()) {
+      bool found = false;
+      for (std::size_t j = 0; j < i; ++j)
+        found = found || (steps[j].name == step.subject_ratio_from && steps[j].subject_fill > 0);
+      if (!found)
+        return fail(field + "subject_ratio_from: \"" + step.subject_ratio_from.substr(0, 80) +
+                    "\" is not an earlier subject-metered step");
+    }
     if (step.metered() && timing == Timing::kHardware)
       return fail(field + "meter_white_share: exposure metering needs software timing (a hardware-timed plan arms "
                           "every state before the first frame)");
@@ -209,9 +231,25 @@ SessionPlan standard_plan(const StandardPlanOptions& options) {
     step("white_w57", StepRole::kWhite, mix(w57));
     step("white_w57+blue", StepRole::kWhite, mix(w57_blue));
   }
+  const bool subject_metered = metered && options.subject_fill > 0;
   step("subject_d65", StepRole::kSubject, mix("d65"), "Place the subject", "white_d65");
-  step("subject_w57", StepRole::kSubject, mix(w57), {}, "white_w57+blue");
-  step("subject_w57+blue", StepRole::kSubject, mix(w57_blue), {}, "white_w57+blue");
+  if (subject_metered) {  // W57 takes the ratio metered on the subject under W57+blue (brighter in B)
+    step("subject_w57+blue", StepRole::kSubject, mix(w57_blue), {}, "white_w57+blue");
+    step("subject_w57", StepRole::kSubject, mix(w57), {}, "white_w57+blue");
+    for (Step& s : plan.steps) {
+      if (s.role != StepRole::kSubject) continue;
+      if (s.name == "subject_w57") {
+        s.subject_ratio_from = "subject_w57+blue";
+        continue;
+      }
+      s.subject_fill = options.subject_fill;
+      s.subject_percentile = options.subject_percentile;
+      s.max_subject_exposure_ratio = options.max_subject_exposure_ratio;
+    }
+  } else {
+    step("subject_w57", StepRole::kSubject, mix(w57), {}, "white_w57+blue");
+    step("subject_w57+blue", StepRole::kSubject, mix(w57_blue), {}, "white_w57+blue");
+  }
   if (options.polarised) {
     for (Step& s : plan.steps)
       if (s.role != StepRole::kDark) s.polarisation = drivers::Polarisation::kCross;
@@ -261,6 +299,12 @@ nlohmann::json to_json(const SessionPlan& plan) {
     if (!step.prompt.empty()) s["prompt"] = step.prompt;
     if (step.meter_white_share > 0) s["meter_white_share"] = step.meter_white_share;
     if (!step.exposure_from.empty()) s["exposure_from"] = step.exposure_from;
+    if (step.subject_fill > 0) {
+      s["subject_fill"] = step.subject_fill;
+      s["subject_percentile"] = step.subject_percentile;
+      s["max_subject_exposure_ratio"] = step.max_subject_exposure_ratio;
+    }
+    if (!step.subject_ratio_from.empty()) s["subject_ratio_from"] = step.subject_ratio_from;
     if (step.polarisation != drivers::Polarisation::kUnpolarised)
       s["polarisation"] = drivers::polarisation_name(step.polarisation);
     switch (step.illumination.kind) {
@@ -316,6 +360,17 @@ SessionPlan plan_from_json(const nlohmann::json& json) {
         step.meter_white_share = share.get<double>();
       }
       step.exposure_from = s.value("exposure_from", "");
+      for (auto [key, value] : {std::pair<const char*, double*>{"subject_fill", &step.subject_fill},
+                                {"subject_percentile", &step.subject_percentile},
+                                {"max_subject_exposure_ratio", &step.max_subject_exposure_ratio}}) {
+        if (!s.contains(key)) continue;
+        const auto& number = s.at(key);
+        if (!number.is_number() || !std::isfinite(number.get<double>()))
+          throw std::invalid_argument(std::string("session plan: ") + key + ": " + number.dump().substr(0, 64) +
+                                      " is not a number");
+        *value = number.get<double>();
+      }
+      step.subject_ratio_from = s.value("subject_ratio_from", "");
       if (s.contains("polarisation")) {
         const std::string text = s.at("polarisation").get<std::string>();
         const std::optional<drivers::Polarisation> polarisation = parse_polarisation(text);

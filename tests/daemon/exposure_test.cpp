@@ -5,10 +5,13 @@
 // beyond the hazard limit is refused before anything is captured.
 #include "test_lab.hpp"
 
+#include <array>
 #include <cmath>
 #include <fstream>
 
 #include "chromo/session/journal.hpp"
+#include "chromo/session/method_measurement.hpp"
+#include "chromo/session/session_captures.hpp"
 
 namespace chromo::daemon {
 namespace {
@@ -190,6 +193,84 @@ TEST(BlueLightHazard, PlanBeyondTheLimitIsRefusedAndNothingIsCaptured) {
                std::any_of(fs::directory_iterator(lab.config.sessions_dir), fs::directory_iterator(),
                            [](const fs::directory_entry& e) { return fs::exists(e.path() / "journal.jsonl"); }));
   EXPECT_DOUBLE_EQ(lab.emitted()[0], 0.0);  // the LEDs never lit
+}
+
+
+namespace subject_metering {
+
+// One standard session on the lab; its stored frames through `chromo
+// estimate`'s path (read_session_captures, build_method_measurement).
+struct MeteredRun {
+  std::map<std::string, double> exposure;  // per step, from the frame records
+  session::MethodMeasurement measurement;
+  std::vector<nlohmann::json> subject_metered;  // the journal's records
+};
+
+MeteredRun run_standard(Daemon& daemon, double subject_fill) {
+  session::StandardPlanOptions options = daemon.standard_plan_options();
+  options.exposure_us = 2000;  // the first guess
+  options.settle_ms = 0;
+  options.meter_white_share = 0.7;
+  options.blue_ratio = 4;
+  options.reference_frames = 4;
+  options.subject_fill = subject_fill;
+  const session::SessionPlan plan = session::standard_plan(options);
+  auto started = daemon.start_session(plan, "forearm");
+  auto final = wait_for(daemon, started.id, [](const session::OperationRecord& r) { return session::is_final(r.state); },
+                        std::chrono::seconds(180));
+  EXPECT_EQ(final.state, session::OperationState::kSucceeded) << final.error;
+  MeteredRun run;
+  auto info = daemon.session(started.id);
+  if (!info) return run;
+  for (const auto& frame : info->frames) run.exposure[frame.step] = frame.exposure_us;
+  for (const auto& record : session::read_journal(fs::path(final.folder) / "journal.jsonl").records)
+    if (record.value("type", "") == "subject_metered") run.subject_metered.push_back(record);
+  const auto sources = session::resolve_capture_sources((fs::path(final.folder) / "results" / "led_library.json").string(),
+                                                        "builtin:nikon_d5100", 0.99);
+  run.measurement = session::build_method_measurement(session::read_session_captures(final.folder, sources));
+  return run;
+}
+
+}  // namespace subject_metering
+
+// Subject exposure metering on the live path (capture.subject_fill): the
+// sequencer meters each subject on one frame at its white's exposure, the
+// frames record the longer exposure, W57 takes W57+blue's ratio, and the
+// albedo of the cells that clip in neither session agrees with the session
+// whose subjects are at their whites' exposures.
+TEST(ExposurePerCapture, SubjectMeteringTakesTheSubjectLongerAndKeepsItsAlbedo) {
+  TestLab lab("subject-metered");
+  auto daemon = lab.daemon();
+  const subject_metering::MeteredRun one = subject_metering::run_standard(*daemon, 0);
+  const subject_metering::MeteredRun metered = subject_metering::run_standard(*daemon, 0.85);
+  ASSERT_EQ(metered.subject_metered.size(), 2u);  // D65' and W57+blue; W57 takes W57+blue's
+  const double g_d65 = metered.exposure.at("subject_d65") / metered.exposure.at("white_d65");
+  const double g_blue = metered.exposure.at("subject_w57+blue") / metered.exposure.at("white_w57+blue");
+  std::printf("g d65 %.4f, w57+blue %.4f, w57 %.4f\n", g_d65, g_blue,
+              metered.exposure.at("subject_w57") / metered.exposure.at("white_w57"));
+  for (const auto& r : metered.subject_metered) std::printf("%s\n", r.dump().c_str());
+  EXPECT_NEAR(one.exposure.at("subject_d65"), one.exposure.at("white_d65"), 1e-9);
+  EXPECT_NEAR(metered.exposure.at("subject_w57") / metered.exposure.at("white_w57"), g_blue, 1e-9);
+  for (const auto& r : metered.subject_metered)
+    EXPECT_NEAR(r.value("exposure_us", 0.0), metered.exposure.at(r.value("step", "")), 1e-6) << r.dump();
+  const auto& a = one.measurement;
+  const auto& b = metered.measurement;
+  ASSERT_EQ(a.measured.size(), b.measured.size());
+  std::array<double, 4> sum_a{}, sum_b{};
+  std::size_t cells = 0;
+  for (std::size_t i = 0; i < a.measured.size() / 4; ++i) {
+    bool usable = true;
+    for (int c = 0; c < 4; ++c)
+      usable = usable && std::isfinite(a.measured[i * 4 + c]) && std::isfinite(b.measured[i * 4 + c]) &&
+               a.measured[i * 4 + c] < 0.9 * a.set.channels[c].noise.saturation_albedo &&
+               b.measured[i * 4 + c] < 0.9 * b.set.channels[c].noise.saturation_albedo;
+    if (!usable) continue;
+    ++cells;
+    for (int c = 0; c < 4; ++c) sum_a[c] += a.measured[i * 4 + c], sum_b[c] += b.measured[i * 4 + c];
+  }
+  std::printf("cells %zu of %zu; saturated %zu vs %zu\n", cells, a.measured.size() / 4, a.saturated_pixels,
+              b.saturated_pixels);
+  for (int c = 0; c < 4; ++c) std::printf("channel %d: %.5f vs %.5f\n", c, sum_a[c] / cells, sum_b[c] / cells);
 }
 
 }  // namespace

@@ -39,6 +39,7 @@ struct FrameLevels {
   std::array<double, 3> mean{};     // R, G, B: share of full scale
   std::array<double, 3> clipped{};  // share of the region's samples at full scale
   std::array<double, 3> region_share{};  // share of the channel's samples in the region
+  std::array<double, 3> high{};     // the whole frame's high_percentile per channel (subject metering)
   int brightest_channel() const;
 };
 
@@ -47,7 +48,7 @@ inline constexpr double kLitLowPercentile = 0.02, kLitHighPercentile = 0.98;
 
 // Throws std::invalid_argument when the samples do not match the geometry.
 FrameLevels frame_levels(std::span<const std::uint8_t> samples, int width, int height, drivers::PixelFormat format,
-                         FrameRegion region = FrameRegion::kWhole);
+                         FrameRegion region = FrameRegion::kWhole, double high_percentile = 0.99);
 
 struct MeteringTarget {
   double white_share = 0.8;         // the brightest channel's mean, share of full scale
