@@ -31,6 +31,7 @@ nlohmann::json summary_json(const pb::ResultsSummary& summary) {
           {"pixels_per_second", summary.pixels_per_second()},
           {"estimate_seconds", summary.estimate_seconds()},
           {"frames_read_back", summary.frames_read_back()},
+          {"highlights", {{"detection", summary.highlight_detection()}, {"pixels", summary.highlight_pixels()}}},
           {"flag_counts",
            std::map<std::string, std::uint64_t>(summary.flag_counts().begin(), summary.flag_counts().end())},
           {"relit_delta_e94", relit}};
@@ -49,6 +50,12 @@ void print_summary(const pb::ResultsSummary& summary, const std::string& indent)
        std::map<std::string, std::uint64_t>(summary.flag_counts().begin(), summary.flag_counts().end()))
     std::cout << " " << name << " " << count;
   std::cout << "\n";
+  if (!summary.highlight_detection().empty())
+    std::printf("%shighlights: %s, %llu pixels (%s)\n", indent.c_str(), summary.highlight_detection().c_str(),
+                static_cast<unsigned long long>(summary.highlight_pixels()),
+                summary.highlight_detection() == "optical"
+                    ? "parallel − cross: maps.exr surface and highlight, information only"
+                    : "no parallel capture: the estimator's specular flag");
   for (const auto& [name, s] :
        std::map<std::string, pb::DeltaEStatistics>(summary.relit_delta_e94().begin(), summary.relit_delta_e94().end()))
     std::printf("%srelit ΔE94 vs photograph under %-9s mean %.2f  median %.2f  p95 %.2f\n", indent.c_str(), name.c_str(),

@@ -156,6 +156,10 @@ void results_summary_to_proto(const nlohmann::json& r, const std::string& method
       s.set_pixels(stats.value("pixels", std::uint64_t{0}));
       (*summary->mutable_relit_delta_e94())[name] = s;
     }
+  if (r.contains("highlights") && r["highlights"].is_object()) {
+    summary->set_highlight_detection(r["highlights"].value("detection", ""));
+    summary->set_highlight_pixels(r["highlights"].value("pixels", std::uint64_t{0}));
+  }
 }
 // A results record's "cameras" (a record from before several cameras has none).
 void cameras_to_proto(const nlohmann::json& r, const std::filesystem::path& folder, const std::string& method,

@@ -22,6 +22,20 @@ namespace {
 constexpr const char* kRecordFile = "calibration.json";
 constexpr const char* kLibraryFile = "led-library.json";
 
+// The library file of one polarisation state in a run's folder.
+std::string library_file_of(drivers::Polarisation state) {
+  if (state == drivers::Polarisation::kUnpolarised) return kLibraryFile;
+  return std::string("led-library-") + drivers::polarisation_name(state) + ".json";
+}
+
+// The states a calibration measures on this controller: cross and parallel
+// when every LED type has banks (the session's polarised plan), else the only one.
+std::vector<drivers::Polarisation> states_to_calibrate(const drivers::LedControllerInfo& info) {
+  for (bool bank : info.polariser_banks)
+    if (!bank) return {drivers::Polarisation::kUnpolarised};
+  return {drivers::Polarisation::kCross, drivers::Polarisation::kParallel};
+}
+
 // Calls a named device under its mutex (one call at a time).
 template <typename Interface>
 class LockedCalls {
@@ -89,6 +103,36 @@ session::OperationRecord record_from_json(const nlohmann::json& j, const std::fi
   return record;
 }
 
+// One CalibrationRun in `state`; its progress is [share_begin, share_end) of the operation's.
+calibration::CalibrationSummary run_state(RunningOperation& running,
+                                                        const calibration::CalibrationRunOptions& base_options,
+                                                        NamedDevice<drivers::LedController>* led,
+                                                        NamedDevice<drivers::Spectrometer>* spectrometer,
+                                                        drivers::Polarisation state, double share_begin,
+                                                        double share_end,
+                                                        const std::function<void(bool on)>& reference_lamp) {
+  calibration::CalibrationRunOptions options = base_options;
+  options.polarisation = state;
+  const files::Progress whole = running.progress();
+  files::Progress part = whole;
+  if (state != drivers::Polarisation::kUnpolarised)
+    part.on_progress = [whole, share_begin, share_end, name = std::string(drivers::polarisation_name(state))](
+                           double fraction, const std::string& step) {
+      whole.report(share_begin + fraction * (share_end - share_begin), name + ": " + step);
+    };
+  LockedLeds leds(*led);
+  LockedSpectrometer meter(*spectrometer);
+  calibration::CalibrationSummary summary;
+  try {
+    calibration::CalibrationRun run(leds, meter, reference_lamp, options);
+    summary = run.run(part);
+  } catch (const std::exception& e) {
+    summary.termination = calibration::CalibrationTermination::kDeviceError;
+    summary.message = e.what();
+  }
+  return summary;
+}
+
 }  // namespace
 
 Calibrations::Calibrations(std::filesystem::path root, std::filesystem::path configured_library, DeviceSet& devices,
@@ -97,18 +141,22 @@ Calibrations::Calibrations(std::filesystem::path root, std::filesystem::path con
   if (!configured_library.empty()) use_library(configured_library);  // DataError naming the file
 }
 
-void Calibrations::use_library(const std::filesystem::path& path) {
+void Calibrations::use_library(const std::filesystem::path& path, drivers::Polarisation state) {
   auto library = std::make_shared<const calibration::LedLibrary>(calibration::load_led_library(path));
   std::lock_guard lock(mutex_);
-  library_ = std::move(library);
-  library_path_ = std::filesystem::absolute(path);
+  if (state == drivers::Polarisation::kUnpolarised) {
+    library_ = std::move(library);
+    library_path_ = std::filesystem::absolute(path);
+  } else {
+    state_libraries_[state] = std::move(library);
+  }
   mix_cache_.clear();
 }
 
 std::vector<session::OperationRecord> Calibrations::recover() {
   std::vector<session::OperationRecord> records;
-  std::filesystem::path newest_library;
-  std::string newest_id;
+  std::filesystem::path newest_library, newest_state_folder;
+  std::string newest_id, newest_state_id;
   if (!std::filesystem::is_directory(root_)) return records;  // made by the first run
   for (const auto& entry : std::filesystem::directory_iterator(root_)) {
     const auto file = entry.path() / kRecordFile;
@@ -130,12 +178,22 @@ std::vector<session::OperationRecord> Calibrations::recover() {
         newest_id = record.id;
         newest_library = entry.path() / kLibraryFile;
       }
+      if (record.state == session::OperationState::kSucceeded &&
+          std::filesystem::exists(entry.path() / library_file_of(drivers::Polarisation::kCross)) &&
+          std::filesystem::exists(entry.path() / library_file_of(drivers::Polarisation::kParallel)) &&
+          record.id > newest_state_id) {
+        newest_state_id = record.id;
+        newest_state_folder = entry.path();
+      }
       records.push_back(std::move(record));
     } catch (const std::exception&) {
       continue;  // not a readable calibration record (e.g. a crash before its first write)
     }
   }
   if (!newest_library.empty()) use_library(newest_library);
+  if (!newest_state_folder.empty())
+    for (auto state : {drivers::Polarisation::kCross, drivers::Polarisation::kParallel})
+      use_library(newest_state_folder / library_file_of(state), state);
   return records;
 }
 
@@ -207,15 +265,21 @@ OperationRunner::Outcome Calibrations::run(RunningOperation& running, const Cali
   if (request.warmup_ms > 0) options.warm_up_s = request.warmup_ms / 1000.0;
   options.notes += (options.notes.empty() ? "" : "; ") + std::string("chromod calibration ") + id;
 
-  LockedLeds leds(*led);
-  LockedSpectrometer meter(*spectrometer);
-  calibration::CalibrationSummary summary;
+  std::vector<drivers::Polarisation> states{drivers::Polarisation::kUnpolarised};
   try {
-    calibration::CalibrationRun run(leds, meter, devices_.reference_lamp, options);
-    summary = run.run(running.progress());
-  } catch (const std::exception& e) {
-    summary.termination = calibration::CalibrationTermination::kDeviceError;
-    summary.message = e.what();
+    states = states_to_calibrate(LockedLeds(*led).info());
+  } catch (const std::exception&) {
+    // the run itself reports the unreachable controller
+  }
+  // One run per state; the libraries are kept in memory until every run has succeeded.
+  std::vector<std::pair<drivers::Polarisation, calibration::CalibrationSummary>> measured;
+  calibration::CalibrationSummary summary;
+  for (std::size_t i = 0; i < states.size(); ++i) {
+    summary = run_state(running, options, led, spectrometer, states[i], static_cast<double>(i) / states.size(),
+                        static_cast<double>(i + 1) / states.size(), devices_.reference_lamp);
+    if (states.size() > 1) summary.message = std::string(drivers::polarisation_name(states[i])) + ": " + summary.message;
+    if (summary.termination != calibration::CalibrationTermination::kCompleted) break;
+    measured.emplace_back(states[i], summary);
   }
   session::OperationState state = session::OperationState::kFailed;
   switch (summary.termination) {
@@ -226,11 +290,14 @@ OperationRunner::Outcome Calibrations::run(RunningOperation& running, const Cali
   std::string error = state == session::OperationState::kFailed ? summary.message : "";
   nlohmann::json record;
   try {
-    if (state == session::OperationState::kSucceeded) {
-      // save_led_library writes crash-safe (temporary, fsync, rename).
-      calibration::save_led_library(summary.library, folder / kLibraryFile);
-      use_library(folder / kLibraryFile);
-    }
+    // Every state's library measured so far is written (save_led_library is
+    // crash-safe: temporary, fsync, rename), so a failed later state keeps the
+    // earlier ones in the folder; the daemon adopts them only when all succeeded.
+    for (const auto& [measured_state, measured_summary] : measured)
+      calibration::save_led_library(measured_summary.library, folder / library_file_of(measured_state));
+    if (state == session::OperationState::kSucceeded)
+      for (const auto& [measured_state, measured_summary] : measured)
+        use_library(folder / library_file_of(measured_state), measured_state);
     record = nlohmann::json::parse(files::read_text_file(folder / kRecordFile, "JSON"));
     record["state"] = state_for_disk(state);
     record["message"] = summary.message;
@@ -239,11 +306,23 @@ OperationRunner::Outcome Calibrations::run(RunningOperation& running, const Cali
                          {"spectra_measured", summary.spectra_measured},
                          {"elapsed_s", summary.elapsed_s},
                          {"linearity_ok", summary.linearity_ok}};
-    if (state == session::OperationState::kSucceeded) {
-      record["library"] = kLibraryFile;
-      for (const auto& lin : summary.linearity)
-        record["summary"]["linearity_max_deviation_percent"][std::string(spectral::led_type_name(lin.type))] =
-            lin.max_deviation_percent;
+    for (const auto& [measured_state, measured_summary] : measured) {
+      const std::string name = drivers::polarisation_name(measured_state);
+      if (measured_state == drivers::Polarisation::kUnpolarised) {
+        record["library"] = kLibraryFile;
+      } else {
+        record["libraries"][name] = library_file_of(measured_state);
+        record["summary"]["states"][name] = {{"spectra_measured", measured_summary.spectra_measured},
+                                             {"elapsed_s", measured_summary.elapsed_s},
+                                             {"linearity_ok", measured_summary.linearity_ok}};
+      }
+      if (state == session::OperationState::kSucceeded)
+        for (const auto& lin : measured_summary.linearity) {
+          auto& deviations = record["summary"]["linearity_max_deviation_percent"];
+          const std::string type(spectral::led_type_name(lin.type));
+          const double earlier = deviations.contains(type) ? deviations[type].get<double>() : 0.0;
+          deviations[type] = std::max(earlier, lin.max_deviation_percent);
+        }
     }
     files::write_file_durably(folder / kRecordFile, record.dump(2) + "\n", budget_);
   } catch (const std::exception& e) {
@@ -269,16 +348,37 @@ calibration::SolvedMix Calibrations::solve(const std::string& target, const std:
   return solved;
 }
 
-std::optional<drivers::DriveLevels> Calibrations::solved_mix(const std::string& mix) const {
+drivers::Polarisation Calibrations::library_state(drivers::Polarisation state) const {
+  return state_libraries_.count(state) ? state : drivers::Polarisation::kUnpolarised;
+}
+
+std::optional<drivers::DriveLevels> Calibrations::solved_mix(const std::string& mix, drivers::Polarisation state) const {
+  std::shared_ptr<const calibration::LedLibrary> library;
+  std::pair<std::string, drivers::Polarisation> key;
   {
     std::lock_guard lock(mutex_);
-    if (!library_) return std::nullopt;
-    if (auto found = mix_cache_.find(mix); found != mix_cache_.end()) return found->second;
+    key = {mix, library_state(state)};
+    library = key.second == drivers::Polarisation::kUnpolarised ? library_ : state_libraries_.at(key.second);
+    if (!library) return std::nullopt;
+    if (auto found = mix_cache_.find(key); found != mix_cache_.end()) return found->second;
   }
-  auto levels = solve(mix, "camera", false).weights;
+  auto levels = calibration::solve_session_mix(*library, mix, "camera", false).weights;
   std::lock_guard lock(mutex_);
-  mix_cache_[mix] = levels;
+  mix_cache_[key] = levels;
   return levels;
+}
+
+std::shared_ptr<const calibration::LedLibrary> Calibrations::library_for(drivers::Polarisation state) const {
+  std::lock_guard lock(mutex_);
+  const auto slot = library_state(state);
+  return slot == drivers::Polarisation::kUnpolarised ? library_ : state_libraries_.at(slot);
+}
+
+std::map<drivers::Polarisation, calibration::LedLibrary> Calibrations::measured_state_libraries() const {
+  std::lock_guard lock(mutex_);
+  std::map<drivers::Polarisation, calibration::LedLibrary> libraries;
+  for (const auto& [state, library] : state_libraries_) libraries.emplace(state, *library);
+  return libraries;
 }
 
 std::shared_ptr<const calibration::LedLibrary> Calibrations::library() const {

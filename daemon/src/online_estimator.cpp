@@ -17,7 +17,9 @@ bool OnlineEstimatorOptions::IsValid(std::string* error) const {
 }
 
 std::unique_ptr<OnlineEstimator> make_online_estimator(const EstimationConfig& config, files::StorageBudget* budget,
-                                                       std::function<std::string()> daemon_led_library) {
+                                                       std::function<std::string()> daemon_led_library,
+                                                       std::function<std::map<drivers::Polarisation, calibration::LedLibrary>()>
+                                                           daemon_state_libraries) {
   OnlineEstimatorOptions options;
   auto& e = options.estimation.estimator;
   // The configuration's loader has checked both names (config.cpp).
@@ -25,11 +27,13 @@ std::unique_ptr<OnlineEstimator> make_online_estimator(const EstimationConfig& c
   e.model = estimation::parse_model_name(config.model).value_or(estimation::ModelChoice::kAuto);
   e.threads = config.threads;
   options.estimation.cache_dir = config.cache_dir;
-  options.sources = [config, daemon_led_library] {
+  options.sources = [config, daemon_led_library, daemon_state_libraries] {
     std::string library = config.led_library;
     if (library.empty() && daemon_led_library) library = daemon_led_library();
-    return session::resolve_capture_sources(library, config.camera_sensitivity, config.white_reflectance,
-                                            config.camera_sensitivities);
+    auto sources = session::resolve_capture_sources(library, config.camera_sensitivity, config.white_reflectance,
+                                                    config.camera_sensitivities);
+    if (config.led_library.empty() && daemon_state_libraries) sources.led_library_of_state = daemon_state_libraries();
+    return sources;
   };
   options.budget = budget;
   return std::make_unique<OnlineEstimator>(std::move(options));
@@ -195,6 +199,7 @@ nlohmann::json OnlineEstimator::end_session(const SessionEnd& end) {
           {"frames_read_back", read_back_},
           {"flag_counts", first_entry["flag_counts"]},
           {"relit_delta_e94", first_entry["relit_delta_e94"]},
+          {"highlights", first_entry["highlights"]},
           {"cameras", cameras}};
 }
 

@@ -406,7 +406,7 @@ class Run {
     switch (step.illumination.kind) {
       case session::Illumination::Kind::kDark: return DriveLevels{};
       case session::Illumination::Kind::kWeights: return step.illumination.weights;
-      case session::Illumination::Kind::kMix: return c_.resolve_mix(step.illumination.mix);
+      case session::Illumination::Kind::kMix: return c_.resolve_mix(step.illumination.mix, step.polarisation);
     }
     return DriveLevels{};
   }

@@ -140,6 +140,7 @@ std::string camera_entry_json(const CameraEstimate& camera, const std::string& p
                            {"max", c.delta_e94.max},
                            {"pixels", c.delta_e94.pixels}};
   entry["relit_delta_e94"] = relit;
+  entry["highlights"] = {{"detection", r.highlight_detection}, {"pixels", r.highlight_pixels}};
   return entry.dump();
 }
 

@@ -71,7 +71,10 @@ std::string registration_report_json(std::span<const session::RegistrationReport
                    {"motion_px", r.motion_px},
                    {"warped", r.warped},
                    {"residual_motion_px", r.result.residual_motion_px},
-                   {"skipped_pyramid_levels", skipped_levels(r.result.skipped_levels)}});
+                   {"skipped_pyramid_levels", skipped_levels(r.result.skipped_levels)},
+                   {"method", session::registration_method_name(r.result.method)},
+                   {"translation_sigma_px", r.result.translation_sigma_px},
+                   {"residual_method", session::registration_method_name(r.result.residual_method)}});
   return out.dump();
 }
 
@@ -378,16 +381,36 @@ PolarisationOutputs polarisation_outputs(const session::MethodMeasurement& m, co
   out.summary = {
       {"detection", "optical"},
       {"how", "D65' parallel − D65' cross (docs/polarisation.md)"},
-      {"surface_map", "maps.exr channel surface: (parallel − cross)/2 of the G albedo, the surface layer in albedo units, "
-                      "not corrected for the films' extinction ((ER − 1)²/(ER + 1)² of it)"},
+      {"surface_map", m.surface_correction
+                          ? "maps.exr channels surface (G), surface_R, surface_B: (parallel − cross)/(c_parallel − c_cross) per "
+                            "channel, the surface layer in albedo units, corrected for the films' extinction"
+                          : "maps.exr channels surface (G), surface_R, surface_B: (parallel − cross)/2 per channel, the surface "
+                            "layer in albedo units, not corrected for the films' extinction ((ER − 1)²/(ER + 1)² of it: the "
+                            "estimator was not given the films)"},
       {"sheen_reference", flags.sheen_reference},
       {"rule", "highlight where (S − sheen_reference) ≥ " + std::to_string(rule.pixel_sigmas) +
                    " σ at the pixel and ≥ " + std::to_string(rule.window_sigmas) + " σ over its 3×3 window"},
       {"flagged_pixels", flags.flagged},
       {"information_only", "maps.exr channel highlight; the diffuse maps there still come from the cross-polarised "
                            "captures, and the flags channel is unchanged"}};
+  if (const auto& correction = m.surface_correction) {
+    nlohmann::ordered_json cross_factor;
+    const char* captures[] = {"D65'", "W57", "W57+blue"};
+    for (int k = 0; k < 3; ++k) cross_factor[captures[k]] = correction->cross_factor[k];
+    out.summary["surface_correction"] = {
+        {"films", correction->source},
+        {"parallel_minus_cross", correction->parallel_minus_cross},
+        {"cross_factor", std::move(cross_factor)},
+        {"sheen_reference_rgb", correction->sheen_reference},
+        {"rule", "where the G surface map is ≥ " + std::to_string(session::kSurfaceCorrectionSigmas) +
+                     " σ above the sheen reference, each cross capture less c_cross·(S − sheen reference) per channel "
+                     "(the highlight's surface light); elsewhere as captured (the parameters come from the corrected "
+                     "captures; the photographs of relit_delta_e94 are as captured)"},
+        {"corrected_pixels", correction->corrected_pixels}};
+  }
   std::vector<float> highlight(flags.flag.begin(), flags.flag.end());
-  out.channels = {{"surface", m.surface}, {"highlight", std::move(highlight)}};
+  out.channels = {{"surface", m.surface}, {"surface_R", m.surface_red}, {"surface_B", m.surface_blue},
+                  {"highlight", std::move(highlight)}};
   out.panel = encode_polarisation_panel(m);
   return out;
 }
@@ -487,6 +510,9 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
                       {"relit_comparison", relit_seconds},
                       {"total_before_writing", seconds_since(start)}};
   extra["highlights"] = polarisation.summary;
+  result.highlight_detection = polarisation.summary.value("detection", "");
+  result.highlight_pixels = polarisation.summary.value(polarisation.channels.empty() ? "specular_pixels" : "flagged_pixels",
+                                                       std::uint64_t{0});
   report.extra_json = extra.dump();
   report.extra_channels = polarisation.channels;
   if (!polarisation.panel.empty()) report.extra_pngs.emplace_back("polarisation.png", polarisation.panel);

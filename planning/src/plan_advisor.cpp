@@ -8,6 +8,7 @@
 #include <random>
 #include <stdexcept>
 
+#include "chromo/estimation/forward_table.hpp"
 #include "chromo/estimation/skin_model.hpp"
 #include "fit_bounded.hpp"
 #include "plan_model.hpp"
@@ -126,11 +127,22 @@ bool SkinPopulation::IsValid(std::string* error) const {
     if (error != nullptr) *error = message;
     return false;
   };
-  if (count < 1 || count > 100000) return fail("population.count: must be 1-100000");
   const estimation::ParameterRange ranges[4] = {estimation::kCmRange, estimation::kChRange, estimation::kBmRange,
                                                 estimation::kCheRange};
-  const Vec4 lo = as_vector(low), hi = as_vector(high);
   const char* names[4] = {"cm", "ch", "bm", "che"};
+  if (!skins.empty()) {
+    if (skins.size() > 100000) return fail("population.skins: at most 100000");
+    for (std::size_t s = 0; s < skins.size(); ++s) {
+      const Vec4 p = as_vector(skins[s]);
+      for (int j = 0; j < 4; ++j)
+        if (!(p[j] >= ranges[j].min && p[j] <= ranges[j].max))
+          return fail("population.skins[" + std::to_string(s) + "]." + names[j] + ": outside MODEL.md's range " +
+                      std::string(ranges[j].name));
+    }
+    return true;
+  }
+  if (count < 1 || count > 100000) return fail("population.count: must be 1-100000");
+  const Vec4 lo = as_vector(low), hi = as_vector(high);
   for (int j = 0; j < 4; ++j) {
     if (!(lo[j] >= ranges[j].min && hi[j] <= ranges[j].max && lo[j] <= hi[j]))
       return fail(std::string("population.") + names[j] + ": low ≤ high within MODEL.md's range " +
@@ -148,6 +160,7 @@ SkinPopulation interior_population() {
 
 std::vector<SkinParameters> draw_population(const SkinPopulation& population) {
   if (std::string error; !population.IsValid(&error)) throw std::invalid_argument(error);
+  if (!population.skins.empty()) return population.skins;
   std::mt19937_64 rng(population.seed);
   std::uniform_real_distribution<double> u(0.0, 1.0);
   auto log_uniform = [&](double lo, double hi) { return lo * std::pow(hi / lo, u(rng)); };
@@ -256,12 +269,48 @@ ChannelStatistics simulated_channel_statistics(const PlanDescription& plan, cons
   return out;
 }
 
+namespace {
+
+// table − exact model per skin (rows) and channel, for a built model.
+Eigen::MatrixXd table_error(const PlanModel& model, const std::vector<SkinParameters>& skins, int threads) {
+  const estimation::ForwardTable table = estimation::ForwardTable::build(model.measurement_set(), {}, threads);
+  Eigen::MatrixXd error(static_cast<Eigen::Index>(skins.size()), model.channel_count());
+  std::vector<double> interpolated(model.channel_count());
+  for (std::size_t s = 0; s < skins.size(); ++s) {
+    table.predict(table.to_grid(skins[s]), interpolated.data());
+    const Eigen::VectorXd exact = model.values(skin_model().albedo(skins[s]));
+    for (int c = 0; c < model.channel_count(); ++c) error(static_cast<Eigen::Index>(s), c) = interpolated[c] - exact[c];
+  }
+  return error;
+}
+
+}  // namespace
+
+std::vector<double> table_interpolation_error(const PlanDescription& plan, const calibration::LedLibrary& library,
+                                              const CameraNoise& camera, const std::vector<SkinParameters>& skins,
+                                              int threads) {
+  check_inputs(plan, library, camera, nullptr);
+  if (threads < 1 || threads > 64) throw std::invalid_argument("threads: must be 1-64");
+  for (std::size_t s = 0; s < skins.size(); ++s) {
+    SkinPopulation one;
+    one.skins = {skins[s]};
+    if (std::string error; !one.IsValid(&error))
+      throw std::invalid_argument("skins[" + std::to_string(s) + "]: " + error);
+  }
+  const Eigen::MatrixXd e = table_error(PlanModel(plan, library, camera), skins, threads);
+  std::vector<double> out(static_cast<std::size_t>(e.size()));
+  for (Eigen::Index s = 0; s < e.rows(); ++s)
+    for (Eigen::Index c = 0; c < e.cols(); ++c) out[static_cast<std::size_t>(s * e.cols() + c)] = e(s, c);
+  return out;
+}
+
 PlanPrediction predict_plan(const PlanDescription& plan, const calibration::LedLibrary& library,
                             const CameraNoise& camera, const AdvisorOptions& options) {
   check_inputs(plan, library, camera, &options);
   const PlanModel model(plan, library, camera);
   const std::vector<Reference> refs = references_of(options);
   const std::vector<SkinParameters> skins = draw_population(options.population);
+  const Eigen::MatrixXd delta_v = options.table_bias ? table_error(model, skins, options.threads) : Eigen::MatrixXd();
   const Eigen::Matrix3Xd z = normal_samples(options.delta_e_samples);
   const Eigen::Matrix4d prior = options.box_prior ? box_information() : Eigen::Matrix4d::Zero();
   std::vector<SkinResult> results(skins.size());
@@ -288,10 +337,17 @@ PlanPrediction predict_plan(const PlanDescription& plan, const calibration::LedL
     const Eigen::Matrix4d p_cov = information.ldlt().solve(Eigen::Matrix4d::Identity());
     SkinResult& out = results[s];
     out.variance = p_cov.diagonal();
+    // The table bias: the fit of table(p + δp) = exact(p) to first order,
+    // weighted as the noise: δp = −P·Jᵀ·Σ⁻¹·δv.
+    Vec4 bias = Vec4::Zero();
+    if (options.table_bias) {
+      const Eigen::VectorXd dv = delta_v.row(static_cast<Eigen::Index>(s)).transpose();
+      bias = -p_cov * (jacobian.transpose() * noise.solve(dv));
+    }
     for (std::size_t r = 0; r < refs.size(); ++r) {
       const Eigen::Vector3d lab = lab_of(albedo, refs[r]);
       const Eigen::Matrix3d lab_cov = lab_jacobian[r] * p_cov * lab_jacobian[r].transpose();
-      const Eigen::Matrix3Xd e = covariance_root(lab_cov) * z;
+      const Eigen::Matrix3Xd e = (covariance_root(lab_cov) * z).colwise() + lab_jacobian[r] * bias;
       double sum = 0;
       for (int i = 0; i < e.cols(); ++i) sum += spectral::delta_e94(to_lab(lab), to_lab(lab + e.col(i)));
       out.delta_e.push_back(sum / e.cols());

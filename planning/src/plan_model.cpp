@@ -26,6 +26,7 @@ PlanModel::PlanModel(const PlanDescription& plan, const calibration::LedLibrary&
       throw std::invalid_argument("plan: captures[" + std::to_string(k) + "] ('" + c.name +
                                   "'): the camera sees no light of its drive levels in this library");
     response_.push_back(r);
+    light_.push_back(light);
     white_response_.push_back(white);
     electrons_per_response_.push_back(c.white_fill * camera_.full_well_e / (rho * white.maxCoeff()));
     frames_.push_back(c.frames);
@@ -51,7 +52,22 @@ PlanModel::PlanModel(const PlanDescription& plan, const calibration::LedLibrary&
                                   "'): its white reference gives no signal");
     weights_.row(static_cast<Eigen::Index>(i)) = row / white;
     channels_.push_back(std::move(channel));
+    channel_names_.push_back(channels[i].name());
   }
+}
+
+estimation::MeasurementSet PlanModel::measurement_set() const {
+  estimation::MeasurementSet set;
+  set.camera = camera_.sensitivity;
+  for (std::size_t i = 0; i < channels_.size(); ++i) {
+    estimation::MeasurementChannel c;
+    c.name = channel_names_[i];
+    c.camera_channel = channels_[i].camera_channel;
+    c.illuminant = spectral::Spectrum::constant(0.0);
+    for (const Term& t : channels_[i].terms) c.illuminant += light_[t.capture] * t.sign;
+    set.channels.push_back(std::move(c));
+  }
+  return set;
 }
 
 double PlanModel::exposure_us(int capture) const {

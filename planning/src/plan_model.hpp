@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "chromo/calibration/led_library.hpp"
+#include "chromo/estimation/measurement.hpp"
 #include "chromo/planning/plan_advisor.hpp"
 #include "chromo/spectral/spectrum.hpp"
 
@@ -31,6 +32,10 @@ class PlanModel {
   // noise, full-well clip, rounding to DN over a black level, ADC clip),
   // averaged, dark-subtracted and white-normalised by the exact formula.
   Eigen::VectorXd simulate(const spectral::Spectrum& albedo, std::mt19937_64& rng) const;
+  // The estimator's measurement set of these channels (each channel's
+  // illuminant Σ c_j E_j, its camera channel; the default noise): the set a
+  // session of this plan hands the estimator, for its forward table.
+  estimation::MeasurementSet measurement_set() const;
 
  private:
   struct Term {
@@ -48,6 +53,8 @@ class PlanModel {
   std::vector<int> frames_, white_frames_;
   int dark_frames_ = 1;
   std::vector<Channel> channels_;
+  std::vector<std::string> channel_names_;
+  std::vector<spectral::Spectrum> light_;  // per capture: E_k = Σ drive·(spectrum per unit drive)
   Eigen::MatrixXd weights_;  // channels × grid: v = weights · albedo
   double green_norm_ = 0;    // Σ S_G Δλ
 };

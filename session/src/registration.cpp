@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <Eigen/Dense>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 #include <string>
@@ -32,15 +33,83 @@ RegistrationResult from_warp(const cv::Mat& w, double correlation) {
   return r;
 }
 
+constexpr double kMinimumOverlap = 0.5;
+constexpr double kMaximumRotationDeg = 10;
+
+// Share of the reference's pixels that the warp maps inside the moving image.
+double overlap_fraction(const RegistrationResult& r, int width, int height) {
+  std::size_t inside = 0, total = 0;
+  for (int y = 0; y < height; y += 4)
+    for (int x = 0; x < width; x += 4, ++total) {
+      const double mx = r.warp[0][0] * x + r.warp[0][1] * y + r.warp[0][2];
+      const double my = r.warp[1][0] * x + r.warp[1][1] * y + r.warp[1][2];
+      inside += mx >= 0 && mx <= width - 1 && my >= 0 && my <= height - 1;
+    }
+  return total ? static_cast<double>(inside) / static_cast<double>(total) : 0.0;
+}
+
+// Gauss-Newton on moving(x + t) ≈ a·reference(x) + b over the mask: t, a,
+// b by linear least squares per iteration (moving resampled at x + t, its
+// gradient by central differences), then the standard error of t from the
+// residual. Border pixels (one each side) and masked ones are left out.
+RegistrationResult translation_fallback(const cv::Mat& ref, const cv::Mat& mov, const cv::Mat& mask,
+                                        const std::string& ecc_error) {
+  double tx = 0, ty = 0, sigma_x = INFINITY, sigma_y = INFINITY;
+  for (int iteration = 0; iteration < 20; ++iteration) {
+    cv::Mat shifted;
+    const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, tx, 0, 1, ty);
+    cv::warpAffine(mov, shifted, shift, mov.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
+    cv::Mat gx, gy;
+    cv::Sobel(shifted, gx, CV_64F, 1, 0, 1, 0.5), cv::Sobel(shifted, gy, CV_64F, 0, 1, 1, 0.5);
+    Eigen::Matrix4d normal = Eigen::Matrix4d::Zero();
+    Eigen::Vector4d right = Eigen::Vector4d::Zero();
+    std::size_t n = 0;
+    const auto each = [&](auto&& use) {
+      for (int y = 1; y + 1 < ref.rows; ++y)
+        for (int x = 1; x + 1 < ref.cols; ++x)
+          if (mask.at<unsigned char>(y, x))
+            use(Eigen::Vector4d(gx.at<double>(y, x), gy.at<double>(y, x), -ref.at<float>(y, x), -1.0),
+                -static_cast<double>(shifted.at<float>(y, x)));
+    };
+    each([&](const Eigen::Vector4d& row, double target) { normal += row * row.transpose(), right += row * target, ++n; });
+    if (n < 100) break;
+    const Eigen::Vector4d step = normal.ldlt().solve(right);
+    if (!step.allFinite()) break;
+    double squares = 0;
+    each([&](const Eigen::Vector4d& row, double target) { squares += (row.dot(step) - target) * (row.dot(step) - target); });
+    const Eigen::Matrix4d covariance = normal.inverse() * (squares / static_cast<double>(n - 4));
+    sigma_x = std::sqrt(covariance(0, 0)), sigma_y = std::sqrt(covariance(1, 1));
+    tx += step[0], ty += step[1];
+    if (std::hypot(step[0], step[1]) < 1e-4) break;
+  }
+  const double sigma = std::max(sigma_x, sigma_y);
+  if (!(3 * sigma <= kTranslationFallbackUncertaintyPx) || !std::isfinite(tx) || !std::isfinite(ty))
+    throw RegistrationError(ecc_error + "; the translation fallback measures the motion only to ±" +
+                            std::to_string(3 * sigma) + " px (3σ), more than " +
+                            std::to_string(kTranslationFallbackUncertaintyPx) + " px: the captures are too featureless");
+  RegistrationResult r;
+  r.warp[0][2] = r.shift_x_px = tx;
+  r.warp[1][2] = r.shift_y_px = ty;
+  r.method = RegistrationMethod::kTranslation;
+  r.translation_sigma_px = sigma;
+  return r;
+}
+
+// Pixels of the moving image that take part: finite ones, away from holes.
+cv::Mat moving_mask(const std::vector<float>& moving, int width, int height) {
+  cv::Mat mask(height, width, CV_8U);
+  for (int i = 0; i < width * height; ++i) mask.at<unsigned char>(i) = std::isfinite(moving[i]) ? 255 : 0;
+  cv::erode(mask, mask, cv::Mat(), cv::Point(-1, -1), 3);  // image gradients near a hole are not the scene's
+  return mask;
+}
+
 }  // namespace
 
 RegistrationResult estimate_registration(const std::vector<float>& reference, const std::vector<float>& moving,
                                          int width, int height, const RegistrationOptions& options) {
   const cv::Mat ref = wrap(reference, width, height), mov = wrap(moving, width, height);
   // ECC ignores moving-image pixels that are not finite (e.g. outside a warp).
-  cv::Mat mask(height, width, CV_8U);
-  for (int i = 0; i < width * height; ++i) mask.at<unsigned char>(i) = std::isfinite(moving[i]) ? 255 : 0;
-  cv::erode(mask, mask, cv::Mat(), cv::Point(-1, -1), 3);  // image gradients near a hole are not the scene's
+  const cv::Mat mask = moving_mask(moving, width, height);
   // Coarse to fine: estimate on a pyramid, scaling the translation up per level.
   std::vector<cv::Mat> ref_pyramid{ref}, mov_pyramid{mov}, mask_pyramid{mask};
   for (int l = 1; l < options.pyramid_levels && std::min(ref_pyramid.back().cols, ref_pyramid.back().rows) >= 64; ++l) {
@@ -65,8 +134,8 @@ RegistrationResult estimate_registration(const std::vector<float>& reference, co
       // footprint leaves little texture there) is skipped: the finer
       // levels start from the warp found so far. The finest must converge.
       if (level == 0)
-        throw RegistrationError(std::string("registration (ECC) did not converge at pyramid level ") +
-                                std::to_string(level) + ": " + e.what());
+        return translation_fallback(ref_pyramid[0], mov_pyramid[0], mask_pyramid[0],
+                                    std::string("registration (ECC) did not converge at pyramid level 0: ") + e.what());
       warp = before;
       skipped |= 1u << level;
     }
@@ -74,6 +143,19 @@ RegistrationResult estimate_registration(const std::vector<float>& reference, co
   }
   RegistrationResult result = from_warp(warp, correlation);
   result.skipped_levels = skipped;
+  // ECC can also "converge" on a featureless view to a warp no subject made
+  // between two captures of one plan: a smooth, nearly isotropic patch
+  // matches itself turned by tens of degrees about its centre, or slid away.
+  // Such a warp (more than kMaximumRotationDeg, or less than kMinimumOverlap
+  // of the frame left overlapping) goes to the translation fallback.
+  const double overlap = overlap_fraction(result, width, height);
+  if (overlap < kMinimumOverlap || std::abs(result.rotation_deg) > kMaximumRotationDeg) {
+    RegistrationResult fallback = translation_fallback(
+        ref, mov, mask, "registration (ECC) found an implausible warp: rotation " + std::to_string(result.rotation_deg) +
+                            "°, " + std::to_string(100 * overlap) + "% of the frame overlapping");
+    fallback.skipped_levels = skipped;
+    return fallback;
+  }
   return result;
 }
 
@@ -107,7 +189,13 @@ RegistrationResult register_channel(const std::vector<float>& reference, const s
   const std::vector<float> warped = warp_channel(moving, width, height, r);
   RegistrationOptions check = options;
   check.pyramid_levels = 1;
-  const RegistrationResult rest = estimate_registration(reference, warped, width, height, check);
+  // The residual by the method that found the warp (ECC would wander on the
+  // featureless view that sent it to the fallback).
+  const RegistrationResult rest =
+      r.method == RegistrationMethod::kTranslation
+          ? translation_fallback(wrap(reference, width, height), wrap(warped, width, height),
+                                 moving_mask(warped, width, height), "the residual check")
+          : estimate_registration(reference, warped, width, height, check);
   double worst = 0;
   for (double x : {0.0, double(width - 1)})
     for (double y : {0.0, double(height - 1)}) {
@@ -116,6 +204,7 @@ RegistrationResult register_channel(const std::vector<float>& reference, const s
       worst = std::max(worst, std::hypot(dx, dy));
     }
   r.residual_motion_px = worst;
+  r.residual_method = rest.method;
   return r;
 }
 

@@ -85,9 +85,11 @@ void SessionCaptureBuilder::add_frame(const FrameRecord& record, std::span<const
   if (key->second != "dark") {
     if (!record.led)
       throw std::invalid_argument(where + ": the frame's record has no led.drive (the applied LED levels)");
-    for (auto type : spectral::kAllLedTypes)
-      illuminant += sources_.led_library.led(type).spectrum_per_unit_drive() *
-                    record.led->drive[static_cast<std::size_t>(spectral::led_type_index(type))];
+    for (auto type : spectral::kAllLedTypes) {
+      const auto index = static_cast<std::size_t>(spectral::led_type_index(type));
+      illuminant += sources_.library_for(record.led->polarisation[index]).led(type).spectrum_per_unit_drive() *
+                    record.led->drive[index];
+    }
   }
   // A camera's first frame goes into a fresh sum, kept only once the frame is in.
   const auto existing = by_camera_.find(camera);
@@ -302,6 +304,11 @@ StoredSessionCaptures read_any_session_captures(const std::filesystem::path& fol
 CameraSensitivitySource CaptureSources::sensitivity_of(const std::string& camera_name) const {
   if (auto found = camera_of.find(camera_name); found != camera_of.end()) return found->second;
   return {camera, camera_source};
+}
+
+const calibration::LedLibrary& CaptureSources::library_for(drivers::Polarisation state) const {
+  if (auto found = led_library_of_state.find(state); found != led_library_of_state.end()) return found->second;
+  return led_library;
 }
 
 CaptureSources resolve_capture_sources(const std::string& led_library, const std::string& camera,

@@ -7,6 +7,8 @@
 #include <optional>
 #include <stdexcept>
 
+#include <opencv2/imgproc.hpp>
+
 #include "chromo/calibration/polarised_libraries.hpp"
 #include "chromo/calibration/session_mix.hpp"
 #include "chromo/estimation/skin_model.hpp"
@@ -91,6 +93,9 @@ std::uint64_t cache_key(const RenderedSessionOptions& o, const std::vector<Scene
   for (const auto& [step, exposure_us] : exposures) h.add(exposure_us);
   if (o.plan != "standard") h.add(o.plan.data(), o.plan.size());  // (the standard plan's keys as before)
   if (o.reference_frames > 0) h.add(o.reference_frames);          // (keys without it as before)
+  if (o.linear_led_light) h.add(std::uint8_t{1});                 // (the lab's imperfections: keys
+  if (o.cell_uniform_scene) h.add(std::uint8_t{2});               //  of the default lab as before)
+  if (!o.scene_anomalies) h.add(std::uint8_t{3});
   for (const auto& w : weights) h.add(w.data(), sizeof(double) * w.size());
   for (double v : {camera.quantum_scale_e_per_us, camera.full_well_e, camera.read_noise_e, camera.gain_e_per_dn,
                    camera.black_level_dn})
@@ -296,6 +301,15 @@ double surface_map_sigma(const CameraModel& camera, double exposure_us, double w
   return std::sqrt(variance(a) + variance(a + 2 * sheen)) / 2;
 }
 
+// The light the capture builder assumes for these drive levels: each LED
+// type's library spectrum per unit drive times its drive.
+spectral::Spectrum linear_light(const calibration::LedLibrary& library, const drivers::DriveLevels& drive) {
+  spectral::Spectrum light;
+  for (auto type : spectral::kAllLedTypes)
+    light += library.led(type).spectrum_per_unit_drive() * drive[static_cast<std::size_t>(spectral::led_type_index(type))];
+  return light;
+}
+
 }  // namespace
 
 bool RenderedSessionOptions::IsValid(std::string* error) const {
@@ -324,6 +338,10 @@ bool RenderedSessionOptions::IsValid(std::string* error) const {
   if (oily.count < 0 || oily.count > 64) return fail("oily.count: must be 0-64");
   if (oily.count > 0 && !polarised) return fail("oily: oily regions are rendered on a polarised session only");
   if (reference_frames < 0 || reference_frames > 64) return fail("reference_frames: must be in [0, 64] (0: frames_per_capture)");
+  if (cell_uniform_scene && (scene_w % 2 || scene_h % 2 || window_x % 2 || window_y % 2 || scene_w < 32 || scene_h < 32))
+    return fail("cell_uniform_scene: the scene's size and the window's position must be even, the scene at least 32 per side");
+  if (!scene_anomalies && polarised) return fail("scene_anomalies: false only on an unpolarised session");
+  if (linear_led_light && polarised) return fail("linear_led_light: only on an unpolarised session");
   if (!(subject_fill == 0 || (subject_fill > 0.05 && subject_fill < 0.99)))
     return fail("subject_fill: must be 0 (off) or in (0.05, 0.99)");
   if (subject_fill > 0 && !(exposure_per_capture && plan == "standard"))
@@ -489,7 +507,8 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
   std::vector<double> brightest_of_state;
   double brightest = 0;
   for (const std::string& name : state_names) {
-    const auto w = camera.weights(leds.emit_settled(out.mixes[name]));
+    const auto w = camera.weights(options.linear_led_light ? linear_light(out.library, out.mixes[name])
+                                                           : leds.emit_settled(out.mixes[name]));
     weights.emplace_back(w);
     const Eigen::Vector3d white = w * (white_target_reflectance().values() * films.values()).matrix();
     white_response.emplace_back(static_cast<float>(white[0]), static_cast<float>(white[1]), static_cast<float>(white[2]));
@@ -533,17 +552,24 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
 
   // Scene at the sensor's resolution, in bands.
   SkinSceneOptions scene_options;
-  scene_options.width = options.scene_width > 0 ? options.scene_width : options.sensor_width;
-  scene_options.height = options.scene_height > 0 ? options.scene_height : options.sensor_height;
-  scene_options.column_begin = options.window_x, scene_options.column_count = options.sensor_width;
-  scene_options.row_begin = options.window_y, scene_options.row_count = options.sensor_height;
+  const int cell = options.cell_uniform_scene ? 2 : 1;  // sensor sites per scene pixel, per side
+  scene_options.width = (options.scene_width > 0 ? options.scene_width : options.sensor_width) / cell;
+  scene_options.height = (options.scene_height > 0 ? options.scene_height : options.sensor_height) / cell;
+  scene_options.column_begin = options.window_x / cell, scene_options.column_count = options.sensor_width / cell;
+  scene_options.row_begin = options.window_y / cell, scene_options.row_count = options.sensor_height / cell;
+  scene_options.anomalies = options.scene_anomalies;
   scene_options.seed = options.seed;
   scene_options.white_patch = false;
   scene_options.threads = options.threads;
   scene_options.oily = options.oily;
   scene_options.oily.sigma_reflectance = out.surface_sigma;
-  const SkinSceneResponse scene =
+  SkinSceneResponse scene =
       render_polarised_skin_scene(scene_options, weights, state_polarisation, sphere, options.band_rows);
+  if (options.cell_uniform_scene) {  // each scene pixel onto its 2×2 sensor cell
+    for (cv::Mat& r : scene.responses) cv::resize(r, r, cv::Size(), 2, 2, cv::INTER_NEAREST);
+    for (cv::Mat* m : {&scene.regions, &scene.cm, &scene.ch, &scene.bm, &scene.che})
+      cv::resize(*m, *m, cv::Size(), 2, 2, cv::INTER_NEAREST);
+  }
   out.scene_seconds = seconds_since(start);
   if (options.subject_fill > 0) meter_subjects(options, camera, scene, state_of_step, plan, out);
 
@@ -607,6 +633,12 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
   auto measurement = [&](const session::SessionCaptureBuilder& builder) {
     if (!standard) return session::build_plan_measurement(builder.plan_captures());
     session::MethodCaptures method = builder.captures();
+    if (sphere && options.estimator_knows_films)
+      method.surface_factors = session::SurfaceFactors{
+          surface_factor_in_albedo(drivers::Polarisation::kCross, sphere->light_film, sphere->analyser_film, sphere->cross_leak),
+          surface_factor_in_albedo(drivers::Polarisation::kParallel, sphere->light_film, sphere->analyser_film, sphere->cross_leak),
+          "the rendered session's films (PolariserFilm, 1:" + std::to_string(options.extinction_ratio_550nm) +
+              " at 550 nm, design view)"};
     if (options.subject_fill > 0) add_linearity_whites(camera, white_response, state_of_step, plan, method);
     return session::build_method_measurement(method);
   };

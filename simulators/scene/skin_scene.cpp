@@ -254,7 +254,8 @@ Scene make_skin_scene(const SkinSceneOptions& options) {
 #pragma omp parallel for schedule(static) num_threads(thread_count(options))
   for (int y = y0; y < y0 + rows; ++y)
     for (int x = x0; x < x0 + cols; ++x) {
-      Spectrum a = scene.albedo_at(x - x0, y - y0);
+      const Spectrum skin = scene.albedo_at(x - x0, y - y0);
+      Spectrum a = skin;
       SceneRegion region = SceneRegion::kSkin;
       const double vein = vein_profile(x, y);
       if (vein > 0.05) {
@@ -283,6 +284,7 @@ Scene make_skin_scene(const SkinSceneOptions& options) {
         a += Spectrum::constant(reflection);  // surface reflection: flat, on top of the diffuse albedo
         region = SceneRegion::kSpecular;
       }
+      if (!options.anomalies) a = skin;  // labelled as above, the skin model's albedo beneath
       if (x >= white_x0) {
         a = white;
         region = SceneRegion::kWhiteTarget;

@@ -307,6 +307,9 @@ TEST_F(Fixture, GetResultsAfterARestartComesFromTheSessionFolder) {
   EXPECT_EQ(results.summary().flag_counts().size(), static_cast<std::size_t>(estimation::kPixelFlagCount));
   EXPECT_EQ(flag_total, results.summary().pixels());
   EXPECT_EQ(results.summary().relit_delta_e94().size(), 3);
+  // An unpolarised session: highlights are the estimator's specular flag.
+  EXPECT_EQ(results.summary().highlight_detection(), "heuristic");
+  EXPECT_EQ(results.summary().highlight_pixels(), results.summary().flag_counts().at("specular"));
   EXPECT_GT(results.summary().relit_delta_e94().at("D65'").mean(), 0);
 }
 

@@ -17,10 +17,12 @@
 #include <cstdio>
 #include <map>
 
+#include "chromo/calibration/session_mix.hpp"
 #include "chromo/daemon/api_conversions.hpp"
 #include "chromo/proto/plan_messages.hpp"
 #include "chromo/session/frame_record.hpp"
 #include "chromo/session/journal.hpp"
+#include "chromo/session/registration.hpp"
 #include "chromo/simulators/polarisation/polarised_skin.hpp"
 #include "test_lab.hpp"
 
@@ -65,9 +67,8 @@ TEST(PolarisedSession, DaemonRunsThePolarisedStandardPlanAndTheFramesSeparateThe
   TestLab lab("polarised_session");
   lab.lab_options.polarisers = true;
   // 256: with a 128-px scene magnified onto the 160 × 120 sensor the cross
-  // captures (no highlight left) are too smooth for ECC, which then does not
-  // converge and the on-line estimate ends unavailable; the unpolarised lab
-  // registers on the highlight at either size.
+  // captures (no highlight left) are too smooth for ECC; the registration's
+  // translation fallback then registers them (the test below).
   lab.lab_options.scene_size = 256;
   // Lab time 100000x: the junctions reach each step's equilibrium within its
   // settling (τ = 60 s of lab time = 0.6 ms), so the white and the subject
@@ -196,6 +197,146 @@ TEST(PolarisedSession, DaemonRunsThePolarisedStandardPlanAndTheFramesSeparateThe
   const auto& highlights = summary.at("highlights");
   EXPECT_EQ(highlights.at("detection"), "optical") << highlights.dump();
   EXPECT_GE(highlights.at("flagged_pixels").get<double>(), 0.25 * highlight.pixels.size()) << highlights.dump();
+  // The API's headline numbers say the same (GetResults: the CLI and the web view show them).
+  chromosphere::v1::Results results;
+  results_to_proto(*info, &results);
+  EXPECT_EQ(results.summary().highlight_detection(), "optical");
+  EXPECT_EQ(results.summary().highlight_pixels(), highlights.at("flagged_pixels").get<std::uint64_t>());
+}
+
+// The first "relit_delta_e94" object of each illuminant in a session's results: illuminant -> mean ΔE94.
+void collect_relit_means(const nlohmann::json& json, std::map<std::string, double>& means) {
+  if (json.is_object()) {
+    for (const auto& [key, value] : json.items()) {
+      if (key == "relit_delta_e94" && value.is_object()) {
+        for (const auto& [illuminant, figures] : value.items())
+          if (figures.is_object() && figures.contains("mean") && !means.count(illuminant))
+            means[illuminant] = figures.at("mean").get<double>();
+      } else {
+        collect_relit_means(value, means);
+      }
+    }
+  } else if (json.is_array()) {
+    for (const auto& value : json) collect_relit_means(value, means);
+  }
+}
+
+// Issue 23 part 2: on a sphere with banks chromod calibrates the cross and the
+// parallel state, solves each state's mixes on its own library and gives the
+// estimator each frame's illuminant in the state it was taken in.
+TEST(PolarisedSession, CalibrationMeasuresEachStateAndTheSessionUsesThem) {
+  TestLab lab("polarised_calibration");
+  lab.lab_options.polarisers = true;
+  lab.lab_options.scene_size = 256;
+  lab.lab_options.led_time_scale = 100000;
+  lab.config.capture.exposure_per_capture = false;
+  auto daemon = lab.daemon();
+
+  // The polarised session's relit ΔE94 against its photographs, per illuminant (cam0).
+  auto relit_of_session = [&](const std::string& subject) {
+    session::StandardPlanOptions options = daemon->standard_plan_options();
+    EXPECT_TRUE(options.polarised);
+    options.exposure_us = 10000;
+    options.settle_ms = 20;
+    const auto session_started = daemon->start_session(session::standard_plan(options), subject);
+    const auto done = wait_final(*daemon, session_started.id);
+    EXPECT_EQ(done.state, session::OperationState::kSucceeded) << done.message;
+    const auto info = daemon->session(session_started.id);
+    std::map<std::string, double> relit;
+    if (info) collect_relit_means(info->results, relit);
+    if (relit.empty() && info) std::printf("%s: results %s\n", subject.c_str(), info->results.dump().substr(0, 600).c_str());
+    for (const auto& [illuminant, mean] : relit) std::printf("%s: relit ΔE94 %s %.3f\n", subject.c_str(), illuminant.c_str(), mean);
+    return relit;
+  };
+  // Before: no calibration (the configured mixes, the unpolarised built-in library).
+  const auto before = relit_of_session("before");
+
+  CalibrationRequest request;
+  request.drive_levels = {0.5, 1.0};
+  request.warmup_ms = 100;
+  const auto started = daemon->start_calibration(request);
+  const auto calibrated = wait_final(*daemon, started.id);
+  ASSERT_EQ(calibrated.state, session::OperationState::kSucceeded) << calibrated.error << " / " << calibrated.message;
+  const std::filesystem::path calibration_folder = calibrated.folder;
+  ASSERT_TRUE(std::filesystem::exists(calibration_folder / "led-library-cross.json"));
+  ASSERT_TRUE(std::filesystem::exists(calibration_folder / "led-library-parallel.json"));
+  std::ifstream record_in(calibration_folder / "calibration.json");
+  const auto record = nlohmann::json::parse(record_in);
+  EXPECT_EQ(record.at("libraries").at("cross"), "led-library-cross.json") << record.dump();
+  EXPECT_EQ(record.at("libraries").at("parallel"), "led-library-parallel.json") << record.dump();
+  EXPECT_EQ(record.at("summary").at("states").size(), 2u) << record.dump();
+
+  // Each state's D65' is solved on its own library and reaches D65 there
+  // (docs/mix-solver.md: camera ΔE00 mean below 0.5 as the unpolarised run's).
+  const auto cross = daemon->calibrations().library_for(drivers::Polarisation::kCross);
+  const auto parallel = daemon->calibrations().library_for(drivers::Polarisation::kParallel);
+  ASSERT_TRUE(cross && parallel);
+  for (const auto& [name, library] : {std::pair{"cross", cross}, std::pair{"parallel", parallel}}) {
+    const auto solved = calibration::solve_session_mix(*library, "d65", "camera", false);
+    std::printf("%s D65': camera ΔE00 mean %.3f, Ra %.1f\n", name, solved.figures.at("camera_de00_mean"),
+                solved.figures.at("ra"));
+    EXPECT_LT(solved.figures.at("camera_de00_mean"), 0.5) << name;
+  }
+  const auto cross_d65 = daemon->resolve_mix("d65", drivers::Polarisation::kCross);
+  EXPECT_EQ(cross_d65, calibration::solve_session_mix(*cross, "d65", "camera", false).weights);
+  EXPECT_EQ(daemon->resolve_mix("d65", drivers::Polarisation::kParallel),
+            calibration::solve_session_mix(*parallel, "d65", "camera", false).weights);
+
+  // After: the per-state mixes. Printed, not asserted: the estimate is often
+  // unavailable (ECC does not converge on the cross captures, docs/polarisation.md)
+  // and the illuminants per state are not wired yet.
+  const auto after = relit_of_session("after");
+  EXPECT_EQ(before.size(), 3u);
+  (void)after;
+}
+
+// The daemon test lab's 128-px scene magnified onto the 160 × 120 sensor:
+// the cross captures (no highlight left) are too smooth for ECC, which used
+// to leave the on-line estimate unavailable (a RegistrationError). The
+// registration's fallback (session/registration.hpp: a translation measured
+// by gradient least squares, used when its 3σ ≤ 0.3 px) answers where ECC
+// does not; the results say which step used it.
+TEST(PolarisedSession, ASmoothViewIsRegisteredByTheTranslationFallback) {
+  TestLab lab("polarised_smooth");
+  lab.lab_options.polarisers = true;
+  lab.lab_options.scene_size = 128;
+  lab.lab_options.led_time_scale = 100000;
+  lab.config.capture.exposure_per_capture = false;
+  auto daemon = lab.daemon();
+  session::StandardPlanOptions options = daemon->standard_plan_options();
+  ASSERT_TRUE(options.polarised);
+  options.exposure_us = 10000;
+  options.settle_ms = 20;
+  const auto started = daemon->start_session(session::standard_plan(options), "smooth");
+  const auto done = wait_final(*daemon, started.id);
+  ASSERT_EQ(done.state, session::OperationState::kSucceeded) << done.message;
+  const auto info = daemon->session(started.id);
+  ASSERT_TRUE(info);
+  ASSERT_EQ(info->results.value("state", ""), "available") << info->results.dump();
+  std::ifstream in(std::filesystem::path(done.folder) / "results" / "summary.json");
+  ASSERT_TRUE(in) << "no results/summary.json";
+  const auto summary = nlohmann::json::parse(in);
+  EXPECT_EQ(summary.at("highlights").at("detection"), "optical");
+  // W57 and W57+blue onto D65': ECC finds the (absent) motion, but on the
+  // aligned featureless pair its residual check does not converge (that
+  // RegistrationError left the estimate unavailable); the fallback measures
+  // the residual there. Each capture within a pixel of where it was (the
+  // lab's subject does not move).
+  const auto& registration = summary.at("registration");
+  ASSERT_EQ(registration.size(), 2u) << summary.dump();
+  int fallbacks = 0;
+  for (const auto& capture : registration) {
+    std::printf("%s: %s (residual %s), motion %.3f px, residual %.3f px, σ %.3f px\n",
+                capture.at("image").get<std::string>().c_str(), capture.at("method").get<std::string>().c_str(),
+                capture.at("residual_method").get<std::string>().c_str(), capture.at("motion_px").get<double>(),
+                capture.at("residual_motion_px").get<double>(), capture.at("translation_sigma_px").get<double>());
+    fallbacks += capture.at("method") == "translation" || capture.at("residual_method") == "translation";
+    EXPECT_LT(capture.at("motion_px").get<double>(), 1.0) << capture.dump();
+    EXPECT_LT(capture.at("residual_motion_px").get<double>(), 1.0) << capture.dump();
+    if (capture.at("method") == "translation")
+      EXPECT_LE(3 * capture.at("translation_sigma_px").get<double>(), session::kTranslationFallbackUncertaintyPx);
+  }
+  EXPECT_GE(fallbacks, 1) << registration.dump();
 }
 
 TEST(PolarisedSession, ConfigurationKeysAreReadAndBadValuesRefusedNamingTheKey) {

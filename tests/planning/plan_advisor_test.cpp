@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "chromo/calibration/led_library.hpp"
+#include "chromo/estimation/forward_table.hpp"
 #include "chromo/planning/plan_advisor.hpp"
 #include "chromo/planning/plan_description.hpp"
 #include "chromo/simulators/camera/camera_model.hpp"
@@ -113,6 +114,63 @@ TEST(PlanAdvisor, MoreFramesReduceSigmaBySquareRootOfFrames) {
   EXPECT_NEAR(p1.sigma.ch / p4.sigma.ch, 2.0, 0.04);
   EXPECT_NEAR(p1.delta_e94_mean / p4.delta_e94_mean, 2.0, 0.1);
   EXPECT_GT(p4.time.subject_s, 3 * p1.time.subject_s);
+}
+
+// Skins on the estimator's default table grid (node indices per axis) and
+// half-way between nodes; the grid's node values from a table of that grid.
+std::vector<estimation::SkinParameters> skins_on_table_grid(double offset) {
+  const estimation::MeasurementSet set =
+      estimation::rgb_measurement_set(spectral::builtin_camera("nikon_d5100"), calibration::nominal_led_library().leds[0].spectrum_per_unit_drive());
+  static const estimation::ForwardTable table = estimation::ForwardTable::build(set, {}, 2);
+  auto at = [&](int axis, int index) {
+    return table.node_value(axis, index) + offset * (table.node_value(axis, index + 1) - table.node_value(axis, index));
+  };
+  std::vector<estimation::SkinParameters> skins;
+  for (int k = 0; k < 6; ++k) skins.push_back({at(0, 12 + k), at(1, 10 + 2 * k), at(2, 8 + k), at(3, 3 + k)});
+  return skins;
+}
+
+TEST(PlanAdvisor, TableInterpolationErrorIsZeroOnTheNodesAndNotBetween) {
+  const PlanDescription method = builtin_plan("method", library());
+  const std::vector<double> on = table_interpolation_error(method, library(), CameraNoise{}, skins_on_table_grid(0.0), 2);
+  const std::vector<double> between = table_interpolation_error(method, library(), CameraNoise{}, skins_on_table_grid(0.5), 2);
+  ASSERT_EQ(on.size(), 6u * 4u);
+  double largest_on = 0, largest_between = 0;
+  for (double e : on) largest_on = std::max(largest_on, std::abs(e));
+  for (double e : between) largest_between = std::max(largest_between, std::abs(e));
+  EXPECT_LT(largest_on, 1e-6);       // float storage of albedos below 1
+  EXPECT_GT(largest_between, 1e-5);  // multilinear interpolation of a curved model
+}
+
+TEST(PlanAdvisor, TableBiasIsNothingOnTheNodesAndSmallBetween) {
+  const PlanDescription method = builtin_plan("method", library());
+  AdvisorOptions options = small_interior(1);
+  for (double offset : {0.0, 0.5}) {
+    options.population.skins = skins_on_table_grid(offset);
+    options.table_bias = false;
+    const double plain = predict_plan(method, library(), CameraNoise{}, options).delta_e94_mean;
+    options.table_bias = true;
+    const double biased = predict_plan(method, library(), CameraNoise{}, options).delta_e94_mean;
+    if (offset == 0.0) EXPECT_NEAR(biased, plain, 1e-3 * plain) << "no table error, no bias";
+    else {
+      // A table error of ~1e-4 of the albedo against one frame's noise of ~1e-2: present, and
+      // negligible (7.5e-5 of 1.174 when written; the lab's floor is not the table's, docs/plan-advisor.md).
+      EXPECT_GT(std::abs(biased - plain), 1e-6 * plain);
+      EXPECT_LT(std::abs(biased - plain), 1e-3 * plain);
+    }
+  }
+}
+
+TEST(PlanAdvisor, GivenSkinsAreThePopulationAndBadOnesAreNamed) {
+  SkinPopulation p;
+  p.skins = {{0.05, 0.02, 0.7, 0.01}, {0.1, 0.03, 0.5, 0.02}};
+  const std::vector<estimation::SkinParameters> drawn = draw_population(p);
+  ASSERT_EQ(drawn.size(), 2u);
+  EXPECT_EQ(drawn[1].bm, 0.5);
+  p.skins[1].che = 0.2;
+  std::string error;
+  EXPECT_FALSE(p.IsValid(&error));
+  EXPECT_NE(error.find("population.skins[1].che"), std::string::npos) << error;
 }
 
 TEST(PlanAdvisor, MultispectralPredictsLowerErrorThanTheMethodUnderA) {

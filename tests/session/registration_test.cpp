@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <random>
 
 namespace chromo::session {
 namespace {
@@ -61,6 +63,49 @@ TEST(Registration, ReportsWhatIsWrongInsteadOfGuessing) {
   const std::vector<float> flat(kWidth * kHeight, 0.5f);
   EXPECT_THROW(register_channel(flat, flat, kWidth, kHeight), RegistrationError);
   EXPECT_THROW(register_channel(flat, flat, kWidth + 1, kHeight), RegistrationError);
+}
+
+}  // namespace
+}  // namespace chromo::session
+
+namespace chromo::session {
+namespace {
+
+// A featureless view (a polarised session's cross capture of a smooth,
+// highlight-free patch): one broad gradient, camera noise, and the moving
+// capture at another gain (another illuminant) shifted by a fraction of a pixel.
+std::vector<float> smooth_view(double tx, double ty, double gain, unsigned seed) {
+  std::mt19937 random(seed);
+  std::normal_distribution<double> noise(0, 0.002);
+  std::vector<float> img(kWidth * kHeight);
+  for (int y = 0; y < kHeight; ++y)
+    for (int x = 0; x < kWidth; ++x) {
+      const double u = x + tx - 70, v = y + ty - 60;
+      img[y * kWidth + x] = static_cast<float>(gain * (0.35 + 0.12 * std::exp(-(u * u + v * v) / (2 * 45.0 * 45.0))) + noise(random));
+    }
+  return img;
+}
+
+TEST(Registration, AFeaturelessViewFallsBackToAMeasuredTranslation) {
+  const std::vector<float> reference = smooth_view(0, 0, 1.0, 1);
+  const std::vector<float> moving = smooth_view(0.4, -0.3, 0.9, 2);
+  const RegistrationResult r = register_channel(reference, moving, kWidth, kHeight);
+  std::printf("method %s, shift (%.3f, %.3f) ± %.3f px, rotation %.3f°\n", registration_method_name(r.method), r.shift_x_px, r.shift_y_px, r.translation_sigma_px, r.rotation_deg);
+  EXPECT_EQ(r.method, RegistrationMethod::kTranslation);  // ECC finds no optimum on it
+  EXPECT_LE(3 * r.translation_sigma_px, kTranslationFallbackUncertaintyPx);
+  EXPECT_EQ(r.rotation_deg, 0.0);  // ECC turned it by −78° about the patch's centre
+  // moving(x) = view(x + (0.4, −0.3)): the warp onto the reference undoes it.
+  EXPECT_NEAR(r.shift_x_px, -0.4, std::max(0.05, 4 * r.translation_sigma_px));
+  EXPECT_NEAR(r.shift_y_px, 0.3, std::max(0.05, 4 * r.translation_sigma_px));
+  EXPECT_LT(r.residual_motion_px, 0.1);
+  // A flat view: no motion can be measured, and the error says why.
+  const std::vector<float> flat(kWidth * kHeight, 0.5f);
+  try {
+    register_channel(flat, flat, kWidth, kHeight);
+    ADD_FAILURE() << "a flat view was registered";
+  } catch (const RegistrationError& e) {
+    EXPECT_NE(std::string(e.what()).find("translation fallback"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

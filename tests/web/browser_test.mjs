@@ -131,6 +131,67 @@ async function pressOn(page, locator, key) {
   await page.keyboard.press(key);
 }
 
+// The Results page's frames table against GetSession's frames: the count,
+// and every polarisation state expected among the lit frames.
+async function checkFramesTable(page, sessionId, states) {
+  const detail = await api('SessionService', 'GetSession', { id: sessionId, include_frames: true });
+  const frames = detail.json.frames ?? [];
+  await waitUntil(page, (count) => document.querySelector('[data-frames]')?.dataset.frames === String(count), frames.length,
+    20000, `the frames table (${frames.length} frames)`);
+  const table = page.locator('table').filter({ has: page.locator('caption', { hasText: 'Frames of the session' }) });
+  assert.equal(await table.locator('tbody tr').count(), Math.min(frames.length, 500));
+  const shown = new Set(await table.locator('tbody tr td:nth-child(6)').allTextContents());
+  for (const state of states) assert.ok([...shown].some((text) => text.split(' + ').includes(state)), `no ${state} frame in ${[...shown]}`);
+  console.log(`frames table: ${frames.length} frames, polarisation ${[...shown].join(', ')}`);
+}
+
+// The virtual lab with polariser banks and camera analysers (docs/polarisation.md):
+// the plan is cross-polarised with a parallel D65' capture, the frames say
+// so, and the results show optical highlights with the diffuse | surface |
+// combined panel.
+async function polarisedSession(page, port) {
+  await stopDaemon();
+  writeFileSync(path.join(home, 'chromod.json'), JSON.stringify({ token: TOKEN, web_dir: webDir, virtual_lab: { polarisers: true } }));
+  origin = await startDaemon(port);
+  await page.locator('#connection').waitFor({ state: 'hidden', timeout: 30000 });
+  await page.getByLabel('Token').fill(TOKEN);
+  await page.keyboard.press('Enter');
+  await page.getByRole('heading', { name: 'Live' }).waitFor();
+  const login = await fetch(`${origin}/login`, { method: 'POST', headers: { 'Content-Type': 'application/json', Origin: origin },
+    body: JSON.stringify({ token: TOKEN }) });
+  assert.equal(login.status, 200);
+  cookie = login.headers.get('set-cookie').split(';')[0];
+  await pressOn(page, page.getByRole('link', { name: 'Sessions' }), 'Enter');
+  await page.getByRole('cell', { name: 'subject_d65_parallel' }).first().waitFor({ timeout: 10000 });
+  const planStates = new Set(await page.locator('.plan tbody tr td:nth-child(5)').allTextContents());
+  assert.ok(planStates.has('cross') && planStates.has('parallel'), `the polarised plan's states: ${[...planStates]}`);
+  const started = performance.now();
+  const operation = await api('SessionService', 'StartSession', { standard: true, subject: 'polarised forearm', exposure_us: 10000 });
+  assert.equal(operation.status, 200, JSON.stringify(operation.json));
+  const id = operation.json.id;
+  for (let state = ''; ; await new Promise((resolve) => setTimeout(resolve, 500))) {
+    state = (await api('OperationService', 'GetOperation', { id })).json.state;
+    if (!['OPERATION_STATE_RUNNING', 'OPERATION_STATE_PENDING'].includes(state)) {
+      assert.equal(state, 'OPERATION_STATE_SUCCEEDED', `polarised session ${id} ended ${state}`);
+      break;
+    }
+  }
+  time('polarised_session_ms', started);
+  await page.goto(`${origin}/#results/${encodeURIComponent(id)}`);
+  await page.getByText(/results available/).waitFor({ timeout: 30000 });
+  const results = await api('ResultsService', 'GetResults', { session_id: id });
+  const camera = results.json.cameras[0];
+  assert.equal(camera.summary.highlight_detection, 'optical');
+  const highlights = page.locator(`section[data-camera="${camera.camera}"] .highlights`);
+  assert.equal(await highlights.getAttribute('data-detection'), 'optical');
+  assert.match(await highlights.textContent(), new RegExp(`optical \\(parallel − cross\\): ${camera.summary.highlight_pixels ?? 0} pixels flagged`));
+  await waitUntil(page, () => { const image = document.querySelector('.highlights img'); return image?.complete && image.naturalWidth > 0; },
+    null, 20000, 'the diffuse | surface | combined panel');
+  await checkFramesTable(page, id, ['cross', 'parallel']);
+  await page.screenshot({ path: path.join(screenshotDir, 'results-polarised.png'), fullPage: true });
+  console.log(`polarised session ${id}: highlights optical, ${camera.summary.highlight_pixels ?? 0} pixels flagged; ${figures.polarised_session_ms} ms`);
+}
+
 async function main() {
   origin = await startDaemon();
   const port = new URL(origin).port;
@@ -231,6 +292,22 @@ async function main() {
   await pressOn(page, page.getByRole('link', { name: 'Sessions' }), 'Enter');
   await page.getByRole('heading', { name: 'Start a session' }).waitFor();
   await page.getByRole('cell', { name: 'subject_d65' }).first().waitFor();
+  // The plan's polarisation per step: this sphere has no polariser banks, so
+  // every lit step is unpolarised; the polarised plan can be shown, but
+  // starting it is refused naming the missing banks, and no session starts.
+  const subjectRow = await page.locator('.plan tr').filter({ has: page.getByRole('cell', { name: 'subject_d65', exact: true }) })
+    .first().locator('td').allTextContents();
+  assert.ok(subjectRow.includes('unpolarised'), `subject_d65's row: ${subjectRow.join(' | ')}`);
+  const sessionsBefore = (await api('SessionService', 'ListSessions', {})).json.sessions?.length ?? 0;
+  await page.getByLabel('Polarisation', { exact: true }).selectOption('POLARISED_PLAN_ON');
+  await page.getByRole('cell', { name: 'subject_d65_parallel', exact: true }).waitFor({ timeout: 10000 });
+  await pressOn(page, page.getByRole('button', { name: 'Start session' }), 'Enter');
+  await page.locator('.start-session ~ .message.error').filter({ hasText: /no polariser banks/ }).waitFor({ timeout: 10000 });
+  console.log(`polarised plan on an unpolarised sphere: "${await page.locator('.start-session ~ .message.error').textContent()}"`);
+  assert.equal((await api('SessionService', 'ListSessions', {})).json.sessions?.length ?? 0, sessionsBefore, 'a refused session was listed');
+  await page.getByLabel('Polarisation', { exact: true }).selectOption('POLARISED_PLAN_CONFIGURED');
+  await page.getByRole('cell', { name: 'subject_d65_parallel', exact: true }).waitFor({ state: 'detached', timeout: 10000 });
+  await page.getByRole('cell', { name: 'subject_d65' }).first().waitFor();
   await page.getByLabel('Subject', { exact: true }).fill('browser test forearm');
   await page.getByLabel('Exposure (µs)', { exact: true }).fill('10000');
   started = performance.now();
@@ -280,6 +357,12 @@ async function main() {
     }
     console.log(`results of ${camera.camera}: page figures equal the API's (${Object.keys(camera.summary.relit_delta_e94).join(', ')})`);
   }
+  // How highlights were found, and the session's frames with their polarisation.
+  const firstCamera = results.json.cameras[0];
+  const highlights = page.locator(`section[data-camera="${firstCamera.camera}"] .highlights`);
+  assert.equal(await highlights.getAttribute('data-detection'), 'heuristic');
+  assert.match(await highlights.textContent(), new RegExp(`: ${firstCamera.summary.highlight_pixels ?? 0} pixels flagged specular`));
+  await checkFramesTable(page, sessionId, ['unpolarised']);
   // The files the page links to come from GET /api/files, as the API names them.
   const reportPath = results.json.cameras[0].report_file.slice(results.json.folder.length + 1);
   const report = await fetch(`${origin}/api/files/${sessionId}/${reportPath}`, { headers: { Cookie: cookie } });
@@ -344,6 +427,8 @@ async function main() {
   await page.getByRole('heading', { name: 'Live' }).waitFor();
   await waitForNewFrames(page, 2);
   console.log('daemon away shown and recovered');
+
+  await polarisedSession(page, port);
 
   await browser.close();
   console.log(`timings: ${JSON.stringify(figures)}`);

@@ -87,6 +87,12 @@ export function enumName(value, prefix) {
   return String(value ?? '').replace(prefix, '').toLowerCase().replaceAll('_', ' ');
 }
 
+// A light's polarisation: cross- or parallel-polarised need a sphere with
+// polariser banks (docs/polarisation.md); the API may omit the default.
+export function polarisationName(value) {
+  return value ? enumName(value, 'POLARISATION_') : 'unpolarised';
+}
+
 export function decodeBase64(text) {
   const binary = atob(text ?? '');
   const bytes = new Uint8Array(binary.length);

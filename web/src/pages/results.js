@@ -3,9 +3,10 @@
 // colour bar and the value under the cursor; the previews chromod wrote next
 // to maps.exr) and links to the files; relighting (MapsService.Relight) under
 // the offered illuminants with the photograph | reconstruction | ΔE94 panel
-// and its figures.
+// and its figures; the session's frames with each one's step, exposure and
+// polarisation (GetSession with frames).
 import * as api from '../api.js';
-import { h, field, messageArea, table, enumName, formatNumber } from '../dom.js';
+import { h, field, messageArea, table, enumName, formatNumber, polarisationName } from '../dom.js';
 import { mapExplorer } from '../map_explorer.js';
 
 const ILLUMINANTS = ['D65', 'D50', 'A', '4000K', 'W57', 'W40', 'W27', 'R', 'G', 'B'];
@@ -23,6 +24,53 @@ function deltaETable(statistics, caption) {
       formatNumber(s.p95, 3), formatNumber(s.max, 3), s.pixels]), caption);
 }
 
+// How highlights were found (docs/polarisation.md): optically from a
+// parallel − cross pair, with its diffuse | surface | combined panel, or by the
+// estimator's heuristics on an unpolarised session.
+function highlightSection(results, camera, folder) {
+  const summary = camera.summary ?? {};
+  if (!summary.highlight_detection) return null;
+  const optical = summary.highlight_detection === 'optical';
+  const text = optical
+    ? `Highlights: optical (parallel − cross): ${summary.highlight_pixels ?? 0} pixels flagged, information only — ` +
+      'the diffuse maps there come from the cross-polarised captures; maps.exr holds the surface and highlight channels.'
+    : `Highlights: heuristic (no parallel-polarised capture): ${summary.highlight_pixels ?? 0} pixels flagged specular.`;
+  return h('div', { class: 'highlights', 'data-detection': summary.highlight_detection },
+    h('p', {}, text),
+    optical ? h('figure', { class: 'panel' },
+      h('img', { src: api.fileUrl(results.session_id, `${folder}polarisation.png`), alt: `${camera.camera}: diffuse | surface | combined`, loading: 'lazy' }),
+      h('figcaption', {}, 'Diffuse (cross-polarised) | surface (parallel − cross) | combined')) : null);
+}
+
+const FRAMES_SHOWN = 500;
+
+// The polarisation of the LED types a frame's light was made of (drive > 0,
+// W57 W40 W27 R G B as FrameRecord.polarisation lists them); '–' for dark.
+const LED_TYPES = ['w57', 'w40', 'w27', 'red', 'green', 'blue'];
+function frameLights(frame) {
+  const states = new Set((frame.polarisation ?? []).filter((_, i) => Number(frame.drive?.[LED_TYPES[i]] ?? 0) > 0)
+    .map(polarisationName));
+  return states.size ? [...states].join(' + ') : '–';
+}
+
+// The session's frames as its journal has them (GetSession include_frames).
+function framesSection(sessionId) {
+  const body = h('div', {}, h('p', {}, 'loading the frames…'));
+  const message = messageArea();
+  api.call('SessionService', 'GetSession', { id: sessionId, include_frames: true }).then((detail) => {
+    const frames = detail.frames ?? [];
+    const shown = frames.slice(0, FRAMES_SHOWN);
+    body.replaceChildren(
+      h('p', {}, frames.length > shown.length ? `${frames.length} frames; the first ${shown.length} are listed.` : `${frames.length} frames.`),
+      table(['#', 'Step', 'Camera', 'Sequence', 'Exposure (µs)', 'Polarisation', 'Status'],
+        shown.map((frame) => [frame.index ?? 0, frame.step, frame.camera, frame.sequence ?? 0, formatNumber(frame.exposure_us),
+          frameLights(frame), frame.status]), 'Frames of the session'));
+    body.dataset.frames = String(frames.length);
+  }, (error) => { body.replaceChildren(); message.error(error); });
+  return h('section', { class: 'card', 'aria-labelledby': 'frames-heading' },
+    h('h3', { id: 'frames-heading' }, 'Frames'), body, message.element);
+}
+
 function cameraResults(results, camera) {
   const folder = relativeTo(results.folder, camera.maps_file).replace(/[^/]*$/, '');
   const summary = camera.summary ?? {};
@@ -37,6 +85,7 @@ function cameraResults(results, camera) {
       `(${formatNumber(summary.pixels_per_second, 4)} pixels/s); sensitivity ${camera.camera_sensitivity}`),
     deltaETable(summary.relit_delta_e94, `${camera.camera}: relit ΔE94 against the photographs`),
     table(['Flag', 'Pixels'], Object.entries(summary.flag_counts ?? {}).map(([flag, count]) => [flag, count]), `${camera.camera}: flags`),
+    highlightSection(results, camera, folder),
     mapExplorer(results.session_id, relativeTo(results.folder, camera.maps_file), camera.camera),
     maps,
     h('ul', { class: 'files' },
@@ -99,8 +148,12 @@ export function mountResults(container, sessionId) {
       body.dataset.sessionId = id;
       body.append(h('p', { class: 'results-state' }, `Session ${id}: results ${enumName(results.state, 'RESULTS_STATE_')}`,
         results.reason ? ` — ${results.reason}` : ''));
-      if (results.state !== 'RESULTS_STATE_AVAILABLE') return;
-      body.append(relightSection(results), ...(results.cameras ?? []).map((camera) => cameraResults(results, camera)));
+      if (results.state !== 'RESULTS_STATE_AVAILABLE') {
+        body.append(framesSection(id));
+        return;
+      }
+      body.append(relightSection(results), ...(results.cameras ?? []).map((camera) => cameraResults(results, camera)),
+        framesSection(id));
     } catch (error) {
       message.error(error);
     }

@@ -1,7 +1,7 @@
 // Sessions: the standard plan, starting a session (subject, plan options),
 // its progress and events with pause/resume/cancel, and past sessions.
 import * as api from '../api.js';
-import { h, field, messageArea, table, enumName, formatNumber } from '../dom.js';
+import { h, field, messageArea, table, enumName, formatNumber, polarisationName } from '../dom.js';
 import { operationView, stateName, isFinal } from '../operation.js';
 
 function stepIllumination(step) {
@@ -12,8 +12,9 @@ function stepIllumination(step) {
 }
 
 function planTable(plan) {
-  return table(['#', 'Step', 'Role', 'Illumination', 'Exposure (µs)', 'Frames per camera', 'Prompt'],
+  return table(['#', 'Step', 'Role', 'Illumination', 'Polarisation', 'Exposure (µs)', 'Frames per camera', 'Prompt'],
     (plan.steps ?? []).map((step, i) => [i + 1, step.name, enumName(step.role, 'STEP_ROLE_'), stepIllumination(step),
+      step.dark ? '–' : polarisationName(step.polarisation),
       step.exposure_from ? `from ${step.exposure_from}` : step.meter_white_share ? `metered to ${step.meter_white_share} of full scale` : formatNumber(step.exposure_us),
       step.frames_per_camera, step.prompt || '–']),
     `Plan "${plan.name}" (${enumName(plan.timing, 'TIMING_')} timing)`);
@@ -46,6 +47,11 @@ export function mountSessions(container) {
   const fixed = h('input', { type: 'checkbox', name: 'fixed_exposure' });
   const exposure = h('input', { type: 'number', min: 0, max: 10000000, step: 'any', value: 10000, name: 'exposure_us' });
   const frames = h('input', { type: 'number', min: 0, max: 1000, step: 1, value: 0, name: 'frames_per_camera' });
+  const referenceFrames = h('input', { type: 'number', min: 0, max: 1000, step: 1, value: 0, name: 'reference_frames' });
+  const polarised = h('select', { name: 'polarised' },
+    h('option', { value: 'POLARISED_PLAN_CONFIGURED' }, 'as configured (cross-polarised where the sphere has banks)'),
+    h('option', { value: 'POLARISED_PLAN_ON' }, 'cross-polarised, with a parallel D65\' capture'),
+    h('option', { value: 'POLARISED_PLAN_OFF' }, 'unpolarised'));
   const timing = h('select', { name: 'timing' },
     h('option', { value: 'TIMING_SOFTWARE' }, 'software'), h('option', { value: 'TIMING_HARDWARE' }, 'hardware'));
   const plan = h('div', { class: 'plan' });
@@ -56,6 +62,7 @@ export function mountSessions(container) {
   const progress = operationView({ controls: true, onFinished: () => past.refresh() });
 
   const options = () => ({ timing: timing.value, exposure_us: Number(exposure.value), frames_per_camera: Number(frames.value),
+    reference_frames: Number(referenceFrames.value), polarised: polarised.value,
     operator_prompts: prompts.checked, fixed_exposure: fixed.checked });
   const showPlan = async () => {
     try {
@@ -64,13 +71,14 @@ export function mountSessions(container) {
       plan.replaceChildren(h('p', { class: 'message error' }, `${error.message} (${error.code})`));
     }
   };
-  for (const control of [prompts, fixed, exposure, frames, timing]) control.addEventListener('change', showPlan);
+  for (const control of [prompts, fixed, exposure, frames, referenceFrames, polarised, timing]) control.addEventListener('change', showPlan);
   showPlan();
 
   const form = h('form', { class: 'start-session' },
     field('Subject', subject),
     h('fieldset', {}, h('legend', {}, 'Plan: the standard session'),
       field('Timing', timing), field('Exposure (µs)', exposure), field('Frames per camera (0: configured)', frames),
+      field('Frames per dark and white reference (0: configured)', referenceFrames), field('Polarisation', polarised),
       h('label', { class: 'check' }, prompts, ' Pause for "place white" and "place subject"'),
       h('label', { class: 'check' }, fixed, ' One fixed exposure (no metering)')),
     h('button', { type: 'submit' }, 'Start session'));

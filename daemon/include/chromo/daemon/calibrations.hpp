@@ -12,6 +12,9 @@
 //
 //   <sessions_dir>/calibrations/<id>/calibration.json   request, state, summary (crash-safe rewrite)
 //                                    led-library.json   the measured library (docs/formats/led-library.md)
+//                                    led-library-cross.json, led-library-parallel.json
+//                                                       on a sphere with polariser banks on every LED type:
+//                                                       one run per state, one library per state
 //
 // calibration.json is written when the run starts (state "running") and when
 // it ends (final state and summary); recover() reads every folder back at
@@ -23,6 +26,15 @@
 // Mixes: with a library, solved_mix() solves d65 / w57 / w57+blue[:R]
 // (camera objective, the Nikon D5100 sensitivity, as `chromo leds solve`'s
 // defaults) and caches the weights until the library changes.
+//
+// Polarisation states (docs/polarisation.md "Calibration per state"): when
+// the controller reports banks on every LED type, a calibration measures the
+// cross state, then the parallel state (progress in two halves, each step
+// named by its state). Both libraries are written and adopted only when both
+// runs succeeded; a failed second run leaves the first state's library in
+// the run's folder but the daemon keeps the libraries it had. solved_mix
+// for a cross or parallel step solves on that state's library, falling back
+// to the unpolarised one when the state has none.
 //
 // Thread rules: thread-safe. The runner must stop (cancel and join) before
 // the Calibrations is destroyed (Daemon does). The devices' mutexes are held
@@ -79,7 +91,13 @@ class Calibrations {
   // std::logic_error (FAILED_PRECONDITION) when there is no library.
   calibration::SolvedMix solve(const std::string& target, const std::string& objective, bool hold_chromaticity) const;
   // The weights of a session mix from the library; nullopt without a library.
-  std::optional<drivers::DriveLevels> solved_mix(const std::string& mix) const;
+  std::optional<drivers::DriveLevels> solved_mix(
+      const std::string& mix, drivers::Polarisation state = drivers::Polarisation::kUnpolarised) const;
+  // The library a step in `state` is lit by: that state's measured library,
+  // else the unpolarised one (null when none).
+  std::shared_ptr<const calibration::LedLibrary> library_for(drivers::Polarisation state) const;
+  // The measured library of each polarisation state that has one (kCross, kParallel).
+  std::map<drivers::Polarisation, calibration::LedLibrary> measured_state_libraries() const;
   // The library file in use ("" when none).
   std::string library_path() const;
   // The library in use (null when none): the plan advisor predicts from it.
@@ -91,7 +109,10 @@ class Calibrations {
   OperationRunner::Outcome run(RunningOperation& running, const CalibrationRequest& request,
                                const std::filesystem::path& folder, NamedDevice<drivers::LedController>* led,
                                NamedDevice<drivers::Spectrometer>* spectrometer);
-  void use_library(const std::filesystem::path& path);
+  void use_library(const std::filesystem::path& path,
+                   drivers::Polarisation state = drivers::Polarisation::kUnpolarised);
+  // The state's slot in the maps below: the library a step in `state` is lit by.
+  drivers::Polarisation library_state(drivers::Polarisation state) const;
 
   std::filesystem::path root_;
   DeviceSet& devices_;
@@ -99,9 +120,11 @@ class Calibrations {
   files::StorageBudget* budget_;
 
   mutable std::mutex mutex_;  // library, cache
-  std::shared_ptr<const calibration::LedLibrary> library_;
+  std::shared_ptr<const calibration::LedLibrary> library_;  // unpolarised
   std::filesystem::path library_path_;
-  mutable std::map<std::string, drivers::DriveLevels> mix_cache_;
+  // The measured libraries of a sphere with banks: kCross, kParallel.
+  std::map<drivers::Polarisation, std::shared_ptr<const calibration::LedLibrary>> state_libraries_;
+  mutable std::map<std::pair<std::string, drivers::Polarisation>, drivers::DriveLevels> mix_cache_;
 };
 
 }  // namespace chromo::daemon

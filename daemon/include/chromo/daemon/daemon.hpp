@@ -62,7 +62,10 @@ class Daemon {
   // Validated plan; throws std::invalid_argument (naming the field),
   // std::logic_error (another operation runs), std::runtime_error (devices).
   session::OperationRecord start_session(session::SessionPlan plan, const std::string& subject);
-  drivers::DriveLevels resolve_mix(const std::string& mix) const;
+  // A named mix's weights: solved on the calibrated library of `state` (a
+  // sphere with banks keeps one per state), else the configured mixes.
+  drivers::DriveLevels resolve_mix(const std::string& mix,
+                                   drivers::Polarisation state = drivers::Polarisation::kUnpolarised) const;
   // The plan's blue-light hazard dose for the subject's eyes (session/plan_hazard.hpp)
   // with the daemon's LED library and `hazard` configuration; exposures of
   // metered steps when known. start_session refuses a plan beyond the limit

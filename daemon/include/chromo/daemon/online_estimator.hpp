@@ -80,10 +80,12 @@ class OnlineEstimator;
 // resolved at each session start, so a bad led_library or camera file makes
 // that session's results "unavailable" naming the file. daemon_led_library
 // (optional): the daemon's own LED library file at that moment ("" when it
-// has none), used unless config.led_library overrides it.
+// has none), used unless config.led_library overrides it; likewise
+// daemon_state_libraries (optional): its measured library per polarisation
+// state (CaptureSources::led_library_of_state).
 std::unique_ptr<OnlineEstimator> make_online_estimator(
-    const EstimationConfig& config, files::StorageBudget* budget,
-    std::function<std::string()> daemon_led_library = {});
+    const EstimationConfig& config, files::StorageBudget* budget, std::function<std::string()> daemon_led_library = {},
+    std::function<std::map<drivers::Polarisation, calibration::LedLibrary>()> daemon_state_libraries = {});
 
 class OnlineEstimator final : public FrameConsumer {
  public:

@@ -115,7 +115,8 @@ struct SequencerContext {
   NamedDevice<drivers::LedController>* led = nullptr;
   std::vector<NamedDevice<drivers::Camera>*> cameras;
   // Drive levels of a named mix; throws std::invalid_argument when unknown.
-  std::function<drivers::DriveLevels(const std::string& mix)> resolve_mix;
+  // The weights of a named mix for a step in the given polarisation state.
+  std::function<drivers::DriveLevels(const std::string& mix, drivers::Polarisation state)> resolve_mix;
   std::function<void(session::StepRole)> place_in_sphere;  // optional (DeviceSet::place_in_sphere)
   // Optional: the white target's camera response (R, G, B, any common scale)
   // under these drive levels, predicted from the LED library and the camera

@@ -137,6 +137,11 @@ struct MethodEstimationResult {
   std::vector<RelitComparison> relit;
   std::vector<session::RegistrationReport> registration;
   std::uint64_t table_key = 0;  // the forward table's cache key (summary.json's table.key)
+  // How highlights were found (summary.json's highlights): "optical" (a
+  // parallel − cross pair; highlight_pixels = the optical flag's count) or
+  // "heuristic" (no parallel capture; highlight_pixels = the specular flag's).
+  std::string highlight_detection;
+  std::uint64_t highlight_pixels = 0;
   // Wall seconds per stage, in order: summary.json's timings_s
   // (measurement_and_registration, table, inverter_setup, estimate,
   // neighbourhood, relit_comparison, total_before_writing) and "writing"

@@ -105,6 +105,10 @@ struct SkinPopulation {
   estimation::SkinParameters high{0.4, 0.3, 1.0, 0.1};
   int count = 64;
   std::uint64_t seed = 1;
+  // Given skins (e.g. a sample of a scene's truth): when not empty, the
+  // population is exactly these (each within MODEL.md's ranges; at most
+  // 100000) and low, high, count and seed are not used.
+  std::vector<estimation::SkinParameters> skins;
   bool IsValid(std::string* error) const;
 };
 SkinPopulation interior_population();
@@ -125,6 +129,14 @@ struct AdvisorOptions {
   // Fisher information. Off: the plain Cramér-Rao bound (a parameter the plan
   // cannot see then has an unbounded σ).
   bool box_prior = true;
+  // The estimator's table error (docs/plan-advisor.md, "The table's floor"):
+  // the estimator fits the plan's forward table (estimation::ForwardTable,
+  // default grid, multilinear), not the exact model, so a noise-free
+  // measurement is fitted with the bias δp = −P·Jᵀ·Σ⁻¹·δv, δv the table's
+  // interpolation error at the skin (table − exact model, computed, not
+  // fitted). On: each skin's relit error is ΔE94 of (Lab + L·δp + e) and not
+  // of (Lab + e). Costs one table build per prediction (seconds).
+  bool table_bias = false;
   int threads = 1;              // 1-64
   bool IsValid(std::string* error) const;
 };
@@ -192,6 +204,14 @@ struct ChannelStatistics {
   std::vector<double> value;
   std::vector<double> covariance;  // row-major n × n
 };
+// The forward table's interpolation error at each skin: table − exact model
+// per channel (skins × channels, row-major), the δv of the table bias; the
+// table is the estimator's (estimation::ForwardTable, default grid) for this
+// plan's channels. Zero at the table's nodes up to its float storage.
+std::vector<double> table_interpolation_error(const PlanDescription& plan, const calibration::LedLibrary& library,
+                                              const CameraNoise& camera,
+                                              const std::vector<estimation::SkinParameters>& skins, int threads = 1);
+
 ChannelStatistics channel_statistics(const PlanDescription& plan, const calibration::LedLibrary& library,
                                      const CameraNoise& camera, const estimation::SkinParameters& skin);
 // The same from `draws` simulated measurements (the Monte Carlo check's

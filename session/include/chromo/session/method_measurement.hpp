@@ -72,6 +72,7 @@
 
 #include "chromo/estimation/measurement.hpp"
 #include "chromo/session/registration.hpp"
+#include "chromo/session/surface_factors.hpp"
 
 namespace chromo::session {
 
@@ -95,7 +96,7 @@ struct IlluminatedCapture {
   std::optional<RgbImage> white_linearity;
 };
 
-// Exposure per capture (docs/estimation.md "Exposure per capture"): a subject
+// Exposure per capture (docs/daemon.md "Subject exposure"): a subject
 // may be taken at g = t_subject / t_white times its white's exposure (a skin
 // 2-5× darker than the white then fills the sensor as the white does). The
 // white is not re-taken at the subject's exposure (it would clip): its signal
@@ -163,6 +164,13 @@ struct MethodCaptures {
   // three captures above are cross-polarised and this is D65' parallel (its
   // own white). Absent on an unpolarised sphere.
   std::optional<IlluminatedCapture> broadband_parallel;
+  // What the cross and parallel captures keep of the surface reflection
+  // (surface_factors.hpp: the films as the estimator knows them). With a
+  // parallel capture and these, the surface maps are corrected for the
+  // films' extinction and the cross captures for the surface light they
+  // still hold (MethodMeasurement::surface_correction); without them the
+  // surface map is (parallel − cross)/2 of G, uncorrected, as before.
+  std::optional<SurfaceFactors> surface_factors;
 };
 
 // A capture of the subject as camera RGB albedo (white = 1) on the reference
@@ -171,6 +179,25 @@ struct Photograph {
   std::string name;
   spectral::Spectrum illuminant;
   std::vector<Eigen::Vector3d> rgb;
+};
+
+// The cross captures are corrected by the surface map where the G surface
+// map stands this many σ above the sheen: below it the highlight's surface
+// light left in the cross capture is at most c_cross·3σ (about 0.0005 albedo
+// in the blue at 1:50), under the cross capture's own noise, and nothing is
+// subtracted (no noise added on skin; a one-sided 3σ test passes 0.13% of
+// skin's pixels).
+inline constexpr double kSurfaceCorrectionSigmas = 3.0;
+
+// What a polarised measurement's surface correction used
+// (MethodMeasurement::surface_correction). At namespace scope: clang rejects
+// std::optional::emplace() of a nested struct with member initialisers.
+struct SurfaceCorrection {
+  std::string source;                       // SurfaceFactors::source
+  std::array<double, 3> parallel_minus_cross{};  // c_parallel,c − c_cross,c of D65' (the surface maps' divisor)
+  std::array<std::array<double, 3>, 3> cross_factor{};  // c_cross,c of D65', W57, W57+blue
+  std::array<double, 3> sheen_reference{};  // per channel: median of S_c, capped at F(0°)
+  std::size_t corrected_pixels = 0;         // where S_c itself was subtracted
 };
 
 struct MethodMeasurement {
@@ -197,16 +224,29 @@ struct MethodMeasurement {
   std::vector<std::uint8_t> no_reference;
   std::size_t no_reference_pixels = 0;
   // With a D65' parallel capture (docs/polarisation.md, "Estimation
-  // outputs"): the surface map S = (a_parallel,G − a_cross,G)/2 per pixel,
-  // G albedo of D65' parallel (on the cross D65' grid as captured: not
-  // registered, method_measurement.cpp says why) minus
-  // the cross D65' G albedo, halved: the surface layer in albedo units (half
-  // of the depolarised light passes either state and is removed by the
-  // white of the same state), NOT corrected for the films' extinction (it is
-  // (ER − 1)²/(ER + 1)² of the surface layer: 2% short at 1:200). And its
-  // σ per pixel from the two captures' noise models (measurement.hpp's).
-  // Both empty without a parallel capture.
-  std::vector<float> surface, surface_sigma;
+  // outputs"): the surface map per pixel from D65' parallel (against its own
+  // parallel white, on the cross D65' grid as captured: not registered,
+  // method_measurement.cpp says why) and the cross D65' albedo,
+  //   S_c = (a_parallel,c − a_cross,c) / (c_parallel,c − c_cross,c)
+  // with the channel's surface factors (surface_factors.hpp) when
+  // MethodCaptures::surface_factors is given: the surface layer in albedo
+  // units, corrected for the films' extinction; without them the divisor is
+  // 2 (the ideal films'), so S is (ER − 1)²/(ER + 1)² of the surface layer
+  // (2% short at 1:200). `surface` is G (the highlight flag's, with its σ
+  // per pixel from the two captures' noise models, measurement.hpp's);
+  // `surface_red`, `surface_blue` the other channels. All empty without a
+  // parallel capture.
+  std::vector<float> surface, surface_sigma, surface_red, surface_blue;
+  // What was done with the surface light (present when the surface factors
+  // were known): where the G surface map stands at least
+  // kSurfaceCorrectionSigmas σ above the sheen reference F, the cross
+  // captures' albedo in `measured` had c_cross,c·(S_c − F_c) subtracted per
+  // channel (the highlight's surface light; S_G for a channel whose parallel
+  // capture is saturated). Elsewhere, and for the sheen everywhere, the
+  // captures are as before: skin's estimate is unchanged (the sheen leaves
+  // c_cross·F, 0.0017 albedo in B at 1:200, on every pixel alike). The
+  // photographs stay as captured.
+  std::optional<SurfaceCorrection> surface_correction;
   bool polarised() const { return !surface.empty(); }
 };
 

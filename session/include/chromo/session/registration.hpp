@@ -8,8 +8,23 @@
 // and the warped image; the largest displacement that remaining transform
 // gives any image corner is reported (pixels). A coarse pyramid level where
 // ECC does not converge is skipped (listed in skipped_levels; the next finer
-// level starts from the warp so far); when the finest level does not
-// converge, RegistrationError names what failed and nothing is warped.
+// level starts from the warp so far).
+//
+// Fallback for featureless captures (a polarised session's cross captures
+// have lost the highlight, which gives a smooth view most of its texture):
+// when the finest level does not converge, or ECC's warp is not a subject's
+// motion between two captures of one plan (turned by more than 10°, or less
+// than half of the frame left overlapping: on a smooth, nearly isotropic
+// view ECC "converges" to such warps, −78° on the test's), a global translation is
+// estimated instead by gradient least squares (Gauss-Newton on
+// moving(x + t) ≈ a·reference(x) + b, the gain a and offset b absorbing the
+// illuminants' difference), with its standard error from the fit's residual
+// (σ_t² = σ_r² · (JᵀJ)⁻¹, pixels taken as independent). It is used only when
+// 3σ_t ≤ kTranslationFallbackUncertaintyPx on both axes: the motion is then
+// measured to a fraction of a pixel even where ECC found no optimum
+// (method "translation", its σ reported); otherwise RegistrationError names
+// what failed (ECC's error and the fallback's uncertainty) and nothing is
+// warped.
 //
 // Thread rules: free functions, reentrant (OpenCV may use its own threads).
 
@@ -25,6 +40,14 @@ class RegistrationError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// How a registration was found: ECC, or the translation fallback above.
+// One byte, so RegistrationResult stays trivially copyable (cached by the
+// rendered session, files/binary_cache.hpp).
+enum class RegistrationMethod : std::uint8_t { kEcc = 0, kTranslation = 1 };
+inline const char* registration_method_name(RegistrationMethod m) {
+  return m == RegistrationMethod::kTranslation ? "translation" : "ECC";
+}
+
 struct RegistrationOptions {
   int max_iterations = 200;
   double epsilon = 1e-6;
@@ -38,7 +61,16 @@ struct RegistrationResult {
   double residual_motion_px = 0;          // see above
   double warp[2][3] = {{1, 0, 0}, {0, 1, 0}};
   std::uint32_t skipped_levels = 0;       // bit l set: coarse pyramid level l (> 0) did not converge, skipped
+  RegistrationMethod method = RegistrationMethod::kEcc;
+  // How the residual check (register_channel) measured residual_motion_px:
+  // ECC on the warped capture, or the fallback where ECC gave no answer
+  // there (an aligned featureless pair is where ECC fails most).
+  RegistrationMethod residual_method = RegistrationMethod::kEcc;
+  double translation_sigma_px = 0;        // the fallback's larger standard error of the shift (0 for ECC)
 };
+
+// The fallback's acceptance: three standard errors of the translation.
+inline constexpr double kTranslationFallbackUncertaintyPx = 0.3;
 
 // reference_channel, moving_channel: width × height floats (row-major).
 RegistrationResult estimate_registration(const std::vector<float>& reference_channel,

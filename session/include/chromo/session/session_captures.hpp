@@ -70,6 +70,12 @@ struct CaptureSources {
   // Per camera (by the frames' camera name): its own spectral sensitivity.
   std::map<std::string, CameraSensitivitySource> camera_of;
   CameraSensitivitySource sensitivity_of(const std::string& camera_name) const;
+  // A sphere with polariser banks (docs/polarisation.md "Calibration per
+  // state"): the measured library of kCross / kParallel light. A frame's LED
+  // type lit in a state found here takes its illuminant from that library,
+  // in any other state from led_library.
+  std::map<drivers::Polarisation, calibration::LedLibrary> led_library_of_state;
+  const calibration::LedLibrary& library_for(drivers::Polarisation state) const;
 };
 
 // The sources chromod uses: the LED library at `led_library` (empty: the

@@ -47,7 +47,7 @@ struct CameraModelOptions {
   double black_level_dn = 16;
   // A sensor whose output compresses towards full well (0-0.5; 0 = linear):
   // at full well the signal reads that share short. What an exposure-ratio
-  // linearity check must catch (docs/estimation.md "Exposure per capture").
+  // linearity check must catch (docs/daemon.md "Subject exposure").
   double nonlinearity_at_full_well = 0;
   std::uint64_t seed = 1;  // frame k's noise is a function of (seed, k) only
   int readout_threads = 0;  // threads reading a frame's bands out (0 = OpenMP's default); never changes the frame

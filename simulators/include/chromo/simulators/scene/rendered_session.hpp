@@ -88,7 +88,7 @@ struct RenderedSessionOptions {
   double blue_ratio = 0;        // > 0: the mixes "w57+blue:R" and "w57:R" (0: "w57+blue", "w57")
   int frames_per_capture = 1;   // frames of every subject step, averaged by the capture builder (1-64)
   int reference_frames = 0;     // frames of the dark and white steps (0: frames_per_capture; 0-64)
-  // Subject exposure metering (docs/estimation.md "Exposure per capture";
+  // Subject exposure metering (docs/daemon.md "Subject exposure";
   // the standard plan only; needs exposure_per_capture). > 0: each subject is
   // metered on a first frame of it at its white's exposure (its own noisy
   // frame, binned 2×2, frame index apart from the plan's):
@@ -136,10 +136,34 @@ struct RenderedSessionOptions {
   // solved on it. Plan "standard" only; the cache is not used.
   bool polarised = false;
   double extinction_ratio_550nm = 200;  // 1-100000
+  // The estimator is given the films (MethodCaptures::surface_factors from
+  // surface_factor_in_albedo at the design view): surface maps corrected for
+  // the extinction, cross captures for their surface light. false: the
+  // measurement as without that knowledge (the bench's "before" column).
+  bool estimator_knows_films = true;
   // Oily regions on the skin (scene.hpp OilyHighlights: count, σ range,
   // roughness, radius); sigma_reflectance is set here to surface_sigma
   // (below). count 0: none.
   OilyHighlights oily;
+
+  // The lab's imperfections, each switchable so bench/lab_floor_bench.cpp
+  // can say what each costs; the defaults are the lab described above.
+  // linear_led_light: every state's light is Σ drive · (the library's
+  // full-drive spectrum per unit drive) over the LED types — exactly the
+  // illuminant the capture builder tells the estimator — instead of the
+  // LedLab's settled emission at those drives (junctions cooler at partial
+  // drive: more flux per unit drive and a shifted peak).
+  bool linear_led_light = false;
+  // cell_uniform_scene: each 2×2 sensor cell (one measurement cell) sees one
+  // scene pixel: the scene rendered at half the sensor's size per side
+  // (scene_width/height and window_x/y halved; all must then be even), each
+  // pixel filling a cell, so the cell's four Bayer sites see one albedo and
+  // its truth is that pixel's parameters.
+  bool cell_uniform_scene = false;
+  // scene_anomalies false: SkinSceneOptions::anomalies = false (the skin
+  // model's albedo under the vein, tattoo, marker, hair and highlight,
+  // labelled as with them). Unpolarised only.
+  bool scene_anomalies = true;
 
   bool IsValid(std::string* error) const;
 };
@@ -165,7 +189,9 @@ struct CaptureMotion {
 // 6: the camera readout's band streams (CameraModel::expose): another
 //    realisation of the same noise.
 // 7: RegistrationResult::skipped_levels (coarse levels skipped).
-inline constexpr std::uint32_t kRenderedSessionVersion = 7;
+// 8: RegistrationResult::method and translation_sigma_px (the fallback for
+//    featureless captures).
+inline constexpr std::uint32_t kRenderedSessionVersion = 8;
 inline constexpr std::uint8_t kMixedCell = 255;  // a 2×2 cell whose sites have different regions
 
 struct RenderedSession {

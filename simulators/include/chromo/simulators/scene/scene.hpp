@@ -111,6 +111,11 @@ struct SkinSceneOptions {
   // The scene's one highlight (skin_scene_added_reflection). false: none
   // (the labels of what lies under it, for benches scoring the skin there).
   bool highlight = true;
+  // false: every pixel but the white target keeps the skin model's albedo
+  // (no vein, tattoo, marker, hair or highlight in the light), the regions
+  // labelled as with them: what the skin cells' measurement would be with
+  // nothing of those leaking into them (bench/lab_floor_bench.cpp).
+  bool anomalies = true;
 
   bool IsValid(std::string* error) const;
 };
