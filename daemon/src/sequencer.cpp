@@ -8,7 +8,7 @@
 
 #include "chromo/daemon/exposure_metering.hpp"
 #include "chromo/drivers/device_error.hpp"
-#include "chromo/session/method_measurement.hpp"
+#include "chromo/session/method_measurement.hpp"  // session::subject_exposure_ratio
 
 namespace chromo::daemon {
 
@@ -68,7 +68,9 @@ struct CameraCollector {
   bool resync = false;               // its count may disagree with triggers_sent: restart its stream
   std::uint64_t reconnects_at_start = 0;
   double exposure_us = -1;           // configured
-  FrameLevels metered;               // levels of the last metering frame
+  FrameLevels metered;               // levels of the last white metering frame
+  SubjectLevels subject_seen;        // levels of the last subject metering frame
+  std::array<double, 3> white_like_from{};  // its subject_levels ceiling per channel (share of full scale)
   std::array<double, 3> dark{};      // mean dark level per channel (share of full scale), from the dark step's frames
   std::uint32_t dark_frames = 0;
   std::uint64_t missed = 0;          // captures it spoiled (named in the journal)
@@ -297,8 +299,11 @@ class Run {
       drivers::Frame& frame = frames[k];
       if (metering) {
         try {
-          collector.metered = frame_levels(frame.data, frame.width, frame.height, frame.pixel_format, FrameRegion::kLit,
-                                           metering_percentile_);
+          if (subject_percentile_ > 0)
+            collector.subject_seen = subject_levels(frame.data, frame.width, frame.height, frame.pixel_format,
+                                                    subject_percentile_, collector.white_like_from);
+          else
+            collector.metered = frame_levels(frame.data, frame.width, frame.height, frame.pixel_format, FrameRegion::kLit);
         } catch (const std::exception& failure) {
           throw std::runtime_error("camera \"" + collector.camera->config.name + "\": " + failure.what());
         }
@@ -511,29 +516,37 @@ class Run {
   }
 
   // Meters the subject of a step (Step::subject_fill): one frame of the
-  // subject at its white's exposure, per camera the ratio g that puts its
-  // brightest channel's subject_percentile at subject_fill of full scale
-  // (session::subject_exposure_ratio, the dark level subtracted); sets
-  // subject_ratio_[step.name].
+  // subject at its white's exposure; per camera, the subject_percentile of
+  // each channel over the samples below kSubjectWhiteLikeShare of the white's
+  // signal (subject_levels: the white target or a reference strip in view is
+  // not the subject), and the ratio g that puts the brightest channel's at
+  // subject_fill of full scale (session::subject_exposure_ratio, the dark
+  // level subtracted); sets subject_ratio_[step.name].
   bool meter_subject(const session::Step& step, int index) {
-    if (!ensure_exposure(exposures_of(step))) return false;
-    metering_percentile_ = step.subject_percentile;
+    const std::vector<double> white = exposures_of(step);
+    if (!ensure_exposure(white)) return false;
+    const std::vector<std::array<double, 3>>& white_level = white_level_.at(step.exposure_from);
+    for (std::size_t k = 0; k < collectors_.size(); ++k)
+      for (int c = 0; c < 3; ++c) {
+        const double dark = collectors_[k]->dark[c];
+        collectors_[k]->white_like_from[c] = dark + kSubjectWhiteLikeShare * (white_level[k][c] - dark);
+      }
     session::FrameRecord pending;
     pending.step = step.name;
     pending.step_index = index;
     pending.role = step.role;
+    subject_percentile_ = step.subject_percentile;
     const bool taken = take_frame(step, index, 0, pending, true);
-    metering_percentile_ = kWhiteMeteringPercentile;
+    subject_percentile_ = 0;
     if (!taken) return false;
     std::vector<double> ratio(collectors_.size(), 1.0);
-    const std::vector<double> white = exposures_of(step);
     for (std::size_t k = 0; k < collectors_.size(); ++k) {
-      const FrameLevels& seen = collectors_[k]->metered;
+      const SubjectLevels& seen = collectors_[k]->subject_seen;
+      const std::array<double, 3>& dark = collectors_[k]->dark;
       int brightest = 0;
       for (int c = 1; c < 3; ++c)
-        if (seen.high[c] - collectors_[k]->dark[c] > seen.high[brightest] - collectors_[k]->dark[brightest]) brightest = c;
-      const double dark = collectors_[k]->dark[brightest];
-      ratio[k] = session::subject_exposure_ratio(seen.high[brightest], dark, step.subject_fill,
+        if (seen.level[c] - dark[c] > seen.level[brightest] - dark[brightest]) brightest = c;
+      ratio[k] = session::subject_exposure_ratio(seen.level[brightest], dark[brightest], step.subject_fill,
                                                  step.max_subject_exposure_ratio);
       c_.journal->append({{"type", "subject_metered"},
                           {"step", step.name},
@@ -541,9 +554,12 @@ class Run {
                           {"white_exposure_us", white[k]},
                           {"exposure_us", white[k] * ratio[k]},
                           {"exposure_ratio", ratio[k]},
+                          {"capped", ratio[k] >= step.max_subject_exposure_ratio},
                           {"channel", brightest},
                           {"percentile", step.subject_percentile},
-                          {"level", seen.high[brightest]},
+                          {"level", seen.level[brightest]},
+                          {"white_like_from", collectors_[k]->white_like_from[brightest]},
+                          {"white_like_share", seen.white_like_share},
                           {"target_fill", step.subject_fill}});
     }
     subject_ratio_[step.name] = ratio;
@@ -622,6 +638,15 @@ class Run {
                        std::to_string(exposure[k]) + " us (target " + std::to_string(step.meter_white_share) + ")");
     }
     metered_[step.name] = exposure;
+    std::vector<std::array<double, 3>>& white_level = white_level_[step.name];
+    white_level.assign(collectors_.size(), {});
+    for (std::size_t k = 0; k < collectors_.size(); ++k) {  // the last frame's levels, on the exposure set
+      const double scale = measured_at[k] > 0 ? exposure[k] / measured_at[k] : 1.0;
+      for (int c = 0; c < 3; ++c) {
+        const double dark = collectors_[k]->dark[c];
+        white_level[k][c] = dark + scale * (collectors_[k]->metered.mean[c] - dark);
+      }
+    }
     last_metered_exposure_ = exposure;
     last_metered_prediction_ = predicted;
     last_metered_share_ = step.meter_white_share;
@@ -786,9 +811,10 @@ class Run {
   std::uint64_t expected_ = 0, frames_done_ = 0;
   std::uint64_t triggers_fired_ = 0, retakes_ = 0, discarded_frames_ = 0;
   std::map<std::string, std::vector<double>> metered_;  // metered white step → exposure per camera
+  // metered white step → per camera the white's level per channel at its metered exposure (share of full scale)
+  std::map<std::string, std::vector<std::array<double, 3>>> white_level_;
   std::map<std::string, std::vector<double>> subject_ratio_;  // subject-metered step → g per camera
-  static constexpr double kWhiteMeteringPercentile = 0.99;
-  double metering_percentile_ = kWhiteMeteringPercentile;  // FrameLevels::high of the next metering frame
+  double subject_percentile_ = 0;  // > 0: the next metering frame is a subject's (subject_levels)
   std::vector<double> last_metered_exposure_;
   std::optional<std::array<double, 3>> last_metered_prediction_;
   double last_metered_share_ = 1;

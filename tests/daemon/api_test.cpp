@@ -161,6 +161,31 @@ TEST_F(ApiFixture, HostileInputIsRefusedWithTheFieldNamedAndNothingChanges) {
     plan->set_timing(pb::TIMING_SOFTWARE);
     plan->set_name(std::string(5000, 'n'));
     expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.name");
+    plan->set_name("p");  // subject metering: each field's range, then where it may be
+    step->set_subject_percentile(1.5);
+    expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.steps[0].subject_percentile");
+    step->set_subject_percentile(-0.5);
+    expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.steps[0].subject_percentile");
+    step->set_subject_percentile(0.99);
+    step->set_max_subject_exposure_ratio(0.5);
+    expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT,
+           "plan.steps[0].max_subject_exposure_ratio");
+    step->set_max_subject_exposure_ratio(8);
+    step->set_subject_fill(1.2);
+    expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.steps[0].subject_fill");
+    step->set_subject_fill(0.85);  // a dark step: only a subject taking its white's metered exposure is metered
+    expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.steps[0].subject_fill");
+  }
+  {  // The standard plan's subject_fill: in (0, 1), and only with metered whites.
+    pb::StartSessionRequest request;
+    request.set_standard(true);
+    for (double bad : {1.5, 1.0, -0.2, std::nan("")}) {
+      request.set_subject_fill(bad);
+      expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "subject_fill");
+    }
+    request.set_subject_fill(0.85);
+    request.set_fixed_exposure(true);
+    expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "subject_fill");
   }
   {  // Huge strings: over the field's bound, and over the message size limit.
     pb::StartSessionRequest request;

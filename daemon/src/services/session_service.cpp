@@ -116,10 +116,15 @@ class SessionServiceImpl final : public pb::SessionService::Service {
       options->reference_frames = reference_frames;
     }
     if (subject_fill != 0) {
-      if (!(subject_fill > 0 && subject_fill < 1)) return invalid("subject_fill: must be in (0, 1)");
+      if (!(subject_fill > 0 && subject_fill < 1))
+        return invalid("subject_fill: must be in (0, 1) (0: the configuration's capture.subject_fill), got " +
+                       std::to_string(subject_fill));
+      if (options->meter_white_share == 0)
+        return invalid("subject_fill: a subject is metered against its metered white: it needs "
+                       "capture.exposure_per_capture on, software timing and no fixed_exposure");
       options->subject_fill = subject_fill;
     }
-    if (options->meter_white_share == 0) options->subject_fill = 0;  // subject metering needs the whites metered
+    if (options->meter_white_share == 0) options->subject_fill = 0;  // the configuration's, without metered whites
     options->operator_prompts = prompts;
     return Status::OK;
   }
