@@ -365,14 +365,19 @@ TEST(ExposurePerCapture, SubjectMeteringTakesEachSubjectLongerKeepsItsAlbedoAndC
       const std::string name = capture.value("capture", "");
       for (auto [report, step] : {std::pair{"subject D65'", "subject_d65"}, {"subject W57", "subject_w57"},
                                   {"subject W57+blue", "subject_w57+blue"}})
-        if (name == report) EXPECT_NEAR(capture.value("exposure_us", 0.0), e.at(step), 1e-6) << name, ++reported;
+        if (name == report) {
+          EXPECT_NEAR(capture.value("exposure_us", 0.0), e.at(step), 1e-6) << name;
+          ++reported;
+        }
     }
     EXPECT_EQ(reported, 3u) << metered.summary["captures"].dump();
-    const double read_one = one.summary["noise"]["blue.B"].value("read_sigma", 0.0);
-    const double read_metered = metered.summary["noise"]["blue.B"].value("read_sigma", 0.0);
-    EXPECT_NEAR(read_metered / read_one, 1.0 / blue, 0.15 / blue);  // the read term falls by g
+    // The blue-only noise on skin falls by more than 1/g (read-limited) allows and, with the subject's
+    // shot noise (1/√g) and the white's 4 frames (which g does not reduce), to about half (measured 0.487).
     noise_one.values.push_back(blue_relative_noise(one)), noise_metered.values.push_back(blue_relative_noise(metered));
-    EXPECT_LT(noise_metered.values.back(), noise_one.values.back());
+    ASSERT_GT(noise_one.values.back(), 0.0);
+    const double noise_ratio = noise_metered.values.back() / noise_one.values.back();
+    EXPECT_GT(noise_ratio, 1.0 / blue);
+    EXPECT_LT(noise_ratio, 0.55);
 
     // The albedo where neither session clips: the white scaled by g gives what the white at the subject's exposure gives.
     const CommonAlbedo albedo = common_albedo(*one.measurement, *metered.measurement);
@@ -388,11 +393,15 @@ TEST(ExposurePerCapture, SubjectMeteringTakesEachSubjectLongerKeepsItsAlbedoAndC
     const auto truth_one = testing::maps_against_truth(one.folder / "results" / "maps.exr", lab.lab_options);
     const auto truth_metered = testing::maps_against_truth(metered.folder / "results" / "maps.exr", lab.lab_options);
     relit_one.values.push_back(truth_one.relit.mean), relit_metered.values.push_back(truth_metered.relit.mean);
+    // More skin flagged when metered (measured 7-10% against 1-4%: the W57+blue registration's false
+    // 0.2 px shift, docs/daemon.md "Subject exposure"); bounded here so that it cannot grow unseen.
+    EXPECT_LT(static_cast<double>(truth_metered.flagged) / truth_metered.skin_pixels, 0.12);
     std::printf("seed %llu: relit ΔE94 vs truth (D65, mean) %.3f → %.3f; flagged skin %zu → %zu of %zu; blue-only "
                 "relative noise %.4f → %.4f\n",
                 static_cast<unsigned long long>(seed), truth_one.relit.mean, truth_metered.relit.mean, truth_one.flagged,
                 truth_metered.flagged, truth_one.skin_pixels, noise_one.values.back(), noise_metered.values.back());
   }
+  EXPECT_LT(relit_metered.mean(), relit_one.mean());  // measured 0.551 against 0.800
   std::printf("subject metering (fill %.2f) over seeds 1-3, mean [min, max]: g D65' %s, W57+blue %s; relit ΔE94 vs "
               "truth %s → %s; blue-only relative noise on skin %s → %s; blue-only albedo change %s\n",
               kSubjectFill, g_d65.text().c_str(), g_blue.text().c_str(), relit_one.text().c_str(),
@@ -447,6 +456,25 @@ TEST(ExposurePerCapture, BlueOnlyAlbedoOfTheMeteredSessionWithoutLedDrift) {
               albedo.metered[3], 100 * (albedo.metered[3] / albedo.one[3] - 1),
               100 * (albedo.metered[0] / albedo.one[0] - 1), 100 * (albedo.metered[1] / albedo.one[1] - 1),
               100 * (albedo.metered[2] / albedo.one[2] - 1));
+  const auto truth_one = testing::maps_against_truth(one.folder / "results" / "maps.exr", lab.lab_options);
+  const auto truth_metered = testing::maps_against_truth(metered.folder / "results" / "maps.exr", lab.lab_options);
+  std::printf("LED drift off: relit ΔE94 vs truth (D65, mean) %.3f → %.3f; flagged skin %zu → %zu of %zu; g D65' %.3f "
+              "W57+blue %.3f\n",
+              truth_one.relit.mean, truth_metered.relit.mean, truth_one.flagged, truth_metered.flagged,
+              truth_one.skin_pixels, ratio_of(metered, "subject_d65"), ratio_of(metered, "subject_w57+blue"));
+  for (const auto* t : {&truth_one, &truth_metered}) {
+    std::printf("flagged skin by code:");
+    for (auto [code, n] : t->flagged_by_code) std::printf(" %d:%zu", code, n);
+    std::printf("\n");
+  }
+  for (const auto* run : {&one, &metered})
+    for (const auto& r : run->summary["registration"])
+      std::printf("%s registration of the %s: motion %.3f px, correlation %.4f%s\n",
+                  run == &one ? "one exposure" : "metered", r.value("image", "").c_str(), r.value("motion_px", 0.0),
+                  r.value("correlation", 0.0), r.value("warped", false) ? ", warped" : "");
+  std::printf("flag counts %s → %s; saturated pixels %s → %s\n", one.summary["flag_counts"].dump().c_str(),
+              metered.summary["flag_counts"].dump().c_str(), one.summary["saturated_pixels"].dump().c_str(),
+              metered.summary["saturated_pixels"].dump().c_str());
   for (std::size_t c = 0; c < 4; ++c) EXPECT_NEAR(albedo.metered[c] / albedo.one[c], 1.0, 0.01) << "channel " << c;
 }
 

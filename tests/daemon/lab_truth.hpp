@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <filesystem>
+#include <map>
 
 #include "chromo/daemon/virtual_lab.hpp"
 #include "chromo/files/float_image.hpp"
@@ -19,6 +20,7 @@ namespace chromo::daemon::testing {
 struct MapsAgainstTruth {
   int width = 0, height = 0;  // the maps'
   std::size_t skin_pixels = 0, flagged = 0;
+  std::map<int, std::size_t> flagged_by_code;  // the maps' flag value → skin pixels
   maps::DeltaEStats relit;  // ΔE94 under D65 over the explained skin pixels
 };
 
@@ -48,6 +50,7 @@ inline MapsAgainstTruth maps_against_truth(const std::filesystem::path& maps_exr
       ++out.skin_pixels;
       if (maps.channel("flags")[i] != 0) {
         ++out.flagged;
+        ++out.flagged_by_code[static_cast<int>(maps.channel("flags")[i])];
         continue;
       }
       truth.push_back({cm.at<float>(y, x), ch.at<float>(y, x), bm.at<float>(y, x), che.at<float>(y, x)});
