@@ -144,23 +144,25 @@ SubjectLevels subject_levels(std::span<const std::uint8_t> samples, int width, i
   // Grown by the margin (a square of ± margin cells): the target's edge.
   const int margin = std::max(kSubjectWhiteLikeMarginCells,
                               static_cast<int>(std::lround(kSubjectWhiteLikeMarginShare * cells_x)));
-  std::vector<std::uint8_t> rows(white_like.size(), 0), excluded(white_like.size(), 0);
-  for (int y = 0; y < cells_y; ++y)
-    for (int x = 0; x < cells_x; ++x) {
-      std::uint8_t any = 0;
-      for (int dx = std::max(0, x - margin); dx <= std::min(cells_x - 1, x + margin) && !any; ++dx)
-        any = white_like[static_cast<std::size_t>(y) * cells_x + dx];
-      rows[static_cast<std::size_t>(y) * cells_x + x] = any;
-    }
+  // One pass of the square's max filter: along x (step 1) or along y (step cells_x).
+  auto grow = [&](const std::vector<std::uint8_t>& in, bool along_x) {
+    std::vector<std::uint8_t> out(in.size(), 0);
+    const int length = along_x ? cells_x : cells_y;
+    const std::size_t step = along_x ? 1 : static_cast<std::size_t>(cells_x);
+    for (int y = 0; y < cells_y; ++y)
+      for (int x = 0; x < cells_x; ++x) {
+        const int at = along_x ? x : y;
+        const std::size_t line = static_cast<std::size_t>(y) * cells_x + x - static_cast<std::size_t>(at) * step;
+        std::uint8_t any = 0;
+        for (int d = std::max(0, at - margin); d <= std::min(length - 1, at + margin) && !any; ++d)
+          any = in[line + static_cast<std::size_t>(d) * step];
+        out[static_cast<std::size_t>(y) * cells_x + x] = any;
+      }
+    return out;
+  };
+  const std::vector<std::uint8_t> excluded = grow(grow(white_like, true), false);
   std::size_t excluded_cells = 0;
-  for (int y = 0; y < cells_y; ++y)
-    for (int x = 0; x < cells_x; ++x) {
-      std::uint8_t any = 0;
-      for (int dy = std::max(0, y - margin); dy <= std::min(cells_y - 1, y + margin) && !any; ++dy)
-        any = rows[static_cast<std::size_t>(dy) * cells_x + x];
-      excluded[static_cast<std::size_t>(y) * cells_x + x] = any;
-      excluded_cells += any;
-    }
+  for (auto v : excluded) excluded_cells += v;
   ChannelHistograms histogram;
   for (auto& h : histogram) h.assign(top + 1, 0);
   for (int y = 0; y < height; ++y)

@@ -135,14 +135,15 @@ bool SessionPlan::IsValid(std::string* error) const {
         return fail(field + "meter_white_share: only a lit white step is metered (the white target is what is metered)");
       if (!step.exposure_from.empty()) return fail(field + "exposure_from: a metered step meters its own exposure");
     }
-    if (!step.exposure_from.empty()) {
-      bool found = false;
+    // Whether an earlier step is named `name` and does what `is` asks.
+    auto earlier = [&](const std::string& name, auto is) {
       for (std::size_t j = 0; j < i; ++j)
-        found = found || (steps[j].name == step.exposure_from && steps[j].meter_white_share > 0);
-      if (!found)
-        return fail(field + "exposure_from: \"" + step.exposure_from.substr(0, 80) +
-                    "\" is not an earlier metered white step");
-    }
+        if (steps[j].name == name && is(steps[j])) return true;
+      return false;
+    };
+    if (!step.exposure_from.empty() && !earlier(step.exposure_from, [](const Step& s) { return s.meter_white_share > 0; }))
+      return fail(field + "exposure_from: \"" + step.exposure_from.substr(0, 80) +
+                  "\" is not an earlier metered white step");
     if (!(step.subject_fill >= 0 && step.subject_fill < 1))
       return fail(field + "subject_fill: must be in (0, 1) (0: not metered), got " + std::to_string(step.subject_fill));
     if (!(step.subject_percentile > 0 && step.subject_percentile <= 1))
@@ -157,14 +158,10 @@ bool SessionPlan::IsValid(std::string* error) const {
       if (step.subject_fill > 0 && !step.subject_ratio_from.empty())
         return fail(field + "subject_ratio_from: a subject-metered step meters its own ratio");
     }
-    if (!step.subject_ratio_from.empty()) {
-      bool found = false;
-      for (std::size_t j = 0; j < i; ++j)
-        found = found || (steps[j].name == step.subject_ratio_from && steps[j].subject_fill > 0);
-      if (!found)
-        return fail(field + "subject_ratio_from: \"" + step.subject_ratio_from.substr(0, 80) +
-                    "\" is not an earlier subject-metered step");
-    }
+    if (!step.subject_ratio_from.empty() &&
+        !earlier(step.subject_ratio_from, [](const Step& s) { return s.subject_fill > 0; }))
+      return fail(field + "subject_ratio_from: \"" + step.subject_ratio_from.substr(0, 80) +
+                  "\" is not an earlier subject-metered step");
     if (step.metered() && timing == Timing::kHardware)
       return fail(field + "meter_white_share: exposure metering needs software timing (a hardware-timed plan arms "
                           "every state before the first frame)");
