@@ -476,6 +476,7 @@ class Run {
   // The exposure of each camera for a step: metered (its own or exposure_from's), else the plan's;
   // a subject-metered step's multiplied by its ratio once metered (before: its white's, the metering frame's).
   std::vector<double> exposures_of(const session::Step& step) const {
+    if (!step.linearity_of.empty()) return linearity_exposures(step);
     const std::string& metered_at = step.meter_white_share > 0 ? step.name : step.exposure_from;
     if (!metered_at.empty()) {
       auto found = metered_.find(metered_at);
@@ -496,6 +497,15 @@ class Run {
   std::map<std::string, double> known_exposures() const {
     std::map<std::string, double> out;
     for (const auto& step : c_.plan.steps) {
+      if (!step.linearity_of.empty()) {  // once metered; before, its subject's bound (≥ its white's: g ≥ 1)
+        try {
+          const std::vector<double> exposure = linearity_exposures(step);
+          out[step.name] = *std::max_element(exposure.begin(), exposure.end());
+        } catch (const std::logic_error&) {
+          if (auto subject = out.find(step.linearity_of); subject != out.end()) out[step.name] = subject->second;
+        }
+        continue;
+      }
       const std::string& metered_at = step.meter_white_share > 0 ? step.name : step.exposure_from;
       auto found = metered_.find(metered_at);
       if (metered_at.empty() || found == metered_.end()) continue;
@@ -506,6 +516,23 @@ class Run {
       out[step.name] = longest;
     }
     return out;
+  }
+
+  // A linearity white (Step::linearity_of): its subject's white's exposure ÷
+  // that subject's g, per camera (the subject metered before it).
+  std::vector<double> linearity_exposures(const session::Step& step) const {
+    const auto subject = std::find_if(c_.plan.steps.begin(), c_.plan.steps.end(),
+                                      [&](const session::Step& s) { return s.name == step.linearity_of; });
+    if (subject == c_.plan.steps.end())
+      throw std::logic_error("step " + step.name + ": no step " + step.linearity_of + " to check the linearity of");
+    const std::string& ratio_at = subject->subject_fill > 0 ? subject->name : subject->subject_ratio_from;
+    const auto ratio = subject_ratio_.find(ratio_at);
+    const auto white = metered_.find(subject->exposure_from);
+    if (ratio == subject_ratio_.end() || white == metered_.end())
+      throw std::logic_error("step " + step.name + ": " + step.linearity_of + " is not metered yet");
+    std::vector<double> exposure = white->second;
+    for (std::size_t k = 0; k < exposure.size(); ++k) exposure[k] /= ratio->second[k];
+    return exposure;
   }
 
   double max_subject_ratio(const session::Step& step) const {

@@ -81,6 +81,7 @@ Status from_proto(const pb::SessionPlan& plan, const std::string& field, session
     if (s.subject_percentile() != 0) step.subject_percentile = s.subject_percentile();
     if (s.max_subject_exposure_ratio() != 0) step.max_subject_exposure_ratio = s.max_subject_exposure_ratio();
     step.subject_ratio_from = s.subject_ratio_from();
+    step.linearity_of = s.linearity_of();
     if (!pb::Polarisation_IsValid(s.polarisation()))
       return {StatusCode::INVALID_ARGUMENT, step_field + ".polarisation: unknown value " + std::to_string(s.polarisation())};
     step.polarisation = s.polarisation() == pb::POLARISATION_CROSS      ? drivers::Polarisation::kCross
@@ -115,6 +116,7 @@ void to_proto(const session::SessionPlan& plan, pb::SessionPlan* out) {
     s->set_subject_percentile(step.subject_percentile);
     s->set_max_subject_exposure_ratio(step.max_subject_exposure_ratio);
     s->set_subject_ratio_from(step.subject_ratio_from);
+    s->set_linearity_of(step.linearity_of);
     s->set_polarisation(polarisation_to_proto(step.polarisation));
     s->set_prompt(step.prompt);
   }

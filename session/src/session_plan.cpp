@@ -162,6 +162,15 @@ bool SessionPlan::IsValid(std::string* error) const {
         !earlier(step.subject_ratio_from, [](const Step& s) { return s.subject_fill > 0; }))
       return fail(field + "subject_ratio_from: \"" + step.subject_ratio_from.substr(0, 80) +
                   "\" is not an earlier subject-metered step");
+    if (!step.linearity_of.empty()) {
+      if (step.role != StepRole::kWhite || step.illumination.kind == Illumination::Kind::kDark ||
+          step.meter_white_share > 0 || !step.exposure_from.empty())
+        return fail(field + "linearity_of: only a lit white step without its own metering (meter_white_share, "
+                            "exposure_from) takes a subject's white at the second exposure");
+      if (!earlier(step.linearity_of, [](const Step& s) { return s.subject_metered(); }))
+        return fail(field + "linearity_of: \"" + step.linearity_of.substr(0, 80) +
+                    "\" is not an earlier subject-metered step");
+    }
     if (step.metered() && timing == Timing::kHardware)
       return fail(field + "meter_white_share: exposure metering needs software timing (a hardware-timed plan arms "
                           "every state before the first frame)");
@@ -271,6 +280,17 @@ SessionPlan standard_plan(const StandardPlanOptions& options) {
     plan.steps.insert(after(last_white), parallel_d65("white_d65_parallel", StepRole::kWhite, "white_d65_parallel"));
     plan.steps.insert(after("subject_d65"), parallel_d65("subject_d65_parallel", StepRole::kSubject, "white_d65_parallel"));
   }
+  if (subject_metered) {  // the linearity check's whites, at each white's exposure ÷ g
+    const std::pair<const char*, std::string> subjects[] = {
+        {"d65", "d65"}, {"w57+blue", w57_blue}, {"w57", w57}};
+    for (const auto& [name, illumination] : subjects) {
+      Step s = built_in_step(options, std::string("white_") + name + "_linearity", StepRole::kWhite, mix(illumination),
+                             name == std::string("d65") ? "Place the white reference target (linearity check)" : "");
+      s.linearity_of = std::string("subject_") + name;
+      if (options.polarised) s.polarisation = drivers::Polarisation::kCross;
+      plan.steps.push_back(std::move(s));
+    }
+  }
   return plan;
 }
 
@@ -302,6 +322,7 @@ nlohmann::json to_json(const SessionPlan& plan) {
       s["max_subject_exposure_ratio"] = step.max_subject_exposure_ratio;
     }
     if (!step.subject_ratio_from.empty()) s["subject_ratio_from"] = step.subject_ratio_from;
+    if (!step.linearity_of.empty()) s["linearity_of"] = step.linearity_of;
     if (step.polarisation != drivers::Polarisation::kUnpolarised)
       s["polarisation"] = drivers::polarisation_name(step.polarisation);
     switch (step.illumination.kind) {
@@ -368,6 +389,7 @@ SessionPlan plan_from_json(const nlohmann::json& json) {
         *value = number.get<double>();
       }
       step.subject_ratio_from = s.value("subject_ratio_from", "");
+      step.linearity_of = s.value("linearity_of", "");
       if (s.contains("polarisation")) {
         const std::string text = s.at("polarisation").get<std::string>();
         const std::optional<drivers::Polarisation> polarisation = parse_polarisation(text);

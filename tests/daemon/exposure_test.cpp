@@ -322,7 +322,7 @@ struct Spread {
 // numbers).
 TEST(ExposurePerCapture, SubjectMeteringTakesEachSubjectLongerKeepsItsAlbedoAndCutsTheBlueNoise) {
   using namespace subject_metering;
-  Spread g_d65, g_blue, relit_one, relit_metered, noise_one, noise_metered, blue_albedo_change;
+  Spread g_d65, g_blue, relit_one, relit_metered, noise_one, noise_metered, blue_albedo_change, linearity_deviation;
   for (std::uint64_t seed : {1, 2, 3}) {
     SCOPED_TRACE("seed " + std::to_string(seed));
     TestLab lab = calibrated_lab("subject-metered-" + std::to_string(seed), seed, true);
@@ -379,6 +379,18 @@ TEST(ExposurePerCapture, SubjectMeteringTakesEachSubjectLongerKeepsItsAlbedoAndC
     EXPECT_GT(noise_ratio, 1.0 / blue);
     EXPECT_LT(noise_ratio, 0.55);
 
+    // The linearity whites after the subjects, at each white's exposure ÷ g, and the check they make.
+    EXPECT_NEAR(e.at("white_d65_linearity"), e.at("white_d65") / d65, 1e-6 * e.at("white_d65"));
+    EXPECT_NEAR(e.at("white_w57+blue_linearity"), e.at("white_w57+blue") / blue, 1e-6 * e.at("white_w57+blue"));
+    EXPECT_NEAR(e.at("white_w57_linearity"), e.at("white_w57") / blue, 1e-6 * e.at("white_w57"));
+    ASSERT_EQ(metered.measurement->linearity.size(), 3u);
+    for (const auto& linearity : metered.measurement->linearity) {
+      EXPECT_TRUE(linearity.checked) << linearity.capture;
+      EXPECT_LT(std::abs(linearity.deviation), 0.02) << linearity.capture;
+      linearity_deviation.values.push_back(linearity.deviation);
+    }
+    for (const auto& linearity : one.measurement->linearity) EXPECT_FALSE(linearity.checked) << linearity.capture;
+
     // The albedo where neither session clips: the white scaled by g gives what the white at the subject's exposure gives.
     const CommonAlbedo albedo = common_albedo(*one.measurement, *metered.measurement);
     ASSERT_GT(albedo.cells, one.measurement->measured.size() / 4 / 2);
@@ -407,6 +419,7 @@ TEST(ExposurePerCapture, SubjectMeteringTakesEachSubjectLongerKeepsItsAlbedoAndC
               kSubjectFill, g_d65.text().c_str(), g_blue.text().c_str(), relit_one.text().c_str(),
               relit_metered.text().c_str(), noise_one.text().c_str(), noise_metered.text().c_str(),
               blue_albedo_change.text().c_str());
+  std::printf("linearity checked on the live plan: deviation %s\n", linearity_deviation.text().c_str());
 }
 
 // The white target strip in the subject's view (1/10 of the width, at the

@@ -142,6 +142,13 @@ TEST(SessionPlan, SubjectMeteredStandardPlanMetersD65AndW57PlusBlueAndW57TakesIt
   }
   EXPECT_DOUBLE_EQ(by_name.at("subject_w57")->subject_fill, 0);
   EXPECT_EQ(by_name.at("subject_w57")->subject_ratio_from, "subject_w57+blue");
+  // After the subjects, each subject's white for the linearity check.
+  std::vector<std::string> last;
+  for (std::size_t i = plan.steps.size() - 3; i < plan.steps.size(); ++i) last.push_back(plan.steps[i].name);
+  EXPECT_EQ(last, (std::vector<std::string>{"white_d65_linearity", "white_w57+blue_linearity", "white_w57_linearity"}));
+  EXPECT_EQ(by_name.at("white_w57_linearity")->linearity_of, "subject_w57");
+  EXPECT_EQ(by_name.at("white_w57_linearity")->illumination.mix, "w57:4");
+  EXPECT_EQ(by_name.at("white_w57_linearity")->role, StepRole::kWhite);
   std::string error;
   EXPECT_TRUE(plan.IsValid(&error)) << error;
   EXPECT_EQ(to_json(plan_from_json(to_json(plan))), to_json(plan));
@@ -174,6 +181,11 @@ TEST(SessionPlan, BadSubjectMeteringIsRefusedNamingTheField) {
           "steps[" + std::to_string(w57) + "].subject_ratio_from");
   refused([&](SessionPlan& p) { p.steps[d65].subject_ratio_from = "subject_w57+blue"; },
           at + "subject_ratio_from");  // meters its own, and that step is later
+  const std::size_t linearity = metered.steps.size() - 1;
+  const std::string linearity_at = "steps[" + std::to_string(linearity) + "].linearity_of";
+  refused([&](SessionPlan& p) { p.steps[linearity].linearity_of = "white_d65"; }, linearity_at);  // not subject-metered
+  refused([&](SessionPlan& p) { p.steps[linearity].role = StepRole::kSubject; }, linearity_at);
+  refused([&](SessionPlan& p) { p.steps[1].linearity_of = "subject_d65"; }, "steps[1].linearity_of");  // metered white
   EXPECT_THROW(plan_from_json(nlohmann::json::parse(
                    R"({"name": "p", "steps": [{"name": "s", "role": "subject", "exposure_us": 1, "subject_fill": "x",
                        "illumination": {"mix": "d65"}}]})")),

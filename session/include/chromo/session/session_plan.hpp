@@ -59,6 +59,12 @@ struct Step {
   double subject_percentile = 0.99;        // (0, 1]
   double max_subject_exposure_ratio = 8;   // [1, 64]
   std::string subject_ratio_from;          // an earlier subject-metered step whose g this step takes
+  // A white step after the subjects: the white of the subject step named
+  // here (its illumination) at that subject's white's exposure divided by
+  // its g, the second exposure that checks the camera's linearity over the
+  // ratio g (IlluminatedCapture::white_linearity; docs/daemon.md "Subject
+  // exposure"). Names an earlier subject-metered step (subject_metered()).
+  std::string linearity_of;
   // The light's polarisation (docs/polarisation.md), for every LED type of the
   // step's state; JSON "polarisation", absent = unpolarised. A plan's lit steps
   // are either cross or unpolarised; parallel steps may join either.
@@ -99,7 +105,10 @@ struct StandardPlanOptions {
   double blue_ratio = 0;
   // > 0 (with meter_white_share > 0): each subject metered to this fill
   // (Step::subject_fill); W57+blue's subject is then taken before W57's and
-  // W57 takes its ratio (the blue-only difference at one exposure).
+  // W57 takes its ratio (the blue-only difference at one exposure); after the
+  // subjects, each subject's white again at its white's exposure ÷ g
+  // (white_d65_linearity, white_w57+blue_linearity, white_w57_linearity:
+  // Step::linearity_of), the white target back in the sphere.
   double subject_fill = 0;
   double subject_percentile = 0.99;
   double max_subject_exposure_ratio = 8;
