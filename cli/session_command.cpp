@@ -246,9 +246,10 @@ void add_session_command(CLI::App& app, int& exit_status) {
                           "daemon's capture.reference_frames; references are not subject time)")
       ->check(CLI::Range(1u, 1000u));
   run_command->add_option("--subject-fill", options->subject_fill,
-                          "standard plan with exposure per capture: meter each subject so its 99th percentile sits at "
-                          "this share of full scale, its white scaled by the exposure ratio (default: the daemon's "
-                          "capture.subject_fill)")
+                          "standard plan with exposure per capture: meter each subject so its 99th percentile (white-"
+                          "like parts of the view left out) sits at this share of full scale, its white scaled by the "
+                          "exposure ratio g and checked at its white's exposure / g after the subjects (default: the "
+                          "daemon's capture.subject_fill)")
       ->check(CLI::Range(0.05, 0.98));
   run_command->add_flag("--hardware-timed", options->hardware, "standard plan: the controller advances on the camera's exposure");
   run_command->add_flag("--prompts", options->prompts, "standard plan: pause for the operator before white and subject");
