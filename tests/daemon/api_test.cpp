@@ -10,6 +10,7 @@
 #include <fstream>
 #include <iostream>
 #include <future>
+#include <map>
 #include <set>
 
 #include <google/protobuf/descriptor.pb.h>
@@ -186,6 +187,20 @@ TEST_F(ApiFixture, HostileInputIsRefusedWithTheFieldNamedAndNothingChanges) {
     request.set_subject_fill(0.85);
     request.set_fixed_exposure(true);
     expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "subject_fill");
+    // GetStandardPlan: the same rule, and the plan it shows meters the subjects and ends with the linearity whites.
+    pb::GetStandardPlanRequest get;
+    get.set_subject_fill(1.5);
+    pb::SessionPlan shown;
+    grpc::ClientContext c1, c2;
+    expect(sessions->GetStandardPlan(&c1, get, &shown), StatusCode::INVALID_ARGUMENT, "subject_fill");
+    get.set_subject_fill(0.85);
+    ASSERT_TRUE(sessions->GetStandardPlan(&c2, get, &shown).ok());
+    std::map<std::string, const pb::Step*> by_name;
+    for (const auto& step : shown.steps()) by_name[step.name()] = &step;
+    ASSERT_TRUE(by_name.count("subject_d65") && by_name.count("subject_w57") && by_name.count("white_w57_linearity"));
+    EXPECT_DOUBLE_EQ(by_name.at("subject_d65")->subject_fill(), 0.85);
+    EXPECT_EQ(by_name.at("subject_w57")->subject_ratio_from(), "subject_w57+blue");
+    EXPECT_EQ(by_name.at("white_w57_linearity")->linearity_of(), "subject_w57");
   }
   {  // Huge strings: over the field's bound, and over the message size limit.
     pb::StartSessionRequest request;
