@@ -153,6 +153,12 @@ TEST(SessionPlan, SubjectMeteredStandardPlanMetersD65AndW57PlusBlueAndW57TakesIt
   EXPECT_TRUE(plan.IsValid(&error)) << error;
   EXPECT_EQ(to_json(plan_from_json(to_json(plan))), to_json(plan));
   for (const auto& step : standard_plan({.subject_fill = 0.85}).steps) EXPECT_FALSE(step.subject_metered()) << step.name;
+  // Polarised: the linearity whites cross like every lit step of the plan, after the parallel pair.
+  const auto polarised =
+      standard_plan({.meter_white_share = 0.8, .subject_fill = 0.85, .polarised = true});
+  EXPECT_TRUE(polarised.IsValid(&error)) << error;
+  EXPECT_EQ(polarised.steps.back().name, "white_w57_linearity");
+  EXPECT_EQ(polarised.steps.back().polarisation, drivers::Polarisation::kCross);
 }
 
 TEST(SessionPlan, BadSubjectMeteringIsRefusedNamingTheField) {
