@@ -33,6 +33,7 @@ struct SessionOptions {
   double exposure_us = 0;
   unsigned frames_per_camera = 0;
   unsigned reference_frames = 0;
+  double subject_fill = 0;
 };
 
 
@@ -46,6 +47,7 @@ void run(SessionOptions& options, int& exit_status) {
     if (options.exposure_us > 0) builtin_options.exposure_us = options.exposure_us;
     if (options.frames_per_camera > 0) builtin_options.frames_per_camera = options.frames_per_camera;
     if (options.reference_frames > 0) builtin_options.reference_frames = options.reference_frames;
+    if (options.subject_fill > 0) builtin_options.subject_fill = options.subject_fill;
     builtin_options.operator_prompts = options.prompts;
     std::optional<session::SessionPlan> plan = session::builtin_plan(options.plan_file, builtin_options);
     if (!plan) {
@@ -64,6 +66,7 @@ void run(SessionOptions& options, int& exit_status) {
     request.set_exposure_us(options.exposure_us);
     request.set_frames_per_camera(options.frames_per_camera);
     request.set_reference_frames(options.reference_frames);
+    request.set_subject_fill(options.subject_fill);
     request.set_operator_prompts(options.prompts);
     request.set_polarised(options.polarised == "on"    ? pb::POLARISED_PLAN_ON
                           : options.polarised == "off" ? pb::POLARISED_PLAN_OFF
@@ -242,6 +245,12 @@ void add_session_command(CLI::App& app, int& exit_status) {
                           "built-in plans: frames per camera of each dark and white reference step (default: the "
                           "daemon's capture.reference_frames; references are not subject time)")
       ->check(CLI::Range(1u, 1000u));
+  run_command->add_option("--subject-fill", options->subject_fill,
+                          "standard plan with exposure per capture: meter each subject so its 99th percentile (white-"
+                          "like parts of the view left out) sits at this share of full scale, its white scaled by the "
+                          "exposure ratio g and checked at its white's exposure / g after the subjects (default: the "
+                          "daemon's capture.subject_fill)")
+      ->check(CLI::Range(0.05, 0.98));
   run_command->add_flag("--hardware-timed", options->hardware, "standard plan: the controller advances on the camera's exposure");
   run_command->add_flag("--prompts", options->prompts, "standard plan: pause for the operator before white and subject");
   run_command->add_option("--polarised", options->polarised,

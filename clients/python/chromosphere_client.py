@@ -119,13 +119,15 @@ class Client:
             request.output_enabled = output_enabled
         return self.leds.SetLedState(request)
 
-    def start_standard_session(self, subject="", exposure_us=0.0, frames_per_camera=0, reference_frames=0):
+    def start_standard_session(self, subject="", exposure_us=0.0, frames_per_camera=0, reference_frames=0,
+                               subject_fill=0.0):
         """Starts the standard plan. 0 leaves a count to the daemon's configuration
         (capture.frames_per_capture for each subject step, capture.reference_frames
-        for each dark and white step)."""
+        for each dark and white step, capture.subject_fill for metering each subject)."""
         request = sessions_pb2.StartSessionRequest(standard=True, subject=subject, exposure_us=exposure_us,
                                                    frames_per_camera=frames_per_camera,
-                                                   reference_frames=reference_frames)
+                                                   reference_frames=reference_frames,
+                                                   subject_fill=subject_fill)
         return self.sessions.StartSession(request)
 
     def wait(self, operation_id, on_update=None):

@@ -445,6 +445,10 @@ const std::vector<Key>& capture_keys() {
                    [](DaemonConfig& c) -> auto& { return c.capture.frames_per_capture; }),
       unsigned_key("reference_frames", 0, session::kMaxFramesPerCamera,
                    [](DaemonConfig& c) -> auto& { return c.capture.reference_frames; }),
+      number_key("subject_fill", 0, 0.99, false, [](DaemonConfig& c) -> auto& { return c.capture.subject_fill; }),
+      number_key("subject_percentile", 0, 1, true, [](DaemonConfig& c) -> auto& { return c.capture.subject_percentile; }),
+      number_key("max_subject_exposure_ratio", 1, 64, false,
+                 [](DaemonConfig& c) -> auto& { return c.capture.max_subject_exposure_ratio; }),
       number_key("blue_ratio", 0, 100, false, [](DaemonConfig& c) -> auto& { return c.capture.blue_ratio; }),
       string_key("polarised_plan", [](DaemonConfig& c) -> auto& { return c.capture.polarised_plan; },
                  [](const std::string& value) {

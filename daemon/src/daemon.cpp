@@ -173,7 +173,12 @@ session::StandardPlanOptions Daemon::standard_plan_options() const {
   options.frames_per_camera = config_.capture.frames_per_capture;
   options.reference_frames = config_.capture.reference_frames;
   options.blue_ratio = config_.capture.blue_ratio;
-  if (config_.capture.exposure_per_capture) options.meter_white_share = config_.capture.white_share;
+  if (config_.capture.exposure_per_capture) {
+    options.meter_white_share = config_.capture.white_share;
+    options.subject_fill = config_.capture.subject_fill;
+    options.subject_percentile = config_.capture.subject_percentile;
+    options.max_subject_exposure_ratio = config_.capture.max_subject_exposure_ratio;
+  }
   options.polarised = config_.capture.polarised_plan == "on" ||
                       (config_.capture.polarised_plan == "auto" && controller_polarised_everywhere());
   return options;

@@ -8,6 +8,7 @@
 
 #include "chromo/daemon/exposure_metering.hpp"
 #include "chromo/drivers/device_error.hpp"
+#include "chromo/session/method_measurement.hpp"  // session::subject_exposure_ratio
 
 namespace chromo::daemon {
 
@@ -67,7 +68,9 @@ struct CameraCollector {
   bool resync = false;               // its count may disagree with triggers_sent: restart its stream
   std::uint64_t reconnects_at_start = 0;
   double exposure_us = -1;           // configured
-  FrameLevels metered;               // levels of the last metering frame
+  FrameLevels metered;               // levels of the last white metering frame
+  SubjectLevels subject_seen;        // levels of the last subject metering frame
+  std::array<double, 3> white_like_from{};  // its subject_levels ceiling per channel (share of full scale)
   std::array<double, 3> dark{};      // mean dark level per channel (share of full scale), from the dark step's frames
   std::uint32_t dark_frames = 0;
   std::uint64_t missed = 0;          // captures it spoiled (named in the journal)
@@ -150,6 +153,7 @@ class Run {
         }
       }
       if (step.meter_white_share > 0 && !meter(step, static_cast<int>(index), levels)) return cancelled();
+      if (step.subject_fill > 0 && !meter_subject(step, static_cast<int>(index))) return cancelled();
       if (!ensure_exposure(exposures_of(step))) return cancelled();
       for (std::uint32_t frame = 0; frame < step.frames_per_camera; ++frame) {
         if (c_.control->cancel_requested()) return cancelled();
@@ -295,7 +299,11 @@ class Run {
       drivers::Frame& frame = frames[k];
       if (metering) {
         try {
-          collector.metered = frame_levels(frame.data, frame.width, frame.height, frame.pixel_format, FrameRegion::kLit);
+          if (subject_percentile_ > 0)
+            collector.subject_seen = subject_levels(frame.data, frame.width, frame.height, frame.pixel_format,
+                                                    subject_percentile_, collector.white_like_from);
+          else
+            collector.metered = frame_levels(frame.data, frame.width, frame.height, frame.pixel_format, FrameRegion::kLit);
         } catch (const std::exception& failure) {
           throw std::runtime_error("camera \"" + collector.camera->config.name + "\": " + failure.what());
         }
@@ -465,28 +473,124 @@ class Run {
     }
   }
 
-  // The exposure of each camera for a step: metered (its own or exposure_from's), else the plan's.
+  // The exposure of each camera for a step: metered (its own or exposure_from's), else the plan's;
+  // a subject-metered step's multiplied by its ratio once metered (before: its white's, the metering frame's).
   std::vector<double> exposures_of(const session::Step& step) const {
+    if (!step.linearity_of.empty()) return linearity_exposures(step);
     const std::string& metered_at = step.meter_white_share > 0 ? step.name : step.exposure_from;
     if (!metered_at.empty()) {
       auto found = metered_.find(metered_at);
       if (found == metered_.end())
         throw std::logic_error("step " + step.name + ": no exposure metered at step " + metered_at);
-      return found->second;
+      std::vector<double> exposure = found->second;
+      const std::string& ratio_at = step.subject_fill > 0 ? step.name : step.subject_ratio_from;
+      if (auto ratio = subject_ratio_.find(ratio_at); !ratio_at.empty() && ratio != subject_ratio_.end())
+        for (std::size_t k = 0; k < exposure.size(); ++k) exposure[k] *= ratio->second[k];
+      return exposure;
     }
     return std::vector<double>(collectors_.size(), step.exposure_us);
   }
 
-  // Every step's exposure as far as known (metered steps: the longest over the cameras).
+  // Every step's exposure as far as known (metered steps: the longest over the
+  // cameras; a subject-metered step not yet metered at its maximum ratio: the
+  // hazard check before the first subject bounds the dose the metering may reach).
   std::map<std::string, double> known_exposures() const {
     std::map<std::string, double> out;
     for (const auto& step : c_.plan.steps) {
+      if (!step.linearity_of.empty()) {  // once metered; before, its subject's bound (≥ its white's: g ≥ 1)
+        try {
+          const std::vector<double> exposure = linearity_exposures(step);
+          out[step.name] = *std::max_element(exposure.begin(), exposure.end());
+        } catch (const std::logic_error&) {
+          if (auto subject = out.find(step.linearity_of); subject != out.end()) out[step.name] = subject->second;
+        }
+        continue;
+      }
       const std::string& metered_at = step.meter_white_share > 0 ? step.name : step.exposure_from;
       auto found = metered_.find(metered_at);
-      if (!metered_at.empty() && found != metered_.end())
-        out[step.name] = *std::max_element(found->second.begin(), found->second.end());
+      if (metered_at.empty() || found == metered_.end()) continue;
+      const std::vector<double> exposure = exposures_of(step);
+      double longest = *std::max_element(exposure.begin(), exposure.end());
+      const std::string& ratio_at = step.subject_fill > 0 ? step.name : step.subject_ratio_from;
+      if (!ratio_at.empty() && !subject_ratio_.count(ratio_at)) longest *= max_subject_ratio(step);
+      out[step.name] = longest;
     }
     return out;
+  }
+
+  // A linearity white (Step::linearity_of): its subject's white's exposure ÷
+  // that subject's g, per camera (the subject metered before it).
+  std::vector<double> linearity_exposures(const session::Step& step) const {
+    const auto subject = std::find_if(c_.plan.steps.begin(), c_.plan.steps.end(),
+                                      [&](const session::Step& s) { return s.name == step.linearity_of; });
+    if (subject == c_.plan.steps.end())
+      throw std::logic_error("step " + step.name + ": no step " + step.linearity_of + " to check the linearity of");
+    const std::string& ratio_at = subject->subject_fill > 0 ? subject->name : subject->subject_ratio_from;
+    const auto ratio = subject_ratio_.find(ratio_at);
+    const auto white = metered_.find(subject->exposure_from);
+    if (ratio == subject_ratio_.end() || white == metered_.end())
+      throw std::logic_error("step " + step.name + ": " + step.linearity_of + " is not metered yet");
+    std::vector<double> exposure = white->second;
+    for (std::size_t k = 0; k < exposure.size(); ++k) exposure[k] /= ratio->second[k];
+    return exposure;
+  }
+
+  double max_subject_ratio(const session::Step& step) const {
+    if (step.subject_fill > 0) return step.max_subject_exposure_ratio;
+    for (const auto& s : c_.plan.steps)
+      if (s.name == step.subject_ratio_from) return s.max_subject_exposure_ratio;
+    return 1;
+  }
+
+  // Meters the subject of a step (Step::subject_fill): one frame of the
+  // subject at its white's exposure; per camera, the subject_percentile of
+  // each channel over the samples below kSubjectWhiteLikeShare of the white's
+  // signal (subject_levels: the white target or a reference strip in view is
+  // not the subject), and the ratio g that puts the brightest channel's at
+  // subject_fill of full scale (session::subject_exposure_ratio, the dark
+  // level subtracted); sets subject_ratio_[step.name].
+  bool meter_subject(const session::Step& step, int index) {
+    const std::vector<double> white = exposures_of(step);
+    if (!ensure_exposure(white)) return false;
+    const std::vector<std::array<double, 3>>& white_level = white_level_.at(step.exposure_from);
+    for (std::size_t k = 0; k < collectors_.size(); ++k)
+      for (int c = 0; c < 3; ++c) {
+        const double dark = collectors_[k]->dark[c];
+        collectors_[k]->white_like_from[c] = dark + kSubjectWhiteLikeShare * (white_level[k][c] - dark);
+      }
+    session::FrameRecord pending;
+    pending.step = step.name;
+    pending.step_index = index;
+    pending.role = step.role;
+    subject_percentile_ = step.subject_percentile;
+    const bool taken = take_frame(step, index, 0, pending, true);
+    subject_percentile_ = 0;
+    if (!taken) return false;
+    std::vector<double> ratio(collectors_.size(), 1.0);
+    for (std::size_t k = 0; k < collectors_.size(); ++k) {
+      const SubjectLevels& seen = collectors_[k]->subject_seen;
+      const std::array<double, 3>& dark = collectors_[k]->dark;
+      int brightest = 0;
+      for (int c = 1; c < 3; ++c)
+        if (seen.level[c] - dark[c] > seen.level[brightest] - dark[brightest]) brightest = c;
+      ratio[k] = session::subject_exposure_ratio(seen.level[brightest], dark[brightest], step.subject_fill,
+                                                 step.max_subject_exposure_ratio);
+      c_.journal->append({{"type", "subject_metered"},
+                          {"step", step.name},
+                          {"camera", collectors_[k]->camera->config.name},
+                          {"white_exposure_us", white[k]},
+                          {"exposure_us", white[k] * ratio[k]},
+                          {"exposure_ratio", ratio[k]},
+                          {"capped", ratio[k] >= step.max_subject_exposure_ratio},
+                          {"channel", brightest},
+                          {"percentile", step.subject_percentile},
+                          {"level", seen.level[brightest]},
+                          {"white_like_from", collectors_[k]->white_like_from[brightest]},
+                          {"white_like_share", seen.white_like_share},
+                          {"target_fill", step.subject_fill}});
+    }
+    subject_ratio_[step.name] = ratio;
+    return true;
   }
 
   // Meters the white of a step (see sequencer.hpp): sets metered_[step.name].
@@ -561,6 +665,15 @@ class Run {
                        std::to_string(exposure[k]) + " us (target " + std::to_string(step.meter_white_share) + ")");
     }
     metered_[step.name] = exposure;
+    std::vector<std::array<double, 3>>& white_level = white_level_[step.name];
+    white_level.assign(collectors_.size(), {});
+    for (std::size_t k = 0; k < collectors_.size(); ++k) {  // the last frame's levels, on the exposure set
+      const double scale = measured_at[k] > 0 ? exposure[k] / measured_at[k] : 1.0;
+      for (int c = 0; c < 3; ++c) {
+        const double dark = collectors_[k]->dark[c];
+        white_level[k][c] = dark + scale * (collectors_[k]->metered.mean[c] - dark);
+      }
+    }
     last_metered_exposure_ = exposure;
     last_metered_prediction_ = predicted;
     last_metered_share_ = step.meter_white_share;
@@ -725,6 +838,10 @@ class Run {
   std::uint64_t expected_ = 0, frames_done_ = 0;
   std::uint64_t triggers_fired_ = 0, retakes_ = 0, discarded_frames_ = 0;
   std::map<std::string, std::vector<double>> metered_;  // metered white step → exposure per camera
+  // metered white step → per camera the white's level per channel at its metered exposure (share of full scale)
+  std::map<std::string, std::vector<std::array<double, 3>>> white_level_;
+  std::map<std::string, std::vector<double>> subject_ratio_;  // subject-metered step → g per camera
+  double subject_percentile_ = 0;  // > 0: the next metering frame is a subject's (subject_levels)
   std::vector<double> last_metered_exposure_;
   std::optional<std::array<double, 3>> last_metered_prediction_;
   double last_metered_share_ = 1;

@@ -17,6 +17,8 @@ struct VirtualLabSimulators::Impl {
       : lab([&] {
           simulators::CalibrationLabOptions lab_options;
           lab_options.leds.time_scale = options.led_time_scale;
+          if (!options.led_thermal_drift)
+            for (auto& led : lab_options.leds.leds) led.peak_shift_nm_per_K = 0, led.flux_loss_per_K = 0;
           if (options.polarisers) lab_options.leds.polariser_banks.fill(true);  // all six types
           return lab_options;
         }()) {
@@ -24,6 +26,7 @@ struct VirtualLabSimulators::Impl {
     skin_options.width = skin_options.height = options.scene_size;
     skin_options.seed = options.seed;
     skin_options.threads = options.scene_threads;
+    skin_options.white_patch = options.skin_white_strip;
     skin = std::make_shared<const simulators::Scene>(simulators::make_skin_scene(skin_options));
     white = std::make_shared<const simulators::Scene>(
         simulators::make_white_target_scene(options.scene_size, options.scene_size));

@@ -77,6 +77,11 @@ Status from_proto(const pb::SessionPlan& plan, const std::string& field, session
     step.frames_per_camera = s.frames_per_camera();
     step.meter_white_share = s.meter_white_share();
     step.exposure_from = s.exposure_from();
+    step.subject_fill = s.subject_fill();
+    if (s.subject_percentile() != 0) step.subject_percentile = s.subject_percentile();
+    if (s.max_subject_exposure_ratio() != 0) step.max_subject_exposure_ratio = s.max_subject_exposure_ratio();
+    step.subject_ratio_from = s.subject_ratio_from();
+    step.linearity_of = s.linearity_of();
     if (!pb::Polarisation_IsValid(s.polarisation()))
       return {StatusCode::INVALID_ARGUMENT, step_field + ".polarisation: unknown value " + std::to_string(s.polarisation())};
     step.polarisation = s.polarisation() == pb::POLARISATION_CROSS      ? drivers::Polarisation::kCross
@@ -107,6 +112,11 @@ void to_proto(const session::SessionPlan& plan, pb::SessionPlan* out) {
     s->set_frames_per_camera(step.frames_per_camera);
     s->set_meter_white_share(step.meter_white_share);
     s->set_exposure_from(step.exposure_from);
+    s->set_subject_fill(step.subject_fill);
+    s->set_subject_percentile(step.subject_percentile);
+    s->set_max_subject_exposure_ratio(step.max_subject_exposure_ratio);
+    s->set_subject_ratio_from(step.subject_ratio_from);
+    s->set_linearity_of(step.linearity_of);
     s->set_polarisation(polarisation_to_proto(step.polarisation));
     s->set_prompt(step.prompt);
   }

@@ -145,6 +145,28 @@ struct Normalised {
   std::vector<std::uint8_t> saturated;       // any raw subject channel at full scale
 };
 
+// A plane as registration sees it: the pixels clipped in either capture,
+// and their neighbours within kClippedMarginPx, left out (NaN). A clipped
+// plateau (a white strip or highlight in view of a subject at g × its
+// white's exposure) sits at an albedo set by each capture's g and white, not
+// by the scene, and the binned pixels at its edge are clipped in part: both
+// pull ECC off (on the daemon's lab, a strip clipped at g = 4.2 and 4.5 gave
+// a false shift of 4 px; leaving the clipped pixels alone out, 0.2 px).
+constexpr int kClippedMarginPx = 2;
+std::vector<float> unclipped_for_registration(const std::vector<float>& plane, const Normalised& a, const Normalised& b,
+                                              int width, int height) {
+  std::vector<float> out = plane;
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const std::size_t i = static_cast<std::size_t>(y) * width + x;
+      if (!a.saturated[i] && !b.saturated[i]) continue;
+      for (int yy = std::max(0, y - kClippedMarginPx); yy <= std::min(height - 1, y + kClippedMarginPx); ++yy)
+        for (int xx = std::max(0, x - kClippedMarginPx); xx <= std::min(width - 1, x + kClippedMarginPx); ++xx)
+          out[static_cast<std::size_t>(yy) * width + xx] = kNaN;
+    }
+  return out;
+}
+
 // g = t_subject / t_white: the subject's exposure over its white's (1 when
 // either is unknown or both are one exposure).
 double subject_gain(const IlluminatedCapture& capture) {
@@ -348,7 +370,11 @@ MethodMeasurement build_plan_measurement(const PlanCaptures& captures, const Reg
     const Reference& reference = references.references[k];
     const int channel = static_cast<int>(std::max_element(reference.white_mean.begin(), reference.white_mean.end()) -
                                          reference.white_mean.begin());
-    RegistrationResult r = register_channel(normalised.front().albedo[channel], moving.albedo[channel], width, height, options);
+    RegistrationResult r = register_channel(unclipped_for_registration(normalised.front().albedo[channel], normalised.front(), moving,
+                                                                       width, height),
+                                            unclipped_for_registration(moving.albedo[channel], normalised.front(), moving,
+                                                                       width, height),
+                                            width, height, options);
     const double motion = corner_displacement_px(r, width, height);
     const bool warped = motion > kWarpThresholdPx;
     if (warped) {
@@ -514,7 +540,9 @@ MethodMeasurement build_method_measurement(const MethodCaptures& captures, const
   // Register W57 and W57+blue to D65' on the G albedo, warp all their planes.
   for (auto* moving : {&base, &with_blue}) {
     const IlluminatedCapture& capture = moving == &base ? captures.base : captures.with_blue;
-    RegistrationResult r = register_channel(broadband.albedo[1], moving->albedo[1], width, height, options);
+    RegistrationResult r = register_channel(unclipped_for_registration(broadband.albedo[1], broadband, *moving, width, height),
+                                            unclipped_for_registration(moving->albedo[1], broadband, *moving, width, height),
+                                            width, height, options);
     const double motion = corner_displacement_px(r, width, height);
     const bool warped = motion > kWarpThresholdPx;
     if (warped) {

@@ -33,7 +33,10 @@ SessionCaptureBuilder::SessionCaptureBuilder(const SessionPlan& plan, CaptureSou
       if (state.empty())
         throw std::invalid_argument("step " + step.name + ": a " + role_name(step.role) +
                                     " step needs light (a mix or non-zero LED weights) for the estimation");
-      key = std::string(step.role == StepRole::kWhite ? "white:" : "subject:") + state;
+      key = std::string(!step.linearity_of.empty()   ? "linearity:"
+                        : step.role == StepRole::kWhite ? "white:"
+                                                        : "subject:") +
+            state;
       if (step.role == StepRole::kSubject) states_.push_back({state, capture_name(illumination), step.name});
     }
     if (plan_steps_.count(key)) throw std::invalid_argument("step " + step.name + ": a second " + key + " step");
@@ -110,8 +113,9 @@ void SessionCaptureBuilder::add_frame(const FrameRecord& record, std::span<const
 }
 
 bool SessionCaptureBuilder::references_complete(const std::string& camera) const {
-  for (const auto& [key, s] : sums_of(camera))
-    if (key.rfind("subject:", 0) != 0 && s.frames.frames() < s.expected) return false;
+  for (const auto& [key, s] : sums_of(camera))  // a linearity white comes after the subjects: not awaited here
+    if (key.rfind("subject:", 0) != 0 && key.rfind("linearity:", 0) != 0 && s.frames.frames() < s.expected)
+      return false;
   return true;
 }
 
@@ -155,6 +159,12 @@ RgbImage SessionCaptureBuilder::mean_image(const StepSum& s) const {
   return image;
 }
 
+std::optional<RgbImage> SessionCaptureBuilder::linearity_white(const StepSums& steps, const std::string& state) const {
+  const auto found = steps.find("linearity:" + state);
+  if (found == steps.end() || found->second.frames.frames() < found->second.expected) return std::nullopt;
+  return mean_image(found->second);
+}
+
 PlanCaptures SessionCaptureBuilder::plan_captures(const std::string& camera) const {
   if (!references_complete(camera)) throw std::logic_error("captures of camera \"" + camera + "\": missing " + missing(camera));
   const StepSums& steps = sums_of(camera);
@@ -169,6 +179,7 @@ PlanCaptures SessionCaptureBuilder::plan_captures(const std::string& camera) con
     capture.name = state.capture_name;
     capture.white = mean_image(white);
     capture.subject = mean_image(subject);
+    capture.white_linearity = linearity_white(steps, state.key);
     capture.illuminant = (white.illuminant_sum + subject.illuminant_sum) /
                          static_cast<double>(std::max(1u, white.frames.frames() + subject.frames.frames()));
     c.captures.push_back(std::move(capture));
@@ -195,6 +206,7 @@ MethodCaptures SessionCaptureBuilder::captures(const std::string& camera) const 
     target->name = capture_name({mix, mix});  // "D65' parallel" for d65:parallel
     target->white = mean_image(white);
     target->subject = mean_image(subject);
+    target->white_linearity = linearity_white(steps, mix);
     // The illuminant as the sphere emitted it for both captures (white and subject).
     target->illuminant = (white.illuminant_sum + subject.illuminant_sum) / static_cast<double>(
                                                                                std::max(1u, white.frames.frames() + subject.frames.frames()));

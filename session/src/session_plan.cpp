@@ -135,13 +135,41 @@ bool SessionPlan::IsValid(std::string* error) const {
         return fail(field + "meter_white_share: only a lit white step is metered (the white target is what is metered)");
       if (!step.exposure_from.empty()) return fail(field + "exposure_from: a metered step meters its own exposure");
     }
-    if (!step.exposure_from.empty()) {
-      bool found = false;
+    // Whether an earlier step is named `name` and does what `is` asks.
+    auto earlier = [&](const std::string& name, auto is) {
       for (std::size_t j = 0; j < i; ++j)
-        found = found || (steps[j].name == step.exposure_from && steps[j].meter_white_share > 0);
-      if (!found)
-        return fail(field + "exposure_from: \"" + step.exposure_from.substr(0, 80) +
-                    "\" is not an earlier metered white step");
+        if (steps[j].name == name && is(steps[j])) return true;
+      return false;
+    };
+    if (!step.exposure_from.empty() && !earlier(step.exposure_from, [](const Step& s) { return s.meter_white_share > 0; }))
+      return fail(field + "exposure_from: \"" + step.exposure_from.substr(0, 80) +
+                  "\" is not an earlier metered white step");
+    if (!(step.subject_fill >= 0 && step.subject_fill < 1))
+      return fail(field + "subject_fill: must be in (0, 1) (0: not metered), got " + std::to_string(step.subject_fill));
+    if (!(step.subject_percentile > 0 && step.subject_percentile <= 1))
+      return fail(field + "subject_percentile: must be in (0, 1], got " + std::to_string(step.subject_percentile));
+    if (!(step.max_subject_exposure_ratio >= 1 && step.max_subject_exposure_ratio <= 64))
+      return fail(field + "max_subject_exposure_ratio: must be in [1, 64], got " +
+                  std::to_string(step.max_subject_exposure_ratio));
+    if (step.subject_metered()) {
+      if (step.role != StepRole::kSubject || step.exposure_from.empty())
+        return fail(field + "subject_fill: only a subject step that takes its white's metered exposure (exposure_from) "
+                            "is subject-metered");
+      if (step.subject_fill > 0 && !step.subject_ratio_from.empty())
+        return fail(field + "subject_ratio_from: a subject-metered step meters its own ratio");
+    }
+    if (!step.subject_ratio_from.empty() &&
+        !earlier(step.subject_ratio_from, [](const Step& s) { return s.subject_fill > 0; }))
+      return fail(field + "subject_ratio_from: \"" + step.subject_ratio_from.substr(0, 80) +
+                  "\" is not an earlier subject-metered step");
+    if (!step.linearity_of.empty()) {
+      if (step.role != StepRole::kWhite || step.illumination.kind == Illumination::Kind::kDark ||
+          step.meter_white_share > 0 || !step.exposure_from.empty())
+        return fail(field + "linearity_of: only a lit white step without its own metering (meter_white_share, "
+                            "exposure_from) takes a subject's white at the second exposure");
+      if (!earlier(step.linearity_of, [](const Step& s) { return s.subject_metered(); }))
+        return fail(field + "linearity_of: \"" + step.linearity_of.substr(0, 80) +
+                    "\" is not an earlier subject-metered step");
     }
     if (step.metered() && timing == Timing::kHardware)
       return fail(field + "meter_white_share: exposure metering needs software timing (a hardware-timed plan arms "
@@ -209,9 +237,25 @@ SessionPlan standard_plan(const StandardPlanOptions& options) {
     step("white_w57", StepRole::kWhite, mix(w57));
     step("white_w57+blue", StepRole::kWhite, mix(w57_blue));
   }
+  const bool subject_metered = metered && options.subject_fill > 0;
   step("subject_d65", StepRole::kSubject, mix("d65"), "Place the subject", "white_d65");
-  step("subject_w57", StepRole::kSubject, mix(w57), {}, "white_w57+blue");
-  step("subject_w57+blue", StepRole::kSubject, mix(w57_blue), {}, "white_w57+blue");
+  if (subject_metered) {  // W57 takes the ratio metered on the subject under W57+blue (brighter in B)
+    step("subject_w57+blue", StepRole::kSubject, mix(w57_blue), {}, "white_w57+blue");
+    step("subject_w57", StepRole::kSubject, mix(w57), {}, "white_w57+blue");
+    for (Step& s : plan.steps) {
+      if (s.role != StepRole::kSubject) continue;
+      if (s.name == "subject_w57") {
+        s.subject_ratio_from = "subject_w57+blue";
+        continue;
+      }
+      s.subject_fill = options.subject_fill;
+      s.subject_percentile = options.subject_percentile;
+      s.max_subject_exposure_ratio = options.max_subject_exposure_ratio;
+    }
+  } else {
+    step("subject_w57", StepRole::kSubject, mix(w57), {}, "white_w57+blue");
+    step("subject_w57+blue", StepRole::kSubject, mix(w57_blue), {}, "white_w57+blue");
+  }
   if (options.polarised) {
     for (Step& s : plan.steps)
       if (s.role != StepRole::kDark) s.polarisation = drivers::Polarisation::kCross;
@@ -235,6 +279,17 @@ SessionPlan standard_plan(const StandardPlanOptions& options) {
       if (s.role == StepRole::kWhite) last_white = s.name;
     plan.steps.insert(after(last_white), parallel_d65("white_d65_parallel", StepRole::kWhite, "white_d65_parallel"));
     plan.steps.insert(after("subject_d65"), parallel_d65("subject_d65_parallel", StepRole::kSubject, "white_d65_parallel"));
+  }
+  if (subject_metered) {  // the linearity check's whites, at each white's exposure ÷ g
+    const std::pair<const char*, std::string> subjects[] = {
+        {"d65", "d65"}, {"w57+blue", w57_blue}, {"w57", w57}};
+    for (const auto& [name, illumination] : subjects) {
+      Step s = built_in_step(options, std::string("white_") + name + "_linearity", StepRole::kWhite, mix(illumination),
+                             name == std::string("d65") ? "Place the white reference target (linearity check)" : "");
+      s.linearity_of = std::string("subject_") + name;
+      if (options.polarised) s.polarisation = drivers::Polarisation::kCross;
+      plan.steps.push_back(std::move(s));
+    }
   }
   return plan;
 }
@@ -261,6 +316,13 @@ nlohmann::json to_json(const SessionPlan& plan) {
     if (!step.prompt.empty()) s["prompt"] = step.prompt;
     if (step.meter_white_share > 0) s["meter_white_share"] = step.meter_white_share;
     if (!step.exposure_from.empty()) s["exposure_from"] = step.exposure_from;
+    if (step.subject_fill > 0) {
+      s["subject_fill"] = step.subject_fill;
+      s["subject_percentile"] = step.subject_percentile;
+      s["max_subject_exposure_ratio"] = step.max_subject_exposure_ratio;
+    }
+    if (!step.subject_ratio_from.empty()) s["subject_ratio_from"] = step.subject_ratio_from;
+    if (!step.linearity_of.empty()) s["linearity_of"] = step.linearity_of;
     if (step.polarisation != drivers::Polarisation::kUnpolarised)
       s["polarisation"] = drivers::polarisation_name(step.polarisation);
     switch (step.illumination.kind) {
@@ -316,6 +378,18 @@ SessionPlan plan_from_json(const nlohmann::json& json) {
         step.meter_white_share = share.get<double>();
       }
       step.exposure_from = s.value("exposure_from", "");
+      for (auto [key, value] : {std::pair<const char*, double*>{"subject_fill", &step.subject_fill},
+                                {"subject_percentile", &step.subject_percentile},
+                                {"max_subject_exposure_ratio", &step.max_subject_exposure_ratio}}) {
+        if (!s.contains(key)) continue;
+        const auto& number = s.at(key);
+        if (!number.is_number() || !std::isfinite(number.get<double>()))
+          throw std::invalid_argument(std::string("session plan: ") + key + ": " + number.dump().substr(0, 64) +
+                                      " is not a number");
+        *value = number.get<double>();
+      }
+      step.subject_ratio_from = s.value("subject_ratio_from", "");
+      step.linearity_of = s.value("linearity_of", "");
       if (s.contains("polarisation")) {
         const std::string text = s.at("polarisation").get<std::string>();
         const std::optional<drivers::Polarisation> polarisation = parse_polarisation(text);

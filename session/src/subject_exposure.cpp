@@ -105,10 +105,15 @@ SubjectMeteringResult meter_subject_exposure(const RgbImage& subject, const RgbI
     const double dark_level = dark_sum / static_cast<double>(values.size());
     if (*at - dark_level > best_signal) best_signal = *at - dark_level, best_dark = dark_level, out.channel = c, out.level = *at;
   }
-  const double wanted = best_signal > 1e-6 ? (options.fill - best_dark) / best_signal : options.max_ratio;
-  out.capped = wanted > options.max_ratio;
-  out.exposure_ratio = std::clamp(wanted, 1.0, options.max_ratio);
+  out.capped = !(best_signal > 1e-6) || (options.fill - best_dark) / best_signal > options.max_ratio;
+  out.exposure_ratio = subject_exposure_ratio(out.level, best_dark, options.fill, options.max_ratio);
   return out;
+}
+
+double subject_exposure_ratio(double level, double dark, double fill, double max_ratio) {
+  const double signal = level - dark;
+  if (!(signal > 1e-6)) return max_ratio;
+  return std::clamp((fill - dark) / signal, 1.0, max_ratio);
 }
 
 }  // namespace chromo::session

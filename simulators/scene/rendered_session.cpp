@@ -469,6 +469,9 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
   if (standard) {
     plan_options.blue_ratio = options.blue_ratio;
     if (options.exposure_per_capture) plan_options.meter_white_share = options.white_fill;
+    plan_options.subject_fill = options.subject_fill;
+    plan_options.subject_percentile = options.subject_percentile;
+    plan_options.max_subject_exposure_ratio = options.max_subject_exposure_ratio;
     plan_options.polarised = options.polarised;
     plan = session::standard_plan(plan_options);
   } else {

@@ -10,6 +10,7 @@
 #include <fstream>
 #include <iostream>
 #include <future>
+#include <map>
 #include <set>
 
 #include <google/protobuf/descriptor.pb.h>
@@ -161,6 +162,45 @@ TEST_F(ApiFixture, HostileInputIsRefusedWithTheFieldNamedAndNothingChanges) {
     plan->set_timing(pb::TIMING_SOFTWARE);
     plan->set_name(std::string(5000, 'n'));
     expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.name");
+    plan->set_name("p");  // subject metering: each field's range, then where it may be
+    step->set_subject_percentile(1.5);
+    expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.steps[0].subject_percentile");
+    step->set_subject_percentile(-0.5);
+    expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.steps[0].subject_percentile");
+    step->set_subject_percentile(0.99);
+    step->set_max_subject_exposure_ratio(0.5);
+    expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT,
+           "plan.steps[0].max_subject_exposure_ratio");
+    step->set_max_subject_exposure_ratio(8);
+    step->set_subject_fill(1.2);
+    expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.steps[0].subject_fill");
+    step->set_subject_fill(0.85);  // a dark step: only a subject taking its white's metered exposure is metered
+    expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.steps[0].subject_fill");
+  }
+  {  // The standard plan's subject_fill: in (0, 1), and only with metered whites.
+    pb::StartSessionRequest request;
+    request.set_standard(true);
+    for (double bad : {1.5, 1.0, -0.2, std::nan("")}) {
+      request.set_subject_fill(bad);
+      expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "subject_fill");
+    }
+    request.set_subject_fill(0.85);
+    request.set_fixed_exposure(true);
+    expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "subject_fill");
+    // GetStandardPlan: the same rule, and the plan it shows meters the subjects and ends with the linearity whites.
+    pb::GetStandardPlanRequest get;
+    get.set_subject_fill(1.5);
+    pb::SessionPlan shown;
+    grpc::ClientContext c1, c2;
+    expect(sessions->GetStandardPlan(&c1, get, &shown), StatusCode::INVALID_ARGUMENT, "subject_fill");
+    get.set_subject_fill(0.85);
+    ASSERT_TRUE(sessions->GetStandardPlan(&c2, get, &shown).ok());
+    std::map<std::string, const pb::Step*> by_name;
+    for (const auto& step : shown.steps()) by_name[step.name()] = &step;
+    ASSERT_TRUE(by_name.count("subject_d65") && by_name.count("subject_w57") && by_name.count("white_w57_linearity"));
+    EXPECT_DOUBLE_EQ(by_name.at("subject_d65")->subject_fill(), 0.85);
+    EXPECT_EQ(by_name.at("subject_w57")->subject_ratio_from(), "subject_w57+blue");
+    EXPECT_EQ(by_name.at("white_w57_linearity")->linearity_of(), "subject_w57");
   }
   {  // Huge strings: over the field's bound, and over the message size limit.
     pb::StartSessionRequest request;

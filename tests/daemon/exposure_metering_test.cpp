@@ -3,7 +3,10 @@
 // camera converging on the target share, clipping, and the camera's limits.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <random>
 #include <cstring>
 
 #include "chromo/daemon/exposure_metering.hpp"
@@ -117,6 +120,54 @@ TEST(ExposureMetering, ClippedFramesHalveAndLimitsStop) {
   // No signal: a much longer exposure.
   d = next_metering_exposure(1000, linear(0, 0, 1000), target);
   EXPECT_DOUBLE_EQ(d.next_exposure_us, 16000);
+}
+
+// Subject metering: skin-like texture (each site uniform in [400, 1000] DN
+// of 4095, seeded) with a white strip over the right tenth at 3000 DN whose
+// edge ramps over 6 columns (blur, sampling; without the margin its 5 columns
+// above the skin, 1.6% of the samples, would be the 99th percentile). The strip and its edge are
+// left out: the 99th percentile is the texture's alone, within 1%, where the
+// whole frame's is in the strip; a texture-only frame leaves nothing out.
+TEST(SubjectMetering, TheWhiteStripInViewIsLeftOutAndTheSkinMetered) {
+  constexpr int width = 320, height = 240, strip_from = width - width / 10;
+  constexpr double white_dn = 3000, dark_dn = 64;
+  auto frame = [&](bool strip) {
+    std::mt19937 random(7);
+    std::uniform_real_distribution<double> skin(400, 1000);
+    std::vector<std::uint8_t> bytes(static_cast<std::size_t>(width) * height * 2);
+    for (int y = 0; y < height; ++y)
+      for (int x = 0; x < width; ++x) {
+        double v = skin(random);
+        if (strip) {
+          const double t = std::clamp((x - (strip_from - 6)) / 6.0, 0.0, 1.0);  // the edge's ramp
+          v = (1 - t) * v + t * white_dn;
+        }
+        const auto dn = static_cast<std::uint16_t>(std::lround(v));
+        std::memcpy(&bytes[(static_cast<std::size_t>(y) * width + x) * 2], &dn, 2);
+      }
+    return bytes;
+  };
+  std::array<double, 3> white_like_from{};
+  for (double& c : white_like_from) c = (dark_dn + kSubjectWhiteLikeShare * (white_dn - dark_dn)) / 4095;
+  const SubjectLevels alone = subject_levels(frame(false), width, height, drivers::PixelFormat::kBayerRG12, 0.99,
+                                             white_like_from);
+  const SubjectLevels with_strip = subject_levels(frame(true), width, height, drivers::PixelFormat::kBayerRG12, 0.99,
+                                                  white_like_from);
+  EXPECT_DOUBLE_EQ(alone.white_like_share, 0.0);
+  EXPECT_NEAR(with_strip.white_like_share, 0.1 + 2.0 / (width / 2), 0.02);  // the strip and its 2-cell margin
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(alone.level[c], 994.0 / 4095, 8.0 / 4095) << c;  // 400 + 0.99·600
+    EXPECT_NEAR(with_strip.level[c] / alone.level[c], 1.0, 0.01) << c;
+  }
+  // The whole frame's 99th percentile (frame_levels' region) is the strip's.
+  const std::array<double, 3> nothing_left_out{1.0, 1.0, 1.0};
+  const SubjectLevels whole = subject_levels(frame(true), width, height, drivers::PixelFormat::kBayerRG12, 0.99,
+                                             nothing_left_out);
+  EXPECT_NEAR(whole.level[0], white_dn / 4095, 0.01);
+  EXPECT_THROW(subject_levels(frame(true), width, height, drivers::PixelFormat::kBayerRG12, 1.5, white_like_from),
+               std::invalid_argument);
+  EXPECT_THROW(subject_levels(frame(true), width, height - 1, drivers::PixelFormat::kBayerRG12, 0.99, white_like_from),
+               std::invalid_argument);
 }
 
 }  // namespace

@@ -26,6 +26,27 @@ case "$mode" in
     grep -q "frames stored: 19" "$work/out" || fail "not 19 frames"
     grep -Eq "^timeline: capture [0-9.]+ s \(subject [0-9.]+ s\), maps [0-9.]+ s after the last frame, total [0-9.]+ s$" "$work/out" ||
       fail "no timeline from the Python client"
+    # Subject exposure through the Python client (docs/daemon.md "Subject exposure"): each subject
+    # g times its white's exposure, W57 at W57+blue's g; a fill outside (0, 1) refused naming the field.
+    CHROMO_PY_STUBS="$stubs" t /usr/bin/python3 -c "
+import sys
+sys.path.insert(0, '$source/clients/python')
+import grpc
+from chromosphere_client import Client, state_name
+client = Client('unix:$work/s.sock')
+final = client.wait(client.start_standard_session(subject='fill', subject_fill=0.85).id)
+print('state', state_name(final.state))
+exposure = {frame.step: frame.exposure_us for frame in client.session(final.id, include_frames=True).frames}
+g = {name: exposure['subject_' + name] / exposure['white_' + name] for name in ('d65', 'w57', 'w57+blue')}
+print('longer', all(1.0 < value <= 8.0 for value in g.values()), abs(g['w57'] - g['w57+blue']) < 1e-9)
+try:
+    client.start_standard_session(subject='bad', subject_fill=1.5)
+except grpc.RpcError as error:
+    print('refused', error.code().name, error.details().split(':')[0])
+" >"$work/out" 2>&1 || fail "subject_fill session exited $?"
+    grep -q "^state succeeded$" "$work/out" || fail "the subject-metered session did not succeed"
+    grep -q "^longer True True$" "$work/out" || fail "the subjects were not metered longer than their whites"
+    grep -q "^refused INVALID_ARGUMENT subject_fill$" "$work/out" || fail "subject_fill 1.5 was not refused naming the field"
     # The Maps service through the Python client (docs/maps.md).
     t "$chromo" make-maps-test-data --out "$work/scene" --width 32 --height 24 >"$work/out" 2>&1 || fail "test data"
     t "$chromo" estimate "$work/scene/MEASUREMENT.json" --out "$work/maps/est" --cache-dir "$work/cache" >"$work/out" 2>&1 ||

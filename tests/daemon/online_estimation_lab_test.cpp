@@ -4,24 +4,18 @@
 // and solves the mixes, the standard session captures the skin scene, and
 // the session ends with maps, the report and the results record; the maps
 // are compared with the scene's truth.
-#include <opencv2/imgproc.hpp>
-
 #include <cmath>
 #include <fstream>
 
 #include "chromo/daemon/api_conversions.hpp"
-#include "chromo/files/float_image.hpp"
-#include "chromo/maps/reconstruction.hpp"
-#include "chromo/simulators/scene/scene.hpp"
-#include "chromo/spectral/cie.hpp"
 #include "chromosphere/v1/estimation.pb.h"
+#include "lab_truth.hpp"
 #include "test_lab.hpp"
 
 namespace chromo::daemon {
 namespace {
 
 namespace fs = std::filesystem;
-using simulators::SceneRegion;
 using testing::TestLab;
 using testing::wait_final;
 using testing::wait_for;
@@ -64,40 +58,12 @@ TEST(OnlineEstimationOnTheVirtualLab, CalibratedStandardSessionEndsInMapsThatMat
   EXPECT_EQ(results.summary().relit_delta_e94().size(), 3);
 
   // Against the truth: the lab's scene (same options), resampled to the maps' grid.
-  const auto maps = files::read_exr(folder / "results" / "maps.exr");
-  ASSERT_EQ(maps.width, 160);
-  ASSERT_EQ(maps.height, 120);
-  simulators::SkinSceneOptions scene_options;
-  scene_options.width = scene_options.height = lab.lab_options.scene_size;
-  scene_options.seed = lab.lab_options.seed;
-  scene_options.threads = 1;
-  const auto scene = simulators::make_skin_scene(scene_options);
-  const cv::Size size(maps.width, maps.height);
-  cv::Mat regions, cm, ch, bm, che;
-  cv::resize(scene.regions(), regions, size, 0, 0, cv::INTER_NEAREST);
-  const std::pair<const cv::Mat*, cv::Mat*> truth_maps[] = {
-      {&scene.cm(), &cm}, {&scene.ch(), &ch}, {&scene.bm(), &bm}, {&scene.che(), &che}};
-  for (auto [from, to] : truth_maps) cv::resize(*from, *to, size, 0, 0, cv::INTER_LINEAR);
-  cv::Mat skin = regions == static_cast<int>(SceneRegion::kSkin);
-  cv::erode(skin, skin, cv::Mat(), cv::Point(-1, -1), 2);
-  std::vector<estimation::SkinParameters> truth, estimate;
-  std::size_t skin_pixels = 0, flagged = 0;
-  for (int y = 0; y < maps.height; ++y)
-    for (int x = 0; x < maps.width; ++x) {
-      if (!skin.at<std::uint8_t>(y, x)) continue;
-      const std::size_t i = static_cast<std::size_t>(y) * maps.width + x;
-      ++skin_pixels;
-      if (maps.channel("flags")[i] != 0) {
-        ++flagged;
-        continue;
-      }
-      truth.push_back({cm.at<float>(y, x), ch.at<float>(y, x), bm.at<float>(y, x), che.at<float>(y, x)});
-      estimate.push_back(
-          {maps.channel("Cm")[i], maps.channel("Ch")[i], maps.channel("Bm")[i], maps.channel("Che")[i]});
-    }
+  const testing::MapsAgainstTruth against = testing::maps_against_truth(folder / "results" / "maps.exr", lab.lab_options);
+  ASSERT_EQ(against.width, 160);
+  ASSERT_EQ(against.height, 120);
+  const std::size_t skin_pixels = against.skin_pixels, flagged = against.flagged;
+  const maps::DeltaEStats& relit = against.relit;
   ASSERT_GT(skin_pixels, 5000u);
-  const auto relit =
-      maps::delta_e_stats(maps::relit_delta_e94(truth, estimate, spectral::illuminant_d65(), 1));
   std::cout << "virtual lab session: skin " << skin_pixels << ", flagged " << flagged << "; relit ΔE94 (D65) vs truth mean "
             << relit.mean << " median " << relit.median << " p95 " << relit.p95 << "; estimate "
             << summary["timings_s"]["estimate"] << " s, " << summary["pixels_per_second"] << " pixels/s\n";

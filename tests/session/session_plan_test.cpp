@@ -1,6 +1,9 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <map>
+#include <string>
+#include <vector>
 
 #include "chromo/session/session_plan.hpp"
 
@@ -117,6 +120,82 @@ TEST(SessionPlan, MeteredStandardPlanMetersD65AndW57PlusBlueAndSharesTheirExposu
   EXPECT_EQ(to_json(plan_from_json(to_json(plan))), to_json(plan));
   EXPECT_TRUE(is_valid_mix("w57:2.5"));
   EXPECT_FALSE(is_valid_mix("w57:0"));
+}
+
+// Subject metering (docs/daemon.md "Subject exposure"): D65' and W57+blue
+// meter their subjects, W57+blue's subject comes before W57's, which takes
+// its ratio; without metered whites the option does nothing.
+TEST(SessionPlan, SubjectMeteredStandardPlanMetersD65AndW57PlusBlueAndW57TakesItsRatio) {
+  const auto plan = standard_plan({.meter_white_share = 0.8, .blue_ratio = 4, .subject_fill = 0.85,
+                                   .subject_percentile = 0.98, .max_subject_exposure_ratio = 6});
+  std::vector<std::string> subjects;
+  std::map<std::string, const Step*> by_name;
+  for (const auto& step : plan.steps) {
+    by_name[step.name] = &step;
+    if (step.role == StepRole::kSubject) subjects.push_back(step.name);
+  }
+  EXPECT_EQ(subjects, (std::vector<std::string>{"subject_d65", "subject_w57+blue", "subject_w57"}));
+  for (const char* metered : {"subject_d65", "subject_w57+blue"}) {
+    EXPECT_DOUBLE_EQ(by_name.at(metered)->subject_fill, 0.85) << metered;
+    EXPECT_DOUBLE_EQ(by_name.at(metered)->subject_percentile, 0.98) << metered;
+    EXPECT_DOUBLE_EQ(by_name.at(metered)->max_subject_exposure_ratio, 6) << metered;
+  }
+  EXPECT_DOUBLE_EQ(by_name.at("subject_w57")->subject_fill, 0);
+  EXPECT_EQ(by_name.at("subject_w57")->subject_ratio_from, "subject_w57+blue");
+  // After the subjects, each subject's white for the linearity check.
+  std::vector<std::string> last;
+  for (std::size_t i = plan.steps.size() - 3; i < plan.steps.size(); ++i) last.push_back(plan.steps[i].name);
+  EXPECT_EQ(last, (std::vector<std::string>{"white_d65_linearity", "white_w57+blue_linearity", "white_w57_linearity"}));
+  EXPECT_EQ(by_name.at("white_w57_linearity")->linearity_of, "subject_w57");
+  EXPECT_EQ(by_name.at("white_w57_linearity")->illumination.mix, "w57:4");
+  EXPECT_EQ(by_name.at("white_w57_linearity")->role, StepRole::kWhite);
+  std::string error;
+  EXPECT_TRUE(plan.IsValid(&error)) << error;
+  EXPECT_EQ(to_json(plan_from_json(to_json(plan))), to_json(plan));
+  for (const auto& step : standard_plan({.subject_fill = 0.85}).steps) EXPECT_FALSE(step.subject_metered()) << step.name;
+  // Polarised: the linearity whites cross like every lit step of the plan, after the parallel pair.
+  const auto polarised =
+      standard_plan({.meter_white_share = 0.8, .subject_fill = 0.85, .polarised = true});
+  EXPECT_TRUE(polarised.IsValid(&error)) << error;
+  EXPECT_EQ(polarised.steps.back().name, "white_w57_linearity");
+  EXPECT_EQ(polarised.steps.back().polarisation, drivers::Polarisation::kCross);
+}
+
+TEST(SessionPlan, BadSubjectMeteringIsRefusedNamingTheField) {
+  const auto metered = standard_plan({.meter_white_share = 0.8, .subject_fill = 0.85});
+  std::size_t d65 = 0, w57 = 0;
+  for (std::size_t i = 0; i < metered.steps.size(); ++i) {
+    if (metered.steps[i].name == "subject_d65") d65 = i;
+    if (metered.steps[i].name == "subject_w57") w57 = i;
+  }
+  const std::string at = "steps[" + std::to_string(d65) + "].";
+  std::string error;
+  auto refused = [&](auto change, const std::string& field) {
+    auto plan = metered;
+    change(plan);
+    EXPECT_FALSE(plan.IsValid(&error)) << field;
+    EXPECT_EQ(error.rfind(field + ":", 0), 0u) << error;
+  };
+  refused([&](SessionPlan& p) { p.steps[d65].subject_fill = 1.0; }, at + "subject_fill");
+  refused([&](SessionPlan& p) { p.steps[d65].subject_fill = std::nan(""); }, at + "subject_fill");
+  refused([&](SessionPlan& p) { p.steps[d65].subject_percentile = 0; }, at + "subject_percentile");
+  refused([&](SessionPlan& p) { p.steps[d65].subject_percentile = 1.01; }, at + "subject_percentile");
+  refused([&](SessionPlan& p) { p.steps[d65].max_subject_exposure_ratio = 0.9; }, at + "max_subject_exposure_ratio");
+  refused([&](SessionPlan& p) { p.steps[d65].max_subject_exposure_ratio = 65; }, at + "max_subject_exposure_ratio");
+  refused([&](SessionPlan& p) { p.steps[0].subject_fill = 0.5; }, "steps[0].subject_fill");  // the dark step
+  refused([&](SessionPlan& p) { p.steps[w57].subject_ratio_from = "subject_d65x"; },
+          "steps[" + std::to_string(w57) + "].subject_ratio_from");
+  refused([&](SessionPlan& p) { p.steps[d65].subject_ratio_from = "subject_w57+blue"; },
+          at + "subject_ratio_from");  // meters its own, and that step is later
+  const std::size_t linearity = metered.steps.size() - 1;
+  const std::string linearity_at = "steps[" + std::to_string(linearity) + "].linearity_of";
+  refused([&](SessionPlan& p) { p.steps[linearity].linearity_of = "white_d65"; }, linearity_at);  // not subject-metered
+  refused([&](SessionPlan& p) { p.steps[linearity].role = StepRole::kSubject; }, linearity_at);
+  refused([&](SessionPlan& p) { p.steps[1].linearity_of = "subject_d65"; }, "steps[1].linearity_of");  // metered white
+  EXPECT_THROW(plan_from_json(nlohmann::json::parse(
+                   R"({"name": "p", "steps": [{"name": "s", "role": "subject", "exposure_us": 1, "subject_fill": "x",
+                       "illumination": {"mix": "d65"}}]})")),
+               std::invalid_argument);
 }
 
 TEST(SessionPlan, BadMeteringIsRefusedNamingTheField) {

@@ -22,7 +22,8 @@ class SessionServiceImpl final : public pb::SessionService::Service {
       } else if (request->plan_source_case() == pb::StartSessionRequest::kStandard && request->standard()) {
         session::StandardPlanOptions options = daemon_.standard_plan_options();
         if (Status s = standard_options(request->timing(), request->exposure_us(), request->frames_per_camera(),
-                                        request->reference_frames(), request->operator_prompts(), request->fixed_exposure(), &options);
+                                        request->reference_frames(), request->subject_fill(), request->operator_prompts(),
+                                        request->fixed_exposure(), &options);
             !s.ok())
           return s;
         if (Status s = polarised_option(request->polarised(), &options); !s.ok()) return s;
@@ -41,7 +42,8 @@ class SessionServiceImpl final : public pb::SessionService::Service {
     return guard_(context, [&] {
       session::StandardPlanOptions options = daemon_.standard_plan_options();
       if (Status s = standard_options(request->timing(), request->exposure_us(), request->frames_per_camera(),
-                                      request->reference_frames(), request->operator_prompts(), request->fixed_exposure(), &options);
+                                      request->reference_frames(), request->subject_fill(), request->operator_prompts(),
+                                      request->fixed_exposure(), &options);
           !s.ok())
         return s;
       if (Status s = polarised_option(request->polarised(), &options); !s.ok()) return s;
@@ -96,7 +98,8 @@ class SessionServiceImpl final : public pb::SessionService::Service {
  private:
   // `options` comes with the configuration's capture choices (Daemon::standard_plan_options).
   static Status standard_options(int timing, double exposure_us, std::uint32_t frames, std::uint32_t reference_frames,
-                                 bool prompts, bool fixed_exposure, session::StandardPlanOptions* options) {
+                                 double subject_fill, bool prompts, bool fixed_exposure,
+                                 session::StandardPlanOptions* options) {
     if (!pb::Timing_IsValid(timing)) return invalid("timing: unknown value " + std::to_string(timing));
     options->timing = timing == pb::TIMING_HARDWARE ? session::Timing::kHardware : session::Timing::kSoftware;
     if (fixed_exposure || options->timing == session::Timing::kHardware) options->meter_white_share = 0;
@@ -112,6 +115,16 @@ class SessionServiceImpl final : public pb::SessionService::Service {
       if (reference_frames > session::kMaxFramesPerCamera) return invalid("reference_frames: must be in [1, 1000]");
       options->reference_frames = reference_frames;
     }
+    if (subject_fill != 0) {
+      if (!(subject_fill > 0 && subject_fill < 1))
+        return invalid("subject_fill: must be in (0, 1) (0: the configuration's capture.subject_fill), got " +
+                       std::to_string(subject_fill));
+      if (options->meter_white_share == 0)
+        return invalid("subject_fill: a subject is metered against its metered white: it needs "
+                       "capture.exposure_per_capture on, software timing and no fixed_exposure");
+      options->subject_fill = subject_fill;
+    }
+    if (options->meter_white_share == 0) options->subject_fill = 0;  // the configuration's, without metered whites
     options->operator_prompts = prompts;
     return Status::OK;
   }

@@ -58,6 +58,12 @@ struct CaptureConfig {
   double white_share = 0.8;          // the metered white's brightest channel, share of full scale, (0, 1]
   std::uint32_t frames_per_capture = 1;  // frames per subject step of the standard plan when a request leaves it 0
   std::uint32_t reference_frames = 4;   // frames per dark and white step (0: frames_per_capture)
+  // Subject exposure metering (with exposure_per_capture): 0 off, else each
+  // subject's subject_percentile in its brightest channel at this share of
+  // full scale, at most max_subject_exposure_ratio times its white's exposure.
+  double subject_fill = 0;
+  double subject_percentile = 0.99;
+  double max_subject_exposure_ratio = 8;
   double blue_ratio = 8;             // the standard plan's w57+blue:R (0: the plain "w57+blue")
   // The standard plan polarised (docs/polarisation.md): "auto" when the LED
   // controller reports polariser banks on every LED type, "on", "off".

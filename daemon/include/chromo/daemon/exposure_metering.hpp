@@ -65,4 +65,29 @@ struct MeteringDecision {
 
 MeteringDecision next_metering_exposure(double exposure_us, const FrameLevels& levels, const MeteringTarget& target);
 
+// Subject metering (docs/daemon.md "Subject exposure"): per channel, the
+// `percentile` of the frame's samples that are not white-like. A cell (a
+// Bayer frame's 2×2 RGGB quad, else a pixel) is white-like when any of its
+// samples reaches its channel's `white_like_from` (share of full scale);
+// white-like cells grown by a margin of max(kSubjectWhiteLikeMarginCells,
+// kSubjectWhiteLikeMarginShare × the frame's width in cells) cells (the
+// target's edge: blur and sampling put its pixels between skin and white)
+// are left out. The sequencer sets white_like_from at the dark level plus
+// kSubjectWhiteLikeShare of the white's signal at the same exposure, so the
+// white target or a reference strip in the subject's view (albedo near
+// ρ_white), a specular highlight and anything clipped are not metered: a
+// strip at the 99th percentile would keep the skin near its white's exposure.
+// Skin's albedo stays well below it.
+inline constexpr double kSubjectWhiteLikeShare = 0.9;
+inline constexpr int kSubjectWhiteLikeMarginCells = 2;
+inline constexpr double kSubjectWhiteLikeMarginShare = 0.01;
+struct SubjectLevels {
+  std::array<double, 3> level{};  // share of full scale (dark included); 0 when every cell is left out
+  double white_like_share = 0;    // share of the frame's cells left out (white-like or within the margin)
+};
+// Throws std::invalid_argument when the samples do not match the geometry or
+// the percentile is outside (0, 1].
+SubjectLevels subject_levels(std::span<const std::uint8_t> samples, int width, int height, drivers::PixelFormat format,
+                             double percentile, const std::array<double, 3>& white_like_from);
+
 }  // namespace chromo::daemon

@@ -65,6 +65,12 @@ struct VirtualLabOptions {
   // the first 13 characters of it and k (simulators::lab_camera_serial).
   std::string camera_serial = "CHROMO-VLAB-CAM";
   double led_time_scale = 300;     // lab seconds per wall-clock second (LED warm-up, drift)
+  // false: the LEDs do not drift with their junction temperature (every
+  // type's peak_shift_nm_per_K and flux_loss_per_K 0), for measuring what
+  // else differs between two sessions.
+  bool led_thermal_drift = true;
+  // false: the skin scene without its white target strip (SkinSceneOptions::white_patch).
+  bool skin_white_strip = true;
   std::uint64_t seed = 1;          // scene and camera noise
   int scene_threads = 0;           // building the skin scene (0 = all cores)
   // A polarised sphere (docs/polarisation.md): every LED type has a cross

@@ -145,6 +145,9 @@ struct SubjectMeteringResult {
   double level = 0;        // its percentile, share of full scale (dark included)
   bool capped = false;     // max_ratio reached before fill
 };
+// The ratio alone from the brightest channel's percentile level and its dark
+// level (shares of full scale), as above; max_ratio when level ≤ dark.
+double subject_exposure_ratio(double level, double dark, double fill, double max_ratio);
 // Throws std::invalid_argument naming the field for bad options or images.
 SubjectMeteringResult meter_subject_exposure(const RgbImage& subject, const RgbImage& dark, const SubjectMetering& options,
                                              const std::vector<std::uint8_t>& mask = {});

@@ -138,9 +138,11 @@ class SessionCaptureBuilder {
     spectral::Spectrum illuminant_sum;
     double exposure_us = 0;  // of the step's frames (all alike)
   };
-  // Keys: "dark", "white:d65", "subject:d65", "white:w57", ...
+  // Keys: "dark", "white:d65", "subject:d65", "white:w57", ..., "linearity:d65" (a linearity white)
   using StepSums = std::map<std::string, StepSum>;
   RgbImage mean_image(const StepSum& s) const;
+  // The state's linearity white ("linearity:<state>", Step::linearity_of) once all its frames are in.
+  std::optional<RgbImage> linearity_white(const StepSums& steps, const std::string& state) const;
   // The camera's sums (the plan's empty ones for a camera without frames).
   const StepSums& sums_of(const std::string& camera) const;
 

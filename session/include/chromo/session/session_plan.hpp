@@ -48,11 +48,29 @@ struct Step {
   std::string prompt;  // non-empty: pause before the step until resumed
   double meter_white_share = 0;  // (0, 1]: meter this white step (0: exposure_us as given)
   std::string exposure_from;     // the earlier metered white step whose exposure this step uses
+  // Subject exposure metering (docs/daemon.md "Exposure per capture"; a
+  // subject step with exposure_from): > 0, before its frames the sequencer
+  // takes one metering frame of the subject at its white's exposure and
+  // multiplies that exposure by g (session::subject_exposure_ratio) so the
+  // subject_percentile of its brightest channel sits at subject_fill of full
+  // scale, g in [1, max_subject_exposure_ratio]; the white is scaled by g in
+  // the albedo (method_measurement.hpp).
+  double subject_fill = 0;                 // 0 (off) or (0, 1)
+  double subject_percentile = 0.99;        // (0, 1]
+  double max_subject_exposure_ratio = 8;   // [1, 64]
+  std::string subject_ratio_from;          // an earlier subject-metered step whose g this step takes
+  // A white step after the subjects: the white of the subject step named
+  // here (its illumination) at that subject's white's exposure divided by
+  // its g, the second exposure that checks the camera's linearity over the
+  // ratio g (IlluminatedCapture::white_linearity; docs/daemon.md "Subject
+  // exposure"). Names an earlier subject-metered step (subject_metered()).
+  std::string linearity_of;
   // The light's polarisation (docs/polarisation.md), for every LED type of the
   // step's state; JSON "polarisation", absent = unpolarised. A plan's lit steps
   // are either cross or unpolarised; parallel steps may join either.
   drivers::Polarisation polarisation = drivers::Polarisation::kUnpolarised;
   bool metered() const { return meter_white_share > 0 || !exposure_from.empty(); }
+  bool subject_metered() const { return subject_fill > 0 || !subject_ratio_from.empty(); }
 };
 
 struct SessionPlan {
@@ -85,6 +103,15 @@ struct StandardPlanOptions {
   // > 0: the W57+blue mix is "w57+blue:R" and W57 "w57:R" with R = blue_ratio
   // (the blue LED's camera-B response R times W57's); 0: "w57+blue" and "w57".
   double blue_ratio = 0;
+  // > 0 (with meter_white_share > 0): each subject metered to this fill
+  // (Step::subject_fill); W57+blue's subject is then taken before W57's and
+  // W57 takes its ratio (the blue-only difference at one exposure); after the
+  // subjects, each subject's white again at its white's exposure ÷ g
+  // (white_d65_linearity, white_w57+blue_linearity, white_w57_linearity:
+  // Step::linearity_of), the white target back in the sphere.
+  double subject_fill = 0;
+  double subject_percentile = 0.99;
+  double max_subject_exposure_ratio = 8;
   // A sphere with polariser banks (docs/polarisation.md): every lit step
   // cross-polarised (the skin model's diffuse light), then one parallel
   // capture of the broadband light (white_d65_parallel, subject_d65_parallel:
