@@ -100,6 +100,8 @@ int run_estimate_session(const EstimateOptions& options) {
       camera_of[entry.substr(0, equals)] = entry.substr(equals + 1);
     }
     sources = session::resolve_capture_sources(library, options.camera, options.white_reflectance, camera_of);
+    // The session's own per-state libraries, unless --led-library overrides the illuminants.
+    if (options.led_library.empty()) session::load_session_state_libraries(folder / "results", sources);
     builder.emplace(session::read_stored_session(folder, sources, &unusable));
     for (const auto& [name, spec] : camera_of)
       if (std::find(builder->cameras().begin(), builder->cameras().end(), name) == builder->cameras().end())
@@ -118,6 +120,7 @@ int run_estimate_session(const EstimateOptions& options) {
   nlohmann::ordered_json extra{{"session", fs::absolute(folder).string()},
                                {"source", "chromo estimate SESSION_DIR"},
                                {"led_library", sources.led_library_source},
+                               {"led_library_of_state", session::state_library_sources(sources)},
                                {"white_reflectance", sources.white_reflectance},
                                {"blue_light_hazard", hazard}};
   std::vector<maps::CameraEstimate> cameras;

@@ -149,6 +149,7 @@ void Calibrations::use_library(const std::filesystem::path& path, drivers::Polar
     library_path_ = std::filesystem::absolute(path);
   } else {
     state_libraries_[state] = std::move(library);
+    state_library_paths_[state] = std::filesystem::absolute(path);
   }
   mix_cache_.clear();
 }
@@ -374,10 +375,11 @@ std::shared_ptr<const calibration::LedLibrary> Calibrations::library_for(drivers
   return slot == drivers::Polarisation::kUnpolarised ? library_ : state_libraries_.at(slot);
 }
 
-std::map<drivers::Polarisation, calibration::LedLibrary> Calibrations::measured_state_libraries() const {
+std::map<drivers::Polarisation, session::StateLedLibrary> Calibrations::measured_state_libraries() const {
   std::lock_guard lock(mutex_);
-  std::map<drivers::Polarisation, calibration::LedLibrary> libraries;
-  for (const auto& [state, library] : state_libraries_) libraries.emplace(state, *library);
+  std::map<drivers::Polarisation, session::StateLedLibrary> libraries;
+  for (const auto& [state, library] : state_libraries_)
+    libraries.emplace(state, session::StateLedLibrary{*library, state_library_paths_.at(state).string()});
   return libraries;
 }
 

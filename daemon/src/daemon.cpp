@@ -29,7 +29,7 @@ Daemon::Daemon(DaemonConfig config, DeviceSet devices, FrameConsumer* estimator)
   if (!estimator_ && config_.estimation.enabled) {
     owned_estimator_ = make_online_estimator(config_.estimation, &budget_,
                                              [this] { return calibrations_->library_path(); },
-                                             {});
+                                             [this] { return calibrations_->measured_state_libraries(); });
     estimator_ = owned_estimator_.get();
   }
 }
@@ -147,10 +147,10 @@ session::CaptureSources Daemon::light_sources() const {
   if (library.empty()) library = config_.led_library.string();
   session::CaptureSources sources = session::resolve_capture_sources(
       library, config_.estimation.camera_sensitivity, config_.estimation.white_reflectance);
-  // Not yet: sources.led_library_of_state = calibrations_->measured_state_libraries()
-  // (the illuminant of each frame's state). On the polarised test lab it gave a
-  // relit ΔE94 of W57 22.4 against 4.5 without it (docs/polarisation.md); not wired
-  // until that is understood.
+  // A frame lit through a bank takes its illuminant from that state's measured
+  // library (the polarisers' spectral transmission is in it), unless the
+  // estimation's library is pinned by configuration.
+  if (config_.estimation.led_library.empty()) sources.led_library_of_state = calibrations_->measured_state_libraries();
   return sources;
 }
 

@@ -18,7 +18,7 @@ bool OnlineEstimatorOptions::IsValid(std::string* error) const {
 
 std::unique_ptr<OnlineEstimator> make_online_estimator(const EstimationConfig& config, files::StorageBudget* budget,
                                                        std::function<std::string()> daemon_led_library,
-                                                       std::function<std::map<drivers::Polarisation, calibration::LedLibrary>()>
+                                                       std::function<std::map<drivers::Polarisation, session::StateLedLibrary>()>
                                                            daemon_state_libraries) {
   OnlineEstimatorOptions options;
   auto& e = options.estimation.estimator;
@@ -123,6 +123,7 @@ void OnlineEstimator::estimate_now() {
   nlohmann::ordered_json extra{{"session_id", session_.id},
                                {"source", "chromod on-line estimator"},
                                {"led_library", sources_->led_library_source},
+                               {"led_library_of_state", session::state_library_sources(*sources_)},
                                {"white_reflectance", sources_->white_reflectance},
                                {"frames_read_back_from_storage", read_back_},
                                {"table_prepared_during_capture_s",
@@ -135,6 +136,9 @@ void OnlineEstimator::estimate_now() {
   // SESSION_DIR` reproduces these maps from the folder alone.
   files::write_file_durably(results / "led_library.json", calibration::led_library_to_json(sources_->led_library),
                             options_.budget);
+  for (const auto& [state, measured] : sources_->led_library_of_state)
+    files::write_file_durably(results / session::session_state_library_file(state),
+                              calibration::led_library_to_json(measured.library), options_.budget);
   const maps::FileCommit commit = [this](const std::filesystem::path& path,
                                          const std::function<void(const std::filesystem::path&)>& produce) {
     std::filesystem::create_directories(path.parent_path());

@@ -319,8 +319,30 @@ CameraSensitivitySource CaptureSources::sensitivity_of(const std::string& camera
 }
 
 const calibration::LedLibrary& CaptureSources::library_for(drivers::Polarisation state) const {
-  if (auto found = led_library_of_state.find(state); found != led_library_of_state.end()) return found->second;
+  if (auto found = led_library_of_state.find(state); found != led_library_of_state.end()) return found->second.library;
   return led_library;
+}
+
+std::string session_state_library_file(drivers::Polarisation state) {
+  return std::string("led_library-") + drivers::polarisation_name(state) + ".json";
+}
+
+std::map<std::string, std::string> state_library_sources(const CaptureSources& sources) {
+  std::map<std::string, std::string> out;
+  for (const auto& [state, measured] : sources.led_library_of_state) out[drivers::polarisation_name(state)] = measured.source;
+  return out;
+}
+
+void load_session_state_libraries(const std::filesystem::path& results_folder, CaptureSources& sources) {
+  for (auto state : {drivers::Polarisation::kCross, drivers::Polarisation::kParallel}) {
+    const std::filesystem::path file = results_folder / session_state_library_file(state);
+    if (!std::filesystem::exists(file)) continue;
+    try {
+      sources.led_library_of_state[state] = {calibration::load_led_library(file), file.string()};
+    } catch (const spectral::DataError& error) {
+      throw std::invalid_argument(file.string() + ": " + error.what());
+    }
+  }
 }
 
 CaptureSources resolve_capture_sources(const std::string& led_library, const std::string& camera,

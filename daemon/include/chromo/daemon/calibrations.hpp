@@ -53,6 +53,7 @@
 #include "chromo/files/durable_file.hpp"
 #include "chromo/daemon/operation_runner.hpp"
 #include "chromo/daemon/operations.hpp"
+#include "chromo/session/session_captures.hpp"
 
 namespace chromo::calibration {
 struct LedLibrary;
@@ -96,8 +97,10 @@ class Calibrations {
   // The library a step in `state` is lit by: that state's measured library,
   // else the unpolarised one (null when none).
   std::shared_ptr<const calibration::LedLibrary> library_for(drivers::Polarisation state) const;
-  // The measured library of each polarisation state that has one (kCross, kParallel).
-  std::map<drivers::Polarisation, calibration::LedLibrary> measured_state_libraries() const;
+  // The measured library of each polarisation state that has one (kCross,
+  // kParallel), with its file: the illuminants of a session's frames lit in
+  // that state (session::CaptureSources::led_library_of_state).
+  std::map<drivers::Polarisation, session::StateLedLibrary> measured_state_libraries() const;
   // The library file in use ("" when none).
   std::string library_path() const;
   // The library in use (null when none): the plan advisor predicts from it.
@@ -124,6 +127,7 @@ class Calibrations {
   std::filesystem::path library_path_;
   // The measured libraries of a sphere with banks: kCross, kParallel.
   std::map<drivers::Polarisation, std::shared_ptr<const calibration::LedLibrary>> state_libraries_;
+  std::map<drivers::Polarisation, std::filesystem::path> state_library_paths_;
   mutable std::map<std::pair<std::string, drivers::Polarisation>, drivers::DriveLevels> mix_cache_;
 };
 

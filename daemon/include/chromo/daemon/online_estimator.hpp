@@ -85,7 +85,7 @@ class OnlineEstimator;
 // state (CaptureSources::led_library_of_state).
 std::unique_ptr<OnlineEstimator> make_online_estimator(
     const EstimationConfig& config, files::StorageBudget* budget, std::function<std::string()> daemon_led_library = {},
-    std::function<std::map<drivers::Polarisation, calibration::LedLibrary>()> daemon_state_libraries = {});
+    std::function<std::map<drivers::Polarisation, session::StateLedLibrary>()> daemon_state_libraries = {});
 
 class OnlineEstimator final : public FrameConsumer {
  public:

@@ -61,6 +61,12 @@ struct CameraSensitivitySource {
   std::string source;  // "builtin:nikon_d5100" or a CSV path
 };
 
+// A measured LED library of one polarisation state and where it came from.
+struct StateLedLibrary {
+  calibration::LedLibrary library;
+  std::string source;  // the file it was loaded from (for the report)
+};
+
 struct CaptureSources {
   calibration::LedLibrary led_library;
   std::string led_library_source;  // where it came from (for the report)
@@ -74,9 +80,22 @@ struct CaptureSources {
   // state"): the measured library of kCross / kParallel light. A frame's LED
   // type lit in a state found here takes its illuminant from that library,
   // in any other state from led_library.
-  std::map<drivers::Polarisation, calibration::LedLibrary> led_library_of_state;
+  std::map<drivers::Polarisation, StateLedLibrary> led_library_of_state;
   const calibration::LedLibrary& library_for(drivers::Polarisation state) const;
 };
+
+// A session's results keep the libraries its illuminants came from, so that
+// `chromo estimate SESSION_DIR` reproduces its maps from the folder alone:
+// led_library.json and, per polarisation state, led_library-<state>.json
+// ("led_library-cross.json"). The file name of a state's library:
+std::string session_state_library_file(drivers::Polarisation state);
+// Loads every led_library-<state>.json of `results_folder` into
+// sources.led_library_of_state (none: unchanged). Throws
+// std::invalid_argument naming the file when one is unreadable.
+void load_session_state_libraries(const std::filesystem::path& results_folder, CaptureSources& sources);
+// For summary.json: {"cross": source, "parallel": source} of the states in
+// sources.led_library_of_state ({} when none: every frame lit from led_library).
+std::map<std::string, std::string> state_library_sources(const CaptureSources& sources);
 
 // The sources chromod uses: the LED library at `led_library` (empty: the
 // newest measured one in calibration::led_library_directory(), else the
