@@ -16,6 +16,7 @@
 #include "chromo/calibration/led_library_io.hpp"
 #include "chromo/estimation/estimator.hpp"
 #include "chromo/session/session_plan.hpp"
+#include "chromo/session/surface_factors.hpp"
 #include "chromo/spectral/camera.hpp"
 #include "chromo/daemon/virtual_lab.hpp"
 
@@ -284,6 +285,17 @@ std::string camera_sensitivity_error(const std::string& source) {
   return {};
 }
 
+std::string films_error(const std::string& source) {
+  if (source.empty() || source == kVirtualLabFilms) return {};
+  if (auto error = regular_file_error(source); !error.empty()) return error;
+  try {
+    session::surface_factors_of_extinction_file(source);
+  } catch (const std::exception& error) {
+    return error.what();
+  }
+  return {};
+}
+
 // ---- the table of keys ----
 
 // One key: how its JSON value is read (type and range: the reader throws),
@@ -427,6 +439,8 @@ const std::vector<Key>& estimation_keys() {
          return std::string();
        }},
       number_key("white_reflectance", 0, 1, true, [](DaemonConfig& c) -> auto& { return c.estimation.white_reflectance; }),
+      string_key("films_extinction_ratio", [](DaemonConfig& c) -> auto& { return c.estimation.films_extinction_ratio; },
+                 films_error),
       string_key("cache_dir", [](DaemonConfig& c) -> auto& { return c.estimation.cache_dir; }, optional_folder),
       unsigned_key("cache_limit_bytes", 1ull << 20, 1ull << 50,
                    [](DaemonConfig& c) -> auto& { return c.estimation.cache_limit_bytes; }),

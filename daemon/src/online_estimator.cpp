@@ -3,6 +3,7 @@
 #include <chrono>
 
 #include "chromo/calibration/led_library_io.hpp"
+#include "chromo/daemon/virtual_lab.hpp"
 #include "chromo/session/plan_hazard.hpp"
 #include "chromo/spectral/table.hpp"
 
@@ -33,6 +34,9 @@ std::unique_ptr<OnlineEstimator> make_online_estimator(const EstimationConfig& c
     auto sources = session::resolve_capture_sources(library, config.camera_sensitivity, config.white_reflectance,
                                                     config.camera_sensitivities);
     if (config.led_library.empty() && daemon_state_libraries) sources.led_library_of_state = daemon_state_libraries();
+    if (config.films_extinction_ratio == kVirtualLabFilms) sources.surface_factors = virtual_lab_surface_factors();
+    else if (!config.films_extinction_ratio.empty())
+      sources.surface_factors = session::surface_factors_of_extinction_file(config.films_extinction_ratio);
     return sources;
   };
   options.budget = budget;

@@ -8,6 +8,8 @@
 #include "chromo/drivers/spectrometer_factory.hpp"
 #include "chromo/simulators/calibration_lab.hpp"
 #include "chromo/simulators/camera/camera_simulator.hpp"
+#include "chromo/simulators/polarisation/polariser_optics.hpp"
+#include "chromo/spectral/grid.hpp"
 #include "chromo/simulators/scene/scene.hpp"
 
 namespace chromo::daemon {
@@ -117,6 +119,16 @@ VirtualLab start_virtual_lab(const VirtualLabOptions& options) {
                     "LED lab time " + std::to_string(static_cast<int>(options.led_time_scale)) + "x" +
                     (options.polarisers ? "; polarised sphere (cross and parallel banks, camera analysers)" : "");
   return lab;
+}
+
+session::SurfaceFactors virtual_lab_surface_factors() {
+  const simulators::PolariserFilm film;
+  spectral::Spectrum ratio;
+  for (int i = 0; i < spectral::kGridSize; ++i) ratio[i] = film.extinction_ratio_at(spectral::grid_wavelength_nm(i));
+  return session::surface_factors_of_extinction(
+      ratio, "the virtual lab's films (PolariserFilm: 1:" + std::to_string(static_cast<int>(film.extinction_ratio_550nm)) +
+                 " at 550 nm, 1:" + std::to_string(static_cast<int>(film.extinction_ratio_400nm)) +
+                 " at 400 nm; design view)");
 }
 
 }  // namespace chromo::daemon

@@ -200,6 +200,7 @@ MethodCaptures SessionCaptureBuilder::captures(const std::string& camera) const 
   std::vector<std::pair<IlluminatedCapture*, const char*>> targets = {
       {&c.broadband, "d65"}, {&c.base, "w57"}, {&c.with_blue, "w57+blue"}};
   if (steps.count(std::string("subject:") + kParallelD65)) targets.emplace_back(&c.broadband_parallel.emplace(), kParallelD65);
+  if (c.broadband_parallel) c.surface_factors = sources_.surface_factors;
   for (const auto& [target, mix] : targets) {
     const StepSum& white = steps.at(std::string("white:") + mix);
     const StepSum& subject = steps.at(std::string("subject:") + mix);

@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "chromo/spectral/grid.hpp"
+#include "chromo/spectral/resample.hpp"
 
 namespace chromo::session {
 
@@ -21,6 +22,15 @@ SurfaceFactors surface_factors_of_extinction(const spectral::Spectrum& extinctio
     out.parallel[i] = 2 * (1 + er * er) / sum_squared;
   }
   return out;
+}
+
+SurfaceFactors surface_factors_of_extinction_file(const std::filesystem::path& path) {
+  try {
+    return surface_factors_of_extinction(spectral::read_spectrum_file(path, "extinction_ratio"),
+                                         "the films' datasheet curve " + path.string());
+  } catch (const std::exception& error) {  // DataError (file) or invalid_argument (a ratio)
+    throw std::invalid_argument(path.string() + ": " + error.what());
+  }
 }
 
 double channel_surface_factor(const spectral::Spectrum& factor, const spectral::CameraSensitivity& camera,

@@ -23,6 +23,7 @@
 #include "chromo/session/frame_record.hpp"
 #include "chromo/session/journal.hpp"
 #include "chromo/session/registration.hpp"
+#include "chromo/files/float_image.hpp"
 #include "chromo/simulators/polarisation/polarised_skin.hpp"
 #include "test_lab.hpp"
 
@@ -204,6 +205,69 @@ TEST(PolarisedSession, DaemonRunsThePolarisedStandardPlanAndTheFramesSeparateThe
   EXPECT_EQ(results.summary().highlight_pixels(), highlights.at("flagged_pixels").get<std::uint64_t>());
 }
 
+// estimation.films_extinction_ratio gives chromod the films: its live
+// polarised session's surface map is then corrected for their extinction
+// (docs/polarisation.md "What the estimator knows of the films"). The same
+// lab and session with and without: the G surface map over the scene's
+// highlight against the lab's surface layer there.
+struct FilmsRun {
+  double surface_over_truth = 0;  // mean surface map / mean truth over the highlight cells
+  nlohmann::json highlights;      // summary.json "highlights"
+};
+
+FilmsRun run_with_films(const std::string& films) {
+  TestLab lab(films.empty() ? "films_none" : "films_given");
+  lab.lab_options.polarisers = true;
+  lab.lab_options.scene_size = 256;
+  lab.lab_options.led_time_scale = 100000;
+  lab.config.estimation.films_extinction_ratio = films;
+  auto daemon = lab.daemon();
+  session::StandardPlanOptions options = daemon->standard_plan_options();
+  options.settle_ms = 20;
+  const auto started = daemon->start_session(session::standard_plan(options), "films");
+  const auto done = wait_final(*daemon, started.id);
+  EXPECT_EQ(done.state, session::OperationState::kSucceeded) << done.message;
+  const std::filesystem::path results = std::filesystem::path(done.folder) / "results";
+  std::ifstream in(results / "summary.json");
+  FilmsRun run;
+  if (!in) return run;
+  run.highlights = nlohmann::json::parse(in).at("highlights");
+  const auto maps = files::read_exr(results / "maps.exr");
+  simulators::SkinSceneOptions skin;
+  skin.width = skin.height = lab.lab_options.scene_size;
+  skin.seed = lab.lab_options.seed;
+  skin.threads = 1;
+  const simulators::Scene scene = simulators::make_skin_scene(skin);
+  cv::Mat surface;
+  cv::resize(simulators::skin_surface_layer(scene, skin, 0), surface, cv::Size(maps.width, maps.height), 0, 0,
+             cv::INTER_AREA);
+  surface.convertTo(surface, CV_64F);
+  double measured = 0, truth = 0;
+  for (int y = 0; y < maps.height; ++y)
+    for (int x = 0; x < maps.width; ++x)
+      if (surface.at<double>(y, x) > 0.15) {
+        measured += maps.channel("surface")[static_cast<std::size_t>(y) * maps.width + x];
+        truth += surface.at<double>(y, x);
+      }
+  run.surface_over_truth = truth > 0 ? measured / truth : 0;
+  return run;
+}
+
+TEST(PolarisedSession, TheConfiguredFilmsCorrectTheLiveSurfaceMap) {
+  const FilmsRun none = run_with_films("");
+  const FilmsRun given = run_with_films(kVirtualLabFilms);
+  std::printf("surface map / truth over the highlight: films not given %.4f, given %.4f\n", none.surface_over_truth,
+              given.surface_over_truth);
+  // Not given: (P − X)/2 keeps (ER − 1)²/(ER + 1)² of the layer, 0.934-0.981
+  // in G (1:58.6 at 470 nm to 1:200); given: the extinction divided out.
+  EXPECT_FALSE(none.highlights.contains("surface_correction")) << none.highlights.dump();
+  ASSERT_TRUE(given.highlights.contains("surface_correction")) << given.highlights.dump();
+  EXPECT_NE(given.highlights.at("surface_correction").at("films").get<std::string>().find("virtual lab"),
+            std::string::npos);
+  EXPECT_LT(std::abs(given.surface_over_truth - 1), std::abs(none.surface_over_truth - 1));
+  EXPECT_GT(given.surface_over_truth / none.surface_over_truth, 1.01);
+}
+
 // The first "relit_delta_e94" object of each illuminant in a session's results: illuminant -> mean ΔE94.
 void collect_relit_means(const nlohmann::json& json, std::map<std::string, double>& means) {
   if (json.is_object()) {
@@ -379,6 +443,27 @@ TEST(PolarisedSession, ConfigurationKeysAreReadAndBadValuesRefusedNamingTheKey) 
   refused(R"({"capture": {"polarised_plan": "sometimes"}})",
           "capture.polarised_plan: \"sometimes\" is not auto, on or off");
   refused(R"({"virtual_lab": {"polarisers": "yes"}})", "virtual_lab.polarisers");
+  // The films: a datasheet CSV of wavelength_nm,extinction_ratio, or the virtual lab's.
+  const auto dir = fresh_directory("films_config");
+  std::ofstream(dir / "films.csv") << "# a datasheet curve\nwavelength_nm,extinction_ratio\n380,10\n550,200\n780,300\n";
+  std::ofstream(dir / "weak.csv") << "wavelength_nm,extinction_ratio\n380,0.5\n780,300\n";
+  std::ofstream(dir / "other.csv") << "wavelength_nm,ratio\n380,10\n780,300\n";
+  const std::string films = (dir / "films.csv").string();
+  EXPECT_EQ(parse_config(nlohmann::json{{"estimation", {{"films_extinction_ratio", films}}}}, "cfg")
+                .estimation.films_extinction_ratio,
+            films);
+  EXPECT_EQ(parse_config(nlohmann::json::parse(R"({"estimation": {"films_extinction_ratio": "virtual_lab"}})"), "cfg")
+                .estimation.films_extinction_ratio,
+            "virtual_lab");
+  const auto factors = session::surface_factors_of_extinction_file(films);
+  EXPECT_NEAR(factors.cross[34], 4.0 * 200 / (201.0 * 201.0), 1e-9);  // 550 nm
+  for (const auto& [file, message] : {std::pair{dir / "weak.csv", std::string("at least 1")},
+                                      std::pair{dir / "other.csv", std::string("extinction_ratio")},
+                                      std::pair{dir / "missing.csv", std::string("missing.csv")}}) {
+    const std::string text = nlohmann::json{{"estimation", {{"films_extinction_ratio", file.string()}}}}.dump();
+    refused(text.c_str(), "estimation.films_extinction_ratio");
+    refused(text.c_str(), message);
+  }
 }
 
 TEST(PolarisedSession, ThePlanIsPolarisedOnlyWhenEveryTypeHasBanksUnlessForced) {

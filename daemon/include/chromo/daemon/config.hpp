@@ -37,6 +37,9 @@ struct DeviceConfig {
   nlohmann::json settings = nlohmann::json::object();  // backend-specific
 };
 
+// estimation.films_extinction_ratio's value for the virtual lab's own films.
+inline constexpr const char* kVirtualLabFilms = "virtual_lab";
+
 // The on-line estimator (docs/config.md "Estimation"; daemon/online_estimator.hpp).
 struct EstimationConfig {
   bool enabled = true;
@@ -47,6 +50,11 @@ struct EstimationConfig {
   // Per camera (device name → builtin:NAME or a CSV), overriding camera_sensitivity for that camera's maps.
   std::map<std::string, std::string> camera_sensitivities;
   double white_reflectance = 0.99;  // ρ of the white reference target
+  // The polariser films (docs/polarisation.md "What the estimator knows of
+  // the films"): "" = not given (surface maps and cross captures uncorrected),
+  // a CSV wavelength_nm,extinction_ratio (the films' datasheet curve), or
+  // "virtual_lab" (the virtual lab's own film model, simulators::PolariserFilm).
+  std::string films_extinction_ratio;
   std::string cache_dir;         // forward tables; empty = $CHROMO_CACHE_DIR or ~/.cache/chromosphere
   std::uint64_t cache_limit_bytes = 2ull << 30;  // table cache bound (least recently used evicted)
   int threads = 0;               // 0 = all cores

@@ -44,6 +44,7 @@
 #include <vector>
 
 #include "chromo/daemon/device_set.hpp"
+#include "chromo/session/surface_factors.hpp"
 #include "chromo/simulators/camera/lab_cameras.hpp"
 
 namespace chromo::simulators {
@@ -128,5 +129,11 @@ struct VirtualLab {
 // simulator cannot start (GigE port taken); a driver that cannot connect
 // leaves its device with an open_error, as with configured devices.
 VirtualLab start_virtual_lab(const VirtualLabOptions& options = {});
+
+// The polarised virtual lab's films as a datasheet would give them (its
+// light and analyser films, simulators::PolariserFilm's defaults, crossed
+// exactly: the design view), for estimation.films_extinction_ratio
+// "virtual_lab" (kVirtualLabFilms).
+session::SurfaceFactors virtual_lab_surface_factors();
 
 }  // namespace chromo::daemon

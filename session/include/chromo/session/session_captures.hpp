@@ -82,6 +82,11 @@ struct CaptureSources {
   // in any other state from led_library.
   std::map<drivers::Polarisation, StateLedLibrary> led_library_of_state;
   const calibration::LedLibrary& library_for(drivers::Polarisation state) const;
+  // The polariser films as the estimator knows them (surface_factors.hpp):
+  // given, a polarised session's surface maps are extinction-corrected and
+  // its cross captures lose their highlights' surface light; none, both are
+  // as captured and the report says the films were not given.
+  std::optional<SurfaceFactors> surface_factors;
 };
 
 // A session's results keep the libraries its illuminants came from, so that

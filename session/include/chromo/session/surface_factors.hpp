@@ -24,6 +24,7 @@
 // white target is depolarising, so its cross and parallel captures are equal
 // whatever the films. Thread rules: pure functions.
 
+#include <filesystem>
 #include <string>
 
 #include "chromo/spectral/camera.hpp"
@@ -40,6 +41,12 @@ struct SurfaceFactors {
 // Identical films crossed exactly, from their extinction ratio k1/k2 on the
 // project grid. std::invalid_argument when a ratio is not finite or below 1.
 SurfaceFactors surface_factors_of_extinction(const spectral::Spectrum& extinction_ratio, std::string source);
+
+// The same from a datasheet curve: a CSV of wavelength_nm,extinction_ratio
+// (k1/k2, ≥ 1; '#' provenance lines allowed), resampled onto the project
+// grid as every spectrum is. std::invalid_argument naming the file when it
+// is unreadable, has no extinction_ratio column or a ratio below 1.
+SurfaceFactors surface_factors_of_extinction_file(const std::filesystem::path& path);
 
 // Σ S_c·E·factor / Σ S_c·E over the grid. std::invalid_argument when the
 // channel is outside 0-2 or the camera sees nothing of the illuminant in it.
