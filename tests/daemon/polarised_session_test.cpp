@@ -64,17 +64,22 @@ struct Region {
 // Four standard errors of a difference of two region means.
 double four_sigma(double error_a, double error_b) { return 4 * std::hypot(error_a, error_b); }
 
+// The polarised virtual lab these tests share: banks on every LED type, a
+// scene of scene_size px, and lab time at 100000x, so the junctions reach
+// each step's equilibrium within its settling (τ = 60 s of lab time = 0.6 ms)
+// and the white and the subject of one illumination are taken under the same light.
+void make_polarised(TestLab& lab, int scene_size) {
+  lab.lab_options.polarisers = true;
+  lab.lab_options.scene_size = scene_size;
+  lab.lab_options.led_time_scale = 100000;
+}
+
 TEST(PolarisedSession, DaemonRunsThePolarisedStandardPlanAndTheFramesSeparateTheSurfaceLayer) {
   TestLab lab("polarised_session");
-  lab.lab_options.polarisers = true;
   // 256: with a 128-px scene magnified onto the 160 × 120 sensor the cross
   // captures (no highlight left) are too smooth for ECC; the registration's
   // translation fallback then registers them (the test below).
-  lab.lab_options.scene_size = 256;
-  // Lab time 100000x: the junctions reach each step's equilibrium within its
-  // settling (τ = 60 s of lab time = 0.6 ms), so the white and the subject
-  // of one illumination are taken under the same light.
-  lab.lab_options.led_time_scale = 100000;
+  make_polarised(lab, 256);
   lab.config.capture.exposure_per_capture = false;  // one exposure for all: cross and parallel compare directly
   auto daemon = lab.daemon();
 
@@ -217,9 +222,7 @@ struct FilmsRun {
 
 FilmsRun run_with_films(const std::string& films) {
   TestLab lab(films.empty() ? "films_none" : "films_given");
-  lab.lab_options.polarisers = true;
-  lab.lab_options.scene_size = 256;
-  lab.lab_options.led_time_scale = 100000;
+  make_polarised(lab, 256);
   lab.config.estimation.films_extinction_ratio = films;
   auto daemon = lab.daemon();
   session::StandardPlanOptions options = daemon->standard_plan_options();
@@ -290,9 +293,7 @@ void collect_relit_means(const nlohmann::json& json, std::map<std::string, doubl
 // estimator each frame's illuminant in the state it was taken in.
 TEST(PolarisedSession, CalibrationMeasuresEachStateAndTheSessionUsesThem) {
   TestLab lab("polarised_calibration");
-  lab.lab_options.polarisers = true;
-  lab.lab_options.scene_size = 256;
-  lab.lab_options.led_time_scale = 100000;
+  make_polarised(lab, 256);
   // Exposures metered per capture, as chromod runs: the calibrated W57+blue
   // (capture.blue_ratio 8) lights W57 at ~2% drive, which a fixed exposure
   // leaves nearly black (relit ΔE94 W57 22 against its own photograph: the
@@ -385,9 +386,7 @@ TEST(PolarisedSession, CalibrationMeasuresEachStateAndTheSessionUsesThem) {
 // does not; the results say which step used it.
 TEST(PolarisedSession, ASmoothViewIsRegisteredByTheTranslationFallback) {
   TestLab lab("polarised_smooth");
-  lab.lab_options.polarisers = true;
-  lab.lab_options.scene_size = 128;
-  lab.lab_options.led_time_scale = 100000;
+  make_polarised(lab, 128);
   lab.config.capture.exposure_per_capture = false;
   auto daemon = lab.daemon();
   session::StandardPlanOptions options = daemon->standard_plan_options();
