@@ -378,6 +378,55 @@ TEST(PolarisedSession, CalibrationMeasuresEachStateAndTheSessionUsesThem) {
   EXPECT_TRUE(std::filesystem::exists(results / "led_library-parallel.json"));
 }
 
+// A calibration whose parallel state fails (the controller stops answering
+// once the cross state is measured) leaves the daemon on the libraries of
+// the last run that measured both, before and after a restart; the failed
+// run's folder keeps its cross library, not adopted (docs/polarisation.md).
+TEST(PolarisedSession, AFailedParallelCalibrationKeepsTheLibrariesItHad) {
+  TestLab lab("polarised_calibration_fails");
+  make_polarised(lab, 64);
+  auto daemon = lab.daemon();
+  CalibrationRequest request;
+  request.drive_levels = {0.5, 1.0};
+  request.warmup_ms = 100;
+  const auto first = wait_final(*daemon, daemon->start_calibration(request).id);
+  ASSERT_EQ(first.state, session::OperationState::kSucceeded) << first.error;
+  const auto adopted = daemon->calibrations().measured_state_libraries();
+  ASSERT_EQ(adopted.size(), 2u);
+  const std::string cross_file = adopted.at(drivers::Polarisation::kCross).source;
+  const std::string parallel_file = adopted.at(drivers::Polarisation::kParallel).source;
+  EXPECT_EQ(std::filesystem::path(cross_file).parent_path(), std::filesystem::absolute(first.folder));
+  const auto cross_d65 = daemon->resolve_mix("d65", drivers::Polarisation::kCross);
+  const auto parallel_d65 = daemon->resolve_mix("d65", drivers::Polarisation::kParallel);
+
+  const auto second_id = daemon->start_calibration(request).id;
+  // Progress passes 0.5 when the cross state is done (one half per state).
+  const auto halfway = wait_for(*daemon, second_id, [](const session::OperationRecord& r) {
+    return r.progress > 0.5 || session::is_final(r.state);
+  });
+  ASSERT_FALSE(session::is_final(halfway.state)) << "the second run ended before its parallel state: " << halfway.message;
+  lab.simulators->leds().set_unresponsive(true);
+  const auto second = wait_final(*daemon, second_id);
+  lab.simulators->leds().set_unresponsive(false);
+  EXPECT_EQ(second.state, session::OperationState::kFailed) << second.message;
+  EXPECT_EQ(second.error.rfind("parallel: ", 0), 0u) << second.error;
+  EXPECT_TRUE(std::filesystem::exists(std::filesystem::path(second.folder) / "led-library-cross.json"));
+  EXPECT_FALSE(std::filesystem::exists(std::filesystem::path(second.folder) / "led-library-parallel.json"));
+  auto still = daemon->calibrations().measured_state_libraries();
+  EXPECT_EQ(still.at(drivers::Polarisation::kCross).source, cross_file);
+  EXPECT_EQ(still.at(drivers::Polarisation::kParallel).source, parallel_file);
+  EXPECT_EQ(daemon->resolve_mix("d65", drivers::Polarisation::kCross), cross_d65);
+  EXPECT_EQ(daemon->resolve_mix("d65", drivers::Polarisation::kParallel), parallel_d65);
+
+  // After a restart: the newest run with both states, not the failed one.
+  daemon.reset();
+  daemon = lab.daemon();
+  still = daemon->calibrations().measured_state_libraries();
+  ASSERT_EQ(still.size(), 2u);
+  EXPECT_EQ(still.at(drivers::Polarisation::kCross).source, cross_file);
+  EXPECT_EQ(still.at(drivers::Polarisation::kParallel).source, parallel_file);
+}
+
 // The daemon test lab's 128-px scene magnified onto the 160 × 120 sensor:
 // the cross captures (no highlight left) are too smooth for ECC, which used
 // to leave the on-line estimate unavailable (a RegistrationError). The
