@@ -51,6 +51,9 @@ struct Case {
 }  // namespace
 
 static int bench_main(int argc, char** argv) {
+  if (argc > 2 || (argc == 2 && argv[1][0] == '-'))
+    throw std::invalid_argument(std::string("usage: mix_solver_bench [OUT_DIR] (default bench/results); got \"") +
+                                argv[1] + "\"");
   const std::filesystem::path out_dir = argc > 1 ? argv[1] : "bench/results";
   std::filesystem::create_directories(out_dir);
   const LedLibrary library = nominal_led_library();
