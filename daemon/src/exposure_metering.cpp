@@ -15,31 +15,48 @@ namespace {
 
 using ChannelHistograms = std::array<std::vector<std::uint64_t>, 3>;
 
+// A raw frame's samples read by position: each sample's value (clamped to
+// full scale) and colour channel (RGGB sites; mono frames channel 0). The
+// constructor refuses a buffer whose size is not the frame's.
+class FrameSamples {
+ public:
+  FrameSamples(std::span<const std::uint8_t> samples, int width, int height, const drivers::PixelFormatInfo& info)
+      : samples_(samples), width_(width), info_(info), top_(static_cast<std::uint32_t>(info.full_scale())) {
+    if (width <= 0 || height <= 0 || samples.size() != info.frame_bytes(width, height))
+      throw std::invalid_argument("metering frame: " + std::to_string(samples.size()) + " bytes for a " +
+                                  std::to_string(width) + "x" + std::to_string(height) + " " + std::string(info.name) +
+                                  " frame");
+  }
+  std::uint32_t top() const { return top_; }
+  std::uint32_t value(int x, int y, int s) const {
+    const std::size_t i = (static_cast<std::size_t>(y) * width_ + x) * info_.samples_per_pixel + s;
+    if (info_.bytes_per_sample == 1) return std::min<std::uint32_t>(samples_[i], top_);
+    std::uint16_t v;
+    std::memcpy(&v, samples_.data() + 2 * i, 2);
+    return std::min<std::uint32_t>(v, top_);
+  }
+  int channel(int x, int y, int s) const {
+    if (info_.layout == drivers::ColourLayout::kBayerRGGB) return (y % 2 == 0 && x % 2 == 0) ? 0 : (y % 2 && x % 2) ? 2 : 1;
+    return info_.layout == drivers::ColourLayout::kMono ? 0 : s;
+  }
+
+ private:
+  std::span<const std::uint8_t> samples_;
+  int width_;
+  const drivers::PixelFormatInfo& info_;
+  std::uint32_t top_;
+};
+
 // Each channel's histogram of sample values (0 … full scale; a value above it
 // counts as full scale); mono frames fill channel 0 only.
 ChannelHistograms channel_histograms(std::span<const std::uint8_t> samples, int width, int height,
                                      const drivers::PixelFormatInfo& info) {
-  if (width <= 0 || height <= 0 || samples.size() != info.frame_bytes(width, height))
-    throw std::invalid_argument("metering frame: " + std::to_string(samples.size()) + " bytes for a " +
-                                std::to_string(width) + "x" + std::to_string(height) + " " + std::string(info.name) +
-                                " frame");
-  const auto top = static_cast<std::uint32_t>(info.full_scale());
+  const FrameSamples frame(samples, width, height, info);
   ChannelHistograms histogram;
-  for (auto& h : histogram) h.assign(top + 1, 0);
-  auto sample = [&](std::size_t i) -> std::uint32_t {
-    if (info.bytes_per_sample == 1) return samples[i];
-    std::uint16_t v;
-    std::memcpy(&v, samples.data() + 2 * i, 2);
-    return v;
-  };
+  for (auto& h : histogram) h.assign(frame.top() + 1, 0);
   for (int y = 0; y < height; ++y)
     for (int x = 0; x < width; ++x)
-      for (int s = 0; s < info.samples_per_pixel; ++s) {
-        int c = s;
-        if (info.layout == drivers::ColourLayout::kBayerRGGB) c = (y % 2 == 0 && x % 2 == 0) ? 0 : (y % 2 && x % 2) ? 2 : 1;
-        else if (info.layout == drivers::ColourLayout::kMono) c = 0;
-        ++histogram[c][std::min(sample((static_cast<std::size_t>(y) * width + x) * info.samples_per_pixel + s), top)];
-      }
+      for (int s = 0; s < info.samples_per_pixel; ++s) ++histogram[frame.channel(x, y, s)][frame.value(x, y, s)];
   return histogram;
 }
 
@@ -110,23 +127,9 @@ SubjectLevels subject_levels(std::span<const std::uint8_t> samples, int width, i
   if (!(percentile > 0 && percentile <= 1))
     throw std::invalid_argument("subject_percentile: must be in (0, 1], got " + std::to_string(percentile));
   const auto& info = drivers::pixel_format_info(format);
-  if (width <= 0 || height <= 0 || samples.size() != info.frame_bytes(width, height))
-    throw std::invalid_argument("metering frame: " + std::to_string(samples.size()) + " bytes for a " +
-                                std::to_string(width) + "x" + std::to_string(height) + " " + std::string(info.name) +
-                                " frame");
-  const auto top = static_cast<std::uint32_t>(info.full_scale());
+  const FrameSamples frame(samples, width, height, info);
+  const auto top = frame.top();
   const bool bayer = info.layout == drivers::ColourLayout::kBayerRGGB;
-  auto sample = [&](int x, int y, int s) -> std::uint32_t {
-    const std::size_t i = (static_cast<std::size_t>(y) * width + x) * info.samples_per_pixel + s;
-    if (info.bytes_per_sample == 1) return std::min<std::uint32_t>(samples[i], top);
-    std::uint16_t v;
-    std::memcpy(&v, samples.data() + 2 * i, 2);
-    return std::min<std::uint32_t>(v, top);
-  };
-  auto channel_of = [&](int x, int y, int s) {
-    if (bayer) return (y % 2 == 0 && x % 2 == 0) ? 0 : (y % 2 && x % 2) ? 2 : 1;
-    return info.layout == drivers::ColourLayout::kMono ? 0 : s;
-  };
   std::array<std::uint32_t, 3> ceiling{};
   for (int c = 0; c < 3; ++c)
     ceiling[c] = static_cast<std::uint32_t>(std::clamp(std::ceil(std::clamp(white_like_from[c], 0.0, 1.0) * top), 0.0,
@@ -139,7 +142,7 @@ SubjectLevels subject_levels(std::span<const std::uint8_t> samples, int width, i
   for (int y = 0; y < height; ++y)
     for (int x = 0; x < width; ++x)
       for (int s = 0; s < info.samples_per_pixel; ++s)
-        if (sample(x, y, s) >= ceiling[channel_of(x, y, s)])
+        if (frame.value(x, y, s) >= ceiling[frame.channel(x, y, s)])
           white_like[static_cast<std::size_t>(y / cell) * cells_x + x / cell] = 1;
   // Grown by the margin (a square of ± margin cells): the target's edge.
   const int margin = std::max(kSubjectWhiteLikeMarginCells,
@@ -168,7 +171,7 @@ SubjectLevels subject_levels(std::span<const std::uint8_t> samples, int width, i
   for (int y = 0; y < height; ++y)
     for (int x = 0; x < width; ++x) {
       if (excluded[static_cast<std::size_t>(y / cell) * cells_x + x / cell]) continue;
-      for (int s = 0; s < info.samples_per_pixel; ++s) ++histogram[channel_of(x, y, s)][sample(x, y, s)];
+      for (int s = 0; s < info.samples_per_pixel; ++s) ++histogram[frame.channel(x, y, s)][frame.value(x, y, s)];
     }
   SubjectLevels levels;
   levels.white_like_share = static_cast<double>(excluded_cells) / static_cast<double>(white_like.size());
