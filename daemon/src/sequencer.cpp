@@ -483,7 +483,7 @@ class Run {
       if (found == metered_.end())
         throw std::logic_error("step " + step.name + ": no exposure metered at step " + metered_at);
       std::vector<double> exposure = found->second;
-      const std::string& ratio_at = step.subject_fill > 0 ? step.name : step.subject_ratio_from;
+      const std::string& ratio_at = subject_ratio_step(step);
       if (auto ratio = subject_ratio_.find(ratio_at); !ratio_at.empty() && ratio != subject_ratio_.end())
         for (std::size_t k = 0; k < exposure.size(); ++k) exposure[k] *= ratio->second[k];
       return exposure;
@@ -511,11 +511,17 @@ class Run {
       if (metered_at.empty() || found == metered_.end()) continue;
       const std::vector<double> exposure = exposures_of(step);
       double longest = *std::max_element(exposure.begin(), exposure.end());
-      const std::string& ratio_at = step.subject_fill > 0 ? step.name : step.subject_ratio_from;
+      const std::string& ratio_at = subject_ratio_step(step);
       if (!ratio_at.empty() && !subject_ratio_.count(ratio_at)) longest *= max_subject_ratio(step);
       out[step.name] = longest;
     }
     return out;
+  }
+
+  // The step whose metered subject/white ratio g a step's exposure takes: its
+  // own when it meters the subject, else its subject_ratio_from ("" for none).
+  static const std::string& subject_ratio_step(const session::Step& step) {
+    return step.subject_fill > 0 ? step.name : step.subject_ratio_from;
   }
 
   // A linearity white (Step::linearity_of): its subject's white's exposure ÷
@@ -525,7 +531,7 @@ class Run {
                                       [&](const session::Step& s) { return s.name == step.linearity_of; });
     if (subject == c_.plan.steps.end())
       throw std::logic_error("step " + step.name + ": no step " + step.linearity_of + " to check the linearity of");
-    const std::string& ratio_at = subject->subject_fill > 0 ? subject->name : subject->subject_ratio_from;
+    const std::string& ratio_at = subject_ratio_step(*subject);
     const auto ratio = subject_ratio_.find(ratio_at);
     const auto white = metered_.find(subject->exposure_from);
     if (ratio == subject_ratio_.end() || white == metered_.end())
