@@ -71,7 +71,7 @@
 
 #include "guarded_main.hpp"
 #include "chart.hpp"
-#include "chromo/daemon/frame_pipeline.hpp"
+#include "chromo/daemon/internal/capture/frame_pipeline.hpp"
 #include "chromo/files/gnuplot_chart.hpp"
 #include "chromo/session/journal.hpp"
 #include "chromo/drivers/camera/aravis_camera.hpp"

@@ -34,9 +34,9 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "chromo/daemon/device_set.hpp"
-#include "chromo/daemon/preview_hub.hpp"
-#include "chromo/daemon/preview_image.hpp"
+#include "chromo/daemon/internal/devices/device_set.hpp"
+#include "chromo/daemon/internal/capture/preview_hub.hpp"
+#include "chromo/daemon/internal/capture/preview_image.hpp"
 #include "chromo/drivers/camera/aravis_camera.hpp"
 #include "chromo/files/gnuplot_chart.hpp"
 #include "chromo/simulators/camera/camera_simulator.hpp"

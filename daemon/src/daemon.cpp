@@ -10,8 +10,8 @@
 #include "chromo/estimation/forward_table.hpp"
 #include "chromo/files/bounded_read.hpp"
 #include "chromo/session/derived_data.hpp"
-#include "chromo/daemon/online_estimator.hpp"
-#include "chromo/daemon/sequencer.hpp"
+#include "chromo/daemon/internal/capture/online_estimator.hpp"
+#include "chromo/daemon/internal/capture/sequencer.hpp"
 #include "chromo/drivers/device_error.hpp"
 
 namespace chromo::daemon {

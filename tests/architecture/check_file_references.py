@@ -2,7 +2,7 @@
 """Finds comments and docs that name a project file which does not exist.
 
 Scans the project's C++ sources, CMake files, scripts and Markdown for paths
-such as `estimation/inverter.hpp`, `daemon/src/server.cpp` or
+such as `estimation/inverter.hpp`, `daemon/src/api/server.cpp` or
 `docs/formats/session.md` and resolves each the ways a reader would: from the
 repository root, from the naming file's folder, as a library's public header
 (`<lib>/include/chromo/<lib>/...`) or source (`<lib>/src/...`), or as an

@@ -1,4 +1,4 @@
-// Exposure metering's arithmetic (daemon/exposure_metering.hpp) on frames
+// Exposure metering's arithmetic (daemon/internal/capture/exposure_metering.hpp) on frames
 // made here: levels per Bayer colour, and the next exposure of a linear
 // camera converging on the target share, clipping, and the camera's limits.
 #include <gtest/gtest.h>
@@ -9,7 +9,7 @@
 #include <random>
 #include <cstring>
 
-#include "chromo/daemon/exposure_metering.hpp"
+#include "chromo/daemon/internal/capture/exposure_metering.hpp"
 
 namespace chromo::daemon {
 namespace {

@@ -1,4 +1,4 @@
-// FramePipeline (daemon/frame_pipeline.hpp) on a real session folder: a step
+// FramePipeline (daemon/internal/capture/frame_pipeline.hpp) on a real session folder: a step
 // is complete once its frames are stored (drain_storage), while the on-line
 // estimator may still be busy with them (drain waits for both). The
 // estimator here is a FrameConsumer that holds its first frame until the
@@ -12,7 +12,7 @@
 #include <filesystem>
 #include <future>
 
-#include "chromo/daemon/frame_pipeline.hpp"
+#include "chromo/daemon/internal/capture/frame_pipeline.hpp"
 #include "chromo/session/session_store.hpp"
 
 namespace chromo::daemon {

@@ -13,7 +13,7 @@
 #include <cmath>
 #include <fstream>
 
-#include "chromo/daemon/api_conversions.hpp"
+#include "chromo/daemon/internal/api/api_conversions.hpp"
 #include "chromo/files/float_image.hpp"
 #include "chromo/maps/camera_results.hpp"
 #include "chromo/simulators/scene/camera_view.hpp"

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <fstream>
 
-#include "chromo/daemon/api_conversions.hpp"
+#include "chromo/daemon/internal/api/api_conversions.hpp"
 #include "chromosphere/v1/estimation.pb.h"
 #include "lab_truth.hpp"
 #include "test_lab.hpp"

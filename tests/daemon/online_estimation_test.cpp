@@ -1,4 +1,4 @@
-// The on-line estimator (daemon/online_estimator.hpp) on a standard session
+// The on-line estimator (daemon/internal/capture/online_estimator.hpp) on a standard session
 // whose frames are the virtual lab's physics: the skin scene and the white
 // target (simulators/scene), lit by the LED lab's true emission at the
 // session's drive levels, read out by the camera model (RGGB Bayer, 12-bit,
@@ -17,9 +17,9 @@
 
 #include "../cli/run_chromo.hpp"
 #include "chromo/calibration/led_library_io.hpp"
-#include "chromo/daemon/api_conversions.hpp"
+#include "chromo/daemon/internal/api/api_conversions.hpp"
 #include "chromo/daemon/daemon.hpp"
-#include "chromo/daemon/online_estimator.hpp"
+#include "chromo/daemon/internal/capture/online_estimator.hpp"
 #include "chromo/session/session_store.hpp"
 #include "chromo/files/float_image.hpp"
 #include "chromo/maps/reconstruction.hpp"

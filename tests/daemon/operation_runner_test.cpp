@@ -1,9 +1,9 @@
-// The OperationRunner's contract (daemon/operation_runner.hpp) on a bare
+// The OperationRunner's contract (daemon/internal/operations/operation_runner.hpp) on a bare
 // registry, without devices: progress reaches the record, a cancelled work
 // ends CANCELLED with its message, a throwing one FAILED naming the error,
 // one operation at a time, and the destructor cancels and joins.
 
-#include "chromo/daemon/operation_runner.hpp"
+#include "chromo/daemon/internal/operations/operation_runner.hpp"
 
 #include <gtest/gtest.h>
 

@@ -18,7 +18,7 @@
 #include <map>
 
 #include "chromo/calibration/session_mix.hpp"
-#include "chromo/daemon/api_conversions.hpp"
+#include "chromo/daemon/internal/api/api_conversions.hpp"
 #include "chromo/proto/plan_messages.hpp"
 #include "chromo/session/frame_record.hpp"
 #include "chromo/session/journal.hpp"

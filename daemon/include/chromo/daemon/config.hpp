@@ -40,7 +40,7 @@ struct DeviceConfig {
 // estimation.films_extinction_ratio's value for the virtual lab's own films.
 inline constexpr const char* kVirtualLabFilms = "virtual_lab";
 
-// The on-line estimator (docs/config.md "Estimation"; daemon/online_estimator.hpp).
+// The on-line estimator (docs/config.md "Estimation"; daemon/internal/capture/online_estimator.hpp).
 struct EstimationConfig {
   bool enabled = true;
   std::string method = "fast";   // inverter: fast, exhaustive, 2d

@@ -17,14 +17,14 @@
 #include <string>
 #include <vector>
 
-#include "chromo/daemon/calibrations.hpp"
+#include "chromo/daemon/internal/operations/calibrations.hpp"
 #include "chromo/daemon/config.hpp"
 #include "chromo/session/session_captures.hpp"
-#include "chromo/daemon/device_set.hpp"
+#include "chromo/daemon/internal/devices/device_set.hpp"
 #include "chromo/files/durable_file.hpp"
-#include "chromo/daemon/operation_runner.hpp"
-#include "chromo/daemon/operations.hpp"
-#include "chromo/daemon/preview_hub.hpp"
+#include "chromo/daemon/internal/operations/operation_runner.hpp"
+#include "chromo/daemon/internal/operations/operations.hpp"
+#include "chromo/daemon/internal/capture/preview_hub.hpp"
 #include "chromo/session/session_store.hpp"
 
 namespace chromo::daemon {

@@ -43,7 +43,7 @@
 #include <string>
 #include <vector>
 
-#include "chromo/daemon/device_set.hpp"
+#include "chromo/daemon/internal/devices/device_set.hpp"
 #include "chromo/session/surface_factors.hpp"
 #include "chromo/simulators/camera/lab_cameras.hpp"
 

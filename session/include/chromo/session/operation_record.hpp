@@ -2,7 +2,7 @@
 // The record of a long operation (a capture session or a calibration run) as
 // its folder's journal states it and the API reports it: kind, state,
 // progress, frame counters. Plain data; the daemon's OperationRegistry
-// (daemon/operations.hpp) keeps the live ones, SessionStore reads them back.
+// (daemon/internal/operations/operations.hpp) keeps the live ones, SessionStore reads them back.
 
 #include <chrono>
 #include <cstdint>
@@ -12,7 +12,7 @@
 
 namespace chromo::session {
 
-// What the frame pipeline counted for one session (daemon/frame_pipeline.hpp).
+// What the frame pipeline counted for one session (daemon/internal/capture/frame_pipeline.hpp).
 struct PipelineCounters {
   std::uint64_t received = 0, stored = 0, estimated = 0, estimator_skipped = 0, lost = 0, resent_packets = 0;
   std::map<std::string, std::uint64_t> lost_reasons, skipped_reasons;

@@ -1,4 +1,4 @@
-#include "chromo/daemon/device_set.hpp"
+#include "chromo/daemon/internal/devices/device_set.hpp"
 
 #include <stdexcept>
 

@@ -1,4 +1,4 @@
-#include "chromo/daemon/preview_image.hpp"
+#include "chromo/daemon/internal/capture/preview_image.hpp"
 
 #include <cmath>
 #include <stdexcept>

@@ -98,9 +98,9 @@
 #include <string>
 #include <vector>
 
-#include "chromo/daemon/device_set.hpp"
-#include "chromo/daemon/frame_pipeline.hpp"
-#include "chromo/daemon/operations.hpp"
+#include "chromo/daemon/internal/devices/device_set.hpp"
+#include "chromo/daemon/internal/capture/frame_pipeline.hpp"
+#include "chromo/daemon/internal/operations/operations.hpp"
 #include "chromo/session/session_plan.hpp"
 
 namespace chromo::daemon {

@@ -49,10 +49,10 @@
 #include <vector>
 
 #include "chromo/calibration/session_mix.hpp"
-#include "chromo/daemon/device_set.hpp"
+#include "chromo/daemon/internal/devices/device_set.hpp"
 #include "chromo/files/durable_file.hpp"
-#include "chromo/daemon/operation_runner.hpp"
-#include "chromo/daemon/operations.hpp"
+#include "chromo/daemon/internal/operations/operation_runner.hpp"
+#include "chromo/daemon/internal/operations/operations.hpp"
 #include "chromo/session/session_captures.hpp"
 
 namespace chromo::calibration {

@@ -1,4 +1,4 @@
-#include "chromo/daemon/frame_pipeline.hpp"
+#include "chromo/daemon/internal/capture/frame_pipeline.hpp"
 
 #include <time.h>
 

@@ -36,7 +36,7 @@
 #include <string>
 #include <thread>
 
-#include "chromo/daemon/operations.hpp"
+#include "chromo/daemon/internal/operations/operations.hpp"
 #include "chromo/files/progress.hpp"
 #include "chromo/session/operation_record.hpp"
 

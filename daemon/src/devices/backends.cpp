@@ -8,7 +8,7 @@
 #include <set>
 #include <stdexcept>
 
-#include "chromo/daemon/device_set.hpp"
+#include "chromo/daemon/internal/devices/device_set.hpp"
 #include "chromo/drivers/camera/aravis_camera.hpp"
 #include "chromo/drivers/led_controller_factory.hpp"
 #include "chromo/drivers/spectrometer_factory.hpp"

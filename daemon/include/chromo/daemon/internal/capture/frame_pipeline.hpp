@@ -66,7 +66,7 @@ struct StoredFrame {
 };
 
 // The on-line estimator's side of the pipeline (estimation plugs in here;
-// daemon/online_estimator.hpp). One session at a time: the daemon calls
+// daemon/internal/capture/online_estimator.hpp). One session at a time: the daemon calls
 // begin_session() on the session's thread before the first frame, the
 // pipeline calls consume() on its estimator thread for every stored frame
 // that fits in the estimator queue, and the daemon calls end_session() on the

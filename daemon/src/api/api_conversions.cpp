@@ -1,4 +1,4 @@
-#include "chromo/daemon/api_conversions.hpp"
+#include "chromo/daemon/internal/api/api_conversions.hpp"
 
 #include <google/protobuf/util/time_util.h>
 

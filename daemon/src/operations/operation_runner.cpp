@@ -1,4 +1,4 @@
-#include "chromo/daemon/operation_runner.hpp"
+#include "chromo/daemon/internal/operations/operation_runner.hpp"
 
 #include <stdexcept>
 

@@ -1,4 +1,4 @@
-#include "chromo/daemon/operations.hpp"
+#include "chromo/daemon/internal/operations/operations.hpp"
 
 #include <algorithm>
 

@@ -1,4 +1,4 @@
-#include "chromo/daemon/preview_hub.hpp"
+#include "chromo/daemon/internal/capture/preview_hub.hpp"
 
 #include <algorithm>
 #include <stdexcept>

@@ -3,7 +3,7 @@
 #include <chrono>
 #include <string>
 
-#include "chromo/daemon/preview_image.hpp"
+#include "chromo/daemon/internal/capture/preview_image.hpp"
 #include "chromosphere/v1/cameras.grpc.pb.h"
 #include "services.hpp"
 

@@ -1,4 +1,4 @@
-#include "chromo/daemon/exposure_metering.hpp"
+#include "chromo/daemon/internal/capture/exposure_metering.hpp"
 
 #include <algorithm>
 #include <cmath>

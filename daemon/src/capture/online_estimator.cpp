@@ -1,4 +1,4 @@
-#include "chromo/daemon/online_estimator.hpp"
+#include "chromo/daemon/internal/capture/online_estimator.hpp"
 
 #include <chrono>
 

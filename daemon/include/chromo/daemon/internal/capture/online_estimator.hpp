@@ -59,7 +59,7 @@
 
 #include "chromo/daemon/config.hpp"
 #include "chromo/files/durable_file.hpp"
-#include "chromo/daemon/frame_pipeline.hpp"
+#include "chromo/daemon/internal/capture/frame_pipeline.hpp"
 #include "chromo/session/session_captures.hpp"
 #include "chromo/maps/camera_results.hpp"
 #include "chromo/maps/estimate_report.hpp"

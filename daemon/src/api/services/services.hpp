@@ -30,7 +30,7 @@
 #include <grpcpp/impl/service_type.h>
 #include <nlohmann/json.hpp>
 
-#include "chromo/daemon/api_conversions.hpp"
+#include "chromo/daemon/internal/api/api_conversions.hpp"
 #include "chromo/daemon/daemon.hpp"
 #include "chromo/drivers/device_error.hpp"
 

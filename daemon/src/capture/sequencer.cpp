@@ -1,4 +1,4 @@
-#include "chromo/daemon/sequencer.hpp"
+#include "chromo/daemon/internal/capture/sequencer.hpp"
 
 #include <algorithm>
 #include <condition_variable>
@@ -6,7 +6,7 @@
 #include <optional>
 #include <thread>
 
-#include "chromo/daemon/exposure_metering.hpp"
+#include "chromo/daemon/internal/capture/exposure_metering.hpp"
 #include "chromo/drivers/device_error.hpp"
 #include "chromo/session/method_measurement.hpp"  // session::subject_exposure_ratio
 

@@ -32,7 +32,6 @@
 #include <string>
 #include <vector>
 
-#include "chromo/daemon/frame_pipeline.hpp"
 #include "chromo/session/operation_record.hpp"
 
 namespace chromo::daemon {

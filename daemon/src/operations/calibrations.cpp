@@ -1,4 +1,4 @@
-#include "chromo/daemon/calibrations.hpp"
+#include "chromo/daemon/internal/operations/calibrations.hpp"
 #include "chromo/files/bounded_read.hpp"
 
 #include <fstream>

@@ -28,7 +28,7 @@
 #include <set>
 #include <string>
 
-#include "chromo/daemon/device_set.hpp"
+#include "chromo/daemon/internal/devices/device_set.hpp"
 
 namespace chromo::daemon {
 
