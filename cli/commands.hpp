@@ -15,6 +15,8 @@ void add_model_command(CLI::App& app, int& exit_status);
 void add_profiles_command(CLI::App& app, int& exit_status);
 void add_leds_command(CLI::App& app, int& exit_status);
 void add_fit_spectrum_command(CLI::App& app, int& exit_status);
+void add_discrepancy_command(CLI::App& app, int& exit_status);
+void add_real_skin_scene_command(CLI::App& app, int& exit_status);
 void add_estimate_command(CLI::App& app, int& exit_status);
 // What the maps are for (docs/maps.md); import-maps also registers make-maps-test-data.
 void add_relight_command(CLI::App& app, int& exit_status);

@@ -28,6 +28,7 @@
 #include "chromo/estimation/spatial_flags.hpp"
 #include "chromo/spectral/resample.hpp"
 #include "chromo/spectral/table.hpp"
+#include "chromo/estimation/model_discrepancy.hpp"
 #include "commands.hpp"
 #include "chromo/files/float_image.hpp"
 
@@ -41,6 +42,7 @@ struct EstimateOptions {
   std::string out;
   std::string method = "fast";
   std::string model = "auto";
+  std::string discrepancy = "learned";
   std::string cache_dir;
   int threads = 0;
   bool neighbourhood_flags = true;
@@ -65,6 +67,8 @@ estimation::EstimatorOptions estimator_options(const EstimateOptions& options) {
   eo.method = estimation::parse_method_name(options.method).value_or(estimation::InverterMethod::kFast);
   eo.model = estimation::parse_model_name(options.model).value_or(estimation::ModelChoice::kAuto);
   eo.threads = options.threads;
+  // The model's learned discrepancy on real skin (docs/estimation.md "Real skin"), or none.
+  eo.discrepancy = options.discrepancy == "learned" ? estimation::ModelDiscrepancy::standard() : nullptr;
   eo.cache_dir = options.cache_dir;  // the fast method's inverse table next to the forward table
   return eo;
 }
@@ -286,6 +290,11 @@ void add_estimate_command(CLI::App& app, int& exit_status) {
       ->capture_default_str();
   cmd->add_option("--model", options->model, "model order: auto (χ² likelihood-ratio test, pooled over 7×7 windows unless --no-order-pooling), 2d or 4d")
       ->check(CLI::IsMember({"auto", "2d", "4d"}))
+      ->capture_default_str();
+  cmd->add_option("--discrepancy", options->discrepancy,
+                  "the skin model's shortfall on real skin, added to the noise wherever a residual is weighed: learned "
+                  "(from the NIST forearm spectra, docs/estimation.md 'Real skin') or none (camera noise alone)")
+      ->check(CLI::IsMember({"learned", "none"}))
       ->capture_default_str();
   cmd->add_flag("--neighbourhood-flags,!--no-neighbourhood-flags", options->neighbourhood_flags,
                 "flag pixels from their neighbourhood (code 7: weak rims of flagged regions, part of a highlight; "

@@ -76,6 +76,8 @@ bool DaemonConfig::IsValid(std::string* error) const {
     return fail("estimation.method: \"" + estimation.method + "\" is not fast, exhaustive or 2d");
   if (!chromo::estimation::parse_model_name(estimation.model))
     return fail("estimation.model: \"" + estimation.model + "\" is not auto, 2d or 4d");
+  if (estimation.discrepancy != "learned" && estimation.discrepancy != "none")
+    return fail("estimation.discrepancy: \"" + estimation.discrepancy + "\" is not learned or none");
   if (!(estimation.white_reflectance > 0 && estimation.white_reflectance <= 1))
     return fail("estimation.white_reflectance: must be in (0, 1]");
   if (estimation.threads < 0 || estimation.threads > 256) return fail("estimation.threads: must be in [0, 256]");
@@ -414,6 +416,10 @@ const std::vector<Key>& estimation_keys() {
       string_key("model", [](DaemonConfig& c) -> auto& { return c.estimation.model; },
                  [](const std::string& v) {
                    return estimation::parse_model_name(v) ? std::string() : "\"" + v + "\" is not auto, 2d or 4d";
+                 }),
+      string_key("discrepancy", [](DaemonConfig& c) -> auto& { return c.estimation.discrepancy; },
+                 [](const std::string& v) {
+                   return v == "learned" || v == "none" ? std::string() : "\"" + v + "\" is not learned or none";
                  }),
       string_key("led_library", [](DaemonConfig& c) -> auto& { return c.estimation.led_library; }, led_library_error),
       string_key("camera_sensitivity", [](DaemonConfig& c) -> auto& { return c.estimation.camera_sensitivity; },

@@ -216,7 +216,7 @@ TEST_F(EstimateCommand, BadInputExitsTwoAndWritesNothing) {
 }
 
 TEST(FitSpectrumCommand, FitsTheNistForearmsAsJson) {
-  const Result r = run(std::string("fit-spectrum ") + CHROMO_TEST_DATA_DIR + "/skin_reflectance_nist.csv --json");
+  const Result r = run(std::string("fit-spectrum ") + CHROMO_DATA_DIR + "/skin_reflectance_nist.csv --json");
   ASSERT_EQ(r.exit_status, 0) << r.output.substr(0, 400);
   const nlohmann::json a = nlohmann::json::parse(r.output);
   ASSERT_EQ(a.size(), 50u);

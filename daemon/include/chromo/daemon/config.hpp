@@ -45,6 +45,9 @@ struct EstimationConfig {
   bool enabled = true;
   std::string method = "fast";   // inverter: fast, exhaustive, 2d
   std::string model = "auto";    // auto (χ² test per pixel), 2d, 4d
+  // The skin model's shortfall on real skin added to the noise (docs/estimation.md
+  // "Real skin"): "learned" (from the NIST forearm spectra) or "none".
+  std::string discrepancy = "learned";
   std::string led_library;       // LED library file; empty = newest measured one, else the nominal one
   std::string camera_sensitivity = "builtin:nikon_d5100";  // or a CSV wavelength_nm,R,G,B
   // Per camera (device name → builtin:NAME or a CSV), overriding camera_sensitivity for that camera's maps.
