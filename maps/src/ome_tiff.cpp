@@ -69,10 +69,10 @@ std::string ome_xml(const OmeImage& image) {
 
 bool needs_big_tiff(std::uint64_t raw_bytes) { return raw_bytes > 3'500'000'000ull; }
 
-// The channels in the maps' own order (maps.exr reads back sorted by name):
-// the parameters, residual, order and flags first, then the others in their
-// order, each sigma_X after the known ones.
-std::vector<std::size_t> channel_order(const std::vector<std::string>& names) {
+}  // namespace
+
+// Known channels by their rank in the list, then sigma_*, then the rest (stable).
+std::vector<std::size_t> map_channel_order(const std::vector<std::string>& names) {
   static const std::vector<std::string> first = {"Cm", "Ch", "Bm", "Che", "residual", "order", "flags"};
   auto rank = [&](const std::string& name) {
     const auto at = std::find(first.begin(), first.end(), name);
@@ -84,8 +84,6 @@ std::vector<std::size_t> channel_order(const std::vector<std::string>& names) {
   std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return rank(names[a]) < rank(names[b]); });
   return order;
 }
-
-}  // namespace
 
 MapChannelInfo map_channel_info(const std::string& name) {
   static const std::map<std::string, std::pair<std::string, std::string>> known = {
@@ -108,7 +106,7 @@ MapChannelInfo map_channel_info(const std::string& name) {
 }
 
 std::string maps_ome_xml(const files::FloatImage& maps, const OmeTiffOptions& options) {
-  const std::vector<std::size_t> order = channel_order(maps.channel_names);
+  const std::vector<std::size_t> order = map_channel_order(maps.channel_names);
   OmeImage image;
   image.name = "chromophore maps";
   image.type = "float";
@@ -142,7 +140,7 @@ void write_maps_ome_tiff(const std::filesystem::path& path, const files::FloatIm
   const std::string xml = maps_ome_xml(maps, options);
   detail::TiledTiffWriter writer(path, needs_big_tiff(pixels * 4 * maps.channels.size()), options.zip_level,
                                  options.threads);
-  for (std::size_t c : channel_order(maps.channel_names))
+  for (std::size_t c : map_channel_order(maps.channel_names))
     writer.add_page(maps.channels[c].data(), maps.width, maps.height, detail::SampleType::kFloat32, xml);
   writer.finish();
 }

@@ -49,6 +49,10 @@ struct MapChannelInfo {
   std::string name, unit, meaning;
 };
 MapChannelInfo map_channel_info(const std::string& name);
+// The order maps are written and sent in (maps.exr reads back sorted by
+// name): indices into `names` for Cm, Ch, Bm, Che, residual, order, flags,
+// then the sigma_* channels, then the others, each group in its given order.
+std::vector<std::size_t> map_channel_order(const std::vector<std::string>& names);
 
 struct OmeTiffOptions {
   double pixel_size_um = 0;  // on the subject; 0 = unknown (PhysicalSize left out)
