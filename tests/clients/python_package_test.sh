@@ -2,8 +2,9 @@
 # The Python package as a researcher installs it: a fresh --system-site-packages
 # virtual environment on Debian's python3, `pip install --no-build-isolation`
 # of clients/python offline (stubs generated at build time from proto/), then
-# against a live chromod on the virtual lab: python_client_test.py; the API
-# reference page checked against the code.
+# against a live chromod on the virtual lab: the worked example
+# (examples/maps_example.py, headless matplotlib, figures into WORK/figures)
+# and python_client_test.py; the API reference page checked against the code.
 #   python_package_test.sh CHROMOD EXR_DUMP SOURCE_DIR WORK
 set -euo pipefail
 chromod=$1 exr_dump=$2 source=$3 work=$4
@@ -28,17 +29,17 @@ fail() { echo "FAIL: $*"; cat "$work/out" 2>/dev/null || true; exit 1; }
 
 # From a folder of its own: the package is the installed one, not a source tree.
 cd "$work"
-# A session of the virtual lab for the client's tests.
-cat >"$work/run.py" <<'PY'
-import sys
-import chromosphere
-with chromosphere.Client(sys.argv[1]) as client:
-    run = client.run_session("python package test")
-    print(f"session {run.id}: {run.state}, {run.frames_stored} frames")
-PY
-timeout -s KILL 300 "$python" "$work/run.py" "unix:$work/s.sock" >"$work/out" 2>&1 || fail "the session exited $?"
+timeout -s KILL 300 "$python" "$source/clients/python/examples/maps_example.py" "unix:$work/s.sock" \
+  --out "$work/figures" >"$work/out" 2>&1 || fail "the example exited $?"
+cat "$work/out"
+grep -Eq "^maps: [0-9]+x[0-9]+, channels Cm, Ch, Bm, Che, residual, order, flags" "$work/out" || fail "no maps line"
+grep -Eq "^Cm median in the region: first 0\.[0-9]+, second 0\.[0-9]+" "$work/out" || fail "no comparison"
+grep -q "maps from maps.ome.tiff equal to the API's" "$work/out" || fail "open_session differs from the API"
+for figure in maps.png relight_a.png compare.png; do
+  [[ -s "$work/figures/$figure" ]] || fail "no $figure"
+done
 session=$(sed -n 's/^session \([^:]*\): succeeded.*/\1/p' "$work/out" | head -1)
 [[ -n "$session" ]] || fail "no session id"
 timeout -s KILL 300 "$python" "$source/tests/clients/python_client_test.py" "$work/s.sock" "$session" "$exr_dump" "$chromod" "$work"
 "$python" "$source/clients/python/tools/api_reference.py" --check "$source/docs/python-api.md"
-echo "python package: installed, client tests passed"
+echo "python package: installed, example and client tests passed"
