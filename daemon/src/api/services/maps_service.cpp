@@ -349,8 +349,6 @@ class MapsServiceImpl final : public pb::MapsService::Service {
       return refusal.status;
     } catch (const std::invalid_argument& e) {
       return {StatusCode::INVALID_ARGUMENT, api_message(folder ? folder->scrub(e.what()) : e.what())};
-    } catch (const files::ImageError& e) {  // a maps file that is not a readable EXR: the request named it
-      return {StatusCode::INVALID_ARGUMENT, "maps_file: " + (folder ? folder->scrub(e.what()) : std::string(e.what()))};
     } catch (const std::exception& e) {
       return {StatusCode::INTERNAL, folder ? folder->scrub(e.what()) : e.what()};
     }
@@ -364,8 +362,14 @@ class MapsServiceImpl final : public pb::MapsService::Service {
       throw Refusal{{StatusCode::INVALID_ARGUMENT, "chunk_bytes: must be 65536-3145728 (0: 1 MiB)"}};
     const std::string maps_file = request.maps_file().empty() ? "results/maps.exr" : request.maps_file();
     const fs::path path = files.input("maps_file", maps_file, true);
-    const files::ExrSize size = files::check_exr_file(path);
-    const files::FloatImage image = files::read_exr(path);
+    files::ExrSize size;
+    files::FloatImage image;
+    try {
+      size = files::check_exr_file(path);
+      image = files::read_exr(path);
+    } catch (const files::ImageError& e) {  // not a readable OpenEXR file: the request named it
+      throw Refusal{{StatusCode::INVALID_ARGUMENT, "maps_file: " + files.scrub(e.what())}};
+    }
     std::vector<std::size_t> sent;
     for (const std::string& name : request.channels()) {
       const auto found = std::find(image.channel_names.begin(), image.channel_names.end(), name);
