@@ -7,6 +7,7 @@
 #include <fmt/ranges.h>
 
 #include <algorithm>
+#include <cmath>
 
 #include <filesystem>
 #include <map>
@@ -49,7 +50,9 @@ std::vector<fs::path> map_folders(const fs::path& input) {
 
 int run_export(const ExportOptions& o) {
   if (!fs::is_directory(o.input)) throw std::invalid_argument(o.input.string() + ": not a directory");
-  if (o.pixel_size_um < 0) throw std::invalid_argument("--pixel-size-um: must be > 0 (or 0: unknown)");
+  if (!(o.pixel_size_um >= 0) || !std::isfinite(o.pixel_size_um))
+    throw std::invalid_argument("--pixel-size-um: " + fmt::format("{}", o.pixel_size_um) + " is not > 0 (or 0: unknown)");
+  if (o.threads < 0) throw std::invalid_argument("--threads: " + std::to_string(o.threads) + " is below 0 (0: all cores)");
   if (o.format == "exr" && o.out.empty())
     throw std::invalid_argument("--format exr: maps.exr is already in the session; give --out DIR to copy it");
   const std::vector<fs::path> folders = map_folders(o.input);

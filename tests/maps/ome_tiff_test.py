@@ -135,6 +135,11 @@ class OmeTiffTest(unittest.TestCase):
         r = run(CHROMO, "export", bad)
         self.assertEqual(r.returncode, 2)
         self.assertIn("no maps.exr", r.stderr)
+        for size in ("-1", "nan", "inf"):
+            r = run(CHROMO, "export", self.session, "--pixel-size-um", size, "--out", bad / "never")
+            self.assertEqual(r.returncode, 2, size)
+            self.assertIn("--pixel-size-um", r.stderr)
+        self.assertFalse((bad / "never").exists())
         r = run(CHROMO, "export", self.session, "--format", "exr")
         self.assertEqual(r.returncode, 2)
         self.assertIn("--out", r.stderr)
