@@ -14,7 +14,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox
   # images
   libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev libopencv-video-dev
-  libopenexr-dev libtiff-dev
+  libopenexr-dev libtiff-dev libdeflate-dev
   # devices
   libusb-1.0-0-dev libhidapi-dev libmodbus-dev libaravis-dev aravis-tools
   # socket API and the Python client; the web view's HTTP(S) server

@@ -1,7 +1,7 @@
 #include "tiled_tiff_writer.hpp"
 
+#include <libdeflate.h>
 #include <tiffio.h>
-#include <zlib.h>
 
 #include <algorithm>
 #include <cstring>
@@ -62,6 +62,10 @@ void TiledTiffWriter::add_page(const void* samples, int width, int height, Sampl
 #pragma omp parallel num_threads(threads_)
   {
     std::vector<std::uint8_t> tile(tile_bytes);
+    // libdeflate: zlib-format streams (what TIFF's Adobe Deflate holds), about
+    // twice zlib's speed at the same level.
+    std::unique_ptr<libdeflate_compressor, void (*)(libdeflate_compressor*)> compressor(
+        libdeflate_alloc_compressor(zip_level_), libdeflate_free_compressor);
 #pragma omp for schedule(dynamic)
     for (int t = 0; t < tiles; ++t) {
       const int x0 = (t % across) * kTile, y0 = (t / across) * kTile;
@@ -70,15 +74,18 @@ void TiledTiffWriter::add_page(const void* samples, int width, int height, Sampl
       for (int y = 0; y < h; ++y)
         std::memcpy(tile.data() + static_cast<std::size_t>(y) * kTile * bytes,
                     source + (static_cast<std::size_t>(y0 + y) * width + x0) * bytes, static_cast<std::size_t>(w) * bytes);
-      uLongf size = compressBound(static_cast<uLong>(tile_bytes));
-      compressed[t].resize(size);
-      if (compress2(compressed[t].data(), &size, tile.data(), static_cast<uLong>(tile_bytes), zip_level_) != Z_OK)
-        failed[t] = 1;
+      std::size_t size = 0;
+      if (compressor) {
+        compressed[t].resize(libdeflate_zlib_compress_bound(compressor.get(), tile_bytes));
+        size = libdeflate_zlib_compress(compressor.get(), tile.data(), tile_bytes, compressed[t].data(),
+                                        compressed[t].size());
+      }
+      if (size == 0) failed[t] = 1;
       compressed[t].resize(size);
     }
   }
   for (int t = 0; t < tiles; ++t) {
-    if (failed[t]) throw std::runtime_error("zlib could not compress tile " + std::to_string(t) + " of " + path_.string());
+    if (failed[t]) throw std::runtime_error("libdeflate could not compress tile " + std::to_string(t) + " of " + path_.string());
     if (TIFFWriteRawTile(tif, static_cast<std::uint32_t>(t), compressed[t].data(),
                          static_cast<tmsize_t>(compressed[t].size())) < 0)
       throw std::runtime_error("libtiff could not write tile " + std::to_string(t) + " of " + path_.string() +

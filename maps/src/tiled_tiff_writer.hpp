@@ -1,8 +1,8 @@
 #pragma once
 // A multi-page tiled TIFF writer for the OME-TIFF files (ome_tiff.hpp): each
 // page one plane of 8/16-bit unsigned or 32-bit float samples, 256 × 256
-// tiles, Deflate (zlib) without predictor, little-endian. The tiles of a page
-// are compressed on several threads (OpenMP) and written in order as raw
+// tiles, Deflate (zlib format, by libdeflate) without predictor, little-endian.
+// The tiles of a page are compressed on several threads (OpenMP) and written in order as raw
 // tiles through libtiff. The first page carries the ImageDescription given.
 // Errors: std::runtime_error naming the file.
 

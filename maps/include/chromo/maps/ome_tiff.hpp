@@ -21,9 +21,9 @@
 //                  plane's step, role, illumination (LED drive levels) and
 //                  host time ("plane:<t>:<field>").
 //
-// Pages are tiled (256 × 256), Deflate-compressed (zlib, no predictor, so a
-// reader without imagecodecs reads them), little-endian, classic TIFF (BigTIFF
-// past 4 GB). The tiles are compressed on `threads` threads and written in
+// Pages are tiled (256 × 256), Deflate-compressed (zlib format by libdeflate,
+// no predictor, so a reader without imagecodecs reads them), little-endian,
+// classic TIFF (BigTIFF past 4 GB). The tiles are compressed on `threads` threads and written in
 // order. The writers write to the path they are given: callers make them
 // durable (files::commit_file_durably, or the estimate report's FileCommit).
 // Errors: std::invalid_argument for a malformed image (sizes, channels),
@@ -57,7 +57,7 @@ std::vector<std::size_t> map_channel_order(const std::vector<std::string>& names
 struct OmeTiffOptions {
   double pixel_size_um = 0;  // on the subject; 0 = unknown (PhysicalSize left out)
   int threads = 0;           // tile compression threads; 0 = all cores
-  int zip_level = 1;         // zlib 1-9
+  int zip_level = 1;         // deflate level 1-9
 };
 
 // The maps image as maps.ome.tiff (the layout above).
