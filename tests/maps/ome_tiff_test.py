@@ -122,6 +122,24 @@ class OmeTiffTest(unittest.TestCase):
             self.assertIn("W57=", notes[f"plane:{t}:illumination"])
         self.assertEqual(float(planes[0].get("DeltaT")), 0.0)
 
+    def test_export_of_several_cameras_writes_each_cameras_file(self):
+        several = WORK / "several"
+        shutil.rmtree(several, ignore_errors=True)
+        for camera in ("left", "right"):
+            (several / "results" / camera).mkdir(parents=True)
+            shutil.copy(self.session / "results/maps.exr", several / "results" / camera / "maps.exr")
+        r = run(CHROMO, "export", several)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        r = run(CHROMO, "export", several, "--out", WORK / "several_out")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        names, values = in_ome_order(*exr_channels(self.session / "results/maps.exr", WORK / "several_dump"))
+        for file in (several / "results/left/maps.ome.tiff", several / "results/right/maps.ome.tiff",
+                     WORK / "several_out/left/maps.ome.tiff", WORK / "several_out/right/maps.ome.tiff"):
+            with tifffile.TiffFile(file) as tif:
+                self.assertTrue(tif.is_ome, file)
+                np.testing.assert_array_equal(tif.asarray(), values)
+        self.assertFalse((several / "results/maps.ome.tiff").exists())
+
     def test_bad_input_is_refused_and_changes_nothing(self):
         bad = WORK / "bad"
         shutil.rmtree(bad, ignore_errors=True)
