@@ -95,6 +95,23 @@ class PackageTest(unittest.TestCase):
         with self.assertRaisesRegex(chromosphere.StoredSessionError, "no session.json"):
             chromosphere.open_session(WORK)
 
+    def test_open_session_of_several_cameras(self):
+        results = self.client.results(SESSION)
+        copy = WORK / "several"
+        shutil.rmtree(copy, ignore_errors=True)
+        copy.mkdir()
+        shutil.copy(Path(results.folder) / "session.json", copy / "session.json")
+        for camera in ("side", "top"):
+            (copy / "results" / camera).mkdir(parents=True)
+            for name in ("maps.ome.tiff", "summary.json"):
+                shutil.copy(Path(results.folder) / "results" / name, copy / "results" / camera / name)
+        stored = chromosphere.open_session(copy)
+        self.assertEqual(stored.cameras(), ["side", "top"])
+        np.testing.assert_array_equal(stored.maps("top")["Cm"], stored.maps()["Cm"])
+        self.assertIn("flag_counts", stored.report("side"))
+        with self.assertRaisesRegex(chromosphere.StoredSessionError, r"no maps of camera 'front' \(cameras: side, top\)"):
+            stored.maps("front")
+
     def test_errors_name_what_was_wrong(self):
         with self.assertRaisesRegex(chromosphere.NotFound, "session_id: no session \"20990101T000000Z-none-000000\""):
             self.client.maps("20990101T000000Z-none-000000")
