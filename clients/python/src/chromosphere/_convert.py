@@ -7,6 +7,7 @@ import os
 from typing import Dict, Iterable, List, Optional, Sequence, Union
 
 import numpy as np
+from google.protobuf.json_format import MessageToDict
 
 from .errors import InvalidArgument
 from .model import CameraResults, MapChannel, Maps, PlanAdvice, Progress, Relit, Results
@@ -66,11 +67,13 @@ def results(r: estimation_pb2.Results) -> Results:
     available = r.state == estimation_pb2.RESULTS_STATE_AVAILABLE
     cameras = [CameraResults(camera=c.camera, available=c.state == estimation_pb2.RESULTS_STATE_AVAILABLE,
                              reason=c.reason, maps_file=_relative(c.maps_file, r.folder),
-                             report_file=_relative(c.report_file, r.folder), summary={})
+                             report_file=_relative(c.report_file, r.folder),
+                             summary=MessageToDict(c.summary, preserving_proto_field_name=True))
                for c in r.cameras]
     if not cameras and available:
         cameras = [CameraResults(camera="", available=True, reason="", maps_file=_relative(r.maps_file, r.folder),
-                                 report_file=_relative(r.report_file, r.folder), summary={})]
+                                 report_file=_relative(r.report_file, r.folder),
+                                 summary=MessageToDict(r.summary, preserving_proto_field_name=True))]
     return Results(session_id=r.session_id, available=available, reason=r.reason, folder=r.folder, cameras=cameras,
                    summary=_json(r.summary_json))
 

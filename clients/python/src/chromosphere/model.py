@@ -91,7 +91,7 @@ class CameraResults:
     reason: str
     maps_file: str  # relative to the session folder, e.g. "results/maps.exr"
     report_file: str  # relative to the session folder
-    summary: Dict[str, object]  # its summary.json as a dict ({} when not readable over the API)
+    summary: Dict[str, object]  # headline numbers: method, model, pixels, pixels_per_second, flag_counts, relit_delta_e94, ...
 
 
 @dataclass(frozen=True)
