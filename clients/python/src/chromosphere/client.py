@@ -113,7 +113,9 @@ class Client:
         """A session's maps at full resolution as numpy (streamed in chunks of rows).
 
         camera: which camera's maps (None: the only one, or the first with maps); maps_file: a maps
-        file relative to the session folder instead; channels: a subset (None: all)."""
+        file relative to the session folder instead (with session_id "": relative to the daemon's
+        maps_dir); channels: a subset (None: all). Channels come as Cm, Ch, Bm, Che, residual,
+        order, flags, then the others; one call sends at most the daemon's max_read_maps_bytes."""
         if not maps_file:
             found = self.results(session_id)
             if not found.available:
