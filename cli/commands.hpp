@@ -32,6 +32,8 @@ void add_led_command(CLI::App& app, int& exit_status);
 void add_session_command(CLI::App& app, int& exit_status);
 void add_results_command(CLI::App& app, int& exit_status);
 void add_solve_command(CLI::App& app, int& exit_status);
+// A stored session's maps and frames as OME-TIFF (export_command.cpp).
+void add_export_command(CLI::App& app, int& exit_status);
 // The plan advisor offline (plan_command.cpp).
 void add_plan_command(CLI::App& app, int& exit_status);
 

@@ -589,6 +589,8 @@ const std::vector<Key>& top_level_keys() {
       bool_key("tcp_insecure", [](DaemonConfig& c) -> auto& { return c.tcp_insecure; }),  // with TLS or token: IsValid
       unsigned_key("max_streams", 1, 1024, [](DaemonConfig& c) -> auto& { return c.max_streams; }),
       string_key("maps_dir", [](DaemonConfig& c) -> auto& { return c.maps_dir; }, optional_folder),
+      unsigned_key("max_read_maps_bytes", 1ull << 20, 1ull << 36,
+                   [](DaemonConfig& c) -> auto& { return c.max_read_maps_bytes; }),
       string_key("web_address", [](DaemonConfig& c) -> auto& { return c.web_address; }, tcp_address_error),
       string_key("web_dir", [](DaemonConfig& c) -> auto& { return c.web_dir; }, optional_existing_folder),
       string_key("sessions_dir", [](DaemonConfig& c) -> auto& { return c.sessions_dir; },

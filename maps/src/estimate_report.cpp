@@ -16,6 +16,7 @@
 #include "chromo/estimation/model_discrepancy.hpp"
 #include "chromo/maps/map_panels.hpp"
 #include "chromo/maps/map_previews.hpp"
+#include "chromo/maps/ome_tiff.hpp"
 #include "chromo/maps/relit_table.hpp"
 #include "chromo/estimation/skin_model.hpp"
 #include "chromo/files/binary_cache.hpp"
@@ -275,6 +276,8 @@ std::string write_estimate_report(const fs::path& dir, const EstimateReport& rep
     commit(dir / "maps.exr", [&](const fs::path& t) { files::write_exr(t, maps, exr); });
     for (std::size_t i = 0; i < previews.size() + 2; ++i) encode(i);
   }
+  // The same channels for Fiji, napari and Python (ome_tiff.hpp).
+  commit(dir / "maps.ome.tiff", [&](const fs::path& t) { write_maps_ome_tiff(t, maps, {0, threads}); });
   for (const Encoded& e : encoded)
     commit(dir / e.file, [&](const fs::path& t) {
       std::ofstream out(t, std::ios::binary);

@@ -103,6 +103,7 @@ struct DaemonConfig {
   bool tcp_insecure = false;              // plaintext TCP, loopback peers only; needed when TCP has no TLS
   std::uint32_t max_streams = 64;         // concurrent streaming calls (Subscribe, WatchOperation); beyond: RESOURCE_EXHAUSTED
   std::filesystem::path maps_dir;         // the maps API's folder for work without a session; empty = none
+  std::uint64_t max_read_maps_bytes = 1ull << 30;  // MapsService.ReadMaps: the most channel bytes one call sends
   // The operator's web view (docs/web.md): host:port; empty = off. Needs the
   // token; a non-loopback address needs TLS (the same certificate and key).
   std::string web_address;

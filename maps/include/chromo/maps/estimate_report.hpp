@@ -4,6 +4,8 @@
 //
 //   maps.exr      FLOAT channels Cm, Ch, Bm, Che, residual, order, flags (pixel_flags.hpp);
 //                 a polarised session adds surface and highlight (docs/maps.md)
+//   maps.ome.tiff the same channels as float32 OME-TIFF, names and units in its
+//                 OME-XML (ome_tiff.hpp), for Fiji, napari and Python
 //   polarisation.png  a polarised session's panel diffuse | surface | combined
 //   cm.png ch.png bm.png che.png residual.png   false colour with a colour bar
 //   flags.png order.png                         categorical with a legend
