@@ -71,13 +71,19 @@ bool needs_big_tiff(std::uint64_t raw_bytes) { return raw_bytes > 3'500'000'000u
 
 }  // namespace
 
-// Known channels by their rank in the list, then sigma_*, then the rest (stable).
+// Known channels by their rank in the list, then sigma_* in their parameter's
+// order, then the rest (stable): the same order whether the names come as
+// written or as an EXR reads them back (alphabetically).
 std::vector<std::size_t> map_channel_order(const std::vector<std::string>& names) {
   static const std::vector<std::string> first = {"Cm", "Ch", "Bm", "Che", "residual", "order", "flags"};
   auto rank = [&](const std::string& name) {
     const auto at = std::find(first.begin(), first.end(), name);
     if (at != first.end()) return static_cast<int>(at - first.begin());
-    return name.rfind("sigma_", 0) == 0 ? 100 : 200;
+    if (name.rfind("sigma_", 0) == 0) {
+      const auto of = std::find(first.begin(), first.end(), name.substr(6));
+      return 100 + static_cast<int>(of - first.begin());
+    }
+    return 200;
   };
   std::vector<std::size_t> order(names.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
@@ -96,6 +102,7 @@ MapChannelInfo map_channel_info(const std::string& name) {
       {"flags", {"flag code", "why the model does not explain the pixel; 0 explained (codes: flag:<code>)"}},
       {"surface", {"albedo", "surface reflection from the parallel and cross polarised captures (information only)"}},
       {"highlight", {"albedo", "specular highlight from the polarised captures (information only)"}},
+      {"corr_Ch_Che", {"correlation", "correlation of Ch and Che in the fit's covariance (near +-1: the data cannot separate them)"}},
   };
   if (const auto it = known.find(name); it != known.end()) return {name, it->second.first, it->second.second};
   if (name.rfind("sigma_", 0) == 0) {

@@ -158,7 +158,7 @@ class PackageTest(unittest.TestCase):
                 time.sleep(0.1)
             with chromosphere.Client("unix:" + str(folder / "s.sock")) as bounded:
                 with self.assertRaisesRegex(chromosphere.ResourceExhausted,
-                                            r"channels: 7 channels of s/maps.exr \(\d+x\d+\) are \d+ bytes, .*\(max_read_maps_bytes\)"):
+                                            r"channels: \d+ channels of s/maps.exr \(\d+x\d+\) are \d+ bytes, .*\(max_read_maps_bytes\)"):
                     bounded.maps("", maps_file="s/maps.exr")
                 two = bounded.maps("", maps_file="s/maps.exr", channels=["Cm", "Ch"])
                 np.testing.assert_array_equal(two["Cm"], maps["Cm"])

@@ -40,8 +40,13 @@ ORDER = ["Cm", "Ch", "Bm", "Che", "residual", "order", "flags"]
 
 def in_ome_order(names, values):
     """maps.exr's channels (sorted by name on read) in the OME-TIFF's order: the known ones first."""
-    order = sorted(range(len(names)), key=lambda i: (ORDER.index(names[i]) if names[i] in ORDER else
-                                                     100 if names[i].startswith("sigma_") else 200, i))
+    def rank(name):
+        if name in ORDER:
+            return ORDER.index(name)
+        if name.startswith("sigma_") and name[6:] in ORDER:
+            return 100 + ORDER.index(name[6:])
+        return 200
+    order = sorted(range(len(names)), key=lambda i: (rank(names[i]), i))
     return [names[i] for i in order], values[order]
 
 
