@@ -21,6 +21,8 @@ packages=(
   protobuf-compiler libprotobuf-dev libgrpc++-dev protobuf-compiler-grpc
   python3 python3-grpcio python3-protobuf
   libcpp-httplib-dev
+  # studies as Slurm job arrays (docs/study.md): the test starts a single-node cluster
+  slurmctld slurmd slurm-client munge
   # the web view's browser test (tests/web/): Debian's Chromium, driven by npm's playwright-core
   chromium
 )
