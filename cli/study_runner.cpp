@@ -30,6 +30,13 @@ std::string utc_now() {
   return text;
 }
 
+// This process's CPU seconds so far (user + system, every thread).
+double cpu_seconds() {
+  rusage usage{};
+  ::getrusage(RUSAGE_SELF, &usage);
+  return usage.ru_utime.tv_sec + usage.ru_stime.tv_sec + 1e-6 * (usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
+}
+
 double max_rss_mb() {
   rusage usage{};
   ::getrusage(RUSAGE_SELF, &usage);
@@ -108,6 +115,7 @@ RunCounts run_sessions(const Study& study, const std::vector<std::string>& names
       task.json["state"] = "running";
     }
     const auto start = std::chrono::steady_clock::now();
+    const double cpu_start = cpu_seconds();
     nlohmann::ordered_json record{{"format", "chromosphere-study-record/1"}, {"session", name},
                                   {"folder", session->folder.string()}};
     std::string hash;
@@ -166,6 +174,7 @@ RunCounts run_sessions(const Study& study, const std::vector<std::string>& names
     record["exit_status"] = outcome.exit_status;
     record["error"] = errors;
     record["seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    record["cpu_seconds"] = cpu_seconds() - cpu_start;
     record["max_rss_mb"] = max_rss_mb();
     record["finished"] = utc_now();
     if (!record.contains("cameras")) record["cameras"] = nlohmann::ordered_json::array();
