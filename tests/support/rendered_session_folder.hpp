@@ -29,6 +29,7 @@ struct RenderedSessionFolder {
   std::string name;           // the folder's name under the root
   std::uint64_t seed = 7;     // the skin scene and the camera noise
   int scene_size = 64;        // scene pixels per side; the sensor has twice as many (binned back 2×2)
+  int scene_height = 0;       // > 0: a scene_size × scene_height scene (e.g. 1224 × 1024: a 5-MP sensor)
   int cameras = 1;            // "cam0", "cam1", ...: the same scene, each its own noise
   std::string subject = "rendered forearm";
 };
@@ -37,14 +38,15 @@ struct RenderedSessionFolder {
 inline std::filesystem::path write_rendered_session_folder(const std::filesystem::path& root,
                                                            const RenderedSessionFolder& spec) {
   namespace fs = std::filesystem;
-  const int size = spec.scene_size;
+  const int size = spec.scene_size, height = spec.scene_height > 0 ? spec.scene_height : spec.scene_size;
   simulators::SkinSceneOptions scene_options;
-  scene_options.width = scene_options.height = size;
+  scene_options.width = size;
+  scene_options.height = height;
   scene_options.white_patch = false;
   scene_options.seed = spec.seed;
   scene_options.threads = 1;
   const simulators::Scene skin = simulators::make_skin_scene(scene_options);
-  const simulators::Scene white = simulators::make_white_target_scene(size, size);
+  const simulators::Scene white = simulators::make_white_target_scene(size, height);
   simulators::LedLabOptions led_options;
   led_options.start_warm = true;
   simulators::LedLab leds(led_options);
@@ -89,7 +91,7 @@ inline std::filesystem::path write_rendered_session_folder(const std::filesystem
       const auto weights = dark ? camera.weights(leds.emit_settled(drive)) : weights_of.at(step.illumination.mix);
       const cv::Mat response = (step.role == session::StepRole::kSubject ? skin : white).render(weights);
       cv::Mat sensor;
-      cv::resize(response, sensor, cv::Size(2 * size, 2 * size), 0, 0, cv::INTER_LINEAR);
+      cv::resize(response, sensor, cv::Size(2 * size, 2 * height), 0, 0, cv::INTER_LINEAR);
       for (int c = 0; c < spec.cameras; ++c) {
         const std::uint64_t frame_index = spec.seed * 1000 + index;
         const cv::Mat dn =
