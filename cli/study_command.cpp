@@ -92,15 +92,14 @@ int run_study(const StudyRunOptions& options) {
     check_estimation_options(options.estimate);
     s.dir = fs::absolute(options.out).lexically_normal();
     s.options = options.estimate;
-    if (options.on == "slurm") {
-      if (study::run_command("command -v sbatch").exit_status != 0 ||
-          study::run_command("command -v squeue").exit_status != 0)
-        throw std::invalid_argument("--on slurm: sbatch or squeue is not on PATH (a Slurm client is needed)");
-      if (fs::exists(s.dir / "study.json"))
-        if (const auto job = study::last_job(s.dir); job && !study::squeue_job(*job).empty())
-          throw std::invalid_argument("--out " + s.dir.string() + ": the study's job " + *job +
-                                      " is still queued or running (chromo study status); wait for it or scancel it");
-    }
+    const bool have_squeue = study::run_command("command -v squeue").exit_status == 0;
+    if (options.on == "slurm" && (study::run_command("command -v sbatch").exit_status != 0 || !have_squeue))
+      throw std::invalid_argument("--on slurm: sbatch or squeue is not on PATH (a Slurm client is needed)");
+    // One run of a study at a time: not while its last job is queued or running.
+    if (have_squeue && fs::exists(s.dir / "study.json"))
+      if (const auto job = study::last_job(s.dir); job && !study::squeue_job(*job).empty())
+        throw std::invalid_argument("--out " + s.dir.string() + ": the study's job " + *job +
+                                    " is still queued or running (chromo study status); wait for it or scancel it");
   } catch (const std::invalid_argument& e) {
     std::cerr << "chromo study run: " << e.what() << "\n";
     return kExitBadInput;

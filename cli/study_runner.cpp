@@ -79,8 +79,14 @@ std::string session_state(const Study& study, const std::string& name, const std
   if (!record || hash.empty() || record->value("input_hash", "") != hash) return "pending";
   const std::string state = record->value("state", "");
   if (state == "done") {
+    // Its maps in place: every estimated camera's maps.exr and summary.json.
     std::error_code error;
-    return fs::is_directory(session_maps_dir(study.dir, name), error) ? "done" : "pending";
+    const fs::path maps = session_maps_dir(study.dir, name);
+    for (const auto& camera : record->value("cameras", nlohmann::ordered_json::array()))
+      if (camera.value("state", "") == "ok")
+        for (const char* file : {"maps.exr", "summary.json"})
+          if (!fs::exists(maps / camera.value("folder", "") / file, error)) return "pending";
+    return fs::is_directory(maps, error) ? "done" : "pending";
   }
   if (state == "failed" && !retry_failed && record->value("exit_status", 0) == kExitBadInput) return "failed";
   return "pending";

@@ -128,17 +128,20 @@ TEST_F(LocalStudy, ResumeEstimatesOnlyWhatIsNotDoneWithTheSameInputs) {
   fs::remove(out / "records" / "s3.json");
   fs::remove(out / "sessions" / "s3" / "maps.exr");
   fs::create_directories(out / "sessions" / ".work-s3@elsewhere-12345");
+  // s2's record kept but one camera's maps gone: estimated again.
+  fs::remove(out / "sessions" / "s2" / "cam1" / "maps.exr");
   // s1's inputs changed: its LED library rewritten (the same library, other bytes).
   std::ofstream(folders[0] / "results" / "led_library.json", std::ios::app) << "\n";
   again = run_chromo(command);
-  EXPECT_THAT(again.output, HasSubstr("estimated 2 (2 done, 0 failed), skipped 2"));
+  EXPECT_THAT(again.output, HasSubstr("estimated 3 (3 done, 0 failed), skipped 1"));
   const auto second = record_runs(out);
   ASSERT_EQ(second.size(), 4u);
   for (const auto& [name, run] : second) {
-    if (name == "s1" || name == "s3") EXPECT_NE(run, first.at(name)) << name;
+    if (name == "s1" || name == "s2" || name == "s3") EXPECT_NE(run, first.at(name)) << name;
     else EXPECT_EQ(run, first.at(name)) << name;
   }
   EXPECT_TRUE(fs::exists(out / "sessions" / "s3" / "maps.exr"));
+  EXPECT_TRUE(fs::exists(out / "sessions" / "s2" / "cam1" / "maps.exr"));
   EXPECT_FALSE(fs::exists(out / "sessions" / ".work-s3@elsewhere-12345"));
   EXPECT_EQ(read_table(out / "study.csv").size(), 5u);
 
