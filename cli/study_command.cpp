@@ -24,6 +24,7 @@ using study::Study;
 struct StudyRunOptions {
   std::string manifest, out, on = "local";
   EstimateOptions estimate;
+  std::vector<std::string> regions;  // NAME=PATH
   bool retry_failed = false;
   bool wait = true;
   double poll_seconds = 10;
@@ -92,6 +93,7 @@ int run_study(const StudyRunOptions& options) {
     check_estimation_options(options.estimate);
     s.dir = fs::absolute(options.out).lexically_normal();
     s.options = options.estimate;
+    s.regions = study::parse_regions(options.regions);
     const bool have_squeue = study::run_command("command -v squeue").exit_status == 0;
     if (options.on == "slurm" && (study::run_command("command -v sbatch").exit_status != 0 || !have_squeue))
       throw std::invalid_argument("--on slurm: sbatch or squeue is not on PATH (a Slurm client is needed)");
@@ -130,7 +132,7 @@ int run_study(const StudyRunOptions& options) {
   for (const auto& session : s.sessions) {
     std::string hash;
     try {
-      hash = study::input_hash(session.folder, s.options, version);
+      hash = study::input_hash(session.folder, s.options, version, s.regions);
     } catch (const std::exception&) {
     }
     if (study::session_state(s, session.name, hash, options.retry_failed) == "pending") pending.push_back(session.name);
@@ -248,6 +250,9 @@ void add_study_command(CLI::App& app, int& exit_status) {
   add_estimation_options(run_cmd, run->estimate);
   run_cmd->add_option("--threads", run->estimate.threads, "local: threads per session (0 = all cores)")->capture_default_str();
   run_cmd->add_option("--cache-dir", run->estimate.cache_dir, "local: the table cache (default as chromo estimate)");
+  run_cmd->add_option("--region", run->regions,
+                      "NAME=PATH: a region's PNG mask per session (relative to its folder; {camera}: the camera's "
+                      "name), statistics over it in the table (repeatable)");
   run_cmd->add_flag("--retry-failed", run->retry_failed, "estimate again sessions that failed on the same inputs");
   run_cmd->add_option("--sessions-per-task", run->slurm.sessions_per_task, "slurm: sessions per array task")
       ->check(CLI::Range(1, 10000))->capture_default_str();

@@ -43,7 +43,7 @@ void write_study(const Study& study) {
   for (const auto& session : study.sessions) sessions.push_back({{"name", session.name}, {"folder", session.folder}});
   write_json_durably(study.dir / "study.json", {{"format", kStudyFormat},
                                                 {"sessions", sessions},
-                                                {"options", options_json(study.options)}});
+                                                {"options", options_json(study.options, study.regions)}});
 }
 
 Study read_study(const fs::path& dir) {
@@ -61,6 +61,8 @@ Study read_study(const fs::path& dir) {
     for (const auto& session : json.at("sessions"))
       study.sessions.push_back({session.at("name").get<std::string>(), session.at("folder").get<std::string>()});
     study.options = options_from_json(json.at("options"));
+    if (json.at("options").contains("regions"))
+      study.regions = parse_regions(json.at("options").at("regions").get<std::vector<std::string>>());
   } catch (const nlohmann::json::exception& e) {
     throw std::invalid_argument(file.string() + ": " + e.what());
   } catch (const std::invalid_argument& e) {

@@ -26,6 +26,7 @@
 
 #include "session_estimate.hpp"
 #include "study_manifest.hpp"
+#include "study_regions.hpp"
 
 namespace chromo::cli::study {
 
@@ -35,6 +36,7 @@ struct Study {
   std::filesystem::path dir;  // absolute
   std::vector<ManifestSession> sessions;
   EstimateOptions options;  // the estimation options (input, out, threads, cache_dir unused)
+  std::vector<RegionSpec> regions;  // the table's region masks (study_regions.hpp)
   const ManifestSession* find(const std::string& name) const;
 };
 

@@ -22,15 +22,17 @@ namespace chromo::cli::study {
 
 namespace fs = std::filesystem;
 
-nlohmann::ordered_json options_json(const EstimateOptions& options) {
-  return {{"method", options.method},
-          {"model", options.model},
-          {"neighbourhood_flags", options.neighbourhood_flags},
-          {"order_pooling", options.order_pooling},
-          {"led_library", options.led_library.empty() ? "" : fs::absolute(options.led_library).string()},
-          {"camera", options.camera},
-          {"camera_of", options.camera_of},
-          {"white_reflectance", options.white_reflectance}};
+nlohmann::ordered_json options_json(const EstimateOptions& options, const std::vector<RegionSpec>& regions) {
+  nlohmann::ordered_json json{{"method", options.method},
+                              {"model", options.model},
+                              {"neighbourhood_flags", options.neighbourhood_flags},
+                              {"order_pooling", options.order_pooling},
+                              {"led_library", options.led_library.empty() ? "" : fs::absolute(options.led_library).string()},
+                              {"camera", options.camera},
+                              {"camera_of", options.camera_of},
+                              {"white_reflectance", options.white_reflectance}};
+  if (!regions.empty()) json["regions"] = region_options(regions);
+  return json;
 }
 
 EstimateOptions options_from_json(const nlohmann::json& json) {
@@ -98,11 +100,12 @@ void add_spec_file(files::Fnv1a& hash, const std::string& spec, const std::strin
 
 }  // namespace
 
-std::string input_hash(const fs::path& session_folder, const EstimateOptions& options, const std::string& version) {
+std::string input_hash(const fs::path& session_folder, const EstimateOptions& options, const std::string& version,
+                       const std::vector<RegionSpec>& regions) {
   files::Fnv1a hash;
   add_text(hash, "chromosphere-study-inputs/1");
   add_text(hash, version);
-  add_text(hash, options_json(options).dump());
+  add_text(hash, options_json(options, regions).dump());
   std::vector<std::string> inputs;
   std::error_code error;
   if (fs::is_directory(session_folder, error)) {
@@ -121,6 +124,9 @@ std::string input_hash(const fs::path& session_folder, const EstimateOptions& op
   for (const std::string& entry : options.camera_of)
     if (auto equals = entry.find('='); equals != std::string::npos)
       add_spec_file(hash, entry.substr(equals + 1), "--camera-of " + entry.substr(0, equals));
+  for (const RegionSpec& region : regions)
+    for (const fs::path& file : region_input_files(session_folder, region))
+      add_file(hash, file, "--region " + region.name + ": " + file.string());
   return fmt::format("{:016x}", hash.h);
 }
 

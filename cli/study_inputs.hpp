@@ -8,8 +8,9 @@
 // (options_json()), and the bytes and relative paths of every input file of
 // the session: session.json, journal.jsonl, frames/**, the session's own LED
 // libraries (results/led_library*.json), the LED library and camera
-// sensitivity CSVs the options name. Not covered: what the session's folder
-// holds beside them (derived/, chromod's maps in results/).
+// sensitivity CSVs the options name, the region masks (study_regions.hpp).
+// Not covered: what the session's folder holds beside them (derived/,
+// chromod's maps in results/).
 //
 // Thread rules: free functions.
 
@@ -19,6 +20,7 @@
 #include <nlohmann/json.hpp>
 
 #include "session_estimate.hpp"
+#include "study_regions.hpp"
 
 namespace chromo::cli::study {
 
@@ -27,7 +29,7 @@ namespace chromo::cli::study {
 // neighbourhood_flags, order_pooling, led_library, camera, camera_of,
 // white_reflectance. Not threads or the table cache: the maps do not depend
 // on them.
-nlohmann::ordered_json options_json(const EstimateOptions& options);
+nlohmann::ordered_json options_json(const EstimateOptions& options, const std::vector<RegionSpec>& regions = {});
 // The inverse of options_json (study.json read back); std::invalid_argument naming the member.
 EstimateOptions options_from_json(const nlohmann::json& json);
 
@@ -38,7 +40,8 @@ std::string estimator_version();
 
 // The inputs' hash (16 hex digits). Throws std::runtime_error naming a file
 // that cannot be read.
+// With regions, their masks' bytes too (region_input_files()).
 std::string input_hash(const std::filesystem::path& session_folder, const EstimateOptions& options,
-                       const std::string& version);
+                       const std::string& version, const std::vector<RegionSpec>& regions = {});
 
 }  // namespace chromo::cli::study

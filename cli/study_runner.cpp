@@ -127,7 +127,7 @@ RunCounts run_sessions(const Study& study, const std::vector<std::string>& names
     std::string hash;
     std::string hash_error;
     try {
-      hash = input_hash(session->folder, study.options, version);
+      hash = input_hash(session->folder, study.options, version, study.regions);
     } catch (const std::exception& e) {
       hash_error = e.what();
     }
@@ -163,11 +163,14 @@ RunCounts run_sessions(const Study& study, const std::vector<std::string>& names
       try {
         outcome = estimate_stored_session(eo, "chromo study");
         if (outcome.exit_status == kExitOk) {
-          record["cameras"] = camera_rows(work_dir, outcome.cameras);
+          record["cameras"] = camera_rows(work_dir, outcome.cameras, session->folder, study.regions);
           fs::remove_all(final_dir);
           fs::rename(work_dir, final_dir);
           files::fsync_directory(sessions_dir);
         }
+      } catch (const std::invalid_argument& e) {  // a region mask that cannot be used
+        outcome.exit_status = kExitBadInput;
+        outcome.errors.push_back(e.what());
       } catch (const std::exception& e) {
         outcome.exit_status = kExitFailure;
         outcome.errors.push_back(std::string("internal error: ") + e.what());

@@ -26,7 +26,9 @@ double quantile_of_sorted(const std::vector<float>& sorted, double p) {
 
 namespace {
 
-nlohmann::ordered_json parameter_statistics(const files::FloatImage& image) {
+// Over the explained cells (inside the mask when one is given); *explained: their count.
+nlohmann::ordered_json parameter_statistics(const files::FloatImage& image, const std::vector<std::uint8_t>* mask = nullptr,
+                                            std::size_t* explained = nullptr) {
   const std::vector<float>& flags = image.channel("flags");
   nlohmann::ordered_json out = nlohmann::ordered_json::object();
   for (const char* name : kTableParameters) {
@@ -34,11 +36,12 @@ nlohmann::ordered_json parameter_statistics(const files::FloatImage& image) {
     std::vector<float> values;
     double sum = 0;
     for (std::size_t i = 0; i < channel.size(); ++i)
-      if (flags[i] == 0.0f && std::isfinite(channel[i])) {
+      if (flags[i] == 0.0f && std::isfinite(channel[i]) && (!mask || (*mask)[i] != 0)) {
         values.push_back(channel[i]);
         sum += channel[i];
       }
     std::sort(values.begin(), values.end());
+    if (explained) *explained = values.size();
     nlohmann::ordered_json stats;
     stats["mean"] = values.empty() ? std::numeric_limits<double>::quiet_NaN() : sum / values.size();
     for (const auto& [label, p] : kTableQuantiles) stats[label] = quantile_of_sorted(values, p);
@@ -76,7 +79,8 @@ const Json& member(const Json& object, const std::string& key) {
 
 }  // namespace
 
-nlohmann::ordered_json camera_rows(const fs::path& maps_dir, const std::vector<maps::CameraEstimate>& cameras) {
+nlohmann::ordered_json camera_rows(const fs::path& maps_dir, const std::vector<maps::CameraEstimate>& cameras,
+                                   const fs::path& session_folder, const std::vector<RegionSpec>& regions) {
   nlohmann::ordered_json rows = nlohmann::ordered_json::array();
   for (const auto& camera : cameras) {
     nlohmann::ordered_json row{{"camera", camera.camera}, {"state", camera.ok ? "ok" : "failed"},
@@ -87,7 +91,22 @@ nlohmann::ordered_json camera_rows(const fs::path& maps_dir, const std::vector<m
       row["pixels"] = summary.at("pixels");
       row["explained"] = summary.at("flag_counts").at("explained");
       row["flag_counts"] = summary.at("flag_counts");
-      row["parameters"] = parameter_statistics(files::read_exr(dir / "maps.exr"));
+      const files::FloatImage image = files::read_exr(dir / "maps.exr");
+      row["parameters"] = parameter_statistics(image);
+      nlohmann::ordered_json by_region = nlohmann::ordered_json::object();
+      for (const RegionSpec& region : regions) {
+        const fs::path file = region_mask_file(session_folder, region, camera.camera);
+        std::error_code error;
+        if (!fs::exists(file, error)) {
+          by_region[region.name] = {{"missing", file.string()}};
+          continue;
+        }
+        const auto mask = read_region_mask(file, image.width, image.height);
+        std::size_t explained = 0;
+        auto stats = parameter_statistics(image, &mask, &explained);
+        by_region[region.name] = {{"explained", explained}, {"parameters", std::move(stats)}};
+      }
+      if (!regions.empty()) row["regions"] = by_region;
       nlohmann::ordered_json relit = nlohmann::ordered_json::object();
       for (const auto& [illuminant, stats] : member(member(summary, "relit_delta_e94"), "by_illuminant").items())
         relit[illuminant] = {{"mean", stats.at("mean")}, {"median", stats.at("median")}, {"p95", stats.at("p95")}};
@@ -122,6 +141,13 @@ std::size_t write_study_table(const Study& study, const std::string& estimator_v
   }
   for (const auto& illuminant : illuminants)
     for (const char* stat : {"mean", "median", "p95"}) header.push_back("de94_" + illuminant + "_" + stat);
+  for (const auto& region : study.regions) {
+    header.push_back("explained@" + region.name);
+    for (const char* parameter : kTableParameters) {
+      header.push_back(std::string(parameter) + "_mean@" + region.name);
+      for (const auto& [label, p] : kTableQuantiles) header.push_back(std::string(parameter) + "_" + label + "@" + region.name);
+    }
+  }
   for (const char* column : {"estimator_version", "method", "model", "options", "input_hash", "run", "task", "host",
                              "seconds", "maps", "session_folder"})
     header.emplace_back(column);
@@ -133,7 +159,7 @@ std::size_t write_study_table(const Study& study, const std::string& estimator_v
   };
   line(header);
   std::size_t rows = 0;
-  const std::string options = options_json(study.options).dump();
+  const std::string options = options_json(study.options, study.regions).dump();
   for (const auto& [name, record] : records) {
     const nlohmann::ordered_json r = record.value_or(nlohmann::ordered_json::object());
     const std::string state = record ? r.value("state", "pending") : "pending";
@@ -156,6 +182,15 @@ std::size_t write_study_table(const Study& study, const std::string& estimator_v
       for (const auto& illuminant : illuminants)
         for (const char* stat : {"mean", "median", "p95"})
           cells.push_back(cell(member(member(member(row, "relit_delta_e94"), illuminant), stat)));
+      for (const auto& region : study.regions) {
+        const auto& r_stats = member(member(row, "regions"), region.name);
+        cells.push_back(cell(member(r_stats, "explained")));
+        for (const char* parameter : kTableParameters) {
+          const auto& stats = member(member(r_stats, "parameters"), parameter);
+          cells.push_back(cell(member(stats, "mean")));
+          for (const auto& [label, p] : kTableQuantiles) cells.push_back(cell(member(stats, label)));
+        }
+      }
       const std::string folder = cell(member(row, "folder"));
       const bool has_maps = state == "done" && !camera_failed;
       cells.push_back(record ? cell(member(r, "estimator_version")) : estimator_version);

@@ -17,6 +17,7 @@
 
 #include "chromo/maps/camera_results.hpp"
 #include "study_folder.hpp"
+#include "study_regions.hpp"
 
 namespace chromo::cli::study {
 
@@ -31,8 +32,13 @@ inline constexpr std::pair<const char*, double> kTableQuantiles[] = {
 // failed), "error", "folder" (relative to maps_dir), "pixels", "explained",
 // "flag_counts", "parameters": {"Cm": {"mean", "p05", ...}, ...},
 // "relit_delta_e94": {"D65'": {"mean", "median", "p95"}, ...}}.
+// With regions, "regions": {NAME: {"explained", "parameters"}} per camera
+// whose mask exists ({NAME: {"missing": path}} otherwise); a mask that cannot
+// be used throws std::invalid_argument naming it.
 nlohmann::ordered_json camera_rows(const std::filesystem::path& maps_dir,
-                                   const std::vector<maps::CameraEstimate>& cameras);
+                                   const std::vector<maps::CameraEstimate>& cameras,
+                                   const std::filesystem::path& session_folder = {},
+                                   const std::vector<RegionSpec>& regions = {});
 
 // The value at quantile p of `values` (sorted in place); NaN when empty.
 double quantile_of_sorted(const std::vector<float>& sorted, double p);

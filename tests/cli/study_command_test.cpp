@@ -7,6 +7,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <opencv2/imgcodecs.hpp>
+
 #include <cmath>
 
 #include "run_chromo.hpp"
@@ -183,6 +185,75 @@ TEST_F(LocalStudy, BadInputIsRefusedNamingItAndChangesNothing) {
                                  (root / "study-glob").string() + cache());
   EXPECT_EQ(glob.exit_status, 0) << glob.output;
   EXPECT_EQ(read_table(root / "study-glob" / "study.csv").size(), 2u);
+}
+
+// Regions: each session's own mask (relative to its folder, {camera} per
+// camera); statistics over the explained cells inside it; a session without
+// the mask has empty region cells; a mask of the wrong size fails its
+// session alone, naming it; a changed mask is a changed input.
+TEST_F(LocalStudy, RegionsGiveStatisticsOverEachSessionsMask) {
+  constexpr int kCells = 48;  // the maps' size: the 96×96 sensor binned 2×2
+  auto write_mask = [](const fs::path& file, int x0, int x1, int size) {
+    fs::create_directories(file.parent_path());
+    cv::Mat mask(size, size, CV_8U, cv::Scalar(0));
+    mask.colRange(x0, x1).setTo(255);
+    ASSERT_TRUE(cv::imwrite(file.string(), mask));
+  };
+  write_mask(folders[0] / "regions" / "cam0" / "cheek.png", 0, kCells / 2, kCells);       // s1: left half
+  write_mask(folders[1] / "regions" / "cam0" / "cheek.png", kCells / 2, kCells, kCells);  // s2: right half
+  write_mask(folders[1] / "regions" / "cam1" / "cheek.png", 0, kCells, kCells);           // s2 cam1: everything
+  // s3: no mask.
+  const fs::path out = root / "study-regions";
+  const std::string command = "study run " + manifest.string() + " --out " + out.string() +
+                              " --region 'cheek=regions/{camera}/cheek.png'" + cache();
+  const Result run = run_chromo(command);
+  EXPECT_EQ(run.exit_status, 1) << run.output;  // broken
+  EXPECT_THAT(run.output, HasSubstr("3 done, 1 failed"));
+  const auto rows = read_table(out / "study.csv");
+  ASSERT_EQ(rows.size(), 5u);
+  for (const auto& row : rows) {
+    const std::string name = row.at("session");
+    if (name == "broken") continue;
+    if (name == "s3") {
+      EXPECT_EQ(row.at("Cm_mean@cheek"), "");
+      EXPECT_EQ(row.at("explained@cheek"), "");
+      continue;
+    }
+    const std::string camera = row.at("camera");
+    const fs::path maps_file = out / row.at("maps") / "maps.exr";
+    const files::FloatImage maps = files::read_exr(maps_file);
+    ASSERT_EQ(maps.width, kCells);
+    const cv::Mat mask = cv::imread((fs::path(row.at("session_folder")) / "regions" / camera / "cheek.png").string(),
+                                    cv::IMREAD_GRAYSCALE);
+    double sum = 0;
+    std::size_t n = 0, everywhere = 0;
+    for (int i = 0; i < maps.width * maps.height; ++i)
+      if (maps.channel("flags")[i] == 0.0f) {
+        ++everywhere;
+        if (mask.data[i] != 0) sum += maps.channel("Ch")[i], ++n;
+      }
+    ASSERT_GT(n, 0u) << name << " " << camera;
+    EXPECT_EQ(std::stoull(row.at("explained@cheek")), n) << name << " " << camera;
+    EXPECT_NEAR(std::stod(row.at("Ch_mean@cheek")), sum / n, 1e-12 * std::abs(sum / n)) << name << " " << camera;
+    if (name == "s2" && camera == "cam1") EXPECT_EQ(n, everywhere);
+    else EXPECT_LT(n, everywhere);
+  }
+  // A changed mask is a changed input: s1 only is estimated again.
+  write_mask(folders[0] / "regions" / "cam0" / "cheek.png", 0, kCells / 4, kCells);
+  Result again = run_chromo(command);
+  EXPECT_THAT(again.output, HasSubstr("estimated 1 (1 done, 0 failed), skipped 3"));
+  // A mask of the wrong size fails its session alone, naming the mask.
+  write_mask(folders[2] / "regions" / "cam0" / "cheek.png", 0, 10, 20);
+  again = run_chromo(command);
+  EXPECT_THAT(again.output, HasSubstr("estimated 1 (0 done, 1 failed), skipped 3"));
+  EXPECT_THAT(again.output, HasSubstr("failed: s3: region mask " + (folders[2] / "regions" / "cam0" / "cheek.png").string() +
+                                      ": 20×20, the maps are 48×48"));
+  // A bad --region is bad input.
+  const Result bad = run_chromo("study run " + manifest.string() + " --out " + (root / "study-bad-region").string() +
+                                " --region cheek");
+  EXPECT_EQ(bad.exit_status, 2);
+  EXPECT_THAT(bad.output, HasSubstr("--region: \"cheek\" is not NAME=PATH"));
+  EXPECT_FALSE(fs::exists(root / "study-bad-region"));
 }
 
 }  // namespace
