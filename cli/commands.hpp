@@ -36,5 +36,7 @@ void add_solve_command(CLI::App& app, int& exit_status);
 void add_export_command(CLI::App& app, int& exit_status);
 // The plan advisor offline (plan_command.cpp).
 void add_plan_command(CLI::App& app, int& exit_status);
+// A study of many stored sessions, here or on a Slurm cluster (study_command.cpp).
+void add_study_command(CLI::App& app, int& exit_status);
 
 }  // namespace chromo::cli

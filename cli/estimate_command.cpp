@@ -30,6 +30,7 @@
 #include "chromo/spectral/table.hpp"
 #include "chromo/estimation/model_discrepancy.hpp"
 #include "commands.hpp"
+#include "session_estimate.hpp"
 #include "chromo/files/float_image.hpp"
 
 namespace chromo::cli {
@@ -37,40 +38,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct EstimateOptions {
-  std::string input;
-  std::string out;
-  std::string method = "fast";
-  std::string model = "auto";
-  std::string discrepancy = "learned";
-  std::string cache_dir;
-  int threads = 0;
-  bool neighbourhood_flags = true;
-  bool order_pooling = true;
-  // Session folders only.
-  std::string led_library;  // empty: <session>/results/led_library.json, else as chromod (newest measured, nominal)
-  std::string camera = "builtin:nikon_d5100";
-  std::vector<std::string> camera_of;  // NAME=SPEC: one camera's sensitivity
-  double white_reflectance = 0.99;
-};
-
 // Stages a report's files in an OutputBatch (renamed into place by commit()).
 maps::FileCommit stage_in(files::OutputBatch& batch) {
   return [&batch](const fs::path& path, const std::function<void(const fs::path&)>& produce) {
     produce(batch.temporary(path.filename().string()));
   };
-}
-
-estimation::EstimatorOptions estimator_options(const EstimateOptions& options) {
-  estimation::EstimatorOptions eo;
-  // CLI11 has checked both names against the same lists.
-  eo.method = estimation::parse_method_name(options.method).value_or(estimation::InverterMethod::kFast);
-  eo.model = estimation::parse_model_name(options.model).value_or(estimation::ModelChoice::kAuto);
-  eo.threads = options.threads;
-  // The model's learned discrepancy on real skin (docs/estimation.md "Real skin"), or none.
-  eo.discrepancy = options.discrepancy == "learned" ? estimation::ModelDiscrepancy::standard() : nullptr;
-  eo.cache_dir = options.cache_dir;  // the fast method's inverse table next to the forward table
-  return eo;
 }
 
 // Prints one camera's figures (prefix: "camera NAME: " with several cameras).
@@ -85,90 +57,14 @@ void print_camera_result(const maps::MethodEstimationResult& result, const Estim
 }
 
 // A stored session folder: the same captures and estimation as chromod's
-// on-line estimator, every camera (maps/camera_results.hpp).
+// on-line estimator, every camera (session_estimate.hpp).
 int run_estimate_session(const EstimateOptions& options) {
-  const fs::path folder = options.input;
-  session::CaptureSources sources;
-  std::optional<session::SessionCaptureBuilder> builder;
-  std::map<std::string, std::string> unusable;  // cameras whose frames the builder refused
-  nlohmann::ordered_json hazard;
-  try {
-    std::string library = options.led_library;
-    if (library.empty() && fs::exists(folder / "results" / "led_library.json"))
-      library = (folder / "results" / "led_library.json").string();
-    std::map<std::string, std::string> camera_of;
-    for (const std::string& entry : options.camera_of) {
-      const auto equals = entry.find('=');
-      if (equals == std::string::npos || equals == 0 || equals + 1 == entry.size())
-        throw std::invalid_argument("--camera-of: \"" + entry + "\" is not NAME=SPEC (builtin:NAME or a CSV)");
-      camera_of[entry.substr(0, equals)] = entry.substr(equals + 1);
-    }
-    sources = session::resolve_capture_sources(library, options.camera, options.white_reflectance, camera_of);
-    // The session's own per-state libraries, unless --led-library overrides the illuminants.
-    if (options.led_library.empty()) session::load_session_state_libraries(folder / "results", sources);
-    builder.emplace(session::read_stored_session(folder, sources, &unusable));
-    for (const auto& [name, spec] : camera_of)
-      if (std::find(builder->cameras().begin(), builder->cameras().end(), name) == builder->cameras().end())
-        throw std::invalid_argument("--camera-of: the session has no camera \"" + name + "\" (its cameras: " +
-                                    fmt::format("{}", fmt::join(builder->cameras(), ", ")) + ")");
-    hazard = session::recorded_blue_light_hazard(folder / "journal.jsonl");
-  } catch (const std::exception& e) {
-    std::cerr << "chromo estimate: " << e.what() << "\n";
-    return kExitBadInput;
-  }
-  maps::MethodEstimationOptions eo;
-  eo.estimator = estimator_options(options);
-  eo.neighbourhood.flags = options.neighbourhood_flags;
-  eo.neighbourhood.pool_order = options.order_pooling;
-  if (!options.cache_dir.empty()) eo.cache_dir = options.cache_dir;
-  nlohmann::ordered_json extra{{"session", fs::absolute(folder).string()},
-                               {"source", "chromo estimate SESSION_DIR"},
-                               {"led_library", sources.led_library_source},
-                               {"led_library_of_state", session::state_library_sources(sources)},
-                               {"white_reflectance", sources.white_reflectance},
-                               {"blue_light_hazard", hazard}};
-  std::vector<maps::CameraEstimate> cameras;
-  try {
-    // One batch per folder written: OUT, and OUT/<camera> with several
-    // cameras; each is removed again (with the directory it made) unless
-    // committed. The camera batches go first, so OUT is empty when its batch goes.
-    const fs::path out_dir = (fs::path(options.out) / "x").parent_path().lexically_normal();
-    files::OutputBatch out_batch(options.out);
-    std::map<fs::path, std::unique_ptr<files::OutputBatch>> camera_batches;
-    const maps::FileCommit commit = [&](const fs::path& path, const std::function<void(const fs::path&)>& produce) {
-      const fs::path dir = path.parent_path().lexically_normal();
-      if (dir == out_dir) return produce(out_batch.temporary(path.filename().string()));
-      auto& batch = camera_batches[dir];
-      if (!batch) batch = std::make_unique<files::OutputBatch>(dir);
-      produce(batch->temporary(path.filename().string()));
-    };
-    try {
-      cameras = maps::estimate_session_cameras({&*builder, nullptr, extra.dump(), unusable}, eo, options.out, commit);
-    } catch (const std::invalid_argument& e) {
-      std::cerr << "chromo estimate: " << folder.string() << ": " << e.what() << "\n";
-      return kExitBadInput;
-    } catch (const session::RegistrationError& e) {
-      std::cerr << "chromo estimate: " << folder.string() << ": " << e.what() << "\n";
-      return kExitBadInput;
-    }
-    std::size_t failed = 0;
-    for (const auto& camera : cameras)
-      if (!camera.ok) {
-        camera_batches.erase((fs::path(options.out) / camera.folder).lexically_normal());
-        std::cerr << "chromo estimate: " << folder.string() << ": camera " << camera.camera << ": " << camera.reason
-                  << "\n";
-        ++failed;
-      }
-    if (failed == cameras.size()) return kExitBadInput;
-    for (auto& [dir, batch] : camera_batches) batch->commit();
-    out_batch.commit();
-  } catch (const std::exception& e) {
-    std::cerr << "chromo estimate: writing " << options.out << ": " << e.what() << "\n";
-    return kExitFailure;
-  }
-  for (const auto& camera : cameras)
+  const SessionEstimate outcome = estimate_stored_session(options);
+  for (const std::string& line : outcome.errors) std::cerr << "chromo estimate: " << line << "\n";
+  if (outcome.exit_status != kExitOk) return outcome.exit_status;
+  for (const auto& camera : outcome.cameras)
     if (camera.ok)
-      print_camera_result(*camera.result, options, cameras.size() > 1 ? "camera " + camera.camera + ": " : "");
+      print_camera_result(*camera.result, options, outcome.cameras.size() > 1 ? "camera " + camera.camera + ": " : "");
   return kExitOk;
 }
 

@@ -24,6 +24,8 @@ packages=(
   # its tests check the files with, the worked example's plots, its venv test
   python3-numpy python3-tifffile python3-matplotlib python3-venv python3-pip python3-setuptools
   libcpp-httplib-dev
+  # studies as Slurm job arrays (docs/study.md): the test starts a single-node cluster
+  slurmctld slurmd slurm-client munge
   # the web view's browser test (tests/web/): Debian's Chromium, driven by npm's playwright-core
   chromium
 )
