@@ -1,7 +1,7 @@
 #pragma once
-// Daemon: everything chromod runs, without the network. The gRPC service
-// (service.hpp) is a thin translation of the API onto these calls, and tests
-// can drive a Daemon directly.
+// Daemon: everything chromod runs, without the network. The gRPC services
+// (src/api/services/, one file each) are a thin translation of the API onto
+// these calls, and tests can drive a Daemon directly.
 //
 // Owns the devices, the operation registry and event bus, the session store.
 // One session or calibration runs at a time, on the thread of the daemon's
@@ -37,10 +37,6 @@ struct DeviceReport {
   std::string detail;
   std::map<std::string, std::string> info;
 };
-
-// Supplies the LED state of a named mix (the mix solver on the daemon's LED
-// library when it has one; the configuration's "mixes" otherwise).
-using MixResolver = std::function<drivers::DriveLevels(const std::string& mix)>;
 
 class Daemon {
  public:
