@@ -10,6 +10,7 @@
 #include <fstream>
 #include <iostream>
 #include <future>
+#include <limits>
 #include <map>
 #include <set>
 
@@ -149,6 +150,17 @@ TEST_F(ApiFixture, HostileInputIsRefusedWithTheFieldNamedAndNothingChanges) {
     expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.steps[0].exposure_us");
     step->set_exposure_us(std::nan(""));
     expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.steps[0].exposure_us");
+    // Issue 40, row 13: a positive but absurd exposure passed and failed only at the camera.
+    for (double absurd : {1e-300, 0.5, std::numeric_limits<double>::denorm_min()}) {
+      step->set_exposure_us(absurd);
+      expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.steps[0].exposure_us");
+    }
+    step->set_exposure_us(1000);
+    step->set_prompt("look \x1b[2J here");
+    expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.steps[0].prompt");
+    step->set_prompt("line one\nline two");  // a prompt may have lines
+    step->set_exposure_us(-5);
+    expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.steps[0].exposure_us");
     step->set_exposure_us(1000);
     step->mutable_weights()->set_blue(1.5);
     expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.steps[0].weights.blue");
@@ -201,6 +213,24 @@ TEST_F(ApiFixture, HostileInputIsRefusedWithTheFieldNamedAndNothingChanges) {
     EXPECT_DOUBLE_EQ(by_name.at("subject_d65")->subject_fill(), 0.85);
     EXPECT_EQ(by_name.at("subject_w57")->subject_ratio_from(), "subject_w57+blue");
     EXPECT_EQ(by_name.at("white_w57_linearity")->linearity_of(), "subject_w57");
+  }
+  {  // Issue 40, rows 13-14: the standard plan's exposure at 1e-300 µs, and a
+     // subject holding NUL or a terminal escape (printed raw by chromo session show).
+    pb::StartSessionRequest request;
+    request.set_standard(true);
+    request.set_exposure_us(1e-300);
+    expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "exposure_us");
+    request.set_exposure_us(0);
+    for (const auto& subject : std::vector<std::string>{std::string("a\0b", 3), std::string("a\x1b[31mred"), std::string("bell\a"),
+                                      std::string("c1 \xc2\x9b" "31m"), std::string("tab\there"), std::string("del\x7f")}) {
+      request.set_subject(subject);
+      expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "subject");
+    }
+    pb::GetStandardPlanRequest get;
+    get.set_exposure_us(1e-300);
+    pb::SessionPlan shown;
+    grpc::ClientContext context;
+    expect(sessions->GetStandardPlan(&context, get, &shown), StatusCode::INVALID_ARGUMENT, "exposure_us");
   }
   {  // Huge strings: over the field's bound, and over the message size limit.
     pb::StartSessionRequest request;
