@@ -104,6 +104,20 @@ struct DaemonConfig {
   // token; a non-loopback address needs TLS (the same certificate and key).
   std::string web_address;
   std::filesystem::path web_dir;          // the built front end; empty = the one this chromod was built with
+  // The web view's limits (docs/web.md "Limits"). A request body (Content-Length,
+  // chunked or compressed: counted as decoded) longer than this: 413.
+  std::uint64_t web_max_body_bytes = 1u << 20;
+  // An event or preview stream writes a comment this often while it has
+  // nothing to send, and ends (freeing its thread and its max_streams slot)
+  // once the browser is gone.
+  std::uint32_t web_stream_keepalive_ms = 15000;
+  // Concurrent event and preview streams of the web view (below its 48 HTTP
+  // threads, so that pages still load); beyond: 429.
+  std::uint32_t web_max_streams = 24;
+  // Host names (no port) the web view answers besides loopback names, the
+  // web_address host and the address a request arrived on: a request whose
+  // Host header names anything else is refused (DNS rebinding), 421.
+  std::vector<std::string> web_host_names;
 
   std::filesystem::path sessions_dir = "chromod-sessions";
   std::uint64_t storage_limit_bytes = 0;  // 0 = the disk is the limit (see durable_file.hpp)
@@ -149,6 +163,14 @@ DaemonConfig read_config_file(const std::filesystem::path& path);
 // True for "127.x.y.z:port", "localhost:port" and "[::1]:port": addresses
 // only this machine reaches (the web view needs TLS anywhere else).
 bool is_loopback_address(const std::string& host_port);
+
+// A host name or numeric address as a Host header names it, without the port:
+// letters, digits, '-' and '.' (at most 253), or an IPv6 address in [].
+bool is_valid_host_name(const std::string& name);
+
+// web_max_streams' upper bound: the web view serves with 48 HTTP threads and
+// keeps 8 of them for pages and calls.
+inline constexpr std::uint32_t kMaxWebStreams = 40;
 
 // The names of every key the table knows ("unix_socket", "estimation.method", ...).
 std::vector<std::string> config_key_names();
