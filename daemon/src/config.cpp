@@ -74,6 +74,8 @@ bool DaemonConfig::IsValid(std::string* error) const {
     return fail("web_max_body_bytes: must be in [1024, 67108864]");
   if (web_stream_keepalive_ms < 100 || web_stream_keepalive_ms > 600000)
     return fail("web_stream_keepalive_ms: must be in [100, 600000]");
+  if (web_request_head_timeout_ms < 500 || web_request_head_timeout_ms > 120000)
+    return fail("web_request_head_timeout_ms: must be in [500, 120000]");
   if (web_max_streams < 1 || web_max_streams > kMaxWebStreams)
     return fail("web_max_streams: must be in [1, " + std::to_string(kMaxWebStreams) + "]");
   for (std::size_t i = 0; i < web_host_names.size(); ++i)
@@ -608,6 +610,8 @@ const std::vector<Key>& top_level_keys() {
       unsigned_key("web_stream_keepalive_ms", 100, 600000,
                    [](DaemonConfig& c) -> auto& { return c.web_stream_keepalive_ms; }),
       unsigned_key("web_max_streams", 1, kMaxWebStreams, [](DaemonConfig& c) -> auto& { return c.web_max_streams; }),
+      unsigned_key("web_request_head_timeout_ms", 500, 120000,
+                   [](DaemonConfig& c) -> auto& { return c.web_request_head_timeout_ms; }),
       {"web_host_names",
        [](const json& v, DaemonConfig& c) {
          if (!v.is_array()) throw std::invalid_argument(shown(v) + " is not a JSON array of host names");

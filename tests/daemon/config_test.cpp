@@ -117,6 +117,8 @@ TEST(DaemonConfig, ParsesDevicesAndRefusesBadFieldsByName) {
   EXPECT_NE(refused(R"({"web_max_body_bytes": 1e12})").find("web_max_body_bytes"), std::string::npos);
   EXPECT_NE(refused(R"({"web_stream_keepalive_ms": 0})").find("web_stream_keepalive_ms: 0 is outside [100, 600000]"),
             std::string::npos);
+  EXPECT_NE(refused(R"({"web_request_head_timeout_ms": 100})").find("web_request_head_timeout_ms: 100 is outside [500, 120000]"),
+            std::string::npos);
   EXPECT_NE(refused(R"({"web_max_streams": 41})").find("web_max_streams: 41 is outside [1, 40]"), std::string::npos);
   EXPECT_NE(refused(R"({"web_host_names": "chromo.lab"})").find("web_host_names: \"chromo.lab\" is not a JSON array"),
             std::string::npos);

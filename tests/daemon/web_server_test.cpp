@@ -453,6 +453,108 @@ TEST_F(NamedHostWebFixture, AConfiguredHostNameIsAnswered) {
   EXPECT_EQ(raw_log_in(web->port(), kWebToken, "127.0.0.1", "other.lab.example:" + std::to_string(web->port())), 421);
 }
 
+// Issue 40, row 6 (slowloris): 100 connections sending a header byte a
+// second held every HTTP thread, and GET / timed out. A request head must
+// now arrive within web_request_head_timeout_ms, and when every thread is
+// busy the connection that has waited longest for its head is closed.
+struct SlowClientsWebFixture : WebFixture {
+  void SetUp() override {
+    lab.config.web_request_head_timeout_ms = 2000;
+    WebFixture::SetUp();
+  }
+};
+
+TEST_F(SlowClientsWebFixture, SlowRequestHeadsHoldNoThreadForLongAndThePageIsServed) {
+  const std::string host = "Host: 127.0.0.1:" + std::to_string(web->port()) + "\r\n";
+  std::vector<std::unique_ptr<RawConnection>> slow;
+  for (int i = 0; i < 60; ++i) {  // more than the 48 HTTP threads
+    slow.push_back(std::make_unique<RawConnection>(web->port()));
+    ASSERT_TRUE(slow.back()->send("GET / HTTP/1.1\r\n" + host));
+  }
+  std::atomic<bool> done{false};
+  std::thread trickle([&] {  // a header byte every 300 ms on each, until the page is served
+    while (!done) {
+      for (auto& connection : slow) connection->send("X");
+      std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    }
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  httplib::Client c("127.0.0.1", web->port());
+  c.set_connection_timeout(10, 0);
+  c.set_read_timeout(10, 0);
+  auto page = c.Get("/");
+  done = true;
+  trickle.join();
+  ASSERT_TRUE(page) << "GET / got no answer while 60 slow heads were held";
+  EXPECT_EQ(page->status, 200);
+  // Every slow connection is closed by the server, trickling or not.
+  int closed = 0;
+  for (auto& connection : slow) closed += connection->closed_by_server(10000);
+  EXPECT_EQ(closed, 60);
+}
+
+// What cpp-httplib 0.11 alone keeps in memory: a request line (or header
+// line) without an end, and a chunk-size line without an end. The
+// connection is closed at the caps instead.
+TEST_F(WebFixture, EndlessRequestAndChunkSizeLinesAreCutOffAtTheirCaps) {
+  const std::string endless(64u << 20, 'a');  // 64 MiB, more than any socket buffer holds
+  {
+    RawConnection raw(web->port());
+    EXPECT_FALSE(raw.send("GET /" + endless)) << "the server read 64 MiB of request line";
+    EXPECT_LT(raw.sent(), 16u << 20);
+    EXPECT_TRUE(raw.closed_by_server(10000));
+  }
+  {
+    RawConnection raw(web->port());
+    const std::string head = "POST /login HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(web->port()) + "\r\nOrigin: " + origin +
+                             "\r\nTransfer-Encoding: chunked\r\n\r\n";
+    EXPECT_FALSE(raw.send(head + std::string(64u << 20, 'f'))) << "the server read a 64 MiB chunk-size line";
+    EXPECT_LT(raw.sent(), 16u << 20);
+  }
+  auto page = client().Get("/");  // and it serves on
+  ASSERT_TRUE(page);
+  EXPECT_EQ(page->status, 200);
+}
+
+// The web view over TLS is served by the same guarded connections: a real
+// TLS client logs in and loads the page; a connection that never finishes
+// its handshake is closed after web_request_head_timeout_ms.
+struct TlsWebFixture : WebFixture {
+  void SetUp() override {
+    const auto key = lab.directory / "key.pem", cert = lab.directory / "cert.pem";
+    const std::string command = "openssl req -x509 -newkey rsa:2048 -nodes -days 1 -subj /CN=localhost "
+                                "-addext subjectAltName=DNS:localhost -keyout " + key.string() + " -out " +
+                                cert.string() + " >/dev/null 2>&1";
+    ASSERT_EQ(std::system(command.c_str()), 0);
+    lab.config.tls_certificate_file = cert.string();
+    lab.config.tls_private_key_file = key.string();
+    lab.config.web_request_head_timeout_ms = 1000;
+    WebFixture::SetUp();
+    origin = "https://127.0.0.1:" + std::to_string(web->port());
+  }
+};
+
+TEST_F(TlsWebFixture, ATlsClientLogsInAndAStalledHandshakeIsClosed) {
+  httplib::SSLClient c("127.0.0.1", web->port());
+  c.enable_server_certificate_verification(false);
+  c.set_read_timeout(20, 0);
+  auto login = c.Post("/login", {{"Origin", origin}}, nlohmann::json{{"token", kWebToken}}.dump(), "application/json");
+  ASSERT_TRUE(login) << httplib::to_string(login.error());
+  EXPECT_EQ(login->status, 200) << login->body;
+  EXPECT_NE(login->get_header_value("Set-Cookie").find("Secure"), std::string::npos);
+  auto page = c.Get("/");
+  ASSERT_TRUE(page);
+  EXPECT_EQ(page->status, 200);
+  EXPECT_NE(page->body.find("<title>chromo</title>"), std::string::npos);
+  auto too_long = c.Post("/login", {{"Origin", origin}}, std::string(2u << 20, ' '), "application/json");
+  ASSERT_TRUE(too_long);
+  EXPECT_EQ(too_long->status, 413);
+
+  RawConnection stalled(web->port());  // TCP, then not a byte of the handshake
+  ASSERT_TRUE(stalled.connected());
+  EXPECT_TRUE(stalled.closed_by_server(10000));
+}
+
 TEST_F(WebFixture, TheApiNeedsTheCookieAndThePagesOwnOrigin) {
   const std::string cookie = log_in();
   auto c = client();

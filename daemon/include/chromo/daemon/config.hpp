@@ -114,6 +114,11 @@ struct DaemonConfig {
   // Concurrent event and preview streams of the web view (below its 48 HTTP
   // threads, so that pages still load); beyond: 429.
   std::uint32_t web_max_streams = 24;
+  // A request's head (request line and headers, and the TLS handshake of a
+  // new connection) must arrive within this, else the connection is closed;
+  // connections still waiting for theirs are the first shed when every
+  // HTTP thread is busy (slowloris).
+  std::uint32_t web_request_head_timeout_ms = 10000;
   // Host names (no port) the web view answers besides loopback names, the
   // web_address host and the address a request arrived on: a request whose
   // Host header names anything else is refused (DNS rebinding), 421.

@@ -18,6 +18,7 @@
 #include <httplib.h>
 #include <nlohmann/json.hpp>
 
+#include "guarded_http.hpp"
 #include "web_bridge.hpp"
 
 namespace chromo::daemon {
@@ -69,9 +70,11 @@ std::string content_type_of(const fs::path& file) {
   return found == types.end() ? "application/octet-stream" : found->second;
 }
 
-// The response closes its connection.
+// The response closes its connection: nothing after it is read (a refused
+// body's unread rest is not parsed as further requests).
 void closing(httplib::Response& response) {
   response.set_header("Connection", "close");
+  web::close_connection_after_response();
 }
 
 // A request path's file inside `root`, or nullopt: only [A-Za-z0-9_.+:-/]
@@ -158,6 +161,7 @@ struct WebServer::State {
   WebAuditor audit;
   web::ApiBridge bridge;
   std::unique_ptr<httplib::Server> http;
+  std::shared_ptr<web::ConnectionGuard> guard;
   std::thread thread;
   int port = 0;
   bool tls = false;
@@ -388,7 +392,6 @@ struct WebServer::State {
 
   void routes() {
     http->set_payload_max_length(config.web_max_body_bytes);
-    http->new_task_queue = [] { return new httplib::ThreadPool(kHttpThreads); };
     http->set_default_headers({{"Content-Security-Policy", kContentSecurityPolicy},
                                {"Referrer-Policy", "same-origin"},
                                {"X-Content-Type-Options", "nosniff"},
@@ -510,13 +513,14 @@ WebServer::WebServer(const DaemonConfig& config, std::shared_ptr<grpc::Channel> 
   if (config.web_address.empty()) throw std::invalid_argument("web_address: not set");
   if (config.web_dir.empty() || !fs::is_directory(config.web_dir))
     throw std::runtime_error("web_dir: \"" + config.web_dir.string() + "\" is not a folder (build the front end: docs/web.md)");
-  if (!config.tls_certificate_file.empty()) {
-    state_->tls = true;
-    state_->http = std::make_unique<httplib::SSLServer>(config.tls_certificate_file.c_str(), config.tls_private_key_file.c_str());
-    if (!state_->http->is_valid()) throw std::runtime_error("web_address: cannot use the TLS certificate and key");
-  } else {
-    state_->http = std::make_unique<httplib::Server>();
-  }
+  web::ConnectionLimits limits;
+  limits.threads = kHttpThreads;
+  limits.head_timeout = std::chrono::milliseconds(config.web_request_head_timeout_ms);
+  limits.max_body_wire_bytes = 2 * config.web_max_body_bytes + (64u << 10);  // chunk framing on top of the body
+  state_->tls = !config.tls_certificate_file.empty();
+  state_->http = web::make_guarded_server(limits, state_->tls ? config.tls_certificate_file.c_str() : nullptr,
+                                          config.tls_private_key_file.c_str(), &state_->guard);
+  if (!state_->http->is_valid()) throw std::runtime_error("web_address: cannot use the TLS certificate and key");
   state_->routes();
   const auto colon = config.web_address.rfind(':');
   std::string host = config.web_address.substr(0, colon);
