@@ -70,6 +70,8 @@ bool DaemonConfig::IsValid(std::string* error) const {
     return fail("web_address: \"" + web_address +
                 "\" is not a loopback address: the web view needs TLS there (tls_certificate_file and tls_private_key_file)");
   if (max_streams < 1 || max_streams > 1024) return fail("max_streams: must be in [1, 1024]");
+  if (tcp_handshake_timeout_ms < 100 || tcp_handshake_timeout_ms > 120000)
+    return fail("tcp_handshake_timeout_ms: must be in [100, 120000]");
   if (web_max_body_bytes < 1024 || web_max_body_bytes > (64u << 20))
     return fail("web_max_body_bytes: must be in [1024, 67108864]");
   if (web_stream_keepalive_ms < 100 || web_stream_keepalive_ms > 600000)
@@ -603,6 +605,8 @@ const std::vector<Key>& top_level_keys() {
       string_key("tls_private_key_file", [](DaemonConfig& c) -> auto& { return c.tls_private_key_file; }, pem_file_error),
       bool_key("tcp_insecure", [](DaemonConfig& c) -> auto& { return c.tcp_insecure; }),  // with TLS or token: IsValid
       unsigned_key("max_streams", 1, 1024, [](DaemonConfig& c) -> auto& { return c.max_streams; }),
+      unsigned_key("tcp_handshake_timeout_ms", 100, 120000,
+                   [](DaemonConfig& c) -> auto& { return c.tcp_handshake_timeout_ms; }),
       string_key("maps_dir", [](DaemonConfig& c) -> auto& { return c.maps_dir; }, optional_folder),
       string_key("web_address", [](DaemonConfig& c) -> auto& { return c.web_address; }, tcp_address_error),
       string_key("web_dir", [](DaemonConfig& c) -> auto& { return c.web_dir; }, optional_existing_folder),

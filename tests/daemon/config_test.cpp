@@ -119,6 +119,9 @@ TEST(DaemonConfig, ParsesDevicesAndRefusesBadFieldsByName) {
             std::string::npos);
   EXPECT_NE(refused(R"({"web_request_head_timeout_ms": 100})").find("web_request_head_timeout_ms: 100 is outside [500, 120000]"),
             std::string::npos);
+  EXPECT_NE(refused(R"({"tcp_handshake_timeout_ms": 50})").find("tcp_handshake_timeout_ms: 50 is outside [100, 120000]"),
+            std::string::npos);
+  EXPECT_EQ(parse_config(nlohmann::json::parse("{}")).tcp_handshake_timeout_ms, 10000u);
   EXPECT_NE(refused(R"({"web_max_streams": 41})").find("web_max_streams: 41 is outside [1, 40]"), std::string::npos);
   EXPECT_NE(refused(R"({"web_host_names": "chromo.lab"})").find("web_host_names: \"chromo.lab\" is not a JSON array"),
             std::string::npos);

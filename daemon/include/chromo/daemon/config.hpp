@@ -99,6 +99,10 @@ struct DaemonConfig {
   std::string tls_private_key_file;
   bool tcp_insecure = false;              // plaintext TCP, loopback peers only; needed when TCP has no TLS
   std::uint32_t max_streams = 64;         // concurrent streaming calls (Subscribe, WatchOperation); beyond: RESOURCE_EXHAUSTED
+  // A TCP connection must finish its handshake (TLS, or the local
+  // credentials' check) within this, else gRPC closes it (its own default:
+  // 120 s, for any number of connections that send nothing).
+  std::uint32_t tcp_handshake_timeout_ms = 10000;
   std::filesystem::path maps_dir;         // the maps API's folder for work without a session; empty = none
   // The operator's web view (docs/web.md): host:port; empty = off. Needs the
   // token; a non-loopback address needs TLS (the same certificate and key).
