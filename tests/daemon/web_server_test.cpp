@@ -555,6 +555,22 @@ TEST_F(TlsWebFixture, ATlsClientLogsInAndAStalledHandshakeIsClosed) {
   EXPECT_TRUE(stalled.closed_by_server(10000));
 }
 
+// A body refused unread (a call before log-in: 401) must not stay in the
+// connection: the browser's next request on it was read as "{}POST /login"
+// (400) once connections kept their read buffer between requests.
+TEST_F(WebFixture, ABodyRefusedUnreadClosesItsConnectionAndTheNextRequestIsServed) {
+  RawConnection raw(web->port());
+  const std::string host = "Host: 127.0.0.1:" + std::to_string(web->port()) + "\r\nOrigin: " + origin + "\r\n";
+  // The refused call and, at once behind it on the same connection, a page.
+  ASSERT_TRUE(raw.send("POST /api/LedService/GetLedState HTTP/1.1\r\n" + host +
+                       "Content-Type: application/json\r\nContent-Length: 2\r\n\r\n{}"
+                       "GET / HTTP/1.1\r\n" + host + "\r\n"));
+  const std::string answers = raw.receive(10000);  // until the server closes
+  EXPECT_EQ(status_of(answers), 401) << answers.substr(0, 200);
+  EXPECT_EQ(answers.find("HTTP/1.1 400"), std::string::npos) << "the unread body was read as a request:\n" << answers;
+  EXPECT_EQ(raw_log_in(web->port(), kWebToken), 200);
+}
+
 TEST_F(WebFixture, TheApiNeedsTheCookieAndThePagesOwnOrigin) {
   const std::string cookie = log_in();
   auto c = client();

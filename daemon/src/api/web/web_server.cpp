@@ -398,6 +398,11 @@ struct WebServer::State {
                                {"X-Frame-Options", "DENY"},
                                {"Cross-Origin-Opener-Policy", "same-origin"}});
     http->set_pre_routing_handler([this](const httplib::Request& request, httplib::Response& response) {
+      // A body nothing will read (a GET's, or one refused below) must not
+      // stay in the connection to be parsed as the next request.
+      const bool body = request.has_header("Transfer-Encoding") ||
+                        (request.has_header("Content-Length") && request.get_header_value("Content-Length") != "0");
+      if (body && (request.method == "GET" || request.method == "HEAD")) closing(response);
       // Only what the view uses, refused before any body is read (httplib reads
       // the body of a PUT, PATCH or DELETE whole before looking for a route).
       if (request.method != "GET" && request.method != "HEAD" && request.method != "POST") {
@@ -427,6 +432,7 @@ struct WebServer::State {
       }
       if (request.method != "GET" && request.method != "HEAD" && !same_origin(request)) {
         response.status = 403;
+        if (body) closing(response);
         response.set_content(web::error_json("cross-origin request refused (Origin \"" + request.get_header_value("Origin") +
                                                  "\" is not this page's)", "PERMISSION_DENIED"),
                              "application/json");
@@ -434,6 +440,7 @@ struct WebServer::State {
       }
       if (request.path.rfind("/api/", 0) == 0 && !logged_in(request)) {
         response.status = 401;
+        if (body) closing(response);
         response.set_content(web::error_json("log in first", "UNAUTHENTICATED"), "application/json");
         return httplib::Server::HandlerResponse::Handled;
       }
