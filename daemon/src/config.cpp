@@ -70,6 +70,7 @@ bool DaemonConfig::IsValid(std::string* error) const {
     return fail("web_address: \"" + web_address +
                 "\" is not a loopback address: the web view needs TLS there (tls_certificate_file and tls_private_key_file)");
   if (max_streams < 1 || max_streams > 1024) return fail("max_streams: must be in [1, 1024]");
+  if (max_profile_exports < 1 || max_profile_exports > 16) return fail("max_profile_exports: must be in [1, 16]");
   if (tcp_handshake_timeout_ms < 100 || tcp_handshake_timeout_ms > 120000)
     return fail("tcp_handshake_timeout_ms: must be in [100, 120000]");
   if (web_max_body_bytes < 1024 || web_max_body_bytes > (64u << 20))
@@ -608,6 +609,7 @@ const std::vector<Key>& top_level_keys() {
       unsigned_key("tcp_handshake_timeout_ms", 100, 120000,
                    [](DaemonConfig& c) -> auto& { return c.tcp_handshake_timeout_ms; }),
       string_key("maps_dir", [](DaemonConfig& c) -> auto& { return c.maps_dir; }, optional_folder),
+      unsigned_key("max_profile_exports", 1, 16, [](DaemonConfig& c) -> auto& { return c.max_profile_exports; }),
       string_key("web_address", [](DaemonConfig& c) -> auto& { return c.web_address; }, tcp_address_error),
       string_key("web_dir", [](DaemonConfig& c) -> auto& { return c.web_dir; }, optional_existing_folder),
       unsigned_key("web_max_body_bytes", 1024, 64u << 20, [](DaemonConfig& c) -> auto& { return c.web_max_body_bytes; }),

@@ -119,6 +119,7 @@ TEST(DaemonConfig, ParsesDevicesAndRefusesBadFieldsByName) {
             std::string::npos);
   EXPECT_NE(refused(R"({"web_request_head_timeout_ms": 100})").find("web_request_head_timeout_ms: 100 is outside [500, 120000]"),
             std::string::npos);
+  EXPECT_NE(refused(R"({"max_profile_exports": 0})").find("max_profile_exports: 0 is outside [1, 16]"), std::string::npos);
   EXPECT_NE(refused(R"({"tcp_handshake_timeout_ms": 50})").find("tcp_handshake_timeout_ms: 50 is outside [100, 120000]"),
             std::string::npos);
   EXPECT_EQ(parse_config(nlohmann::json::parse("{}")).tcp_handshake_timeout_ms, 10000u);

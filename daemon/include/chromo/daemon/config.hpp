@@ -104,6 +104,7 @@ struct DaemonConfig {
   // 120 s, for any number of connections that send nothing).
   std::uint32_t tcp_handshake_timeout_ms = 10000;
   std::filesystem::path maps_dir;         // the maps API's folder for work without a session; empty = none
+  std::uint32_t max_profile_exports = 1;  // concurrent ExportProfiles calls (each takes every core); beyond: RESOURCE_EXHAUSTED
   // The operator's web view (docs/web.md): host:port; empty = off. Needs the
   // token; a non-loopback address needs TLS (the same certificate and key).
   std::string web_address;
