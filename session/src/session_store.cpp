@@ -186,6 +186,12 @@ std::vector<SessionInfo> SessionStore::recover(std::vector<std::string>* skipped
       } catch (const std::exception&) {
         continue;  // not a readable session (e.g. a crash between mkdir and session.json)
       }
+      // Sessions are fetched by folder name: a folder whose session.json
+      // names another id (a copy, an edited id such as "../../etc") would be
+      // listed under an id that fetches something else, or nothing.
+      if (info.record.id != entry.path().filename().string())
+        throw std::runtime_error("session.json names the id \"" + info.record.id.substr(0, 80) +
+                                 "\", not the folder's name (a copied or edited folder)");
       if (!is_final(info.record.state)) {
         Journal journal(entry.path() / "journal.jsonl", budget_);
         const std::string message = "the daemon stopped while this session was " + state_name(info.record.state);

@@ -84,8 +84,9 @@ class SessionStore {
 
   // Every session in the folder, newest first, with in-flight ones marked
   // interrupted on disk. A folder that cannot be recovered (a loop of
-  // symbolic links, a file that cannot be read) is skipped, never fatal:
-  // "<folder>: <why>" goes into `skipped` when given.
+  // symbolic links, a file that cannot be read, a session.json whose id is
+  // not the folder's name) is skipped, never fatal: "<folder>: <why>" goes
+  // into `skipped` when given.
   std::vector<SessionInfo> recover(std::vector<std::string>* skipped = nullptr);
 
   // Throws std::runtime_error when the folder is not a session.
