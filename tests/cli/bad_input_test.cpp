@@ -148,6 +148,18 @@ TEST_F(BadInput, AMeasurementListingTooManyChannelsIsRefusedBeforeReadingAnImage
   EXPECT_THAT(admitted.output, Not(HasSubstr("over the cap")));
 }
 
+// Issue 40, row 15: a MEASUREMENT.json linked to itself ended in an internal
+// error (exit 1); it is bad input, refused naming the path.
+TEST_F(BadInput, AMeasurementFileLinkedToItselfIsRefusedAsBadInput) {
+  const fs::path loop = dir / "loop.json";
+  fs::create_symlink(loop, loop);
+  const Result r = run_chromo("estimate " + loop.string() + " --out " + (dir / "out").string());
+  EXPECT_EQ(r.exit_status, 2) << r.output;
+  EXPECT_THAT(r.output, HasSubstr(loop.string() + ": cannot open (Too many levels of symbolic links)"));
+  EXPECT_THAT(r.output, Not(HasSubstr("internal error")));
+  EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
 TEST_F(BadInput, AnExrWhoseHeaderClaimsThirtyThousandSquaredIsRefusedBeforeAllocating) {
   // A real 4×4 OpenEXR whose data window is then rewritten to 30000×30000.
   files::FloatImage small;
