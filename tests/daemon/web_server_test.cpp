@@ -542,6 +542,7 @@ TEST_F(TlsWebFixture, ATlsClientLogsInAndAStalledHandshakeIsClosed) {
   ASSERT_TRUE(login) << httplib::to_string(login.error());
   EXPECT_EQ(login->status, 200) << login->body;
   EXPECT_NE(login->get_header_value("Set-Cookie").find("Secure"), std::string::npos);
+  EXPECT_EQ(login->get_header_value("Strict-Transport-Security"), "max-age=31536000");  // issue 40, row 15
   auto page = c.Get("/");
   ASSERT_TRUE(page);
   EXPECT_EQ(page->status, 200);
@@ -622,6 +623,7 @@ TEST_F(WebFixture, EveryResponseCarriesTheSecurityHeaders) {
     EXPECT_EQ(csp.find("unsafe-eval"), std::string::npos);
     EXPECT_EQ(r->get_header_value("Referrer-Policy"), "same-origin");
     EXPECT_EQ(r->get_header_value("X-Content-Type-Options"), "nosniff");
+    EXPECT_FALSE(r->has_header("Strict-Transport-Security"));  // plain HTTP on loopback: only under TLS
   }
 }
 

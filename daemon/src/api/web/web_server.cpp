@@ -392,11 +392,14 @@ struct WebServer::State {
 
   void routes() {
     http->set_payload_max_length(config.web_max_body_bytes);
-    http->set_default_headers({{"Content-Security-Policy", kContentSecurityPolicy},
-                               {"Referrer-Policy", "same-origin"},
-                               {"X-Content-Type-Options", "nosniff"},
-                               {"X-Frame-Options", "DENY"},
-                               {"Cross-Origin-Opener-Policy", "same-origin"}});
+    httplib::Headers headers{{"Content-Security-Policy", kContentSecurityPolicy},
+                             {"Referrer-Policy", "same-origin"},
+                             {"X-Content-Type-Options", "nosniff"},
+                             {"X-Frame-Options", "DENY"},
+                             {"Cross-Origin-Opener-Policy", "same-origin"}};
+    // Under TLS the browser is told to come back over TLS only (a year).
+    if (tls) headers.emplace("Strict-Transport-Security", "max-age=31536000");
+    http->set_default_headers(std::move(headers));
     http->set_pre_routing_handler([this](const httplib::Request& request, httplib::Response& response) {
       // A body nothing will read (a GET's, or one refused below) must not
       // stay in the connection to be parsed as the next request.
