@@ -71,7 +71,10 @@ int run_estimate_session(const EstimateOptions& options) {
 int run_estimate(const EstimateOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   auto seconds_since = [](auto t) { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count(); };
-  if (fs::is_directory(options.input)) return run_estimate_session(options);
+  // Not throwing: a path that cannot be looked at (a loop of links) is a
+  // file the bounded reader then refuses, naming it (exit 2).
+  std::error_code unreadable;
+  if (fs::is_directory(options.input, unreadable)) return run_estimate_session(options);
   session::MeasurementFile m;
   try {
     m = session::read_measurement_file(options.input);

@@ -41,6 +41,15 @@ bool is_loopback_address(const std::string& host_port) {
   return host == "localhost" || host == "::1" || host.rfind("127.", 0) == 0;
 }
 
+bool is_valid_host_name(const std::string& name) {
+  if (name.empty() || name.size() > 253) return false;
+  if (name.front() == '[')  // an IPv6 address, as a Host header writes it
+    return name.size() > 2 && name.back() == ']' &&
+           name.find_first_not_of("0123456789abcdefABCDEF:.", 1) == name.size() - 1;
+  return name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789-.") == std::string::npos &&
+         name.front() != '.' && name.front() != '-';
+}
+
 bool DaemonConfig::IsValid(std::string* error) const {
   auto fail = [&](const std::string& message) {
     if (error) *error = message;
@@ -61,6 +70,21 @@ bool DaemonConfig::IsValid(std::string* error) const {
     return fail("web_address: \"" + web_address +
                 "\" is not a loopback address: the web view needs TLS there (tls_certificate_file and tls_private_key_file)");
   if (max_streams < 1 || max_streams > 1024) return fail("max_streams: must be in [1, 1024]");
+  if (max_profile_exports < 1 || max_profile_exports > 16) return fail("max_profile_exports: must be in [1, 16]");
+  if (tcp_handshake_timeout_ms < 100 || tcp_handshake_timeout_ms > 120000)
+    return fail("tcp_handshake_timeout_ms: must be in [100, 120000]");
+  if (web_max_body_bytes < 1024 || web_max_body_bytes > (64u << 20))
+    return fail("web_max_body_bytes: must be in [1024, 67108864]");
+  if (web_stream_keepalive_ms < 100 || web_stream_keepalive_ms > 600000)
+    return fail("web_stream_keepalive_ms: must be in [100, 600000]");
+  if (web_request_head_timeout_ms < 500 || web_request_head_timeout_ms > 120000)
+    return fail("web_request_head_timeout_ms: must be in [500, 120000]");
+  if (web_max_streams < 1 || web_max_streams > kMaxWebStreams)
+    return fail("web_max_streams: must be in [1, " + std::to_string(kMaxWebStreams) + "]");
+  for (std::size_t i = 0; i < web_host_names.size(); ++i)
+    if (!is_valid_host_name(web_host_names[i]))
+      return fail("web_host_names[" + std::to_string(i) + "]: \"" + web_host_names[i].substr(0, 64) +
+                  "\" is not a host name or numeric address without a port (letters, digits, '-', '.', at most 253; IPv6 in [])");
   if (storage_queue_frames < 1 || storage_queue_frames > 100000) return fail("storage_queue_frames: must be in [1, 100000]");
   if (estimator_queue_frames > 100000) return fail("estimator_queue_frames: must be at most 100000");
   if (frame_timeout_ms < 1 || frame_timeout_ms > 600000) return fail("frame_timeout_ms: must be in [1, 600000]");
@@ -588,11 +612,34 @@ const std::vector<Key>& top_level_keys() {
       string_key("tls_private_key_file", [](DaemonConfig& c) -> auto& { return c.tls_private_key_file; }, pem_file_error),
       bool_key("tcp_insecure", [](DaemonConfig& c) -> auto& { return c.tcp_insecure; }),  // with TLS or token: IsValid
       unsigned_key("max_streams", 1, 1024, [](DaemonConfig& c) -> auto& { return c.max_streams; }),
+      unsigned_key("tcp_handshake_timeout_ms", 100, 120000,
+                   [](DaemonConfig& c) -> auto& { return c.tcp_handshake_timeout_ms; }),
       string_key("maps_dir", [](DaemonConfig& c) -> auto& { return c.maps_dir; }, optional_folder),
       unsigned_key("max_read_maps_bytes", 1ull << 20, 1ull << 36,
                    [](DaemonConfig& c) -> auto& { return c.max_read_maps_bytes; }),
+      unsigned_key("max_profile_exports", 1, 16, [](DaemonConfig& c) -> auto& { return c.max_profile_exports; }),
       string_key("web_address", [](DaemonConfig& c) -> auto& { return c.web_address; }, tcp_address_error),
       string_key("web_dir", [](DaemonConfig& c) -> auto& { return c.web_dir; }, optional_existing_folder),
+      unsigned_key("web_max_body_bytes", 1024, 64u << 20, [](DaemonConfig& c) -> auto& { return c.web_max_body_bytes; }),
+      unsigned_key("web_stream_keepalive_ms", 100, 600000,
+                   [](DaemonConfig& c) -> auto& { return c.web_stream_keepalive_ms; }),
+      unsigned_key("web_max_streams", 1, kMaxWebStreams, [](DaemonConfig& c) -> auto& { return c.web_max_streams; }),
+      unsigned_key("web_request_head_timeout_ms", 500, 120000,
+                   [](DaemonConfig& c) -> auto& { return c.web_request_head_timeout_ms; }),
+      {"web_host_names",
+       [](const json& v, DaemonConfig& c) {
+         if (!v.is_array()) throw std::invalid_argument(shown(v) + " is not a JSON array of host names");
+         std::vector<std::string> names;
+         for (std::size_t i = 0; i < v.size(); ++i) {
+           if (!v[i].is_string()) throw NestedError("[" + std::to_string(i) + "]: " + shown(v[i]) + " is not a string");
+           if (!is_valid_host_name(v[i].get<std::string>()))
+             throw NestedError("[" + std::to_string(i) + "]: " + shown(v[i]) +
+                               " is not a host name or numeric address without a port");
+           names.push_back(v[i].get<std::string>());
+         }
+         c.web_host_names = std::move(names);
+       },
+       [](const DaemonConfig&) { return std::string(); }},
       string_key("sessions_dir", [](DaemonConfig& c) -> auto& { return c.sessions_dir; },
                  [](const std::string& v) { return folder_error_tried(v); }),
       unsigned_key("storage_limit_bytes", 0, std::numeric_limits<std::int64_t>::max(),

@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include <fstream>
+#include <iostream>
 #include <set>
 
 #include <stdexcept>
@@ -22,7 +23,9 @@ Daemon::Daemon(DaemonConfig config, DeviceSet devices, FrameConsumer* estimator)
       estimator_(estimator),
       budget_(config_.storage_limit_bytes),
       store_(config_.sessions_dir, &budget_) {
-  for (auto& info : store_.recover()) operations_.add_past(std::move(info.record));
+  std::vector<std::string> skipped;
+  for (auto& info : store_.recover(&skipped)) operations_.add_past(std::move(info.record));
+  for (const auto& reason : skipped) std::cerr << "chromod: sessions: skipped (not recovered): " << reason << "\n";
   calibrations_ = std::make_unique<Calibrations>(config_.sessions_dir / "calibrations", config_.led_library, devices_,
                                                  runner_, &budget_);
   for (auto& record : calibrations_->recover()) operations_.add_past(std::move(record));

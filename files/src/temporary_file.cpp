@@ -53,7 +53,10 @@ std::size_t remove_leftover_temporaries(const fs::path& directory, Subfolders su
   if (!fs::is_directory(directory, missing)) return 0;
   std::size_t removed = 0;
   auto visit = [&](const fs::directory_entry& entry) {
-    if (!entry.is_regular_file()) return;
+    // The entry itself, never what a link names: a temporary is a regular
+    // file, and a link (a loop of links included) is left alone.
+    std::error_code unreadable;
+    if (!fs::is_regular_file(entry.symlink_status(unreadable)) || unreadable) return;
     const auto pid = temporary_writer_pid(entry.path().filename().string());
     if (!pid || another_process_runs(*pid)) return;
     fs::remove(entry.path());  // throws filesystem_error naming the file

@@ -102,6 +102,14 @@ MeasurementFile read_measurement_file(const fs::path& file) {
   const estimation::ChannelNoise default_noise = parse_noise(j.value("noise", nlohmann::json()), {}, file.string());
   if (!j.contains("images") || !j["images"].is_array() || j["images"].empty())
     throw MeasurementFileError(file.string() + ": 'images' must be a non-empty array");
+  std::size_t listed = 0;
+  for (const auto& o : j["images"])
+    if (o.is_object() && o.contains("channels") && o["channels"].is_array()) listed += o["channels"].size();
+  if (j["images"].size() > kMaxMeasurementChannels || listed > kMaxMeasurementChannels)
+    throw MeasurementFileError(file.string() + ": images: " + std::to_string(j["images"].size()) + " images with " +
+                               std::to_string(listed) + " channels, over the cap of " +
+                               std::to_string(kMaxMeasurementChannels) +
+                               " channels (the largest built-in plan has 27)");
   for (std::size_t k = 0; k < j["images"].size(); ++k) {
     const nlohmann::json& o = j["images"][k];
     const std::string where = file.string() + ": images[" + std::to_string(k) + "]";

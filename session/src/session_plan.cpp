@@ -10,6 +10,21 @@
 
 namespace chromo::session {
 
+std::string control_character_error(const std::string& text, bool multiline) {
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    const bool c1 = c == 0xc2 && i + 1 < text.size() && static_cast<unsigned char>(text[i + 1]) >= 0x80 &&
+                    static_cast<unsigned char>(text[i + 1]) <= 0x9f;
+    if ((c < 0x20 && !(multiline && (c == '\n' || c == '\t'))) || c == 0x7f || c1) {
+      static const char* digits = "0123456789abcdef";
+      const unsigned code = c1 ? static_cast<unsigned char>(text[i + 1]) : c;
+      return std::string("holds the control character 0x") + digits[code >> 4] + digits[code & 15] + " at byte " +
+             std::to_string(i) + " (printed text only)";
+    }
+  }
+  return {};
+}
+
 bool is_valid_name(const std::string& name) {
   if (name.empty() || name.size() > kMaxNameBytes) return false;
   for (char c : name)
@@ -99,13 +114,14 @@ bool SessionPlan::IsValid(std::string* error) const {
     const std::string field = "steps[" + std::to_string(i) + "].";
     if (!is_valid_name(step.name)) return fail(field + "name: must match [A-Za-z0-9_+.-]{1,64}");
     if (!names.insert(step.name).second) return fail(field + "name: \"" + step.name + "\" is used twice");
-    if (!(step.exposure_us > 0 && step.exposure_us <= kMaxExposureUs))
-      return fail(field + "exposure_us: must be in (0, 10000000], got " + std::to_string(step.exposure_us));
+    if (!(step.exposure_us >= kMinExposureUs && step.exposure_us <= kMaxExposureUs))
+      return fail(field + "exposure_us: must be in [1, 10000000], got " + nlohmann::json(step.exposure_us).dump());
     if (step.frames_per_camera < 1 || step.frames_per_camera > kMaxFramesPerCamera)
       return fail(field + "frames_per_camera: must be in [1, 1000], got " + std::to_string(step.frames_per_camera));
     if (step.settle_ms > kMaxSettleMs)
       return fail(field + "settle_ms: must be at most 60000, got " + std::to_string(step.settle_ms));
     if (step.prompt.size() > kMaxTextBytes) return fail(field + "prompt: longer than 4096 bytes");
+    if (auto bad = control_character_error(step.prompt, true); !bad.empty()) return fail(field + "prompt: " + bad);
     if (step.illumination.kind == Illumination::Kind::kWeights) {
       for (int led = 0; led < drivers::kLedTypeCount; ++led) {
         double level = step.illumination.weights[static_cast<std::size_t>(led)];

@@ -168,27 +168,42 @@ SessionInfo SessionStore::read_session(const std::filesystem::path& folder) cons
   return info;
 }
 
-std::vector<SessionInfo> SessionStore::recover() {
+std::vector<SessionInfo> SessionStore::recover(std::vector<std::string>* skipped) {
+  namespace fs = std::filesystem;
   std::vector<SessionInfo> sessions;
-  for (const auto& entry : std::filesystem::directory_iterator(root_)) {
-    if (!entry.is_directory() || !std::filesystem::exists(entry.path() / "session.json")) continue;
-    // Leftover temporary files of writes a crash interrupted are not part of the session.
-    files::remove_leftover_temporaries(entry.path(), files::Subfolders::kInclude);
-    SessionInfo info;
+  for (const auto& entry : fs::directory_iterator(root_)) {
+    // One folder's trouble (issue 40: a frame linked to itself stopped chromod
+    // from starting) skips that folder only.
     try {
-      info = read_session(entry.path());
-    } catch (const std::exception&) {
-      continue;  // not a readable session (e.g. a crash between mkdir and session.json)
+      std::error_code unreadable;
+      if (!fs::is_directory(entry.symlink_status(unreadable)) || unreadable) continue;
+      if (!fs::is_regular_file(fs::symlink_status(entry.path() / "session.json", unreadable)) || unreadable) continue;
+      // Leftover temporary files of writes a crash interrupted are not part of the session.
+      files::remove_leftover_temporaries(entry.path(), files::Subfolders::kInclude);
+      SessionInfo info;
+      try {
+        info = read_session(entry.path());
+      } catch (const std::exception&) {
+        continue;  // not a readable session (e.g. a crash between mkdir and session.json)
+      }
+      // Sessions are fetched by folder name: a folder whose session.json
+      // names another id (a copy, an edited id such as "../../etc") would be
+      // listed under an id that fetches something else, or nothing.
+      if (info.record.id != entry.path().filename().string())
+        throw std::runtime_error("session.json names the id \"" + info.record.id.substr(0, 80) +
+                                 "\", not the folder's name (a copied or edited folder)");
+      if (!is_final(info.record.state)) {
+        Journal journal(entry.path() / "journal.jsonl", budget_);
+        const std::string message = "the daemon stopped while this session was " + state_name(info.record.state);
+        journal.append({{"type", "state"}, {"state", "interrupted"}, {"message", message}});
+        info.record.state = OperationState::kInterrupted;
+        info.record.message = message;
+        info.record.eta_seconds = 0;
+      }
+      sessions.push_back(std::move(info));
+    } catch (const std::exception& error) {
+      if (skipped) skipped->push_back(entry.path().string() + ": " + error.what());
     }
-    if (!is_final(info.record.state)) {
-      Journal journal(entry.path() / "journal.jsonl", budget_);
-      const std::string message = "the daemon stopped while this session was " + state_name(info.record.state);
-      journal.append({{"type", "state"}, {"state", "interrupted"}, {"message", message}});
-      info.record.state = OperationState::kInterrupted;
-      info.record.message = message;
-      info.record.eta_seconds = 0;
-    }
-    sessions.push_back(std::move(info));
   }
   std::sort(sessions.begin(), sessions.end(), [](const auto& a, const auto& b) { return a.record.id > b.record.id; });
   return sessions;

@@ -118,6 +118,48 @@ TEST_F(BadInput, AnAbsurdReadSigmaIsRefusedWhereItIsRead) {
   EXPECT_FALSE(fs::exists(dir / "out"));
 }
 
+// Issue 40, row 8: one image listed 1000 times reached 15.5 GB. The channels
+// are counted before any image is read; 27 (the largest built-in plan) pass.
+TEST_F(BadInput, AMeasurementListingTooManyChannelsIsRefusedBeforeReadingAnImage) {
+  const fs::path m = measurement_with("many.json", [](nlohmann::json& j) {
+    const nlohmann::json first = j["images"][0];
+    j["images"] = nlohmann::json::array();
+    for (int i = 0; i < 1000; ++i) j["images"].push_back(first);
+  });
+  const Result r = run_chromo("estimate " + m.string() + " --out " + (dir / "out").string(), limited);
+  EXPECT_EQ(r.exit_status, 2) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("many.json: images: 1000 images with"));
+  EXPECT_THAT(r.output, HasSubstr("over the cap of 32 channels"));
+  EXPECT_FALSE(fs::exists(dir / "out"));
+
+  // Nine images of three channels each (27, the multispectral+method plan's
+  // count) are admitted: read up to the ninth, whose missing illuminant is
+  // what stops them (so nothing is estimated here).
+  const fs::path nine = measurement_with("nine.json", [](nlohmann::json& j) {
+    nlohmann::json image = j["images"][0];
+    image["channels"] = {"R", "G", "B"};
+    j["images"] = nlohmann::json::array();
+    for (int i = 0; i < 9; ++i) j["images"].push_back(image);
+    j["images"][8]["illuminant"] = "no-such-illuminant.csv";
+  });
+  const Result admitted = run_chromo("estimate " + nine.string() + " --out " + (dir / "out9").string(), limited);
+  EXPECT_EQ(admitted.exit_status, 2) << admitted.output;
+  EXPECT_THAT(admitted.output, HasSubstr("images[8]"));
+  EXPECT_THAT(admitted.output, Not(HasSubstr("over the cap")));
+}
+
+// Issue 40, row 15: a MEASUREMENT.json linked to itself ended in an internal
+// error (exit 1); it is bad input, refused naming the path.
+TEST_F(BadInput, AMeasurementFileLinkedToItselfIsRefusedAsBadInput) {
+  const fs::path loop = dir / "loop.json";
+  fs::create_symlink(loop, loop);
+  const Result r = run_chromo("estimate " + loop.string() + " --out " + (dir / "out").string());
+  EXPECT_EQ(r.exit_status, 2) << r.output;
+  EXPECT_THAT(r.output, HasSubstr(loop.string() + ": cannot open (Too many levels of symbolic links)"));
+  EXPECT_THAT(r.output, Not(HasSubstr("internal error")));
+  EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
 TEST_F(BadInput, AnExrWhoseHeaderClaimsThirtyThousandSquaredIsRefusedBeforeAllocating) {
   // A real 4×4 OpenEXR whose data window is then rewritten to 30000×30000.
   files::FloatImage small;

@@ -1,6 +1,10 @@
 // The socket API over real gRPC channels: the Unix socket, TCP with the bearer
 // token, TLS; validation of hostile input; health.
 #include <algorithm>
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
 
 #include <unistd.h>
@@ -10,6 +14,7 @@
 #include <fstream>
 #include <iostream>
 #include <future>
+#include <limits>
 #include <map>
 #include <set>
 
@@ -149,6 +154,17 @@ TEST_F(ApiFixture, HostileInputIsRefusedWithTheFieldNamedAndNothingChanges) {
     expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.steps[0].exposure_us");
     step->set_exposure_us(std::nan(""));
     expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.steps[0].exposure_us");
+    // Issue 40, row 13: a positive but absurd exposure passed and failed only at the camera.
+    for (double absurd : {1e-300, 0.5, std::numeric_limits<double>::denorm_min()}) {
+      step->set_exposure_us(absurd);
+      expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.steps[0].exposure_us");
+    }
+    step->set_exposure_us(1000);
+    step->set_prompt("look \x1b[2J here");
+    expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.steps[0].prompt");
+    step->set_prompt("line one\nline two");  // a prompt may have lines
+    step->set_exposure_us(-5);
+    expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.steps[0].exposure_us");
     step->set_exposure_us(1000);
     step->mutable_weights()->set_blue(1.5);
     expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "plan.steps[0].weights.blue");
@@ -201,6 +217,24 @@ TEST_F(ApiFixture, HostileInputIsRefusedWithTheFieldNamedAndNothingChanges) {
     EXPECT_DOUBLE_EQ(by_name.at("subject_d65")->subject_fill(), 0.85);
     EXPECT_EQ(by_name.at("subject_w57")->subject_ratio_from(), "subject_w57+blue");
     EXPECT_EQ(by_name.at("white_w57_linearity")->linearity_of(), "subject_w57");
+  }
+  {  // Issue 40, rows 13-14: the standard plan's exposure at 1e-300 µs, and a
+     // subject holding NUL or a terminal escape (printed raw by chromo session show).
+    pb::StartSessionRequest request;
+    request.set_standard(true);
+    request.set_exposure_us(1e-300);
+    expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "exposure_us");
+    request.set_exposure_us(0);
+    for (const auto& subject : std::vector<std::string>{std::string("a\0b", 3), std::string("a\x1b[31mred"), std::string("bell\a"),
+                                      std::string("c1 \xc2\x9b" "31m"), std::string("tab\there"), std::string("del\x7f")}) {
+      request.set_subject(subject);
+      expect(start_session(*channel, request, &out), StatusCode::INVALID_ARGUMENT, "subject");
+    }
+    pb::GetStandardPlanRequest get;
+    get.set_exposure_us(1e-300);
+    pb::SessionPlan shown;
+    grpc::ClientContext context;
+    expect(sessions->GetStandardPlan(&context, get, &shown), StatusCode::INVALID_ARGUMENT, "exposure_us");
   }
   {  // Huge strings: over the field's bound, and over the message size limit.
     pb::StartSessionRequest request;
@@ -340,6 +374,50 @@ TEST_F(ApiFixture, TlsWithTokenWhenCertificatesAreConfigured) {
   context.AddMetadata("authorization", "Bearer test-token-0123456789");
   pb::ListOperationsResponse response;
   EXPECT_FALSE(pb::OperationService::NewStub(plain)->ListOperations(&context, {}, &response).ok());
+}
+
+// Issue 40, row 3 (in part): TLS connections that never sent a byte were
+// kept for gRPC's 120 s handshake timeout, so enough of them used up the
+// descriptors. Now one is closed after tcp_handshake_timeout_ms.
+TEST_F(ApiFixture, ATlsConnectionThatNeverHandshakesIsClosed) {
+  const auto key = lab.directory / "key.pem", cert = lab.directory / "cert.pem";
+  const std::string command = "openssl req -x509 -newkey rsa:2048 -nodes -days 1 -subj /CN=localhost "
+                              "-addext subjectAltName=DNS:localhost -keyout " + key.string() + " -out " +
+                              cert.string() + " >/dev/null 2>&1";
+  ASSERT_EQ(std::system(command.c_str()), 0);
+  lab.config.tls_certificate_file = cert.string();
+  lab.config.tls_private_key_file = key.string();
+  lab.config.tcp_insecure = false;
+  lab.config.tcp_handshake_timeout_ms = 1000;
+  start();
+  std::vector<int> silent;
+  for (int i = 0; i < 10; ++i) {
+    const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    sockaddr_in address{};
+    address.sin_family = AF_INET;
+    address.sin_port = htons(static_cast<std::uint16_t>(server->tcp_port()));
+    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    ASSERT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address), 0);
+    silent.push_back(fd);
+  }
+  int closed = 0;  // each sees its end (EOF or reset) within 10 s: gRPC's default would keep it 120 s
+  for (int fd : silent) {
+    pollfd p{fd, POLLIN, 0};
+    char byte;
+    if (::poll(&p, 1, 10000) == 1 && ::recv(fd, &byte, 1, 0) <= 0) ++closed;
+    ::close(fd);
+  }
+  EXPECT_EQ(closed, 10);
+  // And a client that does its handshake is served.
+  std::ifstream in(cert);
+  std::stringstream pem;
+  pem << in.rdbuf();
+  grpc::SslCredentialsOptions options;
+  options.pem_root_certs = pem.str();
+  grpc::ChannelArguments arguments;
+  arguments.SetSslTargetNameOverride("localhost");
+  auto tls = grpc::CreateCustomChannel("127.0.0.1:" + std::to_string(server->tcp_port()), grpc::SslCredentials(options), arguments);
+  EXPECT_TRUE(list_over_tcp(tls, "Bearer test-token-0123456789").ok());
 }
 
 // A raw call: `body` as the message bytes, whatever they are.

@@ -111,6 +111,31 @@ TEST(DaemonConfig, ParsesDevicesAndRefusesBadFieldsByName) {
   EXPECT_NE(refused(R"({"max_streams": 0})").find("max_streams: 0 is outside [1, 1024]"), std::string::npos);
   EXPECT_EQ(parse_config(nlohmann::json::parse("{}")).max_streams, 64u);
   EXPECT_NE(refused(R"({"frame_attempts": "three"})").find("frame_attempts"), std::string::npos);
+  // The web view's limits (issue 40), each refused naming the key.
+  EXPECT_NE(refused(R"({"web_max_body_bytes": 100})").find("web_max_body_bytes: 100 is outside [1024, 67108864]"),
+            std::string::npos);
+  EXPECT_NE(refused(R"({"web_max_body_bytes": 1e12})").find("web_max_body_bytes"), std::string::npos);
+  EXPECT_NE(refused(R"({"web_stream_keepalive_ms": 0})").find("web_stream_keepalive_ms: 0 is outside [100, 600000]"),
+            std::string::npos);
+  EXPECT_NE(refused(R"({"web_request_head_timeout_ms": 100})").find("web_request_head_timeout_ms: 100 is outside [500, 120000]"),
+            std::string::npos);
+  EXPECT_NE(refused(R"({"max_profile_exports": 0})").find("max_profile_exports: 0 is outside [1, 16]"), std::string::npos);
+  EXPECT_NE(refused(R"({"tcp_handshake_timeout_ms": 50})").find("tcp_handshake_timeout_ms: 50 is outside [100, 120000]"),
+            std::string::npos);
+  EXPECT_EQ(parse_config(nlohmann::json::parse("{}")).tcp_handshake_timeout_ms, 10000u);
+  EXPECT_NE(refused(R"({"web_max_streams": 41})").find("web_max_streams: 41 is outside [1, 40]"), std::string::npos);
+  EXPECT_NE(refused(R"({"web_host_names": "chromo.lab"})").find("web_host_names: \"chromo.lab\" is not a JSON array"),
+            std::string::npos);
+  EXPECT_NE(refused(R"({"web_host_names": ["ok.example", "evil.example:80"]})").find("web_host_names[1]: "),
+            std::string::npos);
+  EXPECT_NE(refused(R"({"web_host_names": ["a b"]})").find("web_host_names[0]: "), std::string::npos);
+  const auto defaults = parse_config(nlohmann::json::parse("{}"));
+  EXPECT_EQ(defaults.web_max_body_bytes, 1u << 20);
+  EXPECT_EQ(defaults.web_stream_keepalive_ms, 15000u);
+  EXPECT_EQ(defaults.web_max_streams, 24u);
+  EXPECT_TRUE(defaults.web_host_names.empty());
+  EXPECT_EQ(parse_config(nlohmann::json::parse(R"({"web_host_names": ["chromo.lab.example", "[fd00::1]"]})")).web_host_names,
+            (std::vector<std::string>{"chromo.lab.example", "[fd00::1]"}));
   EXPECT_NE(refused(R"({"colour": 1})").find("unknown key \"colour\""), std::string::npos);
   EXPECT_NE(refused(R"({"devices": [{"name": "a", "kind": "toaster", "backend": "x"}]})").find("devices[0].kind"),
             std::string::npos);

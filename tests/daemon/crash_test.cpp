@@ -128,6 +128,40 @@ TEST(Crash, KillNineMidSessionThenRestartReportsInterruptedAndTheFolderIsIntact)
   std::filesystem::remove_all(directory);
 }
 
+// Issue 40, row 4: one frame replaced by a link to itself stopped chromod
+// from starting (exit 1, "Too many levels of symbolic links"). The real
+// chromod starts on such a folder and lists the session.
+TEST(Crash, ALoopOfSymbolicLinksInTheSessionsFolderDoesNotStopChromodFromStarting) {
+  auto directory = testing::fresh_directory("symlink-loop");
+  const auto sessions = directory / "sessions";
+  std::string id;
+  {
+    session::SessionStore store(sessions, nullptr);
+    auto created = store.create(testing::quick_standard_plan(1), "loop test", nlohmann::json::object());
+    id = created.id;
+    std::filesystem::create_symlink("frame-0000.tiff", created.folder / "frame-0000.tiff");  // itself
+    std::filesystem::create_directories(created.folder / "results");
+    std::filesystem::create_symlink("a", created.folder / "results" / "b");
+    std::filesystem::create_symlink("b", created.folder / "results" / "a");
+  }
+  std::filesystem::create_symlink("loop", sessions / "loop");  // and one beside the sessions
+  pid_t pid = spawn_chromod(directory);
+  KillOnExit kill_on_exit{pid};
+  auto channel = connect(directory);
+  grpc::ClientContext context;
+  pb::ListSessionsResponse listed;
+  ASSERT_TRUE(pb::SessionService::NewStub(channel)->ListSessions(&context, pb::ListSessionsRequest{}, &listed).ok());
+  ASSERT_EQ(listed.sessions_size(), 1);
+  EXPECT_EQ(listed.sessions(0).id(), id);
+  EXPECT_EQ(listed.sessions(0).operation().state(), pb::OPERATION_STATE_INTERRUPTED);  // it never ran
+  int status = 0;
+  ::kill(pid, SIGTERM);
+  ::waitpid(pid, &status, 0);
+  pid = 0;
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  std::filesystem::remove_all(directory);
+}
+
 TEST(Crash, KillNineMidCalibrationThenRestartReportsItInterrupted) {
   auto directory = testing::fresh_directory("crash-calibration");
   pid_t pid = spawn_chromod(directory);

@@ -4,6 +4,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <thread>
+
 #include <grpcpp/grpcpp.h>
 
 #include <cmath>
@@ -99,6 +101,53 @@ TEST_F(MapsApi, RelightFlushAndProfilesWriteTheirFiles) {
     EXPECT_THAT(response.out_dir(), StartsWith("products/profiles-"));
     EXPECT_TRUE(fs::exists(data / response.out_dir() / "index.exr"));
   }
+}
+
+// Issue 40, row 7: ExportProfiles had no concurrency limit and kept
+// computing after its client's deadline (a 300-profile call with a 3 s
+// deadline: 32 more CPU-seconds, output still written). At most
+// max_profile_exports run at once now, and an abandoned one stops.
+TEST_F(MapsApi, ProfileExportsAreLimitedAndOneAbandonedByItsClientStops) {
+  pb::ExportProfilesRequest big;
+  big.set_maps_file("maps.exr");
+  for (int i = 0; i < 10; ++i) big.add_cm(0.01 + 0.02 * i), big.add_ch(0.01 + 0.02 * i);  // 10 x 10 x 3 = 300
+  for (double v : {0.5, 0.7, 0.9}) big.add_bm(v);
+  big.add_che(0.0);
+  pb::ExportProfilesRequest small;
+  small.set_maps_file("maps.exr");
+  small.add_cm(0.05), small.add_ch(0.05), small.add_bm(0.7), small.add_che(0.0);
+  std::thread abandoned([&] {
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(3));
+    pb::ExportProfilesResponse response;
+    EXPECT_EQ(stub->ExportProfiles(&context, big, &response).error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(1000));  // the big one is running (its 300 profiles take ~15 s)
+  {
+    grpc::ClientContext context;
+    pb::ExportProfilesResponse response;
+    const grpc::Status status = stub->ExportProfiles(&context, small, &response);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
+    EXPECT_THAT(status.error_message(), HasSubstr("max_profile_exports"));
+  }
+  abandoned.join();
+  // The abandoned export stops and gives its slot back: the small one is
+  // served within a few tries (it would wait ~12 s for one that went on).
+  grpc::Status status;
+  pb::ExportProfilesResponse response;
+  for (int i = 0; i < 10; ++i) {
+    grpc::ClientContext context;
+    status = stub->ExportProfiles(&context, small, &response);
+    if (status.error_code() != grpc::StatusCode::RESOURCE_EXHAUSTED) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  }
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_EQ(response.entries(), 1u);
+  // Only the small export's folder: the abandoned one wrote nothing.
+  int folders = 0;
+  for (const auto& entry : fs::directory_iterator(data / "products"))
+    folders += entry.path().filename().string().rfind("profiles-", 0) == 0 && fs::exists(entry.path() / "index.exr");
+  EXPECT_EQ(folders, 1);
 }
 
 // GetMap: each output cell is the map's value at the cell's centre (the web

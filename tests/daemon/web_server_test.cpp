@@ -5,7 +5,14 @@
 // files kept inside their folders, the API bridge answering as the API does,
 // bad JSON refused with nothing changed, the preview stream, and camera
 // settings refused during a session.
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
 #include <atomic>
+#include <sstream>
 #include <bitset>
 #include <fstream>
 #include <regex>
@@ -18,6 +25,7 @@
 
 #include "chromo/daemon/server.hpp"
 #include "chromo/daemon/web_server.hpp"
+#include "chromosphere/v1/events.grpc.pb.h"
 #include "chromosphere/v1/leds.grpc.pb.h"
 #include "test_lab.hpp"
 
@@ -46,6 +54,87 @@ std::string base64_decode(const std::string& text) {
     if (count >= 8) out.push_back(static_cast<char>((bits >> (count - 8)) & 0xff)), count -= 8;
   }
   return out;
+}
+
+// A raw HTTP client on loopback for what cpp-httplib's client will not send:
+// a hostile peer's requests written byte by byte as given.
+class RawConnection {
+ public:
+  explicit RawConnection(int port, const char* from = "127.0.0.1") {
+    fd_ = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    if (fd_ < 0) return;
+    sockaddr_in local{};
+    local.sin_family = AF_INET;
+    ::inet_pton(AF_INET, from, &local.sin_addr);
+    if (::bind(fd_, reinterpret_cast<sockaddr*>(&local), sizeof local) != 0) close();
+    sockaddr_in server{};
+    server.sin_family = AF_INET;
+    server.sin_port = htons(static_cast<std::uint16_t>(port));
+    ::inet_pton(AF_INET, "127.0.0.1", &server.sin_addr);
+    if (fd_ >= 0 && ::connect(fd_, reinterpret_cast<sockaddr*>(&server), sizeof server) != 0) close();
+  }
+  RawConnection(const RawConnection&) = delete;
+  ~RawConnection() { close(); }
+  bool connected() const { return fd_ >= 0; }
+  void close() {
+    if (fd_ >= 0) ::close(fd_);
+    fd_ = -1;
+  }
+  // Writes all of `data` unless the server answers first or the connection
+  // fails; true when all was written.
+  bool send(const std::string& data) {
+    std::size_t at = 0;
+    while (fd_ >= 0 && at < data.size()) {
+      pollfd p{fd_, POLLIN | POLLOUT, 0};
+      if (::poll(&p, 1, 30000) <= 0) return false;
+      if (p.revents & (POLLIN | POLLERR | POLLHUP)) return false;  // answered (or gone) before the end
+      const ssize_t n = ::send(fd_, data.data() + at, data.size() - at, MSG_NOSIGNAL | MSG_DONTWAIT);
+      if (n < 0 && (errno == EAGAIN || errno == EINTR)) continue;
+      if (n <= 0) return false;
+      at += static_cast<std::size_t>(n);
+      sent_ += static_cast<std::size_t>(n);
+    }
+    return at == data.size();
+  }
+  // What the server sent until it closed or `timeout_ms` passed.
+  std::string receive(int timeout_ms = 30000) {
+    std::string text;
+    char buffer[4096];
+    const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
+    while (fd_ >= 0) {
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(end - std::chrono::steady_clock::now()).count();
+      pollfd p{fd_, POLLIN, 0};
+      if (left <= 0 || ::poll(&p, 1, static_cast<int>(left)) <= 0) break;
+      const ssize_t n = ::recv(fd_, buffer, sizeof buffer, 0);
+      if (n <= 0) break;
+      text.append(buffer, static_cast<std::size_t>(n));
+    }
+    return text;
+  }
+  // True when the server closes its side (EOF or reset) within timeout_ms;
+  // what it sends before is read and dropped.
+  bool closed_by_server(int timeout_ms) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
+    char buffer[4096];
+    while (fd_ >= 0) {
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(end - std::chrono::steady_clock::now()).count();
+      pollfd p{fd_, POLLIN, 0};
+      if (left <= 0 || ::poll(&p, 1, static_cast<int>(left)) <= 0) return false;
+      if (::recv(fd_, buffer, sizeof buffer, 0) <= 0) return true;
+    }
+    return false;
+  }
+  std::size_t sent() const { return sent_; }
+
+ private:
+  int fd_ = -1;
+  std::size_t sent_ = 0;
+};
+
+// The status code of a raw HTTP response ("HTTP/1.1 413 ..."), 0 when none.
+int status_of(const std::string& response) {
+  if (response.rfind("HTTP/1.1 ", 0) != 0 || response.size() < 12) return 0;
+  return std::atoi(response.substr(9, 3).c_str());
 }
 
 struct WebFixture : ::testing::Test {
@@ -149,6 +238,340 @@ TEST_F(WebFixture, RepeatedWrongTokensAreLimitedPerClient) {
   EXPECT_FALSE(limited->has_header("Set-Cookie"));
 }
 
+// Issue 40, row 1: a chunked body was read to its end (100 MiB, no log-in
+// needed); now it is counted as it arrives and refused past
+// web_max_body_bytes like a Content-Length one.
+TEST_F(WebFixture, AChunkedBodyPastTheCapIsRefusedWith413WithoutReadingItAll) {
+  RawConnection raw(web->port());
+  ASSERT_TRUE(raw.connected());
+  const std::string head = "POST /login HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(web->port()) + "\r\nOrigin: " + origin +
+                           "\r\nContent-Type: application/json\r\nTransfer-Encoding: chunked\r\n\r\n";
+  ASSERT_TRUE(raw.send(head));
+  const std::string chunk = "10000\r\n" + std::string(0x10000, ' ') + "\r\n";  // 64 KiB of JSON white space
+  bool all_sent = true;
+  for (int i = 0; i < 1600 && all_sent; ++i) all_sent = raw.send(chunk);  // 100 MiB
+  const std::string response = raw.receive();
+  EXPECT_FALSE(all_sent) << "the server read 100 MiB of chunked body";
+  EXPECT_EQ(status_of(response), 413) << response.substr(0, 200);
+  EXPECT_NE(response.find("web_max_body_bytes"), std::string::npos) << response.substr(0, 400);
+  // The server stopped reading near the cap (1 MiB), whatever the kernel's
+  // socket buffers took on top.
+  EXPECT_LT(raw.sent(), 32u << 20);
+
+  // A chunked body within the cap is read as any other: the log-in works.
+  RawConnection small(web->port());
+  const std::string token = nlohmann::json{{"token", kWebToken}}.dump();
+  std::ostringstream chunked;
+  chunked << std::hex << token.size() << "\r\n" << token << "\r\n0\r\n\r\n";
+  ASSERT_TRUE(small.send(head + chunked.str()));
+  const std::string ok = small.receive(5000);
+  EXPECT_EQ(status_of(ok), 200) << ok.substr(0, 400);
+  EXPECT_NE(ok.find("chromo_session="), std::string::npos);
+}
+
+// What httplib would have read whole before routing: the body of a method the
+// view does not use, and a multipart body. Both are refused before reading.
+TEST_F(WebFixture, OtherMethodsAndMultipartBodiesAreRefusedBeforeTheBodyIsRead) {
+  for (const auto& method : std::vector<std::string>{"PUT", "PATCH", "DELETE", "OPTIONS"}) {
+    RawConnection raw(web->port());
+    ASSERT_TRUE(raw.send(method + " /login HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(web->port()) + "\r\nOrigin: " + origin +
+                         "\r\nTransfer-Encoding: chunked\r\n\r\n"));
+    EXPECT_EQ(status_of(raw.receive(5000)), 405) << method;
+  }
+  RawConnection raw(web->port());
+  ASSERT_TRUE(raw.send("POST /login HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(web->port()) + "\r\nOrigin: " + origin +
+                       "\r\nContent-Type: multipart/form-data; boundary=x\r\nTransfer-Encoding: chunked\r\n\r\n"));
+  EXPECT_EQ(status_of(raw.receive(5000)), 415);
+}
+
+// A fixture whose limits are small enough to reach in a test.
+struct SmallLimitsWebFixture : WebFixture {
+  void SetUp() override {
+    lab.config.max_streams = 4;
+    lab.config.web_max_streams = 4;
+    lab.config.web_stream_keepalive_ms = 200;
+    WebFixture::SetUp();
+  }
+  // A Subscribe straight over gRPC with a 1 s deadline: RESOURCE_EXHAUSTED
+  // when every stream slot is held, DEADLINE_EXCEEDED when it was served and
+  // nothing happened.
+  grpc::StatusCode subscribe_once() {
+    auto stub = pb::EventService::NewStub(server->in_process_channel());
+    grpc::ClientContext context;
+    context.AddMetadata("authorization", std::string("Bearer ") + kWebToken);
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(1));
+    auto reader = stub->Subscribe(&context, pb::SubscribeRequest{});
+    pb::Event event;
+    while (reader->Read(&event)) {
+    }
+    return reader->Finish().error_code();
+  }
+};
+
+// Issue 40, row 2: a browser that left an idle events stream kept its HTTP
+// thread and its max_streams slot until the next event (none while idle).
+// Now the stream writes a comment every web_stream_keepalive_ms and ends when
+// the client is gone.
+TEST_F(SmallLimitsWebFixture, AnIdleEventStreamEndsWhenItsClientLeavesAndFreesItsSlot) {
+  const std::string cookie = log_in();
+  for (int i = 0; i < 4; ++i) {
+    RawConnection raw(web->port());
+    ASSERT_TRUE(raw.send("GET /api/stream/events HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(web->port()) +
+                         "\r\nCookie: " + cookie + "\r\n\r\n"));
+    const std::string head = raw.receive(1000);  // the headers, then keep-alive comments
+    ASSERT_EQ(status_of(head), 200) << head.substr(0, 300);
+    EXPECT_NE(head.find("text/event-stream"), std::string::npos);
+  }  // each client leaves
+  // Every slot comes back: a gRPC Subscribe is served again (waited for at
+  // most 30 tries; before the fix, never).
+  grpc::StatusCode code = grpc::StatusCode::RESOURCE_EXHAUSTED;
+  for (int i = 0; i < 30 && code == grpc::StatusCode::RESOURCE_EXHAUSTED; ++i) code = subscribe_once();
+  EXPECT_EQ(code, grpc::StatusCode::DEADLINE_EXCEEDED);
+  // And the web view serves four streams again.
+  std::vector<std::unique_ptr<RawConnection>> held;
+  for (int i = 0; i < 4; ++i) {
+    held.push_back(std::make_unique<RawConnection>(web->port()));
+    ASSERT_TRUE(held.back()->send("GET /api/stream/events HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(web->port()) +
+                                  "\r\nCookie: " + cookie + "\r\n\r\n"));
+    const std::string head = held.back()->receive(1000);
+    EXPECT_EQ(status_of(head), 200) << i << ": " << head.substr(0, 300);
+    EXPECT_NE(head.find(":\n\n"), std::string::npos) << "no keep-alive comment in 1 s at 200 ms";
+  }
+}
+
+// web_max_streams caps the web view's streams below its HTTP threads, so a
+// page still loads while streams are open.
+TEST_F(SmallLimitsWebFixture, StreamsBeyondWebMaxStreamsAreRefusedAndPagesStillLoad) {
+  const std::string cookie = log_in();
+  std::vector<std::unique_ptr<RawConnection>> held;
+  for (int i = 0; i < 4; ++i) {
+    held.push_back(std::make_unique<RawConnection>(web->port()));
+    ASSERT_TRUE(held.back()->send("GET /api/stream/events HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(web->port()) +
+                                  "\r\nCookie: " + cookie + "\r\n\r\n"));
+    ASSERT_EQ(status_of(held.back()->receive(1000)), 200) << i;
+  }
+  auto c = client();
+  auto refused = c.Get("/api/stream/events", {{"Cookie", cookie}});
+  ASSERT_TRUE(refused);
+  EXPECT_EQ(refused->status, 429);
+  EXPECT_NE(refused->body.find("web_max_streams"), std::string::npos) << refused->body;
+  auto page = c.Get("/");
+  ASSERT_TRUE(page);
+  EXPECT_EQ(page->status, 200);
+}
+
+// A log-in POST written raw from `from` (a loopback address of its own), with
+// `host` as the Host header and the matching Origin; the response's status.
+int raw_log_in(int port, const std::string& token, const char* from = "127.0.0.1", std::string host = "") {
+  if (host.empty()) host = "127.0.0.1:" + std::to_string(port);
+  RawConnection raw(port, from);
+  const std::string body = nlohmann::json{{"token", token}}.dump();
+  if (!raw.send("POST /login HTTP/1.1\r\nHost: " + host + "\r\nOrigin: http://" + host +
+                "\r\nContent-Type: application/json\r\nConnection: close\r\nContent-Length: " + std::to_string(body.size()) +
+                "\r\n\r\n" + body))
+    return 0;
+  return status_of(raw.receive(10000));
+}
+
+// Issue 40, row 5: every rate-limited attempt appended an fsynced audit line
+// (2000 requests: 304 KB). Now a lock-out is one line, whatever it refuses.
+TEST_F(WebFixture, RateLimitedLogInsAreAuditedOnceNotOneLineEach) {
+  auto c = client();
+  int refused = 0;
+  for (int i = 0; i < 200; ++i) {
+    auto r = c.Post("/login", {{"Origin", origin}}, R"({"token":"guess-guess-guess-guess"})", "application/json");
+    ASSERT_TRUE(r);
+    refused += r->status == 429;
+  }
+  EXPECT_GE(refused, 200 - kMaxFailedLogins - 1);
+  int wrong = 0, limited = 0;
+  for (const auto& line : audit_lines()) {
+    if (line.value("action", "") != "web_login") continue;
+    const std::string error = line.value("error", "");
+    wrong += error == "wrong token";
+    limited += error.rfind("rate limited", 0) == 0;
+  }
+  EXPECT_EQ(wrong, kMaxFailedLogins);
+  // One line per lock-out (a minute): more only if this loop outlasted one.
+  EXPECT_GE(limited, 1);
+  EXPECT_LE(limited, 4) << "every refusal audited one by one";
+}
+
+// Issue 40, row 9: the limit counted per address, and any 127.x.y.z is
+// local: each new address had 5 fresh tries. Loopback is one source now.
+TEST_F(WebFixture, TheLogInLimitTreatsEveryLoopbackAddressAsOneSource) {
+  std::vector<int> statuses;
+  for (int n = 2; n < 2 + kMaxFailedLogins + 3; ++n) {
+    const std::string from = "127.0.0." + std::to_string(n);
+    statuses.push_back(raw_log_in(web->port(), "guess-guess-guess-guess", from.c_str()));
+  }
+  for (int i = 0; i < kMaxFailedLogins; ++i) EXPECT_EQ(statuses[static_cast<std::size_t>(i)], 401) << i;
+  for (std::size_t i = kMaxFailedLogins; i < statuses.size(); ++i) EXPECT_EQ(statuses[i], 429) << i;
+  EXPECT_EQ(raw_log_in(web->port(), kWebToken, "127.0.0.99"), 429);  // even the right token, from yet another address
+}
+
+// Issue 40, row 10: the Host header was not checked (DNS rebinding): five
+// wrong log-ins with Host: attacker.example and a matching Origin locked
+// the operator out. A Host that is not this server's is refused first.
+TEST_F(WebFixture, AHostThatIsNotThisServersIsRefusedAndLocksNobodyOut) {
+  const std::string attacker = "attacker.example:" + std::to_string(web->port());
+  for (int i = 0; i < kMaxFailedLogins + 2; ++i) EXPECT_EQ(raw_log_in(web->port(), "guess-guess-guess-guess", "127.0.0.1", attacker), 421);
+  EXPECT_EQ(raw_log_in(web->port(), kWebToken), 200);  // the operator is not locked out
+  {
+    RawConnection raw(web->port());
+    ASSERT_TRUE(raw.send("GET / HTTP/1.1\r\nHost: " + attacker + "\r\nConnection: close\r\n\r\n"));
+    const std::string response = raw.receive(10000);
+    EXPECT_EQ(status_of(response), 421);
+    EXPECT_NE(response.find("web_host_names"), std::string::npos);
+    EXPECT_EQ(response.find("<title>chromo</title>"), std::string::npos);
+  }
+  // The names this server answers: loopback names and addresses, with its port.
+  for (const std::string& host : {"127.0.0.1:" + std::to_string(web->port()), "localhost:" + std::to_string(web->port()),
+                                 "LOCALHOST:" + std::to_string(web->port())}) {
+    RawConnection raw(web->port());
+    ASSERT_TRUE(raw.send("GET / HTTP/1.1\r\nHost: " + host + "\r\nConnection: close\r\n\r\n"));
+    EXPECT_EQ(status_of(raw.receive(10000)), 200) << host;
+  }
+  for (const std::string& host : {std::string("127.0.0.1:1"), std::string(""), std::string("127.0.0.1:99999"),
+                                 std::string("a b:1"), "localhost.attacker.example:" + std::to_string(web->port())}) {
+    RawConnection raw(web->port());
+    ASSERT_TRUE(raw.send("GET / HTTP/1.1\r\nHost: " + host + "\r\nConnection: close\r\n\r\n"));
+    EXPECT_EQ(status_of(raw.receive(10000)), 421) << host;
+  }
+}
+
+struct NamedHostWebFixture : WebFixture {
+  void SetUp() override {
+    lab.config.web_host_names = {"chromo.lab.example"};
+    WebFixture::SetUp();
+  }
+};
+
+TEST_F(NamedHostWebFixture, AConfiguredHostNameIsAnswered) {
+  const std::string host = "chromo.lab.example:" + std::to_string(web->port());
+  EXPECT_EQ(raw_log_in(web->port(), kWebToken, "127.0.0.1", host), 200);
+  EXPECT_EQ(raw_log_in(web->port(), kWebToken, "127.0.0.1", "other.lab.example:" + std::to_string(web->port())), 421);
+}
+
+// Issue 40, row 6 (slowloris): 100 connections sending a header byte a
+// second held every HTTP thread, and GET / timed out. A request head must
+// now arrive within web_request_head_timeout_ms, and when every thread is
+// busy the connection that has waited longest for its head is closed.
+struct SlowClientsWebFixture : WebFixture {
+  void SetUp() override {
+    lab.config.web_request_head_timeout_ms = 2000;
+    WebFixture::SetUp();
+  }
+};
+
+TEST_F(SlowClientsWebFixture, SlowRequestHeadsHoldNoThreadForLongAndThePageIsServed) {
+  const std::string host = "Host: 127.0.0.1:" + std::to_string(web->port()) + "\r\n";
+  std::vector<std::unique_ptr<RawConnection>> slow;
+  for (int i = 0; i < 60; ++i) {  // more than the 48 HTTP threads
+    slow.push_back(std::make_unique<RawConnection>(web->port()));
+    ASSERT_TRUE(slow.back()->send("GET / HTTP/1.1\r\n" + host));
+  }
+  std::atomic<bool> done{false};
+  std::thread trickle([&] {  // a header byte every 300 ms on each, until the page is served
+    while (!done) {
+      for (auto& connection : slow) connection->send("X");
+      std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    }
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  httplib::Client c("127.0.0.1", web->port());
+  c.set_connection_timeout(10, 0);
+  c.set_read_timeout(10, 0);
+  auto page = c.Get("/");
+  done = true;
+  trickle.join();
+  ASSERT_TRUE(page) << "GET / got no answer while 60 slow heads were held";
+  EXPECT_EQ(page->status, 200);
+  // Every slow connection is closed by the server, trickling or not.
+  int closed = 0;
+  for (auto& connection : slow) closed += connection->closed_by_server(10000);
+  EXPECT_EQ(closed, 60);
+}
+
+// What cpp-httplib 0.11 alone keeps in memory: a request line (or header
+// line) without an end, and a chunk-size line without an end. The
+// connection is closed at the caps instead.
+TEST_F(WebFixture, EndlessRequestAndChunkSizeLinesAreCutOffAtTheirCaps) {
+  const std::string endless(64u << 20, 'a');  // 64 MiB, more than any socket buffer holds
+  {
+    RawConnection raw(web->port());
+    EXPECT_FALSE(raw.send("GET /" + endless)) << "the server read 64 MiB of request line";
+    EXPECT_LT(raw.sent(), 16u << 20);
+    EXPECT_TRUE(raw.closed_by_server(10000));
+  }
+  {
+    RawConnection raw(web->port());
+    const std::string head = "POST /login HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(web->port()) + "\r\nOrigin: " + origin +
+                             "\r\nTransfer-Encoding: chunked\r\n\r\n";
+    EXPECT_FALSE(raw.send(head + std::string(64u << 20, 'f'))) << "the server read a 64 MiB chunk-size line";
+    EXPECT_LT(raw.sent(), 16u << 20);
+  }
+  auto page = client().Get("/");  // and it serves on
+  ASSERT_TRUE(page);
+  EXPECT_EQ(page->status, 200);
+}
+
+// The web view over TLS is served by the same guarded connections: a real
+// TLS client logs in and loads the page; a connection that never finishes
+// its handshake is closed after web_request_head_timeout_ms.
+struct TlsWebFixture : WebFixture {
+  void SetUp() override {
+    const auto key = lab.directory / "key.pem", cert = lab.directory / "cert.pem";
+    const std::string command = "openssl req -x509 -newkey rsa:2048 -nodes -days 1 -subj /CN=localhost "
+                                "-addext subjectAltName=DNS:localhost -keyout " + key.string() + " -out " +
+                                cert.string() + " >/dev/null 2>&1";
+    ASSERT_EQ(std::system(command.c_str()), 0);
+    lab.config.tls_certificate_file = cert.string();
+    lab.config.tls_private_key_file = key.string();
+    lab.config.web_request_head_timeout_ms = 1000;
+    WebFixture::SetUp();
+    origin = "https://127.0.0.1:" + std::to_string(web->port());
+  }
+};
+
+TEST_F(TlsWebFixture, ATlsClientLogsInAndAStalledHandshakeIsClosed) {
+  httplib::SSLClient c("127.0.0.1", web->port());
+  c.enable_server_certificate_verification(false);
+  c.set_read_timeout(20, 0);
+  auto login = c.Post("/login", {{"Origin", origin}}, nlohmann::json{{"token", kWebToken}}.dump(), "application/json");
+  ASSERT_TRUE(login) << httplib::to_string(login.error());
+  EXPECT_EQ(login->status, 200) << login->body;
+  EXPECT_NE(login->get_header_value("Set-Cookie").find("Secure"), std::string::npos);
+  EXPECT_EQ(login->get_header_value("Strict-Transport-Security"), "max-age=31536000");  // issue 40, row 15
+  auto page = c.Get("/");
+  ASSERT_TRUE(page);
+  EXPECT_EQ(page->status, 200);
+  EXPECT_NE(page->body.find("<title>chromo</title>"), std::string::npos);
+  auto too_long = c.Post("/login", {{"Origin", origin}}, std::string(2u << 20, ' '), "application/json");
+  ASSERT_TRUE(too_long);
+  EXPECT_EQ(too_long->status, 413);
+
+  RawConnection stalled(web->port());  // TCP, then not a byte of the handshake
+  ASSERT_TRUE(stalled.connected());
+  EXPECT_TRUE(stalled.closed_by_server(10000));
+}
+
+// A body refused unread (a call before log-in: 401) must not stay in the
+// connection: the browser's next request on it was read as "{}POST /login"
+// (400) once connections kept their read buffer between requests.
+TEST_F(WebFixture, ABodyRefusedUnreadClosesItsConnectionAndTheNextRequestIsServed) {
+  RawConnection raw(web->port());
+  const std::string host = "Host: 127.0.0.1:" + std::to_string(web->port()) + "\r\nOrigin: " + origin + "\r\n";
+  // The refused call and, at once behind it on the same connection, a page.
+  ASSERT_TRUE(raw.send("POST /api/LedService/GetLedState HTTP/1.1\r\n" + host +
+                       "Content-Type: application/json\r\nContent-Length: 2\r\n\r\n{}"
+                       "GET / HTTP/1.1\r\n" + host + "\r\n"));
+  const std::string answers = raw.receive(10000);  // until the server closes
+  EXPECT_EQ(status_of(answers), 401) << answers.substr(0, 200);
+  EXPECT_EQ(answers.find("HTTP/1.1 400"), std::string::npos) << "the unread body was read as a request:\n" << answers;
+  EXPECT_EQ(raw_log_in(web->port(), kWebToken), 200);
+}
+
 TEST_F(WebFixture, TheApiNeedsTheCookieAndThePagesOwnOrigin) {
   const std::string cookie = log_in();
   auto c = client();
@@ -200,6 +623,7 @@ TEST_F(WebFixture, EveryResponseCarriesTheSecurityHeaders) {
     EXPECT_EQ(csp.find("unsafe-eval"), std::string::npos);
     EXPECT_EQ(r->get_header_value("Referrer-Policy"), "same-origin");
     EXPECT_EQ(r->get_header_value("X-Content-Type-Options"), "nosniff");
+    EXPECT_FALSE(r->has_header("Strict-Transport-Security"));  // plain HTTP on loopback: only under TLS
   }
 }
 

@@ -1,5 +1,6 @@
 // The session folder's storage: the journal (torn tails, a full budget), raw
 // frames as TIFF at native bit depth, derived data as OpenEXR.
+#include <algorithm>
 #include <fstream>
 
 #include <ImfInputFile.h>
@@ -10,12 +11,48 @@
 
 #include "chromo/session/frame_files.hpp"
 #include "chromo/session/journal.hpp"
+#include "chromo/session/session_store.hpp"
 #include "../support/fresh_directory.hpp"
 
 namespace chromo::session {
 namespace {
 
 using testing::fresh_directory;
+
+// Issue 40, row 12: sessions were listed by the id inside session.json but
+// fetched by folder name: a copy merged into the original in the list, and
+// an id of "../../etc" was listed. Such folders are skipped, with the reason.
+TEST(SessionStore, RecoverSkipsAFolderWhoseIdIsNotItsNameAndSaysWhy) {
+  const auto root = fresh_directory("store-ids");
+  SessionPlan plan;
+  plan.name = "p";
+  plan.steps.resize(1);
+  plan.steps[0].name = "dark";
+  plan.steps[0].role = StepRole::kDark;
+  plan.steps[0].exposure_us = 1000;
+  std::string id;
+  {
+    SessionStore store(root, nullptr);
+    id = store.create(plan, "subject", nlohmann::json::object()).id;
+  }
+  std::filesystem::copy(root / id, root / "copy-of-it", std::filesystem::copy_options::recursive);
+  std::filesystem::copy(root / id, root / "edited", std::filesystem::copy_options::recursive);
+  auto json = nlohmann::json::parse(std::ifstream(root / "edited" / "session.json"));
+  json["id"] = "../../etc";
+  std::ofstream(root / "edited" / "session.json") << json.dump();
+
+  SessionStore store(root, nullptr);
+  std::vector<std::string> skipped;
+  const auto sessions = store.recover(&skipped);
+  ASSERT_EQ(sessions.size(), 1u);
+  EXPECT_EQ(sessions[0].record.id, id);
+  ASSERT_EQ(skipped.size(), 2u);
+  std::sort(skipped.begin(), skipped.end());
+  EXPECT_NE(skipped[0].find("copy-of-it: session.json names the id \"" + id + "\", not the folder's name"), std::string::npos)
+      << skipped[0];
+  EXPECT_NE(skipped[1].find("edited: session.json names the id \"../../etc\""), std::string::npos) << skipped[1];
+  std::filesystem::remove_all(root);
+}
 
 TEST(Journal, RecordsSurviveAndATornTailIsIgnoredThenClosed) {
   auto dir = fresh_directory("journal");

@@ -93,6 +93,9 @@ Server::Server(Daemon& daemon) : daemon_(daemon), services_(std::make_unique<Ser
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   builder.SetMaxReceiveMessageSize(1 << 20);
+  // A TCP peer that never finishes its handshake is closed (issue 40: held
+  // connections that never sent anything used up the descriptors).
+  builder.AddChannelArgument(GRPC_ARG_SERVER_HANDSHAKE_TIMEOUT_MS, static_cast<int>(config.tcp_handshake_timeout_ms));
   // A thread per running call (the synchronous API): the streams' slots, room
   // for unary calls beside them, the pollers. Beyond it gRPC itself answers
   // RESOURCE_EXHAUSTED; streams beyond max_streams are refused by the Guard

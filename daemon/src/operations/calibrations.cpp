@@ -161,7 +161,8 @@ std::vector<session::OperationRecord> Calibrations::recover() {
   if (!std::filesystem::is_directory(root_)) return records;  // made by the first run
   for (const auto& entry : std::filesystem::directory_iterator(root_)) {
     const auto file = entry.path() / kRecordFile;
-    if (!entry.is_directory() || !std::filesystem::exists(file)) continue;
+    std::error_code unreadable;  // a loop of links is not a calibration, and must not stop the start
+    if (!entry.is_directory(unreadable) || unreadable || !std::filesystem::exists(file, unreadable) || unreadable) continue;
     files::remove_leftover_temporaries(entry.path());  // writes a crash interrupted
     nlohmann::json j;
     try {

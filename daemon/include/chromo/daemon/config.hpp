@@ -102,12 +102,36 @@ struct DaemonConfig {
   std::string tls_private_key_file;
   bool tcp_insecure = false;              // plaintext TCP, loopback peers only; needed when TCP has no TLS
   std::uint32_t max_streams = 64;         // concurrent streaming calls (Subscribe, WatchOperation); beyond: RESOURCE_EXHAUSTED
+  // A TCP connection must finish its handshake (TLS, or the local
+  // credentials' check) within this, else gRPC closes it (its own default:
+  // 120 s, for any number of connections that send nothing).
+  std::uint32_t tcp_handshake_timeout_ms = 10000;
   std::filesystem::path maps_dir;         // the maps API's folder for work without a session; empty = none
   std::uint64_t max_read_maps_bytes = 1ull << 30;  // MapsService.ReadMaps: the most channel bytes one call sends
+  std::uint32_t max_profile_exports = 1;  // concurrent ExportProfiles calls (each takes every core); beyond: RESOURCE_EXHAUSTED
   // The operator's web view (docs/web.md): host:port; empty = off. Needs the
   // token; a non-loopback address needs TLS (the same certificate and key).
   std::string web_address;
   std::filesystem::path web_dir;          // the built front end; empty = the one this chromod was built with
+  // The web view's limits (docs/web.md "Limits"). A request body (Content-Length,
+  // chunked or compressed: counted as decoded) longer than this: 413.
+  std::uint64_t web_max_body_bytes = 1u << 20;
+  // An event or preview stream writes a comment this often while it has
+  // nothing to send, and ends (freeing its thread and its max_streams slot)
+  // once the browser is gone.
+  std::uint32_t web_stream_keepalive_ms = 15000;
+  // Concurrent event and preview streams of the web view (below its 48 HTTP
+  // threads, so that pages still load); beyond: 429.
+  std::uint32_t web_max_streams = 24;
+  // A request's head (request line and headers, and the TLS handshake of a
+  // new connection) must arrive within this, else the connection is closed;
+  // connections still waiting for theirs are the first shed when every
+  // HTTP thread is busy (slowloris).
+  std::uint32_t web_request_head_timeout_ms = 10000;
+  // Host names (no port) the web view answers besides loopback names, the
+  // web_address host and the address a request arrived on: a request whose
+  // Host header names anything else is refused (DNS rebinding), 421.
+  std::vector<std::string> web_host_names;
 
   std::filesystem::path sessions_dir = "chromod-sessions";
   std::uint64_t storage_limit_bytes = 0;  // 0 = the disk is the limit (see durable_file.hpp)
@@ -153,6 +177,14 @@ DaemonConfig read_config_file(const std::filesystem::path& path);
 // True for "127.x.y.z:port", "localhost:port" and "[::1]:port": addresses
 // only this machine reaches (the web view needs TLS anywhere else).
 bool is_loopback_address(const std::string& host_port);
+
+// A host name or numeric address as a Host header names it, without the port:
+// letters, digits, '-' and '.' (at most 253), or an IPv6 address in [].
+bool is_valid_host_name(const std::string& name);
+
+// web_max_streams' upper bound: the web view serves with 48 HTTP threads and
+// keeps 8 of them for pages and calls.
+inline constexpr std::uint32_t kMaxWebStreams = 40;
 
 // The names of every key the table knows ("unix_socket", "estimation.method", ...).
 std::vector<std::string> config_key_names();

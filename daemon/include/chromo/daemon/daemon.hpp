@@ -25,6 +25,7 @@
 #include "chromo/files/durable_file.hpp"
 #include "chromo/daemon/internal/operations/operation_runner.hpp"
 #include "chromo/daemon/internal/operations/operations.hpp"
+#include "chromo/daemon/internal/capture/frame_pipeline.hpp"
 #include "chromo/daemon/internal/capture/preview_hub.hpp"
 #include "chromo/session/session_store.hpp"
 

@@ -7,8 +7,18 @@
 // - Log-in: POST /login {"token": ...} compared in constant time with
 //   config.token; success sets the cookie "chromo_session" (64 random hex
 //   digits; HttpOnly, SameSite=Strict, Path=/, Secure under TLS). Failed
-//   attempts are limited per client address (kMaxFailedLogins a minute, then
-//   429) and every attempt is appended to the audit log ("web_login").
+//   attempts are limited per source (kMaxFailedLogins a minute, then 429;
+//   every loopback address is one source, IPv6 counts by /64). Log-ins and
+//   wrong tokens are appended to the audit log ("web_login"); a lock-out's
+//   refusals are at most two lines.
+// - Every request's Host must name this server (loopback names, the
+//   web_address host, the address it arrived on, config.web_host_names):
+//   else 421 (DNS rebinding). Methods other than GET, HEAD, POST: 405.
+// - Bodies: at most config.web_max_body_bytes, counted as they arrive
+//   (chunked and compressed ones too): else 413.
+// - Streams: at most config.web_max_streams; an idle one writes an SSE
+//   comment every config.web_stream_keepalive_ms and ends when its client
+//   has gone.
 // - The API: POST /api/<Service>/<Method> with the request as JSON calls that
 //   unary method of chromosphere.v1 over the gRPC server's in-process channel
 //   with the bearer token, so the services' guard, limits and audit apply as
@@ -39,7 +49,7 @@ class Channel;
 
 namespace chromo::daemon {
 
-inline constexpr int kMaxFailedLogins = 5;  // per client address, per minute
+inline constexpr int kMaxFailedLogins = 5;  // per source (loopback is one), per minute
 
 // Appends one line to the audit log: who, action, outcome, error (empty = ok).
 using WebAuditor = std::function<void(const std::string& who, const std::string& action, const std::string& error)>;

@@ -11,6 +11,7 @@
 
 #include "chromo/files/float_image.hpp"
 #include "chromo/estimation/pixel_flags.hpp"
+#include "chromo/files/progress.hpp"
 #include "chromo/maps/map_operations.hpp"
 #include "chromo/maps/ome_tiff.hpp"
 #include "chromosphere/v1/maps.grpc.pb.h"
@@ -322,6 +323,22 @@ class MapsServiceImpl final : public pb::MapsService::Service {
       if (request->bm_size() > 0) o.axes.bm.assign(request->bm().begin(), request->bm().end());
       if (request->che_size() > 0) o.axes.che.assign(request->che().begin(), request->che().end());
       if (o.axes.entry_count() > 100000) throw Refusal{{StatusCode::INVALID_ARGUMENT, "cm, ch, bm, che: more than 100000 profiles"}};
+      // At most max_profile_exports at once (each takes every core), and work
+      // its client abandoned (cancelled, or past its deadline) stops at the
+      // next profile with nothing written (issue 40, row 7).
+      const std::uint32_t limit = daemon_.config().max_profile_exports;
+      {
+        std::lock_guard lock(exports_mutex_);
+        if (exports_running_ >= limit)
+          throw Refusal{{StatusCode::RESOURCE_EXHAUSTED, "max_profile_exports: " + std::to_string(limit) +
+                                                             " profile export(s) running already; retry when it ends"}};
+        ++exports_running_;
+      }
+      const std::shared_ptr<void> slot(nullptr, [this](void*) {
+        std::lock_guard lock(exports_mutex_);
+        --exports_running_;
+      });
+      o.progress.should_cancel = [context] { return context->IsCancelled(); };
       o.out = files.output("profiles", request->label());
       const auto s = maps::export_profiles_to_files(o);
       response->set_entries(s.entries), response->set_radii(s.radii);
@@ -347,6 +364,8 @@ class MapsServiceImpl final : public pb::MapsService::Service {
       return Status::OK;
     } catch (const Refusal& refusal) {
       return refusal.status;
+    } catch (const files::Cancelled&) {
+      return {StatusCode::CANCELLED, "cancelled: the client cancelled or its deadline passed; nothing was written"};
     } catch (const std::invalid_argument& e) {
       return {StatusCode::INVALID_ARGUMENT, api_message(folder ? folder->scrub(e.what()) : e.what())};
     } catch (const std::exception& e) {
@@ -413,6 +432,8 @@ class MapsServiceImpl final : public pb::MapsService::Service {
   }
   Daemon& daemon_;
   Guard& guard_;
+  std::mutex exports_mutex_;
+  std::uint32_t exports_running_ = 0;
 };
 
 }  // namespace

@@ -14,6 +14,7 @@ class SessionServiceImpl final : public pb::SessionService::Service {
     return guard_.audited(context, "start_session", [&](nlohmann::json& details) {
       details["subject_bytes"] = request->subject().size();
       if (request->subject().size() > session::kMaxTextBytes) return invalid("subject: longer than 4096 bytes");
+      if (auto bad = session::control_character_error(request->subject()); !bad.empty()) return invalid("subject: " + bad);
       if (!request->name().empty() && !session::is_valid_name(request->name()))
         return invalid("name: must match [A-Za-z0-9_+.-]{1,64}");
       session::SessionPlan plan;
@@ -104,7 +105,8 @@ class SessionServiceImpl final : public pb::SessionService::Service {
     options->timing = timing == pb::TIMING_HARDWARE ? session::Timing::kHardware : session::Timing::kSoftware;
     if (fixed_exposure || options->timing == session::Timing::kHardware) options->meter_white_share = 0;
     if (exposure_us != 0) {
-      if (!(exposure_us > 0 && exposure_us <= session::kMaxExposureUs)) return invalid("exposure_us: must be in (0, 10000000]");
+      if (!(exposure_us >= session::kMinExposureUs && exposure_us <= session::kMaxExposureUs))
+        return invalid("exposure_us: must be in [1, 10000000] (0: metered), got " + nlohmann::json(exposure_us).dump());
       options->exposure_us = exposure_us;
     }
     if (frames != 0) {

@@ -151,7 +151,8 @@ BridgeReply ApiBridge::call(const std::string& service, const std::string& metho
 }
 
 BridgeReply ApiBridge::stream(const std::string& service, const std::string& method_name, const std::string& request_json,
-                              const std::function<bool(const std::string& json)>& send) const {
+                              const std::function<bool(const std::string& json)>& send,
+                              std::chrono::milliseconds idle_interval, const std::function<bool()>& idle) const {
   Prepared prepared = prepare(service, method_name, request_json, true);
   if (prepared.refusal) return *prepared.refusal;
   std::string serialized;
@@ -181,7 +182,26 @@ BridgeReply ApiBridge::stream(const std::string& service, const std::string& met
   while (ok) {
     grpc::ByteBuffer buffer;
     call->Read(&buffer, reinterpret_cast<void*>(4));
-    queue.Next(&tag, &ok);
+    // Waiting for the next message (an idle event stream may wait for hours):
+    // the client is asked after each idle_interval whether it is still there.
+    bool gone = false;
+    while (true) {
+      const auto next = queue.AsyncNext(&tag, &ok, std::chrono::system_clock::now() + idle_interval);
+      if (next == grpc::CompletionQueue::GOT_EVENT) break;
+      if (next == grpc::CompletionQueue::SHUTDOWN) {
+        ok = false;
+        break;
+      }
+      if (idle && !idle()) {
+        gone = true;
+        break;
+      }
+    }
+    if (gone) {
+      client_left = true;
+      context.TryCancel();
+      break;
+    }
     if (!ok) break;
     std::vector<grpc::Slice> slices;
     buffer.Dump(&slices);

@@ -4,6 +4,7 @@
 // out; and the server-sent event streams over the streaming methods.
 // Private to the daemon library.
 
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <string>
@@ -24,10 +25,13 @@ class ApiBridge {
   // POST /api/<service>/<method>: only unary methods of chromosphere.v1.
   BridgeReply call(const std::string& service, const std::string& method, const std::string& request_json) const;
   // A server-streaming method: each message as JSON to `send` (false: the
-  // client left) until the stream or the client ends. Returns the final
-  // status as a reply (its json is empty on OK).
+  // client left) until the stream or the client ends. While no message comes,
+  // `idle` is called every `idle_interval` (false: the client left, and the
+  // call is cancelled, freeing its max_streams slot). Returns the final status
+  // as a reply (its json is empty on OK).
   BridgeReply stream(const std::string& service, const std::string& method, const std::string& request_json,
-                     const std::function<bool(const std::string& json)>& send) const;
+                     const std::function<bool(const std::string& json)>& send,
+                     std::chrono::milliseconds idle_interval, const std::function<bool()>& idle) const;
 
  private:
   std::shared_ptr<grpc::Channel> channel_;

@@ -2,17 +2,23 @@
 // (web_server.hpp; docs/web.md).
 #include "chromo/daemon/web_server.hpp"
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
 #include <sys/random.h>
+
+#include <cstring>
 
 #include <chrono>
 #include <deque>
 #include <map>
+#include <optional>
 #include <mutex>
 #include <thread>
 
 #include <httplib.h>
 #include <nlohmann/json.hpp>
 
+#include "guarded_http.hpp"
 #include "web_bridge.hpp"
 
 namespace chromo::daemon {
@@ -25,7 +31,7 @@ using Clock = std::chrono::steady_clock;
 constexpr auto kSessionLifetime = std::chrono::hours(12);
 constexpr auto kLoginWindow = std::chrono::minutes(1);
 constexpr const char* kCookieName = "chromo_session";
-constexpr int kHttpThreads = 48;  // SSE streams hold one each (the API's max_streams limits them again)
+constexpr int kHttpThreads = 48;  // SSE streams hold one each (web_max_streams, below this, limits them)
 
 const char* kContentSecurityPolicy =
     "default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data: blob:; connect-src 'self'; "
@@ -64,6 +70,13 @@ std::string content_type_of(const fs::path& file) {
   return found == types.end() ? "application/octet-stream" : found->second;
 }
 
+// The response closes its connection: nothing after it is read (a refused
+// body's unread rest is not parsed as further requests).
+void closing(httplib::Response& response) {
+  response.set_header("Connection", "close");
+  web::close_connection_after_response();
+}
+
 // A request path's file inside `root`, or nullopt: only [A-Za-z0-9_.+:-/]
 // segments (a session's derived files are named "albedo-w57+blue:8-cam0.exr"),
 // none empty or starting with '.', and the resolved file must be a regular
@@ -91,6 +104,50 @@ std::optional<fs::path> static_file(const fs::path& root, std::string path) {
   return file;
 }
 
+// Whose log-in attempts count together: every loopback address is one source
+// (any local process may bind 127.x.y.z: issue 40 cycled 49 of them for 5
+// fresh tries each), an IPv4-mapped address is its IPv4 one, an IPv6 address
+// counts by its /64 (what one host is usually given).
+std::string login_source(const std::string& address) {
+  std::string a = address;
+  if (a.rfind("::ffff:", 0) == 0 && a.find('.') != std::string::npos) a = a.substr(7);
+  if (a.rfind("127.", 0) == 0 || a == "::1") return "loopback";
+  in6_addr v6{};
+  if (a.find(':') != std::string::npos && ::inet_pton(AF_INET6, a.c_str(), &v6) == 1) {
+    char text[INET6_ADDRSTRLEN] = {};
+    std::memset(v6.s6_addr + 8, 0, 8);
+    ::inet_ntop(AF_INET6, &v6, text, sizeof text);
+    return std::string(text) + "/64";
+  }
+  return a;
+}
+
+// The host part of a Host header ("127.0.0.1:8080" → "127.0.0.1",
+// "[::1]:8080" → "[::1]") and its port (0 when none), or nullopt when malformed.
+std::optional<std::pair<std::string, int>> split_host(const std::string& host) {
+  std::string name = host, port;
+  if (!host.empty() && host.front() == '[') {
+    const auto close = host.find(']');
+    if (close == std::string::npos) return std::nullopt;
+    name = host.substr(0, close + 1);
+    if (close + 1 < host.size()) {
+      if (host[close + 1] != ':') return std::nullopt;
+      port = host.substr(close + 2);
+    }
+  } else if (const auto colon = host.rfind(':'); colon != std::string::npos) {
+    name = host.substr(0, colon), port = host.substr(colon + 1);
+  }
+  if (!is_valid_host_name(name)) return std::nullopt;
+  if (port.empty()) return std::make_pair(name, 0);
+  if (port.size() > 5 || port.find_first_not_of("0123456789") != std::string::npos) return std::nullopt;
+  return std::make_pair(name, std::stoi(port));
+}
+
+std::string lower(std::string text) {
+  for (char& c : text) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return text;
+}
+
 void serve_file(const fs::path& file, httplib::Response& response) {
   std::ifstream in(file, std::ios::binary);
   std::string body((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -104,13 +161,23 @@ struct WebServer::State {
   WebAuditor audit;
   web::ApiBridge bridge;
   std::unique_ptr<httplib::Server> http;
+  std::shared_ptr<web::ConnectionGuard> guard;
   std::thread thread;
   int port = 0;
   bool tls = false;
 
   std::mutex mutex;
   std::map<std::string, Clock::time_point> sessions;  // session id → expiry
-  std::map<std::string, std::deque<Clock::time_point>> failed_logins;  // client address → times
+  // Per log-in source (login_source): the failed attempts of the last
+  // minute, and the refusals while rate limited, audited as one line each
+  // lock-out (issue 40: each refusal appended an fsynced audit line).
+  struct LoginSource {
+    std::deque<Clock::time_point> failures;
+    bool refusal_audited = false;
+    std::uint64_t refusals_not_audited = 0;
+  };
+  std::map<std::string, LoginSource> failed_logins;
+  std::uint32_t open_streams = 0;  // event and preview streams (web_max_streams)
 
   State(const DaemonConfig& c, std::shared_ptr<grpc::Channel> channel, WebAuditor a)
       : config(c), audit(std::move(a)), bridge(std::move(channel), c.token) {}
@@ -135,6 +202,25 @@ struct WebServer::State {
     return text;
   }
 
+  // Whether the Host header names this server (issue 40, row 10: DNS
+  // rebinding): a loopback name, the web_address host, the numeric address
+  // the request arrived on, or one of web_host_names; with this server's port
+  // (or none, on the scheme's default port).
+  bool known_host(const httplib::Request& request) const {
+    const auto host = split_host(request.get_header_value("Host"));
+    if (!host) return false;
+    const auto& [name, given_port] = *host;
+    if (given_port != 0 ? given_port != port : port != (tls ? 443 : 80)) return false;
+    const std::string n = lower(name);
+    if (n == "localhost" || n == "[::1]" || n.rfind("127.", 0) == 0) return true;
+    const std::string local = request.local_addr.find(':') != std::string::npos ? "[" + request.local_addr + "]" : request.local_addr;
+    if (n == lower(local)) return true;
+    if (const auto configured = split_host(config.web_address); configured && n == lower(configured->first)) return true;
+    for (const auto& allowed : config.web_host_names)
+      if (n == lower(allowed)) return true;
+    return false;
+  }
+
   // The page's own origin as the browser names it: scheme://Host.
   bool same_origin(const httplib::Request& request) const {
     const std::string origin = request.get_header_value("Origin");
@@ -143,26 +229,82 @@ struct WebServer::State {
     return origin == std::string(tls ? "https://" : "http://") + host;
   }
 
-  void login(const httplib::Request& request, httplib::Response& response) {
+  // The request's body through httplib's content reader, so that a chunked
+  // or compressed body is counted as it arrives (httplib caps only a body
+  // with Content-Length itself, and reads a chunked one to its end): at most
+  // web_max_body_bytes, else 413 and nullopt; a malformed one: 400.
+  std::optional<std::string> read_body(const httplib::ContentReader& reader, httplib::Response& response) const {
+    const std::size_t limit = config.web_max_body_bytes;
+    std::string body;
+    bool too_long = false;
+    const bool complete = reader([&](const char* data, std::size_t size) {
+      if (size > limit - body.size()) {
+        too_long = true;
+        return false;
+      }
+      body.append(data, size);
+      return true;
+    });
+    if (too_long || response.status == 413) {
+      response.status = 413;
+      closing(response);
+      response.set_content(web::error_json("request body: longer than web_max_body_bytes (" + std::to_string(limit) +
+                                               " bytes)", "RESOURCE_EXHAUSTED"),
+                           "application/json");
+      return std::nullopt;
+    }
+    if (!complete) {
+      response.status = 400;
+      closing(response);
+      response.set_content(web::error_json("request body: unreadable (broken chunked encoding or compression)",
+                                           "INVALID_ARGUMENT"),
+                           "application/json");
+      return std::nullopt;
+    }
+    response.status = -1;
+    return body;
+  }
+
+  void login(const httplib::Request& request, const std::string& body_text, httplib::Response& response) {
     const std::string who = "web:" + request.remote_addr;
+    const std::string source = login_source(request.remote_addr);
     {
-      std::lock_guard lock(mutex);
-      auto& failures = failed_logins[request.remote_addr];
+      std::string audit_line;
+      std::unique_lock lock(mutex);
+      if (failed_logins.size() > 4096)  // sources with nothing left to remember
+        for (auto it = failed_logins.begin(); it != failed_logins.end();)
+          it = it->second.failures.empty() && it->second.refusals_not_audited == 0 ? failed_logins.erase(it) : std::next(it);
+      auto& entry = failed_logins[source];
+      auto& failures = entry.failures;
       while (!failures.empty() && Clock::now() - failures.front() > kLoginWindow) failures.pop_front();
       if (failures.size() >= static_cast<std::size_t>(kMaxFailedLogins)) {
         const auto wait_s = std::chrono::duration_cast<std::chrono::seconds>(kLoginWindow - (Clock::now() - failures.front())).count() + 1;
-        audit(who, "web_login", "rate limited: " + std::to_string(kMaxFailedLogins) + " failed log-ins in a minute");
+        if (!entry.refusal_audited)
+          audit_line = "rate limited: " + std::to_string(kMaxFailedLogins) + " failed log-ins in a minute from " + source +
+                       " (further refusals are counted in one line when the limit ends)";
+        else
+          ++entry.refusals_not_audited;
+        entry.refusal_audited = true;
+        lock.unlock();
+        if (!audit_line.empty()) audit(who, "web_login", audit_line);
         response.status = 429;
         response.set_header("Retry-After", std::to_string(wait_s));
-        response.set_content(web::error_json("too many failed log-ins from " + request.remote_addr + "; try again in " +
+        response.set_content(web::error_json("too many failed log-ins from " + source + "; try again in " +
                                                  std::to_string(wait_s) + " s", "RESOURCE_EXHAUSTED"),
                              "application/json");
         return;
       }
+      if (entry.refusals_not_audited > 0)
+        audit_line = "rate limited: " + std::to_string(entry.refusals_not_audited) + " further log-in attempts from " + source +
+                     " refused (not audited one by one)";
+      entry.refusal_audited = false;
+      entry.refusals_not_audited = 0;
+      lock.unlock();
+      if (!audit_line.empty()) audit(who, "web_login", audit_line);
     }
     std::string token;
     try {
-      const auto body = nlohmann::json::parse(request.body);
+      const auto body = nlohmann::json::parse(body_text);
       token = body.at("token").get<std::string>();
     } catch (const std::exception&) {
       response.status = 400;
@@ -172,7 +314,7 @@ struct WebServer::State {
     if (!equal_constant_time(token, config.token)) {
       {
         std::lock_guard lock(mutex);
-        failed_logins[request.remote_addr].push_back(Clock::now());
+        failed_logins[source].failures.push_back(Clock::now());
       }
       audit(who, "web_login", "wrong token");
       response.status = 401;
@@ -184,7 +326,7 @@ struct WebServer::State {
       std::lock_guard lock(mutex);
       for (auto it = sessions.begin(); it != sessions.end();) it = it->second <= Clock::now() ? sessions.erase(it) : std::next(it);
       sessions[id] = Clock::now() + kSessionLifetime;
-      failed_logins.erase(request.remote_addr);
+      failed_logins.erase(source);
     }
     audit(who, "web_login", "");
     response.set_header("Set-Cookie", cookie(id, false));
@@ -203,15 +345,41 @@ struct WebServer::State {
   }
 
   // GET /api/stream/<name>: server-sent events over a streaming method.
+  // At most web_max_streams at once (429 beyond): a slot is held by the
+  // response's content provider and given back when httplib destroys it.
+  // While idle, a stream writes an SSE comment every web_stream_keepalive_ms
+  // and ends when the browser is gone (issue 40: an idle events stream kept
+  // its thread and its API stream slot after the page closed).
   void event_stream(const httplib::Request& request, httplib::Response& response, const std::string& service,
                     const std::string& method, const std::string& request_json) {
+    std::shared_ptr<void> slot;
+    {
+      std::lock_guard lock(mutex);
+      if (open_streams >= config.web_max_streams) {
+        response.status = 429;
+        response.set_content(web::error_json("too many streams open (web_max_streams = " +
+                                                 std::to_string(config.web_max_streams) + ")", "RESOURCE_EXHAUSTED"),
+                             "application/json");
+        return;
+      }
+      ++open_streams;
+      slot = std::shared_ptr<void>(nullptr, [this](void*) {
+        std::lock_guard lock(mutex);
+        --open_streams;
+      });
+    }
     response.set_header("Cache-Control", "no-store");
-    response.set_chunked_content_provider("text/event-stream", [this, service, method, request_json](std::size_t, httplib::DataSink& sink) {
+    response.set_chunked_content_provider("text/event-stream", [this, service, method, request_json, slot](std::size_t, httplib::DataSink& sink) {
       const auto send = [&sink](const std::string& json) {
         const std::string event = "data: " + json + "\n\n";
         return sink.is_writable() && sink.write(event.data(), event.size());
       };
-      const web::BridgeReply end = bridge.stream(service, method, request_json, send);
+      const auto still_there = [&sink] {
+        static constexpr char kComment[] = ":\n\n";
+        return sink.is_writable() && sink.write(kComment, sizeof kComment - 1);
+      };
+      const web::BridgeReply end = bridge.stream(service, method, request_json, send,
+                                                 std::chrono::milliseconds(config.web_stream_keepalive_ms), still_there);
       if (!end.json.empty()) {
         const std::string event = "event: failure\ndata: " + end.json + "\n\n";
         if (sink.is_writable()) sink.write(event.data(), event.size());
@@ -223,16 +391,51 @@ struct WebServer::State {
   }
 
   void routes() {
-    http->set_payload_max_length(1 << 20);
-    http->new_task_queue = [] { return new httplib::ThreadPool(kHttpThreads); };
-    http->set_default_headers({{"Content-Security-Policy", kContentSecurityPolicy},
-                               {"Referrer-Policy", "same-origin"},
-                               {"X-Content-Type-Options", "nosniff"},
-                               {"X-Frame-Options", "DENY"},
-                               {"Cross-Origin-Opener-Policy", "same-origin"}});
+    http->set_payload_max_length(config.web_max_body_bytes);
+    httplib::Headers headers{{"Content-Security-Policy", kContentSecurityPolicy},
+                             {"Referrer-Policy", "same-origin"},
+                             {"X-Content-Type-Options", "nosniff"},
+                             {"X-Frame-Options", "DENY"},
+                             {"Cross-Origin-Opener-Policy", "same-origin"}};
+    // Under TLS the browser is told to come back over TLS only (a year).
+    if (tls) headers.emplace("Strict-Transport-Security", "max-age=31536000");
+    http->set_default_headers(std::move(headers));
     http->set_pre_routing_handler([this](const httplib::Request& request, httplib::Response& response) {
+      // A body nothing will read (a GET's, or one refused below) must not
+      // stay in the connection to be parsed as the next request.
+      const bool body = request.has_header("Transfer-Encoding") ||
+                        (request.has_header("Content-Length") && request.get_header_value("Content-Length") != "0");
+      if (body && (request.method == "GET" || request.method == "HEAD")) closing(response);
+      // Only what the view uses, refused before any body is read (httplib reads
+      // the body of a PUT, PATCH or DELETE whole before looking for a route).
+      if (request.method != "GET" && request.method != "HEAD" && request.method != "POST") {
+        response.status = 405;
+        response.set_header("Allow", "GET, HEAD, POST");
+        closing(response);
+        response.set_content(web::error_json("method " + request.method.substr(0, 16) + " not allowed", "UNIMPLEMENTED"),
+                             "application/json");
+        return httplib::Server::HandlerResponse::Handled;
+      }
+      // Bodies are JSON: a multipart body would go to httplib's form parser.
+      if (request.method == "POST" && request.get_header_value("Content-Type").rfind("multipart/", 0) == 0) {
+        response.status = 415;
+        closing(response);
+        response.set_content(web::error_json("Content-Type: multipart bodies are not accepted (JSON only)", "INVALID_ARGUMENT"),
+                             "application/json");
+        return httplib::Server::HandlerResponse::Handled;
+      }
+      if (!known_host(request)) {
+        response.status = 421;
+        closing(response);
+        response.set_content(web::error_json("Host \"" + request.get_header_value("Host").substr(0, 128) +
+                                                 "\" is not this server's (a loopback name, its address, or one of "
+                                                 "web_host_names)", "PERMISSION_DENIED"),
+                             "application/json");
+        return httplib::Server::HandlerResponse::Handled;
+      }
       if (request.method != "GET" && request.method != "HEAD" && !same_origin(request)) {
         response.status = 403;
+        if (body) closing(response);
         response.set_content(web::error_json("cross-origin request refused (Origin \"" + request.get_header_value("Origin") +
                                                  "\" is not this page's)", "PERMISSION_DENIED"),
                              "application/json");
@@ -240,13 +443,20 @@ struct WebServer::State {
       }
       if (request.path.rfind("/api/", 0) == 0 && !logged_in(request)) {
         response.status = 401;
+        if (body) closing(response);
         response.set_content(web::error_json("log in first", "UNAUTHENTICATED"), "application/json");
         return httplib::Server::HandlerResponse::Handled;
       }
       return httplib::Server::HandlerResponse::Unhandled;
     });
-    http->Post("/login", [this](const httplib::Request& q, httplib::Response& r) { login(q, r); });
-    http->Post("/logout", [this](const httplib::Request& q, httplib::Response& r) { logout(q, r); });
+    // Every POST reads its body through read_body (the cap holds for chunked
+    // bodies too); a POST to no route is refused after a bounded read.
+    http->Post("/login", [this](const httplib::Request& q, httplib::Response& r, const httplib::ContentReader& reader) {
+      if (const auto body = read_body(reader, r)) login(q, *body, r);
+    });
+    http->Post("/logout", [this](const httplib::Request& q, httplib::Response& r, const httplib::ContentReader& reader) {
+      if (read_body(reader, r)) logout(q, r);
+    });
     http->Get("/api/whoami", [](const httplib::Request&, httplib::Response& r) {
       r.set_header("Cache-Control", "no-store");
       r.set_content("{\"logged_in\":true}", "application/json");
@@ -267,11 +477,19 @@ struct WebServer::State {
     http->Get("/api/stream/events", [this](const httplib::Request& q, httplib::Response& r) {
       event_stream(q, r, "EventService", "Subscribe", "{}");
     });
-    http->Post(R"(/api/([A-Za-z0-9]+)/([A-Za-z0-9]+))", [this](const httplib::Request& q, httplib::Response& r) {
-      const web::BridgeReply reply = bridge.call(q.matches[1], q.matches[2], q.body);
+    http->Post(R"(/api/([A-Za-z0-9]+)/([A-Za-z0-9]+))", [this](const httplib::Request& q, httplib::Response& r,
+                                                                const httplib::ContentReader& reader) {
+      const auto body = read_body(reader, r);
+      if (!body) return;
+      const web::BridgeReply reply = bridge.call(q.matches[1], q.matches[2], *body);
       r.status = reply.http_status;
       r.set_header("Cache-Control", "no-store");
       r.set_content(reply.json, "application/json");
+    });
+    http->Post(R"(/.*)", [this](const httplib::Request& q, httplib::Response& r, const httplib::ContentReader& reader) {
+      if (!read_body(reader, r)) return;
+      r.status = 404;
+      r.set_content(web::error_json("no route POST " + q.path.substr(0, 256), "NOT_FOUND"), "application/json");
     });
     // A session's own files (maps.exr, previews, summary.json, the journal):
     // only inside that session's folder, after log-in (the pre-routing check).
@@ -305,13 +523,14 @@ WebServer::WebServer(const DaemonConfig& config, std::shared_ptr<grpc::Channel> 
   if (config.web_address.empty()) throw std::invalid_argument("web_address: not set");
   if (config.web_dir.empty() || !fs::is_directory(config.web_dir))
     throw std::runtime_error("web_dir: \"" + config.web_dir.string() + "\" is not a folder (build the front end: docs/web.md)");
-  if (!config.tls_certificate_file.empty()) {
-    state_->tls = true;
-    state_->http = std::make_unique<httplib::SSLServer>(config.tls_certificate_file.c_str(), config.tls_private_key_file.c_str());
-    if (!state_->http->is_valid()) throw std::runtime_error("web_address: cannot use the TLS certificate and key");
-  } else {
-    state_->http = std::make_unique<httplib::Server>();
-  }
+  web::ConnectionLimits limits;
+  limits.threads = kHttpThreads;
+  limits.head_timeout = std::chrono::milliseconds(config.web_request_head_timeout_ms);
+  limits.max_body_wire_bytes = 2 * config.web_max_body_bytes + (64u << 10);  // chunk framing on top of the body
+  state_->tls = !config.tls_certificate_file.empty();
+  state_->http = web::make_guarded_server(limits, state_->tls ? config.tls_certificate_file.c_str() : nullptr,
+                                          config.tls_private_key_file.c_str(), &state_->guard);
+  if (!state_->http->is_valid()) throw std::runtime_error("web_address: cannot use the TLS certificate and key");
   state_->routes();
   const auto colon = config.web_address.rfind(':');
   std::string host = config.web_address.substr(0, colon);

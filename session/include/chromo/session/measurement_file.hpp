@@ -43,6 +43,12 @@ struct MeasurementFile {
 // "builtin:<name>" (spectral::builtin_camera) or a CSV path relative to `base`.
 spectral::CameraSensitivity camera_by_name_or_file(const std::string& text, const std::filesystem::path& base);
 
+// At most this many channels (the listed camera channels of all images
+// together, so at most this many images), checked before any image is read:
+// the largest built-in plan (multispectral+method) has 27. One file listing
+// an image 1000 times reached 15.5 GB before.
+inline constexpr std::size_t kMaxMeasurementChannels = 32;
+
 // Throws MeasurementFileError for anything wrong with the file or what it names.
 MeasurementFile read_measurement_file(const std::filesystem::path& json_file);
 

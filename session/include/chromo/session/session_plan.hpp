@@ -167,6 +167,14 @@ inline constexpr std::size_t kMaxSteps = 256;
 inline constexpr std::uint32_t kMaxFramesPerCamera = 1000;
 inline constexpr std::uint32_t kMaxSettleMs = 60000;
 inline constexpr double kMaxExposureUs = 10e6;
+// No camera exposes shorter than a microsecond (GigE Vision cameras: 1-100 µs);
+// 1e-300 passed validation once and failed only at the camera.
+inline constexpr double kMinExposureUs = 1;
+// "" when `text` holds no control character, else what is wrong ("control
+// character 0x1b at byte 4"): C0 controls (NUL, ESC, ...), DEL and the C1
+// controls as UTF-8 (U+0080-U+009F), which a terminal may act on when the
+// text is printed; tab and newline only when `multiline`.
+std::string control_character_error(const std::string& text, bool multiline = false);
 // [A-Za-z0-9_+.-]{1,64}
 bool is_valid_name(const std::string& name);
 // "d65", "w57", "w57+blue", "w57+blue:R" or "w57:R" with R in (0, 100]

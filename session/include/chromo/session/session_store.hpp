@@ -83,8 +83,11 @@ class SessionStore {
   Created create(const SessionPlan& plan, const std::string& subject, const nlohmann::json& devices);
 
   // Every session in the folder, newest first, with in-flight ones marked
-  // interrupted on disk.
-  std::vector<SessionInfo> recover();
+  // interrupted on disk. A folder that cannot be recovered (a loop of
+  // symbolic links, a file that cannot be read, a session.json whose id is
+  // not the folder's name) is skipped, never fatal: "<folder>: <why>" goes
+  // into `skipped` when given.
+  std::vector<SessionInfo> recover(std::vector<std::string>* skipped = nullptr);
 
   // Throws std::runtime_error when the folder is not a session.
   SessionInfo read_session(const std::filesystem::path& folder) const;
