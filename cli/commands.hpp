@@ -15,6 +15,8 @@ void add_model_command(CLI::App& app, int& exit_status);
 void add_profiles_command(CLI::App& app, int& exit_status);
 void add_leds_command(CLI::App& app, int& exit_status);
 void add_fit_spectrum_command(CLI::App& app, int& exit_status);
+void add_discrepancy_command(CLI::App& app, int& exit_status);
+void add_real_skin_scene_command(CLI::App& app, int& exit_status);
 void add_estimate_command(CLI::App& app, int& exit_status);
 // What the maps are for (docs/maps.md); import-maps also registers make-maps-test-data.
 void add_relight_command(CLI::App& app, int& exit_status);
@@ -30,6 +32,8 @@ void add_led_command(CLI::App& app, int& exit_status);
 void add_session_command(CLI::App& app, int& exit_status);
 void add_results_command(CLI::App& app, int& exit_status);
 void add_solve_command(CLI::App& app, int& exit_status);
+// A stored session's maps and frames as OME-TIFF (export_command.cpp).
+void add_export_command(CLI::App& app, int& exit_status);
 // The plan advisor offline (plan_command.cpp).
 void add_plan_command(CLI::App& app, int& exit_status);
 // A study of many stored sessions, here or on a Slurm cluster (study_command.cpp).

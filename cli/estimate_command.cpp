@@ -28,6 +28,7 @@
 #include "chromo/estimation/spatial_flags.hpp"
 #include "chromo/spectral/resample.hpp"
 #include "chromo/spectral/table.hpp"
+#include "chromo/estimation/model_discrepancy.hpp"
 #include "commands.hpp"
 #include "session_estimate.hpp"
 #include "chromo/files/float_image.hpp"
@@ -185,6 +186,11 @@ void add_estimate_command(CLI::App& app, int& exit_status) {
       ->capture_default_str();
   cmd->add_option("--model", options->model, "model order: auto (χ² likelihood-ratio test, pooled over 7×7 windows unless --no-order-pooling), 2d or 4d")
       ->check(CLI::IsMember({"auto", "2d", "4d"}))
+      ->capture_default_str();
+  cmd->add_option("--discrepancy", options->discrepancy,
+                  "the skin model's shortfall on real skin, added to the noise wherever a residual is weighed: learned "
+                  "(from the NIST forearm spectra, docs/estimation.md 'Real skin') or none (camera noise alone)")
+      ->check(CLI::IsMember({"learned", "none"}))
       ->capture_default_str();
   cmd->add_flag("--neighbourhood-flags,!--no-neighbourhood-flags", options->neighbourhood_flags,
                 "flag pixels from their neighbourhood (code 7: weak rims of flagged regions, part of a highlight; "

@@ -16,6 +16,8 @@ int main(int argc, char** argv) {
   chromo::cli::add_profiles_command(app, exit_status);
   chromo::cli::add_leds_command(app, exit_status);
   chromo::cli::add_fit_spectrum_command(app, exit_status);
+  chromo::cli::add_discrepancy_command(app, exit_status);
+  chromo::cli::add_real_skin_scene_command(app, exit_status);
   chromo::cli::add_estimate_command(app, exit_status);
   chromo::cli::add_relight_command(app, exit_status);
   chromo::cli::add_flush_command(app, exit_status);
@@ -26,6 +28,7 @@ int main(int argc, char** argv) {
   chromo::cli::add_results_command(app, exit_status);
   chromo::cli::add_solve_command(app, exit_status);
   chromo::cli::add_plan_command(app, exit_status);
+  chromo::cli::add_export_command(app, exit_status);
   chromo::cli::add_study_command(app, exit_status);
   try {
     app.parse(argc, argv);

@@ -2,6 +2,8 @@
 // `chromo estimate SESSION_DIR` and `chromo study` run for each session.
 #include "session_estimate.hpp"
 
+#include "chromo/estimation/model_discrepancy.hpp"
+
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
@@ -27,6 +29,8 @@ estimation::EstimatorOptions estimator_options(const EstimateOptions& options) {
   eo.method = estimation::parse_method_name(options.method).value_or(estimation::InverterMethod::kFast);
   eo.model = estimation::parse_model_name(options.model).value_or(estimation::ModelChoice::kAuto);
   eo.threads = options.threads;
+  // The model's learned discrepancy on real skin (docs/estimation.md "Real skin"), or none.
+  eo.discrepancy = options.discrepancy == "learned" ? estimation::ModelDiscrepancy::standard() : nullptr;
   eo.cache_dir = options.cache_dir;  // the fast method's inverse table next to the forward table
   return eo;
 }

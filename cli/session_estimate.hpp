@@ -24,6 +24,7 @@ struct EstimateOptions {
   std::string out;
   std::string method = "fast";
   std::string model = "auto";
+  std::string discrepancy = "learned";  // the model's learned discrepancy on real skin, or "none"
   std::string cache_dir;
   int threads = 0;
   bool neighbourhood_flags = true;

@@ -226,6 +226,11 @@ int study_task(const std::string& dir, const std::string& submission, int task, 
 void add_estimation_options(CLI::App* cmd, EstimateOptions& e) {
   cmd->add_option("--method", e.method, "inverter")->check(CLI::IsMember({"exhaustive", "fast", "2d"}))->capture_default_str();
   cmd->add_option("--model", e.model, "model order")->check(CLI::IsMember({"auto", "2d", "4d"}))->capture_default_str();
+  cmd->add_option("--discrepancy", e.discrepancy,
+                  "the skin model's shortfall on real skin, added to the noise wherever a residual is weighed: learned "
+                  "(from the NIST forearm spectra, docs/estimation.md 'Real skin') or none (camera noise alone)")
+      ->check(CLI::IsMember({"learned", "none"}))
+      ->capture_default_str();
   cmd->add_flag("--neighbourhood-flags,!--no-neighbourhood-flags", e.neighbourhood_flags,
                 "flag pixels from their neighbourhood (as chromo estimate; on by default)");
   cmd->add_flag("!--no-order-pooling", e.order_pooling, "with --model auto, decide the order per pixel only");

@@ -18,6 +18,8 @@
 #define CHROMO_VERSION "unknown"
 #endif
 
+#include "chromo/estimation/model_discrepancy.hpp"
+
 namespace chromo::cli::study {
 
 namespace fs = std::filesystem;
@@ -25,6 +27,7 @@ namespace fs = std::filesystem;
 nlohmann::ordered_json options_json(const EstimateOptions& options, const std::vector<RegionSpec>& regions) {
   nlohmann::ordered_json json{{"method", options.method},
                               {"model", options.model},
+                              {"discrepancy", options.discrepancy},
                               {"neighbourhood_flags", options.neighbourhood_flags},
                               {"order_pooling", options.order_pooling},
                               {"led_library", options.led_library.empty() ? "" : fs::absolute(options.led_library).string()},
@@ -40,6 +43,7 @@ EstimateOptions options_from_json(const nlohmann::json& json) {
   try {
     options.method = json.at("method").get<std::string>();
     options.model = json.at("model").get<std::string>();
+    options.discrepancy = json.value("discrepancy", std::string("learned"));
     options.neighbourhood_flags = json.at("neighbourhood_flags").get<bool>();
     options.order_pooling = json.at("order_pooling").get<bool>();
     options.led_library = json.at("led_library").get<std::string>();
@@ -106,6 +110,8 @@ std::string input_hash(const fs::path& session_folder, const EstimateOptions& op
   add_text(hash, "chromosphere-study-inputs/1");
   add_text(hash, version);
   add_text(hash, options_json(options, regions).dump());
+  // The learned model statistics: the shipped residual table they are learned from.
+  if (options.discrepancy == "learned") add_text(hash, estimation::residuals_csv(estimation::nist_forearm_residuals(), ""));
   std::vector<std::string> inputs;
   std::error_code error;
   if (fs::is_directory(session_folder, error)) {

@@ -14,12 +14,15 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox
   # images
   libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev libopencv-video-dev
-  libopenexr-dev libtiff-dev
+  libopenexr-dev libtiff-dev libdeflate-dev
   # devices
   libusb-1.0-0-dev libhidapi-dev libmodbus-dev libaravis-dev aravis-tools
   # socket API and the Python client; the web view's HTTP(S) server
   protobuf-compiler libprotobuf-dev libgrpc++-dev protobuf-compiler-grpc
   python3 python3-grpcio python3-protobuf
+  # the maps in Python: the client package's numpy arrays, the OME-TIFF reader
+  # its tests check the files with, the worked example's plots, its venv test
+  python3-numpy python3-tifffile python3-matplotlib python3-venv python3-pip python3-setuptools
   libcpp-httplib-dev
   # studies as Slurm job arrays (docs/study.md): the test starts a single-node cluster
   slurmctld slurmd slurm-client munge

@@ -76,6 +76,8 @@ bool DaemonConfig::IsValid(std::string* error) const {
     return fail("estimation.method: \"" + estimation.method + "\" is not fast, exhaustive or 2d");
   if (!chromo::estimation::parse_model_name(estimation.model))
     return fail("estimation.model: \"" + estimation.model + "\" is not auto, 2d or 4d");
+  if (estimation.discrepancy != "learned" && estimation.discrepancy != "none")
+    return fail("estimation.discrepancy: \"" + estimation.discrepancy + "\" is not learned or none");
   if (!(estimation.white_reflectance > 0 && estimation.white_reflectance <= 1))
     return fail("estimation.white_reflectance: must be in (0, 1]");
   if (estimation.threads < 0 || estimation.threads > 256) return fail("estimation.threads: must be in [0, 256]");
@@ -415,6 +417,10 @@ const std::vector<Key>& estimation_keys() {
                  [](const std::string& v) {
                    return estimation::parse_model_name(v) ? std::string() : "\"" + v + "\" is not auto, 2d or 4d";
                  }),
+      string_key("discrepancy", [](DaemonConfig& c) -> auto& { return c.estimation.discrepancy; },
+                 [](const std::string& v) {
+                   return v == "learned" || v == "none" ? std::string() : "\"" + v + "\" is not learned or none";
+                 }),
       string_key("led_library", [](DaemonConfig& c) -> auto& { return c.estimation.led_library; }, led_library_error),
       string_key("camera_sensitivity", [](DaemonConfig& c) -> auto& { return c.estimation.camera_sensitivity; },
                  camera_sensitivity_error),
@@ -583,6 +589,8 @@ const std::vector<Key>& top_level_keys() {
       bool_key("tcp_insecure", [](DaemonConfig& c) -> auto& { return c.tcp_insecure; }),  // with TLS or token: IsValid
       unsigned_key("max_streams", 1, 1024, [](DaemonConfig& c) -> auto& { return c.max_streams; }),
       string_key("maps_dir", [](DaemonConfig& c) -> auto& { return c.maps_dir; }, optional_folder),
+      unsigned_key("max_read_maps_bytes", 1ull << 20, 1ull << 36,
+                   [](DaemonConfig& c) -> auto& { return c.max_read_maps_bytes; }),
       string_key("web_address", [](DaemonConfig& c) -> auto& { return c.web_address; }, tcp_address_error),
       string_key("web_dir", [](DaemonConfig& c) -> auto& { return c.web_dir; }, optional_existing_folder),
       string_key("sessions_dir", [](DaemonConfig& c) -> auto& { return c.sessions_dir; },

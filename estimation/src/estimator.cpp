@@ -1,5 +1,8 @@
 #include "chromo/estimation/estimator.hpp"
 
+#include "chromo/estimation/model_discrepancy.hpp"
+#include "pixel_covariance.hpp"
+
 #include <omp.h>
 
 #include <algorithm>
@@ -145,18 +148,56 @@ Estimator::Estimator(std::shared_ptr<const ForwardTable> table, MeasurementSet s
   if (options_.model == ModelChoice::kAuto && options_.order_rule == EstimatorOptions::OrderRule::kAppearance)
     appearance_ = AppearanceTable::shared(table_->grid(), options_.cache_dir);
   order_threshold_ = std::min(c, 4) > 2 ? chi_squared_quantile(1 - options_.order_significance, std::min(c, 4) - 2) : 0;
+  if (options_.discrepancy) discrepancy_ = options_.discrepancy->channel_covariance(set_);
 }
 
 double Estimator::weight(int channel, double albedo) const {
   return set_.channels[channel].noise.fit_weight(albedo, options_.model_sigma_relative);
 }
 
+double Estimator::fit_variance(int channel, double albedo) const {
+  const double w = weight(channel, albedo);
+  return 1 / (w * w);
+}
+
+void Estimator::set_uncertainty(const detail::PixelCovariance& covariance, const GridPoint& x, PixelEstimate& out) const {
+  const int c_count = channels();
+  ChannelBuffer<double> value(c_count), jacobian(c_count * 4);
+  table_->predict(x, value, jacobian);
+  // The data's information plus a weak prior of one box width per parameter
+  // (σ_prior = the parameter's range): without it a parameter the channels
+  // barely see gets a linearised spread far beyond its range; with the
+  // uniform box's own 12/width² (the order rule's, appearance_order.hpp) such
+  // a parameter's σ would be width/√12 while its estimate may sit anywhere in
+  // the box, and 2σ would cover little more than half of its errors.
+  const auto nodes = table_->nodes();
+  Eigen::Matrix4d information = covariance.information(jacobian.data());
+  for (int k = 0; k < 4; ++k) information(k, k) += 1.0 / ((nodes[k] - 1.0) * (nodes[k] - 1.0));
+  Eigen::Vector4d scale;
+  for (int k = 0; k < 4; ++k) scale(k) = 1 / std::sqrt(information(k, k));
+  const Eigen::Matrix4d unit = scale.asDiagonal() * information * scale.asDiagonal();
+  const Eigen::Matrix4d grid_covariance = scale.asDiagonal() * unit.inverse() * scale.asDiagonal();
+  // Grid units → parameter units, axis by axis (the grid's axes are separable).
+  for (int k = 0; k < 4; ++k) {
+    constexpr double kStep = 1e-3;
+    GridPoint up = x, down = x;
+    up[k] = std::min(x[k] + kStep, nodes[k] - 1.0), down[k] = std::max(x[k] - kStep, 0.0);
+    const SkinParameters pu = table_->from_grid(up), pd = table_->from_grid(down);
+    const double vu[4] = {pu.cm, pu.ch, pu.bm, pu.che}, vd[4] = {pd.cm, pd.ch, pd.bm, pd.che};
+    const double derivative = up[k] > down[k] ? (vu[k] - vd[k]) / (up[k] - down[k]) : 0.0;
+    out.sigma[k] = static_cast<float>(std::abs(derivative) * std::sqrt(std::max(grid_covariance(k, k), 0.0)));
+  }
+  const double denominator = std::sqrt(grid_covariance(1, 1) * grid_covariance(3, 3));
+  out.ch_che_correlation = static_cast<float>(denominator > 0 ? grid_covariance(1, 3) / denominator : 0.0);
+}
+
 void Estimator::predict(const SkinParameters& p, double* out) const { table_->predict(table_->to_grid(p), out); }
 
-bool Estimator::two_d_suffices(const ChannelBuffer<double>& measured, const Fit& fit4, const Fit& fit2) const {
+bool Estimator::two_d_suffices(const ChannelBuffer<double>& measured, const Fit& fit4, double chi2_4, const Fit& fit2,
+                               double chi2_2) const {
   if (options_.order_rule == EstimatorOptions::OrderRule::kLikelihoodRatio)
-    // 4D does not lower χ² by more than noise would.
-    return fit2.chi2 - fit4.chi2 <= order_threshold_;
+    // 4D does not lower χ² by more than noise and the discrepancy would.
+    return chi2_2 - chi2_4 <= order_threshold_;
   // The appearance rule (step 3 of the header): the 2D fit looks under the
   // reference illuminants like the 4D fit, to within order_appearance_factor
   // × the 4D fit's own appearance uncertainty from the camera noise.
@@ -174,7 +215,7 @@ PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const
     throw std::logic_error("estimate_pixel: the auto model needs an Estimator built with model auto (its appearance table)");
   PixelEstimate out;
   const int c_count = channels();
-  ChannelBuffer<double> measured(c_count), weight(c_count);
+  ChannelBuffer<double> measured(c_count), weight(c_count), variance(c_count);
   bool dark = true;
   for (int c = 0; c < c_count; ++c) {
     if (!std::isfinite(m[c])) {
@@ -189,37 +230,57 @@ PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const
     }
     if (m[c] >= options_.dark_albedo) dark = false;
     measured[c] = m[c];
-    weight[c] = this->weight(c, m[c]);
+    variance[c] = fit_variance(c, m[c]);
   }
   if (dark) {
     out.flag = PixelFlag::kDark;
     return out;
   }
+  // Step 2: the pixel's Σ; the fits weigh each channel by 1/√Σ_cc.
+  const detail::PixelCovariance covariance(variance.data(), discrepancy_, c_count);
+  const bool generalised = discrepancy_.size() > 0;
+  for (int c = 0; c < c_count; ++c) weight[c] = 1 / std::sqrt(variance[c] + (generalised ? discrepancy_(c, c) : 0.0));
+  ChannelBuffer<double> residual(c_count);
+  // χ² of a fit of measured − s: the inverter's own weighted sum without a
+  // discrepancy (bit for bit today's statistic), rᵀ Σ⁻¹ r with one.
+  auto chi2_of = [&](const Fit& f, double s) {
+    if (!generalised) return f.chi2;
+    if (f.has_prediction && c_count == Fit::kPredictedChannels) std::copy_n(f.predicted, c_count, residual.data());
+    else table_->predict(f.x, residual);
+    for (int c = 0; c < c_count; ++c) residual[c] = measured[c] - s - residual[c];
+    return covariance.chi2(residual.data());
+  };
   const Inverter& inv = *inverter_;
   Fit chosen, fit4;
+  double chosen_chi2 = 0;
   int order = 4;
   if (model == ModelChoice::k2d || options_.method == InverterMethod::k2d) {
     chosen = inv.fit(measured, weight, 2);
+    chosen_chi2 = chi2_of(chosen, 0);
     fit4.x = chosen.x;  // the specular test's first start
     order = 2;
   } else {
     chosen = fit4 = inv.fit(measured, weight, 4);
+    chosen_chi2 = chi2_of(fit4, 0);
+    const double chi2_4 = chosen_chi2;
     // A pixel this far outside the 4D gamut is outside its 2D slice too
     // (χ²₂ ≥ χ²₄): the 2D fit (the search path, for such a pixel) is skipped
     // and the pixel keeps order 4.
-    const bool hopeless = chosen.chi2 > kHopelessChi2Factor * flag_threshold_[2];
+    const bool hopeless = chi2_4 > kHopelessChi2Factor * flag_threshold_[2];
     if (model == ModelChoice::kAuto && !hopeless) {
       const Fit fit2 = inv.fit(measured, weight, 2);
-      out.order_statistic = static_cast<float>(std::max(fit2.chi2 - chosen.chi2, 0.0));
+      const double chi2_2 = chi2_of(fit2, 0);
+      out.order_statistic = static_cast<float>(std::max(chi2_2 - chi2_4, 0.0));
       // A pixel only the 4D fit explains keeps order 4 under either rule: a
       // pixel one order explains is not flagged for the rule picking the other.
-      const bool only_4d_explains = fit2.chi2 > flag_threshold_[2] && chosen.chi2 <= flag_threshold_[4];
-      if (!only_4d_explains && two_d_suffices(measured, chosen, fit2)) chosen = fit2, order = 2;
+      const bool only_4d_explains = chi2_2 > flag_threshold_[2] && chi2_4 <= flag_threshold_[4];
+      if (!only_4d_explains && two_d_suffices(measured, fit4, chi2_4, fit2, chi2_2))
+        chosen = fit2, chosen_chi2 = chi2_2, order = 2;
     }
   }
   out.order = static_cast<std::uint8_t>(order);
   out.parameters = table_->from_grid(chosen.x);
-  out.chi2 = static_cast<float>(chosen.chi2);
+  out.chi2 = static_cast<float>(chosen_chi2);
   ChannelBuffer<double> predicted(c_count);
   if (chosen.has_prediction && c_count == Fit::kPredictedChannels) std::copy_n(chosen.predicted, c_count, predicted.data());
   else table_->predict(chosen.x, predicted);
@@ -230,22 +291,29 @@ PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const
     if (measured[c] >= predicted[c]) darker_everywhere = false;
   }
   out.residual = static_cast<float>(std::sqrt(sum / c_count));
-  if (chosen.chi2 <= flag_threshold_[order]) return out;
+  if (chosen_chi2 <= flag_threshold_[order]) {
+    if (options_.uncertainty) set_uncertainty(covariance, chosen.x, out);
+    return out;
+  }
 
   // Not explained: is it skin under a white surface reflection?
-  const Fit specular = specular_fit(measured, weight, fit4.x);
-  if (specular.chi2 <= flag_threshold_[4]) {
+  const Fit specular = specular_fit(measured, weight, fit4.x, chi2_of);
+  const double specular_chi2 = specular.chi2;
+  if (specular_chi2 <= flag_threshold_[4]) {
     out.flag = PixelFlag::kSpecular;
     out.order = 4;
     out.parameters = table_->from_grid(specular.x);
-    out.chi2 = static_cast<float>(specular.chi2);
+    out.chi2 = static_cast<float>(specular_chi2);
+    if (options_.uncertainty) set_uncertainty(covariance, specular.x, out);
     return out;
   }
   out.flag = darker_everywhere ? PixelFlag::kUnexplainedAbsorber : PixelFlag::kUnexplainedColour;
+  if (options_.uncertainty) set_uncertainty(covariance, chosen.x, out);
   return out;
 }
 
-Fit Estimator::specular_fit(const double* measured, const double* weight, const GridPoint& start) const {
+Fit Estimator::specular_fit(const double* measured, const double* weight, const GridPoint& start,
+                            const std::function<double(const Fit&, double s)>& chi2) const {
   // s is scanned upward in kSpecularSteps steps up to 8/9 of the smallest
   // channel. A flat offset moves the fit smoothly, so each step continues the
   // previous step's fit with a few bounded LM iterations on the table instead
@@ -266,7 +334,8 @@ Fit Estimator::specular_fit(const double* measured, const double* weight, const 
     const double s = smallest * step / (kSpecularSteps + 1.0);
     if (s < options_.min_specular) continue;
     for (int c = 0; c < c_count; ++c) diffuse[c] = measured[c] - s;
-    const Fit f = inverter_->refine(diffuse, weight, 4, x, kSpecularContinuationIterations);
+    Fit f = inverter_->refine(diffuse, weight, 4, x, kSpecularContinuationIterations);
+    f.chi2 = chi2(f, s);
     x = f.x;
     if (f.chi2 < best.chi2) best = f;
     if (f.chi2 <= flag_threshold_[4]) return f;

@@ -13,8 +13,10 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "chromo/estimation/highlight_flags.hpp"
+#include "chromo/estimation/model_discrepancy.hpp"
 #include "chromo/maps/map_panels.hpp"
 #include "chromo/maps/map_previews.hpp"
+#include "chromo/maps/ome_tiff.hpp"
 #include "chromo/maps/relit_table.hpp"
 #include "chromo/estimation/skin_model.hpp"
 #include "chromo/files/binary_cache.hpp"
@@ -71,6 +73,7 @@ std::string registration_report_json(std::span<const session::RegistrationReport
                    {"motion_px", r.motion_px},
                    {"warped", r.warped},
                    {"residual_motion_px", r.result.residual_motion_px},
+                   {"motion_noise_px", r.result.motion_noise_px},
                    {"skipped_pyramid_levels", skipped_levels(r.result.skipped_levels)},
                    {"method", session::registration_method_name(r.result.method)},
                    {"translation_sigma_px", r.result.translation_sigma_px},
@@ -116,6 +119,41 @@ std::vector<ChannelSnr> channel_snr(const estimation::MeasurementSet& set, std::
   return out;
 }
 
+namespace {
+
+// The σ maps in words: each parameter's median 1σ over the explained pixels,
+// and the share of them whose Ch and Che the data cannot separate
+// (|correlation| > kInseparableCorrelation).
+constexpr double kInseparableCorrelation = 0.9;
+nlohmann::ordered_json uncertainty_summary(std::span<const estimation::PixelEstimate> estimates) {
+  std::vector<float> sigma[4];
+  std::size_t inseparable = 0, counted = 0;
+  for (const estimation::PixelEstimate& e : estimates) {
+    if (e.flag != estimation::PixelFlag::kExplained || !std::isfinite(e.sigma[0])) continue;
+    ++counted;
+    for (int p = 0; p < 4; ++p) sigma[p].push_back(e.sigma[p]);
+    inseparable += std::abs(e.ch_che_correlation) > kInseparableCorrelation;
+  }
+  nlohmann::ordered_json out;
+  out["pixels"] = counted;
+  const char* names[4] = {"Cm", "Ch", "Bm", "Che"};
+  nlohmann::ordered_json median;
+  for (int p = 0; p < 4; ++p) {
+    if (sigma[p].empty()) {
+      median[names[p]] = nullptr;
+      continue;
+    }
+    std::nth_element(sigma[p].begin(), sigma[p].begin() + sigma[p].size() / 2, sigma[p].end());
+    median[names[p]] = sigma[p][sigma[p].size() / 2];
+  }
+  out["median_sigma"] = median;
+  out["ch_che_inseparable_share"] = counted ? static_cast<double>(inseparable) / counted : 0.0;
+  out["ch_che_inseparable_when"] = "|corr_Ch_Che| > 0.9";
+  return out;
+}
+
+}  // namespace
+
 std::string write_estimate_report(const fs::path& dir, const EstimateReport& report, const FileCommit& commit,
                                   int writer_threads) {
   const int threads = files::exr_writer_threads(writer_threads);
@@ -123,15 +161,21 @@ std::string write_estimate_report(const fs::path& dir, const EstimateReport& rep
   if (report.estimates.size() != pixels) throw std::invalid_argument("estimate report: estimates do not fill the image");
   files::FloatImage maps;
   maps.width = report.width, maps.height = report.height;
-  maps.channel_names = {"Cm", "Ch", "Bm", "Che", "residual", "order", "flags"};
-  maps.channels.assign(7, std::vector<float>(pixels));
+  // The parameters, the fit, and each parameter's 1σ with the Ch-Che
+  // correlation (estimator.hpp, PixelEstimate::sigma; docs/formats/measurement.md).
+  maps.channel_names = {"Cm",       "Ch",       "Bm",       "Che",       "residual",   "order",
+                        "flags",    "sigma_Cm", "sigma_Ch", "sigma_Bm", "sigma_Che", "corr_Ch_Che"};
+  constexpr int kMapChannels = 12;
+  maps.channels.assign(kMapChannels, std::vector<float>(pixels));
   std::vector<std::uint8_t> hide(pixels);
   std::vector<double> residuals;
   for (std::size_t i = 0; i < pixels; ++i) {
     const estimation::PixelEstimate& e = report.estimates[i];
-    const float values[7] = {float(e.parameters.cm), float(e.parameters.ch), float(e.parameters.bm),
-                             float(e.parameters.che), e.residual, float(e.order), float(static_cast<int>(e.flag))};
-    for (int c = 0; c < 7; ++c) maps.channels[c][i] = values[c];
+    const float values[kMapChannels] = {float(e.parameters.cm), float(e.parameters.ch), float(e.parameters.bm),
+                                        float(e.parameters.che), e.residual, float(e.order),
+                                        float(static_cast<int>(e.flag)), e.sigma[0], e.sigma[1], e.sigma[2], e.sigma[3],
+                                        e.ch_che_correlation};
+    for (int c = 0; c < kMapChannels; ++c) maps.channels[c][i] = values[c];
     hide[i] = e.flag != estimation::PixelFlag::kExplained && e.flag != estimation::PixelFlag::kSpecular;
     if (e.order > 0) residuals.push_back(e.residual);
   }
@@ -166,6 +210,7 @@ std::string write_estimate_report(const fs::path& dir, const EstimateReport& rep
                    {"p95", quantile(0.95)},
                    {"max", residuals.empty() ? 0.0 : residuals.back()}};
   s["order_counts"] = {{"2", report.summary.order2}, {"4", report.summary.order4}};
+  s["uncertainty"] = uncertainty_summary(report.estimates);
   nlohmann::ordered_json flags;
   for (int f = 0; f < estimation::kPixelFlagCount; ++f)
     flags[std::string(estimation::pixel_flag_name(static_cast<estimation::PixelFlag>(f)))] = report.summary.flag_counts[f];
@@ -189,7 +234,9 @@ std::string write_estimate_report(const fs::path& dir, const EstimateReport& rep
       Preview{"ch.png", 1, estimation::kChRange.min, estimation::kChRange.max, true},
       Preview{"bm.png", 2, 0.0, 1.0, false},
       Preview{"che.png", 3, 0.0, 0.1, false},
-      Preview{"residual.png", 4, 0.0, std::max(quantile(0.99), 1e-6), false}};
+      Preview{"residual.png", 4, 0.0, std::max(quantile(0.99), 1e-6), false},
+      Preview{"sigma_cm.png", 7, 1e-4, 0.1, true},
+      Preview{"sigma_ch.png", 8, 1e-4, 0.1, true}};
   std::vector<std::string> flag_names;
   for (int f = 0; f < estimation::kPixelFlagCount; ++f) flag_names.emplace_back(estimation::pixel_flag_name(static_cast<estimation::PixelFlag>(f)));
   struct Encoded {
@@ -229,6 +276,8 @@ std::string write_estimate_report(const fs::path& dir, const EstimateReport& rep
     commit(dir / "maps.exr", [&](const fs::path& t) { files::write_exr(t, maps, exr); });
     for (std::size_t i = 0; i < previews.size() + 2; ++i) encode(i);
   }
+  // The same channels for Fiji, napari and Python (ome_tiff.hpp).
+  commit(dir / "maps.ome.tiff", [&](const fs::path& t) { write_maps_ome_tiff(t, maps, {0, threads}); });
   for (const Encoded& e : encoded)
     commit(dir / e.file, [&](const fs::path& t) {
       std::ofstream out(t, std::ios::binary);
@@ -293,6 +342,12 @@ std::vector<RelitComparison> compare_with_photographs(std::span<const estimation
                    photo_delta_e94(photographed, reconstructed[p], camera, photographs[p].illuminant)});
   }
   return out;
+}
+
+estimation::EstimatorOptions default_estimator_options() {
+  estimation::EstimatorOptions options;
+  options.discrepancy = estimation::ModelDiscrepancy::standard();
+  return options;
 }
 
 PreparedTables prepare_tables(const estimation::MeasurementSet& set, const MethodEstimationOptions& options,

@@ -145,18 +145,32 @@ std::vector<RegistrationReport> register_images(MeasurementFile& m) {
   const MeasurementImage& first = m.images.front();
   for (std::size_t k = 1; k < m.images.size(); ++k) {
     MeasurementImage& image = m.images[k];
-    std::string shared;
-    for (const auto& c : image.channels)
-      if (std::find(first.channels.begin(), first.channels.end(), c) != first.channels.end()) {
-        shared = c;
-        break;
+    // The channel both list that is brightest in both captures: the larger
+    // the share of its capture's light a channel receives, the less its
+    // albedo is noise (a weak channel, e.g. R under the green LED,
+    // registers on its noise).
+    auto light_share = [&](const MeasurementImage& im, const std::string& c) {
+      double own = 0, brightest = 0;
+      for (int k = 0; k < 3; ++k) {
+        const double w = (m.camera.rgb[static_cast<std::size_t>(k)] * im.illuminant).values().sum();
+        brightest = std::max(brightest, w);
+        if (k == channel_index(c)) own = w;
       }
+      return brightest > 0 ? own / brightest : 0.0;
+    };
+    std::string shared;
+    double strongest = -1;
+    for (const auto& c : image.channels) {
+      if (std::find(first.channels.begin(), first.channels.end(), c) == first.channels.end()) continue;
+      const double share = std::min(light_share(image, c), light_share(first, c));
+      if (share > strongest) strongest = share, shared = c;
+    }
     if (shared.empty()) shared = image.channels.front();
     try {
       const RegistrationResult r =
           register_channel(first.pixels.channel(shared), image.pixels.channel(shared), m.width, m.height);
       const double motion = corner_displacement_px(r, m.width, m.height);
-      const bool warped = motion > kWarpThresholdPx;
+      const bool warped = motion_is_significant(r, motion);
       if (warped)
         for (auto& channel : image.pixels.channels) channel = warp_channel(channel, m.width, m.height, r);
       out.push_back({image.name, first.name, shared, r, motion, warped});

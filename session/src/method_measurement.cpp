@@ -376,7 +376,7 @@ MethodMeasurement build_plan_measurement(const PlanCaptures& captures, const Reg
                                                                        width, height),
                                             width, height, options);
     const double motion = corner_displacement_px(r, width, height);
-    const bool warped = motion > kWarpThresholdPx;
+    const bool warped = motion_is_significant(r, motion);
     if (warped) {
       for (auto& plane : moving.albedo) plane = warp_channel(plane, width, height, r);
       std::vector<float> s(moving.saturated.begin(), moving.saturated.end());
@@ -544,7 +544,7 @@ MethodMeasurement build_method_measurement(const MethodCaptures& captures, const
                                             unclipped_for_registration(moving->albedo[1], broadband, *moving, width, height),
                                             width, height, options);
     const double motion = corner_displacement_px(r, width, height);
-    const bool warped = motion > kWarpThresholdPx;
+    const bool warped = motion_is_significant(r, motion);
     if (warped) {
       for (auto& plane : moving->albedo) plane = warp_channel(plane, width, height, r);
       std::vector<float> s(moving->saturated.begin(), moving->saturated.end());

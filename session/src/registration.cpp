@@ -52,12 +52,16 @@ double overlap_fraction(const RegistrationResult& r, int width, int height) {
 // b by linear least squares per iteration (moving resampled at x + t, its
 // gradient by central differences), then the standard error of t from the
 // residual. Border pixels (one each side) and masked ones are left out.
-RegistrationResult translation_fallback(const cv::Mat& ref, const cv::Mat& mov, const cv::Mat& mask,
-                                        const std::string& ecc_error) {
+struct TranslationFit {
   double tx = 0, ty = 0, sigma_x = INFINITY, sigma_y = INFINITY;
-  for (int iteration = 0; iteration < 20; ++iteration) {
+  bool solved = false;  // at least one step was taken
+};
+
+TranslationFit translation_least_squares(const cv::Mat& ref, const cv::Mat& mov, const cv::Mat& mask, int max_iterations) {
+  TranslationFit fit;
+  for (int iteration = 0; iteration < max_iterations; ++iteration) {
     cv::Mat shifted;
-    const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, tx, 0, 1, ty);
+    const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, fit.tx, 0, 1, fit.ty);
     cv::warpAffine(mov, shifted, shift, mov.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
     cv::Mat gx, gy;
     cv::Sobel(shifted, gx, CV_64F, 1, 0, 1, 0.5), cv::Sobel(shifted, gy, CV_64F, 0, 1, 1, 0.5);
@@ -78,11 +82,19 @@ RegistrationResult translation_fallback(const cv::Mat& ref, const cv::Mat& mov, 
     double squares = 0;
     each([&](const Eigen::Vector4d& row, double target) { squares += (row.dot(step) - target) * (row.dot(step) - target); });
     const Eigen::Matrix4d covariance = normal.inverse() * (squares / static_cast<double>(n - 4));
-    sigma_x = std::sqrt(covariance(0, 0)), sigma_y = std::sqrt(covariance(1, 1));
-    tx += step[0], ty += step[1];
+    fit.sigma_x = std::sqrt(covariance(0, 0)), fit.sigma_y = std::sqrt(covariance(1, 1));
+    fit.tx += step[0], fit.ty += step[1];
+    fit.solved = true;
     if (std::hypot(step[0], step[1]) < 1e-4) break;
   }
-  const double sigma = std::max(sigma_x, sigma_y);
+  return fit;
+}
+
+RegistrationResult translation_fallback(const cv::Mat& ref, const cv::Mat& mov, const cv::Mat& mask,
+                                        const std::string& ecc_error) {
+  const TranslationFit fit = translation_least_squares(ref, mov, mask, 20);
+  const double tx = fit.tx, ty = fit.ty;
+  const double sigma = std::max(fit.sigma_x, fit.sigma_y);
   if (!(3 * sigma <= kTranslationFallbackUncertaintyPx) || !std::isfinite(tx) || !std::isfinite(ty))
     throw RegistrationError(ecc_error + "; the translation fallback measures the motion only to ±" +
                             std::to_string(3 * sigma) + " px (3σ), more than " +
@@ -93,6 +105,46 @@ RegistrationResult translation_fallback(const cv::Mat& ref, const cv::Mat& mov, 
   r.method = RegistrationMethod::kTranslation;
   r.translation_sigma_px = sigma;
   return r;
+}
+
+// The registration's own noise (RegistrationResult::motion_noise_px): the
+// warped moving image against the reference in a kNoiseBlocks × kNoiseBlocks
+// grid, each block's remaining translation by the least squares above; the
+// standard error of their mean from their spread, √(Σ|t_b − t̄|² / (B(B − 1))).
+// Unlike the residual's σ (pixels taken as independent), the spread between
+// blocks holds what differs between the captures region by region (patterns
+// whose contrast changes with the illuminant pull each block its own way),
+// which is what a still scene's apparent motion is made of. Large frames are
+// measured on a pyramid level of at most ~1 MP (the spread scaled back up).
+constexpr int kNoiseBlocks = 4;
+double motion_noise_px(const cv::Mat& ref_full, const cv::Mat& warped_full, const cv::Mat& mask_full) {
+  cv::Mat ref = ref_full, warped = warped_full, mask = mask_full;
+  double scale = 1;
+  while (static_cast<double>(ref.rows) * ref.cols > 1.2e6) {
+    cv::Mat r, m, k;
+    cv::pyrDown(ref, r), cv::pyrDown(warped, m);
+    cv::resize(mask, k, m.size(), 0, 0, cv::INTER_NEAREST);
+    cv::erode(k, k, cv::Mat());
+    ref = r, warped = m, mask = k, scale *= 2;
+  }
+  std::vector<Eigen::Vector2d> shifts;
+  for (int by = 0; by < kNoiseBlocks; ++by)
+    for (int bx = 0; bx < kNoiseBlocks; ++bx) {
+      const cv::Rect block(bx * ref.cols / kNoiseBlocks, by * ref.rows / kNoiseBlocks, ref.cols / kNoiseBlocks,
+                           ref.rows / kNoiseBlocks);
+      if (block.width < 8 || block.height < 8) continue;
+      const TranslationFit fit = translation_least_squares(ref(block), warped(block), mask(block), 3);
+      // A featureless block (background, a smooth view) measures nothing; it does not vote.
+      const bool measured = fit.solved && 3 * std::max(fit.sigma_x, fit.sigma_y) <= kTranslationFallbackUncertaintyPx;
+      if (measured && std::isfinite(fit.tx) && std::isfinite(fit.ty)) shifts.emplace_back(fit.tx, fit.ty);
+    }
+  const double blocks = static_cast<double>(shifts.size());
+  if (blocks < 4) return std::numeric_limits<double>::infinity();
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (const auto& t : shifts) mean += t / blocks;
+  double squares = 0;
+  for (const auto& t : shifts) squares += (t - mean).squaredNorm();
+  return scale * std::sqrt(squares / (blocks * (blocks - 1)));
 }
 
 // Pixels of the moving image that take part: finite ones, away from holes.
@@ -167,9 +219,20 @@ std::vector<float> warp_channel(const std::vector<float>& moving, int width, int
   for (int i = 0; i < 2; ++i)
     for (int j = 0; j < 3; ++j) warp.at<float>(i, j) = static_cast<float>(r.warp[i][j]);
   cv::Mat dst;
-  cv::warpAffine(src, dst, warp, src.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_CONSTANT,
-                 cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
-  return {dst.ptr<float>(), dst.ptr<float>() + static_cast<std::size_t>(width) * height};
+  // Sources up to kWarpBorderPx outside the frame take the nearest edge
+  // pixel (a sub-pixel warp turns no finite pixel into NaN); beyond, the
+  // pixel was not seen by this capture: NaN.
+  cv::warpAffine(src, dst, warp, src.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
+  std::vector<float> out(dst.ptr<float>(), dst.ptr<float>() + static_cast<std::size_t>(width) * height);
+  constexpr double kWarpBorderPx = 1.0;
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const double sx = r.warp[0][0] * x + r.warp[0][1] * y + r.warp[0][2];
+      const double sy = r.warp[1][0] * x + r.warp[1][1] * y + r.warp[1][2];
+      if (sx < -kWarpBorderPx || sy < -kWarpBorderPx || sx > width - 1 + kWarpBorderPx || sy > height - 1 + kWarpBorderPx)
+        out[static_cast<std::size_t>(y) * width + x] = std::numeric_limits<float>::quiet_NaN();
+    }
+  return out;
 }
 
 double corner_displacement_px(const RegistrationResult& r, int width, int height) {
@@ -205,7 +268,13 @@ RegistrationResult register_channel(const std::vector<float>& reference, const s
     }
   r.residual_motion_px = worst;
   r.residual_method = rest.method;
+  r.motion_noise_px = motion_noise_px(wrap(reference, width, height), wrap(warped, width, height),
+                                      moving_mask(warped, width, height));
   return r;
+}
+
+bool motion_is_significant(const RegistrationResult& registration, double motion_px) {
+  return motion_px > std::max(kWarpThresholdPx, kMotionSignificance * registration.motion_noise_px);
 }
 
 }  // namespace chromo::session

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <stdexcept>
 
 #include "chromo/estimation/skin_model.hpp"
 #include "chromo/spectral/grid.hpp"
@@ -92,9 +93,7 @@ std::vector<estimation::SkinParameters> random_skin_parameters(int count, const 
   return out;
 }
 
-namespace {
-
-spectral::GridArray anomaly_factor(SyntheticKind kind) {
+spectral::GridArray anomaly_albedo_factor(SyntheticKind kind) {
   spectral::GridArray f;
   for (int i = 0; i < spectral::kGridSize; ++i) {
     const double l = spectral::grid_wavelength_nm(i);
@@ -113,8 +112,6 @@ spectral::GridArray anomaly_factor(SyntheticKind kind) {
   return f;
 }
 
-}  // namespace
-
 SyntheticFrame make_synthetic_frame(estimation::MeasurementSet& set, const SyntheticOptions& options) {
   const estimation::ChannelNoise noise = options.noise.channel_noise();
   for (estimation::MeasurementChannel& c : set.channels) c.noise = noise;
@@ -129,6 +126,19 @@ SyntheticFrame make_synthetic_frame(estimation::MeasurementSet& set, const Synth
   frame.channels = channels;
   frame.truth = random_skin_parameters(n, options.low, options.high, options.seed);
   frame.kind.assign(n, SyntheticKind::kSkin);
+  const bool real_skin = !options.skin_spectra.empty();
+  if (real_skin) {
+    if (options.patch_pixels < 1) throw std::invalid_argument("synthetic frame: patch_pixels must be >= 1");
+    if (!(options.texture_relative >= 0 && options.texture_relative < 1))
+      throw std::invalid_argument("synthetic frame: texture_relative must be in [0, 1)");
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    frame.spectrum_index.resize(n);
+    frame.skin_scale.assign(n, 1.0f);
+    for (int i = 0; i < n; ++i) {
+      frame.truth[i] = {nan, nan, nan, nan};
+      frame.spectrum_index[i] = (i / options.patch_pixels) % static_cast<int>(options.skin_spectra.size());
+    }
+  }
   {
     std::mt19937_64 rng(options.seed * 7919 + 3);
     std::uniform_real_distribution<double> u(0.0, 1.0);
@@ -146,7 +156,7 @@ SyntheticFrame make_synthetic_frame(estimation::MeasurementSet& set, const Synth
   const estimation::SkinModel model;
   const Eigen::MatrixXd weights = set.weights();
   std::array<spectral::GridArray, kSyntheticKindCount> factors;
-  for (int k = 0; k < kSyntheticKindCount; ++k) factors[k] = anomaly_factor(static_cast<SyntheticKind>(k));
+  for (int k = 0; k < kSyntheticKindCount; ++k) factors[k] = anomaly_albedo_factor(static_cast<SyntheticKind>(k));
   frame.clean.resize(static_cast<std::size_t>(n) * channels);
   frame.noisy.resize(frame.clean.size());
   const int thread_count = options.threads > 0 ? options.threads : omp_get_num_procs();
@@ -160,7 +170,15 @@ SyntheticFrame make_synthetic_frame(estimation::MeasurementSet& set, const Synth
     const int first = chunk * kChunk, last = std::min(n, first + kChunk);
     for (int i = first; i < last; ++i) {
       const SyntheticKind kind = frame.kind[i];
-      spectral::GridArray albedo = model.albedo(frame.truth[i]).values() * factors[static_cast<int>(kind)];
+      spectral::GridArray skin;
+      if (real_skin) {
+        const double scale = 1 + options.texture_relative * (2 * u(rng) - 1);
+        frame.skin_scale[i] = static_cast<float>(scale);
+        skin = options.skin_spectra[frame.spectrum_index[i]].values() * scale;
+      } else {
+        skin = model.albedo(frame.truth[i]).values();
+      }
+      spectral::GridArray albedo = skin * factors[static_cast<int>(kind)];
       if (kind == SyntheticKind::kSpecular) albedo += 0.08 + 0.32 * u(rng);
       Eigen::VectorXd m = weights * albedo.matrix();
       if (kind == SyntheticKind::kSaturated) m *= 1.5 * options.noise.full_scale_albedo / m.maxCoeff();

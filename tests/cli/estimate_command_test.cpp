@@ -119,11 +119,12 @@ TEST_F(EstimateCommand, WritesMapsPreviewsAndSummary) {
   EXPECT_LT(s["registration"][0]["residual_motion_px"].get<double>(), 0.5);
   EXPECT_TRUE(s["flag_counts"].contains("unexplained_colour"));
 
-  // maps.exr: the seven float channels; Cm recovered inside the image.
+  // maps.exr: the seven float channels and the σ maps; Cm recovered inside the image.
   Imf::InputFile file((dir / "out" / "maps.exr").c_str());
   std::vector<std::string> names;
   for (auto it = file.header().channels().begin(); it != file.header().channels().end(); ++it) names.push_back(it.name());
-  EXPECT_THAT(names, ::testing::UnorderedElementsAre("Cm", "Ch", "Bm", "Che", "residual", "order", "flags"));
+  EXPECT_THAT(names, ::testing::UnorderedElementsAre("Cm", "Ch", "Bm", "Che", "residual", "order", "flags", "sigma_Cm",
+                                                     "sigma_Ch", "sigma_Bm", "sigma_Che", "corr_Ch_Che"));
   std::vector<float> cm(kWidth * kHeight), flags(kWidth * kHeight);
   Imf::FrameBuffer frame;
   frame.insert("Cm", Imf::Slice(Imf::FLOAT, (char*)cm.data(), sizeof(float), sizeof(float) * kWidth));
@@ -216,7 +217,7 @@ TEST_F(EstimateCommand, BadInputExitsTwoAndWritesNothing) {
 }
 
 TEST(FitSpectrumCommand, FitsTheNistForearmsAsJson) {
-  const Result r = run(std::string("fit-spectrum ") + CHROMO_TEST_DATA_DIR + "/skin_reflectance_nist.csv --json");
+  const Result r = run(std::string("fit-spectrum ") + CHROMO_DATA_DIR + "/skin_reflectance_nist.csv --json");
   ASSERT_EQ(r.exit_status, 0) << r.output.substr(0, 400);
   const nlohmann::json a = nlohmann::json::parse(r.output);
   ASSERT_EQ(a.size(), 50u);

@@ -12,7 +12,7 @@ namespace chromo::estimation {
 namespace {
 
 std::vector<spectral::Spectrum> nist_forearms(std::size_t count) {
-  const spectral::Table table = spectral::read_table(std::string(CHROMO_TEST_DATA_DIR) + "/skin_reflectance_nist.csv");
+  const spectral::Table table = spectral::read_table(std::string(CHROMO_DATA_DIR) + "/skin_reflectance_nist.csv");
   std::vector<spectral::Spectrum> out;
   for (std::size_t c = 1; c < table.column_names.size() && out.size() < count; ++c)
     out.push_back(spectral::resample_column(table, table.column_names[c]));

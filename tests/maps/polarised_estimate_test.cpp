@@ -210,7 +210,8 @@ TEST(PolarisedEstimate, AnUnpolarisedSessionIsAsBeforeAndSaysHighlightsAreHeuris
   const auto result = estimate_method_measurement(lab.noisy, lab.noisy.set.camera, 0.99, 0, options, out, commit);
   const files::FloatImage maps = files::read_exr(out / "maps.exr");
   // (read back in EXR's alphabetical order)
-  EXPECT_EQ(maps.channel_names, (std::vector<std::string>{"Bm", "Ch", "Che", "Cm", "flags", "order", "residual"}));
+  EXPECT_EQ(maps.channel_names, (std::vector<std::string>{"Bm", "Ch", "Che", "Cm", "corr_Ch_Che", "flags", "order", "residual",
+                                                          "sigma_Bm", "sigma_Ch", "sigma_Che", "sigma_Cm"}));
   EXPECT_FALSE(fs::exists(out / "polarisation.png"));
   const auto summary = nlohmann::json::parse(result.summary_json);
   EXPECT_EQ(summary["highlights"]["detection"], "heuristic");

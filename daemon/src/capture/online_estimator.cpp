@@ -1,5 +1,7 @@
 #include "chromo/daemon/internal/capture/online_estimator.hpp"
 
+#include "chromo/estimation/model_discrepancy.hpp"
+
 #include <chrono>
 
 #include "chromo/calibration/led_library_io.hpp"
@@ -27,6 +29,7 @@ std::unique_ptr<OnlineEstimator> make_online_estimator(const EstimationConfig& c
   e.method = estimation::parse_method_name(config.method).value_or(estimation::InverterMethod::kFast);
   e.model = estimation::parse_model_name(config.model).value_or(estimation::ModelChoice::kAuto);
   e.threads = config.threads;
+  e.discrepancy = config.discrepancy == "none" ? nullptr : estimation::ModelDiscrepancy::standard();
   options.estimation.cache_dir = config.cache_dir;
   options.sources = [config, daemon_led_library, daemon_state_libraries] {
     std::string library = config.led_library;

@@ -45,6 +45,9 @@ struct EstimationConfig {
   bool enabled = true;
   std::string method = "fast";   // inverter: fast, exhaustive, 2d
   std::string model = "auto";    // auto (χ² test per pixel), 2d, 4d
+  // The skin model's shortfall on real skin added to the noise (docs/estimation.md
+  // "Real skin"): "learned" (from the NIST forearm spectra) or "none".
+  std::string discrepancy = "learned";
   std::string led_library;       // LED library file; empty = newest measured one, else the nominal one
   std::string camera_sensitivity = "builtin:nikon_d5100";  // or a CSV wavelength_nm,R,G,B
   // Per camera (device name → builtin:NAME or a CSV), overriding camera_sensitivity for that camera's maps.
@@ -100,6 +103,7 @@ struct DaemonConfig {
   bool tcp_insecure = false;              // plaintext TCP, loopback peers only; needed when TCP has no TLS
   std::uint32_t max_streams = 64;         // concurrent streaming calls (Subscribe, WatchOperation); beyond: RESOURCE_EXHAUSTED
   std::filesystem::path maps_dir;         // the maps API's folder for work without a session; empty = none
+  std::uint64_t max_read_maps_bytes = 1ull << 30;  // MapsService.ReadMaps: the most channel bytes one call sends
   // The operator's web view (docs/web.md): host:port; empty = off. Needs the
   // token; a non-loopback address needs TLS (the same certificate and key).
   std::string web_address;

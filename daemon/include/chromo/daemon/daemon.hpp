@@ -19,6 +19,7 @@
 
 #include "chromo/daemon/internal/operations/calibrations.hpp"
 #include "chromo/daemon/config.hpp"
+#include "chromo/daemon/internal/capture/frame_pipeline.hpp"
 #include "chromo/session/session_captures.hpp"
 #include "chromo/daemon/internal/devices/device_set.hpp"
 #include "chromo/files/durable_file.hpp"

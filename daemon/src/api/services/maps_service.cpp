@@ -10,7 +10,9 @@
 #include <string>
 
 #include "chromo/files/float_image.hpp"
+#include "chromo/estimation/pixel_flags.hpp"
 #include "chromo/maps/map_operations.hpp"
+#include "chromo/maps/ome_tiff.hpp"
 #include "chromosphere/v1/maps.grpc.pb.h"
 #include "services.hpp"
 
@@ -211,6 +213,15 @@ class MapsServiceImpl final : public pb::MapsService::Service {
     });
   }
 
+  Status ReadMaps(ServerContext* context, const pb::ReadMapsRequest* request,
+                  grpc::ServerWriter<pb::ReadMapsResponse>* writer) override {
+    return guard_.stream(context, [&]() -> Status {
+      return run_body(request->session_id(), [&](const Folder& files) {
+        read_maps(files, *request, daemon_.config().max_read_maps_bytes, context, writer);
+      });
+    });
+  }
+
   Status Relight(ServerContext* context, const pb::RelightRequest* request, pb::RelightResponse* response) override {
     return run(context, request->session_id(), [&](const Folder& files) {
       maps::RelightOptions o;
@@ -325,20 +336,80 @@ class MapsServiceImpl final : public pb::MapsService::Service {
   // own path (a client names files relative to it).
   template <typename Body>
   Status run(ServerContext* context, const std::string& session_id, Body&& body) {
-    return guard_(context, [&]() -> Status {
-      std::optional<Folder> folder;
-      try {
-        folder.emplace(daemon_, session_id);
-        body(*folder);
-        return Status::OK;
-      } catch (const Refusal& refusal) {
-        return refusal.status;
-      } catch (const std::invalid_argument& e) {
-        return {StatusCode::INVALID_ARGUMENT, api_message(folder ? folder->scrub(e.what()) : e.what())};
-      } catch (const std::exception& e) {
-        return {StatusCode::INTERNAL, folder ? folder->scrub(e.what()) : e.what()};
+    return guard_(context, [&]() -> Status { return run_body(session_id, body); });
+  }
+  template <typename Body>
+  Status run_body(const std::string& session_id, Body&& body) {
+    std::optional<Folder> folder;
+    try {
+      folder.emplace(daemon_, session_id);
+      body(*folder);
+      return Status::OK;
+    } catch (const Refusal& refusal) {
+      return refusal.status;
+    } catch (const std::invalid_argument& e) {
+      return {StatusCode::INVALID_ARGUMENT, api_message(folder ? folder->scrub(e.what()) : e.what())};
+    } catch (const std::exception& e) {
+      return {StatusCode::INTERNAL, folder ? folder->scrub(e.what()) : e.what()};
+    }
+  }
+
+  // ReadMaps' body: checks every field, then the header, then the rows in chunks.
+  static void read_maps(const Folder& files, const pb::ReadMapsRequest& request, std::uint64_t max_bytes,
+                        ServerContext* context, grpc::ServerWriter<pb::ReadMapsResponse>* writer) {
+    const std::uint32_t chunk_bytes = request.chunk_bytes() == 0 ? (1u << 20) : request.chunk_bytes();
+    if (chunk_bytes < (64u << 10) || chunk_bytes > (3u << 20))
+      throw Refusal{{StatusCode::INVALID_ARGUMENT, "chunk_bytes: must be 65536-3145728 (0: 1 MiB)"}};
+    const std::string maps_file = request.maps_file().empty() ? "results/maps.exr" : request.maps_file();
+    const fs::path path = files.input("maps_file", maps_file, true);
+    files::ExrSize size;
+    files::FloatImage image;
+    try {
+      size = files::check_exr_file(path);
+      image = files::read_exr(path);
+    } catch (const files::ImageError& e) {  // not a readable OpenEXR file: the request named it
+      throw Refusal{{StatusCode::INVALID_ARGUMENT, "maps_file: " + files.scrub(e.what())}};
+    }
+    std::vector<std::size_t> sent;
+    for (const std::string& name : request.channels()) {
+      const auto found = std::find(image.channel_names.begin(), image.channel_names.end(), name);
+      if (found == image.channel_names.end()) {
+        std::string names;
+        for (const std::string& n : image.channel_names) names += (names.empty() ? "" : ", ") + n;
+        throw Refusal{{StatusCode::INVALID_ARGUMENT, "channels: \"" + name + "\" is not in " + maps_file + " (it has " + names + ")"}};
       }
-    });
+      sent.push_back(static_cast<std::size_t>(found - image.channel_names.begin()));
+    }
+    if (request.channels().empty()) sent = maps::map_channel_order(image.channel_names);
+    const std::uint64_t bytes = static_cast<std::uint64_t>(size.width) * size.height * 4 * sent.size();
+    if (bytes > max_bytes)
+      throw Refusal{{StatusCode::RESOURCE_EXHAUSTED,
+                     "channels: " + std::to_string(sent.size()) + " channels of " + maps_file + " (" +
+                         std::to_string(size.width) + "x" + std::to_string(size.height) + ") are " + std::to_string(bytes) +
+                         " bytes, more than the " + std::to_string(max_bytes) +
+                         " one call sends (max_read_maps_bytes); ask for fewer channels"}};
+    pb::ReadMapsResponse header;
+    header.set_width(static_cast<std::uint32_t>(image.width)), header.set_height(static_cast<std::uint32_t>(image.height));
+    for (std::size_t c : sent) {
+      const maps::MapChannelInfo info = maps::map_channel_info(image.channel_names[c]);
+      auto* channel = header.add_channels();
+      channel->set_name(info.name), channel->set_unit(info.unit), channel->set_meaning(info.meaning);
+    }
+    for (int f = 0; f < estimation::kPixelFlagCount; ++f)
+      header.add_flag_names(std::string(estimation::pixel_flag_name(static_cast<estimation::PixelFlag>(f))));
+    const std::size_t row_bytes = static_cast<std::size_t>(image.width) * 4 * sent.size();
+    const int rows_per_chunk = static_cast<int>(std::max<std::size_t>(1, chunk_bytes / std::max<std::size_t>(1, row_bytes)));
+    for (int row = 0; row < image.height; row += rows_per_chunk) {
+      if (context->IsCancelled()) return;
+      pb::ReadMapsResponse chunk = row == 0 ? std::move(header) : pb::ReadMapsResponse{};
+      const int rows = std::min(rows_per_chunk, image.height - row);
+      chunk.set_row_begin(static_cast<std::uint32_t>(row)), chunk.set_rows(static_cast<std::uint32_t>(rows));
+      for (std::size_t c : sent) {
+        const float* begin = image.channels[c].data() + static_cast<std::size_t>(row) * image.width;
+        chunk.add_data(reinterpret_cast<const char*>(begin), static_cast<std::size_t>(rows) * image.width * 4);
+      }
+      if (!writer->Write(chunk)) return;  // the client went away
+    }
   }
   Daemon& daemon_;
   Guard& guard_;

@@ -9,7 +9,13 @@
 // Per pixel:
 //  1. NaN/inf → kNonFinite; any channel ≥ its saturation_albedo → kSaturated;
 //     every channel < dark_albedo → kDark. Parameters 0, order 0.
-//  2. Weights 1/σ_c, σ_c² = camera noise (measurement.hpp) + (model_sigma_relative·a_c)².
+//  2. The pixel's channel covariance Σ = diag(camera noise (measurement.hpp)
+//     + (model_sigma_relative·a_c)²) + Σ_disc, Σ_disc the model's
+//     learned discrepancy on real skin in the plan's channels
+//     (EstimatorOptions::discrepancy, model_discrepancy.hpp; none: the first
+//     term alone). The fits weigh channel c by 1/√Σ_cc; every χ² below is
+//     rᵀ Σ⁻¹ r with the whole Σ (identical to the weighted sum without a
+//     discrepancy).
 //  3. Model order. model = k4d or k2d: that order. kAuto: fit both and
 //     compare what they look like (AppearanceTable: CIELAB under the six LED
 //     types and D65): D = mean over those illuminants of ΔE*ab between the
@@ -73,8 +79,15 @@
 #include "chromo/estimation/inverter.hpp"
 #include "chromo/estimation/measurement.hpp"
 #include "chromo/estimation/pixel_flags.hpp"
+#include <Eigen/Core>
+#include <limits>
 
 namespace chromo::estimation {
+
+class ModelDiscrepancy;
+namespace detail {
+class PixelCovariance;
+}
 
 enum class InverterMethod { kExhaustive, kFast, k2d };
 enum class ModelChoice { kAuto, k2d, k4d };
@@ -95,6 +108,15 @@ struct PixelEstimate {
   float order_statistic = 0;
   std::uint8_t order = 0;   // 2 or 4; 0 for pixels flagged before fitting
   PixelFlag flag = PixelFlag::kExplained;
+  // 1σ of Cm, Ch, βm, Che (parameter units) from the 4D parameter covariance
+  // (Jᵀ Σ⁻¹ J + P)⁻¹ at the fit (J the table's Jacobian, Σ step 2's whole
+  // covariance: camera noise and the learned discrepancy, P the parameter
+  // box as a uniform prior); NaN where nothing was fitted or
+  // EstimatorOptions::uncertainty is off. ch_che_correlation: the correlation
+  // of Ch and Che in that covariance (near ±1: the data cannot separate them).
+  float sigma[4] = {kNoSigma, kNoSigma, kNoSigma, kNoSigma};
+  float ch_che_correlation = kNoSigma;
+  static constexpr float kNoSigma = std::numeric_limits<float>::quiet_NaN();
 };
 
 struct EstimatorOptions {
@@ -123,6 +145,13 @@ struct EstimatorOptions {
   // interpolation error and float storage (σ = model_sigma_relative · albedo);
   // without it a noise-free pixel would fail the χ² test on interpolation error alone.
   double model_sigma_relative = 0.003;
+  // The skin model's learned discrepancy on real skin (model_discrepancy.hpp),
+  // added to the noise wherever a residual is weighed (step 2); null: none
+  // (the statistic of scenes rendered by the model itself). chromod and
+  // `chromo estimate` pass ModelDiscrepancy::standard() by default.
+  std::shared_ptr<const ModelDiscrepancy> discrepancy;
+  // Per-pixel σ of the parameters (PixelEstimate::sigma).
+  bool uncertainty = true;
   int threads = 0;                // estimate(): 0 = all cores
   int tile_pixels = 16384;        // estimate(): pixels per tile
   // Where the fast method's inverse table is cached (empty: ForwardTable::default_cache_dir()).
@@ -180,16 +209,23 @@ class Estimator {
   std::unique_ptr<Inverter> inverter_2d_;
   std::shared_ptr<const AppearanceTable> appearance_;  // the auto model's appearance rule; null otherwise
   double order_threshold_ = 0;                          // kLikelihoodRatio: the χ²₂ − χ²₄ quantile
+  // The pixel's Σ (step 2) and the 4D parameter covariance at its fit (PixelEstimate::sigma).
+  double fit_variance(int channel, double albedo) const;
+  void set_uncertainty(const detail::PixelCovariance& covariance, const GridPoint& x, PixelEstimate& out) const;
   // The specular test (step 5 above): the best 4D fit of measured − s over the
   // scanned s, continued from `start`; chi2 = ∞ when no s reaches min_specular.
   static constexpr int kSpecularSteps = 8;
   // kAuto: no 2D fit when χ²₄ exceeds this × the 2D flag threshold (unexplained either way).
   static constexpr double kHopelessChi2Factor = 10;
   static constexpr int kSpecularContinuationIterations = 4;
-  Fit specular_fit(const double* measured, const double* weight, const GridPoint& start) const;
+  // chi2: the χ² of a fit of (measured − s) as the flag test computes it.
+  Fit specular_fit(const double* measured, const double* weight, const GridPoint& start,
+                   const std::function<double(const Fit&, double s)>& chi2) const;
   // Step 3's rule (EstimatorOptions::order_rule): may the pixel take the 2D fit?
-  bool two_d_suffices(const ChannelBuffer<double>& measured, const Fit& fit4, const Fit& fit2) const;
+  bool two_d_suffices(const ChannelBuffer<double>& measured, const Fit& fit4, double chi2_4, const Fit& fit2,
+                      double chi2_2) const;
   double flag_threshold_[5] = {};  // by free parameters (index 2 and 4)
+  Eigen::MatrixXd discrepancy_;    // Σ_disc in the set's channels; empty without a discrepancy
 };
 
 std::unique_ptr<Inverter> make_inverter(InverterMethod method, std::shared_ptr<const ForwardTable> table,

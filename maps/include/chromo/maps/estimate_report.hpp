@@ -4,6 +4,8 @@
 //
 //   maps.exr      FLOAT channels Cm, Ch, Bm, Che, residual, order, flags (pixel_flags.hpp);
 //                 a polarised session adds surface and highlight (docs/maps.md)
+//   maps.ome.tiff the same channels as float32 OME-TIFF, names and units in its
+//                 OME-XML (ome_tiff.hpp), for Fiji, napari and Python
 //   polarisation.png  a polarised session's panel diffuse | surface | combined
 //   cm.png ch.png bm.png che.png residual.png   false colour with a colour bar
 //   flags.png order.png                         categorical with a legend
@@ -114,8 +116,14 @@ std::string registration_report_json(std::span<const session::RegistrationReport
 
 std::string neighbourhood_report_json(bool flags, bool order_pooling, const estimation::NeighbourhoodSummary& summary);
 
+// The estimator options a session's estimation starts from: EstimatorOptions'
+// defaults with the model's learned discrepancy on real skin
+// (estimation::ModelDiscrepancy::standard(), docs/estimation.md "Real skin").
+estimation::EstimatorOptions default_estimator_options();
+
 struct MethodEstimationOptions {
-  estimation::EstimatorOptions estimator;      // method (default fast), model (default auto), threads
+  // method (default fast), model (default auto), threads, the learned discrepancy
+  estimation::EstimatorOptions estimator = default_estimator_options();
   // The spatial second pass after the per-pixel estimate, as `chromo
   // estimate` by default: neighbourhood flags (code 7) and the model order
   // pooled over 7×7 windows (model auto). Neither part: no second pass.

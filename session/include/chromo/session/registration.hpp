@@ -67,6 +67,9 @@ struct RegistrationResult {
   // there (an aligned featureless pair is where ECC fails most).
   RegistrationMethod residual_method = RegistrationMethod::kEcc;
   double translation_sigma_px = 0;        // the fallback's larger standard error of the shift (0 for ECC)
+  // The registration's own noise: the standard error of the shift from its
+  // spread between blocks of the frame (register_channel; 0 until measured).
+  double motion_noise_px = 0;
 };
 
 // The fallback's acceptance: three standard errors of the translation.
@@ -78,7 +81,9 @@ RegistrationResult estimate_registration(const std::vector<float>& reference_cha
                                          const RegistrationOptions& options = {});
 
 // Warps one channel of the moving image onto the reference's pixel grid
-// (bilinear; pixels that fall outside are NaN, so the estimator flags them).
+// (bilinear; a source up to 1 px outside the frame takes the nearest edge
+// pixel, so a sub-pixel warp leaves every pixel finite; pixels farther
+// outside were not seen by the capture: NaN, so the estimator flags them).
 std::vector<float> warp_channel(const std::vector<float>& moving_channel, int width, int height,
                                 const RegistrationResult& registration);
 
@@ -93,6 +98,15 @@ double corner_displacement_px(const RegistrationResult& registration, int width,
 // A capture whose registration moves no image corner by more than this is not
 // warped: that motion is registration noise, and a warp would only blur.
 inline constexpr double kWarpThresholdPx = 0.1;
+// Nor is one whose motion is within this many of its own noise
+// (RegistrationResult::motion_noise_px): a still scene keeps the identity.
+// 4 ≈ the two-sided 99.9% quantile of Student's t with 15 degrees of freedom
+// (the 4 × 4 blocks' spread estimates the noise): a warp of a still scene
+// should be rare, and a moving subject moves by far more (whole pixels).
+inline constexpr double kMotionSignificance = 4.0;
+// Whether a capture that register_channel registered with this corner motion
+// is warped: motion_px > max(kWarpThresholdPx, kMotionSignificance · motion_noise_px).
+bool motion_is_significant(const RegistrationResult& registration, double motion_px);
 
 // One capture registered to the reference, as summary.json reports it.
 struct RegistrationReport {

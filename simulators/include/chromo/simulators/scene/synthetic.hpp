@@ -32,6 +32,7 @@
 
 #include "chromo/estimation/measurement.hpp"
 #include "chromo/estimation/skin_parameters.hpp"
+#include "chromo/spectral/spectrum.hpp"
 
 namespace chromo::simulators {
 
@@ -56,6 +57,15 @@ struct SyntheticOptions {
   CameraNoiseModel noise;
   std::uint64_t seed = 1;
   int threads = 0;
+  // Real skin: when not empty, skin pixel i's albedo is the measured spectrum
+  // skin_spectra[(i / patch_pixels) % size] × (1 + texture_relative · t_i),
+  // t_i uniform in [−1, 1] (a faint texture), instead of the model's albedo of
+  // truth[i]; the anomalies act on it as on model skin. truth then holds NaN
+  // (real skin has no true parameters; compare with the spectrum's own
+  // full-spectrum fit) and SyntheticFrame::spectrum_index says which spectrum.
+  std::vector<spectral::Spectrum> skin_spectra;
+  int patch_pixels = 1024;
+  double texture_relative = 0.03;
 };
 
 struct SyntheticFrame {
@@ -64,8 +74,14 @@ struct SyntheticFrame {
   std::vector<float> noisy;   // with the camera noise model (== clean when noise_scale = 0)
   std::vector<estimation::SkinParameters> truth;  // skin underneath every pixel
   std::vector<SyntheticKind> kind;
+  std::vector<int> spectrum_index;  // real skin: the index into skin_spectra; empty for model skin
+  std::vector<float> skin_scale;    // real skin: the texture factor (1 + texture_relative · t_i) of each pixel
   std::size_t pixels() const { return truth.size(); }
 };
+
+// The factor an anomaly multiplies the skin's albedo by, per wavelength (the
+// header's table; 1 for kinds that are not a factor: skin, specular, saturated, NaN).
+spectral::GridArray anomaly_albedo_factor(SyntheticKind kind);
 
 // The noise of every channel in `set` is replaced by options.noise's.
 SyntheticFrame make_synthetic_frame(estimation::MeasurementSet& set, const SyntheticOptions& options);

@@ -1,0 +1,1 @@
+"""Generated gRPC and protobuf stubs of chromod's API (proto/), filled at build time."""

@@ -1,0 +1,181 @@
+"""The installed chromosphere package against a live chromod (run by
+python_package_test.sh with the venv's interpreter): maps at full resolution
+equal to maps.exr's values (exr_dump), blocking and asyncio clients alike,
+open_session through maps.ome.tiff with no daemon, typed results, and
+errors as exceptions naming what was wrong.
+
+usage: python_client_test.py SOCKET SESSION_ID EXR_DUMP CHROMOD WORK
+"""
+import asyncio
+import json
+import shutil
+import subprocess
+import time
+import sys
+import unittest
+from pathlib import Path
+
+import numpy as np
+
+import chromosphere
+from chromosphere.v1 import maps_pb2
+
+SOCKET, SESSION, EXR_DUMP, CHROMOD, WORK = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4], Path(sys.argv[5])
+TARGET = "unix:" + SOCKET
+
+
+def exr(path):
+    out = WORK / "dump"
+    subprocess.run([EXR_DUMP, str(path), str(out)], check=True)
+    header = json.loads(Path(str(out) + ".json").read_text())
+    raw = np.fromfile(str(out) + ".f32", dtype="<f4").reshape(len(header["channels"]), header["height"],
+                                                               header["width"])
+    return dict(zip(header["channels"], raw))
+
+
+class PackageTest(unittest.TestCase):
+    def setUp(self):
+        self.client = chromosphere.Client(TARGET)
+
+    def tearDown(self):
+        self.client.close()
+
+    def test_stubs_come_from_the_package_with_pyi(self):
+        module = Path(maps_pb2.__file__)
+        self.assertEqual(module.parent.parent, Path(chromosphere.__file__).parent)
+        self.assertTrue(str(module).startswith(str(Path(sys.prefix) / "lib")), module)  # the venv's site-packages
+        self.assertIn("site-packages", module.parts)
+        self.assertTrue(module.with_suffix(".pyi").is_file())
+        self.assertTrue((Path(chromosphere.__file__).parent / "py.typed").is_file())
+
+    def test_maps_at_full_resolution_equal_maps_exr(self):
+        results = self.client.results(SESSION)
+        self.assertTrue(results.available, results.reason)
+        camera = results.camera()
+        self.assertEqual(camera.maps_file, "results/maps.exr")
+        self.assertEqual(camera.summary["method"], "fast")
+        self.assertGreater(int(camera.summary["flag_counts"]["explained"]), 0)
+        self.assertIn("flag_counts", results.summary)
+        maps = self.client.maps(SESSION)
+        values = exr(Path(results.folder) / camera.maps_file)
+        self.assertEqual(sorted(maps.names), sorted(values))
+        for name, expected in values.items():
+            self.assertEqual(maps[name].shape, expected.shape)
+            self.assertEqual(maps[name].dtype, np.float32)
+            np.testing.assert_array_equal(maps[name], expected, err_msg=name)
+        self.assertEqual(maps.unit("Cm"), "volume fraction")
+        self.assertEqual(maps.flag_names[0], "explained")
+        self.assertEqual(len(maps.flag_names), 9)
+        self.assertGreater(int(maps.explained().sum()), 0)
+        # A subset, and small chunks: the same values.
+        few = self.client.maps(SESSION, channels=["Ch", "flags"], chunk_bytes=65536)
+        self.assertEqual(few.names, ["Ch", "flags"])
+        np.testing.assert_array_equal(few["Ch"], values["Ch"])
+
+    def test_asyncio_client_gives_the_same_maps(self):
+        async def read():
+            async with chromosphere.AsyncClient(TARGET) as client:
+                return await client.results(SESSION), await client.maps(SESSION)
+
+        results, maps = asyncio.run(read())
+        self.assertTrue(results.available)
+        blocking = self.client.maps(SESSION)
+        for name in blocking.names:
+            np.testing.assert_array_equal(maps[name], blocking[name])
+
+    def test_open_session_reads_the_folder_without_a_daemon(self):
+        results = self.client.results(SESSION)
+        stored = chromosphere.open_session(results.folder)
+        self.assertEqual(stored.id, SESSION)
+        self.assertEqual(len(stored.frames), 19)
+        self.assertIn("flag_counts", stored.report())
+        from_disk = stored.maps()
+        over_api = self.client.maps(SESSION)
+        self.assertEqual(from_disk.names, over_api.names)
+        for name in over_api.names:
+            np.testing.assert_array_equal(from_disk[name], over_api[name])
+        self.assertEqual(from_disk.unit("Ch"), "volume fraction")
+        self.assertEqual(from_disk.flag_names, over_api.flag_names)
+        with self.assertRaisesRegex(chromosphere.StoredSessionError, "no session.json"):
+            chromosphere.open_session(WORK)
+
+    def test_open_session_of_several_cameras(self):
+        results = self.client.results(SESSION)
+        copy = WORK / "several"
+        shutil.rmtree(copy, ignore_errors=True)
+        copy.mkdir()
+        shutil.copy(Path(results.folder) / "session.json", copy / "session.json")
+        for camera in ("side", "top"):
+            (copy / "results" / camera).mkdir(parents=True)
+            for name in ("maps.ome.tiff", "summary.json"):
+                shutil.copy(Path(results.folder) / "results" / name, copy / "results" / camera / name)
+        stored = chromosphere.open_session(copy)
+        self.assertEqual(stored.cameras(), ["side", "top"])
+        np.testing.assert_array_equal(stored.maps("top")["Cm"], stored.maps()["Cm"])
+        self.assertIn("flag_counts", stored.report("side"))
+        with self.assertRaisesRegex(chromosphere.StoredSessionError, r"no maps of camera 'front' \(cameras: side, top\)"):
+            stored.maps("front")
+
+    def test_errors_name_what_was_wrong(self):
+        with self.assertRaisesRegex(chromosphere.NotFound, "session_id: no session \"20990101T000000Z-none-000000\""):
+            self.client.maps("20990101T000000Z-none-000000")
+        with self.assertRaisesRegex(chromosphere.InvalidArgument, "MapsService.ReadMaps: channels: \"nope\" is not in"):
+            self.client.maps(SESSION, channels=["nope"])
+        with self.assertRaisesRegex(chromosphere.InvalidArgument, "chunk_bytes: must be"):
+            self.client.maps(SESSION, chunk_bytes=100)
+        with self.assertRaisesRegex(chromosphere.InvalidArgument, "maps_file: must not contain"):
+            self.client.maps(SESSION, maps_file="../x/maps.exr")
+        with self.assertRaisesRegex(chromosphere.InvalidArgument, "maps_file: "):
+            self.client.maps(SESSION, maps_file="session.json")  # not an EXR
+        with self.assertRaisesRegex(chromosphere.InvalidArgument, "subject_fill"):
+            self.client.start_session("bad", subject_fill=1.5)
+        with self.assertRaisesRegex(chromosphere.InvalidArgument, "illuminant"):
+            self.client.relight(SESSION, "")
+        missing = chromosphere.Client("unix:" + str(WORK / "no.sock"), timeout=2)
+        with self.assertRaises(chromosphere.Unavailable):
+            missing.results(SESSION)
+        missing.close()
+
+    def test_a_read_past_the_bound_is_refused_naming_it(self):
+        # A daemon of its own whose bound lets two channels of these maps through, not all seven.
+        results = self.client.results(SESSION)
+        maps = self.client.maps(SESSION, channels=["Cm"])
+        bound = max(maps.width * maps.height * 4 * 2, 1 << 20)  # the key's floor is 1 MiB
+        self.assertGreater(maps.width * maps.height * 4 * 7, bound)
+        folder = WORK / "bounded"
+        shutil.rmtree(folder, ignore_errors=True)
+        (folder / "maps" / "s").mkdir(parents=True)
+        shutil.copy(Path(results.folder) / results.camera().maps_file, folder / "maps" / "s" / "maps.exr")
+        (folder / "chromod.json").write_text(json.dumps({"maps_dir": str(folder / "maps"),
+                                                         "max_read_maps_bytes": bound}))
+        daemon = subprocess.Popen([CHROMOD, "--config", str(folder / "chromod.json"), "--socket",
+                                   str(folder / "s.sock"), "--sessions-dir", str(folder / "sessions")],
+                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            for _ in range(300):
+                if (folder / "s.sock").exists():
+                    break
+                time.sleep(0.1)
+            with chromosphere.Client("unix:" + str(folder / "s.sock")) as bounded:
+                with self.assertRaisesRegex(chromosphere.ResourceExhausted,
+                                            r"channels: \d+ channels of s/maps.exr \(\d+x\d+\) are \d+ bytes, .*\(max_read_maps_bytes\)"):
+                    bounded.maps("", maps_file="s/maps.exr")
+                two = bounded.maps("", maps_file="s/maps.exr", channels=["Cm", "Ch"])
+                np.testing.assert_array_equal(two["Cm"], maps["Cm"])
+        finally:
+            daemon.kill()
+            daemon.wait()
+
+    def test_typed_relight_results_and_plans(self):
+        relit = self.client.relight(SESSION, "A", label="typed")
+        self.assertIsInstance(relit, chromosphere.Relit)
+        self.assertGreater(relit.relit_pixels, 0)
+        self.assertTrue(relit.out_dir.startswith("products/relight-"))
+        advice = self.client.compare_plans(["method"], skins=4)
+        self.assertEqual(advice[0].plan, "method")
+        self.assertGreater(advice[0].predicted_delta_e94_mean, 0)
+        self.assertIn("D65", advice[0].predicted_delta_e94)
+
+
+if __name__ == "__main__":
+    unittest.main(argv=sys.argv[:1], verbosity=2)
