@@ -2,10 +2,11 @@
 // same stored sessions estimated by `chromo study run` on a single-node
 // Slurm cluster started for the bench (tests/support/slurm_cluster.sh) as
 // one array task with every core and as two tasks with one core each, and
-// by the local backend; then one large session (two cameras, a 2448×2048
-// sensor each: the lab's 5-MP cameras) through the local backend, for the
-// per-session cost (on 2 threads and on 1) and peak memory a study of many
-// such sessions is estimated from.
+// by the local backend; then one large session of each plan (`--large-plans`:
+// the method's standard plan and the six-LED multispectral plan; two cameras,
+// a 2448×2048 sensor each: the lab's 5-MP cameras) through the local backend,
+// for the per-session cost (on 2 threads and on 1) and peak memory a study
+// of many such sessions is estimated from.
 //
 //   study_bench [--sessions N] [--scene-size S] [--cameras C] [--no-slurm] [--no-large]
 //               [--work DIR] [--out FILE]
@@ -74,13 +75,18 @@ int bench_main(int argc, char** argv) {
   CLI::App app{"study_bench: a study's throughput against Slurm tasks on this machine"};
   int sessions = 8, scene_size = 192, cameras = 2;
   bool slurm = true, large = true;
+  std::vector<std::string> large_plans{"standard", "multispectral"};
+  std::vector<int> large_scene{1224, 1024};
   std::string work = (fs::temp_directory_path() / "chromo-study-bench").string();
   std::string out_file = std::string(CHROMO_BENCH_RESULTS) + "/study_bench_output.txt";
   app.add_option("--sessions", sessions, "sessions of the small study")->check(CLI::Range(2, 1000));
   app.add_option("--scene-size", scene_size, "scene pixels per side (the sensor has twice as many)")->check(CLI::Range(16, 2048));
   app.add_option("--cameras", cameras, "cameras per session")->check(CLI::Range(1, 4));
   app.add_flag("!--no-slurm", slurm, "skip the Slurm runs");
-  app.add_flag("!--no-large", large, "skip the 5-MP two-camera session");
+  app.add_flag("!--no-large", large, "skip the 5-MP two-camera sessions");
+  app.add_option("--large-scene", large_scene, "the large sessions' scene W H (the sensor has twice as many per side)")
+      ->expected(2);
+  app.add_option("--large-plans", large_plans, "the 5-MP sessions' plans (standard, multispectral)")->delimiter(',');
   app.add_option("--work", work, "scratch folder (deleted first)");
   app.add_option("--out", out_file, "where the printout goes too");
   try {
@@ -143,46 +149,46 @@ int bench_main(int argc, char** argv) {
   for (const auto& m : results)
     say(fmt::format("{:<28} {:8.2f} {:13.2f} {:16.2f} {:15.2f} {:15.2f} {:13.0f}", m.label, m.wall_s,
                     60.0 * m.sessions / m.wall_s, m.mean_session_s, m.max_session_s, m.mean_cpu_s, m.max_rss_mb));
-  if (large) {
+  for (const std::string& plan : large ? large_plans : std::vector<std::string>{}) {
     testing::RenderedSessionFolder spec;
-    spec.name = "large";
+    spec.name = "large-" + plan;
     spec.seed = 400;
-    spec.scene_size = 1224;
-    spec.scene_height = 1024;
+    spec.scene_size = large_scene.at(0);
+    spec.scene_height = large_scene.at(1);
     spec.cameras = 2;
+    spec.plan = plan;
     const auto render_start = std::chrono::steady_clock::now();
-    const fs::path folder = testing::write_rendered_session_folder(root / "large-session", spec);
-    std::ofstream(root / "large-manifest.txt") << folder.string() << "\n";
+    const fs::path folder = testing::write_rendered_session_folder(root / "large-sessions", spec);
     const double render_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - render_start).count();
+    const fs::path manifest_file = root / ("large-manifest-" + plan + ".txt");
+    std::ofstream(manifest_file) << folder.string() << "\n";
     std::uint64_t frame_bytes = 0;
+    std::size_t frames = 0;
     for (const auto& entry : fs::recursive_directory_iterator(folder / "frames"))
-      if (entry.is_regular_file()) frame_bytes += entry.file_size();
-    // Twice: the first builds the tables of this session's sets (the node-local cache's first use).
-    std::vector<Measured> large_runs;
-    // A third time on one thread: the session's cost in core-seconds, as an array task of one CPU runs it.
-    const char* labels[] = {"5 MP x 2 cameras, tables cold", "5 MP x 2 cameras, tables warm",
-                            "5 MP x 2 cameras, 1 thread"};
-    for (int pass = 0; pass < 3; ++pass) {
-      const fs::path study = root / fmt::format("large-{}", pass);
-      large_runs.push_back(measure(labels[pass],
-                                   chromo + " study run " + (root / "large-manifest.txt").string() + " --on local --threads " +
-                                       (pass == 2 ? "1" : "2") + " --cache-dir " + cache + " --out " + study.string(),
-                                   study, 1));
-    }
-    say(fmt::format("large session: 2 cameras, 2448x2048 BayerRG12, 7 frames each: {:.0f} MB of frames (rendered in {:.1f} s)",
+      if (entry.is_regular_file()) frame_bytes += entry.file_size(), ++frames;
+    say(fmt::format("large session, {} plan: 2 cameras, {}x{} BayerRG12, {} frames each: {:.0f} MB of frames "
+                    "(rendered in {:.1f} s)", plan, 2 * spec.scene_size, 2 * spec.scene_height, frames / 2,
                     frame_bytes / 1048576.0, render_s));
-    for (std::size_t pass = 0; pass < large_runs.size(); ++pass) {
-      const Measured& m = large_runs[pass];
-      say(fmt::format("{:<32} {:7.2f} s in the record, {:7.2f} s wall, {:7.2f} CPU s, peak RSS {:.0f} MB", m.label,
+    // The first run builds the tables of this session's sets (the node-local
+    // cache's first use); then warm; then on one thread (the session's cost as
+    // an array task of one CPU runs it).
+    const char* labels[] = {"tables cold", "tables warm", "1 thread"};
+    for (int pass = 0; pass < 3; ++pass) {
+      const fs::path study = root / fmt::format("large-{}-{}", plan, pass);
+      const Measured m = measure(labels[pass],
+                                 chromo + " study run " + manifest_file.string() + " --on local --threads " +
+                                     (pass == 2 ? "1" : "2") + " --cache-dir " + cache + " --out " + study.string(),
+                                 study, 1);
+      say(fmt::format("  {:<12} {:7.2f} s in the record, {:7.2f} s wall, {:7.2f} CPU s, peak RSS {:.0f} MB", m.label,
                       m.mean_session_s, m.wall_s, m.mean_cpu_s, m.max_rss_mb));
-      // Where one camera's time went (its summary.json; writing is not in it).
+      // Where each camera's time went (its summary.json; writing is not in it).
       for (const char* camera : {"cam0", "cam1"}) {
-        std::ifstream in(root / fmt::format("large-{}", pass) / "sessions" / "large" / camera / "summary.json");
+        std::ifstream in(study / "sessions" / spec.name / camera / "summary.json");
         const auto summary = nlohmann::ordered_json::parse(in);
         std::string split;
         for (const auto& [stage, seconds] : summary["timings_s"].items())
           split += fmt::format(" {} {:.2f}", stage, seconds.get<double>());
-        say(fmt::format("  {}:{}", camera, split));
+        say(fmt::format("    {}:{}", camera, split));
       }
     }
   }

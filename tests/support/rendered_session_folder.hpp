@@ -1,7 +1,7 @@
 #pragma once
 // Small stored session folders for tests and benches: the method's standard
-// plan (dark, then white and subject under D65', W57 and W57+blue), one frame
-// per step and camera, written as chromod's storage writes them
+// plan (dark, then white and subject under D65', W57 and W57+blue) or the
+// six-LED multispectral plan (each LED type alone), one frame per step and camera, written as chromod's storage writes them
 // (session::SessionStore: session.json and the journal; frame TIFFs through
 // write_frame_tiff) with the LED library in results/led_library.json, as
 // `chromo estimate SESSION_DIR` reads them. The frames are the virtual lab's
@@ -32,6 +32,10 @@ struct RenderedSessionFolder {
   int scene_height = 0;       // > 0: a scene_size × scene_height scene (e.g. 1224 × 1024: a 5-MP sensor)
   int cameras = 1;            // "cam0", "cam1", ...: the same scene, each its own noise
   std::string subject = "rendered forearm";
+  // "standard" (one exposure: the brightest white at 85% of full scale) or
+  // "multispectral" (each state's white at 85%, the dark at the longest, as
+  // simulators::render_session exposes it).
+  std::string plan = "standard";
 };
 
 // Writes root/<spec.name> and returns it. Throws on any failure.
@@ -53,32 +57,39 @@ inline std::filesystem::path write_rendered_session_folder(const std::filesystem
   const calibration::LedLibrary library = simulators::lab_led_library();
   simulators::CameraModel camera{simulators::CameraModelOptions{}};
 
-  // Each lit state's drive levels and camera weights; one exposure for every
-  // step that puts the brightest white channel at 85% of full scale (as
-  // simulators::render_session sets it).
+  // Each lit state's drive levels, camera weights and exposure (its
+  // brightest white channel at 85% of full scale).
   session::StandardPlanOptions plan_options;
+  session::SessionPlan plan = *session::builtin_plan(spec.plan, plan_options);
   std::map<std::string, drivers::DriveLevels> drive_of;
   std::map<std::string, Eigen::Matrix<double, 3, spectral::kGridSize>> weights_of;
-  double brightest = 0;
-  for (const session::Step& step : session::standard_plan(plan_options).steps) {
-    if (step.role == session::StepRole::kDark || drive_of.count(step.illumination.mix)) continue;
-    const auto drive = calibration::solve_session_mix(library, step.illumination.mix, "camera", false).weights;
-    drive_of[step.illumination.mix] = drive;
-    const auto w = camera.weights(leds.emit_settled(drive));
-    weights_of[step.illumination.mix] = w;
-    const Eigen::Vector3d white = w * simulators::white_target_reflectance().values().matrix();
-    brightest = std::max(brightest, white.maxCoeff());
-  }
+  std::map<std::string, double> exposure_of;
   const auto& c = camera.options();
-  const double exposure_us =
-      (0.85 * camera.max_dn() - c.black_level_dn) * c.gain_e_per_dn / (c.quantum_scale_e_per_us * brightest);
+  auto key_of = [](const session::Step& step) { return session::illumination_state(step).key; };
+  for (const session::Step& step : plan.steps) {
+    if (step.role == session::StepRole::kDark || drive_of.count(key_of(step))) continue;
+    const drivers::DriveLevels drive =
+        step.illumination.kind == session::Illumination::Kind::kWeights
+            ? step.illumination.weights
+            : calibration::solve_session_mix(library, step.illumination.mix, "camera", false).weights;
+    drive_of[key_of(step)] = drive;
+    const auto w = camera.weights(leds.emit_settled(drive));
+    weights_of[key_of(step)] = w;
+    const Eigen::Vector3d white = w * simulators::white_target_reflectance().values().matrix();
+    exposure_of[key_of(step)] =
+        (0.85 * camera.max_dn() - c.black_level_dn) * c.gain_e_per_dn / (c.quantum_scale_e_per_us * white.maxCoeff());
+  }
+  double shortest = 1e300, longest = 0;
+  for (const auto& [key, exposure] : exposure_of) shortest = std::min(shortest, exposure), longest = std::max(longest, exposure);
+  for (session::Step& step : plan.steps) {
+    if (spec.plan == "standard") step.exposure_us = shortest;  // one exposure, set on the brightest white
+    else step.exposure_us = step.role == session::StepRole::kDark ? longest : exposure_of.at(key_of(step));
+  }
 
   files::StorageBudget budget;
   const fs::path staging = root / (".staging-" + spec.name);
   fs::remove_all(staging);
   session::SessionStore store(staging, &budget);
-  plan_options.exposure_us = exposure_us;
-  const session::SessionPlan plan = session::standard_plan(plan_options);
   fs::path created_folder;
   {
     auto created = store.create(plan, spec.subject, nlohmann::json::array());
@@ -87,22 +98,22 @@ inline std::filesystem::path write_rendered_session_folder(const std::filesystem
     for (std::size_t s = 0; s < plan.steps.size(); ++s) {
       const session::Step& step = plan.steps[s];
       const bool dark = step.role == session::StepRole::kDark;
-      const drivers::DriveLevels drive = dark ? drivers::DriveLevels{} : drive_of.at(step.illumination.mix);
-      const auto weights = dark ? camera.weights(leds.emit_settled(drive)) : weights_of.at(step.illumination.mix);
+      const drivers::DriveLevels drive = dark ? drivers::DriveLevels{} : drive_of.at(key_of(step));
+      const auto weights = dark ? camera.weights(leds.emit_settled(drive)) : weights_of.at(key_of(step));
       const cv::Mat response = (step.role == session::StepRole::kSubject ? skin : white).render(weights);
       cv::Mat sensor;
       cv::resize(response, sensor, cv::Size(2 * size, 2 * height), 0, 0, cv::INTER_LINEAR);
       for (int c = 0; c < spec.cameras; ++c) {
         const std::uint64_t frame_index = spec.seed * 1000 + index;
         const cv::Mat dn =
-            camera.expose(sensor, simulators::SensorLayout::kBayerRGGB, 0, 0, exposure_us, 0, frame_index);
+            camera.expose(sensor, simulators::SensorLayout::kBayerRGGB, 0, 0, step.exposure_us, 0, frame_index);
         session::FrameRecord record;
         record.index = index;
         record.camera = "cam" + std::to_string(c);
         record.step = step.name;
         record.step_index = static_cast<int>(s);
         record.role = step.role;
-        record.exposure_us = exposure_us;
+        record.exposure_us = step.exposure_us;
         record.led = session::FrameLedState{.drive = drive};
         record.sequence = s;
         record.width = dn.cols;

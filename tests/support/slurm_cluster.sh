@@ -63,14 +63,19 @@ SlurmdLogFile=$dir/log/slurmd.log
 NodeName=$node CPUs=$(nproc) RealMemory=$memory_mb State=UNKNOWN
 PartitionName=study Nodes=$node Default=YES MaxTime=INFINITE State=UP
 CONF
+  # Another cluster on this machine (another checkout's test run) holds the
+  # fixed ports: wait for it to stop (up to 90 s), then a moment more for it
+  # to stop the munged it started, before looking at munge.
+  ports_free() { ! ss -ltn 2>/dev/null | grep -qE ':(6817|6818)\b'; }
+  if ! wait_for 90 ports_free; then
+    echo "slurm_cluster: port 6817 or 6818 is taken (another Slurm runs on this machine)" >&2; exit 1
+  fi
+  sleep 1
   if ! (munge -n | unmunge) >/dev/null 2>&1; then
     mkdir -p /run/munge && chown munge:munge /run/munge && chmod 0755 /run/munge
     runuser -u munge -- /usr/sbin/munged
     wait_for 10 sh -c 'munge -n | unmunge' || { echo "slurm_cluster: munged does not answer" >&2; exit 1; }
     touch "$dir/munged-started-here"
-  fi
-  if ss -ltn 2>/dev/null | grep -qE ':(6817|6818)\b'; then
-    echo "slurm_cluster: port 6817 or 6818 is taken (another Slurm runs on this machine)" >&2; exit 1
   fi
   slurmctld -D -f "$dir/slurm.conf" >"$dir/log/slurmctld.out" 2>&1 &
   echo $! > "$dir/slurmctld.pid.own"
