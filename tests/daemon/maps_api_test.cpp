@@ -198,6 +198,11 @@ TEST_F(MapsApi, GetMapSamplesAChannelAtCellCentresAndRefusesBadRequests) {
   s = get("../outside.exr", "Cm", 0, &refused);
   EXPECT_NE(s.error_code(), grpc::StatusCode::OK);
   EXPECT_THAT(s.error_message(), HasSubstr("maps_file"));
+  // Issue 40, row 15: a file that is not an EXR answered INTERNAL.
+  std::ofstream(data / "not-an-exr.exr") << "plain text, not OpenEXR";
+  s = get("not-an-exr.exr", "Cm", 0, &refused);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << s.error_message();
+  EXPECT_THAT(s.error_message(), HasSubstr("maps_file: "));
 }
 
 TEST_F(MapsApi, ImportMapsGivesTheTableTwoComparison) {

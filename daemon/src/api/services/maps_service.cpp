@@ -9,6 +9,7 @@
 #include <random>
 #include <string>
 
+#include "chromo/files/bounded_read.hpp"
 #include "chromo/files/float_image.hpp"
 #include "chromo/estimation/pixel_flags.hpp"
 #include "chromo/files/progress.hpp"
@@ -187,7 +188,15 @@ class MapsServiceImpl final : public pb::MapsService::Service {
       const std::uint32_t max_width = request->max_width() == 0 ? 320 : request->max_width();
       if (max_width < 16 || max_width > 1024)
         throw Refusal{{StatusCode::INVALID_ARGUMENT, "max_width: must be 16-1024 (0: 320)"}};
-      const files::FloatImage image = files::read_exr(files.input("maps_file", request->maps_file(), true));
+      // A file that is not a readable EXR is the request's fault (issue 40: INTERNAL before).
+      chromo::files::FloatImage image;
+      try {
+        image = chromo::files::read_exr(files.input("maps_file", request->maps_file(), true));
+      } catch (const chromo::files::ImageError& e) {
+        throw Refusal{{StatusCode::INVALID_ARGUMENT, "maps_file: " + files.scrub(e.what())}};
+      } catch (const chromo::files::InputFileError& e) {
+        throw Refusal{{StatusCode::INVALID_ARGUMENT, "maps_file: " + files.scrub(e.what())}};
+      }
       for (const std::string& name : image.channel_names) response->add_channels(name);
       const auto found = std::find(image.channel_names.begin(), image.channel_names.end(), request->channel());
       if (found == image.channel_names.end()) {
