@@ -1,10 +1,7 @@
 #include "chromo/estimation/model_discrepancy.hpp"
 
-#include <omp.h>
-
 #include <algorithm>
 #include <cmath>
-#include <exception>
 #include <iomanip>
 #include <sstream>
 #include <stdexcept>
@@ -28,27 +25,6 @@ const std::vector<NamedSpectrum>& nist_forearm_spectra() {
     return out;
   }();
   return spectra;
-}
-
-std::vector<SpectrumResidual> fit_residuals(std::span<const NamedSpectrum> spectra, const SpectrumFitOptions& options,
-                                            int threads) {
-  std::vector<SpectrumResidual> out(spectra.size());
-  std::vector<std::exception_ptr> errors(spectra.size());
-  const int count = static_cast<int>(spectra.size());
-#pragma omp parallel for schedule(dynamic) num_threads(threads > 0 ? threads : omp_get_max_threads())
-  for (int i = 0; i < count; ++i) {
-    try {
-      const SpectrumFitResult fit = fit_spectrum(spectra[i].albedo, options);
-      out[i].name = spectra[i].name;
-      out[i].fitted = fit.fitted;
-      out[i].residual = spectral::Spectrum(spectra[i].albedo.values() - fit.fitted.values());
-    } catch (...) {
-      errors[i] = std::current_exception();
-    }
-  }
-  for (const auto& e : errors)
-    if (e) std::rethrow_exception(e);
-  return out;
 }
 
 std::string residuals_csv(std::span<const SpectrumResidual> residuals, const std::string& provenance) {
