@@ -433,7 +433,7 @@ TEST(PolarisedSession, AFailedParallelCalibrationKeepsTheLibrariesItHad) {
 // registration's fallback (session/registration.hpp: a translation measured
 // by gradient least squares, used when its 3σ ≤ 0.3 px) answers where ECC
 // does not; the results say which step used it.
-TEST(PolarisedSession, ASmoothViewIsRegisteredByTheTranslationFallback) {
+TEST(PolarisedSession, ASmoothStillViewIsRegisteredAndKeepsTheIdentity) {
   TestLab lab("polarised_smooth");
   make_polarised(lab, 128);
   lab.config.capture.exposure_per_capture = false;
@@ -452,26 +452,26 @@ TEST(PolarisedSession, ASmoothViewIsRegisteredByTheTranslationFallback) {
   ASSERT_TRUE(in) << "no results/summary.json";
   const auto summary = nlohmann::json::parse(in);
   EXPECT_EQ(summary.at("highlights").at("detection"), "optical");
-  // W57 and W57+blue onto D65': ECC finds the (absent) motion, but on the
-  // aligned featureless pair its residual check does not converge (that
-  // RegistrationError left the estimate unavailable); the fallback measures
-  // the residual there. Each capture within a pixel of where it was (the
-  // lab's subject does not move).
+  // W57 and W57+blue onto D65': the lab's subject does not move, and on this
+  // featureless view each registration (ECC, or the translation fallback
+  // where ECC gives no answer: that RegistrationError once left the estimate
+  // unavailable) finds less motion than its own noise, so no capture is
+  // warped (issue 37: a still scene keeps the identity). Since a sub-pixel
+  // warp no longer leaves NaN borders, the residual check's ECC converges
+  // here; the fallback itself is tested in tests/session/registration_test.cpp.
   const auto& registration = summary.at("registration");
   ASSERT_EQ(registration.size(), 2u) << summary.dump();
-  int fallbacks = 0;
   for (const auto& capture : registration) {
     std::printf("%s: %s (residual %s), motion %.3f px, residual %.3f px, σ %.3f px\n",
                 capture.at("image").get<std::string>().c_str(), capture.at("method").get<std::string>().c_str(),
                 capture.at("residual_method").get<std::string>().c_str(), capture.at("motion_px").get<double>(),
                 capture.at("residual_motion_px").get<double>(), capture.at("translation_sigma_px").get<double>());
-    fallbacks += capture.at("method") == "translation" || capture.at("residual_method") == "translation";
+    EXPECT_FALSE(capture.at("warped").get<bool>()) << capture.dump();
     EXPECT_LT(capture.at("motion_px").get<double>(), 1.0) << capture.dump();
     EXPECT_LT(capture.at("residual_motion_px").get<double>(), 1.0) << capture.dump();
     if (capture.at("method") == "translation")
       EXPECT_LE(3 * capture.at("translation_sigma_px").get<double>(), session::kTranslationFallbackUncertaintyPx);
   }
-  EXPECT_GE(fallbacks, 1) << registration.dump();
 }
 
 TEST(PolarisedSession, ConfigurationKeysAreReadAndBadValuesRefusedNamingTheKey) {
