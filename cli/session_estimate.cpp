@@ -23,6 +23,17 @@ namespace chromo::cli {
 
 namespace fs = std::filesystem;
 
+std::map<std::string, std::string> parse_camera_of(const std::vector<std::string>& entries) {
+  std::map<std::string, std::string> camera_of;
+  for (const std::string& entry : entries) {
+    const auto equals = entry.find('=');
+    if (equals == std::string::npos || equals == 0 || equals + 1 == entry.size())
+      throw std::invalid_argument("--camera-of: \"" + entry + "\" is not NAME=SPEC (builtin:NAME or a CSV)");
+    camera_of[entry.substr(0, equals)] = entry.substr(equals + 1);
+  }
+  return camera_of;
+}
+
 estimation::EstimatorOptions estimator_options(const EstimateOptions& options) {
   estimation::EstimatorOptions eo;
   // CLI11 has checked both names against the same lists.
@@ -51,13 +62,7 @@ SessionEstimate estimate_stored_session(const EstimateOptions& options, const st
     std::string library = options.led_library;
     if (library.empty() && fs::exists(folder / "results" / "led_library.json"))
       library = (folder / "results" / "led_library.json").string();
-    std::map<std::string, std::string> camera_of;
-    for (const std::string& entry : options.camera_of) {
-      const auto equals = entry.find('=');
-      if (equals == std::string::npos || equals == 0 || equals + 1 == entry.size())
-        throw std::invalid_argument("--camera-of: \"" + entry + "\" is not NAME=SPEC (builtin:NAME or a CSV)");
-      camera_of[entry.substr(0, equals)] = entry.substr(equals + 1);
-    }
+    const std::map<std::string, std::string> camera_of = parse_camera_of(options.camera_of);
     sources = session::resolve_capture_sources(library, options.camera, options.white_reflectance, camera_of);
     // The session's own per-state libraries, unless --led-library overrides the illuminants.
     if (options.led_library.empty()) session::load_session_state_libraries(folder / "results", sources);

@@ -10,6 +10,7 @@
 // Thread rules: a free function; the estimation uses options.threads cores.
 
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -37,6 +38,8 @@ struct EstimateOptions {
 };
 
 estimation::EstimatorOptions estimator_options(const EstimateOptions& options);
+// --camera-of's NAME=SPEC entries as a map; std::invalid_argument naming a malformed one.
+std::map<std::string, std::string> parse_camera_of(const std::vector<std::string>& entries);
 
 // What one session's estimation gave.
 struct SessionEstimate {

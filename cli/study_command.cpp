@@ -34,13 +34,7 @@ struct StudyRunOptions {
 // Bad options named before anything is written: the LED library and camera
 // sensitivities load (as every session will load them).
 void check_estimation_options(const EstimateOptions& options) {
-  std::map<std::string, std::string> camera_of;
-  for (const std::string& entry : options.camera_of) {
-    const auto equals = entry.find('=');
-    if (equals == std::string::npos || equals == 0 || equals + 1 == entry.size())
-      throw std::invalid_argument("--camera-of: \"" + entry + "\" is not NAME=SPEC (builtin:NAME or a CSV)");
-    camera_of[entry.substr(0, equals)] = entry.substr(equals + 1);
-  }
+  const std::map<std::string, std::string> camera_of = parse_camera_of(options.camera_of);
   if (!(options.white_reflectance > 0 && options.white_reflectance <= 1))
     throw std::invalid_argument("--white-reflectance: " + std::to_string(options.white_reflectance) +
                                 " is not in (0, 1]");

@@ -160,10 +160,12 @@ double Estimator::fit_variance(int channel, double albedo) const {
   return 1 / (w * w);
 }
 
-void Estimator::set_uncertainty(const detail::PixelCovariance& covariance, const GridPoint& x, PixelEstimate& out) const {
+void Estimator::set_uncertainty(const detail::PixelCovariance& covariance, const GridPoint& x, PixelEstimate& out,
+                                const double* jacobian_at_x) const {
   const int c_count = channels();
-  ChannelBuffer<double> value(c_count), jacobian(c_count * 4);
-  table_->predict(x, value, jacobian);
+  ChannelBuffer<double> value(c_count), own_jacobian(c_count * 4);
+  const double* jacobian = jacobian_at_x;
+  if (!jacobian) table_->predict(x, value, own_jacobian), jacobian = own_jacobian.data();
   // The data's information plus a weak prior of one box width per parameter
   // (σ_prior = the parameter's range): without it a parameter the channels
   // barely see gets a linearised spread far beyond its range; with the
@@ -171,7 +173,7 @@ void Estimator::set_uncertainty(const detail::PixelCovariance& covariance, const
   // a parameter's σ would be width/√12 while its estimate may sit anywhere in
   // the box, and 2σ would cover little more than half of its errors.
   const auto nodes = table_->nodes();
-  Eigen::Matrix4d information = covariance.information(jacobian.data());
+  Eigen::Matrix4d information = covariance.information(jacobian);
   for (int k = 0; k < 4; ++k) information(k, k) += 1.0 / ((nodes[k] - 1.0) * (nodes[k] - 1.0));
   Eigen::Vector4d scale;
   for (int k = 0; k < 4; ++k) scale(k) = 1 / std::sqrt(information(k, k));
@@ -281,9 +283,18 @@ PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const
   out.order = static_cast<std::uint8_t>(order);
   out.parameters = table_->from_grid(chosen.x);
   out.chi2 = static_cast<float>(chosen_chi2);
-  ChannelBuffer<double> predicted(c_count);
-  if (chosen.has_prediction && c_count == Fit::kPredictedChannels) std::copy_n(chosen.predicted, c_count, predicted.data());
-  else table_->predict(chosen.x, predicted);
+  // The chosen fit's prediction, with the table's Jacobian there when the σ
+  // maps need it (one interpolation for both).
+  ChannelBuffer<double> predicted(c_count), jacobian(c_count * 4);
+  const double* jacobian_at_chosen = nullptr;
+  if (chosen.has_prediction && c_count == Fit::kPredictedChannels) {
+    std::copy_n(chosen.predicted, c_count, predicted.data());
+  } else if (options_.uncertainty) {
+    table_->predict(chosen.x, predicted, jacobian);
+    jacobian_at_chosen = jacobian.data();
+  } else {
+    table_->predict(chosen.x, predicted);
+  }
   double sum = 0;
   bool darker_everywhere = true;
   for (int c = 0; c < c_count; ++c) {
@@ -292,7 +303,7 @@ PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const
   }
   out.residual = static_cast<float>(std::sqrt(sum / c_count));
   if (chosen_chi2 <= flag_threshold_[order]) {
-    if (options_.uncertainty) set_uncertainty(covariance, chosen.x, out);
+    if (options_.uncertainty) set_uncertainty(covariance, chosen.x, out, jacobian_at_chosen);
     return out;
   }
 
@@ -308,7 +319,7 @@ PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const
     return out;
   }
   out.flag = darker_everywhere ? PixelFlag::kUnexplainedAbsorber : PixelFlag::kUnexplainedColour;
-  if (options_.uncertainty) set_uncertainty(covariance, chosen.x, out);
+  if (options_.uncertainty) set_uncertainty(covariance, chosen.x, out, jacobian_at_chosen);
   return out;
 }
 

@@ -22,12 +22,7 @@ class SessionServiceImpl final : public pb::SessionService::Service {
         if (Status s = from_proto(request->plan(), "plan", &plan); !s.ok()) return s;
       } else if (request->plan_source_case() == pb::StartSessionRequest::kStandard && request->standard()) {
         session::StandardPlanOptions options = daemon_.standard_plan_options();
-        if (Status s = standard_options(request->timing(), request->exposure_us(), request->frames_per_camera(),
-                                        request->reference_frames(), request->subject_fill(), request->operator_prompts(),
-                                        request->fixed_exposure(), &options);
-            !s.ok())
-          return s;
-        if (Status s = polarised_option(request->polarised(), &options); !s.ok()) return s;
+        if (Status s = standard_plan_options_of(*request, &options); !s.ok()) return s;
         plan = session::standard_plan(options);
       } else {
         return invalid("plan_source: set standard = true or give a plan");
@@ -42,12 +37,7 @@ class SessionServiceImpl final : public pb::SessionService::Service {
   Status GetStandardPlan(ServerContext* context, const pb::GetStandardPlanRequest* request, pb::SessionPlan* response) override {
     return guard_(context, [&] {
       session::StandardPlanOptions options = daemon_.standard_plan_options();
-      if (Status s = standard_options(request->timing(), request->exposure_us(), request->frames_per_camera(),
-                                      request->reference_frames(), request->subject_fill(), request->operator_prompts(),
-                                      request->fixed_exposure(), &options);
-          !s.ok())
-        return s;
-      if (Status s = polarised_option(request->polarised(), &options); !s.ok()) return s;
+      if (Status s = standard_plan_options_of(*request, &options); !s.ok()) return s;
       to_proto(session::standard_plan(options), response);
       return Status::OK;
     });
@@ -98,6 +88,16 @@ class SessionServiceImpl final : public pb::SessionService::Service {
 
  private:
   // `options` comes with the configuration's capture choices (Daemon::standard_plan_options).
+  // The standard plan's fields of a StartSession or GetStandardPlan request onto `options`.
+  template <typename Request>
+  static Status standard_plan_options_of(const Request& request, session::StandardPlanOptions* options) {
+    if (Status s = standard_options(request.timing(), request.exposure_us(), request.frames_per_camera(),
+                                    request.reference_frames(), request.subject_fill(), request.operator_prompts(),
+                                    request.fixed_exposure(), options);
+        !s.ok())
+      return s;
+    return polarised_option(request.polarised(), options);
+  }
   static Status standard_options(int timing, double exposure_us, std::uint32_t frames, std::uint32_t reference_frames,
                                  double subject_fill, bool prompts, bool fixed_exposure,
                                  session::StandardPlanOptions* options) {

@@ -211,7 +211,9 @@ class Estimator {
   double order_threshold_ = 0;                          // kLikelihoodRatio: the χ²₂ − χ²₄ quantile
   // The pixel's Σ (step 2) and the 4D parameter covariance at its fit (PixelEstimate::sigma).
   double fit_variance(int channel, double albedo) const;
-  void set_uncertainty(const detail::PixelCovariance& covariance, const GridPoint& x, PixelEstimate& out) const;
+  // jacobian_at_x: the table's Jacobian at x when the caller has it (else it is interpolated here).
+  void set_uncertainty(const detail::PixelCovariance& covariance, const GridPoint& x, PixelEstimate& out,
+                       const double* jacobian_at_x = nullptr) const;
   // The specular test (step 5 above): the best 4D fit of measured − s over the
   // scanned s, continued from `start`; chi2 = ∞ when no s reaches min_specular.
   static constexpr int kSpecularSteps = 8;
