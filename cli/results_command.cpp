@@ -24,7 +24,11 @@ std::string state_word(pb::ResultsState state) {
 nlohmann::json summary_json(const pb::ResultsSummary& summary) {
   nlohmann::json relit = nlohmann::json::object();
   for (const auto& [name, s] : summary.relit_delta_e94())
+  {
     relit[name] = {{"mean", s.mean()}, {"median", s.median()}, {"p95", s.p95()}};
+    if (s.has_photograph_noise_mean()) relit[name]["photograph_noise_mean"] = s.photograph_noise_mean();
+    if (s.has_beyond_noise_rms()) relit[name]["beyond_noise_rms"] = s.beyond_noise_rms();
+  }
   return {{"method", summary.method()},
           {"model", summary.model()},
           {"pixels", summary.pixels()},
@@ -58,8 +62,14 @@ void print_summary(const pb::ResultsSummary& summary, const std::string& indent)
                     : "no parallel capture: the estimator's specular flag");
   for (const auto& [name, s] :
        std::map<std::string, pb::DeltaEStatistics>(summary.relit_delta_e94().begin(), summary.relit_delta_e94().end()))
-    std::printf("%srelit ΔE94 vs photograph under %-9s mean %.2f  median %.2f  p95 %.2f\n", indent.c_str(), name.c_str(),
+  {
+    std::printf("%srelit ΔE94 vs photograph under %-9s mean %.2f  median %.2f  p95 %.2f", indent.c_str(), name.c_str(),
                 s.mean(), s.median(), s.p95());
+    // A dim photograph is mostly its own noise: say how much, and what is left beyond it.
+    if (s.has_photograph_noise_mean() && s.has_beyond_noise_rms())
+      std::printf("  (its own noise alone %.2f; beyond it %.2f rms)", s.photograph_noise_mean(), s.beyond_noise_rms());
+    std::printf("\n");
+  }
 }
 
 }  // namespace

@@ -1,5 +1,7 @@
 #include "chromo/maps/camera_results.hpp"
 
+#include "delta_e_json.hpp"
+
 #include <algorithm>
 #include <cctype>
 #include <cstdio>
@@ -133,12 +135,7 @@ std::string camera_entry_json(const CameraEstimate& camera, const std::string& p
     flags[std::string(estimation::pixel_flag_name(static_cast<estimation::PixelFlag>(f)))] = r.summary.flag_counts[f];
   entry["flag_counts"] = flags;
   nlohmann::ordered_json relit = nlohmann::ordered_json::object();
-  for (const auto& c : r.relit)
-    relit[c.illuminant] = {{"mean", c.delta_e94.mean},
-                           {"median", c.delta_e94.median},
-                           {"p95", c.delta_e94.p95},
-                           {"max", c.delta_e94.max},
-                           {"pixels", c.delta_e94.pixels}};
+  for (const auto& c : r.relit) relit[c.illuminant] = relit_comparison_json(c);
   entry["relit_delta_e94"] = relit;
   entry["highlights"] = {{"detection", r.highlight_detection}, {"pixels", r.highlight_pixels}};
   return entry.dump();

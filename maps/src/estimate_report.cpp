@@ -7,6 +7,7 @@
 #include <future>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -292,6 +293,34 @@ std::string write_estimate_report(const fs::path& dir, const EstimateReport& rep
   return summary_text;
 }
 
+namespace {
+
+// ΔE94 of the means of block×block cells (compare_with_photographs' block_means).
+DeltaEStats block_mean_delta_e94(std::span<const std::size_t> included, std::span<const Eigen::Vector3d> photographed,
+                                 std::span<const Eigen::Vector3d> reconstructed, int width, int block,
+                                 const spectral::CameraSensitivity& camera, const spectral::Spectrum& illuminant) {
+  struct Sums {
+    Eigen::Vector3d photo = Eigen::Vector3d::Zero(), relit = Eigen::Vector3d::Zero();
+    int cells = 0;
+  };
+  std::map<std::pair<std::size_t, std::size_t>, Sums> blocks;
+  const auto w = static_cast<std::size_t>(width), b = static_cast<std::size_t>(block);
+  for (std::size_t k = 0; k < included.size(); ++k) {
+    if (!photographed[k].allFinite() || !reconstructed[k].allFinite()) continue;
+    Sums& sums = blocks[{included[k] / w / b, included[k] % w / b}];
+    sums.photo += photographed[k], sums.relit += reconstructed[k], ++sums.cells;
+  }
+  std::vector<Eigen::Vector3d> photo_means, relit_means;
+  for (const auto& [where, sums] : blocks)
+    if (2 * sums.cells >= block * block) {
+      photo_means.push_back(sums.photo / sums.cells);
+      relit_means.push_back(sums.relit / sums.cells);
+    }
+  return photo_delta_e94(photo_means, relit_means, camera, illuminant);
+}
+
+}  // namespace
+
 std::string_view relit_model_name(RelitModel model) { return model == RelitModel::kExact ? "exact" : "table"; }
 
 std::vector<RelitComparison> compare_with_photographs(std::span<const estimation::PixelEstimate> estimates,
@@ -336,10 +365,33 @@ std::vector<RelitComparison> compare_with_photographs(std::span<const estimation
   }
   std::vector<RelitComparison> out;
   std::vector<Eigen::Vector3d> photographed(included.size());
+  auto finite_rms = [](const std::vector<double>& values, std::vector<double>* finite) {
+    double sum = 0;
+    for (double v : values)
+      if (std::isfinite(v)) finite->push_back(v), sum += v * v;
+    return finite->empty() ? 0.0 : std::sqrt(sum / static_cast<double>(finite->size()));
+  };
   for (std::size_t p = 0; p < photographs.size(); ++p) {
-    for (std::size_t k = 0; k < included.size(); ++k) photographed[k] = photographs[p].rgb[included[k]];
-    out.push_back({photographs[p].name,
-                   photo_delta_e94(photographed, reconstructed[p], camera, photographs[p].illuminant)});
+    const session::Photograph& photo = photographs[p];
+    for (std::size_t k = 0; k < included.size(); ++k) photographed[k] = photo.rgb[included[k]];
+    std::vector<double> compared;
+    const double rms = finite_rms(photo_delta_e94_map(photographed, reconstructed[p], camera, photo.illuminant), &compared);
+    RelitComparison comparison{photo.name, delta_e_stats(std::move(compared))};
+    if (photo.noise) {
+      // Over the pixels compared above (both finite): the photograph's are, and its noisy copy with them.
+      std::vector<Eigen::Vector3d> compared_photo;
+      for (std::size_t k = 0; k < included.size(); ++k)
+        if (photographed[k].allFinite() && reconstructed[p][k].allFinite()) compared_photo.push_back(photographed[k]);
+      std::vector<double> noise;
+      const double noise_rms = finite_rms(
+          photograph_noise_delta_e94_map(compared_photo, *photo.noise, camera, photo.illuminant, 1 + p), &noise);
+      comparison.photograph_noise = delta_e_stats(std::move(noise));
+      comparison.beyond_noise_rms = std::sqrt(std::max(0.0, rms * rms - noise_rms * noise_rms));
+    }
+    if (options.image_width > 0 && options.block_cells > 0)
+      comparison.block_means = block_mean_delta_e94(included, photographed, reconstructed[p], options.image_width,
+                                                    options.block_cells, camera, photo.illuminant);
+    out.push_back(std::move(comparison));
   }
   return out;
 }
@@ -509,6 +561,7 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
   relit_options.grid = table->grid();
   relit_options.cache_dir = options.cache_dir.empty() ? estimation::ForwardTable::default_cache_dir() : options.cache_dir;
   relit_options.threads = options.estimator.threads;
+  relit_options.image_width = m.width;
   result.relit = compare_with_photographs(estimates, m.photographs, camera, relit_options);
   const double relit_seconds = seconds_since(t);
   const PolarisationOutputs polarisation = polarisation_outputs(m, result.summary);
@@ -542,12 +595,19 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
   extra["neighbourhood"] = nlohmann::ordered_json::parse(
       neighbourhood_report_json(options.neighbourhood.flags, options.neighbourhood.pool_order, neighbourhood));
   nlohmann::ordered_json relit = nlohmann::ordered_json::object();
-  for (const auto& r : result.relit) relit[r.illuminant] = delta_e_stats_json(r.delta_e94);
+  for (const auto& r : result.relit) relit[r.illuminant] = relit_comparison_json(r);
   extra["relit_delta_e94"] = {
       {"against", m.polarised() ? "the captured cross-polarised photographs (camera RGB albedo → XYZ by the "
                                   "ColorChecker-fitted matrix per illuminant)"
                                 : "the captured photographs (camera RGB albedo → XYZ by the ColorChecker-fitted matrix per illuminant)"},
       {"pixels", "explained (flag 0)"},
+      {"photograph_noise", "per illuminant: the ΔE94 the photograph's own noise alone gives (its read and shot noise "
+                           "from its dark and white); beyond_noise_rms = √max(0, rms² − rms(photograph_noise)²), "
+                           "the part of the difference that is not the photograph's noise (unreliable where the "
+                           "noise dominates; the D65' photograph is one the maps were fitted to)"},
+      {"block_means", "per illuminant: ΔE94 of 8×8-cell block means of the photograph and the reconstruction (linear "
+                      "camera RGB, explained cells): the noise averages out, a systematic error (the light, the "
+                      "model's floor) stays"},
       {"reconstruction", relit_model_name(options.relit_model)},
       {"by_illuminant", relit}};
 

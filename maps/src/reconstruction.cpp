@@ -1,5 +1,7 @@
 #include "chromo/maps/reconstruction.hpp"
 
+#include <random>
+
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
@@ -110,6 +112,19 @@ std::vector<double> photo_delta_e94_map(std::span<const Eigen::Vector3d> photogr
       de[i] = spectral::delta_e94(lab(photograph[i]), lab(reconstruction[i]));
   }
   return de;
+}
+
+std::vector<double> photograph_noise_delta_e94_map(std::span<const Eigen::Vector3d> photograph,
+                                                   const std::array<estimation::ChannelNoise, 3>& noise,
+                                                   const spectral::CameraSensitivity& camera,
+                                                   const spectral::Spectrum& illuminant, std::uint64_t seed) {
+  // One draw per pixel and channel, in pixel order (serial: the same seed gives the same draw on any core count).
+  std::mt19937_64 random(seed);
+  std::normal_distribution<double> normal;
+  std::vector<Eigen::Vector3d> noisy(photograph.begin(), photograph.end());
+  for (auto& rgb : noisy)
+    for (int c = 0; c < 3; ++c) rgb[c] += std::sqrt(noise[static_cast<std::size_t>(c)].variance(rgb[c])) * normal(random);
+  return photo_delta_e94_map(photograph, noisy, camera, illuminant);
 }
 
 DeltaEStats photo_delta_e94(std::span<const Eigen::Vector3d> photograph, std::span<const Eigen::Vector3d> reconstruction,

@@ -199,6 +199,8 @@ struct References {
   Reference broadband, base, with_blue;
   std::optional<Reference> parallel;             // D65' parallel's white
   estimation::ChannelNoise parallel_green_noise;  // its G albedo's noise
+  // Each capture's R, G, B albedo noise (the photographs'): D65', W57, W57+blue.
+  std::array<std::array<estimation::ChannelNoise, 3>, 3> capture_noise;
   estimation::MeasurementSet set;
   double base_to_mix = 1;  // s = t_mix / t_W57: the W57 capture's signals on the mix's exposure
   std::vector<ExposureLinearity> linearity;  // per capture
@@ -269,9 +271,13 @@ References references_of(const MethodCaptures& captures) {
     throw std::invalid_argument("W57+blue − W57: the white reference's B channel gains " + std::to_string(D) +
                                 " of full scale; the blue-only response needs more blue in the W57+blue mix");
   r.set.camera = captures.camera;
-  for (int c = 0; c < 3; ++c)
+  for (int c = 0; c < 3; ++c) {
+    r.capture_noise[0][c] = albedo_noise(r.broadband, captures.broadband, c);
+    r.capture_noise[1][c] = albedo_noise(r.base, captures.base, c);
+    r.capture_noise[2][c] = albedo_noise(r.with_blue, captures.with_blue, c);
     r.set.channels.push_back({"D65'." + std::string(kChannelNames[c]), captures.broadband.illuminant, c,
-                              albedo_noise(r.broadband, captures.broadband, c)});
+                              r.capture_noise[0][c]});
+  }
   spectral::Spectrum blue_illuminant = captures.with_blue.illuminant - captures.base.illuminant;
   blue_illuminant = spectral::Spectrum(blue_illuminant.values().max(0.0));
   estimation::ChannelNoise blue_noise;
@@ -407,7 +413,9 @@ MethodMeasurement build_plan_measurement(const PlanCaptures& captures, const Reg
   }
   for (std::size_t k = 0; k < normalised.size(); ++k) {
     const Normalised& a = normalised[k];
-    Photograph photo{captures.captures[k].name, captures.captures[k].illuminant, std::vector<Eigen::Vector3d>(n)};
+    std::array<estimation::ChannelNoise, 3> noise;
+    for (int c = 0; c < 3; ++c) noise[c] = m.set.channels[3 * k + c].noise;
+    Photograph photo{captures.captures[k].name, captures.captures[k].illuminant, std::vector<Eigen::Vector3d>(n), noise};
     for (std::size_t i = 0; i < n; ++i) photo.rgb[i] = {a.albedo[0][i], a.albedo[1][i], a.albedo[2][i]};
     m.photographs.push_back(std::move(photo));
   }
@@ -559,8 +567,9 @@ MethodMeasurement build_method_measurement(const MethodCaptures& captures, const
   // The photographs (what the relit comparison is against) as captured.
   const std::pair<const Normalised*, const IlluminatedCapture*> photographed[] = {
       {&broadband, &captures.broadband}, {&base, &captures.base}, {&with_blue, &captures.with_blue}};
-  for (const auto& [k, capture] : photographed) {
-    Photograph photo{capture->name, capture->illuminant, std::vector<Eigen::Vector3d>(n)};
+  for (std::size_t p = 0; p < std::size(photographed); ++p) {
+    const auto& [k, capture] = photographed[p];
+    Photograph photo{capture->name, capture->illuminant, std::vector<Eigen::Vector3d>(n), references.capture_noise[p]};
     for (std::size_t i = 0; i < n; ++i) photo.rgb[i] = {k->albedo[0][i], k->albedo[1][i], k->albedo[2][i]};
     m.photographs.push_back(std::move(photo));
   }

@@ -154,6 +154,10 @@ void results_summary_to_proto(const nlohmann::json& r, const std::string& method
       s.set_p95(stats.value("p95", 0.0));
       s.set_max(stats.value("max", 0.0));
       s.set_pixels(stats.value("pixels", std::uint64_t{0}));
+      if (stats.contains("photograph_noise") && stats["photograph_noise"].is_object())
+        s.set_photograph_noise_mean(stats["photograph_noise"].value("mean", 0.0));
+      if (stats.contains("beyond_noise_rms") && stats["beyond_noise_rms"].is_number())
+        s.set_beyond_noise_rms(stats["beyond_noise_rms"].get<double>());
       (*summary->mutable_relit_delta_e94())[name] = s;
     }
   if (r.contains("highlights") && r["highlights"].is_object()) {

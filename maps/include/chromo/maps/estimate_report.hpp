@@ -31,6 +31,8 @@
 #include <functional>
 #include <memory>
 #include <span>
+#include <optional>
+#include <limits>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -87,6 +89,21 @@ std::string write_estimate_report(const std::filesystem::path& dir, const Estima
 struct RelitComparison {
   std::string illuminant;  // "D65'", "W57", "W57+blue"
   DeltaEStats delta_e94;
+  // Over the same pixels, what the photograph's own noise alone gives
+  // (photograph_noise_delta_e94_map; absent for a photograph of unknown
+  // noise). A dim photograph (the W57 capture of the metered plan: W57 at a
+  // few percent of its drive) is mostly noise, so its delta_e94 says little
+  // about the maps; beyond_noise_rms does:
+  //   √max(0, rms(delta_e94)² − rms(photograph_noise)²),
+  // the part of the difference the photograph's noise does not account for
+  // (model, estimate and light errors together).
+  std::optional<DeltaEStats> photograph_noise;
+  double beyond_noise_rms = std::numeric_limits<double>::quiet_NaN();
+  // ΔE94 of block means (RelitComparisonOptions::block_cells² cells, linear
+  // camera RGB of the explained pixels of each block, blocks at least half
+  // explained): the photograph's noise averages out, the systematic part
+  // (a wrong light, the model's floor) stays. Absent without image_width.
+  std::optional<DeltaEStats> block_means;
 };
 // How the reconstruction's camera RGB is computed.
 //  kTable: interpolated in a RelitTable (relit_table.hpp) of the
@@ -102,6 +119,8 @@ struct RelitComparisonOptions {
   estimation::TableGrid grid;
   std::filesystem::path cache_dir;
   int threads = 0;  // 0 = all cores
+  int image_width = 0;   // the estimates' row length, for the block means (0: none)
+  int block_cells = 8;   // a block's side, cells
 };
 // Over explained pixels (flag kExplained) with a finite photograph.
 std::vector<RelitComparison> compare_with_photographs(std::span<const estimation::PixelEstimate> estimates,

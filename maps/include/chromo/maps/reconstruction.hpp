@@ -14,9 +14,12 @@
 // All functions are thread-safe.
 
 #include <Eigen/Core>
+#include <array>
+#include <cstdint>
 #include <span>
 #include <vector>
 
+#include "chromo/estimation/measurement.hpp"
 #include "chromo/estimation/skin_parameters.hpp"
 #include "chromo/spectral/camera.hpp"
 #include "chromo/spectral/colorimetry.hpp"
@@ -50,6 +53,17 @@ Eigen::Matrix3d camera_to_xyz_matrix(const spectral::CameraSensitivity& camera, 
 std::vector<double> photo_delta_e94_map(std::span<const Eigen::Vector3d> photograph,
                                         std::span<const Eigen::Vector3d> reconstruction,
                                         const spectral::CameraSensitivity& camera, const spectral::Spectrum& illuminant);
+
+// What a photograph's own noise alone gives in a comparison against it: per
+// pixel, ΔE94 of the photograph against itself with one draw of its noise
+// model added (σ_c² = noise[c].variance(albedo_c); normal draws from `seed`,
+// so the same photograph gives the same figures). A reconstruction free of
+// error still differs from a photograph by this much; NaN where the pixel is
+// not finite.
+std::vector<double> photograph_noise_delta_e94_map(std::span<const Eigen::Vector3d> photograph,
+                                                   const std::array<estimation::ChannelNoise, 3>& noise,
+                                                   const spectral::CameraSensitivity& camera,
+                                                   const spectral::Spectrum& illuminant, std::uint64_t seed = 1);
 
 // Statistics of photo_delta_e94_map over the pixels where include[i] (or all
 // if empty) and the value is finite.

@@ -179,6 +179,11 @@ struct Photograph {
   std::string name;
   spectral::Spectrum illuminant;
   std::vector<Eigen::Vector3d> rgb;
+  // Its R, G, B albedo's noise (read and shot, from its own dark and white as
+  // the estimator's channels'): what the photograph alone puts into a relit
+  // comparison against it (maps::RelitComparison::photograph_noise). Unset
+  // (nullopt) for a photograph of unknown noise.
+  std::optional<std::array<estimation::ChannelNoise, 3>> noise;
 };
 
 // The cross captures are corrected by the surface map where the G surface
