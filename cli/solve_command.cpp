@@ -21,6 +21,7 @@ void add_solve_command(CLI::App& app, int& exit_status) {
     unsigned warmup_ms = 0;
     std::string objective = "camera";
     bool hold_chromaticity = false, detach = false;
+    std::string adopt_id, adopt_reason;
   };
   auto options = std::make_shared<Options>();
   auto* solve = app.add_subcommand("solve", "the LED weights chromod uses for a mix (d65, w57, w57+blue[:R])");
@@ -61,7 +62,28 @@ void add_solve_command(CLI::App& app, int& exit_status) {
   calibrate->add_option("--levels", options->levels, "drive-level ladder, increasing, each in (0, 1]");
   calibrate->add_option("--warmup-ms", options->warmup_ms, "warm-up per LED type, ms (0: the daemon's default)");
   calibrate->add_flag("--detach", options->detach, "print the id and return instead of following the run");
-  calibrate->callback([&exit_status, options] {
+  // chromo calibrate adopt ID --reason TEXT: a run the daemon did not adopt (worse than its library then).
+  auto* adopt = calibrate->add_subcommand("adopt", "adopt a calibration's library that the daemon kept out "
+                                                   "(it measured worse than the library in use); audited");
+  adopt->add_option("id", options->adopt_id, "the calibration's id")->required();
+  adopt->add_option("--reason", options->adopt_reason, "why (written to the audit log)")->required();
+  adopt->callback([&exit_status, options] {
+    DaemonConnection daemon(options->address);
+    pb::AdoptCalibrationRequest request;
+    request.set_id(options->adopt_id);
+    request.set_reason(options->adopt_reason);
+    pb::AdoptCalibrationResponse response;
+    auto status =
+        pb::CalibrationService::NewStub(daemon.channel())->AdoptCalibration(daemon.context().get(), request, &response);
+    if (!status.ok()) {
+      exit_status = report_failure("calibrate adopt", status);
+      return;
+    }
+    std::cout << "calibration " << options->adopt_id << " adopted: the daemon's LED library is now " << response.library()
+              << "\n";
+  });
+  calibrate->callback([&exit_status, options, adopt] {
+    if (adopt->parsed()) return;  // the subcommand did the work
     DaemonConnection daemon(options->address);
     pb::StartCalibrationRequest request;
     request.set_controller(options->controller);

@@ -1,6 +1,7 @@
 #include "chromo/daemon/daemon.hpp"
 
 #include <algorithm>
+#include <cstdio>
 
 #include <fstream>
 #include <iostream>
@@ -26,8 +27,16 @@ Daemon::Daemon(DaemonConfig config, DeviceSet devices, FrameConsumer* estimator)
   std::vector<std::string> skipped;
   for (auto& info : store_.recover(&skipped)) operations_.add_past(std::move(info.record));
   for (const auto& reason : skipped) std::cerr << "chromod: sessions: skipped (not recovered): " << reason << "\n";
+  // A new library is checked on the standard plan's mixes before it replaces the one in use.
+  AdoptionCheck adoption;
+  if (config_.capture.blue_ratio > 0) {
+    char ratio[32];
+    std::snprintf(ratio, sizeof ratio, "%g", config_.capture.blue_ratio);  // as session::standard_plan names them
+    adoption.mixes = {"d65", std::string("w57+blue:") + ratio, std::string("w57:") + ratio};
+  }
+  adoption.configured_mix = [this](const std::string& mix) { return configured_mix(mix); };
   calibrations_ = std::make_unique<Calibrations>(config_.sessions_dir / "calibrations", config_.led_library, devices_,
-                                                 runner_, &budget_);
+                                                 runner_, &budget_, std::move(adoption));
   for (auto& record : calibrations_->recover()) operations_.add_past(std::move(record));
   if (!estimator_ && config_.estimation.enabled) {
     owned_estimator_ = make_online_estimator(config_.estimation, &budget_,
@@ -124,6 +133,10 @@ std::vector<DeviceReport> Daemon::probe_devices() {
 
 drivers::DriveLevels Daemon::resolve_mix(const std::string& mix, drivers::Polarisation state) const {
   if (auto solved = calibrations_->solved_mix(mix, state)) return *solved;
+  return configured_mix(mix);
+}
+
+drivers::DriveLevels Daemon::configured_mix(const std::string& mix) const {
   auto found = config_.mixes.find(mix);
   if (found != config_.mixes.end()) return found->second;
   // "w57:R": W57 alone as in "w57+blue:R", whose W57 level is the configured w57+blue's.
@@ -148,6 +161,8 @@ session::CaptureSources Daemon::light_sources() const {
   std::string library = config_.estimation.led_library;
   if (library.empty()) library = calibrations_->library_path();
   if (library.empty()) library = config_.led_library.string();
+  // The daemon's own library or the nominal one: never the user's newest (another daemon's).
+  if (library.empty()) library = session::kNominalLedLibrary;
   session::CaptureSources sources = session::resolve_capture_sources(
       library, config_.estimation.camera_sensitivity, config_.estimation.white_reflectance);
   // A frame lit through a bank takes its illuminant from that state's measured
@@ -200,6 +215,11 @@ session::OperationRecord Daemon::start_calibration(const CalibrationRequest& req
   ensure_idle();  // before the request's checks, as the runner checks again
   previews_.stop_free_runs();  // the live view's free runs leave the cameras to the calibration
   return calibrations_->start(request);
+}
+
+std::string Daemon::adopt_calibration(const std::string& id, const std::string& reason) {
+  ensure_idle();
+  return calibrations_->adopt(id, reason);
 }
 
 void Daemon::ensure_idle() const {

@@ -350,9 +350,12 @@ CaptureSources resolve_capture_sources(const std::string& led_library, const std
                                        double white_reflectance, const std::map<std::string, std::string>& camera_of) {
   CaptureSources sources;
   try {
-    std::filesystem::path path = led_library;
-    if (path.empty()) path = calibration::latest_led_library_path();
-    if (path.empty()) {
+    const std::filesystem::path path =
+        led_library.empty() ? calibration::latest_led_library_path() : std::filesystem::path(led_library);
+    if (led_library == kNominalLedLibrary) {
+      sources.led_library = calibration::nominal_led_library();
+      sources.led_library_source = "nominal (built-in)";
+    } else if (path.empty()) {
       sources.led_library = calibration::nominal_led_library();
       sources.led_library_source = "nominal (built-in; no measured library in " +
                                    calibration::led_library_directory().string() + ")";

@@ -7,6 +7,8 @@
 
 #include "calibration_lab_fixture.hpp"
 #include "chromo/calibration/closed_loop.hpp"
+#include "chromo/calibration/library_check.hpp"
+#include "chromo/calibration/session_mix.hpp"
 
 namespace chromo::calibration {
 namespace {
@@ -120,6 +122,56 @@ TEST(ClosedLoop, RefusesALibraryWithoutResponseCalibration) {
                                               d65_target(), camera_d65_options());
   EXPECT_EQ(s.termination, ClosedLoopTermination::kInvalidInput);
   EXPECT_NE(s.message.find("response calibration"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace chromo::calibration
+
+namespace chromo::calibration {
+namespace {
+
+// The check a daemon makes before adopting a new library (library_check.hpp):
+// after the green LED drifted (10% flux loss, +4 nm), a library of the LEDs as
+// they are now (their true spectra) against the stale measured one, on the
+// session mixes driven and measured through the real drivers.
+TEST(LibraryCheck, AStaleLibraryIsWorseThanOneOfTheLedsAsTheyAreNow) {
+  auto& m = testing::measured();
+  ASSERT_TRUE(m.summary.IsLibraryUsable()) << m.summary.message;
+  simulators::LedLab& lab = m.connected.lab.lab();
+  lab.inject_flux_loss(LedType::kGreen, 0.10);
+  lab.inject_peak_shift(LedType::kGreen, 4.0);
+  LedLibrary now = m.summary.library;
+  for (int i = 0; i < spectral::kLedTypeCount; ++i) {
+    LedSpectrumSample sample;
+    sample.spectrum = testing::true_full_drive_spectrum(lab, static_cast<LedType>(i));
+    now.leds[i].ladder = {sample};
+  }
+  auto under_check = [](const std::string& name, const LedLibrary& library) {
+    LibraryUnderCheck u{name, &library, {}};
+    for (const char* mix : {"d65", "w57+blue:8", "w57:8"})
+      u.mixes.emplace_back(mix, solve_session_mix(library, mix, "camera", false).weights);
+    return u;
+  };
+  const auto stale = under_check("stale", m.summary.library), fresh = under_check("fresh", now);
+  const spectral::Spectrum& correction = m.summary.library.instrument.response_calibration->correction;
+  const LibraryComparison stale_next = compare_libraries_on_leds(*m.connected.leds, *m.connected.spectrometer, correction, fresh, stale);
+  const LibraryComparison fresh_next = compare_libraries_on_leds(*m.connected.leds, *m.connected.spectrometer, correction, stale, fresh);
+  clear_faults(lab);
+  std::printf("%s\n%s\n", stale_next.BriefReport().c_str(), fresh_next.BriefReport().c_str());
+  // The stale library mispredicts the light of its own D65' (the green band moved under it).
+  EXPECT_FALSE(stale_next.candidate_no_worse);
+  ASSERT_FALSE(stale_next.worse.empty());
+  EXPECT_NE(stale_next.worse.front().find("d65 prediction"), std::string::npos) << stale_next.worse.front();
+  EXPECT_TRUE(fresh_next.candidate_no_worse) << fresh_next.BriefReport();
+  ASSERT_EQ(fresh_next.candidate.mixes.size(), 3u);
+  EXPECT_LT(fresh_next.candidate.mixes[0].prediction.camera_de00.mean, 0.1);
+  EXPECT_GT(stale_next.candidate.mixes[0].prediction.camera_de00.mean,
+            2 * fresh_next.candidate.mixes[0].prediction.camera_de00.mean);
+  // A mix the library in use does not have is refused, naming it.
+  LibraryUnderCheck partial = fresh;
+  partial.mixes.resize(1);
+  EXPECT_THROW(compare_libraries_on_leds(*m.connected.leds, *m.connected.spectrometer, correction, partial, fresh),
+               std::invalid_argument);
 }
 
 }  // namespace

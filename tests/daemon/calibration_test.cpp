@@ -119,3 +119,48 @@ TEST(Calibration, CancelEndsTheRunWithoutALibraryAndInvalidRequestsNameTheField)
 
 }  // namespace
 }  // namespace chromo::daemon
+
+namespace chromo::daemon {
+namespace {
+
+// A run whose library measured worse than the one in use stays out (its
+// calibration.json says "adopted": false, as Calibrations::run writes it for
+// a refused library) until adopted with a reason; a restart keeps the choice.
+TEST(Calibration, ALibraryKeptOutIsUsedOnlyOnceAdoptedWithAReason) {
+  TestLab lab("calibration-adopt");
+  std::string first_library, second_id;
+  {
+    auto daemon = lab.daemon();
+    auto first = wait_final(*daemon, daemon->start_calibration(quick_request()).id);
+    ASSERT_EQ(first.state, session::OperationState::kSucceeded) << first.error;
+    // Checked against the configured mixes (the daemon had no library) and adopted.
+    EXPECT_NE(first.message.find("; adopted: the new library is no worse than the configured mixes"), std::string::npos)
+        << first.message;
+    first_library = daemon->calibrations().library_path();
+    auto second = wait_final(*daemon, daemon->start_calibration(quick_request()).id);
+    ASSERT_EQ(second.state, session::OperationState::kSucceeded) << second.error;
+    second_id = second.id;
+    const auto record_file = std::filesystem::path(second.folder) / "calibration.json";
+    auto record = nlohmann::json::parse(std::ifstream(record_file));
+    EXPECT_TRUE(record["adopted"].get<bool>());
+    EXPECT_TRUE(record["adoption_check"]["candidate_no_worse"].get<bool>());
+    EXPECT_EQ(record["adoption_check"]["candidate"]["mixes"].size(), 3u);
+    record["adopted"] = false;  // as a run refused for measuring worse is written
+    std::ofstream(record_file) << record.dump(2);
+  }
+  auto daemon = lab.daemon();
+  EXPECT_EQ(daemon->calibrations().library_path(), first_library);  // the refused run is not the daemon's
+  EXPECT_THROW(daemon->adopt_calibration(second_id, ""), std::invalid_argument);
+  EXPECT_THROW(daemon->adopt_calibration("../" + second_id, "fine"), std::invalid_argument);
+  EXPECT_THROW(daemon->adopt_calibration("20990101T000000Z-calibration-000000", "fine"), std::invalid_argument);
+  EXPECT_EQ(daemon->calibrations().library_path(), first_library);  // refusals changed nothing
+  const std::string adopted = daemon->adopt_calibration(second_id, "re-measured after the sphere was cleaned");
+  EXPECT_NE(adopted, first_library);
+  EXPECT_EQ(daemon->calibrations().library_path(), adopted);
+  lab.daemon().reset();
+  auto restarted = lab.daemon();
+  EXPECT_EQ(restarted->calibrations().library_path(), adopted);
+}
+
+}  // namespace
+}  // namespace chromo::daemon

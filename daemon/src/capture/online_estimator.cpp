@@ -34,6 +34,8 @@ std::unique_ptr<OnlineEstimator> make_online_estimator(const EstimationConfig& c
   options.sources = [config, daemon_led_library, daemon_state_libraries] {
     std::string library = config.led_library;
     if (library.empty() && daemon_led_library) library = daemon_led_library();
+    // The daemon's own library or the nominal one: never the user's newest (another daemon's).
+    if (library.empty()) library = session::kNominalLedLibrary;
     auto sources = session::resolve_capture_sources(library, config.camera_sensitivity, config.white_reflectance,
                                                     config.camera_sensitivities);
     if (config.led_library.empty() && daemon_state_libraries) sources.led_library_of_state = daemon_state_libraries();

@@ -8,6 +8,7 @@
 
 #include "chromo/calibration/calibration_run.hpp"
 #include "chromo/calibration/led_library_io.hpp"
+#include "chromo/calibration/library_check.hpp"
 #include "chromo/calibration/mix_solver.hpp"
 #include "chromo/calibration/session_mix.hpp"
 #include "chromo/files/temporary_file.hpp"
@@ -87,6 +88,27 @@ nlohmann::json request_json(const CalibrationRequest& r) {
           {"warmup_ms", r.warmup_ms}};
 }
 
+nlohmann::json figures_json(const calibration::MixFigures& f) {
+  return {{"delta_uv_prime", f.delta_uv_prime}, {"camera_de00_mean", f.camera_de00.mean}, {"rmse", f.rmse}};
+}
+
+nlohmann::json check_json(const calibration::LibraryCheck& check) {
+  nlohmann::json mixes = nlohmann::json::object();
+  for (const auto& m : check.mixes) {
+    mixes[m.mix] = {{"weights", m.weights}, {"prediction", figures_json(m.prediction)}};
+    if (m.target) mixes[m.mix]["against_d65"] = figures_json(*m.target);
+  }
+  return {{"name", check.name}, {"mixes", mixes}};
+}
+
+// calibration.json's "adoption_check".
+nlohmann::json comparison_json(const calibration::LibraryComparison& c) {
+  return {{"candidate_no_worse", c.candidate_no_worse},
+          {"worse", c.worse},
+          {"in_use", check_json(c.in_use)},
+          {"candidate", check_json(c.candidate)}};
+}
+
 session::OperationRecord record_from_json(const nlohmann::json& j, const std::filesystem::path& folder) {
   session::OperationRecord record;
   record.id = j.at("id").get<std::string>();
@@ -136,8 +158,8 @@ calibration::CalibrationSummary run_state(RunningOperation& running,
 }  // namespace
 
 Calibrations::Calibrations(std::filesystem::path root, std::filesystem::path configured_library, DeviceSet& devices,
-                           OperationRunner& runner, files::StorageBudget* budget)
-    : root_(std::move(root)), devices_(devices), runner_(runner), budget_(budget) {
+                           OperationRunner& runner, files::StorageBudget* budget, AdoptionCheck adoption)
+    : root_(std::move(root)), adoption_(std::move(adoption)), devices_(devices), runner_(runner), budget_(budget) {
   if (!configured_library.empty()) use_library(configured_library);  // DataError naming the file
 }
 
@@ -175,8 +197,10 @@ std::vector<session::OperationRecord> Calibrations::recover() {
         j["message"] = record.message;
         files::write_file_durably(file, j.dump(2) + "\n", budget_);
       }
-      if (record.state == session::OperationState::kSucceeded && std::filesystem::exists(entry.path() / kLibraryFile) &&
-          record.id > newest_id) {
+      // A library found worse than the one in use then is not the daemon's until adopted (adopt()).
+      const bool adopted = j.value("adopted", true);
+      if (record.state == session::OperationState::kSucceeded && adopted &&
+          std::filesystem::exists(entry.path() / kLibraryFile) && record.id > newest_id) {
         newest_id = record.id;
         newest_library = entry.path() / kLibraryFile;
       }
@@ -290,6 +314,28 @@ OperationRunner::Outcome Calibrations::run(RunningOperation& running, const Cali
     default: state = session::OperationState::kFailed;
   }
   std::string error = state == session::OperationState::kFailed ? summary.message : "";
+  // The new library against the one in use, on the LEDs now (unpolarised runs).
+  std::optional<calibration::LibraryComparison> comparison;
+  std::string check_error;
+  if (state == session::OperationState::kSucceeded && measured.size() == 1 &&
+      measured.front().first == drivers::Polarisation::kUnpolarised) {
+    running.progress().report(0.99, "checking the new library against the one in use");
+    try {
+      comparison = check_adoption(measured.front().second.library, led, spectrometer);
+    } catch (const std::exception& e) {
+      check_error = e.what();
+    }
+  }
+  const bool adopt_now = state == session::OperationState::kSucceeded && check_error.empty() &&
+                         (!comparison || comparison->candidate_no_worse);
+  std::string message = summary.message;
+  if (comparison)
+    message += adopt_now ? "; adopted: " + comparison->BriefReport()
+                         : "; NOT ADOPTED: " + comparison->BriefReport() + ". The daemon keeps its library; `chromo "
+                                                                           "calibrate adopt " + id + " --reason TEXT` adopts this one";
+  if (!check_error.empty())
+    message += "; NOT ADOPTED: the check against the library in use failed: " + check_error + ". `chromo calibrate adopt " +
+               id + " --reason TEXT` adopts it";
   nlohmann::json record;
   try {
     // Every state's library measured so far is written (save_led_library is
@@ -297,12 +343,15 @@ OperationRunner::Outcome Calibrations::run(RunningOperation& running, const Cali
     // earlier ones in the folder; the daemon adopts them only when all succeeded.
     for (const auto& [measured_state, measured_summary] : measured)
       calibration::save_led_library(measured_summary.library, folder / library_file_of(measured_state));
-    if (state == session::OperationState::kSucceeded)
+    if (adopt_now)
       for (const auto& [measured_state, measured_summary] : measured)
         use_library(folder / library_file_of(measured_state), measured_state);
     record = nlohmann::json::parse(files::read_text_file(folder / kRecordFile, "JSON"));
     record["state"] = state_for_disk(state);
-    record["message"] = summary.message;
+    record["message"] = message;
+    if (state == session::OperationState::kSucceeded) record["adopted"] = adopt_now;
+    if (comparison) record["adoption_check"] = comparison_json(*comparison);
+    if (!check_error.empty()) record["adoption_check"] = {{"error", check_error}};
     if (!error.empty()) record["error"] = error;
     record["summary"] = {{"termination", calibration::calibration_termination_name(summary.termination)},
                          {"spectra_measured", summary.spectra_measured},
@@ -331,7 +380,57 @@ OperationRunner::Outcome Calibrations::run(RunningOperation& running, const Cali
     state = session::OperationState::kFailed;
     error = std::string("writing the calibration result: ") + e.what();
   }
-  return {state, error, summary.message, std::nullopt};
+  return {state, error, message, std::nullopt};
+}
+
+std::optional<calibration::LibraryComparison> Calibrations::check_adoption(
+    const calibration::LedLibrary& candidate, NamedDevice<drivers::LedController>* led,
+    NamedDevice<drivers::Spectrometer>* spectrometer) {
+  if (!candidate.instrument.response_calibration) return std::nullopt;  // not measured by a run: nothing to compare with
+  std::shared_ptr<const calibration::LedLibrary> in_use_library;
+  std::filesystem::path in_use_path;
+  {
+    std::lock_guard lock(mutex_);
+    in_use_library = library_;
+    in_use_path = library_path_;
+  }
+  const calibration::LedLibrary nominal = calibration::nominal_led_library();
+  calibration::LibraryUnderCheck in_use{
+      in_use_library ? "the library in use (" + in_use_path.parent_path().filename().string() + ")"
+                     : "the configured mixes (nominal built-in library)",
+      in_use_library ? in_use_library.get() : &nominal,
+      {}};
+  calibration::LibraryUnderCheck next{"the new library", &candidate, {}};
+  for (const std::string& mix : adoption_.mixes) {
+    if (in_use_library) in_use.mixes.emplace_back(mix, calibration::solve_session_mix(*in_use_library, mix, "camera", false).weights);
+    else if (adoption_.configured_mix) in_use.mixes.emplace_back(mix, adoption_.configured_mix(mix));
+    else return std::nullopt;  // nothing in use to compare with
+    next.mixes.emplace_back(mix, calibration::solve_session_mix(candidate, mix, "camera", false).weights);
+  }
+  LockedLeds leds(*led);
+  LockedSpectrometer meter(*spectrometer);
+  return calibration::compare_libraries_on_leds(leds, meter, candidate.instrument.response_calibration->correction, in_use,
+                                                next);
+}
+
+std::string Calibrations::adopt(const std::string& id, const std::string& reason) {
+  if (reason.empty()) throw std::invalid_argument("reason: say why this library is adopted (it is audited)");
+  if (id.empty() || id.find('/') != std::string::npos || id.find("..") != std::string::npos)
+    throw std::invalid_argument("id: not a calibration id");
+  const auto folder = root_ / id;
+  const auto file = folder / kRecordFile;
+  std::error_code ignored;
+  if (!std::filesystem::is_regular_file(file, ignored)) throw std::invalid_argument("id: no calibration \"" + id + "\"");
+  nlohmann::json record = nlohmann::json::parse(files::read_text_file(file, "JSON"));
+  if (record.value("state", "") != session::state_name(session::OperationState::kSucceeded))
+    throw std::logic_error("calibration " + id + " did not succeed: there is no library to adopt");
+  if (!std::filesystem::is_regular_file(folder / kLibraryFile, ignored))
+    throw std::logic_error("calibration " + id + " has no unpolarised library (led-library.json)");
+  use_library(folder / kLibraryFile);  // DataError naming the file before anything is written
+  record["adopted"] = true;
+  record["adopted_reason"] = reason;
+  files::write_file_durably(file, record.dump(2) + "\n", budget_);
+  return library_path();
 }
 
 calibration::SolvedMix Calibrations::solve(const std::string& target, const std::string& objective, bool hold_chromaticity) const {

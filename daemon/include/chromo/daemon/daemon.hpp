@@ -81,6 +81,8 @@ class Daemon {
   bool controller_polarised_everywhere() const;
   // A calibration run (calibrations.hpp); same errors as start_session.
   session::OperationRecord start_calibration(const CalibrationRequest& request);
+  // Calibrations::adopt once nothing runs (std::logic_error while an operation runs).
+  std::string adopt_calibration(const std::string& id, const std::string& reason);
   Calibrations& calibrations() { return *calibrations_; }
   // Session folder of an id known to the registry; nullopt when unknown.
   std::optional<session::SessionInfo> session(const std::string& id) const;
@@ -96,6 +98,8 @@ class Daemon {
   DeletedSession delete_session(const std::string& id);
 
  private:
+  // A mix's weights from the configuration's mixes (the daemon without a library).
+  drivers::DriveLevels configured_mix(const std::string& mix) const;
   // The work of a session operation: the sequencer, the pipeline, derived
   // data and the on-line estimator's results, and the journal's last records.
   OperationRunner::Outcome run_session(RunningOperation& running, const session::SessionPlan& plan,

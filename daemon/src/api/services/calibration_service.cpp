@@ -2,6 +2,7 @@
 #include <string>
 
 #include "chromo/calibration/led_library.hpp"
+#include "chromo/session/session_plan.hpp"
 #include "chromo/spectral/cie.hpp"
 #include "chromo/spectral/grid.hpp"
 #include "chromosphere/v1/calibration.grpc.pb.h"
@@ -47,6 +48,19 @@ class CalibrationServiceImpl final : public pb::CalibrationService::Service {
       // Field-naming std::invalid_argument → INVALID_ARGUMENT; another
       // operation running or no reference lamp → FAILED_PRECONDITION.
       to_proto(daemon_.start_calibration(calibration), response);
+      return Status::OK;
+    });
+  }
+
+  Status AdoptCalibration(ServerContext* context, const pb::AdoptCalibrationRequest* request,
+                          pb::AdoptCalibrationResponse* response) override {
+    return guard_.audited(context, "adopt_calibration", [&](nlohmann::json& details) {
+      if (Status s = check_id("id", request->id()); !s.ok()) return s;
+      if (request->reason().size() > 1024) return invalid("reason: longer than 1024 bytes");
+      if (auto bad = session::control_character_error(request->reason()); !bad.empty()) return invalid("reason: " + bad);
+      details["calibration"] = request->id();
+      details["reason"] = request->reason();
+      response->set_library(daemon_.adopt_calibration(request->id(), request->reason()));
       return Status::OK;
     });
   }

@@ -102,9 +102,13 @@ void load_session_state_libraries(const std::filesystem::path& results_folder, C
 // sources.led_library_of_state ({} when none: every frame lit from led_library).
 std::map<std::string, std::string> state_library_sources(const CaptureSources& sources);
 
+// `led_library` naming the built-in nominal library (a daemon without a
+// library of its own: never another daemon's or the user's newest).
+inline constexpr const char* kNominalLedLibrary = "nominal";
+
 // The sources chromod uses: the LED library at `led_library` (empty: the
 // newest measured one in calibration::led_library_directory(), else the
-// nominal built-in one), the camera "builtin:NAME" or a CSV of
+// nominal built-in one; kNominalLedLibrary: the nominal one), the camera "builtin:NAME" or a CSV of
 // wavelength_nm,R,G,B, ρ_white, and per camera name a sensitivity of the
 // same kinds (camera_of). Throws std::invalid_argument naming the file
 // (estimation.camera_sensitivities["NAME"]: … for a camera's).

@@ -27,6 +27,16 @@
 // (camera objective, the Nikon D5100 sensitivity, as `chromo leds solve`'s
 // defaults) and caches the weights until the library changes.
 //
+// Adoption (issue 40): before an unpolarised run's library replaces the one
+// in use, both libraries' session mixes (AdoptionCheck::mixes) are driven on
+// the LEDs and measured (calibration::compare_libraries_on_leds, with the new
+// run's spectrometer response); a library worse than the one in use on any
+// figure is kept in its folder, its run SUCCEEDED with "adopted": false and
+// the figures in calibration.json, and the daemon keeps its library until an
+// operator adopts it explicitly (adopt(), with a reason the API audits).
+// "The one in use" without a library is the configured mixes
+// (AdoptionCheck::configured_mix) predicted by the nominal built-in library.
+//
 // Polarisation states (docs/polarisation.md "Calibration per state"): when
 // the controller reports banks on every LED type, a calibration measures the
 // cross state, then the parallel state (progress in two halves, each step
@@ -41,6 +51,7 @@
 // per call, not for the whole run (status queries stay answered).
 
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -48,6 +59,7 @@
 #include <string>
 #include <vector>
 
+#include "chromo/calibration/library_check.hpp"
 #include "chromo/calibration/session_mix.hpp"
 #include "chromo/daemon/internal/devices/device_set.hpp"
 #include "chromo/files/durable_file.hpp"
@@ -71,12 +83,25 @@ struct CalibrationRequest {
   std::uint32_t warmup_ms = 0;
 };
 
+// What a new library is checked on before it is adopted.
+struct AdoptionCheck {
+  std::vector<std::string> mixes{"d65", "w57+blue", "w57"};  // the standard plan's
+  // The weights the daemon drives for a mix while it has no library (its configured mixes).
+  std::function<drivers::DriveLevels(const std::string& mix)> configured_mix;
+};
+
 class Calibrations {
  public:
   // root: <sessions_dir>/calibrations (created by the first run). configured_library: the
   // configuration's led_library (may be empty).
   Calibrations(std::filesystem::path root, std::filesystem::path configured_library, DeviceSet& devices,
-               OperationRunner& runner, files::StorageBudget* budget);
+               OperationRunner& runner, files::StorageBudget* budget, AdoptionCheck adoption = {});
+  // Adopts the library of a succeeded run that was not adopted (worse than
+  // the one in use then) as the daemon's: calibration.json records
+  // "adopted": true and the reason. std::invalid_argument naming "id" for an
+  // unknown run, "reason" when empty; std::logic_error for a run that did not
+  // succeed or has no library. Returns the adopted library's path.
+  std::string adopt(const std::string& id, const std::string& reason);
 
   // Every run in the folder, in-flight ones marked interrupted on disk; also
   // loads the newest succeeded run's library.
@@ -117,7 +142,13 @@ class Calibrations {
   // The state's slot in the maps below: the library a step in `state` is lit by.
   drivers::Polarisation library_state(drivers::Polarisation state) const;
 
+  // The check of a new library against the one in use (null: adopted as before).
+  std::optional<calibration::LibraryComparison> check_adoption(const calibration::LedLibrary& candidate,
+                                                               NamedDevice<drivers::LedController>* led,
+                                                               NamedDevice<drivers::Spectrometer>* spectrometer);
+
   std::filesystem::path root_;
+  AdoptionCheck adoption_;
   DeviceSet& devices_;
   OperationRunner& runner_;
   files::StorageBudget* budget_;
