@@ -2,7 +2,7 @@
 // A session's maps against the virtual lab's truth: the lab's skin scene
 // (the same options the lab built it with), resampled to the maps' grid; the
 // skin pixels (eroded twice, off region edges) that the estimator explained
-// (flag 0), relit under D65 (maps::relit_delta_e94) against the truth.
+// (flag 0), relit under D65 and A (maps::relit_delta_e94) against the truth.
 
 #include <opencv2/imgproc.hpp>
 
@@ -21,7 +21,8 @@ struct MapsAgainstTruth {
   int width = 0, height = 0;  // the maps'
   std::size_t skin_pixels = 0, flagged = 0;
   std::map<int, std::size_t> flagged_by_code;  // the maps' flag value → skin pixels
-  maps::DeltaEStats relit;  // ΔE94 under D65 over the explained skin pixels
+  maps::DeltaEStats relit;    // ΔE94 under D65 over the explained skin pixels
+  maps::DeltaEStats relit_a;  // the same under CIE A
 };
 
 inline MapsAgainstTruth maps_against_truth(const std::filesystem::path& maps_exr, const VirtualLabOptions& lab) {
@@ -56,7 +57,10 @@ inline MapsAgainstTruth maps_against_truth(const std::filesystem::path& maps_exr
       truth.push_back({cm.at<float>(y, x), ch.at<float>(y, x), bm.at<float>(y, x), che.at<float>(y, x)});
       estimate.push_back({maps.channel("Cm")[i], maps.channel("Ch")[i], maps.channel("Bm")[i], maps.channel("Che")[i]});
     }
-  if (!truth.empty()) out.relit = maps::delta_e_stats(maps::relit_delta_e94(truth, estimate, spectral::illuminant_d65(), 1));
+  if (!truth.empty()) {
+    out.relit = maps::delta_e_stats(maps::relit_delta_e94(truth, estimate, spectral::illuminant_d65(), 1));
+    out.relit_a = maps::delta_e_stats(maps::relit_delta_e94(truth, estimate, spectral::illuminant_a(), 1));
+  }
   return out;
 }
 
