@@ -64,6 +64,7 @@
 #include "chromo/spectral/delta_e.hpp"
 #include "chromo/spectral/lab_illuminants.hpp"
 #include "guarded_main.hpp"
+#include "real_skin_camera.hpp"
 #include "seed_spread.hpp"
 #include "subsurface_spread.hpp"
 
@@ -106,20 +107,9 @@ std::vector<Plan> plans() {
     out.push_back({name, own, estimation::rgb_measurement_set(camera, illuminants[own].spectrum, {}, name), nullptr});
     out.push_back({name + "+blue", own, estimation::method_measurement_set(camera, illuminants[own].spectrum, blue), nullptr});
   }
-  std::vector<std::pair<std::string, spectral::Spectrum>> leds;
-  for (auto type : spectral::kAllLedTypes) leds.emplace_back(std::string(spectral::led_type_name(type)), spectral::led_spectrum(type));
-  out.push_back({"six-leds", -1, simulators::capture_measurement_set(camera, leds), nullptr});
-  for (Plan& p : out)
-    p.table = std::make_shared<const estimation::ForwardTable>(estimation::ForwardTable::build(p.set, estimation::TableGrid{}, 2));
+  out.push_back({"six-leds", -1, six_led_measurement_set(camera), nullptr});
+  for (Plan& p : out) p.table = default_table(p.set);
   return out;
-}
-
-simulators::CameraNoiseModel camera_noise(double scale) {
-  simulators::CameraNoiseModel n;
-  n.electrons_at_full_scale = 4 * 40000.0;
-  n.read_noise_electrons = 12;
-  n.noise_scale = scale;
-  return n;
 }
 
 spectral::Lab lab_under(const spectral::Spectrum& albedo, const Illuminant& light) {
@@ -200,6 +190,7 @@ struct Run {
   std::uint64_t seed = 0;
   int fold = 0;
   double flagged = 0;
+  double order4 = 0;  // share of the explained skin fitted at order 4
   std::array<double, kIlluminants> de{};                  // mean relit ΔE94 per illuminant, explained skin
   std::array<std::array<double, kIlluminants>, kTones> de_tone{};  // per tone quartile (NaN when the fold has none)
   std::array<double, 4> parameter_noise{};                // log10 Cm, log10 Ch, βm, Che
@@ -236,6 +227,7 @@ Run evaluate(const FoldData& fold, const Scene& scene, const std::vector<estimat
   for (std::size_t i = 0; i < e.size(); ++i) {
     if (e[i].flag != estimation::PixelFlag::kExplained) continue;
     ++explained;
+    r.order4 += e[i].order == 4;
     const spectral::Spectrum fitted = model.albedo(e[i].parameters);
     const int tone = fold.test_tone[scene.subject[i]];
     for (int l = 0; l < kIlluminants; ++l) {
@@ -251,6 +243,7 @@ Run evaluate(const FoldData& fold, const Scene& scene, const std::vector<estimat
         per[3][s].push_back(p.che);
   }
   r.flagged = 1 - double(explained) / e.size();
+  r.order4 = explained ? r.order4 / explained : std::nan("");
   for (int l = 0; l < kIlluminants; ++l) r.de[l] = explained ? r.de[l] / explained : std::nan("");
   for (int t = 0; t < kTones; ++t)
     for (int l = 0; l < kIlluminants; ++l) r.de_tone[t][l] = tone_count[t] ? tone_sum[t][l] / tone_count[t] : std::nan("");
@@ -399,7 +392,7 @@ int run(int argc, char** argv) {
         for (const bool spread_on : {false, true})
           for (const Plan& plan : plan_list) {
             estimation::MeasurementSet set = plan.set;
-            simulators::set_exposure_noise(set, camera_noise(scale));
+            simulators::set_exposure_noise(set, real_skin_camera_noise(scale));
             const Scene scene = render(set, fold.test, patch, spread_on, seed * 100 + f);
             const auto e = estimate(plan, set, scene, fold.discrepancy);
             Run r = evaluate(fold, scene, e, lights);
@@ -417,13 +410,13 @@ int run(int argc, char** argv) {
 
   std::filesystem::create_directories(out);
   std::ofstream csv(std::filesystem::path(out) / "seed_study.csv");
-  csv << "plan,scene,noise_scale,seed,fold,flagged";
+  csv << "plan,scene,noise_scale,seed,fold,flagged,order4";
   for (const auto& l : lights) csv << ",de94_" << l.name;
   csv << ",noise_log10_cm,noise_log10_ch,noise_bm,noise_che,floor_d65_a";
   for (int k : components) csv << ",corrected_d65_a_k" << k;
   csv << "\n";
   for (const Run& r : runs) {
-    csv << r.plan << "," << r.scene << "," << r.noise_scale << "," << r.seed << "," << r.fold << "," << r.flagged;
+    csv << r.plan << "," << r.scene << "," << r.noise_scale << "," << r.seed << "," << r.fold << "," << r.flagged << "," << r.order4;
     for (double v : r.de) csv << "," << v;
     for (double v : r.parameter_noise) csv << "," << v;
     csv << "," << r.floor_d65_a;
@@ -453,16 +446,18 @@ int run(int argc, char** argv) {
                   scene.c_str(), scale, folds, seeds.size());
       std::printf("%-9s", "plan");
       for (const auto& l : lights) std::printf(" %6s", l.name.c_str());
-      std::printf("  %-22s %-22s %6s %7s %7s %7s %7s\n", "own [min, max]", "others [min, max]", "flag%", "sdlgCm", "sdlgCh",
-                  "sdBm", "sdChe");
+      std::printf("  %-22s %-22s %6s %6s %7s %7s %7s %7s\n", "own [min, max]", "others [min, max]", "flag%", "ord4%", "sdlgCm",
+                  "sdlgCh", "sdBm", "sdChe");
       for (const std::string& name : study_names) {
         const auto mine = select(name, scene, scale);
         std::printf("%-9s", name.c_str());
         for (int l = 0; l < kIlluminants; ++l) std::printf(" %6.3f", spread(mine, [l](const Run& r) { return r.de[l]; }).mean);
         const int own = own_of[name];
-        std::printf("  %-22s %-22s %6.2f %7.4f %7.4f %7.4f %7.4f\n", text(spread(mine, [own](const Run& r) { return r.de[own]; })).c_str(),
+        std::printf("  %-22s %-22s %6.2f %6.1f %7.4f %7.4f %7.4f %7.4f\n",
+                    text(spread(mine, [own](const Run& r) { return r.de[own]; })).c_str(),
                     text(spread(mine, [own](const Run& r) { return others(r.de, own); })).c_str(),
                     100 * spread(mine, [](const Run& r) { return r.flagged; }).mean,
+                    100 * spread(mine, [](const Run& r) { return r.order4; }).mean,
                     spread(mine, [](const Run& r) { return r.parameter_noise[0]; }).mean,
                     spread(mine, [](const Run& r) { return r.parameter_noise[1]; }).mean,
                     spread(mine, [](const Run& r) { return r.parameter_noise[2]; }).mean,
