@@ -18,7 +18,7 @@ packages=(
   # devices
   libusb-1.0-0-dev libhidapi-dev libmodbus-dev libaravis-dev aravis-tools
   # tools no one here wrote, pointed at the simulators in the suite: Aravis' arv-tool-0.8, a Modbus master
-  aravis-tools-cli mbpoll
+  aravis-tools-cli mbpoll libxml2-utils
   # the Debian package (packaging/): man pages from --help
   help2man
   # socket API and the Python client; the web view's HTTP(S) server
