@@ -1,4 +1,5 @@
 #include "chromo/daemon/daemon.hpp"
+#include "chromo/daemon/log_line.hpp"
 
 #include <algorithm>
 #include <cstdio>
@@ -14,6 +15,7 @@
 #include "chromo/session/derived_data.hpp"
 #include "chromo/daemon/internal/capture/online_estimator.hpp"
 #include "chromo/daemon/internal/capture/sequencer.hpp"
+#include "chromo/drivers/camera/aravis_camera.hpp"
 #include "chromo/drivers/device_error.hpp"
 
 namespace chromo::daemon {
@@ -26,7 +28,7 @@ Daemon::Daemon(DaemonConfig config, DeviceSet devices, FrameConsumer* estimator)
       store_(config_.sessions_dir, &budget_) {
   std::vector<std::string> skipped;
   for (auto& info : store_.recover(&skipped)) operations_.add_past(std::move(info.record));
-  for (const auto& reason : skipped) std::cerr << "chromod: sessions: skipped (not recovered): " << reason << "\n";
+  for (const auto& reason : skipped) log_line(LogLevel::kWarning, "sessions: skipped (not recovered): " + reason);
   // A new library is checked on the standard plan's mixes before it replaces the one in use.
   AdoptionCheck adoption;
   if (config_.capture.blue_ratio > 0) {
@@ -105,6 +107,12 @@ std::vector<DeviceReport> Daemon::probe_devices() {
         auto info = camera->device->info();
         report.info = {{"vendor", info.vendor}, {"model", info.model}, {"serial", info.serial},
                        {"sensor", std::to_string(info.sensor_width) + "x" + std::to_string(info.sensor_height)}};
+        // A GigE Vision camera's info is what it said when opened: whether it
+        // answers now is its link (heartbeat and watchdog, aravis_camera.hpp).
+        if (auto* aravis = dynamic_cast<const drivers::AravisCamera*>(camera->device.get()); aravis && !aravis->link_up()) {
+          report.health = DeviceReport::Health::kUnreachable;
+          report.detail = "the camera's link is lost (it stopped answering its control channel)";
+        }
       } catch (const std::exception& error) {
         failed(report, error);
       }
