@@ -9,6 +9,7 @@
 #include <grpcpp/grpcpp.h>
 
 #include <cmath>
+#include <cstring>
 #include <functional>
 #include <fstream>
 #include <limits>
@@ -272,6 +273,21 @@ TEST_F(MapsApi, RegionStatisticsAreTheFilesAndGetMapGivesUnitAndModelRange) {
   ASSERT_EQ(with_sigma.sigma_values_size(), 20 * 15);
   EXPECT_FLOAT_EQ(with_sigma.sigma_values(2 * 20 + 3), sigma[5 * w + 7]);  // cell (3, 2)'s centre: pixel (7, 5)
   EXPECT_FLOAT_EQ(with_sigma.values(2 * 20 + 3), cm[5 * w + 7]);
+  // packed: the same floats as little-endian bytes, the repeated fields empty.
+  grpc::ClientContext packed_context;
+  map_request.set_packed(true);
+  pb::GetMapResponse packed;
+  ASSERT_TRUE(stub->GetMap(&packed_context, map_request, &packed).ok());
+  EXPECT_EQ(packed.values_size(), 0);
+  ASSERT_EQ(packed.values_f32().size(), 20u * 15u * sizeof(float));
+  ASSERT_EQ(packed.sigma_f32().size(), 20u * 15u * sizeof(float));
+  std::vector<float> unpacked(20 * 15), unpacked_sigma(20 * 15);
+  std::memcpy(unpacked.data(), packed.values_f32().data(), packed.values_f32().size());
+  std::memcpy(unpacked_sigma.data(), packed.sigma_f32().data(), packed.sigma_f32().size());
+  for (int i = 0; i < 20 * 15; ++i) {
+    EXPECT_EQ(unpacked[i], with_sigma.values(i));
+    EXPECT_EQ(unpacked_sigma[i], with_sigma.sigma_values(i));
+  }
 }
 
 TEST_F(MapsApi, ImportMapsGivesTheTableTwoComparison) {

@@ -133,6 +133,8 @@ async function checkKeyboardAndWidth(page, name) {
 async function mapExplorerChecks(page, sessionId, mapsFile, cmMap) {
   const explorer = page.locator('.map-explorer').first();
   const started = performance.now();
+  const steps = {};
+  const step = (name) => { steps[name] = Math.round(performance.now() - started); };
   // Contrast: the model's range (log), then the subject's 1-99th percentile of the skin's cells.
   await explorer.getByLabel('Contrast', { exact: true }).selectOption('model');
   assert.equal(Number(await explorer.getByLabel('Low', { exact: true }).inputValue()), cmMap.model_min);
@@ -140,7 +142,7 @@ async function mapExplorerChecks(page, sessionId, mapsFile, cmMap) {
   assert.equal(await explorer.getByLabel('Log scale', { exact: true }).isChecked(), cmMap.log_scale);
   assert.ok(cmMap.unit.length > 0 && (await explorer.locator('.bar-title').textContent()).includes(cmMap.unit), 'unit beside the colour bar');
   const flagsMap = (await api('MapsService', 'GetMap', { session_id: sessionId, maps_file: mapsFile, channel: 'flags', max_width: 480 })).json;
-  const skin = cmMap.values.map(Number).filter((v, i) => Number.isFinite(v) && [0, 4].includes(Number(flagsMap.values[i]))).sort((a, b) => a - b);
+  const skin = cmMap.values.map((v) => Math.fround(Number(v))).filter((v, i) => Number.isFinite(v) && [0, 4].includes(Number(flagsMap.values[i]))).sort((a, b) => a - b);
   const percentile = (p) => { const r = p / 100 * (skin.length - 1), b = Math.floor(r); return skin[b] + (skin[Math.min(b + 1, skin.length - 1)] - skin[b]) * (r - b); };
   await explorer.getByLabel('Contrast', { exact: true }).selectOption('percentile');
   assert.equal(Number(await explorer.getByLabel('Low', { exact: true }).inputValue()), Number(percentile(1).toPrecision(6)), 'p1 preset');
@@ -148,6 +150,7 @@ async function mapExplorerChecks(page, sessionId, mapsFile, cmMap) {
   const ticks = (await explorer.locator('.colour-bar').getAttribute('data-ticks')).split(' ').map(Number);
   assert.ok(ticks.length >= 2 && ticks.every((t) => t >= percentile(1) - 1e-12 && t <= percentile(99) + 1e-12), `ticks ${ticks} inside the window`);
 
+  step('contrast');
   // A region drawn with the mouse: the page's statistics are chromod's from maps.exr, equal to `chromo maps stats`'.
   const canvas = explorer.locator('.map-canvas');
   const box = await canvas.boundingBox();
@@ -179,6 +182,7 @@ async function mapExplorerChecks(page, sessionId, mapsFile, cmMap) {
   console.log(`region ${region.width}x${region.height} at (${region.x}, ${region.y}): ${cli.pixels} pixels, Cm mean ${cli.mean.toPrecision(6)} ` +
     `SD ${cli.sd.toPrecision(3)}: page, CSV and chromo maps stats agree to 1e-6`);
 
+  step('region');
   // Channels switched quickly: whenever a value shows, it is under its own channel's name.
   const sequence = ['Ch', 'Bm', 'Che', 'residual', 'Cm', 'Ch'];
   // Every state the explorer passes through, recorded in the page as it happens.
@@ -218,7 +222,7 @@ async function mapExplorerChecks(page, sessionId, mapsFile, cmMap) {
     assert.equal(o.channel, o.selected, `a ${o.channel} value shown while ${o.selected} is chosen`);
     const [x, y] = o.cell.split(',').map(Number);
     const expected = reference[o.channel].values[y * reference[o.channel].width + x];
-    assert.equal(String(Number(o.value)), String(Number(expected)), `${o.channel} value at cell ${o.cell}`);
+    assert.equal(Number(o.value), Math.fround(Number(expected)), `${o.channel} value at cell ${o.cell}`);
   }
   const last = observations.at(-1);
   assert.equal(last.channel, 'Ch', 'the last channel asked for is the one shown');
@@ -226,6 +230,7 @@ async function mapExplorerChecks(page, sessionId, mapsFile, cmMap) {
   console.log(`${sequence.length + 2} channel switches: ${observations.filter((o) => o.channel).length} values seen (${[...new Set(observations.map((o) => o.channel).filter((c) => c))]}), ` +
     'each under its own name');
 
+  step('switches');
   // Zoom linked across explorers; flags in categorical colours with a legend.
   await page.getByRole('button', { name: 'Add a map beside' }).first().click();
   const second = page.locator('.map-explorer').nth(1);
@@ -239,7 +244,8 @@ async function mapExplorerChecks(page, sessionId, mapsFile, cmMap) {
   assert.ok(legend.some((item) => item.includes('outside the lit field')), `flags legend: ${legend}`);
   await explorer.getByRole('button', { name: 'Whole map' }).click();
   assert.equal(await second.locator('.map-canvas').getAttribute('data-zoom'), '1');
-  figures.map_explorer_checks_ms = Math.round(performance.now() - started);
+  step('zoom_and_flags');
+  figures.map_explorer_checks_ms = steps;
   console.log(`zoom linked across maps; flags legend ${legend.join(' | ')}`);
 }
 
@@ -499,12 +505,12 @@ async function main() {
   for (let i = 0; i < 5; ++i) await page.keyboard.press('ArrowRight');
   for (let i = 0; i < 3; ++i) await page.keyboard.press('ArrowDown');
   const byKeyboard = await page.locator('.map-value').first().getAttribute('data-value');
-  assert.equal(Number(byKeyboard), Number(cmMap.json.values[3 * cmMap.json.width + 5]), 'keyboard cursor (5, 3): page and GetMap differ');
+  assert.equal(Number(byKeyboard), Math.fround(Number(cmMap.json.values[3 * cmMap.json.width + 5])), 'keyboard cursor (5, 3): page and GetMap differ');
   const box = await canvas.boundingBox();
   const [cx, cy] = [Math.floor(cmMap.json.width / 2), Math.floor(cmMap.json.height / 2)];
   await page.mouse.move(box.x + (cx + 0.5) * box.width / cmMap.json.width, box.y + (cy + 0.5) * box.height / cmMap.json.height);
   const byMouse = await page.locator('.map-value').first().getAttribute('data-value');
-  assert.equal(Number(byMouse), Number(cmMap.json.values[cy * cmMap.json.width + cx]), 'mouse cursor at the centre: page and GetMap differ');
+  assert.equal(Number(byMouse), Math.fround(Number(cmMap.json.values[cy * cmMap.json.width + cx])), 'mouse cursor at the centre: page and GetMap differ');
   console.log(`value under the cursor equals GetMap's (Cm ${byKeyboard} at cell 5,3; ${byMouse} at the centre)`);
   await mapExplorerChecks(page, sessionId, mapsFile, cmMap.json);
   await page.getByLabel('Illuminant').selectOption('D65');

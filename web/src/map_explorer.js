@@ -3,7 +3,8 @@
 // a value shown is a value the map holds) with its contrast, histogram and
 // colour bar (maps/contrast.js), flags and order in categorical colours with
 // a legend, masked and outside-the-field pixels apart, the value under the
-// cursor with its σ (GetMap's sigma_values: the file's sigma_<channel>), zoom, pan and region shared by
+// cursor with its σ (GetMap's sigma: the file's sigma_<channel>; packed
+// float32, so a value shown is the map's float exactly), zoom, pan and region shared by
 // every explorer of the page (maps/linked_view.js), and the region's
 // statistics from chromod (maps/region_statistics.js).
 //
@@ -13,7 +14,7 @@
 // from one loaded record.
 // Keyboard: arrow keys move the cursor, Shift+arrows pan, + and - zoom, 0 shows the whole map.
 import * as api from './api.js';
-import { h, field, messageArea, formatNumber } from './dom.js';
+import { h, field, messageArea, formatNumber, decodeBase64 } from './dom.js';
 import { contrastControls } from './maps/contrast.js';
 import { drawMapImage, skinValues, cellKind, isCategorical } from './maps/map_image.js';
 import { regionStatisticsPanel } from './maps/region_statistics.js';
@@ -23,8 +24,8 @@ const DISPLAY_WIDTH_PX = 960;  // the canvas's own pixels (shown 480 CSS pixels 
 const SAMPLE_WIDTH = 480;      // GetMap's max_width
 const SWITCH_SETTLE_MS = 150;  // a channel chosen is asked for once no other was chosen meanwhile
 
-// As numbers exactly as the API prints them (protobuf JSON writes NaN as "NaN").
-const asNumbers = (values) => Float64Array.from(values ?? [], Number);
+// GetMap's packed little-endian float32 bytes (base64 in the JSON) as numbers.
+const unpack = (base64) => Float64Array.from(new Float32Array(decodeBase64(base64).buffer));
 
 // Fraction of the map → a map pixel range [begin, end) of `size` pixels.
 const pixelSpan = (from, to, size) => {
@@ -117,7 +118,7 @@ export function mapExplorer(sessionId, mapsFile, cameraName, view) {
 
   let inFlight = null;  // the AbortController of the load under way
   const fetchMap = (name, signal) =>
-    api.call('MapsService', 'GetMap', { session_id: sessionId, maps_file: mapsFile, channel: name, max_width: SAMPLE_WIDTH }, signal);
+    api.call('MapsService', 'GetMap', { session_id: sessionId, maps_file: mapsFile, channel: name, max_width: SAMPLE_WIDTH, packed: true }, signal);
   const load = async () => {
     const wanted = channel.value;
     const mine = ++generation;
@@ -145,9 +146,10 @@ export function mapExplorer(sessionId, mapsFile, cameraName, view) {
         const names = [...FIRST_CHANNELS.filter((n) => reply.channels.includes(n)), ...reply.channels.filter((n) => !FIRST_CHANNELS.includes(n))];
         channel.replaceChildren(...names.map((name) => h('option', { value: name, selected: name === wanted }, name)));
       }
-      const values = asNumbers(reply.values);
-      map = { ...reply, channel: wanted, values, sigma: reply.sigma_values?.length ? asNumbers(reply.sigma_values) : null,
-        flags: wanted === 'flags' ? values : flagsOfFile ? asNumbers(flagsOfFile.values) : null };
+      const values = unpack(reply.values_f32);
+      const sigma = unpack(reply.sigma_f32);
+      map = { ...reply, channel: wanted, values, sigma: sigma.length ? sigma : null,
+        flags: wanted === 'flags' ? values : flagsOfFile ? unpack(flagsOfFile.values_f32) : null };
       contrast.load(map, skinValues(map));
       redrawImage();
       cursor = { x: Math.min(cursor.x, map.width - 1), y: Math.min(cursor.y, map.height - 1) };

@@ -1,5 +1,6 @@
 // MapsService: relight, flush, import-maps and profile export on session files (services.hpp, docs/maps.md).
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <ctime>
@@ -220,18 +221,28 @@ class MapsServiceImpl final : public pb::MapsService::Service {
       response->set_width(width), response->set_height(height);
       response->set_source_width(image.width), response->set_source_height(image.height);
       float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+      std::vector<float> sampled, sampled_sigma;
+      sampled.reserve(static_cast<std::size_t>(width) * height);
       for (int y = 0; y < height; ++y) {
         const int sy = std::min(image.height - 1, static_cast<int>((y + 0.5) * image.height / height));
         for (int x = 0; x < width; ++x) {
           const int sx = std::min(image.width - 1, static_cast<int>((x + 0.5) * image.width / width));
           const std::size_t at = static_cast<std::size_t>(sy) * image.width + sx;
           const float v = values[at];
-          response->add_values(v);
-          if (sigma) response->add_sigma_values((*sigma)[at]);
+          sampled.push_back(v);
+          if (sigma) sampled_sigma.push_back((*sigma)[at]);
           if (std::isfinite(v)) lo = std::min(lo, v), hi = std::max(hi, v);
         }
       }
       response->set_min(std::isfinite(lo) ? lo : 0), response->set_max(std::isfinite(hi) ? hi : 0);
+      if (request->packed()) {  // little-endian float32, as this x86/ARM host holds them
+        static_assert(std::endian::native == std::endian::little);
+        response->set_values_f32(sampled.data(), sampled.size() * sizeof(float));
+        response->set_sigma_f32(sampled_sigma.data(), sampled_sigma.size() * sizeof(float));
+      } else {
+        response->mutable_values()->Add(sampled.begin(), sampled.end());
+        response->mutable_sigma_values()->Add(sampled_sigma.begin(), sampled_sigma.end());
+      }
       response->set_unit(maps::map_channel_info(request->channel()).unit);
       if (const auto range = maps::model_display_range(request->channel())) {
         response->set_model_min(range->low), response->set_model_max(range->high);
