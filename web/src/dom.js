@@ -74,12 +74,24 @@ export function table(headers, rows, caption) {
   );
 }
 
+// `digits` significant digits, written out as a person reads them: 9734.2 →
+// "9730", 0.01234 → "0.0123"; the exponent form only below 0.001 or from 1e9.
 export function formatNumber(value, digits = 3) {
   if (value === undefined || value === null || value === '') return '–';
   const number = Number(value);
   if (!Number.isFinite(number)) return String(value);
   if (Number.isInteger(number) && Math.abs(number) < 1e9) return String(number);
-  return number.toPrecision(digits);
+  const rounded = Number(number.toPrecision(digits));
+  if (rounded !== 0 && (Math.abs(rounded) < 1e-3 || Math.abs(rounded) >= 1e9)) return number.toPrecision(digits);
+  return String(rounded);
+}
+
+// A duration for people: "12 min", "3.2 h", "4.0 days".
+export function formatAge(seconds) {
+  if (!(seconds >= 0)) return 'of unknown age';
+  if (seconds < 3600) return `${Math.round(seconds / 60)} min`;
+  if (seconds < 48 * 3600) return `${(seconds / 3600).toFixed(1)} h`;
+  return `${(seconds / 86400).toFixed(1)} days`;
 }
 
 // "OPERATION_STATE_RUNNING" -> "running"

@@ -15,6 +15,10 @@ class SessionServiceImpl final : public pb::SessionService::Service {
       details["subject_bytes"] = request->subject().size();
       if (request->subject().size() > session::kMaxTextBytes) return invalid("subject: longer than 4096 bytes");
       if (auto bad = session::control_character_error(request->subject()); !bad.empty()) return invalid("subject: " + bad);
+      for (const auto& [field, text] : {std::pair{"operator_name", &request->operator_name()}, {"study", &request->study()}}) {
+        if (text->size() > session::kMaxTextBytes) return invalid(std::string(field) + ": longer than 4096 bytes");
+        if (auto bad = session::control_character_error(*text); !bad.empty()) return invalid(std::string(field) + ": " + bad);
+      }
       if (!request->name().empty() && !session::is_valid_name(request->name()))
         return invalid("name: must match [A-Za-z0-9_+.-]{1,64}");
       session::SessionPlan plan;
@@ -28,7 +32,8 @@ class SessionServiceImpl final : public pb::SessionService::Service {
         return invalid("plan_source: set standard = true or give a plan");
       }
       if (!request->name().empty()) plan.name = request->name();
-      const auto record = daemon_.start_session(std::move(plan), request->subject());
+      const auto record =
+          daemon_.start_session(std::move(plan), request->subject(), {request->operator_name(), request->study()});
       details["session"] = record.id;
       to_proto(record, response);
       return Status::OK;
@@ -49,11 +54,7 @@ class SessionServiceImpl final : public pb::SessionService::Service {
       for (const auto& record : daemon_.operations().list()) {
         if (record.kind != session::OperationKind::kSession) continue;
         if (request->limit() && count++ >= request->limit()) break;
-        auto* summary = response->add_sessions();
-        summary->set_id(record.id);
-        summary->set_name(record.name);
-        summary->set_folder(record.folder);
-        to_proto(record, summary->mutable_operation());
+        summary_to_proto(record, response->add_sessions());
       }
       return Status::OK;
     });
