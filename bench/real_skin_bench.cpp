@@ -53,6 +53,7 @@
 #include "chromo/spectral/delta_e.hpp"
 #include "chromo/spectral/lab_illuminants.hpp"
 #include "guarded_main.hpp"
+#include "real_skin_camera.hpp"
 
 namespace chromo::bench {
 namespace {
@@ -68,24 +69,12 @@ struct Plan {
 
 std::vector<Plan> plans() {
   const spectral::CameraSensitivity camera = spectral::builtin_camera("nikon_d5100");
-  std::vector<std::pair<std::string, spectral::Spectrum>> leds;
-  for (auto type : spectral::kAllLedTypes)
-    leds.emplace_back(std::string(spectral::led_type_name(type)), spectral::led_spectrum(type));
   std::vector<Plan> out{{"method", estimation::method_measurement_set(camera, spectral::led_d65_metamer(),
                                                                      spectral::led_spectrum(spectral::LedType::kBlue)),
                          nullptr},
-                        {"six-leds", simulators::capture_measurement_set(camera, leds), nullptr}};
-  for (Plan& p : out)
-    p.table = std::make_shared<const estimation::ForwardTable>(estimation::ForwardTable::build(p.set, estimation::TableGrid{}, 2));
+                        {"six-leds", six_led_measurement_set(camera), nullptr}};
+  for (Plan& p : out) p.table = default_table(p.set);
   return out;
-}
-
-simulators::CameraNoiseModel camera_noise(double scale) {
-  simulators::CameraNoiseModel n;
-  n.electrons_at_full_scale = 4 * 40000.0;
-  n.read_noise_electrons = 12;
-  n.noise_scale = scale;
-  return n;
 }
 
 // The 4D full-spectrum fit of a spectrum at texture scales 0.97, 1, 1.03, interpolated in the scale.
@@ -223,7 +212,7 @@ int run(int argc, char** argv) {
         for (std::uint64_t seed : seeds)
           for (const std::string scene : {"real", "model"}) {
             estimation::MeasurementSet set = plan.set;
-            simulators::set_exposure_noise(set, camera_noise(scale));
+            simulators::set_exposure_noise(set, real_skin_camera_noise(scale));
             simulators::SyntheticOptions o;
             o.seed = seed * 100 + fold;
             o.noise.noise_scale = 0;

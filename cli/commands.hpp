@@ -10,6 +10,7 @@ namespace chromo::cli {
 inline constexpr int kExitOk = 0;
 inline constexpr int kExitFailure = 1;     // something went wrong inside
 inline constexpr int kExitBadInput = 2;    // the command line or an input file was wrong
+inline constexpr int kExitCheckFailed = 3; // chromo doctor: a check of the lab failed
 
 void add_model_command(CLI::App& app, int& exit_status);
 void add_profiles_command(CLI::App& app, int& exit_status);
@@ -28,6 +29,8 @@ int run_map_operation(const char* command, const std::function<void()>& operatio
 void add_leds_measure_command(CLI::App* leds, int& exit_status);
 // Operator commands talking to chromod (daemon_client.hpp).
 void add_status_command(CLI::App& app, int& exit_status);
+// The lab's checks through chromod (doctor_command.cpp, docs/doctor.md).
+void add_doctor_command(CLI::App& app, int& exit_status);
 void add_led_command(CLI::App& app, int& exit_status);
 void add_session_command(CLI::App& app, int& exit_status);
 void add_results_command(CLI::App& app, int& exit_status);

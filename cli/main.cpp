@@ -1,6 +1,7 @@
 // chromo: the Chromosphere operator command line. Exit statuses (README):
 // 0 done, 1 an internal failure (message on stderr), 2 bad input (the command
-// line or an input file; the message names the file and field). No exception
+// line or an input file; the message names the file and field), 3 a check of
+// `chromo doctor` failed. No exception
 // leaves main: a command's uncaught one is mapped here.
 #include <iostream>
 
@@ -23,6 +24,7 @@ int main(int argc, char** argv) {
   chromo::cli::add_flush_command(app, exit_status);
   chromo::cli::add_import_maps_command(app, exit_status);
   chromo::cli::add_status_command(app, exit_status);
+  chromo::cli::add_doctor_command(app, exit_status);
   chromo::cli::add_led_command(app, exit_status);
   chromo::cli::add_session_command(app, exit_status);
   chromo::cli::add_results_command(app, exit_status);

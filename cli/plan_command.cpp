@@ -163,7 +163,8 @@ void add_plan_command(CLI::App& app, int& exit_status) {
   auto options = std::make_shared<PlanCompareOptions>();
   auto* compare = plan->add_subcommand(
       "compare", "predicted parameter σ, relit ΔE94 and capture time of plans (built-in names: method, method-blue, "
-                 "multispectral, d65, each optionally @N frames; or plan JSON files)");
+                 "multispectral, d65, w57, w40, w27 and each broadband +blue (the seed's broadband study), each "
+                 "optionally @N frames; or plan JSON files)");
   compare->add_option("plans", options->plans, "plans (default: method method@4 method-blue multispectral multispectral@4)");
   compare->add_option("--library", options->library,
                       "lab (the virtual lab's true LEDs, in the camera model's units), nominal, or an LED library JSON")

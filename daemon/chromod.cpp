@@ -1,6 +1,7 @@
 // chromod: the Chromosphere control daemon. See docs/config.md.
 //
 //   chromod [--config FILE] [--socket PATH] [--sessions-dir DIR] [--tcp HOST:PORT] [--web HOST:PORT]
+//   chromod [--config FILE] --write-host-files DIR   (udev rules and sysctl drop-in, then exit)
 //
 // Without --config it runs the built-in virtual lab. Prints one line
 // "chromod: listening on unix:PATH" (and the TCP port) once it accepts calls;
@@ -14,6 +15,7 @@
 #include <CLI/CLI.hpp>
 
 #include "chromo/daemon/daemon.hpp"
+#include "chromo/daemon/host_files.hpp"
 #include "chromo/daemon/server.hpp"
 #include "chromo/daemon/virtual_lab.hpp"
 #include "chromo/daemon/web_server.hpp"
@@ -44,13 +46,16 @@ int main(int argc, char** argv) {
   using namespace chromo::daemon;
   namespace files = chromo::files;
   CLI::App app{"chromod: the Chromosphere control daemon"};
-  std::string config_file, socket, sessions_dir, tcp_address, web_address;
+  std::string config_file, socket, sessions_dir, tcp_address, web_address, host_files_root;
   app.add_option("--config", config_file, "configuration file (docs/config.md); none = the virtual lab");
   app.add_option("--socket", socket, "Unix socket path (overrides the configuration)");
   app.add_option("--sessions-dir", sessions_dir, "sessions folder (overrides the configuration)");
   app.add_option("--tcp", tcp_address, "TCP address host:port (overrides; needs a token in the configuration)");
   app.add_option("--web", web_address,
                  "serve the operator's web view on host:port (overrides web_address; needs a token, and TLS off loopback)");
+  app.add_option("--write-host-files", host_files_root,
+                 "write the udev rules and sysctl drop-in this configuration needs under DIR "
+                 "(DIR/udev/rules.d/60-chromosphere.rules, DIR/sysctl.d/60-chromosphere.conf; /etc on a lab PC) and exit");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -75,6 +80,10 @@ int main(int argc, char** argv) {
     if (!tcp_address.empty()) json["tcp_address"] = tcp_address;
     if (!web_address.empty()) json["web_address"] = web_address;
     DaemonConfig config = parse_config(json, config_file.empty() ? "configuration" : config_file);
+    if (!host_files_root.empty()) {
+      for (const auto& path : write_host_files(config, host_files_root)) std::cout << "chromod: wrote " << path.string() << "\n";
+      return 0;
+    }
     create_runtime_dir(config.runtime_dir);
     files::set_cache_limit_bytes(config.estimation.cache_limit_bytes);
     DeviceSet devices;

@@ -9,7 +9,7 @@ packages=(
   # the fuzz preset (tests/fuzz/): clang with libFuzzer and the sanitizers' runtime
   clang libclang-rt-14-dev
   # numerics and utilities
-  libeigen3-dev libceres-dev libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
+  libeigen3-dev libceres-dev libcli11-dev nlohmann-json3-dev libfmt-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox
   # images
@@ -17,6 +17,10 @@ packages=(
   libopenexr-dev libtiff-dev libdeflate-dev
   # devices
   libusb-1.0-0-dev libhidapi-dev libmodbus-dev libaravis-dev aravis-tools
+  # tools no one here wrote, pointed at the simulators in the suite: Aravis' arv-tool-0.8, a Modbus master
+  aravis-tools-cli mbpoll libxml2-utils
+  # the Debian package (packaging/): man pages from --help
+  help2man
   # socket API and the Python client; the web view's HTTP(S) server
   protobuf-compiler libprotobuf-dev libgrpc++-dev protobuf-compiler-grpc
   python3 python3-grpcio python3-protobuf

@@ -13,6 +13,7 @@
 #include "chromo/session/derived_data.hpp"
 #include "chromo/daemon/internal/capture/online_estimator.hpp"
 #include "chromo/daemon/internal/capture/sequencer.hpp"
+#include "chromo/drivers/camera/aravis_camera.hpp"
 #include "chromo/drivers/device_error.hpp"
 
 namespace chromo::daemon {
@@ -96,6 +97,12 @@ std::vector<DeviceReport> Daemon::probe_devices() {
         auto info = camera->device->info();
         report.info = {{"vendor", info.vendor}, {"model", info.model}, {"serial", info.serial},
                        {"sensor", std::to_string(info.sensor_width) + "x" + std::to_string(info.sensor_height)}};
+        // A GigE Vision camera's info is what it said when opened: whether it
+        // answers now is its link (heartbeat and watchdog, aravis_camera.hpp).
+        if (auto* aravis = dynamic_cast<const drivers::AravisCamera*>(camera->device.get()); aravis && !aravis->link_up()) {
+          report.health = DeviceReport::Health::kUnreachable;
+          report.detail = "the camera's link is lost (it stopped answering its control channel)";
+        }
       } catch (const std::exception& error) {
         failed(report, error);
       }

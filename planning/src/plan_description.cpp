@@ -1,6 +1,8 @@
 #include "chromo/planning/plan_description.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <optional>
 #include <set>
 #include <stdexcept>
 
@@ -18,6 +20,32 @@ bool valid_capture_name(const std::string& name) {
     if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '+' || c == '.' || c == '\'' || c == '-'))
       return false;
   return true;
+}
+
+// The broadband capture of a study plan ("w57", "w40+blue", "d65+blue", ...):
+// D65' and W57 as the session mixes solve them, W40 and W27 alone at full
+// drive; nullopt for any other name.
+std::optional<PlannedCapture> broadband_of_study_plan(const std::string& name, const calibration::LedLibrary& library) {
+  const std::string base = name.ends_with("+blue") ? name.substr(0, name.size() - 5) : name;
+  if (base == "d65") {
+    const auto weights = calibration::solve_session_mix(library, "d65", "camera", false).weights;
+    PlannedCapture c{"D65'", {}};
+    for (int t = 0; t < spectral::kLedTypeCount; ++t) c.drive[t] = weights[t];
+    return c;
+  }
+  if (base == "w57") {
+    const auto weights = calibration::solve_session_mix(library, "w57", "camera", false).weights;
+    PlannedCapture c{"W57", {}};
+    for (int t = 0; t < spectral::kLedTypeCount; ++t) c.drive[t] = weights[t];
+    return c;
+  }
+  for (const spectral::LedType type : {spectral::LedType::kW40, spectral::LedType::kW27})
+    if (base == (type == spectral::LedType::kW40 ? "w40" : "w27")) {
+      PlannedCapture c{std::string(spectral::led_type_name(type)), {}};
+      c.drive[spectral::led_type_index(type)] = 1.0;
+      return c;
+    }
+  return std::nullopt;
 }
 
 }  // namespace
@@ -87,7 +115,10 @@ bool PlanDescription::IsValid(std::string* error) const {
   return true;
 }
 
-std::vector<std::string> builtin_plan_names() { return {"method", "method-blue", "multispectral", "d65"}; }
+std::vector<std::string> builtin_plan_names() {
+  return {"method", "method-blue", "multispectral", "d65",      "w57",      "w40",
+          "w27",    "d65+blue",    "w57+blue",      "w40+blue", "w27+blue"};
+}
 
 PlanDescription builtin_plan(const std::string& full_name, const calibration::LedLibrary& library) {
   std::string name = full_name;
@@ -128,6 +159,18 @@ PlanDescription builtin_plan(const std::string& full_name, const calibration::Le
       plan.captures.push_back({std::string(spectral::led_type_name(type)), alone(type)});
   } else if (name == "d65") {
     plan.captures = {{"D65'", mix("d65")}};
+  } else if (const auto broadband = broadband_of_study_plan(name, library); broadband) {
+    // The seed's broadband study: a broadband alone (R, G, B), or with the
+    // blue capture (broadband + blue, channels R, G, B and (broadband+blue − broadband).B).
+    plan.captures = {{broadband->name, broadband->drive}};
+    if (name.ends_with("+blue")) {
+      PlannedCapture with_blue{broadband->name + "+blue", broadband->drive};
+      double& blue = with_blue.drive[spectral::led_type_index(spectral::LedType::kBlue)];
+      blue = std::min(1.0, blue + mix("w57+blue")[spectral::led_type_index(spectral::LedType::kBlue)]);
+      plan.captures.push_back(with_blue);
+      plan.channels = {{broadband->name, 0, ""}, {broadband->name, 1, ""}, {broadband->name, 2, ""},
+                       {with_blue.name, 2, broadband->name}};
+    }
   } else {
     std::string known;
     for (const std::string& n : builtin_plan_names()) known += (known.empty() ? "" : ", ") + n;

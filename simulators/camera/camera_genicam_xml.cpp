@@ -1,6 +1,7 @@
 // The camera simulator's GenICam description (camera_registers.hpp): the
 // standard feature names the driver uses, over the registers of the
 // simulator's own block, written here rather than borrowed from Aravis.
+#include <cctype>
 #include <cstdio>
 #include <sstream>
 #include <string>
@@ -78,12 +79,24 @@ std::string category(const std::string& name, std::initializer_list<const char*>
   return text + "  </Category>\n";
 }
 
+// The GenApi schema's name type, [A-Za-z][0-9A-Za-z_]*, which
+// RegisterDescription's ModelName must be (arv-test-0.8's Genicam:Schema check
+// refused "CHROMO-SIM-CAM"): other characters become '_', and a name not
+// starting with a letter gets an 'M' before it. DeviceModelName keeps the
+// device's own model text.
+std::string genapi_name(const std::string& text) {
+  std::string name;
+  for (const char c : text) name += std::isalnum(static_cast<unsigned char>(c)) ? c : '_';
+  if (name.empty() || !std::isalpha(static_cast<unsigned char>(name.front()))) name.insert(0, "M");
+  return name;
+}
+
 }  // namespace
 
 std::string genicam_xml(const std::string& model_name) {
   std::ostringstream xml;
   xml << "<?xml version=\"1.0\" encoding=\"utf-8\"?>\n"
-      << "<RegisterDescription ModelName=\"" << model_name << "\" VendorName=\"Chromosphere\" "
+      << "<RegisterDescription ModelName=\"" << genapi_name(model_name) << "\" VendorName=\"Chromosphere\" "
       << "StandardNameSpace=\"None\" SchemaMajorVersion=\"1\" SchemaMinorVersion=\"1\" SchemaSubMinorVersion=\"0\" "
       << "MajorVersion=\"1\" MinorVersion=\"0\" SubMinorVersion=\"0\" ToolTip=\"Chromosphere camera simulator\" "
       << "ProductGuid=\"6a1c0d2e-4c57-4e0b-9a51-6368726f6d6f\" VersionGuid=\"6a1c0d2e-4c57-4e0b-9a51-000000000001\" "

@@ -114,6 +114,10 @@ struct GigeVisionDevice::Impl {
   std::mt19937_64 dice;
 
   int gvcp_socket = -1, gvsp_socket = -1;
+  // Bound to 255.255.255.255:3956 (shared by every device of this machine):
+  // broadcast discovery from loopback peers, answered from gvcp_socket. -1 when
+  // that bind failed (the device then answers unicast discovery only).
+  int discovery_socket = -1;
   std::uint16_t gvsp_port = 0;
   std::thread gvcp_thread;
   std::atomic<bool> stopping{false};
@@ -234,12 +238,30 @@ struct GigeVisionDevice::Impl {
                                std::strerror(error));
     }
     gvsp_port = ntohs(bound.sin_port);
+    open_discovery_socket();
+  }
+
+  // Aravis' discovery (arv_update_device_list, arv-test-0.8) broadcasts
+  // DISCOVERY_CMD to 255.255.255.255:3956 from each interface's address; on
+  // lo the kernel delivers it to sockets bound to the limited broadcast
+  // address, which every device shares (SO_REUSEADDR).
+  void open_discovery_socket() {
+    const int fd = udp_socket();
+    const int on = 1;
+    ::setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &on, sizeof on);
+    const sockaddr_in at = socket_address(INADDR_BROADCAST, kGvcpPort);
+    if (::bind(fd, reinterpret_cast<const sockaddr*>(&at), sizeof at) != 0) {
+      ::close(fd);
+      return;
+    }
+    discovery_socket = fd;
   }
 
   void close_sockets() {
     if (gvcp_socket >= 0) ::close(gvcp_socket);
     if (gvsp_socket >= 0) ::close(gvsp_socket);
-    gvcp_socket = gvsp_socket = -1;
+    if (discovery_socket >= 0) ::close(discovery_socket);
+    gvcp_socket = gvsp_socket = discovery_socket = -1;
   }
 
   void send_to(int fd, const std::vector<std::uint8_t>& datagram, const sockaddr_in& to) {
@@ -252,16 +274,34 @@ struct GigeVisionDevice::Impl {
   void gvcp_loop() {
     std::vector<std::uint8_t> datagram(2048);
     while (!stopping) {
-      pollfd wait{gvcp_socket, POLLIN, 0};
-      if (::poll(&wait, 1, 50) > 0) {
-        sockaddr_in from{};
-        socklen_t from_length = sizeof from;
-        const ssize_t n = ::recvfrom(gvcp_socket, datagram.data(), datagram.size(), 0,
-                                     reinterpret_cast<sockaddr*>(&from), &from_length);
-        if (n > 0) handle_datagram(datagram.data(), static_cast<std::size_t>(n), from);
+      pollfd wait[2] = {{gvcp_socket, POLLIN, 0}, {discovery_socket, POLLIN, 0}};
+      if (::poll(wait, discovery_socket >= 0 ? 2 : 1, 50) > 0) {
+        for (int i = 0; i < 2; ++i) {
+          if ((wait[i].revents & POLLIN) == 0) continue;
+          sockaddr_in from{};
+          socklen_t from_length = sizeof from;
+          const ssize_t n = ::recvfrom(wait[i].fd, datagram.data(), datagram.size(), 0,
+                                       reinterpret_cast<sockaddr*>(&from), &from_length);
+          if (n <= 0) continue;
+          if (i == 0) {
+            handle_datagram(datagram.data(), static_cast<std::size_t>(n), from);
+          } else if (is_broadcast_discovery(datagram.data(), static_cast<std::size_t>(n), from)) {
+            handle_datagram(datagram.data(), static_cast<std::size_t>(n), from);
+          } else {
+            ++counters.gvcp_ignored;
+          }
+        }
       }
       check_heartbeat();
     }
+  }
+
+  // On the broadcast socket only DISCOVERY_CMD from a loopback peer is
+  // answered (a LAN host's discovery reaches it too, and nothing is sent
+  // outside 127.0.0.0/8).
+  static bool is_broadcast_discovery(const std::uint8_t* p, std::size_t n, const sockaddr_in& from) {
+    return n >= kGvcpHeaderBytes && p[0] == kCommandKey && get16(p + 2) == kDiscoveryCmd &&
+           is_loopback(ntohl(from.sin_addr.s_addr));
   }
 
   void check_heartbeat() {

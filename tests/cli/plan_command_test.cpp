@@ -49,6 +49,19 @@ TEST(ChromoPlan, ComparesBuiltinsAndAPlanFile) {
   fs::remove_all(dir);
 }
 
+// The seed's broadband study plans by name (issue 38).
+TEST(ChromoPlan, OffersTheBroadbandStudyPlansByName) {
+  const Result r = run_chromo("plan compare w27 w40+blue --skins 4 --mc-draws 1 --json --chart ''");
+  ASSERT_EQ(r.exit_status, 0) << r.output;
+  const auto j = nlohmann::json::parse(r.output);
+  ASSERT_EQ(j.size(), 2u);
+  EXPECT_EQ(j[0]["plan"], "w27");
+  EXPECT_EQ(j[0]["channels"].size(), 3u);
+  EXPECT_EQ(j[1]["plan"], "w40+blue");
+  ASSERT_EQ(j[1]["channels"].size(), 4u);
+  EXPECT_EQ(j[1]["channels"][3], "W40+blue-W40.B");
+}
+
 TEST(ChromoPlan, BadPlansAreRefusedNamingTheField) {
   const fs::path dir = scratch();
   std::ofstream(dir / "bad.json") << R"({"name": "x", "captures": [{"name": "a", "drive": {"B": 1}, "white_fill": 2}]})";

@@ -113,6 +113,14 @@ except grpc.RpcError as error:
     export CHROMO_DAEMON="unix:$work/s.sock"
     t "$chromo" status >"$work/out" 2>&1 || fail "status exited $?"
     grep -q "cam0.*OK" "$work/out" || fail "camera not OK"
+    # chromo doctor (docs/doctor.md): the virtual lab's devices pass; no LED library yet.
+    t "$chromo" doctor >"$work/out" 2>&1 || fail "doctor exited $?"
+    grep -Eq "^ok +device.cam0 +camera CHROMO-VLAB-CAM" "$work/out" || fail "doctor: cam0"
+    grep -Eq "^WARNING +calibration +no LED library" "$work/out" || fail "doctor: no calibration warning"
+    grep -q "fix: run a calibration (chromo calibrate)" "$work/out" || fail "doctor: no fix for the calibration"
+    set +e
+    t "$chromo" doctor --strict >"$work/out" 2>&1; [[ $? == 3 ]] || fail "doctor --strict with a warning not exit 3"
+    set -e
     # 2 frames of each subject step, 3 of the dark and of each white: 3·2 + 4·3 = 18.
     t "$chromo" session run --exposure-us 1000 --frames 2 --reference-frames 3 --subject cli >"$work/out" 2>&1 ||
       fail "session run exited $?"
@@ -136,6 +144,8 @@ except grpc.RpcError as error:
     grep -q "^d65: W57 " "$work/out" || fail "no weights"
     grep -q "camera_de00_mean" "$work/out" || fail "no figures"
     grep -q "library: .*calibrations/.*/led-library.json" "$work/out" || fail "not the measured library"
+    t "$chromo" doctor >"$work/out" 2>&1 || fail "doctor exited $?"
+    grep -Eq "^ok +calibration +LED library .*led-library.json is 0.0 days old" "$work/out" || fail "doctor: calibration"
     set +e
     t "$chromo" calibrate --levels 0.5 0.4 >"$work/out" 2>&1; [[ $? == 2 ]] || fail "bad ladder not exit 2"
     grep -q "drive_levels\[1\]" "$work/out" || fail "ladder field not named"

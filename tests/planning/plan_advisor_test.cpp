@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cmath>
 
 #include "chromo/calibration/led_library.hpp"
@@ -253,6 +254,42 @@ TEST(PlanAdvisor, JsonFormRoundTripsAndNamesBadFields) {
   EXPECT_EQ(refused(R"({"captures": []})"), "name: required");
   EXPECT_EQ(refused(R"({"name": "x", "captures": [{"name": "a", "drive": {"B": 2}}]})"),
             "captures[0].drive.B: must be in [0, 1]");
+}
+
+}  // namespace
+}  // namespace chromo::planning
+
+namespace chromo::planning {
+namespace {
+
+// The seed's broadband study by name (issue 38): each broadband alone is its
+// R, G, B; with the blue capture it adds (broadband+blue − broadband).B, and
+// that channel adds information (a smaller predicted Cm σ).
+TEST(PlanAdvisor, BroadbandStudyPlansByName) {
+  for (const char* base : {"d65", "w57", "w40", "w27"}) {
+    const PlanDescription alone = builtin_plan(base, library());
+    const PlanDescription with_blue = builtin_plan(std::string(base) + "+blue", library());
+    std::string error;
+    ASSERT_TRUE(alone.IsValid(&error)) << base << ": " << error;
+    ASSERT_TRUE(with_blue.IsValid(&error)) << base << "+blue: " << error;
+    EXPECT_EQ(alone.effective_channels().size(), 3u) << base;
+    ASSERT_EQ(with_blue.effective_channels().size(), 4u) << base;
+    EXPECT_EQ(with_blue.effective_channels()[3].name(), with_blue.captures[1].name + "-" + with_blue.captures[0].name + ".B");
+    const int blue = spectral::led_type_index(spectral::LedType::kBlue);
+    EXPECT_GT(with_blue.captures[1].drive[blue], with_blue.captures[0].drive[blue]) << base;
+    for (int t = 0; t < spectral::kLedTypeCount; ++t)
+      if (t != blue) {
+        EXPECT_EQ(with_blue.captures[1].drive[t], with_blue.captures[0].drive[t]) << base << " LED " << t;
+      }
+    const AdvisorOptions options = small_interior(12);
+    const PlanPrediction p_alone = predict_plan(alone, library(), CameraNoise{}, options);
+    const PlanPrediction p_blue = predict_plan(with_blue, library(), CameraNoise{}, options);
+    EXPECT_LT(p_blue.sigma.cm, p_alone.sigma.cm) << base;
+  }
+  const auto names = builtin_plan_names();
+  for (const char* name : {"w57", "w40", "w27", "d65", "w57+blue", "w40+blue", "w27+blue", "d65+blue"})
+    EXPECT_NE(std::find(names.begin(), names.end(), name), names.end()) << name;
+  EXPECT_THROW(builtin_plan("w33+blue", library()), std::invalid_argument);
 }
 
 }  // namespace

@@ -105,15 +105,8 @@ std::unique_ptr<drivers::LedController> open_hid(const DeviceConfig& config) {
   Settings s(config, {"reply_timeout_ms"});
   drivers::HidLinkOptions options;
   options.reply_timeout = timeout_setting(s, "reply_timeout_ms");
-  // vendor:product[:serial], hex ids.
-  const auto first = config.address.find(':');
-  if (first == std::string::npos) throw std::invalid_argument("address: must be vendor:product[:serial] (hex ids)");
-  const auto second = config.address.find(':', first + 1);
-  const auto vendor = hex16(config.address.substr(0, first), "vendor id");
-  const auto product = hex16(config.address.substr(first + 1, second == std::string::npos ? std::string::npos : second - first - 1),
-                             "product id");
-  const std::string serial = second == std::string::npos ? "" : config.address.substr(second + 1);
-  return drivers::make_hid_led_controller(vendor, product, serial, options);
+  const HidAddress address = parse_hid_address(config.address);
+  return drivers::make_hid_led_controller(address.vendor_id, address.product_id, address.serial, options);
 }
 
 std::unique_ptr<drivers::Spectrometer> open_usb_spectrometer(const DeviceConfig& config) {
@@ -198,6 +191,18 @@ BackendRegistry builtin_backends() {
   registry.add_spectrometer("usb", open_usb_spectrometer);
   registry.add_camera("aravis", open_aravis);
   return registry;
+}
+
+HidAddress parse_hid_address(const std::string& address) {
+  const auto first = address.find(':');
+  if (first == std::string::npos) throw std::invalid_argument("address: must be vendor:product[:serial] (hex ids)");
+  const auto second = address.find(':', first + 1);
+  HidAddress parsed;
+  parsed.vendor_id = hex16(address.substr(0, first), "vendor id");
+  parsed.product_id =
+      hex16(address.substr(first + 1, second == std::string::npos ? std::string::npos : second - first - 1), "product id");
+  parsed.serial = second == std::string::npos ? "" : address.substr(second + 1);
+  return parsed;
 }
 
 }  // namespace chromo::daemon

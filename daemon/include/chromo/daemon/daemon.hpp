@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "chromo/daemon/internal/operations/calibrations.hpp"
+#include "chromo/daemon/internal/operations/lab_checks.hpp"
 #include "chromo/daemon/config.hpp"
 #include "chromo/daemon/internal/capture/frame_pipeline.hpp"
 #include "chromo/session/session_captures.hpp"
@@ -64,6 +65,13 @@ class Daemon {
   PreviewHub& previews() { return previews_; }
 
   std::vector<DeviceReport> probe_devices();
+  // What the lab's checks look at (lab_checks.hpp): every device probed now,
+  // each camera's configured stream and the interface reaching it, the host
+  // (net.core.rmem_max, free disk at sessions_dir, the clock), the LED
+  // library's age, one standard session's bytes. Changes nothing.
+  LabFacts lab_facts();
+  // run_lab_checks on lab_facts(): chromo doctor, and the preflight before a session.
+  std::vector<CheckResult> check_lab(const CheckLimits& limits = {});
   // Validated plan; throws std::invalid_argument (naming the field),
   // std::logic_error (another operation runs), std::runtime_error (devices).
   // The session's provenance (session_provenance(), with `people`) goes into

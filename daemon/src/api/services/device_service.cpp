@@ -16,8 +16,30 @@ class DeviceServiceImpl final : public pb::DeviceService::Service {
       return Status::OK;
     });
   }
+  Status CheckLab(ServerContext* context, const pb::CheckLabRequest*, pb::CheckLabResponse* response) override {
+    return guard_(context, [&] {
+      for (const auto& result : daemon_.check_lab()) {
+        auto* check = response->add_checks();
+        check->set_id(result.id);
+        check->set_status(check_status_message(result.status));
+        check->set_finding(result.finding);
+        check->set_fix(result.fix);
+      }
+      return Status::OK;
+    });
+  }
 
  private:
+  static pb::CheckStatus check_status_message(CheckStatus status) {
+    switch (status) {
+      case CheckStatus::ok: return pb::CHECK_STATUS_OK;
+      case CheckStatus::warning: return pb::CHECK_STATUS_WARNING;
+      case CheckStatus::failed: return pb::CHECK_STATUS_FAILED;
+      case CheckStatus::skipped: return pb::CHECK_STATUS_SKIPPED;
+    }
+    return pb::CHECK_STATUS_UNSPECIFIED;
+  }
+
   Daemon& daemon_;
   Guard& guard_;
 };

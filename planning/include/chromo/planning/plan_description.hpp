@@ -79,6 +79,13 @@ inline constexpr int kMaxPlannedFrames = 1000;
 //                     blue.B (the blue channel well exposed)
 //   "multispectral"   each LED type alone at full drive; 18 channels
 //   "d65"             D65' alone; R, G, B
+//   "w57", "w40", "w27"  one broadband alone (W57 at its level in the w57+blue
+//                     solve, W40 and W27 at full drive); R, G, B
+//   "d65+blue", "w57+blue", "w40+blue", "w27+blue"  the broadband and the
+//                     broadband with the blue LED added at its level in the
+//                     w57+blue solve; channels R, G, B of the broadband and
+//                     (broadband+blue − broadband).B (the seed's broadband
+//                     study, docs/estimation.md "The seed's broadband study")
 // A suffix "@N" (e.g. "method@4") sets every capture's frames to N.
 // std::invalid_argument naming the plan for an unknown name.
 PlanDescription builtin_plan(const std::string& name, const calibration::LedLibrary& library);

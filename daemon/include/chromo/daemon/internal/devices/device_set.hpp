@@ -100,4 +100,12 @@ BackendRegistry builtin_backends();
 // "settings.<key>" when one is invalid.
 drivers::CameraSettings camera_capture_settings(const DeviceConfig& config);
 
+// A `hid` LED controller's address: vendor:product[:serial], hex ids.
+struct HidAddress {
+  std::uint16_t vendor_id = 0, product_id = 0;
+  std::string serial;  // empty = the first device with these ids
+};
+// std::invalid_argument "address: ..." naming the part that is wrong.
+HidAddress parse_hid_address(const std::string& address);
+
 }  // namespace chromo::daemon
