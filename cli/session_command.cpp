@@ -28,7 +28,8 @@ namespace {
 
 struct SessionOptions {
   DaemonAddress address;
-  std::string plan_file, subject, name, id, operator_name, study;
+  std::string plan_file, subject, name, id, operator_name, study, override_reason;
+  bool preflight = false;
   std::string polarised = "auto";  // --polarised: auto (the daemon's capture.polarised_plan), on, off
   bool hardware = false, prompts = false, detach = false, frames = false;
   double exposure_us = 0;
@@ -76,6 +77,8 @@ void run(SessionOptions& options, int& exit_status) {
   request.set_subject(options.subject);
   request.set_operator_name(options.operator_name);
   request.set_study(options.study);
+  request.set_preflight(options.preflight || !options.override_reason.empty());
+  request.set_preflight_override_reason(options.override_reason);
   request.set_name(options.name);
   pb::Operation started;
   auto status = pb::SessionService::NewStub(daemon.channel())->StartSession(daemon.context().get(), request, &started);
@@ -244,6 +247,10 @@ void add_session_command(CLI::App& app, int& exit_status) {
   run_command->add_option("--subject", options->subject, "free text stored with the session");
   run_command->add_option("--operator", options->operator_name, "who runs it (free text, recorded in its provenance)");
   run_command->add_option("--study", options->study, "the study it belongs to (free text, shown in session list)");
+  run_command->add_flag("--preflight", options->preflight,
+                        "run the lab's checks first (chromo doctor's) and refuse to start on a failed one");
+  run_command->add_option("--override-reason", options->override_reason,
+                          "start despite failed preflight checks, for this reason (written to the audit log; implies --preflight)");
   run_command->add_option("--name", options->name, "session name ([A-Za-z0-9_+.-])");
   run_command->add_option("--exposure-us", options->exposure_us, "standard plan: exposure (default 20000)");
   run_command->add_option("--frames", options->frames_per_camera, "standard plan: frames per camera and subject step (default 1)");

@@ -67,7 +67,9 @@ std::vector<DeviceReport> Daemon::probe_devices() {
         std::lock_guard lock(led->mutex);
         auto info = led->device->info();
         report.info = {{"model", info.model}, {"serial", info.serial}, {"firmware", info.firmware_version},
-                       {"drive_mode", info.drive_mode == drivers::DriveMode::kPwmDuty ? "pwm_duty" : "constant_current"}};
+                       {"drive_mode", info.drive_mode == drivers::DriveMode::kPwmDuty ? "pwm_duty" : "constant_current"},
+                       // "yes" when some LED type has banks (polarised steps need them), else "no"
+                       {"polariser_banks", info.has_polarisers() ? "yes" : "no"}};
         auto status = led->device->read_status();
         if (status.controller_faults != 0) {
           report.health = DeviceReport::Health::kFault;
@@ -313,6 +315,7 @@ OperationRunner::Outcome Daemon::run_session(RunningOperation& running, const se
     estimator_->begin_session({id, folder, plan, {[&, id](double fraction, const std::string& message) {
                                  operations_.update(id, [&](session::OperationRecord& r) {
                                    r.message = message + " " + std::to_string(static_cast<int>(fraction * 100)) + "%";
+                                   r.eta_seconds = -1;  // the capture's estimate says nothing of the maps' time
                                  });
                                }, {}}, cameras, provenance});
   }

@@ -96,3 +96,16 @@ export async function callApi(origin, cookie, service, method, body, headers = {
     headers: { 'Content-Type': 'application/json', Origin: origin, Cookie: cookie, ...headers }, body: JSON.stringify(body) });
   return { status: reply.status, json: await reply.json() };
 }
+
+// Runs a test's main: "PASS", or "FAIL: <stack>" and exit status 1; cleanup always.
+export async function runMain(main, cleanup) {
+  try {
+    await main();
+    console.log('PASS');
+  } catch (error) {
+    console.error(`FAIL: ${error.stack ?? error}`);
+    process.exitCode = 1;
+  } finally {
+    await cleanup();
+  }
+}

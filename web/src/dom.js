@@ -43,6 +43,12 @@ export function field(labelText, control) {
   return h('div', { class: 'field' }, h('label', { htmlFor: control.id }, labelText), control);
 }
 
+// What went wrong, for an operator: the daemon's message without the gRPC
+// code (FAILED_PRECONDITION and the like mean nothing at the sphere).
+export function humanError(error) {
+  return String(error?.message ?? error);
+}
+
 // A region that says what went wrong (role=alert) or what happened (status).
 export function messageArea(name = '') {
   const base = `message ${name}`.trim();
@@ -51,7 +57,8 @@ export function messageArea(name = '') {
     element: area,
     error(error) {
       area.className = `${base} error`;
-      area.textContent = error?.code ? `${error.message} (${error.code})` : String(error?.message ?? error);
+      area.textContent = humanError(error);
+      if (error?.code) area.dataset.code = error.code;  // for scripts and tests, not shown
     },
     info(text) {
       area.className = `${base} info`;

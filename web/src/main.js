@@ -6,6 +6,7 @@ import { mountDevices } from './pages/devices.js';
 import { mountSessions } from './pages/sessions.js';
 import { mountResults } from './pages/results.js';
 import { startSessionBar } from './session_bar.js';
+import { startTheme } from './theme.js';
 
 const PAGES = {
   live: { title: 'Live', mount: mountLive },
@@ -73,5 +74,6 @@ api.onConnectionChange((connected) => {
   if (connected && loggedIn) route();  // fresh data after the daemon returns
 });
 
+startTheme(document.getElementById('theme'));
 loggedIn = await api.whoami();
 route();

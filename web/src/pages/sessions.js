@@ -1,8 +1,9 @@
 // Sessions: the standard plan, starting a session (subject, plan options),
 // its progress and events with pause/resume/cancel, and past sessions.
 import * as api from '../api.js';
-import { h, field, messageArea, table, enumName, formatNumber, polarisationName } from '../dom.js';
+import { h, field, messageArea, table, enumName, formatNumber, polarisationName, humanError } from '../dom.js';
 import { operationView, stateName, isFinal } from '../operation.js';
+import { preflightChecklist } from '../preflight.js';
 
 function stepIllumination(step) {
   if (step.dark) return 'dark';
@@ -114,8 +115,26 @@ export function mountSessions(container) {
   const events = h('ol', { class: 'events', 'aria-label': 'Events of the session' });
   let followedId = null;
   const past = pastSessions();
+  const preflight = preflightChecklist();
   const progress = operationView({ controls: true, onFinished: () => past.refresh() });
 
+  // A polarised plan on a sphere without polariser banks is refused here, before Start.
+  let sphereHasBanks = null;  // from ListDevices: the LED controller's info.polariser_banks
+  api.call('DeviceService', 'ListDevices', {}).then(({ devices = [] }) => {
+    const led = devices.find((device) => device.kind === 'DEVICE_KIND_LED_CONTROLLER');
+    if (led?.info?.polariser_banks) sphereHasBanks = led.info.polariser_banks === 'yes';
+    checkPolarised();
+  }, () => {});
+  const polarisedRefusal = () => (sphereHasBanks === false && polarised.value === 'POLARISED_PLAN_ON'
+    ? 'This sphere has no polariser banks: a cross-polarised session cannot run on it. Choose "unpolarised" or "as configured".' : '');
+  const checkPolarised = () => {
+    const refusal = polarisedRefusal();
+    if (refusal) message.error(refusal);
+    else if (message.element.dataset.polarised) message.clear();
+    if (refusal) message.element.dataset.polarised = 'refused';
+    else delete message.element.dataset.polarised;
+  };
+  polarised.addEventListener('change', checkPolarised);
   const options = () => ({ timing: timing.value, exposure_us: Number(exposure.value), frames_per_camera: Number(frames.value),
     reference_frames: Number(referenceFrames.value), polarised: polarised.value,
     operator_prompts: prompts.checked, fixed_exposure: fixed.checked });
@@ -123,7 +142,7 @@ export function mountSessions(container) {
     try {
       plan.replaceChildren(planTable(await api.call('SessionService', 'GetStandardPlan', options())));
     } catch (error) {
-      plan.replaceChildren(h('p', { class: 'message error' }, `${error.message} (${error.code})`));
+      plan.replaceChildren(h('p', { class: 'message error' }, humanError(error)));
     }
   };
   keepForm([subject, operatorName, study, prompts, fixed, exposure, frames, referenceFrames, polarised, timing]);
@@ -137,14 +156,16 @@ export function mountSessions(container) {
       field('Frames per dark and white reference (0: configured)', referenceFrames), field('Polarisation', polarised),
       h('label', { class: 'check' }, prompts, ' Pause for "place white" and "place subject"'),
       h('label', { class: 'check' }, fixed, ' One fixed exposure (no metering)')),
+    preflight.element,
     h('button', { type: 'submit' }, 'Start session'));
   form.addEventListener('submit', async (event) => {
     event.preventDefault();
+    if (polarisedRefusal()) return checkPolarised();
     message.clear();
     events.replaceChildren();
     try {
       const operation = await api.call('SessionService', 'StartSession', { standard: true, subject: subject.value,
-        operator_name: operatorName.value, study: study.value, ...options() });
+        operator_name: operatorName.value, study: study.value, ...options(), ...preflight.request() });
       followedId = operation.id;
       progress.follow(operation);
       message.info(`session ${operation.id} started`);
