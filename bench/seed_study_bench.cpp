@@ -196,6 +196,8 @@ struct Run {
   std::array<double, 4> parameter_noise{};                // log10 Cm, log10 Ch, βm, Che
   // Part 2 (six LEDs): relit mean(D65, A) of the corrected appearance per --components, and the floor.
   std::vector<double> corrected_d65_a;
+  int chosen_components = 0;  // the basis size inner cross-validation on the training subjects picks
+  double corrected_chosen_d65_a = std::nan("");
   double floor_d65_a = std::nan("");
 };
 
@@ -257,43 +259,76 @@ Run evaluate(const FoldData& fold, const Scene& scene, const std::vector<estimat
   return r;
 }
 
-// Part 2: the residual samples of a training scene, and the corrected relit error of the test scene per basis size.
-std::vector<estimation::ResidualSample> residual_samples(const estimation::MeasurementSet& set, const Scene& scene,
-                                                         const std::vector<estimation::PixelEstimate>& e) {
+// Part 2: one explained pixel's residual sample, with the model albedo at its estimate and its subject.
+struct ResidualPixel {
+  estimation::ResidualSample sample;
+  spectral::Spectrum model_albedo;
+  int subject = 0;
+};
+
+std::vector<ResidualPixel> residual_pixels(const estimation::MeasurementSet& set, const Scene& scene,
+                                           const std::vector<estimation::PixelEstimate>& e) {
   static const estimation::SkinModel model;
   const Eigen::MatrixXd w = set.weights();
-  std::vector<estimation::ResidualSample> out;
+  std::vector<ResidualPixel> out;
   for (std::size_t i = 0; i < e.size(); ++i) {
     if (e[i].flag != estimation::PixelFlag::kExplained) continue;
     const spectral::Spectrum fitted = model.albedo(e[i].parameters);
     const Eigen::VectorXd predicted = w * fitted.values().matrix();
     Eigen::VectorXd d(set.size());
     for (int k = 0; k < set.size(); ++k) d[k] = scene.noisy[i * set.size() + k] - predicted[k];
-    out.push_back({d, spectral::Spectrum(scene.truth[i].values() - fitted.values())});
+    out.push_back({{d, spectral::Spectrum(scene.truth[i].values() - fitted.values())}, fitted, scene.subject[i]});
   }
   return out;
 }
 
-void correct(Run& r, const estimation::MeasurementSet& set, const Scene& scene, const std::vector<estimation::PixelEstimate>& e,
-             const std::vector<estimation::ResidualSample>& train, const std::vector<int>& components,
-             const std::vector<Illuminant>& lights) {
-  static const estimation::SkinModel model;
-  const std::vector<estimation::ResidualSample> test = residual_samples(set, scene, e);
-  for (int k : components) {
-    const estimation::ResidualBasis basis = estimation::ResidualBasis::learn(train, {.components = k});
-    double sum = 0;
-    std::size_t n = 0;
-    for (std::size_t i = 0; i < e.size(); ++i) {
-      if (e[i].flag != estimation::PixelFlag::kExplained) continue;
-      const estimation::ResidualSample& s = test[n++];
-      const spectral::Spectrum truth(s.spectral_residual.values() + model.albedo(e[i].parameters).values());
-      const spectral::Spectrum corrected(
-          model.albedo(e[i].parameters).values() +
-          basis.correction(basis.coefficients({s.channel_residual.data(), static_cast<std::size_t>(s.channel_residual.size())})).values());
-      for (int l : {kD65, kA}) sum += spectral::delta_e94(lab_under(truth, lights[l]), lab_under(corrected, lights[l])) / 2;
-    }
-    r.corrected_d65_a.push_back(n ? sum / n : std::nan(""));
+std::vector<estimation::ResidualSample> samples_of(const std::vector<ResidualPixel>& pixels) {
+  std::vector<estimation::ResidualSample> out;
+  for (const ResidualPixel& p : pixels) out.push_back(p.sample);
+  return out;
+}
+
+// Mean relit ΔE94 (mean of D65 and A) of the corrected appearance of `pixels` against their truth.
+double corrected_error(const estimation::ResidualBasis& basis, const std::vector<ResidualPixel>& pixels,
+                       const std::vector<Illuminant>& lights) {
+  double sum = 0;
+  for (const ResidualPixel& p : pixels) {
+    const Eigen::VectorXd& d = p.sample.channel_residual;
+    const spectral::Spectrum truth(p.model_albedo.values() + p.sample.spectral_residual.values());
+    const spectral::Spectrum corrected(p.model_albedo.values() +
+                                       basis.correction(basis.coefficients({d.data(), static_cast<std::size_t>(d.size())})).values());
+    for (int l : {kD65, kA}) sum += spectral::delta_e94(lab_under(truth, lights[l]), lab_under(corrected, lights[l])) / 2;
   }
+  return pixels.empty() ? std::nan("") : sum / pixels.size();
+}
+
+// The basis size of `components` with the lowest corrected error over 4
+// inner folds of the training subjects (subject mod 4): chosen without the
+// held-out subjects.
+int choose_components(const std::vector<ResidualPixel>& train, const std::vector<int>& components,
+                      const std::vector<Illuminant>& lights) {
+  int best = components.front();
+  double best_error = INFINITY;
+  for (int k : components) {
+    double error = 0;
+    for (int inner = 0; inner < 4; ++inner) {
+      std::vector<ResidualPixel> fit, check;
+      for (const ResidualPixel& p : train) (p.subject % 4 == inner ? check : fit).push_back(p);
+      error += corrected_error(estimation::ResidualBasis::learn(samples_of(fit), {.components = k}), check, lights) / 4;
+    }
+    if (error < best_error) best_error = error, best = k;
+  }
+  return best;
+}
+
+void correct(Run& r, const std::vector<ResidualPixel>& test, const std::vector<ResidualPixel>& train,
+             const std::vector<int>& components, const std::vector<Illuminant>& lights) {
+  const std::vector<estimation::ResidualSample> train_samples = samples_of(train);
+  for (int k : components)
+    r.corrected_d65_a.push_back(corrected_error(estimation::ResidualBasis::learn(train_samples, {.components = k}), test, lights));
+  r.chosen_components = choose_components(train, components, lights);
+  r.corrected_chosen_d65_a =
+      corrected_error(estimation::ResidualBasis::learn(train_samples, {.components = r.chosen_components}), test, lights);
 }
 
 void write_study_chart(const std::filesystem::path& png, const std::vector<Run>& runs, const std::vector<std::string>& plan_names,
@@ -399,8 +434,8 @@ int run(int argc, char** argv) {
             r.plan = plan.name, r.scene = spread_on ? "spread" : "flat", r.noise_scale = scale, r.seed = seed, r.fold = f;
             if (plan.own < 0) {
               const Scene train_scene = render(set, fold.train, train_patch, spread_on, seed * 100 + f + 50000);
-              const auto train = residual_samples(set, train_scene, estimate(plan, set, train_scene, fold.discrepancy));
-              correct(r, set, scene, e, train, components, lights);
+              correct(r, residual_pixels(set, scene, e),
+                      residual_pixels(set, train_scene, estimate(plan, set, train_scene, fold.discrepancy)), components, lights);
               r.floor_d65_a = floor;
             }
             runs.push_back(std::move(r));
@@ -414,6 +449,7 @@ int run(int argc, char** argv) {
   for (const auto& l : lights) csv << ",de94_" << l.name;
   csv << ",noise_log10_cm,noise_log10_ch,noise_bm,noise_che,floor_d65_a";
   for (int k : components) csv << ",corrected_d65_a_k" << k;
+  csv << ",chosen_k,corrected_chosen_d65_a";
   csv << "\n";
   for (const Run& r : runs) {
     csv << r.plan << "," << r.scene << "," << r.noise_scale << "," << r.seed << "," << r.fold << "," << r.flagged << "," << r.order4;
@@ -421,6 +457,7 @@ int run(int argc, char** argv) {
     for (double v : r.parameter_noise) csv << "," << v;
     csv << "," << r.floor_d65_a;
     for (std::size_t k = 0; k < components.size(); ++k) csv << "," << (r.corrected_d65_a.empty() ? std::nan("") : r.corrected_d65_a[k]);
+    csv << "," << r.chosen_components << "," << r.corrected_chosen_d65_a;
     csv << "\n";
   }
   csv.close();
@@ -550,6 +587,13 @@ int run(int argc, char** argv) {
         std::printf("  corrected, %d basis spectra:      %s   below the floor by %s%%\n", components[k], text(c).c_str(),
                     text(below, 100).c_str());
       }
+      {
+        const Spread c = spread(six, [](const Run& r) { return r.corrected_chosen_d65_a; });
+        const Spread below = spread(six, [](const Run& r) { return 1 - r.corrected_chosen_d65_a / r.floor_d65_a; });
+        const Spread k = spread(six, [](const Run& r) { return double(r.chosen_components); });
+        std::printf("  corrected, k by inner CV (%.0f-%.0f): %s   below the floor by %s%%\n", k.lo, k.hi, text(c).c_str(),
+                    text(below, 100).c_str());
+      }
     }
 
   write_study_chart(std::filesystem::path(out) / "seed_study.png", runs, study_names, lights, "flat", noise_scales.front());
@@ -559,6 +603,7 @@ int run(int argc, char** argv) {
   bars.push_back({"4D estimate (18 ch)", spread(six, [](const Run& r) { return mean_d65_a(r.de); }).mean});
   for (std::size_t k = 0; k < components.size(); ++k)
     bars.push_back({"corrected, k=" + std::to_string(components[k]), spread(six, [k](const Run& r) { return r.corrected_d65_a[k]; }).mean});
+  bars.push_back({"corrected, k by inner CV", spread(six, [](const Run& r) { return r.corrected_chosen_d65_a; }).mean});
   const auto png = std::filesystem::path(out) / "past_floor.png";
   if (write_bar_chart(png, "past the model floor: six LEDs, held-out NIST skin (flat scene)", "relit ΔE94, mean of D65 and A", bars))
     std::printf("chart: %s\n", png.c_str());

@@ -185,7 +185,7 @@ void add_estimate_command(CLI::App& app, int& exit_status) {
       ->required();
   cmd->add_option("--out", options->out, "output directory (maps.exr, previews, summary.json)")->required();
   cmd->add_option("--method", options->method, "inverter")
-      ->check(CLI::IsMember({"exhaustive", "fast", "2d"}))
+      ->check(CLI::IsMember({"exhaustive", "fast", "2d", "subspace"}))
       ->capture_default_str();
   cmd->add_option("--model", options->model, "model order: auto (χ² likelihood-ratio test, pooled over 7×7 windows unless --no-order-pooling), 2d or 4d")
       ->check(CLI::IsMember({"auto", "2d", "4d"}))

@@ -218,7 +218,7 @@ int study_task(const std::string& dir, const std::string& submission, int task, 
 }
 
 void add_estimation_options(CLI::App* cmd, EstimateOptions& e) {
-  cmd->add_option("--method", e.method, "inverter")->check(CLI::IsMember({"exhaustive", "fast", "2d"}))->capture_default_str();
+  cmd->add_option("--method", e.method, "inverter")->check(CLI::IsMember({"exhaustive", "fast", "2d", "subspace"}))->capture_default_str();
   cmd->add_option("--model", e.model, "model order")->check(CLI::IsMember({"auto", "2d", "4d"}))->capture_default_str();
   cmd->add_option("--discrepancy", e.discrepancy,
                   "the skin model's shortfall on real skin, added to the noise wherever a residual is weighed: learned "

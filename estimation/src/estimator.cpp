@@ -22,6 +22,7 @@ std::string_view method_name(InverterMethod method) {
     case InverterMethod::kExhaustive: return "exhaustive";
     case InverterMethod::kFast: return "fast";
     case InverterMethod::k2d: return "2d";
+    case InverterMethod::kSubspace: return "subspace";
   }
   return "?";
 }
@@ -36,7 +37,7 @@ std::string_view model_name(ModelChoice model) {
 }
 
 std::optional<InverterMethod> parse_method_name(std::string_view name) {
-  for (InverterMethod m : {InverterMethod::kExhaustive, InverterMethod::kFast, InverterMethod::k2d})
+  for (InverterMethod m : {InverterMethod::kExhaustive, InverterMethod::kFast, InverterMethod::k2d, InverterMethod::kSubspace})
     if (method_name(m) == name) return m;
   return std::nullopt;
 }
@@ -106,6 +107,7 @@ bool EstimatorOptions::IsValid(std::string* error) const {
   if (tile_pixels < 1) return fail("tile_pixels must be >= 1");
   std::string fast_error;
   if (!fast.IsValid(&fast_error)) return fail("fast: " + fast_error);
+  if (!subspace.IsValid(&fast_error)) return fail("subspace: " + fast_error);
   return true;
 }
 
@@ -124,6 +126,7 @@ std::unique_ptr<Inverter> make_inverter(InverterMethod method, std::shared_ptr<c
     case InverterMethod::kExhaustive: return std::make_unique<ExhaustiveInverter>(std::move(table));
     case InverterMethod::kFast: return std::make_unique<FastInverter>(std::move(table), cache_dir, fast_options);
     case InverterMethod::k2d: return std::make_unique<TwoDInverter>(std::move(table));
+    case InverterMethod::kSubspace: break;  // needs the set's noise: the Estimator builds it
   }
   throw std::invalid_argument("unknown inverter method");
 }
@@ -144,11 +147,36 @@ Estimator::Estimator(std::shared_ptr<const ForwardTable> table, MeasurementSet s
   // A pre-solved fit the flag test would reject always gets the search path.
   options_.fast.presolved_accept_chi2 =
       std::max(options_.fast.converged_chi2, std::min(options_.fast.presolved_accept_chi2, flag_threshold_[4]));
-  inverter_ = make_inverter(options_.method, table_, options_.cache_dir, options_.fast);
+  if (options_.discrepancy) discrepancy_ = options_.discrepancy->channel_covariance(set_);
+  if (options_.method == InverterMethod::kSubspace) {
+    options_.subspace.fallback_chi2 = std::min(options_.subspace.fallback_chi2, flag_threshold_[4]);
+    const std::filesystem::path dir = options_.cache_dir.empty() ? ForwardTable::default_cache_dir() : options_.cache_dir;
+    const std::vector<double> sigma = reference_sigma();
+    inverter_ = std::make_unique<SubspaceInverter>(
+        table_, SubspaceTable::shared(table_, sigma, options_.threads),
+        InverseTable::load_or_build(table_, dir, nullptr, nullptr, options_.threads, options_.fast.inverse_table),
+        options_.subspace);
+  } else {
+    inverter_ = make_inverter(options_.method, table_, options_.cache_dir, options_.fast);
+  }
   if (options_.model == ModelChoice::kAuto && options_.order_rule == EstimatorOptions::OrderRule::kAppearance)
     appearance_ = AppearanceTable::shared(table_->grid(), options_.cache_dir);
   order_threshold_ = std::min(c, 4) > 2 ? chi_squared_quantile(1 - options_.order_significance, std::min(c, 4) - 2) : 0;
-  if (options_.discrepancy) discrepancy_ = options_.discrepancy->channel_covariance(set_);
+}
+
+std::vector<double> Estimator::reference_sigma() const {
+  const int c_count = channels();
+  std::vector<double> mean(c_count, 0.0);
+  const std::vector<float>& values = table_->values();
+  const std::size_t nodes = values.size() / c_count;
+  for (std::size_t i = 0; i < nodes; ++i)
+    for (int c = 0; c < c_count; ++c) mean[c] += values[i * c_count + c];
+  std::vector<double> sigma(c_count);
+  for (int c = 0; c < c_count; ++c) {
+    const double albedo = mean[c] / double(nodes);
+    sigma[c] = std::sqrt(fit_variance(c, albedo) + (discrepancy_.size() > 0 ? discrepancy_(c, c) : 0.0));
+  }
+  return sigma;
 }
 
 double Estimator::weight(int channel, double albedo) const {

@@ -163,7 +163,11 @@ void ForwardTable::predict(const GridPoint& x, double* value, double* jacobian) 
     case 4: return accumulate_corners<4>(corner_values, weight, dweight, 4, value, jacobian);
     case 6: return accumulate_corners<6>(corner_values, weight, dweight, 6, value, jacobian);
     case 9: return accumulate_corners<9>(corner_values, weight, dweight, 9, value, jacobian);  // maps::RelitTable of three photographs
+    case 12: return accumulate_corners_by_corner<12>(corner_values, weight, dweight, value, jacobian);
+    case 18: return accumulate_corners_by_corner<18>(corner_values, weight, dweight, value, jacobian);  // six LEDs
     case 21: return accumulate_corners_by_corner<21>(corner_values, weight, dweight, value, jacobian);  // AppearanceTable
+    case 24: return accumulate_corners_by_corner<24>(corner_values, weight, dweight, value, jacobian);
+    case 27: return accumulate_corners_by_corner<27>(corner_values, weight, dweight, value, jacobian);  // six LEDs + method
     default: return accumulate_corners<0>(corner_values, weight, dweight, channels_, value, jacobian);
   }
 }

@@ -78,6 +78,7 @@
 
 #include "chromo/estimation/inverter.hpp"
 #include "chromo/estimation/measurement.hpp"
+#include "chromo/estimation/subspace_inverter.hpp"
 #include "chromo/estimation/pixel_flags.hpp"
 #include <Eigen/Core>
 #include <limits>
@@ -89,11 +90,13 @@ namespace detail {
 class PixelCovariance;
 }
 
-enum class InverterMethod { kExhaustive, kFast, k2d };
+// kSubspace: SubspaceInverter (subspace_inverter.hpp), whose cost barely
+// grows with the channel count.
+enum class InverterMethod { kExhaustive, kFast, k2d, kSubspace };
 enum class ModelChoice { kAuto, k2d, k4d };
 std::string_view method_name(InverterMethod method);
 std::string_view model_name(ModelChoice model);
-// The inverses of method_name / model_name ("exhaustive", "fast", "2d";
+// The inverses of method_name / model_name ("exhaustive", "fast", "2d", "subspace";
 // "auto", "2d", "4d"); std::nullopt for any other name.
 std::optional<InverterMethod> parse_method_name(std::string_view name);
 std::optional<ModelChoice> parse_model_name(std::string_view name);
@@ -158,6 +161,9 @@ struct EstimatorOptions {
   std::filesystem::path cache_dir;
   // The fast inverter's stopping and acceptance settings (inverter.hpp).
   FastInverterOptions fast;
+  // The subspace inverter's settings (subspace_inverter.hpp; its fallback
+  // χ² is capped at the 4D flag threshold as the fast inverter's acceptance).
+  SubspaceInverterOptions subspace;
   bool IsValid(std::string* error) const;
 };
 
@@ -211,6 +217,9 @@ class Estimator {
   double order_threshold_ = 0;                          // kLikelihoodRatio: the χ²₂ − χ²₄ quantile
   // The pixel's Σ (step 2) and the 4D parameter covariance at its fit (PixelEstimate::sigma).
   double fit_variance(int channel, double albedo) const;
+  // The subspace inverter's reference σ per channel: the fit's σ (noise, model
+  // error, the discrepancy's diagonal) at the channel's mean table value.
+  std::vector<double> reference_sigma() const;
   // jacobian_at_x: the table's Jacobian at x when the caller has it (else it is interpolated here).
   void set_uncertainty(const detail::PixelCovariance& covariance, const GridPoint& x, PixelEstimate& out,
                        const double* jacobian_at_x = nullptr) const;

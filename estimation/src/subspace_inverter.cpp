@@ -1,0 +1,268 @@
+// SubspaceInverter (subspace_inverter.hpp): start and Gauss-Newton in the
+// plan's 8-D subspace, polish on the full weighted residual.
+#include "chromo/estimation/subspace_inverter.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <stdexcept>
+
+#include "spd_solve.hpp"
+
+namespace chromo::estimation {
+
+namespace {
+
+constexpr int kDims = SubspaceTable::kDims;
+using Float8 = float __attribute__((vector_size(32)));
+
+float distance2(const float* a, const float* b) {
+  Float8 va, vb;
+  std::memcpy(&va, a, sizeof va);
+  std::memcpy(&vb, b, sizeof vb);
+  const Float8 d = va - vb, s = d * d;
+  return ((s[0] + s[1]) + (s[2] + s[3])) + ((s[4] + s[5]) + (s[6] + s[7]));
+}
+
+std::array<int, 4> node_of_index(std::uint32_t node, const std::array<int, 4>& n) {
+  const int i_ch = static_cast<int>(node % n[1]), i_cm = static_cast<int>(node / n[1] % n[0]);
+  const int i_che = static_cast<int>(node / (n[1] * n[0]) % n[3]), i_bm = static_cast<int>(node / (n[1] * n[0] * n[3]));
+  return {i_cm, i_ch, i_bm, i_che};
+}
+
+// Bounded Gauss-Newton on |z − P(x)|² in the subspace (P: SubspaceTable::predict)
+// from x, with `free_dims` free coordinates (4, or 2 for the 2D slice) and
+// backtracking (the interpolant is piecewise multilinear). x is updated.
+void subspace_gauss_newton(const SubspaceTable& table, const float* z, const float* upper, int free_dims, int steps,
+                           float* x) {
+  float value[kDims], jacobian[kDims * 4];
+  auto chi2_at = [&](const float* at, bool with_jacobian) {
+    table.predict(at, value, with_jacobian ? jacobian : nullptr);
+    return distance2(value, z);
+  };
+  double chi2 = chi2_at(x, true);
+  float trial[4];
+  for (int iteration = 0; iteration < steps && chi2 > 1e-6; ++iteration) {
+    double jtj[16] = {}, gradient[4] = {};
+    for (int r = 0; r < kDims; ++r) {
+      const double residual = value[r] - z[r];
+      const float* row = jacobian + r * 4;
+      for (int i = 0; i < 4; ++i) {
+        gradient[i] += row[i] * residual;
+        for (int k = 0; k < 4; ++k) jtj[i * 4 + k] += double(row[i]) * row[k];
+      }
+    }
+    for (int k = 0; k < 4; ++k) {
+      const bool at_bound = (x[k] <= 0 && gradient[k] > 0) || (x[k] >= upper[k] && gradient[k] < 0);
+      if (at_bound || k >= free_dims) {
+        for (int i = 0; i < 4; ++i) jtj[k * 4 + i] = jtj[i * 4 + k] = 0;
+        jtj[k * 4 + k] = 1, gradient[k] = 0;
+      } else {
+        jtj[k * 4 + k] *= 1 + 1e-9;
+      }
+    }
+    double step[4];
+    detail::solve_spd4(jtj, gradient, step);
+    double predicted_gain = 0;
+    for (int k = 0; k < 4; ++k) predicted_gain += gradient[k] * step[k];
+    if (predicted_gain < 1e-4 * chi2) break;
+    bool improved = false;
+    for (float scale = 1.0f; scale > 0.005f && !improved; scale *= 0.5f) {
+      float moved = 0;
+      for (int k = 0; k < 4; ++k) {
+        trial[k] = std::clamp(x[k] - std::clamp(scale * static_cast<float>(step[k]), -4.0f, 4.0f), 0.0f, upper[k]);
+        moved = std::max(moved, std::abs(trial[k] - x[k]));
+      }
+      const double trial_chi2 = chi2_at(trial, true);
+      if (trial_chi2 < chi2) {
+        const bool stalled = moved < 1e-3f || chi2 - trial_chi2 < 1e-4 * chi2;
+        std::copy_n(trial, 4, x), chi2 = trial_chi2, improved = true;
+        if (stalled) return;
+      }
+    }
+    if (!improved) return;
+    // chi2_at(trial) left value and jacobian at the accepted point.
+  }
+}
+
+}  // namespace
+
+bool SubspaceInverterOptions::IsValid(std::string* error) const {
+  auto fail = [&](const char* m) {
+    if (error) *error = m;
+    return false;
+  };
+  if (subspace_steps < 0 || subspace_steps > 1000) return fail("subspace_steps must be in 0..1000");
+  if (polish_steps < 0 || polish_steps > 1000) return fail("polish_steps must be in 0..1000");
+  if (!(fallback_chi2 >= 0)) return fail("fallback_chi2 must be >= 0");
+  return true;
+}
+
+SubspaceInverter::SubspaceInverter(std::shared_ptr<const ForwardTable> table, std::shared_ptr<const SubspaceTable> subspace,
+                                   std::shared_ptr<const InverseTable> inverse, Options options)
+    : Inverter(std::move(table)), options_(options), subspace_(std::move(subspace)), inverse_(std::move(inverse)) {
+  std::string error;
+  if (!options_.IsValid(&error)) throw std::invalid_argument("subspace inverter options: " + error);
+  if (!subspace_ || subspace_->forward().key() != table_->key() || subspace_->channels() != table_->channels())
+    throw std::invalid_argument("subspace inverter: the subspace table was not built on this forward table");
+  if (!inverse_ || inverse_->key_channels() != table_->channels())
+    throw std::invalid_argument("subspace inverter: the inverse table does not match the forward table's channels");
+  const auto n = table_->nodes();
+  for (int i_bm = 0; i_bm < n[2]; i_bm += 4)
+    for (int i_che = 0; i_che < n[3]; i_che += 4)
+      for (int i_cm = 0; i_cm < n[0]; i_cm += 8)
+        for (int i_ch = 0; i_ch < n[1]; i_ch += 8) coarse_nodes_.push_back({i_cm, i_ch, i_bm, i_che});
+  coarse_z_.resize(coarse_nodes_.size() * kDims);
+  for (std::size_t i = 0; i < coarse_nodes_.size(); ++i) {
+    const auto& at = coarse_nodes_[i];
+    std::copy_n(subspace_->node(subspace_->node_index(at[0], at[1], at[2], at[3])), kDims, coarse_z_.data() + i * kDims);
+  }
+}
+
+std::array<int, 4> SubspaceInverter::coarse_scan(const float* z) const {
+  // Level 1: the coarse nodes; level 2: the half-way nodes around the best one.
+  float best = std::numeric_limits<float>::infinity();
+  std::size_t best_index = 0;
+  for (std::size_t i = 0; i < coarse_nodes_.size(); ++i) {
+    const float d = distance2(coarse_z_.data() + i * kDims, z);
+    if (d < best) best = d, best_index = i;
+  }
+  const auto n = table_->nodes();
+  const std::array<int, 4> centre = coarse_nodes_[best_index];
+  std::array<int, 4> at = centre;
+  const int half[4] = {4, 4, 2, 2};
+  for (int code = 0; code < 81; ++code) {
+    std::array<int, 4> node;
+    bool inside = true;
+    for (int d = 0, rest = code; d < 4; ++d, rest /= 3) {
+      node[d] = centre[d] + (rest % 3 - 1) * half[d];
+      inside = inside && node[d] >= 0 && node[d] < n[d];
+    }
+    if (!inside) continue;
+    const float d = distance2(subspace_->node(subspace_->node_index(node[0], node[1], node[2], node[3])), z);
+    if (d < best) best = d, at = node;
+  }
+  return at;
+}
+
+std::array<int, 4> SubspaceInverter::start_node(const float* z, const double* measured) const {
+  const int channels = table_->channels();
+  ChannelBuffer<float> m(channels);
+  for (int c = 0; c < channels; ++c) m[c] = static_cast<float>(measured[c]);
+  const std::uint32_t cell_index = inverse_->cell_of(m);
+  if (cell_index == InverseTable::kNoCell) return coarse_scan(z);
+  const InverseTable::Cell& cell = inverse_->cell(cell_index);
+  const std::uint32_t* bucket = inverse_->bucket_nodes().data() + cell.bucket_begin;
+  float best = std::numeric_limits<float>::infinity();
+  std::uint32_t best_node = bucket[0];
+  for (std::uint32_t i = 0; i < cell.bucket_count; ++i) {
+    const float d = distance2(subspace_->node(bucket[i]), z);
+    if (d < best) best = d, best_node = bucket[i];
+  }
+  return node_of_index(best_node, table_->nodes());
+}
+
+std::array<int, 4> SubspaceInverter::descend_nodes(const float* z, std::array<int, 4> at, int dims, bool diagonal) const {
+  const auto n = table_->nodes();
+  auto chi2_of = [&](const std::array<int, 4>& i) {
+    return distance2(subspace_->node(subspace_->node_index(i[0], i[1], i[2], i[3])), z);
+  };
+  float best = chi2_of(at);
+  const int full = dims == 4 ? 81 : 9;
+  for (int step = 0; step < 96; ++step) {
+    std::array<int, 4> best_move = at;
+    for (int d = 0; d < dims; ++d)
+      for (int delta : {-1, 1}) {
+        std::array<int, 4> candidate = at;
+        candidate[d] += delta;
+        if (candidate[d] < 0 || candidate[d] >= n[d]) continue;
+        const float chi2 = chi2_of(candidate);
+        if (chi2 < best) best = chi2, best_move = candidate;
+      }
+    if (best_move == at) {
+      if (!diagonal) break;
+      for (int k = 0; k < full; ++k) {
+        std::array<int, 4> candidate = at;
+        bool inside = true;
+        for (int d = 0, code = k; d < dims; ++d, code /= 3) {
+          candidate[d] += code % 3 - 1;
+          inside = inside && candidate[d] >= 0 && candidate[d] < n[d];
+        }
+        if (!inside) continue;
+        const float chi2 = chi2_of(candidate);
+        if (chi2 < best) best = chi2, best_move = candidate;
+      }
+      if (best_move == at) break;
+    }
+    at = best_move;
+  }
+  return at;
+}
+
+Fit SubspaceInverter::search_full(const double* measured, const double* weight, int order) const {
+  // The fast inverter's search path (inverter.hpp) in the full channel
+  // space: the best node of the pixel's bucket by the weighted χ² (outside
+  // the table: the subspace's node scan), descent, bounded LM.
+  const int channels = table_->channels();
+  ChannelBuffer<float> m(channels), w(channels);
+  for (int c = 0; c < channels; ++c) m[c] = static_cast<float>(measured[c]), w[c] = static_cast<float>(weight[c]);
+  const std::uint32_t cell_index = inverse_->cell_of(m);
+  GridPoint start;
+  if (cell_index != InverseTable::kNoCell) {
+    const InverseTable::Cell& cell = inverse_->cell(cell_index);
+    float best = std::numeric_limits<float>::infinity();
+    std::uint32_t best_node = inverse_->bucket_nodes()[cell.bucket_begin];
+    for (std::uint32_t i = 0; i < cell.bucket_count; ++i) {
+      const std::uint32_t node = inverse_->bucket_nodes()[cell.bucket_begin + i];
+      int found = -1;
+      scan_nodes(channels, table_->values().data() + std::size_t(node) * channels, 1, m, w, best, found);
+      if (found >= 0) best_node = node;
+    }
+    const auto at = node_of_index(best_node, table_->nodes());
+    start = {double(at[0]), double(at[1]), double(at[2]), double(at[3])};
+  } else {
+    float z[kDims];
+    subspace_->project(measured, z);
+    const auto at = coarse_scan(z);
+    start = {double(at[0]), double(at[1]), double(at[2]), double(at[3])};
+  }
+  return refine(measured, weight, order, node_descent(measured, weight, order, start, cell_index == InverseTable::kNoCell), 20);
+}
+
+Fit SubspaceInverter::fit(const double* measured, const double* weight, int order) const {
+  const int free_dims = order == 4 ? 4 : 2;
+  const auto n = table_->nodes();
+  const float upper[4] = {float(n[0] - 1), float(n[1] - 1), float(n[2] - 1), float(n[3] - 1)};
+  float z[kDims];
+  subspace_->project(measured, z);
+  std::array<int, 4> at = start_node(z, measured);
+  if (free_dims == 2) {
+    // The 2D slice: the 4D start's Cm and Ch on it, or the best of a coarse
+    // scan of the slice (every 4th node), whichever is closer.
+    const int bm_2d = static_cast<int>(std::lround(bm_2d_coordinate()));
+    at[2] = bm_2d, at[3] = 0;
+    float best = distance2(subspace_->node(subspace_->node_index(at[0], at[1], at[2], at[3])), z);
+    for (int i_cm = 0; i_cm < n[0]; i_cm += 4)
+      for (int i_ch = 0; i_ch < n[1]; i_ch += 4) {
+        const float d = distance2(subspace_->node(subspace_->node_index(i_cm, i_ch, bm_2d, 0)), z);
+        if (d < best) best = d, at = {i_cm, i_ch, bm_2d, 0};
+      }
+  }
+  at = descend_nodes(z, at, free_dims, free_dims == 2);
+  float x[4] = {float(at[0]), float(at[1]), float(at[2]), float(at[3])};
+  if (free_dims == 2) x[2] = static_cast<float>(bm_2d_coordinate()), x[3] = 0;
+  subspace_gauss_newton(*subspace_, z, upper, free_dims, options_.subspace_steps, x);
+
+  // Polish on the full weighted residual (the pixel's own weights).
+  Fit fit = refine(measured, weight, order, GridPoint{x[0], x[1], x[2], x[3]}, options_.polish_steps);
+  // Order 2 as the fast inverter: a 2D fit above the threshold is a pixel
+  // the 2D model does not explain, no search.
+  if (free_dims == 4 && fit.chi2 > options_.fallback_chi2) {
+    const Fit searched = search_full(measured, weight, order);
+    if (searched.chi2 < fit.chi2) fit = searched;
+  }
+  return fit;
+}
+
+}  // namespace chromo::estimation
