@@ -152,7 +152,7 @@ TEST_F(ApiFixture, StandardSessionStreamsProgressAndResultsAreFetchedById) {
   EXPECT_EQ(report.at("provenance").at("led_library").at("kind"), "nominal");
   const auto audit = audit_lines(lab.config.sessions_dir);
   ASSERT_FALSE(audit.empty());
-  EXPECT_TRUE(audit.back().at("details").at("preflight").at("failed").empty()) << audit.back().dump();
+  EXPECT_TRUE(audit.back().at("preflight").at("failed").empty()) << audit.back().dump();
 }
 
 // Issue 41: a failed check refuses a preflighted start, naming the check and
@@ -182,10 +182,10 @@ TEST_F(ApiFixture, PreflightRefusesAFailedCheckUnlessOverriddenWithAReasonTheAud
   if (status.ok()) watch_to_end(started.id());
   const auto audit = audit_lines(lab.config.sessions_dir);
   ASSERT_GE(audit.size(), 3u);
-  const auto& refused = audit[audit.size() - 3].at("details").at("preflight");
+  const auto& refused = audit[audit.size() - 3].at("preflight");
   EXPECT_EQ(refused.at("failed"), nlohmann::json::array({"disk"}));
   EXPECT_FALSE(refused.contains("override_reason"));
-  const auto& overridden = audit.back().at("details").at("preflight");
+  const auto& overridden = audit.back().at("preflight");
   EXPECT_EQ(overridden.at("failed"), nlohmann::json::array({"disk"}));
   EXPECT_EQ(overridden.at("override_reason"), "dry run of the storage limit");
 }

@@ -9,19 +9,10 @@
 #include "chromo/session/session_provenance.hpp"
 #include "chromo/session/session_store.hpp"
 #include "../support/fresh_directory.hpp"
+#include "../support/one_step_plan.hpp"
 
 namespace chromo::session {
 namespace {
-
-SessionPlan one_dark_step() {
-  SessionPlan plan;
-  plan.name = "p";
-  plan.steps.resize(1);
-  plan.steps[0].name = "dark";
-  plan.steps[0].role = StepRole::kDark;
-  plan.steps[0].exposure_us = 1000;
-  return plan;
-}
 
 SessionProvenance example() {
   SessionProvenance p;
@@ -43,7 +34,7 @@ TEST(SessionProvenance, StoredInSessionJsonAndReadBackWithTheListFields) {
   const auto root = testing::fresh_directory("provenance-store");
   SessionStore store(root, nullptr);
   const SessionProvenance written = example();
-  const auto id = store.create(one_dark_step(), "forearm", nlohmann::json::array(), &written).id;
+  const auto id = store.create(testing::one_dark_step_plan(), "forearm", nlohmann::json::array(), &written).id;
   const SessionInfo info = store.read_session(root / id);
   const SessionProvenance& read = info.provenance;
   ASSERT_TRUE(read.recorded);
@@ -66,7 +57,7 @@ TEST(SessionProvenance, StoredInSessionJsonAndReadBackWithTheListFields) {
 TEST(SessionProvenance, AnOlderSessionHasNoneRecorded) {
   const auto root = testing::fresh_directory("provenance-none");
   SessionStore store(root, nullptr);
-  const auto id = store.create(one_dark_step(), "", nlohmann::json::array()).id;
+  const auto id = store.create(testing::one_dark_step_plan(), "", nlohmann::json::array()).id;
   const SessionInfo info = store.read_session(root / id);
   EXPECT_FALSE(info.provenance.recorded);
   EXPECT_EQ(info.record.operator_name, "");
