@@ -91,7 +91,7 @@ function cameraPanel(camera) {
     }
   });
   showClipped.addEventListener('change', () => overlay.classList.toggle('hidden', !showClipped.checked));
-  const histogram = h('div', { class: 'histogram' });
+  const histogram = h('div', { class: 'live-histogram' });
   const facts = h('dl', { class: 'facts' });
   const exposure = h('input', { type: 'number', min: camera.exposure_min_us || 1, max: camera.exposure_max_us || 10000000,
     step: 'any', value: camera.exposure_us, required: true });
