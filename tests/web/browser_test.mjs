@@ -5,6 +5,7 @@
 //   node tests/web/browser_test.mjs CHROMOD WEB_DIR SCREENSHOT_DIR
 //
 // Exit 0 pass, 1 fail, 77 skipped (no chromium, or web/node_modules missing).
+import { spawn } from 'node:child_process';
 import { existsSync, mkdtempSync, mkdirSync, writeFileSync, rmSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import path from 'node:path';
