@@ -51,6 +51,7 @@
 #include "chromo/spectral/lab_illuminants.hpp"
 #include "clocks.hpp"
 #include "guarded_main.hpp"
+#include "real_skin_camera.hpp"
 #include "seed_spread.hpp"
 
 namespace chromo::bench {
@@ -104,13 +105,6 @@ std::vector<Plan> make_plans(const std::vector<std::string>& only) {
                  subspace.off_subspace_rms());
   }
   return plans;
-}
-
-simulators::CameraNoiseModel camera_noise() {
-  simulators::CameraNoiseModel n;
-  n.electrons_at_full_scale = 4 * 40000.0;
-  n.read_noise_electrons = 12;
-  return n;
 }
 
 spectral::Lab lab_under(const spectral::Spectrum& albedo, const spectral::Spectrum& light) {
@@ -292,7 +286,7 @@ int run(int argc, char** argv) {
   std::map<std::string, std::map<std::string, std::vector<double>>> channel_us;  // inverter -> plan -> µs per seed
   for (const Plan& plan : plans) {
     estimation::MeasurementSet set = plan.set;
-    simulators::set_exposure_noise(set, camera_noise());
+    simulators::set_exposure_noise(set, real_skin_camera_noise(1.0));
     for (std::uint64_t seed : seeds)
       for (const bool real : {false, true})
         for (const bool noisy : {true, false}) {

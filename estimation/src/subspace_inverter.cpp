@@ -118,19 +118,8 @@ void subspace_gauss_newton(const SubspaceTable& table, const float* z, const Pix
         for (int k = 0; k < 4; ++k) jtj[i * 4 + k] += double(row[i]) * row[k];
       }
     }
-    for (int k = 0; k < 4; ++k) {
-      const bool at_bound = (x[k] <= 0 && gradient[k] > 0) || (x[k] >= upper[k] && gradient[k] < 0);
-      if (at_bound || k >= free_dims) {
-        for (int i = 0; i < 4; ++i) jtj[k * 4 + i] = jtj[i * 4 + k] = 0;
-        jtj[k * 4 + k] = 1, gradient[k] = 0;
-      } else {
-        jtj[k * 4 + k] *= 1 + 1e-9;
-      }
-    }
     double step[4];
-    detail::solve_spd4(jtj, gradient, step);
-    double predicted_gain = 0;
-    for (int k = 0; k < 4; ++k) predicted_gain += gradient[k] * step[k];
+    const double predicted_gain = detail::bounded_gauss_newton_step(jtj, gradient, x, upper, free_dims, step);
     if (predicted_gain < 1e-4 * chi2) break;
     bool improved = false;
     for (float scale = 1.0f; scale > 0.005f && !improved; scale *= 0.5f) {
