@@ -31,6 +31,7 @@ int main(int argc, char** argv) {
   chromo::cli::add_solve_command(app, exit_status);
   chromo::cli::add_plan_command(app, exit_status);
   chromo::cli::add_export_command(app, exit_status);
+  chromo::cli::add_maps_command(app, exit_status);
   chromo::cli::add_study_command(app, exit_status);
   try {
     app.parse(argc, argv);

@@ -16,6 +16,7 @@
 
 #include "chromo/daemon/daemon.hpp"
 #include "chromo/daemon/host_files.hpp"
+#include "chromo/daemon/log_line.hpp"
 #include "chromo/daemon/server.hpp"
 #include "chromo/daemon/virtual_lab.hpp"
 #include "chromo/daemon/web_server.hpp"
@@ -80,8 +81,9 @@ int main(int argc, char** argv) {
     if (!tcp_address.empty()) json["tcp_address"] = tcp_address;
     if (!web_address.empty()) json["web_address"] = web_address;
     DaemonConfig config = parse_config(json, config_file.empty() ? "configuration" : config_file);
+    set_log_format(parse_log_format(config.log_format));
     if (!host_files_root.empty()) {
-      for (const auto& path : write_host_files(config, host_files_root)) std::cout << "chromod: wrote " << path.string() << "\n";
+      for (const auto& path : write_host_files(config, host_files_root)) log_line(LogLevel::kInfo, "wrote " + path.string());
       return 0;
     }
     create_runtime_dir(config.runtime_dir);
@@ -95,24 +97,24 @@ int main(int argc, char** argv) {
       auto lab = start_virtual_lab(lab_options);
       config.devices = lab.devices;
       if (config.mixes.empty()) config.mixes = lab.mixes;
-      std::cout << "chromod: no devices configured: running the built-in virtual lab (" << lab.description << ")\n";
+      log_line(LogLevel::kInfo, "no devices configured: running the built-in virtual lab (" + lab.description + ")");
       devices = std::move(lab.device_set);
     } else {
       devices = builtin_backends().open(config.devices);
     }
     for (auto& led : devices.led_controllers)
-      if (!led->open_error.empty()) std::cerr << "chromod: " << led->config.name << ": " << led->open_error << "\n";
+      if (!led->open_error.empty()) log_line(LogLevel::kError, led->config.name + ": " + led->open_error);
     for (auto& camera : devices.cameras)
-      if (!camera->open_error.empty()) std::cerr << "chromod: " << camera->config.name << ": " << camera->open_error << "\n";
+      if (!camera->open_error.empty()) log_line(LogLevel::kError, camera->config.name + ": " + camera->open_error);
     for (auto& spectrometer : devices.spectrometers)
       if (!spectrometer->open_error.empty())
-        std::cerr << "chromod: " << spectrometer->config.name << ": " << spectrometer->open_error << "\n";
+        log_line(LogLevel::kError, spectrometer->config.name + ": " + spectrometer->open_error);
     Daemon daemon(config, std::move(devices));
     Server server(daemon);
-    if (!config.unix_socket.empty()) std::cout << "chromod: listening on unix:" << config.unix_socket << "\n";
+    if (!config.unix_socket.empty()) log_line(LogLevel::kInfo, "listening on unix:" + config.unix_socket);
     if (server.tcp_port() != 0)
-      std::cout << "chromod: listening on tcp port " << server.tcp_port()
-                << (config.tls_certificate_file.empty() ? " (no TLS)" : " (TLS)") << "\n";
+      log_line(LogLevel::kInfo, "listening on tcp port " + std::to_string(server.tcp_port()) +
+                                    (config.tls_certificate_file.empty() ? " (no TLS)" : " (TLS)"));
     std::unique_ptr<WebServer> web;
     if (!config.web_address.empty()) {
       if (config.web_dir.empty()) config.web_dir = CHROMO_DEFAULT_WEB_DIR;
@@ -120,14 +122,15 @@ int main(int argc, char** argv) {
                                         [&server](const std::string& who, const std::string& action, const std::string& error) {
                                           server.audit(who, action, error);
                                         });
-      std::cout << "chromod: web view on " << (config.tls_certificate_file.empty() ? "http" : "https") << "://"
-                << config.web_address.substr(0, config.web_address.rfind(':')) << ":" << web->port() << "/\n";
+      log_line(LogLevel::kInfo, std::string("web view on ") + (config.tls_certificate_file.empty() ? "http" : "https") +
+                                    "://" + config.web_address.substr(0, config.web_address.rfind(':')) + ":" +
+                                    std::to_string(web->port()) + "/");
     }
-    std::cout << "chromod: sessions in " << std::filesystem::absolute(config.sessions_dir).string() << std::endl;
+    log_line(LogLevel::kInfo, "sessions in " + std::filesystem::absolute(config.sessions_dir).string());
     std::thread stopper([&] {
       int signal = 0;
       sigwait(&signals, &signal);
-      std::cout << "chromod: signal " << signal << ", stopping" << std::endl;
+      log_line(LogLevel::kInfo, "signal " + std::to_string(signal) + ", stopping");
       server.shutdown();  // ends the API's streams, and with them the web view's event streams
       if (web) web->stop();
     });
@@ -138,10 +141,10 @@ int main(int argc, char** argv) {
     std::cerr << "chromod: configuration: " << error.what() << "\n";
     return 2;
   } catch (const std::exception& error) {
-    std::cerr << "chromod: " << error.what() << "\n";
+    log_line(LogLevel::kError, error.what());
     return 1;
   } catch (...) {  // no exception leaves main (issue 19)
-    std::cerr << "chromod: unknown exception\n";
+    log_line(LogLevel::kError, "unknown exception");
     return 1;
   }
 }

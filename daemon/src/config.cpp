@@ -594,6 +594,10 @@ const std::vector<Key>& top_level_keys() {
                    return folder_error_tried(v);
                  }),
       string_key("unix_socket", [](DaemonConfig& c) -> auto& { return c.unix_socket; }, unix_socket_error),
+      string_key("log_format", [](DaemonConfig& c) -> auto& { return c.log_format; },
+                 [](const std::string& v) {
+                   return v == "text" || v == "json" ? std::string() : "\"" + v.substr(0, 64) + "\" is not text or json";
+                 }),
       {"unix_socket_mode",
        [](const json& v, DaemonConfig& c) {
          const std::string text = read_string(v);

@@ -1,4 +1,5 @@
 #include "chromo/daemon/daemon.hpp"
+#include "chromo/daemon/log_line.hpp"
 
 #include <algorithm>
 
@@ -26,7 +27,7 @@ Daemon::Daemon(DaemonConfig config, DeviceSet devices, FrameConsumer* estimator)
       store_(config_.sessions_dir, &budget_) {
   std::vector<std::string> skipped;
   for (auto& info : store_.recover(&skipped)) operations_.add_past(std::move(info.record));
-  for (const auto& reason : skipped) std::cerr << "chromod: sessions: skipped (not recovered): " << reason << "\n";
+  for (const auto& reason : skipped) log_line(LogLevel::kWarning, "sessions: skipped (not recovered): " + reason);
   calibrations_ = std::make_unique<Calibrations>(config_.sessions_dir / "calibrations", config_.led_library, devices_,
                                                  runner_, &budget_);
   for (auto& record : calibrations_->recover()) operations_.add_past(std::move(record));

@@ -10,15 +10,6 @@
 namespace chromo::daemon {
 namespace {
 
-std::string kind_key(DeviceKind kind) {
-  switch (kind) {
-    case DeviceKind::kLedController: return "led_controller";
-    case DeviceKind::kCamera: return "camera";
-    case DeviceKind::kSpectrometer: return "spectrometer";
-  }
-  return "device";
-}
-
 void find_device_node(DeviceFacts& device) {
   if (device.backend == "usb") {
     device.device_node = find_usb_device_node(drivers::ocean_optics::kVendorId, drivers::ocean_optics::kProductIdUsb2000Plus);
@@ -68,7 +59,7 @@ CameraStreamFacts camera_stream_facts(NamedDevice<drivers::Camera>& camera) {
 LabFacts Daemon::lab_facts() {
   LabFacts facts;
   for (const auto& report : probe_devices()) {
-    DeviceFacts device{report.name, kind_key(report.kind), report.backend, report.address,
+    DeviceFacts device{report.name, device_kind_name(report.kind), report.backend, report.address,
                        report.health == DeviceReport::Health::kOk, report.detail, {}, false};
     find_device_node(device);
     facts.devices.push_back(std::move(device));

@@ -176,7 +176,9 @@ std::string write_estimate_report(const fs::path& dir, const EstimateReport& rep
                                         float(static_cast<int>(e.flag)), e.sigma[0], e.sigma[1], e.sigma[2], e.sigma[3],
                                         e.ch_che_correlation};
     for (int c = 0; c < kMapChannels; ++c) maps.channels[c][i] = values[c];
-    hide[i] = e.flag != estimation::PixelFlag::kExplained && e.flag != estimation::PixelFlag::kSpecular;
+    hide[i] = e.flag == estimation::PixelFlag::kNoReference || !std::isfinite(e.parameters.cm) ? kPreviewOutsideField
+              : e.flag != estimation::PixelFlag::kExplained && e.flag != estimation::PixelFlag::kSpecular ? kPreviewMasked
+                                                                                                        : kPreviewShown;
     if (e.order > 0) residuals.push_back(e.residual);
   }
   for (const auto& [name, values] : report.extra_channels) {
@@ -228,12 +230,19 @@ std::string write_estimate_report(const fs::path& dir, const EstimateReport& rep
     int channel;
     double low, high;
     bool log;
+    const char* range_note = "";
+  };
+  // The parameters over the subject's 1-99th percentile of the shown pixels
+  // (the web view's default contrast), the model's range when nothing is shown.
+  auto model_preview = [&](const char* file, int channel, const char* name) {
+    if (const auto subject = shown_percentile_range(maps.channels[channel], hide, 1, 99))
+      return Preview{file, channel, subject->first, subject->second, false, " p1-p99"};
+    const ModelDisplayRange range = *model_display_range(name);
+    return Preview{file, channel, range.low, range.high, range.log_scale, ""};
   };
   const std::vector<Preview> previews = {
-      Preview{"cm.png", 0, estimation::kCmRange.min, estimation::kCmRange.max, true},
-      Preview{"ch.png", 1, estimation::kChRange.min, estimation::kChRange.max, true},
-      Preview{"bm.png", 2, 0.0, 1.0, false},
-      Preview{"che.png", 3, 0.0, 0.1, false},
+      model_preview("cm.png", 0, "Cm"), model_preview("ch.png", 1, "Ch"), model_preview("bm.png", 2, "Bm"),
+      model_preview("che.png", 3, "Che"),
       Preview{"residual.png", 4, 0.0, std::max(quantile(0.99), 1e-6), false},
       Preview{"sigma_cm.png", 7, 1e-4, 0.1, true},
       Preview{"sigma_ch.png", 8, 1e-4, 0.1, true}};
@@ -249,8 +258,9 @@ std::string write_estimate_report(const fs::path& dir, const EstimateReport& rep
     if (i >= previews.size() + 2) return;  // encoded already
     if (i < previews.size()) {
       const Preview& p = previews[i];
+      const std::string& name = maps.channel_names[p.channel];
       encoded[i] = {p.file, encode_map_png(maps.channels[p.channel], report.width, report.height, p.low, p.high, p.log,
-                                           maps.channel_names[p.channel], hide)};
+                                           name + p.range_note + "\n" + map_channel_info(name).unit, hide)};
     } else if (i == previews.size()) {
       encoded[i] = {"flags.png", encode_category_png(maps.channels[6], report.width, report.height, flag_names)};
     } else {

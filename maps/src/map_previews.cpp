@@ -5,11 +5,39 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "chromo/estimation/skin_parameters.hpp"
+
 namespace chromo::maps {
+
+std::optional<ModelDisplayRange> model_display_range(const std::string& channel) {
+  if (channel == "Cm") return ModelDisplayRange{estimation::kCmRange.min, estimation::kCmRange.max, true};
+  if (channel == "Ch") return ModelDisplayRange{estimation::kChRange.min, estimation::kChRange.max, true};
+  if (channel == "Bm") return ModelDisplayRange{0.0, 1.0, false};
+  if (channel == "Che") return ModelDisplayRange{0.0, 0.1, false};
+  return std::nullopt;
+}
+
+std::optional<std::pair<double, double>> shown_percentile_range(const std::vector<float>& values,
+                                                                const std::vector<std::uint8_t>& hide,
+                                                                double low_percent, double high_percent) {
+  std::vector<float> shown;
+  shown.reserve(values.size());
+  for (std::size_t i = 0; i < values.size(); ++i)
+    if ((hide.empty() || hide[i] == kPreviewShown) && std::isfinite(values[i])) shown.push_back(values[i]);
+  if (shown.empty()) return std::nullopt;
+  auto at = [&](double percent) {
+    const auto rank = static_cast<std::ptrdiff_t>(std::lround(percent / 100.0 * static_cast<double>(shown.size() - 1)));
+    std::nth_element(shown.begin(), shown.begin() + rank, shown.end());
+    return static_cast<double>(shown[static_cast<std::size_t>(rank)]);
+  };
+  const double low = at(low_percent), high = at(high_percent);
+  if (!(high > low)) return std::nullopt;
+  return std::pair{low, high};
+}
 
 namespace {
 
-constexpr int kBarWidth = 140;
+constexpr int kBarWidth = 165;
 
 void save(const std::filesystem::path& path, const cv::Mat& image) {
   if (!cv::imwrite(path.string(), image)) throw files::ImageError(path.string() + ": cannot write PNG");
@@ -34,7 +62,8 @@ cv::Mat map_canvas(const std::vector<float>& values, int width, int height, doub
   cv::Mat colour;
   cv::applyColorMap(gray, colour, cv::COLORMAP_VIRIDIS);
   for (int i = 0; i < width * height; ++i)
-    if (!hide.empty() && hide[i]) colour.at<cv::Vec3b>(i) = cv::Vec3b(128, 128, 128);
+    if (!hide.empty() && hide[i] != kPreviewShown)
+      colour.at<cv::Vec3b>(i) = hide[i] == kPreviewOutsideField ? cv::Vec3b(0, 0, 0) : cv::Vec3b(150, 150, 150);
   cv::Mat canvas(bar_height, width + kBarWidth, CV_8UC3, cv::Scalar(255, 255, 255));
   colour.copyTo(canvas(cv::Rect(0, 0, width, height)));
   cv::Mat ramp(bar_height - 40, 1, CV_8U);
@@ -49,9 +78,19 @@ cv::Mat map_canvas(const std::vector<float>& values, int width, int height, doub
   char buffer[64];
   std::snprintf(buffer, sizeof buffer, "%.4g", high);
   text(buffer, 28);
+  std::snprintf(buffer, sizeof buffer, "%.4g", log_scale ? std::sqrt(low * high) : (low + high) / 2);
+  text(buffer, 20 + ramp.rows / 2 + 4);
   std::snprintf(buffer, sizeof buffer, "%.4g", low);
   text(buffer, bar_height - 22);
-  text(label + (log_scale ? " (log)" : ""), bar_height / 2);
+  const auto newline = label.find('\n');
+  text(label.substr(0, newline) + (log_scale ? " (log)" : ""), 12);
+  if (newline != std::string::npos) text(label.substr(newline + 1), bar_height - 8);
+  if (!hide.empty()) {  // the legend of the pixels without colour, in the bar's margin
+    cv::rectangle(canvas, cv::Rect(width + 88, 36, 10, 10), cv::Scalar(150, 150, 150), cv::FILLED);
+    cv::putText(canvas, "masked", cv::Point(width + 100, 45), cv::FONT_HERSHEY_SIMPLEX, 0.35, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+    cv::rectangle(canvas, cv::Rect(width + 88, 52, 10, 10), cv::Scalar(0, 0, 0), cv::FILLED);
+    cv::putText(canvas, "no field", cv::Point(width + 100, 61), cv::FONT_HERSHEY_SIMPLEX, 0.35, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  }
   return canvas;
 }
 

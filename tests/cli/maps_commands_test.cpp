@@ -1,12 +1,16 @@
-// The real `chromo make-maps-test-data`, `relight`, `flush` and `import-maps`:
+// The real `chromo make-maps-test-data`, `relight`, `flush`, `import-maps` and `maps stats`:
 // exit statuses, printed numbers, and bad input leaving nothing behind.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 
+#include "chromo/files/float_image.hpp"
 #include "run_chromo.hpp"
 
 using ::testing::HasSubstr;
@@ -48,6 +52,58 @@ TEST_F(MapsCommands, RelightFlushAndImportRunEndToEnd) {
   ASSERT_EQ(import.exit_status, 0) << import.output;
   EXPECT_THAT(import.output, HasSubstr("2D mapping"));
   EXPECT_TRUE(fs::exists(dir / "imported" / "comparison.json"));
+}
+
+// `chromo maps stats` on a maps.exr written here: the numbers equal those
+// computed from the file's own pixels (skin: flag 0 or 4), CSV and JSON.
+TEST(MapsStats, PrintsTheRegionsStatisticsFromMapsExr) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("chromo-maps-stats-" + std::to_string(::getpid()));
+  fs::create_directories(dir / "results");
+  const int w = 40, h = 30;
+  std::vector<float> ch(static_cast<std::size_t>(w) * h), flags(ch.size(), 0.0f);
+  for (std::size_t i = 0; i < ch.size(); ++i) ch[i] = 0.01f + 0.0007f * static_cast<float>((i * 37) % 101);
+  for (std::size_t i = 0; i < ch.size(); i += 13) flags[i] = 3;  // dark: masked
+  flags[10 * w + 12] = 8;                                       // no_reference: outside the field
+  chromo::files::write_exr(dir / "results" / "maps.exr",
+                           chromo::files::FloatImage{w, h, {"Cm", "Ch", "Bm", "Che", "flags"}, {ch, ch, ch, ch, flags}});
+  const Result r = run_chromo("maps stats " + dir.string() + " --region 5,4,30,20 --channel Ch --json");
+  ASSERT_EQ(r.exit_status, 0) << r.output;
+  const nlohmann::json printed = nlohmann::json::parse(r.output);
+  const nlohmann::json& s = printed["statistics"][0];
+  std::vector<double> skin;
+  for (int y = 4; y < 24; ++y)
+    for (int x = 5; x < 35; ++x) {
+      const std::size_t i = static_cast<std::size_t>(y) * w + x;
+      if (flags[i] == 0) skin.push_back(ch[i]);
+    }
+  std::sort(skin.begin(), skin.end());
+  double mean = 0;
+  for (double v : skin) mean += v;
+  mean /= static_cast<double>(skin.size());
+  EXPECT_EQ(s["pixels"].get<std::size_t>(), skin.size());
+  EXPECT_EQ(s["region_pixels"].get<int>(), 600);
+  EXPECT_EQ(s["outside_field_pixels"].get<int>(), 1);
+  EXPECT_EQ(s["flagged_pixels"].get<std::size_t>(), 600 - 1 - skin.size());
+  EXPECT_NEAR(s["mean"].get<double>(), mean, 1e-12);
+  EXPECT_EQ(s["min"].get<double>(), skin.front());
+  EXPECT_EQ(s["max"].get<double>(), skin.back());
+  const Result csv = run_chromo("maps stats " + dir.string() + " --region 5,4,30,20");
+  ASSERT_EQ(csv.exit_status, 0) << csv.output;
+  EXPECT_EQ(std::count(csv.output.begin(), csv.output.end(), '\n'), 5);  // header + Cm, Ch, Bm, Che
+  EXPECT_THAT(csv.output, HasSubstr("\nCh,volume fraction,5,4,30,20,600,"));
+  for (const auto& [arguments, expected] : {
+           std::pair{" --region 30,20,20,20", "region: 30,20 20×20 is not inside the 40×30 map"},
+           std::pair{" --region 1,2,3", "--region: \"1,2,3\" is not x,y,width,height"},
+           std::pair{" --region 1,2,3,4 --channel Hb", "--channel: \"Hb\" is not in the file"},
+           std::pair{" --region 1,2,3,4 --camera cam9", "no maps.exr in results/cam9/"}}) {
+    const Result bad = run_chromo("maps stats " + dir.string() + arguments);
+    EXPECT_EQ(bad.exit_status, 2) << arguments << "\n" << bad.output;
+    EXPECT_THAT(bad.output, HasSubstr(expected)) << arguments;
+  }
+  const Result missing = run_chromo("maps stats " + (dir / "missing").string() + " --region 1,2,3,4");
+  EXPECT_EQ(missing.exit_status, 2);
+  EXPECT_THAT(missing.output, HasSubstr("missing: no such file or folder"));
+  fs::remove_all(dir);
 }
 
 TEST_F(MapsCommands, BadInputExitsTwoNamingTheProblemAndWritesNothing) {

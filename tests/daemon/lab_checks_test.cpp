@@ -36,11 +36,6 @@ class LabChecks : public ::testing::Test {
     delete daemon_;
     delete lab_;
   }
-  static std::vector<CheckResult> checks_with(const std::function<void(LabFacts&)>& fault) {
-    LabFacts facts = daemon_->lab_facts();
-    fault(facts);
-    return run_lab_checks(facts);
-  }
   static inline TestLab* lab_ = nullptr;
   static inline Daemon* daemon_ = nullptr;
 };
@@ -119,7 +114,46 @@ TEST_F(LabChecks, PoweredOffCameraFailsOnceItsLinkIsLost) {
   for (int i = 0; i < 200 && !camera.link_up(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(50));
 }
 
-TEST_F(LabChecks, LowRmemMaxWarnsWithTheSysctlItNeeds) {
+// Facts of a healthy lab like the virtual one (FactsOfTheLab checks the
+// daemon gathers these), for the checks alone: each fault below changes one.
+LabFacts healthy_facts() {
+  LabFacts facts;
+  facts.devices = {{"sphere", "led_controller", "modbus-tcp", "127.0.0.1:1502", true, "", {}, false},
+                   {"cam0", "camera", "aravis", "CHROMO-TEST-CAM", true, "", {}, false}};
+  CameraStreamFacts camera;
+  camera.name = "cam0";
+  camera.frame_bytes = 160u * 120u * 2u;
+  camera.socket_buffer_bytes = 4u << 20;
+  camera.ip_address = "127.77.1.2";
+  camera.interface_name = "lo";
+  camera.interface_mtu_bytes = 65536;
+  facts.cameras = {camera};
+  facts.host.rmem_max_bytes = 4u << 20;
+  facts.host.free_disk_bytes = 100ull << 30;
+  facts.host.clock_synchronised = true;
+  facts.host.clock_max_error_us = 1000;
+  facts.host.sessions_dir_writable = true;
+  facts.host.sessions_dir = "/var/lib/chromosphere/sessions";
+  facts.session_bytes = 19u * 160u * 120u * 2u;
+  facts.calibration.library_path = "led-library.json";
+  facts.calibration.measured_at = facts.now - std::chrono::hours(1);
+  return facts;
+}
+
+std::vector<CheckResult> checks_with(const std::function<void(LabFacts&)>& fault) {
+  LabFacts facts = healthy_facts();
+  fault(facts);
+  return run_lab_checks(facts);
+}
+
+TEST(LabCheckFacts, AHealthyLabPassesEveryCheck) {
+  const auto results = run_lab_checks(healthy_facts());
+  EXPECT_EQ(results.size(), 8u);  // 2 devices, sessions folder, buffer and MTU of cam0, disk, clock, calibration
+  for (const auto& result : results) EXPECT_EQ(result.status, CheckStatus::ok) << result.id << ": " << result.finding;
+  EXPECT_EQ(worst_status(results), CheckStatus::ok);
+}
+
+TEST(LabCheckFacts, LowRmemMaxWarnsWithTheSysctlItNeeds) {
   const auto results = checks_with([](LabFacts& facts) { facts.host.rmem_max_bytes = 100000; });
   const auto& check = find_check(results, "receive_buffer.cam0");
   EXPECT_EQ(check.status, CheckStatus::warning);
@@ -135,14 +169,14 @@ TEST_F(LabChecks, LowRmemMaxWarnsWithTheSysctlItNeeds) {
   EXPECT_NE(find_check(large, "receive_buffer.cam0").fix.find("net.core.rmem_max=20054016"), std::string::npos);
 }
 
-TEST_F(LabChecks, SmallSocketBufferSettingWarnsNamingTheSetting) {
+TEST(LabCheckFacts, SmallSocketBufferSettingWarnsNamingTheSetting) {
   const auto results = checks_with([](LabFacts& facts) { facts.cameras[0].socket_buffer_bytes = 65536; });
   EXPECT_EQ(find_check(results, "receive_buffer.cam0").status, CheckStatus::warning);
   EXPECT_NE(find_check(results, "receive_buffer.cam0").fix.find("settings.socket_buffer_bytes to at least 153600"),
             std::string::npos);
 }
 
-TEST_F(LabChecks, MtuWithoutJumboWarnsAndBelowThePacketSizeFails) {
+TEST(LabCheckFacts, MtuWithoutJumboWarnsAndBelowThePacketSizeFails) {
   auto results = checks_with([](LabFacts& facts) {
     facts.cameras[0].interface_name = "eth1";
     facts.cameras[0].interface_mtu_bytes = 1500;
@@ -169,8 +203,8 @@ TEST_F(LabChecks, MtuWithoutJumboWarnsAndBelowThePacketSizeFails) {
   EXPECT_FALSE(interface_reaching("not-an-address").has_value());
 }
 
-TEST_F(LabChecks, DiskTooSmallForASessionFailsAndForTenWarns) {
-  const LabFacts facts = daemon_->lab_facts();
+TEST(LabCheckFacts, DiskTooSmallForASessionFailsAndForTenWarns) {
+  const LabFacts facts = healthy_facts();
   auto results = checks_with([&](LabFacts& f) { f.host.free_disk_bytes = facts.session_bytes - 1; });
   EXPECT_EQ(find_check(results, "disk").status, CheckStatus::failed);
   EXPECT_NE(find_check(results, "disk").fix.find("chromo session delete"), std::string::npos);
@@ -181,7 +215,7 @@ TEST_F(LabChecks, DiskTooSmallForASessionFailsAndForTenWarns) {
   EXPECT_NE(find_check(results, "disk").finding.find("storage_limit_bytes"), std::string::npos);
 }
 
-TEST_F(LabChecks, UnsynchronisedClockWarns) {
+TEST(LabCheckFacts, UnsynchronisedClockWarns) {
   auto results = checks_with([](LabFacts& f) { f.host.clock_synchronised = false; });
   EXPECT_EQ(find_check(results, "clock").status, CheckStatus::warning);
   EXPECT_NE(find_check(results, "clock").fix.find("timedatectl set-ntp true"), std::string::npos);
@@ -198,7 +232,7 @@ TEST_F(LabChecks, UnsynchronisedClockWarns) {
   EXPECT_EQ(find_check(results, "clock").status, CheckStatus::ok);
 }
 
-TEST_F(LabChecks, OldCalibrationWarnsAndAFreshOnePasses) {
+TEST(LabCheckFacts, OldCalibrationWarnsAndAFreshOnePasses) {
   auto results = checks_with([](LabFacts& f) {
     f.calibration.library_path = "/var/lib/chromosphere/sessions/calibrations/x/led-library.json";
     f.calibration.measured_at = f.now - std::chrono::hours(24 * 45);
@@ -212,19 +246,22 @@ TEST_F(LabChecks, OldCalibrationWarnsAndAFreshOnePasses) {
   EXPECT_EQ(find_check(results, "calibration").status, CheckStatus::ok);
 }
 
-TEST_F(LabChecks, UnwritableSessionsFolderFails) {
+TEST(LabCheckFacts, UnwritableSessionsFolderFails) {
   const auto results = checks_with([](LabFacts& f) { f.host.sessions_dir_writable = false; });
   EXPECT_EQ(find_check(results, "permissions.sessions_dir").status, CheckStatus::failed);
   // The reader: a folder cannot be made below a regular file.
-  std::ofstream(lab_->directory / "a-file") << "x";
-  EXPECT_FALSE(folder_writable(lab_->directory / "a-file" / "sessions"));
-  EXPECT_TRUE(folder_writable(lab_->directory / "not-yet" / "made"));
+  const auto directory = chromo::testing::fresh_directory("lab-checks-folder");
+  std::ofstream(directory / "a-file") << "x";
+  EXPECT_FALSE(folder_writable(directory / "a-file" / "sessions"));
+  EXPECT_TRUE(folder_writable(directory / "not-yet" / "made"));
+  std::filesystem::remove_all(directory);
 }
 
 // The spectrometer and the HID controller are found by their ids in sysfs;
 // their nodes must be readable and writable by chromod's user (the udev rules).
-TEST_F(LabChecks, DeviceNodesFoundInSysfsAndTheirPermissionsChecked) {
-  const auto root = lab_->directory / "host";
+TEST(LabCheckFacts, DeviceNodesFoundInSysfsAndTheirPermissionsChecked) {
+  const auto directory = chromo::testing::fresh_directory("lab-checks-nodes");
+  const auto root = directory / "host";
   const auto usb = root / "sys/bus/usb/devices/1-2";
   std::filesystem::create_directories(usb);
   std::ofstream(usb / "idVendor") << "2457\n";
@@ -255,6 +292,7 @@ TEST_F(LabChecks, DeviceNodesFoundInSysfsAndTheirPermissionsChecked) {
   controller.device_node_usable = true;
   results = checks_with([&](LabFacts& f) { f.devices.push_back(controller); });
   EXPECT_EQ(find_check(results, "permissions.sphere").status, CheckStatus::ok);
+  std::filesystem::remove_all(directory);
 }
 
 }  // namespace

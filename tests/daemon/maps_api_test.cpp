@@ -9,6 +9,8 @@
 #include <grpcpp/grpcpp.h>
 
 #include <cmath>
+#include <cstring>
+#include <functional>
 #include <fstream>
 #include <limits>
 #include <map>
@@ -16,6 +18,7 @@
 
 #include "chromo/daemon/server.hpp"
 #include "chromo/files/float_image.hpp"
+#include "chromo/maps/region_statistics.hpp"
 #include "chromo/simulators/scene/external_maps_scene.hpp"
 #include "chromosphere/v1/maps.grpc.pb.h"
 #include "test_lab.hpp"
@@ -203,6 +206,88 @@ TEST_F(MapsApi, GetMapSamplesAChannelAtCellCentresAndRefusesBadRequests) {
   s = get("not-an-exr.exr", "Cm", 0, &refused);
   EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << s.error_message();
   EXPECT_THAT(s.error_message(), HasSubstr("maps_file: "));
+}
+
+// GetRegionStatistics: the library's numbers over the file at full
+// resolution (the web view's region statistics); GetMap says how to read
+// the channel; bad regions refused naming the field.
+TEST_F(MapsApi, RegionStatisticsAreTheFilesAndGetMapGivesUnitAndModelRange) {
+  const int w = 40, h = 30;
+  std::vector<float> cm(static_cast<std::size_t>(w) * h), flags(cm.size(), 0.0f);
+  for (std::size_t i = 0; i < cm.size(); ++i) cm[i] = 0.02f + 0.0003f * static_cast<float>(i % 97);
+  flags[5 * w + 7] = 3;  // dark: masked
+  files::FloatImage image{w, h, {"Cm", "flags"}, {cm, flags}};
+  files::write_exr(data / "region.exr", image);
+  grpc::ClientContext context;
+  pb::GetRegionStatisticsRequest request;
+  request.set_maps_file("region.exr"), request.set_channel("Cm");
+  auto* region = request.mutable_region();
+  region->set_x(3), region->set_y(2), region->set_width(20), region->set_height(11);
+  pb::GetRegionStatisticsResponse reply;
+  const grpc::Status got = stub->GetRegionStatistics(&context, request, &reply);
+  ASSERT_TRUE(got.ok()) << got.error_message();
+  const maps::RegionStatistics expected = maps::region_statistics(image, "Cm", {3, 2, 20, 11});
+  EXPECT_EQ(reply.pixels(), 219u);
+  EXPECT_EQ(reply.flagged_pixels(), 1u);
+  EXPECT_EQ(reply.unit(), "volume fraction");
+  EXPECT_DOUBLE_EQ(reply.mean(), expected.mean);
+  EXPECT_DOUBLE_EQ(reply.sd(), expected.sd);
+  EXPECT_DOUBLE_EQ(reply.p5(), expected.p5);
+  EXPECT_DOUBLE_EQ(reply.p95(), expected.p95);
+  EXPECT_EQ(reply.source_width(), 40u);
+
+  auto refused = [&](const std::function<void(pb::GetRegionStatisticsRequest&)>& edit) {
+    grpc::ClientContext c;
+    pb::GetRegionStatisticsRequest bad = request;
+    edit(bad);
+    pb::GetRegionStatisticsResponse out;
+    const grpc::Status s = stub->GetRegionStatistics(&c, bad, &out);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+    return s.error_message();
+  };
+  EXPECT_THAT(refused([](auto& r) { r.clear_region(); }), HasSubstr("region: required"));
+  EXPECT_THAT(refused([](auto& r) { r.mutable_region()->set_x(30); }), HasSubstr("region: 30,2 20×11 is not inside the 40×30 map"));
+  EXPECT_THAT(refused([](auto& r) { r.mutable_region()->set_height(0); }), HasSubstr("region: "));
+  EXPECT_THAT(refused([](auto& r) { r.set_channel("Hb"); }), HasSubstr("channel: \"Hb\""));
+  EXPECT_THAT(refused([](auto& r) { r.set_maps_file("../region.exr"); }), HasSubstr("maps_file"));
+
+  grpc::ClientContext map_context;
+  pb::GetMapRequest map_request;
+  map_request.set_maps_file("region.exr"), map_request.set_channel("Cm");
+  pb::GetMapResponse map;
+  ASSERT_TRUE(stub->GetMap(&map_context, map_request, &map).ok());
+  EXPECT_EQ(map.unit(), "volume fraction");
+  EXPECT_DOUBLE_EQ(map.model_min(), 0.001);
+  EXPECT_DOUBLE_EQ(map.model_max(), 0.5);
+  EXPECT_TRUE(map.log_scale());
+  ASSERT_EQ(map.flag_names_size(), 9);
+  EXPECT_EQ(map.flag_names(3), "dark");
+  EXPECT_EQ(map.sigma_values_size(), 0);  // the file has no sigma_Cm
+  std::vector<float> sigma(cm.size());
+  for (std::size_t i = 0; i < sigma.size(); ++i) sigma[i] = 0.001f * static_cast<float>(i);
+  files::write_exr(data / "sigma.exr", files::FloatImage{w, h, {"Cm", "sigma_Cm"}, {cm, sigma}});
+  grpc::ClientContext sigma_context;
+  map_request.set_maps_file("sigma.exr"), map_request.set_max_width(20);
+  pb::GetMapResponse with_sigma;
+  ASSERT_TRUE(stub->GetMap(&sigma_context, map_request, &with_sigma).ok());
+  ASSERT_EQ(with_sigma.sigma_values_size(), 20 * 15);
+  EXPECT_FLOAT_EQ(with_sigma.sigma_values(2 * 20 + 3), sigma[5 * w + 7]);  // cell (3, 2)'s centre: pixel (7, 5)
+  EXPECT_FLOAT_EQ(with_sigma.values(2 * 20 + 3), cm[5 * w + 7]);
+  // packed: the same floats as little-endian bytes, the repeated fields empty.
+  grpc::ClientContext packed_context;
+  map_request.set_packed(true);
+  pb::GetMapResponse packed;
+  ASSERT_TRUE(stub->GetMap(&packed_context, map_request, &packed).ok());
+  EXPECT_EQ(packed.values_size(), 0);
+  ASSERT_EQ(packed.values_f32().size(), 20u * 15u * sizeof(float));
+  ASSERT_EQ(packed.sigma_f32().size(), 20u * 15u * sizeof(float));
+  std::vector<float> unpacked(20 * 15), unpacked_sigma(20 * 15);
+  std::memcpy(unpacked.data(), packed.values_f32().data(), packed.values_f32().size());
+  std::memcpy(unpacked_sigma.data(), packed.sigma_f32().data(), packed.sigma_f32().size());
+  for (int i = 0; i < 20 * 15; ++i) {
+    EXPECT_EQ(unpacked[i], with_sigma.values(i));
+    EXPECT_EQ(unpacked_sigma[i], with_sigma.sigma_values(i));
+  }
 }
 
 TEST_F(MapsApi, ImportMapsGivesTheTableTwoComparison) {

@@ -23,6 +23,7 @@
 #include <grpcpp/grpcpp.h>
 #include <nlohmann/json.hpp>
 
+#include "chromo/daemon/internal/api/metrics.hpp"
 #include "chromo/daemon/server.hpp"
 #include "chromo/daemon/web_server.hpp"
 #include "chromosphere/v1/events.grpc.pb.h"
@@ -829,6 +830,82 @@ TEST(WebConfig, TheWebViewNeedsALongTokenAndTlsOffLoopback) {
   config.web_address = "192.0.2.10:8080";
   EXPECT_FALSE(config.IsValid(&error));
   EXPECT_NE(error.find("TLS"), std::string::npos) << error;
+}
+
+
+// /metrics (docs/observability.md): behind the same checks as the API, with
+// the log-in cookie or the token as a bearer; a finished session's counters.
+struct MetricsWebFixture : WebFixture {
+  void SetUp() override {
+    lab.config.estimation.enabled = false;  // the frame counters, not the maps, are under test
+    WebFixture::SetUp();
+  }
+};
+
+TEST_F(MetricsWebFixture, MetricsNeedTheTokenAndCountASessionsFramesPerCameraAndSession) {
+  auto none = client().Get("/metrics");
+  ASSERT_TRUE(none);
+  EXPECT_EQ(none->status, 401);
+  auto wrong = client().Get("/metrics", {{"Authorization", "Bearer not-the-token-at-all"}});
+  ASSERT_TRUE(wrong);
+  EXPECT_EQ(wrong->status, 401);
+  auto foreign = client().Get("/metrics", {{"Authorization", std::string("Bearer ") + kWebToken}, {"Host", "evil.example"}});
+  ASSERT_TRUE(foreign);
+  EXPECT_EQ(foreign->status, 421);
+  auto with_cookie = client().Get("/metrics", {{"Cookie", log_in()}});
+  ASSERT_TRUE(with_cookie);
+  EXPECT_EQ(with_cookie->status, 200);
+
+  const auto plan = testing::quick_standard_plan(1);
+  const std::string frames = std::to_string(plan.frames_per_camera_total());  // 7: one of each step
+  auto started = daemon->start_session(plan, "metrics");
+  const auto final = testing::wait_final(*daemon, started.id);
+  ASSERT_EQ(final.state, session::OperationState::kSucceeded) << final.error;
+  auto scraped = client().Get("/metrics", {{"Authorization", std::string("Bearer ") + kWebToken}});
+  ASSERT_TRUE(scraped);
+  ASSERT_EQ(scraped->status, 200);
+  EXPECT_EQ(scraped->get_header_value("Content-Type"), "text/plain; version=0.0.4; charset=utf-8");
+  const std::string& text = scraped->body;
+  const std::string session = "{session=\"" + started.id + "\",state=\"succeeded\"} ";
+  EXPECT_NE(text.find("chromo_session_frames_expected" + session + frames + "\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("chromo_session_frames_stored_total" + session + frames + "\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("chromo_session_frames_lost_total" + session + "0\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("chromo_sessions_running 0\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("# TYPE chromo_camera_frames_completed_total counter\n"), std::string::npos);
+  EXPECT_NE(text.find("chromo_camera_up{camera=\"cam0\"} 1\n"), std::string::npos) << text;
+  std::smatch completed;
+  ASSERT_TRUE(std::regex_search(text, completed, std::regex("chromo_camera_frames_completed_total\\{camera=\"cam0\"\\} ([0-9]+)\n")));
+  EXPECT_GE(std::stoul(completed[1]), plan.frames_per_camera_total());  // the session's, and any live-view frames
+}
+
+// The formatter alone: the estimator's throughput is frames estimated per
+// second of the session, label values escaped as Prometheus wants.
+TEST(Metrics, ThroughputPerSessionAndEscapedLabels) {
+  pb::ListCamerasResponse cameras;
+  auto* camera = cameras.add_cameras();
+  camera->set_name("cam\"0");
+  camera->set_error("unreachable");
+  camera->mutable_stream()->set_resent_packets(7);
+  pb::ListOperationsResponse sessions;
+  auto* done = sessions.add_operations();
+  done->set_id("s1");
+  done->set_state(pb::OPERATION_STATE_SUCCEEDED);
+  done->mutable_created()->set_seconds(1000);
+  done->mutable_updated()->set_seconds(1010);
+  done->mutable_counters()->set_estimated(20);
+  auto* running = sessions.add_operations();
+  running->set_id("s2");
+  running->set_state(pb::OPERATION_STATE_RUNNING);
+  running->mutable_created()->set_seconds(2000);
+  running->mutable_counters()->set_estimated(12);
+  running->mutable_counters()->set_estimator_queue_depth(3);
+  const std::string text = web::prometheus_text(cameras, sessions, std::chrono::system_clock::from_time_t(2004));
+  EXPECT_NE(text.find("chromo_camera_up{camera=\"cam\\\"0\"} 0\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("chromo_camera_resent_packets_total{camera=\"cam\\\"0\"} 7\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("chromo_session_estimator_frames_per_second{session=\"s1\",state=\"succeeded\"} 2\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("chromo_session_estimator_frames_per_second{session=\"s2\",state=\"running\"} 3\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("chromo_session_estimator_queue_depth{session=\"s2\",state=\"running\"} 3\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("chromo_sessions_running 1\n"), std::string::npos) << text;
 }
 
 }  // namespace

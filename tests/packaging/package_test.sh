@@ -91,7 +91,7 @@ fi
 # The extracted chromod runs the virtual lab; the extracted chromo and bash completion talk to it.
 cat >"$work/run.json" <<JSON
 {"sessions_dir": "$work/sessions", "runtime_dir": "$work/run", "unix_socket": "$work/run/chromod.sock",
- "web_dir": "$root/usr/share/chromosphere/web", "estimation": {"cache_dir": "$work/cache"}}
+ "web_dir": "$root/usr/share/chromosphere/web", "estimation": {"cache_dir": "$work/cache"}, "log_format": "json"}
 JSON
 "$root/usr/bin/chromod" --config "$work/run.json" >"$work/chromod.log" 2>&1 &
 daemon_pid=$!
@@ -102,6 +102,13 @@ t "$root/usr/bin/chromo" status >"$work/out" 2>&1 || fail "chromo status"
 grep -q "cam0.*OK" "$work/out" || fail "the extracted chromod's camera is not OK"
 t "$root/usr/bin/chromo" doctor >"$work/out" 2>&1 || fail "chromo doctor exited $?"
 grep -Eq "^ok +device.cam0 " "$work/out" || fail "doctor: cam0 not ok"
+# Its log is JSON lines (log_format "json", docs/observability.md).
+/usr/bin/python3 -c "
+import json, sys
+lines = [json.loads(line) for line in open('$work/chromod.log')]
+assert lines and all(set(l) == {'time', 'level', 'program', 'message'} for l in lines), lines
+assert any(l['message'].startswith('listening on unix:') and l['level'] == 'info' for l in lines), lines
+" || { cat "$work/chromod.log"; fail "chromod's log is not JSON lines"; }
 t "$root/usr/bin/chromo-sim" --help >"$work/out" 2>&1 || fail "chromo-sim --help"
 completion=$(bash -c "source '$root/usr/share/bash-completion/completions/chromo'; COMP_WORDS=('$root/usr/bin/chromo' doc); COMP_CWORD=1; _chromosphere_complete; echo \"\${COMPREPLY[*]}\"")
 [[ $completion == doctor ]] || fail "completion of 'chromo doc': '$completion'"

@@ -126,6 +126,129 @@ async function checkKeyboardAndWidth(page, name) {
   console.log(`${name}: Tab reaches all ${controls} controls; page width ${width.scroll} px`);
 }
 
+// The map explorer (issue 42): contrast presets, a region's statistics equal
+// to `chromo maps stats` on maps.exr (to 1e-6) and exported as CSV, channels
+// switched quickly with the label and the value always matching, zoom linked
+// across explorers, flags in categorical colours with a legend.
+async function mapExplorerChecks(page, sessionId, mapsFile, cmMap) {
+  const explorer = page.locator('.map-explorer').first();
+  const started = performance.now();
+  const steps = {};
+  const step = (name) => { steps[name] = Math.round(performance.now() - started); };
+  // Contrast: the model's range (log), then the subject's 1-99th percentile of the skin's cells.
+  await explorer.getByLabel('Contrast', { exact: true }).selectOption('model');
+  assert.equal(Number(await explorer.getByLabel('Low', { exact: true }).inputValue()), cmMap.model_min);
+  assert.equal(Number(await explorer.getByLabel('High', { exact: true }).inputValue()), cmMap.model_max);
+  assert.equal(await explorer.getByLabel('Log scale', { exact: true }).isChecked(), cmMap.log_scale);
+  assert.ok(cmMap.unit.length > 0 && (await explorer.locator('.bar-title').textContent()).includes(cmMap.unit), 'unit beside the colour bar');
+  const flagsMap = (await api('MapsService', 'GetMap', { session_id: sessionId, maps_file: mapsFile, channel: 'flags', max_width: 480 })).json;
+  const skin = cmMap.values.map((v) => Math.fround(Number(v))).filter((v, i) => Number.isFinite(v) && [0, 4].includes(Number(flagsMap.values[i]))).sort((a, b) => a - b);
+  const percentile = (p) => { const r = p / 100 * (skin.length - 1), b = Math.floor(r); return skin[b] + (skin[Math.min(b + 1, skin.length - 1)] - skin[b]) * (r - b); };
+  await explorer.getByLabel('Contrast', { exact: true }).selectOption('percentile');
+  assert.equal(Number(await explorer.getByLabel('Low', { exact: true }).inputValue()), Number(percentile(1).toPrecision(6)), 'p1 preset');
+  assert.equal(Number(await explorer.getByLabel('High', { exact: true }).inputValue()), Number(percentile(99).toPrecision(6)), 'p99 preset');
+  const ticks = (await explorer.locator('.colour-bar').getAttribute('data-ticks')).split(' ').map(Number);
+  assert.ok(ticks.length >= 2 && ticks.every((t) => t >= percentile(1) - 1e-12 && t <= percentile(99) + 1e-12), `ticks ${ticks} inside the window`);
+
+  step('contrast');
+  // A region drawn with the mouse: the page's statistics are chromod's from maps.exr, equal to `chromo maps stats`'.
+  const canvas = explorer.locator('.map-canvas');
+  const box = await canvas.boundingBox();
+  await page.mouse.move(box.x + box.width * 0.3, box.y + box.height * 0.35);
+  await page.mouse.down();
+  await page.mouse.move(box.x + box.width * 0.5, box.y + box.height * 0.5, { steps: 4 });
+  await page.mouse.move(box.x + box.width * 0.62, box.y + box.height * 0.66, { steps: 4 });
+  await page.mouse.up();
+  const statistics = explorer.locator('.region-statistics');
+  await waitUntil(page, () => document.querySelector('.region-statistics[data-state="ready"]'), null, 60000, 'the region statistics');
+  const shown = JSON.parse(await statistics.getAttribute('data-statistics'));
+  const region = shown.region;
+  const chromo = path.join(path.dirname(chromod), 'chromo');
+  const cli = await new Promise((resolve, reject) => {
+    const child = spawn(chromo, ['maps', 'stats', path.join(home, 'sessions', sessionId, mapsFile), '--region',
+      `${region.x},${region.y},${region.width},${region.height}`, '--channel', 'Cm', '--json'], { stdio: ['ignore', 'pipe', 'inherit'] });
+    let output = '';
+    child.stdout.on('data', (data) => { output += data; });
+    child.on('exit', (code) => (code === 0 ? resolve(JSON.parse(output).statistics[0]) : reject(new Error(`chromo maps stats exited ${code}`))));
+  });
+  assert.ok(Number(cli.pixels) > 100, `the region holds ${cli.pixels} skin pixels`);
+  for (const key of ['mean', 'sd', 'min', 'p1', 'p5', 'p25', 'median', 'p75', 'p95', 'p99', 'max'])
+    assert.ok(Math.abs(Number(shown[key]) - cli[key]) <= 1e-6, `region ${key}: page ${shown[key]}, chromo maps stats ${cli[key]}`);
+  for (const key of ['pixels', 'flagged_pixels', 'outside_field_pixels', 'region_pixels']) assert.equal(Number(shown[key]), cli[key], `region ${key}`);
+  const [download] = await Promise.all([page.waitForEvent('download'), explorer.getByRole('button', { name: 'Export CSV' }).click()]);
+  const csv = (await (await download.createReadStream()).toArray()).join('').split('\n');
+  const columns = csv[0].split(','), row = csv[1].split(',');
+  assert.ok(Math.abs(Number(row[columns.indexOf('mean')]) - cli.mean) <= 1e-6, `CSV mean ${row[columns.indexOf('mean')]}`);
+  console.log(`region ${region.width}x${region.height} at (${region.x}, ${region.y}): ${cli.pixels} pixels, Cm mean ${cli.mean.toPrecision(6)} ` +
+    `SD ${cli.sd.toPrecision(3)}: page, CSV and chromo maps stats agree to 1e-6`);
+
+  step('region');
+  // Channels switched quickly: whenever a value shows, it is under its own channel's name.
+  const sequence = ['Ch', 'Bm', 'Che', 'residual', 'Cm', 'Ch'];
+  // Every state the explorer passes through, recorded in the page as it happens.
+  await page.evaluate(() => {
+    const section = document.querySelector('.map-explorer');
+    const readout = section.querySelector('.map-value');
+    window.mapObservations = [];
+    const record = () => window.mapObservations.push({ channel: readout.dataset.channel ?? null, value: readout.dataset.value ?? null,
+      cell: readout.dataset.cell, text: readout.textContent, state: section.dataset.state, selected: section.querySelector('select').value });
+    new MutationObserver(record).observe(section, { attributes: true, childList: true, characterData: true, subtree: true });
+  });
+  const select = explorer.getByLabel('Map', { exact: true });
+  for (const name of sequence) await select.selectOption(name);
+  // And a channel chosen while another's request is under way (past the settling time): its reply is dropped.
+  await select.selectOption('Bm');
+  await page.waitForTimeout(250);
+  await select.selectOption('Ch');
+  const settled = () => document.querySelector('.map-explorer').dataset.state === 'ready' &&
+    document.querySelector('.map-value').dataset.channel === 'Ch';
+  await waitUntil(page, settled, null, 60000, 'the last channel').catch(async (error) => {
+    const seen = await page.evaluate(() => ({ last: window.mapObservations.slice(-3), message: document.querySelector('.map-explorer .message').textContent,
+      resources: performance.getEntriesByType('resource').slice(-8).map((e) => `${e.name.split('/').pop()} ${Math.round(e.startTime)}+${Math.round(e.duration)}`) }));
+    const t0 = performance.now();
+    const direct = await api('MapsService', 'GetMap', { session_id: sessionId, maps_file: mapsFile, channel: 'Ch', max_width: 480 });
+    const now = await page.evaluate(() => Math.round(performance.now()));
+    throw new Error(`${error.message}: ${JSON.stringify(seen)}; page now ${now}; direct GetMap ${direct.status} in ${Math.round(performance.now() - t0)} ms`);
+  });
+  const observations = await page.evaluate(() => window.mapObservations);
+  const reference = {};  // GetMap of every channel a value was seen of
+  for (const name of new Set(observations.map((o) => o.channel).filter((name) => name)))
+    reference[name] = (await api('MapsService', 'GetMap', { session_id: sessionId, maps_file: mapsFile, channel: name, max_width: 480 })).json;
+  const loadingSeen = observations.some((o) => o.state === 'loading' && o.text.startsWith(`loading ${o.selected}`));
+  assert.ok(loadingSeen, 'a loading sign while a channel loads');
+  for (const o of observations) {
+    if (o.channel === null) continue;
+    assert.ok(o.text.startsWith(`${o.channel} at pixel`), `label "${o.text}" under channel ${o.channel}`);
+    assert.equal(o.channel, o.selected, `a ${o.channel} value shown while ${o.selected} is chosen`);
+    const [x, y] = o.cell.split(',').map(Number);
+    const expected = reference[o.channel].values[y * reference[o.channel].width + x];
+    assert.equal(Number(o.value), Math.fround(Number(expected)), `${o.channel} value at cell ${o.cell}`);
+  }
+  const last = observations.at(-1);
+  assert.equal(last.channel, 'Ch', 'the last channel asked for is the one shown');
+  await waitUntil(page, () => document.querySelector('.region-statistics')?.dataset.channel === 'Ch', null, 60000, 'Ch statistics');
+  console.log(`${sequence.length + 2} channel switches: ${observations.filter((o) => o.channel).length} values seen (${[...new Set(observations.map((o) => o.channel).filter((c) => c))]}), ` +
+    'each under its own name');
+
+  step('switches');
+  // Zoom linked across explorers; flags in categorical colours with a legend.
+  await page.getByRole('button', { name: 'Add a map beside' }).first().click();
+  const second = page.locator('.map-explorer').nth(1);
+  await waitUntil(page, () => document.querySelectorAll('.map-explorer[data-state="ready"]').length >= 2, null, 60000, 'a second map');
+  await explorer.getByRole('button', { name: 'Zoom in' }).click();
+  assert.equal(await second.locator('.map-canvas').getAttribute('data-zoom'), '1.5', 'zoom linked to the second map');
+  await second.getByLabel('Map', { exact: true }).selectOption('flags');
+  await waitUntil(page, () => document.querySelectorAll('.map-explorer')[1].dataset.state === 'ready', null, 60000, 'the flags map');
+  const legend = await second.locator('.legend li').allTextContents();
+  assert.ok(legend.some((item) => item.includes('0: explained')), `flags legend: ${legend}`);
+  assert.ok(legend.some((item) => item.includes('outside the lit field')), `flags legend: ${legend}`);
+  await explorer.getByRole('button', { name: 'Whole map' }).click();
+  assert.equal(await second.locator('.map-canvas').getAttribute('data-zoom'), '1');
+  step('zoom_and_flags');
+  figures.map_explorer_checks_ms = steps;
+  console.log(`zoom linked across maps; flags legend ${legend.join(' | ')}`);
+}
+
 async function pressOn(page, locator, key) {
   await locator.focus();
   await page.keyboard.press(key);
@@ -382,13 +505,14 @@ async function main() {
   for (let i = 0; i < 5; ++i) await page.keyboard.press('ArrowRight');
   for (let i = 0; i < 3; ++i) await page.keyboard.press('ArrowDown');
   const byKeyboard = await page.locator('.map-value').first().getAttribute('data-value');
-  assert.equal(Number(byKeyboard), Number(cmMap.json.values[3 * cmMap.json.width + 5]), 'keyboard cursor (5, 3): page and GetMap differ');
+  assert.equal(Number(byKeyboard), Math.fround(Number(cmMap.json.values[3 * cmMap.json.width + 5])), 'keyboard cursor (5, 3): page and GetMap differ');
   const box = await canvas.boundingBox();
   const [cx, cy] = [Math.floor(cmMap.json.width / 2), Math.floor(cmMap.json.height / 2)];
   await page.mouse.move(box.x + (cx + 0.5) * box.width / cmMap.json.width, box.y + (cy + 0.5) * box.height / cmMap.json.height);
   const byMouse = await page.locator('.map-value').first().getAttribute('data-value');
-  assert.equal(Number(byMouse), Number(cmMap.json.values[cy * cmMap.json.width + cx]), 'mouse cursor at the centre: page and GetMap differ');
+  assert.equal(Number(byMouse), Math.fround(Number(cmMap.json.values[cy * cmMap.json.width + cx])), 'mouse cursor at the centre: page and GetMap differ');
   console.log(`value under the cursor equals GetMap's (Cm ${byKeyboard} at cell 5,3; ${byMouse} at the centre)`);
+  await mapExplorerChecks(page, sessionId, mapsFile, cmMap.json);
   await page.getByLabel('Illuminant').selectOption('D65');
   started = performance.now();
   await pressOn(page, page.getByRole('button', { name: 'Relight' }), 'Enter');

@@ -48,7 +48,7 @@ function scheduleReconnectProbe() {
   }, 1000);
 }
 
-async function post(path, body) {
+async function post(path, body, signal) {
   let reply;
   try {
     reply = await fetch(path, {
@@ -56,8 +56,10 @@ async function post(path, body) {
       credentials: 'same-origin',
       headers: { 'Content-Type': 'application/json' },
       body: JSON.stringify(body ?? {}),
+      signal,
     });
   } catch (error) {
+    if (error.name === 'AbortError') throw error;  // the page gave up on it: not the daemon's absence
     setConnected(false);
     throw new ApiError(`the daemon does not answer (${error.message})`, 'UNAVAILABLE', 0);
   }
@@ -77,8 +79,9 @@ async function post(path, body) {
 }
 
 // One unary call of chromosphere.v1: call('LedService', 'GetLedState', {}).
-export function call(service, method, request) {
-  return post(`/api/${service}/${method}`, request);
+// `signal` (an AbortSignal, optional) lets the page drop a call it no longer needs.
+export function call(service, method, request, signal) {
+  return post(`/api/${service}/${method}`, request, signal);
 }
 
 export function login(token) {

@@ -1,17 +1,20 @@
 // Results: a session's estimation results (ResultsService.GetResults): the
-// headline figures, each camera's maps (any channel of maps.exr drawn with its
-// colour bar and the value under the cursor; the previews chromod wrote next
-// to maps.exr) and links to the files; relighting (MapsService.Relight) under
+// headline figures, each camera's maps (map_explorer.js: any channel of
+// maps.exr with its contrast, the value under the cursor and region
+// statistics, zoom and pan linked across maps and cameras; the previews
+// chromod wrote next to maps.exr, each opening full size) and links to the files; relighting (MapsService.Relight) under
 // the offered illuminants with the photograph | reconstruction | ΔE94 panel
 // and its figures; the session's frames with each one's step, exposure and
 // polarisation (GetSession with frames).
 import * as api from '../api.js';
 import { h, field, messageArea, table, enumName, formatNumber, polarisationName } from '../dom.js';
 import { mapExplorer } from '../map_explorer.js';
+import { linkedView } from '../maps/linked_view.js';
 
 const ILLUMINANTS = ['D65', 'D50', 'A', '4000K', 'W57', 'W40', 'W27', 'R', 'G', 'B'];
 const MAP_PREVIEWS = [['cm', 'Cm (melanin)'], ['ch', 'Ch (hemoglobin)'], ['bm', 'βm (melanin blend)'],
-  ['che', 'Che (epidermal hemoglobin)'], ['residual', 'Residual'], ['order', 'Model order'], ['flags', 'Flags']];
+  ['che', 'Che (epidermal hemoglobin)'], ['sigma_cm', 'σ of Cm'], ['sigma_ch', 'σ of Ch'], ['residual', 'Residual'],
+  ['order', 'Model order'], ['flags', 'Flags']];
 
 function relativeTo(folder, path) {
   const prefix = folder.endsWith('/') ? folder : `${folder}/`;
@@ -71,13 +74,31 @@ function framesSection(sessionId) {
     h('h3', { id: 'frames-heading' }, 'Frames'), body, message.element);
 }
 
-function cameraResults(results, camera) {
+// The previews chromod wrote; each opens full size.
+function previewFigures(results, camera, folder) {
+  return h('div', { class: 'maps' }, MAP_PREVIEWS.map(([key, title]) => {
+    const url = api.fileUrl(results.session_id, `${folder}${key}.png`);
+    return h('figure', { class: 'map' },
+      h('a', { href: url, target: '_blank', rel: 'noopener', title: `${title}: open full size` },
+        h('img', { src: url, alt: `${camera.camera}: ${title} map`, loading: 'lazy' })),
+      h('figcaption', {}, title));
+  }));
+}
+
+// A camera's map explorers (zoom, pan and region linked with every other
+// explorer of the page); "Add a map" puts another channel beside.
+function explorers(results, camera, view) {
+  const mapsFile = relativeTo(results.folder, camera.maps_file);
+  const row = h('div', { class: 'explorers' }, mapExplorer(results.session_id, mapsFile, camera.camera, view));
+  const add = h('button', { type: 'button' }, 'Add a map beside');
+  add.addEventListener('click', () => row.append(mapExplorer(results.session_id, mapsFile, camera.camera, view)));
+  return h('div', {}, row, add);
+}
+
+function cameraResults(results, camera, view) {
   const folder = relativeTo(results.folder, camera.maps_file).replace(/[^/]*$/, '');
   const summary = camera.summary ?? {};
-  const maps = h('div', { class: 'maps' }, MAP_PREVIEWS.map(([key, title]) =>
-    h('figure', { class: 'map' },
-      h('img', { src: api.fileUrl(results.session_id, `${folder}${key}.png`), alt: `${camera.camera}: ${title} map`, loading: 'lazy' }),
-      h('figcaption', {}, title))));
+  const maps = previewFigures(results, camera, folder);
   return h('section', { class: 'card', 'aria-label': `Results of camera ${camera.camera}`, 'data-camera': camera.camera },
     h('h3', {}, `Camera ${camera.camera}: ${enumName(camera.state, 'RESULTS_STATE_')}`),
     camera.reason ? h('p', { class: 'message error' }, camera.reason) : null,
@@ -86,7 +107,7 @@ function cameraResults(results, camera) {
     deltaETable(summary.relit_delta_e94, `${camera.camera}: relit ΔE94 against the photographs`),
     table(['Flag', 'Pixels'], Object.entries(summary.flag_counts ?? {}).map(([flag, count]) => [flag, count]), `${camera.camera}: flags`),
     highlightSection(results, camera, folder),
-    mapExplorer(results.session_id, relativeTo(results.folder, camera.maps_file), camera.camera),
+    explorers(results, camera, view),
     maps,
     h('ul', { class: 'files' },
       [camera.maps_file, camera.report_file].map((file) => {
@@ -152,7 +173,8 @@ export function mountResults(container, sessionId) {
         body.append(framesSection(id));
         return;
       }
-      body.append(relightSection(results), ...(results.cameras ?? []).map((camera) => cameraResults(results, camera)),
+      const view = linkedView();
+      body.append(relightSection(results), ...(results.cameras ?? []).map((camera) => cameraResults(results, camera, view)),
         framesSection(id));
     } catch (error) {
       message.error(error);

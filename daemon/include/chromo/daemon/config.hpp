@@ -142,6 +142,8 @@ struct DaemonConfig {
   std::uint32_t frame_attempts = 3;       // triggers per wanted frame before pausing
 
   std::filesystem::path led_library;      // LED library file until a calibration run measured one; empty = none
+  // chromod's own log lines: "text" ("chromod: ...") or "json" (one object a line; log_line.hpp).
+  std::string log_format = "text";
 
   std::vector<DeviceConfig> devices;      // empty = the built-in virtual lab
   // Mixes sessions may name, as drive levels, used while the daemon has no

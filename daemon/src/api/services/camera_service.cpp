@@ -124,6 +124,12 @@ class CameraServiceImpl final : public pb::CameraService::Service {
       out->set_sensor_width(info.sensor_width), out->set_sensor_height(info.sensor_height);
       for (auto format : info.pixel_formats) out->add_pixel_formats(std::string(drivers::pixel_format_name(format)));
       out->set_exposure_min_us(info.exposure_min_us), out->set_exposure_max_us(info.exposure_max_us);
+      const drivers::StreamStatistics statistics = camera.device->statistics();
+      auto* stream = out->mutable_stream();
+      stream->set_completed(statistics.completed), stream->set_failed(statistics.failed);
+      stream->set_lost_before_driver(statistics.lost_before_driver);
+      stream->set_resend_requests(statistics.resend_requests), stream->set_resent_packets(statistics.resent_packets);
+      stream->set_missing_packets(statistics.missing_packets), stream->set_reconnects(statistics.reconnects);
     } catch (const std::exception& error) {
       out->set_error(error.what());
     }

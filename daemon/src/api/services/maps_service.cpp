@@ -1,5 +1,6 @@
 // MapsService: relight, flush, import-maps and profile export on session files (services.hpp, docs/maps.md).
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <ctime>
@@ -14,7 +15,9 @@
 #include "chromo/estimation/pixel_flags.hpp"
 #include "chromo/files/progress.hpp"
 #include "chromo/maps/map_operations.hpp"
+#include "chromo/maps/map_previews.hpp"
 #include "chromo/maps/ome_tiff.hpp"
+#include "chromo/maps/region_statistics.hpp"
 #include "chromosphere/v1/maps.grpc.pb.h"
 #include "services.hpp"
 
@@ -179,6 +182,18 @@ double scale_field(double value, const char* field) {
   return value;
 }
 
+// A maps file named by the request; a file that is not a readable EXR is the
+// request's fault (issue 40: INTERNAL before).
+chromo::files::FloatImage read_maps_file(const Folder& files, const std::string& maps_file) {
+  try {
+    return chromo::files::read_exr(files.input("maps_file", maps_file, true));
+  } catch (const chromo::files::ImageError& e) {
+    throw Refusal{{StatusCode::INVALID_ARGUMENT, "maps_file: " + files.scrub(e.what())}};
+  } catch (const chromo::files::InputFileError& e) {
+    throw Refusal{{StatusCode::INVALID_ARGUMENT, "maps_file: " + files.scrub(e.what())}};
+  }
+}
+
 class MapsServiceImpl final : public pb::MapsService::Service {
  public:
   MapsServiceImpl(Daemon& daemon, Guard& guard) : daemon_(daemon), guard_(guard) {}
@@ -188,15 +203,7 @@ class MapsServiceImpl final : public pb::MapsService::Service {
       const std::uint32_t max_width = request->max_width() == 0 ? 320 : request->max_width();
       if (max_width < 16 || max_width > 1024)
         throw Refusal{{StatusCode::INVALID_ARGUMENT, "max_width: must be 16-1024 (0: 320)"}};
-      // A file that is not a readable EXR is the request's fault (issue 40: INTERNAL before).
-      chromo::files::FloatImage image;
-      try {
-        image = chromo::files::read_exr(files.input("maps_file", request->maps_file(), true));
-      } catch (const chromo::files::ImageError& e) {
-        throw Refusal{{StatusCode::INVALID_ARGUMENT, "maps_file: " + files.scrub(e.what())}};
-      } catch (const chromo::files::InputFileError& e) {
-        throw Refusal{{StatusCode::INVALID_ARGUMENT, "maps_file: " + files.scrub(e.what())}};
-      }
+      const chromo::files::FloatImage image = read_maps_file(files, request->maps_file());
       for (const std::string& name : image.channel_names) response->add_channels(name);
       const auto found = std::find(image.channel_names.begin(), image.channel_names.end(), request->channel());
       if (found == image.channel_names.end()) {
@@ -205,21 +212,67 @@ class MapsServiceImpl final : public pb::MapsService::Service {
         throw Refusal{{StatusCode::INVALID_ARGUMENT, "channel: \"" + request->channel() + "\" is not in the file (it has " + names + ")"}};
       }
       const std::vector<float>& values = image.channels[static_cast<std::size_t>(found - image.channel_names.begin())];
+      const auto sigma_found = std::find(image.channel_names.begin(), image.channel_names.end(), "sigma_" + request->channel());
+      const std::vector<float>* sigma = sigma_found == image.channel_names.end()
+                                            ? nullptr
+                                            : &image.channels[static_cast<std::size_t>(sigma_found - image.channel_names.begin())];
       const int width = std::min<int>(static_cast<int>(max_width), image.width);
       const int height = std::max(1, static_cast<int>(std::lround(static_cast<double>(image.height) * width / image.width)));
       response->set_width(width), response->set_height(height);
       response->set_source_width(image.width), response->set_source_height(image.height);
       float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+      std::vector<float> sampled, sampled_sigma;
+      sampled.reserve(static_cast<std::size_t>(width) * height);
       for (int y = 0; y < height; ++y) {
         const int sy = std::min(image.height - 1, static_cast<int>((y + 0.5) * image.height / height));
         for (int x = 0; x < width; ++x) {
           const int sx = std::min(image.width - 1, static_cast<int>((x + 0.5) * image.width / width));
-          const float v = values[static_cast<std::size_t>(sy) * image.width + sx];
-          response->add_values(v);
+          const std::size_t at = static_cast<std::size_t>(sy) * image.width + sx;
+          const float v = values[at];
+          sampled.push_back(v);
+          if (sigma) sampled_sigma.push_back((*sigma)[at]);
           if (std::isfinite(v)) lo = std::min(lo, v), hi = std::max(hi, v);
         }
       }
       response->set_min(std::isfinite(lo) ? lo : 0), response->set_max(std::isfinite(hi) ? hi : 0);
+      if (request->packed()) {  // little-endian float32, as this x86/ARM host holds them
+        static_assert(std::endian::native == std::endian::little);
+        response->set_values_f32(sampled.data(), sampled.size() * sizeof(float));
+        response->set_sigma_f32(sampled_sigma.data(), sampled_sigma.size() * sizeof(float));
+      } else {
+        response->mutable_values()->Add(sampled.begin(), sampled.end());
+        response->mutable_sigma_values()->Add(sampled_sigma.begin(), sampled_sigma.end());
+      }
+      response->set_unit(maps::map_channel_info(request->channel()).unit);
+      if (const auto range = maps::model_display_range(request->channel())) {
+        response->set_model_min(range->low), response->set_model_max(range->high);
+        response->set_log_scale(range->log_scale);
+      }
+      for (int f = 0; f < estimation::kPixelFlagCount; ++f)
+        response->add_flag_names(std::string(estimation::pixel_flag_name(static_cast<estimation::PixelFlag>(f))));
+    });
+  }
+
+  Status GetRegionStatistics(ServerContext* context, const pb::GetRegionStatisticsRequest* request,
+                             pb::GetRegionStatisticsResponse* response) override {
+    return run(context, request->session_id(), [&](const Folder& files) {
+      if (!request->has_region()) throw Refusal{{StatusCode::INVALID_ARGUMENT, "region: required (x, y, width, height)"}};
+      const chromo::files::FloatImage image = read_maps_file(files, request->maps_file());
+      const auto& r = request->region();
+      maps::RegionStatistics s;
+      try {
+        s = maps::region_statistics(image, request->channel(), {r.x(), r.y(), r.width(), r.height()});
+      } catch (const std::invalid_argument& e) {
+        throw Refusal{{StatusCode::INVALID_ARGUMENT, e.what()}};
+      }
+      response->set_channel(s.channel), response->set_unit(s.unit);
+      *response->mutable_region() = r;
+      response->set_region_pixels(s.region_pixels), response->set_pixels(s.pixels);
+      response->set_flagged_pixels(s.flagged_pixels), response->set_outside_field_pixels(s.outside_field_pixels);
+      response->set_mean(s.mean), response->set_sd(s.sd), response->set_min(s.min), response->set_max(s.max);
+      response->set_p1(s.p1), response->set_p5(s.p5), response->set_p25(s.p25), response->set_median(s.median);
+      response->set_p75(s.p75), response->set_p95(s.p95), response->set_p99(s.p99);
+      response->set_source_width(image.width), response->set_source_height(image.height);
     });
   }
 

@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include "guarded_http.hpp"
+#include "chromo/daemon/internal/api/metrics.hpp"
 #include "web_bridge.hpp"
 
 namespace chromo::daemon {
@@ -160,6 +161,7 @@ struct WebServer::State {
   DaemonConfig config;
   WebAuditor audit;
   web::ApiBridge bridge;
+  std::shared_ptr<grpc::Channel> api_channel;  // /metrics' typed calls
   std::unique_ptr<httplib::Server> http;
   std::shared_ptr<web::ConnectionGuard> guard;
   std::thread thread;
@@ -180,7 +182,7 @@ struct WebServer::State {
   std::uint32_t open_streams = 0;  // event and preview streams (web_max_streams)
 
   State(const DaemonConfig& c, std::shared_ptr<grpc::Channel> channel, WebAuditor a)
-      : config(c), audit(std::move(a)), bridge(std::move(channel), c.token) {}
+      : config(c), audit(std::move(a)), bridge(channel, c.token), api_channel(std::move(channel)) {}
 
   bool logged_in(const httplib::Request& request) {
     const std::string cookies = request.get_header_value("Cookie");
@@ -193,6 +195,14 @@ struct WebServer::State {
       if (found != sessions.end() && found->second > Clock::now()) return true;
     }
     return false;
+  }
+
+  // /metrics also takes the token itself (a Prometheus scraper does not log
+  // in): "Authorization: Bearer <token>".
+  bool bearer_token(const httplib::Request& request) const {
+    const std::string header = request.get_header_value("Authorization");
+    const std::string prefix = "Bearer ";
+    return header.rfind(prefix, 0) == 0 && equal_constant_time(header.substr(prefix.size()), config.token);
   }
 
   std::string cookie(const std::string& id, bool expire) const {
@@ -441,6 +451,14 @@ struct WebServer::State {
                              "application/json");
         return httplib::Server::HandlerResponse::Handled;
       }
+      if (request.path == "/metrics" && !logged_in(request) && !bearer_token(request)) {
+        response.status = 401;
+        response.set_header("WWW-Authenticate", "Bearer");
+        if (body) closing(response);
+        response.set_content(web::error_json("log in first, or send Authorization: Bearer <token>", "UNAUTHENTICATED"),
+                             "application/json");
+        return httplib::Server::HandlerResponse::Handled;
+      }
       if (request.path.rfind("/api/", 0) == 0 && !logged_in(request)) {
         response.status = 401;
         if (body) closing(response);
@@ -460,6 +478,17 @@ struct WebServer::State {
     http->Get("/api/whoami", [](const httplib::Request&, httplib::Response& r) {
       r.set_header("Cache-Control", "no-store");
       r.set_content("{\"logged_in\":true}", "application/json");
+    });
+    // chromod's counters for Prometheus (docs/observability.md), after the
+    // same checks as the API (Host, log-in or the bearer token).
+    http->Get("/metrics", [this](const httplib::Request&, httplib::Response& r) {
+      r.set_header("Cache-Control", "no-store");
+      try {
+        r.set_content(web::collect_metrics(api_channel, config.token), "text/plain; version=0.0.4; charset=utf-8");
+      } catch (const std::exception& error) {
+        r.status = 503;
+        r.set_content(web::error_json(error.what(), "UNAVAILABLE"), "application/json");
+      }
     });
     http->Get("/api/stream/preview", [this](const httplib::Request& q, httplib::Response& r) {
       nlohmann::json message = nlohmann::json::object();

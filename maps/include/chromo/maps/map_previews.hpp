@@ -5,6 +5,8 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -12,8 +14,31 @@
 
 namespace chromo::maps {
 
+// The model's range of a parameter channel as the previews and the web view
+// draw it by default: Cm and Ch over the model's bounds on a log scale, Bm
+// 0-1, Che 0-0.1; nullopt for a channel with no model range.
+struct ModelDisplayRange {
+  double low = 0, high = 1;
+  bool log_scale = false;
+};
+std::optional<ModelDisplayRange> model_display_range(const std::string& channel);
+
+// The [low_percent, high_percent] percentiles (nearest rank) of the finite
+// values whose hide code is kPreviewShown: a subject's contrast (the
+// previews use 1-99). nullopt when no value is shown or the two are equal.
+std::optional<std::pair<double, double>> shown_percentile_range(const std::vector<float>& values,
+                                                                const std::vector<std::uint8_t>& hide,
+                                                                double low_percent, double high_percent);
+
+// Codes of a preview's `hide` vector: which pixels are not drawn in colour.
+inline constexpr std::uint8_t kPreviewShown = 0;
+inline constexpr std::uint8_t kPreviewMasked = 1;        // a flag other than explained/specular: grey
+inline constexpr std::uint8_t kPreviewOutsideField = 2;  // no value or no_reference: black
+
 // A false-colour map (viridis) of values in [low, high] (log scale if asked),
-// pixels where hide[i] is set in grey, with a colour bar and its range on the right.
+// hidden pixels grey (masked) or black (outside the field, hide code 2), with
+// a colour bar, its ends and middle value, the label (a second line after
+// '\n', e.g. the unit) and the legend of grey and black on the right.
 void write_map_png(const std::filesystem::path& path, const std::vector<float>& values, int width, int height,
                    double low, double high, bool log_scale, const std::string& label,
                    const std::vector<std::uint8_t>& hide);
