@@ -51,6 +51,7 @@
 #include "chromo/spectral/lab_illuminants.hpp"
 #include "clocks.hpp"
 #include "guarded_main.hpp"
+#include "real_skin_camera.hpp"
 #include "seed_spread.hpp"
 
 namespace chromo::bench {
@@ -70,7 +71,7 @@ struct Plan {
 
 spectral::Spectrum led(spectral::LedType t) { return spectral::led_spectrum(t); }
 
-std::vector<Plan> make_plans() {
+std::vector<Plan> make_plans(const std::vector<std::string>& only) {
   using spectral::LedType;
   const spectral::CameraSensitivity camera = spectral::builtin_camera("nikon_d5100");
   std::vector<std::pair<std::string, spectral::Spectrum>> four, six;
@@ -86,6 +87,10 @@ std::vector<Plan> make_plans() {
       {"four-leds", simulators::capture_measurement_set(camera, four)},
       {"six-leds", simulators::capture_measurement_set(camera, six)},
       {"six-leds+method", simulators::capture_measurement_set(camera, all)}};
+  if (!only.empty()) {
+    std::erase_if(plans, [&](const Plan& p) { return std::find(only.begin(), only.end(), p.name) == only.end(); });
+    if (plans.empty()) throw std::invalid_argument("--plans: no known plan named");
+  }
   for (Plan& p : plans) {
     const auto start = std::chrono::steady_clock::now();
     p.table = std::make_shared<const estimation::ForwardTable>(estimation::ForwardTable::build(p.set, {}, 2));
@@ -100,13 +105,6 @@ std::vector<Plan> make_plans() {
                  subspace.off_subspace_rms());
   }
   return plans;
-}
-
-simulators::CameraNoiseModel camera_noise() {
-  simulators::CameraNoiseModel n;
-  n.electrons_at_full_scale = 4 * 40000.0;
-  n.read_noise_electrons = 12;
-  return n;
 }
 
 spectral::Lab lab_under(const spectral::Spectrum& albedo, const spectral::Spectrum& light) {
@@ -138,9 +136,13 @@ double relit(const estimation::PixelEstimate& e, const Scene& s, std::size_t i) 
                 spectral::delta_e94(s.truth_a[i], lab_under(fitted, spectral::illuminant_a())));
 }
 
+estimation::SubspaceInverterOptions subspace_options;  // --polish-steps, --subspace-steps
+
 Run run_inverter(const Plan& plan, const estimation::MeasurementSet& set, const Scene& s, InverterMethod method,
                  ModelChoice model) {
   estimation::EstimatorOptions options;
+  options.subspace = subspace_options;
+  options.subspace_beyond_four_channels = false;  // "fast" is today's fast inverter here
   options.threads = 2;
   options.method = method;
   options.model = model;
@@ -198,6 +200,8 @@ Run run_inverter(const Plan& plan, const estimation::MeasurementSet& set, const 
 double inverter_us(const Plan& plan, const estimation::MeasurementSet& set, const Scene& s, InverterMethod method,
                    int cells) {
   estimation::EstimatorOptions options;
+  options.subspace = subspace_options;
+  options.subspace_beyond_four_channels = false;
   options.threads = 1;
   options.method = method;
   options.model = ModelChoice::k4d;
@@ -205,15 +209,18 @@ double inverter_us(const Plan& plan, const estimation::MeasurementSet& set, cons
   const estimation::Estimator estimator(plan.table, set, options);
   const int c_count = set.size();
   std::vector<double> m(c_count), w(c_count);
-  int done = 0;
+  int done = 0, iterations = 0;
   double sink = 0;
   const double t0 = thread_cpu_seconds();
   for (std::size_t i = 0; i < s.frame.pixels() && done < cells; ++i) {
     if (s.frame.kind[i] != SyntheticKind::kSkin) continue;
     for (int c = 0; c < c_count; ++c) m[c] = s.measured[i * c_count + c], w[c] = estimator.weight(c, m[c]);
-    sink += estimator.inverter().fit(m.data(), w.data(), 4).chi2;
+    const estimation::Fit f = estimator.inverter().fit(m.data(), w.data(), 4);
+    sink += f.chi2, iterations += f.iterations;
     ++done;
   }
+  std::printf("%s on %s: %.2f iterations per fit (its last stage's)\n",
+               std::string(estimation::method_name(method)).c_str(), plan.name.c_str(), double(iterations) / std::max(done, 1));
   const double us = 1e6 * (thread_cpu_seconds() - t0) / std::max(done, 1);
   return sink >= 0 ? us : -us;
 }
@@ -264,18 +271,22 @@ int run(int argc, char** argv) {
       ->check(CLI::Range(1, 100000));
   app.add_option("--inverter-cells", inverter_cells, "skin cells timed for the inverter alone")->check(CLI::Range(10, 1000000));
   app.add_option("--out", out, "output directory");
+  std::vector<std::string> plan_names;
+  app.add_option("--plans", plan_names, "plans to run (default all: method, four-leds, six-leds, six-leds+method)")->delimiter(',');
+  app.add_option("--polish-steps", subspace_options.polish_steps, "the subspace inverter's polish steps");
+  app.add_option("--subspace-steps", subspace_options.subspace_steps, "the subspace inverter's Gauss-Newton steps in the subspace");
   bool inverter_only = false;
   std::vector<std::string> timed{"fast", "subspace"};
   app.add_option("--timed-inverters", timed, "inverters timed alone (fast, subspace)")->delimiter(',');
   app.add_flag("--inverter-only", inverter_only, "only the inverter alone per plan (for a profiler)");
   CLI11_PARSE(app, argc, argv);
 
-  std::vector<Plan> plans = make_plans();
+  std::vector<Plan> plans = make_plans(plan_names);
   std::vector<Run> runs;
   std::map<std::string, std::map<std::string, std::vector<double>>> channel_us;  // inverter -> plan -> µs per seed
   for (const Plan& plan : plans) {
     estimation::MeasurementSet set = plan.set;
-    simulators::set_exposure_noise(set, camera_noise());
+    simulators::set_exposure_noise(set, real_skin_camera_noise(1.0));
     for (std::uint64_t seed : seeds)
       for (const bool real : {false, true})
         for (const bool noisy : {true, false}) {
@@ -363,26 +374,23 @@ int run(int argc, char** argv) {
   std::printf("accuracy rule on every plan, scene, noise and model: %s\n", all_met ? "met" : "NOT met");
 
   std::printf("\nthe inverter alone, 4D fits of noisy model skin, one thread, CPU us per cell: mean [min, max] over seeds\n");
-  std::printf("%-16s %4s %-24s %-24s %-10s\n", "plan", "C", "fast", "subspace", "subspace/fast");
   std::vector<LineSeries> growth;
   for (const auto& [inverter, per_plan] : channel_us) {
     LineSeries line{inverter, {}};
-    for (const Plan& p : plans) line.points.emplace_back(p.set.size(), spread(per_plan.at(p.name), [](double v) { return v; }).mean);
+    const double base = spread(per_plan.at(plans.front().name), [](double v) { return v; }).mean;
+    for (const Plan& p : plans) {
+      const Spread u = spread(per_plan.at(p.name), [](double v) { return v; });
+      line.points.emplace_back(p.set.size(), u.mean);
+      std::printf("%-10s %-16s %3d channels: %7.2f [%7.2f, %7.2f] us per cell, %.2fx the %s plan's\n", inverter.c_str(),
+                  p.name.c_str(), p.set.size(), u.mean, u.lo, u.hi, u.mean / base, plans.front().name.c_str());
+    }
     growth.push_back(line);
   }
-  for (const Plan& p : channel_us.size() == 2 ? plans : std::vector<Plan>{}) {
-    const Spread f = spread(channel_us["fast"][p.name], [](double v) { return v; });
-    const Spread s = spread(channel_us["subspace"][p.name], [](double v) { return v; });
-    std::printf("%-16s %4d %6.2f [%6.2f, %6.2f]    %6.2f [%6.2f, %6.2f]    %.3f\n", p.name.c_str(), p.set.size(), f.mean, f.lo,
-                f.hi, s.mean, s.lo, s.hi, s.mean / f.mean);
-  }
-  for (const auto& [inverter, per_plan] : channel_us) {
-    const double base = spread(channel_us[inverter][plans.front().name], [](double v) { return v; }).mean;
-    std::printf("growth of %s from 4 to 27 channels: %.2fx (4 -> 12: %.2fx, 18: %.2fx)\n", inverter.c_str(),
-                spread(channel_us[inverter][plans.back().name], [](double v) { return v; }).mean / base,
-                spread(channel_us[inverter][plans[1].name], [](double v) { return v; }).mean / base,
-                spread(channel_us[inverter][plans[2].name], [](double v) { return v; }).mean / base);
-  }
+  if (channel_us.size() == 2)
+    for (const Plan& p : plans)
+      std::printf("subspace / fast on %-16s: %.3f\n", p.name.c_str(),
+                  spread(channel_us["subspace"][p.name], [](double v) { return v; }).mean /
+                      spread(channel_us["fast"][p.name], [](double v) { return v; }).mean);
   std::ifstream load("/proc/loadavg");
   std::string load_text;
   std::getline(load, load_text);

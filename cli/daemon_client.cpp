@@ -70,6 +70,12 @@ std::string state_text(chromosphere::v1::OperationState state) {
 
 std::string progress_line(const chromosphere::v1::Operation& operation) {
   constexpr int kWidth = 24;
+  // Every frame stored, still running: the maps are being made; the message
+  // carries the estimator's own step and share, and the capture's eta is over.
+  if (operation.state() == chromosphere::v1::OPERATION_STATE_RUNNING && operation.progress() >= 1 &&
+      operation.counters().expected() > 0 && operation.counters().stored() >= operation.counters().expected())
+    return fmt::format("[{}] capture done, {} frames stored; making the maps: {}", std::string(kWidth, '#'),
+                       operation.counters().stored(), operation.message().empty() ? "starting" : operation.message());
   const int filled = static_cast<int>(std::lround(std::clamp(operation.progress(), 0.0, 1.0) * kWidth));
   const auto& counters = operation.counters();
   std::string eta = operation.eta_seconds() < 0 ? "  ?" : fmt::format("{:3.0f}", operation.eta_seconds());

@@ -8,6 +8,7 @@
 #include "chromo/files/bounded_read.hpp"
 #include "chromo/spectral/table.hpp"
 #include "commands.hpp"
+#include "typo_suggestion.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"chromo: Chromosphere operator and offline tools"};
@@ -41,6 +42,7 @@ int main(int argc, char** argv) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
     app.exit(e);
+    if (const std::string guess = chromo::cli::typo_suggestion(app, argc, argv); !guess.empty()) std::cerr << guess << "\n";
     return chromo::cli::kExitBadInput;
   } catch (const chromo::files::InputFileError& e) {  // a data file refused by the bounded reader (names the file)
     std::cerr << "chromo: " << e.what() << "\n";

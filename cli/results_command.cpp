@@ -8,6 +8,7 @@
 #include "chromosphere/v1/estimation.grpc.pb.h"
 #include "commands.hpp"
 #include "daemon_client.hpp"
+#include "provenance_text.hpp"
 
 namespace chromo::cli {
 
@@ -102,6 +103,7 @@ void add_results_command(CLI::App& app, int& exit_status) {
                          {"folder", results.folder()},         {"maps_file", results.maps_file()},
                          {"report_file", results.report_file()}, {"frame_files", results.frame_files()}};
       if (results.state() == pb::RESULTS_STATE_AVAILABLE) out["summary"] = summary_json(summary);
+      out["provenance"] = provenance_json(results.provenance());
       out["cameras"] = nlohmann::json::array();
       for (const auto& camera : results.cameras()) {
         nlohmann::json entry{{"camera", camera.camera()}, {"state", state_word(camera.state())}};
@@ -125,6 +127,7 @@ void add_results_command(CLI::App& app, int& exit_status) {
       if (!several && !results.maps_file().empty()) std::cout << "maps:    " << results.maps_file() << "\n";
       if (!results.report_file().empty()) std::cout << "report:  " << results.report_file() << "\n";
       std::cout << "frames:  " << results.frame_files_size() << " raw TIFFs under " << results.folder() << "/frames\n";
+      std::cout << provenance_text(results.provenance());
       if (!several && results.state() == pb::RESULTS_STATE_AVAILABLE) print_summary(summary, "");
       if (several)
         for (const auto& camera : results.cameras()) {

@@ -18,6 +18,7 @@
 #include "plan_advice.hpp"
 #include "chromo/session/session_plan.hpp"
 #include "daemon_client.hpp"
+#include "provenance_text.hpp"
 
 namespace chromo::cli {
 
@@ -27,7 +28,8 @@ namespace {
 
 struct SessionOptions {
   DaemonAddress address;
-  std::string plan_file, subject, name, id;
+  std::string plan_file, subject, name, id, operator_name, study, override_reason;
+  bool preflight = false;
   std::string polarised = "auto";  // --polarised: auto (the daemon's capture.polarised_plan), on, off
   bool hardware = false, prompts = false, detach = false, frames = false;
   double exposure_us = 0;
@@ -73,6 +75,10 @@ void run(SessionOptions& options, int& exit_status) {
                                                        : pb::POLARISED_PLAN_CONFIGURED);
   }
   request.set_subject(options.subject);
+  request.set_operator_name(options.operator_name);
+  request.set_study(options.study);
+  request.set_preflight(options.preflight || !options.override_reason.empty());
+  request.set_preflight_override_reason(options.override_reason);
   request.set_name(options.name);
   pb::Operation started;
   auto status = pb::SessionService::NewStub(daemon.channel())->StartSession(daemon.context().get(), request, &started);
@@ -117,6 +123,7 @@ void show(SessionOptions& options, int& exit_status) {
                            operation.error().empty() ? (operation.message().empty() ? "" : ": " + operation.message())
                                                      : ": " + operation.error(),
                            detail.subject(), detail.summary().folder());
+  std::cout << provenance_text(detail.provenance());
   std::cout << fmt::format("frames   {} stored, {} lost\nsteps:\n", operation.counters().stored(), operation.counters().lost());
   for (const auto& step : detail.steps())
     std::cout << fmt::format("  {:2} {:<20} {:<8} {:>4} frames  {}\n", step.index(), step.name(),
@@ -238,6 +245,12 @@ void add_session_command(CLI::App& app, int& exit_status) {
   add_daemon_options(*run_command, options->address);
   run_command->add_option("--plan", options->plan_file, "a built-in plan (standard, multispectral, multispectral+method; see `chromo session plans`) or a plan file (JSON, docs/formats/session.md \"plan\")");
   run_command->add_option("--subject", options->subject, "free text stored with the session");
+  run_command->add_option("--operator", options->operator_name, "who runs it (free text, recorded in its provenance)");
+  run_command->add_option("--study", options->study, "the study it belongs to (free text, shown in session list)");
+  run_command->add_flag("--preflight", options->preflight,
+                        "run the lab's checks first (chromo doctor's) and refuse to start on a failed one");
+  run_command->add_option("--override-reason", options->override_reason,
+                          "start despite failed preflight checks, for this reason (written to the audit log; implies --preflight)");
   run_command->add_option("--name", options->name, "session name ([A-Za-z0-9_+.-])");
   run_command->add_option("--exposure-us", options->exposure_us, "standard plan: exposure (default 20000)");
   run_command->add_option("--frames", options->frames_per_camera, "standard plan: frames per camera and subject step (default 1)");
@@ -285,9 +298,20 @@ void add_session_command(CLI::App& app, int& exit_status) {
       exit_status = report_failure("session list", status);
       return;
     }
+    // One line per session; subject and study (cut at 24 characters) tell them apart.
+    auto cell = [](const std::string& text) {
+      if (text.empty()) return std::string("-");
+      if (text.size() <= 24) return text;
+      std::size_t cut = 23;
+      while (cut > 0 && (static_cast<unsigned char>(text[cut]) & 0xC0) == 0x80) --cut;  // not inside a UTF-8 character
+      return text.substr(0, cut) + "…";
+    };
+    std::cout << fmt::format("{:<40} {:<12} {:>6}  {:<24} {:<24} {:<24} {}\n", "id", "state", "frames", "subject",
+                             "study", "operator", "folder");
     for (const auto& s : response.sessions())
-      std::cout << fmt::format("{:<40} {:<12} {:>5} frames  {}\n", s.id(), state_text(s.operation().state()),
-                               s.operation().counters().stored(), s.folder());
+      std::cout << fmt::format("{:<40} {:<12} {:>6}  {:<24} {:<24} {:<24} {}\n", s.id(),
+                               state_text(s.operation().state()), s.operation().counters().stored(), cell(s.subject()),
+                               cell(s.study()), cell(s.operator_name()), s.folder());
   });
 
   auto* show_command = session->add_subcommand("show", "a session's state, steps and (with --frames) every frame");

@@ -11,12 +11,9 @@
 #include "chromo/estimation/forward_table.hpp"
 #include "chromo/estimation/measurement.hpp"
 #include "chromo/files/fnv1a.hpp"
+#include "chromo/maps/estimator_version.hpp"
 #include "chromo/spectral/camera.hpp"
 #include "chromo/spectral/cie.hpp"
-
-#ifndef CHROMO_VERSION
-#define CHROMO_VERSION "unknown"
-#endif
 
 #include "chromo/estimation/model_discrepancy.hpp"
 
@@ -56,15 +53,7 @@ EstimateOptions options_from_json(const nlohmann::json& json) {
   return options;
 }
 
-std::string estimator_version() {
-  static const std::string version = [] {
-    const estimation::MeasurementSet probe =
-        estimation::rgb_measurement_set(spectral::builtin_camera("nikon_d5100"), spectral::illuminant_d65());
-    return fmt::format("chromosphere {}; model+tables {:016x}", CHROMO_VERSION,
-                       estimation::ForwardTable::cache_key(probe, estimation::TableGrid{}));
-  }();
-  return version;
-}
+std::string estimator_version() { return maps::estimator_version(); }
 
 namespace {
 

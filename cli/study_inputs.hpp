@@ -33,9 +33,7 @@ nlohmann::ordered_json options_json(const EstimateOptions& options, const std::v
 // The inverse of options_json (study.json read back); std::invalid_argument naming the member.
 EstimateOptions options_from_json(const nlohmann::json& json);
 
-// "chromosphere <version>; model+tables <16 hex>": the project's version and
-// the forward table's cache key of a fixed probe measurement set, which
-// changes with the skin model's code or data and the table's format.
+// maps::estimator_version() (chromo/maps/estimator_version.hpp), as chromod records it.
 std::string estimator_version();
 
 // The inputs' hash (16 hex digits). Throws std::runtime_error naming a file

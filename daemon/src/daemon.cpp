@@ -77,7 +77,9 @@ std::vector<DeviceReport> Daemon::probe_devices() {
         std::lock_guard lock(led->mutex);
         auto info = led->device->info();
         report.info = {{"model", info.model}, {"serial", info.serial}, {"firmware", info.firmware_version},
-                       {"drive_mode", info.drive_mode == drivers::DriveMode::kPwmDuty ? "pwm_duty" : "constant_current"}};
+                       {"drive_mode", info.drive_mode == drivers::DriveMode::kPwmDuty ? "pwm_duty" : "constant_current"},
+                       // "yes" when some LED type has banks (polarised steps need them), else "no"
+                       {"polariser_banks", info.has_polarisers() ? "yes" : "no"}};
         auto status = led->device->read_status();
         if (status.controller_faults != 0) {
           report.health = DeviceReport::Health::kFault;
@@ -234,7 +236,8 @@ void Daemon::ensure_idle() const {
   if (operations_.any_active()) throw std::logic_error("another session or calibration is running");
 }
 
-session::OperationRecord Daemon::start_session(session::SessionPlan plan, const std::string& subject) {
+session::OperationRecord Daemon::start_session(session::SessionPlan plan, const std::string& subject,
+                                               const SessionPeople& people) {
   std::string error;
   if (!plan.IsValid(&error)) throw std::invalid_argument("plan." + error);
   if (subject.size() > session::kMaxTextBytes) throw std::invalid_argument("subject: longer than 4096 bytes");
@@ -246,6 +249,7 @@ session::OperationRecord Daemon::start_session(session::SessionPlan plan, const 
         throw std::invalid_argument("plan.steps[" + std::to_string(i) + "].mix: " + failure.what());
       }
     }
+  const session::SessionProvenance provenance = session_provenance(plan, people);
   const session::PlanHazard hazard = plan_hazard(plan);
   if (!hazard.within_limit())
     throw std::invalid_argument(hazard.describe() + ": beyond the limit, refused (hazard.limit_J_per_m2_sr, docs/config.md)");
@@ -286,7 +290,7 @@ session::OperationRecord Daemon::start_session(session::SessionPlan plan, const 
     nlohmann::json devices = nlohmann::json::array();
     for (auto& d : devices_.led_controllers) devices.push_back({{"name", d->config.name}, {"kind", "led_controller"}, {"backend", d->config.backend}});
     for (auto& d : devices_.cameras) devices.push_back({{"name", d->config.name}, {"kind", "camera"}, {"backend", d->config.backend}});
-    auto created = store_.create(plan, subject, devices);
+    auto created = store_.create(plan, subject, devices, &provenance);
     const std::uint64_t expected = plan.frames_per_camera_total() * devices_.cameras.size();
     created.journal->append({{"type", "session_started"}, {"expected_frames", expected}});
     nlohmann::json hazard_record = hazard.to_json();
@@ -302,14 +306,18 @@ session::OperationRecord Daemon::start_session(session::SessionPlan plan, const 
     record.folder = std::filesystem::absolute(created.folder).string();
     record.step_count = static_cast<int>(plan.steps.size());
     record.expected_frames = expected;
+    record.subject = subject;
+    record.study = people.study;
+    record.operator_name = people.operator_name;
     std::shared_ptr<session::Journal> journal(std::move(created.journal));
-    return OperationRunner::Start{record, [this, plan, journal, folder = created.folder](RunningOperation& running) {
-                                    return run_session(running, plan, journal, folder);
+    return OperationRunner::Start{record, [this, plan, provenance, journal, folder = created.folder](RunningOperation& running) {
+                                    return run_session(running, plan, provenance, journal, folder);
                                   }};
   });
 }
 
 OperationRunner::Outcome Daemon::run_session(RunningOperation& running, const session::SessionPlan& plan,
+                                             const session::SessionProvenance& provenance,
                                              const std::shared_ptr<session::Journal>& journal,
                                              const std::filesystem::path& folder) {
   const std::string& id = running.id();
@@ -328,8 +336,9 @@ OperationRunner::Outcome Daemon::run_session(RunningOperation& running, const se
     estimator_->begin_session({id, folder, plan, {[&, id](double fraction, const std::string& message) {
                                  operations_.update(id, [&](session::OperationRecord& r) {
                                    r.message = message + " " + std::to_string(static_cast<int>(fraction * 100)) + "%";
+                                   r.eta_seconds = -1;  // the capture's estimate says nothing of the maps' time
                                  });
-                               }, {}}, cameras});
+                               }, {}}, cameras, provenance});
   }
   // Every stored frame, summed as it is stored: derived data is written from
   // these sums (a session re-processed from its folder fills them from the

@@ -148,7 +148,9 @@ Estimator::Estimator(std::shared_ptr<const ForwardTable> table, MeasurementSet s
   options_.fast.presolved_accept_chi2 =
       std::max(options_.fast.converged_chi2, std::min(options_.fast.presolved_accept_chi2, flag_threshold_[4]));
   if (options_.discrepancy) discrepancy_ = options_.discrepancy->channel_covariance(set_);
-  if (options_.method == InverterMethod::kSubspace) {
+  const bool subspace = options_.method == InverterMethod::kSubspace ||
+                        (options_.method == InverterMethod::kFast && options_.subspace_beyond_four_channels && c > 4);
+  if (subspace) {
     options_.subspace.fallback_chi2 = std::min(options_.subspace.fallback_chi2, flag_threshold_[4]);
     const std::filesystem::path dir = options_.cache_dir.empty() ? ForwardTable::default_cache_dir() : options_.cache_dir;
     const std::vector<double> sigma = reference_sigma();

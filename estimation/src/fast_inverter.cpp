@@ -253,24 +253,13 @@ bool gauss_newton(const FastInverter& inverter, const double* measured, const do
     // A coordinate at its bound whose gradient points outward is held (and
     // the 2D model's βm and Che always).
     bool held = false;
-    for (int k = 0; k < 4; ++k) {
-      const bool at_bound = (best.x[k] <= 0 && gradient[k] > 0) || (best.x[k] >= upper[k] && gradient[k] < 0);
-      if (at_bound || k >= free_dims) {
-        held = held || (at_bound && k < free_dims);
-        for (int i = 0; i < 4; ++i) jtj[k * 4 + i] = jtj[i * 4 + k] = 0;
-        jtj[k * 4 + k] = 1, gradient[k] = 0;
-      } else {
-        jtj[k * 4 + k] *= 1 + 1e-9;
-      }
-    }
     double step[4];
-    detail::solve_spd4(jtj, gradient, step);
     // Stalled already by the Gauss-Newton model: its predicted gain
     // (gradient·step, χ² − |r − J·step|²) below the stall share of χ².
     // A noisy pixel that starts on its own face (a pre-solved empty cell)
     // then ends without a trial evaluation.
-    double predicted_gain = 0;
-    for (int k = 0; k < 4; ++k) predicted_gain += gradient[k] * step[k];
+    const double predicted_gain =
+        detail::bounded_gauss_newton_step(jtj, gradient, best.x, upper, free_dims, step, &held);
     if (predicted_gain < stall_share(held, best.chi2) * best.chi2) {
       converged = true;
       break;

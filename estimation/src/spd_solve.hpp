@@ -35,4 +35,32 @@ inline void solve_spd4(const double* a, const double* b, double* x) {
   }
 }
 
+// The bounded Gauss-Newton step of the inverters' fits (fast_inverter.cpp,
+// subspace_inverter.cpp) from the normal equations jtj (16, row-major) and
+// gradient Jᵀr at grid coordinates x: a coordinate at its bound (0 or
+// upper) whose gradient points outward, and every coordinate from
+// free_dims on, is held (its row and column cleared, its step 0). step: the
+// solution of jtj·step = gradient, to be subtracted from x. Returns the
+// Gauss-Newton model's predicted gain gradient·step; *held_at_bound says
+// whether a free coordinate was held at a bound.
+inline double bounded_gauss_newton_step(double* jtj, double* gradient, const float* x, const float* upper, int free_dims,
+                                        double* step, bool* held_at_bound = nullptr) {
+  bool held = false;
+  for (int k = 0; k < 4; ++k) {
+    const bool at_bound = (x[k] <= 0 && gradient[k] > 0) || (x[k] >= upper[k] && gradient[k] < 0);
+    if (at_bound || k >= free_dims) {
+      held = held || (at_bound && k < free_dims);
+      for (int i = 0; i < 4; ++i) jtj[k * 4 + i] = jtj[i * 4 + k] = 0;
+      jtj[k * 4 + k] = 1, gradient[k] = 0;
+    } else {
+      jtj[k * 4 + k] *= 1 + 1e-9;
+    }
+  }
+  solve_spd4(jtj, gradient, step);
+  if (held_at_bound) *held_at_bound = held;
+  double predicted_gain = 0;
+  for (int k = 0; k < 4; ++k) predicted_gain += gradient[k] * step[k];
+  return predicted_gain;
+}
+
 }  // namespace chromo::estimation::detail

@@ -8,6 +8,9 @@
 #include <limits>
 #include <stdexcept>
 
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+
 #include "spd_solve.hpp"
 
 namespace chromo::estimation {
@@ -31,41 +34,92 @@ std::array<int, 4> node_of_index(std::uint32_t node, const std::array<int, 4>& n
   return {i_cm, i_ch, i_bm, i_che};
 }
 
-// Bounded Gauss-Newton on |z − P(x)|² in the subspace (P: SubspaceTable::predict)
-// from x, with `free_dims` free coordinates (4, or 2 for the 2D slice) and
-// backtracking (the interpolant is piecewise multilinear). x is updated.
-void subspace_gauss_newton(const SubspaceTable& table, const float* z, const float* upper, int free_dims, int steps,
-                           float* x) {
+// The pixel's own diagonal weights in the subspace. With y the whitened
+// channels, U the stored axes (C × 8), D = diag(weight_c · σ_ref,c) and r⊥ the
+// measurement's part off the subspace (the table's own is negligible,
+// SubspaceTable::off_subspace_rms()), the full weighted χ² at x is
+//   |D (U (z_x − z_m) − r⊥)|² = |Lᵀ z_x − target|² + const,
+// M = Uᵀ D² U = L Lᵀ, b = Uᵀ D² r⊥, target = Lᵀ z_m + L⁻¹ b: an 8-D problem
+// whose set-up is O(C) once per pixel.
+struct PixelMetric {
+  float lt[kDims * kDims];  // Lᵀ, row-major
+  float target[kDims];
+};
+
+bool pixel_metric(const SubspaceTable& table, const double* measured, const double* weight, const float* z,
+                  PixelMetric& out) {
+  const int channels = table.channels(), kept = table.kept_dims();
+  ChannelBuffer<float> y(channels);
+  table.whiten(measured, y);
+  Eigen::Matrix<double, kDims, kDims> m = Eigen::Matrix<double, kDims, kDims>::Zero();
+  Eigen::Matrix<double, kDims, 1> b = Eigen::Matrix<double, kDims, 1>::Zero();
+  const std::vector<double>& sigma = table.reference_sigma();
+  for (int c = 0; c < channels; ++c) {
+    Eigen::Matrix<double, kDims, 1> a = Eigen::Matrix<double, kDims, 1>::Zero();
+    double off = y[c];
+    for (int k = 0; k < kept; ++k) a(k) = table.axis(k)[c], off -= a(k) * z[k];
+    const double rho2 = (weight[c] * sigma[c]) * (weight[c] * sigma[c]);
+    m.noalias() += rho2 * a * a.transpose();
+    b += (rho2 * off) * a;
+  }
+  for (int k = kept; k < kDims; ++k) m(k, k) = 1;
+  const Eigen::LLT<Eigen::Matrix<double, kDims, kDims>> llt(m);
+  if (llt.info() != Eigen::Success) return false;
+  const Eigen::Matrix<double, kDims, kDims> lt = llt.matrixU();
+  const Eigen::Matrix<double, kDims, 1> c = llt.matrixL().solve(b);
+  Eigen::Matrix<double, kDims, 1> zm;
+  for (int k = 0; k < kDims; ++k) zm(k) = z[k];
+  const Eigen::Matrix<double, kDims, 1> target = lt * zm + c;
+  for (int r = 0; r < kDims; ++r) {
+    out.target[r] = static_cast<float>(target(r));
+    for (int k = 0; k < kDims; ++k) out.lt[r * kDims + k] = static_cast<float>(lt(r, k));
+  }
+  return std::isfinite(target.sum());
+}
+
+// Bounded Gauss-Newton on |Lᵀ P(x) − target|² in the subspace (P:
+// SubspaceTable::predict; without a metric |P(x) − z|²) from x, with
+// `free_dims` free coordinates (4, or 2 for the 2D slice) and backtracking
+// (the interpolant is piecewise multilinear). x is updated.
+void subspace_gauss_newton(const SubspaceTable& table, const float* z, const PixelMetric* metric, const float* upper,
+                           int free_dims, int steps, float* x) {
   float value[kDims], jacobian[kDims * 4];
+  const float* goal = metric ? metric->target : z;
   auto chi2_at = [&](const float* at, bool with_jacobian) {
-    table.predict(at, value, with_jacobian ? jacobian : nullptr);
-    return distance2(value, z);
+    float raw[kDims], raw_jacobian[kDims * 4];
+    table.predict(at, raw, with_jacobian ? raw_jacobian : nullptr);
+    if (!metric) {
+      std::copy_n(raw, kDims, value);
+      if (with_jacobian) std::copy_n(raw_jacobian, kDims * 4, jacobian);
+    } else {
+      for (int r = 0; r < kDims; ++r) {
+        float v = 0, j[4] = {};
+        for (int k = r; k < kDims; ++k) {  // Lᵀ is upper triangular
+          const float l = metric->lt[r * kDims + k];
+          v += l * raw[k];
+          if (with_jacobian)
+            for (int q = 0; q < 4; ++q) j[q] += l * raw_jacobian[k * 4 + q];
+        }
+        value[r] = v;
+        if (with_jacobian) std::copy_n(j, 4, jacobian + r * 4);
+      }
+    }
+    return distance2(value, goal);
   };
   double chi2 = chi2_at(x, true);
   float trial[4];
   for (int iteration = 0; iteration < steps && chi2 > 1e-6; ++iteration) {
     double jtj[16] = {}, gradient[4] = {};
     for (int r = 0; r < kDims; ++r) {
-      const double residual = value[r] - z[r];
+      const double residual = value[r] - goal[r];
       const float* row = jacobian + r * 4;
       for (int i = 0; i < 4; ++i) {
         gradient[i] += row[i] * residual;
         for (int k = 0; k < 4; ++k) jtj[i * 4 + k] += double(row[i]) * row[k];
       }
     }
-    for (int k = 0; k < 4; ++k) {
-      const bool at_bound = (x[k] <= 0 && gradient[k] > 0) || (x[k] >= upper[k] && gradient[k] < 0);
-      if (at_bound || k >= free_dims) {
-        for (int i = 0; i < 4; ++i) jtj[k * 4 + i] = jtj[i * 4 + k] = 0;
-        jtj[k * 4 + k] = 1, gradient[k] = 0;
-      } else {
-        jtj[k * 4 + k] *= 1 + 1e-9;
-      }
-    }
     double step[4];
-    detail::solve_spd4(jtj, gradient, step);
-    double predicted_gain = 0;
-    for (int k = 0; k < 4; ++k) predicted_gain += gradient[k] * step[k];
+    const double predicted_gain = detail::bounded_gauss_newton_step(jtj, gradient, x, upper, free_dims, step);
     if (predicted_gain < 1e-4 * chi2) break;
     bool improved = false;
     for (float scale = 1.0f; scale > 0.005f && !improved; scale *= 0.5f) {
@@ -250,9 +304,24 @@ Fit SubspaceInverter::fit(const double* measured, const double* weight, int orde
       }
   }
   at = descend_nodes(z, at, free_dims, free_dims == 2);
+  // Off the node by a parabola through its two axis neighbours' χ² per axis
+  // (at a node the multilinear Jacobian is one-sided: Gauss-Newton started
+  // there often found no descent towards the lower side).
   float x[4] = {float(at[0]), float(at[1]), float(at[2]), float(at[3])};
+  const float centre = distance2(subspace_->node(subspace_->node_index(at[0], at[1], at[2], at[3])), z);
+  for (int k = 0; k < free_dims; ++k) {
+    if (at[k] == 0 || at[k] == n[k] - 1) continue;
+    std::array<int, 4> below = at, above = at;
+    --below[k], ++above[k];
+    const float lo = distance2(subspace_->node(subspace_->node_index(below[0], below[1], below[2], below[3])), z);
+    const float hi = distance2(subspace_->node(subspace_->node_index(above[0], above[1], above[2], above[3])), z);
+    const float curvature = lo - 2 * centre + hi;
+    if (curvature > 0) x[k] += std::clamp(0.5f * (lo - hi) / curvature, -0.5f, 0.5f);
+  }
   if (free_dims == 2) x[2] = static_cast<float>(bm_2d_coordinate()), x[3] = 0;
-  subspace_gauss_newton(*subspace_, z, upper, free_dims, options_.subspace_steps, x);
+  PixelMetric metric;
+  const bool weighted = pixel_metric(*subspace_, measured, weight, z, metric);
+  subspace_gauss_newton(*subspace_, z, weighted ? &metric : nullptr, upper, free_dims, options_.subspace_steps, x);
 
   // Polish on the full weighted residual (the pixel's own weights).
   Fit fit = refine(measured, weight, order, GridPoint{x[0], x[1], x[2], x[3]}, options_.polish_steps);

@@ -124,6 +124,10 @@ std::shared_ptr<const SubspaceTable> SubspaceTable::shared(std::shared_ptr<const
   return made;
 }
 
+void SubspaceTable::whiten(const double* measured, float* y) const {
+  for (int c = 0; c < channels_; ++c) y[c] = static_cast<float>(measured[c]) * scale_[c] - mean_[c];
+}
+
 void SubspaceTable::project(const double* measured, float* z) const {
   std::fill_n(z, kDims, 0.0f);
   const int kept = std::min(channels_, kDims);

@@ -116,7 +116,7 @@ bool PlanDescription::IsValid(std::string* error) const {
 }
 
 std::vector<std::string> builtin_plan_names() {
-  return {"method", "method-blue", "multispectral", "d65",      "w57",      "w40",
+  return {"method", "standard", "method-blue", "multispectral", "d65",      "w57",      "w40",
           "w27",    "d65+blue",    "w57+blue",      "w40+blue", "w27+blue"};
 }
 
@@ -148,6 +148,7 @@ PlanDescription builtin_plan(const std::string& full_name, const calibration::Le
   };
   PlanDescription plan;
   plan.name = full_name;
+  if (name == "standard") name = "method";  // the session commands' name of the method's plan (issue 41)
   if (name == "method") {
     plan.captures = {{"D65'", mix("d65")}, {"W57", mix("w57")}, {"W57+blue", mix("w57+blue")}};
     plan.channels = {{"D65'", 0, ""}, {"D65'", 1, ""}, {"D65'", 2, ""}, {"W57+blue", 2, "W57"}};

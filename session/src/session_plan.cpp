@@ -321,6 +321,21 @@ std::string role_name(StepRole role) {
 
 std::string timing_name(Timing timing) { return timing == Timing::kHardware ? "hardware" : "software"; }
 
+nlohmann::json drive_levels_to_json(const drivers::DriveLevels& levels) {
+  nlohmann::json weights = nlohmann::json::object();
+  for (auto type : spectral::kAllLedTypes)
+    weights[std::string(spectral::led_type_name(type))] = levels[static_cast<std::size_t>(spectral::led_type_index(type))];
+  return weights;
+}
+
+drivers::DriveLevels drive_levels_from_json(const nlohmann::json& weights) {
+  drivers::DriveLevels levels{};
+  for (auto type : spectral::kAllLedTypes)
+    levels[static_cast<std::size_t>(spectral::led_type_index(type))] =
+        weights.value(std::string(spectral::led_type_name(type)), 0.0);
+  return levels;
+}
+
 nlohmann::json to_json(const SessionPlan& plan) {
   nlohmann::json steps = nlohmann::json::array();
   for (const auto& step : plan.steps) {
@@ -345,11 +360,7 @@ nlohmann::json to_json(const SessionPlan& plan) {
       case Illumination::Kind::kDark: s["illumination"] = {{"dark", true}}; break;
       case Illumination::Kind::kMix: s["illumination"] = {{"mix", step.illumination.mix}}; break;
       case Illumination::Kind::kWeights: {
-        nlohmann::json weights;
-        for (auto type : spectral::kAllLedTypes)
-          weights[std::string(spectral::led_type_name(type))] =
-              step.illumination.weights[static_cast<std::size_t>(spectral::led_type_index(type))];
-        s["illumination"] = {{"weights", weights}};
+        s["illumination"] = {{"weights", drive_levels_to_json(step.illumination.weights)}};
         break;
       }
     }
@@ -421,9 +432,7 @@ SessionPlan plan_from_json(const nlohmann::json& json) {
         step.illumination.mix = illumination.at("mix").get<std::string>();
       } else if (illumination.contains("weights")) {
         step.illumination.kind = Illumination::Kind::kWeights;
-        for (auto type : spectral::kAllLedTypes)
-          step.illumination.weights[static_cast<std::size_t>(spectral::led_type_index(type))] =
-              illumination.at("weights").value(std::string(spectral::led_type_name(type)), 0.0);
+        step.illumination.weights = drive_levels_from_json(illumination.at("weights"));
       }
       plan.steps.push_back(std::move(step));
     }

@@ -57,7 +57,7 @@ SessionStore::SessionStore(std::filesystem::path root, files::StorageBudget* bud
 }
 
 SessionStore::Created SessionStore::create(const SessionPlan& plan, const std::string& subject,
-                                           const nlohmann::json& devices) {
+                                           const nlohmann::json& devices, const SessionProvenance* provenance) {
   Created created;
   created.id = new_session_id(plan.name);
   created.folder = root_ / created.id;
@@ -66,7 +66,7 @@ SessionStore::Created SessionStore::create(const SessionPlan& plan, const std::s
   // A start refused while the folder is being filled (a full disk, the
   // storage budget) leaves no folder behind: it is ours, made just now.
   try {
-    fill_new_session_folder(created, plan, subject, devices);
+    fill_new_session_folder(created, plan, subject, devices, provenance);
   } catch (...) {
     created.journal.reset();
     std::error_code ignored;
@@ -77,7 +77,7 @@ SessionStore::Created SessionStore::create(const SessionPlan& plan, const std::s
 }
 
 void SessionStore::fill_new_session_folder(Created& created, const SessionPlan& plan, const std::string& subject,
-                                           const nlohmann::json& devices) {
+                                           const nlohmann::json& devices, const SessionProvenance* provenance) {
   files::fsync_directory(root_);
   nlohmann::json session{{"format", "chromosphere-session/" + std::to_string(kSessionFormatVersion)},
                          {"id", created.id},
@@ -86,6 +86,7 @@ void SessionStore::fill_new_session_folder(Created& created, const SessionPlan& 
                          {"created", utc_timestamp_now()},
                          {"plan", to_json(plan)},
                          {"devices", devices}};
+  if (provenance) session["provenance"] = to_json(*provenance);
   files::write_file_durably(created.folder / "session.json", session.dump(2) + "\n", budget_);
   created.journal = std::make_unique<Journal>(created.folder / "journal.jsonl", budget_);
   created.journal->append({{"type", "state"}, {"state", "pending"}});
@@ -109,6 +110,16 @@ SessionInfo SessionStore::read_session(const std::filesystem::path& folder) cons
   info.record.created = parse_time(session.value("created", ""));
   info.record.updated = info.record.created;
   info.subject = session.value("subject", "");
+  info.record.subject = info.subject;
+  if (session.contains("provenance")) {
+    try {
+      info.provenance = provenance_from_json(session.at("provenance"));
+    } catch (const std::invalid_argument& error) {
+      throw std::runtime_error(folder.string() + "/session.json: " + error.what());
+    }
+    info.record.study = info.provenance.study;
+    info.record.operator_name = info.provenance.operator_name;
+  }
   info.plan = plan_from_json(session.at("plan"));
   for (const auto& step : info.plan.steps) info.steps.push_back({step.name, step.role, false, 0});
   info.record.step_count = static_cast<int>(info.plan.steps.size());

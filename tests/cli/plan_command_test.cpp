@@ -50,6 +50,18 @@ TEST(ChromoPlan, ComparesBuiltinsAndAPlanFile) {
 }
 
 // The seed's broadband study plans by name (issue 38).
+// Issue 41, problem 9: the session commands' name of the method's plan,
+// "standard", is the same plan in plan compare (its older name "method" too).
+TEST(ChromoPlan, StandardIsTheMethodsPlanAsInTheSessionCommands) {
+  const Result r = run_chromo("plan compare standard method --skins 4 --mc-draws 1 --json --chart ''");
+  ASSERT_EQ(r.exit_status, 0) << r.output;
+  const auto j = nlohmann::json::parse(r.output);
+  ASSERT_EQ(j.size(), 2u);
+  EXPECT_EQ(j[0]["plan"], "standard");
+  EXPECT_EQ(j[0]["channels"], j[1]["channels"]);
+  EXPECT_EQ(j[0]["predicted_delta_e94"], j[1]["predicted_delta_e94"]);
+}
+
 TEST(ChromoPlan, OffersTheBroadbandStudyPlansByName) {
   const Result r = run_chromo("plan compare w27 w40+blue --skins 4 --mc-draws 1 --json --chart ''");
   ASSERT_EQ(r.exit_status, 0) << r.output;

@@ -90,6 +90,9 @@ TEST_F(ApiFixture, StandardSessionStreamsProgressAndResultsAreFetchedById) {
   request.set_exposure_us(1000);
   request.set_reference_frames(2);  // the dark and the 3 whites: 2 frames each; the 3 subjects 1
   request.set_subject("api test");
+  request.set_operator_name("Ana");
+  request.set_study("pilot-41");
+  request.set_preflight(true);  // the healthy lab: warnings (no calibration), nothing failed
   pb::Operation started;
   ASSERT_TRUE(start_session(*channel, request, &started).ok());
   EXPECT_FALSE(started.id().empty());
@@ -122,6 +125,69 @@ TEST_F(ApiFixture, StandardSessionStreamsProgressAndResultsAreFetchedById) {
   ASSERT_TRUE(pb::ResultsService::NewStub(other)->GetResults(&results_context, results_request, &results).ok());
   EXPECT_EQ(results.frame_files_size(), 11);
   EXPECT_EQ(results.folder(), final.folder());
+
+  // Issue 41: what it was made with, in the detail, the results and the list.
+  for (const pb::SessionProvenance* p : {&detail.provenance(), &results.provenance()}) {
+    ASSERT_TRUE(p->recorded());
+    EXPECT_EQ(p->led_library().kind(), "nominal");  // no calibration has run
+    EXPECT_EQ(p->led_library().age_at_start_s(), -1);
+    EXPECT_EQ(p->operator_name(), "Ana");
+    EXPECT_EQ(p->study(), "pilot-41");
+    EXPECT_EQ(p->plan(), "standard");
+    EXPECT_THAT(p->estimator_version(), ::testing::StartsWith("chromosphere "));
+    ASSERT_EQ(p->mixes().count("d65"), 1u);
+    EXPECT_EQ(p->mixes().at("d65").origin(), "configured (mixes)");
+    EXPECT_DOUBLE_EQ(p->mixes().at("d65").weights().w57(), lab.config.mixes.at("d65")[0]);
+    EXPECT_EQ(p->estimator_options().at("method"), lab.config.estimation.method);
+  }
+  grpc::ClientContext list_context;
+  pb::ListSessionsResponse list;
+  ASSERT_TRUE(pb::SessionService::NewStub(other)->ListSessions(&list_context, {}, &list).ok());
+  ASSERT_EQ(list.sessions_size(), 1);
+  EXPECT_EQ(list.sessions(0).subject(), "api test");
+  EXPECT_EQ(list.sessions(0).study(), "pilot-41");
+  EXPECT_EQ(list.sessions(0).operator_name(), "Ana");
+  const auto report = nlohmann::json::parse(std::ifstream(std::filesystem::path(final.folder()) / "results" / "summary.json"));
+  EXPECT_EQ(report.at("provenance").at("operator"), "Ana");
+  EXPECT_EQ(report.at("provenance").at("led_library").at("kind"), "nominal");
+  const auto audit = audit_lines(lab.config.sessions_dir);
+  ASSERT_FALSE(audit.empty());
+  EXPECT_TRUE(audit.back().at("preflight").at("failed").empty()) << audit.back().dump();
+}
+
+// Issue 41: a failed check refuses a preflighted start, naming the check and
+// its fix; an override reason lets it past the preflight and goes to the audit log.
+TEST_F(ApiFixture, PreflightRefusesAFailedCheckUnlessOverriddenWithAReasonTheAuditLogKeeps) {
+  lab.config.storage_limit_bytes = 64 << 10;  // below one session's frames: the disk check fails
+  start();
+  pb::StartSessionRequest request;
+  request.set_standard(true);
+  request.set_exposure_us(1000);
+  request.set_preflight(true);
+  pb::Operation started;
+  grpc::Status status = start_session(*channel, request, &started);
+  EXPECT_EQ(status.error_code(), StatusCode::FAILED_PRECONDITION);
+  EXPECT_THAT(status.error_message(), ::testing::HasSubstr("preflight: disk: "));
+  EXPECT_THAT(status.error_message(), ::testing::HasSubstr("preflight_override_reason"));
+  EXPECT_FALSE(std::filesystem::exists(lab.config.sessions_dir) &&
+               std::any_of(std::filesystem::directory_iterator(lab.config.sessions_dir), {},
+                           [](const auto& entry) { return std::filesystem::exists(entry.path() / "session.json"); }));
+  request.set_preflight_override_reason(std::string("bad\x01reason"));
+  status = start_session(*channel, request, &started);
+  EXPECT_EQ(status.error_code(), StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(status.error_message(), ::testing::HasSubstr("preflight_override_reason"));
+  request.set_preflight_override_reason("dry run of the storage limit");
+  status = start_session(*channel, request, &started);
+  EXPECT_NE(status.error_message().find("preflight"), 0u) << "past the preflight: " << status.error_message();
+  if (status.ok()) watch_to_end(started.id());
+  const auto audit = audit_lines(lab.config.sessions_dir);
+  ASSERT_GE(audit.size(), 3u);
+  const auto& refused = audit[audit.size() - 3].at("preflight");
+  EXPECT_EQ(refused.at("failed"), nlohmann::json::array({"disk"}));
+  EXPECT_FALSE(refused.contains("override_reason"));
+  const auto& overridden = audit.back().at("preflight");
+  EXPECT_EQ(overridden.at("failed"), nlohmann::json::array({"disk"}));
+  EXPECT_EQ(overridden.at("override_reason"), "dry run of the storage limit");
 }
 
 TEST_F(ApiFixture, UnixSocketCarriesTheConfiguredPermissions) {

@@ -116,7 +116,7 @@ TEST(SubspaceTable, BadReferenceSigmaIsRefusedByName) {
 
 // Per pixel against the exhaustive search on held-out noisy skin (seeds never
 // used while writing the inverter), orders 4 and 2: the same weighted χ²
-// within 2% + 0.05 on ≥ 95% of fits, and within 1% on average.
+// within 2% + 0.05 on ≥ 97% of fits, and within 1% on average.
 void expect_exhaustive_chi2(const MeasurementSet& set, std::shared_ptr<const ForwardTable> table, std::uint64_t seed,
                             int pixels) {
   simulators::SyntheticOptions o;
@@ -150,7 +150,7 @@ void expect_exhaustive_chi2(const MeasurementSet& set, std::shared_ptr<const For
   std::printf("%d channels, seed %llu: subspace at the exhaustive chi2 on %d of %d fits, mean chi2 %.4f against %.4f\n",
               c_count, static_cast<unsigned long long>(seed), at_exhaustive, 2 * pixels, sum_subspace / (2 * pixels),
               sum_exhaustive / (2 * pixels));
-  EXPECT_GE(at_exhaustive, 0.95 * 2 * pixels);
+  EXPECT_GE(at_exhaustive, 0.97 * 2 * pixels);
   EXPECT_LE(sum_subspace, 1.01 * sum_exhaustive);
 }
 

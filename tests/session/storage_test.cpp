@@ -13,6 +13,7 @@
 #include "chromo/session/journal.hpp"
 #include "chromo/session/session_store.hpp"
 #include "../support/fresh_directory.hpp"
+#include "../support/one_step_plan.hpp"
 
 namespace chromo::session {
 namespace {
@@ -24,12 +25,7 @@ using testing::fresh_directory;
 // an id of "../../etc" was listed. Such folders are skipped, with the reason.
 TEST(SessionStore, RecoverSkipsAFolderWhoseIdIsNotItsNameAndSaysWhy) {
   const auto root = fresh_directory("store-ids");
-  SessionPlan plan;
-  plan.name = "p";
-  plan.steps.resize(1);
-  plan.steps[0].name = "dark";
-  plan.steps[0].role = StepRole::kDark;
-  plan.steps[0].exposure_us = 1000;
+  const SessionPlan plan = testing::one_dark_step_plan();
   std::string id;
   {
     SessionStore store(root, nullptr);

@@ -5,30 +5,16 @@
 //   node tests/web/browser_test.mjs CHROMOD WEB_DIR SCREENSHOT_DIR
 //
 // Exit 0 pass, 1 fail, 77 skipped (no chromium, or web/node_modules missing).
-import { createRequire } from 'node:module';
 import { spawn } from 'node:child_process';
 import { existsSync, mkdtempSync, mkdirSync, writeFileSync, rmSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import path from 'node:path';
-import { fileURLToPath } from 'node:url';
 import assert from 'node:assert/strict';
+import { browserOrSkip, Chromod, waitUntil, callApi, runMain } from './harness.mjs';
 
-const SKIP = 77;
 const [chromod, webDir, screenshotDir] = process.argv.slice(2);
 mkdirSync(screenshotDir, { recursive: true });
-const chromium = process.env.CHROMO_CHROMIUM ?? '/usr/bin/chromium';
-const repository = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '../..');
-if (!existsSync(chromium)) {
-  console.log(`SKIPPED: no chromium at ${chromium} (scripts/setup.sh installs it)`);
-  process.exit(SKIP);
-}
-let playwright;
-try {
-  playwright = createRequire(path.join(repository, 'web/package.json'))('playwright-core');
-} catch (error) {
-  console.log(`SKIPPED: playwright-core not installed in web/node_modules (build the target web): ${error.message}`);
-  process.exit(SKIP);
-}
+const { playwright, chromium } = browserOrSkip();
 assert.ok(chromod && existsSync(chromod), `chromod: ${chromod} does not exist`);
 assert.ok(existsSync(path.join(webDir, 'app.js')), `web dir ${webDir}: no app.js (build the target web)`);
 
@@ -40,56 +26,16 @@ writeFileSync(path.join(home, 'chromod.json'), JSON.stringify({ token: TOKEN, we
 const figures = {};
 const time = (name, started) => { figures[name] = Math.round(performance.now() - started); };
 
-// Starts chromod; resolves with its web view's origin once it listens.
-let daemon = null;
+// chromod (tests/web/harness.mjs); its configuration file is rewritten for the polarised lab.
+const daemon = new Chromod(chromod, home, path.join(home, 'chromod.json'), runDir);
 let browser = null;
-function startDaemon(port = 0) {
-  daemon = spawn(chromod, ['--config', path.join(home, 'chromod.json'), '--socket', path.join(runDir, 'chromod.sock'),
-    '--sessions-dir', path.join(home, 'sessions'), '--web', `127.0.0.1:${port}`],
-  { env: { ...process.env, CHROMO_HOME: home, CHROMO_RUNTIME_DIR: runDir }, stdio: ['ignore', 'pipe', 'pipe'] });
-  daemon.stderr.on('data', (data) => process.stderr.write(`[chromod] ${data}`));
-  return new Promise((resolve, reject) => {
-    let output = '';
-    daemon.stdout.on('data', (data) => {
-      output += data;
-      const listening = output.match(/web view on (http:\/\/[0-9.]+:[0-9]+)\//);
-      if (listening) resolve(listening[1]);
-    });
-    daemon.on('exit', (code) => reject(new Error(`chromod exited (${code}) before listening: ${output}`)));
-  });
-}
-function stopDaemon() {
-  return new Promise((resolve) => {
-    if (!daemon || daemon.exitCode !== null) return resolve();
-    daemon.removeAllListeners('exit');
-    const stubborn = setTimeout(() => {
-      console.error('FAIL: chromod did not stop within 15 s of SIGTERM; killed');
-      process.exitCode = 1;
-      daemon.kill('SIGKILL');
-    }, 15000);
-    daemon.on('exit', () => { clearTimeout(stubborn); resolve(); });
-    daemon.kill('SIGTERM');
-  });
-}
+const startDaemon = (port = 0) => daemon.start(port);
+const stopDaemon = () => daemon.stop();
 
 // The API from the test itself (node's fetch), with its own log-in cookie.
 let origin;
 let cookie = '';
-async function api(service, method, body, headers = {}) {
-  const reply = await fetch(`${origin}/api/${service}/${method}`, { method: 'POST',
-    headers: { 'Content-Type': 'application/json', Origin: origin, Cookie: cookie, ...headers }, body: JSON.stringify(body) });
-  return { status: reply.status, json: await reply.json() };
-}
-
-// page.waitForFunction evaluates a string in the page, which the page's CSP
-// (no unsafe-eval) refuses: poll page.evaluate from here instead.
-async function waitUntil(page, predicate, argument, timeoutMs, what) {
-  const deadline = performance.now() + timeoutMs;
-  while (!(await page.evaluate(predicate, argument))) {
-    if (performance.now() > deadline) throw new Error(`timed out after ${timeoutMs} ms waiting for ${what}`);
-    await new Promise((resolve) => setTimeout(resolve, 100));
-  }
-}
+const api = (service, method, body, headers = {}) => callApi(origin, cookie, service, method, body, headers);
 
 async function meanBrightness(page) {
   return page.evaluate(() => {
@@ -558,14 +504,8 @@ async function main() {
   console.log(`timings: ${JSON.stringify(figures)}`);
 }
 
-try {
-  await main();
-  console.log('PASS');
-} catch (error) {
-  console.error(`FAIL: ${error.stack ?? error}`);
-  process.exitCode = 1;
-} finally {
+await runMain(main, async () => {
   if (browser) await browser.close().catch(() => {});
   await stopDaemon();
   rmSync(home, { recursive: true, force: true });
-}
+});

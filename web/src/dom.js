@@ -43,6 +43,12 @@ export function field(labelText, control) {
   return h('div', { class: 'field' }, h('label', { htmlFor: control.id }, labelText), control);
 }
 
+// What went wrong, for an operator: the daemon's message without the gRPC
+// code (FAILED_PRECONDITION and the like mean nothing at the sphere).
+export function humanError(error) {
+  return String(error?.message ?? error);
+}
+
 // A region that says what went wrong (role=alert) or what happened (status).
 export function messageArea(name = '') {
   const base = `message ${name}`.trim();
@@ -51,7 +57,8 @@ export function messageArea(name = '') {
     element: area,
     error(error) {
       area.className = `${base} error`;
-      area.textContent = error?.code ? `${error.message} (${error.code})` : String(error?.message ?? error);
+      area.textContent = humanError(error);
+      if (error?.code) area.dataset.code = error.code;  // for scripts and tests, not shown
     },
     info(text) {
       area.className = `${base} info`;
@@ -74,12 +81,24 @@ export function table(headers, rows, caption) {
   );
 }
 
+// `digits` significant digits, written out as a person reads them: 9734.2 →
+// "9730", 0.01234 → "0.0123"; the exponent form only below 0.001 or from 1e9.
 export function formatNumber(value, digits = 3) {
   if (value === undefined || value === null || value === '') return '–';
   const number = Number(value);
   if (!Number.isFinite(number)) return String(value);
   if (Number.isInteger(number) && Math.abs(number) < 1e9) return String(number);
-  return number.toPrecision(digits);
+  const rounded = Number(number.toPrecision(digits));
+  if (rounded !== 0 && (Math.abs(rounded) < 1e-3 || Math.abs(rounded) >= 1e9)) return number.toPrecision(digits);
+  return String(rounded);
+}
+
+// A duration for people: "12 min", "3.2 h", "4.0 days".
+export function formatAge(seconds) {
+  if (!(seconds >= 0)) return 'of unknown age';
+  if (seconds < 3600) return `${Math.round(seconds / 60)} min`;
+  if (seconds < 48 * 3600) return `${(seconds / 3600).toFixed(1)} h`;
+  return `${(seconds / 86400).toFixed(1)} days`;
 }
 
 // "OPERATION_STATE_RUNNING" -> "running"

@@ -5,6 +5,8 @@ import { mountLive } from './pages/live.js';
 import { mountDevices } from './pages/devices.js';
 import { mountSessions } from './pages/sessions.js';
 import { mountResults } from './pages/results.js';
+import { startSessionBar } from './session_bar.js';
+import { startTheme } from './theme.js';
 
 const PAGES = {
   live: { title: 'Live', mount: mountLive },
@@ -18,6 +20,7 @@ const nav = document.getElementById('nav');
 const banner = document.getElementById('connection');
 let unmountCurrent = null;
 let loggedIn = false;
+let stopSessionBar = null;  // the running operation's bar, on every page once logged in
 
 function show(mount, argument) {
   if (unmountCurrent) unmountCurrent();
@@ -27,6 +30,8 @@ function show(mount, argument) {
 
 function route() {
   if (!loggedIn) {
+    if (stopSessionBar) stopSessionBar();
+    stopSessionBar = null;
     nav.hidden = true;
     document.title = 'Log in · Chromosphere';
     show(mountLogin, async () => {
@@ -37,6 +42,7 @@ function route() {
     return;
   }
   nav.hidden = false;
+  if (!stopSessionBar) stopSessionBar = startSessionBar(document.getElementById('session-bar'));
   const [name, argument] = location.hash.replace(/^#/, '').split('/');
   const page = PAGES[name] ?? PAGES.live;
   for (const link of nav.querySelectorAll('a')) {
@@ -68,5 +74,6 @@ api.onConnectionChange((connected) => {
   if (connected && loggedIn) route();  // fresh data after the daemon returns
 });
 
+startTheme(document.getElementById('theme'));
 loggedIn = await api.whoami();
 route();

@@ -33,7 +33,10 @@ export function operationView({ controls = false, onFinished = () => {} } = {}) 
   };
   const pause = h('button', { type: 'button', onclick: act('PauseOperation') }, 'Pause');
   const resume = h('button', { type: 'button', onclick: act('ResumeOperation') }, 'Resume');
-  const cancel = h('button', { type: 'button', onclick: act('CancelOperation') }, 'Cancel');
+  const cancelNow = act('CancelOperation');
+  const cancel = h('button', { type: 'button', onclick: () => {
+    if (current && window.confirm(`Cancel ${current.name || current.id}? Stored frames stay; the LEDs go off.`)) cancelNow();
+  } }, 'Cancel');
   const buttons = controls ? h('div', { class: 'buttons' }, pause, resume, cancel) : null;
   bar.id = `progress-${Math.random().toString(36).slice(2)}`;
   const barLabel = h('label', { htmlFor: bar.id }, 'Progress');

@@ -27,11 +27,16 @@ export function linePlot(series, { width = 560, height = 260, xLabel = '', yLabe
     svg.append(s('text', { x: margin.left - 4, y: py(y) + 4, class: 'tick', 'text-anchor': 'end' }, formatNumber(y, 2)));
   }
   svg.append(s('text', { x: (width - margin.right + margin.left) / 2, y: height - 4, class: 'label', 'text-anchor': 'middle' }, xLabel));
+  if (yLabel) {
+    const yMiddle = (height - margin.bottom + margin.top) / 2;
+    svg.append(s('text', { x: 10, y: yMiddle, class: 'label', 'text-anchor': 'middle', transform: `rotate(-90 10 ${yMiddle})` }, yLabel));
+  }
   series.forEach((line, index) => {
     const points = line.x.map((x, i) => `${px(x).toFixed(1)},${py(line.y[i]).toFixed(1)}`).join(' ');
-    svg.append(s('polyline', { points, fill: 'none', stroke: colourOf(index), 'stroke-width': 1.6,
+    const colour = line.colour ?? colourOf(index);  // a series may bring its own (an LED's colour)
+    svg.append(s('polyline', { points, fill: 'none', stroke: colour, 'stroke-width': 1.6,
       'stroke-dasharray': line.dashed ? '5 3' : 'none' }));
-    svg.append(s('text', { x: width - margin.right + 8, y: margin.top + 12 + 14 * index, fill: colourOf(index), class: 'legend' }, line.name));
+    svg.append(s('text', { x: width - margin.right + 8, y: margin.top + 12 + 14 * index, fill: colour, class: 'legend' }, line.name));
   });
   return svg;
 }
@@ -49,5 +54,36 @@ export function barChart(bars, { width = 360, height = 140, title = '', yMax = n
       width: Math.max(0.5, barWidth - 1), height: barHeight, fill: bar.colour ?? colour }));
     if (labels) svg.append(s('text', { x: margin.left + (i + 0.5) * barWidth, y: height - 6, class: 'tick', 'text-anchor': 'middle' }, bar.name));
   });
+  return svg;
+}
+
+// A camera's histogram of raw values with its axes (issue 41): `bins` counts
+// over [0, fullScale], drawn as square-root counts; x ticks at 0, ¼, ½, ¾ and
+// full scale in raw units, the last bin (full scale: clipped) in red.
+export function histogramChart(bins, fullScale, { width = 360, height = 150, title = '' } = {}) {
+  const margin = { left: 34, right: 8, top: 8, bottom: 32 };
+  const plotWidth = width - margin.left - margin.right, plotHeight = height - margin.top - margin.bottom;
+  const top = Math.max(1, ...bins.map((count) => Math.sqrt(count)));
+  const svg = s('svg', { viewBox: `0 0 ${width} ${height}`, role: 'img', 'aria-label': title, class: 'chart histogram-chart' });
+  svg.append(s('title', {}, title));
+  const barWidth = plotWidth / Math.max(1, bins.length);
+  bins.forEach((count, i) => {
+    const barHeight = (Math.sqrt(count) / top) * plotHeight;
+    svg.append(s('rect', { x: margin.left + i * barWidth, y: margin.top + plotHeight - barHeight, width: Math.max(0.5, barWidth - 0.5),
+      height: barHeight, fill: i === bins.length - 1 ? '#e15759' : '#4e79a7' }));
+  });
+  svg.append(s('line', { x1: margin.left, y1: margin.top + plotHeight, x2: width - margin.right, y2: margin.top + plotHeight, class: 'axis' }));
+  svg.append(s('line', { x1: margin.left, y1: margin.top, x2: margin.left, y2: margin.top + plotHeight, class: 'axis' }));
+  for (let i = 0; i <= 4; ++i) {
+    const x = margin.left + (plotWidth * i) / 4;
+    svg.append(s('text', { x, y: margin.top + plotHeight + 12, class: 'tick', 'text-anchor': i === 0 ? 'start' : i === 4 ? 'end' : 'middle' },
+      formatNumber(Math.round((fullScale * i) / 4))));
+  }
+  svg.append(s('text', { x: margin.left - 4, y: margin.top + 8, class: 'tick', 'text-anchor': 'end' }, formatNumber(Math.round(top * top))));
+  svg.append(s('text', { x: margin.left - 4, y: margin.top + plotHeight, class: 'tick', 'text-anchor': 'end' }, '0'));
+  svg.append(s('text', { x: margin.left + plotWidth / 2, y: height - 4, class: 'label', 'text-anchor': 'middle' },
+    'raw value (last bin: full scale, clipped)'));
+  const yMiddle = margin.top + plotHeight / 2;
+  svg.append(s('text', { x: 9, y: yMiddle, class: 'label', 'text-anchor': 'middle', transform: `rotate(-90 9 ${yMiddle})` }, 'pixels (√)'));
   return svg;
 }

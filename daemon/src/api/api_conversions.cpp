@@ -90,14 +90,44 @@ void to_proto(const session::OperationRecord& record, pb::Operation* out) {
   for (const auto& [reason, count] : record.counters.skipped_reasons) (*counters->mutable_skipped_reasons())[reason] = count;
 }
 
+void summary_to_proto(const session::OperationRecord& record, pb::SessionSummary* out) {
+  out->set_id(record.id);
+  out->set_name(record.name);
+  out->set_folder(record.folder);
+  to_proto(record, out->mutable_operation());
+  out->set_subject(record.subject);
+  out->set_study(record.study);
+  out->set_operator_name(record.operator_name);
+}
+
+void to_proto(const session::SessionProvenance& p, pb::SessionProvenance* out) {
+  out->set_recorded(p.recorded);
+  if (!p.recorded) return;
+  auto* library = out->mutable_led_library();
+  library->set_kind(p.led_library.kind);
+  library->set_file(p.led_library.file);
+  library->set_created_utc(p.led_library.created_utc);
+  library->set_age_at_start_s(p.led_library.age_at_start_s);
+  for (const auto& [name, mix] : p.mixes) {
+    auto& used = (*out->mutable_mixes())[name];
+    proto::to_proto(mix.drive, used.mutable_weights());
+    used.set_origin(mix.origin);
+  }
+  out->set_camera_sensitivity(p.camera_sensitivity);
+  for (const auto& [camera, source] : p.camera_sensitivity_of) (*out->mutable_camera_sensitivity_of())[camera] = source;
+  out->set_white_reflectance(p.white_reflectance);
+  out->set_plan(p.plan);
+  out->set_operator_name(p.operator_name);
+  out->set_study(p.study);
+  out->set_estimator_version(p.estimator_version);
+  for (const auto& [key, value] : p.estimator_options) (*out->mutable_estimator_options())[key] = value;
+}
+
 void to_proto(const session::SessionInfo& info, bool include_frames, pb::SessionDetail* out) {
-  auto* summary = out->mutable_summary();
-  summary->set_id(info.record.id);
-  summary->set_name(info.record.name);
-  summary->set_folder(info.record.folder);
-  to_proto(info.record, summary->mutable_operation());
+  summary_to_proto(info.record, out->mutable_summary());
   to_proto(info.plan, out->mutable_plan());
   out->set_subject(info.subject);
+  to_proto(info.provenance, out->mutable_provenance());
   for (std::size_t i = 0; i < info.steps.size(); ++i) {
     auto* step = out->add_steps();
     step->set_index(static_cast<int>(i));
@@ -191,6 +221,7 @@ void cameras_to_proto(const nlohmann::json& r, const std::filesystem::path& fold
 
 void results_to_proto(const session::SessionInfo& info, pb::Results* out) {
   out->set_session_id(info.record.id);
+  to_proto(info.provenance, out->mutable_provenance());
   out->set_folder(info.record.folder);
   for (const auto& frame : info.frames) out->add_frame_files(frame.file);
   if (!session::is_final(info.record.state)) {

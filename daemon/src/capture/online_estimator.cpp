@@ -139,6 +139,7 @@ void OnlineEstimator::estimate_now() {
                                 table_prepare_seconds_.size() == 1 ? nlohmann::ordered_json(table_prepare_seconds_.begin()->second)
                                                                    : prepare_seconds},
                                {"blue_light_hazard", session::recorded_blue_light_hazard(session_.folder / "journal.jsonl")}};
+  if (session_.provenance.recorded) extra["provenance"] = session::to_json(session_.provenance);
   const std::filesystem::path results = session_.folder / "results";
   std::filesystem::create_directories(results);
   // The LED library the illuminants came from, so that `chromo estimate

@@ -2,10 +2,10 @@
 // starting an LED calibration and following it, and the mixes solved on the
 // daemon's LED library (drive levels and figures of merit).
 import * as api from '../api.js';
-import { h, field, messageArea, table, enumName, formatNumber } from '../dom.js';
-import { barChart, colourOf, linePlot } from '../plot.js';
+import { h, field, messageArea, table, enumName, formatNumber, humanError } from '../dom.js';
+import { barChart, linePlot } from '../plot.js';
 import { operationView } from '../operation.js';
-import { LED_CHANNELS } from './live.js';
+import { LED_CHANNELS, LED_COLOURS } from './live.js';
 
 const MIX_TARGETS = [['d65', "D65' (camera objective)", 'MIX_OBJECTIVE_CAMERA', true],
   ['w57', 'W57', 'MIX_OBJECTIVE_CAMERA', false], ['w57+blue', 'W57 + blue', 'MIX_OBJECTIVE_CAMERA', false]];
@@ -45,7 +45,8 @@ function mixSpectrumPlot(library, weights, target, title) {
     const d65Power = library.d65.reduce((a, b) => a + b, 0);
     series.push({ name: 'target D65', x: library.wavelength_nm, y: library.d65.map((v) => (v * mixPower) / d65Power), dashed: true });
   }
-  return linePlot(series, { title: `${title}: mix spectrum against its target`, xLabel: 'wavelength (nm)', width: 420, height: 200 });
+  return linePlot(series, { title: `${title}: mix spectrum against its target`, xLabel: 'wavelength (nm)',
+    yLabel: 'power (library units/nm)', width: 420, height: 200 });
 }
 
 function mixesSection() {
@@ -59,12 +60,21 @@ function mixesSection() {
     try {
       library = await api.call('CalibrationService', 'GetLedLibrary', {});
       spectra.replaceChildren(
-        linePlot(library.leds.map((led) => ({ name: led.led, x: library.wavelength_nm, y: led.spectrum_per_unit_drive })),
-          { title: `LED library (${library.source}, ${library.created_utc}): spectrum per unit drive`, xLabel: 'wavelength (nm)' }),
+        linePlot(library.leds.map((led) => ({ name: led.led, x: library.wavelength_nm, y: led.spectrum_per_unit_drive,
+          colour: LED_COLOURS[LIBRARY_KEYS[led.led]] })),
+          { title: `LED library (${library.source}, ${library.created_utc}): spectrum per unit drive`, xLabel: 'wavelength (nm)',
+            yLabel: 'power per unit drive (library units/nm)' }),
         h('p', { class: 'muted' }, `LED library ${library.library}: ` +
           library.leds.map((led) => `${led.led} ${led.description} (ladder ${led.drive_levels.join(', ')}; limit ${led.max_drive_level})`).join('; ')));
     } catch (error) {
-      spectra.replaceChildren(h('p', { class: 'message error' }, `LED library: ${error.message} (${error.code})`));
+      if (error.code === 'FAILED_PRECONDITION') {
+        // No library: one sentence and the way out, not one refusal per mix.
+        spectra.replaceChildren(h('p', { class: 'message warning', 'data-no-library': '' },
+          'No LED calibration yet: sessions would use the configured mixes and the built-in nominal spectra, not this sphere\'s. ',
+          h('button', { type: 'button', onclick: () => document.querySelector('.calibration-form input')?.focus() }, 'Calibrate now')));
+        return;
+      }
+      spectra.replaceChildren(h('p', { class: 'message error' }, `LED library: ${humanError(error)}`));
     }
     for (const [target, title, objective, hold] of MIX_TARGETS) {
       try {
@@ -72,14 +82,16 @@ function mixesSection() {
         const weights = mix.weights ?? {};
         const figures = Object.entries(mix.figures ?? {}).sort(([a], [b]) => a.localeCompare(b));
         body.append(h('figure', { class: 'mix', 'data-target': target },
-          barChart(LED_CHANNELS.map(([key], i) => ({ name: key, value: weights[key] ?? 0, colour: colourOf(i) })),
+          barChart(LED_CHANNELS.map(([key]) => ({ name: key, value: weights[key] ?? 0, colour: LED_COLOURS[key] })),
             { title: `${title}: drive levels`, yMax: 1 }),
           library ? mixSpectrumPlot(library, weights, target, title) : null,
-          h('figcaption', {}, `${title}: ${mix.summary}`),
-          table(['Figure of merit', 'Value'], figures.map(([name, value]) => [name, formatNumber(value, 4)]), `${title}: figures of merit`),
+          h('figcaption', {}, title, h('details', {}, h('summary', {}, 'How the solver got there'), mix.summary)),
+          // W57 is its own target: its figures would measure it against itself.
+          target === 'w57' ? h('p', { class: 'muted' }, 'W57 alone, the reference of W57 + blue: no figures of merit against itself.')
+            : table(['Figure of merit', 'Value'], figures.map(([name, value]) => [name, formatNumber(value, 4)]), `${title}: figures of merit`),
           h('p', { class: 'muted' }, `library: ${mix.library}`)));
       } catch (error) {
-        body.append(h('p', { class: 'message error' }, `${title}: ${error.message} (${error.code})`));
+        body.append(h('p', { class: 'message error' }, `${title}: ${humanError(error)}`));
       }
     }
   };
@@ -94,7 +106,7 @@ function calibrationSection(onCalibrated) {
   const warmup = h('input', { type: 'number', min: 0, max: 600000, step: 1, value: 0 });
   const message = messageArea();
   const progress = operationView({ controls: true, onFinished: onCalibrated });
-  const form = h('form', { class: 'inline' },
+  const form = h('form', { class: 'inline calibration-form' },
     field('Drive levels (comma-separated, each in (0, 1])', levels), field('Warm-up (ms)', warmup),
     h('button', { type: 'submit' }, 'Start calibration'));
   form.addEventListener('submit', async (event) => {

@@ -3,8 +3,10 @@
 // exposure and pixel format, all settable from the page.
 import * as api from '../api.js';
 import { h, field, messageArea, formatNumber, decodeBase64 } from '../dom.js';
-import { barChart } from '../plot.js';
+import { histogramChart } from '../plot.js';
 
+// Each LED type drawn in its own light's colour (the whites from cool to warm).
+export const LED_COLOURS = { w57: '#6f8fc8', w40: '#a8a08a', w27: '#d9963f', red: '#d62728', green: '#2ca02c', blue: '#1f4fd6' };
 export const LED_CHANNELS = [
   ['w57', 'W57 (cool white)'], ['w40', 'W40 (neutral white)'], ['w27', 'W27 (warm white)'],
   ['red', 'Red'], ['green', 'Green'], ['blue', 'Blue'],
@@ -31,12 +33,65 @@ async function drawFrame(frame, picture, overlay) {
   context.putImageData(image, 0, 0);
 }
 
+// The newest succeeded session's Cm map of this camera (MapsService.GetMap,
+// 480 cells wide): {id, map}, or null.
+async function lastSessionMap(cameraName) {
+  const { sessions = [] } = await api.call('SessionService', 'ListSessions', { limit: 20 });
+  for (const session of sessions) {
+    if (session.operation?.state !== 'OPERATION_STATE_SUCCEEDED') continue;
+    const results = await api.call('ResultsService', 'GetResults', { session_id: session.id });
+    const camera = (results.cameras ?? []).find((c) => c.camera === cameraName && c.state === 'RESULTS_STATE_AVAILABLE');
+    if (!camera) continue;
+    const map = await api.call('MapsService', 'GetMap', { session_id: session.id,
+      maps_file: camera.maps_file.slice(results.folder.length + 1), channel: 'Cm', max_width: 480 });
+    return { id: session.id, map };
+  }
+  return null;
+}
+
+// The ghost: the map's explained cells in translucent white over the picture
+// (its outline is where the subject was), nothing where the map has no value.
+function drawGhost(canvas, map) {
+  canvas.width = map.width;
+  canvas.height = map.height;
+  const context = canvas.getContext('2d');
+  const image = context.createImageData(map.width, map.height);
+  map.values.forEach((raw, i) => {
+    if (!Number.isFinite(Number(raw))) return;
+    image.data.set([255, 255, 255, 90], 4 * i);
+  });
+  context.putImageData(image, 0, 0);
+  canvas.dataset.cells = String(map.values.filter((raw) => Number.isFinite(Number(raw))).length);
+}
+
 function cameraPanel(camera) {
   const picture = h('canvas', { class: 'picture', 'aria-label': `${camera.name}: live picture`, role: 'img' });
   const overlay = h('canvas', { class: 'overlay', 'aria-hidden': 'true' });
   const showClipped = h('input', { type: 'checkbox', checked: true });
+  // Zoom: the picture at 1, 2 or 4 times its box, scrolled inside it.
+  const zoom = h('select', { name: 'zoom' }, [1, 2, 4].map((factor) => h('option', { value: String(factor) }, `${factor}×`)));
+  const pictureFrame = h('div', { class: 'picture-zoom' });
+  zoom.addEventListener('change', () => { pictureFrame.dataset.zoom = zoom.value; });
+  // The last finished session's Cm map over the picture, to put the subject back where it was.
+  const ghost = h('canvas', { class: 'ghost', 'aria-hidden': 'true', hidden: true });
+  const showGhost = h('input', { type: 'checkbox' });
+  const ghostNote = h('span', { class: 'muted' });
+  showGhost.addEventListener('change', async () => {
+    ghost.hidden = true;
+    ghostNote.textContent = '';
+    if (!showGhost.checked) return;
+    try {
+      const source = await lastSessionMap(camera.name);
+      if (!source) { ghostNote.textContent = ' (no finished session with maps yet)'; return; }
+      drawGhost(ghost, source.map);
+      ghost.hidden = false;
+      ghostNote.textContent = ` (session ${source.id})`;
+    } catch (error) {
+      ghostNote.textContent = ` (${error.message})`;
+    }
+  });
   showClipped.addEventListener('change', () => overlay.classList.toggle('hidden', !showClipped.checked));
-  const histogram = h('div', { class: 'histogram' });
+  const histogram = h('div', { class: 'live-histogram' });
   const facts = h('dl', { class: 'facts' });
   const exposure = h('input', { type: 'number', min: camera.exposure_min_us || 1, max: camera.exposure_max_us || 10000000,
     step: 'any', value: camera.exposure_us, required: true });
@@ -57,6 +112,8 @@ function cameraPanel(camera) {
       message.error(error);
     }
   });
+  pictureFrame.append(picture, overlay, ghost);
+  pictureFrame.dataset.zoom = '1';
   const frameCounter = { frames: 0 };
   const onFrame = async (frame) => {
     frameCounter.frames += 1;
@@ -64,8 +121,8 @@ function cameraPanel(camera) {
     picture.dataset.sequence = frame.sequence;
     picture.dataset.frames = frameCounter.frames;
     const bins = frame.histogram ?? [];
-    histogram.replaceChildren(barChart(bins.map((count, i) => ({ name: '', value: Math.sqrt(count),
-      colour: i === bins.length - 1 ? '#e15759' : '#4e79a7' })), { title: `${camera.name}: histogram of raw values (64 bins, square-root counts)`, labels: false }));
+    histogram.replaceChildren(histogramChart(bins, Number(frame.full_scale ?? 0),
+      { title: `${camera.name}: histogram of raw values (${bins.length} bins, square-root counts)` }));
     const rows = [
       ['Exposure', `${formatNumber(frame.exposure_us)} µs`], ['Pixel format', frame.pixel_format],
       ['Clipped pixels', `${frame.clipped_pixels} of ${frame.width * frame.height}`], ['Full scale', frame.full_scale],
@@ -80,12 +137,20 @@ function cameraPanel(camera) {
     h('h3', {}, `${camera.name}`, h('span', { class: 'muted' }, ` ${camera.vendor} ${camera.model} ${camera.sensor_width}×${camera.sensor_height}`)),
     camera.error ? h('p', { class: 'message error' }, camera.error) : null,
     h('div', { class: 'camera-body' },
-      h('div', { class: 'picture-box' }, picture, overlay),
+      h('div', { class: 'picture-box' }, pictureFrame),
       h('div', { class: 'camera-side' },
         h('label', { class: 'check' }, showClipped, ' Show clipped pixels (red)'),
+        h('label', { class: 'check' }, showGhost, ' Show the last session as a ghost', ghostNote),
+        field('Zoom', zoom),
         histogram, facts)),
     streamMessage.element, form, message.element);
   return { section, close };
+}
+
+// "W57 41.2 °C, W40 40.8 °C, …": each temperature with its LED when there is one per LED type.
+function temperaturesText(temperatures) {
+  if (temperatures.length !== LED_CHANNELS.length) return `${temperatures.map((t) => formatNumber(t, 3)).join(', ')} °C`;
+  return temperatures.map((t, i) => `${LED_CHANNELS[i][1].split(' ')[0]} ${formatNumber(t, 3)} °C`).join(', ');
 }
 
 function ledPanel() {
@@ -100,7 +165,7 @@ function ledPanel() {
     const drive = led.applied?.drive ?? {};
     status.textContent = `${led.controller}: output ${led.output_enabled ? 'on' : 'off'}; ` +
       LED_CHANNELS.map(([key]) => `${key} ${formatNumber(drive[key] ?? 0, 3)}`).join(', ') +
-      `; temperatures ${(led.temperature_c ?? []).map((t) => formatNumber(t, 3)).join(', ')} °C`;
+      `; temperatures ${temperaturesText(led.temperature_c ?? [])}`;
     status.dataset.drive = JSON.stringify(drive);
     if (!edited) {
       for (const [key] of LED_CHANNELS) inputs[key].value = drive[key] ?? 0;

@@ -9,6 +9,7 @@
 import * as api from '../api.js';
 import { h, field, messageArea, table, enumName, formatNumber, polarisationName } from '../dom.js';
 import { mapExplorer } from '../map_explorer.js';
+import { provenanceCard } from '../provenance.js';
 import { linkedView } from '../maps/linked_view.js';
 
 const ILLUMINANTS = ['D65', 'D50', 'A', '4000K', 'W57', 'W40', 'W27', 'R', 'G', 'B'];
@@ -168,7 +169,7 @@ export function mountResults(container, sessionId) {
       const results = await api.call('ResultsService', 'GetResults', { session_id: id });
       body.dataset.sessionId = id;
       body.append(h('p', { class: 'results-state' }, `Session ${id}: results ${enumName(results.state, 'RESULTS_STATE_')}`,
-        results.reason ? ` — ${results.reason}` : ''));
+        results.reason ? ` — ${results.reason}` : ''), provenanceCard(results.provenance));
       if (results.state !== 'RESULTS_STATE_AVAILABLE') {
         body.append(framesSection(id));
         return;

@@ -1,8 +1,9 @@
 // Sessions: the standard plan, starting a session (subject, plan options),
 // its progress and events with pause/resume/cancel, and past sessions.
 import * as api from '../api.js';
-import { h, field, messageArea, table, enumName, formatNumber, polarisationName } from '../dom.js';
+import { h, field, messageArea, table, enumName, formatNumber, polarisationName, humanError } from '../dom.js';
 import { operationView, stateName, isFinal } from '../operation.js';
+import { preflightChecklist } from '../preflight.js';
 
 function stepIllumination(step) {
   if (step.dark) return 'dark';
@@ -20,29 +21,84 @@ function planTable(plan) {
     `Plan "${plan.name}" (${enumName(plan.timing, 'TIMING_')} timing)`);
 }
 
-function pastSessions(onOpen) {
+// The past sessions, told apart by subject, study and operator; a search
+// over those and the id, a state filter, and Delete (after a confirmation)
+// for a finished session.
+function pastSessions() {
   const body = h('div', {});
   const message = messageArea();
-  const refresh = async () => {
+  const search = h('input', { type: 'search', name: 'session_search', placeholder: 'subject, study, operator or id' });
+  const stateFilter = h('select', { name: 'session_state' }, h('option', { value: '' }, 'any state'),
+    ['succeeded', 'running', 'paused', 'failed', 'cancelled', 'interrupted'].map((state) => h('option', { value: state }, state)));
+  let sessions = [];
+  const remove = async (session) => {
+    if (!window.confirm(`Delete session ${session.id} (${session.subject || 'no subject'})? Its frames, maps and files are removed for good.`)) return;
     try {
-      const { sessions = [] } = await api.call('SessionService', 'ListSessions', { limit: 50 });
-      body.replaceChildren(sessions.length ? table(['Session', 'Name', 'State', 'Progress', 'Created', 'Results'],
-        sessions.map((session) => [session.id, session.name, stateName(session.operation),
-          `${Math.round(100 * (session.operation?.progress ?? 0))} %`, session.operation?.created ?? '–',
-          h('a', { href: `#results/${encodeURIComponent(session.id)}` }, `Results of ${session.id}`)]), 'Past sessions')
-        : h('p', {}, 'No sessions yet.'));
+      const deleted = await api.call('SessionService', 'DeleteSession', { id: session.id });
+      message.info(`session ${deleted.id} deleted: ${deleted.files_removed ?? 0} files`);
+      await refresh();
     } catch (error) {
       message.error(error);
     }
   };
+  const render = () => {
+    const words = search.value.trim().toLowerCase();
+    const shown = sessions.filter((session) =>
+      (!stateFilter.value || stateName(session.operation) === stateFilter.value) &&
+      (!words || [session.id, session.subject, session.study, session.operator_name]
+        .some((text) => (text ?? '').toLowerCase().includes(words))));
+    body.replaceChildren(shown.length ? table(['Session', 'Subject', 'Study', 'Operator', 'State', 'Frames', 'Created', 'Results', ''],
+      shown.map((session) => {
+        const operation = session.operation ?? {};
+        const step = !isFinal(operation) && operation.step_count
+          ? ` (step ${Math.max(0, operation.step_index ?? -1) + 1} of ${operation.step_count})` : '';
+        return [session.id, session.subject || '–', session.study || '–', session.operator_name || '–', `${stateName(operation)}${step}`,
+          String(operation.counters?.stored ?? 0), operation.created ?? '–',
+          h('a', { href: `#results/${encodeURIComponent(session.id)}` }, `Results of ${session.id}`),
+          isFinal(session.operation) ? h('button', { type: 'button', class: 'danger', 'data-delete': session.id,
+            onclick: () => remove(session) }, 'Delete') : '–'];
+      }), `Past sessions (${shown.length} of ${sessions.length})`)
+      : h('p', {}, sessions.length ? 'No session matches.' : 'No sessions yet.'));
+  };
+  const refresh = async () => {
+    try {
+      ({ sessions = [] } = await api.call('SessionService', 'ListSessions', { limit: 500 }));
+      render();
+    } catch (error) {
+      message.error(error);
+    }
+  };
+  search.addEventListener('input', render);
+  stateFilter.addEventListener('change', render);
   refresh();
   return { section: h('section', { class: 'card', 'aria-labelledby': 'past-heading' },
-    h('h3', { id: 'past-heading' }, 'Past sessions'), body,
-    h('button', { type: 'button', onclick: refresh }, 'Refresh the list'), message.element), refresh, onOpen };
+    h('h3', { id: 'past-heading' }, 'Past sessions'),
+    h('div', { class: 'filters' }, field('Search', search), field('State', stateFilter)), body,
+    h('button', { type: 'button', onclick: refresh }, 'Refresh the list'), message.element), refresh };
+}
+
+// The form's values survive leaving the page (sessionStorage, this tab only).
+const FORM_KEY = 'chromo.sessionForm';
+function keepForm(controls) {
+  let saved = {};
+  try { saved = JSON.parse(sessionStorage.getItem(FORM_KEY) ?? '{}') ?? {}; } catch { saved = {}; }
+  for (const control of controls) {
+    if (!(control.name in saved)) continue;
+    if (control.type === 'checkbox') control.checked = Boolean(saved[control.name]);
+    else control.value = String(saved[control.name]);
+  }
+  const save = () => sessionStorage.setItem(FORM_KEY, JSON.stringify(Object.fromEntries(
+    controls.map((control) => [control.name, control.type === 'checkbox' ? control.checked : control.value]))));
+  for (const control of controls) {
+    control.addEventListener('input', save);
+    control.addEventListener('change', save);
+  }
 }
 
 export function mountSessions(container) {
   const subject = h('input', { type: 'text', maxLength: 4096, value: '', name: 'subject' });
+  const operatorName = h('input', { type: 'text', maxLength: 4096, value: '', name: 'operator_name', autocomplete: 'name' });
+  const study = h('input', { type: 'text', maxLength: 4096, value: '', name: 'study' });
   const prompts = h('input', { type: 'checkbox', name: 'operator_prompts' });
   const fixed = h('input', { type: 'checkbox', name: 'fixed_exposure' });
   const exposure = h('input', { type: 'number', min: 0, max: 10000000, step: 'any', value: 10000, name: 'exposure_us' });
@@ -59,8 +115,26 @@ export function mountSessions(container) {
   const events = h('ol', { class: 'events', 'aria-label': 'Events of the session' });
   let followedId = null;
   const past = pastSessions();
+  const preflight = preflightChecklist();
   const progress = operationView({ controls: true, onFinished: () => past.refresh() });
 
+  // A polarised plan on a sphere without polariser banks is refused here, before Start.
+  let sphereHasBanks = null;  // from ListDevices: the LED controller's info.polariser_banks
+  api.call('DeviceService', 'ListDevices', {}).then(({ devices = [] }) => {
+    const led = devices.find((device) => device.kind === 'DEVICE_KIND_LED_CONTROLLER');
+    if (led?.info?.polariser_banks) sphereHasBanks = led.info.polariser_banks === 'yes';
+    checkPolarised();
+  }, () => {});
+  const polarisedRefusal = () => (sphereHasBanks === false && polarised.value === 'POLARISED_PLAN_ON'
+    ? 'This sphere has no polariser banks: a cross-polarised session cannot run on it. Choose "unpolarised" or "as configured".' : '');
+  const checkPolarised = () => {
+    const refusal = polarisedRefusal();
+    if (refusal) message.error(refusal);
+    else if (message.element.dataset.polarised) message.clear();
+    if (refusal) message.element.dataset.polarised = 'refused';
+    else delete message.element.dataset.polarised;
+  };
+  polarised.addEventListener('change', checkPolarised);
   const options = () => ({ timing: timing.value, exposure_us: Number(exposure.value), frames_per_camera: Number(frames.value),
     reference_frames: Number(referenceFrames.value), polarised: polarised.value,
     operator_prompts: prompts.checked, fixed_exposure: fixed.checked });
@@ -68,26 +142,30 @@ export function mountSessions(container) {
     try {
       plan.replaceChildren(planTable(await api.call('SessionService', 'GetStandardPlan', options())));
     } catch (error) {
-      plan.replaceChildren(h('p', { class: 'message error' }, `${error.message} (${error.code})`));
+      plan.replaceChildren(h('p', { class: 'message error' }, humanError(error)));
     }
   };
+  keepForm([subject, operatorName, study, prompts, fixed, exposure, frames, referenceFrames, polarised, timing]);
   for (const control of [prompts, fixed, exposure, frames, referenceFrames, polarised, timing]) control.addEventListener('change', showPlan);
   showPlan();
 
   const form = h('form', { class: 'start-session' },
-    field('Subject', subject),
+    field('Subject', subject), field('Operator', operatorName), field('Study', study),
     h('fieldset', {}, h('legend', {}, 'Plan: the standard session'),
       field('Timing', timing), field('Exposure (µs)', exposure), field('Frames per camera (0: configured)', frames),
       field('Frames per dark and white reference (0: configured)', referenceFrames), field('Polarisation', polarised),
       h('label', { class: 'check' }, prompts, ' Pause for "place white" and "place subject"'),
       h('label', { class: 'check' }, fixed, ' One fixed exposure (no metering)')),
+    preflight.element,
     h('button', { type: 'submit' }, 'Start session'));
   form.addEventListener('submit', async (event) => {
     event.preventDefault();
+    if (polarisedRefusal()) return checkPolarised();
     message.clear();
     events.replaceChildren();
     try {
-      const operation = await api.call('SessionService', 'StartSession', { standard: true, subject: subject.value, ...options() });
+      const operation = await api.call('SessionService', 'StartSession', { standard: true, subject: subject.value,
+        operator_name: operatorName.value, study: study.value, ...options(), ...preflight.request() });
       followedId = operation.id;
       progress.follow(operation);
       message.info(`session ${operation.id} started`);

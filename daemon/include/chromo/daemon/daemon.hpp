@@ -40,6 +40,13 @@ struct DeviceReport {
   std::map<std::string, std::string> info;
 };
 
+// Who ran a session and for what study (free text, each at most 4096 bytes,
+// no control characters; checked by the API): recorded in its provenance.
+struct SessionPeople {
+  std::string operator_name;
+  std::string study;
+};
+
 class Daemon {
  public:
   // Opens the devices (config.devices, or `devices` when given: the caller's
@@ -67,7 +74,15 @@ class Daemon {
   std::vector<CheckResult> check_lab(const CheckLimits& limits = {});
   // Validated plan; throws std::invalid_argument (naming the field),
   // std::logic_error (another operation runs), std::runtime_error (devices).
-  session::OperationRecord start_session(session::SessionPlan plan, const std::string& subject);
+  // The session's provenance (session_provenance(), with `people`) goes into
+  // its session.json and its report.
+  session::OperationRecord start_session(session::SessionPlan plan, const std::string& subject,
+                                         const SessionPeople& people = {});
+  // What a session of `plan` started now would be made with: the LED library
+  // that lights its illuminants and its age, each mix's drive levels and
+  // origin, camera sensitivities, white target, the estimator's version and
+  // options (session/session_provenance.hpp). Throws as resolve_mix.
+  session::SessionProvenance session_provenance(const session::SessionPlan& plan, const SessionPeople& people) const;
   // A named mix's weights: solved on the calibrated library of `state` (a
   // sphere with banks keeps one per state), else the configured mixes.
   drivers::DriveLevels resolve_mix(const std::string& mix,
@@ -111,6 +126,7 @@ class Daemon {
   // The work of a session operation: the sequencer, the pipeline, derived
   // data and the on-line estimator's results, and the journal's last records.
   OperationRunner::Outcome run_session(RunningOperation& running, const session::SessionPlan& plan,
+                                       const session::SessionProvenance& provenance,
                                        const std::shared_ptr<session::Journal>& journal, const std::filesystem::path& folder);
 
   // The LED library and camera sensitivity the estimator would use (resolve_capture_sources).

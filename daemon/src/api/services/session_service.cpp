@@ -1,7 +1,9 @@
 // SessionService: sessions: start one (a plan or the standard plan), list, read back (sessions.proto).
 #include <string>
+#include <vector>
 
 #include "chromosphere/v1/sessions.grpc.pb.h"
+#include "chromo/daemon/internal/operations/lab_checks.hpp"
 #include "services.hpp"
 
 namespace chromo::daemon::services {
@@ -15,6 +17,11 @@ class SessionServiceImpl final : public pb::SessionService::Service {
       details["subject_bytes"] = request->subject().size();
       if (request->subject().size() > session::kMaxTextBytes) return invalid("subject: longer than 4096 bytes");
       if (auto bad = session::control_character_error(request->subject()); !bad.empty()) return invalid("subject: " + bad);
+      for (const auto& [field, text] : {std::pair{"operator_name", &request->operator_name()}, {"study", &request->study()},
+                                        {"preflight_override_reason", &request->preflight_override_reason()}}) {
+        if (text->size() > session::kMaxTextBytes) return invalid(std::string(field) + ": longer than 4096 bytes");
+        if (auto bad = session::control_character_error(*text); !bad.empty()) return invalid(std::string(field) + ": " + bad);
+      }
       if (!request->name().empty() && !session::is_valid_name(request->name()))
         return invalid("name: must match [A-Za-z0-9_+.-]{1,64}");
       session::SessionPlan plan;
@@ -28,7 +35,9 @@ class SessionServiceImpl final : public pb::SessionService::Service {
         return invalid("plan_source: set standard = true or give a plan");
       }
       if (!request->name().empty()) plan.name = request->name();
-      const auto record = daemon_.start_session(std::move(plan), request->subject());
+      if (Status s = preflight(*request, details); !s.ok()) return s;
+      const auto record =
+          daemon_.start_session(std::move(plan), request->subject(), {request->operator_name(), request->study()});
       details["session"] = record.id;
       to_proto(record, response);
       return Status::OK;
@@ -49,11 +58,7 @@ class SessionServiceImpl final : public pb::SessionService::Service {
       for (const auto& record : daemon_.operations().list()) {
         if (record.kind != session::OperationKind::kSession) continue;
         if (request->limit() && count++ >= request->limit()) break;
-        auto* summary = response->add_sessions();
-        summary->set_id(record.id);
-        summary->set_name(record.name);
-        summary->set_folder(record.folder);
-        to_proto(record, summary->mutable_operation());
+        summary_to_proto(record, response->add_sessions());
       }
       return Status::OK;
     });
@@ -87,6 +92,27 @@ class SessionServiceImpl final : public pb::SessionService::Service {
   }
 
  private:
+  // With request.preflight: the lab's checks (lab_checks.hpp, as chromo doctor
+  // runs them) into the audit details; FAILED_PRECONDITION naming each failed
+  // check and its fix unless an override reason is given.
+  Status preflight(const pb::StartSessionRequest& request, nlohmann::json& details) {
+    if (!request.preflight()) return Status::OK;
+    std::vector<std::string> failed_ids, warning_ids;
+    std::string failures;
+    for (const auto& check : daemon_.check_lab()) {
+      if (check.status == CheckStatus::warning) warning_ids.push_back(check.id);
+      if (check.status != CheckStatus::failed) continue;
+      failed_ids.push_back(check.id);
+      failures += (failures.empty() ? "" : "; ") + check.id + ": " + check.finding + (check.fix.empty() ? "" : " (fix: " + check.fix + ")");
+    }
+    details["preflight"] = {{"failed", failed_ids}, {"warnings", warning_ids}};
+    if (failed_ids.empty()) return Status::OK;
+    if (request.preflight_override_reason().empty())
+      return Status(StatusCode::FAILED_PRECONDITION,
+                    "preflight: " + failures + ". Fix them, or give preflight_override_reason to start anyway");
+    details["preflight"]["override_reason"] = request.preflight_override_reason();
+    return Status::OK;
+  }
   // `options` comes with the configuration's capture choices (Daemon::standard_plan_options).
   // The standard plan's fields of a StartSession or GetStandardPlan request onto `options`.
   template <typename Request>

@@ -164,6 +164,13 @@ struct EstimatorOptions {
   // The subspace inverter's settings (subspace_inverter.hpp; its fallback
   // χ² is capped at the 4D flag threshold as the fast inverter's acceptance).
   SubspaceInverterOptions subspace;
+  // The fast method inverts plans of more than four channels with the
+  // subspace inverter (the fast inverter's pre-solved path exists for four
+  // channels only; beyond them it searched in the full channel space). Chosen
+  // on bench/inverter_speed_bench: within the accuracy rule on every plan,
+  // scene and noise, docs/estimation.md "The subspace inverter". false:
+  // today's fast inverter for every plan.
+  bool subspace_beyond_four_channels = true;
   bool IsValid(std::string* error) const;
 };
 

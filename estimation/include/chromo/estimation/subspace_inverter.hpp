@@ -11,13 +11,17 @@
 //     and cached with it), its node bucket scanned in the 8-D subspace; a
 //     pixel outside the table a two-level node scan in the subspace; for
 //     order 2 the start projected onto the 2D slice.
-//  3. Node descent and bounded Gauss-Newton in the subspace (the same
-//     multilinear interpolant, 8 values and an 8 × 4 Jacobian per point,
-//     whatever C).
-//  4. Polish: up to Options::polish_steps bounded Gauss-Newton steps on the
-//     full residual with the pixel's own weights (the forward table's C
-//     channels), so that the fit minimises exactly what the exhaustive
-//     search minimises, and χ² is its full weighted sum.
+//  3. Node descent in the subspace, a parabola per axis through the best
+//     node's neighbours, then bounded Gauss-Newton in the subspace with the
+//     pixel's own weights: with M = Uᵀ D² U = L Lᵀ (U the axes, D the
+//     pixel's weights over the reference ones) and the measurement's part off
+//     the subspace r⊥, the full weighted χ² is |Lᵀ z(x) − target|² + const
+//     (set up once per pixel in O(C); then 8 values and an 8 × 4 Jacobian
+//     per point, whatever C).
+//  4. Polish: bounded LM on the full weighted residual (the forward table's C
+//     channels), at most Options::polish_steps, which stops itself when the
+//     subspace fit already sits at the minimum (1-3 iterations on average);
+//     χ² is the full weighted sum, as the exhaustive search's.
 //  5. A 4D fit above Options::fallback_chi2 (the Estimator caps it at its own
 //     flag threshold, as for the fast inverter) also runs the fast
 //     inverter's search path in the full channel space (bucket node,
@@ -41,7 +45,7 @@ namespace chromo::estimation {
 
 struct SubspaceInverterOptions {
   int subspace_steps = 12;      // at most this many Gauss-Newton iterations in the subspace
-  int polish_steps = 6;         // at most this many on the full weighted residual
+  int polish_steps = 20;        // at most this many on the full weighted residual
   // A polished fit above this χ² also takes the full-channel search path;
   // the Estimator caps it at its flag threshold. ∞: never.
   double fallback_chi2 = 1e30;

@@ -30,6 +30,7 @@
 // Thread rules: immutable after construction; every const member may be
 // called from any number of threads.
 
+#include <algorithm>
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -61,6 +62,12 @@ class SubspaceTable {
 
   // z of a measurement (channels() values, albedo units) into kDims floats.
   void project(const double* measured, float* z) const;
+  // The whitened, centred measurement y_c = m_c / σ_c − μ_c (channels() floats).
+  void whiten(const double* measured, float* y) const;
+  // Stored axes (the first kept_dims() hold principal axes, the rest are zero);
+  // axis(k) holds channels() floats.
+  int kept_dims() const { return std::min(channels_, kDims); }
+  const float* axis(int k) const { return axes_.data() + std::size_t(k) * channels_; }
   // Stored z of node `index` (ForwardTable's node order: offset / channels).
   const float* node(std::size_t index) const { return values_.data() + index * kDims; }
   std::size_t node_index(int i_cm, int i_ch, int i_bm, int i_che) const {

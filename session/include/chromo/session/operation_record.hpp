@@ -42,6 +42,8 @@ struct OperationRecord {
   std::uint64_t expected_frames = 0;
   std::string folder;
   int step_index = -1, step_count = 0;
+  // A session's subject, study and operator (session.json), so that lists tell sessions apart.
+  std::string subject, study, operator_name;
 };
 
 }  // namespace chromo::session

@@ -204,6 +204,11 @@ IlluminationState illumination_state(const Step& step);
 std::string capture_name(const IlluminationState& state);
 
 nlohmann::json to_json(const SessionPlan& plan);
+// Drive levels as the plan's JSON writes weights: {"W57": 0.8, ..., "B": 0.4},
+// every LED type; reading takes a missing type as 0 (the object is checked by
+// read_plan_file where it comes from an operator).
+nlohmann::json drive_levels_to_json(const drivers::DriveLevels& levels);
+drivers::DriveLevels drive_levels_from_json(const nlohmann::json& weights);
 // Throws std::invalid_argument naming the field.
 SessionPlan plan_from_json(const nlohmann::json& json);
 std::string role_name(StepRole role);

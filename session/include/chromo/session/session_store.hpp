@@ -27,6 +27,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "chromo/session/session_provenance.hpp"
 #include "chromo/session/frame_record.hpp"
 #include "chromo/session/journal.hpp"
 #include "chromo/session/operation_record.hpp"
@@ -52,6 +53,7 @@ struct SessionInfo {
   SessionPlan plan;
   int format_version = kSessionFormatVersion;
   std::string subject;
+  SessionProvenance provenance;     // what it was made with (recorded false for an older session)
   std::vector<StepProgress> steps;
   std::vector<FrameRecord> frames;  // the journal's frame records, in storage order
   nlohmann::json results;           // the last "results" record (null if none)
@@ -80,7 +82,9 @@ class SessionStore {
   // A new folder with session.json and the journal's first record. Throws
   // (StorageFullError included) leaving no folder behind: a refused start
   // (a full disk, the storage budget) removes the folder it had just made.
-  Created create(const SessionPlan& plan, const std::string& subject, const nlohmann::json& devices);
+  // `provenance` (session_provenance.hpp), when given, goes into session.json.
+  Created create(const SessionPlan& plan, const std::string& subject, const nlohmann::json& devices,
+                 const SessionProvenance* provenance = nullptr);
 
   // Every session in the folder, newest first, with in-flight ones marked
   // interrupted on disk. A folder that cannot be recovered (a loop of
@@ -94,7 +98,7 @@ class SessionStore {
 
  private:
   void fill_new_session_folder(Created& created, const SessionPlan& plan, const std::string& subject,
-                               const nlohmann::json& devices);
+                               const nlohmann::json& devices, const SessionProvenance* provenance);
   std::filesystem::path root_;
   files::StorageBudget* budget_;
 };

@@ -21,6 +21,9 @@ void to_proto(const std::string& controller, const drivers::LedStatus& status, c
 grpc::Status from_proto(const chromosphere::v1::LedState& state, const std::string& field, drivers::LedState* out);
 void to_proto(const session::OperationRecord& record, chromosphere::v1::Operation* out);
 void to_proto(const session::SessionInfo& info, bool include_frames, chromosphere::v1::SessionDetail* out);
+// A session's list entry: id, name, folder, operation, subject, study, operator.
+void summary_to_proto(const session::OperationRecord& record, chromosphere::v1::SessionSummary* out);
+void to_proto(const session::SessionProvenance& provenance, chromosphere::v1::SessionProvenance* out);
 void results_to_proto(const session::SessionInfo& info, chromosphere::v1::Results* out);
 void to_proto(const Event& event, chromosphere::v1::Event* out);
 

@@ -44,6 +44,7 @@
 #include "chromo/session/frame_sums.hpp"
 #include "chromo/session/journal.hpp"
 #include "chromo/session/session_plan.hpp"
+#include "chromo/session/session_provenance.hpp"
 #include "chromo/session/operation_record.hpp"
 #include "chromo/drivers/camera.hpp"
 #include "chromo/files/progress.hpp"
@@ -82,6 +83,8 @@ class FrameConsumer {
     // The session's cameras (device names); empty: not known, the consumer
     // waits for the end of the session to know which delivered.
     std::vector<std::string> cameras;
+    // What the session is made with (session.json's provenance); the report repeats it.
+    session::SessionProvenance provenance;
   };
   struct SessionEnd {
     bool succeeded = false;  // the plan ran to its end (else results are not attempted)
