@@ -35,6 +35,12 @@ for _ in $(seq 600); do [[ -S "$socket" ]] && break; kill -0 "$daemon_pid" 2>/de
 
 export CHROMO_DAEMON="unix:$socket"
 "$bin/chromo" status
+# The daemon's own LED library: a calibration run on its spectrometer (the
+# sessions' mixes and illuminants come from it; a daemon never takes another's
+# library, docs/calibration.md §6). Skipped when it has one already.
+if ! "$bin/chromo" solve d65 >/dev/null 2>&1; then
+  "$bin/chromo" calibrate
+fi
 # Started detached for its id, then followed: the progress goes straight to
 # stdout (a `| tee /dev/stderr` reopened stderr and, when the job's output
 # was redirected to a file, truncated that log).

@@ -188,6 +188,8 @@ void results_summary_to_proto(const nlohmann::json& r, const std::string& method
         s.set_photograph_noise_mean(stats["photograph_noise"].value("mean", 0.0));
       if (stats.contains("beyond_noise_rms") && stats["beyond_noise_rms"].is_number())
         s.set_beyond_noise_rms(stats["beyond_noise_rms"].get<double>());
+      if (stats.contains("block_means") && stats["block_means"].is_object())
+        s.set_block_means_mean(stats["block_means"].value("mean", 0.0));
       (*summary->mutable_relit_delta_e94())[name] = s;
     }
   if (r.contains("highlights") && r["highlights"].is_object()) {

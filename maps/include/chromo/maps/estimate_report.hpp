@@ -96,7 +96,13 @@ struct RelitComparison {
   // about the maps; beyond_noise_rms does:
   //   √max(0, rms(delta_e94)² − rms(photograph_noise)²),
   // the part of the difference the photograph's noise does not account for
-  // (model, estimate and light errors together).
+  // (model, estimate and light errors together). The noise is the
+  // estimator's noise model of the capture, which on the virtual lab's
+  // cameras overestimates it (the floor exceeds the whole difference for
+  // dim photographs, which independent noise cannot do; not yet explained,
+  // suspected: the white's measured variance includes the sensor's fixed
+  // pattern, which the albedo cancels — docs/calibration.md §6): read
+  // block_means first.
   std::optional<DeltaEStats> photograph_noise;
   double beyond_noise_rms = std::numeric_limits<double>::quiet_NaN();
   // ΔE94 of block means (RelitComparisonOptions::block_cells² cells, linear
