@@ -21,7 +21,7 @@ void add_common_views(std::vector<CameraEstimate>& cameras, const fs::path& resu
   std::string reference_failure;
   try {
     reference_outline = find_target_outline(reference_maps, reference.camera + "'s maps");
-  } catch (const std::invalid_argument& error) {
+  } catch (const std::exception& error) {  // cv::Exception too: reported, the maps stand
     reference_failure = error.what();
   }
   for (CameraEstimate* camera : with_maps) {
@@ -39,7 +39,7 @@ void add_common_views(std::vector<CameraEstimate>& cameras, const fs::path& resu
                                                       reference_maps.height);
         view.file = camera->folder + "/common_view.exr";
         commit(results_dir / view.file, [&](const fs::path& temporary) { files::write_exr(temporary, common); });
-      } catch (const std::invalid_argument& error) {
+      } catch (const std::exception& error) {  // cv::Exception too: reported, the maps stand
         view.reason = error.what();
       }
     }
