@@ -34,6 +34,18 @@ void create_runtime_dir(const std::filesystem::path& dir) {
   std::filesystem::permissions(dir, std::filesystem::perms::owner_all, error);
 }
 
+// One error line per device that could not be opened (it stays in the set, UNREACHABLE).
+void log_open_errors(chromo::daemon::DeviceSet& devices) {
+  using chromo::daemon::LogLevel, chromo::daemon::log_line;
+  for (auto& led : devices.led_controllers)
+    if (!led->open_error.empty()) log_line(LogLevel::kError, led->config.name + ": " + led->open_error);
+  for (auto& camera : devices.cameras)
+    if (!camera->open_error.empty()) log_line(LogLevel::kError, camera->config.name + ": " + camera->open_error);
+  for (auto& spectrometer : devices.spectrometers)
+    if (!spectrometer->open_error.empty())
+      log_line(LogLevel::kError, spectrometer->config.name + ": " + spectrometer->open_error);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -91,13 +103,7 @@ int main(int argc, char** argv) {
     auto [devices, virtual_lab] = open_devices(config);
     if (!virtual_lab.empty())
       log_line(LogLevel::kInfo, "no devices configured: running the built-in virtual lab (" + virtual_lab + ")");
-    for (auto& led : devices.led_controllers)
-      if (!led->open_error.empty()) log_line(LogLevel::kError, led->config.name + ": " + led->open_error);
-    for (auto& camera : devices.cameras)
-      if (!camera->open_error.empty()) log_line(LogLevel::kError, camera->config.name + ": " + camera->open_error);
-    for (auto& spectrometer : devices.spectrometers)
-      if (!spectrometer->open_error.empty())
-        log_line(LogLevel::kError, spectrometer->config.name + ": " + spectrometer->open_error);
+    log_open_errors(devices);
     Daemon daemon(config, std::move(devices));
     Server server(daemon);
     if (!config.unix_socket.empty()) log_line(LogLevel::kInfo, "listening on unix:" + config.unix_socket);

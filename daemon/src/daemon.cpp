@@ -317,6 +317,91 @@ session::OperationRecord Daemon::start_session(session::SessionPlan plan, const 
   });
 }
 
+namespace {
+
+// A session's last records: the pipeline's counters and the final state. A
+// full disk leaves them unwritten (the folder stays valid; the next start
+// reports the session as interrupted) and fails the outcome if it succeeded.
+void journal_final_records(session::Journal& journal, const session::PipelineCounters& counters,
+                           SequencerOutcome& outcome) {
+  try {
+    journal.append({{"type", "counters"},
+                     {"received", counters.received},
+                     {"stored", counters.stored},
+                     {"estimated", counters.estimated},
+                     {"estimator_skipped", counters.estimator_skipped},
+                     {"lost", counters.lost},
+                     {"resent_packets", counters.resent_packets},
+                     {"lost_reasons", counters.lost_reasons},
+                     {"max_estimator_queue_depth", counters.max_estimator_queue_depth},
+                     {"estimator_read_back", counters.estimator_read_back},
+                     {"skipped_reasons", counters.skipped_reasons},
+                     {"mean_trigger_to_stored_ms", counters.mean_trigger_to_stored_ms},
+                     {"max_trigger_to_stored_ms", counters.max_trigger_to_stored_ms}});
+    nlohmann::json final_state{{"type", "state"}, {"state", session::state_name(outcome.state)}};
+    if (!outcome.error.empty()) final_state["error"] = outcome.error;
+    journal.append(final_state);
+  } catch (const std::exception& error) {
+    // The disk is full: the final record could not be written. The folder
+    // stays valid; the next start reports the session as interrupted.
+    if (outcome.error.empty()) outcome = {session::OperationState::kFailed, error.what()};
+  }
+}
+
+}  // namespace
+
+// The sequencer's context for a session: its plan, journal, pipeline and
+// devices, and the daemon's hooks (mixes, the sphere, the live view, the
+// metering's first guess, the blue-light hazard check). Stops the live
+// view's free runs: the cameras are the session's now.
+SequencerContext Daemon::sequencer_context(RunningOperation& running, const session::SessionPlan& plan,
+                                           const std::shared_ptr<session::Journal>& journal, FramePipeline& pipeline) {
+  const std::string& id = running.id();
+  SequencerContext context;
+  context.id = id;
+  context.plan = plan;
+  context.journal = journal.get();
+  context.pipeline = &pipeline;
+  context.operations = &operations_;
+  context.control = &running.control();
+  context.led = devices_.led_controller("", nullptr);
+  for (auto& camera : devices_.cameras) context.cameras.push_back(camera.get());
+  previews_.stop_free_runs();  // the cameras are the session's now; the live view shows its frames
+  context.on_frame_seen = [this, source = "session:" + id](const std::string& camera, const drivers::Frame& frame,
+                                                         double exposure_us) {
+    previews_.offer(camera, frame, exposure_us, source);
+  };
+  context.resolve_mix = [this](const std::string& mix, drivers::Polarisation state) { return resolve_mix(mix, state); };
+  context.place_in_sphere = devices_.place_in_sphere;
+  try {
+    const session::CaptureSources sources = light_sources();
+    context.predict_white_rgb = [sources](const drivers::DriveLevels& drive) -> std::optional<std::array<double, 3>> {
+      spectral::Spectrum light;
+      for (auto type : spectral::kAllLedTypes)
+        light += sources.led_library.led(type).spectrum_per_unit_drive() *
+                 drive[static_cast<std::size_t>(spectral::led_type_index(type))];
+      std::array<double, 3> rgb{};
+      for (int c = 0; c < 3; ++c) rgb[c] = (sources.camera.rgb[c].values() * light.values()).sum() * sources.white_reflectance;
+      return rgb;
+    };
+  } catch (const std::exception&) {
+    // No library or camera data: metering starts from the plan's exposure each time.
+  }
+  context.check_hazard = [this, plan, journal](const std::map<std::string, double>& exposures) {
+    const session::PlanHazard metered = plan_hazard(plan, exposures);
+    nlohmann::json record = metered.to_json();
+    record["type"] = "blue_light_hazard";
+    record["exposures"] = "metered";
+    journal->append(record);
+    return metered.within_limit() ? std::string()
+                                  : metered.describe() + ": beyond the limit with the metered exposures, refused "
+                                                         "before the subject's first frame (hazard.limit_J_per_m2_sr)";
+  };
+  context.frame_timeout_ms = config_.frame_timeout_ms;
+  context.frame_attempts = config_.frame_attempts;
+  return context;
+}
+
 OperationRunner::Outcome Daemon::run_session(RunningOperation& running, const session::SessionPlan& plan,
                                              const session::SessionProvenance& provenance,
                                              const std::shared_ptr<session::Journal>& journal,
@@ -364,48 +449,7 @@ OperationRunner::Outcome Daemon::run_session(RunningOperation& running, const se
                     std::to_string(config_.estimator_queue_frames) + " frames is full; " + std::to_string(skipped) +
                     " frames skipped so far, read back from storage at the end; storage is not delayed)");
         });
-    SequencerContext context;
-    context.id = id;
-    context.plan = plan;
-    context.journal = journal.get();
-    context.pipeline = &pipeline;
-    context.operations = &operations_;
-    context.control = &running.control();
-    context.led = devices_.led_controller("", nullptr);
-    for (auto& camera : devices_.cameras) context.cameras.push_back(camera.get());
-    previews_.stop_free_runs();  // the cameras are the session's now; the live view shows its frames
-    context.on_frame_seen = [this, source = "session:" + id](const std::string& camera, const drivers::Frame& frame,
-                                                           double exposure_us) {
-      previews_.offer(camera, frame, exposure_us, source);
-    };
-    context.resolve_mix = [this](const std::string& mix, drivers::Polarisation state) { return resolve_mix(mix, state); };
-    context.place_in_sphere = devices_.place_in_sphere;
-    try {
-      const session::CaptureSources sources = light_sources();
-      context.predict_white_rgb = [sources](const drivers::DriveLevels& drive) -> std::optional<std::array<double, 3>> {
-        spectral::Spectrum light;
-        for (auto type : spectral::kAllLedTypes)
-          light += sources.led_library.led(type).spectrum_per_unit_drive() *
-                   drive[static_cast<std::size_t>(spectral::led_type_index(type))];
-        std::array<double, 3> rgb{};
-        for (int c = 0; c < 3; ++c) rgb[c] = (sources.camera.rgb[c].values() * light.values()).sum() * sources.white_reflectance;
-        return rgb;
-      };
-    } catch (const std::exception&) {
-      // No library or camera data: metering starts from the plan's exposure each time.
-    }
-    context.check_hazard = [this, plan, journal](const std::map<std::string, double>& exposures) {
-      const session::PlanHazard metered = plan_hazard(plan, exposures);
-      nlohmann::json record = metered.to_json();
-      record["type"] = "blue_light_hazard";
-      record["exposures"] = "metered";
-      journal->append(record);
-      return metered.within_limit() ? std::string()
-                                    : metered.describe() + ": beyond the limit with the metered exposures, refused "
-                                                           "before the subject's first frame (hazard.limit_J_per_m2_sr)";
-    };
-    context.frame_timeout_ms = config_.frame_timeout_ms;
-    context.frame_attempts = config_.frame_attempts;
+    SequencerContext context = sequencer_context(running, plan, journal, pipeline);
     try {
       journal->append({{"type", "state"}, {"state", "running"}});
       outcome = run_sequence(context);
@@ -443,28 +487,7 @@ OperationRunner::Outcome Daemon::run_session(RunningOperation& running, const se
                 (results.contains("reason") ? ": " + results.value("reason", "") : ""));
     }
   }
-  try {
-    journal->append({{"type", "counters"},
-                     {"received", counters.received},
-                     {"stored", counters.stored},
-                     {"estimated", counters.estimated},
-                     {"estimator_skipped", counters.estimator_skipped},
-                     {"lost", counters.lost},
-                     {"resent_packets", counters.resent_packets},
-                     {"lost_reasons", counters.lost_reasons},
-                     {"max_estimator_queue_depth", counters.max_estimator_queue_depth},
-                     {"estimator_read_back", counters.estimator_read_back},
-                     {"skipped_reasons", counters.skipped_reasons},
-                     {"mean_trigger_to_stored_ms", counters.mean_trigger_to_stored_ms},
-                     {"max_trigger_to_stored_ms", counters.max_trigger_to_stored_ms}});
-    nlohmann::json final_state{{"type", "state"}, {"state", session::state_name(outcome.state)}};
-    if (!outcome.error.empty()) final_state["error"] = outcome.error;
-    journal->append(final_state);
-  } catch (const std::exception& error) {
-    // The disk is full: the final record could not be written. The folder
-    // stays valid; the next start reports the session as interrupted.
-    if (outcome.error.empty()) outcome = {session::OperationState::kFailed, error.what()};
-  }
+  journal_final_records(*journal, counters, outcome);
   // The runner's final update: "done" or the state's name, with the counters.
   return {outcome.state, outcome.error, std::nullopt, counters};
 }

@@ -32,6 +32,8 @@
 
 namespace chromo::daemon {
 
+struct SequencerContext;  // internal/capture/sequencer.hpp
+
 struct DeviceReport {
   std::string name, backend, address;
   DeviceKind kind;
@@ -128,6 +130,10 @@ class Daemon {
   OperationRunner::Outcome run_session(RunningOperation& running, const session::SessionPlan& plan,
                                        const session::SessionProvenance& provenance,
                                        const std::shared_ptr<session::Journal>& journal, const std::filesystem::path& folder);
+
+  // The sequencer's context for one session (daemon.cpp).
+  SequencerContext sequencer_context(RunningOperation& running, const session::SessionPlan& plan,
+                                     const std::shared_ptr<session::Journal>& journal, FramePipeline& pipeline);
 
   // The LED library and camera sensitivity the estimator would use (resolve_capture_sources).
   session::CaptureSources light_sources() const;
