@@ -2,6 +2,8 @@
 
 #include "chromo/estimation/model_discrepancy.hpp"
 #include "pixel_covariance.hpp"
+#include "prior_fit.hpp"
+#include "chromo/estimation/parameter_prior.hpp"
 
 #include <omp.h>
 
@@ -108,6 +110,7 @@ bool EstimatorOptions::IsValid(std::string* error) const {
   std::string fast_error;
   if (!fast.IsValid(&fast_error)) return fail("fast: " + fast_error);
   if (!subspace.IsValid(&fast_error)) return fail("subspace: " + fast_error);
+  if (prior_max_channels < 1 || prior_max_channels > 128) return fail("prior_max_channels must be in [1, 128]");
   return true;
 }
 
@@ -148,6 +151,8 @@ Estimator::Estimator(std::shared_ptr<const ForwardTable> table, MeasurementSet s
   options_.fast.presolved_accept_chi2 =
       std::max(options_.fast.converged_chi2, std::min(options_.fast.presolved_accept_chi2, flag_threshold_[4]));
   if (options_.discrepancy) discrepancy_ = options_.discrepancy->channel_covariance(set_);
+  if (options_.prior && c <= options_.prior_max_channels)
+    grid_prior_ = std::make_shared<const detail::GridPrior>(detail::grid_prior(*table_, *options_.prior));
   const bool subspace = options_.method == InverterMethod::kSubspace ||
                         (options_.method == InverterMethod::kFast && options_.subspace_beyond_four_channels && c > 4);
   if (subspace) {
@@ -191,7 +196,7 @@ double Estimator::fit_variance(int channel, double albedo) const {
 }
 
 void Estimator::set_uncertainty(const detail::PixelCovariance& covariance, const GridPoint& x, PixelEstimate& out,
-                                const double* jacobian_at_x) const {
+                                const double* jacobian_at_x, const detail::GridPrior* prior) const {
   const int c_count = channels();
   ChannelBuffer<double> value(c_count), own_jacobian(c_count * 4);
   const double* jacobian = jacobian_at_x;
@@ -204,20 +209,36 @@ void Estimator::set_uncertainty(const detail::PixelCovariance& covariance, const
   // the box, and 2σ would cover little more than half of its errors.
   const auto nodes = table_->nodes();
   Eigen::Matrix4d information = covariance.information(jacobian);
-  for (int k = 0; k < 4; ++k) information(k, k) += 1.0 / ((nodes[k] - 1.0) * (nodes[k] - 1.0));
+  if (prior) information += prior->information;
+  else
+    for (int k = 0; k < 4; ++k) information(k, k) += 1.0 / ((nodes[k] - 1.0) * (nodes[k] - 1.0));
   Eigen::Vector4d scale;
   for (int k = 0; k < 4; ++k) scale(k) = 1 / std::sqrt(information(k, k));
   const Eigen::Matrix4d unit = scale.asDiagonal() * information * scale.asDiagonal();
   const Eigen::Matrix4d grid_covariance = scale.asDiagonal() * unit.inverse() * scale.asDiagonal();
-  // Grid units → parameter units, axis by axis (the grid's axes are separable).
+  // Grid units → parameter units, axis by axis (the grid's axes are
+  // separable). Cm and Ch: their nodes are log-spaced and their errors
+  // relative, so the grid σ is a spread s of ln Cm (ln Ch), and σ is the
+  // half-width that makes ±2σ reach the upper end of the 2s interval,
+  // value·(e^{2s} − 1)/2 (the linearised value·s covered 84-92% of model
+  // skin's Ch errors within 2σ against 99% in logs: docs/estimation.md
+  // "Real skin"); βm and Che: the linearised σ.
+  const SkinParameters at = table_->from_grid(x);
+  const double fitted[4] = {at.cm, at.ch, at.bm, at.che};
   for (int k = 0; k < 4; ++k) {
     constexpr double kStep = 1e-3;
     GridPoint up = x, down = x;
     up[k] = std::min(x[k] + kStep, nodes[k] - 1.0), down[k] = std::max(x[k] - kStep, 0.0);
     const SkinParameters pu = table_->from_grid(up), pd = table_->from_grid(down);
     const double vu[4] = {pu.cm, pu.ch, pu.bm, pu.che}, vd[4] = {pd.cm, pd.ch, pd.bm, pd.che};
-    const double derivative = up[k] > down[k] ? (vu[k] - vd[k]) / (up[k] - down[k]) : 0.0;
-    out.sigma[k] = static_cast<float>(std::abs(derivative) * std::sqrt(std::max(grid_covariance(k, k), 0.0)));
+    const double grid_sigma = std::sqrt(std::max(grid_covariance(k, k), 0.0));
+    if (k < 2) {
+      const double log_derivative = up[k] > down[k] ? std::log(vu[k] / vd[k]) / (up[k] - down[k]) : 0.0;
+      out.sigma[k] = static_cast<float>(fitted[k] * std::expm1(2 * std::abs(log_derivative) * grid_sigma) / 2);
+    } else {
+      const double derivative = up[k] > down[k] ? (vu[k] - vd[k]) / (up[k] - down[k]) : 0.0;
+      out.sigma[k] = static_cast<float>(std::abs(derivative) * grid_sigma);
+    }
   }
   const double denominator = std::sqrt(grid_covariance(1, 1) * grid_covariance(3, 3));
   out.ch_che_correlation = static_cast<float>(denominator > 0 ? grid_covariance(1, 3) / denominator : 0.0);
@@ -333,6 +354,12 @@ PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const
   }
   out.residual = static_cast<float>(std::sqrt(sum / c_count));
   if (chosen_chi2 <= flag_threshold_[order]) {
+    if (grid_prior_ && order == 4) {  // step 4b
+      const detail::PriorFit map = detail::prior_fit(*table_, covariance, *grid_prior_, measured.data(), chosen.x);
+      out.parameters = table_->from_grid(map.x);
+      if (options_.uncertainty) set_uncertainty(covariance, map.x, out, nullptr, grid_prior_.get());
+      return out;
+    }
     if (options_.uncertainty) set_uncertainty(covariance, chosen.x, out, jacobian_at_chosen);
     return out;
   }
