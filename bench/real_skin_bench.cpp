@@ -75,19 +75,13 @@ std::vector<std::string> statistics(const std::vector<double>& widen) {
   return out;
 }
 
-struct Plan {
-  std::string name;
-  estimation::MeasurementSet set;
-  std::shared_ptr<const estimation::ForwardTable> table;
-};
-
-std::vector<Plan> plans() {
+std::vector<RealSkinPlan> plans() {
   const spectral::CameraSensitivity camera = spectral::builtin_camera("nikon_d5100");
-  std::vector<Plan> out{{"method", estimation::method_measurement_set(camera, spectral::led_d65_metamer(),
+  std::vector<RealSkinPlan> out{{"method", estimation::method_measurement_set(camera, spectral::led_d65_metamer(),
                                                                      spectral::led_spectrum(spectral::LedType::kBlue)),
                          nullptr},
                         {"six-leds", six_led_measurement_set(camera), nullptr}};
-  for (Plan& p : out) p.table = default_table(p.set);
+  for (RealSkinPlan& p : out) p.table = default_table(p.set);
   return out;
 }
 
@@ -117,7 +111,7 @@ struct Run {
   std::vector<double> flagged_per_spectrum;  // real skin: each held-out spectrum's flagged share
 };
 
-Run evaluate(const Plan& plan, const simulators::SyntheticFrame& frame, const std::vector<float>& measured,
+Run evaluate(const RealSkinPlan& plan, const simulators::SyntheticFrame& frame, const std::vector<float>& measured,
              const std::vector<spectral::Spectrum>& spectra, const std::vector<Reference>& references,
              std::shared_ptr<const estimation::ModelDiscrepancy> discrepancy,
              std::shared_ptr<const estimation::ParameterPrior> prior) {
@@ -213,8 +207,8 @@ int run(int argc, char** argv) {
   for (double w : prior_widen)
     if (!(w >= 1)) throw std::invalid_argument("--prior-widen: every factor must be >= 1");
   const std::vector<std::string> kStatistics = statistics(prior_widen);
-  std::vector<Plan> plan_list;
-  for (Plan& p : plans())
+  std::vector<RealSkinPlan> plan_list;
+  for (RealSkinPlan& p : plans())
     if (std::find(plan_names.begin(), plan_names.end(), p.name) != plan_names.end()) plan_list.push_back(std::move(p));
   if (plan_list.empty()) throw std::invalid_argument("--plans: none of method, six-leds");
   std::fprintf(stderr, "fitting the reference parameters of %zu subjects at 3 texture scales...\n", all_spectra.size());
@@ -244,7 +238,7 @@ int run(int argc, char** argv) {
     for (std::size_t k = 0; k < prior_widen.size(); ++k)
       priors[kStatistics[2 + k]] =
           std::make_shared<const estimation::ParameterPrior>(estimation::ParameterPrior::learn(train_fits, prior_widen[k]));
-    for (const Plan& plan : plan_list)
+    for (const RealSkinPlan& plan : plan_list)
       for (double scale : noise_scales)
         for (std::uint64_t seed : seeds)
           for (const std::string scene : {"real", "model"}) {
@@ -262,7 +256,7 @@ int run(int argc, char** argv) {
             estimation::MeasurementSet render_set = set;
             const simulators::SyntheticFrame frame = simulators::make_synthetic_frame(render_set, o);
             const std::vector<float> noisy = simulators::add_channel_noise(frame.clean, set, o.seed * 7919 + 1);
-            Plan declared = plan;
+            RealSkinPlan declared = plan;
             declared.set = set;
             for (const std::string statistic : kStatistics)
               rows.push_back({test_names, plan.name, scene, statistic, scale, seed, fold,
@@ -312,7 +306,7 @@ int run(int argc, char** argv) {
               "noise", "skin flagged %", "tattoo+marker caught %", "dE94 mean(D65,A)", "order4 %", "in2sCm", "in2sCh", "in2sBm",
               "in2sChe", "medCm", "medCh", "in2sLnCh");
   std::map<std::string, std::vector<std::pair<double, double>>> curves;  // plan/stat -> (noise, flagged)
-  for (const Plan& plan : plan_list)
+  for (const RealSkinPlan& plan : plan_list)
     for (const std::string scene : {"real", "model"})
       for (const std::string& statistic : kStatistics)
         for (double scale : noise_scales) {
