@@ -216,29 +216,18 @@ void Estimator::set_uncertainty(const detail::PixelCovariance& covariance, const
   for (int k = 0; k < 4; ++k) scale(k) = 1 / std::sqrt(information(k, k));
   const Eigen::Matrix4d unit = scale.asDiagonal() * information * scale.asDiagonal();
   const Eigen::Matrix4d grid_covariance = scale.asDiagonal() * unit.inverse() * scale.asDiagonal();
-  // Grid units → parameter units, axis by axis (the grid's axes are
-  // separable). Cm and Ch: their nodes are log-spaced and their errors
-  // relative, so the grid σ is a spread s of ln Cm (ln Ch), and σ is the
-  // half-width that makes ±2σ reach the upper end of the 2s interval,
-  // value·(e^{2s} − 1)/2 (the linearised value·s covered 84-92% of model
-  // skin's Ch errors within 2σ against 99% in logs: docs/estimation.md
-  // "Real skin"); βm and Che: the linearised σ.
-  const SkinParameters at = table_->from_grid(x);
-  const double fitted[4] = {at.cm, at.ch, at.bm, at.che};
+  // Grid units → parameter units, axis by axis (the grid's axes are separable).
+  // Cm and Ch are log-spaced: this linearised σ is value × their log spread,
+  // and their errors are relative (docs/estimation.md "Real skin": 2σ covers
+  // 85% of model skin's Ch errors, 99% read in logs, |ln error| ≤ 2σ/value).
   for (int k = 0; k < 4; ++k) {
     constexpr double kStep = 1e-3;
     GridPoint up = x, down = x;
     up[k] = std::min(x[k] + kStep, nodes[k] - 1.0), down[k] = std::max(x[k] - kStep, 0.0);
     const SkinParameters pu = table_->from_grid(up), pd = table_->from_grid(down);
     const double vu[4] = {pu.cm, pu.ch, pu.bm, pu.che}, vd[4] = {pd.cm, pd.ch, pd.bm, pd.che};
-    const double grid_sigma = std::sqrt(std::max(grid_covariance(k, k), 0.0));
-    if (k < 2) {
-      const double log_derivative = up[k] > down[k] ? std::log(vu[k] / vd[k]) / (up[k] - down[k]) : 0.0;
-      out.sigma[k] = static_cast<float>(fitted[k] * std::expm1(2 * std::abs(log_derivative) * grid_sigma) / 2);
-    } else {
-      const double derivative = up[k] > down[k] ? (vu[k] - vd[k]) / (up[k] - down[k]) : 0.0;
-      out.sigma[k] = static_cast<float>(std::abs(derivative) * grid_sigma);
-    }
+    const double derivative = up[k] > down[k] ? (vu[k] - vd[k]) / (up[k] - down[k]) : 0.0;
+    out.sigma[k] = static_cast<float>(std::abs(derivative) * std::sqrt(std::max(grid_covariance(k, k), 0.0)));
   }
   const double denominator = std::sqrt(grid_covariance(1, 1) * grid_covariance(3, 3));
   out.ch_che_correlation = static_cast<float>(denominator > 0 ? grid_covariance(1, 3) / denominator : 0.0);
