@@ -40,8 +40,10 @@
 // for each plan (`--plans`, default standard and multispectral: the six LED
 // types one at a time, 18 channels) at each sensor size (`--megapixels`,
 // default 1, 2.5, 5: the 2448x2048 sensor's aspect), per seed: measurement
-// and registration (the render's build of the noisy measurement from its
-// captures, as chromod's capture builder does), table set-up (prepare_tables:
+// and registration (the noisy measurement built again from the render's
+// captures, as chromod's capture builder does: the captures registered one
+// by one and at once on every core, side by side, the measured values
+// compared; the whole estimate counts the latter), table set-up (prepare_tables:
 // forward, inverse and subspace tables; chromod does it during capture), the
 // estimate (inversion, per-pixel flags, σ maps), the estimate again without
 // σ maps (σ's share), the spatial pass, the relit comparison and writing;
@@ -265,8 +267,8 @@ ChainRun run_chain(const std::string& plan, double megapixels, std::uint64_t see
   ChainRun run;
   run.plan = plan, run.megapixels = ro.sensor_width * double(ro.sensor_height) / 1e6, run.cells = lab.pixels();
   // The measurement built again from the kept captures: its registrations one
-  // after another (the code before issue 39 part 3) and at once (the default),
-  // side by side; the measured values must be the same.
+  // after another (RegistrationOptions' default) and at once on every core
+  // (threads 0), side by side; the measured values must be the same.
   auto measure = [&](int registration_threads, double& seconds) {
     session::RegistrationOptions registration;
     registration.threads = registration_threads;
