@@ -376,7 +376,7 @@ int chain_main(const std::vector<std::string>& plans, const std::vector<double>&
     std::snprintf(title, sizeof title, "the chain per stage at %.1f MP (wall s, %d threads, mean over seeds)",
                   megapixels.back(), threads);
     write_bar_chart(out / "estimate_chain.png", title, "wall seconds", bars);
-    write_line_chart(out / "estimate_chain_growth.png", "the chain's stages against the sensor's size", "sensor MP",
+    write_line_chart(out / "estimate_chain_growth.png", "the chain per stage against the sensor size", "sensor MP",
                      "wall seconds", growth);
   }
   return 0;

@@ -54,8 +54,8 @@ struct RegistrationOptions {
   int pyramid_levels = 3;  // coarse-to-fine: handles shifts of tens of pixels
   // register_channels: pairs registered at once (0: the machine's cores; 1:
   // one after another). The results do not depend on it. Default 1: at once
-  // measured no faster on the 2 shared cores at load 13-14 (×0.89-1.06 of
-  // one by one, estimate_stages_bench --chain; docs/estimation.md).
+  // measured ×0.72-1.06 of one by one (median 0.95, one run each at load
+  // 12-14 on 2 shared cores: estimate_stages_bench --chain; docs/estimation.md).
   int threads = 1;
 };
 
