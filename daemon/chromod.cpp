@@ -15,10 +15,10 @@
 #include <CLI/CLI.hpp>
 
 #include "chromo/daemon/daemon.hpp"
+#include "chromo/daemon/devices.hpp"
 #include "chromo/daemon/host_files.hpp"
 #include "chromo/daemon/log_line.hpp"
 #include "chromo/daemon/server.hpp"
-#include "chromo/daemon/virtual_lab.hpp"
 #include "chromo/daemon/web_server.hpp"
 #include "chromo/files/binary_cache.hpp"
 
@@ -88,20 +88,9 @@ int main(int argc, char** argv) {
     }
     create_runtime_dir(config.runtime_dir);
     files::set_cache_limit_bytes(config.estimation.cache_limit_bytes);
-    DeviceSet devices;
-    if (config.devices.empty()) {
-      VirtualLabOptions lab_options;
-      lab_options.cameras = config.virtual_lab.cameras;
-      lab_options.patch_width_mm = config.virtual_lab.patch_width_mm;
-      lab_options.polarisers = config.virtual_lab.polarisers;
-      auto lab = start_virtual_lab(lab_options);
-      config.devices = lab.devices;
-      if (config.mixes.empty()) config.mixes = lab.mixes;
-      log_line(LogLevel::kInfo, "no devices configured: running the built-in virtual lab (" + lab.description + ")");
-      devices = std::move(lab.device_set);
-    } else {
-      devices = builtin_backends().open(config.devices);
-    }
+    auto [devices, virtual_lab] = open_devices(config);
+    if (!virtual_lab.empty())
+      log_line(LogLevel::kInfo, "no devices configured: running the built-in virtual lab (" + virtual_lab + ")");
     for (auto& led : devices.led_controllers)
       if (!led->open_error.empty()) log_line(LogLevel::kError, led->config.name + ": " + led->open_error);
     for (auto& camera : devices.cameras)

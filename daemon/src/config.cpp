@@ -18,7 +18,7 @@
 #include "chromo/session/session_plan.hpp"
 #include "chromo/session/surface_factors.hpp"
 #include "chromo/spectral/camera.hpp"
-#include "chromo/daemon/virtual_lab.hpp"
+#include "chromo/daemon/internal/devices/virtual_lab.hpp"
 
 namespace chromo::daemon {
 
@@ -519,7 +519,7 @@ const std::vector<Key>& virtual_lab_keys() {
       {"cameras",
        [](const json& v, DaemonConfig& c) {
          try {
-           c.virtual_lab.cameras = simulators::read_lab_cameras(v);
+           c.virtual_lab.cameras = read_virtual_cameras(v);
          } catch (const std::invalid_argument& error) {
            throw NestedError(error.what());  // "[1].sensor_width: ..." or ": ..."
          }
@@ -542,12 +542,8 @@ const std::vector<Key>& virtual_lab_keys() {
 // The virtual lab's checks between keys (names against the lab's other
 // devices, every posed camera seeing the patch): VirtualLabOptions'.
 std::string virtual_lab_error(const DaemonConfig& c) {
-  VirtualLabOptions options;
-  options.cameras = c.virtual_lab.cameras;
-  options.patch_width_mm = c.virtual_lab.patch_width_mm;
-  options.polarisers = c.virtual_lab.polarisers;
   std::string error;
-  return options.IsValid(&error) ? std::string() : "." + error;
+  return virtual_lab_options(c.virtual_lab).IsValid(&error) ? std::string() : "." + error;
 }
 
 // A section of keys ("estimation", "capture", "hazard"): read and checked key by key.

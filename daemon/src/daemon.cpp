@@ -43,7 +43,8 @@ Daemon::Daemon(DaemonConfig config, DeviceSet devices, FrameConsumer* estimator)
   if (!estimator_ && config_.estimation.enabled) {
     owned_estimator_ = make_online_estimator(config_.estimation, &budget_,
                                              [this] { return calibrations_->library_path(); },
-                                             [this] { return calibrations_->measured_state_libraries(); });
+                                             [this] { return calibrations_->measured_state_libraries(); },
+                                             devices_.own_films);
     estimator_ = owned_estimator_.get();
   }
 }

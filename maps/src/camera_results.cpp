@@ -103,6 +103,7 @@ std::vector<CameraEstimate> estimate_session_cameras(const SessionCamerasInput& 
     out.push_back(std::move(e));
   }
   mark_shared_tables(out);
+  add_common_views(out, results_dir, commit);
   const std::string index = camera_results_index_json(out, input.extra_json);
   commit(results_dir / "summary.json", [&](const fs::path& temporary) {
     std::ofstream out(temporary);
@@ -138,6 +139,7 @@ std::string camera_entry_json(const CameraEstimate& camera, const std::string& p
   for (const auto& c : r.relit) relit[c.illuminant] = relit_comparison_json(c);
   entry["relit_delta_e94"] = relit;
   entry["highlights"] = {{"detection", r.highlight_detection}, {"pixels", r.highlight_pixels}};
+  if (camera.common_view) entry["common_view"] = nlohmann::ordered_json::parse(common_view_entry_json(*camera.common_view, path_prefix));
   return entry.dump();
 }
 

@@ -8,7 +8,9 @@ capture/ and api/, lowest first. A room's sources
 headers of the rooms below it, never of a room above. The public headers
 (daemon/include/chromo/daemon/*.hpp) are what chromod and other programs
 include; outside daemon/, only tests/ and bench/ may include an internal
-header, and cli/ includes nothing of the daemon.
+header, and cli/ includes nothing of the daemon. Only the devices/ room
+(where the virtual lab is one more backend) includes a simulator: no public
+header, no other room, not chromod.
 
 usage: check_daemon_rooms.py SOURCE_DIR      exit 0 clean, 1 violations, 2 usage
        check_daemon_rooms.py --self-test     plants one upward include, expects it caught
@@ -22,6 +24,7 @@ import tempfile
 ROOMS = ["devices", "operations", "capture", "api"]  # lowest first
 MAY_USE = {room: set(ROOMS[:i]) for i, room in enumerate(ROOMS)}
 INCLUDE = re.compile(r'#include\s+"chromo/daemon/(internal/(\w+)/)?[\w/]+\.hpp"')
+SIMULATOR = re.compile(r'#include\s+"chromo/simulators/')
 SOURCES = (".cpp", ".hpp", ".h")
 
 
@@ -46,6 +49,9 @@ def violations(root):
             room = room_of(path)
             with open(os.path.join(root, path), encoding="utf-8", errors="replace") as handle:
                 for number, line in enumerate(handle, 1):
+                    if top == "daemon" and room != "devices" and SIMULATOR.search(line):
+                        found.append(f"{path}:{number}: only daemon's devices/ room may include a simulator ({line.strip()})")
+                        continue
                     match = INCLUDE.search(line)
                     if not match:
                         continue
@@ -72,11 +78,17 @@ def self_test():
         os.makedirs(os.path.join(tree, "daemon", "src", "devices"))
         with open(os.path.join(tree, "daemon", "src", "devices", "planted.cpp"), "w") as handle:
             handle.write('#include "chromo/daemon/internal/capture/sequencer.hpp"\n')
+            handle.write('#include "chromo/simulators/camera/lab_cameras.hpp"\n')  # allowed in devices/
+        public = os.path.join(tree, "daemon", "include", "chromo", "daemon")
+        os.makedirs(public)
+        with open(os.path.join(public, "planted.hpp"), "w") as handle:
+            handle.write('#include "chromo/simulators/camera/lab_cameras.hpp"\n')
         found = violations(tree)
-        if len(found) == 1 and "room devices/ includes capture/" in found[0]:
-            print("self-test: the planted upward include was caught:", found[0])
+        if (len(found) == 2 and any("room devices/ includes capture/" in f for f in found)
+                and any("planted.hpp:1: only daemon's devices/ room may include a simulator" in f for f in found)):
+            print("self-test: the planted upward include and simulator include were caught:", found)
             return 0
-        print("self-test FAILED: expected one upward include, got", found)
+        print("self-test FAILED: expected one upward include and one simulator include, got", found)
         return 1
     finally:
         shutil.rmtree(tree)

@@ -9,7 +9,7 @@
 #include <filesystem>
 #include <map>
 
-#include "chromo/daemon/virtual_lab.hpp"
+#include "chromo/daemon/internal/devices/virtual_lab.hpp"
 #include "chromo/files/float_image.hpp"
 #include "chromo/maps/reconstruction.hpp"
 #include "chromo/simulators/scene/scene.hpp"

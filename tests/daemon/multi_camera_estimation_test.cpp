@@ -16,6 +16,7 @@
 #include "chromo/daemon/internal/api/api_conversions.hpp"
 #include "chromo/files/float_image.hpp"
 #include "chromo/maps/camera_results.hpp"
+#include "chromo/maps/common_view.hpp"
 #include "chromo/simulators/scene/camera_view.hpp"
 #include "chromo/simulators/scene/scene.hpp"
 #include "chromosphere/v1/estimation.pb.h"
@@ -208,6 +209,80 @@ TEST(MultiCameraEstimation, TwoPosedCamerasGetTheirOwnMapsThatMatchTheirPoses) {
         nan_outside += std::isnan(maps[k].channel("Cm")[i]) && std::isnan(maps[k].channel("Ch")[i]);
     EXPECT_EQ(static_cast<double>(nan_outside), outside);
   }
+
+  // The common view (issue 42 part 2): side's maps resampled into cam0's
+  // grid through the homography of the white target's outline; its
+  // corresponding points against the poses' truth, and Cm there against cam0's.
+  ASSERT_EQ(api.cameras(0).common_view_reference(), "cam0");
+  EXPECT_EQ(api.cameras(0).common_view_file(), api.cameras(0).maps_file());
+  ASSERT_EQ(api.cameras(1).common_view_reason(), "");
+  ASSERT_EQ(api.cameras(1).common_view_file(), (results / "side" / "common_view.exr").string());
+  ASSERT_EQ(api.cameras(1).common_view_homography_size(), 9);
+  cv::Matx33d estimated;
+  for (int k = 0; k < 9; ++k) estimated.val[k] = api.cameras(1).common_view_homography(k);
+  const cv::Matx33d to_cells(0.5, 0, -0.25, 0, 0.5, -0.25, 0, 0, 1);
+  const simulators::PatchGeometry patch{lab.lab_options.scene_size, lab.lab_options.scene_size,
+                                        lab.lab_options.patch_width_mm / lab.lab_options.scene_size};
+  const auto cells_of = [&](const simulators::LabCamera& camera) {
+    return to_cells * simulators::patch_to_image_homography(*simulators::lab_camera_view(camera), patch);
+  };
+  const cv::Matx33d truth = cells_of(lab.lab_options.cameras[0]) * cells_of(lab.lab_options.cameras[1]).inv();
+  double worst_px = 0;
+  for (double u = 0.05; u < 1; u += 0.1)  // a grid over the target, in patch units
+    for (double v = 0.05; v < 1; v += 0.1) {
+      const cv::Vec3d p = cells_of(lab.lab_options.cameras[1]) *
+                          cv::Vec3d(u * lab.lab_options.scene_size, v * lab.lab_options.scene_size, 1);
+      const cv::Vec3d a = estimated * p, b = truth * p;
+      worst_px = std::max(worst_px, std::hypot(a[0] / a[2] - b[0] / b[2], a[1] / a[2] - b[1] / b[2]));
+    }
+  const double residual_px = api.cameras(1).common_view_residual_px();
+  std::cout << "common view: residual " << residual_px << " cells, worst corresponding point " << worst_px
+            << " cells from the poses' truth\n";
+  EXPECT_LT(worst_px, 1.0);
+  EXPECT_LT(residual_px, 0.5);
+  const auto common = files::read_exr(results / "side" / "common_view.exr");
+  ASSERT_EQ(common.width, maps[0].width);
+  ASSERT_EQ(common.height, maps[0].height);
+  std::vector<double> z;
+  for (std::size_t i = 0; i < common.channel("Cm").size(); ++i) {
+    if (maps[0].channel("flags")[i] != 0 || common.channel("flags")[i] != 0) continue;
+    const double s0 = maps[0].channel("sigma_Cm")[i], s1 = common.channel("sigma_Cm")[i];
+    if (!(s0 > 0 && s1 > 0)) continue;
+    z.push_back((common.channel("Cm")[i] - maps[0].channel("Cm")[i]) / std::hypot(s0, s1));
+  }
+  ASSERT_GT(z.size(), 3000u);
+  std::size_t within_1 = 0, within_2 = 0;
+  for (double v : z) within_1 += std::abs(v) <= 1, within_2 += std::abs(v) <= 2;
+  const double share_1 = static_cast<double>(within_1) / z.size(), share_2 = static_cast<double>(within_2) / z.size();
+  std::nth_element(z.begin(), z.begin() + z.size() / 2, z.end());
+  std::cout << "common view: Cm of side against cam0 over " << z.size() << " cells: " << 100 * share_1
+            << "% within 1 sigma, " << 100 * share_2 << "% within 2 sigma, median z " << z[z.size() / 2] << "\n";
+  EXPECT_GT(share_1, 0.6);
+  EXPECT_GT(share_2, 0.9);
+  EXPECT_LT(std::abs(z[z.size() / 2]), 0.3);
+
+  // The σ maps are wide for this check (the estimator's σ covers the model's
+  // ambiguity, not only the camera's noise), so the registration is also
+  // judged by the RMS Cm difference: the estimated homography's against the
+  // poses' own, and a 2-cell misregistration's.
+  const auto rms_against_cam0 = [&](const files::FloatImage& view) {
+    double sum = 0;
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < view.channel("Cm").size(); ++i) {
+      if (maps[0].channel("flags")[i] != 0 || view.channel("flags")[i] != 0) continue;
+      const double d = view.channel("Cm")[i] - maps[0].channel("Cm")[i];
+      sum += d * d, ++n;
+    }
+    return std::sqrt(sum / std::max<std::size_t>(n, 1));
+  };
+  const double rms_estimated = rms_against_cam0(common);
+  const double rms_truth = rms_against_cam0(maps::resample_into_common_view(maps[1], truth, common.width, common.height));
+  const double rms_shifted = rms_against_cam0(maps::resample_into_common_view(
+      maps[1], cv::Matx33d(1, 0, 2, 0, 1, 0, 0, 0, 1) * truth, common.width, common.height));
+  std::cout << "common view: RMS Cm difference " << rms_estimated << " (the poses' homography " << rms_truth
+            << ", shifted 2 cells " << rms_shifted << ")\n";
+  EXPECT_LT(rms_estimated, 1.05 * rms_truth);
+  EXPECT_GT(rms_shifted, 1.2 * rms_estimated);
 
   // `chromo estimate SESSION_DIR`'s path gives the daemon's maps, camera by camera.
   const auto sources = session::resolve_capture_sources((results / "led_library.json").string(), "builtin:nikon_d5100", 0.99);

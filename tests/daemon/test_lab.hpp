@@ -17,7 +17,7 @@
 #include "../support/fresh_directory.hpp"
 #include "chromo/daemon/daemon.hpp"
 #include "chromo/session/frame_files.hpp"
-#include "chromo/daemon/virtual_lab.hpp"
+#include "chromo/daemon/internal/devices/virtual_lab.hpp"
 #include "chromo/drivers/camera/aravis_camera.hpp"
 #include "chromo/simulators/camera/camera_simulator.hpp"
 #include "chromo/simulators/leds/led_lab.hpp"

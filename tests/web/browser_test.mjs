@@ -281,6 +281,10 @@ async function main() {
   const context = await browser.newContext({ viewport: { width: 1280, height: 800 } });
   const page = await context.newPage();
   page.on('pageerror', (error) => console.log(`[page error] ${error.message}`));
+  // What a CI failure needs to be understood: requests the browser saw fail
+  // and the page's own warnings (the connection state flipping).
+  page.on('requestfailed', (request) => console.log(`[request failed] ${request.method()} ${request.url()}: ${request.failure()?.errorText}`));
+  page.on('console', (message) => { if (message.type() === 'warning') console.log(`[page warning] ${message.text()}`); });
   await page.goto(origin);
 
   // A wrong token is refused, the right one logs in (keyboard: type, Enter).
@@ -417,10 +421,13 @@ async function main() {
   const results = await api('ResultsService', 'GetResults', { session_id: sessionId });
   assert.equal(results.json.state, 'RESULTS_STATE_AVAILABLE');
   for (const camera of results.json.cameras) {
-    const section = page.locator(`section[data-camera="${camera.camera}"]`);
     for (const [illuminant, statistics] of Object.entries(camera.summary.relit_delta_e94)) {
-      const cells = await section.locator('tr').filter({ has: page.getByRole('cell', { name: illuminant, exact: true }) }).first()
-        .locator('td').allTextContents();
+      // One read of the DOM (the row and its cells together), so a table being
+      // rebuilt cannot hand back a row without its cells.
+      const relitRow = ([cameraName, name]) => [...document.querySelectorAll(`section[data-camera="${cameraName}"] tr`)]
+        .map((row) => [...row.cells].map((cell) => cell.textContent)).find((cells) => cells[0] === name) ?? null;
+      await waitUntil(page, relitRow, [camera.camera, illuminant], 10000, `the ${camera.camera} ${illuminant} row`);
+      const cells = await page.evaluate(relitRow, [camera.camera, illuminant]);
       assert.equal(Number(cells[1]), Number(statistics.mean.toPrecision(3)), `${camera.camera} ${illuminant} mean ΔE94`);
       assert.equal(Number(cells[3]), Number(statistics.p95.toPrecision(3)), `${camera.camera} ${illuminant} p95 ΔE94`);
     }
@@ -437,6 +444,9 @@ async function main() {
   const report = await fetch(`${origin}/api/files/${sessionId}/${reportPath}`, { headers: { Cookie: cookie } });
   assert.equal(report.status, 200, `GET /api/files/${sessionId}/${reportPath}`);
   await page.locator(`a[href$="${reportPath}"]`).first().waitFor();
+  // The previews load lazily, as they come near the view: look at each, as a
+  // reader scrolling down would (else a taller explorer above keeps them unloaded).
+  for (const preview of await page.locator('.map img').all()) await preview.scrollIntoViewIfNeeded();
   await waitUntil(page, () => [...document.querySelectorAll('.map img')].every((image) => image.complete && image.naturalWidth > 0),
     null, 20000, 'the map previews');
   console.log(`map previews shown (${await page.locator('.map img').count()}), files linked`);

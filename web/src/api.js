@@ -26,6 +26,7 @@ export function isConnected() {
 function setConnected(value) {
   if (connected === value) return;
   connected = value;
+  console.warn(value ? 'chromo: the daemon answers again' : 'chromo: the daemon does not answer');
   for (const listener of connectionListeners) listener(value);
   if (!value) scheduleReconnectProbe();
 }
@@ -60,6 +61,12 @@ async function post(path, body, signal) {
     });
   } catch (error) {
     if (error.name === 'AbortError') throw error;  // the page gave up on it: not the daemon's absence
+    if (await daemonAnswers()) {
+      // One request failed (a connection closed under it) while the daemon is
+      // there: this call fails, the page is not torn down as after an outage.
+      console.warn(`chromo: ${path} failed (${error.message}) while the daemon answers`);
+      throw new ApiError(`the request failed on its way (${error.message}); the daemon answers: try again`, 'UNAVAILABLE', 0);
+    }
     setConnected(false);
     throw new ApiError(`the daemon does not answer (${error.message})`, 'UNAVAILABLE', 0);
   }
@@ -92,15 +99,30 @@ export function logout() {
   return post('/logout', {});
 }
 
-export async function whoami() {
+// Whether GET /api/whoami answers (200 or 401): the daemon is there.
+async function daemonAnswers() {
   try {
     const reply = await fetch('/api/whoami', { credentials: 'same-origin', cache: 'no-store' });
-    setConnected(true);
-    return reply.status === 200;
+    return reply.status === 200 || reply.status === 401;
   } catch {
-    setConnected(false);
     return false;
   }
+}
+
+// Whether this browser is logged in; a second try 250 ms after a failed one
+// before the daemon counts as away (one dropped connection is not an outage).
+export async function whoami() {
+  for (let attempt = 1; attempt <= 2; ++attempt) {
+    try {
+      const reply = await fetch('/api/whoami', { credentials: 'same-origin', cache: 'no-store' });
+      setConnected(true);
+      return reply.status === 200;
+    } catch {
+      if (attempt === 1) await new Promise((resolve) => setTimeout(resolve, 250));
+    }
+  }
+  setConnected(false);
+  return false;
 }
 
 // A server-sent event stream: onMessage(json) per message, onFailure(error

@@ -216,6 +216,15 @@ void cameras_to_proto(const nlohmann::json& r, const std::filesystem::path& fold
     camera->set_camera_sensitivity(entry.value("camera_sensitivity", ""));
     if (entry.contains("shared_with") && entry["shared_with"].is_string())
       camera->set_shared_with(entry["shared_with"].get<std::string>());
+    if (entry.contains("common_view") && entry["common_view"].is_object()) {
+      const auto& view = entry["common_view"];
+      camera->set_common_view_reference(view.value("reference", ""));
+      camera->set_common_view_reason(view.value("reason", ""));
+      if (view.contains("file")) camera->set_common_view_file((folder / view.value("file", "")).string());
+      camera->set_common_view_residual_px(view.value("residual_px", 0.0));
+      if (view.contains("homography"))
+        for (const auto& v : view["homography"]) camera->add_common_view_homography(v.get<double>());
+    }
     results_summary_to_proto(entry, method, model, read_back, camera->mutable_summary());
   }
 }

@@ -5,7 +5,6 @@
 #include <chrono>
 
 #include "chromo/calibration/led_library_io.hpp"
-#include "chromo/daemon/virtual_lab.hpp"
 #include "chromo/session/plan_hazard.hpp"
 #include "chromo/spectral/table.hpp"
 
@@ -22,7 +21,8 @@ bool OnlineEstimatorOptions::IsValid(std::string* error) const {
 std::unique_ptr<OnlineEstimator> make_online_estimator(const EstimationConfig& config, files::StorageBudget* budget,
                                                        std::function<std::string()> daemon_led_library,
                                                        std::function<std::map<drivers::Polarisation, session::StateLedLibrary>()>
-                                                           daemon_state_libraries) {
+                                                           daemon_state_libraries,
+                                                       std::optional<session::SurfaceFactors> devices_films) {
   OnlineEstimatorOptions options;
   auto& e = options.estimation.estimator;
   // The configuration's loader has checked both names (config.cpp).
@@ -31,7 +31,7 @@ std::unique_ptr<OnlineEstimator> make_online_estimator(const EstimationConfig& c
   e.threads = config.threads;
   e.discrepancy = config.discrepancy == "none" ? nullptr : estimation::ModelDiscrepancy::standard();
   options.estimation.cache_dir = config.cache_dir;
-  options.sources = [config, daemon_led_library, daemon_state_libraries] {
+  options.sources = [config, daemon_led_library, daemon_state_libraries, devices_films] {
     std::string library = config.led_library;
     if (library.empty() && daemon_led_library) library = daemon_led_library();
     // The daemon's own library or the nominal one: never the user's newest (another daemon's).
@@ -39,8 +39,11 @@ std::unique_ptr<OnlineEstimator> make_online_estimator(const EstimationConfig& c
     auto sources = session::resolve_capture_sources(library, config.camera_sensitivity, config.white_reflectance,
                                                     config.camera_sensitivities);
     if (config.led_library.empty() && daemon_state_libraries) sources.led_library_of_state = daemon_state_libraries();
-    if (config.films_extinction_ratio == kVirtualLabFilms) sources.surface_factors = virtual_lab_surface_factors();
-    else if (!config.films_extinction_ratio.empty())
+    if (config.films_extinction_ratio == kVirtualLabFilms) {
+      if (!devices_films)
+        throw std::runtime_error("estimation.films_extinction_ratio \"virtual_lab\": the devices are not the virtual lab");
+      sources.surface_factors = *devices_films;
+    } else if (!config.films_extinction_ratio.empty())
       sources.surface_factors = session::surface_factors_of_extinction_file(config.films_extinction_ratio);
     return sources;
   };

@@ -1,4 +1,4 @@
-#include "chromo/daemon/virtual_lab.hpp"
+#include "chromo/daemon/internal/devices/virtual_lab.hpp"
 
 #include <atomic>
 #include <stdexcept>
@@ -112,6 +112,7 @@ VirtualLab start_virtual_lab(const VirtualLabOptions& options) {
   lab.device_set.place_in_sphere = [raw = simulators.get()](session::StepRole role) { raw->place_in_sphere(role); };
   lab.device_set.reference_lamp = [raw = simulators.get()](bool on) { raw->calibration_lab().lamp().set_on(on); };
   lab.device_set.lab_time_scale = options.led_time_scale;
+  lab.device_set.own_films = virtual_lab_surface_factors();
   lab.mixes = default_virtual_lab_mixes();
   lab.description = "LED controller simulator on Modbus TCP 127.0.0.1:" + std::to_string(simulators->modbus_port()) +
                     ", GigE Vision camera simulator" + (options.cameras.size() > 1 ? "s " : " ") +

@@ -1,11 +1,12 @@
-// VirtualLabOptions' checks and the camera simulators' options it gives:
-// apart from virtual_lab.cpp (which starts the lab) so that the
-// configuration reader, which checks virtual_lab.cameras with them, links
-// without the devices (the fuzz_config harness compiles it alone).
+// VirtualLabOptions' checks, the camera simulators' options it gives, and
+// the configuration's virtual_lab section mapped to it: apart from
+// virtual_lab.cpp (which starts the lab) so that the configuration reader,
+// which reads and checks virtual_lab.cameras with them, links without the
+// devices (the fuzz_config harness compiles it alone).
 #include <set>
 #include <stdexcept>
 
-#include "chromo/daemon/virtual_lab.hpp"
+#include "chromo/daemon/internal/devices/virtual_lab.hpp"
 #include "chromo/session/session_plan.hpp"
 #include "chromo/simulators/camera/camera_simulator.hpp"
 #include "chromo/simulators/camera/lab_cameras.hpp"
@@ -57,6 +58,45 @@ simulators::CameraSimulatorOptions VirtualLabOptions::camera_simulator_options(
   simulators::CameraSimulatorOptions options = simulators::lab_camera_simulator_options(
       cameras.at(index), index, camera_serial, patch_width_mm, seed, sensitivity);
   if (polarisers) options.analyser = simulators::lab_camera_analyser(cameras.at(index), polariser_roughness_rad);
+  return options;
+}
+
+namespace {
+
+VirtualCameraConfig plain_camera(const simulators::LabCamera& camera) {
+  VirtualCameraConfig plain{camera.name,         camera.serial,       camera.address,
+                            camera.sensor_width, camera.sensor_height, camera.pixel_format,
+                            std::nullopt,        camera.sensitivity};
+  if (const auto& pose = camera.pose)
+    plain.pose = VirtualCameraPose{pose->distance_mm, pose->azimuth_deg,     pose->elevation_deg,
+                                   pose->roll_deg,    pose->focal_length_mm, pose->pixel_size_um};
+  return plain;
+}
+
+simulators::LabCamera lab_camera(const VirtualCameraConfig& plain) {
+  simulators::LabCamera camera{plain.name,         plain.serial,       plain.address,
+                               plain.sensor_width, plain.sensor_height, plain.pixel_format,
+                               std::nullopt,       plain.sensitivity};
+  if (const auto& pose = plain.pose)
+    camera.pose = simulators::LabCameraPose{pose->distance_mm, pose->azimuth_deg,     pose->elevation_deg,
+                                            pose->roll_deg,    pose->focal_length_mm, pose->pixel_size_um};
+  return camera;
+}
+
+}  // namespace
+
+std::vector<VirtualCameraConfig> read_virtual_cameras(const nlohmann::json& list) {
+  std::vector<VirtualCameraConfig> cameras;
+  for (const auto& camera : simulators::read_lab_cameras(list)) cameras.push_back(plain_camera(camera));
+  return cameras;
+}
+
+VirtualLabOptions virtual_lab_options(const VirtualLabConfig& config) {
+  VirtualLabOptions options;
+  options.cameras.clear();
+  for (const auto& camera : config.cameras) options.cameras.push_back(lab_camera(camera));
+  options.patch_width_mm = config.patch_width_mm;
+  options.polarisers = config.polarisers;
   return options;
 }
 

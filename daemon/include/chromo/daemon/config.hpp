@@ -14,15 +14,16 @@
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "chromo/drivers/camera.hpp"
 #include "chromo/drivers/led_controller.hpp"
 #include "chromo/files/runtime_dir.hpp"
 #include "chromo/session/plan_hazard.hpp"
-#include "chromo/simulators/camera/lab_cameras.hpp"
 
 namespace chromo::daemon {
 
@@ -56,7 +57,8 @@ struct EstimationConfig {
   // The polariser films (docs/polarisation.md "What the estimator knows of
   // the films"): "" = not given (surface maps and cross captures uncorrected),
   // a CSV wavelength_nm,extinction_ratio (the films' datasheet curve), or
-  // "virtual_lab" (the virtual lab's own film model, simulators::PolariserFilm).
+  // "virtual_lab" (the virtual lab's own film model, which its devices describe:
+  // DeviceSet::own_films).
   std::string films_extinction_ratio;
   std::string cache_dir;         // forward tables; empty = $CHROMO_CACHE_DIR or ~/.cache/chromosphere
   std::uint64_t cache_limit_bytes = 2ull << 30;  // table cache bound (least recently used evicted)
@@ -81,10 +83,35 @@ struct CaptureConfig {
   std::string polarised_plan = "auto";
 };
 
+// A virtual lab camera's pose (docs/config.md "The built-in virtual lab"):
+// it looks at the patch centre from there.
+struct VirtualCameraPose {
+  double distance_mm = 300;      // eye to the patch centre
+  double azimuth_deg = 0;        // swung towards +X (right), |.| < 90
+  double elevation_deg = 0;      // swung towards −Y (up), |.| < 90
+  double roll_deg = 0;           // about the optical axis
+  double focal_length_mm = 8;
+  double pixel_size_um = 3.45;
+};
+
+// One camera of virtual_lab.cameras, as plain options: the virtual lab's
+// backend (daemon/src/devices/virtual_lab_options.cpp) maps it to the
+// simulator's camera.
+struct VirtualCameraConfig {
+  std::string name = "cam0";
+  std::string serial;            // "" = the lab's default serial for this camera
+  std::string address;           // "" = a free one in 127.77.0.0/16
+  int sensor_width = 640;
+  int sensor_height = 480;
+  drivers::PixelFormat pixel_format = drivers::PixelFormat::kBayerRG12;
+  std::optional<VirtualCameraPose> pose;  // none: the patch fills the sensor square-on
+  std::string sensitivity;       // "" = the lab's; "builtin:NAME" or a CSV path
+};
+
 // The built-in virtual lab (docs/config.md "The built-in virtual lab"):
 // used only when no devices are configured.
 struct VirtualLabConfig {
-  std::vector<simulators::LabCamera> cameras = {simulators::LabCamera{}};  // default: cam0, 640x480 BayerRG12
+  std::vector<VirtualCameraConfig> cameras = {VirtualCameraConfig{}};  // default: cam0, 640x480 BayerRG12
   double patch_width_mm = 80;  // the skin patch's width, for posed cameras
   bool polarisers = false;     // polariser banks on all six LED types, analysers on the cameras (docs/polarisation.md)
 };

@@ -32,6 +32,7 @@
 #include <string>
 #include <vector>
 
+#include "chromo/maps/common_view.hpp"
 #include "chromo/maps/estimate_report.hpp"
 #include "chromo/session/session_captures.hpp"
 
@@ -46,6 +47,16 @@ bool usable_camera_folder_name(const std::string& camera);
 std::filesystem::path camera_results_dir(const std::filesystem::path& results_dir, const std::string& camera,
                                          std::size_t camera_count);
 
+// A camera's maps in the common view (common_view.hpp): the reference
+// camera (the first with maps) keeps its own maps.exr; every other camera's
+// are resampled into common_view.exr beside its maps.exr.
+struct CameraCommonView {
+  std::string reference;   // the reference camera's name
+  std::string file;        // relative to results/ ("" when reason is set)
+  std::string reason;      // why this camera has no common view (its target outline not found)
+  CommonViewMapping mapping;
+};
+
 // One camera's outcome.
 struct CameraEstimate {
   std::string camera;
@@ -55,6 +66,7 @@ struct CameraEstimate {
   std::string camera_sensitivity;     // where its spectral sensitivity came from
   std::string shared_with;            // an earlier camera whose forward table this one used ("" none)
   std::optional<MethodEstimationResult> result;  // ok only
+  std::optional<CameraCommonView> common_view;   // several cameras with maps only
 };
 
 // The per-camera options: the tables prepared during capture (the on-line
@@ -77,11 +89,26 @@ std::vector<CameraEstimate> estimate_session_cameras(const SessionCamerasInput& 
                                                      const std::filesystem::path& results_dir, const FileCommit& commit,
                                                      const files::Progress& progress = {});
 
+// Adds every ok camera's common view (several cameras with maps): reads
+// each camera's maps.exr under results_dir, finds the white target's outline,
+// maps it onto the reference camera's and writes common_view.exr through
+// `commit`. A camera whose outline cannot be found gets its reason (and the
+// reference's own failure gives every camera that reason); nothing throws
+// for it.
+void add_common_views(std::vector<CameraEstimate>& cameras, const std::filesystem::path& results_dir,
+                      const FileCommit& commit);
+
+// A camera entry's "common_view" object (below), file prefixed by path_prefix.
+std::string common_view_entry_json(const CameraCommonView& view, const std::string& path_prefix = "");
+
 // results/summary.json of a session with several cameras:
 //   {...extra, "cameras": [{"name", "state": "ok"|"failed", "reason" (failed),
 //    "folder", "maps_file", "report_file" (relative to results/),
 //    "camera_sensitivity", "table_key", "shared_with" (null: none), "pixels",
-//    "explained", "estimate_seconds", "flag_counts", "relit_delta_e94"}]}
+//    "explained", "estimate_seconds", "flag_counts", "relit_delta_e94",
+//    "common_view": {"reference", "file", "homography" (9, row-major, camera
+//    cell → reference cell), "residual_px", "max_residual_px",
+//    "outline_cells"} or {"reference", "reason"}}]}
 std::string camera_results_index_json(const std::vector<CameraEstimate>& cameras, const std::string& extra_json = "{}");
 
 // One camera's key figures as a JSON object (the index's entry; chromod's

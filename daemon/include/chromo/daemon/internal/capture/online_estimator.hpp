@@ -61,6 +61,7 @@
 #include "chromo/files/durable_file.hpp"
 #include "chromo/daemon/internal/capture/frame_pipeline.hpp"
 #include "chromo/session/session_captures.hpp"
+#include "chromo/session/surface_factors.hpp"
 #include "chromo/maps/camera_results.hpp"
 #include "chromo/maps/estimate_report.hpp"
 
@@ -82,10 +83,14 @@ class OnlineEstimator;
 // (optional): the daemon's own LED library file at that moment ("" when it
 // has none), used unless config.led_library overrides it; likewise
 // daemon_state_libraries (optional): its measured library per polarisation
-// state (CaptureSources::led_library_of_state).
+// state (CaptureSources::led_library_of_state). devices_films: the films as
+// the devices describe them (DeviceSet::own_films), which
+// films_extinction_ratio "virtual_lab" names; without them such a session's
+// results are "unavailable", saying so.
 std::unique_ptr<OnlineEstimator> make_online_estimator(
     const EstimationConfig& config, files::StorageBudget* budget, std::function<std::string()> daemon_led_library = {},
-    std::function<std::map<drivers::Polarisation, session::StateLedLibrary>()> daemon_state_libraries = {});
+    std::function<std::map<drivers::Polarisation, session::StateLedLibrary>()> daemon_state_libraries = {},
+    std::optional<session::SurfaceFactors> devices_films = std::nullopt);
 
 class OnlineEstimator final : public FrameConsumer {
  public:

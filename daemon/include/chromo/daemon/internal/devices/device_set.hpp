@@ -5,7 +5,10 @@
 //
 // BackendRegistry maps a backend name ("modbus-tcp", "aravis", ...) to a
 // factory. The real drivers register theirs in backends.cpp; the virtual lab
-// adds its in-process spectrometer seam (virtual_lab.cpp). An unknown backend
+// (virtual_lab.hpp) is one more: its simulators started in process, the
+// real drivers' factories pointed at them, plus its in-process spectrometer
+// seam (virtual_lab.cpp); open_devices (devices.hpp) picks it when no
+// devices are configured. An unknown backend
 // is a configuration error naming it; so is an unknown or invalid setting (a
 // factory throws std::invalid_argument for it, which open() passes on with
 // the device named, instead of recording an open_error).
@@ -19,11 +22,13 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "chromo/daemon/config.hpp"
 #include "chromo/session/session_plan.hpp"
+#include "chromo/session/surface_factors.hpp"
 #include "chromo/drivers/camera.hpp"
 #include "chromo/drivers/led_controller.hpp"
 #include "chromo/drivers/spectrometer.hpp"
@@ -56,6 +61,10 @@ struct DeviceSet {
   // lab's lamp; empty with real devices unless one is wired (then a
   // calibration run is refused, naming the missing lamp).
   std::function<void(bool on)> reference_lamp;
+  // The polariser films as the devices describe them (the virtual lab's own
+  // model), for estimation.films_extinction_ratio "virtual_lab"; none with
+  // real devices.
+  std::optional<session::SurfaceFactors> own_films;
   // Lab seconds per wall-clock second of the LED simulator (1 for real
   // devices); calibration runs shorten their waits by it.
   double lab_time_scale = 1;

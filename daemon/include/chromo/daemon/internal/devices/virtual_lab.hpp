@@ -1,5 +1,6 @@
 #pragma once
-// The built-in virtual lab chromod runs without a configuration: the device
+// The built-in virtual lab chromod runs without devices configured, one more
+// backend of the device set (open_devices, devices.hpp): the device
 // simulators of simulators/ started in this process on their real protocols,
 // exactly as chromo-sim starts them, and devices connected to them through
 // the real drivers:
@@ -43,6 +44,9 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
+#include "chromo/daemon/config.hpp"
 #include "chromo/daemon/internal/devices/device_set.hpp"
 #include "chromo/session/surface_factors.hpp"
 #include "chromo/simulators/camera/lab_cameras.hpp"
@@ -127,7 +131,9 @@ struct VirtualLab {
 
 // Throws std::invalid_argument for invalid options, std::runtime_error when a
 // simulator cannot start (GigE port taken); a driver that cannot connect
-// leaves its device with an open_error, as with configured devices.
+// leaves its device with an open_error, as with configured devices. The
+// device set describes the lab's own films (DeviceSet::own_films:
+// virtual_lab_surface_factors).
 VirtualLab start_virtual_lab(const VirtualLabOptions& options = {});
 
 // The polarised virtual lab's films as a datasheet would give them (its
@@ -135,5 +141,14 @@ VirtualLab start_virtual_lab(const VirtualLabOptions& options = {});
 // exactly: the design view), for estimation.films_extinction_ratio
 // "virtual_lab" (kVirtualLabFilms).
 session::SurfaceFactors virtual_lab_surface_factors();
+
+// The configuration's side of the lab (virtual_lab_options.cpp, which the
+// configuration reader links alone): virtual_lab.cameras read by the reader
+// chromo-sim shares (simulators::read_lab_cameras) into plain options;
+// throws std::invalid_argument "[i].key: what is wrong".
+std::vector<VirtualCameraConfig> read_virtual_cameras(const nlohmann::json& list);
+// The lab's options for a configuration's virtual_lab section (cameras,
+// patch width, polarisers; every other option at its default).
+VirtualLabOptions virtual_lab_options(const VirtualLabConfig& config);
 
 }  // namespace chromo::daemon

@@ -1,0 +1,66 @@
+// The common view of a session's cameras (camera_results.hpp, add_common_views).
+#include <nlohmann/json.hpp>
+
+#include <fstream>
+
+#include "chromo/maps/camera_results.hpp"
+
+namespace chromo::maps {
+
+namespace fs = std::filesystem;
+
+void add_common_views(std::vector<CameraEstimate>& cameras, const fs::path& results_dir, const FileCommit& commit) {
+  std::vector<CameraEstimate*> with_maps;
+  for (auto& camera : cameras)
+    if (camera.ok) with_maps.push_back(&camera);
+  if (with_maps.size() < 2) return;
+  const CameraEstimate& reference = *with_maps.front();
+  auto maps_of = [&](const CameraEstimate& camera) { return files::read_exr(results_dir / camera.folder / "maps.exr"); };
+  const files::FloatImage reference_maps = maps_of(reference);
+  TargetOutline reference_outline;
+  std::string reference_failure;
+  try {
+    reference_outline = find_target_outline(reference_maps, reference.camera + "'s maps");
+  } catch (const std::exception& error) {  // cv::Exception too: reported, the maps stand
+    reference_failure = error.what();
+  }
+  for (CameraEstimate* camera : with_maps) {
+    CameraCommonView view;
+    view.reference = reference.camera;
+    if (!reference_failure.empty()) {
+      view.reason = reference_failure;
+    } else if (camera == &reference) {
+      view.file = reference.folder + "/maps.exr";  // the reference's own grid
+    } else {
+      try {
+        const files::FloatImage maps = maps_of(*camera);
+        view.mapping = map_onto_reference(find_target_outline(maps, camera->camera + "'s maps"), reference_outline);
+        const auto common = resample_into_common_view(maps, view.mapping.to_reference, reference_maps.width,
+                                                      reference_maps.height);
+        view.file = camera->folder + "/common_view.exr";
+        commit(results_dir / view.file, [&](const fs::path& temporary) { files::write_exr(temporary, common); });
+      } catch (const std::exception& error) {  // cv::Exception too: reported, the maps stand
+        view.reason = error.what();
+      }
+    }
+    camera->common_view = std::move(view);
+  }
+}
+
+std::string common_view_entry_json(const CameraCommonView& view, const std::string& path_prefix) {
+  nlohmann::ordered_json out{{"reference", view.reference}};
+  if (!view.reason.empty()) {
+    out["reason"] = view.reason;
+    return out.dump();
+  }
+  out["file"] = path_prefix + view.file;
+  nlohmann::ordered_json h = nlohmann::ordered_json::array();
+  for (int k = 0; k < 9; ++k) h.push_back(view.mapping.to_reference.val[k]);
+  out["homography"] = h;
+  out["residual_px"] = view.mapping.residual_px;
+  out["max_residual_px"] = view.mapping.max_residual_px;
+  out["outline_cells"] = view.mapping.outline_cells;
+  return out.dump();
+}
+
+}  // namespace chromo::maps
