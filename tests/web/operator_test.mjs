@@ -311,6 +311,9 @@ async function main() {
   await regionField.press('Enter');
   await cam0.locator('.message.error').filter({ hasText: /^Region: 10, 20, 95, 5 does not lie inside the frame/ }).waitFor();
   assert.equal((await frameData()).cells, white.cells);
+  const badRegion = await fetch(`${origin}/api/stream/preview?camera=cam0&region=0.1,0.2`, { headers: { Cookie: cookie } });
+  assert.equal(badRegion.status, 400);
+  assert.match((await badRegion.json()).error, /^region: four numbers x,y,width,height/);
   // Dragged on the picture: the left half of the frame.
   const pictureBox = await cam0.locator('canvas.picture').boundingBox();
   await page.mouse.move(pictureBox.x + 2, pictureBox.y + 2);
