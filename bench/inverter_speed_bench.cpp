@@ -62,16 +62,9 @@ using estimation::ModelChoice;
 using simulators::SyntheticKind;
 constexpr int kFolds = 5;
 
-struct Plan {
-  std::string name;
-  estimation::MeasurementSet set;
-  std::shared_ptr<const estimation::ForwardTable> table;
-  double table_build_s = 0, subspace_build_s = 0;
-};
-
 spectral::Spectrum led(spectral::LedType t) { return spectral::led_spectrum(t); }
 
-std::vector<Plan> make_plans(const std::vector<std::string>& only) {
+std::vector<RealSkinPlan> make_plans(const std::vector<std::string>& only) {
   using spectral::LedType;
   const spectral::CameraSensitivity camera = spectral::builtin_camera("nikon_d5100");
   std::vector<std::pair<std::string, spectral::Spectrum>> four, six;
@@ -82,16 +75,16 @@ std::vector<Plan> make_plans(const std::vector<std::string>& only) {
   all.emplace_back("D65'", spectral::led_d65_metamer());
   all.emplace_back("W57-mix", led(LedType::kW57));
   all.emplace_back("W57+blue", led(LedType::kW57) + led(LedType::kBlue));
-  std::vector<Plan> plans{
+  std::vector<RealSkinPlan> plans{
       {"method", estimation::method_measurement_set(camera, spectral::led_d65_metamer(), led(LedType::kBlue))},
       {"four-leds", simulators::capture_measurement_set(camera, four)},
       {"six-leds", simulators::capture_measurement_set(camera, six)},
       {"six-leds+method", simulators::capture_measurement_set(camera, all)}};
   if (!only.empty()) {
-    std::erase_if(plans, [&](const Plan& p) { return std::find(only.begin(), only.end(), p.name) == only.end(); });
+    std::erase_if(plans, [&](const RealSkinPlan& p) { return std::find(only.begin(), only.end(), p.name) == only.end(); });
     if (plans.empty()) throw std::invalid_argument("--plans: no known plan named");
   }
-  for (Plan& p : plans) {
+  for (RealSkinPlan& p : plans) {
     const auto start = std::chrono::steady_clock::now();
     p.table = std::make_shared<const estimation::ForwardTable>(estimation::ForwardTable::build(p.set, {}, 2));
     p.table_build_s = seconds_since(start);
@@ -138,7 +131,7 @@ double relit(const estimation::PixelEstimate& e, const Scene& s, std::size_t i) 
 
 estimation::SubspaceInverterOptions subspace_options;  // --polish-steps, --subspace-steps
 
-Run run_inverter(const Plan& plan, const estimation::MeasurementSet& set, const Scene& s, InverterMethod method,
+Run run_inverter(const RealSkinPlan& plan, const estimation::MeasurementSet& set, const Scene& s, InverterMethod method,
                  ModelChoice model) {
   estimation::EstimatorOptions options;
   options.subspace = subspace_options;
@@ -197,7 +190,7 @@ Run run_inverter(const Plan& plan, const estimation::MeasurementSet& set, const 
 }
 
 // CPU µs per skin cell of the inverter alone (4D fits, this thread).
-double inverter_us(const Plan& plan, const estimation::MeasurementSet& set, const Scene& s, InverterMethod method,
+double inverter_us(const RealSkinPlan& plan, const estimation::MeasurementSet& set, const Scene& s, InverterMethod method,
                    int cells) {
   estimation::EstimatorOptions options;
   options.subspace = subspace_options;
@@ -281,10 +274,10 @@ int run(int argc, char** argv) {
   app.add_flag("--inverter-only", inverter_only, "only the inverter alone per plan (for a profiler)");
   CLI11_PARSE(app, argc, argv);
 
-  std::vector<Plan> plans = make_plans(plan_names);
+  std::vector<RealSkinPlan> plans = make_plans(plan_names);
   std::vector<Run> runs;
   std::map<std::string, std::map<std::string, std::vector<double>>> channel_us;  // inverter -> plan -> µs per seed
-  for (const Plan& plan : plans) {
+  for (const RealSkinPlan& plan : plans) {
     estimation::MeasurementSet set = plan.set;
     simulators::set_exposure_noise(set, real_skin_camera_noise(1.0));
     for (std::uint64_t seed : seeds)
@@ -313,7 +306,7 @@ int run(int argc, char** argv) {
   for (auto s : seeds) std::printf(" %llu", static_cast<unsigned long long>(s));
   std::printf("; Estimator on 2 threads, no spatial pass; load average at the end: see below\n\n");
   std::printf("table set-up (this run): plan, channels, forward table s, subspace table s\n");
-  for (const Plan& p : plans)
+  for (const RealSkinPlan& p : plans)
     std::printf("  %-16s %3d  %.2f  %.2f\n", p.name.c_str(), p.set.size(), p.table_build_s, p.subspace_build_s);
 
   std::filesystem::create_directories(out);
@@ -339,7 +332,7 @@ int run(int argc, char** argv) {
               "dE fast", "dE subspace", "rule", "speed subspace/fast");
   std::map<std::string, std::vector<std::pair<double, double>>> chart;  // inverter -> (pixels/s, dE) per plan
   bool all_met = true;
-  for (const Plan& p : plans)
+  for (const RealSkinPlan& p : plans)
     for (const std::string scene : inverter_only ? std::vector<std::string>{} : std::vector<std::string>{"model", "real"})
       for (const std::string noise : {"noisy", "noise-free"})
         for (const std::string model : {"auto", "4d"}) {
@@ -378,7 +371,7 @@ int run(int argc, char** argv) {
   for (const auto& [inverter, per_plan] : channel_us) {
     LineSeries line{inverter, {}};
     const double base = spread(per_plan.at(plans.front().name), [](double v) { return v; }).mean;
-    for (const Plan& p : plans) {
+    for (const RealSkinPlan& p : plans) {
       const Spread u = spread(per_plan.at(p.name), [](double v) { return v; });
       line.points.emplace_back(p.set.size(), u.mean);
       std::printf("%-10s %-16s %3d channels: %7.2f [%7.2f, %7.2f] us per cell, %.2fx the %s plan's\n", inverter.c_str(),
@@ -387,7 +380,7 @@ int run(int argc, char** argv) {
     growth.push_back(line);
   }
   if (channel_us.size() == 2)
-    for (const Plan& p : plans)
+    for (const RealSkinPlan& p : plans)
       std::printf("subspace / fast on %-16s: %.3f\n", p.name.c_str(),
                   spread(channel_us["subspace"][p.name], [](double v) { return v; }).mean /
                       spread(channel_us["fast"][p.name], [](double v) { return v; }).mean);

@@ -61,19 +61,13 @@ namespace {
 using simulators::SyntheticKind;
 constexpr int kFolds = 5;
 
-struct Plan {
-  std::string name;
-  estimation::MeasurementSet set;
-  std::shared_ptr<const estimation::ForwardTable> table;
-};
-
-std::vector<Plan> plans() {
+std::vector<RealSkinPlan> plans() {
   const spectral::CameraSensitivity camera = spectral::builtin_camera("nikon_d5100");
-  std::vector<Plan> out{{"method", estimation::method_measurement_set(camera, spectral::led_d65_metamer(),
+  std::vector<RealSkinPlan> out{{"method", estimation::method_measurement_set(camera, spectral::led_d65_metamer(),
                                                                      spectral::led_spectrum(spectral::LedType::kBlue)),
                          nullptr},
                         {"six-leds", six_led_measurement_set(camera), nullptr}};
-  for (Plan& p : out) p.table = default_table(p.set);
+  for (RealSkinPlan& p : out) p.table = default_table(p.set);
   return out;
 }
 
@@ -102,7 +96,7 @@ struct Run {
   std::vector<double> flagged_per_spectrum;  // real skin: each held-out spectrum's flagged share
 };
 
-Run evaluate(const Plan& plan, const simulators::SyntheticFrame& frame, const std::vector<float>& measured,
+Run evaluate(const RealSkinPlan& plan, const simulators::SyntheticFrame& frame, const std::vector<float>& measured,
              const std::vector<spectral::Spectrum>& spectra, const std::vector<Reference>& references,
              std::shared_ptr<const estimation::ModelDiscrepancy> discrepancy) {
   estimation::EstimatorOptions options;
@@ -186,7 +180,7 @@ int run(int argc, char** argv) {
 
   const auto& all_spectra = estimation::nist_forearm_spectra();
   const auto& all_residuals = estimation::nist_forearm_residuals();
-  std::vector<Plan> plan_list = plans();
+  std::vector<RealSkinPlan> plan_list = plans();
   std::fprintf(stderr, "fitting the reference parameters of %zu subjects at 3 texture scales...\n", all_spectra.size());
   std::vector<Reference> all_references(all_spectra.size());
   for (int s = 0; s < 3; ++s) {
@@ -207,7 +201,7 @@ int run(int argc, char** argv) {
       else train.push_back(all_residuals[i]);
     }
     const auto learned = std::make_shared<const estimation::ModelDiscrepancy>(estimation::ModelDiscrepancy::learn(train));
-    for (const Plan& plan : plan_list)
+    for (const RealSkinPlan& plan : plan_list)
       for (double scale : noise_scales)
         for (std::uint64_t seed : seeds)
           for (const std::string scene : {"real", "model"}) {
@@ -225,7 +219,7 @@ int run(int argc, char** argv) {
             estimation::MeasurementSet render_set = set;
             const simulators::SyntheticFrame frame = simulators::make_synthetic_frame(render_set, o);
             const std::vector<float> noisy = simulators::add_channel_noise(frame.clean, set, o.seed * 7919 + 1);
-            Plan declared = plan;
+            RealSkinPlan declared = plan;
             declared.set = set;
             for (const std::string statistic : {"today", "learned"})
               rows.push_back({test_names, plan.name, scene, statistic, scale, seed, fold,
@@ -274,7 +268,7 @@ int run(int argc, char** argv) {
               "skin flagged %", "tattoo+marker caught %", "dE94 mean(D65,A)", "order4 %", "in2sCm", "in2sCh", "in2sBm",
               "in2sChe", "medCm", "medCh");
   std::map<std::string, std::vector<std::pair<double, double>>> curves;  // plan/stat -> (noise, flagged)
-  for (const Plan& plan : plan_list)
+  for (const RealSkinPlan& plan : plan_list)
     for (const std::string scene : {"real", "model"})
       for (const std::string statistic : {"today", "learned"})
         for (double scale : noise_scales) {

@@ -2,7 +2,8 @@
 // What the real-skin benches (real_skin_bench, seed_study_bench) share: the
 // camera's noise (four frames of a 40,000 e⁻ sensor per capture, 12 e⁻
 // read, times a scale), the six LEDs one at a time as a measurement set, and
-// a plan's forward table on the default grid.
+// a plan's forward table on the default grid, and a plan as these benches
+// hold it.
 
 #include <memory>
 #include <string>
@@ -30,6 +31,15 @@ inline estimation::MeasurementSet six_led_measurement_set(const spectral::Camera
   for (auto type : spectral::kAllLedTypes) leds.emplace_back(std::string(spectral::led_type_name(type)), spectral::led_spectrum(type));
   return simulators::capture_measurement_set(camera, leds);
 }
+
+// A plan's measurement set and forward table (and, where a bench times them,
+// the seconds the forward and the subspace tables took to build).
+struct RealSkinPlan {
+  std::string name;
+  estimation::MeasurementSet set;
+  std::shared_ptr<const estimation::ForwardTable> table;
+  double table_build_s = 0, subspace_build_s = 0;
+};
 
 inline std::shared_ptr<const estimation::ForwardTable> default_table(const estimation::MeasurementSet& set) {
   return std::make_shared<const estimation::ForwardTable>(estimation::ForwardTable::build(set, estimation::TableGrid{}, 2));

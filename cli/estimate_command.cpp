@@ -49,7 +49,7 @@ maps::FileCommit stage_in(files::OutputBatch& batch) {
 void print_camera_result(const maps::MethodEstimationResult& result, const EstimateOptions& options,
                          const std::string& prefix) {
   fmt::print("{}{} pixels, method {} model {}: {:.3f} s ({:.0f} pixels/s); {} explained, {} flagged\n", prefix,
-             result.summary.pixels, options.method, options.model, result.summary.seconds, result.pixels_per_second,
+             result.summary.pixels, result.inverter, options.model, result.summary.seconds, result.pixels_per_second,
              result.summary.flag_counts[0], result.summary.pixels - result.summary.flag_counts[0]);
   for (const auto& r : result.relit)
     fmt::print("{}relit ΔE94 against the photograph under {}: mean {:.3f}, median {:.3f}, p95 {:.3f}\n", prefix,
@@ -140,7 +140,7 @@ int run_estimate(const EstimateOptions& options) {
   }
 
   maps::EstimateReport report;
-  report.method = options.method;
+  report.method = std::string(estimator.inverter().name());  // the inverter that ran
   report.model = options.model;
   report.width = m.width, report.height = m.height;
   for (const auto& c : set.channels) report.channel_names.push_back(c.name);
@@ -168,7 +168,7 @@ int run_estimate(const EstimateOptions& options) {
     return kExitFailure;
   }
   fmt::print("{}×{} pixels, {} channels, method {} model {}: {:.3f} s ({:.0f} pixels/s); {} explained, {} flagged\n",
-             m.width, m.height, channels, options.method, options.model, summary.seconds,
+             m.width, m.height, channels, report.method, options.model, summary.seconds,
              summary.seconds > 0 ? pixels / summary.seconds : 0.0, summary.flag_counts[0],
              pixels - summary.flag_counts[0]);
   return kExitOk;

@@ -9,6 +9,7 @@
 #include "chromo/estimation/inverse_table.hpp"
 #include "chromo/estimation/inverter.hpp"
 #include "spd_solve.hpp"
+#include "cell_position.hpp"
 
 namespace chromo::estimation {
 
@@ -148,13 +149,6 @@ bool FastInverter::in_occupied_cell(const double* measured) const {
 
 double FastInverter::filled_share() const { return inverse_->filled_share(); }
 
-GridPoint FastInverter::seed_point(std::uint32_t node) const {
-  const auto n = table_->nodes();
-  const std::uint32_t i_ch = node % n[1], i_cm = node / n[1] % n[0], i_che = node / (n[1] * n[0]) % n[3],
-                      i_bm = node / (n[1] * n[0] * n[3]);
-  return {double(i_cm), double(i_ch), double(i_bm), double(i_che)};
-}
-
 namespace {
 using Float8 = float __attribute__((vector_size(32)));
 }  // namespace
@@ -165,14 +159,9 @@ using Float8 = float __attribute__((vector_size(32)));
 // S's two halves along Ch, the Ch derivative is their difference, and the
 // other derivatives sum Ch-weighted values with one axis' factor replaced by ∓1.
 void FastInverter::predict4(const float* x, float* value, float* jacobian) const {
-  const auto n = table_->nodes();
-  int base[4];
-  float f[4];
-  for (int k = 0; k < 4; ++k) {
-    const float xc = std::clamp(x[k] == x[k] ? x[k] : 0.0f, 0.0f, static_cast<float>(n[k] - 1));
-    base[k] = std::min(static_cast<int>(xc), n[k] - 2);
-    f[k] = xc - static_cast<float>(base[k]);
-  }
+  const detail::CellPosition cell = detail::cell_position(x, table_->nodes());
+  const int* base = cell.base;
+  const float* f = cell.fraction;
   const float* origin = table_->node(base[0], base[1], base[2], base[3]);
   const Float8 ch_weight = {1 - f[1], 1 - f[1], 1 - f[1], 1 - f[1], f[1], f[1], f[1], f[1]};
   Float8 s = {}, d_cm = {}, d_bm = {}, d_che = {};
@@ -435,25 +424,9 @@ Fit FastInverter::fit(const double* measured, const double* weight, int order, F
 }
 
 Fit FastInverter::fit_by_search(const double* measured, const double* weight, int order) const {
-  const int channels = table_->channels();
-  ChannelBuffer<float> m(channels), w(channels);
-  for (int c = 0; c < channels; ++c) m[c] = static_cast<float>(measured[c]), w[c] = static_cast<float>(weight[c]);
-  const std::uint32_t cell_index = inverse_->cell_of(m);
-  GridPoint start;
-  const bool in_table = cell_index != InverseTable::kNoCell;
-  if (in_table) {
-    // The best node by χ² among the nodes whose predicted values fall in the
-    // pixel's cell: the nodes of every branch of the (non-unique) inverse there.
-    const InverseTable::Cell& cell = inverse_->cell(cell_index);
-    float best = std::numeric_limits<float>::infinity();
-    int best_index = 0;
-    scan_nodes(channels, bucket_values_.data() + std::size_t(cell.bucket_begin) * channels,
-               static_cast<int>(cell.bucket_count), m, w, best, best_index);
-    start = seed_point(inverse_->bucket_nodes()[cell.bucket_begin + best_index]);
-  } else {
-    start = coarse_search(measured, weight);  // outside the inverse table: two-level node scan
-  }
-  return refine(measured, weight, order, node_descent(measured, weight, order, start, !in_table), 20);
+  // Outside the inverse table: the two-level node scan.
+  return search_bucket(*inverse_, bucket_values_.data(), measured, weight, order,
+                       [&] { return coarse_search(measured, weight); });
 }
 
 }  // namespace chromo::estimation

@@ -258,6 +258,43 @@ Fit TwoDInverter::fit(const double* measured, const double* weight, int) const {
   return refine(measured, weight, 2, node_search(measured, weight, 2, 1), 30);
 }
 
+GridPoint Inverter::node_point(std::uint32_t node) const {
+  const auto n = table_->nodes();
+  const std::uint32_t i_ch = node % n[1], i_cm = node / n[1] % n[0], i_che = node / (n[1] * n[0]) % n[3],
+                      i_bm = node / (n[1] * n[0] * n[3]);
+  return {double(i_cm), double(i_ch), double(i_bm), double(i_che)};
+}
+
+Fit Inverter::search_bucket(const InverseTable& inverse, const float* bucket_values, const double* measured,
+                            const double* weight, int order, const std::function<GridPoint()>& outside_start) const {
+  const int channels = table_->channels();
+  ChannelBuffer<float> m(channels), w(channels);
+  for (int c = 0; c < channels; ++c) m[c] = static_cast<float>(measured[c]), w[c] = static_cast<float>(weight[c]);
+  const std::uint32_t cell_index = inverse.cell_of(m);
+  const bool in_table = cell_index != InverseTable::kNoCell;
+  GridPoint start;
+  if (in_table) {
+    const InverseTable::Cell& cell = inverse.cell(cell_index);
+    const std::uint32_t* nodes = inverse.bucket_nodes().data() + cell.bucket_begin;
+    float best = std::numeric_limits<float>::infinity();
+    int best_index = 0;
+    if (bucket_values) {
+      scan_nodes(channels, bucket_values + std::size_t(cell.bucket_begin) * channels, static_cast<int>(cell.bucket_count),
+                 m, w, best, best_index);
+    } else {
+      for (std::uint32_t i = 0; i < cell.bucket_count; ++i) {
+        int found = -1;
+        scan_nodes(channels, table_->values().data() + std::size_t(nodes[i]) * channels, 1, m, w, best, found);
+        if (found >= 0) best_index = static_cast<int>(i);
+      }
+    }
+    start = node_point(nodes[best_index]);
+  } else {
+    start = outside_start();
+  }
+  return refine(measured, weight, order, node_descent(measured, weight, order, start, !in_table), 20);
+}
+
 void Inverter::scan_nodes(int channels, const float* values, int count, const float* measured, const float* weight,
                           float& best, int& best_index) {
   scan_row_any(channels, values, count, 1, measured, weight, best, best_index);

@@ -28,12 +28,6 @@ float distance2(const float* a, const float* b) {
   return ((s[0] + s[1]) + (s[2] + s[3])) + ((s[4] + s[5]) + (s[6] + s[7]));
 }
 
-std::array<int, 4> node_of_index(std::uint32_t node, const std::array<int, 4>& n) {
-  const int i_ch = static_cast<int>(node % n[1]), i_cm = static_cast<int>(node / n[1] % n[0]);
-  const int i_che = static_cast<int>(node / (n[1] * n[0]) % n[3]), i_bm = static_cast<int>(node / (n[1] * n[0] * n[3]));
-  return {i_cm, i_ch, i_bm, i_che};
-}
-
 // The pixel's own diagonal weights in the subspace. With y the whitened
 // channels, U the stored axes (C × 8), D = diag(weight_c · σ_ref,c) and r⊥ the
 // measurement's part off the subspace (the table's own is negligible,
@@ -214,7 +208,8 @@ std::array<int, 4> SubspaceInverter::start_node(const float* z, const double* me
     const float d = distance2(subspace_->node(bucket[i]), z);
     if (d < best) best = d, best_node = bucket[i];
   }
-  return node_of_index(best_node, table_->nodes());
+  const GridPoint start = node_point(best_node);
+  return {int(start[0]), int(start[1]), int(start[2]), int(start[3])};
 }
 
 std::array<int, 4> SubspaceInverter::descend_nodes(const float* z, std::array<int, 4> at, int dims, bool diagonal) const {
@@ -255,33 +250,14 @@ std::array<int, 4> SubspaceInverter::descend_nodes(const float* z, std::array<in
 }
 
 Fit SubspaceInverter::search_full(const double* measured, const double* weight, int order) const {
-  // The fast inverter's search path (inverter.hpp) in the full channel
-  // space: the best node of the pixel's bucket by the weighted χ² (outside
-  // the table: the subspace's node scan), descent, bounded LM.
-  const int channels = table_->channels();
-  ChannelBuffer<float> m(channels), w(channels);
-  for (int c = 0; c < channels; ++c) m[c] = static_cast<float>(measured[c]), w[c] = static_cast<float>(weight[c]);
-  const std::uint32_t cell_index = inverse_->cell_of(m);
-  GridPoint start;
-  if (cell_index != InverseTable::kNoCell) {
-    const InverseTable::Cell& cell = inverse_->cell(cell_index);
-    float best = std::numeric_limits<float>::infinity();
-    std::uint32_t best_node = inverse_->bucket_nodes()[cell.bucket_begin];
-    for (std::uint32_t i = 0; i < cell.bucket_count; ++i) {
-      const std::uint32_t node = inverse_->bucket_nodes()[cell.bucket_begin + i];
-      int found = -1;
-      scan_nodes(channels, table_->values().data() + std::size_t(node) * channels, 1, m, w, best, found);
-      if (found >= 0) best_node = node;
-    }
-    const auto at = node_of_index(best_node, table_->nodes());
-    start = {double(at[0]), double(at[1]), double(at[2]), double(at[3])};
-  } else {
+  // The fast inverter's search path (Inverter::search_bucket) in the full
+  // channel space; outside the inverse table the subspace's node scan.
+  return search_bucket(*inverse_, nullptr, measured, weight, order, [&] {
     float z[kDims];
     subspace_->project(measured, z);
     const auto at = coarse_scan(z);
-    start = {double(at[0]), double(at[1]), double(at[2]), double(at[3])};
-  }
-  return refine(measured, weight, order, node_descent(measured, weight, order, start, cell_index == InverseTable::kNoCell), 20);
+    return GridPoint{double(at[0]), double(at[1]), double(at[2]), double(at[3])};
+  });
 }
 
 Fit SubspaceInverter::fit(const double* measured, const double* weight, int order) const {

@@ -13,6 +13,8 @@
 
 #include "chromo/files/fnv1a.hpp"
 
+#include "cell_position.hpp"
+
 namespace chromo::estimation {
 
 namespace {
@@ -141,14 +143,9 @@ void SubspaceTable::project(const double* measured, float* z) const {
 // weighted by the products of the axes' factors (1 − f, f); each derivative
 // replaces its axis' factor by ∓1.
 void SubspaceTable::predict(const float* x, float* value, float* jacobian) const {
-  const auto n = table_->nodes();
-  int base[4];
-  float f[4];
-  for (int k = 0; k < 4; ++k) {
-    const float xc = std::clamp(x[k] == x[k] ? x[k] : 0.0f, 0.0f, static_cast<float>(n[k] - 1));
-    base[k] = std::min(static_cast<int>(xc), n[k] - 2);
-    f[k] = xc - static_cast<float>(base[k]);
-  }
+  const detail::CellPosition cell = detail::cell_position(x, table_->nodes());
+  const int* base = cell.base;
+  const float* f = cell.fraction;
   const float* origin = node(node_index(base[0], base[1], base[2], base[3]));
   Float8 s = {}, d[4] = {};
   for (int corner = 0; corner < 16; ++corner) {

@@ -622,7 +622,7 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
       {"by_illuminant", relit}};
 
   EstimateReport report;
-  report.method = std::string(estimation::method_name(options.estimator.method));
+  report.method = result.inverter = std::string(estimator.inverter().name());
   report.model = std::string(estimation::model_name(options.estimator.model));
   report.width = m.width, report.height = m.height;
   for (const auto& c : m.set.channels) report.channel_names.push_back(c.name);

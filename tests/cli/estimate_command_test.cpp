@@ -190,6 +190,24 @@ TEST_F(EstimateCommand, TwoDMethodGivesOrderTwoOnly) {
   EXPECT_EQ(s2["table"]["key"], s["table"]["key"]);
 }
 
+TEST_F(EstimateCommand, SummaryNamesTheInverterThatRan) {
+  // Seven channels (the D65' capture twice): the fast method runs the
+  // subspace inverter there (EstimatorOptions::subspace_beyond_four_channels),
+  // and summary.json says so rather than the option's "fast".
+  nlohmann::json j = nlohmann::json::parse(std::ifstream(dir / "measurement.json"));
+  j["images"].push_back({{"name", "D65' again"}, {"file", "d65prime.exr"}, {"illuminant", "d65prime.csv"},
+                         {"channels", {"R", "G", "B"}}});
+  std::ofstream(dir / "seven.json") << j.dump(2);
+  const Result r = run("estimate " + (dir / "seven.json").string() + " --cache-dir " + (dir / "cache").string() +
+                       " --model 4d --out " + (dir / "seven").string());
+  ASSERT_EQ(r.exit_status, 0) << r.output;
+  nlohmann::json s = nlohmann::json::parse(std::ifstream(dir / "seven" / "summary.json"));
+  EXPECT_EQ(s["method"], "subspace");
+  EXPECT_EQ(s["channels"].size(), 7u);
+  // The same noise-free data: most pixels explained at order 4.
+  EXPECT_GT(s["flag_counts"]["explained"].get<int>(), kWidth * kHeight * 9 / 10);
+}
+
 TEST_F(EstimateCommand, BadInputExitsTwoAndWritesNothing) {
   // A missing image file.
   std::ofstream(dir / "bad.json") << R"({"camera": "builtin:nikon_d5100", "images": [{"file": "missing.exr",

@@ -190,6 +190,15 @@ TEST_F(MapsApi, GetMapSamplesAChannelAtCellCentresAndRefusesBadRequests) {
   pb::GetMapResponse small;  // never upscaled
   ASSERT_TRUE(get("gradient.exr", "flags", 1024, &small).ok());
   EXPECT_EQ(small.width(), 48u);
+  // The decoded file is kept between calls and decoded again when it changes.
+  std::vector<float> doubled(cm.size());
+  for (std::size_t i = 0; i < cm.size(); ++i) doubled[i] = 2 * cm[i];
+  files::write_exr(data / "gradient.tmp.exr", files::FloatImage{w, h, {"Cm", "flags"}, {doubled, std::vector<float>(cm.size(), 0.0f)}});
+  std::filesystem::rename(data / "gradient.tmp.exr", data / "gradient.exr");
+  pb::GetMapResponse changed;
+  ASSERT_TRUE(get("gradient.exr", "Cm", 24, &changed).ok());
+  EXPECT_FLOAT_EQ(changed.max(), 2 * map.max());
+  files::write_exr(data / "gradient.exr", files::FloatImage{w, h, {"Cm", "flags"}, {cm, std::vector<float>(cm.size(), 0.0f)}});
 
   pb::GetMapResponse refused;
   grpc::Status s = get("gradient.exr", "Hb", 0, &refused);

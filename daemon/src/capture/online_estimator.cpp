@@ -208,7 +208,7 @@ nlohmann::json OnlineEstimator::end_session(const SessionEnd& end) {
           {"maps_file", first_folder + "maps.exr"},
           {"report_file", "results/summary.json"},
           {"camera", first_ok->camera},
-          {"method", std::string(estimation::method_name(options_.estimation.estimator.method))},
+          {"method", r.inverter},
           {"model", std::string(estimation::model_name(options_.estimation.estimator.model))},
           {"pixels", r.summary.pixels},
           {"pixels_per_second", r.pixels_per_second},

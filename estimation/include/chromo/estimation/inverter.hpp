@@ -47,6 +47,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -99,6 +100,17 @@ class Inverter {
   // cost 80 node evaluations and changed no result in the bench).
   GridPoint node_descent(const double* measured, const double* weight, int order, GridPoint start,
                          bool diagonal_moves = true) const;
+
+  // The search path of the fast and the subspace inverters: the best node by
+  // the weighted χ² among the nodes of the pixel's inverse-table bucket (the
+  // nodes of every branch of the non-unique inverse there; bucket_values: the
+  // bucket nodes' table values in inverse.bucket_nodes() order, or null to
+  // read them from the table), or outside the inverse table outside_start();
+  // then node_descent (diagonal moves outside only) and refine (20 steps).
+  Fit search_bucket(const InverseTable& inverse, const float* bucket_values, const double* measured,
+                    const double* weight, int order, const std::function<GridPoint()>& outside_start) const;
+  // Grid coordinates of a node of the table, by its index (ForwardTable layout).
+  GridPoint node_point(std::uint32_t node) const;
 
   // The table's value (and Jacobian, when not null) at x for refine():
   // ForwardTable::predict here; FastInverter's float interpolation for
@@ -230,7 +242,6 @@ class FastInverter : public Inverter {
   std::size_t step_[4] = {};          // floats between neighbouring nodes along each axis
   bool presolved_ = false;            // 4 channels: the linear-step path is available
   void init();
-  GridPoint seed_point(std::uint32_t node) const;
   std::array<float, 4> upper_bounds() const;  // largest grid coordinate per axis
   // The inverse-table cell of a 4-channel measurement (m: its 4 values as
   // floats, filled in), or null.

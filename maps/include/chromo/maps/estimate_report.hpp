@@ -166,6 +166,9 @@ struct MethodEstimationOptions {
 struct MethodEstimationResult {
   std::string summary_json;
   estimation::EstimateSummary summary;
+  // The inverter that ran (Inverter::name(): "subspace" where the fast
+  // method's plan has more than four channels), summary.json's method.
+  std::string inverter;
   double pixels_per_second = 0;
   std::vector<RelitComparison> relit;
   std::vector<session::RegistrationReport> registration;
