@@ -39,6 +39,8 @@ void add_solve_command(CLI::App& app, int& exit_status);
 void add_export_command(CLI::App& app, int& exit_status);
 // `chromo maps stats`: region statistics from a stored session's maps.exr (maps_stats_command.cpp).
 void add_maps_command(CLI::App& app, int& exit_status);
+// `chromo maps compare`: two sessions before/after (maps_compare_command.cpp).
+void add_maps_compare_command(CLI::App* maps_command, int& exit_status);
 // The plan advisor offline (plan_command.cpp).
 void add_plan_command(CLI::App& app, int& exit_status);
 // A study of many stored sessions, here or on a Slurm cluster (study_command.cpp).

@@ -6,6 +6,7 @@
 
 #include "chromo/maps/map_operations.hpp"
 #include "chromo/simulators/scene/external_maps_scene.hpp"
+#include "chromo/maps/region_statistics.hpp"
 #include "commands.hpp"
 
 namespace chromo::cli {
@@ -53,8 +54,16 @@ void add_import_maps_command(CLI::App& app, int& exit_status) {
   data->add_option("--camera-noise", scene->camera_noise_scale, "camera noise scale (0 = noise-free)")->capture_default_str();
   data->add_option("--map-noise", scene->map_noise_fraction, "imported maps' noise, fraction of full scale")
       ->capture_default_str();
-  data->callback([scene, out, &exit_status] {
+  data->add_option("--noise-seed", scene->noise_seed, "another draw of the camera noise (a second session; 0: from --seed)");
+  data->add_option("--ch-factor", scene->ch_factor, "Ch multiplied by this inside --ch-change (a changed subject)");
+  auto ch_change = std::make_shared<std::string>();
+  data->add_option("--ch-change", *ch_change, "x,y,width,height of the scene where --ch-factor applies");
+  data->callback([scene, out, ch_change, &exit_status] {
     exit_status = run_map_operation("make-maps-test-data", [&] {
+      if (!ch_change->empty()) {
+        const maps::PixelRectangle r = maps::parse_pixel_rectangle(*ch_change, "--ch-change");
+        scene->ch_change_x = r.x, scene->ch_change_y = r.y, scene->ch_change_width = r.width, scene->ch_change_height = r.height;
+      }
       simulators::write_external_maps_scene(*out, *scene);
       fmt::print("{}x{} test scene → {} (MEASUREMENT.json, melanin.png, hemoglobin.png, skin_mask.png, truth.exr)\n", scene->width,
                  scene->height, *out);

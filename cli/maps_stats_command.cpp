@@ -77,6 +77,7 @@ void add_maps_command(CLI::App& app, int& exit_status) {
   cmd->add_option("--camera", options->camera, "camera of a multi-camera session (results/<camera>/maps.exr)");
   cmd->add_flag("--json", options->json, "JSON instead of CSV");
   cmd->callback([options, &exit_status] { exit_status = run_map_operation("maps stats", [&] { run_maps_stats(*options); }); });
+  add_maps_compare_command(maps_command, exit_status);
 }
 
 }  // namespace chromo::cli

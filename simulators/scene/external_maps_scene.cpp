@@ -29,6 +29,9 @@ void write_external_maps_scene(const std::filesystem::path& directory, const Ext
   SkinSceneOptions scene_options;
   scene_options.width = options.width, scene_options.height = options.height;
   scene_options.seed = options.seed, scene_options.white_patch = false, scene_options.threads = options.threads;
+  scene_options.ch_factor = options.ch_factor;
+  scene_options.ch_change_x = options.ch_change_x, scene_options.ch_change_y = options.ch_change_y;
+  scene_options.ch_change_width = options.ch_change_width, scene_options.ch_change_height = options.ch_change_height;
   const Scene scene = make_skin_scene(scene_options);
   const int w = scene.width(), h = scene.height();
   const std::size_t pixels = static_cast<std::size_t>(w) * h;
@@ -41,7 +44,7 @@ void write_external_maps_scene(const std::filesystem::path& directory, const Ext
       spectral::builtin_camera("nikon_d5100"), d65_prime, blue, camera_noise.channel_noise());
   const cv::Mat rendered = scene.render(set.weights());  // CV_32FC4: R, G, B under D65', B under blue
 
-  std::mt19937_64 rng(options.seed * 7919 + 1);
+  std::mt19937_64 rng((options.noise_seed ? options.noise_seed : options.seed) * 7919 + 1);
   std::normal_distribution<double> gauss(0.0, 1.0);
   auto noisy = [&](double albedo, const estimation::ChannelNoise& noise) {
     return static_cast<float>(options.camera_noise_scale > 0 ? albedo + std::sqrt(noise.variance(albedo)) * gauss(rng)

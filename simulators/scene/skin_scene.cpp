@@ -72,6 +72,10 @@ bool SkinSceneOptions::IsValid(std::string* error) const {
     if (error != nullptr) *error = "columns: column_begin + column_count must lie within the scene's width";
     return false;
   }
+  if (!(ch_factor > 0) || ch_change_width < 0 || ch_change_height < 0) {
+    if (error != nullptr) *error = "ch_factor must be > 0 and the change's width and height >= 0";
+    return false;
+  }
   if (oily.count < 0 || oily.count > 64) {
     if (error != nullptr) *error = "oily.count must be 0-64";
     return false;
@@ -200,6 +204,9 @@ Scene make_skin_scene(const SkinSceneOptions& options) {
         if (d < m.r * 1.5) p.cm += 0.2 * std::exp(-std::pow(d / m.r, 2));
       }
       p.ch += 0.04 * vein_profile(x, y);  // the explainable part of the vein
+      if (x >= options.ch_change_x && x < options.ch_change_x + options.ch_change_width && y >= options.ch_change_y &&
+          y < options.ch_change_y + options.ch_change_height)
+        p.ch *= options.ch_factor;
       parameters[static_cast<std::size_t>(y - y0) * cols + (x - x0)] = p;
       scene.cm().at<float>(y - y0, x - x0) = static_cast<float>(p.cm);
       scene.ch().at<float>(y - y0, x - x0) = static_cast<float>(p.ch);

@@ -4,6 +4,10 @@
 
 namespace chromo::daemon {
 
+double remaining_seconds(double fraction, double elapsed_s) {
+  return fraction > 0 ? elapsed_s * (1 - fraction) / fraction : -1;
+}
+
 RunningOperation::RunningOperation(std::string id, OperationRegistry& operations, std::shared_ptr<OperationControl> control)
     : id_(std::move(id)), operations_(operations), control_(std::move(control)), started_(std::chrono::steady_clock::now()) {}
 
@@ -15,7 +19,7 @@ files::Progress RunningOperation::progress() {
     const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
     update([&](session::OperationRecord& r) {
       r.progress = fraction;
-      r.eta_seconds = fraction > 0 ? elapsed_s * (1 - fraction) / fraction : -1;
+      r.eta_seconds = remaining_seconds(fraction, elapsed_s);
       r.message = step;
     });
   };

@@ -34,6 +34,11 @@ struct ExternalMapsSceneOptions {
   double camera_noise_scale = 0.25;  // a mean of 16 frames (the daemon's derived albedo averages frames)
   double map_noise_fraction = 0.01;  // σ of the imported maps' noise, fraction of full scale
   int threads = 0;
+  // A second session of the same subject: another draw of the noise (0: from
+  // seed) and Ch scaled in a rectangle (SkinSceneOptions::ch_factor; truth.exr has it).
+  std::uint64_t noise_seed = 0;
+  double ch_factor = 1;
+  int ch_change_x = 0, ch_change_y = 0, ch_change_width = 0, ch_change_height = 0;
 };
 
 // Throws std::invalid_argument for bad options, std::runtime_error when writing fails.

@@ -116,6 +116,13 @@ struct SkinSceneOptions {
   // labelled as with them: what the skin cells' measurement would be with
   // nothing of those leaking into them (bench/lab_floor_bench.cpp).
   bool anomalies = true;
+  // A change of the subject between two sessions (issue 42's before/after):
+  // Ch multiplied by ch_factor inside the rectangle [ch_change_x,
+  // ch_change_x + ch_change_width) × [ch_change_y, ch_change_y +
+  // ch_change_height) of the full scene's pixels. 1 (the default): none, and
+  // the scene is exactly the scene without this option.
+  double ch_factor = 1;
+  int ch_change_x = 0, ch_change_y = 0, ch_change_width = 0, ch_change_height = 0;
 
   bool IsValid(std::string* error) const;
 };

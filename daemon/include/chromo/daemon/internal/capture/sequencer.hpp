@@ -1,6 +1,13 @@
 #pragma once
 // Sequencer: runs one session plan on the devices.
 //
+// In parts (daemon/src/capture/), each with its thread rules at its top:
+// sequencer.cpp the steps loop (LED state, settle, hazard check, a step's
+// captures to the pipeline); synchronised_capture.hpp one capture = every
+// camera's frame of one trigger, retaken until complete; metering_policy.hpp
+// each step's exposure per camera; run_control.hpp the operation's state,
+// pauses, the one progress/ETA and the LED controller's calls.
+//
 // At the start the LED controller's output stage is switched on (states are
 // applied but not emitted while it is off). Software timing, per step: (prompt: pause until resumed) → resolve the LED
 // state (explicit weights, a mix, or dark) → LedController::set_state, which

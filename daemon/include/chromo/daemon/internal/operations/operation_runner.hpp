@@ -42,6 +42,11 @@
 
 namespace chromo::daemon {
 
+// The one ETA of an operation: the time left when `fraction` of the work
+// took `elapsed_s`, extrapolated linearly (elapsed·(1−f)/f); -1 (unknown)
+// while nothing is done. Sessions' captures and the runner's work use it.
+double remaining_seconds(double fraction, double elapsed_s);
+
 // What the work of an operation sees while it runs.
 class RunningOperation {
  public:
