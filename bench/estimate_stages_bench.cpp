@@ -35,6 +35,22 @@
 // pixels read back are compared with the first writing's.
 //
 // Writes DIR/estimate_stages.{csv,png,dat,gp} (DIR: bench/results).
+//
+// --chain (issue 39 part 2): instead of the above, the whole chain per stage
+// for each plan (`--plans`, default standard and multispectral: the six LED
+// types one at a time, 18 channels) at each sensor size (`--megapixels`,
+// default 1, 2.5, 5: the 2448x2048 sensor's aspect), per seed: measurement
+// and registration (the noisy measurement built again from the render's
+// captures, as chromod's capture builder does: the captures registered one
+// by one and at once on every core, side by side, the measured values
+// compared; the whole estimate counts the latter), table set-up (prepare_tables:
+// forward, inverse and subspace tables; chromod does it during capture), the
+// estimate (inversion, per-pixel flags, σ maps), the estimate again without
+// σ maps (σ's share), the spatial pass, the relit comparison and writing;
+// the whole estimate's M cells/s (measurement and registration + estimate +
+// spatial pass, without and with the table set-up) against issue 39's
+// targets (the method ≥ 3, six LEDs ≥ 1). Writes DIR/estimate_chain.{csv,png}
+// and DIR/estimate_chain_growth.png (wall seconds against sensor MP).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -60,6 +76,7 @@
 #include "chromo/maps/relit_table.hpp"
 #include "chromo/session/derived_data.hpp"
 #include "chromo/session/journal.hpp"
+#include "chromo/session/session_captures.hpp"
 #include "chromo/session/session_plan.hpp"
 #include "chromo/simulators/scene/rendered_session.hpp"
 
@@ -226,6 +243,145 @@ bool same_pixels(const fs::path& a, const fs::path& b, int* files_compared) {
   return same;
 }
 
+// One plan at one sensor size and seed: the chain's stages (wall seconds).
+struct ChainRun {
+  std::string plan;
+  double megapixels = 0;
+  std::size_t cells = 0;
+  std::map<std::string, double> stage_s;
+  bool same_measurement = false;  // the registrations at once gave the same measured values as one by one
+  double whole_s() const {  // measurement and registration, estimate, spatial pass
+    return stage_s.at("measurement_and_registration") + stage_s.at("estimate") + stage_s.at("neighbourhood");
+  }
+};
+const char* const kChainStages[] = {"measurement_registration_one_by_one", "measurement_and_registration", "table_setup", "estimate", "sigma_maps",
+                                    "neighbourhood", "relit_comparison", "writing"};
+
+ChainRun run_chain(const std::string& plan, double megapixels, std::uint64_t seed, int threads, const fs::path& dir) {
+  // The 5-MP sensor's aspect, even sides.
+  const double side = std::sqrt(megapixels * 1e6 / (2448.0 * 2048.0));
+  simulators::RenderedSessionOptions ro;
+  ro.sensor_width = 2 * static_cast<int>(std::lround(2448 * side / 2)), ro.sensor_height = 2 * static_cast<int>(std::lround(2048 * side / 2));
+  ro.seed = seed, ro.threads = threads, ro.plan = plan, ro.noise_free = false, ro.keep_captures = true;
+  const simulators::RenderedSession lab = simulators::render_session(ro);
+  ChainRun run;
+  run.plan = plan, run.megapixels = ro.sensor_width * double(ro.sensor_height) / 1e6, run.cells = lab.pixels();
+  // The measurement built again from the kept captures: its registrations one
+  // after another (RegistrationOptions' default) and at once on every core
+  // (threads 0), side by side; the measured values must be the same.
+  auto measure = [&](int registration_threads, double& seconds) {
+    session::RegistrationOptions registration;
+    registration.threads = registration_threads;
+    const auto t0 = std::chrono::steady_clock::now();
+    session::MethodMeasurement m = plan == "standard"
+                                       ? session::build_method_measurement(lab.noisy_captures->captures(), registration)
+                                       : session::build_plan_measurement(lab.noisy_captures->plan_captures(), registration);
+    seconds = seconds_since(t0);
+    return m;
+  };
+  const session::MethodMeasurement serial = measure(1, run.stage_s["measurement_registration_one_by_one"]);
+  const session::MethodMeasurement concurrent = measure(0, run.stage_s["measurement_and_registration"]);
+  run.same_measurement = serial.measured.size() == concurrent.measured.size() &&
+                         std::memcmp(serial.measured.data(), concurrent.measured.data(),
+                                     serial.measured.size() * sizeof(float)) == 0 &&
+                         serial.measured.size() == lab.noisy.measured.size() &&
+                         std::memcmp(serial.measured.data(), lab.noisy.measured.data(),
+                                     serial.measured.size() * sizeof(float)) == 0;
+  maps::MethodEstimationOptions options;
+  options.estimator.threads = threads;
+  auto t = std::chrono::steady_clock::now();
+  const maps::PreparedTables tables = maps::prepare_tables(lab.noisy.set, options);
+  run.stage_s["table_setup"] = seconds_since(t);
+  const Run with_sigma = run_estimate(lab, tables, options, dir / "sigma");
+  for (const char* stage : {"estimate", "neighbourhood", "relit_comparison", "writing"})
+    run.stage_s[stage] = with_sigma.result.seconds(stage);
+  // σ's share: the estimator alone without the σ maps, on the same tables.
+  estimation::EstimatorOptions plain = tables.estimator->options();
+  plain.uncertainty = false;
+  const estimation::Estimator without_sigma(tables.table, lab.noisy.set, plain);
+  std::vector<estimation::PixelEstimate> estimates(lab.pixels());
+  const double no_sigma_s = without_sigma.estimate(lab.noisy.measured, estimates).seconds;
+  run.stage_s["sigma_maps"] = run.stage_s["estimate"] - no_sigma_s;
+  fs::remove_all(dir);
+  return run;
+}
+
+int chain_main(const std::vector<std::string>& plans, const std::vector<double>& megapixels,
+               const std::vector<std::uint64_t>& seeds, int threads, const fs::path& out, bool no_chart) {
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // a long run: each line as it comes
+  const fs::path scratch = fs::temp_directory_path() / ("estimate_chain_bench-" + std::to_string(::getpid()));
+  std::printf("estimate_stages_bench --chain: %d estimator threads; load average %.2f\n", threads, load_average());
+  std::ofstream csv(out / "estimate_chain.csv");
+  csv << "plan,megapixels,cells,seed";
+  for (const char* s : kChainStages) csv << "," << s << "_s";
+  csv << ",whole_s,whole_mcells_per_s,whole_with_tables_mcells_per_s,load_average\n";
+  std::map<std::pair<std::string, double>, std::map<std::string, Spread>> spread;  // (plan, MP) → stage → seconds
+  std::map<std::pair<std::string, double>, Spread> rate, rate_with_tables, registration_ratio;
+  for (const std::string& plan : plans)
+    for (const double mp : megapixels)
+      for (const std::uint64_t seed : seeds) {
+        const ChainRun r = run_chain(plan, mp, seed, threads, scratch / "run");
+        const double whole = r.whole_s(), with_tables = whole + r.stage_s.at("table_setup");
+        const auto key = std::make_pair(plan, mp);
+        for (const auto& [stage, sec] : r.stage_s) spread[key][stage].add(sec);
+        rate[key].add(r.cells / whole / 1e6), rate_with_tables[key].add(r.cells / with_tables / 1e6);
+        std::printf("\n%s, %.2f MP sensor (%zu cells), seed %llu, load %.2f:\n", plan.c_str(), r.megapixels, r.cells,
+                    static_cast<unsigned long long>(seed), load_average());
+        csv << plan << "," << r.megapixels << "," << r.cells << "," << seed;
+        for (const char* s : kChainStages) {
+          std::printf("  %-30s %8.3f s\n", s, r.stage_s.at(s));
+          csv << "," << r.stage_s.at(s);
+        }
+        std::printf("  registrations at once / one by one: x%.3f (measured values %s)\n",
+                    r.stage_s.at("measurement_and_registration") / r.stage_s.at("measurement_registration_one_by_one"),
+                    r.same_measurement ? "identical" : "DIFFER");
+        registration_ratio[key].add(r.stage_s.at("measurement_and_registration") /
+                                    r.stage_s.at("measurement_registration_one_by_one"));
+        std::printf("  whole estimate (measurement+registration, estimate, spatial pass) %.3f s: %.3f M cells/s; "
+                    "with the table set-up %.3f M cells/s\n",
+                    whole, r.cells / whole / 1e6, r.cells / with_tables / 1e6);
+        csv << "," << whole << "," << r.cells / whole / 1e6 << "," << r.cells / with_tables / 1e6 << "," << load_average()
+            << std::endl;
+      }
+  fs::remove_all(scratch);
+
+  std::printf("\nspread over %zu seed(s), mean [min, max] wall s (load average now %.2f):\n", seeds.size(), load_average());
+  std::vector<Bar> bars;
+  std::vector<LineSeries> growth;
+  for (const std::string& plan : plans) {
+    for (const char* stage : kChainStages) {
+      LineSeries line{plan + " " + stage, {}};
+      std::replace(line.title.begin(), line.title.end(), '_', ' ');
+      for (const double mp : megapixels) {
+        const auto key = std::make_pair(plan, mp);
+        std::printf("  %-14s %5.2f MP %-30s %s\n", plan.c_str(), mp, stage, spread[key][stage].text().c_str());
+        line.points.emplace_back(mp, spread[key][stage].mean());
+      }
+      growth.push_back(line);
+      std::string label = plan + " " + stage;
+      std::replace(label.begin(), label.end(), '_', ' ');
+      bars.push_back({label, spread[std::make_pair(plan, megapixels.back())][stage].mean()});
+    }
+    for (const double mp : megapixels) {
+      const auto key = std::make_pair(plan, mp);
+      std::printf("  %-14s %5.2f MP whole estimate M cells/s %s (target %s), with the table set-up %s; "
+                  "registrations at once / one by one x%s\n",
+                  plan.c_str(), mp, rate[key].text().c_str(), plan == "standard" ? ">= 3" : ">= 1",
+                  rate_with_tables[key].text().c_str(), registration_ratio[key].text().c_str());
+    }
+  }
+  std::printf("\nwrote %s\n", (out / "estimate_chain.csv").c_str());
+  if (!no_chart) {
+    char title[160];
+    std::snprintf(title, sizeof title, "the chain per stage at %.1f MP (wall s, %d threads, mean over seeds)",
+                  megapixels.back(), threads);
+    write_bar_chart(out / "estimate_chain.png", title, "wall seconds", bars);
+    write_line_chart(out / "estimate_chain_growth.png", "the chain per stage against the sensor size", "sensor MP",
+                     "wall seconds", growth);
+  }
+  return 0;
+}
+
 int bench_main(int argc, char** argv) {
   CLI::App app{"estimate_stages_bench: the 5-MP estimate's stages before and after, side by side"};
   int sensor_width = 2448, sensor_height = 2048, threads = 2;
@@ -239,7 +395,14 @@ int bench_main(int argc, char** argv) {
   app.add_flag("--no-derived", no_derived, "skip the derived data");
   app.add_flag("--no-chart", no_chart, "no chart");
   app.add_option("--out", out, "where the CSV and chart go");
+  bool chain = false;
+  std::vector<std::string> plans = {"standard", "multispectral"};
+  std::vector<double> megapixels = {1, 2.5, 5};
+  app.add_flag("--chain", chain, "the whole chain per stage, per plan and sensor size (issue 39)");
+  app.add_option("--plans", plans, "--chain: built-in plans")->delimiter(',');
+  app.add_option("--megapixels", megapixels, "--chain: sensor sizes in MP")->delimiter(',');
   CLI11_PARSE(app, argc, argv);
+  if (chain) return chain_main(plans, megapixels, seeds, threads, out, no_chart);
   if (sensor.size() == 2) sensor_width = sensor[0], sensor_height = sensor[1];
 
   const fs::path scratch = fs::temp_directory_path() / ("estimate_stages_bench-" + std::to_string(::getpid()));

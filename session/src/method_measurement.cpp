@@ -371,16 +371,24 @@ MethodMeasurement build_plan_measurement(const PlanCaptures& captures, const Reg
   m.set = std::move(references.set);
   m.linearity = std::move(references.linearity);
   const IlluminatedCapture& first = captures.captures.front();
+  // Each capture on its white's brightest channel against the first, the captures at once.
+  std::vector<int> channel_of(normalised.size(), 0);
+  std::vector<RegistrationPair> pairs;
+  for (std::size_t k = 1; k < normalised.size(); ++k) {
+    const Reference& reference = references.references[k];
+    channel_of[k] = static_cast<int>(std::max_element(reference.white_mean.begin(), reference.white_mean.end()) -
+                                     reference.white_mean.begin());
+    pairs.push_back({unclipped_for_registration(normalised.front().albedo[channel_of[k]], normalised.front(), normalised[k],
+                                                width, height),
+                     unclipped_for_registration(normalised[k].albedo[channel_of[k]], normalised.front(), normalised[k],
+                                                width, height)});
+  }
+  const std::vector<RegistrationResult> found = register_channels(pairs, width, height, options);
+  pairs.clear();
   for (std::size_t k = 1; k < normalised.size(); ++k) {
     Normalised& moving = normalised[k];
-    const Reference& reference = references.references[k];
-    const int channel = static_cast<int>(std::max_element(reference.white_mean.begin(), reference.white_mean.end()) -
-                                         reference.white_mean.begin());
-    RegistrationResult r = register_channel(unclipped_for_registration(normalised.front().albedo[channel], normalised.front(), moving,
-                                                                       width, height),
-                                            unclipped_for_registration(moving.albedo[channel], normalised.front(), moving,
-                                                                       width, height),
-                                            width, height, options);
+    const int channel = channel_of[k];
+    RegistrationResult r = found[k - 1];
     const double motion = corner_displacement_px(r, width, height);
     const bool warped = motion_is_significant(r, motion);
     if (warped) {
@@ -545,12 +553,16 @@ MethodMeasurement build_method_measurement(const MethodCaptures& captures, const
   m.width = width, m.height = height;
   m.set = std::move(references.set);
   m.linearity = std::move(references.linearity);
-  // Register W57 and W57+blue to D65' on the G albedo, warp all their planes.
+  // Register W57 and W57+blue to D65' on the G albedo (both at once), warp all their planes.
+  std::vector<RegistrationPair> pairs;
+  for (const Normalised* moving : {&base, &with_blue})
+    pairs.push_back({unclipped_for_registration(broadband.albedo[1], broadband, *moving, width, height),
+                     unclipped_for_registration(moving->albedo[1], broadband, *moving, width, height)});
+  const std::vector<RegistrationResult> found = register_channels(pairs, width, height, options);
+  pairs.clear();
   for (auto* moving : {&base, &with_blue}) {
     const IlluminatedCapture& capture = moving == &base ? captures.base : captures.with_blue;
-    RegistrationResult r = register_channel(unclipped_for_registration(broadband.albedo[1], broadband, *moving, width, height),
-                                            unclipped_for_registration(moving->albedo[1], broadband, *moving, width, height),
-                                            width, height, options);
+    RegistrationResult r = found[moving == &base ? 0 : 1];
     const double motion = corner_displacement_px(r, width, height);
     const bool warped = motion_is_significant(r, motion);
     if (warped) {

@@ -1,6 +1,9 @@
 #include "chromo/session/registration.hpp"
 
 #include <algorithm>
+#include <atomic>
+#include <exception>
+#include <thread>
 #include <cmath>
 #include <limits>
 #include <Eigen/Dense>
@@ -271,6 +274,30 @@ RegistrationResult register_channel(const std::vector<float>& reference, const s
   r.motion_noise_px = motion_noise_px(wrap(reference, width, height), wrap(warped, width, height),
                                       moving_mask(warped, width, height));
   return r;
+}
+
+std::vector<RegistrationResult> register_channels(const std::vector<RegistrationPair>& pairs, int width, int height,
+                                                  const RegistrationOptions& options) {
+  std::vector<RegistrationResult> results(pairs.size());
+  std::vector<std::exception_ptr> errors(pairs.size());
+  std::atomic<std::size_t> next{0};
+  auto work = [&] {
+    for (std::size_t k; (k = next++) < pairs.size();) {
+      try {
+        results[k] = register_channel(pairs[k].reference, pairs[k].moving, width, height, options);
+      } catch (...) {
+        errors[k] = std::current_exception();
+      }
+    }
+  };
+  const std::size_t cores = options.threads > 0 ? options.threads : std::max(1u, std::thread::hardware_concurrency());
+  std::vector<std::thread> workers;
+  for (std::size_t t = 1; t < std::min(cores, pairs.size()); ++t) workers.emplace_back(work);
+  work();
+  for (auto& w : workers) w.join();
+  for (const auto& e : errors)
+    if (e) std::rethrow_exception(e);
+  return results;
 }
 
 bool motion_is_significant(const RegistrationResult& registration, double motion_px) {

@@ -643,7 +643,7 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
     return session::build_method_measurement(method);
   };
   start = Clock::now();
-  const session::SessionCaptureBuilder noisy_captures = captures(true);
+  session::SessionCaptureBuilder noisy_captures = captures(true);
   std::optional<session::SessionCaptureBuilder> clean_captures;
   if (options.noise_free) clean_captures.emplace(captures(false));
   out.camera_seconds = seconds_since(start);
@@ -655,6 +655,7 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
       out.noise_free.set.channels[k].noise = out.noisy.set.channels[k].noise;
   }
   out.measurement_seconds = seconds_since(start);
+  if (options.keep_captures) out.noisy_captures = std::make_shared<const session::SessionCaptureBuilder>(std::move(noisy_captures));
   out.motion = capture_motion(out.noisy, poses, std::vector<std::string>(state_names.begin() + 1, state_names.end()),
                               options.sensor_width, options.sensor_height);
 

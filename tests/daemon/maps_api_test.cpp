@@ -14,6 +14,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <random>
 #include <set>
 
 #include "chromo/daemon/server.hpp"
@@ -220,6 +221,81 @@ TEST_F(MapsApi, GetMapSamplesAChannelAtCellCentresAndRefusesBadRequests) {
 // GetRegionStatistics: the library's numbers over the file at full
 // resolution (the web view's region statistics); GetMap says how to read
 // the channel; bad regions refused naming the field.
+// CompareSessions (issue 42 part 3 over the API): two maps files with
+// Gaussian noise (σ 0.04 per pixel, a fifth of what their σ maps say), the
+// after one with Ch × 1.5 (0.02 → 0.03) in a 36×28 rectangle: per pixel
+// nothing stands out, the rectangle's median difference does and a
+// rectangle elsewhere does not; its statistics are GetRegionStatistics' of
+// each file; bad requests name their field.
+TEST_F(MapsApi, CompareSessionsFindsARegionsChangeAgainstItsNoise) {
+  const int w = 96, h = 72;
+  std::mt19937 random(7);
+  std::normal_distribution<float> noise(0.0f, 0.04f);
+  auto maps_with = [&](double factor) {
+    std::vector<float> ch(static_cast<std::size_t>(w) * h), sigma(ch.size(), 0.2f), cm(ch.size(), 0.05f);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        const bool flushed = x >= 6 && x < 42 && y >= 6 && y < 34;
+        ch[static_cast<std::size_t>(y) * w + x] = static_cast<float>(0.02 * (flushed ? factor : 1.0)) + noise(random);
+      }
+    return files::FloatImage{w, h, {"Cm", "Ch", "sigma_Ch", "flags"}, {cm, ch, sigma, std::vector<float>(ch.size(), 0.0f)}};
+  };
+  files::write_exr(data / "before.exr", maps_with(1.0));
+  files::write_exr(data / "after.exr", maps_with(1.5));
+  auto compare = [&](const std::string& after_file, pb::MapRegion region, pb::CompareSessionsResponse* out) {
+    grpc::ClientContext context;
+    pb::CompareSessionsRequest request;
+    request.set_maps_file("before.exr"), request.set_after_maps_file(after_file), request.set_channel("Ch");
+    request.set_no_registration(true);
+    if (region.width() > 0) *request.mutable_region() = region;
+    return stub->CompareSessions(&context, request, out);
+  };
+  pb::MapRegion flushed, elsewhere;
+  flushed.set_x(6), flushed.set_y(6), flushed.set_width(36), flushed.set_height(28);
+  elsewhere.set_x(50), elsewhere.set_y(36), elsewhere.set_width(36), elsewhere.set_height(28);
+  pb::CompareSessionsResponse found, quiet;
+  const grpc::Status status = compare("after.exr", flushed, &found);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_TRUE(compare("after.exr", elsewhere, &quiet).ok());
+  std::cout << "CompareSessions: flushed median difference " << found.median_difference() << " sigma "
+            << found.sigma_of_median() << " z " << found.z() << "; elsewhere z " << quiet.z() << "; per pixel "
+            << found.significant_pixels() << " of " << found.compared_pixels() << " beyond 3 sigma\n";
+  EXPECT_EQ(found.compared_pixels(), static_cast<std::uint64_t>(w * h));
+  EXPECT_EQ(found.significant_pixels(), 0u);  // the σ maps' 0.2 per pixel hide a 0.01 change
+  EXPECT_EQ(found.region_compared_pixels(), 36u * 28u);
+  EXPECT_NEAR(found.median_difference(), 0.01, 0.005);
+  EXPECT_NEAR(found.sigma_of_median(), 1.2533 * std::sqrt(2.0) * 0.04 / std::sqrt(36.0 * 28), 0.0004);
+  EXPECT_TRUE(found.significant());
+  EXPECT_GT(found.z(), 3);
+  EXPECT_FALSE(quiet.significant());
+  EXPECT_LT(std::abs(quiet.z()), 3);
+  EXPECT_FALSE(found.warped());
+  pb::GetRegionStatisticsResponse after_alone;
+  {
+    grpc::ClientContext context;
+    pb::GetRegionStatisticsRequest request;
+    request.set_maps_file("after.exr"), request.set_channel("Ch");
+    *request.mutable_region() = flushed;
+    ASSERT_TRUE(stub->GetRegionStatistics(&context, request, &after_alone).ok());
+  }
+  EXPECT_DOUBLE_EQ(found.after().mean(), after_alone.mean());
+  EXPECT_DOUBLE_EQ(found.after().median(), after_alone.median());
+  EXPECT_NEAR(found.after().median() / found.before().median(), 1.5, 0.3);
+
+  pb::CompareSessionsResponse refused;
+  grpc::Status s = compare("missing.exr", flushed, &refused);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(s.error_message(), HasSubstr("after_maps_file: missing.exr: no such file"));
+  pb::MapRegion outside = flushed;
+  outside.set_x(80);
+  s = compare("after.exr", outside, &refused);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(s.error_message(), HasSubstr("region"));
+  s = compare("after.exr", pb::MapRegion(), &refused);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(s.error_message(), HasSubstr("region: required"));
+}
+
 TEST_F(MapsApi, RegionStatisticsAreTheFilesAndGetMapGivesUnitAndModelRange) {
   const int w = 40, h = 30;
   std::vector<float> cm(static_cast<std::size_t>(w) * h), flags(cm.size(), 0.0f);

@@ -65,6 +65,30 @@ TEST(Registration, ReportsWhatIsWrongInsteadOfGuessing) {
   EXPECT_THROW(register_channel(flat, flat, kWidth + 1, kHeight), RegistrationError);
 }
 
+TEST(Registration, CapturesRegisteredAtOnceGiveTheResultsOfOneByOne) {
+  // Four captures of a plan against the first, on two threads: each result
+  // bit for bit register_channel's, in the pairs' order.
+  const std::vector<float> reference = render(0, 0, 0);
+  const double motion[4][3] = {{1.5, 4.3, -2.7}, {0, 0, 0}, {-0.8, -3.1, 1.2}, {0.3, 0.6, 5.5}};
+  std::vector<RegistrationPair> pairs;
+  for (const auto& m : motion) pairs.push_back({reference, render(m[0], m[1], m[2])});
+  RegistrationOptions options;
+  options.threads = 2;
+  const std::vector<RegistrationResult> at_once = register_channels(pairs, kWidth, kHeight, options);
+  ASSERT_EQ(at_once.size(), pairs.size());
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    const RegistrationResult one = register_channel(pairs[k].reference, pairs[k].moving, kWidth, kHeight);
+    EXPECT_NEAR(at_once[k].rotation_deg, -motion[k][0], 0.05) << k;
+    for (int i = 0; i < 2; ++i)
+      for (int j = 0; j < 3; ++j) EXPECT_EQ(at_once[k].warp[i][j], one.warp[i][j]) << k;
+    EXPECT_EQ(at_once[k].residual_motion_px, one.residual_motion_px) << k;
+    EXPECT_EQ(at_once[k].motion_noise_px, one.motion_noise_px) << k;
+  }
+  // A pair that cannot be registered throws, as one by one.
+  pairs[2] = {std::vector<float>(kWidth * kHeight, 0.5f), std::vector<float>(kWidth * kHeight, 0.5f)};
+  EXPECT_THROW(register_channels(pairs, kWidth, kHeight, options), RegistrationError);
+}
+
 }  // namespace
 }  // namespace chromo::session
 

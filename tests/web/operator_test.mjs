@@ -215,6 +215,14 @@ async function main() {
   const exponents = (await page.locator('main').textContent()).match(/\b\d+(\.\d+)?e[+-]\d+/g) ?? [];
   assert.deepEqual(exponents, [], 'numbers in exponent form on the Results page');
   assert.doesNotMatch(await page.locator('main').textContent(), GRPC_CODES);
+  // Issue 42: the common view's card; here the white target fills both
+  // frames (no outline to register by), and the card says so as the API does.
+  const commonCard = await page.locator('section[aria-label="One view for every camera"]').textContent();
+  for (const camera of results.json.cameras) {
+    assert.equal(camera.common_view_reference, 'cam0');
+    assert.match(camera.common_view_reason, /white target reaches the map's .* edge/);
+    assert.ok(commonCard.includes(camera.common_view_reason), `common view card: ${commonCard}`);
+  }
   await shot(page, 'operator-results.png');
 
   phase('results');

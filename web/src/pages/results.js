@@ -11,6 +11,7 @@ import { h, field, messageArea, table, enumName, formatNumber, polarisationName 
 import { mapExplorer } from '../map_explorer.js';
 import { provenanceCard } from '../provenance.js';
 import { linkedView } from '../maps/linked_view.js';
+import { commonViewSection } from '../common_view.js';
 
 const ILLUMINANTS = ['D65', 'D50', 'A', '4000K', 'W57', 'W40', 'W27', 'R', 'G', 'B'];
 const MAP_PREVIEWS = [['cm', 'Cm (melanin)'], ['ch', 'Ch (hemoglobin)'], ['bm', 'βm (melanin blend)'],
@@ -197,8 +198,10 @@ export function mountResults(container, sessionId) {
         return;
       }
       const view = linkedView();
-      body.append(relightSection(results), ...(results.cameras ?? []).map((camera) => cameraResults(results, camera, view)),
-        framesSection(id));
+      body.append(relightSection(results), ...(results.cameras ?? []).map((camera) => cameraResults(results, camera, view)));
+      const common = commonViewSection(results, relativeTo);
+      if (common) body.append(common);
+      body.append(framesSection(id));
     } catch (error) {
       message.error(error);
     }

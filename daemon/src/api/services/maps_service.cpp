@@ -20,6 +20,7 @@
 #include "chromo/maps/ome_tiff.hpp"
 #include "chromo/maps/photograph_files.hpp"
 #include "chromo/maps/region_statistics.hpp"
+#include "chromo/maps/session_difference.hpp"
 #include "chromosphere/v1/maps.grpc.pb.h"
 #include "services.hpp"
 
@@ -190,14 +191,34 @@ double scale_field(double value, const char* field) {
 // (the web view asks GetMap for each channel of one file); a file that is not
 // a readable EXR is the request's fault (issue 40: INTERNAL before).
 std::shared_ptr<const chromo::files::FloatImage> read_maps_file(chromo::files::DecodedExrCache& cache, const Folder& files,
-                                                                 const std::string& maps_file) {
+                                                                 const std::string& maps_file,
+                                                                 const std::string& field = "maps_file") {
   try {
-    return cache.read(files.input("maps_file", maps_file, true));
+    return cache.read(files.input(field, maps_file, true));
   } catch (const chromo::files::ImageError& e) {
-    throw Refusal{{StatusCode::INVALID_ARGUMENT, "maps_file: " + files.scrub(e.what())}};
+    throw Refusal{{StatusCode::INVALID_ARGUMENT, field + ": " + files.scrub(e.what())}};
   } catch (const chromo::files::InputFileError& e) {
-    throw Refusal{{StatusCode::INVALID_ARGUMENT, "maps_file: " + files.scrub(e.what())}};
+    throw Refusal{{StatusCode::INVALID_ARGUMENT, field + ": " + files.scrub(e.what())}};
   }
+}
+
+// A region's statistics of one channel into the API's message.
+void fill_region_statistics(const chromo::files::FloatImage& image, const std::string& channel, const pb::MapRegion& r,
+                            pb::GetRegionStatisticsResponse* response) {
+  maps::RegionStatistics s;
+  try {
+    s = maps::region_statistics(image, channel, {r.x(), r.y(), r.width(), r.height()});
+  } catch (const std::invalid_argument& e) {
+    throw Refusal{{StatusCode::INVALID_ARGUMENT, e.what()}};
+  }
+  response->set_channel(s.channel), response->set_unit(s.unit);
+  *response->mutable_region() = r;
+  response->set_region_pixels(s.region_pixels), response->set_pixels(s.pixels);
+  response->set_flagged_pixels(s.flagged_pixels), response->set_outside_field_pixels(s.outside_field_pixels);
+  response->set_mean(s.mean), response->set_sd(s.sd), response->set_min(s.min), response->set_max(s.max);
+  response->set_p1(s.p1), response->set_p5(s.p5), response->set_p25(s.p25), response->set_median(s.median);
+  response->set_p75(s.p75), response->set_p95(s.p95), response->set_p99(s.p99);
+  response->set_source_width(image.width), response->set_source_height(image.height);
 }
 
 class MapsServiceImpl final : public pb::MapsService::Service {
@@ -266,21 +287,46 @@ class MapsServiceImpl final : public pb::MapsService::Service {
       if (!request->has_region()) throw Refusal{{StatusCode::INVALID_ARGUMENT, "region: required (x, y, width, height)"}};
       const auto decoded = read_maps_file(decoded_maps_, files, request->maps_file());
       const chromo::files::FloatImage& image = *decoded;
+      fill_region_statistics(image, request->channel(), request->region(), response);
+    });
+  }
+
+  Status CompareSessions(ServerContext* context, const pb::CompareSessionsRequest* request,
+                         pb::CompareSessionsResponse* response) override {
+    return run(context, request->session_id(), [&](const Folder& files) {
+      if (!request->has_region()) throw Refusal{{StatusCode::INVALID_ARGUMENT, "region: required (x, y, width, height)"}};
+      const Folder after_files(daemon_, request->after_session_id());  // "" : maps_dir, as session_id
+      const auto before = read_maps_file(decoded_maps_, files, request->maps_file());
+      const auto after = read_maps_file(decoded_maps_, after_files, request->after_maps_file(), "after_maps_file");
+      maps::SessionDifferenceOptions options;
+      if (!request->channel().empty()) options.channel = request->channel();
+      if (request->threshold_sigma() != 0) options.threshold_sigma = request->threshold_sigma();
+      options.register_sessions = !request->no_registration();
       const auto& r = request->region();
-      maps::RegionStatistics s;
+      const maps::PixelRectangle region{r.x(), r.y(), r.width(), r.height()};
+      maps::SessionDifference d;
+      maps::RegionDifference change;
       try {
-        s = maps::region_statistics(image, request->channel(), {r.x(), r.y(), r.width(), r.height()});
+        d = maps::session_difference(*before, *after, options);
+        change = maps::region_difference(d, region, options.threshold_sigma);
       } catch (const std::invalid_argument& e) {
         throw Refusal{{StatusCode::INVALID_ARGUMENT, e.what()}};
+      } catch (const session::RegistrationError& e) {
+        throw Refusal{{StatusCode::FAILED_PRECONDITION, std::string("registration: ") + e.what()}};
       }
-      response->set_channel(s.channel), response->set_unit(s.unit);
-      *response->mutable_region() = r;
-      response->set_region_pixels(s.region_pixels), response->set_pixels(s.pixels);
-      response->set_flagged_pixels(s.flagged_pixels), response->set_outside_field_pixels(s.outside_field_pixels);
-      response->set_mean(s.mean), response->set_sd(s.sd), response->set_min(s.min), response->set_max(s.max);
-      response->set_p1(s.p1), response->set_p5(s.p5), response->set_p25(s.p25), response->set_median(s.median);
-      response->set_p75(s.p75), response->set_p95(s.p95), response->set_p99(s.p99);
-      response->set_source_width(image.width), response->set_source_height(image.height);
+      response->set_channel(options.channel), response->set_threshold_sigma(options.threshold_sigma);
+      response->set_shift_x_px(d.registration.shift_x_px), response->set_shift_y_px(d.registration.shift_y_px);
+      response->set_rotation_deg(d.registration.rotation_deg), response->set_motion_px(d.motion_px);
+      response->set_warped(d.warped);
+      response->set_compared_pixels(static_cast<std::uint64_t>(d.compared_pixels));
+      response->set_significant_pixels(static_cast<std::uint64_t>(d.significant_pixels));
+      fill_region_statistics(*before, options.channel, r, response->mutable_before());
+      fill_region_statistics(d.after_registered, options.channel, r, response->mutable_after());
+      response->set_region_compared_pixels(static_cast<std::uint64_t>(change.pixels));
+      response->set_median_difference(change.median_difference), response->set_sigma_of_median(change.sigma_of_median);
+      response->set_z(change.z), response->set_significant(change.significant);
+      response->set_mean_difference(change.mean_difference);
+      response->set_sigma_of_mean_from_sigma_maps(change.sigma_of_mean);
     });
   }
 

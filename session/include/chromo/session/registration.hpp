@@ -52,6 +52,11 @@ struct RegistrationOptions {
   int max_iterations = 200;
   double epsilon = 1e-6;
   int pyramid_levels = 3;  // coarse-to-fine: handles shifts of tens of pixels
+  // register_channels: pairs registered at once (0: the machine's cores; 1:
+  // one after another). The results do not depend on it. Default 1: at once
+  // measured ×0.72-1.06 of one by one (median 0.95, one run each at load
+  // 12-14 on 2 shared cores: estimate_stages_bench --chain; docs/estimation.md).
+  int threads = 1;
 };
 
 struct RegistrationResult {
@@ -91,6 +96,20 @@ std::vector<float> warp_channel(const std::vector<float>& moving_channel, int wi
 RegistrationResult register_channel(const std::vector<float>& reference_channel,
                                     const std::vector<float>& moving_channel, int width, int height,
                                     const RegistrationOptions& options = {});
+
+// The channels of one capture pair to register: the reference's and the
+// moving capture's, width × height floats each.
+struct RegistrationPair {
+  std::vector<float> reference, moving;
+};
+
+// register_channel for every pair (a plan's captures against its first),
+// up to options.threads pairs at once: each pair's ECC is mostly serial, so
+// a plan of several captures keeps the cores busy. Results in the pairs'
+// order, equal to one after another; a pair's exception is rethrown (the
+// first pair's in order that threw).
+std::vector<RegistrationResult> register_channels(const std::vector<RegistrationPair>& pairs, int width, int height,
+                                                  const RegistrationOptions& options = {});
 
 // Largest displacement the registration's transform gives an image corner.
 double corner_displacement_px(const RegistrationResult& registration, int width, int height);

@@ -49,6 +49,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -58,6 +59,10 @@
 #include "chromo/estimation/skin_parameters.hpp"
 #include "chromo/simulators/scene/scene.hpp"
 #include "chromo/simulators/scene/subject_motion.hpp"
+
+namespace chromo::session {
+class SessionCaptureBuilder;
+}  // namespace chromo::session
 
 namespace chromo::simulators {
 
@@ -104,6 +109,10 @@ struct RenderedSessionOptions {
   // The lab camera's nonlinearity (CameraModelOptions::nonlinearity_at_full_well; 0: linear).
   double camera_nonlinearity = 0;
   bool noise_free = true;    // also render the noise-free chain
+  // Keep the noisy chain's captures (RenderedSession::noisy_captures), so
+  // that a bench can build the measurement again (registration options);
+  // not kept when the session is loaded from the cache.
+  bool keep_captures = false;
   int threads = 2;
   int band_rows = 128;       // scene rows rendered at a time
   // Cache (empty: none): cache_dir/rendered_session_<key>.bin holds the
@@ -215,6 +224,7 @@ struct RenderedSession {
   // regions' strengths. 0 unless polarised.
   double surface_sigma = 0;
   double sheen = 0;                   // F(0°) of the design view (polarised), else 0
+  std::shared_ptr<const session::SessionCaptureBuilder> noisy_captures;  // options.keep_captures, else null
   std::size_t pixels() const { return truth.size(); }
 };
 
