@@ -25,7 +25,8 @@
 // model skin: the truth) and the median |error|/σ, per parameter. Printed per
 // run and as the spread (mean [min, max]) over folds × seeds.
 //
-//   real_skin_bench [--seeds 1,2] [--noise-scales 0.5,1,2,4] [--patch 200] [--out DIR]
+//   real_skin_bench [--seeds 1,2] [--noise-scales 0.5,1,2,4] [--patch 200] [--prior-widen 1,2]
+//                   [--plans method,six-leds] [--out DIR]
 //
 // Writes DIR/real_skin.csv and DIR/real_skin.png (flagged real skin against
 // the noise scale, per plan and statistic).
@@ -45,6 +46,7 @@
 #include "chromo/estimation/estimator.hpp"
 #include "chromo/estimation/forward_table.hpp"
 #include "chromo/estimation/model_discrepancy.hpp"
+#include "chromo/estimation/parameter_prior.hpp"
 #include "chromo/estimation/skin_model.hpp"
 #include "chromo/estimation/spectrum_fit.hpp"
 #include "chromo/simulators/scene/synthetic.hpp"
@@ -60,6 +62,18 @@ namespace {
 
 using simulators::SyntheticKind;
 constexpr int kFolds = 5;
+// today: camera noise only; learned: + the discrepancy of the fold's training
+// subjects; "prior xW": + the parameter prior learned from their 4D fits,
+// widened W× (parameter_prior.hpp), one per --prior-widen.
+std::vector<std::string> statistics(const std::vector<double>& widen) {
+  std::vector<std::string> out{"today", "learned"};
+  for (double w : widen) {
+    char name[32];
+    std::snprintf(name, sizeof name, "prior x%g", w);
+    out.push_back(name);
+  }
+  return out;
+}
 
 std::vector<RealSkinPlan> plans() {
   const spectral::CameraSensitivity camera = spectral::builtin_camera("nikon_d5100");
@@ -92,16 +106,19 @@ struct Run {
   double flagged[simulators::kSyntheticKindCount] = {};
   double de_d65 = 0, de_a = 0, order4 = 0;
   double within_2sigma[4] = {}, median_ratio[4] = {};
+  double within_2sigma_log_ch = 0;  // |ln(Ch/Ch_ref)| ≤ 2σ_Ch/Ch: the same σ read as relative (log) spread
   std::size_t explained_skin = 0;
   std::vector<double> flagged_per_spectrum;  // real skin: each held-out spectrum's flagged share
 };
 
 Run evaluate(const RealSkinPlan& plan, const simulators::SyntheticFrame& frame, const std::vector<float>& measured,
              const std::vector<spectral::Spectrum>& spectra, const std::vector<Reference>& references,
-             std::shared_ptr<const estimation::ModelDiscrepancy> discrepancy) {
+             std::shared_ptr<const estimation::ModelDiscrepancy> discrepancy,
+             std::shared_ptr<const estimation::ParameterPrior> prior) {
   estimation::EstimatorOptions options;
   options.threads = 2;
   options.discrepancy = std::move(discrepancy);
+  options.prior = std::move(prior);
   const estimation::Estimator estimator(plan.table, plan.set, options);
   std::vector<estimation::PixelEstimate> e(frame.pixels());
   estimator.estimate(measured, e);
@@ -110,7 +127,7 @@ Run evaluate(const RealSkinPlan& plan, const simulators::SyntheticFrame& frame, 
   std::size_t count[simulators::kSyntheticKindCount] = {}, flagged[simulators::kSyntheticKindCount] = {};
   Run r;
   std::vector<double> ratios[4];
-  std::size_t within[4] = {}, order4 = 0;
+  std::size_t within[4] = {}, within_log_ch = 0, order4 = 0;
   std::vector<std::size_t> per_count(spectra.size()), per_flagged(spectra.size());
   for (std::size_t i = 0; i < frame.pixels(); ++i) {
     const int k = static_cast<int>(frame.kind[i]);
@@ -133,6 +150,7 @@ Run evaluate(const RealSkinPlan& plan, const simulators::SyntheticFrame& frame, 
     const estimation::SkinParameters ref = real ? references[frame.spectrum_index[i]](frame.skin_scale[i]) : frame.truth[i];
     const double error[4] = {e[i].parameters.cm - ref.cm, e[i].parameters.ch - ref.ch, e[i].parameters.bm - ref.bm,
                              e[i].parameters.che - ref.che};
+    within_log_ch += std::abs(std::log(e[i].parameters.ch / ref.ch)) <= 2 * e[i].sigma[1] / e[i].parameters.ch;
     for (int p = 0; p < 4; ++p) {
       const double ratio = std::abs(error[p]) / std::max(static_cast<double>(e[i].sigma[p]), 1e-12);
       within[p] += ratio <= 2;
@@ -146,6 +164,7 @@ Run evaluate(const RealSkinPlan& plan, const simulators::SyntheticFrame& frame, 
   if (r.explained_skin) {
     r.de_d65 /= r.explained_skin, r.de_a /= r.explained_skin;
     r.order4 = double(order4) / r.explained_skin;
+    r.within_2sigma_log_ch = double(within_log_ch) / r.explained_skin;
     for (int p = 0; p < 4; ++p) {
       r.within_2sigma[p] = double(within[p]) / r.explained_skin;
       std::nth_element(ratios[p].begin(), ratios[p].begin() + ratios[p].size() / 2, ratios[p].end());
@@ -173,6 +192,11 @@ int run(int argc, char** argv) {
   app.add_option("--seeds", seeds, "scene seeds")->delimiter(',');
   app.add_option("--noise-scales", noise_scales, "camera noise σ factors")->delimiter(',');
   app.add_option("--patch", patch, "pixels per held-out subject")->check(CLI::Range(10, 100000));
+  std::vector<double> prior_widen{1, 2};
+  app.add_option("--prior-widen", prior_widen, "the parameter prior's widening factors (>= 1), one statistic each")
+      ->delimiter(',');
+  std::vector<std::string> plan_names{"method", "six-leds"};
+  app.add_option("--plans", plan_names, "plans to run (method, six-leds)")->delimiter(',');
   app.add_option("--out", out, "output directory");
   CLI11_PARSE(app, argc, argv);
   for (double s : noise_scales)
@@ -180,7 +204,13 @@ int run(int argc, char** argv) {
 
   const auto& all_spectra = estimation::nist_forearm_spectra();
   const auto& all_residuals = estimation::nist_forearm_residuals();
-  std::vector<RealSkinPlan> plan_list = plans();
+  for (double w : prior_widen)
+    if (!(w >= 1)) throw std::invalid_argument("--prior-widen: every factor must be >= 1");
+  const std::vector<std::string> kStatistics = statistics(prior_widen);
+  std::vector<RealSkinPlan> plan_list;
+  for (RealSkinPlan& p : plans())
+    if (std::find(plan_names.begin(), plan_names.end(), p.name) != plan_names.end()) plan_list.push_back(std::move(p));
+  if (plan_list.empty()) throw std::invalid_argument("--plans: none of method, six-leds");
   std::fprintf(stderr, "fitting the reference parameters of %zu subjects at 3 texture scales...\n", all_spectra.size());
   std::vector<Reference> all_references(all_spectra.size());
   for (int s = 0; s < 3; ++s) {
@@ -201,6 +231,13 @@ int run(int argc, char** argv) {
       else train.push_back(all_residuals[i]);
     }
     const auto learned = std::make_shared<const estimation::ModelDiscrepancy>(estimation::ModelDiscrepancy::learn(train));
+    std::vector<estimation::SkinParameters> train_fits;
+    for (std::size_t i = 0; i < all_spectra.size(); ++i)
+      if (static_cast<int>(i % kFolds) != fold) train_fits.push_back(all_references[i].at[1]);
+    std::map<std::string, std::shared_ptr<const estimation::ParameterPrior>> priors;  // by statistic
+    for (std::size_t k = 0; k < prior_widen.size(); ++k)
+      priors[kStatistics[2 + k]] =
+          std::make_shared<const estimation::ParameterPrior>(estimation::ParameterPrior::learn(train_fits, prior_widen[k]));
     for (const RealSkinPlan& plan : plan_list)
       for (double scale : noise_scales)
         for (std::uint64_t seed : seeds)
@@ -221,9 +258,10 @@ int run(int argc, char** argv) {
             const std::vector<float> noisy = simulators::add_channel_noise(frame.clean, set, o.seed * 7919 + 1);
             RealSkinPlan declared = plan;
             declared.set = set;
-            for (const std::string statistic : {"today", "learned"})
+            for (const std::string statistic : kStatistics)
               rows.push_back({test_names, plan.name, scene, statistic, scale, seed, fold,
-                              evaluate(declared, frame, noisy, test, references, statistic == "learned" ? learned : nullptr)});
+                              evaluate(declared, frame, noisy, test, references, statistic == "today" ? nullptr : learned,
+                                       priors.contains(statistic) ? priors.at(statistic) : nullptr)});
           }
     std::fprintf(stderr, "fold %d of %d done\n", fold + 1, kFolds);
   }
@@ -264,13 +302,13 @@ int run(int argc, char** argv) {
                     100 * row.r.flagged_per_spectrum[p]);
 
   std::printf("\nspread over %d folds x %zu seeds, mean [min, max]:\n", kFolds, seeds.size());
-  std::printf("%-8s %-5s %-7s %5s  %-22s %-22s %-22s %-22s %-8s %-8s %-8s %-8s %-6s %-6s\n", "plan", "scene", "stat", "noise",
-              "skin flagged %", "tattoo+marker caught %", "dE94 mean(D65,A)", "order4 %", "in2sCm", "in2sCh", "in2sBm",
-              "in2sChe", "medCm", "medCh");
+  std::printf("%-8s %-5s %-7s %5s  %-22s %-22s %-22s %-22s %-8s %-8s %-8s %-8s %-6s %-6s %-8s\n", "plan", "scene", "stat",
+              "noise", "skin flagged %", "tattoo+marker caught %", "dE94 mean(D65,A)", "order4 %", "in2sCm", "in2sCh", "in2sBm",
+              "in2sChe", "medCm", "medCh", "in2sLnCh");
   std::map<std::string, std::vector<std::pair<double, double>>> curves;  // plan/stat -> (noise, flagged)
   for (const RealSkinPlan& plan : plan_list)
     for (const std::string scene : {"real", "model"})
-      for (const std::string statistic : {"today", "learned"})
+      for (const std::string& statistic : kStatistics)
         for (double scale : noise_scales) {
           std::vector<const Run*> runs;
           for (const Row& row : rows)
@@ -295,10 +333,11 @@ int run(int argc, char** argv) {
             in2s[p] = spread([p](const Run& r) { return r.within_2sigma[p]; })[0];
             med[p] = spread([p](const Run& r) { return r.median_ratio[p]; })[0];
           }
-          std::printf("%-8s %-5s %-7s %5.2f  %-22s %-22s %-22s %-22s %-8.1f %-8.1f %-8.1f %-8.1f %-6.2f %-6.2f\n",
+          const double in2s_log_ch = spread([](const Run& r) { return r.within_2sigma_log_ch; })[0];
+          std::printf("%-8s %-5s %-7s %5.2f  %-22s %-22s %-22s %-22s %-8.1f %-8.1f %-8.1f %-8.1f %-6.2f %-6.2f %-8.1f\n",
                       plan.name.c_str(), scene.c_str(), statistic.c_str(), scale, text(skin, 100).c_str(),
                       text(ink, 100).c_str(), text(de, 1).c_str(), text(ord, 100).c_str(), 100 * in2s[0], 100 * in2s[1],
-                      100 * in2s[2], 100 * in2s[3], med[0], med[1]);
+                      100 * in2s[2], 100 * in2s[3], med[0], med[1], 100 * in2s_log_ch);
           if (scene == "real") curves[plan.name + " " + statistic].emplace_back(scale, 100 * skin[0]);
         }
 

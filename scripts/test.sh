@@ -10,7 +10,7 @@ scripts/build.sh
 # finite). A test that fails twice fails the suite; ctest's log keeps both runs.
 ctest --preset release -j2 --repeat until-pass:2 "$@"
 # The fuzz smoke (tests/fuzz/README.md): the libFuzzer harnesses, built with
-# clang into build/fuzz (only the libraries they need), each run for 10 s on
+# clang into build/fuzz (only the libraries they need), each run for 6 s on
 # its committed corpus, two at a time. scripts/fuzz.sh [SECONDS] is the longer run.
 if [[ ! -f build/fuzz/build.ninja ]]; then
   launcher=()

@@ -473,7 +473,8 @@ std::optional<session::SessionInfo> Daemon::session(const std::string& id) const
   if (!session::is_valid_name(id)) return std::nullopt;
   auto folder = store_.root() / id;
   if (!std::filesystem::exists(folder / "session.json")) return std::nullopt;
-  session::SessionInfo info = store_.read_session(folder);
+  session::SessionInfo info =
+      session_reads_.get(folder, [this](const std::filesystem::path& f) { return store_.read_session(f); });
   if (auto live = operations_.get(id)) info.record = *live;
   return info;
 }

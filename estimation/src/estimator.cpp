@@ -2,6 +2,8 @@
 
 #include "chromo/estimation/model_discrepancy.hpp"
 #include "pixel_covariance.hpp"
+#include "prior_fit.hpp"
+#include "chromo/estimation/parameter_prior.hpp"
 
 #include <omp.h>
 
@@ -108,6 +110,7 @@ bool EstimatorOptions::IsValid(std::string* error) const {
   std::string fast_error;
   if (!fast.IsValid(&fast_error)) return fail("fast: " + fast_error);
   if (!subspace.IsValid(&fast_error)) return fail("subspace: " + fast_error);
+  if (prior_max_channels < 1 || prior_max_channels > 128) return fail("prior_max_channels must be in [1, 128]");
   return true;
 }
 
@@ -148,6 +151,8 @@ Estimator::Estimator(std::shared_ptr<const ForwardTable> table, MeasurementSet s
   options_.fast.presolved_accept_chi2 =
       std::max(options_.fast.converged_chi2, std::min(options_.fast.presolved_accept_chi2, flag_threshold_[4]));
   if (options_.discrepancy) discrepancy_ = options_.discrepancy->channel_covariance(set_);
+  if (options_.prior && c <= options_.prior_max_channels)
+    grid_prior_ = std::make_shared<const detail::GridPrior>(detail::grid_prior(*table_, *options_.prior));
   const bool subspace = options_.method == InverterMethod::kSubspace ||
                         (options_.method == InverterMethod::kFast && options_.subspace_beyond_four_channels && c > 4);
   if (subspace) {
@@ -191,7 +196,7 @@ double Estimator::fit_variance(int channel, double albedo) const {
 }
 
 void Estimator::set_uncertainty(const detail::PixelCovariance& covariance, const GridPoint& x, PixelEstimate& out,
-                                const double* jacobian_at_x) const {
+                                const double* jacobian_at_x, const detail::GridPrior* prior) const {
   const int c_count = channels();
   ChannelBuffer<double> value(c_count), own_jacobian(c_count * 4);
   const double* jacobian = jacobian_at_x;
@@ -204,12 +209,17 @@ void Estimator::set_uncertainty(const detail::PixelCovariance& covariance, const
   // the box, and 2σ would cover little more than half of its errors.
   const auto nodes = table_->nodes();
   Eigen::Matrix4d information = covariance.information(jacobian);
-  for (int k = 0; k < 4; ++k) information(k, k) += 1.0 / ((nodes[k] - 1.0) * (nodes[k] - 1.0));
+  if (prior) information += prior->information;
+  else
+    for (int k = 0; k < 4; ++k) information(k, k) += 1.0 / ((nodes[k] - 1.0) * (nodes[k] - 1.0));
   Eigen::Vector4d scale;
   for (int k = 0; k < 4; ++k) scale(k) = 1 / std::sqrt(information(k, k));
   const Eigen::Matrix4d unit = scale.asDiagonal() * information * scale.asDiagonal();
   const Eigen::Matrix4d grid_covariance = scale.asDiagonal() * unit.inverse() * scale.asDiagonal();
   // Grid units → parameter units, axis by axis (the grid's axes are separable).
+  // Cm and Ch are log-spaced: this linearised σ is value × their log spread,
+  // and their errors are relative (docs/estimation.md "Real skin": 2σ covers
+  // 85% of model skin's Ch errors, 99% read in logs, |ln error| ≤ 2σ/value).
   for (int k = 0; k < 4; ++k) {
     constexpr double kStep = 1e-3;
     GridPoint up = x, down = x;
@@ -333,6 +343,12 @@ PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const
   }
   out.residual = static_cast<float>(std::sqrt(sum / c_count));
   if (chosen_chi2 <= flag_threshold_[order]) {
+    if (grid_prior_ && order == 4) {  // step 4b
+      const detail::PriorFit map = detail::prior_fit(*table_, covariance, *grid_prior_, measured.data(), chosen.x);
+      out.parameters = table_->from_grid(map.x);
+      if (options_.uncertainty) set_uncertainty(covariance, map.x, out, nullptr, grid_prior_.get());
+      return out;
+    }
     if (options_.uncertainty) set_uncertainty(covariance, chosen.x, out, jacobian_at_chosen);
     return out;
   }

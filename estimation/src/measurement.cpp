@@ -23,9 +23,10 @@ void MeasurementSet::validate() const {
     const double power = (camera.rgb[c.camera_channel] * c.illuminant).values().sum();
     if (!(power > 0) || !c.illuminant.values().allFinite())
       throw std::invalid_argument("channel '" + c.name + "': the illuminant gives no signal in this camera channel");
-    if (!(c.noise.read_sigma > 0) || c.noise.shot_coefficient < 0 || !(c.noise.saturation_albedo > 0))
+    if (!(c.noise.read_sigma > 0) || !(c.noise.shot_coefficient >= 0) || !(c.noise.white_coefficient >= 0) ||
+        !(c.noise.saturation_albedo > 0))
       throw std::invalid_argument("channel '" + c.name + "': noise needs read_sigma > 0, shot_coefficient >= 0, "
-                                  "saturation_albedo > 0");
+                                  "white_coefficient >= 0, saturation_albedo > 0");
   }
 }
 

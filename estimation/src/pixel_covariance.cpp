@@ -42,4 +42,18 @@ Eigen::Matrix4d PixelCovariance::information(const double* jacobian) const {
   return j.transpose() * j;
 }
 
+Eigen::Vector4d PixelCovariance::gradient(const double* jacobian, const double* residual) const {
+  using Jacobian = Eigen::Matrix<double, Eigen::Dynamic, 4, Eigen::RowMajor, kMaxChannels, 4>;
+  if (!full_) {
+    Eigen::Vector4d g = Eigen::Vector4d::Zero();
+    for (int c = 0; c < channels_; ++c) g += Eigen::Map<const Eigen::Vector4d>(jacobian + 4 * c) * (residual[c] / diagonal_(c));
+    return g;
+  }
+  Jacobian j = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 4, Eigen::RowMajor>>(jacobian, channels_, 4);
+  Vector r = Eigen::Map<const Eigen::VectorXd>(residual, channels_);
+  cholesky_.matrixL().solveInPlace(j);
+  cholesky_.matrixL().solveInPlace(r);
+  return j.transpose() * r;
+}
+
 }  // namespace chromo::estimation::detail

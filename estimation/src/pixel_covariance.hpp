@@ -26,6 +26,8 @@ class PixelCovariance {
   double chi2(const double* residual) const;
   // Jᵀ Σ⁻¹ J for the table's Jacobian (row-major, 4 values per channel).
   Eigen::Matrix4d information(const double* jacobian) const;
+  // Jᵀ Σ⁻¹ r (half the gradient of rᵀ Σ⁻¹ r along the table's grid).
+  Eigen::Vector4d gradient(const double* jacobian, const double* residual) const;
 
  private:
   int channels_ = 0;

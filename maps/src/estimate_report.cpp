@@ -445,7 +445,7 @@ bool same_measurement_set(const estimation::MeasurementSet& a, const estimation:
     const auto &x = a.channels[i], &y = b.channels[i];
     if (x.name != y.name || x.camera_channel != y.camera_channel || !(x.illuminant.values() == y.illuminant.values()).all() ||
         x.noise.read_sigma != y.noise.read_sigma || x.noise.shot_coefficient != y.noise.shot_coefficient ||
-        x.noise.saturation_albedo != y.noise.saturation_albedo)
+        x.noise.white_coefficient != y.noise.white_coefficient || x.noise.saturation_albedo != y.noise.saturation_albedo)
       return false;
   }
   return true;
@@ -590,6 +590,7 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
   for (const auto& c : m.set.channels)
     noise[c.name] = {{"read_sigma", c.noise.read_sigma},
                      {"shot_coefficient", c.noise.shot_coefficient},
+                     {"white_coefficient", c.noise.white_coefficient},
                      {"saturation_albedo", c.noise.saturation_albedo}};
   extra["noise"] = noise;
   nlohmann::ordered_json snr = nlohmann::ordered_json::object();

@@ -46,26 +46,36 @@ void Journal::append(nlohmann::json record) {
   files::fsync_or_throw(fd_, path_.string());
 }
 
-JournalContents read_journal(const std::filesystem::path& path) {
+JournalContents for_each_journal_record(const std::filesystem::path& path,
+                                        const std::function<void(nlohmann::json&& record)>& each) {
   JournalContents contents;
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) return contents;
-  const std::string text = files::read_bounded(path, files::kMaxJournalBytes, "journal");
-  std::size_t start = 0;
-  while (start < text.size()) {
-    std::size_t end = text.find('\n', start);
-    if (end == std::string::npos) {
-      contents.torn_tail = true;
+  files::check_regular_file(path, files::kMaxJournalBytes, "journal");  // a FIFO is refused before open() blocks
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path.string() + ": cannot open the journal");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (in.eof()) {  // the last line has no '\n': an append a crash interrupted
+      contents.torn_tail = !line.empty();
       break;
     }
-    auto parsed = nlohmann::json::parse(text.begin() + static_cast<std::ptrdiff_t>(start),
-                                        text.begin() + static_cast<std::ptrdiff_t>(end), nullptr, false);
+    auto parsed = nlohmann::json::parse(line, nullptr, false);
     if (parsed.is_object())
-      contents.records.push_back(std::move(parsed));
+      each(std::move(parsed));
     else
       ++contents.malformed_lines;
-    start = end + 1;
   }
+  if (in.bad()) throw std::runtime_error(path.string() + ": reading the journal failed");
+  return contents;
+}
+
+JournalContents read_journal(const std::filesystem::path& path) {
+  std::vector<nlohmann::json> records;
+  JournalContents contents = for_each_journal_record(path, [&records](nlohmann::json&& record) {
+    records.push_back(std::move(record));
+  });
+  contents.records = std::move(records);
   return contents;
 }
 

@@ -40,8 +40,11 @@ estimation::ChannelNoise parse_noise(const nlohmann::json& j, estimation::Channe
     };
     if (key == "read_sigma") base.read_sigma = in_range(0, false, 1);
     else if (key == "shot_coefficient") base.shot_coefficient = in_range(0, false, 1);
+    else if (key == "white_coefficient") base.white_coefficient = in_range(0, false, 1);
     else if (key == "saturation_albedo") base.saturation_albedo = in_range(0, true, 10);
-    else throw MeasurementFileError(where + ": unknown noise key '" + key + "' (read_sigma, shot_coefficient, saturation_albedo)");
+    else
+      throw MeasurementFileError(where + ": unknown noise key '" + key +
+                                 "' (read_sigma, shot_coefficient, white_coefficient, saturation_albedo)");
   }
   return base;
 }

@@ -223,18 +223,24 @@ ExposureLinearity check_subject_exposure(const IlluminatedCapture& capture, cons
   return check_exposure_linearity(capture, dark, tolerance);
 }
 
-// One frame's variance of a capture's albedo (measurement.hpp's model): W the
-// white's mean signal, R one frame's read variance, S one frame's shot
-// variance of the white, V_w the white mean's variance, N_s subject frames
-// at g times the white's exposure:
-//   σ²(a) = (R + g·a·S)/(N_s·g²·W²) + a²·V_w/W²,
-// the white's a² taken as a/g (a pixel not brighter than the white's signal
-// at the subject's exposure has a ≤ 1/g; at g = 1 the a² ≤ a of before).
-estimation::ChannelNoise capture_noise(double W, double R, double S, double V_w, double Ns, double g, double rho,
+// The variance of a capture's albedo a = ρ·(subject − dark)/(g·(white − dark))
+// (measurement.hpp's model): W the white's mean signal, R one frame's read
+// variance, S one frame's shot variance of the white (at signal W), V_w the
+// white mean's variance, V_d the dark mean's, N_s subject frames at g times
+// the white's exposure. The subject's signal at albedo a is g·a·W/ρ, so
+//   subject  ρ²·(R + S·g·a/ρ)/(N_s·g²·W²)
+//   white    a²·V_w/W²                    (the albedo divides by it per pixel)
+//   dark     (a − ρ/g)²·V_d/W²           (subtracted from both)
+// → read_sigma² = ρ²·(R/N_s + V_d)/(g²W²), shot_coefficient = ρ·(S/N_s − 2·V_d)/(g·W²)
+//   (at least 0), white_coefficient = (V_w + V_d)/W².
+// Measured on the lab's skin (bench/noise_model_bench.cpp): the variance of
+// noisy − noise-free renders over this model's is ≈ 1 per channel.
+estimation::ChannelNoise capture_noise(double W, double R, double S, double V_w, double V_d, double Ns, double g, double rho,
                                        double dark_mean) {
   estimation::ChannelNoise noise;
-  noise.read_sigma = std::max(std::sqrt(R / Ns) / (g * W), 1e-5);
-  noise.shot_coefficient = (S / Ns + V_w) / (g * W * W);
+  noise.read_sigma = std::max(rho * std::sqrt(R / Ns + V_d) / (g * W), 1e-5);
+  noise.shot_coefficient = std::max(rho * (S / Ns - 2 * V_d) / (g * W * W), 0.0);
+  noise.white_coefficient = (V_w + V_d) / (W * W);
   noise.saturation_albedo = rho * (1.0 - dark_mean) / (g * W);
   return noise;
 }
@@ -264,7 +270,7 @@ References references_of(const MethodCaptures& captures) {
   };
   auto albedo_noise = [&](const Reference& k, const IlluminatedCapture& capture, int c) {
     return capture_noise(k.white_mean[c], read_variance[c], white_shot(k, capture, c), k.white_variance[c],
-                         frames_of(capture.subject), subject_gain(capture), rho, dark_mean[c]);
+                         dark_variance[c], frames_of(capture.subject), subject_gain(capture), rho, dark_mean[c]);
   };
   const double D = r.with_blue.white_mean[2] - s * r.base.white_mean[2];
   if (!(D > 1e-3))
@@ -281,16 +287,21 @@ References references_of(const MethodCaptures& captures) {
   spectral::Spectrum blue_illuminant = captures.with_blue.illuminant - captures.base.illuminant;
   blue_illuminant = spectral::Spectrum(blue_illuminant.values().max(0.0));
   estimation::ChannelNoise blue_noise;
+  // blue = ρ·(subject_mix − s·subject_W57)/(D per pixel), each subject at g
+  // times its white's exposure: the subjects' read noise, their shot noise at
+  // the blue albedo a (skin's B albedo under W57 and under W57+blue taken as
+  // a: they are the same channel), the two whites' noise relative to D
+  // (a²). The dark cancels at s = 1 (the standard plans); at s ≠ 1 its small
+  // share is left out.
   const double R = read_variance[2];
-  // Each subject at g times its white's exposure, on the white's scale: (R + 0.5·g·S)/(N_s·g²).
   const double g_mix = subject_gain(captures.with_blue), g_base = subject_gain(captures.base);
-  const double subject_variance =
-      (R + 0.5 * g_mix * white_shot(r.with_blue, captures.with_blue, 2)) /
-          (frames_of(captures.with_blue.subject) * g_mix * g_mix) +
-      s * s * (R + 0.5 * g_base * white_shot(r.base, captures.base, 2)) /
-          (frames_of(captures.base.subject) * g_base * g_base);
-  blue_noise.read_sigma = std::max(std::sqrt(subject_variance) / D, 1e-5);
-  blue_noise.shot_coefficient = (r.with_blue.white_variance[2] + s * s * r.base.white_variance[2]) / (g_mix * D * D);
+  const double N_mix = frames_of(captures.with_blue.subject), N_base = frames_of(captures.base.subject);
+  blue_noise.read_sigma = std::max(rho * std::sqrt(R / (N_mix * g_mix * g_mix) + s * s * R / (N_base * g_base * g_base)) / D, 1e-5);
+  blue_noise.shot_coefficient = rho *
+                                (white_shot(r.with_blue, captures.with_blue, 2) / (N_mix * g_mix) +
+                                 s * s * white_shot(r.base, captures.base, 2) / (N_base * g_base)) /
+                                (D * D);
+  blue_noise.white_coefficient = (r.with_blue.white_variance[2] + s * s * r.base.white_variance[2]) / (D * D);
   blue_noise.saturation_albedo = rho * (1.0 - dark_mean[2]) / (std::max(g_mix, g_base) * D);
   r.set.channels.push_back({"blue.B", blue_illuminant, 2, blue_noise});
   r.set.validate();
@@ -328,9 +339,10 @@ PlanReferences plan_references_of(const PlanCaptures& captures) {
   // The method's noise model (references_of), per capture: one frame's read
   // variance from the averaged dark, the subject's read and shot noise
   // divided by its own frame count, the white's as averaged.
-  std::array<double, 3> read_variance{}, dark_mean{};
+  std::array<double, 3> read_variance{}, dark_variance{}, dark_mean{};
   for (int c = 0; c < 3; ++c) {
-    read_variance[c] = flat_noise_variance(dark.planes[c], dark.width, dark.height) * frames_of(dark);
+    dark_variance[c] = flat_noise_variance(dark.planes[c], dark.width, dark.height);
+    read_variance[c] = dark_variance[c] * frames_of(dark);
     dark_mean[c] = mean_of(dark.planes[c]);
   }
   r.set.camera = captures.camera;
@@ -342,7 +354,7 @@ PlanReferences plan_references_of(const PlanCaptures& captures) {
       const double R = read_variance[c];
       const double white_shot = std::max(k.white_variance[c] * frames_of(capture.white) - R, 0.0);  // one frame's
       r.set.channels.push_back({capture.name + "." + kChannelNames[c], capture.illuminant, c,
-                                capture_noise(k.white_mean[c], R, white_shot, k.white_variance[c],
+                                capture_noise(k.white_mean[c], R, white_shot, k.white_variance[c], dark_variance[c],
                                               frames_of(capture.subject), subject_gain(capture), rho, dark_mean[c])});
     }
   }

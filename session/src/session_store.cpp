@@ -125,9 +125,11 @@ SessionInfo SessionStore::read_session(const std::filesystem::path& folder) cons
   info.record.step_count = static_cast<int>(info.plan.steps.size());
   info.record.expected_frames = 0;
 
-  auto journal = read_journal(folder / "journal.jsonl");
-  info.torn_journal_tail = journal.torn_tail;
-  for (const auto& record : journal.records) {
+  // The journal streamed (a long session's is tens of MB): each record is
+  // taken into the typed SessionInfo and dropped.
+  SessionTimelineBuilder timeline;
+  const auto journal = for_each_journal_record(folder / "journal.jsonl", [&](nlohmann::json&& record) {
+    timeline.add(record);
     const std::string type = record.value("type", "");
     if (record.contains("t")) info.record.updated = parse_time(record.value("t", ""));
     if (type == "state") {
@@ -167,10 +169,11 @@ SessionInfo SessionStore::read_session(const std::filesystem::path& folder) cons
       info.record.counters.mean_trigger_to_stored_ms = record.value("mean_trigger_to_stored_ms", 0.0);
       info.record.counters.max_trigger_to_stored_ms = record.value("max_trigger_to_stored_ms", 0.0);
     } else if (type == "results") {
-      info.results = record;
+      info.results = std::move(record);
     }
-  }
-  info.timeline = session_timeline(journal.records);
+  });
+  info.torn_journal_tail = journal.torn_tail;
+  info.timeline = timeline.result();
   std::size_t completed = 0;
   for (const auto& step : info.steps) completed += step.completed ? 1 : 0;
   info.record.progress = info.steps.empty() ? 0 : static_cast<double>(completed) / static_cast<double>(info.steps.size());

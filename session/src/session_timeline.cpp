@@ -47,32 +47,38 @@ bool is_subject_frame(const nlohmann::json& record) {
 
 }  // namespace
 
-SessionTimeline session_timeline(const std::vector<nlohmann::json>& journal_records) {
-  std::optional<std::int64_t> first_step, last_frame, first_subject, last_subject, last_derived, results, final_state;
-  for (const nlohmann::json& record : journal_records) {
-    const std::string type = type_of(record);
-    const std::optional<std::int64_t> t = microseconds_of(record);
-    if (!t) continue;
-    if (type == "step_started" && !first_step) first_step = t;
-    if (type == "frame") {
-      last_frame = t;
-      if (is_subject_frame(record)) {
-        if (!first_subject) first_subject = t;
-        last_subject = t;
-      }
+void SessionTimelineBuilder::add(const nlohmann::json& record) {
+  const std::string type = type_of(record);
+  const std::optional<std::int64_t> t = microseconds_of(record);
+  if (!t) return;
+  if (type == "step_started" && !first_step_) first_step_ = t;
+  if (type == "frame") {
+    last_frame_ = t;
+    if (is_subject_frame(record)) {
+      if (!first_subject_) first_subject_ = t;
+      last_subject_ = t;
     }
-    if (type == "derived") last_derived = t;
-    if (type == "results") results = t;
-    if (type == "state" && is_final_state(record)) final_state = t;
   }
+  if (type == "derived") last_derived_ = t;
+  if (type == "results") results_ = t;
+  if (type == "state" && is_final_state(record)) final_state_ = t;
+}
+
+SessionTimeline SessionTimelineBuilder::result() const {
   auto seconds = [](std::int64_t from, std::int64_t to) { return static_cast<double>(to - from) * 1e-6; };
   SessionTimeline timeline;
-  if (first_step && last_frame) timeline.capture_s = seconds(*first_step, *last_frame);
-  if (first_subject && last_subject) timeline.subject_s = seconds(*first_subject, *last_subject);
-  if (last_frame && last_derived) timeline.derived_s = seconds(*last_frame, *last_derived);
-  if (last_frame && results) timeline.estimation_s = seconds(*last_frame, *results);
-  if (first_step && final_state) timeline.total_s = seconds(*first_step, *final_state);
+  if (first_step_ && last_frame_) timeline.capture_s = seconds(*first_step_, *last_frame_);
+  if (first_subject_ && last_subject_) timeline.subject_s = seconds(*first_subject_, *last_subject_);
+  if (last_frame_ && last_derived_) timeline.derived_s = seconds(*last_frame_, *last_derived_);
+  if (last_frame_ && results_) timeline.estimation_s = seconds(*last_frame_, *results_);
+  if (first_step_ && final_state_) timeline.total_s = seconds(*first_step_, *final_state_);
   return timeline;
+}
+
+SessionTimeline session_timeline(const std::vector<nlohmann::json>& journal_records) {
+  SessionTimelineBuilder builder;
+  for (const nlohmann::json& record : journal_records) builder.add(record);
+  return builder.result();
 }
 
 }  // namespace chromo::session

@@ -56,6 +56,28 @@ namespace {
   throw std::runtime_error("Modbus LED simulator: " + what + ": " + std::strerror(errno));
 }
 
+// The output-enable coil's value in a write that libmodbus will accept
+// (0x05: value 0xFF00 or 0x0000; 0x0F: 1..0x7B0 coils, a matching byte
+// count, within the coils), or nullopt when `pdu` (function code first)
+// does not write that coil.
+std::optional<bool> output_enable_written(const unsigned char* pdu, int length) {
+  const auto word = [pdu](int at) { return static_cast<int>(pdu[at]) << 8 | pdu[at + 1]; };
+  if (length >= 5 && pdu[0] == 0x05 && word(1) == map::kCoilOutputEnable) {
+    if (word(3) == 0xFF00) return true;
+    if (word(3) == 0x0000) return false;
+    return std::nullopt;
+  }
+  if (length >= 6 && pdu[0] == 0x0F) {
+    const int first = word(1), count = word(3), bytes = pdu[5];
+    if (count < 1 || count > 0x7B0 || bytes != (count + 7) / 8 || length < 6 + bytes || first + count > map::kCoilCount)
+      return std::nullopt;
+    const int bit = map::kCoilOutputEnable - first;
+    if (bit < 0 || bit >= count) return std::nullopt;
+    return ((pdu[6 + bit / 8] >> (bit % 8)) & 1) != 0;
+  }
+  return std::nullopt;
+}
+
 void put_ascii(std::uint16_t* registers, int count, const std::string& text) {
   for (int i = 0; i < count; ++i) {
     auto byte = [&](std::size_t k) { return k < text.size() ? static_cast<unsigned char>(text[k]) : 0u; };
@@ -246,12 +268,15 @@ void ModbusLedServer::handle_request(const unsigned char* query, int length) {
   in[map::kInAppliedPolarisation] = device_polarisation::write_word(status.applied.polarisation);
   impl.mapping->tab_bits[map::kCoilOutputEnable] = status.output_enabled ? 1 : 0;
 
+  // A device answers a coil write once the coil is set (the driver goes on
+  // to trigger the camera on that answer): the output enable takes effect
+  // before the reply, not after it.
+  const int header = modbus_get_header_length(impl.ctx);
+  if (const std::optional<bool> enable = output_enable_written(query + header, length - header)) lab_.set_output_enabled(*enable);
   if (modbus_reply(impl.ctx, query, length, impl.mapping) < 0) return;
   ++answered_;
 
-  int function = query[modbus_get_header_length(impl.ctx)];
-  if (function == 0x05 || function == 0x0F)
-    lab_.set_output_enabled(impl.mapping->tab_bits[map::kCoilOutputEnable] != 0);
+  int function = query[header];
   const std::uint16_t* hold = impl.mapping->tab_registers;
   if ((function == 0x06 || function == 0x10) && hold[map::kHoldCommandSequence] != impl.last_command_sequence) {
     impl.last_command_sequence = hold[map::kHoldCommandSequence];

@@ -17,6 +17,7 @@
 #include <limits>
 #include <map>
 #include <set>
+#include <thread>
 
 #include <google/protobuf/descriptor.pb.h>
 #include <google/protobuf/dynamic_message.h>
@@ -484,6 +485,51 @@ TEST_F(ApiFixture, ATlsConnectionThatNeverHandshakesIsClosed) {
   arguments.SetSslTargetNameOverride("localhost");
   auto tls = grpc::CreateCustomChannel("127.0.0.1:" + std::to_string(server->tcp_port()), grpc::SslCredentials(options), arguments);
   EXPECT_TRUE(list_over_tcp(tls, "Bearer test-token-0123456789").ok());
+}
+
+// Issue 40, row 3 (the rest): a client that handshakes over TLS and then
+// holds its connection without a call (or with calls refused for want of the
+// token) was kept as long as it liked. It is closed after tcp_idle_timeout_ms.
+TEST_F(ApiFixture, AHandshakenTlsConnectionWithoutCallsIsClosedOnceIdle) {
+  const auto key = lab.directory / "key.pem", cert = lab.directory / "cert.pem";
+  const std::string command = "openssl req -x509 -newkey rsa:2048 -nodes -days 1 -subj /CN=localhost "
+                              "-addext subjectAltName=DNS:localhost -keyout " + key.string() + " -out " +
+                              cert.string() + " >/dev/null 2>&1";
+  ASSERT_EQ(std::system(command.c_str()), 0);
+  lab.config.tls_certificate_file = cert.string();
+  lab.config.tls_private_key_file = key.string();
+  lab.config.tcp_insecure = false;
+  lab.config.tcp_idle_timeout_ms = 500;
+  start();
+  std::ifstream in(cert);
+  std::stringstream pem;
+  pem << in.rdbuf();
+  grpc::SslCredentialsOptions options;
+  options.pem_root_certs = pem.str();
+  grpc::ChannelArguments arguments;
+  arguments.SetSslTargetNameOverride("localhost");
+  auto tls = grpc::CreateCustomChannel("127.0.0.1:" + std::to_string(server->tcp_port()), grpc::SslCredentials(options), arguments);
+  ASSERT_TRUE(tls->WaitForConnected(std::chrono::system_clock::now() + std::chrono::seconds(10)));
+  EXPECT_EQ(list_over_tcp(tls, nullptr).error_code(), StatusCode::UNAUTHENTICATED);
+  // The server's GOAWAY after 500 ms idle takes the channel out of READY.
+  bool left_ready = false;
+  for (auto state = tls->GetState(false); !left_ready;) {
+    if (!tls->WaitForStateChange(state, std::chrono::system_clock::now() + std::chrono::seconds(10))) break;
+    state = tls->GetState(false);
+    left_ready = state != GRPC_CHANNEL_READY;
+  }
+  EXPECT_TRUE(left_ready) << "the idle connection was still open 10 s later";
+  // A client with the token reconnects and is served.
+  EXPECT_TRUE(list_over_tcp(tls, "Bearer test-token-0123456789").ok());
+  // The web view's in-process channel cannot reconnect: idle longer than the
+  // timeout, it still serves.
+  // The Unix socket's clients reconnect as TCP's do.
+  auto in_process = server->in_process_channel();
+  EXPECT_TRUE(list_over_tcp(in_process, "Bearer test-token-0123456789").ok());
+  EXPECT_TRUE(list_over_tcp(channel, nullptr).ok());
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  EXPECT_TRUE(list_over_tcp(in_process, "Bearer test-token-0123456789").ok()) << "the in-process channel was closed when idle";
+  EXPECT_TRUE(list_over_tcp(channel, nullptr).ok()) << "the Unix socket's client did not reconnect";
 }
 
 // A raw call: `body` as the message bytes, whatever they are.

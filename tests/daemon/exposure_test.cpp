@@ -135,7 +135,8 @@ TEST(ExposurePerCapture, MeteredSessionPutsEachWhiteAtTheTargetShareAndNFramesDi
   const double W = (mean.mean - site_statistics(dark, width, height, 0).mean) / kFullScale;
   const double rho = lab.config.estimation.white_reflectance;
   const double model = noise.at("read_sigma").get<double>() * noise.at("read_sigma").get<double>() +
-                       noise.at("shot_coefficient").get<double>() * rho;
+                       noise.at("shot_coefficient").get<double>() * rho +
+                       noise.at("white_coefficient").get<double>() * rho * rho;
   const double from_frames = 2.0 * (one.variance / (kFullScale * kFullScale)) / (kFrames * W * W);
   EXPECT_NEAR(model / from_frames, 1.0, 0.25) << "model " << model << " frames " << from_frames;
 

@@ -270,7 +270,15 @@ TEST_F(Fixture, RecoveredMapsMatchTheScenesTruth) {
   // frames); the relit colour is what is pinned.
   EXPECT_LT(median(ch_error), 0.5);
   EXPECT_LT(relit.median, 1.0);
-  EXPECT_LT(flagged_share, 0.01);
+  // Issue 37: with the noise model measured right (docs/estimation.md "The
+  // noise model"; it had overstated the blue-only channel's variance 4×) the
+  // per-pixel χ² flags 2.9% of this scene's skin (code 6). The flagged pixels
+  // sit where the truth's ln Cm changes twice as fast as on the explained ones
+  // (mean 3×3 gradient 0.150 against 0.075): the 96-px scene is upsampled 2×
+  // bilinearly onto the Bayer sensor, so a cell's R and B sites see different
+  // mixtures of neighbouring skin, a chain misfit the estimator does not model
+  // (the 5-MP lab, one scene pixel per site: 0.08-0.19%, noise_model_bench).
+  EXPECT_LT(flagged_share, 0.04);
   EXPECT_GT(ink_flagged, ink * 8 / 10);
 }
 

@@ -1,5 +1,7 @@
 // The session folder's storage: the journal (torn tails, a full budget), raw
 // frames as TIFF at native bit depth, derived data as OpenEXR.
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <fstream>
 
@@ -9,8 +11,10 @@
 #include <ImfHeader.h>
 #include <gtest/gtest.h>
 
+#include "chromo/files/bounded_read.hpp"
 #include "chromo/session/frame_files.hpp"
 #include "chromo/session/journal.hpp"
+#include "chromo/session/session_read_cache.hpp"
 #include "chromo/session/session_store.hpp"
 #include "../support/fresh_directory.hpp"
 #include "../support/one_step_plan.hpp"
@@ -76,6 +80,37 @@ TEST(Journal, RecordsSurviveAndATornTailIsIgnoredThenClosed) {
   EXPECT_EQ(contents.malformed_lines, 1);
   EXPECT_FALSE(contents.torn_tail);
   std::filesystem::remove_all(dir);
+}
+
+// Issue 40, row 11: GetSession re-read a long session's whole journal on
+// every call. The cache reads a folder once while its files are unchanged,
+// and again after any append.
+TEST(SessionReadCache, ReadsAnUnchangedSessionOnceAndAnAppendedOneAgain) {
+  const auto root = fresh_directory("read-cache");
+  SessionStore store(root, nullptr);
+  auto created = store.create(testing::one_dark_step_plan(), "subject", nlohmann::json::object());
+  const auto folder = root / created.id;
+  SessionReadCache cache(2);
+  const auto read = [&store](const std::filesystem::path& f) { return store.read_session(f); };
+  EXPECT_EQ(cache.get(folder, read).record.state, OperationState::kPending);
+  EXPECT_EQ(cache.get(folder, read).record.state, OperationState::kPending);
+  EXPECT_EQ(cache.reads(), 1u);
+  created.journal->append({{"type", "state"}, {"state", "succeeded"}});
+  EXPECT_EQ(cache.get(folder, read).record.state, OperationState::kSucceeded);
+  EXPECT_EQ(cache.reads(), 2u);
+  // A journal that is not a regular file is refused naming it, and nothing is kept.
+  created.journal.reset();
+  std::filesystem::remove(folder / "journal.jsonl");
+  ASSERT_EQ(::mkfifo((folder / "journal.jsonl").c_str(), 0600), 0);
+  try {
+    cache.get(folder, read);
+    ADD_FAILURE() << "a FIFO journal was read";
+  } catch (const files::InputFileError& error) {
+    EXPECT_NE(std::string(error.what()).find("journal.jsonl"), std::string::npos) << error.what();
+  }
+  EXPECT_THROW(cache.get(folder, read), files::InputFileError);
+  EXPECT_EQ(cache.reads(), 4u);
+  std::filesystem::remove_all(root);
 }
 
 TEST(Journal, FullBudgetRefusesTheRecordAndWritesNothing) {

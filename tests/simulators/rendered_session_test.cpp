@@ -222,20 +222,22 @@ TEST(RenderedSession, CacheGivesTheRenderedSessionBack) {
 // Reference frames (StandardPlanOptions::reference_frames): the albedo
 // divides each pixel by its own white reference, so a one-frame white adds its
 // noise to every pixel's. Measured on skin (noisy − noise-free, the D65'
-// channels: the unregistered reference capture), 1 against 8 white and dark
-// frames, the subject one frame either way:
+// channels: the unregistered reference capture, and the blue-only channel),
+// 1 against 8 white and dark frames, the subject one frame either way:
 // - the white's share of the albedo variance on skin is small (its noise
 //   enters as ρ²·var(white), the subject's as ρ·var(white)): 8 frames remove
 //   10-14% of the variance (measured 0.86-0.90 of it);
-// - the noise figure (ChannelNoise: read + shot·ρ, the white's term linear in
-//   ρ) overstates skin's variance 1.6-1.8× with one reference frame and is
-//   within 13% with eight: more reference frames make the χ² honest.
+// - the noise figure (ChannelNoise: read + shot·ρ + white·ρ², the white's
+//   term in ρ²) is the measured variance within 10% either way (issue 37:
+//   with the white's term taken linear in ρ it overstated skin's variance
+//   1.6-1.8× with one reference frame, and the blue-only channel's 4×;
+//   bench/noise_model_bench.cpp).
 TEST(RenderedSession, ReferenceFramesLowerTheAlbedoNoiseAsTheModelPredicts) {
   RenderedSessionOptions o = tiny_options();
   o.exposure_per_capture = true;
   o.blue_ratio = 8;
   struct Figures {
-    std::array<double, 3> measured{}, predicted{};
+    std::array<double, 4> measured{}, predicted{};
   };
   auto figures = [&](int reference_frames) {
     o.reference_frames = reference_frames;
@@ -247,7 +249,7 @@ TEST(RenderedSession, ReferenceFramesLowerTheAlbedoNoiseAsTheModelPredicts) {
     for (std::size_t i = 0; i < s.pixels(); ++i) {
       if (s.region[i] != static_cast<std::uint8_t>(SceneRegion::kSkin)) continue;
       ++n;
-      for (int c = 0; c < 3; ++c) {
+      for (int c = 0; c < 4; ++c) {
         const double clean = s.noise_free.measured[i * 4 + c], noisy = s.noisy.measured[i * 4 + c];
         f.measured[c] += (noisy - clean) * (noisy - clean);
         f.predicted[c] += s.noisy.set.channels[c].noise.variance(clean);
@@ -257,13 +259,13 @@ TEST(RenderedSession, ReferenceFramesLowerTheAlbedoNoiseAsTheModelPredicts) {
     return f;
   };
   const Figures one = figures(1), eight = figures(8);
-  for (int c = 0; c < 3; ++c) {
+  for (int c = 0; c < 4; ++c) {
     const double model_one = one.measured[c] / one.predicted[c], model_eight = eight.measured[c] / eight.predicted[c];
-    EXPECT_GT(model_one, 0.45) << "channel " << c;
-    EXPECT_LT(model_one, 0.75) << "channel " << c;
-    EXPECT_GT(model_eight, 0.8) << "channel " << c;
-    EXPECT_LT(model_eight, 1.15) << "channel " << c;
-    EXPECT_GT(model_eight, model_one + 0.2) << "channel " << c;
+    EXPECT_GT(model_one, 0.9) << "channel " << c;
+    EXPECT_LT(model_one, 1.1) << "channel " << c;
+    EXPECT_GT(model_eight, 0.9) << "channel " << c;
+    EXPECT_LT(model_eight, 1.1) << "channel " << c;
+    if (c == 3) continue;  // the blue-only channel: two subjects, two whites
     const double gain = eight.measured[c] / one.measured[c];
     EXPECT_GT(gain, 0.75) << "channel " << c;
     EXPECT_LT(gain, 0.95) << "channel " << c;

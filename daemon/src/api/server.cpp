@@ -96,6 +96,9 @@ Server::Server(Daemon& daemon) : daemon_(daemon), services_(std::make_unique<Ser
   // A TCP peer that never finishes its handshake is closed (issue 40: held
   // connections that never sent anything used up the descriptors).
   builder.AddChannelArgument(GRPC_ARG_SERVER_HANDSHAKE_TIMEOUT_MS, static_cast<int>(config.tcp_handshake_timeout_ms));
+  // One that handshook and then holds the connection without a call (or
+  // with calls refused for want of the token) is closed once idle.
+  builder.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_IDLE_MS, static_cast<int>(config.tcp_idle_timeout_ms));
   // A thread per running call (the synchronous API): the streams' slots, room
   // for unary calls beside them, the pollers. Beyond it gRPC itself answers
   // RESOURCE_EXHAUSTED; streams beyond max_streams are refused by the Guard

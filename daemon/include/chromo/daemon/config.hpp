@@ -133,6 +133,10 @@ struct DaemonConfig {
   // credentials' check) within this, else gRPC closes it (its own default:
   // 120 s, for any number of connections that send nothing).
   std::uint32_t tcp_handshake_timeout_ms = 10000;
+  // A TCP connection with no call in flight for this long is closed (gRPC's
+  // GOAWAY; clients reconnect on their next call): one that handshook and
+  // then sent no call, or no valid token, is not kept as long as it likes.
+  std::uint32_t tcp_idle_timeout_ms = 120000;
   std::filesystem::path maps_dir;         // the maps API's folder for work without a session; empty = none
   std::uint64_t max_read_maps_bytes = 1ull << 30;  // MapsService.ReadMaps: the most channel bytes one call sends
   std::uint32_t max_profile_exports = 1;  // concurrent ExportProfiles calls (each takes every core); beyond: RESOURCE_EXHAUSTED

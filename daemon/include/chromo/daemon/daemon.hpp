@@ -29,6 +29,7 @@
 #include "chromo/daemon/internal/capture/frame_pipeline.hpp"
 #include "chromo/daemon/internal/capture/preview_hub.hpp"
 #include "chromo/daemon/internal/capture/white_balance.hpp"
+#include "chromo/session/session_read_cache.hpp"
 #include "chromo/session/session_store.hpp"
 
 namespace chromo::daemon {
@@ -148,6 +149,7 @@ class Daemon {
   OperationRegistry operations_{events_};
   PreviewHub previews_{devices_, [this] { return operations_.any_active(); }};
   session::SessionStore store_;
+  mutable session::SessionReadCache session_reads_;  // session(): a long journal is not re-read while unchanged
   // Runs sessions and calibrations; ~Daemon() stops it first, since the work
   // uses the members around it.
   OperationRunner runner_{operations_};

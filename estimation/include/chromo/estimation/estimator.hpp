@@ -37,6 +37,13 @@
 //     for k2d or k4d holds no appearance table: estimate_pixel(…, kAuto) on
 //     it throws std::logic_error. order_rule = kLikelihoodRatio replaces the
 //     appearance rule by the likelihood-ratio test (EstimatorOptions).
+//  4b. With a prior (EstimatorOptions::prior, parameter_prior.hpp) and at
+//     most prior_max_channels channels, an explained order-4 pixel takes the
+//     maximum a posteriori fit instead (χ² + the prior's penalty, from the
+//     chosen fit and from the prior's mean: prior_fit.hpp); its flag, order
+//     and χ² stay the data's (the prior chooses among the parameters that
+//     explain the pixel, it does not decide whether any do), its σ maps take
+//     the prior's information in place of the box's.
 //  4. Explained? The chosen fit's χ² is compared with the (1 −
 //     flag_significance) quantile of χ² with max(C − free parameters, 1)
 //     degrees of freedom (with as many channels as parameters a pixel inside
@@ -86,8 +93,10 @@
 namespace chromo::estimation {
 
 class ModelDiscrepancy;
+class ParameterPrior;
 namespace detail {
 class PixelCovariance;
+struct GridPrior;
 }
 
 // kSubspace: SubspaceInverter (subspace_inverter.hpp), whose cost barely
@@ -153,6 +162,11 @@ struct EstimatorOptions {
   // (the statistic of scenes rendered by the model itself). chromod and
   // `chromo estimate` pass ModelDiscrepancy::standard() by default.
   std::shared_ptr<const ModelDiscrepancy> discrepancy;
+  // A prior over the parameters learned from real skin (step 4b,
+  // parameter_prior.hpp), used on plans of at most prior_max_channels
+  // channels (1-128); null: none (the maximum-likelihood fit).
+  std::shared_ptr<const ParameterPrior> prior;
+  int prior_max_channels = 4;
   // Per-pixel σ of the parameters (PixelEstimate::sigma).
   bool uncertainty = true;
   int threads = 0;                // estimate(): 0 = all cores
@@ -228,8 +242,9 @@ class Estimator {
   // error, the discrepancy's diagonal) at the channel's mean table value.
   std::vector<double> reference_sigma() const;
   // jacobian_at_x: the table's Jacobian at x when the caller has it (else it is interpolated here).
+  // prior: the parameter prior's information replaces the box's (step 4b).
   void set_uncertainty(const detail::PixelCovariance& covariance, const GridPoint& x, PixelEstimate& out,
-                       const double* jacobian_at_x = nullptr) const;
+                       const double* jacobian_at_x = nullptr, const detail::GridPrior* prior = nullptr) const;
   // The specular test (step 5 above): the best 4D fit of measured − s over the
   // scanned s, continued from `start`; chi2 = ∞ when no s reaches min_specular.
   static constexpr int kSpecularSteps = 8;
@@ -244,6 +259,7 @@ class Estimator {
                       double chi2_2) const;
   double flag_threshold_[5] = {};  // by free parameters (index 2 and 4)
   Eigen::MatrixXd discrepancy_;    // Σ_disc in the set's channels; empty without a discrepancy
+  std::shared_ptr<const detail::GridPrior> grid_prior_;  // step 4b's prior in grid units; null: none
 };
 
 std::unique_ptr<Inverter> make_inverter(InverterMethod method, std::shared_ptr<const ForwardTable> table,

@@ -16,12 +16,15 @@
 // Values are linear albedo: 1 is a
 // perfect white under that illuminant (MODEL.md's camera normalisation).
 //
-// Noise (per channel, in albedo units): σ² = read_sigma² + shot_coefficient · a,
-// with a the channel's albedo. For a synthesised difference channel the two
-// captures' noises add; describe it with the variance it actually has (read
-// noise of both captures, shot noise of the mix capture at the typical skin level
-// folded into read_sigma). saturation_albedo: albedo at which the raw value
-// clips (the pixel is flagged saturated at or above it).
+// Noise (per channel, in albedo units):
+//   σ² = read_sigma² + shot_coefficient · a + white_coefficient · a²,
+// with a the channel's albedo. The last term is the white reference's own
+// noise: the albedo divides by the white per pixel, so the white's relative
+// variance V_w/W² enters as a relative error of a (quadratic in a; 0 for a
+// set that has no measured white). For a synthesised difference channel the
+// two captures' noises add; describe it with the variance it actually has.
+// saturation_albedo: albedo at which the raw value clips (the pixel is
+// flagged saturated at or above it).
 
 #include <Eigen/Core>
 #include <algorithm>
@@ -38,7 +41,11 @@ struct ChannelNoise {
   double read_sigma = 0.002;        // albedo units
   double shot_coefficient = 0.0002; // albedo units: variance per unit albedo
   double saturation_albedo = 1.5;   // ≥ this: saturated
-  double variance(double albedo) const { return read_sigma * read_sigma + shot_coefficient * std::max(albedo, 0.0); }
+  double white_coefficient = 0;     // relative variance of the white reference: variance per unit albedo²
+  double variance(double albedo) const {
+    const double a = std::max(albedo, 0.0);
+    return read_sigma * read_sigma + shot_coefficient * a + white_coefficient * a * a;
+  }
   // 1/σ at an albedo as the inverters' χ² weighs a channel: this noise plus a
   // model error of model_sigma_relative · albedo (EstimatorOptions).
   double fit_weight(double albedo, double model_sigma_relative) const {

@@ -65,7 +65,7 @@ struct EstimateReport {
 };
 
 // Each measurement channel's signal-to-noise ratio by its noise model
-// (measurement.hpp: σ² = read_sigma² + shot_coefficient·a): on the white
+// (measurement.hpp: σ² = read_sigma² + shot_coefficient·a + white_coefficient·a²): on the white
 // reference (a = ρ_white) and on the skin, a = the channel's mean over the
 // pixels the estimator explained (flag 0; NaN when none). summary.json's
 // "snr" (`docs/formats/session.md`). A pure function.

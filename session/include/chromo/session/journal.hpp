@@ -10,6 +10,7 @@
 // Thread rules: append() is serialised internally (any thread).
 
 #include <filesystem>
+#include <functional>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -47,7 +48,18 @@ struct JournalContents {
   int malformed_lines = 0;  // complete lines that are not JSON objects (should be 0)
 };
 
+// Every record of the journal at `path` (none when it does not exist), in
+// order. Throws files::InputFileError (a std::runtime_error) naming the path
+// when it is not a regular file, is longer than files::kMaxJournalBytes or
+// cannot be read.
 JournalContents read_journal(const std::filesystem::path& path);
+
+// What read_journal() reads, one record at a time: `each` gets every record
+// in order, and only the line being parsed is held (a long session's journal
+// is tens of MB; its records as JSON several times that). Returns the torn
+// tail and malformed line counts with `records` left empty. Same errors.
+JournalContents for_each_journal_record(const std::filesystem::path& path,
+                                        const std::function<void(nlohmann::json&& record)>& each);
 
 // "2026-11-22T16:04:47.123456Z"
 std::string utc_timestamp_now();

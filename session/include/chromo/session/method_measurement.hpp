@@ -33,27 +33,27 @@
 // the mean squared difference of horizontally adjacent pixels (a flat target:
 // slow flat-field variation cancels). Each image is the mean of its step's
 // frames (RgbImage::frames = N), so that variance is already the N-frame
-// mean's; the per-frame read variance is R = N_d·V_d (the dark's) and the
+// mean's (V_d, V_w); the per-frame read variance is R = N_d·V_d and the
 // per-frame shot variance of the white S = N_w·V_w − R. For albedo a under
-// capture k, channel c, with W = mean(white − dark) and N_s subject frames:
-//   σ²(a) ≈ (R + a·S)/(N_s·W²)  (subject)  +  a²·V_w / W²  (white; a² ≤ a)
-//   → read_sigma = √(R/N_s) / W,  shot_coefficient = (S/N_s + V_w) / W²
-// (one frame each: read_sigma = √V_d/W, shot_coefficient = (2·V_w − V_d)/W²).
-// A subject at g times its white's exposure (ExposureLinearity below):
-//   σ²(a) = (R + g·a·S)/(N_s·g²·W²) + a²·V_w/W²,  the white's a² taken as a/g
-//   (a pixel that does not clip has a ≲ 1/g; at g = 1 this is the a² ≤ a above)
-//   → read_sigma = √(R/N_s) / (g·W),  shot_coefficient = (S/N_s + V_w) / (g·W²),
+// capture k, channel c, with W = mean(white − dark), N_s subject frames and
+// the subject at g times its white's exposure (ExposureLinearity below):
+//   σ²(a) = ρ²(R + S·g·a/ρ)/(N_s·g²·W²)   (subject)
+//         + a²·V_w/W²                      (white: the albedo divides by it)
+//         + (a − ρ/g)²·V_d/W²              (dark: subtracted from both)
+//   → read_sigma² = ρ²(R/N_s + V_d)/(g²W²), shot_coefficient = ρ(S/N_s − 2V_d)/(g·W²) (≥ 0),
+//     white_coefficient = (V_w + V_d)/W²,
 // saturation_albedo = ρ·(1 − dark)/(g·W). The blue-only channel may
 // combine two exposures t_mix and t_W57 (RgbImage::exposure_us): the W57
 // capture's signals are scaled by s = t_mix/t_W57 onto the mix's exposure
 // (a camera linear in exposure above the dark; s = 1 when both share one
-// exposure, as the standard plans do), and with D = W_mix,B − s·W_W57,B, the
-// subject's shot noise at albedo 0.5 folded into read_sigma as
-// measurement.hpp asks:
-//   read_sigma² = [(R + 0.5·g_mix·S_mix)/(N_s,mix·g_mix²) + s²·(R + 0.5·g_W57·S_W57)/(N_s,W57·g_W57²)] / D²,
-//   shot_coefficient = (V_w,mix + s²·V_w,W57) / (g_mix·D²).
-// The dark mean's own noise (a fixed offset per pixel, common to all
-// captures) is not part of the model.
+// exposure, as the standard plans do), and with D = W_mix,B − s·W_W57,B,
+// the subjects' shot noise taken at the blue albedo a itself:
+//   read_sigma² = ρ²[R/(N_s,mix·g_mix²) + s²·R/(N_s,W57·g_W57²)] / D²,
+//   shot_coefficient = ρ[S_mix/(N_s,mix·g_mix) + s²·S_W57/(N_s,W57·g_W57)] / D²,
+//   white_coefficient = (V_w,mix + s²·V_w,W57) / D²
+// (the dark cancels at s = 1; at s ≠ 1 its small share is left out).
+// Measured (bench/noise_model_bench.cpp): on the lab's skin the variance of
+// noisy − noise-free renders is 0.97-1.02 of this figure in every channel.
 // Saturation: a pixel whose raw subject value is at or above 0.999 of full
 // scale in a channel gets that channel set to the channel's saturation albedo
 // (so the estimator flags it kSaturated); saturation_albedo = ρ·(1 − dark)/W.

@@ -17,6 +17,8 @@
 //
 // Thread rules: a pure function.
 
+#include <cstdint>
+#include <optional>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -33,5 +35,17 @@ struct SessionTimeline {
 };
 
 SessionTimeline session_timeline(const std::vector<nlohmann::json>& journal_records);
+
+// The same, one record at a time, for a journal read as a stream
+// (for_each_journal_record): add() each record in order, then result().
+class SessionTimelineBuilder {
+ public:
+  void add(const nlohmann::json& record);
+  SessionTimeline result() const;
+
+ private:
+  std::optional<std::int64_t> first_step_, last_frame_, first_subject_, last_subject_, last_derived_, results_,
+      final_state_;
+};
 
 }  // namespace chromo::session

@@ -200,7 +200,8 @@ struct CaptureMotion {
 // 7: RegistrationResult::skipped_levels (coarse levels skipped).
 // 8: RegistrationResult::method and translation_sigma_px (the fallback for
 //    featureless captures).
-inline constexpr std::uint32_t kRenderedSessionVersion = 8;
+// 9: ChannelNoise::white_coefficient (the noise model's white term, in a²).
+inline constexpr std::uint32_t kRenderedSessionVersion = 9;
 inline constexpr std::uint8_t kMixedCell = 255;  // a 2×2 cell whose sites have different regions
 
 struct RenderedSession {
