@@ -2,7 +2,7 @@
 //   chromo leds solve   --target d65|w57+blue[:R]|cct:K|FILE.csv --objective spectral|xyz|camera
 //                       [--hold-chromaticity] [--library FILE] [--json]
 //   chromo leds compare OLD NEW [--json]
-//   chromo leds plot    (solve's options) [--out FILE.png]
+//   chromo leds plot    (solve's options) [--out FILE.png]   (chromod's library when a daemon answers)
 //   chromo leds measure [--out FILE] [--json]          (leds_measure.cpp)
 #include <fmt/format.h>
 
@@ -161,8 +161,10 @@ void add_solve_options(CLI::App* cmd, LedsSolveArguments& a) {
   cmd->add_option("--objective", a.objective, "spectral, xyz or camera")->capture_default_str();
   cmd->add_flag("--hold-chromaticity", a.hold_chromaticity, "camera objective: hold the mix's chromaticity at the target's");
   cmd->add_option("--library", a.library_path,
-                  "LED library JSON, or 'nominal' for the built-in one (default: the latest measured in the "
-                  "library directory, else one measured at once on the virtual lab)");
+                  "LED library JSON, 'nominal' for the built-in one, or 'daemon' for the one chromod uses (default: "
+                  + std::string(a.daemon_first ? "chromod's when a daemon answers, else " : "") +
+                  "the latest measured in the library directory, else one measured at once on the virtual lab)");
+  add_daemon_options(*cmd, a.daemon);
   cmd->add_option("--camera", a.camera, "built-in camera of the camera objective and ΔE00 report")->capture_default_str();
   cmd->add_option("--stability-trials", a.stability_trials, "re-solves with perturbed spectra for the weight std (0: off)")
       ->capture_default_str();
@@ -199,7 +201,21 @@ std::optional<SolvedMix> solve_from_arguments(const LedsSolveArguments& a, const
     return bad(flag + ": " + error);
   }
   try {
-    if (a.library_path == "nominal") {
+    std::optional<DaemonLedLibrary> from_daemon;
+    if (a.library_path == "daemon" || (a.library_path.empty() && a.daemon_first)) {
+      std::string why_not;
+      from_daemon = daemon_led_library(a.daemon, &why_not);
+      if (!from_daemon && a.library_path == "daemon") {
+        std::cerr << command << ": --library daemon: " << why_not << "\n";
+        exit_status = kExitFailure;
+        return std::nullopt;
+      }
+      if (!from_daemon) std::cerr << command << ": " << why_not << "; using this machine's libraries\n";
+    }
+    if (from_daemon) {
+      solved.library = from_daemon->library;
+      solved.library_description = from_daemon->description;
+    } else if (a.library_path == "nominal") {
       solved.library = calibration::nominal_led_library();
       solved.library_description = "nominal (built-in, --library nominal)";
     } else if (!a.library_path.empty()) {
@@ -271,7 +287,9 @@ void add_leds_command(CLI::App& app, int& exit_status) {
   });
 
   auto plot_args = std::make_shared<LedsSolveArguments>();
-  CLI::App* plot = leds->add_subcommand("plot", "PNG of target vs mix spectra and per-patch camera dE00 (gnuplot)");
+  plot_args->daemon_first = true;  // the library the daemon estimates with, when one runs
+  CLI::App* plot = leds->add_subcommand("plot", "PNG of target vs mix spectra and per-patch camera dE00 (gnuplot) "
+                                                "with chromod's LED library when a daemon runs");
   add_solve_options(plot, *plot_args);
   plot->add_option("--out", plot_args->out_png, "PNG file to write")->capture_default_str();
   plot->callback([plot_args, &exit_status] {

@@ -9,14 +9,21 @@
 #include "chromo/calibration/calibration_run.hpp"
 #include "chromo/calibration/led_library.hpp"
 #include "chromo/calibration/mix_solver.hpp"
+#include "daemon_client.hpp"
 
 namespace chromo::cli {
 
 struct LedsSolveArguments {
   std::string target = "d65";
+  // chromod's address: `--library daemon` (and plot without --library) asks it for its library.
+  DaemonAddress daemon;
+  bool daemon_first = false;  // without --library: chromod's library when a daemon answers (plot)
   std::string objective = "camera";
   bool hold_chromaticity = false;
-  std::string library_path;  // empty: latest measured, else measured at once on the virtual lab; "nominal": built-in
+  // empty: (daemon_first: chromod's when one answers, else) the latest
+  // measured, else one measured at once on the virtual lab; "nominal":
+  // built-in; "daemon": chromod's.
+  std::string library_path;
   std::string camera = "nikon_d5100";
   int stability_trials = 32;
   double spectrometer_noise = 0.01;
@@ -29,6 +36,16 @@ struct SolvedMix {
   std::string library_description;  // "nominal (built-in ...)" or the file path
   calibration::MixSummary summary;
 };
+
+// The LED library chromod uses (CalibrationService.GetLedLibrary; the
+// built-in nominal one when chromod has none), with a description naming
+// chromod and its file. std::nullopt and *why_not when no daemon answers;
+// std::runtime_error when its answer is not a valid library.
+struct DaemonLedLibrary {
+  calibration::LedLibrary library;
+  std::string description;  // "chromod's: FILE (measured 2026-...)"
+};
+std::optional<DaemonLedLibrary> daemon_led_library(const DaemonAddress& address, std::string* why_not);
 
 // Resolves the library and target, validates, solves. On bad input prints a
 // message naming the option to stderr and returns nullopt with exit_status set.

@@ -1,6 +1,10 @@
 // Daemon::lab_facts and Daemon::check_lab: the lab's checks (lab_checks.hpp)
 // on this daemon's devices, configuration, LED library and host.
+#include <array>
+#include <chrono>
 #include <cstdint>
+#include <optional>
+#include <thread>
 
 #include "chromo/daemon/daemon.hpp"
 #include "chromo/daemon/internal/operations/host_facts.hpp"
@@ -54,10 +58,39 @@ CameraStreamFacts camera_stream_facts(NamedDevice<drivers::Camera>& camera) {
   return facts;
 }
 
+// The LED readings of lab_facts: the first at its start, the last at least
+// this long after (the device probes in between count towards it).
+constexpr std::chrono::milliseconds kLedReadingInterval{500};
+constexpr std::array<const char*, spectral::kLedTypeCount> kLedNames{"W57", "W40", "W27", "Red", "Green", "Blue"};
+
+// Every controller's temperatures now (std::nullopt and the error for one that cannot be read).
+struct LedReading {
+  std::optional<drivers::LedStatus> status;
+  std::string error;
+  std::chrono::steady_clock::time_point at;
+};
+std::vector<LedReading> read_led_temperatures(DeviceSet& devices) {
+  std::vector<LedReading> readings;
+  for (auto& led : devices.led_controllers) {
+    LedReading reading;
+    try {
+      std::lock_guard lock(led->mutex);
+      if (!led->device) throw std::runtime_error(led->open_error);
+      reading.status = led->device->read_status();
+    } catch (const std::exception& error) {
+      reading.error = error.what();
+    }
+    reading.at = std::chrono::steady_clock::now();
+    readings.push_back(std::move(reading));
+  }
+  return readings;
+}
+
 }  // namespace
 
 LabFacts Daemon::lab_facts() {
   LabFacts facts;
+  const std::vector<LedReading> first = read_led_temperatures(devices_);
   for (const auto& report : probe_devices()) {
     DeviceFacts device{report.name, device_kind_name(report.kind), report.backend, report.address,
                        report.health == DeviceReport::Health::kOk, report.detail, {}, false};
@@ -78,9 +111,29 @@ LabFacts Daemon::lab_facts() {
     const auto written = std::filesystem::last_write_time(facts.calibration.library_path, error);
     if (!error) facts.calibration.measured_at = std::chrono::time_point_cast<std::chrono::system_clock::duration>(std::chrono::file_clock::to_sys(written));
   }
+  if (!first.empty()) std::this_thread::sleep_until(first.front().at + kLedReadingInterval);
+  const std::vector<LedReading> last = read_led_temperatures(devices_);
+  for (std::size_t c = 0; c < first.size() && c < last.size(); ++c) {
+    LedTemperatureFacts leds;
+    leds.controller = devices_.led_controllers[c]->config.name;
+    leds.error = !first[c].error.empty() ? first[c].error : last[c].error;
+    if (leds.error.empty()) {
+      leds.led_names.assign(kLedNames.begin(), kLedNames.end());
+      leds.first_C.assign(first[c].status->temperature_C.begin(), first[c].status->temperature_C.end());
+      leds.last_C.assign(last[c].status->temperature_C.begin(), last[c].status->temperature_C.end());
+      leds.interval_s = std::chrono::duration<double>(last[c].at - first[c].at).count();
+    }
+    facts.led_temperatures.push_back(std::move(leds));
+  }
   return facts;
 }
 
-std::vector<CheckResult> Daemon::check_lab(const CheckLimits& limits) { return run_lab_checks(lab_facts(), limits); }
+// The virtual lab's LEDs run lab_time_scale times faster than the wall clock:
+// their thermal time constant in wall-clock seconds is shorter by as much.
+std::vector<CheckResult> Daemon::check_lab(const CheckLimits& limits) {
+  CheckLimits scaled = limits;
+  scaled.led_thermal_time_constant_s /= devices_.lab_time_scale;
+  return run_lab_checks(lab_facts(), scaled);
+}
 
 }  // namespace chromo::daemon

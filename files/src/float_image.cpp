@@ -226,6 +226,19 @@ FloatImage read_exr(const std::filesystem::path& path) {
   }
 }
 
+ExrHeader read_exr_header(const std::filesystem::path& path) {
+  const ExrSize size = check_exr_file(path);
+  try {
+    Imf::InputFile file(path.c_str());
+    ExrHeader header{static_cast<int>(size.width), static_cast<int>(size.height), {}};
+    for (auto it = file.header().channels().begin(); it != file.header().channels().end(); ++it)
+      header.channel_names.push_back(it.name());
+    return header;
+  } catch (const std::exception& e) {
+    throw ImageError(path.string() + ": cannot read as OpenEXR: " + e.what());
+  }
+}
+
 int exr_writer_threads(int threads) {
   if (threads < 0) throw std::invalid_argument("EXR writer threads: " + std::to_string(threads) + " (0 = all cores, 1 = one)");
   return threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));

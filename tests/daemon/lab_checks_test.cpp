@@ -12,6 +12,7 @@
 
 #include "chromo/daemon/internal/operations/host_facts.hpp"
 #include "chromo/daemon/internal/operations/lab_checks.hpp"
+#include "chromo/simulators/leds/led_lab.hpp"
 #include "test_lab.hpp"
 
 namespace chromo::daemon {
@@ -112,6 +113,31 @@ TEST_F(LabChecks, PoweredOffCameraFailsOnceItsLinkIsLost) {
   EXPECT_NE(check.finding.find("link is lost"), std::string::npos) << check.finding;
   EXPECT_NE(check.fix.find("power and cable"), std::string::npos) << check.fix;
   for (int i = 0; i < 200 && !camera.link_up(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+}
+
+// Issue 41: LEDs just switched on to full drive are warming (the virtual
+// lab's junctions, 300 lab seconds per second: τ = 0.2 s of wall clock) and
+// fail with the wait; settled at the new drive, they pass.
+TEST_F(LabChecks, LedsJustSwitchedOnAreNotSettledUntilTheyAre) {
+  auto& leds = lab_->simulators->leds();
+  leds.settle_thermal();
+  EXPECT_EQ(find_check(daemon_->check_lab(), "leds_settled.sphere").status, CheckStatus::ok);
+  leds.set_output_enabled(true);
+  drivers::LedState full;
+  full.drive.fill(1.0);
+  ASSERT_EQ(leds.apply(full), simulators::LabResult::kOk);
+  const auto warming = find_check(daemon_->check_lab(), "leds_settled.sphere");
+  leds.settle_thermal();
+  const auto settled = find_check(daemon_->check_lab(), "leds_settled.sphere");
+  ASSERT_EQ(leds.apply(drivers::LedState{}), simulators::LabResult::kOk);
+  leds.set_output_enabled(false);
+  leds.settle_thermal();
+  EXPECT_EQ(warming.status, CheckStatus::failed) << warming.finding;
+  EXPECT_NE(warming.finding.find("warming at"), std::string::npos) << warming.finding;
+  EXPECT_NE(warming.fix.find("wait about"), std::string::npos) << warming.fix;
+  EXPECT_NE(warming.fix.find("thermal time constant 0.2 s"), std::string::npos) << warming.fix;  // 60 s / 300
+  EXPECT_EQ(settled.status, CheckStatus::ok) << settled.finding;
+  EXPECT_NE(settled.finding.find("settled: W57 "), std::string::npos) << settled.finding;
 }
 
 // Facts of a healthy lab like the virtual one (FactsOfTheLab checks the
@@ -244,6 +270,24 @@ TEST(LabCheckFacts, OldCalibrationWarnsAndAFreshOnePasses) {
     f.calibration.measured_at = f.now - std::chrono::hours(24 * 2);
   });
   EXPECT_EQ(find_check(results, "calibration").status, CheckStatus::ok);
+}
+
+// The rate is (last − first) / interval; the wait τ·ln(rate / limit).
+TEST(LabCheckFacts, WarmingLedFailsWithTheWaitAndASteadyOnePasses) {
+  LabFacts facts = healthy_facts();
+  LedTemperatureFacts leds{"sphere", {"W57", "Blue"}, {30.0, 40.0}, {30.001, 41.0}, 0.5, ""};
+  facts.led_temperatures = {leds};
+  const auto warming = find_check(run_lab_checks(facts), "leds_settled.sphere");
+  EXPECT_EQ(warming.status, CheckStatus::failed);
+  // Blue: 1 °C in 0.5 s = 120 °C/min; 60 s · ln(120 / 0.5) = 328.8 s.
+  EXPECT_EQ(warming.finding, "Blue warming at 120.0 °C/min (41.0 °C now; settled is below 0.5 °C/min): W57 30.0 °C, Blue 41.0 °C");
+  EXPECT_EQ(warming.fix, "wait about 329 s with the LEDs as they are (thermal time constant 60 s), then check again");
+  facts.led_temperatures[0].last_C = {30.001, 39.998};  // 0.24 °C/min cooling
+  const auto steady = find_check(run_lab_checks(facts), "leds_settled.sphere");
+  EXPECT_EQ(steady.status, CheckStatus::ok);
+  EXPECT_EQ(steady.finding, "settled: W57 30.0 °C, Blue 40.0 °C (at most 0.24 °C/min over 0.5 s)");
+  facts.led_temperatures[0].error = "sphere: timeout";
+  EXPECT_EQ(find_check(run_lab_checks(facts), "leds_settled.sphere").status, CheckStatus::skipped);
 }
 
 TEST(LabCheckFacts, UnwritableSessionsFolderFails) {

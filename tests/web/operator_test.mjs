@@ -7,8 +7,8 @@
 //
 // Exit 0 pass, 1 fail, 77 skipped (no chromium, or web/node_modules missing).
 // What it asserts: docs/web.md, "Tested in a browser".
-import { execFileSync } from 'node:child_process';
-import { existsSync, mkdtempSync, mkdirSync, writeFileSync, rmSync } from 'node:fs';
+import { execFileSync, spawnSync } from 'node:child_process';
+import { existsSync, mkdtempSync, mkdirSync, writeFileSync, rmSync, statSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import path from 'node:path';
 import assert from 'node:assert/strict';
@@ -58,6 +58,9 @@ async function main() {
   await page.keyboard.press('Enter');
   await page.getByRole('heading', { name: 'Live' }).waitFor();
   assert.equal(await page.locator('#nav').isVisible(), true);
+  // Problem 6: before any calibration the live picture is raw, and says so.
+  await waitUntil(page, () => /^White balance: none: raw \(no LED calibration/.test(
+    document.querySelector('section.camera[aria-label="Camera cam0"] .white-balance')?.textContent ?? ''), null, 20000, 'the raw picture named');
 
   // Problems 8 and 10 on a fresh daemon: one sentence and a button for the
   // missing calibration, no gRPC codes; problem 1: the preflight says so too.
@@ -72,9 +75,12 @@ async function main() {
   await page.getByRole('link', { name: 'Sessions' }).click();
   await page.locator('li[data-check="calibration"].warning').waitFor();
   assert.match(await page.locator('li[data-check="calibration"]').textContent(), /no LED library/);
+  // Problem 9: before any calibration chromod estimates with the built-in library, and leds plot says so.
+  assert.match(chromo('leds', 'plot', '--stability-trials', '0', '--out', path.join(home, 'nominal-plot.png')),
+    /library chromod's: the built-in nominal library \(chromod at unix:.* has no LED library\)/);
   await page.getByRole('link', { name: 'Calibrate on the Devices page' }).click();
 
-  phase('before calibration');
+  phase('before calibration (leds plot: nominal)');
   // A calibration from the Devices page; problem 8: each LED drawn in its colour.
   await page.getByLabel(/Drive levels \(comma-separated/).fill('1');
   await page.getByLabel('Warm-up (ms)').fill('1');  // the test's time: the lab's LEDs need no warm-up to be read
@@ -85,6 +91,13 @@ async function main() {
   assert.deepEqual(fills.slice(3), ['#d62728', '#2ca02c', '#1f4fd6'], `red, green, blue bars: ${fills}`);
   assert.equal(await page.locator('.mix[data-target="w57"] table').count(), 0, 'W57 has figures of merit against itself');
   await shot(page, 'operator-devices.png');
+
+  // Problem 9: chromo leds plot shows the library chromod uses, and names it.
+  const library = (await api('CalibrationService', 'GetLedLibrary', {})).json;
+  const plotFile = path.join(home, 'leds-plot.png');
+  const plotted = chromo('leds', 'plot', '--stability-trials', '0', '--out', plotFile);
+  assert.ok(library.library && plotted.includes(`library chromod's: ${library.library} (measured ${library.created_utc})`), plotted);
+  assert.ok(statSync(plotFile).size > 10000, 'no plot written');
 
   phase('calibration');
   // Problem 10: a polarised plan on this sphere without banks is refused as
@@ -112,6 +125,17 @@ async function main() {
   assert.equal(await page.getByLabel('Operator', { exact: true }).inputValue(), OPERATOR);
   assert.equal(await page.getByLabel('Study', { exact: true }).inputValue(), STUDY);
   assert.equal(await page.getByLabel('Exposure (µs)', { exact: true }).inputValue(), '10000');
+
+  // Problem 1: the preflight says whether the LEDs' temperatures have settled
+  // (the checks library chromo doctor prints), each LED's temperature; the
+  // virtual lab's junctions (τ 0.2 s) have settled since the calibration.
+  await page.getByRole('button', { name: 'Check again' }).click();
+  const ledsSettled = page.locator('li[data-check="leds_settled.sphere"]');
+  await ledsSettled.waitFor();
+  assert.match(await ledsSettled.textContent(),
+    /^LEDs settled \(sphere\): ok — settled: W57 [\d.]+ °C, W40 [\d.]+ °C, W27 [\d.]+ °C, Red [\d.]+ °C, Green [\d.]+ °C, Blue [\d.]+ °C \(at most [\d.]+ °C\/min over 0\.\d+ s\)$/);
+  const doctor = spawnSync(chromoBinary, ['doctor'], { env: { ...process.env, CHROMO_DAEMON: `unix:${daemon.socket}` }, encoding: 'utf8' });
+  assert.match(doctor.stdout, /leds_settled\.sphere.*settled: W57/, doctor.stdout + doctor.stderr);
 
   // Start to maps from the page, with the operator's prompts. Problem 2: each
   // prompt fills the bar over the Live page; Escape asks before cancelling
@@ -201,6 +225,44 @@ async function main() {
   }
   await shot(page, 'operator-results.png');
 
+  phase('results');
+  // Problem 10: the photograph to compare a relight against is picked from
+  // the session folder's RGB photographs (ListPhotographs), not typed.
+  const photographPicker = page.getByLabel('Photograph to compare (in the session folder)');
+  const mapsFile = results.json.cameras[0].maps_file.slice(results.json.folder.length + 1);
+  const listPhotographs = async () => (await api('MapsService', 'ListPhotographs', { session_id: id, maps_file: mapsFile })).json;
+  const offered = async () => photographPicker.locator('option:not([disabled])').evaluateAll((options) => options.map((o) => o.value));
+  await page.waitForSelector('select[name="photograph"][data-photographs]');
+  const sameSize = (reply) => (reply.photographs ?? []).filter((p) => p.same_size).map((p) => p.file);
+  assert.deepEqual(await offered(), ['', ...sameSize(await listPhotographs())], 'the picker differs from ListPhotographs');
+  await page.getByLabel('Illuminant').selectOption('D65');
+  await page.getByRole('button', { name: 'Relight' }).click();
+  await page.waitForSelector('.relight-output[data-relit]', { timeout: 60000 });
+  const firstRelit = JSON.parse(await page.locator('.relight-output').getAttribute('data-relit'));
+  // The relight's relit.exr (RGB, the maps' size) is now offered; chosen, the ΔE94 shown is the API's.
+  const afterRelight = await listPhotographs();
+  const relitPhoto = sameSize(afterRelight).find((file) => file.endsWith('/relit.exr'));
+  assert.ok(relitPhoto, `no relit.exr listed: ${JSON.stringify(afterRelight)}`);
+  await waitUntil(page, (file) => [...document.querySelectorAll('select[name="photograph"] option')].some((o) => o.value === file),
+    relitPhoto, 10000, 'the new photograph in the picker');
+  assert.deepEqual(await offered(), ['', ...sameSize(afterRelight)]);
+  await photographPicker.selectOption(relitPhoto);
+  await page.getByRole('button', { name: 'Relight' }).click();
+  await waitUntil(page, () => JSON.parse(document.querySelector('.relight-output')?.dataset.relit ?? '{}').compared === true,
+    null, 60000, 'the ΔE94 against the picked photograph');
+  const compared = JSON.parse(await page.locator('.relight-output').getAttribute('data-relit'));
+  const byApi = (await api('MapsService', 'Relight', { session_id: id, maps_file: mapsFile, illuminant: 'D65', photograph_file: relitPhoto })).json;
+  assert.equal(compared.compared, true);
+  assert.equal(compared.relit_pixels, firstRelit.relit_pixels);
+  assert.deepEqual(compared.photo_delta_e94, byApi.photo_delta_e94, 'the ΔE94 against the picked photograph: page and API differ');
+  assert.ok(Number(byApi.photo_delta_e94.pixels) > 0 && Number.isFinite(byApi.photo_delta_e94.mean), JSON.stringify(byApi.photo_delta_e94));
+  // Nothing outside the session folder is listed or named.
+  const outside = await api('MapsService', 'ListPhotographs', { session_id: id, maps_file: '../../chromod.json' });
+  assert.equal(outside.status, 400);
+  assert.match(outside.json.error, /^maps_file: must not contain "\.\."/);
+  phase('relight against a picked photograph');
+  console.log(`relit against the picked ${relitPhoto}: ΔE94 mean ${Number(byApi.photo_delta_e94.mean).toFixed(3)} over ${byApi.photo_delta_e94.pixels} px (page and API agree)`);
+
   // Problems 1 and 3 in the CLI: the list tells sessions apart, results name the library.
   const list = chromo('session', 'list');
   assert.ok(list.includes(SUBJECT.slice(0, 23)) && list.includes(STUDY) && list.includes(OPERATOR), list);
@@ -225,13 +287,67 @@ async function main() {
   const zoomed = (await cam0.locator('canvas.picture').boundingBox()).width;
   assert.ok(Math.abs(zoomed - 2 * boxWidth) < 4, `zoom 2×: picture ${zoomed} px in a ${boxWidth} px box`);
   await cam0.getByLabel('Zoom').selectOption('1');
+  phase('live');
+  // Problem 6: the picture white-balanced from the calibration, naming the
+  // library; the histogram and means from a region (typed, or dragged).
+  const note = cam0.locator('.white-balance');
+  const frameData = () => cam0.locator('.live-histogram').evaluate((element) => ({
+    mean: JSON.parse(element.dataset.regionMean ?? '[]'), cells: Number(element.dataset.regionCells),
+    samples: Number(element.dataset.samples), gains: JSON.parse(element.closest('.camera-side').querySelector('.white-balance').dataset.gains ?? '[]') }));
+  await api('LedService', 'SetLedState', { state: { drive: { w57: 0.15, w40: 0.1, red: 0.05, blue: 0.05 } }, output_enabled: true });
+  const balancedBy = `White balance: LED library ${path.basename(library.library)} (measured ${library.created_utc}), camera builtin:nikon_d5100, ` +
+    'LEDs W57 0.15, W40 0.10, R 0.05, B 0.05';
+  await waitUntil(page, (expected) => document.querySelector('section.camera[aria-label="Camera cam0"] .white-balance').textContent === expected,
+    balancedBy, 20000, 'the balance from the library')
+    .catch(async (error) => { throw new Error(`${error.message}: "${await note.textContent()}"`); });
+  // The white target strip (the scene's right tenth): its raw R, G, B times the gains are grey.
+  const regionField = cam0.getByLabel(/^Region \(% of the frame/);
+  await regionField.fill('92, 20, 6, 60');
+  await regionField.press('Enter');
+  await waitUntil(page, () => { const e = document.querySelector('section.camera[aria-label="Camera cam0"] .live-histogram');
+    return Number(e.dataset.regionCells) > 0 && Number(e.dataset.regionCells) < 1000; }, null, 20000, 'the region typed');
+  const white = await frameData();
+  assert.equal(white.samples, 4 * white.cells, `the histogram is not the region's: ${JSON.stringify(white)}`);  // a Bayer cell: 4 samples
+  const balanced = white.mean.map((value, c) => value * white.gains[c]);
+  for (const c of [0, 2])
+    assert.ok(Math.abs(balanced[c] / balanced[1] - 1) < 0.08, `the white strip is not grey: raw ${white.mean}, gains ${white.gains}`);
+  assert.ok(Math.abs(white.mean[0] / white.mean[1] - 1) > 0.08 || Math.abs(white.mean[2] / white.mean[1] - 1) > 0.08,
+    `the raw white strip was grey already: ${white.mean}`);
+  console.log(`white strip: raw ${white.mean.map((v) => v.toFixed(0))}, gains ${white.gains.map((g) => g.toFixed(3))}, balanced ${balanced.map((v) => v.toFixed(0))}`);
+  // A region outside the frame is refused by name and the one in use stays.
+  await regionField.fill('10, 20, 95, 5');
+  await regionField.press('Enter');
+  await cam0.locator('.message.error').filter({ hasText: /^Region: 10, 20, 95, 5 does not lie inside the frame/ }).waitFor();
+  assert.equal((await frameData()).cells, white.cells);
+  const badRegion = await fetch(`${origin}/api/stream/preview?camera=cam0&region=0.1,0.2`, { headers: { Cookie: cookie } });
+  assert.equal(badRegion.status, 400);
+  assert.match((await badRegion.json()).error, /^region: four numbers x,y,width,height/);
+  // Dragged on the picture: the left half of the frame.
+  const pictureBox = await cam0.locator('canvas.picture').boundingBox();
+  await page.mouse.move(pictureBox.x + 2, pictureBox.y + 2);
+  await page.mouse.down();
+  await page.mouse.move(pictureBox.x + pictureBox.width / 2, pictureBox.y + pictureBox.height - 2, { steps: 4 });
+  await page.mouse.up();
+  assert.match(await regionField.inputValue(), /^[\d.]+, [\d.]+, 4\d(\.\d)?, 9\d(\.\d)?$/);
+  await waitUntil(page, (before) => Number(document.querySelector('section.camera[aria-label="Camera cam0"] .live-histogram').dataset.regionCells) > 10 * before,
+    white.cells, 20000, 'the dragged region');
+  const dragged = await frameData();
+  assert.equal(dragged.samples, 4 * dragged.cells);
+  await cam0.getByRole('button', { name: 'Whole frame' }).click();
+  await waitUntil(page, () => { const e = document.querySelector('section.camera[aria-label="Camera cam0"] .live-histogram');
+    return Number(e.dataset.regionCells) === 160 / 2 * 120 / 2; }, null, 20000, 'the whole frame again');
+  await cam0.getByLabel('White balance from the calibration').uncheck();
+  await note.filter({ hasText: 'White balance: none: raw (not asked)' }).waitFor({ timeout: 20000 });
+  assert.deepEqual((await frameData()).gains, [1, 1, 1]);
+  await cam0.getByLabel('White balance from the calibration').check();
+  phase('white balance and region');
   await cam0.getByLabel('Show the last session as a ghost').check();
   await cam0.locator('canvas.ghost[data-cells]').waitFor({ timeout: 20000 });
   assert.ok(Number(await cam0.locator('canvas.ghost').getAttribute('data-cells')) > 0);
   assert.match(await cam0.locator('.check').filter({ hasText: 'ghost' }).textContent(), new RegExp(`session ${id}`));
   await shot(page, 'operator-live.png');
 
-  phase('live');
+  phase('ghost');
   // Problem 7: the Sessions page at a phone's and a tablet's width, nothing scrolling sideways.
   for (const [width, height, name] of [[390, 844, 'phone'], [820, 1180, 'tablet']]) {
     await page.setViewportSize({ width, height });

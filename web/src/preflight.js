@@ -1,7 +1,7 @@
 // The preflight before a session (issue 41): the lab's checks
 // (DeviceService.CheckLab, the ones `chromo doctor` prints: devices,
 // permissions, cameras' receive buffers and networks, disk, clock, LED
-// calibration) as a checklist the operator sees before Start. A failed check
+// calibration, LED temperatures settled) as a checklist the operator sees before Start. A failed check
 // stops the start unless the operator writes why to go on anyway: chromod
 // keeps that reason, and the checks, in its audit log.
 import * as api from './api.js';
@@ -13,7 +13,7 @@ const STATUS_WORDS = { CHECK_STATUS_OK: 'ok', CHECK_STATUS_WARNING: 'warning', C
 function checkName(id) {
   const [kind, name] = id.split(/\.(.*)/s);
   const words = { device: `Device ${name}`, permissions: `Access to ${name}`, receive_buffer: `Camera ${name}: receive buffer`,
-    mtu: `Camera ${name}: network`, disk: 'Disk space', clock: 'Clock', calibration: 'LED calibration' };
+    mtu: `Camera ${name}: network`, disk: 'Disk space', clock: 'Clock', calibration: 'LED calibration', leds_settled: `LEDs settled (${name})` };
   return words[kind] ?? id;
 }
 

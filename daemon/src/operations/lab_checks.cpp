@@ -153,6 +153,31 @@ CheckResult calibration_check(const LabFacts& facts, const CheckLimits& limits) 
   return ok(id, finding);
 }
 
+// Each LED's rate from the two readings; the fastest one decides.
+CheckResult led_settled_check(const LedTemperatureFacts& leds, const CheckLimits& limits) {
+  const std::string id = "leds_settled." + leds.controller;
+  if (!leds.error.empty()) return skipped(id, "temperatures not read: " + leds.error);
+  const std::size_t count = std::min({leds.led_names.size(), leds.first_C.size(), leds.last_C.size()});
+  if (leds.interval_s <= 0 || count == 0) return skipped(id, "the controller reports no temperatures");
+  std::size_t fastest = 0;
+  std::vector<double> rate_C_per_min(count);
+  std::string now;
+  for (std::size_t i = 0; i < count; ++i) {
+    rate_C_per_min[i] = (leds.last_C[i] - leds.first_C[i]) / leds.interval_s * 60;
+    if (std::abs(rate_C_per_min[i]) > std::abs(rate_C_per_min[fastest])) fastest = i;
+    now += fmt::format("{}{} {:.1f} °C", i ? ", " : "", leds.led_names[i], leds.last_C[i]);
+  }
+  const double rate = rate_C_per_min[fastest];
+  if (std::abs(rate) <= limits.led_settled_C_per_min)
+    return ok(id, fmt::format("settled: {} (at most {:.2f} °C/min over {:.1f} s)", now, std::abs(rate), leds.interval_s));
+  const double wait_s = limits.led_thermal_time_constant_s * std::log(std::abs(rate) / limits.led_settled_C_per_min);
+  return {id, CheckStatus::failed,
+          fmt::format("{} {} at {:.1f} °C/min ({:.1f} °C now; settled is below {:.1f} °C/min): {}", leds.led_names[fastest],
+                      rate > 0 ? "warming" : "cooling", std::abs(rate), leds.last_C[fastest], limits.led_settled_C_per_min, now),
+          fmt::format("wait about {:.0f} s with the LEDs as they are (thermal time constant {:g} s), then check again",
+                      std::ceil(wait_s), limits.led_thermal_time_constant_s)};
+}
+
 }  // namespace
 
 std::string check_status_name(CheckStatus status) {
@@ -178,6 +203,7 @@ std::vector<CheckResult> run_lab_checks(const LabFacts& facts, const CheckLimits
   results.push_back(disk_check(facts, limits));
   results.push_back(clock_check(facts.host, limits));
   results.push_back(calibration_check(facts, limits));
+  for (const auto& leds : facts.led_temperatures) results.push_back(led_settled_check(leds, limits));
   return results;
 }
 

@@ -1,6 +1,9 @@
 // Live: every camera's preview (server-sent PreviewFrames), its 64-bin
 // histogram and clipped-pixel overlay, the LED state and the cameras'
-// exposure and pixel format, all settable from the page.
+// exposure and pixel format, all settable from the page. The picture is
+// white-balanced from the calibration (which library, or "none: raw", is
+// shown); a region dragged on it (or typed) is where the histogram and the
+// raw means come from.
 import * as api from '../api.js';
 import { h, field, messageArea, formatNumber, decodeBase64 } from '../dom.js';
 import { histogramChart } from '../plot.js';
@@ -64,6 +67,34 @@ function drawGhost(canvas, map) {
   canvas.dataset.cells = String(map.values.filter((raw) => Number.isFinite(Number(raw))).length);
 }
 
+// "10, 20, 30, 40" (per cent of the frame: x, y, width, height) → fractions,
+// or an Error naming what is wrong; "" → null (the whole frame).
+export function parseRegion(text) {
+  if (!text.trim()) return null;
+  const parts = text.split(',').map((part) => part.trim());
+  const numbers = parts.map(Number);
+  if (parts.length !== 4 || parts.some((part) => part === '') || numbers.some((n) => !Number.isFinite(n)))
+    throw new Error(`Region: "${text}" is not four numbers x, y, width, height (per cent of the frame)`);
+  const [x, y, width, height] = numbers;
+  if (x < 0 || y < 0 || width <= 0 || height <= 0 || x + width > 100 || y + height > 100)
+    throw new Error(`Region: ${text} does not lie inside the frame (x, y ≥ 0; width, height > 0; x + width and y + height ≤ 100)`);
+  return { x: x / 100, y: y / 100, width: width / 100, height: height / 100 };
+}
+
+const percent = (fraction) => String(Math.round(fraction * 1000) / 10);
+
+// The region's outline on its own canvas over the picture (preview pixels).
+function drawRegion(canvas, frame) {
+  canvas.width = frame.width;
+  canvas.height = frame.height;
+  const context = canvas.getContext('2d');
+  context.clearRect(0, 0, canvas.width, canvas.height);
+  if (frame.region_width === frame.width && frame.region_height === frame.height) return;
+  context.strokeStyle = '#ffd400';
+  context.lineWidth = 2;
+  context.strokeRect(frame.region_x + 1, frame.region_y + 1, frame.region_width - 2, frame.region_height - 2);
+}
+
 function cameraPanel(camera) {
   const picture = h('canvas', { class: 'picture', 'aria-label': `${camera.name}: live picture`, role: 'img' });
   const overlay = h('canvas', { class: 'overlay', 'aria-hidden': 'true' });
@@ -91,6 +122,13 @@ function cameraPanel(camera) {
     }
   });
   showClipped.addEventListener('change', () => overlay.classList.toggle('hidden', !showClipped.checked));
+  // White balance from the calibration, and the region of the histogram and means.
+  const whiteBalance = h('input', { type: 'checkbox', checked: true, name: 'white_balance' });
+  const balanceNote = h('p', { class: 'white-balance muted', 'aria-live': 'polite' });
+  const regionCanvas = h('canvas', { class: 'region', 'aria-hidden': 'true' });
+  const regionInput = h('input', { type: 'text', name: 'region', placeholder: 'whole frame', spellcheck: false });
+  const regionMessage = messageArea();
+  let region = null;
   const histogram = h('div', { class: 'live-histogram' });
   const facts = h('dl', { class: 'facts' });
   const exposure = h('input', { type: 'number', min: camera.exposure_min_us || 1, max: camera.exposure_max_us || 10000000,
@@ -112,7 +150,7 @@ function cameraPanel(camera) {
       message.error(error);
     }
   });
-  pictureFrame.append(picture, overlay, ghost);
+  pictureFrame.append(picture, overlay, ghost, regionCanvas);
   pictureFrame.dataset.zoom = '1';
   const frameCounter = { frames: 0 };
   const onFrame = async (frame) => {
@@ -120,19 +158,77 @@ function cameraPanel(camera) {
     await drawFrame(frame, picture, overlay);
     picture.dataset.sequence = frame.sequence;
     picture.dataset.frames = frameCounter.frames;
+    drawRegion(regionCanvas, frame);
     const bins = frame.histogram ?? [];
+    const whole = frame.region_width === frame.width && frame.region_height === frame.height;
     histogram.replaceChildren(histogramChart(bins, Number(frame.full_scale ?? 0),
-      { title: `${camera.name}: histogram of raw values (${bins.length} bins, square-root counts)` }));
+      { title: `${camera.name}: histogram of raw values ${whole ? '' : 'in the region '}(${bins.length} bins, square-root counts)` }));
+    balanceNote.textContent = `White balance: ${frame.white_balance}`;
+    balanceNote.dataset.gains = JSON.stringify(frame.white_balance_gains ?? []);
+    const means = (frame.region_mean ?? []).map(Number);
+    histogram.dataset.regionMean = JSON.stringify(means);
+    histogram.dataset.regionCells = String(frame.region_cells ?? 0);
+    histogram.dataset.samples = String(bins.reduce((sum, count) => sum + Number(count), 0));
     const rows = [
       ['Exposure', `${formatNumber(frame.exposure_us)} µs`], ['Pixel format', frame.pixel_format],
       ['Clipped pixels', `${frame.clipped_pixels} of ${frame.width * frame.height}`], ['Full scale', frame.full_scale],
       ['Source', frame.source], ['Frame', frame.sequence], ['Sensor', `${frame.source_width}×${frame.source_height}`],
+      ['Region', whole ? `whole frame (${frame.region_cells} pixels)`
+        : `${frame.region_width}×${frame.region_height} px at ${frame.region_x}, ${frame.region_y} (${frame.region_cells} pixels)`],
+      ['Mean (raw)', means.length === 3 ? `R ${formatNumber(means[0], 4)}, G ${formatNumber(means[1], 4)}, B ${formatNumber(means[2], 4)}`
+        : formatNumber(means[0] ?? 0, 4)],
     ];
     facts.replaceChildren(...rows.flatMap(([term, value]) => [h('dt', {}, term), h('dd', {}, String(value))]));
   };
   const streamMessage = messageArea();
-  const close = api.openStream(`/api/stream/preview?camera=${encodeURIComponent(camera.name)}&rate_hz=10&width=480`,
-    (frame) => { streamMessage.clear(); onFrame(frame); }, (failure) => streamMessage.error({ message: failure.error, code: failure.code }));
+  let closeStream = () => {};
+  const openPreview = () => {
+    closeStream();
+    const query = new URLSearchParams({ camera: camera.name, rate_hz: '10', width: '480', white_balance: whiteBalance.checked ? '1' : '0' });
+    if (region) query.set('region', [region.x, region.y, region.width, region.height].join(','));
+    closeStream = api.openStream(`/api/stream/preview?${query}`,
+      (frame) => { streamMessage.clear(); onFrame(frame); }, (failure) => streamMessage.error({ message: failure.error, code: failure.code }));
+  };
+  const setRegion = (next) => {
+    region = next;
+    regionInput.value = region ? [region.x, region.y, region.width, region.height].map(percent).join(', ') : '';
+    openPreview();
+  };
+  regionInput.addEventListener('change', () => {
+    regionMessage.clear();
+    try {
+      setRegion(parseRegion(regionInput.value));
+    } catch (error) {
+      regionMessage.error(error);  // the region shown stays the one in use
+    }
+  });
+  whiteBalance.addEventListener('change', openPreview);
+  // Drag a rectangle on the picture: its region in fractions of the frame.
+  let dragStart = null;
+  const fractionAt = (event) => {
+    const box = picture.getBoundingClientRect();
+    return { x: Math.min(1, Math.max(0, (event.clientX - box.left) / box.width)), y: Math.min(1, Math.max(0, (event.clientY - box.top) / box.height)) };
+  };
+  pictureFrame.addEventListener('pointerdown', (event) => {
+    if (event.button !== 0 || event.shiftKey) return;
+    dragStart = fractionAt(event);
+    pictureFrame.setPointerCapture(event.pointerId);
+    event.preventDefault();
+  });
+  pictureFrame.addEventListener('pointerup', (event) => {
+    if (!dragStart) return;
+    const end = fractionAt(event);
+    const start = dragStart;
+    dragStart = null;
+    const width = Math.abs(end.x - start.x), height = Math.abs(end.y - start.y);
+    if (width < 0.01 || height < 0.01) return;  // a click, not a drag
+    regionMessage.clear();
+    setRegion({ x: Math.min(start.x, end.x), y: Math.min(start.y, end.y), width, height });
+  });
+  const wholeFrame = h('button', { type: 'button' }, 'Whole frame');
+  wholeFrame.addEventListener('click', () => { regionMessage.clear(); setRegion(null); });
+  openPreview();
+  const close = () => closeStream();
   const section = h('section', { class: 'camera card', 'aria-label': `Camera ${camera.name}` },
     h('h3', {}, `${camera.name}`, h('span', { class: 'muted' }, ` ${camera.vendor} ${camera.model} ${camera.sensor_width}×${camera.sensor_height}`)),
     camera.error ? h('p', { class: 'message error' }, camera.error) : null,
@@ -141,7 +237,10 @@ function cameraPanel(camera) {
       h('div', { class: 'camera-side' },
         h('label', { class: 'check' }, showClipped, ' Show clipped pixels (red)'),
         h('label', { class: 'check' }, showGhost, ' Show the last session as a ghost', ghostNote),
+        h('label', { class: 'check' }, whiteBalance, ' White balance from the calibration'), balanceNote,
         field('Zoom', zoom),
+        h('div', { class: 'inline' }, field('Region (% of the frame: x, y, width, height; or drag on the picture)', regionInput), wholeFrame),
+        regionMessage.element,
         histogram, facts)),
     streamMessage.element, form, message.element);
   return { section, close };

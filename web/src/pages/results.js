@@ -118,29 +118,50 @@ function cameraResults(results, camera, view) {
       })));
 }
 
+// The photographs a relight can compare against (MapsService.ListPhotographs:
+// the session folder's RGB OpenEXR files), picked rather than typed: those of
+// the maps' size can be chosen, the others are listed disabled with their size.
+function photographPicker(results, mapsFile) {
+  const select = h('select', { name: 'photograph' }, h('option', { value: '' }, 'none'));
+  const refresh = async () => {
+    const chosen = select.value;
+    const reply = await api.call('MapsService', 'ListPhotographs', { session_id: results.session_id, maps_file: mapsFile() });
+    const photographs = reply.photographs ?? [];
+    select.replaceChildren(h('option', { value: '' }, photographs.some((p) => p.same_size) ? 'none' : 'none (no RGB photograph of the maps\' size)'),
+      ...photographs.map((p) => h('option', { value: p.file, disabled: !p.same_size, selected: p.file === chosen },
+        p.same_size ? p.file : `${p.file} (${p.width}×${p.height}, the maps are ${reply.maps_width}×${reply.maps_height})`)));
+    select.dataset.photographs = String(photographs.filter((p) => p.same_size).length);
+  };
+  return { select, refresh };
+}
+
 function relightSection(results) {
   const cameras = results.cameras?.length ? results.cameras : [{ camera: '', maps_file: results.maps_file }];
   const camera = h('select', {}, cameras.map((c, i) => h('option', { value: String(i) }, c.camera || 'the camera')));
   const illuminant = h('select', {}, ILLUMINANTS.map((name) => h('option', { value: name }, name)));
+  const mapsFile = () => relativeTo(results.folder, cameras[Number(camera.value)].maps_file);
   // An RGB albedo EXR in the session folder (e.g. from a colour camera's
-  // export); the session's own derived albedo is raw (one channel Y).
-  const photograph = h('input', { type: 'text', placeholder: 'none', spellcheck: false });
+  // export, or an earlier relight's relit.exr); the session's own derived albedo is raw (one channel Y).
+  const photograph = photographPicker(results, mapsFile);
   const message = messageArea('relight-message');
   const output = h('div', { class: 'relight-output', 'aria-live': 'polite' });
+  const listed = () => photograph.refresh().catch((error) => message.error(error));
+  camera.addEventListener('change', listed);
+  listed();
   const form = h('form', { class: 'inline' },
-    field('Camera', camera), field('Illuminant', illuminant), field('Photograph to compare (in the session folder)', photograph),
+    field('Camera', camera), field('Illuminant', illuminant), field('Photograph to compare (in the session folder)', photograph.select),
     h('button', { type: 'submit' }, 'Relight'));
   form.addEventListener('submit', async (event) => {
     event.preventDefault();
     message.info('relighting…');
     output.replaceChildren();
-    const chosen = cameras[Number(camera.value)];
+    delete output.dataset.relit;
     try {
       const reply = await api.call('MapsService', 'Relight', {
-        session_id: results.session_id, maps_file: relativeTo(results.folder, chosen.maps_file),
-        illuminant: illuminant.value, photograph_file: photograph.value.trim() });
+        session_id: results.session_id, maps_file: mapsFile(),
+        illuminant: illuminant.value, photograph_file: photograph.select.value });
       message.info(`relit ${reply.relit_pixels} of ${reply.width}×${reply.height} pixels under ${reply.illuminant}` +
-        (reply.compared ? '' : ' (no photograph given: no ΔE94)'));
+        (reply.compared ? ` against ${photograph.select.value}` : ' (no photograph chosen: no ΔE94)'));
       const images = reply.files.filter((file) => file.endsWith('.png'));
       if (reply.compared) output.append(deltaETable({ [reply.illuminant]: reply.photo_delta_e94 }, 'ΔE94 of the reconstruction against the photograph'));
       output.append(
@@ -150,6 +171,7 @@ function relightSection(results) {
         h('ul', { class: 'files' }, reply.files.map((file) => h('li', {}, h('a', { href: api.fileUrl(results.session_id, file), download: '' }, file)))));
       output.dataset.relit = JSON.stringify({ relit_pixels: reply.relit_pixels, width: reply.width, height: reply.height,
         compared: reply.compared, photo_delta_e94: reply.compared ? reply.photo_delta_e94 : null });
+      await listed();  // the relight's own relit.exr is a photograph of the maps' size now
     } catch (error) {
       message.error(error);
     }

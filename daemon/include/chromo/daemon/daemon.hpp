@@ -28,6 +28,7 @@
 #include "chromo/daemon/internal/operations/operations.hpp"
 #include "chromo/daemon/internal/capture/frame_pipeline.hpp"
 #include "chromo/daemon/internal/capture/preview_hub.hpp"
+#include "chromo/daemon/internal/capture/white_balance.hpp"
 #include "chromo/session/session_read_cache.hpp"
 #include "chromo/session/session_store.hpp"
 
@@ -66,6 +67,12 @@ class Daemon {
   session::SessionStore& store() { return store_; }
   // The cameras' latest frames for the live view (preview_hub.hpp).
   PreviewHub& previews() { return previews_; }
+
+  // The live view's white balance of `camera` (white_balance.hpp): from the
+  // library the estimator uses (light_sources()) and the camera's
+  // sensitivity, under the LED controller's present drive; "none: raw" with
+  // the reason when chromod has no measured library or the LEDs are off.
+  WhiteBalance preview_white_balance(const std::string& camera);
 
   std::vector<DeviceReport> probe_devices();
   // What the lab's checks look at (lab_checks.hpp): every device probed now,

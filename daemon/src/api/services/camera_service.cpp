@@ -73,10 +73,22 @@ class CameraServiceImpl final : public pb::CameraService::Service {
       const int width = request->width() == 0 ? kDefaultPreviewWidth : static_cast<int>(request->width());
       if (width < kMinPreviewWidth || width > kMaxPreviewWidth)
         return invalid("width: must be in [" + std::to_string(kMinPreviewWidth) + ", " + std::to_string(kMaxPreviewWidth) + "]");
+      PreviewOptions options;
+      options.width = width;
+      if (request->has_region() && (request->region().width() != 0 || request->region().height() != 0)) {
+        const auto& r = request->region();
+        options.region = {r.x(), r.y(), r.width(), r.height()};
+        if (!(r.x() >= 0 && r.y() >= 0 && r.width() > 0 && r.height() > 0 && r.x() + r.width() <= 1 && r.y() + r.height() <= 1))
+          return invalid("region: must lie inside the frame, in fractions of it (x, y >= 0; width, height > 0; x + width, y + height <= 1)");
+      }
       const std::string name = daemon_.previews().camera(request->camera()).config.name;
       PreviewHub::Watch watch(daemon_.previews(), name, rate_hz);
       const auto interval = std::chrono::duration<double>(1.0 / rate_hz);
       auto sent_at = std::chrono::steady_clock::time_point{};
+      // The white balance follows the LEDs: computed again every second.
+      WhiteBalance balance;
+      if (!request->white_balance()) balance.description = "none: raw (not asked)";
+      auto balanced_at = std::chrono::steady_clock::time_point{};
       while (!context->IsCancelled() && !guard_.stopping()) {
         auto kept = watch.next(std::chrono::milliseconds(200));
         if (!kept) continue;
@@ -84,7 +96,13 @@ class CameraServiceImpl final : public pb::CameraService::Service {
         if (now - sent_at < interval * 0.9) continue;  // a faster watcher's frame
         sent_at = now;
         const auto& frame = kept->frame;
-        const PreviewImage image = make_preview(frame.width, frame.height, frame.pixel_format, frame.data, width);
+        const bool colour = drivers::pixel_format_info(frame.pixel_format).layout != drivers::ColourLayout::kMono;
+        if (request->white_balance() && now - balanced_at > std::chrono::seconds(1)) {
+          balance = colour ? daemon_.preview_white_balance(name) : WhiteBalance{{1, 1, 1}, "none: raw (mono camera)"};
+          balanced_at = now;
+        }
+        options.white_balance_gains = balance.gains;
+        const PreviewImage image = make_preview(frame.width, frame.height, frame.pixel_format, frame.data, options);
         pb::PreviewFrame message;
         message.set_camera(name);
         message.set_width(static_cast<std::uint32_t>(image.width));
@@ -101,6 +119,12 @@ class CameraServiceImpl final : public pb::CameraService::Service {
         message.set_time_ms(std::chrono::duration_cast<std::chrono::milliseconds>(frame.host_timestamp.time_since_epoch()).count());
         message.set_source_width(frame.width);
         message.set_source_height(frame.height);
+        for (double mean : image.region_mean) message.add_region_mean(mean);
+        message.set_region_cells(image.region_cells);
+        message.set_region_x(image.region_x), message.set_region_y(image.region_y);
+        message.set_region_width(image.region_width), message.set_region_height(image.region_height);
+        message.set_white_balance(balance.description);
+        for (double gain : balance.gains) message.add_white_balance_gains(gain);
         if (!writer->Write(message)) break;
       }
       return Status::OK;

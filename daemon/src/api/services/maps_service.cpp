@@ -18,6 +18,7 @@
 #include "chromo/maps/map_operations.hpp"
 #include "chromo/maps/map_previews.hpp"
 #include "chromo/maps/ome_tiff.hpp"
+#include "chromo/maps/photograph_files.hpp"
 #include "chromo/maps/region_statistics.hpp"
 #include "chromo/maps/session_difference.hpp"
 #include "chromosphere/v1/maps.grpc.pb.h"
@@ -137,6 +138,8 @@ class Folder {
     if (fs::exists(out, error)) throw Refusal{{StatusCode::ABORTED, "out_dir: " + relative(out) + " exists; retry"}};
     return out;
   }
+
+  const fs::path& base() const { return base_; }
 
   // A path inside the folder as the client names it.
   std::string relative(const fs::path& path) const { return path.lexically_relative(base_).string(); }
@@ -357,6 +360,24 @@ class MapsServiceImpl final : public pb::MapsService::Service {
       delta_e_to_proto(s.photo_delta_e94, response->mutable_photo_delta_e94());
       add_files(files, o.out, s.files, response);
       response->set_summary_json(s.json);
+    });
+  }
+
+  Status ListPhotographs(ServerContext* context, const pb::ListPhotographsRequest* request,
+                         pb::ListPhotographsResponse* response) override {
+    return run(context, request->session_id(), [&](const Folder& files) {
+      chromo::files::ExrHeader maps_header;
+      try {
+        maps_header = chromo::files::read_exr_header(files.input("maps_file", request->maps_file(), true));
+      } catch (const chromo::files::ImageError& e) {
+        throw Refusal{{StatusCode::INVALID_ARGUMENT, "maps_file: " + files.scrub(e.what())}};
+      }
+      response->set_maps_width(maps_header.width), response->set_maps_height(maps_header.height);
+      for (const auto& found : maps::list_photograph_files(files.base(), maps_header.width, maps_header.height)) {
+        auto* out = response->add_photographs();
+        out->set_file(found.file), out->set_width(found.width), out->set_height(found.height);
+        out->set_same_size(found.same_size);
+      }
     });
   }
 

@@ -1,3 +1,6 @@
+#include <algorithm>
+#include <cstdlib>
+#include <cmath>
 #include "web_bridge.hpp"
 
 #include <future>
@@ -122,6 +125,22 @@ int http_status_of(grpc::StatusCode code) {
 
 std::string error_json(const std::string& message, const std::string& code) {
   return nlohmann::json{{"error", message}, {"code", code}}.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+std::optional<std::vector<double>> parse_numbers(const std::string& text, std::size_t count) {
+  std::vector<double> numbers;
+  std::size_t begin = 0;
+  while (begin <= text.size() && numbers.size() <= count) {
+    const std::size_t end = std::min(text.find(',', begin), text.size());
+    const std::string part = text.substr(begin, end - begin);
+    char* parsed_end = nullptr;
+    const double value = std::strtod(part.c_str(), &parsed_end);
+    if (part.empty() || parsed_end != part.c_str() + part.size() || !std::isfinite(value)) return std::nullopt;
+    numbers.push_back(value);
+    begin = end + 1;
+  }
+  if (numbers.size() != count) return std::nullopt;
+  return numbers;
 }
 
 BridgeReply ApiBridge::call(const std::string& service, const std::string& method_name, const std::string& request_json) const {

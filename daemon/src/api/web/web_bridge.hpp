@@ -7,7 +7,9 @@
 #include <chrono>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include <grpcpp/grpcpp.h>
 
@@ -42,5 +44,8 @@ class ApiBridge {
 // 404, FAILED_PRECONDITION 409, RESOURCE_EXHAUSTED 429, UNAVAILABLE 503, ...).
 int http_status_of(grpc::StatusCode code);
 std::string error_json(const std::string& message, const std::string& code);
+// Exactly `count` finite numbers separated by commas ("0.1,0.2,0.5,0.5"), or
+// std::nullopt (a query parameter's list).
+std::optional<std::vector<double>> parse_numbers(const std::string& text, std::size_t count);
 
 }  // namespace chromo::daemon::web

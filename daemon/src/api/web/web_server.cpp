@@ -501,6 +501,17 @@ struct WebServer::State {
         r.set_content(web::error_json("rate_hz and width: numbers", "INVALID_ARGUMENT"), "application/json");
         return;
       }
+      if (q.has_param("white_balance")) message["white_balance"] = q.get_param_value("white_balance") == "1";
+      if (q.has_param("region")) {  // "x,y,width,height" in fractions of the frame; the service checks the range
+        const auto region = web::parse_numbers(q.get_param_value("region"), 4);
+        if (!region) {
+          r.status = 400;
+          r.set_content(web::error_json("region: four numbers x,y,width,height (fractions of the frame)", "INVALID_ARGUMENT"),
+                        "application/json");
+          return;
+        }
+        message["region"] = {{"x", (*region)[0]}, {"y", (*region)[1]}, {"width", (*region)[2]}, {"height", (*region)[3]}};
+      }
       event_stream(q, r, "CameraService", "StreamPreview", message.dump());
     });
     http->Get("/api/stream/events", [this](const httplib::Request& q, httplib::Response& r) {

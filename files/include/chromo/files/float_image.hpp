@@ -39,6 +39,15 @@ ExrSize check_exr_file(const std::filesystem::path& path);
 
 FloatImage read_exr(const std::filesystem::path& path);
 
+// An OpenEXR file's size and channel names without its pixels (after
+// check_exr_file): what a listing of a folder's images needs. ImageError
+// naming the file otherwise.
+struct ExrHeader {
+  int width = 0, height = 0;
+  std::vector<std::string> channel_names;
+};
+ExrHeader read_exr_header(const std::filesystem::path& path);
+
 // How write_exr compresses. Always ZIP (deflate per 16 scanlines, lossless:
 // docs/formats/session.md); the blocks are compressed on `threads` threads
 // (OpenEXR's global pool, grown to the most any write asked for; 0 = all

@@ -7,7 +7,8 @@
 // them from its devices, its configuration and the host (host_facts.hpp),
 // and tests inject a fault by changing one fact. Each check's id names what it
 // looked at ("device.cam0", "receive_buffer.cam0", "mtu.cam0", "disk",
-// "clock", "calibration", "permissions.spec0", "permissions.sessions_dir").
+// "clock", "calibration", "leds_settled.sphere", "permissions.spec0",
+// "permissions.sessions_dir").
 // docs/doctor.md lists them with their thresholds.
 
 #include <chrono>
@@ -71,11 +72,23 @@ struct CalibrationFacts {
   std::optional<std::chrono::system_clock::time_point> measured_at;  // the library file's modification time
 };
 
+// An LED controller's temperatures (LedStatus::temperature_C) read twice,
+// interval_s apart (Daemon::lab_facts): how fast each LED still warms or
+// cools.
+struct LedTemperatureFacts {
+  std::string controller;              // the configuration's name
+  std::vector<std::string> led_names;  // "W57", ..., one per temperature
+  std::vector<double> first_C, last_C; // each LED's temperature at the first and the last reading
+  double interval_s = 0;               // between the readings; 0 = not read (see error)
+  std::string error;                   // why the controller could not be read
+};
+
 struct LabFacts {
   std::vector<DeviceFacts> devices;
   std::vector<CameraStreamFacts> cameras;
   HostFacts host;
   CalibrationFacts calibration;
+  std::vector<LedTemperatureFacts> led_temperatures;  // one per LED controller
   std::uint64_t session_bytes = 0;        // what one standard session stores (frames of every camera)
   std::uint64_t storage_limit_bytes = 0;  // the configuration's storage_limit_bytes (0 = the disk)
   std::chrono::system_clock::time_point now = std::chrono::system_clock::now();
@@ -88,10 +101,17 @@ struct CheckLimits {
   double sessions_of_free_disk = 10;      // fewer sessions' room left than this: a warning
   std::chrono::hours calibration_max_age{24 * 30};  // older LED library: a warning
   std::int64_t clock_max_error_us = 100000;         // a synchronised clock's bound beyond this: a warning
+  // An LED warming or cooling faster than this has not settled: the
+  // session's white and subject would be lit by junctions at different
+  // temperatures (docs/calibration.md §6): failed, with the wait.
+  double led_settled_C_per_min = 0.5;
+  // The LEDs' thermal time constant (wall-clock seconds), for the wait the
+  // fix names: a rate r falls below the limit after τ·ln(r / limit).
+  double led_thermal_time_constant_s = 60;
 };
 
 // Every check on these facts, in a fixed order: devices, permissions,
-// receive buffer and MTU per camera, disk, clock, calibration. Never throws
+// receive buffer and MTU per camera, disk, clock, calibration, LEDs settled. Never throws
 // for a fact it lacks: that check is `skipped` with the reason.
 std::vector<CheckResult> run_lab_checks(const LabFacts& facts, const CheckLimits& limits = {});
 
