@@ -129,10 +129,12 @@ LabFacts Daemon::lab_facts() {
 }
 
 // The virtual lab's LEDs run lab_time_scale times faster than the wall clock:
-// their thermal time constant in wall-clock seconds is shorter by as much.
+// their thermal time constant in wall-clock seconds is shorter by as much,
+// and their wall-clock rates higher by as much.
 std::vector<CheckResult> Daemon::check_lab(const CheckLimits& limits) {
   CheckLimits scaled = limits;
   scaled.led_thermal_time_constant_s /= devices_.lab_time_scale;
+  scaled.led_settled_C_per_min *= devices_.lab_time_scale;  // its rates too: 0.5 °C/min of lab time
   return run_lab_checks(lab_facts(), scaled);
 }
 
