@@ -16,10 +16,13 @@ void add_common_views(std::vector<CameraEstimate>& cameras, const fs::path& resu
   if (with_maps.size() < 2) return;
   const CameraEstimate& reference = *with_maps.front();
   auto maps_of = [&](const CameraEstimate& camera) { return files::read_exr(results_dir / camera.folder / "maps.exr"); };
-  const files::FloatImage reference_maps = maps_of(reference);
+  files::FloatImage reference_maps;
   TargetOutline reference_outline;
   std::string reference_failure;
   try {
+    // A commit that stages files until the end (chromo estimate, chromo
+    // study) has not put maps.exr in place yet: no common view, the maps stand.
+    reference_maps = maps_of(reference);
     reference_outline = find_target_outline(reference_maps, reference.camera + "'s maps");
   } catch (const std::exception& error) {  // cv::Exception too: reported, the maps stand
     reference_failure = error.what();

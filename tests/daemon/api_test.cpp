@@ -28,6 +28,7 @@
 #include <grpcpp/grpcpp.h>
 
 #include "chromo/daemon/server.hpp"
+#include "../support/test_certificate.hpp"
 #include "chromo/files/fnv1a.hpp"
 #include "chromosphere/v1/calibration.grpc.pb.h"
 #include "chromosphere/v1/estimation.grpc.pb.h"
@@ -414,24 +415,22 @@ TEST_F(ApiFixture, TcpNeedsTheBearerTokenOnEveryCall) {
   EXPECT_TRUE(list_over_tcp(tcp, "Bearer test-token-0123456789").ok());
 }
 
-TEST_F(ApiFixture, TlsWithTokenWhenCertificatesAreConfigured) {
-  const auto key = lab.directory / "key.pem", cert = lab.directory / "cert.pem";
-  const std::string command = "openssl req -x509 -newkey rsa:2048 -nodes -days 1 -subj /CN=localhost "
-                              "-addext subjectAltName=DNS:localhost -keyout " + key.string() + " -out " +
-                              cert.string() + " >/dev/null 2>&1";
-  ASSERT_EQ(std::system(command.c_str()), 0);
-  lab.config.tls_certificate_file = cert.string();
-  lab.config.tls_private_key_file = key.string();
-  lab.config.tcp_insecure = false;
-  start();
-  std::ifstream in(cert);
-  std::stringstream pem;
-  pem << in.rdbuf();
+// A TLS channel to chromod's TCP port trusting `certificate_pem` (made for localhost).
+std::shared_ptr<grpc::Channel> tls_channel(int port, const std::string& certificate_pem) {
   grpc::SslCredentialsOptions options;
-  options.pem_root_certs = pem.str();
+  options.pem_root_certs = certificate_pem;
   grpc::ChannelArguments arguments;
   arguments.SetSslTargetNameOverride("localhost");
-  auto tls = grpc::CreateCustomChannel("127.0.0.1:" + std::to_string(server->tcp_port()), grpc::SslCredentials(options), arguments);
+  return grpc::CreateCustomChannel("127.0.0.1:" + std::to_string(port), grpc::SslCredentials(options), arguments);
+}
+
+TEST_F(ApiFixture, TlsWithTokenWhenCertificatesAreConfigured) {
+  const auto certificate = chromo::testing::make_test_certificate(lab.directory);
+  lab.config.tls_certificate_file = certificate.certificate_file.string();
+  lab.config.tls_private_key_file = certificate.key_file.string();
+  lab.config.tcp_insecure = false;
+  start();
+  auto tls = tls_channel(server->tcp_port(), certificate.certificate_pem);
   EXPECT_TRUE(list_over_tcp(tls, "Bearer test-token-0123456789").ok());
   EXPECT_EQ(list_over_tcp(tls, nullptr).error_code(), StatusCode::UNAUTHENTICATED);
   // A plaintext client cannot talk to the TLS port at all.
@@ -447,13 +446,9 @@ TEST_F(ApiFixture, TlsWithTokenWhenCertificatesAreConfigured) {
 // kept for gRPC's 120 s handshake timeout, so enough of them used up the
 // descriptors. Now one is closed after tcp_handshake_timeout_ms.
 TEST_F(ApiFixture, ATlsConnectionThatNeverHandshakesIsClosed) {
-  const auto key = lab.directory / "key.pem", cert = lab.directory / "cert.pem";
-  const std::string command = "openssl req -x509 -newkey rsa:2048 -nodes -days 1 -subj /CN=localhost "
-                              "-addext subjectAltName=DNS:localhost -keyout " + key.string() + " -out " +
-                              cert.string() + " >/dev/null 2>&1";
-  ASSERT_EQ(std::system(command.c_str()), 0);
-  lab.config.tls_certificate_file = cert.string();
-  lab.config.tls_private_key_file = key.string();
+  const auto certificate = chromo::testing::make_test_certificate(lab.directory);
+  lab.config.tls_certificate_file = certificate.certificate_file.string();
+  lab.config.tls_private_key_file = certificate.key_file.string();
   lab.config.tcp_insecure = false;
   lab.config.tcp_handshake_timeout_ms = 1000;
   start();
@@ -476,14 +471,7 @@ TEST_F(ApiFixture, ATlsConnectionThatNeverHandshakesIsClosed) {
   }
   EXPECT_EQ(closed, 10);
   // And a client that does its handshake is served.
-  std::ifstream in(cert);
-  std::stringstream pem;
-  pem << in.rdbuf();
-  grpc::SslCredentialsOptions options;
-  options.pem_root_certs = pem.str();
-  grpc::ChannelArguments arguments;
-  arguments.SetSslTargetNameOverride("localhost");
-  auto tls = grpc::CreateCustomChannel("127.0.0.1:" + std::to_string(server->tcp_port()), grpc::SslCredentials(options), arguments);
+  auto tls = tls_channel(server->tcp_port(), certificate.certificate_pem);
   EXPECT_TRUE(list_over_tcp(tls, "Bearer test-token-0123456789").ok());
 }
 
@@ -491,24 +479,13 @@ TEST_F(ApiFixture, ATlsConnectionThatNeverHandshakesIsClosed) {
 // holds its connection without a call (or with calls refused for want of the
 // token) was kept as long as it liked. It is closed after tcp_idle_timeout_ms.
 TEST_F(ApiFixture, AHandshakenTlsConnectionWithoutCallsIsClosedOnceIdle) {
-  const auto key = lab.directory / "key.pem", cert = lab.directory / "cert.pem";
-  const std::string command = "openssl req -x509 -newkey rsa:2048 -nodes -days 1 -subj /CN=localhost "
-                              "-addext subjectAltName=DNS:localhost -keyout " + key.string() + " -out " +
-                              cert.string() + " >/dev/null 2>&1";
-  ASSERT_EQ(std::system(command.c_str()), 0);
-  lab.config.tls_certificate_file = cert.string();
-  lab.config.tls_private_key_file = key.string();
+  const auto certificate = chromo::testing::make_test_certificate(lab.directory);
+  lab.config.tls_certificate_file = certificate.certificate_file.string();
+  lab.config.tls_private_key_file = certificate.key_file.string();
   lab.config.tcp_insecure = false;
   lab.config.tcp_idle_timeout_ms = 500;
   start();
-  std::ifstream in(cert);
-  std::stringstream pem;
-  pem << in.rdbuf();
-  grpc::SslCredentialsOptions options;
-  options.pem_root_certs = pem.str();
-  grpc::ChannelArguments arguments;
-  arguments.SetSslTargetNameOverride("localhost");
-  auto tls = grpc::CreateCustomChannel("127.0.0.1:" + std::to_string(server->tcp_port()), grpc::SslCredentials(options), arguments);
+  auto tls = tls_channel(server->tcp_port(), certificate.certificate_pem);
   ASSERT_TRUE(tls->WaitForConnected(std::chrono::system_clock::now() + std::chrono::seconds(10)));
   EXPECT_EQ(list_over_tcp(tls, nullptr).error_code(), StatusCode::UNAUTHENTICATED);
   // The server's GOAWAY after 500 ms idle takes the channel out of READY.

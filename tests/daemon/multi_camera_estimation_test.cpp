@@ -192,7 +192,11 @@ TEST(MultiCameraEstimation, TwoPosedCamerasGetTheirOwnMapsThatMatchTheirPoses) {
     // pinned apart from Che by the four channels (docs/estimation.md), so
     // only its printed ratio is reported here.
     EXPECT_NEAR(own.cm_ratio, 1.0, 0.15) << camera.name;
-    EXPECT_GT(own.log_cm_correlation, 0.7) << camera.name;
+    // 0.6 since the noise model's fix (e37c201): 0.62-0.63 measured after,
+    // above 0.7 before; the blue-only channel, now weighed by its true noise,
+    // carries the lab's blue-LED temperature error (docs/calibration.md §6).
+    // Through the other pose stays 0.05 below, asserted next.
+    EXPECT_GT(own.log_cm_correlation, 0.6) << camera.name;
     EXPECT_LT(other.log_cm_correlation, own.log_cm_correlation - 0.05) << camera.name;
     // Outside the camera's footprint of the white target: flagged no_reference, maps NaN.
     const auto view = simulators::lab_camera_view(camera);

@@ -67,7 +67,11 @@ TEST(OnlineEstimationOnTheVirtualLab, CalibratedStandardSessionEndsInMapsThatMat
   std::cout << "virtual lab session: skin " << skin_pixels << ", flagged " << flagged << "; relit ΔE94 (D65) vs truth mean "
             << relit.mean << " median " << relit.median << " p95 " << relit.p95 << "; estimate "
             << summary["timings_s"]["estimate"] << " s, " << summary["pixels_per_second"] << " pixels/s\n";
-  EXPECT_LT(static_cast<double>(flagged) / skin_pixels, 0.01);
+  // 1.5% since the noise model's fix (e37c201): the blue-only channel's
+  // noise had been overstated ~4x, which hid its systematic error on the lab
+  // (the blue LED's junction warmer at its white than at its subject,
+  // docs/calibration.md §6); 1.22-1.27% measured after, under 1% before.
+  EXPECT_LT(static_cast<double>(flagged) / skin_pixels, 0.015);
   EXPECT_LT(relit.median, 1.3);
 
   // Too long an exposure clips the white reference: no maps, and the record says why.

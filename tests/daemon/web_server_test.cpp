@@ -26,6 +26,7 @@
 #include "chromo/daemon/internal/api/metrics.hpp"
 #include "chromo/daemon/server.hpp"
 #include "chromo/daemon/web_server.hpp"
+#include "../support/test_certificate.hpp"
 #include "chromosphere/v1/events.grpc.pb.h"
 #include "chromosphere/v1/leds.grpc.pb.h"
 #include "test_lab.hpp"
@@ -522,13 +523,9 @@ TEST_F(WebFixture, EndlessRequestAndChunkSizeLinesAreCutOffAtTheirCaps) {
 // its handshake is closed after web_request_head_timeout_ms.
 struct TlsWebFixture : WebFixture {
   void SetUp() override {
-    const auto key = lab.directory / "key.pem", cert = lab.directory / "cert.pem";
-    const std::string command = "openssl req -x509 -newkey rsa:2048 -nodes -days 1 -subj /CN=localhost "
-                                "-addext subjectAltName=DNS:localhost -keyout " + key.string() + " -out " +
-                                cert.string() + " >/dev/null 2>&1";
-    ASSERT_EQ(std::system(command.c_str()), 0);
-    lab.config.tls_certificate_file = cert.string();
-    lab.config.tls_private_key_file = key.string();
+    const auto certificate = chromo::testing::make_test_certificate(lab.directory);
+    lab.config.tls_certificate_file = certificate.certificate_file.string();
+    lab.config.tls_private_key_file = certificate.key_file.string();
     lab.config.web_request_head_timeout_ms = 1000;
     WebFixture::SetUp();
     origin = "https://127.0.0.1:" + std::to_string(web->port());

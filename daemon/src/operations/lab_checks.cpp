@@ -171,7 +171,9 @@ CheckResult led_settled_check(const LedTemperatureFacts& leds, const CheckLimits
   if (std::abs(rate) <= limits.led_settled_C_per_min)
     return ok(id, fmt::format("settled: {} (at most {:.2f} °C/min over {:.1f} s)", now, std::abs(rate), leds.interval_s));
   const double wait_s = limits.led_thermal_time_constant_s * std::log(std::abs(rate) / limits.led_settled_C_per_min);
-  return {id, CheckStatus::failed,
+  // A warning, not a failure: the lab is sound, it needs a wait (a session
+  // may still start; chromo doctor does not fail on it).
+  return {id, CheckStatus::warning,
           fmt::format("{} {} at {:.1f} °C/min ({:.1f} °C now; settled is below {:.1f} °C/min): {}", leds.led_names[fastest],
                       rate > 0 ? "warming" : "cooling", std::abs(rate), leds.last_C[fastest], limits.led_settled_C_per_min, now),
           fmt::format("wait about {:.0f} s with the LEDs as they are (thermal time constant {:g} s), then check again",
