@@ -35,16 +35,12 @@ function setConnected(value) {
 function scheduleReconnectProbe() {
   if (retryTimer) return;
   retryTimer = setInterval(async () => {
-    try {
-      const reply = await fetch('/api/whoami', { credentials: 'same-origin', cache: 'no-store' });
-      if (reply.status === 200 || reply.status === 401) {
-        clearInterval(retryTimer);
-        retryTimer = null;
-        setConnected(true);
-        if (reply.status === 401) window.dispatchEvent(new Event('chromo:logged-out'));
-      }
-    } catch {
-      // still away
+    const status = await whoamiStatus();
+    if (status === 200 || status === 401) {
+      clearInterval(retryTimer);
+      retryTimer = null;
+      setConnected(true);
+      if (status === 401) window.dispatchEvent(new Event('chromo:logged-out'));
     }
   }, 1000);
 }
@@ -99,14 +95,19 @@ export function logout() {
   return post('/logout', {});
 }
 
-// Whether GET /api/whoami answers (200 or 401): the daemon is there.
-async function daemonAnswers() {
+// GET /api/whoami's HTTP status, 0 when it does not answer.
+async function whoamiStatus() {
   try {
-    const reply = await fetch('/api/whoami', { credentials: 'same-origin', cache: 'no-store' });
-    return reply.status === 200 || reply.status === 401;
+    return (await fetch('/api/whoami', { credentials: 'same-origin', cache: 'no-store' })).status;
   } catch {
-    return false;
+    return 0;
   }
+}
+
+// Whether the daemon is there (whoami answers 200 or 401).
+async function daemonAnswers() {
+  const status = await whoamiStatus();
+  return status === 200 || status === 401;
 }
 
 // Whether this browser is logged in; a second try 250 ms after a failed one
