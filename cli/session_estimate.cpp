@@ -58,6 +58,7 @@ SessionEstimate estimate_stored_session(const EstimateOptions& options, const st
   std::optional<session::SessionCaptureBuilder> builder;
   std::map<std::string, std::string> unusable;  // cameras whose frames the builder refused
   nlohmann::ordered_json hazard;
+  std::map<std::string, double> field_width_mm;  // the maps' scale where the session knows it
   try {
     std::string library = options.led_library;
     if (library.empty() && fs::exists(folder / "results" / "led_library.json"))
@@ -67,6 +68,7 @@ SessionEstimate estimate_stored_session(const EstimateOptions& options, const st
     // The session's own per-state libraries, unless --led-library overrides the illuminants.
     if (options.led_library.empty()) session::load_session_state_libraries(folder / "results", sources);
     builder.emplace(session::read_stored_session(folder, sources, &unusable));
+    field_width_mm = session::read_session_provenance(folder).camera_field_width_mm;
     for (const auto& [name, spec] : camera_of)
       if (std::find(builder->cameras().begin(), builder->cameras().end(), name) == builder->cameras().end())
         throw std::invalid_argument("--camera-of: the session has no camera \"" + name + "\" (its cameras: " +
@@ -102,7 +104,7 @@ SessionEstimate estimate_stored_session(const EstimateOptions& options, const st
     };
     try {
       outcome.cameras =
-          maps::estimate_session_cameras({&*builder, nullptr, extra.dump(), unusable}, eo, options.out, commit);
+          maps::estimate_session_cameras({&*builder, nullptr, extra.dump(), unusable, field_width_mm}, eo, options.out, commit);
     } catch (const std::invalid_argument& e) {
       return fail(kExitBadInput, folder.string() + ": " + e.what());
     } catch (const session::RegistrationError& e) {

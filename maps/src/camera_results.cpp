@@ -36,9 +36,11 @@ MethodEstimationResult estimate_camera(const SessionCamerasInput& input, const s
   const PreparedTables* prepared = nullptr;
   if (input.prepared)
     if (auto found = input.prepared->find(camera); found != input.prepared->end()) prepared = &found->second;
+  MethodEstimationOptions own = options;
+  if (const auto known = input.field_width_mm.find(camera); known != input.field_width_mm.end()) own.field_width_mm = known->second;
   if (builder.is_method_plan())
-    return estimate_method_captures(builder.captures(camera), options, dir, commit, progress, extra.dump(), prepared);
-  return estimate_plan_captures(builder.plan_captures(camera), options, dir, commit, progress, extra.dump(), prepared);
+    return estimate_method_captures(builder.captures(camera), own, dir, commit, progress, extra.dump(), prepared);
+  return estimate_plan_captures(builder.plan_captures(camera), own, dir, commit, progress, extra.dump(), prepared);
 }
 
 }  // namespace
@@ -139,6 +141,7 @@ std::string camera_entry_json(const CameraEstimate& camera, const std::string& p
   for (const auto& c : r.relit) relit[c.illuminant] = relit_comparison_json(c);
   entry["relit_delta_e94"] = relit;
   entry["highlights"] = {{"detection", r.highlight_detection}, {"pixels", r.highlight_pixels}};
+  if (r.map_pixel_mm > 0) entry["map_pixel_mm"] = r.map_pixel_mm;
   if (camera.common_view) entry["common_view"] = nlohmann::ordered_json::parse(common_view_entry_json(*camera.common_view, path_prefix));
   return entry.dump();
 }

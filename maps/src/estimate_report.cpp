@@ -261,7 +261,8 @@ std::string write_estimate_report(const fs::path& dir, const EstimateReport& rep
       const Preview& p = previews[i];
       const std::string& name = maps.channel_names[p.channel];
       encoded[i] = {p.file, encode_map_png(maps.channels[p.channel], report.width, report.height, p.low, p.high, p.log,
-                                           name + p.range_note + "\n" + map_channel_info(name).unit, hide)};
+                                           name + p.range_note + "\n" + map_channel_info(name).unit, hide,
+                                           report.map_pixel_mm)};
     } else if (i == previews.size()) {
       encoded[i] = {"flags.png", encode_category_png(maps.channels[6], report.width, report.height, flag_names)};
     } else {
@@ -639,6 +640,10 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
   result.highlight_detection = polarisation.summary.value("detection", "");
   result.highlight_pixels = polarisation.summary.value(polarisation.channels.empty() ? "specular_pixels" : "flagged_pixels",
                                                        std::uint64_t{0});
+  if (options.field_width_mm > 0 && m.width > 0) {
+    result.map_pixel_mm = report.map_pixel_mm = options.field_width_mm / m.width;
+    extra["map_pixel_mm"] = report.map_pixel_mm;
+  }
   report.extra_json = extra.dump();
   report.extra_channels = polarisation.channels;
   if (!polarisation.panel.empty()) report.extra_pngs.emplace_back("polarisation.png", polarisation.panel);

@@ -35,9 +35,35 @@ std::optional<std::pair<double, double>> shown_percentile_range(const std::vecto
   return std::pair{low, high};
 }
 
+ScaleBar scale_bar_for(int width_px, double pixel_mm) {
+  if (!(pixel_mm > 0) || !std::isfinite(pixel_mm) || width_px < 4) return {};
+  const double longest_mm = 0.25 * width_px * pixel_mm;
+  double mm = std::pow(10.0, std::floor(std::log10(longest_mm)));
+  for (const double step : {5.0, 2.0})
+    if (mm * step <= longest_mm * (1 + 1e-9)) {
+      mm *= step;
+      break;
+    }
+  return {mm, static_cast<int>(std::lround(mm / pixel_mm))};
+}
+
 namespace {
 
 constexpr int kBarWidth = 165;
+
+// The scale bar (scale_bar_for) in the map's bottom-left corner of `canvas`.
+void draw_scale_bar(cv::Mat& canvas, int width, int height, double map_pixel_mm) {
+  const ScaleBar bar = scale_bar_for(width, map_pixel_mm);
+  if (bar.px < 1 || height < 24) return;
+  const cv::Rect white(8, height - 12, bar.px, 4);
+  cv::rectangle(canvas, white + cv::Point(-1, -1) + cv::Size(2, 2), cv::Scalar(0, 0, 0), cv::FILLED);
+  cv::rectangle(canvas, white, cv::Scalar(255, 255, 255), cv::FILLED);
+  char text[32];
+  std::snprintf(text, sizeof text, "%g mm", bar.mm);
+  const cv::Point at(8, height - 16);
+  cv::putText(canvas, text, at, cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
+  cv::putText(canvas, text, at, cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+}
 
 void save(const std::filesystem::path& path, const cv::Mat& image) {
   if (!cv::imwrite(path.string(), image)) throw files::ImageError(path.string() + ": cannot write PNG");
@@ -50,7 +76,7 @@ std::vector<std::uint8_t> encode(const cv::Mat& image) {
 }
 
 cv::Mat map_canvas(const std::vector<float>& values, int width, int height, double low, double high, bool log_scale,
-                   const std::string& label, const std::vector<std::uint8_t>& hide) {
+                   const std::string& label, const std::vector<std::uint8_t>& hide, double map_pixel_mm) {
   auto normalise = [&](double v) {
     if (log_scale) v = std::log(std::max(v, 1e-12));
     const double lo = log_scale ? std::log(low) : low, hi = log_scale ? std::log(high) : high;
@@ -66,6 +92,7 @@ cv::Mat map_canvas(const std::vector<float>& values, int width, int height, doub
       colour.at<cv::Vec3b>(i) = hide[i] == kPreviewOutsideField ? cv::Vec3b(0, 0, 0) : cv::Vec3b(150, 150, 150);
   cv::Mat canvas(bar_height, width + kBarWidth, CV_8UC3, cv::Scalar(255, 255, 255));
   colour.copyTo(canvas(cv::Rect(0, 0, width, height)));
+  draw_scale_bar(canvas, width, height, map_pixel_mm);
   cv::Mat ramp(bar_height - 40, 1, CV_8U);
   for (int y = 0; y < ramp.rows; ++y) ramp.at<std::uint8_t>(y) = static_cast<std::uint8_t>(255 - 255 * y / std::max(1, ramp.rows - 1));
   cv::Mat ramp_colour;
@@ -119,8 +146,8 @@ cv::Mat category_canvas(const std::vector<float>& codes, int width, int height, 
 
 void write_map_png(const std::filesystem::path& path, const std::vector<float>& values, int width, int height,
                    double low, double high, bool log_scale, const std::string& label,
-                   const std::vector<std::uint8_t>& hide) {
-  save(path, map_canvas(values, width, height, low, high, log_scale, label, hide));
+                   const std::vector<std::uint8_t>& hide, double map_pixel_mm) {
+  save(path, map_canvas(values, width, height, low, high, log_scale, label, hide, map_pixel_mm));
 }
 
 void write_category_png(const std::filesystem::path& path, const std::vector<float>& codes, int width, int height,
@@ -130,8 +157,8 @@ void write_category_png(const std::filesystem::path& path, const std::vector<flo
 
 std::vector<std::uint8_t> encode_map_png(const std::vector<float>& values, int width, int height, double low,
                                          double high, bool log_scale, const std::string& label,
-                                         const std::vector<std::uint8_t>& hide) {
-  return encode(map_canvas(values, width, height, low, high, log_scale, label, hide));
+                                         const std::vector<std::uint8_t>& hide, double map_pixel_mm) {
+  return encode(map_canvas(values, width, height, low, high, log_scale, label, hide, map_pixel_mm));
 }
 
 std::vector<std::uint8_t> encode_category_png(const std::vector<float>& codes, int width, int height,

@@ -1,4 +1,5 @@
 #include "chromo/session/session_captures.hpp"
+#include "chromo/session/session_provenance.hpp"
 #include "chromo/files/bounded_read.hpp"
 
 #include "chromo/calibration/led_library_io.hpp"
@@ -219,7 +220,10 @@ std::string SessionCaptureBuilder::sensitivity_source(const std::string& camera)
   return sources_.sensitivity_of(camera).source;
 }
 
-SessionPlan read_session_plan(const std::filesystem::path& folder) {
+namespace {
+
+// A session folder's session.json, checked to be an object with a plan of a known format.
+nlohmann::json read_session_json(const std::filesystem::path& folder) {
   std::string text;
   try {
     text = files::read_text_file(folder / "session.json", "JSON");
@@ -230,10 +234,27 @@ SessionPlan read_session_plan(const std::filesystem::path& folder) {
   if (session.is_discarded() || !session.is_object() || !session.contains("plan"))
     throw std::invalid_argument((folder / "session.json").string() + ": not valid JSON with a \"plan\"");
   session_format_version(session, folder / "session.json");
+  return session;
+}
+
+}  // namespace
+
+SessionPlan read_session_plan(const std::filesystem::path& folder) {
+  const nlohmann::json session = read_session_json(folder);
   try {
     return plan_from_json(session.at("plan"));
   } catch (const std::exception& error) {
     throw std::invalid_argument((folder / "session.json").string() + ": plan: " + error.what());
+  }
+}
+
+SessionProvenance read_session_provenance(const std::filesystem::path& folder) {
+  const nlohmann::json session = read_session_json(folder);
+  if (!session.contains("provenance")) return {};
+  try {
+    return provenance_from_json(session.at("provenance"));
+  } catch (const std::invalid_argument& error) {
+    throw std::invalid_argument((folder / "session.json").string() + ": " + error.what());
   }
 }
 

@@ -1,5 +1,6 @@
 #include "chromo/session/session_provenance.hpp"
 
+#include <cmath>
 #include <ctime>
 #include <iomanip>
 #include <sstream>
@@ -28,6 +29,7 @@ nlohmann::json to_json(const SessionProvenance& p) {
           {"mixes", mixes},
           {"camera_sensitivity", p.camera_sensitivity},
           {"camera_sensitivity_of", p.camera_sensitivity_of},
+          {"camera_field_width_mm", p.camera_field_width_mm},
           {"white_reflectance", p.white_reflectance},
           {"plan", p.plan},
           {"operator", p.operator_name},
@@ -55,6 +57,12 @@ SessionProvenance provenance_from_json(const nlohmann::json& json) {
     key = "provenance.camera_sensitivity";
     p.camera_sensitivity = json.value("camera_sensitivity", "");
     p.camera_sensitivity_of = json.value("camera_sensitivity_of", std::map<std::string, std::string>{});
+    key = "provenance.camera_field_width_mm";
+    p.camera_field_width_mm = json.value("camera_field_width_mm", std::map<std::string, double>{});
+    for (const auto& [camera, width_mm] : p.camera_field_width_mm)
+      if (!(width_mm > 0) || !std::isfinite(width_mm))
+        throw std::invalid_argument(key + "." + camera + ": " + std::to_string(width_mm) + " is not a width > 0 mm");
+    key = "provenance.white_reflectance";
     p.white_reflectance = json.value("white_reflectance", 0.0);
     key = "provenance.plan";
     p.plan = json.value("plan", "");

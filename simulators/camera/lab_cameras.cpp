@@ -176,6 +176,22 @@ std::optional<CameraView> lab_camera_view(const LabCamera& camera) {
   return view;
 }
 
+double lab_camera_field_width_mm(const LabCamera& camera, double patch_width_mm) {
+  const std::optional<CameraView> view = lab_camera_view(camera);
+  if (!view) return patch_width_mm;
+  // A patch of 1 mm pixels: the image → patch map's step along a row at the centre, in mm per sensor pixel.
+  const int patch_px = std::max(2, static_cast<int>(std::lround(patch_width_mm)));
+  const PatchGeometry patch{patch_px, patch_px, patch_width_mm / patch_px};
+  const cv::Matx33d to_patch = patch_to_image_homography(*view, patch).inv();
+  const auto at = [&](double x, double y) {
+    const cv::Vec3d p = to_patch * cv::Vec3d(x, y, 1);
+    return cv::Vec2d(p[0] / p[2], p[1] / p[2]) * patch.pixel_size_mm;
+  };
+  const double cx = 0.5 * (camera.sensor_width - 1), cy = 0.5 * (camera.sensor_height - 1);
+  const double mm_per_pixel = cv::norm(at(cx + 0.5, cy) - at(cx - 0.5, cy));
+  return mm_per_pixel * camera.sensor_width;
+}
+
 spectral::CameraSensitivity lab_camera_sensitivity(const LabCamera& camera,
                                                    const spectral::CameraSensitivity& fallback) {
   if (camera.sensitivity.empty()) return fallback;

@@ -30,6 +30,31 @@ TEST(MapPreviews, MaskedAndOutsideTheFieldAreDrawnApart) {
   EXPECT_LT(high[0], 100);
 }
 
+// The scale bar (docs/maps.md "Scale bar"): the longest 1-2-5 mm length
+// within a quarter of the map, drawn as that many white map pixels; none
+// when the pixel size is unknown.
+TEST(MapPreviews, TheScaleBarIsItsLengthInMapPixels) {
+  EXPECT_EQ(maps::scale_bar_for(320, 0.25).mm, 20);   // 80 mm across: a quarter is 20 mm
+  EXPECT_EQ(maps::scale_bar_for(320, 0.25).px, 80);
+  EXPECT_EQ(maps::scale_bar_for(200, 0.25).mm, 10);   // 50 mm across: 12.5 → 10 mm
+  EXPECT_EQ(maps::scale_bar_for(200, 0.25).px, 40);
+  EXPECT_EQ(maps::scale_bar_for(160, 0.5175).mm, 20); // 82.8 mm across: 20.7 → 20 mm, 38.6 → 39 px
+  EXPECT_EQ(maps::scale_bar_for(160, 0.5175).px, 39);
+  EXPECT_EQ(maps::scale_bar_for(320, 0).px, 0);
+  const int width = 200, height = 100;
+  const std::vector<float> values(static_cast<std::size_t>(width) * height, 0.5f);
+  const auto white_in_row = [&](double map_pixel_mm) {
+    const cv::Mat image = cv::imdecode(maps::encode_map_png(values, width, height, 0, 1, false, "Cm", {}, map_pixel_mm),
+                                       cv::IMREAD_COLOR);
+    int white = 0;
+    for (int x = 0; x < width; ++x) white += image.at<cv::Vec3b>(height - 10, x) == cv::Vec3b(255, 255, 255);
+    return white;
+  };
+  EXPECT_EQ(white_in_row(0.25), 40);  // 10 mm of 0.25 mm pixels
+  EXPECT_EQ(white_in_row(0.2), 50);   // 40 mm across: 10 mm of 0.2 mm pixels
+  EXPECT_EQ(white_in_row(0), 0);      // unknown: no bar
+}
+
 TEST(MapPreviews, PercentileRangeComesFromTheShownPixelsOnly) {
   std::vector<float> values(101);
   for (int i = 0; i <= 100; ++i) values[i] = static_cast<float>(i);

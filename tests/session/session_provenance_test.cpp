@@ -21,6 +21,7 @@ SessionProvenance example() {
   p.mixes["d65"] = {{0.6, 0, 0.12, 0.05, 0.2, 0.3}, "solved from the calibrated LED library"};
   p.camera_sensitivity = "builtin:nikon_d5100";
   p.camera_sensitivity_of["side"] = "builtin:sony_ilce_7m3";
+  p.camera_field_width_mm["cam0"] = 80;
   p.white_reflectance = 0.99;
   p.plan = "standard";
   p.operator_name = "Ana";
@@ -46,6 +47,8 @@ TEST(SessionProvenance, StoredInSessionJsonAndReadBackWithTheListFields) {
   EXPECT_EQ(read.mixes.at("d65").drive, written.mixes.at("d65").drive);
   EXPECT_EQ(read.mixes.at("d65").origin, "solved from the calibrated LED library");
   EXPECT_EQ(read.camera_sensitivity_of.at("side"), "builtin:sony_ilce_7m3");
+  EXPECT_DOUBLE_EQ(read.camera_field_width_mm.at("cam0"), 80);
+  EXPECT_EQ(read.camera_field_width_mm.count("side"), 0u);  // no known geometry: no scale
   EXPECT_DOUBLE_EQ(read.white_reflectance, 0.99);
   EXPECT_EQ(read.estimator_version, written.estimator_version);
   EXPECT_EQ(read.estimator_options.at("model"), "auto");
@@ -71,6 +74,14 @@ TEST(SessionProvenance, AWrongTypeIsRefusedNamingItsKey) {
     FAIL() << "a mix's weights as text was accepted";
   } catch (const std::invalid_argument& error) {
     EXPECT_NE(std::string(error.what()).find("provenance.mixes"), std::string::npos) << error.what();
+  }
+  json = to_json(example());
+  json["camera_field_width_mm"]["cam0"] = -5;
+  try {
+    provenance_from_json(json);
+    FAIL() << "a negative field width was accepted";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_NE(std::string(error.what()).find("provenance.camera_field_width_mm.cam0"), std::string::npos) << error.what();
   }
 }
 

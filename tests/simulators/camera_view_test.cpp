@@ -129,5 +129,20 @@ TEST(LabCameras, ReadsTheListAndNamesTheKeyOfEveryRefusal) {
   EXPECT_EQ(refusal(json::parse(R"([{"name": "a b"}])")).rfind("[0].name: ", 0), 0u);
 }
 
+// The maps' scale bar needs the subject's width a frame row spans
+// (docs/maps.md "Scale bar"): the patch's own width without a pose; with
+// one, the pinhole's scale at the centre (distance × pixel / focal) times
+// the sensor's width, larger by 1/cos for a camera swung sideways.
+TEST(LabCameras, FieldWidthIsThePatchWithoutAPoseAndThePinholeScaleWithOne) {
+  LabCamera unposed;
+  EXPECT_DOUBLE_EQ(lab_camera_field_width_mm(unposed, 80), 80);
+  LabCamera square_on;
+  square_on.pose = LabCameraPose{300, 0, 0, 0, 8, 3.45};
+  EXPECT_NEAR(lab_camera_field_width_mm(square_on, 80), 640 * 300 * 3.45e-3 / 8, 1e-6);  // 82.8 mm
+  LabCamera swung = square_on;
+  swung.pose->azimuth_deg = 30;
+  EXPECT_NEAR(lab_camera_field_width_mm(swung, 80), 640 * 300 * 3.45e-3 / 8 / std::cos(30 * M_PI / 180), 1e-4);
+}
+
 }  // namespace
 }  // namespace chromo::simulators

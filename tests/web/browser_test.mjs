@@ -182,8 +182,25 @@ async function mapExplorerChecks(page, sessionId, mapsFile, cmMap) {
   await page.getByRole('button', { name: 'Add a map beside' }).first().click();
   const second = page.locator('.map-explorer').nth(1);
   await waitUntil(page, () => document.querySelectorAll('.map-explorer[data-state="ready"]').length >= 2, null, 60000, 'a second map');
+  // The scale bar (docs/maps.md "Scale bar"): this lab's camera has no pose, so
+  // the 80 mm patch fills its rows and a map pixel is 80 mm / the maps' width.
+  const pixelMm = 80 / cmMap.source_width;
+  const scaleBar = async (zoom) => {
+    const bar = JSON.parse(await explorer.locator('.map-canvas').getAttribute('data-scale-bar'));
+    const canvasWidth = Number(await explorer.locator('.map-canvas').getAttribute('width'));
+    const visibleMm = 80 / zoom;
+    const expectedMm = [50, 20, 10, 5, 2, 1].find((mm) => mm <= visibleMm / 4);
+    assert.equal(bar.mm, expectedMm, `scale bar at zoom ${zoom}: ${JSON.stringify(bar)}`);
+    const expectedPx = expectedMm / pixelMm * canvasWidth / (cmMap.source_width / zoom);
+    assert.ok(Math.abs(bar.canvasPx - expectedPx) < 1e-6, `scale bar at zoom ${zoom}: ${bar.canvasPx} canvas px, the geometry gives ${expectedPx}`);
+    return bar;
+  };
+  const barWhole = await scaleBar(1);
   await explorer.getByRole('button', { name: 'Zoom in' }).click();
   assert.equal(await second.locator('.map-canvas').getAttribute('data-zoom'), '1.5', 'zoom linked to the second map');
+  const barZoomed = await scaleBar(1.5);
+  console.log(`scale bar: ${barWhole.mm} mm = ${barWhole.canvasPx} canvas px whole, ${barZoomed.mm} mm = ${barZoomed.canvasPx.toFixed(1)} px at 1.5x ` +
+    `(${pixelMm} mm per map pixel)`);
   await second.getByLabel('Map', { exact: true }).selectOption('flags');
   await waitUntil(page, () => document.querySelectorAll('.map-explorer')[1].dataset.state === 'ready', null, 60000, 'the flags map');
   const legend = await second.locator('.legend li').allTextContents();

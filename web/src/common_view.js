@@ -13,6 +13,8 @@ export function commonViewSection(results, relativeTo) {
   if (cameras.length < 2) return null;
   const view = linkedView();
   const reference = cameras[0].common_view_reference;
+  // The common view is the reference camera's grid: its scale.
+  const pixelMm = (results.cameras ?? []).find((c) => c.camera === reference)?.summary?.map_pixel_mm ?? 0;
   const rows = cameras.map((camera) => {
     if (!camera.common_view_file) {
       return h('p', { class: 'message error' }, `${camera.camera}: no common view — ${camera.common_view_reason}`);
@@ -22,7 +24,7 @@ export function commonViewSection(results, relativeTo) {
       : `${camera.camera}: residual ${formatNumber(camera.common_view_residual_px, 2)} cells (the white target's outline against ${reference}'s)`;
     return h('div', { 'data-common-view': camera.camera },
       h('p', { class: 'common-view-note' }, note),
-      mapExplorer(results.session_id, relativeTo(results.folder, camera.common_view_file), `${camera.camera} (common view)`, view));
+      mapExplorer(results.session_id, relativeTo(results.folder, camera.common_view_file), `${camera.camera} (common view)`, view, pixelMm));
   });
   return h('section', { class: 'card', 'aria-label': 'One view for every camera' },
     h('h3', {}, `One view for every camera (${reference}'s grid)`),

@@ -18,6 +18,7 @@ import { h, field, messageArea, formatNumber, decodeBase64 } from './dom.js';
 import { contrastControls } from './maps/contrast.js';
 import { drawMapImage, skinValues, cellKind, isCategorical } from './maps/map_image.js';
 import { regionStatisticsPanel } from './maps/region_statistics.js';
+import { drawScaleBar } from './maps/scale_bar.js';
 
 const FIRST_CHANNELS = ['Cm', 'Ch', 'Bm', 'Che', 'residual', 'order', 'flags'];
 const DISPLAY_WIDTH_PX = 960;  // the canvas's own pixels (shown 480 CSS pixels wide)
@@ -34,7 +35,8 @@ const pixelSpan = (from, to, size) => {
   return [begin, end];
 };
 
-export function mapExplorer(sessionId, mapsFile, cameraName, view) {
+// pixelMm: one map pixel's width on the subject (ResultsSummary.map_pixel_mm), 0 or absent when unknown: no scale bar.
+export function mapExplorer(sessionId, mapsFile, cameraName, view, pixelMm = 0) {
   const channel = h('select', {}, FIRST_CHANNELS.map((name) => h('option', { value: name }, name)));
   const loading = h('span', { class: 'map-loading', role: 'status' });
   const canvas = h('canvas', { class: 'map-canvas', tabindex: 0,
@@ -74,6 +76,9 @@ export function mapExplorer(sessionId, mapsFile, cameraName, view) {
       context.strokeStyle = '#e8171f';
       context.strokeRect(ax, ay, bx - ax, by - ay);
     }
+    const bar = drawScaleBar(context, map.source_width * w.size, pixelMm);
+    if (bar) canvas.dataset.scaleBar = JSON.stringify(bar);
+    else delete canvas.dataset.scaleBar;
     canvas.dataset.zoom = String(view.state.zoom);
   };
   function redrawImage(chosen) {

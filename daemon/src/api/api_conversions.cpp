@@ -115,6 +115,7 @@ void to_proto(const session::SessionProvenance& p, pb::SessionProvenance* out) {
   }
   out->set_camera_sensitivity(p.camera_sensitivity);
   for (const auto& [camera, source] : p.camera_sensitivity_of) (*out->mutable_camera_sensitivity_of())[camera] = source;
+  for (const auto& [camera, width_mm] : p.camera_field_width_mm) (*out->mutable_camera_field_width_mm())[camera] = width_mm;
   out->set_white_reflectance(p.white_reflectance);
   out->set_plan(p.plan);
   out->set_operator_name(p.operator_name);
@@ -173,6 +174,7 @@ void results_summary_to_proto(const nlohmann::json& r, const std::string& method
   summary->set_pixels_per_second(r.value("pixels_per_second", 0.0));
   summary->set_estimate_seconds(r.value("estimate_seconds", 0.0));
   summary->set_frames_read_back(frames_read_back);
+  summary->set_map_pixel_mm(r.value("map_pixel_mm", 0.0));
   if (r.contains("flag_counts") && r["flag_counts"].is_object())
     for (const auto& [name, count] : r["flag_counts"].items())
       if (count.is_number_unsigned()) (*summary->mutable_flag_counts())[name] = count.get<std::uint64_t>();

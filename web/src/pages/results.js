@@ -93,9 +93,10 @@ function previewFigures(results, camera, folder) {
 // explorer of the page); "Add a map" puts another channel beside.
 function explorers(results, camera, view) {
   const mapsFile = relativeTo(results.folder, camera.maps_file);
-  const row = h('div', { class: 'explorers' }, mapExplorer(results.session_id, mapsFile, camera.camera, view));
+  const pixelMm = camera.summary?.map_pixel_mm ?? 0;
+  const row = h('div', { class: 'explorers' }, mapExplorer(results.session_id, mapsFile, camera.camera, view, pixelMm));
   const add = h('button', { type: 'button' }, 'Add a map beside');
-  add.addEventListener('click', () => row.append(mapExplorer(results.session_id, mapsFile, camera.camera, view)));
+  add.addEventListener('click', () => row.append(mapExplorer(results.session_id, mapsFile, camera.camera, view, pixelMm)));
   return h('div', {}, row, add);
 }
 

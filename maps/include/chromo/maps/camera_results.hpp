@@ -78,6 +78,9 @@ struct SessionCamerasInput {
   // Cameras whose frames the builder refused (camera → the first reason):
   // listed failed with it, in or beside the builder's cameras.
   std::map<std::string, std::string> unusable;
+  // Camera → the subject's width one frame row spans, mm, where known
+  // (SessionProvenance::camera_field_width_mm): its maps' scale.
+  std::map<std::string, double> field_width_mm;
 };
 
 // Estimates every camera of input.builder (in cameras() order) into

@@ -60,6 +60,7 @@ struct EstimateReport {
   // Channels after "flags" in maps.exr (a polarised session's "surface" and
   // "highlight", docs/maps.md), width × height each.
   std::vector<std::pair<std::string, std::vector<float>>> extra_channels;
+  double map_pixel_mm = 0;  // one map pixel's width on the subject (0: unknown): the previews' scale bar
   // Further PNG files written after the previews (name, encoded bytes).
   std::vector<std::pair<std::string, std::vector<std::uint8_t>>> extra_pngs;
 };
@@ -161,6 +162,10 @@ struct MethodEstimationOptions {
   RelitModel relit_model = RelitModel::kTable;
   // The report's files (write_estimate_report): 0 = all cores, 1 = one after another on one thread.
   int writer_threads = 0;
+  // The subject's width one frame row spans, mm (0: unknown; the session's
+  // provenance camera_field_width_mm): the maps' pixel size is this over the
+  // maps' width, summary.json's "map_pixel_mm", and the previews' scale bar.
+  double field_width_mm = 0;
 };
 
 struct MethodEstimationResult {
@@ -170,6 +175,7 @@ struct MethodEstimationResult {
   // method's plan has more than four channels), summary.json's method.
   std::string inverter;
   double pixels_per_second = 0;
+  double map_pixel_mm = 0;  // one map pixel's width on the subject (0: unknown; options.field_width_mm / maps width)
   std::vector<RelitComparison> relit;
   std::vector<session::RegistrationReport> registration;
   std::uint64_t table_key = 0;  // the forward table's cache key (summary.json's table.key)

@@ -35,13 +35,26 @@ inline constexpr std::uint8_t kPreviewShown = 0;
 inline constexpr std::uint8_t kPreviewMasked = 1;        // a flag other than explained/specular: grey
 inline constexpr std::uint8_t kPreviewOutsideField = 2;  // no value or no_reference: black
 
+// A scale bar on a map of `width_px` pixels of `pixel_mm` each: the
+// longest 1-2-5 × 10^k mm no longer than a quarter of the map's width, and
+// its length in map pixels (round(mm / pixel_mm)); {0, 0} when pixel_mm is
+// not > 0. The web view's explorer chooses its bar the same way.
+struct ScaleBar {
+  double mm = 0;
+  int px = 0;
+};
+ScaleBar scale_bar_for(int width_px, double pixel_mm);
+
 // A false-colour map (viridis) of values in [low, high] (log scale if asked),
 // hidden pixels grey (masked) or black (outside the field, hide code 2), with
 // a colour bar, its ends and middle value, the label (a second line after
-// '\n', e.g. the unit) and the legend of grey and black on the right.
+// '\n', e.g. the unit) and the legend of grey and black on the right; with
+// map_pixel_mm > 0 (the subject's size of one map pixel) a scale bar in the
+// map's bottom-left corner: scale_bar_for's length in white with a black
+// edge, 4 pixels high, its bottom 8 pixels above the map's, labelled in mm.
 void write_map_png(const std::filesystem::path& path, const std::vector<float>& values, int width, int height,
                    double low, double high, bool log_scale, const std::string& label,
-                   const std::vector<std::uint8_t>& hide);
+                   const std::vector<std::uint8_t>& hide, double map_pixel_mm = 0);
 // Categorical map (flags, order): one colour per code with a legend.
 void write_category_png(const std::filesystem::path& path, const std::vector<float>& codes, int width, int height,
                         const std::vector<std::string>& names);
@@ -51,7 +64,7 @@ void write_category_png(const std::filesystem::path& path, const std::vector<flo
 // files::ImageError when encoding fails.
 std::vector<std::uint8_t> encode_map_png(const std::vector<float>& values, int width, int height, double low,
                                          double high, bool log_scale, const std::string& label,
-                                         const std::vector<std::uint8_t>& hide);
+                                         const std::vector<std::uint8_t>& hide, double map_pixel_mm = 0);
 std::vector<std::uint8_t> encode_category_png(const std::vector<float>& codes, int width, int height,
                                               const std::vector<std::string>& names);
 

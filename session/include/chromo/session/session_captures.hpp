@@ -52,6 +52,7 @@
 #include "chromo/calibration/led_library.hpp"
 #include "chromo/session/frame_sums.hpp"
 #include "chromo/session/session_plan.hpp"
+#include "chromo/session/session_provenance.hpp"
 #include "chromo/session/method_measurement.hpp"
 
 namespace chromo::session {
@@ -208,6 +209,10 @@ std::function<bool(const FrameRecord&)> first_camera_only();
 // The plan of a session folder (session.json); std::invalid_argument naming
 // the folder when it is not a session.
 SessionPlan read_session_plan(const std::filesystem::path& folder);
+// What the session was made with (session.json's provenance; recorded false
+// for an older session); std::invalid_argument naming the file and key when
+// it is not a session or the provenance is malformed.
+SessionProvenance read_session_provenance(const std::filesystem::path& folder);
 
 // The stored frames of a session folder's first camera (its journal's frame
 // records, TIFFs) through a SessionCaptureBuilder. Throws std::invalid_argument naming the

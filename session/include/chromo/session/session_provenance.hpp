@@ -36,6 +36,10 @@ struct SessionProvenance {
   std::map<std::string, MixProvenance> mixes;  // each mix a step names ("d65", "w57:1", ...)
   std::string camera_sensitivity;              // every camera's, unless named below
   std::map<std::string, std::string> camera_sensitivity_of;  // camera name → builtin:NAME or CSV
+  // Camera name → the subject's width one frame row spans, mm, where the
+  // geometry is known (the virtual lab's cameras; docs/maps.md "Scale bar"):
+  // the maps' scale bar. A camera not listed has no known scale.
+  std::map<std::string, double> camera_field_width_mm;
   double white_reflectance = 0;
   std::string plan;           // the plan's name
   std::string operator_name;  // who ran it (free text, as the request gave it)

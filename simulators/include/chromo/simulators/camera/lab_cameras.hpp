@@ -67,6 +67,15 @@ std::string lab_camera_serial(const LabCamera& camera, const std::string& first_
 // sensor and lens, looking at the patch centre from its orbit.
 std::optional<CameraView> lab_camera_view(const LabCamera& camera);
 
+// The subject's width one image row spans, in mm, at the scale of the image
+// centre (the geometry the maps' scale bar needs, docs/maps.md "Scale bar"):
+// without a pose the patch fills the sensor, so `patch_width_mm`; with one,
+// the sensor's width times the patch millimetres one sensor pixel covers
+// along its row at the image centre (the homography's local scale there:
+// distance × pixel size / focal length for a square-on camera). Throws as
+// patch_to_image_homography for a patch not in front of the camera.
+double lab_camera_field_width_mm(const LabCamera& camera, double patch_width_mm);
+
 // The sensitivity it names, or `fallback` when it names none. Throws
 // spectral::DataError (or std::invalid_argument for an unknown builtin).
 spectral::CameraSensitivity lab_camera_sensitivity(const LabCamera& camera,
