@@ -240,21 +240,23 @@ TEST_F(MapsApi, CompareSessionsFindsARegionsChangeAgainstItsNoise) {
       }
     return files::FloatImage{w, h, {"Cm", "Ch", "sigma_Ch", "flags"}, {cm, ch, sigma, std::vector<float>(ch.size(), 0.0f)}};
   };
-  files::write_exr(data / "before.exr", maps_with(1.0));
-  files::write_exr(data / "after.exr", maps_with(1.5));
-  auto compare = [&](const std::string& after_file, pb::MapRegion region, pb::CompareSessionsResponse* out) {
+  const files::FloatImage before_maps = maps_with(1.0), after_maps = maps_with(1.5);
+  files::write_exr(data / "before.exr", before_maps);
+  files::write_exr(data / "after.exr", after_maps);
+  auto compare = [&](const std::string& after_file, pb::MapRegion region, pb::CompareSessionsResponse* out,
+                     std::uint32_t map_max_width = 0) {
     grpc::ClientContext context;
     pb::CompareSessionsRequest request;
     request.set_maps_file("before.exr"), request.set_after_maps_file(after_file), request.set_channel("Ch");
-    request.set_no_registration(true);
+    request.set_no_registration(true), request.set_map_max_width(map_max_width);
     if (region.width() > 0) *request.mutable_region() = region;
     return stub->CompareSessions(&context, request, out);
   };
   pb::MapRegion flushed, elsewhere;
   flushed.set_x(6), flushed.set_y(6), flushed.set_width(36), flushed.set_height(28);
   elsewhere.set_x(50), elsewhere.set_y(36), elsewhere.set_width(36), elsewhere.set_height(28);
-  pb::CompareSessionsResponse found, quiet;
-  const grpc::Status status = compare("after.exr", flushed, &found);
+  pb::CompareSessionsResponse found, quiet, refused_map;
+  const grpc::Status status = compare("after.exr", flushed, &found, 48);
   ASSERT_TRUE(status.ok()) << status.error_message();
   ASSERT_TRUE(compare("after.exr", elsewhere, &quiet).ok());
   std::cout << "CompareSessions: flushed median difference " << found.median_difference() << " sigma "
@@ -281,6 +283,31 @@ TEST_F(MapsApi, CompareSessionsFindsARegionsChangeAgainstItsNoise) {
   EXPECT_DOUBLE_EQ(found.after().mean(), after_alone.mean());
   EXPECT_DOUBLE_EQ(found.after().median(), after_alone.median());
   EXPECT_NEAR(found.after().median() / found.before().median(), 1.5, 0.3);
+  // The difference map for display (the web view's before/after): 48 of 96
+  // columns, each cell the pixel at its centre, as GetMap samples.
+  ASSERT_EQ(found.map_width(), 48u);
+  ASSERT_EQ(found.map_height(), 36u);
+  const auto floats = [](const std::string& bytes) {
+    std::vector<float> v(bytes.size() / sizeof(float));
+    std::memcpy(v.data(), bytes.data(), v.size() * sizeof(float));
+    return v;
+  };
+  const std::vector<float> difference = floats(found.difference_f32()), sigma = floats(found.sigma_f32()), z = floats(found.z_f32());
+  ASSERT_EQ(difference.size(), 48u * 36u);
+  ASSERT_EQ(sigma.size(), difference.size());
+  ASSERT_EQ(z.size(), difference.size());
+  for (const auto [cx, cy] : {std::pair{0, 0}, std::pair{10, 7}, std::pair{47, 35}}) {
+    const std::size_t cell = static_cast<std::size_t>(cy) * 48 + cx;
+    const std::size_t pixel = static_cast<std::size_t>(2 * cy + 1) * w + (2 * cx + 1);  // the cell's centre pixel
+    const float expected = after_maps.channels[1][pixel] - before_maps.channels[1][pixel];
+    EXPECT_FLOAT_EQ(difference[cell], expected) << "cell " << cx << "," << cy;
+    EXPECT_FLOAT_EQ(sigma[cell], std::sqrt(0.2f * 0.2f * 2));
+    EXPECT_NEAR(z[cell], expected / sigma[cell], 1e-5);
+  }
+  EXPECT_TRUE(quiet.difference_f32().empty());  // no map asked for
+  grpc::Status too_narrow = compare("after.exr", flushed, &refused_map, 8);
+  EXPECT_EQ(too_narrow.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(too_narrow.error_message(), HasSubstr("map_max_width: must be 16-1024"));
 
   pb::CompareSessionsResponse refused;
   grpc::Status s = compare("missing.exr", flushed, &refused);
