@@ -176,6 +176,57 @@ class PackageTest(unittest.TestCase):
         self.assertGreater(advice[0].predicted_delta_e94_mean, 0)
         self.assertIn("D65", advice[0].predicted_delta_e94)
 
+    def test_photographs_list_a_relights_own_picture(self):
+        before = self.client.photographs(SESSION)
+        self.assertIsInstance(before, chromosphere.Photographs)
+        maps = self.client.maps(SESSION, channels=["Cm"])
+        self.assertEqual((before.maps_width, before.maps_height), (maps.width, maps.height))
+        relit = self.client.relight(SESSION, "D65", label="photograph")
+        picture = next(f for f in relit.files if f.endswith("relit.exr"))
+        after = self.client.photographs(SESSION)
+        listed = {p.file: p for p in after.photographs}
+        self.assertEqual(listed[picture], chromosphere.Photograph(picture, maps.width, maps.height, True))
+        self.assertIn(picture, [p.file for p in after.usable])
+        self.assertEqual(len(after.photographs), len(before.photographs) + 1)
+        self.assertEqual([p.file for p in after.photographs], sorted(listed))
+
+        async def listed_async():
+            async with chromosphere.AsyncClient(TARGET) as client:
+                return await client.photographs(SESSION)
+        self.assertEqual(asyncio.run(listed_async()), after)
+        with self.assertRaisesRegex(chromosphere.InvalidArgument, "MapsService.ListPhotographs: maps_file: must not contain"):
+            self.client.photographs(SESSION, "../maps.exr")
+
+    def test_preview_with_white_balance_and_a_region(self):
+        whole = next(self.client.preview(width=160, count=1))
+        self.assertIsInstance(whole, chromosphere.PreviewFrame)
+        self.assertEqual(whole.jpeg[:2], b"\xff\xd8")  # a JPEG
+        self.assertEqual((whole.width, whole.source), (160, "free_run"))
+        self.assertEqual(len(whole.histogram), 64)
+        self.assertEqual(whole.region_px, (0, 0, whole.width, whole.height))
+        self.assertTrue(whole.white_balance.startswith("none: raw"), whole.white_balance)  # not asked
+        frames = list(self.client.preview(width=160, white_balance=True, region=(0.25, 0.5, 0.5, 0.25), count=2))
+        self.assertEqual(len(frames), 2)
+        part = frames[-1]
+        self.assertEqual(part.region_px, (40, whole.height // 2, 80, whole.height // 4))
+        self.assertEqual(part.region_cells, 80 * (whole.height // 4))
+        self.assertEqual(sum(part.histogram), 4 * part.region_cells)  # a Bayer cell: four samples
+        self.assertEqual(sum(whole.histogram), 4 * whole.region_cells)
+        self.assertEqual(len(part.region_mean), 3)
+        # This daemon has no LED calibration: the picture stays raw, and says why.
+        self.assertRegex(part.white_balance, r"^none: raw \(.*calibration")
+        self.assertEqual(part.white_balance_gains, [1.0, 1.0, 1.0])
+
+        async def first_async():
+            async with chromosphere.AsyncClient(TARGET) as client:
+                async for frame in client.preview(width=160, region=(0.25, 0.5, 0.5, 0.25), count=1):
+                    return frame
+        self.assertEqual(asyncio.run(first_async()).region_px, part.region_px)
+        with self.assertRaisesRegex(chromosphere.InvalidArgument, "CameraService.StreamPreview: region"):
+            next(self.client.preview(width=160, region=(0.5, 0.5, 0.8, 0.2), count=1))
+        with self.assertRaisesRegex(chromosphere.InvalidArgument, "region: .* is not four numbers"):
+            next(self.client.preview(region=(0.1, 0.2, 0.3)))
+
 
 if __name__ == "__main__":
     unittest.main(argv=sys.argv[:1], verbosity=2)

@@ -11,6 +11,7 @@ import { tmpdir } from 'node:os';
 import path from 'node:path';
 import assert from 'node:assert/strict';
 import { browserOrSkip, Chromod, waitUntil, callApi, runMain } from './harness.mjs';
+import { formatNumber } from '../../web/src/dom.js';
 
 const [chromod, webDir, screenshotDir] = process.argv.slice(2);
 mkdirSync(screenshotDir, { recursive: true });
@@ -218,7 +219,62 @@ async function checkFramesTable(page, sessionId, states) {
 // the plan is cross-polarised with a parallel D65' capture, the frames say
 // so, and the results show optical highlights with the diffuse | surface |
 // combined panel.
-async function polarisedSession(page, port) {
+// Before and after (issue 42): on the later session's Results page, the
+// earlier session of the same subject is offered; the comparison the page
+// shows (verdict, both sessions' region statistics, the difference map under
+// the cursor) is CompareSessions' for the same request.
+async function comparisonChecks(page, afterId, beforeId) {
+  const card = page.locator('section.comparison');
+  await card.scrollIntoViewIfNeeded();
+  await waitUntil(page, () => Number(document.querySelector('section.comparison select[name="compare_with"]')?.dataset.sessions ?? -1) >= 0,
+    null, 20000, 'the sessions to compare with');
+  assert.equal(await card.locator('select[name="compare_with"]').inputValue(), beforeId, 'the earlier session of the subject is offered');
+  await waitUntil(page, () => document.querySelectorAll('section.comparison .region-field')[2]?.value !== '', null, 20000, 'the whole map as region');
+  const started = performance.now();
+  await card.getByRole('button', { name: 'Compare' }).click();
+  await waitUntil(page, () => ['ready', 'error'].includes(document.querySelector('.comparison-output')?.dataset.state), null, 60000, 'the comparison');
+  assert.equal(await card.locator('.comparison-output').getAttribute('data-state'), 'ready',
+    `comparison failed: ${await card.locator('.comparison-message').textContent()}`);
+  time('comparison_ms', started);
+  const shown = JSON.parse(await card.locator('.comparison-output').getAttribute('data-comparison'));
+  assert.equal(shown.request.session_id, beforeId, 'the older session is before');
+  assert.equal(shown.request.after_session_id, afterId);
+  const region = shown.request.region;
+  const apiStarted = performance.now();
+  const reply = (await api('MapsService', 'CompareSessions', shown.request)).json;
+  time('compare_sessions_api_ms', apiStarted);
+  assert.ok(reply.map_width > 0, JSON.stringify(reply).slice(0, 300));
+  assert.equal(region.width, reply.before.source_width, 'the default region is the whole map');
+  for (const key of ['median_difference', 'sigma_of_median', 'z', 'significant', 'compared_pixels', 'significant_pixels', 'region_compared_pixels', 'warped'])
+    assert.deepEqual(shown.reply[key], reply[key], `${key}: page ${shown.reply[key]}, API ${reply[key]}`);
+  for (const side of ['before', 'after'])
+    for (const key of ['mean', 'median', 'sd', 'pixels']) assert.deepEqual(shown.reply[side][key], reply[side][key], `${side} ${key}`);
+  const verdictText = await card.locator('.comparison-verdict').textContent();
+  assert.ok(verdictText.includes(`z ${formatNumber(reply.z, 3)}:`) && verdictText.includes(`median change ${formatNumber(reply.median_difference, 4)} ±`),
+    `verdict "${verdictText}" names the API's median change and z (${reply.median_difference}, ${reply.z})`);
+  // The difference under the cursor is the API's at that cell (a compared one).
+  const z = new Float32Array(Buffer.from(reply.z_f32, 'base64').buffer.slice(0));
+  const difference = new Float32Array(Buffer.from(reply.difference_f32, 'base64').buffer.slice(0));
+  const sigma = new Float32Array(Buffer.from(reply.sigma_f32, 'base64').buffer.slice(0));
+  const cell = z.findIndex((v, i) => Number.isFinite(v) && i % reply.map_width > reply.map_width / 3 && i > z.length / 3);
+  assert.ok(cell >= 0, 'no compared cell in the difference map');
+  const [cx, cy] = [cell % reply.map_width, Math.floor(cell / reply.map_width)];
+  const canvas = card.locator('.difference-canvas');
+  await canvas.scrollIntoViewIfNeeded();
+  const box = await canvas.boundingBox();
+  await page.mouse.move(box.x + (cx + 0.5) * box.width / reply.map_width, box.y + (cy + 0.5) * box.height / reply.map_height);
+  const readout = card.locator('.difference-value');
+  assert.equal(await readout.getAttribute('data-cell'), `${cx},${cy}`);
+  assert.equal(Number(await readout.getAttribute('data-difference')), difference[cell], 'difference under the cursor');
+  assert.equal(Number(await readout.getAttribute('data-sigma')), sigma[cell], 'its σ');
+  assert.equal(Number(await readout.getAttribute('data-z')), z[cell], 'its z');
+  console.log(`before/after ${beforeId} → ${afterId}: ${reply.channel} median change ${reply.median_difference} ± ${reply.sigma_of_median} ` +
+    `(z ${reply.z}, ${reply.significant ? 'changed' : 'unchanged'}), ${reply.significant_pixels} of ${reply.compared_pixels} pixels beyond ` +
+    `${reply.threshold_sigma} sigma, warped ${reply.warped}: page equals CompareSessions; ${figures.comparison_ms} ms`);
+  await card.screenshot({ path: path.join(screenshotDir, 'results-comparison.png') });
+}
+
+async function polarisedSession(page, port, earlierSessionId) {
   await stopDaemon();
   writeFileSync(path.join(home, 'chromod.json'), JSON.stringify({ token: TOKEN, web_dir: webDir, virtual_lab: { polarisers: true } }));
   origin = await startDaemon(port);
@@ -235,7 +291,7 @@ async function polarisedSession(page, port) {
   const planStates = new Set(await page.locator('.plan tbody tr td:nth-child(5)').allTextContents());
   assert.ok(planStates.has('cross') && planStates.has('parallel'), `the polarised plan's states: ${[...planStates]}`);
   const started = performance.now();
-  const operation = await api('SessionService', 'StartSession', { standard: true, subject: 'polarised forearm', exposure_us: 10000 });
+  const operation = await api('SessionService', 'StartSession', { standard: true, subject: 'browser test forearm', exposure_us: 10000 });
   assert.equal(operation.status, 200, JSON.stringify(operation.json));
   const id = operation.json.id;
   for (let state = ''; ; await new Promise((resolve) => setTimeout(resolve, 500))) {
@@ -259,6 +315,7 @@ async function polarisedSession(page, port) {
   await checkFramesTable(page, id, ['cross', 'parallel']);
   await page.screenshot({ path: path.join(screenshotDir, 'results-polarised.png'), fullPage: true });
   console.log(`polarised session ${id}: highlights optical, ${camera.summary.highlight_pixels ?? 0} pixels flagged; ${figures.polarised_session_ms} ms`);
+  await comparisonChecks(page, id, earlierSessionId);
 }
 
 async function main() {
@@ -508,7 +565,7 @@ async function main() {
   await waitForNewFrames(page, 2);
   console.log('daemon away shown and recovered');
 
-  await polarisedSession(page, port);
+  await polarisedSession(page, port, sessionId);
 
   await browser.close();
   console.log(`timings: ${JSON.stringify(figures)}`);

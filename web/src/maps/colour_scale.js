@@ -69,3 +69,13 @@ export function percentileOfSorted(sorted, percent) {
   const above = Math.min(below + 1, sorted.length - 1);
   return sorted[below] + (sorted[above] - sorted[below]) * (rank - below);
 }
+
+// ColorBrewer's RdBu (reversed: negative blue, zero white, positive red) for
+// a signed quantity such as a difference's z; t in 0-1, 0.5 is zero.
+const DIVERGING = [[33, 102, 172], [103, 169, 207], [209, 229, 240], [247, 247, 247], [253, 219, 199], [239, 138, 98], [178, 24, 43]];
+export function diverging(t) {
+  const x = Math.min(Math.max(t, 0), 1) * (DIVERGING.length - 1);
+  const i = Math.min(Math.floor(x), DIVERGING.length - 2);
+  const f = x - i;
+  return DIVERGING[i].map((a, k) => Math.round(a + (DIVERGING[i + 1][k] - a) * f));
+}

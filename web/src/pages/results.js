@@ -4,7 +4,8 @@
 // statistics, zoom and pan linked across maps and cameras; the previews
 // chromod wrote next to maps.exr, each opening full size) and links to the files; relighting (MapsService.Relight) under
 // the offered illuminants with the photograph | reconstruction | ΔE94 panel
-// and its figures; the session's frames with each one's step, exposure and
+// and its figures; before and after against another session of the subject
+// (maps/session_comparison.js); the session's frames with each one's step, exposure and
 // polarisation (GetSession with frames).
 import * as api from '../api.js';
 import { h, field, messageArea, table, enumName, formatNumber, polarisationName } from '../dom.js';
@@ -12,6 +13,7 @@ import { mapExplorer } from '../map_explorer.js';
 import { provenanceCard } from '../provenance.js';
 import { linkedView } from '../maps/linked_view.js';
 import { commonViewSection } from '../common_view.js';
+import { comparisonSection } from '../maps/session_comparison.js';
 
 const ILLUMINANTS = ['D65', 'D50', 'A', '4000K', 'W57', 'W40', 'W27', 'R', 'G', 'B'];
 const MAP_PREVIEWS = [['cm', 'Cm (melanin)'], ['ch', 'Ch (hemoglobin)'], ['bm', 'βm (melanin blend)'],
@@ -201,7 +203,7 @@ export function mountResults(container, sessionId) {
       body.append(relightSection(results), ...(results.cameras ?? []).map((camera) => cameraResults(results, camera, view)));
       const common = commonViewSection(results, relativeTo);
       if (common) body.append(common);
-      body.append(framesSection(id));
+      body.append(comparisonSection(results), framesSection(id));
     } catch (error) {
       message.error(error);
     }

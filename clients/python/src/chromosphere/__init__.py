@@ -7,12 +7,14 @@ from .client import Client
 from ._convert import default_target
 from .errors import (ChromosphereError, FailedPrecondition, InvalidArgument, NotFound, PermissionDenied,
                      ResourceExhausted, StoredSessionError, Unavailable)
-from .model import CameraResults, MapChannel, Maps, PlanAdvice, Progress, Relit, Results, SessionRun
+from .model import (CameraResults, MapChannel, Maps, Photograph, Photographs, PlanAdvice, PreviewFrame, Progress, Relit,
+                    Results, SessionRun)
 from .stored import StoredSession, open_session, read_ome_maps
 
 __all__ = [
     "AsyncClient", "CameraResults", "ChromosphereError", "Client", "FailedPrecondition", "InvalidArgument",
-    "MapChannel", "Maps", "NotFound", "PermissionDenied", "PlanAdvice", "Progress", "Relit", "ResourceExhausted",
+    "MapChannel", "Maps", "NotFound", "PermissionDenied", "Photograph", "Photographs", "PlanAdvice", "PreviewFrame",
+    "Progress", "Relit", "ResourceExhausted",
     "Results", "SessionRun", "StoredSession", "StoredSessionError", "Unavailable", "default_target",
     "open_session", "read_ome_maps",
 ]

@@ -10,8 +10,9 @@ import numpy as np
 from google.protobuf.json_format import MessageToDict
 
 from .errors import InvalidArgument
-from .model import CameraResults, MapChannel, Maps, PlanAdvice, Progress, Relit, Results
-from .v1 import estimation_pb2, maps_pb2, operations_pb2, planning_pb2, sessions_pb2
+from .model import (CameraResults, MapChannel, Maps, Photograph, Photographs, PlanAdvice, PreviewFrame, Progress, Relit,
+                    Results)
+from .v1 import cameras_pb2, estimation_pb2, maps_pb2, operations_pb2, planning_pb2, sessions_pb2
 
 FINAL_STATES = {"succeeded", "failed", "cancelled", "interrupted"}
 
@@ -148,3 +149,32 @@ def plan_advice(response: planning_pb2.ComparePlansResponse) -> List[PlanAdvice]
                               predicted_delta_e94_mean=a.predicted_delta_e94_mean,
                               monte_carlo_delta_e94_mean=a.monte_carlo_delta_e94_mean if a.checked else None))
     return out
+
+
+def photographs(r: maps_pb2.ListPhotographsResponse) -> Photographs:
+    return Photographs(maps_width=r.maps_width, maps_height=r.maps_height,
+                       photographs=[Photograph(file=p.file, width=p.width, height=p.height, same_size=p.same_size)
+                                    for p in r.photographs])
+
+
+Region = Sequence[float]  # x, y, width, height as fractions of the frame (0-1)
+
+
+def preview_request(camera: str, rate_hz: float, width: int, white_balance: bool,
+                    region: Optional[Region]) -> cameras_pb2.StreamPreviewRequest:
+    request = cameras_pb2.StreamPreviewRequest(camera=camera, rate_hz=rate_hz, width=width, white_balance=white_balance)
+    if region is not None:
+        values = list(region)
+        if len(values) != 4:
+            raise InvalidArgument(f"region: {values!r} is not four numbers (x, y, width, height as fractions of the frame)")
+        request.region.x, request.region.y, request.region.width, request.region.height = (float(v) for v in values)
+    return request
+
+
+def preview_frame(f: cameras_pb2.PreviewFrame) -> PreviewFrame:
+    return PreviewFrame(camera=f.camera, width=f.width, height=f.height, jpeg=bytes(f.jpeg), clipped_pixels=f.clipped_pixels,
+                        histogram=list(f.histogram), full_scale=f.full_scale, pixel_format=f.pixel_format,
+                        exposure_us=f.exposure_us, source=f.source, sequence=f.sequence,
+                        region_mean=list(f.region_mean), region_cells=f.region_cells,
+                        region_px=(f.region_x, f.region_y, f.region_width, f.region_height),
+                        white_balance=f.white_balance, white_balance_gains=list(f.white_balance_gains))

@@ -7,7 +7,7 @@ coroutines, for notebooks and services that run an event loop.
 """
 from __future__ import annotations
 
-from typing import Iterable, List, Optional, Sequence
+from typing import AsyncIterator, Iterable, List, Optional, Sequence
 
 import grpc
 from grpc import aio
@@ -15,8 +15,8 @@ from grpc import aio
 from . import _convert
 from .client import ProgressCallback, channel_credentials
 from .errors import ChromosphereError, FailedPrecondition, from_rpc_error
-from .model import Maps, PlanAdvice, Progress, Relit, Results, SessionRun
-from .v1 import (estimation_pb2, estimation_pb2_grpc, maps_pb2, maps_pb2_grpc, operations_pb2,
+from .model import Maps, Photographs, PlanAdvice, PreviewFrame, Progress, Relit, Results, SessionRun
+from .v1 import (cameras_pb2_grpc, estimation_pb2, estimation_pb2_grpc, maps_pb2, maps_pb2_grpc, operations_pb2,
                  operations_pb2_grpc, planning_pb2_grpc, sessions_pb2_grpc)
 
 
@@ -29,6 +29,7 @@ class AsyncClient:
         self.timeout = timeout
         credentials = channel_credentials(token, root_certificates)
         self.channel = aio.secure_channel(self.target, credentials) if credentials else aio.insecure_channel(self.target)
+        self._cameras = cameras_pb2_grpc.CameraServiceStub(self.channel)
         self._operations = operations_pb2_grpc.OperationServiceStub(self.channel)
         self._sessions = sessions_pb2_grpc.SessionServiceStub(self.channel)
         self._results = estimation_pb2_grpc.ResultsServiceStub(self.channel)
@@ -109,6 +110,28 @@ class AsyncClient:
         request = maps_pb2.RelightRequest(session_id=session_id, maps_file=maps_file, illuminant=illuminant,
                                           label=label, photograph_file=photograph_file)
         return _convert.relit(await self._call("MapsService.Relight", self._maps.Relight, request))
+
+    async def photographs(self, session_id: str, maps_file: str = "results/maps.exr") -> Photographs:
+        request = maps_pb2.ListPhotographsRequest(session_id=session_id, maps_file=maps_file)
+        return _convert.photographs(await self._call("MapsService.ListPhotographs", self._maps.ListPhotographs,
+                                                     request))
+
+    async def preview(self, camera: str = "", *, rate_hz: float = 10.0, width: int = 480, white_balance: bool = False,
+                      region: Optional[_convert.Region] = None, count: Optional[int] = None) -> AsyncIterator[PreviewFrame]:
+        """The blocking :meth:`Client.preview` as an async generator."""
+        request = _convert.preview_request(camera, rate_hz, width, white_balance, region)
+        call = self._cameras.StreamPreview(request, timeout=self.timeout)
+        try:
+            number = 0
+            async for frame in call:
+                number += 1
+                yield _convert.preview_frame(frame)
+                if count is not None and number >= count:
+                    break
+        except grpc.RpcError as error:
+            raise from_rpc_error(error, "CameraService.StreamPreview") from None
+        finally:
+            call.cancel()
 
     async def compare_plans(self, plans: Iterable[_convert.PlanLike], *, skins: int = 0, seed: int = 0,
                             interior_population: bool = False, monte_carlo_draws: int = 0) -> List[PlanAdvice]:

@@ -1,14 +1,14 @@
 """The blocking client of chromod (the Chromosphere daemon)."""
 from __future__ import annotations
 
-from typing import Callable, Iterable, List, Optional, Sequence
+from typing import Callable, Iterable, Iterator, List, Optional, Sequence
 
 import grpc
 
 from . import _convert
 from .errors import ChromosphereError, FailedPrecondition, from_rpc_error
-from .model import Maps, PlanAdvice, Progress, Relit, Results, SessionRun
-from .v1 import (devices_pb2, devices_pb2_grpc, estimation_pb2, estimation_pb2_grpc, maps_pb2_grpc,
+from .model import Maps, Photographs, PlanAdvice, PreviewFrame, Progress, Relit, Results, SessionRun
+from .v1 import (cameras_pb2_grpc, devices_pb2, devices_pb2_grpc, estimation_pb2, estimation_pb2_grpc, maps_pb2_grpc,
                  maps_pb2, operations_pb2, operations_pb2_grpc, planning_pb2_grpc, sessions_pb2,
                  sessions_pb2_grpc)
 
@@ -41,6 +41,7 @@ class Client:
         self.channel = (grpc.secure_channel(self.target, credentials) if credentials
                         else grpc.insecure_channel(self.target))
         self._devices = devices_pb2_grpc.DeviceServiceStub(self.channel)
+        self._cameras = cameras_pb2_grpc.CameraServiceStub(self.channel)
         self._operations = operations_pb2_grpc.OperationServiceStub(self.channel)
         self._sessions = sessions_pb2_grpc.SessionServiceStub(self.channel)
         self._results = estimation_pb2_grpc.ResultsServiceStub(self.channel)
@@ -141,6 +142,32 @@ class Client:
         request = maps_pb2.RelightRequest(session_id=session_id, maps_file=maps_file, illuminant=illuminant,
                                           label=label, photograph_file=photograph_file)
         return _convert.relit(self._call("MapsService.Relight", self._maps.Relight, request))
+
+    def photographs(self, session_id: str, maps_file: str = "results/maps.exr") -> Photographs:
+        """The session folder's RGB OpenEXR files a relight of maps_file can compare against (the
+        web view's picker): each with its size and whether it is the maps' (then usable)."""
+        request = maps_pb2.ListPhotographsRequest(session_id=session_id, maps_file=maps_file)
+        return _convert.photographs(self._call("MapsService.ListPhotographs", self._maps.ListPhotographs, request))
+
+    def preview(self, camera: str = "", *, rate_hz: float = 10.0, width: int = 480, white_balance: bool = False,
+                region: Optional[_convert.Region] = None, count: Optional[int] = None) -> Iterator[PreviewFrame]:
+        """Yields live preview frames of a camera ("": the only one) at up to rate_hz (0-30), width
+        64-1280 pixels; stops after ``count`` frames when given. white_balance: the picture balanced
+        for a white target under the LEDs as driven now, from chromod's LED library (the frame says
+        which, or "none: raw" and why); region: (x, y, width, height) as fractions of the frame that
+        the histogram and region_mean come from (None: the whole frame; outside [0, 1]:
+        InvalidArgument naming it). During a session the frames are the session's own."""
+        request = _convert.preview_request(camera, rate_hz, width, white_balance, region)
+        stream = self._cameras.StreamPreview(request, timeout=self.timeout)
+        try:
+            for number, frame in enumerate(stream, 1):
+                yield _convert.preview_frame(frame)
+                if count is not None and number >= count:
+                    break
+        except grpc.RpcError as error:
+            raise from_rpc_error(error, "CameraService.StreamPreview") from None
+        finally:
+            stream.cancel()
 
     def compare_plans(self, plans: Iterable[_convert.PlanLike], *, skins: int = 0, seed: int = 0,
                       interior_population: bool = False, monte_carlo_draws: int = 0) -> List[PlanAdvice]:

@@ -3,7 +3,7 @@ protobuf messages or daemon-side paths the caller has to interpret."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Dict, Iterator, List, Mapping, Optional
+from typing import Dict, Iterator, List, Mapping, Optional, Tuple
 
 import numpy as np
 
@@ -161,3 +161,56 @@ class PlanAdvice:
     predicted_delta_e94: Dict[str, float]  # per illuminant
     predicted_delta_e94_mean: float
     monte_carlo_delta_e94_mean: Optional[float]  # None unless checked
+
+
+@dataclass(frozen=True)
+class Photograph:
+    """An RGB OpenEXR file of a session folder that a relight can compare against
+    (:meth:`Client.relight`'s photograph_file): usable when same_size (the maps' size)."""
+
+    file: str  # relative to the session folder
+    width: int
+    height: int
+    same_size: bool
+
+
+@dataclass(frozen=True)
+class Photographs:
+    """The photographs of a session folder for one maps file (MapsService.ListPhotographs)."""
+
+    maps_width: int
+    maps_height: int
+    photographs: List[Photograph]
+
+    @property
+    def usable(self) -> List[Photograph]:
+        """Those of the maps' size."""
+        return [p for p in self.photographs if p.same_size]
+
+
+@dataclass(frozen=True)
+class PreviewFrame:
+    """One live preview frame (CameraService.StreamPreview, docs/web.md "Cameras in the API").
+
+    jpeg: the picture (sRGB; white-balanced when asked and possible); histogram: 64 bins of the
+    region's raw values over [0, full_scale]; region_mean: the region's raw mean per channel
+    (R, G, B; mono: one); region_px: the region in preview pixels (x, y, width, height);
+    white_balance: what the picture's balance came from, or "none: raw" and why;
+    white_balance_gains: the R, G, B gains applied (1, 1, 1 when none)."""
+
+    camera: str
+    width: int
+    height: int
+    jpeg: bytes
+    clipped_pixels: int
+    histogram: List[int]
+    full_scale: int
+    pixel_format: str
+    exposure_us: float
+    source: str  # "free_run" or "session:<id>"
+    sequence: int
+    region_mean: List[float]
+    region_cells: int
+    region_px: Tuple[int, int, int, int]
+    white_balance: str
+    white_balance_gains: List[float]

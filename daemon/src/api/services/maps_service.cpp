@@ -221,6 +221,46 @@ void fill_region_statistics(const chromo::files::FloatImage& image, const std::s
   response->set_source_width(image.width), response->set_source_height(image.height);
 }
 
+// The cells a map is shown at (GetMap, CompareSessions' difference map): at
+// most max_width across (never more than the map's own width), the height in
+// the map's aspect; each cell is the map pixel at the cell's centre (no
+// averaging: a value shown is a value the map holds).
+struct DisplayGrid {
+  int width = 0, height = 0;
+  std::vector<std::size_t> source_pixel;  // per cell, row-major: the map pixel it shows
+
+  std::vector<float> sample(const std::vector<float>& map) const {
+    std::vector<float> cells;
+    cells.reserve(source_pixel.size());
+    for (const std::size_t at : source_pixel) cells.push_back(map[at]);
+    return cells;
+  }
+};
+DisplayGrid display_grid(int source_width, int source_height, std::uint32_t max_width) {
+  DisplayGrid grid;
+  grid.width = std::min<int>(static_cast<int>(max_width), source_width);
+  grid.height = std::max(1, static_cast<int>(std::lround(static_cast<double>(source_height) * grid.width / source_width)));
+  grid.source_pixel.reserve(static_cast<std::size_t>(grid.width) * grid.height);
+  for (int y = 0; y < grid.height; ++y) {
+    const int sy = std::min(source_height - 1, static_cast<int>((y + 0.5) * source_height / grid.height));
+    for (int x = 0; x < grid.width; ++x) {
+      const int sx = std::min(source_width - 1, static_cast<int>((x + 0.5) * source_width / grid.width));
+      grid.source_pixel.push_back(static_cast<std::size_t>(sy) * source_width + sx);
+    }
+  }
+  return grid;
+}
+// A display width field: 16-1024 cells, else INVALID_ARGUMENT naming it.
+void check_display_width(const char* field, std::uint32_t width, const char* zero_means) {
+  if (width < 16 || width > 1024)
+    throw Refusal{{StatusCode::INVALID_ARGUMENT, std::string(field) + ": must be 16-1024 (" + zero_means + ")"}};
+}
+// Values as packed little-endian float32 bytes, as this x86/ARM host holds them.
+void set_packed(const std::vector<float>& values, std::string* bytes) {
+  static_assert(std::endian::native == std::endian::little);
+  bytes->assign(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(float));
+}
+
 class MapsServiceImpl final : public pb::MapsService::Service {
  public:
   MapsServiceImpl(Daemon& daemon, Guard& guard) : daemon_(daemon), guard_(guard) {}
@@ -228,8 +268,7 @@ class MapsServiceImpl final : public pb::MapsService::Service {
   Status GetMap(ServerContext* context, const pb::GetMapRequest* request, pb::GetMapResponse* response) override {
     return run(context, request->session_id(), [&](const Folder& files) {
       const std::uint32_t max_width = request->max_width() == 0 ? 320 : request->max_width();
-      if (max_width < 16 || max_width > 1024)
-        throw Refusal{{StatusCode::INVALID_ARGUMENT, "max_width: must be 16-1024 (0: 320)"}};
+      check_display_width("max_width", max_width, "0: 320");
       const auto decoded = read_maps_file(decoded_maps_, files, request->maps_file());
       const chromo::files::FloatImage& image = *decoded;
       for (const std::string& name : image.channel_names) response->add_channels(name);
@@ -244,29 +283,18 @@ class MapsServiceImpl final : public pb::MapsService::Service {
       const std::vector<float>* sigma = sigma_found == image.channel_names.end()
                                             ? nullptr
                                             : &image.channels[static_cast<std::size_t>(sigma_found - image.channel_names.begin())];
-      const int width = std::min<int>(static_cast<int>(max_width), image.width);
-      const int height = std::max(1, static_cast<int>(std::lround(static_cast<double>(image.height) * width / image.width)));
-      response->set_width(width), response->set_height(height);
+      const DisplayGrid grid = display_grid(image.width, image.height, max_width);
+      response->set_width(grid.width), response->set_height(grid.height);
       response->set_source_width(image.width), response->set_source_height(image.height);
+      const std::vector<float> sampled = grid.sample(values);
+      const std::vector<float> sampled_sigma = sigma ? grid.sample(*sigma) : std::vector<float>{};
       float lo = std::numeric_limits<float>::infinity(), hi = -lo;
-      std::vector<float> sampled, sampled_sigma;
-      sampled.reserve(static_cast<std::size_t>(width) * height);
-      for (int y = 0; y < height; ++y) {
-        const int sy = std::min(image.height - 1, static_cast<int>((y + 0.5) * image.height / height));
-        for (int x = 0; x < width; ++x) {
-          const int sx = std::min(image.width - 1, static_cast<int>((x + 0.5) * image.width / width));
-          const std::size_t at = static_cast<std::size_t>(sy) * image.width + sx;
-          const float v = values[at];
-          sampled.push_back(v);
-          if (sigma) sampled_sigma.push_back((*sigma)[at]);
-          if (std::isfinite(v)) lo = std::min(lo, v), hi = std::max(hi, v);
-        }
-      }
+      for (const float v : sampled)
+        if (std::isfinite(v)) lo = std::min(lo, v), hi = std::max(hi, v);
       response->set_min(std::isfinite(lo) ? lo : 0), response->set_max(std::isfinite(hi) ? hi : 0);
-      if (request->packed()) {  // little-endian float32, as this x86/ARM host holds them
-        static_assert(std::endian::native == std::endian::little);
-        response->set_values_f32(sampled.data(), sampled.size() * sizeof(float));
-        response->set_sigma_f32(sampled_sigma.data(), sampled_sigma.size() * sizeof(float));
+      if (request->packed()) {
+        set_packed(sampled, response->mutable_values_f32());
+        set_packed(sampled_sigma, response->mutable_sigma_f32());
       } else {
         response->mutable_values()->Add(sampled.begin(), sampled.end());
         response->mutable_sigma_values()->Add(sampled_sigma.begin(), sampled_sigma.end());
@@ -295,6 +323,7 @@ class MapsServiceImpl final : public pb::MapsService::Service {
                          pb::CompareSessionsResponse* response) override {
     return run(context, request->session_id(), [&](const Folder& files) {
       if (!request->has_region()) throw Refusal{{StatusCode::INVALID_ARGUMENT, "region: required (x, y, width, height)"}};
+      if (request->map_max_width() > 0) check_display_width("map_max_width", request->map_max_width(), "0: no map");
       const Folder after_files(daemon_, request->after_session_id());  // "" : maps_dir, as session_id
       const auto before = read_maps_file(decoded_maps_, files, request->maps_file());
       const auto after = read_maps_file(decoded_maps_, after_files, request->after_maps_file(), "after_maps_file");
@@ -327,6 +356,13 @@ class MapsServiceImpl final : public pb::MapsService::Service {
       response->set_z(change.z), response->set_significant(change.significant);
       response->set_mean_difference(change.mean_difference);
       response->set_sigma_of_mean_from_sigma_maps(change.sigma_of_mean);
+      if (request->map_max_width() > 0) {
+        const DisplayGrid grid = display_grid(d.width, d.height, request->map_max_width());
+        response->set_map_width(grid.width), response->set_map_height(grid.height);
+        set_packed(grid.sample(d.difference), response->mutable_difference_f32());
+        set_packed(grid.sample(d.sigma), response->mutable_sigma_f32());
+        set_packed(grid.sample(d.z), response->mutable_z_f32());
+      }
     });
   }
 
