@@ -70,6 +70,7 @@ bool DaemonConfig::IsValid(std::string* error) const {
     return fail("tcp_handshake_timeout_ms: must be in [100, 120000]");
   if (tcp_idle_timeout_ms < 100 || tcp_idle_timeout_ms > 3600000)
     return fail("tcp_idle_timeout_ms: must be in [100, 3600000]");
+  if (max_tcp_connections < 1 || max_tcp_connections > 4096) return fail("max_tcp_connections: must be in [1, 4096]");
   if (web_max_body_bytes < 1024 || web_max_body_bytes > (64u << 20))
     return fail("web_max_body_bytes: must be in [1024, 67108864]");
   if (web_stream_keepalive_ms < 100 || web_stream_keepalive_ms > 600000)
@@ -368,6 +369,7 @@ const std::vector<Key>& top_level_keys() {
       unsigned_key("tcp_handshake_timeout_ms", 100, 120000,
                    [](DaemonConfig& c) -> auto& { return c.tcp_handshake_timeout_ms; }),
       unsigned_key("tcp_idle_timeout_ms", 100, 3600000, [](DaemonConfig& c) -> auto& { return c.tcp_idle_timeout_ms; }),
+      unsigned_key("max_tcp_connections", 1, 4096, [](DaemonConfig& c) -> auto& { return c.max_tcp_connections; }),
       string_key("maps_dir", [](DaemonConfig& c) -> auto& { return c.maps_dir; }, optional_folder),
       unsigned_key("max_read_maps_bytes", 1ull << 20, 1ull << 36,
                    [](DaemonConfig& c) -> auto& { return c.max_read_maps_bytes; }),

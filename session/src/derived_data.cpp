@@ -36,6 +36,116 @@ std::string illumination_key(const Step& step) {
   return "dark";
 }
 
+// One derived file: its channels are made and written by one job (so at
+// most `threads` files' pixels are in memory at once); the journal record
+// follows once every file is written.
+struct DerivedFile {
+  std::string name;
+  const FrameSums* like;  // its width and height
+  std::function<std::vector<FloatChannel>()> channels;
+  nlohmann::json record;
+};
+
+// derived/<step>-<camera>-mean.exr for every (step, camera) with frames.
+void add_mean_files(const SessionFrameSums& sums, std::vector<DerivedFile>& outputs) {
+  for (const auto& [key, mean] : sums.by_step_and_camera()) {
+    const FrameSums* m = &mean;
+    outputs.push_back({key.first + "-" + key.second + "-mean.exr", m,
+                       [m] {
+                         std::vector<FloatChannel> channels;
+                         const int samples = m->format().samples_per_pixel;
+                         auto names = channel_names(samples);
+                         for (int c = 0; c < samples; ++c)
+                           channels.push_back({names[static_cast<std::size_t>(c)], m->mean_channel(c)});
+                         return channels;
+                       },
+                       {{"kind", "mean"}, {"step", key.first}, {"camera", key.second}, {"frames", mean.frames()}}});
+  }
+}
+
+// The albedo channels of a subject against its white and the dark:
+// ρ·(subject − dark)/(white − dark), NaN where white − dark ≤ 1/1000.
+std::vector<FloatChannel> albedo_channels(const FrameSums& subject, const FrameSums& dark, const FrameSums& white,
+                                          float rho) {
+  std::vector<FloatChannel> channels;
+  const int samples = subject.format().samples_per_pixel;
+  auto names = channel_names(samples);
+  for (int c = 0; c < samples; ++c) {
+    auto sv = subject.mean_channel(c), dv = dark.mean_channel(c), wv = white.mean_channel(c);
+    std::vector<float> albedo(sv.size());
+    for (std::size_t i = 0; i < sv.size(); ++i) {
+      const float denominator = wv[i] - dv[i];
+      albedo[i] = denominator > 1e-3f ? rho * (sv[i] - dv[i]) / denominator : std::numeric_limits<float>::quiet_NaN();
+    }
+    channels.push_back({names[static_cast<std::size_t>(c)], std::move(albedo)});
+  }
+  return channels;
+}
+
+// derived/albedo-<illumination>-<camera>.exr per subject step with a white
+// under its illumination and a dark step (the plan's first by name), per
+// camera that has all three at one size.
+void add_albedo_files(const SessionPlan& plan, const SessionFrameSums& sums, double white_reflectance,
+                      std::vector<DerivedFile>& outputs) {
+  const float rho = static_cast<float>(white_reflectance);
+  const auto& means = sums.by_step_and_camera();  // (step, camera)
+  std::map<std::string, const Step*> dark_steps, white_by_illumination;
+  for (const auto& step : plan.steps) {
+    if (step.role == StepRole::kDark) dark_steps[step.name] = &step;
+    if (step.role == StepRole::kWhite) white_by_illumination[illumination_key(step)] = &step;
+  }
+  if (dark_steps.empty()) return;
+  const std::string dark = dark_steps.begin()->first;
+  for (const auto& step : plan.steps) {
+    if (step.role != StepRole::kSubject) continue;
+    auto white = white_by_illumination.find(illumination_key(step));
+    if (white == white_by_illumination.end()) continue;
+    for (const auto& [key, subject] : means) {
+      if (key.first != step.name) continue;
+      auto d = means.find({dark, key.second});
+      auto w = means.find({white->second->name, key.second});
+      if (d == means.end() || w == means.end() || d->second.sums().size() != subject.sums().size() ||
+          w->second.sums().size() != subject.sums().size())
+        continue;
+      const FrameSums *s = &subject, *dk = &d->second, *wh = &w->second;
+      outputs.push_back({"albedo-" + illumination_key(step) + "-" + key.second + ".exr", s,
+                         [s, dk, wh, rho] { return albedo_channels(*s, *dk, *wh, rho); },
+                         {{"kind", "albedo"}, {"step", step.name}, {"camera", key.second},
+                          {"white_step", white->second->name}, {"dark_step", dark},
+                          {"white_reflectance", white_reflectance}}});
+    }
+  }
+}
+
+// The files on `threads` workers, each file's blocks compressed on the
+// worker's own thread: whole files in parallel need no pool and keep every
+// core busy with the channel arithmetic too. Returns each file's failure
+// (null where written); no new file is started once one failed.
+std::vector<std::exception_ptr> write_files(const std::filesystem::path& folder, const std::vector<DerivedFile>& outputs,
+                                            files::StorageBudget* budget, const DerivedDataOptions& options) {
+  const int threads = std::min<int>(files::exr_writer_threads(options.threads), static_cast<int>(outputs.size()));
+  const files::ExrWriteOptions exr{threads > 1 ? 1 : files::exr_writer_threads(options.threads), options.zip_level};
+  std::vector<std::exception_ptr> failed(outputs.size());
+  std::atomic<std::size_t> next{0};
+  std::atomic<bool> stop{false};
+  auto work = [&] {
+    for (std::size_t i = next++; i < outputs.size() && !stop; i = next++) {
+      try {
+        const DerivedFile& f = outputs[i];
+        write_float_exr(folder / "derived" / f.name, f.like->width(), f.like->height(), f.channels(), budget, exr);
+      } catch (...) {
+        failed[i] = std::current_exception();
+        stop = true;
+      }
+    }
+  };
+  std::vector<std::thread> workers;
+  for (int t = 1; t < threads; ++t) workers.emplace_back(work);
+  work();
+  for (auto& w : workers) w.join();
+  return failed;
+}
+
 }  // namespace
 
 void write_derived_data(const std::filesystem::path& folder, const SessionPlan& plan, const SessionFrameSums& sums,
@@ -46,98 +156,11 @@ void write_derived_data(const std::filesystem::path& folder, const SessionPlan& 
                                 std::to_string(white_reflectance));
   if (options.threads < 0)
     throw std::invalid_argument("derived data: threads must be >= 0, not " + std::to_string(options.threads));
-  const float rho = static_cast<float>(white_reflectance);
-  const auto& means = sums.by_step_and_camera();  // (step, camera)
   std::filesystem::create_directories(folder / "derived");
-  // One job per file: its channels are made and written by the job (so at
-  // most `threads` files' pixels are in memory at once); the journal records
-  // follow in this order once every file is written.
-  struct File {
-    std::string name;
-    const FrameSums* like;
-    std::function<std::vector<FloatChannel>()> channels;
-    nlohmann::json record;
-  };
-  std::vector<File> outputs;
-  for (const auto& [key, mean] : means) {
-    const FrameSums* m = &mean;
-    outputs.push_back({key.first + "-" + key.second + "-mean.exr", m,
-                     [m] {
-                       std::vector<FloatChannel> channels;
-                       const int samples = m->format().samples_per_pixel;
-                       auto names = channel_names(samples);
-                       for (int c = 0; c < samples; ++c)
-                         channels.push_back({names[static_cast<std::size_t>(c)], m->mean_channel(c)});
-                       return channels;
-                     },
-                     {{"kind", "mean"}, {"step", key.first}, {"camera", key.second}, {"frames", mean.frames()}}});
-  }
-  // Albedo per subject step.
-  std::map<std::string, const Step*> dark_steps, white_by_illumination;
-  for (const auto& step : plan.steps) {
-    if (step.role == StepRole::kDark) dark_steps[step.name] = &step;
-    if (step.role == StepRole::kWhite) white_by_illumination[illumination_key(step)] = &step;
-  }
-  if (!dark_steps.empty()) {
-    const std::string dark = dark_steps.begin()->first;
-    for (const auto& step : plan.steps) {
-      if (step.role != StepRole::kSubject) continue;
-      auto white = white_by_illumination.find(illumination_key(step));
-      if (white == white_by_illumination.end()) continue;
-      for (const auto& [key, subject] : means) {
-        if (key.first != step.name) continue;
-        auto d = means.find({dark, key.second});
-        auto w = means.find({white->second->name, key.second});
-        if (d == means.end() || w == means.end() || d->second.sums().size() != subject.sums().size() ||
-            w->second.sums().size() != subject.sums().size())
-          continue;
-        const FrameSums *s = &subject, *dk = &d->second, *wh = &w->second;
-        outputs.push_back({"albedo-" + illumination_key(step) + "-" + key.second + ".exr", s,
-                         [s, dk, wh, rho] {
-                           std::vector<FloatChannel> channels;
-                           const int samples = s->format().samples_per_pixel;
-                           auto names = channel_names(samples);
-                           for (int c = 0; c < samples; ++c) {
-                             auto sv = s->mean_channel(c), dv = dk->mean_channel(c), wv = wh->mean_channel(c);
-                             std::vector<float> albedo(sv.size());
-                             for (std::size_t i = 0; i < sv.size(); ++i) {
-                               const float denominator = wv[i] - dv[i];
-                               albedo[i] = denominator > 1e-3f ? rho * (sv[i] - dv[i]) / denominator
-                                                               : std::numeric_limits<float>::quiet_NaN();
-                             }
-                             channels.push_back({names[static_cast<std::size_t>(c)], std::move(albedo)});
-                           }
-                           return channels;
-                         },
-                         {{"kind", "albedo"}, {"step", step.name}, {"camera", key.second},
-                          {"white_step", white->second->name}, {"dark_step", dark},
-                          {"white_reflectance", white_reflectance}}});
-      }
-    }
-  }
-  // The files on `threads` workers, each file's blocks compressed on the
-  // worker's own thread: whole files in parallel need no pool and keep every
-  // core busy with the channel arithmetic too.
-  const int threads = std::min<int>(files::exr_writer_threads(options.threads), static_cast<int>(outputs.size()));
-  const files::ExrWriteOptions exr{threads > 1 ? 1 : files::exr_writer_threads(options.threads), options.zip_level};
-  std::vector<std::exception_ptr> failed(outputs.size());
-  std::atomic<std::size_t> next{0};
-  std::atomic<bool> stop{false};
-  auto work = [&] {
-    for (std::size_t i = next++; i < outputs.size() && !stop; i = next++) {
-      try {
-        const File& f = outputs[i];
-        write_float_exr(folder / "derived" / f.name, f.like->width(), f.like->height(), f.channels(), budget, exr);
-      } catch (...) {
-        failed[i] = std::current_exception();
-        stop = true;  // no new file once one failed
-      }
-    }
-  };
-  std::vector<std::thread> workers;
-  for (int t = 1; t < threads; ++t) workers.emplace_back(work);
-  work();
-  for (auto& w : workers) w.join();
+  std::vector<DerivedFile> outputs;
+  add_mean_files(sums, outputs);
+  add_albedo_files(plan, sums, white_reflectance, outputs);
+  const std::vector<std::exception_ptr> failed = write_files(folder, outputs, budget, options);
   // Recorded in order up to the first failure, which is then rethrown (as
   // when the files were written one after another).
   for (std::size_t i = 0; i < outputs.size(); ++i) {

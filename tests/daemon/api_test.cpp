@@ -4,6 +4,7 @@
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <poll.h>
+#include <sys/resource.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 
@@ -442,6 +443,27 @@ TEST_F(ApiFixture, TlsWithTokenWhenCertificatesAreConfigured) {
   EXPECT_FALSE(pb::OperationService::NewStub(plain)->ListOperations(&context, {}, &response).ok());
 }
 
+// A TCP connection to 127.0.0.1:port that sends nothing; -1 when refused.
+int silent_connection(int port) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(static_cast<std::uint16_t>(port));
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) {
+    ::close(fd);
+    return -1;
+  }
+  return fd;
+}
+
+// True when the server ends `fd` (EOF or reset) within `ms`.
+bool closed_by_server(int fd, int ms) {
+  pollfd p{fd, POLLIN, 0};
+  char byte;
+  return ::poll(&p, 1, ms) == 1 && ::recv(fd, &byte, 1, MSG_DONTWAIT) <= 0;
+}
+
 // Issue 40, row 3 (in part): TLS connections that never sent a byte were
 // kept for gRPC's 120 s handshake timeout, so enough of them used up the
 // descriptors. Now one is closed after tcp_handshake_timeout_ms.
@@ -454,19 +476,12 @@ TEST_F(ApiFixture, ATlsConnectionThatNeverHandshakesIsClosed) {
   start();
   std::vector<int> silent;
   for (int i = 0; i < 10; ++i) {
-    const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    sockaddr_in address{};
-    address.sin_family = AF_INET;
-    address.sin_port = htons(static_cast<std::uint16_t>(server->tcp_port()));
-    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    ASSERT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address), 0);
-    silent.push_back(fd);
+    silent.push_back(silent_connection(server->tcp_port()));
+    ASSERT_GE(silent.back(), 0);
   }
   int closed = 0;  // each sees its end (EOF or reset) within 10 s: gRPC's default would keep it 120 s
   for (int fd : silent) {
-    pollfd p{fd, POLLIN, 0};
-    char byte;
-    if (::poll(&p, 1, 10000) == 1 && ::recv(fd, &byte, 1, 0) <= 0) ++closed;
+    closed += closed_by_server(fd, 10000);
     ::close(fd);
   }
   EXPECT_EQ(closed, 10);
@@ -507,6 +522,91 @@ TEST_F(ApiFixture, AHandshakenTlsConnectionWithoutCallsIsClosedOnceIdle) {
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));
   EXPECT_TRUE(list_over_tcp(in_process, "Bearer test-token-0123456789").ok()) << "the in-process channel was closed when idle";
   EXPECT_TRUE(list_over_tcp(channel, nullptr).ok()) << "the Unix socket's client did not reconnect";
+}
+
+// Waits up to 10 s for `done`.
+template <class Done>
+bool eventually(Done done) {
+  for (int i = 0; i < 500 && !done(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  return done();
+}
+
+// Issue 40, row 3 (the cap): gRPC 1.51 accepted any number of TCP connections
+// and, after one accept4 EMFILE, never accepted again. chromod now accepts on
+// the TCP port itself: beyond max_tcp_connections a connection is closed as
+// soon as it is accepted, the ones held go on being served, and once they
+// leave the port serves again.
+TEST_F(ApiFixture, TcpConnectionsBeyondTheCapAreClosedAtOnceAndThePortServesOnceTheyLeave) {
+  const auto certificate = chromo::testing::make_test_certificate(lab.directory);
+  lab.config.tls_certificate_file = certificate.certificate_file.string();
+  lab.config.tls_private_key_file = certificate.key_file.string();
+  lab.config.tcp_insecure = false;
+  lab.config.max_tcp_connections = 6;
+  start();
+  const int port = server->tcp_port();
+  // A client with the token, connected first: it holds one of the six.
+  auto served = tls_channel(port, certificate.certificate_pem);
+  ASSERT_TRUE(list_over_tcp(served, "Bearer test-token-0123456789").ok());
+  std::vector<int> held;
+  for (int i = 0; i < 5; ++i) held.push_back(silent_connection(port));
+  for (int fd : held) ASSERT_GE(fd, 0);
+  ASSERT_TRUE(eventually([&] { return server->tcp_counters().open == 6; })) << server->tcp_counters().open;
+  // Four more: each closed at once (the kernel completes the handshake; the gate closes it).
+  int refused = 0;
+  for (int i = 0; i < 4; ++i) {
+    const int fd = silent_connection(port);
+    if (fd < 0 || closed_by_server(fd, 5000)) ++refused;
+    if (fd >= 0) ::close(fd);
+  }
+  EXPECT_EQ(refused, 4);
+  EXPECT_EQ(server->tcp_counters().refused_over_cap, 4u);
+  // The connection held by a real client is still served.
+  EXPECT_TRUE(list_over_tcp(served, "Bearer test-token-0123456789").ok());
+  // A new client is not, while the six are held.
+  {
+    auto late = tls_channel(port, certificate.certificate_pem);
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(1));
+    context.AddMetadata("authorization", "Bearer test-token-0123456789");
+    pb::ListOperationsResponse response;
+    EXPECT_EQ(pb::OperationService::NewStub(late)->ListOperations(&context, {}, &response).error_code(),
+              StatusCode::UNAVAILABLE);
+  }
+  // They leave: the gate closes their relays, and a new client is served.
+  for (int fd : held) ::close(fd);
+  ASSERT_TRUE(eventually([&] { return server->tcp_counters().open <= 1; })) << server->tcp_counters().open;
+  auto after = tls_channel(port, certificate.certificate_pem);
+  EXPECT_TRUE(list_over_tcp(after, "Bearer test-token-0123456789").ok());
+  EXPECT_EQ(server->tcp_counters().accept_failures, 0u);
+}
+
+// The cap must fit the descriptor limit (three open files a connection, 256
+// beside them): refused at start, naming the key and the limit.
+TEST_F(ApiFixture, ACapTheDescriptorLimitCannotHoldIsRefusedNamingIt) {
+  rlimit saved{};
+  ASSERT_EQ(::getrlimit(RLIMIT_NOFILE, &saved), 0);
+  lab.config.max_tcp_connections = 300;  // 3·300 + 256 = 1156 open files
+  daemon = lab.daemon();
+  rlimit lowered = saved;
+  lowered.rlim_cur = 1024;  // Debian's default soft limit
+  ASSERT_EQ(::setrlimit(RLIMIT_NOFILE, &lowered), 0);
+  std::string error;
+  try {
+    Server refused(*daemon);
+  } catch (const std::runtime_error& e) {
+    error = e.what();
+  }
+  ASSERT_EQ(::setrlimit(RLIMIT_NOFILE, &saved), 0);
+  EXPECT_NE(error.find("max_tcp_connections: 300 connections need 1156 open files (3 each + 256), more than this "
+                       "process's limit of 1024"),
+            std::string::npos)
+      << error;
+  // 256 fit: 1024 open files.
+  lab.config.max_tcp_connections = 256;
+  daemon = lab.daemon();
+  ASSERT_EQ(::setrlimit(RLIMIT_NOFILE, &lowered), 0);
+  EXPECT_NO_THROW(server = std::make_unique<Server>(*daemon));
+  ASSERT_EQ(::setrlimit(RLIMIT_NOFILE, &saved), 0);
 }
 
 // A raw call: `body` as the message bytes, whatever they are.

@@ -1,8 +1,10 @@
 // chromod's configured devices against an external chromo-sim process, over
 // the real protocols (docs/config.md, "Attaching to chromo-sim"): the
 // configuration names the modbus-tcp and aravis backends with the addresses
-// chromo-sim printed; a session runs end to end. Also: what the backends say
-// about bad settings and unreachable devices.
+// chromo-sim printed; a session runs end to end, and its results are
+// unavailable, naming the setting, when estimation.films_extinction_ratio
+// names the virtual lab's films (real devices describe none). Also: what the
+// backends say about bad settings and unreachable devices.
 #include "../support/chromo_sim_process.hpp"
 #include "test_lab.hpp"
 
@@ -26,6 +28,9 @@ TEST(ChromoSimDaemon, ConfiguredRealBackendsRunASessionAgainstChromoSim) {
       {"unix_socket", (directory / "s.sock").string()},
       {"sessions_dir", (directory / "sessions").string()},
       {"frame_timeout_ms", 2000},
+      // The virtual lab's own films, which real devices do not describe: the
+      // session runs, its results are unavailable naming the setting (below).
+      {"estimation", {{"films_extinction_ratio", "virtual_lab"}}},
       {"devices",
        {{{"name", "sphere"}, {"kind", "led_controller"}, {"backend", "modbus-tcp"},
          {"address", "127.0.0.1:" + std::to_string(port)}, {"settings", {{"unit_id", 1}, {"response_timeout_ms", 300}}}},
@@ -56,6 +61,11 @@ TEST(ChromoSimDaemon, ConfiguredRealBackendsRunASessionAgainstChromoSim) {
     // black in the dark step, lit in the others.
     EXPECT_LT(bayer_site_mean(folder / info->frames[0].file, 1), 40.0);
     EXPECT_GT(bayer_site_mean(folder / info->frames[1].file, 1), 100.0);
+    EXPECT_EQ(info->results.value("state", ""), "unavailable") << info->results.dump();
+    EXPECT_NE(info->results.value("reason", "").find("estimation.films_extinction_ratio \"virtual_lab\": the devices are "
+                                                     "not the virtual lab"),
+              std::string::npos)
+        << info->results.dump();
   }
   // The same controller over its other front-end: Modbus RTU on the pty chromo-sim printed.
   const std::string rtu_key = "Modbus RTU on ";

@@ -47,10 +47,11 @@ struct ChromodRun {
   std::string output;
 };
 
-// chromod with `arguments`, its output in directory/chromod.log; killed after
-// `seconds` if still running (exit_code -1 then).
+// chromod with `arguments`, its output in directory/chromod.log; killed with
+// SIGKILL (exit_code -1 then) after `seconds` if still running, or as soon as
+// its log holds `kill_once_logged` when that is given.
 ChromodRun run_chromod(const fs::path& directory, std::vector<std::string> arguments, int seconds = 20,
-                std::vector<std::string> environment = {}) {
+                       std::vector<std::string> environment = {}, const std::string& kill_once_logged = {}) {
   const std::string log = (directory / "chromod.log").string();
   fs::remove(log);
   posix_spawn_file_actions_t actions;
@@ -74,7 +75,8 @@ ChromodRun run_chromod(const fs::path& directory, std::vector<std::string> argum
   int status = 0;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(seconds);
   while (::waitpid(pid, &status, WNOHANG) == 0) {
-    if (std::chrono::steady_clock::now() > deadline) {
+    const bool logged = !kill_once_logged.empty() && text_of(log).find(kill_once_logged) != std::string::npos;
+    if (logged || std::chrono::steady_clock::now() > deadline) {
       ::kill(pid, SIGKILL);
       ::waitpid(pid, &status, 0);
       run.output = text_of(log);
@@ -365,11 +367,11 @@ TEST(Chromod, AKilledDaemonLeavesNoRunFileButItsSocketWhichTheNextReplaces) {
   const fs::path run_dir = dir / "run";
   const std::vector<std::string> env{"CHROMO_RUNTIME_DIR=" + run_dir.string()};
   for (int round = 0; round < 2; ++round) {
-    // Killed after 15 s, by then listening (the lab starts in a few seconds).
-    const ChromodRun run = run_chromod(dir, {"--sessions-dir", (dir / "sessions").string()}, 15, env);
+    // Killed once listening (the lab starts in a few seconds), at the latest after 60 s.
+    const std::string listening = "listening on unix:" + (run_dir / "chromod.sock").string();
+    const ChromodRun run = run_chromod(dir, {"--sessions-dir", (dir / "sessions").string()}, 60, env, listening);
     EXPECT_EQ(run.exit_code, -1) << run.output;
-    EXPECT_NE(run.output.find("listening on unix:" + (run_dir / "chromod.sock").string()), std::string::npos)
-        << run.output;
+    EXPECT_NE(run.output.find(listening), std::string::npos) << run.output;
     std::vector<std::string> left;
     for (const auto& entry : fs::directory_iterator(run_dir)) left.push_back(entry.path().filename().string());
     EXPECT_EQ(left, std::vector<std::string>{"chromod.sock"});

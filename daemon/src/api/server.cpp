@@ -1,6 +1,7 @@
 #include "chromo/daemon/server.hpp"
 #include "chromo/files/bounded_read.hpp"
 
+#include <sys/resource.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
@@ -19,6 +20,7 @@
 #include <grpcpp/security/auth_metadata_processor.h>
 
 #include "services/services.hpp"
+#include "tcp_gate.hpp"
 #include "unix_listener.hpp"
 
 namespace chromo::daemon {
@@ -49,6 +51,23 @@ void remove_stale_socket(const std::string& path) {
   std::filesystem::remove(path, error);
 }
 
+// Descriptors chromod keeps for everything but relayed TCP connections
+// (devices, session files, the web view, the Unix socket's clients).
+constexpr std::uint64_t kDescriptorsBesideTcp = 256;
+
+// The TCP gate's cap must fit the descriptor limit (tcp_gate.hpp: three
+// descriptors a connection), else gRPC could meet EMFILE after all.
+void check_descriptor_limit(std::uint32_t max_tcp_connections) {
+  rlimit limit{};
+  if (::getrlimit(RLIMIT_NOFILE, &limit) != 0 || limit.rlim_cur == RLIM_INFINITY) return;
+  const std::uint64_t needed = 3ull * max_tcp_connections + kDescriptorsBesideTcp;
+  if (needed > limit.rlim_cur)
+    throw std::runtime_error("max_tcp_connections: " + std::to_string(max_tcp_connections) + " connections need " +
+                             std::to_string(needed) + " open files (3 each + " + std::to_string(kDescriptorsBesideTcp) +
+                             "), more than this process's limit of " + std::to_string(limit.rlim_cur) +
+                             " (ulimit -n): lower max_tcp_connections or raise the limit");
+}
+
 // Threads for unary calls beside max_streams running streams.
 constexpr int kUnaryThreads = 32;
 
@@ -76,6 +95,7 @@ struct Server::Services {
   services::Guard guard;
   std::vector<std::unique_ptr<grpc::Service>> all;
   std::unique_ptr<UnixListener> unix_listener;
+  std::unique_ptr<TcpGate> tcp_gate;
   explicit Services(Daemon& daemon)
       : audit(daemon.config().sessions_dir / "audit.jsonl"), guard(daemon.config(), stopping, peers, audit) {
     peers.set_token_id(services::token_id(daemon.config().token));
@@ -128,13 +148,22 @@ Server::Server(Daemon& daemon) : daemon_(daemon), services_(std::make_unique<Ser
       throw std::runtime_error("tcp_insecure: TCP without TLS needs \"tcp_insecure\": true");
     }
     credentials->SetAuthMetadataProcessor(std::make_shared<TokenProcessor>(config));
-    builder.AddListeningPort(config.tcp_address, credentials, &tcp_port_);
+    // chromod accepts on the configured address itself, under a cap, and
+    // relays to gRPC's own port on loopback (tcp_gate.hpp).
+    check_descriptor_limit(config.max_tcp_connections);
+    services_->tcp_gate = std::make_unique<TcpGate>(
+        TcpGateOptions{config.tcp_address, config.max_tcp_connections, config.tcp_insecure});
+    builder.AddListeningPort("127.0.0.1:0", credentials, &grpc_tcp_port_);
   }
   for (const auto& service : services_->all) builder.RegisterService(service.get());
   server_ = builder.BuildAndStart();
   if (!server_) throw std::runtime_error("could not listen on the configured addresses (unix:" + config.unix_socket + " " +
                                          config.tcp_address + ")");
-  if (!config.tcp_address.empty() && tcp_port_ == 0) throw std::runtime_error("could not listen on " + config.tcp_address);
+  if (services_->tcp_gate) {
+    if (grpc_tcp_port_ == 0) throw std::runtime_error("could not listen on 127.0.0.1 for the TCP gate's connections");
+    tcp_port_ = services_->tcp_gate->port();
+    services_->tcp_gate->start(grpc_tcp_port_);
+  }
   if (!config.unix_socket.empty()) {
     ::chmod(config.unix_socket.c_str(), config.unix_socket_mode);
     created_socket_ = config.unix_socket;
@@ -145,10 +174,17 @@ Server::Server(Daemon& daemon) : daemon_(daemon), services_(std::make_unique<Ser
 
 Server::~Server() { shutdown(); }
 
+Server::TcpCounters Server::tcp_counters() const {
+  if (!services_->tcp_gate) return {};
+  const TcpGateCounters c = services_->tcp_gate->counters();
+  return {c.accepted, c.refused_over_cap, c.refused_not_loopback, c.accept_failures, c.open};
+}
+
 void Server::shutdown() {
   if (!server_) return;
   services_->stopping = true;
   if (services_->unix_listener) services_->unix_listener->stop();
+  if (services_->tcp_gate) services_->tcp_gate->stop();
   server_->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
   server_->Wait();
   server_.reset();

@@ -1,6 +1,7 @@
 #include "chromo/daemon/internal/operations/calibrations.hpp"
 #include "chromo/files/bounded_read.hpp"
 
+#include <functional>
 #include <fstream>
 #include <stdexcept>
 
@@ -155,6 +156,109 @@ calibration::CalibrationSummary run_state(RunningOperation& running,
   return summary;
 }
 
+// The run's options: the request's drive levels and warm-up, the virtual
+// lab's LED time scale (`lab_time_scale` > 1 shortens warm-up and settling),
+// the operation id in the notes.
+calibration::CalibrationRunOptions run_options(const CalibrationRequest& request, double lab_time_scale,
+                                               const std::string& id) {
+  calibration::CalibrationRunOptions options;
+  if (!request.drive_levels.empty()) options.drive_levels = request.drive_levels;
+  if (lab_time_scale > 1) {
+    options.warm_up_s = 300.0 / lab_time_scale;
+    options.settle_s = 30.0 / lab_time_scale;
+    options.notes = "virtual lab: LED time runs " + std::to_string(static_cast<int>(lab_time_scale)) + "x the wall clock";
+  }
+  if (request.warmup_ms > 0) options.warm_up_s = request.warmup_ms / 1000.0;
+  options.notes += (options.notes.empty() ? "" : "; ") + std::string("chromod calibration ") + id;
+  return options;
+}
+
+session::OperationState operation_state(calibration::CalibrationTermination termination) {
+  switch (termination) {
+    case calibration::CalibrationTermination::kCompleted: return session::OperationState::kSucceeded;
+    case calibration::CalibrationTermination::kCancelled: return session::OperationState::kCancelled;
+    default: return session::OperationState::kFailed;
+  }
+}
+
+using MeasuredStates = std::vector<std::pair<drivers::Polarisation, calibration::CalibrationSummary>>;
+
+// What a finished run decided about adopting its library.
+struct Adoption {
+  std::optional<calibration::LibraryComparison> comparison;  // the check against the library in use
+  std::string check_error;                                   // that check failed
+  bool adopt_now = false;
+};
+
+// The new library against the one in use, on the LEDs now (unpolarised runs
+// that succeeded); adopted when no worse, or when there is nothing to check.
+// `check` compares a candidate library with the one in use (nullopt: nothing to compare).
+Adoption decide_adoption(
+    RunningOperation& running, session::OperationState state, const MeasuredStates& measured,
+    const std::function<std::optional<calibration::LibraryComparison>(const calibration::LedLibrary&)>& check) {
+  Adoption adoption;
+  if (state == session::OperationState::kSucceeded && measured.size() == 1 &&
+      measured.front().first == drivers::Polarisation::kUnpolarised) {
+    running.progress().report(0.99, "checking the new library against the one in use");
+    try {
+      adoption.comparison = check(measured.front().second.library);
+    } catch (const std::exception& e) {
+      adoption.check_error = e.what();
+    }
+  }
+  adoption.adopt_now = state == session::OperationState::kSucceeded && adoption.check_error.empty() &&
+                       (!adoption.comparison || adoption.comparison->candidate_no_worse);
+  return adoption;
+}
+
+// The operation's message: the run's, and whether (and why not) its library was adopted.
+std::string outcome_message(const std::string& run_message, const Adoption& adoption, const std::string& id) {
+  std::string message = run_message;
+  if (adoption.comparison)
+    message += adoption.adopt_now ? "; adopted: " + adoption.comparison->BriefReport()
+                                  : "; NOT ADOPTED: " + adoption.comparison->BriefReport() +
+                                        ". The daemon keeps its library; `chromo "
+                                        "calibrate adopt " + id + " --reason TEXT` adopts this one";
+  if (!adoption.check_error.empty())
+    message += "; NOT ADOPTED: the check against the library in use failed: " + adoption.check_error +
+               ". `chromo calibrate adopt " + id + " --reason TEXT` adopts it";
+  return message;
+}
+
+// calibration.json's result fields, added to the record written at the start.
+void add_result(nlohmann::json& record, session::OperationState state, const std::string& message,
+                const std::string& error, const Adoption& adoption, const calibration::CalibrationSummary& summary,
+                const MeasuredStates& measured) {
+  record["state"] = state_for_disk(state);
+  record["message"] = message;
+  if (state == session::OperationState::kSucceeded) record["adopted"] = adoption.adopt_now;
+  if (adoption.comparison) record["adoption_check"] = comparison_json(*adoption.comparison);
+  if (!adoption.check_error.empty()) record["adoption_check"] = {{"error", adoption.check_error}};
+  if (!error.empty()) record["error"] = error;
+  record["summary"] = {{"termination", calibration::calibration_termination_name(summary.termination)},
+                       {"spectra_measured", summary.spectra_measured},
+                       {"elapsed_s", summary.elapsed_s},
+                       {"linearity_ok", summary.linearity_ok}};
+  for (const auto& [measured_state, measured_summary] : measured) {
+    const std::string name = drivers::polarisation_name(measured_state);
+    if (measured_state == drivers::Polarisation::kUnpolarised) {
+      record["library"] = kLibraryFile;
+    } else {
+      record["libraries"][name] = library_file_of(measured_state);
+      record["summary"]["states"][name] = {{"spectra_measured", measured_summary.spectra_measured},
+                                           {"elapsed_s", measured_summary.elapsed_s},
+                                           {"linearity_ok", measured_summary.linearity_ok}};
+    }
+    if (state == session::OperationState::kSucceeded)
+      for (const auto& lin : measured_summary.linearity) {
+        auto& deviations = record["summary"]["linearity_max_deviation_percent"];
+        const std::string type(spectral::led_type_name(lin.type));
+        const double earlier = deviations.contains(type) ? deviations[type].get<double>() : 0.0;
+        deviations[type] = std::max(earlier, lin.max_deviation_percent);
+      }
+  }
+}
+
 }  // namespace
 
 Calibrations::Calibrations(std::filesystem::path root, std::filesystem::path configured_library, DeviceSet& devices,
@@ -280,17 +384,7 @@ OperationRunner::Outcome Calibrations::run(RunningOperation& running, const Cali
                                            const std::filesystem::path& folder, NamedDevice<drivers::LedController>* led,
                                            NamedDevice<drivers::Spectrometer>* spectrometer) {
   const std::string& id = running.id();
-  calibration::CalibrationRunOptions options;
-  if (!request.drive_levels.empty()) options.drive_levels = request.drive_levels;
-  const double scale = devices_.lab_time_scale;
-  if (scale > 1) {
-    options.warm_up_s = 300.0 / scale;
-    options.settle_s = 30.0 / scale;
-    options.notes = "virtual lab: LED time runs " + std::to_string(static_cast<int>(scale)) + "x the wall clock";
-  }
-  if (request.warmup_ms > 0) options.warm_up_s = request.warmup_ms / 1000.0;
-  options.notes += (options.notes.empty() ? "" : "; ") + std::string("chromod calibration ") + id;
-
+  const calibration::CalibrationRunOptions options = run_options(request, devices_.lab_time_scale, id);
   std::vector<drivers::Polarisation> states{drivers::Polarisation::kUnpolarised};
   try {
     states = states_to_calibrate(LockedLeds(*led).info());
@@ -298,7 +392,7 @@ OperationRunner::Outcome Calibrations::run(RunningOperation& running, const Cali
     // the run itself reports the unreachable controller
   }
   // One run per state; the libraries are kept in memory until every run has succeeded.
-  std::vector<std::pair<drivers::Polarisation, calibration::CalibrationSummary>> measured;
+  MeasuredStates measured;
   calibration::CalibrationSummary summary;
   for (std::size_t i = 0; i < states.size(); ++i) {
     summary = run_state(running, options, led, spectrometer, states[i], static_cast<double>(i) / states.size(),
@@ -307,74 +401,23 @@ OperationRunner::Outcome Calibrations::run(RunningOperation& running, const Cali
     if (summary.termination != calibration::CalibrationTermination::kCompleted) break;
     measured.emplace_back(states[i], summary);
   }
-  session::OperationState state = session::OperationState::kFailed;
-  switch (summary.termination) {
-    case calibration::CalibrationTermination::kCompleted: state = session::OperationState::kSucceeded; break;
-    case calibration::CalibrationTermination::kCancelled: state = session::OperationState::kCancelled; break;
-    default: state = session::OperationState::kFailed;
-  }
+  session::OperationState state = operation_state(summary.termination);
   std::string error = state == session::OperationState::kFailed ? summary.message : "";
-  // The new library against the one in use, on the LEDs now (unpolarised runs).
-  std::optional<calibration::LibraryComparison> comparison;
-  std::string check_error;
-  if (state == session::OperationState::kSucceeded && measured.size() == 1 &&
-      measured.front().first == drivers::Polarisation::kUnpolarised) {
-    running.progress().report(0.99, "checking the new library against the one in use");
-    try {
-      comparison = check_adoption(measured.front().second.library, led, spectrometer);
-    } catch (const std::exception& e) {
-      check_error = e.what();
-    }
-  }
-  const bool adopt_now = state == session::OperationState::kSucceeded && check_error.empty() &&
-                         (!comparison || comparison->candidate_no_worse);
-  std::string message = summary.message;
-  if (comparison)
-    message += adopt_now ? "; adopted: " + comparison->BriefReport()
-                         : "; NOT ADOPTED: " + comparison->BriefReport() + ". The daemon keeps its library; `chromo "
-                                                                           "calibrate adopt " + id + " --reason TEXT` adopts this one";
-  if (!check_error.empty())
-    message += "; NOT ADOPTED: the check against the library in use failed: " + check_error + ". `chromo calibrate adopt " +
-               id + " --reason TEXT` adopts it";
-  nlohmann::json record;
+  const Adoption adoption = decide_adoption(running, state, measured, [&](const calibration::LedLibrary& candidate) {
+    return check_adoption(candidate, led, spectrometer);
+  });
+  const std::string message = outcome_message(summary.message, adoption, id);
   try {
     // Every state's library measured so far is written (save_led_library is
     // crash-safe: temporary, fsync, rename), so a failed later state keeps the
     // earlier ones in the folder; the daemon adopts them only when all succeeded.
     for (const auto& [measured_state, measured_summary] : measured)
       calibration::save_led_library(measured_summary.library, folder / library_file_of(measured_state));
-    if (adopt_now)
+    if (adoption.adopt_now)
       for (const auto& [measured_state, measured_summary] : measured)
         use_library(folder / library_file_of(measured_state), measured_state);
-    record = nlohmann::json::parse(files::read_text_file(folder / kRecordFile, "JSON"));
-    record["state"] = state_for_disk(state);
-    record["message"] = message;
-    if (state == session::OperationState::kSucceeded) record["adopted"] = adopt_now;
-    if (comparison) record["adoption_check"] = comparison_json(*comparison);
-    if (!check_error.empty()) record["adoption_check"] = {{"error", check_error}};
-    if (!error.empty()) record["error"] = error;
-    record["summary"] = {{"termination", calibration::calibration_termination_name(summary.termination)},
-                         {"spectra_measured", summary.spectra_measured},
-                         {"elapsed_s", summary.elapsed_s},
-                         {"linearity_ok", summary.linearity_ok}};
-    for (const auto& [measured_state, measured_summary] : measured) {
-      const std::string name = drivers::polarisation_name(measured_state);
-      if (measured_state == drivers::Polarisation::kUnpolarised) {
-        record["library"] = kLibraryFile;
-      } else {
-        record["libraries"][name] = library_file_of(measured_state);
-        record["summary"]["states"][name] = {{"spectra_measured", measured_summary.spectra_measured},
-                                             {"elapsed_s", measured_summary.elapsed_s},
-                                             {"linearity_ok", measured_summary.linearity_ok}};
-      }
-      if (state == session::OperationState::kSucceeded)
-        for (const auto& lin : measured_summary.linearity) {
-          auto& deviations = record["summary"]["linearity_max_deviation_percent"];
-          const std::string type(spectral::led_type_name(lin.type));
-          const double earlier = deviations.contains(type) ? deviations[type].get<double>() : 0.0;
-          deviations[type] = std::max(earlier, lin.max_deviation_percent);
-        }
-    }
+    nlohmann::json record = nlohmann::json::parse(files::read_text_file(folder / kRecordFile, "JSON"));
+    add_result(record, state, message, error, adoption, summary, measured);
     files::write_file_durably(folder / kRecordFile, record.dump(2) + "\n", budget_);
   } catch (const std::exception& e) {
     state = session::OperationState::kFailed;

@@ -137,6 +137,10 @@ struct DaemonConfig {
   // GOAWAY; clients reconnect on their next call): one that handshook and
   // then sent no call, or no valid token, is not kept as long as it likes.
   std::uint32_t tcp_idle_timeout_ms = 120000;
+  // TCP connections held at once (chromod accepts them itself: tcp_gate.hpp);
+  // more are closed as soon as they are accepted. Each needs three open
+  // files, which must fit the process's limit beside 256 others.
+  std::uint32_t max_tcp_connections = 128;
   std::filesystem::path maps_dir;         // the maps API's folder for work without a session; empty = none
   std::uint64_t max_read_maps_bytes = 1ull << 30;  // MapsService.ReadMaps: the most channel bytes one call sends
   std::uint32_t max_profile_exports = 1;  // concurrent ExportProfiles calls (each takes every core); beyond: RESOURCE_EXHAUSTED

@@ -400,7 +400,21 @@ struct WebServer::State {
     (void)request;
   }
 
+  // The whole web surface, in the order httplib matches it (per method, first
+  // registered first): headers, the checks before any route, then the routes.
   void routes() {
+    set_default_headers();
+    http->set_pre_routing_handler(
+        [this](const httplib::Request& request, httplib::Response& response) { return screen(request, response); });
+    log_in_routes();
+    metrics_route();
+    stream_routes();
+    api_routes();
+    file_routes();
+  }
+
+  // The body cap and the security headers every response carries.
+  void set_default_headers() {
     http->set_payload_max_length(config.web_max_body_bytes);
     httplib::Headers headers{{"Content-Security-Policy", kContentSecurityPolicy},
                              {"Referrer-Policy", "same-origin"},
@@ -410,65 +424,72 @@ struct WebServer::State {
     // Under TLS the browser is told to come back over TLS only (a year).
     if (tls) headers.emplace("Strict-Transport-Security", "max-age=31536000");
     http->set_default_headers(std::move(headers));
-    http->set_pre_routing_handler([this](const httplib::Request& request, httplib::Response& response) {
-      // A body nothing will read (a GET's, or one refused below) must not
-      // stay in the connection to be parsed as the next request.
-      const bool body = request.has_header("Transfer-Encoding") ||
-                        (request.has_header("Content-Length") && request.get_header_value("Content-Length") != "0");
-      if (body && (request.method == "GET" || request.method == "HEAD")) closing(response);
-      // Only what the view uses, refused before any body is read (httplib reads
-      // the body of a PUT, PATCH or DELETE whole before looking for a route).
-      if (request.method != "GET" && request.method != "HEAD" && request.method != "POST") {
-        response.status = 405;
-        response.set_header("Allow", "GET, HEAD, POST");
-        closing(response);
-        response.set_content(web::error_json("method " + request.method.substr(0, 16) + " not allowed", "UNIMPLEMENTED"),
-                             "application/json");
-        return httplib::Server::HandlerResponse::Handled;
-      }
-      // Bodies are JSON: a multipart body would go to httplib's form parser.
-      if (request.method == "POST" && request.get_header_value("Content-Type").rfind("multipart/", 0) == 0) {
-        response.status = 415;
-        closing(response);
-        response.set_content(web::error_json("Content-Type: multipart bodies are not accepted (JSON only)", "INVALID_ARGUMENT"),
-                             "application/json");
-        return httplib::Server::HandlerResponse::Handled;
-      }
-      if (!known_host(request)) {
-        response.status = 421;
-        closing(response);
-        response.set_content(web::error_json("Host \"" + request.get_header_value("Host").substr(0, 128) +
-                                                 "\" is not this server's (a loopback name, its address, or one of "
-                                                 "web_host_names)", "PERMISSION_DENIED"),
-                             "application/json");
-        return httplib::Server::HandlerResponse::Handled;
-      }
-      if (request.method != "GET" && request.method != "HEAD" && !same_origin(request)) {
-        response.status = 403;
-        if (body) closing(response);
-        response.set_content(web::error_json("cross-origin request refused (Origin \"" + request.get_header_value("Origin") +
-                                                 "\" is not this page's)", "PERMISSION_DENIED"),
-                             "application/json");
-        return httplib::Server::HandlerResponse::Handled;
-      }
-      if (request.path == "/metrics" && !logged_in(request) && !bearer_token(request)) {
-        response.status = 401;
-        response.set_header("WWW-Authenticate", "Bearer");
-        if (body) closing(response);
-        response.set_content(web::error_json("log in first, or send Authorization: Bearer <token>", "UNAUTHENTICATED"),
-                             "application/json");
-        return httplib::Server::HandlerResponse::Handled;
-      }
-      if (request.path.rfind("/api/", 0) == 0 && !logged_in(request)) {
-        response.status = 401;
-        if (body) closing(response);
-        response.set_content(web::error_json("log in first", "UNAUTHENTICATED"), "application/json");
-        return httplib::Server::HandlerResponse::Handled;
-      }
-      return httplib::Server::HandlerResponse::Unhandled;
-    });
-    // Every POST reads its body through read_body (the cap holds for chunked
-    // bodies too); a POST to no route is refused after a bounded read.
+  }
+
+  // The checks before any route (method, body type, Host, origin, log-in):
+  // Handled with the refusal in `response`, or Unhandled to route on.
+  httplib::Server::HandlerResponse screen(const httplib::Request& request, httplib::Response& response) {
+    // A body nothing will read (a GET's, or one refused below) must not
+    // stay in the connection to be parsed as the next request.
+    const bool body = request.has_header("Transfer-Encoding") ||
+                      (request.has_header("Content-Length") && request.get_header_value("Content-Length") != "0");
+    if (body && (request.method == "GET" || request.method == "HEAD")) closing(response);
+    // Only what the view uses, refused before any body is read (httplib reads
+    // the body of a PUT, PATCH or DELETE whole before looking for a route).
+    if (request.method != "GET" && request.method != "HEAD" && request.method != "POST") {
+      response.status = 405;
+      response.set_header("Allow", "GET, HEAD, POST");
+      closing(response);
+      response.set_content(web::error_json("method " + request.method.substr(0, 16) + " not allowed", "UNIMPLEMENTED"),
+                           "application/json");
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    // Bodies are JSON: a multipart body would go to httplib's form parser.
+    if (request.method == "POST" && request.get_header_value("Content-Type").rfind("multipart/", 0) == 0) {
+      response.status = 415;
+      closing(response);
+      response.set_content(web::error_json("Content-Type: multipart bodies are not accepted (JSON only)", "INVALID_ARGUMENT"),
+                           "application/json");
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    if (!known_host(request)) {
+      response.status = 421;
+      closing(response);
+      response.set_content(web::error_json("Host \"" + request.get_header_value("Host").substr(0, 128) +
+                                               "\" is not this server's (a loopback name, its address, or one of "
+                                               "web_host_names)", "PERMISSION_DENIED"),
+                           "application/json");
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    if (request.method != "GET" && request.method != "HEAD" && !same_origin(request)) {
+      response.status = 403;
+      if (body) closing(response);
+      response.set_content(web::error_json("cross-origin request refused (Origin \"" + request.get_header_value("Origin") +
+                                               "\" is not this page's)", "PERMISSION_DENIED"),
+                           "application/json");
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    if (request.path == "/metrics" && !logged_in(request) && !bearer_token(request)) {
+      response.status = 401;
+      response.set_header("WWW-Authenticate", "Bearer");
+      if (body) closing(response);
+      response.set_content(web::error_json("log in first, or send Authorization: Bearer <token>", "UNAUTHENTICATED"),
+                           "application/json");
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    if (request.path.rfind("/api/", 0) == 0 && !logged_in(request)) {
+      response.status = 401;
+      if (body) closing(response);
+      response.set_content(web::error_json("log in first", "UNAUTHENTICATED"), "application/json");
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    return httplib::Server::HandlerResponse::Unhandled;
+  }
+
+  // Log in and out, and whoami. Every POST reads its body through read_body
+  // (the cap holds for chunked bodies too); a POST to no route is refused
+  // after a bounded read (api_routes).
+  void log_in_routes() {
     http->Post("/login", [this](const httplib::Request& q, httplib::Response& r, const httplib::ContentReader& reader) {
       if (const auto body = read_body(reader, r)) login(q, *body, r);
     });
@@ -479,8 +500,11 @@ struct WebServer::State {
       r.set_header("Cache-Control", "no-store");
       r.set_content("{\"logged_in\":true}", "application/json");
     });
-    // chromod's counters for Prometheus (docs/observability.md), after the
-    // same checks as the API (Host, log-in or the bearer token).
+  }
+
+  // chromod's counters for Prometheus (docs/observability.md), after the
+  // same checks as the API (Host, log-in or the bearer token).
+  void metrics_route() {
     http->Get("/metrics", [this](const httplib::Request&, httplib::Response& r) {
       r.set_header("Cache-Control", "no-store");
       try {
@@ -490,6 +514,10 @@ struct WebServer::State {
         r.set_content(web::error_json(error.what(), "UNAVAILABLE"), "application/json");
       }
     });
+  }
+
+  // The server-sent event streams: camera previews and the daemon's events.
+  void stream_routes() {
     http->Get("/api/stream/preview", [this](const httplib::Request& q, httplib::Response& r) {
       nlohmann::json message = nlohmann::json::object();
       try {
@@ -517,6 +545,10 @@ struct WebServer::State {
     http->Get("/api/stream/events", [this](const httplib::Request& q, httplib::Response& r) {
       event_stream(q, r, "EventService", "Subscribe", "{}");
     });
+  }
+
+  // An API call (the JSON bridge to the gRPC services), and a POST to no route.
+  void api_routes() {
     http->Post(R"(/api/([A-Za-z0-9]+)/([A-Za-z0-9]+))", [this](const httplib::Request& q, httplib::Response& r,
                                                                 const httplib::ContentReader& reader) {
       const auto body = read_body(reader, r);
@@ -531,6 +563,10 @@ struct WebServer::State {
       r.status = 404;
       r.set_content(web::error_json("no route POST " + q.path.substr(0, 256), "NOT_FOUND"), "application/json");
     });
+  }
+
+  // Files: a session's own, and the front end's.
+  void file_routes() {
     // A session's own files (maps.exr, previews, summary.json, the journal):
     // only inside that session's folder, after log-in (the pre-routing check).
     http->Get(R"(/api/files/([A-Za-z0-9_-][A-Za-z0-9_.-]{0,127})/(.+))", [this](const httplib::Request& q, httplib::Response& r) {

@@ -231,7 +231,7 @@ struct MethodMeasurement {
   // With a D65' parallel capture (docs/polarisation.md, "Estimation
   // outputs"): the surface map per pixel from D65' parallel (against its own
   // parallel white, on the cross D65' grid as captured: not registered,
-  // method_measurement.cpp says why) and the cross D65' albedo,
+  // measurement_surface.hpp says why) and the cross D65' albedo,
   //   S_c = (a_parallel,c − a_cross,c) / (c_parallel,c − c_cross,c)
   // with the channel's surface factors (surface_factors.hpp) when
   // MethodCaptures::surface_factors is given: the surface layer in albedo
