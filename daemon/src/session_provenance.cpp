@@ -2,8 +2,6 @@
 #include <chrono>
 
 #include "chromo/daemon/daemon.hpp"
-#include "chromo/daemon/internal/devices/virtual_lab.hpp"
-#include "chromo/simulators/camera/lab_cameras.hpp"
 #include "chromo/drivers/led_controller.hpp"
 #include "chromo/maps/estimator_version.hpp"
 
@@ -32,15 +30,7 @@ session::SessionProvenance Daemon::session_provenance(const session::SessionPlan
   }
   provenance.camera_sensitivity = sources.camera_source;
   provenance.camera_sensitivity_of = config_.estimation.camera_sensitivities;
-  // The virtual lab knows its cameras' geometry (a configured sphere's is not known yet).
-  if (config_.devices.empty()) {
-    const VirtualLabOptions lab = virtual_lab_options(config_.virtual_lab);
-    for (const auto& camera : lab.cameras) try {
-        provenance.camera_field_width_mm[camera.name] = simulators::lab_camera_field_width_mm(camera, lab.patch_width_mm);
-      } catch (const std::invalid_argument&) {
-        // A view the lab refuses at start anyway: no known scale.
-      }
-  }
+  provenance.camera_field_width_mm = config_.estimation.camera_field_width_mm;
   provenance.white_reflectance = sources.white_reflectance;
   provenance.plan = plan.name;
   provenance.operator_name = people.operator_name;

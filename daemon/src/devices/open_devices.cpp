@@ -2,13 +2,19 @@
 #include "chromo/daemon/devices.hpp"
 
 #include "chromo/daemon/internal/devices/virtual_lab.hpp"
+#include "chromo/simulators/camera/lab_cameras.hpp"
 
 namespace chromo::daemon {
 
 OpenedDevices open_devices(DaemonConfig& config) {
   if (!config.devices.empty()) return {builtin_backends().open(config.devices), ""};
-  VirtualLab lab = start_virtual_lab(virtual_lab_options(config.virtual_lab));
+  const VirtualLabOptions options = virtual_lab_options(config.virtual_lab);
+  VirtualLab lab = start_virtual_lab(options);
   config.devices = lab.devices;
+  // The lab knows its cameras' geometry: the maps' scale (docs/maps.md "Scale bar").
+  for (const auto& camera : options.cameras)
+    config.estimation.camera_field_width_mm[camera.name] =
+        simulators::lab_camera_field_width_mm(camera, options.patch_width_mm);
   if (config.mixes.empty()) config.mixes = lab.mixes;
   return {std::move(lab.device_set), lab.description};
 }

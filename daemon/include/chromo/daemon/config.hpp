@@ -53,6 +53,10 @@ struct EstimationConfig {
   std::string camera_sensitivity = "builtin:nikon_d5100";  // or a CSV wavelength_nm,R,G,B
   // Per camera (device name → builtin:NAME or a CSV), overriding camera_sensitivity for that camera's maps.
   std::map<std::string, std::string> camera_sensitivities;
+  // Camera → the subject's width one frame row spans, mm, where the geometry
+  // is known: the virtual lab fills it when it starts (open_devices); every
+  // session records it (provenance camera_field_width_mm) for the maps' scale bar.
+  std::map<std::string, double> camera_field_width_mm;
   double white_reflectance = 0.99;  // ρ of the white reference target
   // The polariser films (docs/polarisation.md "What the estimator knows of
   // the films"): "" = not given (surface maps and cross captures uncorrected),
