@@ -2,7 +2,6 @@
 
 #include "spatial_internal.hpp"
 
-#include <omp.h>
 #include <opencv2/imgproc.hpp>
 
 #include <Eigen/Eigenvalues>
@@ -138,13 +137,6 @@ TestLevels test_levels(const NeighbourhoodOptions& options, int channels) {
           std::sqrt(chi_squared_quantile(1 - 2 * options.mixture_significance, 1))};
 }
 
-// The threads the pass's per-pixel and per-block loops run on: the
-// estimator's (EstimatorOptions::threads, 0 = all cores). Every loop writes
-// only its own pixel's or block's results, so the flags do not depend on it.
-int pass_threads(const Estimator& estimator) {
-  return estimator.options().threads > 0 ? estimator.options().threads : omp_get_num_procs();
-}
-
 // The deviation statistic of steps 1-2 against one background: per pixel
 // u (the averaged deviation, unit variance under camera noise alone), σ_c,
 // whether it is tested, and per kMisfitBlock-px block M⁻¹ (noise plus the
@@ -193,10 +185,6 @@ Deviation deviation(const Estimator& estimator, const Level& level, const cv::Ma
   for (int c = 0; c < channels; ++c) {
     z[c] = cv::Mat(height, width, CV_32F, cv::Scalar(0));
     sigmas[c] = cv::Mat(height, width, CV_32F, cv::Scalar(1));
-  }
-  const int threads = pass_threads(estimator);
-#pragma omp parallel for num_threads(threads) schedule(static)
-  for (int c = 0; c < channels; ++c) {
     for (int y = 0; y < height; ++y)
       for (int x = 0; x < width; ++x) {
         const float b = back[c].at<float>(y, x);
@@ -260,15 +248,10 @@ Deviation deviation(const Estimator& estimator, const Level& level, const cv::Ma
     for (int d = c; d < channels; ++d) moment.push_back(filter(to_blocks(u[c].mul(u[d]).mul(source_u)), kw, kw));
   const double min_mass = 0.05 * std::pow(cv::sum(kw)[0], 2);
   // Per block: M⁻¹, or none (noise alone: M = I).
-  // Blocks on the estimator's threads, each with its own scratch (every
-  // block's result depends on that block alone).
   std::vector<Matrix> inverse(static_cast<std::size_t>(block_cols) * block_rows);
   std::vector<char> misfit(inverse.size(), 0);
-#pragma omp parallel num_threads(threads)
-  {
   Matrix e(channels, channels);
   Eigen::SelfAdjointEigenSolver<Matrix> eigen(channels);
-#pragma omp for schedule(dynamic, 1)
   for (int by = 0; by < block_rows; ++by)
     for (int bx = 0; bx < block_cols; ++bx) {
       const double mass = moment_mass.at<float>(by, bx);
@@ -286,7 +269,6 @@ Deviation deviation(const Estimator& estimator, const Level& level, const cv::Ma
       inverse[i] = eigen.eigenvectors() * lambda.cwiseInverse().asDiagonal() * eigen.eigenvectors().transpose();
       misfit[i] = 1;
     }
-  }
   return {std::move(u), std::move(sigmas), std::move(tested), block_cols, std::move(inverse), std::move(misfit)};
 }
 
@@ -297,7 +279,6 @@ void flag_level(const Estimator& estimator, Level& level, const NeighbourhoodOpt
   const int channels = estimator.channels(), width = level.width, height = level.height;
   const TestLevels levels = test_levels(options, channels);
   const double deviation_threshold = levels.deviation, rim_threshold = levels.rim, white_threshold = levels.white;
-  const int threads = pass_threads(estimator);
   const std::vector<cv::Mat>& values = level.values;
 
   // Deviating pixels, kept across passes: they leave the background (so a
@@ -353,12 +334,7 @@ void flag_level(const Estimator& estimator, Level& level, const NeighbourhoodOpt
     cv::Mat next(height, width, CV_8U, cv::Scalar(0)), rim;
     cv::dilate(good == 0, rim, cv::Mat::ones(3, 3, CV_8U));
     cv::Mat white(height, width, CV_8U, cv::Scalar(0)), mixed(height, width, CV_8U, cv::Scalar(0));
-    // Rows on the estimator's threads: a pixel's tests read the pass's
-    // inputs and write its own entries of next, white and mixed.
-#pragma omp parallel num_threads(threads)
-    {
     Vector v(channels), a(channels), mv(channels), scratch(channels);
-#pragma omp for schedule(dynamic, 8)
     for (int y = 0; y < height; ++y)
       for (int x = 0; x < width; ++x) {
         if (!dev.tested.at<std::uint8_t>(y, x)) continue;
@@ -381,7 +357,6 @@ void flag_level(const Estimator& estimator, Level& level, const NeighbourhoodOpt
           if (matched_statistic(a, v, misfit_inverse, scratch) > levels.mixture) mixed.at<std::uint8_t>(y, x) = 1;
         }
       }
-    }
     const bool changed = cv::countNonZero(next != candidate) > 0;
     candidate = next;
     if (changed && ++settling < 6) continue;  // let the deviating set settle before deciding

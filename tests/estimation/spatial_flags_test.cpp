@@ -68,21 +68,6 @@ TEST(PoolModelOrder, TwoDSceneKeepsOrderTwoOnNinetyFivePercent) {
   EXPECT_LE(s.after, 0.05);
 }
 
-// Estimates of a and b that differ in any field, bit for bit (NaN σ included).
-std::size_t count_different(const std::vector<PixelEstimate>& a, const std::vector<PixelEstimate>& b) {
-  std::size_t different = 0;
-  for (std::size_t p = 0; p < a.size(); ++p) {
-    const PixelEstimate &x = a[p], &y = b[p];
-    different += std::memcmp(&x.parameters, &y.parameters, sizeof x.parameters) != 0 || x.order != y.order ||
-                 x.flag != y.flag || std::memcmp(&x.residual, &y.residual, sizeof(float)) != 0 ||
-                 std::memcmp(&x.chi2, &y.chi2, sizeof(float)) != 0 ||
-                 std::memcmp(&x.order_statistic, &y.order_statistic, sizeof(float)) != 0 ||
-                 std::memcmp(x.sigma, y.sigma, sizeof x.sigma) != 0 ||
-                 std::memcmp(&x.ch_che_correlation, &y.ch_che_correlation, sizeof(float)) != 0;
-  }
-  return different;
-}
-
 // The pooled order's refits on one thread and on two give the same
 // estimates bit for bit (a 2D scene of which a quarter of the pixels chose
 // 4 alone, so that hundreds are refitted in 2D: the parallel loop runs above
@@ -108,7 +93,17 @@ TEST(PoolModelOrder, RefitsOnTwoThreadsEqualOneThreadBitForBit) {
   ASSERT_GT(sa.order_to_4 + sa.order_to_2, 256u);
   EXPECT_EQ(sa.order_to_4, sb.order_to_4);
   EXPECT_EQ(sa.order_to_2, sb.order_to_2);
-  EXPECT_EQ(count_different(a, b), 0u);
+  std::size_t different = 0;
+  for (std::size_t p = 0; p < a.size(); ++p) {
+    const PixelEstimate &x = a[p], &y = b[p];
+    different += std::memcmp(&x.parameters, &y.parameters, sizeof x.parameters) != 0 || x.order != y.order ||
+                 x.flag != y.flag || std::memcmp(&x.residual, &y.residual, sizeof(float)) != 0 ||
+                 std::memcmp(&x.chi2, &y.chi2, sizeof(float)) != 0 ||
+                 std::memcmp(&x.order_statistic, &y.order_statistic, sizeof(float)) != 0 ||
+                 std::memcmp(x.sigma, y.sigma, sizeof x.sigma) != 0 ||
+                 std::memcmp(&x.ch_che_correlation, &y.ch_che_correlation, sizeof(float)) != 0;
+  }
+  EXPECT_EQ(different, 0u);
 }
 
 using simulators::SceneRegion;
@@ -131,17 +126,12 @@ struct LabRun {
     const int i = static_cast<int>(r);
     return total[i] ? static_cast<double>((refined_flags ? flagged : flagged_per_pixel)[i]) / total[i] : 0.0;
   }
-  std::shared_ptr<const ForwardTable> table;  // the scene's measurement set's
 };
 
-// estimator_threads: EstimatorOptions::threads (0: all cores).
-LabRun run_lab(int size, double exposure_fill, const NeighbourhoodOptions& options = {}, std::uint64_t seed = 1,
-               int estimator_threads = 0) {
+LabRun run_lab(int size, double exposure_fill, const NeighbourhoodOptions& options = {}, std::uint64_t seed = 1) {
   LabRun r{testing::render_lab_scene(size, exposure_fill, seed), {}, {}};
-  r.table = std::make_shared<const ForwardTable>(ForwardTable::build(r.lab.set, TableGrid{}));
-  EstimatorOptions estimator_options;
-  estimator_options.threads = estimator_threads;
-  const Estimator estimator(r.table, r.lab.set, estimator_options);
+  const auto table = std::make_shared<const ForwardTable>(ForwardTable::build(r.lab.set, TableGrid{}));
+  const Estimator estimator(table, r.lab.set, EstimatorOptions{});
   r.per_pixel.resize(r.lab.measured.size() / 4);
   const std::clock_t cpu = std::clock();
   EstimateSummary summary = estimator.estimate(r.lab.measured, r.per_pixel);
@@ -245,7 +235,7 @@ TEST(NeighbourhoodFlags, PartialCoverBesideFlaggedMaterialJoins) {
 // statistic counted noise alone; on six scenes now 0.22-5.15%: the 1% target
 // is not met at this size); the highlight's core and the white target clip.
 TEST(NeighbourhoodFlags, SmallBrightSceneKeepsSkinAndFlagsClippedPixels) {
-  const LabRun r = run_lab(128, 2.0, {}, 1, 2);
+  const LabRun r = run_lab(128, 2.0);
   EXPECT_LE(r.share(SceneRegion::kSkin), 0.06);        // six scenes: 0.22-5.15%
   EXPECT_GE(r.share(SceneRegion::kTattoo), 0.95);      // 98.3-99.2%
   EXPECT_GE(r.share(SceneRegion::kMarker), 0.92);      // 93.5-96.9%
@@ -253,16 +243,6 @@ TEST(NeighbourhoodFlags, SmallBrightSceneKeepsSkinAndFlagsClippedPixels) {
   ASSERT_GT(r.clipped, 100u);
   EXPECT_EQ(r.clipped_flagged, r.clipped);
   expect_finite(r.refined);
-  // The spatial pass (flags and pooled order) on one thread gives the two
-  // threads' estimates bit for bit.
-  EstimatorOptions one_thread;
-  one_thread.threads = 1;
-  const Estimator serial(r.table, r.lab.set, one_thread);
-  std::vector<PixelEstimate> again = r.per_pixel;
-  EstimateSummary summary;
-  const NeighbourhoodSummary s = refine_with_neighbourhood(serial, r.lab.measured, r.lab.width, r.lab.height, again, summary);
-  ASSERT_GT(s.flagged_touching, 0u);
-  EXPECT_EQ(count_different(again, r.refined), 0u);
 }
 
 // The rest of the 128-512 px × 0.5-2.5× exposure grid (the two runs above are

@@ -103,10 +103,8 @@
 // cells).
 //
 // Thread rules: free functions over caller-owned buffers; reentrant. They use
-// OpenCV (single call, OpenCV's own threads) and OpenMP on the estimator's
-// threads (EstimatorOptions::threads) for the flags' per-pixel and per-block
-// loops and the pooled order's refits; the results do not depend on the
-// number of threads.
+// OpenCV (single call, OpenCV's own threads) and, for the pooled order's
+// refits, OpenMP on the estimator's threads.
 
 #include <span>
 #include <string>
