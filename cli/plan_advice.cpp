@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "chromo/calibration/session_mix.hpp"
+#include "chromo/estimation/model_discrepancy.hpp"
 #include "chromo/planning/plan_advisor.hpp"
 #include "chromo/simulators/scene/rendered_session.hpp"
 #include "chromo/spectral/camera.hpp"
@@ -71,7 +72,9 @@ std::optional<double> predicted_relit_delta_e94(const session::SessionPlan& plan
   if (!description) return std::nullopt;
   planning::CameraNoise camera;
   camera.sensitivity = spectral::builtin_camera("nikon_d5100");
-  return planning::predict_plan(*description, library, camera).delta_e94_mean;
+  planning::AdvisorOptions options;  // as `chromo plan compare` by default: the learned discrepancy in
+  options.discrepancy = estimation::ModelDiscrepancy::standard();
+  return planning::predict_plan(*description, library, camera, options).delta_e94_mean;
 }
 
 session::PlanHazard planned_blue_light_hazard(const session::SessionPlan& plan) {

@@ -13,6 +13,7 @@
 #include "chromo/calibration/led_library_io.hpp"
 #include "chromo/files/bounded_read.hpp"
 #include "chromo/files/gnuplot_chart.hpp"
+#include "chromo/estimation/model_discrepancy.hpp"
 #include "chromo/planning/plan_advisor.hpp"
 #include "chromo/planning/plan_description.hpp"
 #include "chromo/simulators/scene/rendered_session.hpp"
@@ -31,6 +32,7 @@ struct PlanCompareOptions {
   std::uint64_t seed = 1;
   int mc_draws = 2;              // Monte Carlo draws per skin; 0: no check
   int threads = 2;
+  std::string discrepancy = "learned";  // "learned" or "none" (AdvisorOptions::discrepancy)
   std::string chart = "plan_compare.png";
   bool json = false;
 };
@@ -70,6 +72,8 @@ int run_plan_compare(const PlanCompareOptions& o) {
   options.population.count = o.skins;
   options.population.seed = o.seed;
   options.threads = o.threads;
+  if (o.discrepancy == "learned") options.discrepancy = estimation::ModelDiscrepancy::standard();
+  else if (o.discrepancy != "none") throw std::invalid_argument("--discrepancy: must be 'learned' or 'none'");
   if (std::string error; !options.IsValid(&error)) throw std::invalid_argument("--skins/--threads: " + error);
   planning::MonteCarloOptions mc;
   mc.draws_per_skin = std::max(1, o.mc_draws);
@@ -95,7 +99,8 @@ int run_plan_compare(const PlanCompareOptions& o) {
                                  {"reference_s", p.time.reference_s},
                                  {"sigma", {{"cm", p.sigma.cm}, {"ch", p.sigma.ch}, {"bm", p.sigma.bm}, {"che", p.sigma.che}}},
                                  {"illuminants", p.illuminants}, {"predicted_delta_e94", p.delta_e94},
-                                 {"predicted_delta_e94_mean", p.delta_e94_mean}, {"skins", p.skins}};
+                                 {"predicted_delta_e94_mean", p.delta_e94_mean}, {"skins", p.skins},
+                                 {"discrepancy", o.discrepancy}};
       if (checks[i]) {
         const auto& c = *checks[i];
         row["monte_carlo"] = {{"delta_e94", c.delta_e94}, {"delta_e94_mean", c.delta_e94_mean}, {"ratio", c.ratio},
@@ -105,8 +110,8 @@ int run_plan_compare(const PlanCompareOptions& o) {
     }
     std::cout << out.dump(2) << "\n";
   } else {
-    fmt::print("# plan advisor: {} skins ({} population, seed {}), camera {}, library {}\n", options.population.count,
-               o.population, o.seed, o.camera, o.library);
+    fmt::print("# plan advisor: {} skins ({} population, seed {}), camera {}, library {}, discrepancy {}\n",
+               options.population.count, o.population, o.seed, o.camera, o.library, o.discrepancy);
     fmt::print("# σ: Cramér-Rao RMS over the skins; ΔE94: predicted mean relit ΔE94; MC: Monte Carlo fits' mean, "
                "ratio = predicted/MC, bound = share of fits on a range edge\n");
     fmt::print("{:<18} {:>3} {:>9} {:>9} {:>8} {:>8} {:>7} {:>7}", "plan", "ch", "subject_s", "refs_s", "σCm", "σCh",
@@ -176,6 +181,10 @@ void add_plan_command(CLI::App& app, int& exit_status) {
   compare->add_option("--mc-draws", options->mc_draws, "Monte Carlo draws per skin (0: no check)")
       ->capture_default_str()->check(CLI::Range(0, 1000));
   compare->add_option("--threads", options->threads, "threads (1-64)")->capture_default_str();
+  compare->add_option("--discrepancy", options->discrepancy,
+                      "learned: the skin model's learned discrepancy on real skin added to the camera noise, as the "
+                      "estimator adds it; none: camera noise alone")
+      ->capture_default_str();
   compare->add_option("--chart", options->chart, "chart PNG (beside it, its CSV); empty: none")->capture_default_str();
   compare->add_flag("--json", options->json, "print JSON instead of the table");
   compare->callback([options, &exit_status] { exit_status = run_plan_compare(*options); });

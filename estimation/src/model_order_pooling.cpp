@@ -1,5 +1,6 @@
 // pool_model_order (spatial_flags.hpp): the model order decided over a
 // window of pixels, the part of the spatial pass that is not about flags.
+#include <omp.h>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -35,20 +36,33 @@ NeighbourhoodSummary pool_model_order(const Estimator& estimator, std::span<cons
   std::vector<double> threshold(max_count + 1, 0);
   for (int n = 1; n <= max_count; ++n)
     threshold[n] = chi_squared_quantile(1 - estimator.options().order_significance, dof * n);
+  // Which pixels the window moves to the other order (cheap, in order), then
+  // their refits on the estimator's threads: each refit reads only its own
+  // pixel's measurement and writes only its own estimate, so the maps are
+  // the same bit for bit on any number of threads.
+  std::vector<std::size_t> moved;
   for (std::size_t p = 0; p < estimates.size(); ++p) {
-    PixelEstimate& e = estimates[p];
     const int y = static_cast<int>(p / width), x = static_cast<int>(p % width);
     if (!tested.at<float>(y, x)) continue;
     const int n = std::clamp(static_cast<int>(std::lround(count.at<float>(y, x))), 1, max_count);
     const int decided = sum.at<float>(y, x) > threshold[n] ? 4 : 2;
-    if (decided == e.order) continue;
-    PixelEstimate refit = estimator.estimate_pixel(measured.data() + p * channels,
-                                                   decided == 4 ? ModelChoice::k4d : ModelChoice::k2d);
-    if (decided == 2 && refit.flag != PixelFlag::kExplained) continue;  // the 2D model does not explain it alone
+    if (decided != estimates[p].order) moved.push_back(p);
+  }
+  const std::ptrdiff_t refits = static_cast<std::ptrdiff_t>(moved.size());
+  const int threads = estimator.options().threads > 0 ? estimator.options().threads : omp_get_num_procs();
+  std::size_t to_4 = 0, to_2 = 0;
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 256) reduction(+ : to_4, to_2) if (refits > 256)
+  for (std::ptrdiff_t i = 0; i < refits; ++i) {
+    PixelEstimate& e = estimates[moved[i]];
+    const bool to_order_4 = e.order == 2;  // moved: the window decided the other order
+    PixelEstimate refit = estimator.estimate_pixel(measured.data() + moved[i] * channels,
+                                                   to_order_4 ? ModelChoice::k4d : ModelChoice::k2d);
+    if (!to_order_4 && refit.flag != PixelFlag::kExplained) continue;  // the 2D model does not explain it alone
     refit.order_statistic = e.order_statistic;
     e = refit;
-    ++(decided == 4 ? summary.order_to_4 : summary.order_to_2);
+    ++(to_order_4 ? to_4 : to_2);
   }
+  summary.order_to_4 = to_4, summary.order_to_2 = to_2;
   return summary;
 }
 

@@ -71,9 +71,10 @@ Eigen::Matrix3Xd normal_samples(int count) {
 }
 
 // A symmetric square root of a covariance (eigenvalues below 0 from rounding are 0).
-Eigen::Matrix3d covariance_root(const Eigen::Matrix3d& covariance) {
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(covariance);
-  const Eigen::Vector3d root = eigen.eigenvalues().cwiseMax(0.0).cwiseSqrt();
+template <typename Matrix>
+Matrix covariance_root(const Matrix& covariance) {
+  Eigen::SelfAdjointEigenSolver<Matrix> eigen(covariance);
+  const auto root = eigen.eigenvalues().cwiseMax(0.0).cwiseSqrt().eval();
   return eigen.eigenvectors() * root.asDiagonal() * eigen.eigenvectors().transpose();
 }
 
@@ -94,6 +95,21 @@ void check_inputs(const PlanDescription& plan, const calibration::LedLibrary& li
     throw std::invalid_argument("library: " + bad);
   if (!camera.IsValid(&error)) throw std::invalid_argument("camera: " + error);
   if (options != nullptr && !options->IsValid(&error)) throw std::invalid_argument("options: " + error);
+}
+
+// Σ_disc in the model's channels (the estimator's, from the plan's measurement
+// set), or an empty matrix without a discrepancy.
+Eigen::MatrixXd discrepancy_covariance(const PlanModel& model, const AdvisorOptions& options) {
+  if (!options.discrepancy) return Eigen::MatrixXd();
+  return options.discrepancy->channel_covariance(model.measurement_set());
+}
+
+// The channels' covariance at an albedo: the camera's, plus Σ_disc when given.
+Eigen::MatrixXd channel_covariance(const PlanModel& model, const spectral::Spectrum& albedo,
+                                   const Eigen::MatrixXd& discrepancy) {
+  Eigen::MatrixXd cov = model.covariance(albedo);
+  if (discrepancy.size() > 0) cov += discrepancy;
+  return cov;
 }
 
 struct SkinResult {
@@ -203,6 +219,9 @@ bool MonteCarloOptions::IsValid(std::string* error) const {
   };
   if (draws_per_skin < 1 || draws_per_skin > 1000) return fail("draws_per_skin: must be 1-1000");
   if (max_iterations < 1 || max_iterations > 1000) return fail("max_iterations: must be 1-1000");
+  for (const spectral::Spectrum& a : measured_albedo)
+    if (!a.values().allFinite() || a.values().minCoeff() < 0 || a.values().maxCoeff() > 1)
+      return fail("measured_albedo: every spectrum must be finite and within [0, 1]");
   return true;
 }
 
@@ -313,6 +332,7 @@ PlanPrediction predict_plan(const PlanDescription& plan, const calibration::LedL
   const Eigen::MatrixXd delta_v = options.table_bias ? table_error(model, skins, options.threads) : Eigen::MatrixXd();
   const Eigen::Matrix3Xd z = normal_samples(options.delta_e_samples);
   const Eigen::Matrix4d prior = options.box_prior ? box_information() : Eigen::Matrix4d::Zero();
+  const Eigen::MatrixXd discrepancy = discrepancy_covariance(model, options);
   std::vector<SkinResult> results(skins.size());
 
 #pragma omp parallel for num_threads(options.threads) schedule(dynamic)
@@ -331,7 +351,7 @@ PlanPrediction predict_plan(const PlanDescription& plan, const calibration::LedL
       for (std::size_t r = 0; r < refs.size(); ++r)
         lab_jacobian[r].col(j) = (lab_of(a_up, refs[r]) - lab_of(a_down, refs[r])) / (2 * h[j]);
     }
-    const Eigen::MatrixXd cov = model.covariance(albedo);
+    const Eigen::MatrixXd cov = channel_covariance(model, albedo, discrepancy);
     const Eigen::LDLT<Eigen::MatrixXd> noise(cov);
     const Eigen::Matrix4d information = jacobian.transpose() * noise.solve(jacobian) + prior;
     const Eigen::Matrix4d p_cov = information.ldlt().solve(Eigen::Matrix4d::Identity());
@@ -347,7 +367,7 @@ PlanPrediction predict_plan(const PlanDescription& plan, const calibration::LedL
     for (std::size_t r = 0; r < refs.size(); ++r) {
       const Eigen::Vector3d lab = lab_of(albedo, refs[r]);
       const Eigen::Matrix3d lab_cov = lab_jacobian[r] * p_cov * lab_jacobian[r].transpose();
-      const Eigen::Matrix3Xd e = (covariance_root(lab_cov) * z).colwise() + lab_jacobian[r] * bias;
+      const Eigen::Matrix3Xd e = (covariance_root<Eigen::Matrix3d>(lab_cov) * z).colwise() + lab_jacobian[r] * bias;
       double sum = 0;
       for (int i = 0; i < e.cols(); ++i) sum += spectral::delta_e94(to_lab(lab), to_lab(lab + e.col(i)));
       out.delta_e.push_back(sum / e.cols());
@@ -379,6 +399,15 @@ MonteCarloCheck monte_carlo_check(const PlanDescription& plan, const calibration
   const PlanModel model(plan, library, camera);
   const std::vector<Reference> refs = references_of(options);
   const std::vector<SkinParameters> skins = draw_population(options.population);
+  if (!mc.measured_albedo.empty() && mc.measured_albedo.size() != skins.size())
+    throw std::invalid_argument("monte_carlo.measured_albedo: " + std::to_string(mc.measured_albedo.size()) +
+                                " spectra for " + std::to_string(skins.size()) + " skins");
+  const Eigen::MatrixXd discrepancy = discrepancy_covariance(model, options);
+  // Its square root, for the draws added to model skin (measured skin carries its own).
+  const Eigen::MatrixXd discrepancy_root =
+      discrepancy.size() > 0 && mc.measured_albedo.empty()
+          ? covariance_root(discrepancy)
+          : Eigen::MatrixXd();
   const std::size_t fits = skins.size() * mc.draws_per_skin;
   struct Fit {
     Vec4 error = Vec4::Zero();
@@ -389,11 +418,18 @@ MonteCarloCheck monte_carlo_check(const PlanDescription& plan, const calibration
 
 #pragma omp parallel for num_threads(options.threads) schedule(dynamic)
   for (std::size_t f = 0; f < fits; ++f) {
-    const SkinParameters& truth = skins[f / mc.draws_per_skin];
-    const spectral::Spectrum albedo = skin_model().albedo(truth);
+    const std::size_t s = f / mc.draws_per_skin;
+    const SkinParameters& truth = skins[s];
+    const spectral::Spectrum albedo = mc.measured_albedo.empty() ? skin_model().albedo(truth) : mc.measured_albedo[s];
     std::mt19937_64 rng(mc.seed * 0x9E3779B97F4A7C15ull + f);
-    const Eigen::VectorXd observed = model.simulate(albedo, rng);
-    const Eigen::MatrixXd cov = model.covariance(albedo);
+    Eigen::VectorXd observed = model.simulate(albedo, rng);
+    if (discrepancy_root.size() > 0) {
+      std::normal_distribution<double> normal;
+      Eigen::VectorXd z(observed.size());
+      for (Eigen::Index c = 0; c < z.size(); ++c) z[c] = normal(rng);
+      observed += discrepancy_root * z;
+    }
+    const Eigen::MatrixXd cov = channel_covariance(model, albedo, discrepancy);
     const BoundedFit fit = fit_bounded(model, observed, cov, truth, mc.max_iterations, skin_model());
     Fit& r = out[f];
     r.failed = !fit.usable;

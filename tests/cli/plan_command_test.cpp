@@ -74,6 +74,23 @@ TEST(ChromoPlan, OffersTheBroadbandStudyPlansByName) {
   EXPECT_EQ(j[1]["channels"][3], "W40+blue-W40.B");
 }
 
+// The learned discrepancy (issue 37) is in the advice by default, as in the
+// estimator's χ²; --discrepancy none gives the camera noise alone, which
+// predicts a narrower σ; any other value is refused naming the option.
+TEST(ChromoPlan, TheLearnedDiscrepancyIsInTheAdviceUnlessTurnedOff) {
+  const std::string plan = "plan compare multispectral@16 --skins 4 --mc-draws 0 --json --chart ''";
+  const Result learned = run_chromo(plan), none = run_chromo(plan + " --discrepancy none");
+  ASSERT_EQ(learned.exit_status, 0) << learned.output;
+  ASSERT_EQ(none.exit_status, 0) << none.output;
+  const auto with = nlohmann::json::parse(learned.output)[0], without = nlohmann::json::parse(none.output)[0];
+  EXPECT_EQ(with["discrepancy"], "learned");
+  EXPECT_EQ(without["discrepancy"], "none");
+  EXPECT_GT(with["sigma"]["cm"].get<double>(), 1.2 * without["sigma"]["cm"].get<double>());
+  const Result bad = run_chromo("plan compare method --discrepancy guessed --chart ''");
+  EXPECT_EQ(bad.exit_status, 2) << bad.output;
+  EXPECT_THAT(bad.output, HasSubstr("--discrepancy: must be 'learned' or 'none'"));
+}
+
 TEST(ChromoPlan, BadPlansAreRefusedNamingTheField) {
   const fs::path dir = scratch();
   std::ofstream(dir / "bad.json") << R"({"name": "x", "captures": [{"name": "a", "drive": {"B": 1}, "white_fill": 2}]})";

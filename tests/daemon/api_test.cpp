@@ -443,6 +443,27 @@ TEST_F(ApiFixture, TlsWithTokenWhenCertificatesAreConfigured) {
   EXPECT_FALSE(pb::OperationService::NewStub(plain)->ListOperations(&context, {}, &response).ok());
 }
 
+// A TCP connection to 127.0.0.1:port that sends nothing; -1 when refused.
+int silent_connection(int port) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(static_cast<std::uint16_t>(port));
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) {
+    ::close(fd);
+    return -1;
+  }
+  return fd;
+}
+
+// True when the server ends `fd` (EOF or reset) within `ms`.
+bool closed_by_server(int fd, int ms) {
+  pollfd p{fd, POLLIN, 0};
+  char byte;
+  return ::poll(&p, 1, ms) == 1 && ::recv(fd, &byte, 1, MSG_DONTWAIT) <= 0;
+}
+
 // Issue 40, row 3 (in part): TLS connections that never sent a byte were
 // kept for gRPC's 120 s handshake timeout, so enough of them used up the
 // descriptors. Now one is closed after tcp_handshake_timeout_ms.
@@ -455,19 +476,12 @@ TEST_F(ApiFixture, ATlsConnectionThatNeverHandshakesIsClosed) {
   start();
   std::vector<int> silent;
   for (int i = 0; i < 10; ++i) {
-    const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    sockaddr_in address{};
-    address.sin_family = AF_INET;
-    address.sin_port = htons(static_cast<std::uint16_t>(server->tcp_port()));
-    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    ASSERT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address), 0);
-    silent.push_back(fd);
+    silent.push_back(silent_connection(server->tcp_port()));
+    ASSERT_GE(silent.back(), 0);
   }
   int closed = 0;  // each sees its end (EOF or reset) within 10 s: gRPC's default would keep it 120 s
   for (int fd : silent) {
-    pollfd p{fd, POLLIN, 0};
-    char byte;
-    if (::poll(&p, 1, 10000) == 1 && ::recv(fd, &byte, 1, 0) <= 0) ++closed;
+    closed += closed_by_server(fd, 10000);
     ::close(fd);
   }
   EXPECT_EQ(closed, 10);
@@ -508,27 +522,6 @@ TEST_F(ApiFixture, AHandshakenTlsConnectionWithoutCallsIsClosedOnceIdle) {
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));
   EXPECT_TRUE(list_over_tcp(in_process, "Bearer test-token-0123456789").ok()) << "the in-process channel was closed when idle";
   EXPECT_TRUE(list_over_tcp(channel, nullptr).ok()) << "the Unix socket's client did not reconnect";
-}
-
-// A TCP connection to 127.0.0.1:port that sends nothing; -1 when refused.
-int silent_connection(int port) {
-  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_port = htons(static_cast<std::uint16_t>(port));
-  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) {
-    ::close(fd);
-    return -1;
-  }
-  return fd;
-}
-
-// True when the server ends `fd` (EOF or reset) within `ms`.
-bool closed_by_server(int fd, int ms) {
-  pollfd p{fd, POLLIN, 0};
-  char byte;
-  return ::poll(&p, 1, ms) == 1 && ::recv(fd, &byte, 1, MSG_DONTWAIT) <= 0;
 }
 
 // Waits up to 10 s for `done`.

@@ -122,18 +122,25 @@ TEST_F(MapsApi, ProfileExportsAreLimitedAndOneAbandonedByItsClientStops) {
   small.add_cm(0.05), small.add_ch(0.05), small.add_bm(0.7), small.add_che(0.0);
   std::thread abandoned([&] {
     grpc::ClientContext context;
-    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(3));
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(5));
     pb::ExportProfilesResponse response;
     EXPECT_EQ(stub->ExportProfiles(&context, big, &response).error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
   });
-  std::this_thread::sleep_for(std::chrono::milliseconds(1000));  // the big one is running (its 300 profiles take ~15 s)
-  {
+  // Once the big one runs (its 300 profiles take ~15 s), the small one is
+  // refused. Until it has taken its slot (a loaded machine may take a while
+  // to start it), the small one is served: those are counted, not failed.
+  int served_before = 0;
+  grpc::Status refused;
+  for (int i = 0; i < 40; ++i) {
     grpc::ClientContext context;
     pb::ExportProfilesResponse response;
-    const grpc::Status status = stub->ExportProfiles(&context, small, &response);
-    EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
-    EXPECT_THAT(status.error_message(), HasSubstr("max_profile_exports"));
+    refused = stub->ExportProfiles(&context, small, &response);
+    if (!refused.ok()) break;
+    ++served_before;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << refused.error_message();
+  EXPECT_THAT(refused.error_message(), HasSubstr("max_profile_exports"));
   abandoned.join();
   // The abandoned export stops and gives its slot back: the small one is
   // served within a few tries (it would wait ~12 s for one that went on).
@@ -151,7 +158,7 @@ TEST_F(MapsApi, ProfileExportsAreLimitedAndOneAbandonedByItsClientStops) {
   int folders = 0;
   for (const auto& entry : fs::directory_iterator(data / "products"))
     folders += entry.path().filename().string().rfind("profiles-", 0) == 0 && fs::exists(entry.path() / "index.exr");
-  EXPECT_EQ(folders, 1);
+  EXPECT_EQ(folders, 1 + served_before);
 }
 
 // GetMap: each output cell is the map's value at the cell's centre (the web

@@ -193,8 +193,12 @@ TEST(MultiCameraEstimation, TwoPosedCamerasGetTheirOwnMapsThatMatchTheirPoses) {
     // only its printed ratio is reported here.
     EXPECT_NEAR(own.cm_ratio, 1.0, 0.15) << camera.name;
     // 0.6 since the noise model's fix (e37c201): 0.62-0.63 measured after,
-    // above 0.7 before; the blue-only channel, now weighed by its true noise,
-    // carries the lab's blue-LED temperature error (docs/calibration.md §6).
+    // above 0.7 before. Not the blue LED's temperature (checked in issue 37,
+    // docs/estimation.md "The noise model"): with the LEDs not drifting,
+    // cam0 / side read 0.714 / 0.610 (seed 1) and 0.679 / 0.653 (seed 2)
+    // against 0.728 / 0.626 and 0.682 / 0.691 with drift. The side camera
+    // (30° off the normal) sets the bound: 0.607 with the 2D model alone
+    // (cam0 0.769), 0.469 with the 4D (cam0 0.486).
     // Through the other pose stays 0.05 below, asserted next.
     EXPECT_GT(own.log_cm_correlation, 0.6) << camera.name;
     EXPECT_LT(other.log_cm_correlation, own.log_cm_correlation - 0.05) << camera.name;

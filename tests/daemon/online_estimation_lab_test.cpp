@@ -67,10 +67,16 @@ TEST(OnlineEstimationOnTheVirtualLab, CalibratedStandardSessionEndsInMapsThatMat
   std::cout << "virtual lab session: skin " << skin_pixels << ", flagged " << flagged << "; relit ΔE94 (D65) vs truth mean "
             << relit.mean << " median " << relit.median << " p95 " << relit.p95 << "; estimate "
             << summary["timings_s"]["estimate"] << " s, " << summary["pixels_per_second"] << " pixels/s\n";
-  // 1.5% since the noise model's fix (e37c201): the blue-only channel's
-  // noise had been overstated ~4x, which hid its systematic error on the lab
-  // (the blue LED's junction warmer at its white than at its subject,
-  // docs/calibration.md §6); 1.22-1.27% measured after, under 1% before.
+  // 1.5% since the noise model's fix (e37c201; 1.22-1.27% measured after
+  // it, under 1% before). Not the blue LED's junction temperature, as first
+  // supposed (checked in issue 37, docs/estimation.md "The noise model"):
+  // with the lab's LEDs not drifting (led_thermal_drift false) seeds 1-3
+  // flag 1.07%, 1.41%, 1.44% of skin, against 0.88-1.32%, 1.49-2.14%, 1.34%
+  // with drift (which varies from run to run with the LEDs' timing). 70-85%
+  // of the flagged skin is the spatial pass's neighbourhood flag (code 7),
+  // 2.5-3.6% of the skin 3-4 map pixels from a scene region against
+  // 0.5-0.8% of it 8 or more away: skin beside the scene's anomalies
+  // (whether the fix alone moved them over 1% was not measured).
   EXPECT_LT(static_cast<double>(flagged) / skin_pixels, 0.015);
   EXPECT_LT(relit.median, 1.3);
 

@@ -117,6 +117,65 @@ TEST(PlanAdvisor, MoreFramesReduceSigmaBySquareRootOfFrames) {
   EXPECT_GT(p4.time.subject_s, 3 * p1.time.subject_s);
 }
 
+// The learned discrepancy (real skin's misfit to the model, the covariance
+// the estimator's χ² adds) floors σ: frames, which only average the camera's
+// noise, buy little below it, while channels still do. So a long plan of
+// few channels that outranks a short one of many channels on the camera
+// noise alone falls behind it on real skin.
+TEST(PlanAdvisor, TheDiscrepancyFloorsSigmaSoChannelsOutrankFrames) {
+  struct Pair {
+    PlanPrediction noise_only, with_discrepancy;
+  };
+  auto predict = [](const char* name) {
+    const PlanDescription plan = builtin_plan(name, library());
+    AdvisorOptions options = small_interior(16);
+    Pair out{predict_plan(plan, library(), CameraNoise{}, options), {}};
+    options.discrepancy = estimation::ModelDiscrepancy::standard();
+    out.with_discrepancy = predict_plan(plan, library(), CameraNoise{}, options);
+    return out;
+  };
+  const Pair m16 = predict("method@16"), m256 = predict("method@256"), ms4 = predict("multispectral@4");
+  // Measured: σ_Cm method@256 / method@16 0.57 on the camera noise, 0.93 with the discrepancy.
+  EXPECT_LT(m256.noise_only.sigma.cm / m16.noise_only.sigma.cm, 0.65);
+  EXPECT_GT(m256.with_discrepancy.sigma.cm / m16.with_discrepancy.sigma.cm, 0.85);
+  // The ranking by predicted relit ΔE94 flips: method@256 (1600 s) ahead of
+  // multispectral@4 (75 s) on the camera noise (0.285 against 0.312), behind
+  // it with the discrepancy (0.482 against 0.468).
+  EXPECT_LT(m256.noise_only.delta_e94_mean, 0.95 * ms4.noise_only.delta_e94_mean);
+  EXPECT_GT(m256.with_discrepancy.delta_e94_mean, ms4.with_discrepancy.delta_e94_mean);
+  // The discrepancy only adds: every σ and every ΔE94 grows.
+  for (const Pair* p : {&m16, &m256, &ms4}) {
+    EXPECT_GT(p->with_discrepancy.sigma.cm, p->noise_only.sigma.cm);
+    EXPECT_GT(p->with_discrepancy.sigma.ch, p->noise_only.sigma.ch);
+    EXPECT_GT(p->with_discrepancy.delta_e94_mean, p->noise_only.delta_e94_mean);
+  }
+}
+
+// With the discrepancy, the Monte Carlo check adds a draw of it to every
+// simulated measurement and weighs the fit by camera noise plus discrepancy,
+// as the prediction assumes: the two still agree where the discrepancy
+// dominates (16 frames of the multispectral plan).
+TEST(PlanAdvisor, FisherPredictionWithTheDiscrepancyAgreesWithMonteCarlo) {
+  const PlanDescription plan = builtin_plan("multispectral@16", library());
+  AdvisorOptions options = small_interior(24);
+  options.discrepancy = estimation::ModelDiscrepancy::standard();
+  const PlanPrediction prediction = predict_plan(plan, library(), CameraNoise{}, options);
+  MonteCarloOptions mc;
+  mc.draws_per_skin = 8;
+  const MonteCarloCheck check = monte_carlo_check(plan, library(), CameraNoise{}, options, mc, prediction);
+  EXPECT_EQ(check.fits, 24 * 8);
+  std::printf("multispectral@16 with the discrepancy: predicted ΔE94 %.4f, MC %.4f; σ_Cm predicted %.5f, MC %.5f\n",
+              prediction.delta_e94_mean, check.delta_e94_mean, prediction.sigma.cm, check.rms_error.cm);
+  EXPECT_GT(check.ratio, 0.8) << "predicted " << prediction.delta_e94_mean << " MC " << check.delta_e94_mean;
+  EXPECT_LT(check.ratio, 1.25) << "predicted " << prediction.delta_e94_mean << " MC " << check.delta_e94_mean;
+  EXPECT_NEAR(prediction.sigma.cm / check.rms_error.cm, 1.0, 0.3);
+  // Measured skin: as many spectra as skins, each finite within [0, 1].
+  mc.measured_albedo = {spectral::Spectrum::constant(0.3)};
+  EXPECT_THROW(monte_carlo_check(plan, library(), CameraNoise{}, options, mc, prediction), std::invalid_argument);
+  mc.measured_albedo.assign(24, spectral::Spectrum::constant(1.5));
+  EXPECT_THROW(monte_carlo_check(plan, library(), CameraNoise{}, options, mc, prediction), std::invalid_argument);
+}
+
 // Skins on the estimator's default table grid (node indices per axis) and
 // half-way between nodes; the grid's node values from a table of that grid.
 std::vector<estimation::SkinParameters> skins_on_table_grid(double offset) {

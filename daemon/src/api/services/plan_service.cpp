@@ -6,6 +6,7 @@
 #include <string>
 
 #include "chromo/calibration/led_library.hpp"
+#include "chromo/estimation/model_discrepancy.hpp"
 #include "chromo/planning/plan_advisor.hpp"
 #include "chromo/planning/plan_description.hpp"
 #include "chromo/spectral/camera.hpp"
@@ -106,6 +107,8 @@ class PlanServiceImpl final : public pb::PlanService::Service {
       options.population.count = skins;
       options.population.seed = request->seed() == 0 ? 1 : request->seed();
       options.threads = 2;
+      // The estimator's discrepancy (estimation.discrepancy), so the advice weighs the channels as the maps will.
+      if (estimation.discrepancy != "none") options.discrepancy = estimation::ModelDiscrepancy::standard();
       planning::MonteCarloOptions mc;
       mc.draws_per_skin = std::max<int>(1, static_cast<int>(request->monte_carlo_draws()));
       for (std::size_t i = 0; i < plans.size(); ++i) {

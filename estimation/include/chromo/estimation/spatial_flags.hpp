@@ -94,14 +94,17 @@
 // test's significance while the 4D effect of a region adds up N times.
 // A pixel whose window decides 4 but that chose 2 is refitted in 4D; one whose
 // window decides 2 but chose 4 is refitted in 2D unless its own 2D fit is not
-// explained (then it stays 4).
+// explained (then it stays 4). The refits run on the estimator's threads
+// (EstimatorOptions::threads, 0 = all cores); the result does not depend on
+// their number.
 //
 // Cost (CPU, shared machine): 1.4-1.9 s at 256 px, 7.3-7.7 s at 512 px
 // (block 1); the 5-MP session 1.7 s on 260×195 blocks (was 19-25 s on its
 // cells).
 //
 // Thread rules: free functions over caller-owned buffers; reentrant. They use
-// OpenCV (single call, OpenCV's own threads).
+// OpenCV (single call, OpenCV's own threads) and, for the pooled order's
+// refits, OpenMP on the estimator's threads.
 
 #include <span>
 #include <string>

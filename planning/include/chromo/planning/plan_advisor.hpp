@@ -33,6 +33,16 @@
 // (Cramér-Rao, plus that prior). σ per parameter: √P_jj, RMS over the skin
 // population.
 //
+// The model's discrepancy (AdvisorOptions::discrepancy). On real skin the
+// skin model's best fit stays off the measured spectrum by a residual r(λ)
+// the estimator counts as noise: Σ_disc = W Σ_r Wᵀ in the plan's channels
+// (estimation::ModelDiscrepancy::channel_covariance of the plan's measurement
+// set, the covariance the estimator's χ² adds). With it, Σ above is the
+// camera's covariance plus Σ_disc everywhere the advisor weighs the
+// channels: the Fisher information (so σ no longer falls as 1/√frames below
+// the discrepancy's floor: more channels lower it, more frames do not), the
+// table bias, and the Monte Carlo check's weights.
+//
 // Relit colour. For each reference illuminant, L = ∂Lab/∂p (central
 // differences of the albedo's CIELAB under that illuminant, MODEL.md's
 // colour rules) and Σ_Lab = L P Lᵀ. The predicted ΔE94 is the expectation of
@@ -64,10 +74,12 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "chromo/calibration/led_library.hpp"
+#include "chromo/estimation/model_discrepancy.hpp"
 #include "chromo/estimation/skin_parameters.hpp"
 #include "chromo/planning/plan_description.hpp"
 #include "chromo/spectral/camera.hpp"
@@ -137,6 +149,12 @@ struct AdvisorOptions {
   // fitted). On: each skin's relit error is ΔE94 of (Lab + L·δp + e) and not
   // of (Lab + e). Costs one table build per prediction (seconds).
   bool table_bias = false;
+  // The skin model's learned discrepancy on real skin (model_discrepancy.hpp;
+  // "The model's discrepancy" above): its channel covariance is added to the
+  // camera noise. Null: the camera noise alone (skin rendered by the model
+  // itself). `chromo plan compare` and the API pass ModelDiscrepancy::standard()
+  // by default, as the estimator does.
+  std::shared_ptr<const estimation::ModelDiscrepancy> discrepancy;
   int threads = 1;              // 1-64
   bool IsValid(std::string* error) const;
 };
@@ -172,6 +190,15 @@ struct MonteCarloOptions {
   int draws_per_skin = 4;    // 1-1000
   std::uint64_t seed = 7;
   int max_iterations = 50;   // Ceres iterations per fit
+  // Measured skin (real spectra): when not empty, one albedo spectrum per
+  // skin of the population (same order and count; finite, in [0, 1]), and
+  // each skin is that spectrum's reference parameters (its full-spectrum
+  // fit). The frames are simulated from the spectrum, not from the model's
+  // albedo of the skin, so the fits carry the model's real discrepancy, and
+  // the relit error is against the spectrum. Empty: the model's albedo of
+  // each skin, plus, when AdvisorOptions::discrepancy is set, a draw from
+  // N(0, Σ_disc) per measurement (the discrepancy as the prediction assumes it).
+  std::vector<spectral::Spectrum> measured_albedo;
   bool IsValid(std::string* error) const;
 };
 
