@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "chromo/files/float_image.hpp"
+#include "chromo/session/albedo.hpp"
 #include "chromo/session/frame_files.hpp"
 
 namespace chromo::session {
@@ -63,21 +64,20 @@ void add_mean_files(const SessionFrameSums& sums, std::vector<DerivedFile>& outp
   }
 }
 
-// The albedo channels of a subject against its white and the dark:
-// ρ·(subject − dark)/(white − dark), NaN where white − dark ≤ 1/1000.
+// The albedo channels of a subject against its white and the dark
+// (albedo.hpp: ρ/g·(subject − dark)/(white − dark), g from the subject's and
+// the white's exposure; NaN where white − dark ≤ kMinWhiteSignal).
 std::vector<FloatChannel> albedo_channels(const FrameSums& subject, const FrameSums& dark, const FrameSums& white,
-                                          float rho) {
+                                          double white_reflectance) {
+  const double rho_over_gain = white_reflectance / subject_exposure_gain(white.exposure_us(), subject.exposure_us());
   std::vector<FloatChannel> channels;
   const int samples = subject.format().samples_per_pixel;
   auto names = channel_names(samples);
   for (int c = 0; c < samples; ++c) {
     auto sv = subject.mean_channel(c), dv = dark.mean_channel(c), wv = white.mean_channel(c);
-    std::vector<float> albedo(sv.size());
-    for (std::size_t i = 0; i < sv.size(); ++i) {
-      const float denominator = wv[i] - dv[i];
-      albedo[i] = denominator > 1e-3f ? rho * (sv[i] - dv[i]) / denominator : std::numeric_limits<float>::quiet_NaN();
-    }
-    channels.push_back({names[static_cast<std::size_t>(c)], std::move(albedo)});
+    std::vector<float> plane(sv.size());
+    for (std::size_t i = 0; i < sv.size(); ++i) plane[i] = albedo(sv[i], dv[i], wv[i] - dv[i], rho_over_gain);
+    channels.push_back({names[static_cast<std::size_t>(c)], std::move(plane)});
   }
   return channels;
 }
@@ -87,7 +87,6 @@ std::vector<FloatChannel> albedo_channels(const FrameSums& subject, const FrameS
 // camera that has all three at one size.
 void add_albedo_files(const SessionPlan& plan, const SessionFrameSums& sums, double white_reflectance,
                       std::vector<DerivedFile>& outputs) {
-  const float rho = static_cast<float>(white_reflectance);
   const auto& means = sums.by_step_and_camera();  // (step, camera)
   std::map<std::string, const Step*> dark_steps, white_by_illumination;
   for (const auto& step : plan.steps) {
@@ -109,10 +108,11 @@ void add_albedo_files(const SessionPlan& plan, const SessionFrameSums& sums, dou
         continue;
       const FrameSums *s = &subject, *dk = &d->second, *wh = &w->second;
       outputs.push_back({"albedo-" + illumination_key(step) + "-" + key.second + ".exr", s,
-                         [s, dk, wh, rho] { return albedo_channels(*s, *dk, *wh, rho); },
+                         [s, dk, wh, white_reflectance] { return albedo_channels(*s, *dk, *wh, white_reflectance); },
                          {{"kind", "albedo"}, {"step", step.name}, {"camera", key.second},
                           {"white_step", white->second->name}, {"dark_step", dark},
-                          {"white_reflectance", white_reflectance}}});
+                          {"white_reflectance", white_reflectance},
+                          {"exposure_ratio", subject_exposure_gain(wh->exposure_us(), s->exposure_us())}}});
     }
   }
 }

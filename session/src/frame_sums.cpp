@@ -17,6 +17,7 @@ void FrameSums::add(const FrameRecord& record, std::span<const std::uint8_t> sam
                                 std::string(info.name) + " frame");
   if (frames_ == 0) {
     width_ = record.width, height_ = record.height, pixel_format_ = record.pixel_format;
+    exposure_us_ = record.exposure_us;
     sums_.assign(static_cast<std::size_t>(width_) * height_ * info.samples_per_pixel, 0u);
   } else if (record.width != width_ || record.height != height_ || record.pixel_format != pixel_format_) {
     throw std::invalid_argument(what + "frames of one step differ in size or pixel format (" +

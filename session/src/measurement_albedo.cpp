@@ -5,6 +5,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "chromo/session/albedo.hpp"
 #include "measurement_references.hpp"
 
 namespace chromo::session {
@@ -155,9 +156,7 @@ std::vector<float> unclipped_for_registration(const std::vector<float>& plane, c
 }
 
 double subject_gain(const IlluminatedCapture& capture) {
-  const double w = capture.white.exposure_us, s = capture.subject.exposure_us;
-  if (!(w > 0 && s > 0) || std::abs(w - s) <= 1e-6 * std::max(w, s)) return 1.0;
-  return s / w;
+  return subject_exposure_gain(capture.white.exposure_us, capture.subject.exposure_us);
 }
 
 Normalised normalise(const IlluminatedCapture& capture, const Reference& reference, const RgbImage& dark, double rho) {
@@ -173,7 +172,7 @@ Normalised normalise(const IlluminatedCapture& capture, const Reference& referen
     a.resize(n);
     const auto& inside = reference.footprint.inside;
     for (std::size_t i = 0; i < n; ++i) {
-      a[i] = inside[i] && ws[i] > 1e-3f ? static_cast<float>(rho * (s[i] - d[i]) / ws[i]) : kNaN;
+      a[i] = inside[i] ? albedo(s[i], d[i], ws[i], rho) : kNaN;
       if (s[i] >= kRawSaturated) out.saturated[i] = 1;
     }
   }

@@ -1,9 +1,12 @@
 // Derived data written one file after another and on several threads
 // (derived_data.hpp, DerivedDataOptions): the same files, pixels and journal
-// records, and a bad setting refused before anything is written.
+// records, and a bad setting refused before anything is written; its albedo
+// is the estimator's (albedo.hpp), the subject's exposure ratio included.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
+#include <map>
 #include <fstream>
 
 #include "../support/fresh_directory.hpp"
@@ -106,6 +109,54 @@ TEST(DerivedData, AFailedWriteRecordsOnlyTheFilesThatExist) {
   const auto records = derived_records(folder / "journal.jsonl");
   EXPECT_LT(records.size(), 20u);
   for (const auto& record : records) EXPECT_TRUE(fs::exists(folder / record["file"].get<std::string>())) << record;
+  fs::remove_all(folder);
+}
+
+// One albedo (albedo.hpp): derived/albedo-*.exr is ρ/g·(subject − dark)/(white − dark)
+// with g the subject's exposure over its white's, as the estimator's
+// captures are normalised; NaN where the white is no brighter than the dark.
+TEST(DerivedData, AlbedoDividesByTheSubjectsExposureRatioAsTheEstimatorDoes) {
+  const SessionPlan plan = standard_plan();
+  SessionFrameSums sums;
+  std::uint64_t index = 0;
+  for (std::size_t s = 0; s < plan.steps.size(); ++s) {
+    const Step& step = plan.steps[s];
+    FrameRecord record;
+    record.index = index++;
+    record.step = step.name, record.step_index = static_cast<int>(s), record.role = step.role;
+    record.camera = "cam0";
+    record.width = 4, record.height = 2;
+    record.pixel_format = drivers::PixelFormat::kBayerRG12;
+    // The D65' subject at twice its white's exposure; the others at one.
+    const bool long_subject = step.role == StepRole::kSubject && step.illumination.mix == "d65";
+    record.exposure_us = long_subject ? 2000 : 1000;
+    const std::uint16_t level = step.role == StepRole::kDark ? 64 : step.role == StepRole::kWhite ? 3000 : 1500;
+    std::vector<std::uint8_t> samples(4 * 2 * 2);
+    for (std::size_t i = 0; i < 8; ++i) {
+      // Sample 0: a white no brighter than the dark (no reference).
+      const std::uint16_t value = i == 0 && step.role == StepRole::kWhite ? 64 : level;
+      std::memcpy(&samples[2 * i], &value, 2);
+    }
+    sums.add(record, samples);
+  }
+  const fs::path folder = testing::fresh_directory("derived-albedo");
+  {
+    Journal journal(folder / "journal.jsonl", nullptr);
+    write_derived_data(folder, plan, sums, 0.99, journal, nullptr, {1, -1});
+  }
+  const double unit = 0.99 * (1500.0 - 64) / (3000.0 - 64);
+  std::map<std::string, double> ratio_of;  // by file
+  for (const auto& record : derived_records(folder / "journal.jsonl"))
+    if (record["kind"] == "albedo") ratio_of[record["file"]] = record["exposure_ratio"];
+  ASSERT_EQ(ratio_of.size(), 3u);
+  EXPECT_EQ(ratio_of.at("derived/albedo-d65-cam0.exr"), 2.0);
+  for (const auto& [file, ratio] : ratio_of) {
+    if (file != "derived/albedo-d65-cam0.exr") EXPECT_EQ(ratio, 1.0) << file;
+    const auto image = files::read_exr(folder / file);
+    ASSERT_EQ(image.channels.size(), 1u) << file;
+    EXPECT_TRUE(std::isnan(image.channels[0][0])) << file;
+    for (std::size_t i = 1; i < 8; ++i) EXPECT_NEAR(image.channels[0][i], unit / ratio, 1e-6) << file << " sample " << i;
+  }
   fs::remove_all(folder);
 }
 

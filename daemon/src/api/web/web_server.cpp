@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include "guarded_http.hpp"
+#include "static_files.hpp"
 #include "chromo/daemon/internal/api/metrics.hpp"
 #include "web_bridge.hpp"
 
@@ -59,50 +60,11 @@ bool equal_constant_time(const std::string& a, const std::string& b) {
   return difference == 0;
 }
 
-std::string content_type_of(const fs::path& file) {
-  static const std::map<std::string, std::string> types = {
-      {".html", "text/html; charset=utf-8"}, {".js", "text/javascript; charset=utf-8"},
-      {".css", "text/css; charset=utf-8"},   {".json", "application/json"},
-      {".svg", "image/svg+xml"},             {".png", "image/png"},
-      {".ico", "image/x-icon"},              {".map", "application/json"},
-      {".jsonl", "application/x-ndjson"},    {".csv", "text/csv; charset=utf-8"},
-      {".exr", "image/x-exr"}};
-  auto found = types.find(file.extension().string());
-  return found == types.end() ? "application/octet-stream" : found->second;
-}
-
 // The response closes its connection: nothing after it is read (a refused
 // body's unread rest is not parsed as further requests).
 void closing(httplib::Response& response) {
   response.set_header("Connection", "close");
   web::close_connection_after_response();
-}
-
-// A request path's file inside `root`, or nullopt: only [A-Za-z0-9_.+:-/]
-// segments (a session's derived files are named "albedo-w57+blue:8-cam0.exr"),
-// none empty or starting with '.', and the resolved file must be a regular
-// file under the resolved root (a symbolic link out of it is refused).
-std::optional<fs::path> static_file(const fs::path& root, std::string path) {
-  if (path.empty() || path == "/") path = "/index.html";
-  if (path.size() > 256 || path.front() != '/') return std::nullopt;
-  std::size_t start = 1;
-  while (start <= path.size()) {
-    const std::size_t end = std::min(path.find('/', start), path.size());
-    const std::string segment = path.substr(start, end - start);
-    if (segment.empty() || segment.front() == '.') return std::nullopt;
-    for (char c : segment)
-      if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.' || c == '+' || c == ':'))
-        return std::nullopt;
-    start = end + 1;
-  }
-  std::error_code error;
-  const fs::path base = fs::canonical(root, error);
-  if (error) return std::nullopt;
-  const fs::path file = fs::weakly_canonical(base / path.substr(1), error);
-  if (error || !fs::is_regular_file(file, error)) return std::nullopt;
-  const auto relative = file.lexically_relative(base);
-  if (relative.empty() || *relative.begin() == "..") return std::nullopt;
-  return file;
 }
 
 // Whose log-in attempts count together: every loopback address is one source
@@ -147,12 +109,6 @@ std::optional<std::pair<std::string, int>> split_host(const std::string& host) {
 std::string lower(std::string text) {
   for (char& c : text) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return text;
-}
-
-void serve_file(const fs::path& file, httplib::Response& response) {
-  std::ifstream in(file, std::ios::binary);
-  std::string body((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  response.set_content(body, content_type_of(file));
 }
 
 }  // namespace
@@ -571,24 +527,24 @@ struct WebServer::State {
     // only inside that session's folder, after log-in (the pre-routing check).
     http->Get(R"(/api/files/([A-Za-z0-9_-][A-Za-z0-9_.-]{0,127})/(.+))", [this](const httplib::Request& q, httplib::Response& r) {
       const std::string id = q.matches[1], relative = q.matches[2];
-      const auto file = static_file(config.sessions_dir / id, "/" + relative);
+      const auto file = web::static_file(config.sessions_dir / id, "/" + relative);
       if (!file) {
         r.status = 404;
         r.set_content(web::error_json("no file \"" + relative.substr(0, 256) + "\" in session \"" + id + "\"", "NOT_FOUND"),
                       "application/json");
         return;
       }
-      serve_file(*file, r);
+      web::serve_file(*file, r);
       r.set_header("Cache-Control", "no-store");
     });
     http->Get(R"(/.*)", [this](const httplib::Request& q, httplib::Response& r) {
-      const auto file = static_file(config.web_dir, q.path);
+      const auto file = web::static_file(config.web_dir, q.path);
       if (!file) {
         r.status = 404;
         r.set_content("not found: " + q.path.substr(0, 256) + "\n", "text/plain; charset=utf-8");
         return;
       }
-      serve_file(*file, r);
+      web::serve_file(*file, r);
       r.set_header("Cache-Control", file->extension() == ".html" ? "no-store" : "no-cache");
     });
   }

@@ -7,11 +7,14 @@
 //    units of full scale (0-1), channel "Y" for one-sample formats (Bayer
 //    frames stay mosaicked), "R","G","B" for RGB8;
 //  - derived/albedo-<illumination>-<camera>.exr for every subject step with a
-//    white step under the same illumination and a dark step, by the
-//    estimator's definition (method_measurement.hpp):
-//    ρ_white · (subject − dark) / (white − dark), ρ_white = white_reflectance,
-//    the white target's known reflectance; pixels where white − dark ≤ 1/1000
-//    of full scale are NaN. (Session format 1 wrote these without ρ_white.)
+//    white step under the same illumination and a dark step, by the one
+//    definition the estimator uses too (albedo.hpp):
+//    ρ_white / g · (subject − dark) / (white − dark), ρ_white = white_reflectance,
+//    the white target's known reflectance, g the subject's exposure over its
+//    white's (recorded as "exposure_ratio"); pixels where white − dark ≤ 1/1000
+//    of full scale are NaN. Per sample as stored (a Bayer mosaic is not
+//    binned: the estimator's captures are). (Session format 1 wrote these
+//    without ρ_white; before 7 Dec 2026 without g.)
 // Each file is recorded in the journal ({"type": "derived", ...}).
 
 #include <filesystem>

@@ -45,6 +45,9 @@ class FrameSums {
   int width() const { return width_; }
   int height() const { return height_; }
   drivers::PixelFormat pixel_format() const { return pixel_format_; }
+  // The first frame's exposure (FrameRecord::exposure_us; 0: not known). A
+  // step's frames share one (the capture builder refuses a step whose do not).
+  double exposure_us() const { return exposure_us_; }
   const drivers::PixelFormatInfo& format() const { return drivers::pixel_format_info(pixel_format_); }
   // width · height · samples per pixel sums, in the frame's sample order.
   const std::vector<std::uint32_t>& sums() const { return sums_; }
@@ -59,6 +62,7 @@ class FrameSums {
   std::uint32_t frames_ = 0;
   int width_ = 0, height_ = 0;
   drivers::PixelFormat pixel_format_ = drivers::PixelFormat::kMono8;
+  double exposure_us_ = 0;
   std::vector<std::uint32_t> sums_;
 };
 
