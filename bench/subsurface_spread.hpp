@@ -8,24 +8,24 @@
 // wavelength, with a Gaussian of σ(λ) pixels, within each patch (normalised
 // at its ends), so pixel i's albedo becomes S(λ)·s̃_i(λ).
 //
-// σ(λ) = 0.5 px at ≤ 450 nm rising linearly to 3 px at ≥ 700 nm: at a pixel
-// of 0.1 mm on the skin, the 0.05-0.3 mm diffusion lengths of MODEL.md's
-// dermis between blue and red (1/σtr). A documented assumption of the virtual
-// lab, not a measured point spread function (docs/estimation.md).
+// σ(λ): the virtual lab's default (simulators::SubsurfaceSpread, 0.5 px at
+// ≤ 450 nm rising linearly to 3 px at ≥ 700 nm; the lab's skin scene applies
+// the same spread in 2D with SkinSceneOptions::subsurface). A documented
+// assumption of the virtual lab, not a measured point spread function
+// (docs/estimation.md).
 
 #include <algorithm>
 #include <cmath>
 #include <span>
 #include <vector>
 
+#include "chromo/simulators/scene/scene.hpp"
 #include "chromo/spectral/grid.hpp"
 #include "chromo/spectral/spectrum.hpp"
 
 namespace chromo::bench {
 
-inline double spread_sigma_px(double wavelength_nm) {
-  return 0.5 + 2.5 * std::clamp((wavelength_nm - 450.0) / 250.0, 0.0, 1.0);
-}
+inline double spread_sigma_px(double wavelength_nm) { return simulators::SubsurfaceSpread{}.sigma_px(wavelength_nm); }
 
 // texture: s_i of every pixel; patch_pixels: pixels per patch (patches are
 // consecutive). Returns s̃_i(λ), one GridArray per pixel; with spread off,

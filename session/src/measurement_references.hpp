@@ -1,7 +1,7 @@
 #pragma once
 // The white and dark references of a measurement's captures and what is
 // made from them (method_measurement.hpp), shared by the measurement
-// builders (method_measurement.cpp), the noise model
+// builders (measurement_builders.cpp), the noise model
 // (measurement_noise.cpp) and the polarised surface correction
 // (measurement_surface.cpp): per illumination the dark-subtracted white
 // signal, its mean, noise and footprint; a capture's albedo

@@ -3,6 +3,7 @@ find_package(OpenCVModules REQUIRED COMPONENTS core imgproc imgcodecs)
 target_sources(simulators PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/scene.cpp
   ${CMAKE_CURRENT_LIST_DIR}/skin_scene.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/subsurface_spread.cpp
   ${CMAKE_CURRENT_LIST_DIR}/external_maps_scene.cpp
   ${CMAKE_CURRENT_LIST_DIR}/real_skin_scene.cpp
   ${CMAKE_CURRENT_LIST_DIR}/synthetic.cpp

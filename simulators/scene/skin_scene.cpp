@@ -13,6 +13,7 @@
 #include "chromo/estimation/chromophores.hpp"
 #include "chromo/estimation/skin_model.hpp"
 #include "chromo/simulators/scene/scene.hpp"
+#include "chromo/simulators/scene/subsurface_spread.hpp"
 #include "chromo/spectral/grid.hpp"
 
 namespace chromo::simulators {
@@ -76,6 +77,7 @@ bool SkinSceneOptions::IsValid(std::string* error) const {
     if (error != nullptr) *error = "ch_factor must be > 0 and the change's width and height >= 0";
     return false;
   }
+  if (subsurface.on && !subsurface.IsValid(error)) return false;
   if (oily.count < 0 || oily.count > 64) {
     if (error != nullptr) *error = "oily.count must be 0-64";
     return false;
@@ -299,6 +301,12 @@ Scene make_skin_scene(const SkinSceneOptions& options) {
       scene.set_albedo(x - x0, y - y0, a);
       scene.regions().at<std::uint8_t>(y - y0, x - x0) = static_cast<std::uint8_t>(region);
     }
+  if (options.subsurface.on) {
+    const cv::Mat skin_side = scene.regions() != static_cast<int>(SceneRegion::kWhiteTarget);
+    apply_subsurface_spread(scene, options.subsurface, skin_side, [&](int x, int y) {
+      return options.anomalies ? skin_scene_surface_highlight(options, x + x0, y + y0) : 0.0;
+    });
+  }
   return scene;
 }
 
@@ -313,18 +321,23 @@ SkinSceneResponse render_skin_scene_bands(const SkinSceneOptions& options, const
   for (int n : channels) out.responses.emplace_back(rows, cols, CV_32FC(n));
   out.regions.create(rows, cols, CV_8U);
   for (cv::Mat* m : {&out.cm, &out.ch, &out.bm, &out.che}) m->create(rows, cols, CV_32F);
+  // With subsurface spread each band is made with 3σ of the red's spread
+  // more rows on both sides (within the scene) and cropped, so the bands
+  // meet without seams.
+  const int margin = options.subsurface.on ? static_cast<int>(std::ceil(3 * options.subsurface.sigma_red_px)) : 0;
   for (int y = 0; y < rows; y += band_rows) {
+    const int row_count = std::min(band_rows, rows - y);
     SkinSceneOptions band = options;
-    band.row_begin = first + y;
-    band.row_count = std::min(band_rows, rows - y);
+    band.row_begin = std::max(0, first + y - margin);
+    band.row_count = std::min(options.height, first + y + row_count + margin) - band.row_begin;
     const Scene scene = make_skin_scene(band);
-    const cv::Rect target(0, y, cols, band.row_count);
-    for (std::size_t k = 0; k < channels.size(); ++k) render(scene, band, k).copyTo(out.responses[k](target));
-    scene.regions().copyTo(out.regions(target));
-    scene.cm().copyTo(out.cm(target));
-    scene.ch().copyTo(out.ch(target));
-    scene.bm().copyTo(out.bm(target));
-    scene.che().copyTo(out.che(target));
+    const cv::Rect source(0, first + y - band.row_begin, cols, row_count), target(0, y, cols, row_count);
+    for (std::size_t k = 0; k < channels.size(); ++k) render(scene, band, k)(source).copyTo(out.responses[k](target));
+    scene.regions()(source).copyTo(out.regions(target));
+    scene.cm()(source).copyTo(out.cm(target));
+    scene.ch()(source).copyTo(out.ch(target));
+    scene.bm()(source).copyTo(out.bm(target));
+    scene.che()(source).copyTo(out.che(target));
   }
   return out;
 }

@@ -10,6 +10,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cerrno>
 #include <chrono>
@@ -203,36 +204,149 @@ TcpGateCounters TcpGate::counters() const {
           open_.load()};
 }
 
-void TcpGate::run() {
-  const int epoll_fd = ::epoll_create1(EPOLL_CLOEXEC);
-  if (epoll_fd < 0) {
-    log_line(LogLevel::kError, std::string("TCP gate: epoll_create1: ") + std::strerror(errno) + "; TCP not served");
-    return;
+// The gate's thread: one epoll set over the listening socket, the stop
+// event and both ends of every relayed connection, level-triggered.
+class TcpGate::Loop {
+ public:
+  Loop(TcpGate& gate, int epoll_fd) : gate_(gate), epoll_fd_(epoll_fd) {
+    watch(EPOLL_CTL_ADD, gate_.wake_fd_, kWakeKey, EPOLLIN);
+    watch(EPOLL_CTL_ADD, gate_.listen_fd_, kListenKey, EPOLLIN);
   }
+  ~Loop() {
+    while (!relays_.empty()) close_relay(std::shared_ptr<Relay>(relays_.begin()->second));  // they close with the gate
+  }
+
+  // Until stop(): waits for events and serves them.
+  void run() {
+    std::array<epoll_event, 64> events;
+    for (bool stopping = false; !stopping;) {
+      const int count = ::epoll_wait(epoll_fd_, events.data(), static_cast<int>(events.size()), wait_ms());
+      if (count < 0 && errno != EINTR) return;
+      resume_accepting_when_due();
+      for (int i = 0; i < count; ++i) {
+        const std::uint64_t key = events[i].data.u64;
+        if (key == kWakeKey)
+          stopping = true;
+        else if (key == kListenKey)
+          accept_all();
+        else
+          serve(key, events[i].events);
+      }
+    }
+  }
+
+ private:
   // Keys, not descriptors, name what an event is for: a descriptor closed and
   // reused within one batch of events is not taken for the new connection.
-  constexpr std::uint64_t kWakeKey = 0, kListenKey = 1;
-  auto watch = [&](int op, int fd, std::uint64_t key, std::uint32_t events) {
+  // A relay's ends: 2·id (the client's) and 2·id + 1 (gRPC's).
+  static constexpr std::uint64_t kWakeKey = 0, kListenKey = 1;
+
+  void watch(int op, int fd, std::uint64_t key, std::uint32_t events) {
     epoll_event event{};
     event.events = events;
     event.data.u64 = key;
-    ::epoll_ctl(epoll_fd, op, fd, &event);
-  };
-  watch(EPOLL_CTL_ADD, wake_fd_, kWakeKey, EPOLLIN);
-  watch(EPOLL_CTL_ADD, listen_fd_, kListenKey, EPOLLIN);
+    ::epoll_ctl(epoll_fd_, op, fd, &event);
+  }
 
-  std::unordered_map<std::uint64_t, std::shared_ptr<Relay>> relays;  // by id
-  std::uint64_t next_id = 1;
-  auto close_relay = [&](const std::shared_ptr<Relay>& relay) {
-    for (int fd : {relay->client, relay->backend}) {
-      ::epoll_ctl(epoll_fd, EPOLL_CTL_DEL, fd, nullptr);
-      ::close(fd);
+  int wait_ms() const {
+    if (listening_) return -1;
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(paused_until_ - std::chrono::steady_clock::now());
+    return static_cast<int>(std::max<long long>(0, left.count()));
+  }
+
+  void pause_accepting() {
+    paused_until_ = std::chrono::steady_clock::now() + kAcceptPause;
+    watch(EPOLL_CTL_MOD, gate_.listen_fd_, kListenKey, 0);
+    listening_ = false;
+  }
+
+  void resume_accepting_when_due() {
+    if (listening_ || std::chrono::steady_clock::now() < paused_until_) return;
+    watch(EPOLL_CTL_MOD, gate_.listen_fd_, kListenKey, EPOLLIN);
+    listening_ = true;
+  }
+
+  // Accepts until the backlog is empty: relays what the cap and the peer rule admit, closes the rest.
+  void accept_all() {
+    for (;;) {
+      sockaddr_storage peer{};
+      socklen_t size = sizeof peer;
+      const int client =
+          ::accept4(gate_.listen_fd_, reinterpret_cast<sockaddr*>(&peer), &size, SOCK_CLOEXEC | SOCK_NONBLOCK);
+      if (client < 0) {
+        if (errno == EINTR || errno == ECONNABORTED) continue;
+        if (is_out_of_descriptors(errno)) {
+          gate_.accept_failures_.fetch_add(1);
+          log_now_and_then(logged_descriptors_, std::string("TCP gate: cannot accept (") + std::strerror(errno) +
+                                                    "): pausing 100 ms; the port accepts again once descriptors are free");
+          pause_accepting();
+        }
+        return;  // EAGAIN: all accepted
+      }
+      if (gate_.options_.loopback_peers_only && !is_loopback(peer)) {
+        gate_.refused_not_loopback_.fetch_add(1);  // counted before the peer can see the close
+        ::close(client);
+        log_now_and_then(logged_peer_, "TCP gate: refused a connection from a non-loopback peer (tcp_insecure accepts "
+                                       "loopback peers only)");
+        continue;
+      }
+      if (gate_.open_.load() >= gate_.options_.max_connections) {
+        gate_.refused_over_cap_.fetch_add(1);  // counted before the peer can see the close
+        ::close(client);
+        log_now_and_then(logged_cap_, "TCP gate: max_tcp_connections (" + std::to_string(gate_.options_.max_connections) +
+                                          ") are open: closed a new connection at once");
+        continue;
+      }
+      relay(client);
     }
-    relays.erase(relay->id);
-    open_.fetch_sub(1);
-  };
-  // What each end waits for, from the buffers' state (level-triggered).
-  auto rearm = [&](const Relay& relay) {
+  }
+
+  void relay(int client) {
+    const int backend = connect_backend(gate_.backend_port_);
+    if (backend < 0) {
+      if (is_out_of_descriptors(errno)) gate_.accept_failures_.fetch_add(1);
+      ::close(client);
+      return;
+    }
+    auto relay = std::make_shared<Relay>();
+    relay->id = next_id_++;
+    relay->client = client;
+    relay->backend = backend;
+    relays_[relay->id] = relay;
+    watch(EPOLL_CTL_ADD, client, 2 * relay->id, 0);
+    watch(EPOLL_CTL_ADD, backend, 2 * relay->id + 1, EPOLLOUT);
+    gate_.open_.fetch_add(1);
+    gate_.accepted_.fetch_add(1);
+  }
+
+  // One end of a relay is ready (or failed): move what can move, then wait
+  // for what its buffers need next, or close it.
+  void serve(std::uint64_t key, std::uint32_t events) {
+    const auto found = relays_.find(key / 2);
+    if (found == relays_.end()) return;  // closed earlier in this batch
+    const std::shared_ptr<Relay> relay = found->second;
+    Step step = Step::kGoOn;
+    if (relay->connecting && key % 2 == 1) {
+      int error = 0;
+      socklen_t size = sizeof error;
+      ::getsockopt(relay->backend, SOL_SOCKET, SO_ERROR, &error, &size);
+      if (error != 0) step = Step::kClose;
+      relay->connecting = false;
+    }
+    // An error on either end ends the connection; after a hang-up what can
+    // still be read and sent is, then it ends too. A plain FIN is read as
+    // the end of its direction (pump).
+    if (events & EPOLLERR) step = Step::kClose;
+    if (step == Step::kGoOn) step = pump(*relay);
+    if (events & EPOLLHUP) step = Step::kClose;
+    if (step == Step::kClose)
+      close_relay(relay);
+    else
+      rearm(*relay);
+  }
+
+  // What each end waits for, from the buffers' state.
+  void rearm(const Relay& relay) {
     std::uint32_t client = 0, backend = 0;
     if (relay.connecting) {
       backend = EPOLLOUT;
@@ -244,109 +358,35 @@ void TcpGate::run() {
     }
     watch(EPOLL_CTL_MOD, relay.client, 2 * relay.id, client);
     watch(EPOLL_CTL_MOD, relay.backend, 2 * relay.id + 1, backend);
-  };
-
-  std::chrono::steady_clock::time_point paused_until{}, logged_cap{}, logged_descriptors{}, logged_peer{};
-  bool listening = true;
-  auto accept_all = [&] {
-    for (;;) {
-      sockaddr_storage peer{};
-      socklen_t size = sizeof peer;
-      const int client = ::accept4(listen_fd_, reinterpret_cast<sockaddr*>(&peer), &size, SOCK_CLOEXEC | SOCK_NONBLOCK);
-      if (client < 0) {
-        if (errno == EINTR || errno == ECONNABORTED) continue;
-        if (is_out_of_descriptors(errno)) {
-          accept_failures_.fetch_add(1);
-          log_now_and_then(logged_descriptors, std::string("TCP gate: cannot accept (") + std::strerror(errno) +
-                                                   "): pausing 100 ms; the port accepts again once descriptors are free");
-          paused_until = std::chrono::steady_clock::now() + kAcceptPause;
-          watch(EPOLL_CTL_MOD, listen_fd_, kListenKey, 0);
-          listening = false;
-        }
-        return;  // EAGAIN: all accepted
-      }
-      if (options_.loopback_peers_only && !is_loopback(peer)) {
-        ::close(client);
-        refused_not_loopback_.fetch_add(1);
-        log_now_and_then(logged_peer, "TCP gate: refused a connection from a non-loopback peer (tcp_insecure accepts "
-                                      "loopback peers only)");
-        continue;
-      }
-      if (open_.load() >= options_.max_connections) {
-        ::close(client);
-        refused_over_cap_.fetch_add(1);
-        log_now_and_then(logged_cap, "TCP gate: max_tcp_connections (" + std::to_string(options_.max_connections) +
-                                         ") are open: closed a new connection at once");
-        continue;
-      }
-      const int backend = connect_backend(backend_port_);
-      if (backend < 0) {
-        ::close(client);
-        if (is_out_of_descriptors(errno)) accept_failures_.fetch_add(1);
-        continue;
-      }
-      auto relay = std::make_shared<Relay>();
-      relay->id = next_id++;
-      relay->client = client;
-      relay->backend = backend;
-      relays[relay->id] = relay;
-      watch(EPOLL_CTL_ADD, client, 2 * relay->id, 0);
-      watch(EPOLL_CTL_ADD, backend, 2 * relay->id + 1, EPOLLOUT);
-      open_.fetch_add(1);
-      accepted_.fetch_add(1);
-    }
-  };
-
-  std::array<epoll_event, 64> events;
-  for (;;) {
-    int timeout_ms = -1;
-    if (!listening) {
-      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(paused_until - std::chrono::steady_clock::now());
-      timeout_ms = static_cast<int>(std::max<long long>(0, left.count()));
-    }
-    const int count = ::epoll_wait(epoll_fd, events.data(), static_cast<int>(events.size()), timeout_ms);
-    if (count < 0 && errno != EINTR) break;
-    if (!listening && std::chrono::steady_clock::now() >= paused_until) {
-      watch(EPOLL_CTL_MOD, listen_fd_, kListenKey, EPOLLIN);
-      listening = true;
-    }
-    bool stopping = false;
-    for (int i = 0; i < count; ++i) {
-      const std::uint64_t key = events[i].data.u64;
-      if (key == kWakeKey) {
-        stopping = true;
-        continue;
-      }
-      if (key == kListenKey) {
-        accept_all();
-        continue;
-      }
-      const auto found = relays.find(key / 2);
-      if (found == relays.end()) continue;  // closed earlier in this batch
-      const std::shared_ptr<Relay> relay = found->second;
-      Step step = Step::kGoOn;
-      if (relay->connecting && key % 2 == 1) {
-        int error = 0;
-        socklen_t size = sizeof error;
-        ::getsockopt(relay->backend, SOL_SOCKET, SO_ERROR, &error, &size);
-        if (error != 0) step = Step::kClose;
-        relay->connecting = false;
-      }
-      // An error on either end ends the connection; after a hang-up what can
-      // still be read and sent is, then it ends too. A plain FIN is read as
-      // the end of its direction (pump).
-      if (events[i].events & EPOLLERR) step = Step::kClose;
-      if (step == Step::kGoOn) step = pump(*relay);
-      if (events[i].events & EPOLLHUP) step = Step::kClose;
-      if (step == Step::kClose)
-        close_relay(relay);
-      else
-        rearm(*relay);
-    }
-    if (stopping) break;
   }
-  // Every relayed connection closes with the gate.
-  while (!relays.empty()) close_relay(std::shared_ptr<Relay>(relays.begin()->second));
+
+  void close_relay(const std::shared_ptr<Relay>& relay) {
+    for (int fd : {relay->client, relay->backend}) {
+      ::epoll_ctl(epoll_fd_, EPOLL_CTL_DEL, fd, nullptr);
+      ::close(fd);
+    }
+    relays_.erase(relay->id);
+    gate_.open_.fetch_sub(1);
+  }
+
+  TcpGate& gate_;
+  const int epoll_fd_;
+  std::unordered_map<std::uint64_t, std::shared_ptr<Relay>> relays_;  // by id
+  std::uint64_t next_id_ = 1;
+  bool listening_ = true;
+  std::chrono::steady_clock::time_point paused_until_{}, logged_cap_{}, logged_descriptors_{}, logged_peer_{};
+};
+
+void TcpGate::run() {
+  const int epoll_fd = ::epoll_create1(EPOLL_CLOEXEC);
+  if (epoll_fd < 0) {
+    log_line(LogLevel::kError, std::string("TCP gate: epoll_create1: ") + std::strerror(errno) + "; TCP not served");
+    return;
+  }
+  {
+    Loop loop(*this, epoll_fd);
+    loop.run();
+  }
   ::close(epoll_fd);
 }
 

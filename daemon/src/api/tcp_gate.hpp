@@ -59,6 +59,7 @@ class TcpGate {
   TcpGateCounters counters() const;
 
  private:
+  class Loop;
   void run();
   TcpGateOptions options_;
   int listen_fd_ = -1;

@@ -93,6 +93,17 @@ struct OilyHighlights {
   double min_radius_px = 10, max_radius_px = 22;              // at 512 px width, scaled with it
 };
 
+// Subsurface spread of the skin scene (subsurface_spread.hpp says what it does).
+struct SubsurfaceSpread {
+  bool on = false;              // off: the scene is exactly the scene without this option
+  double sigma_blue_px = 0.5;   // σ at ≤ 450 nm, scene pixels
+  double sigma_red_px = 3.0;    // σ at ≥ 700 nm, scene pixels
+  // σ(λ) in scene pixels, as the header says.
+  double sigma_px(double wavelength_nm) const;
+  // 0 < sigma_blue_px ≤ sigma_red_px ≤ 64; names the field otherwise.
+  bool IsValid(std::string* error) const;
+};
+
 struct SkinSceneOptions {
   int width = 512;
   int height = 512;
@@ -123,6 +134,9 @@ struct SkinSceneOptions {
   // the scene is exactly the scene without this option.
   double ch_factor = 1;
   int ch_change_x = 0, ch_change_y = 0, ch_change_width = 0, ch_change_height = 0;
+  // Subsurface spread (subsurface_spread.hpp): each wavelength blurred by
+  // σ(λ), wider in the red; off by default.
+  SubsurfaceSpread subsurface;
 
   bool IsValid(std::string* error) const;
 };
