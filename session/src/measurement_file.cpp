@@ -151,7 +151,7 @@ MeasurementFile read_measurement_file(const fs::path& file) {
   return m;
 }
 
-std::vector<RegistrationReport> register_images(MeasurementFile& m) {
+std::vector<RegistrationReport> register_images(MeasurementFile& m, const RegistrationOptions& options) {
   std::vector<RegistrationReport> out;
   const MeasurementImage& first = m.images.front();
   for (std::size_t k = 1; k < m.images.size(); ++k) {
@@ -179,7 +179,7 @@ std::vector<RegistrationReport> register_images(MeasurementFile& m) {
     if (shared.empty()) shared = image.channels.front();
     try {
       const RegistrationResult r =
-          register_channel(first.pixels.channel(shared), image.pixels.channel(shared), m.width, m.height);
+          register_channel(first.pixels.channel(shared), image.pixels.channel(shared), m.width, m.height, options);
       const double motion = corner_displacement_px(r, m.width, m.height);
       const bool warped = motion_is_significant(r, motion);
       if (warped)

@@ -160,51 +160,68 @@ cv::Mat moving_mask(const std::vector<float>& moving, int width, int height) {
 
 }  // namespace
 
-RegistrationResult estimate_registration(const std::vector<float>& reference, const std::vector<float>& moving,
-                                         int width, int height, const RegistrationOptions& options) {
-  const cv::Mat ref = wrap(reference, width, height), mov = wrap(moving, width, height);
-  // ECC ignores moving-image pixels that are not finite (e.g. outside a warp).
-  const cv::Mat mask = moving_mask(moving, width, height);
-  // Coarse to fine: estimate on a pyramid, scaling the translation up per level.
-  std::vector<cv::Mat> ref_pyramid{ref}, mov_pyramid{mov}, mask_pyramid{mask};
-  for (int l = 1; l < options.pyramid_levels && std::min(ref_pyramid.back().cols, ref_pyramid.back().rows) >= 64; ++l) {
+namespace {
+
+// The images' pyramids, level 0 the full frame (ECC's mask with them).
+struct Pyramids {
+  std::vector<cv::Mat> ref, mov, mask;
+};
+
+Pyramids pyramids_of(const cv::Mat& ref, const cv::Mat& mov, const cv::Mat& mask, int levels) {
+  Pyramids p{{ref}, {mov}, {mask}};
+  for (int l = 1; l < levels && std::min(p.ref.back().cols, p.ref.back().rows) >= 64; ++l) {
     cv::Mat r, m, k;
-    cv::pyrDown(ref_pyramid.back(), r), cv::pyrDown(mov_pyramid.back(), m);
-    cv::resize(mask_pyramid.back(), k, m.size(), 0, 0, cv::INTER_NEAREST);
+    cv::pyrDown(p.ref.back(), r), cv::pyrDown(p.mov.back(), m);
+    cv::resize(p.mask.back(), k, m.size(), 0, 0, cv::INTER_NEAREST);
     cv::erode(k, k, cv::Mat());  // pyrDown smears the border into the masked pixels
-    ref_pyramid.push_back(r), mov_pyramid.push_back(m), mask_pyramid.push_back(k);
+    p.ref.push_back(r), p.mov.push_back(m), p.mask.push_back(k);
   }
-  cv::Mat warp = cv::Mat::eye(2, 3, CV_32F);
-  double correlation = 0;
-  std::uint32_t skipped = 0;
-  for (int level = static_cast<int>(ref_pyramid.size()) - 1; level >= 0; --level) {
+  return p;
+}
+
+// ECC from level `coarsest` down to `finest` (≥ 1: coarse levels only),
+// `warp` updated in place and left in the pixels of level finest − 1 (the
+// translation doubled after each level). A coarse level that does not
+// converge (a posed view's small footprint leaves little texture there) is
+// skipped, its bit set in `skipped`: the finer levels start from the warp
+// found so far. Level 0 must converge: its cv::Exception is rethrown.
+void ecc_levels(const Pyramids& p, int coarsest, int finest, const RegistrationOptions& options, cv::Mat& warp,
+                double& correlation, std::uint32_t& skipped) {
+  for (int level = coarsest; level >= finest; --level) {
     const cv::Mat before = warp.clone();
     try {
-      correlation = cv::findTransformECC(ref_pyramid[level], mov_pyramid[level], warp, cv::MOTION_EUCLIDEAN,
+      correlation = cv::findTransformECC(p.ref[level], p.mov[level], warp, cv::MOTION_EUCLIDEAN,
                                          cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS,
                                                           options.max_iterations, options.epsilon),
-                                         mask_pyramid[level], 5);
-    } catch (const cv::Exception& e) {
-      // A coarse level that does not converge (a posed view's small
-      // footprint leaves little texture there) is skipped: the finer
-      // levels start from the warp found so far. The finest must converge.
-      if (level == 0)
-        return translation_fallback(ref_pyramid[0], mov_pyramid[0], mask_pyramid[0],
-                                    std::string("registration (ECC) did not converge at pyramid level 0: ") + e.what());
+                                         p.mask[level], 5);
+    } catch (const cv::Exception&) {
+      if (level == 0) throw;
       warp = before;
       skipped |= 1u << level;
     }
     if (level > 0) warp.at<float>(0, 2) *= 2, warp.at<float>(1, 2) *= 2;
   }
+}
+
+int coarsest_level(const Pyramids& p) { return static_cast<int>(p.ref.size()) - 1; }
+
+// Whether ECC's warp can be a subject's motion between two captures of one
+// plan. ECC can "converge" on a featureless view to a warp no
+// subject made between two captures of one plan: a smooth, nearly isotropic
+// patch matches itself turned by tens of degrees about its centre, or slid
+// away. Such a warp (more than kMaximumRotationDeg, or less than
+// kMinimumOverlap of the frame left overlapping) is not.
+bool is_plausible(const RegistrationResult& r, int width, int height) {
+  return overlap_fraction(r, width, height) >= kMinimumOverlap && std::abs(r.rotation_deg) <= kMaximumRotationDeg;
+}
+
+// ECC's warp as a result, or the translation fallback where it is not plausible.
+RegistrationResult plausible_or_fallback(const cv::Mat& warp, double correlation, std::uint32_t skipped,
+                                         const cv::Mat& ref, const cv::Mat& mov, const cv::Mat& mask) {
   RegistrationResult result = from_warp(warp, correlation);
   result.skipped_levels = skipped;
-  // ECC can also "converge" on a featureless view to a warp no subject made
-  // between two captures of one plan: a smooth, nearly isotropic patch
-  // matches itself turned by tens of degrees about its centre, or slid away.
-  // Such a warp (more than kMaximumRotationDeg, or less than kMinimumOverlap
-  // of the frame left overlapping) goes to the translation fallback.
-  const double overlap = overlap_fraction(result, width, height);
-  if (overlap < kMinimumOverlap || std::abs(result.rotation_deg) > kMaximumRotationDeg) {
+  if (!is_plausible(result, ref.cols, ref.rows)) {
+    const double overlap = overlap_fraction(result, ref.cols, ref.rows);
     RegistrationResult fallback = translation_fallback(
         ref, mov, mask, "registration (ECC) found an implausible warp: rotation " + std::to_string(result.rotation_deg) +
                             "°, " + std::to_string(100 * overlap) + "% of the frame overlapping");
@@ -212,6 +229,29 @@ RegistrationResult estimate_registration(const std::vector<float>& reference, co
     return fallback;
   }
   return result;
+}
+
+// ECC from `warp` (the identity, or the coarser levels' answer) at levels
+// `coarsest` down to 0, then the plausibility check.
+RegistrationResult finish_registration(const Pyramids& p, int coarsest, const RegistrationOptions& options, cv::Mat warp,
+                                       double correlation, std::uint32_t skipped) {
+  try {
+    ecc_levels(p, coarsest, 0, options, warp, correlation, skipped);
+  } catch (const cv::Exception& e) {
+    return translation_fallback(p.ref[0], p.mov[0], p.mask[0],
+                                std::string("registration (ECC) did not converge at pyramid level 0: ") + e.what());
+  }
+  return plausible_or_fallback(warp, correlation, skipped, p.ref[0], p.mov[0], p.mask[0]);
+}
+
+}  // namespace
+
+RegistrationResult estimate_registration(const std::vector<float>& reference, const std::vector<float>& moving,
+                                         int width, int height, const RegistrationOptions& options) {
+  // ECC ignores moving-image pixels that are not finite (e.g. outside a warp).
+  const Pyramids p = pyramids_of(wrap(reference, width, height), wrap(moving, width, height),
+                                 moving_mask(moving, width, height), options.pyramid_levels);
+  return finish_registration(p, coarsest_level(p), options, cv::Mat::eye(2, 3, CV_32F), 0, 0);
 }
 
 std::vector<float> warp_channel(const std::vector<float>& moving, int width, int height, const RegistrationResult& r) {
@@ -249,10 +289,11 @@ double corner_displacement_px(const RegistrationResult& r, int width, int height
   return largest;
 }
 
-RegistrationResult register_channel(const std::vector<float>& reference, const std::vector<float>& moving, int width,
-                                    int height, const RegistrationOptions& options) {
-  RegistrationResult r = estimate_registration(reference, moving, width, height, options);
-  const std::vector<float> warped = warp_channel(moving, width, height, r);
+namespace {
+
+// Corner displacement of the remaining transform found by the residual check.
+double residual_corner_px(const std::vector<float>& reference, const std::vector<float>& warped, int width, int height,
+                          const RegistrationResult& r, const RegistrationOptions& options, RegistrationMethod& method) {
   RegistrationOptions check = options;
   check.pyramid_levels = 1;
   // The residual by the method that found the warp (ECC would wander on the
@@ -262,17 +303,42 @@ RegistrationResult register_channel(const std::vector<float>& reference, const s
           ? translation_fallback(wrap(reference, width, height), wrap(warped, width, height),
                                  moving_mask(warped, width, height), "the residual check")
           : estimate_registration(reference, warped, width, height, check);
-  double worst = 0;
-  for (double x : {0.0, double(width - 1)})
-    for (double y : {0.0, double(height - 1)}) {
-      const double dx = rest.warp[0][0] * x + rest.warp[0][1] * y + rest.warp[0][2] - x;
-      const double dy = rest.warp[1][0] * x + rest.warp[1][1] * y + rest.warp[1][2] - y;
-      worst = std::max(worst, std::hypot(dx, dy));
+  method = rest.method;
+  return corner_displacement_px(rest, width, height);
+}
+
+}  // namespace
+
+RegistrationResult register_channel(const std::vector<float>& reference, const std::vector<float>& moving, int width,
+                                    int height, const RegistrationOptions& options) {
+  const cv::Mat ref = wrap(reference, width, height), mov = wrap(moving, width, height);
+  const cv::Mat mask = moving_mask(moving, width, height);
+  const Pyramids p = pyramids_of(ref, mov, mask, options.pyramid_levels);
+  cv::Mat warp = cv::Mat::eye(2, 3, CV_32F);
+  double correlation = 0;
+  std::uint32_t skipped = 0;
+  int coarsest = coarsest_level(p);
+  if (options.decide_still_at_coarse_level && coarsest > 0) {
+    // A still subject (header: decide_still_at_coarse_level): the coarse
+    // levels' motion against the noise of the unwarped pair.
+    ecc_levels(p, coarsest, 1, options, warp, correlation, skipped);
+    const bool converged_somewhere = skipped != ((1u << (coarsest + 1)) - 2);
+    RegistrationResult coarse = from_warp(warp, correlation);
+    coarse.skipped_levels = skipped;
+    if (converged_somewhere && is_plausible(coarse, width, height)) {
+      coarse.motion_noise_px = motion_noise_px(ref, mov, mask);
+      const double motion = corner_displacement_px(coarse, width, height);
+      if (std::isfinite(coarse.motion_noise_px) && !motion_is_significant(coarse, motion)) {
+        coarse.residual_motion_px = motion;  // not warped: what remains is the motion found
+        return coarse;
+      }
     }
-  r.residual_motion_px = worst;
-  r.residual_method = rest.method;
-  r.motion_noise_px = motion_noise_px(wrap(reference, width, height), wrap(warped, width, height),
-                                      moving_mask(warped, width, height));
+    coarsest = 0;  // level 0 goes on from the coarse levels' warp
+  }
+  RegistrationResult r = finish_registration(p, coarsest, options, warp, correlation, skipped);
+  const std::vector<float> warped = warp_channel(moving, width, height, r);
+  r.residual_motion_px = residual_corner_px(reference, warped, width, height, r, options, r.residual_method);
+  r.motion_noise_px = motion_noise_px(ref, wrap(warped, width, height), moving_mask(warped, width, height));
   return r;
 }
 

@@ -134,3 +134,50 @@ TEST(Registration, AFeaturelessViewFallsBackToAMeasuredTranslation) {
 
 }  // namespace
 }  // namespace chromo::session
+
+namespace chromo::session {
+namespace {
+
+// The textured scene above with camera noise (σ 0.004 on ~0.4), moved by (tx, ty) px.
+std::vector<float> noisy_render(double tx, double ty, unsigned seed) {
+  std::vector<float> img = render(0, tx, ty);
+  std::mt19937 random(seed);
+  std::normal_distribution<float> noise(0, 0.004f);
+  for (float& v : img) v += noise(random);
+  return img;
+}
+
+TEST(Registration, AStillSceneIsDecidedAtTheCoarseLevelsAndAMovedOneAsBefore) {
+  RegistrationOptions before;
+  before.decide_still_at_coarse_level = false;
+  const std::vector<float> reference = noisy_render(0, 0, 11);
+  // Still: two noisy captures of the same scene. Not warped, as before, so
+  // the capture goes on as captured: every pixel finite.
+  const std::vector<float> still = noisy_render(0, 0, 12);
+  const RegistrationResult r = register_channel(reference, still, kWidth, kHeight);
+  const RegistrationResult full = register_channel(reference, still, kWidth, kHeight, before);
+  const double motion = corner_displacement_px(r, kWidth, kHeight);
+  std::printf("still: coarse motion %.4f px (noise %.4f), full %.4f px (noise %.4f)\n", motion, r.motion_noise_px,
+              corner_displacement_px(full, kWidth, kHeight), full.motion_noise_px);
+  EXPECT_LT(motion, kWarpThresholdPx);
+  EXPECT_FALSE(motion_is_significant(r, motion));
+  EXPECT_FALSE(motion_is_significant(full, corner_displacement_px(full, kWidth, kHeight)));
+  EXPECT_EQ(r.residual_motion_px, motion);  // not warped: the motion found is what remains
+  EXPECT_GT(r.motion_noise_px, 0.0);
+  EXPECT_TRUE(std::isfinite(r.motion_noise_px));
+  // Moved by 1.3 px and −1.1 px: warped, the result bit for bit the full path's.
+  const std::vector<float> moved = noisy_render(1.3, -1.1, 13);
+  const RegistrationResult m = register_channel(reference, moved, kWidth, kHeight);
+  const RegistrationResult m_full = register_channel(reference, moved, kWidth, kHeight, before);
+  EXPECT_TRUE(motion_is_significant(m, corner_displacement_px(m, kWidth, kHeight)));
+  EXPECT_NEAR(m.shift_x_px, -1.3, 0.05);
+  EXPECT_NEAR(m.shift_y_px, 1.1, 0.05);
+  for (int i = 0; i < 2; ++i)
+    for (int j = 0; j < 3; ++j) EXPECT_EQ(m.warp[i][j], m_full.warp[i][j]);
+  EXPECT_EQ(m.residual_motion_px, m_full.residual_motion_px);
+  EXPECT_EQ(m.motion_noise_px, m_full.motion_noise_px);
+  EXPECT_LT(m.residual_motion_px, 0.2);
+}
+
+}  // namespace
+}  // namespace chromo::session

@@ -54,8 +54,9 @@ MeasurementFile read_measurement_file(const std::filesystem::path& json_file);
 
 // Registers every image after the first to images[0] (ECC on the first
 // channel both list, else the image's first) and warps it in place when it
-// moved by more than kWarpThresholdPx.
+// moved significantly (motion_is_significant), with `options` (the
+// defaults: chromo estimate's).
 // Throws RegistrationError naming the image.
-std::vector<RegistrationReport> register_images(MeasurementFile& measurement);
+std::vector<RegistrationReport> register_images(MeasurementFile& measurement, const RegistrationOptions& options = {});
 
 }  // namespace chromo::session

@@ -57,6 +57,16 @@ struct RegistrationOptions {
   // measured ×0.72-1.06 of one by one (median 0.95, one run each at load
   // 12-14 on 2 shared cores: estimate_stages_bench --chain; docs/estimation.md).
   int threads = 1;
+  // register_channel: decide a still subject before the full-resolution
+  // work. ECC on the coarse pyramid levels only (≥ 1), and the registration
+  // noise (motion_noise_px) on the unwarped pair; when that coarse motion is
+  // not significant (motion_is_significant), the result is the coarse warp,
+  // which callers then do not warp, its residual_motion_px that motion (no
+  // warp leaves it), and level-0 ECC, the warp and the residual check are
+  // skipped. Otherwise level 0 goes on from the coarse warp: the result is
+  // bit for bit that of false (test Registration.AStillSceneIsDecidedAt...).
+  // false: every level, the warp and the residual check, as before.
+  bool decide_still_at_coarse_level = true;
 };
 
 struct RegistrationResult {

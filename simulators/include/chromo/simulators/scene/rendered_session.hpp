@@ -201,7 +201,9 @@ struct CaptureMotion {
 // 8: RegistrationResult::method and translation_sigma_px (the fallback for
 //    featureless captures).
 // 9: ChannelNoise::white_coefficient (the noise model's white term, in a²).
-inline constexpr std::uint32_t kRenderedSessionVersion = 9;
+// 10: a still subject decided on the coarse pyramid levels (RegistrationOptions::
+//     decide_still_at_coarse_level): its residual_motion_px is the motion found.
+inline constexpr std::uint32_t kRenderedSessionVersion = 10;
 inline constexpr std::uint8_t kMixedCell = 255;  // a 2×2 cell whose sites have different regions
 
 struct RenderedSession {
