@@ -58,6 +58,14 @@ struct ApiFixture : ::testing::Test {
     server = std::make_unique<Server>(*daemon);
     channel = grpc::CreateChannel("unix:" + lab.config.unix_socket, grpc::InsecureChannelCredentials());
   }
+  // TCP with TLS (a test certificate for localhost) instead of loopback plaintext; call before start().
+  chromo::testing::TestCertificate use_tls() {
+    auto certificate = chromo::testing::make_test_certificate(lab.directory);
+    lab.config.tls_certificate_file = certificate.certificate_file.string();
+    lab.config.tls_private_key_file = certificate.key_file.string();
+    lab.config.tcp_insecure = false;
+    return certificate;
+  }
   void SetUp() override {
     lab.config.tcp_address = "127.0.0.1:0";
     lab.config.token = kToken;
@@ -426,10 +434,7 @@ std::shared_ptr<grpc::Channel> tls_channel(int port, const std::string& certific
 }
 
 TEST_F(ApiFixture, TlsWithTokenWhenCertificatesAreConfigured) {
-  const auto certificate = chromo::testing::make_test_certificate(lab.directory);
-  lab.config.tls_certificate_file = certificate.certificate_file.string();
-  lab.config.tls_private_key_file = certificate.key_file.string();
-  lab.config.tcp_insecure = false;
+  const auto certificate = use_tls();
   start();
   auto tls = tls_channel(server->tcp_port(), certificate.certificate_pem);
   EXPECT_TRUE(list_over_tcp(tls, "Bearer test-token-0123456789").ok());
@@ -468,10 +473,7 @@ bool closed_by_server(int fd, int ms) {
 // kept for gRPC's 120 s handshake timeout, so enough of them used up the
 // descriptors. Now one is closed after tcp_handshake_timeout_ms.
 TEST_F(ApiFixture, ATlsConnectionThatNeverHandshakesIsClosed) {
-  const auto certificate = chromo::testing::make_test_certificate(lab.directory);
-  lab.config.tls_certificate_file = certificate.certificate_file.string();
-  lab.config.tls_private_key_file = certificate.key_file.string();
-  lab.config.tcp_insecure = false;
+  const auto certificate = use_tls();
   lab.config.tcp_handshake_timeout_ms = 1000;
   start();
   std::vector<int> silent;
@@ -494,10 +496,7 @@ TEST_F(ApiFixture, ATlsConnectionThatNeverHandshakesIsClosed) {
 // holds its connection without a call (or with calls refused for want of the
 // token) was kept as long as it liked. It is closed after tcp_idle_timeout_ms.
 TEST_F(ApiFixture, AHandshakenTlsConnectionWithoutCallsIsClosedOnceIdle) {
-  const auto certificate = chromo::testing::make_test_certificate(lab.directory);
-  lab.config.tls_certificate_file = certificate.certificate_file.string();
-  lab.config.tls_private_key_file = certificate.key_file.string();
-  lab.config.tcp_insecure = false;
+  const auto certificate = use_tls();
   lab.config.tcp_idle_timeout_ms = 500;
   start();
   auto tls = tls_channel(server->tcp_port(), certificate.certificate_pem);
@@ -537,10 +536,7 @@ bool eventually(Done done) {
 // soon as it is accepted, the ones held go on being served, and once they
 // leave the port serves again.
 TEST_F(ApiFixture, TcpConnectionsBeyondTheCapAreClosedAtOnceAndThePortServesOnceTheyLeave) {
-  const auto certificate = chromo::testing::make_test_certificate(lab.directory);
-  lab.config.tls_certificate_file = certificate.certificate_file.string();
-  lab.config.tls_private_key_file = certificate.key_file.string();
-  lab.config.tcp_insecure = false;
+  const auto certificate = use_tls();
   lab.config.max_tcp_connections = 6;
   start();
   const int port = server->tcp_port();
