@@ -120,33 +120,45 @@ TEST_F(MapsApi, ProfileExportsAreLimitedAndOneAbandonedByItsClientStops) {
   pb::ExportProfilesRequest small;
   small.set_maps_file("maps.exr");
   small.add_cm(0.05), small.add_ch(0.05), small.add_bm(0.7), small.add_che(0.0);
+  // The big one (300 profiles, ~15 s) is abandoned by its 5 s deadline. While
+  // a small one below holds the only slot it is refused: it tries again.
   std::thread abandoned([&] {
-    grpc::ClientContext context;
-    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(5));
-    pb::ExportProfilesResponse response;
-    EXPECT_EQ(stub->ExportProfiles(&context, big, &response).error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
+    grpc::Status status;
+    for (const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+         std::chrono::steady_clock::now() < until;) {
+      grpc::ClientContext context;
+      context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(5));
+      pb::ExportProfilesResponse response;
+      status = stub->ExportProfiles(&context, big, &response);
+      if (status.error_code() != grpc::StatusCode::RESOURCE_EXHAUSTED) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED) << status.error_message();
   });
-  // Once the big one runs (its 300 profiles take ~15 s), the small one is
-  // refused. Until it has taken its slot (a loaded machine may take a while
-  // to start it), the small one is served: those are counted, not failed.
+  // Once the big one runs, the small one is refused. Until it has taken the
+  // slot (a loaded machine may take a while to start it), the small one is
+  // served: those are counted, not failed, and 300 ms pass before the next
+  // so that the big one's retries find the slot free.
   int served_before = 0;
   grpc::Status refused;
-  for (int i = 0; i < 40; ++i) {
+  for (const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+       std::chrono::steady_clock::now() < until;) {
     grpc::ClientContext context;
     pb::ExportProfilesResponse response;
     refused = stub->ExportProfiles(&context, small, &response);
     if (!refused.ok()) break;
     ++served_before;
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
   }
   EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << refused.error_message();
   EXPECT_THAT(refused.error_message(), HasSubstr("max_profile_exports"));
   abandoned.join();
-  // The abandoned export stops and gives its slot back: the small one is
-  // served within a few tries (it would wait ~12 s for one that went on).
+  // The abandoned export stops at its next profile and gives its slot back:
+  // the small one is served within a few tries (one that went on would hold
+  // the slot ~10 s more on an idle machine; tries span up to 5 s, for a loaded one).
   grpc::Status status;
   pb::ExportProfilesResponse response;
-  for (int i = 0; i < 10; ++i) {
+  for (int i = 0; i < 16; ++i) {
     grpc::ClientContext context;
     status = stub->ExportProfiles(&context, small, &response);
     if (status.error_code() != grpc::StatusCode::RESOURCE_EXHAUSTED) break;
