@@ -1,5 +1,6 @@
 #include "chromo/calibration/led_library.hpp"
 
+#include <algorithm>
 #include <sstream>
 
 #include <cmath>
@@ -19,6 +20,40 @@ spectral::Spectrum LedRecord::spectrum_per_unit_drive() const {
     drive_squared += sample.drive_level * sample.drive_level;
   }
   return drive_squared > 0 ? weighted_sum / drive_squared : weighted_sum;
+}
+
+std::optional<double> LedRecord::ladder_temperature_C() const {
+  double weighted_sum = 0, drive_squared = 0;
+  for (const LedSpectrumSample& sample : ladder) {
+    if (!sample.led_temperature_C) return std::nullopt;
+    weighted_sum += *sample.led_temperature_C * sample.drive_level * sample.drive_level;
+    drive_squared += sample.drive_level * sample.drive_level;
+  }
+  if (!(drive_squared > 0)) return std::nullopt;
+  return weighted_sum / drive_squared;
+}
+
+spectral::Spectrum LedRecord::spectrum_at(double temperature_C) const {
+  const spectral::Spectrum reference = spectrum_per_unit_drive();
+  const std::optional<double> reference_C = ladder_temperature_C();
+  if (!thermal || !reference_C || !std::isfinite(temperature_C)) return reference;
+  const double shift_nm = thermal->centroid_shift_nm_per_K * (temperature_C - *reference_C);
+  spectral::Spectrum out;
+  for (int i = 0; i < spectral::kGridSize; ++i) {  // the emission at λ is the reference's at λ − shift
+    const double at = (spectral::grid_wavelength_nm(i) - shift_nm - spectral::kGridStartNm) / spectral::kGridStepNm;
+    const int below = static_cast<int>(std::floor(at));
+    const double t = at - below;
+    const double a = below >= 0 && below < spectral::kGridSize ? reference[below] : 0.0;
+    const double b = below + 1 >= 0 && below + 1 < spectral::kGridSize ? reference[below + 1] : 0.0;
+    out[i] = a + t * (b - a);
+  }
+  return out * flux_factor_at(temperature_C);
+}
+
+double LedRecord::flux_factor_at(double temperature_C) const {
+  const std::optional<double> reference_C = ladder_temperature_C();
+  if (!thermal || !reference_C || !std::isfinite(temperature_C)) return 1.0;
+  return std::max(0.0, 1.0 + thermal->flux_change_per_K * (temperature_C - *reference_C));
 }
 
 std::string validate(const LedLibrary& library) {

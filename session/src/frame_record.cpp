@@ -118,6 +118,7 @@ nlohmann::json to_json(const FrameLedState& led) {
                       {"controller_faults", led.controller_faults},
                       {"sequence_position", led.sequence_position}};
   if (led.polarisation != drivers::PolarisationPerType{}) json["polarisation"] = polarisation_json(led.polarisation);
+  if (led.temperatures_at_trigger) json["temperatures_at"] = "trigger";
   return json;
 }
 
@@ -177,6 +178,10 @@ FrameRecord frame_record_from_json(const nlohmann::json& json) {
     state.drive = levels_from_json(led->at("drive"), "led.drive");
     if (led->contains("requested_drive")) state.requested_drive = levels_from_json(led->at("requested_drive"), "led.requested_drive");
     state.temperature_C = per_channel<double>(*led, "temperature_C");
+    if (const auto at = led->find("temperatures_at"); at != led->end()) {
+      if (!at->is_string() || *at != "trigger") bad("led.temperatures_at", "expected \"trigger\"");
+      state.temperatures_at_trigger = true;
+    }
     state.channel_faults = per_channel<std::uint32_t>(*led, "channel_faults");
     state.controller_faults = number_or<std::uint32_t>(*led, "controller_faults", 0, "led.");
     state.sequence_position = number_or<int>(*led, "sequence_position", -1, "led.");

@@ -5,6 +5,8 @@
 #include "chromo/calibration/led_library_io.hpp"
 #include "chromo/spectral/table.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cstdio>
 #include <fstream>
 #include <stdexcept>
@@ -19,6 +21,38 @@ namespace {
 
 const char* const kMixes[3] = {"d65", "w57", "w57+blue"};
 const char* const kParallelD65 = "d65:parallel";  // illumination_state of a D65' parallel step
+
+// The white reference as the subject's light would have lit it. Both are
+// taken under one mix, but the LEDs' junctions are at other temperatures
+// for each (the frames record theirs, the library has each LED's flux per
+// kelvin), so each channel of white − dark is scaled by
+// ∫S_c·E_subject / ∫S_c·E_white, and the capture's illuminant is the
+// subject's. Without a difference (no thermal record, or records of before
+// per-trigger temperatures) the capture is left as it was: the mean light
+// of both.
+void put_white_under_subject_light(IlluminatedCapture& capture, const RgbImage& dark,
+                                   const spectral::CameraSensitivity& camera, const spectral::Spectrum& white_light,
+                                   const spectral::Spectrum& subject_light) {
+  std::array<double, 3> ratio{};
+  bool differs = false;
+  for (int c = 0; c < 3; ++c) {
+    const double white_signal = (camera.rgb[c] * white_light).integral();
+    ratio[c] = white_signal > 0 ? (camera.rgb[c] * subject_light).integral() / white_signal : 1.0;
+    differs = differs || ratio[c] != 1.0;
+  }
+  if (!differs) return;
+  capture.illuminant = subject_light;
+  for (int c = 0; c < 3; ++c) {
+    auto& white = capture.white.planes[c];
+    const auto& black = dark.planes[c];
+    for (std::size_t i = 0; i < white.size() && i < black.size(); ++i)
+      white[i] = static_cast<float>(black[i] + (white[i] - black[i]) * ratio[c]);
+  }
+}
+
+spectral::Spectrum mean_light(const spectral::Spectrum& illuminant_sum, std::uint32_t frames) {
+  return illuminant_sum / static_cast<double>(std::max(1u, frames));
+}
 
 }  // namespace
 
@@ -96,7 +130,12 @@ std::pair<SessionCaptureBuilder::StepSum*, spectral::Spectrum> SessionCaptureBui
       throw std::invalid_argument(where + ": the frame's record has no led.drive (the applied LED levels)");
     for (auto type : spectral::kAllLedTypes) {
       const auto index = static_cast<std::size_t>(spectral::led_type_index(type));
-      illuminant += sources_.library_for(record.led->polarisation[index]).led(type).spectrum_per_unit_drive() *
+      const calibration::LedRecord& led = sources_.library_for(record.led->polarisation[index]).led(type);
+      // The LED at the temperature it had at this frame's trigger (only
+      // records that carry it: the step's first reading is the previous
+      // step's junction).
+      illuminant += (record.led->temperatures_at_trigger ? led.spectrum_at(record.led->temperature_C[index])
+                                                          : led.spectrum_per_unit_drive()) *
                     record.led->drive[index];
     }
   }
@@ -212,6 +251,8 @@ PlanCaptures SessionCaptureBuilder::plan_captures(const std::string& camera) con
     capture.white_linearity = linearity_white(camera, steps, state.key);
     capture.illuminant = (white.illuminant_sum + subject.illuminant_sum) /
                          static_cast<double>(std::max(1u, white.frames + subject.frames));
+    put_white_under_subject_light(capture, c.dark, c.camera, mean_light(white.illuminant_sum, white.frames),
+                                  mean_light(subject.illuminant_sum, subject.frames));
     c.captures.push_back(std::move(capture));
   }
   return c;
@@ -241,6 +282,8 @@ MethodCaptures SessionCaptureBuilder::captures(const std::string& camera) const 
     // The illuminant as the sphere emitted it for both captures (white and subject).
     target->illuminant = (white.illuminant_sum + subject.illuminant_sum) / static_cast<double>(
                                                                                std::max(1u, white.frames + subject.frames));
+    put_white_under_subject_light(*target, c.dark, c.camera, mean_light(white.illuminant_sum, white.frames),
+                                  mean_light(subject.illuminant_sum, subject.frames));
   }
   return c;
 }

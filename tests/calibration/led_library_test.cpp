@@ -28,6 +28,25 @@ TEST(NominalLedLibrary, HasSixValidLedsWithTheDocumentedFluxAndPeaks) {
   EXPECT_NEAR(peak_wavelength_nm(lib.led(LedType::kBlue).spectrum_per_unit_drive()), 454.26, 2.5);
 }
 
+// An LED at another temperature than its ladder's (docs/calibration.md
+// "Thermal coefficients"): 20 K cooler than the ladder, flux −0.9 %/K and
+// centroid +0.13 nm/K give 18 % more light, its centroid 2.6 nm bluer.
+TEST(LedThermalModel, TheSpectrumAtATemperatureIsScaledAndShifted) {
+  LedRecord red = nominal_led_library().led(LedType::kRed);
+  for (auto& rung : red.ladder) rung.led_temperature_C = 50.0;
+  auto same = [](const spectral::Spectrum& a, const spectral::Spectrum& b) { return a.to_vector() == b.to_vector(); };
+  EXPECT_TRUE(same(red.spectrum_at(30.0), red.spectrum_per_unit_drive()));  // no thermal record: as measured
+  red.thermal = LedThermalRecord{1.0, 25.0, 50.0, -0.009, 0.13};
+  ASSERT_EQ(red.ladder_temperature_C(), 50.0);
+  EXPECT_DOUBLE_EQ(red.flux_factor_at(30.0), 1.18);
+  const spectral::Spectrum cool = red.spectrum_at(30.0), reference = red.spectrum_per_unit_drive();
+  EXPECT_NEAR(cool.integral() / reference.integral(), 1.18, 0.002);
+  EXPECT_NEAR(centroid_wavelength_nm(cool) - centroid_wavelength_nm(reference), -2.6, 0.05);
+  EXPECT_TRUE(same(red.spectrum_at(50.0), reference));
+  red.ladder.front().led_temperature_C.reset();  // a rung without its temperature: no reference
+  EXPECT_TRUE(same(red.spectrum_at(30.0), reference));
+}
+
 TEST(LedLibraryIo, SaveThenLoadGivesTheSameLibrary) {
   LedLibrary lib = nominal_led_library();
   lib.source = "measured";

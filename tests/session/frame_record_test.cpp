@@ -37,6 +37,7 @@ FrameRecord full_record() {
   led.channel_faults = {0, 0, 4, 0, 0, 1};
   led.controller_faults = 2;
   led.sequence_position = 7;
+  led.temperatures_at_trigger = true;
   r.led = led;
   r.camera = "cam1";
   r.sequence = 42;
@@ -129,6 +130,9 @@ TEST(FrameRecord, BadRecordsAreRefusedNamingTheField) {
   j = good;
   j["led"]["temperature_C"] = {1, 2};
   refused(j, "led.temperature_C");
+  j = good;
+  j["led"]["temperatures_at"] = "step";
+  refused(j, "led.temperatures_at");
   j = good;
   j["role"] = "flat";
   refused(j, "role");

@@ -264,6 +264,60 @@ TEST(PlanCaptureBuilder, KeepsEachCameraApartUnderAnyPlan) {
   }
 }
 
+// The LEDs' temperatures (docs/calibration.md "Thermal coefficients"): with
+// a library whose LEDs lose 0.4 % of flux per kelvin (measured at 60 °C) and
+// frames that record their temperatures at the trigger, a white taken at
+// 60 °C and its subject at 40 °C: the subject's light is 8 % brighter, so
+// the white's signal above the dark is scaled by 1.08 in every channel and
+// the capture's illuminant is the subject's. Records without per-trigger
+// temperatures are left as they were.
+TEST(PlanCaptureBuilder, AWhiteTakenWarmerIsPutUnderTheSubjectsLight) {
+  CaptureSources sources;
+  sources.camera = spectral::builtin_camera("nikon_d5100");
+  sources.led_library = calibration::nominal_led_library();
+  for (auto& led : sources.led_library.leds) {
+    for (auto& rung : led.ladder) rung.led_temperature_C = 60.0;
+    led.thermal = calibration::LedThermalRecord{1.0, 25.0, 60.0, -0.004, 0.0};
+  }
+  const SessionPlan plan = multispectral_plan();
+  for (const bool at_trigger : {true, false}) {
+    SCOPED_TRACE(at_trigger ? "temperatures at the trigger" : "the step's first reading");
+    SessionCaptureBuilder builder(plan, sources);
+    std::size_t dark = 0;
+    for (std::size_t k = 0; k < plan.steps.size(); ++k) {
+      const Step& step = plan.steps[k];
+      if (step.role == StepRole::kDark) dark = k;
+      TestFrame f = test_frame(step, "a", drivers::PixelFormat::kBayerRG12, 8, 6, 100 + 10 * static_cast<int>(k), 1000);
+      f.record.led->temperature_C.fill(step.role == StepRole::kWhite ? 60.0 : 40.0);
+      f.record.led->temperatures_at_trigger = at_trigger;
+      for (std::uint32_t n = 0; n < step.frames_per_camera; ++n) builder.add_frame(f.record, f.samples);
+    }
+    const double gain = at_trigger ? 1.0 + -0.004 * (40.0 - 60.0) : 1.0;
+    const PlanCaptures captures = builder.plan_captures("a");
+    const double black = (100 + 10 * static_cast<int>(dark)) / 4095.0;
+    for (const IlluminatedCapture& capture : captures.captures) {
+      std::size_t white = 0;
+      spectral::Spectrum subject_light;
+      for (std::size_t k = 0; k < plan.steps.size(); ++k) {
+        if (plan.steps[k].role == StepRole::kDark || capture_name(illumination_state(plan.steps[k])) != capture.name)
+          continue;
+        if (plan.steps[k].role == StepRole::kWhite) white = k;
+        for (auto type : spectral::kAllLedTypes) {
+          const auto i = static_cast<std::size_t>(spectral::led_type_index(type));
+          if (plan.steps[k].role == StepRole::kSubject)
+            subject_light += sources.led_library.led(type).spectrum_per_unit_drive() *
+                             (plan.steps[k].illumination.weights[i] * gain);
+        }
+      }
+      const double raw_white = (100 + 10 * static_cast<int>(white)) / 4095.0;
+      for (int c = 0; c < 3; ++c)
+        EXPECT_NEAR(capture.white.planes[c][0], black + (raw_white - black) * gain, 1e-6) << capture.name << " channel " << c;
+      for (int i = 0; i < spectral::kGridSize; i += 10)
+        EXPECT_NEAR(capture.illuminant[i], subject_light[i], 1e-9 * (1 + subject_light[i])) << capture.name << " at " << i;
+    }
+  }
+}
+
 // One sum (issue 36): a builder reading the sums another thread filled (the
 // daemon's storage thread) gives exactly the captures of a builder summing the
 // same frames itself; a step's sum is read only once its frames are all in,

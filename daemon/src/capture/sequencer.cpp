@@ -146,6 +146,7 @@ class StepsLoop {
     led.temperature_C = status.temperature_C;
     led.channel_faults = status.channel_faults;
     led.controller_faults = status.controller_faults;
+    led.temperatures_at_trigger = true;
     return led;
   }
 

@@ -62,6 +62,21 @@ struct LedRecord {
   // of spectrum against drive over the ladder (Σ d·s / Σ d²). With one rung it
   // is spectrum/drive. This is the column the mix solver uses.
   spectral::Spectrum spectrum_per_unit_drive() const;
+
+  // The temperature spectrum_per_unit_drive() stands for: the rungs'
+  // led_temperature_C weighted as the fit weighs them (Σ d²·T / Σ d²);
+  // nullopt when a rung has none.
+  std::optional<double> ladder_temperature_C() const;
+  // The LED's flux at `temperature_C` relative to spectrum_per_unit_drive():
+  // 1 + thermal.flux_change_per_K·(temperature_C − ladder_temperature_C()),
+  // at least 0; 1 without a thermal record or ladder temperatures.
+  double flux_factor_at(double temperature_C) const;
+  // spectrum_per_unit_drive() as the LED emits it at `temperature_C`: scaled
+  // by flux_factor_at() and shifted along the wavelength axis by
+  // thermal.centroid_shift_nm_per_K·(temperature_C − ladder_temperature_C())
+  // (linear interpolation on the grid, 0 beyond it); unchanged without a
+  // thermal record or ladder temperatures.
+  spectral::Spectrum spectrum_at(double temperature_C) const;
 };
 
 // The relative spectral response calibration the spectra were corrected

@@ -29,6 +29,10 @@ struct FrameLedState {
   drivers::DriveLevels drive{};
   drivers::DriveLevels requested_drive{};
   std::array<double, drivers::kLedTypeCount> temperature_C{};  // per channel, kAllLedTypes order
+  // true: temperature_C (and the faults) were read just before this frame's
+  // trigger (JSON "temperatures_at": "trigger", since 7 Dec 2026); false: the
+  // step's first reading, right after its state was set (records of before).
+  bool temperatures_at_trigger = false;
   std::array<std::uint32_t, drivers::kLedTypeCount> channel_faults{};
   std::uint32_t controller_faults = 0;
   int sequence_position = -1;  // in an armed sequence; -1 when none
