@@ -464,19 +464,27 @@ async function main() {
   await page.getByRole('heading', { name: 'Start a session' }).waitFor();
   await page.getByRole('cell', { name: 'subject_d65' }).first().waitFor();
   // The plan's polarisation per step: this sphere has no polariser banks, so
-  // every lit step is unpolarised; the polarised plan can be shown, but
-  // starting it is refused naming the missing banks, and no session starts.
+  // every lit step is unpolarised; the polarised plan can be shown, but as
+  // soon as it is chosen the page says why chromod would refuse it (naming
+  // the missing banks, as StartSession does) and Start is disabled.
   const subjectRow = await page.locator('.plan tr').filter({ has: page.getByRole('cell', { name: 'subject_d65', exact: true }) })
     .first().locator('td').allTextContents();
   assert.ok(subjectRow.includes('unpolarised'), `subject_d65's row: ${subjectRow.join(' | ')}`);
   const sessionsBefore = (await api('SessionService', 'ListSessions', {})).json.sessions?.length ?? 0;
   await page.getByLabel('Polarisation', { exact: true }).selectOption('POLARISED_PLAN_ON');
   await page.getByRole('cell', { name: 'subject_d65_parallel', exact: true }).waitFor({ timeout: 10000 });
-  await pressOn(page, page.getByRole('button', { name: 'Start session' }), 'Enter');
-  await page.locator('.start-session ~ .message.error').filter({ hasText: /no polariser banks/ }).waitFor({ timeout: 10000 });
-  console.log(`polarised plan on an unpolarised sphere: "${await page.locator('.start-session ~ .message.error').textContent()}"`);
+  const refusal = page.locator('.start-session .plan-refusal');
+  await refusal.filter({ hasText: /has no polariser banks/ }).waitFor({ timeout: 10000 });
+  assert.ok(await page.getByRole('button', { name: 'Start session' }).isDisabled(), 'Start enabled for a plan chromod refuses');
+  const refused = await api('SessionService', 'StartSession', { standard: true, polarised: 'POLARISED_PLAN_ON' });
+  assert.equal(refused.status, 400);
+  assert.ok((await refusal.textContent()).endsWith(refused.json.error), `the page's reason "${await refusal.textContent()}", StartSession's "${refused.json.error}"`);
+  console.log(`polarised plan on an unpolarised sphere, on choosing it: "${await refusal.textContent()}"; Start disabled`);
+  await page.getByLabel('Subject', { exact: true }).press('Enter');  // a form's implicit submission sends nothing either
   assert.equal((await api('SessionService', 'ListSessions', {})).json.sessions?.length ?? 0, sessionsBefore, 'a refused session was listed');
   await page.getByLabel('Polarisation', { exact: true }).selectOption('POLARISED_PLAN_CONFIGURED');
+  await refusal.waitFor({ state: 'hidden', timeout: 10000 });
+  assert.ok(await page.getByRole('button', { name: 'Start session' }).isEnabled(), 'Start still disabled for a plan that runs');
   await page.getByRole('cell', { name: 'subject_d65_parallel', exact: true }).waitFor({ state: 'detached', timeout: 10000 });
   await page.getByRole('cell', { name: 'subject_d65' }).first().waitFor();
   await page.getByLabel('Subject', { exact: true }).fill('browser test forearm');
