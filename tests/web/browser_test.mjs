@@ -12,6 +12,7 @@ import path from 'node:path';
 import assert from 'node:assert/strict';
 import { browserOrSkip, Chromod, waitUntil, callApi, runMain, wordsBrokenAcrossLines } from './harness.mjs';
 import { formatNumber } from '../../web/src/dom.js';
+import { diverging, viridis, percentileOfSorted } from '../../web/src/maps/colour_scale.js';
 
 const [chromod, webDir, screenshotDir] = process.argv.slice(2);
 mkdirSync(screenshotDir, { recursive: true });
@@ -267,6 +268,10 @@ async function comparisonChecks(page, afterId, beforeId) {
   assert.equal(await card.locator('.comparison-output').getAttribute('data-state'), 'ready',
     `comparison failed: ${await card.locator('.comparison-message').textContent()}`);
   time('comparison_ms', started);
+  // Both sessions' explorers below the difference map load on their own: once
+  // they have, the layout stands still for the pointer.
+  await waitUntil(page, () => document.querySelectorAll('.side-by-side .map-explorer[data-state="ready"]').length === 2, null, 60000,
+    'both sessions side by side');
   const shown = JSON.parse(await card.locator('.comparison-output').getAttribute('data-comparison'));
   assert.equal(shown.request.session_id, beforeId, 'the older session is before');
   assert.equal(shown.request.after_session_id, afterId);
@@ -299,6 +304,40 @@ async function comparisonChecks(page, afterId, beforeId) {
   assert.equal(Number(await readout.getAttribute('data-difference')), difference[cell], 'difference under the cursor');
   assert.equal(Number(await readout.getAttribute('data-sigma')), sigma[cell], 'its σ');
   assert.equal(Number(await readout.getAttribute('data-z')), z[cell], 'its z');
+  // The difference itself and its σ per pixel, each on its own scale (± or 0 to
+  // its 99th percentile over the compared pixels): the scale's ends and the
+  // colour of the cell under the cursor are CompareSessions' numbers.
+  for (const [layer, values, colourAt, symmetric] of [['difference', difference, diverging, true], ['sigma', sigma, viridis, false]]) {
+    await card.locator('select[name="difference_layer"]').selectOption(layer);
+    assert.equal(await canvas.getAttribute('data-layer'), layer);
+    const end = percentileOfSorted(Float64Array.from(Array.from(values).map((v) => (symmetric ? Math.abs(v) : v)).filter(Number.isFinite)).sort(), 99);
+    const [low, high] = (await card.locator('.comparison-output .colour-bar').getAttribute('data-range')).split(' ').map(Number);
+    assert.deepEqual([low, high], [symmetric ? -end : 0, end], `${layer} scale`);
+    const rgb = await canvas.evaluate((element, [x, y]) => [...element.getContext('2d').getImageData(x, y, 1, 1).data.slice(0, 3)],
+      [2 * cx + 1, 2 * cy + 1]);
+    assert.deepEqual(rgb, colourAt((values[cell] - low) / (high - low)), `${layer} colour at cell ${cx},${cy}`);
+    console.log(`difference map as ${layer}: scale ${low.toPrecision(3)} to ${high.toPrecision(3)}, cell (${cx}, ${cy}) ${values[cell]} drawn ${rgb}`);
+  }
+  await card.locator('select[name="difference_layer"]').selectOption('z');
+  // Both sessions side by side: an explorer each, showing its own session's
+  // map (the value under the cursor is GetMap's of that session), zoom
+  // linked between the two and not with the page's other explorers.
+  const sides = card.locator('.side-by-side .map-explorer');
+  for (const [i, id, file] of [[0, beforeId, shown.request.maps_file], [1, afterId, shown.request.after_maps_file]]) {
+    assert.equal(await card.locator('.side-by-side [data-session]').nth(i).getAttribute('data-session'), id);
+    const map = (await api('MapsService', 'GetMap', { session_id: id, maps_file: file, channel: 'Cm', max_width: 480 })).json;
+    const sideCanvas = sides.nth(i).locator('.map-canvas');
+    await sideCanvas.scrollIntoViewIfNeeded();
+    const sideBox = await sideCanvas.boundingBox();
+    const [mx, my] = [Math.floor(map.width / 2), Math.floor(map.height / 3)];
+    await page.mouse.move(sideBox.x + (mx + 0.5) * sideBox.width / map.width, sideBox.y + (my + 0.5) * sideBox.height / map.height);
+    const value = await sides.nth(i).locator('.map-value').getAttribute('data-value');
+    assert.equal(Number(value), Math.fround(Number(map.values[my * map.width + mx])), `side ${i} (${id}): Cm at cell ${mx},${my}`);
+  }
+  await sides.nth(0).getByRole('button', { name: 'Zoom in' }).click();
+  assert.equal(await sides.nth(1).locator('.map-canvas').getAttribute('data-zoom'), '1.5', 'zoom linked between the two sessions');
+  assert.equal(await page.locator('.map-explorer .map-canvas').first().getAttribute('data-zoom'), '1', 'the page\'s own explorer moved too');
+  console.log('both sessions side by side: each explorer shows its own session\'s Cm (GetMap\'s), zoom linked between them');
   console.log(`before/after ${beforeId} → ${afterId}: ${reply.channel} median change ${reply.median_difference} ± ${reply.sigma_of_median} ` +
     `(z ${reply.z}, ${reply.significant ? 'changed' : 'unchanged'}), ${reply.significant_pixels} of ${reply.compared_pixels} pixels beyond ` +
     `${reply.threshold_sigma} sigma, warped ${reply.warped}: page equals CompareSessions; ${figures.comparison_ms} ms`);
