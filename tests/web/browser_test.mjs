@@ -292,13 +292,19 @@ async function comparisonChecks(page, afterId, beforeId) {
   const z = new Float32Array(Buffer.from(reply.z_f32, 'base64').buffer.slice(0));
   const difference = new Float32Array(Buffer.from(reply.difference_f32, 'base64').buffer.slice(0));
   const sigma = new Float32Array(Buffer.from(reply.sigma_f32, 'base64').buffer.slice(0));
-  const cell = z.findIndex((v, i) => Number.isFinite(v) && i % reply.map_width > reply.map_width / 3 && i > z.length / 3);
-  assert.ok(cell >= 0, 'no compared cell in the difference map');
-  const [cx, cy] = [cell % reply.map_width, Math.floor(cell / reply.map_width)];
+  const target = z.findIndex((v, i) => Number.isFinite(v) && i % reply.map_width > reply.map_width / 3 && i > z.length / 3);
+  assert.ok(target >= 0, 'no compared cell in the difference map');
   const canvas = card.locator('.difference-canvas');
   await canvas.scrollIntoViewIfNeeded();
   const box = await canvas.boundingBox();
-  await page.mouse.move(box.x + (cx + 0.5) * box.width / reply.map_width, box.y + (cy + 0.5) * box.height / reply.map_height);
+  // A cell is one CSS pixel here: the pointer goes to whole pixels, and the
+  // cell under it is the one those pixels fall in (as the page computes it).
+  const [px, py] = [Math.round(box.x + (target % reply.map_width + 0.5) * box.width / reply.map_width),
+    Math.round(box.y + (Math.floor(target / reply.map_width) + 0.5) * box.height / reply.map_height)];
+  const [cx, cy] = [Math.floor((px - box.x) / box.width * reply.map_width), Math.floor((py - box.y) / box.height * reply.map_height)];
+  const cell = cy * reply.map_width + cx;
+  assert.ok(Number.isFinite(z[cell]), `cell ${cx},${cy} is not compared`);
+  await page.mouse.move(px, py);
   const readout = card.locator('.difference-value');
   assert.equal(await readout.getAttribute('data-cell'), `${cx},${cy}`);
   assert.equal(Number(await readout.getAttribute('data-difference')), difference[cell], 'difference under the cursor');
@@ -311,7 +317,7 @@ async function comparisonChecks(page, afterId, beforeId) {
     await card.locator('select[name="difference_layer"]').selectOption(layer);
     assert.equal(await canvas.getAttribute('data-layer'), layer);
     const end = percentileOfSorted(Float64Array.from(Array.from(values).map((v) => (symmetric ? Math.abs(v) : v)).filter(Number.isFinite)).sort(), 99);
-    const [low, high] = (await card.locator('.comparison-output .colour-bar').getAttribute('data-range')).split(' ').map(Number);
+    const [low, high] = (await card.locator('.comparison-output .difference-bar').getAttribute('data-range')).split(' ').map(Number);
     assert.deepEqual([low, high], [symmetric ? -end : 0, end], `${layer} scale`);
     const rgb = await canvas.evaluate((element, [x, y]) => [...element.getContext('2d').getImageData(x, y, 1, 1).data.slice(0, 3)],
       [2 * cx + 1, 2 * cy + 1]);
@@ -329,8 +335,9 @@ async function comparisonChecks(page, afterId, beforeId) {
     const sideCanvas = sides.nth(i).locator('.map-canvas');
     await sideCanvas.scrollIntoViewIfNeeded();
     const sideBox = await sideCanvas.boundingBox();
-    const [mx, my] = [Math.floor(map.width / 2), Math.floor(map.height / 3)];
-    await page.mouse.move(sideBox.x + (mx + 0.5) * sideBox.width / map.width, sideBox.y + (my + 0.5) * sideBox.height / map.height);
+    await page.mouse.move(sideBox.x + sideBox.width / 2, sideBox.y + sideBox.height / 3);
+    const [mx, my] = (await sides.nth(i).locator('.map-value').getAttribute('data-cell')).split(',').map(Number);
+    assert.ok(Math.abs(mx - map.width / 2) <= 1 && Math.abs(my - map.height / 3) <= 1, `side ${i}: cell ${mx},${my} under the pointer`);
     const value = await sides.nth(i).locator('.map-value').getAttribute('data-value');
     assert.equal(Number(value), Math.fround(Number(map.values[my * map.width + mx])), `side ${i} (${id}): Cm at cell ${mx},${my}`);
   }

@@ -43,7 +43,7 @@ function mapsFileOf(results, name) {
 
 // A colour bar: `colourAt(t)` for t in 0-1 from low to high, ticks with `tickText`.
 function colourBar(colourAt, low, high, tickValues, tickText, label) {
-  const bar = h('canvas', { class: 'colour-bar', width: BAR_WIDTH, height: 34, role: 'img' });
+  const bar = h('canvas', { class: 'colour-bar difference-bar', width: BAR_WIDTH, height: 34, role: 'img' });
   const context = bar.getContext('2d');
   for (let x = 0; x < bar.width; ++x) {
     context.fillStyle = `rgb(${colourAt(x / (bar.width - 1)).join(',')})`;
