@@ -544,8 +544,12 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
   // The tables: kept in memory since the references were in (the on-line
   // estimator), else loaded from the disk cache or built.
   const bool in_memory = prepared && same_measurement_set(prepared->set, m.set);
+  // Another set (e.g. the subject's noise at a metered exposure): the
+  // prepared forward table still serves where its key is the set's (same
+  // camera and illuminants), and the inverse table it holds where its key is.
   PreparedTables loaded;
-  if (!in_memory) loaded = prepare_tables(m.set, options);
+  const PreparedTables* const earlier[] = {prepared};
+  if (!in_memory) loaded = prepare_tables(m.set, options, prepared ? std::span(earlier) : std::span<const PreparedTables* const>());
   const double table_seconds = in_memory ? 0.0 : loaded.table_seconds;
   const double inverter_seconds = in_memory ? 0.0 : loaded.inverter_seconds;
   const PreparedTables& tables = in_memory ? *prepared : loaded;

@@ -17,6 +17,12 @@ namespace chromo::session {
 
 namespace {
 
+// A white's and its subject's frames together: the capture's illuminant
+// (exactly the white's alone where the subject's levels are the same).
+spectral::Spectrum both_illuminants(IlluminantMean white, const IlluminantMean& subject) {
+  return (white += subject).mean();
+}
+
 const char* const kMixes[3] = {"d65", "w57", "w57+blue"};
 const char* const kParallelD65 = "d65:parallel";  // illumination_state of a D65' parallel step
 
@@ -104,7 +110,7 @@ void SessionCaptureBuilder::add_frame(const FrameRecord& record, std::span<const
                                 std::to_string(s.exposure_us) + " us");
   s.frames.add(record, samples);  // checks the size and that the step's frames agree
   s.exposure_us = record.exposure_us;
-  s.illuminant_sum += illuminant;
+  s.illuminant.add(illuminant);
   if (existing == by_camera_.end()) {  // the camera's first frame: its own sums from the plan's
     StepSums sums = plan_steps_;
     sums.at(key->second) = std::move(fresh);
@@ -181,8 +187,7 @@ PlanCaptures SessionCaptureBuilder::plan_captures(const std::string& camera) con
     capture.white = mean_image(white);
     capture.subject = mean_image(subject);
     capture.white_linearity = linearity_white(steps, state.key);
-    capture.illuminant = (white.illuminant_sum + subject.illuminant_sum) /
-                         static_cast<double>(std::max(1u, white.frames.frames() + subject.frames.frames()));
+    capture.illuminant = both_illuminants(white.illuminant, subject.illuminant);
     c.captures.push_back(std::move(capture));
   }
   return c;
@@ -210,8 +215,7 @@ MethodCaptures SessionCaptureBuilder::captures(const std::string& camera) const 
     target->subject = mean_image(subject);
     target->white_linearity = linearity_white(steps, mix);
     // The illuminant as the sphere emitted it for both captures (white and subject).
-    target->illuminant = (white.illuminant_sum + subject.illuminant_sum) / static_cast<double>(
-                                                                               std::max(1u, white.frames.frames() + subject.frames.frames()));
+    target->illuminant = both_illuminants(white.illuminant, subject.illuminant);
   }
   return c;
 }

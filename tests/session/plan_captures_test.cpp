@@ -263,6 +263,61 @@ TEST(PlanCaptureBuilder, KeepsEachCameraApartUnderAnyPlan) {
   }
 }
 
+// The main job's frame counts (4 frames per white, 1 per subject) at the
+// levels its D65' mix applied: a capture's illuminant from its references
+// alone equals, bit for bit, the one from references and subject, so chromod's
+// tables prepared during capture serve the estimate (issue 39; the mean of
+// 5 equal spectra differed from 4's in the last bit and the inverse table was
+// rebuilt after the last frame: 4.0 s). A subject at other levels moves the
+// illuminant to the frames' mean.
+TEST(PlanCaptureBuilder, IlluminantFromTheReferencesIsTheEstimatesWhenTheLevelsAreTheSame) {
+  CaptureSources sources;
+  sources.camera = spectral::builtin_camera("nikon_d5100");
+  sources.led_library = calibration::nominal_led_library();
+  SessionPlan plan = standard_plan();
+  for (Step& step : plan.steps) step.frames_per_camera = step.role == StepRole::kSubject ? 1 : 4;
+  const std::array<double, 6> d65_drive = {1.0, 0, 0, 0.17470054169527732, 0.491630426489662, 0.864438849469749};
+  SessionCaptureBuilder builder(plan, sources);
+  auto add_steps = [&](bool subjects, const std::string& camera, double subject_drive_factor) {
+    for (const Step& step : plan.steps) {
+      if ((step.role == StepRole::kSubject) != subjects) continue;
+      auto frame = test_frame(step, camera, drivers::PixelFormat::kBayerRG12, 8, 6,
+                              step.role == StepRole::kDark ? 100 : 2000 + 500 * (step.name.find("blue") != std::string::npos),
+                              1000);
+      const auto ends_with = [&](const std::string& mix) {
+        return step.name.size() >= mix.size() && step.name.compare(step.name.size() - mix.size(), mix.size(), mix) == 0;
+      };
+      if (ends_with("w57+blue")) frame.record.led->drive = {0.025192645151445793, 0, 0, 0, 0, 1.0};
+      else if (ends_with("w57")) frame.record.led->drive = {0.025192645151445793, 0, 0, 0, 0, 0};
+      else if (ends_with("d65")) {
+        frame.record.led->drive = d65_drive;
+        if (step.role == StepRole::kSubject)
+          for (double& d : frame.record.led->drive) d *= subject_drive_factor;
+      }
+      for (std::uint32_t n = 0; n < step.frames_per_camera; ++n) builder.add_frame(frame.record, frame.samples);
+    }
+  };
+  add_steps(false, "a", 1.0);
+  add_steps(false, "b", 1.0);
+  ASSERT_TRUE(builder.references_complete("a"));
+  const estimation::MeasurementSet from_references = method_set_from_references(builder.captures("a"));
+  add_steps(true, "a", 1.0);
+  add_steps(true, "b", 0.9);  // camera b's D65' subject under 10% less light
+  ASSERT_TRUE(builder.complete("a"));
+  const estimation::MeasurementSet at_the_end = method_set_from_references(builder.captures("a"));
+  ASSERT_EQ(from_references.channels.size(), at_the_end.channels.size());
+  for (std::size_t c = 0; c < at_the_end.channels.size(); ++c) {
+    const auto &x = from_references.channels[c], &y = at_the_end.channels[c];
+    EXPECT_TRUE((x.illuminant.values() == y.illuminant.values()).all()) << x.name;
+    EXPECT_EQ(x.noise.read_sigma, y.noise.read_sigma) << x.name;
+    EXPECT_EQ(x.noise.shot_coefficient, y.noise.shot_coefficient) << x.name;
+  }
+  const spectral::Spectrum white = builder.captures("a").broadband.illuminant;
+  const spectral::Spectrum moved = builder.captures("b").broadband.illuminant;
+  // (4 frames at 1 + 1 frame at 0.9) / 5 = 0.98 of the white's light.
+  EXPECT_NEAR(moved.integral() / white.integral(), 0.98, 1e-12);
+}
+
 RgbImage flat(int width, int height, std::array<float, 3> value) {
   RgbImage image;
   image.width = width, image.height = height;

@@ -51,6 +51,7 @@
 
 #include "chromo/calibration/led_library.hpp"
 #include "chromo/session/frame_sums.hpp"
+#include "chromo/session/illuminant_mean.hpp"
 #include "chromo/session/session_plan.hpp"
 #include "chromo/session/session_provenance.hpp"
 #include "chromo/session/method_measurement.hpp"
@@ -164,7 +165,7 @@ class SessionCaptureBuilder {
     std::string step;
     std::uint32_t expected = 0;
     FrameSums frames;  // one camera's frames of the step
-    spectral::Spectrum illuminant_sum;
+    IlluminantMean illuminant;  // of the step's frames
     double exposure_us = 0;  // of the step's frames (all alike)
   };
   // Keys: "dark", "white:d65", "subject:d65", "white:w57", ..., "linearity:d65" (a linearity white)
