@@ -162,6 +162,10 @@ struct MethodEstimationOptions {
   RelitModel relit_model = RelitModel::kTable;
   // The report's files (write_estimate_report): 0 = all cores, 1 = one after another on one thread.
   int writer_threads = 0;
+  // A session's cameras estimated at once (estimate_session_cameras), each on
+  // a thread of its own beside its estimate's threads: 0 = all, 1 = one
+  // after another. The maps are the same either way.
+  int cameras_at_once = 0;
   // The subject's width one frame row spans, mm (0: unknown; the session's
   // provenance camera_field_width_mm): the maps' pixel size is this over the
   // maps' width, summary.json's "map_pixel_mm", and the previews' scale bar.
