@@ -307,4 +307,10 @@ estimation::MeasurementSet plan_set_from_references(const PlanCaptures& captures
 // build the forward table early. Equal to build_method_measurement(...).set.
 estimation::MeasurementSet method_set_from_references(const MethodCaptures& captures);
 
+// The illuminants of the photographs the builders make (MethodMeasurement::
+// photographs, in order), known from the white references as the set is: a
+// streaming caller prepares the relit comparison's table early.
+std::vector<spectral::Spectrum> photograph_illuminants(const MethodCaptures& captures);
+std::vector<spectral::Spectrum> photograph_illuminants(const PlanCaptures& captures);
+
 }  // namespace chromo::session
