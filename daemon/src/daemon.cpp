@@ -416,6 +416,11 @@ OperationRunner::Outcome Daemon::run_session(RunningOperation& running, const se
     event.log = text;
     events_.publish(std::move(event));
   };
+  // Every stored frame, summed once as it is stored: derived data is written
+  // from these sums and the on-line estimator's captures read them (a
+  // session re-processed from its folder fills them from the stored frames:
+  // session::add_stored_frames).
+  const auto stored_sums = std::make_shared<session::SessionFrameSums>();
   if (estimator_) {
     std::vector<std::string> cameras;
     for (auto& camera : devices_.cameras) cameras.push_back(camera->config.name);
@@ -424,17 +429,13 @@ OperationRunner::Outcome Daemon::run_session(RunningOperation& running, const se
                                    r.message = message + " " + std::to_string(static_cast<int>(fraction * 100)) + "%";
                                    r.eta_seconds = -1;  // the capture's estimate says nothing of the maps' time
                                  });
-                               }, {}}, cameras, provenance});
+                               }, {}}, cameras, provenance, stored_sums});
   }
-  // Every stored frame, summed as it is stored: derived data is written from
-  // these sums (a session re-processed from its folder fills them from the
-  // stored frames: session::add_stored_frames).
-  session::SessionFrameSums stored_sums;
   std::string stored_sums_error;
   {
     FramePipeline pipeline(
         folder, *journal, &budget_,
-        {config_.storage_queue_frames, config_.estimator_queue_frames, &stored_sums}, estimator_,
+        {config_.storage_queue_frames, config_.estimator_queue_frames, stored_sums.get()}, estimator_,
         [&](const StoredFrame& stored) {
           Event event;
           event.kind = Event::Kind::kFrame;
@@ -464,7 +465,7 @@ OperationRunner::Outcome Daemon::run_session(RunningOperation& running, const se
       operations_.update(id, [](session::OperationRecord& r) { r.message = "writing derived data"; });
       try {
         if (!stored_sums_error.empty()) throw std::runtime_error(stored_sums_error);
-        session::write_derived_data(folder, plan, stored_sums, config_.estimation.white_reflectance, *journal, &budget_);
+        session::write_derived_data(folder, plan, *stored_sums, config_.estimation.white_reflectance, *journal, &budget_);
       } catch (const std::exception& error) {
         outcome = {session::OperationState::kFailed, std::string("derived data: ") + error.what()};
       }

@@ -46,19 +46,52 @@ std::vector<float> FrameSums::mean_channel(int c) const {
   return out;
 }
 
+SessionFrameSums::SessionFrameSums(SessionFrameSums&& other) noexcept {
+  std::lock_guard lock(other.mutex_);
+  sums_ = std::move(other.sums_);
+  indices_ = std::move(other.indices_);
+}
+
+SessionFrameSums& SessionFrameSums::operator=(SessionFrameSums&& other) noexcept {
+  if (this == &other) return *this;
+  std::scoped_lock lock(mutex_, other.mutex_);
+  sums_ = std::move(other.sums_);
+  indices_ = std::move(other.indices_);
+  return *this;
+}
+
 void SessionFrameSums::add(const FrameRecord& record, std::span<const std::uint8_t> samples) {
-  sums_[{record.step, record.camera}].add(record, samples);
+  std::lock_guard lock(mutex_);
+  const auto key = std::make_pair(record.step, record.camera);
+  const bool fresh = !sums_.count(key);
+  try {
+    sums_[key].add(record, samples);
+  } catch (...) {
+    if (fresh) sums_.erase(key);
+    throw;
+  }
   indices_.insert(record.index);
 }
 
+bool SessionFrameSums::contains(std::uint64_t index) const {
+  std::lock_guard lock(mutex_);
+  return indices_.count(index) != 0;
+}
+
+std::size_t SessionFrameSums::frames() const {
+  std::lock_guard lock(mutex_);
+  return indices_.size();
+}
+
 const FrameSums* SessionFrameSums::find(const std::string& step, const std::string& camera) const {
+  std::lock_guard lock(mutex_);
   const auto it = sums_.find({step, camera});
   return it == sums_.end() ? nullptr : &it->second;
 }
 
-std::size_t for_each_stored_frame(const std::filesystem::path& folder,
-                                  const std::function<bool(std::uint64_t index)>& wanted,
-                                  const std::function<void(const FrameRecord&, std::span<const std::uint8_t>)>& add) {
+std::size_t for_each_stored_record(const std::filesystem::path& folder,
+                                   const std::function<bool(std::uint64_t index)>& wanted,
+                                   const std::function<void(const FrameRecord&)>& add) {
   std::size_t count = 0;
   for (const auto& json : read_journal(folder / "journal.jsonl").records) {
     if (json.value("type", "") != "frame") continue;
@@ -69,6 +102,16 @@ std::size_t for_each_stored_frame(const std::filesystem::path& folder,
       throw std::invalid_argument((folder / "journal.jsonl").string() + ": " + error.what());
     }
     if (!wanted(record.index)) continue;
+    add(record);
+    ++count;
+  }
+  return count;
+}
+
+std::size_t for_each_stored_frame(const std::filesystem::path& folder,
+                                  const std::function<bool(std::uint64_t index)>& wanted,
+                                  const std::function<void(const FrameRecord&, std::span<const std::uint8_t>)>& add) {
+  return for_each_stored_record(folder, wanted, [&](const FrameRecord& record) {
     const std::filesystem::path file = folder / record.file;
     TiffImage image;
     try {
@@ -85,9 +128,7 @@ std::size_t for_each_stored_frame(const std::filesystem::path& folder,
                                   std::to_string(record.width) + "×" + std::to_string(record.height) + " " +
                                   std::string(info.name));
     add(record, image.data);
-    ++count;
-  }
-  return count;
+  });
 }
 
 std::size_t add_stored_frames(SessionFrameSums& sums, const std::filesystem::path& folder) {

@@ -28,8 +28,12 @@ const char* const kParallelD65 = "d65:parallel";  // illumination_state of a D65
 
 }  // namespace
 
-SessionCaptureBuilder::SessionCaptureBuilder(const SessionPlan& plan, CaptureSources sources)
-    : sources_(std::move(sources)) {
+SessionCaptureBuilder::SessionCaptureBuilder(const SessionPlan& plan, CaptureSources sources,
+                                             std::shared_ptr<const SessionFrameSums> stored_sums)
+    : sources_(std::move(sources)),
+      own_sums_(stored_sums ? nullptr : std::make_shared<SessionFrameSums>()),
+      sums_(stored_sums ? std::move(stored_sums) : own_sums_),
+      reads_stored_sums_(!own_sums_) {
   for (const auto& step : plan.steps) {
     std::string key;
     if (step.role == StepRole::kDark) {
@@ -47,7 +51,7 @@ SessionCaptureBuilder::SessionCaptureBuilder(const SessionPlan& plan, CaptureSou
       if (step.role == StepRole::kSubject) states_.push_back({state, capture_name(illumination), step.name});
     }
     if (plan_steps_.count(key)) throw std::invalid_argument("step " + step.name + ": a second " + key + " step");
-    plan_steps_[key] = StepSum{step.name, step.frames_per_camera, {}, {}};
+    plan_steps_[key] = StepSum{step.name, step.frames_per_camera, 0, {}, 0};
     key_of_step_[step.name] = key;
   }
   std::string missing;
@@ -77,7 +81,8 @@ const SessionCaptureBuilder::StepSums& SessionCaptureBuilder::sums_of(const std:
   return found == by_camera_.end() ? plan_steps_ : found->second;
 }
 
-void SessionCaptureBuilder::add_frame(const FrameRecord& record, std::span<const std::uint8_t> samples) {
+std::pair<SessionCaptureBuilder::StepSum*, spectral::Spectrum> SessionCaptureBuilder::checked_step(
+    const FrameRecord& record, StepSums& fresh_camera) {
   const std::string& step = record.step;
   auto key = key_of_step_.find(step);
   if (key == key_of_step_.end()) throw std::invalid_argument("frame of step \"" + step + "\": not in the plan");
@@ -101,50 +106,73 @@ void SessionCaptureBuilder::add_frame(const FrameRecord& record, std::span<const
                     record.led->drive[index];
     }
   }
-  // A camera's first frame goes into a fresh sum, kept only once the frame is in.
+  // A camera's first frame goes into a fresh copy of the plan's sums, kept only once the frame is in.
   const auto existing = by_camera_.find(camera);
-  StepSum fresh;
-  StepSum& s = existing == by_camera_.end() ? (fresh = plan_steps_.at(key->second)) : existing->second.at(key->second);
-  if (s.frames.frames() > 0 && record.exposure_us != s.exposure_us)
+  if (existing == by_camera_.end()) fresh_camera = plan_steps_;
+  StepSum& s = (existing == by_camera_.end() ? fresh_camera : existing->second).at(key->second);
+  if (s.frames > 0 && record.exposure_us != s.exposure_us)
     throw std::invalid_argument(where + ": a frame at " + std::to_string(record.exposure_us) + " us among frames at " +
                                 std::to_string(s.exposure_us) + " us");
-  s.frames.add(record, samples);  // checks the size and that the step's frames agree
+  return {&s, illuminant};
+}
+
+void SessionCaptureBuilder::count_frame(const FrameRecord& record, StepSum& s, const spectral::Spectrum& illuminant,
+                                        StepSums& fresh_camera) {
+  ++s.frames;
   s.exposure_us = record.exposure_us;
   s.illuminant.add(illuminant);
-  if (existing == by_camera_.end()) {  // the camera's first frame: its own sums from the plan's
-    StepSums sums = plan_steps_;
-    sums.at(key->second) = std::move(fresh);
-    by_camera_.emplace(camera, std::move(sums));
-    cameras_.push_back(camera);
+  if (!by_camera_.count(record.camera)) {  // the camera's first frame: its own sums from the plan's
+    by_camera_.emplace(record.camera, std::move(fresh_camera));
+    cameras_.push_back(record.camera);
   }
+}
+
+void SessionCaptureBuilder::add_frame(const FrameRecord& record, std::span<const std::uint8_t> samples) {
+  if (reads_stored_sums_) throw std::logic_error("add_frame on a capture builder reading stored sums");
+  StepSums fresh_camera;
+  auto [s, illuminant] = checked_step(record, fresh_camera);
+  own_sums_->add(record, samples);  // checks the size and that the step's frames agree
+  count_frame(record, *s, illuminant, fresh_camera);
+}
+
+void SessionCaptureBuilder::add_summed_frame(const FrameRecord& record) {
+  if (!reads_stored_sums_) throw std::logic_error("add_summed_frame on a capture builder summing its own frames");
+  StepSums fresh_camera;
+  auto [s, illuminant] = checked_step(record, fresh_camera);
+  count_frame(record, *s, illuminant, fresh_camera);
 }
 
 bool SessionCaptureBuilder::references_complete(const std::string& camera) const {
   for (const auto& [key, s] : sums_of(camera))  // a linearity white comes after the subjects: not awaited here
-    if (key.rfind("subject:", 0) != 0 && key.rfind("linearity:", 0) != 0 && s.frames.frames() < s.expected)
+    if (key.rfind("subject:", 0) != 0 && key.rfind("linearity:", 0) != 0 && s.frames < s.expected)
       return false;
   return true;
 }
 
 bool SessionCaptureBuilder::complete(const std::string& camera) const {
   for (const auto& [key, s] : sums_of(camera))
-    if (s.frames.frames() < s.expected) return false;
+    if (s.frames < s.expected) return false;
   return true;
 }
 
 std::string SessionCaptureBuilder::missing(const std::string& camera) const {
   std::string out;
   for (const auto& [key, s] : sums_of(camera))
-    if (s.frames.frames() < s.expected)
-      out += (out.empty() ? "" : ", ") + s.step + ": " + std::to_string(s.frames.frames()) + " of " +
+    if (s.frames < s.expected)
+      out += (out.empty() ? "" : ", ") + s.step + ": " + std::to_string(s.frames) + " of " +
              std::to_string(s.expected) + " frames";
   return out;
 }
 
-RgbImage SessionCaptureBuilder::mean_image(const StepSum& s) const {
+RgbImage SessionCaptureBuilder::mean_image(const std::string& camera, const StepSum& s) const {
   RgbImage image;
-  const FrameSums& f = s.frames;
-  if (f.frames() == 0) return image;
+  if (s.frames == 0 || s.frames < s.expected) return image;  // the sum may still grow
+  const FrameSums* summed = sums_->find(s.step, camera);
+  if (!summed || summed->frames() != s.frames)
+    throw std::invalid_argument("step " + s.step + " (camera " + camera + "): its frame sums hold " +
+                                std::to_string(summed ? summed->frames() : 0) + " frames, but " +
+                                std::to_string(s.frames) + " were counted (a frame the sums refused)");
+  const FrameSums& f = *summed;
   const bool bayer = f.format().layout == drivers::ColourLayout::kBayerRGGB;
   image.width = bayer ? f.width() / 2 : f.width(), image.height = bayer ? f.height() / 2 : f.height();
   image.frames = f.frames();
@@ -166,10 +194,11 @@ RgbImage SessionCaptureBuilder::mean_image(const StepSum& s) const {
   return image;
 }
 
-std::optional<RgbImage> SessionCaptureBuilder::linearity_white(const StepSums& steps, const std::string& state) const {
+std::optional<RgbImage> SessionCaptureBuilder::linearity_white(const std::string& camera, const StepSums& steps,
+                                                              const std::string& state) const {
   const auto found = steps.find("linearity:" + state);
-  if (found == steps.end() || found->second.frames.frames() < found->second.expected) return std::nullopt;
-  return mean_image(found->second);
+  if (found == steps.end() || found->second.frames < found->second.expected) return std::nullopt;
+  return mean_image(camera, found->second);
 }
 
 PlanCaptures SessionCaptureBuilder::plan_captures(const std::string& camera) const {
@@ -178,15 +207,15 @@ PlanCaptures SessionCaptureBuilder::plan_captures(const std::string& camera) con
   PlanCaptures c;
   c.camera = sources_.sensitivity_of(camera).sensitivity;
   c.white_reflectance = sources_.white_reflectance;
-  c.dark = mean_image(steps.at("dark"));
+  c.dark = mean_image(camera, steps.at("dark"));
   for (const State& state : states_) {
     const StepSum& white = steps.at("white:" + state.key);
     const StepSum& subject = steps.at("subject:" + state.key);
     IlluminatedCapture capture;
     capture.name = state.capture_name;
-    capture.white = mean_image(white);
-    capture.subject = mean_image(subject);
-    capture.white_linearity = linearity_white(steps, state.key);
+    capture.white = mean_image(camera, white);
+    capture.subject = mean_image(camera, subject);
+    capture.white_linearity = linearity_white(camera, steps, state.key);
     capture.illuminant = both_illuminants(white.illuminant, subject.illuminant);
     c.captures.push_back(std::move(capture));
   }
@@ -202,7 +231,7 @@ MethodCaptures SessionCaptureBuilder::captures(const std::string& camera) const 
   MethodCaptures c;
   c.camera = sources_.sensitivity_of(camera).sensitivity;
   c.white_reflectance = sources_.white_reflectance;
-  c.dark = mean_image(steps.at("dark"));
+  c.dark = mean_image(camera, steps.at("dark"));
   std::vector<std::pair<IlluminatedCapture*, const char*>> targets = {
       {&c.broadband, "d65"}, {&c.base, "w57"}, {&c.with_blue, "w57+blue"}};
   if (steps.count(std::string("subject:") + kParallelD65)) targets.emplace_back(&c.broadband_parallel.emplace(), kParallelD65);
@@ -211,9 +240,9 @@ MethodCaptures SessionCaptureBuilder::captures(const std::string& camera) const 
     const StepSum& white = steps.at(std::string("white:") + mix);
     const StepSum& subject = steps.at(std::string("subject:") + mix);
     target->name = capture_name({mix, mix});  // "D65' parallel" for d65:parallel
-    target->white = mean_image(white);
-    target->subject = mean_image(subject);
-    target->white_linearity = linearity_white(steps, mix);
+    target->white = mean_image(camera, white);
+    target->subject = mean_image(camera, subject);
+    target->white_linearity = linearity_white(camera, steps, mix);
     // The illuminant as the sphere emitted it for both captures (white and subject).
     target->illuminant = both_illuminants(white.illuminant, subject.illuminant);
   }
@@ -267,22 +296,22 @@ std::size_t add_stored_frames(SessionCaptureBuilder& builder, const std::filesys
                               const std::function<bool(const FrameRecord&)>& wanted,
                               std::map<std::string, std::string>* unusable) {
   std::size_t added = 0;
-  for_each_stored_frame(
-      folder, [&](std::uint64_t index) { return already_added.count(index) == 0; },
-      [&](const FrameRecord& record, std::span<const std::uint8_t> samples) {
-        if (wanted && !wanted(record)) return;
-        if (!unusable) {
-          builder.add_frame(record, samples);
-        } else {
-          try {
-            builder.add_frame(record, samples);
-          } catch (const std::invalid_argument& error) {
-            unusable->emplace(record.camera, error.what());
-            return;
-          }
-        }
-        ++added;
-      });
+  auto add = [&](const FrameRecord& record, std::span<const std::uint8_t> samples) {
+    if (wanted && !wanted(record)) return;
+    try {
+      if (builder.reads_stored_sums()) builder.add_summed_frame(record);
+      else builder.add_frame(record, samples);
+    } catch (const std::invalid_argument& error) {
+      if (!unusable) throw;
+      unusable->emplace(record.camera, error.what());
+      return;
+    }
+    ++added;
+  };
+  const auto not_added = [&](std::uint64_t index) { return already_added.count(index) == 0; };
+  // A builder reading stored sums has every stored frame's samples summed: the records are enough.
+  if (builder.reads_stored_sums()) for_each_stored_record(folder, not_added, [&](const FrameRecord& r) { add(r, {}); });
+  else for_each_stored_frame(folder, not_added, add);
   return added;
 }
 

@@ -127,6 +127,15 @@ class PackageTest(unittest.TestCase):
             self.client.maps(SESSION, maps_file="../x/maps.exr")
         with self.assertRaisesRegex(chromosphere.InvalidArgument, "maps_file: "):
             self.client.maps(SESSION, maps_file="session.json")  # not an EXR
+        unknown_camera = "ResultsService.GetResults: session .* has no camera 'cam9'"
+        with self.assertRaisesRegex(chromosphere.ChromosphereError, unknown_camera):
+            self.client.maps(SESSION, camera="cam9")
+
+        async def unknown_camera_async():
+            async with chromosphere.AsyncClient(TARGET) as client:
+                await client.maps(SESSION, camera="cam9")
+        with self.assertRaisesRegex(chromosphere.ChromosphereError, unknown_camera):
+            asyncio.run(unknown_camera_async())
         with self.assertRaisesRegex(chromosphere.InvalidArgument, "subject_fill"):
             self.client.start_session("bad", subject_fill=1.5)
         with self.assertRaisesRegex(chromosphere.InvalidArgument, "illuminant"):

@@ -119,6 +119,26 @@ TEST(ExposurePerCapture, MeteredSessionPutsEachWhiteAtTheTargetShareAndNFramesDi
     }
   EXPECT_EQ(metered, 2);
 
+  // Each frame records the LED temperatures at its own trigger, not the
+  // step's first reading: the blue LED goes from 0.864 of full drive
+  // (D65') to full drive at white_w57+blue and warms through the step's
+  // metering frames (lab time 300x, thermal time constant 60 lab-s;
+  // measured: 33.75 °C at the step's start, 60.0 at each frame).
+  constexpr std::size_t kBlue = 5;  // temperature_C in W57 W40 W27 R G B order
+  std::optional<double> step_start_C;
+  std::vector<double> frames_C;
+  for (const auto& record : journal.records) {
+    const std::string type = record.value("type", "");
+    if (record.value("step", "") != "white_w57+blue" || (type != "step_started" && type != "frame")) continue;
+    const double t = record.at("led").at("temperature_C").at(kBlue).get<double>();
+    (type == "step_started" ? step_start_C.emplace(t) : frames_C.emplace_back(t));
+  }
+  ASSERT_TRUE(step_start_C);
+  ASSERT_EQ(frames_C.size(), kFrames * lab.lab_options.cameras.size());
+  EXPECT_GT(frames_C.front() - *step_start_C, 10.0)
+      << "blue at the step's start " << *step_start_C << " °C, at the frames " << ::testing::PrintToString(frames_C);
+  for (std::size_t i = 1; i < frames_C.size(); ++i) EXPECT_GE(frames_C[i], frames_C[i - 1] - 0.05) << "frame " << i;
+
   // N frames: the white's noise variance (R sites, one per binned cell) of the
   // N-frame mean is 1/N of one frame's, and the estimator's noise figure for
   // D65'.R on the white is that of the mean: σ²(ρ) ≈ 2·v₁/(N·W²).

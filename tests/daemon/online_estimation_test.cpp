@@ -108,9 +108,12 @@ RecordedSession run_session(const fs::path& sessions, OnlineEstimator& estimator
   auto created = store.create(plan, "rendered forearm", nlohmann::json::array());
   RecordedSession recorded{created.id, created.folder, nullptr, {}, {}};
   const auto mixes = default_virtual_lab_mixes();
-  estimator.begin_session({created.id, created.folder, plan, {}});
+  // One sum of the frames, filled by the storage thread and read by the estimator.
+  const auto stored_sums = std::make_shared<session::SessionFrameSums>();
+  estimator.begin_session({created.id, created.folder, plan, {}, {}, {}, stored_sums});
   {
-    FramePipeline pipeline(created.folder, *created.journal, &budget, {64, estimator_queue_frames}, &estimator, {},
+    FramePipeline pipeline(created.folder, *created.journal, &budget, {64, estimator_queue_frames, stored_sums.get()},
+                           &estimator, {},
                            [&](std::uint64_t skipped) { recorded.behind_reports.push_back(skipped); });
     for (std::size_t s = 0; s < plan.steps.size(); ++s) {
       const session::Step& step = plan.steps[s];

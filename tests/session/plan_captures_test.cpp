@@ -9,6 +9,7 @@
 #include <cstring>
 #include <fstream>
 #include <map>
+#include <memory>
 
 #include "chromo/calibration/led_library.hpp"
 #include "chromo/session/method_measurement.hpp"
@@ -316,6 +317,62 @@ TEST(PlanCaptureBuilder, IlluminantFromTheReferencesIsTheEstimatesWhenTheLevelsA
   const spectral::Spectrum moved = builder.captures("b").broadband.illuminant;
   // (4 frames at 1 + 1 frame at 0.9) / 5 = 0.98 of the white's light.
   EXPECT_NEAR(moved.integral() / white.integral(), 0.98, 1e-12);
+}
+
+// One sum (issue 36): a builder reading the sums another thread filled (the
+// daemon's storage thread) gives exactly the captures of a builder summing the
+// same frames itself; a step's sum is read only once its frames are all in,
+// and a sum that lacks a frame the builder counted is refused naming the step.
+TEST(PlanCaptureBuilder, ReadsTheStoredSumsAsItsOwnSum) {
+  CaptureSources sources;
+  sources.camera = spectral::builtin_camera("nikon_d5100");
+  sources.led_library = calibration::nominal_led_library();
+  StandardPlanOptions two_frames;
+  two_frames.frames_per_camera = 2;
+  const SessionPlan plan = standard_plan(two_frames);
+  const auto stored = std::make_shared<SessionFrameSums>();
+  const auto lacking = std::make_shared<SessionFrameSums>();  // a storage thread that refused one frame
+  SessionCaptureBuilder own(plan, sources), reading(plan, sources, stored), reading_lacking(plan, sources, lacking);
+  EXPECT_THROW(reading.add_frame(test_frame(plan.steps[0], "a", drivers::PixelFormat::kBayerRG12, 8, 6, 1, 1000).record, {}),
+               std::logic_error);
+  const std::string refused_step = plan.steps.back().name;
+  for (std::size_t k = 0; k < plan.steps.size(); ++k)
+    for (std::uint32_t n = 0; n < plan.steps[k].frames_per_camera; ++n)
+      for (const auto& f : {test_frame(plan.steps[k], "a", drivers::PixelFormat::kBayerRG12, 8, 6, 100 + 10 * int(k) + int(n), 1000),
+                            test_frame(plan.steps[k], "b", drivers::PixelFormat::kRgb8, 5, 3, 50 + 3 * int(k) + int(n), 3000)}) {
+        stored->add(f.record, f.samples);
+        if (!(f.record.step == refused_step && f.record.camera == "a" && n == 1)) lacking->add(f.record, f.samples);
+        own.add_frame(f.record, f.samples);
+        reading.add_summed_frame(f.record);
+        reading_lacking.add_summed_frame(f.record);
+        if (k + 1 == plan.steps.size() && n == 0 && f.record.camera == "a") {
+          // The last step has half its frames: its image stays empty until the sum is whole.
+          EXPECT_EQ(reading.captures("a").with_blue.subject.width, 0);
+          EXPECT_TRUE(reading.captures("a").with_blue.subject.planes[0].empty());
+          EXPECT_EQ(reading.captures("a").with_blue.white.width, 4);
+        }
+      }
+  for (const std::string camera : {"a", "b"}) {
+    SCOPED_TRACE(camera);
+    const MethodCaptures a = own.captures(camera), b = reading.captures(camera);
+    for (const auto& [x, y] : {std::pair{&a.broadband, &b.broadband}, {&a.base, &b.base}, {&a.with_blue, &b.with_blue}}) {
+      EXPECT_EQ(y->subject.frames, 2u);
+      for (int c = 0; c < 3; ++c) {
+        EXPECT_EQ(x->subject.planes[c], y->subject.planes[c]);
+        EXPECT_EQ(x->white.planes[c], y->white.planes[c]);
+      }
+      EXPECT_TRUE((x->illuminant.values() == y->illuminant.values()).all());
+    }
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(a.dark.planes[c], b.dark.planes[c]);
+  }
+  EXPECT_FLOAT_EQ(reading.captures("b").dark.planes[0][0], static_cast<float>(50 + 0.5) / 255);  // (50 + 51) / 2
+  try {
+    reading_lacking.captures("a");
+    ADD_FAILURE() << "a sum lacking a counted frame was read";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("step " + refused_step + " (camera a)"), std::string::npos) << e.what();
+  }
+  EXPECT_NO_THROW(reading_lacking.captures("b"));
 }
 
 RgbImage flat(int width, int height, std::array<float, 3> value) {

@@ -10,7 +10,7 @@ import { existsSync, mkdtempSync, mkdirSync, writeFileSync, rmSync } from 'node:
 import { tmpdir } from 'node:os';
 import path from 'node:path';
 import assert from 'node:assert/strict';
-import { browserOrSkip, Chromod, waitUntil, callApi, runMain } from './harness.mjs';
+import { browserOrSkip, Chromod, waitUntil, callApi, runMain, wordsBrokenAcrossLines } from './harness.mjs';
 import { formatNumber } from '../../web/src/dom.js';
 
 const [chromod, webDir, screenshotDir] = process.argv.slice(2);
@@ -70,7 +70,9 @@ async function checkKeyboardAndWidth(page, name) {
     if (probe !== null) reached.add(probe);
   }
   assert.equal(reached.size, controls, `${name}: Tab reached ${reached.size} of ${controls} controls`);
-  console.log(`${name}: Tab reaches all ${controls} controls; page width ${width.scroll} px`);
+  const broken = await wordsBrokenAcrossLines(page);
+  assert.deepEqual(broken, [], `${name}: words broken across lines at 1280x800`);
+  console.log(`${name}: Tab reaches all ${controls} controls; page width ${width.scroll} px; no word broken across lines`);
 }
 
 // The map explorer (issue 42): contrast presets, a region's statistics equal
@@ -211,6 +213,18 @@ async function mapExplorerChecks(page, sessionId, mapsFile, cmMap) {
   step('zoom_and_flags');
   figures.map_explorer_checks_ms = steps;
   console.log(`zoom linked across maps; flags legend ${legend.join(' | ')}`);
+}
+
+// Numbers people read: no "9.73e+3" on the page (the solver's own report,
+// folded under "How the solver got there", is its prose, not the page's).
+async function noExponents(page, name) {
+  const text = await page.evaluate(() => {
+    const main = document.querySelector('main').cloneNode(true);
+    main.querySelectorAll('details').forEach((details) => details.remove());
+    return main.textContent;
+  });
+  const exponents = text.match(/\b\d+(\.\d+)?e[+-]\d+/g) ?? [];
+  assert.deepEqual(exponents, [], `${name}: numbers in exponent form`);
 }
 
 async function pressOn(page, locator, key) {
@@ -396,23 +410,27 @@ async function main() {
   };
   await setLeds(0, false);
   const dark = await meanBrightness(page);
-  await setLeds(0.6, true);
+  await setLeds(0.55, true);
   const lit = await meanBrightness(page);
-  console.log(`live picture mean brightness: LEDs off ${dark.toFixed(1)}, all at 0.6 ${lit.toFixed(1)}`);
+  console.log(`live picture mean brightness: LEDs off ${dark.toFixed(1)}, all at 0.55 ${lit.toFixed(1)}`);
   assert.ok(lit - dark > 5, `the live picture did not change with the LED state (${dark} → ${lit})`);
   const ledState = await api('LedService', 'GetLedState', {});
-  assert.equal(ledState.json.applied.drive.w57, 0.6);
+  // The controller quantises to 16-bit PWM (0.55 → 0.5499961…); the inputs show the level typed, not its float noise.
+  assert.ok(Math.abs(ledState.json.applied.drive.w57 - 0.55) <= 1 / 65535, `applied w57 ${ledState.json.applied.drive.w57}`);
+  const driveInputs = await page.locator('form.leds input[type="number"]').evaluateAll((inputs) => inputs.map((input) => input.value));
+  assert.deepEqual(driveInputs, Array(6).fill('0.55'), `the drive inputs after the API answered ${ledState.json.applied.drive.w57}`);
   // Camera settings from the page: the exposure the API then reports.
   await page.getByLabel('Exposure (µs)').fill('5000');
   await pressOn(page, page.getByRole('button', { name: 'Apply camera settings' }), 'Space');
   await waitUntil(page, () => document.querySelector('section.camera .message.info, section.camera form + .message.error'), null, 30000,
     'the camera settings answer');
   const cameraAnswer = await page.locator('section.camera form + .message').textContent();
-  assert.match(cameraAnswer, /applied: exposure 5000 µs/, `camera settings from the page: ${cameraAnswer}`);
+  assert.match(cameraAnswer, /applied: exposure 5,000 µs/, `camera settings from the page: ${cameraAnswer}`);
   const cameras = await api('CameraService', 'ListCameras', {});
   assert.equal(cameras.json.cameras[0].exposure_us, 5000);
-  await waitUntil(page, () => document.querySelector('.facts')?.textContent.includes('5000 µs'), null, 10000, 'a frame at 5000 µs');
+  await waitUntil(page, () => document.querySelector('.facts')?.textContent.includes('5,000 µs'), null, 10000, 'a frame at 5,000 µs');
   await page.screenshot({ path: path.join(screenshotDir, 'live.png') });
+  await noExponents(page, 'live');
   await checkKeyboardAndWidth(page, 'live');
 
   // Devices and calibration: navigate by keyboard, calibrate from the page.
@@ -426,13 +444,19 @@ async function main() {
   await page.waitForSelector('.operation[data-state="OPERATION_STATE_SUCCEEDED"]', { timeout: 300000 });
   time('calibration_ms', started);
   await page.waitForSelector('.mix[data-target="d65"]', { timeout: 60000 });
-  const mix = await api('CalibrationService', 'SolveMix', { target: 'd65', objective: 'MIX_OBJECTIVE_CAMERA', hold_chromaticity: true });
-  for (const [name, value] of Object.entries(mix.json.figures)) {
-    const shown = await page.locator('.mix[data-target="d65"] tr').filter({ has: page.getByRole('cell', { name, exact: true }) })
-      .first().locator('td').nth(1).textContent();
-    assert.equal(Number(shown), Number(Number(value).toPrecision(4)), `d65 figure ${name}: page ${shown}, API ${value}`);
+  // Each figure of merit to its resolution, as the API has it (no "1.001e-16" for a Δu′v′ of zero).
+  for (const target of ['d65', 'w57+blue']) {
+    const mix = await api('CalibrationService', 'SolveMix', { target, objective: 'MIX_OBJECTIVE_CAMERA', hold_chromaticity: target === 'd65' });
+    for (const [name, value] of Object.entries(mix.json.figures)) {
+      const row = page.locator(`.mix[data-target="${target}"] tr[data-figure="${name}"]`);
+      const decimals = Number(await row.getAttribute('data-decimals'));
+      const shown = (await row.locator('td').nth(1).textContent()).replaceAll(',', '').split(' ')[0];
+      assert.match(shown, decimals ? new RegExp(`^-?\\d+\\.\\d{${decimals}}$`) : /^-?\d+$/, `${target} figure ${name}: "${shown}"`);
+      assert.ok(Math.abs(Number(shown) - Number(value)) <= 0.5 * 10 ** -decimals + 1e-12, `${target} figure ${name}: page ${shown}, API ${value}`);
+    }
   }
   await page.screenshot({ path: path.join(screenshotDir, 'devices.png'), fullPage: true });
+  await noExponents(page, 'devices');
   await checkKeyboardAndWidth(page, 'devices');
 
   // Sessions: the standard session from the page; interactions timed during it.
@@ -487,6 +511,7 @@ async function main() {
   }
   await page.getByRole('link', { name: `Results of ${sessionId}` }).waitFor();
   await page.screenshot({ path: path.join(screenshotDir, 'sessions.png'), fullPage: true });
+  await noExponents(page, 'sessions');
   await checkKeyboardAndWidth(page, 'sessions');
 
   // Results: the page's figures are the API's; relight one.

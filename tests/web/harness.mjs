@@ -82,6 +82,31 @@ export function pageWidth(page) {
   return page.evaluate(() => ({ scroll: document.documentElement.scrollWidth, client: document.documentElement.clientWidth }));
 }
 
+// The words of the page's labels, headers, cells and buttons that wrap across
+// two lines (a word broken inside itself: "spectrom|eter", "Dele|te"); a word
+// is a run of letters and digits, so "white_|d65" wrapping after "_" is not one.
+export function wordsBrokenAcrossLines(page) {
+  return page.evaluate(() => {
+    const broken = [];
+    const scope = 'th, td, button, label, legend, caption, h2, h3, h4, dt, dd, summary, figcaption';
+    for (const element of document.querySelectorAll(`main :is(${scope})`)) {
+      if (!element.getClientRects().length) continue;
+      const walker = document.createTreeWalker(element, NodeFilter.SHOW_TEXT);
+      for (let node = walker.nextNode(); node; node = walker.nextNode()) {
+        if (node.parentElement.closest(scope) !== element) continue;  // counted with its own element
+        for (const match of node.data.matchAll(/[\p{L}\p{N}]+/gu)) {
+          const range = document.createRange();
+          range.setStart(node, match.index);
+          range.setEnd(node, match.index + match[0].length);
+          const lines = new Set([...range.getClientRects()].filter((r) => r.width > 0).map((r) => Math.round(r.top / 4)));
+          if (lines.size > 1) broken.push(`"${match[0]}" in ${element.tagName.toLowerCase()} "${element.textContent.slice(0, 60)}"`);
+        }
+      }
+    }
+    return broken;
+  });
+}
+
 // Logs in from node (POST /login) and returns the session cookie.
 export async function logIn(origin, token) {
   const reply = await fetch(`${origin}/login`, { method: 'POST', headers: { 'Content-Type': 'application/json', Origin: origin },

@@ -71,13 +71,21 @@ export function messageArea(name = '') {
   };
 }
 
+// A long identifier ("white_w57+blue", a path) may wrap after "_" and "/"
+// (a <wbr>), never inside a word: the text, with those break points.
+export function breakable(text) {
+  const parts = String(text).split(/(?<=[_/])/);
+  return parts.length === 1 ? parts[0] : parts.flatMap((part, i) => (i ? [h('wbr'), part] : [part]));
+}
+
+// A table; a text cell may wrap at its identifiers' "_" and "/" (breakable).
 export function table(headers, rows, caption) {
   return h(
     'table',
     {},
     caption ? h('caption', {}, caption) : null,
     h('thead', {}, h('tr', {}, headers.map((header) => h('th', { scope: 'col' }, header)))),
-    h('tbody', {}, rows.map((row) => h('tr', {}, row.map((cell) => h('td', {}, cell))))),
+    h('tbody', {}, rows.map((row) => h('tr', {}, row.map((cell) => h('td', {}, typeof cell === 'string' ? breakable(cell) : cell))))),
   );
 }
 
@@ -91,6 +99,15 @@ export function formatNumber(value, digits = 3) {
   const rounded = Number(number.toPrecision(digits));
   if (rounded !== 0 && (Math.abs(rounded) < 1e-3 || Math.abs(rounded) >= 1e9)) return number.toPrecision(digits);
   return String(rounded);
+}
+
+// An exposure as people read it: whole microseconds with thousands grouped
+// ("9,730 µs" for 9734.2, never "9.73e+3 µs"); below 100 µs three digits.
+export function formatExposure(exposureUs) {
+  const us = Number(exposureUs);
+  if (exposureUs === undefined || exposureUs === null || exposureUs === '' || !Number.isFinite(us)) return '–';
+  if (Math.abs(us) < 100) return `${formatNumber(us, 3)} µs`;
+  return `${Math.round(us).toLocaleString('en-US')} µs`;
 }
 
 // A duration for people: "12 min", "3.2 h", "4.0 days".

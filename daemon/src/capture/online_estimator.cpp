@@ -69,7 +69,7 @@ void OnlineEstimator::begin_session(const SessionStart& start) {
   read_back_ = 0;
   try {
     sources_ = options_.sources();
-    builder_ = std::make_unique<session::SessionCaptureBuilder>(start.plan, *sources_);
+    builder_ = std::make_unique<session::SessionCaptureBuilder>(start.plan, *sources_, start.stored_sums);
   } catch (const std::exception& e) {
     error_ = e.what();
   }
@@ -111,7 +111,9 @@ void OnlineEstimator::consume(const CapturedFrame& captured, const StoredFrame& 
   if (!builder_ || !error_.empty() || estimated_) return;
   const std::string& camera = captured.record.camera;
   try {
-    builder_->add_frame(captured.record, captured.samples);
+    // The storage thread has summed the frame's samples when it is given one to sum into.
+    if (builder_->reads_stored_sums()) builder_->add_summed_frame(captured.record);
+    else builder_->add_frame(captured.record, captured.samples);
     consumed_.insert(stored.index);
   } catch (const std::exception& e) {
     // One camera's unusable frame fails the session's estimate only when it is the one camera.
@@ -175,6 +177,12 @@ nlohmann::json OnlineEstimator::unavailable(const std::string& reason) const {
 }
 
 nlohmann::json OnlineEstimator::end_session(const SessionEnd& end) {
+  nlohmann::json record = results_record(end);
+  builder_.reset();  // the captures' sums (the stored ones too) go back before the next session
+  return record;
+}
+
+nlohmann::json OnlineEstimator::results_record(const SessionEnd& end) {
   if (!end.succeeded) return nullptr;
   if (!builder_ && error_.empty()) return nullptr;
   if (error_.empty() && !estimated_) {

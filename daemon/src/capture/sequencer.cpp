@@ -82,9 +82,11 @@ class StepsLoop {
     if (!capture_.ensure_exposure(metering_->exposures_of(step))) return cancelled();
     for (std::uint32_t frame = 0; frame < step.frames_per_camera; ++frame) {
       if (c_.control->cancel_requested()) return cancelled();
+      std::optional<session::FrameLedState> at_trigger = led_at_trigger(*led);
+      if (!at_trigger) return cancelled();
       std::optional<Capture> capture = capture_.take(step, index, frame);
       if (!capture) return cancelled();
-      deliver(*capture, step, index, frame, *led);
+      deliver(*capture, step, index, frame, *at_trigger);
       if (auto error = c_.pipeline->storage_error(); !error.empty())
         return SequencerOutcome{session::OperationState::kFailed, error};
       run_.count_frames(c_.cameras.size());
@@ -100,7 +102,8 @@ class StepsLoop {
 
   // Sets the step's LED state (software timing), reads the controller's
   // status and journals "step_started"; the LED state every frame of the
-  // step records. Hardware timing: the controller moves to this step's
+  // step records, with the temperatures and faults of its own trigger
+  // (led_at_trigger). Hardware timing: the controller moves to this step's
   // state on the step's first trigger pulse, so before it the status still
   // shows the previous frame's; the frames are taken under the armed
   // levels. nullopt when cancelled.
@@ -126,6 +129,23 @@ class StepsLoop {
     c_.journal->append({{"type", "step_started"}, {"step", step.name}, {"index", index}, {"led", session::to_json(led)},
                         {"exposure_us", step.exposure_us}, {"settle_ms", step.settle_ms},
                         {"timing", session::timing_name(c_.plan.timing)}});
+    return led;
+  }
+
+  // The step's LED state with the temperatures and faults the controller
+  // reports just before this capture's trigger: a junction warms or cools
+  // through a step (its metering frames, its settle), so the step's first
+  // reading is not the frames' (docs/formats/session.md, `led`). Drive,
+  // polarisation and sequence position stay the step's. nullopt when
+  // cancelled.
+  std::optional<session::FrameLedState> led_at_trigger(const session::FrameLedState& step_led) {
+    drivers::LedStatus status;
+    if (!run_.with_led("read_status", [&](drivers::LedController& device) { status = device.read_status(); }))
+      return std::nullopt;
+    session::FrameLedState led = step_led;
+    led.temperature_C = status.temperature_C;
+    led.channel_faults = status.channel_faults;
+    led.controller_faults = status.controller_faults;
     return led;
   }
 

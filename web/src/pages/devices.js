@@ -2,7 +2,7 @@
 // starting an LED calibration and following it, and the mixes solved on the
 // daemon's LED library (drive levels and figures of merit).
 import * as api from '../api.js';
-import { h, field, messageArea, table, enumName, formatNumber, humanError } from '../dom.js';
+import { h, field, messageArea, table, enumName, humanError } from '../dom.js';
 import { barChart, linePlot } from '../plot.js';
 import { operationView } from '../operation.js';
 import { LED_CHANNELS, LED_COLOURS } from './live.js';
@@ -30,6 +30,23 @@ function devicesSection() {
   return h('section', { class: 'card', 'aria-labelledby': 'devices-heading' },
     h('h3', { id: 'devices-heading' }, 'Devices'), body,
     h('button', { type: 'button', onclick: refresh }, 'Refresh devices'), message.element);
+}
+
+// A mix's figures of merit as an operator reads them: name, value to the
+// figure's useful resolution (never "1.001e-16": a Δu′v′ of 1e-16 is 0.00000), unit.
+const FIGURES = {
+  camera_de00_mean: ['camera ΔE00, mean over the chart', 2, ''], camera_de00_max: ['camera ΔE00, worst patch', 2, ''],
+  cct_K: ['correlated colour temperature', 0, 'K'], delta_uv_prime: ['Δu′v′ from the target', 5, ''],
+  ra: ['colour rendering index Ra', 1, ''], rmse: ['spectral RMSE', 4, 'library units/nm'],
+};
+function figuresTable(figures, caption) {
+  const rows = Object.entries(figures).sort(([a], [b]) => a.localeCompare(b)).map(([name, value]) => {
+    const [label, decimals, unit] = FIGURES[name] ?? [name, 4, ''];
+    const text = Number(value).toLocaleString('en-US', { minimumFractionDigits: decimals, maximumFractionDigits: decimals });
+    return h('tr', { 'data-figure': name, 'data-decimals': decimals }, h('td', {}, label), h('td', {}, unit ? `${text} ${unit}` : text));
+  });
+  return h('table', {}, h('caption', {}, caption),
+    h('thead', {}, h('tr', {}, h('th', { scope: 'col' }, 'Figure of merit'), h('th', { scope: 'col' }, 'Value'))), h('tbody', {}, rows));
 }
 
 const LIBRARY_KEYS = { W57: 'w57', W40: 'w40', W27: 'w27', R: 'red', G: 'green', B: 'blue' };
@@ -80,7 +97,6 @@ function mixesSection() {
       try {
         const mix = await api.call('CalibrationService', 'SolveMix', { target, objective, hold_chromaticity: hold });
         const weights = mix.weights ?? {};
-        const figures = Object.entries(mix.figures ?? {}).sort(([a], [b]) => a.localeCompare(b));
         body.append(h('figure', { class: 'mix', 'data-target': target },
           barChart(LED_CHANNELS.map(([key]) => ({ name: key, value: weights[key] ?? 0, colour: LED_COLOURS[key] })),
             { title: `${title}: drive levels`, yMax: 1 }),
@@ -88,7 +104,7 @@ function mixesSection() {
           h('figcaption', {}, title, h('details', {}, h('summary', {}, 'How the solver got there'), mix.summary)),
           // W57 is its own target: its figures would measure it against itself.
           target === 'w57' ? h('p', { class: 'muted' }, 'W57 alone, the reference of W57 + blue: no figures of merit against itself.')
-            : table(['Figure of merit', 'Value'], figures.map(([name, value]) => [name, formatNumber(value, 4)]), `${title}: figures of merit`),
+            : figuresTable(mix.figures ?? {}, `${title}: figures of merit`),
           h('p', { class: 'muted' }, `library: ${mix.library}`)));
       } catch (error) {
         body.append(h('p', { class: 'message error' }, `${title}: ${humanError(error)}`));

@@ -5,7 +5,7 @@
 // shown); a region dragged on it (or typed) is where the histogram and the
 // raw means come from.
 import * as api from '../api.js';
-import { h, field, messageArea, formatNumber, decodeBase64 } from '../dom.js';
+import { h, field, messageArea, formatNumber, formatExposure, decodeBase64 } from '../dom.js';
 import { histogramChart } from '../plot.js';
 
 // Each LED type drawn in its own light's colour (the whites from cool to warm).
@@ -145,7 +145,7 @@ function cameraPanel(camera) {
     try {
       const applied = await api.call('CameraService', 'SetCameraSettings',
         { camera: camera.name, exposure_us: Number(exposure.value), pixel_format: pixelFormat.value });
-      message.info(`applied: exposure ${formatNumber(applied.exposure_us)} µs, ${applied.pixel_format}`);
+      message.info(`applied: exposure ${formatExposure(applied.exposure_us)}, ${applied.pixel_format}`);
     } catch (error) {
       message.error(error);
     }
@@ -170,7 +170,7 @@ function cameraPanel(camera) {
     histogram.dataset.regionCells = String(frame.region_cells ?? 0);
     histogram.dataset.samples = String(bins.reduce((sum, count) => sum + Number(count), 0));
     const rows = [
-      ['Exposure', `${formatNumber(frame.exposure_us)} µs`], ['Pixel format', frame.pixel_format],
+      ['Exposure', formatExposure(frame.exposure_us)], ['Pixel format', frame.pixel_format],
       ['Clipped pixels', `${frame.clipped_pixels} of ${frame.width * frame.height}`], ['Full scale', frame.full_scale],
       ['Source', frame.source], ['Frame', frame.sequence], ['Sensor', `${frame.source_width}×${frame.source_height}`],
       ['Region', whole ? `whole frame (${frame.region_cells} pixels)`
@@ -252,6 +252,12 @@ function temperaturesText(temperatures) {
   return temperatures.map((t, i) => `${LED_CHANNELS[i][1].split(' ')[0]} ${formatNumber(t, 3)} °C`).join(', ');
 }
 
+// A drive level as its input shows it: the controller's quantised level
+// (0.30000762951094834 for 0.3 at 16-bit PWM) to 4 decimals, "0.3".
+export function driveInputValue(level) {
+  return String(Number(Number(level ?? 0).toFixed(4)));
+}
+
 function ledPanel() {
   const inputs = Object.fromEntries(LED_CHANNELS.map(([key]) =>
     [key, h('input', { type: 'number', min: 0, max: 1, step: 0.01, value: 0, name: key })]));
@@ -267,7 +273,7 @@ function ledPanel() {
       `; temperatures ${temperaturesText(led.temperature_c ?? [])}`;
     status.dataset.drive = JSON.stringify(drive);
     if (!edited) {
-      for (const [key] of LED_CHANNELS) inputs[key].value = drive[key] ?? 0;
+      for (const [key] of LED_CHANNELS) inputs[key].value = driveInputValue(drive[key]);
       enabled.checked = led.output_enabled;
     }
   };

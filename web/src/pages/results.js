@@ -8,7 +8,7 @@
 // (maps/session_comparison.js); the session's frames with each one's step, exposure and
 // polarisation (GetSession with frames).
 import * as api from '../api.js';
-import { h, field, messageArea, table, enumName, formatNumber, polarisationName } from '../dom.js';
+import { h, field, messageArea, table, enumName, formatNumber, formatExposure, polarisationName } from '../dom.js';
 import { mapExplorer } from '../map_explorer.js';
 import { provenanceCard } from '../provenance.js';
 import { linkedView } from '../maps/linked_view.js';
@@ -69,8 +69,8 @@ function framesSection(sessionId) {
     const shown = frames.slice(0, FRAMES_SHOWN);
     body.replaceChildren(
       h('p', {}, frames.length > shown.length ? `${frames.length} frames; the first ${shown.length} are listed.` : `${frames.length} frames.`),
-      table(['#', 'Step', 'Camera', 'Sequence', 'Exposure (µs)', 'Polarisation', 'Status'],
-        shown.map((frame) => [frame.index ?? 0, frame.step, frame.camera, frame.sequence ?? 0, formatNumber(frame.exposure_us),
+      table(['#', 'Step', 'Camera', 'Sequence', 'Exposure', 'Polarisation', 'Status'],
+        shown.map((frame) => [frame.index ?? 0, frame.step, frame.camera, frame.sequence ?? 0, formatExposure(frame.exposure_us),
           frameLights(frame), frame.status]), 'Frames of the session'));
     body.dataset.frames = String(frames.length);
   }, (error) => { body.replaceChildren(); message.error(error); });

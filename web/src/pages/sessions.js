@@ -1,7 +1,7 @@
 // Sessions: the standard plan, starting a session (subject, plan options),
 // its progress and events with pause/resume/cancel, and past sessions.
 import * as api from '../api.js';
-import { h, field, messageArea, table, enumName, formatNumber, polarisationName, humanError } from '../dom.js';
+import { h, field, messageArea, table, enumName, formatNumber, formatExposure, polarisationName, humanError } from '../dom.js';
 import { operationView, stateName, isFinal } from '../operation.js';
 import { preflightChecklist } from '../preflight.js';
 
@@ -13,10 +13,10 @@ function stepIllumination(step) {
 }
 
 function planTable(plan) {
-  return table(['#', 'Step', 'Role', 'Illumination', 'Polarisation', 'Exposure (µs)', 'Frames per camera', 'Prompt'],
+  return table(['#', 'Step', 'Role', 'Illumination', 'Polarisation', 'Exposure', 'Frames per camera', 'Prompt'],
     (plan.steps ?? []).map((step, i) => [i + 1, step.name, enumName(step.role, 'STEP_ROLE_'), stepIllumination(step),
       step.dark ? '–' : polarisationName(step.polarisation),
-      step.exposure_from ? `from ${step.exposure_from}` : step.meter_white_share ? `metered to ${step.meter_white_share} of full scale` : formatNumber(step.exposure_us),
+      step.exposure_from ? `from ${step.exposure_from}` : step.meter_white_share ? `metered to ${step.meter_white_share} of full scale` : formatExposure(step.exposure_us),
       step.frames_per_camera, step.prompt || '–']),
     `Plan "${plan.name}" (${enumName(plan.timing, 'TIMING_')} timing)`);
 }

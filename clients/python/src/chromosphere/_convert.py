@@ -9,7 +9,7 @@ from typing import Dict, Iterable, List, Optional, Sequence, Union
 import numpy as np
 from google.protobuf.json_format import MessageToDict
 
-from .errors import InvalidArgument
+from .errors import ChromosphereError, FailedPrecondition, InvalidArgument
 from .model import (CameraResults, MapChannel, Maps, Photograph, Photographs, PlanAdvice, PreviewFrame, Progress, Relit,
                     Results)
 from .v1 import cameras_pb2, estimation_pb2, maps_pb2, operations_pb2, planning_pb2, sessions_pb2
@@ -77,6 +77,24 @@ def results(r: estimation_pb2.Results) -> Results:
                                  summary=MessageToDict(r.summary, preserving_proto_field_name=True))]
     return Results(session_id=r.session_id, available=available, reason=r.reason, folder=r.folder, cameras=cameras,
                    summary=_json(r.summary_json))
+
+
+def maps_file_of(found: Results, session_id: str, camera: Optional[str]) -> str:
+    """The maps file of `camera` in GetResults' answer `found`; FailedPrecondition when the session has no
+    maps yet, ChromosphereError naming the camera when it has none (both the blocking and the async client)."""
+    if not found.available:
+        raise FailedPrecondition(f"session {session_id} has no maps ({found.reason or 'not yet'})",
+                                 call="ResultsService.GetResults")
+    try:
+        return found.camera(camera).maps_file
+    except KeyError as error:
+        raise ChromosphereError(str(error.args[0]), call="ResultsService.GetResults") from None
+
+
+def relight_request(session_id: str, maps_file: str, illuminant: str, label: str,
+                    photograph_file: str) -> maps_pb2.RelightRequest:
+    return maps_pb2.RelightRequest(session_id=session_id, maps_file=maps_file, illuminant=illuminant, label=label,
+                                   photograph_file=photograph_file)
 
 
 def read_maps_request(session_id: str, maps_file: str, channels: Optional[Sequence[str]],

@@ -14,7 +14,7 @@ from grpc import aio
 
 from . import _convert
 from .client import ProgressCallback, channel_credentials
-from .errors import ChromosphereError, FailedPrecondition, from_rpc_error
+from .errors import from_rpc_error
 from .model import Maps, Photographs, PlanAdvice, PreviewFrame, Progress, Relit, Results, SessionRun
 from .v1 import (cameras_pb2_grpc, estimation_pb2, estimation_pb2_grpc, maps_pb2, maps_pb2_grpc, operations_pb2,
                  operations_pb2_grpc, planning_pb2_grpc, sessions_pb2_grpc)
@@ -88,14 +88,7 @@ class AsyncClient:
     async def maps(self, session_id: str, camera: Optional[str] = None, channels: Optional[Sequence[str]] = None,
                    *, maps_file: str = "", chunk_bytes: int = 0) -> Maps:
         if not maps_file:
-            found = await self.results(session_id)
-            if not found.available:
-                raise FailedPrecondition(f"session {session_id} has no maps ({found.reason or 'not yet'})",
-                                         call="ResultsService.GetResults")
-            try:
-                maps_file = found.camera(camera).maps_file
-            except KeyError as error:
-                raise ChromosphereError(str(error.args[0]), call="ResultsService.GetResults") from None
+            maps_file = _convert.maps_file_of(await self.results(session_id), session_id, camera)
         assembler = _convert.MapsAssembler(f"session {session_id}: {maps_file}")
         request = _convert.read_maps_request(session_id, maps_file, channels, chunk_bytes)
         try:
@@ -107,8 +100,7 @@ class AsyncClient:
 
     async def relight(self, session_id: str, illuminant: str, *, maps_file: str = "results/maps.exr",
                       label: str = "", photograph_file: str = "") -> Relit:
-        request = maps_pb2.RelightRequest(session_id=session_id, maps_file=maps_file, illuminant=illuminant,
-                                          label=label, photograph_file=photograph_file)
+        request = _convert.relight_request(session_id, maps_file, illuminant, label, photograph_file)
         return _convert.relit(await self._call("MapsService.Relight", self._maps.Relight, request))
 
     async def photographs(self, session_id: str, maps_file: str = "results/maps.exr") -> Photographs:

@@ -6,7 +6,7 @@ from typing import Callable, Iterable, Iterator, List, Optional, Sequence
 import grpc
 
 from . import _convert
-from .errors import ChromosphereError, FailedPrecondition, from_rpc_error
+from .errors import from_rpc_error
 from .model import Maps, Photographs, PlanAdvice, PreviewFrame, Progress, Relit, Results, SessionRun
 from .v1 import (cameras_pb2_grpc, devices_pb2, devices_pb2_grpc, estimation_pb2, estimation_pb2_grpc, maps_pb2_grpc,
                  maps_pb2, operations_pb2, operations_pb2_grpc, planning_pb2_grpc, sessions_pb2,
@@ -118,14 +118,7 @@ class Client:
         maps_dir); channels: a subset (None: all). Channels come as Cm, Ch, Bm, Che, residual,
         order, flags, then the others; one call sends at most the daemon's max_read_maps_bytes."""
         if not maps_file:
-            found = self.results(session_id)
-            if not found.available:
-                raise FailedPrecondition(f"session {session_id} has no maps ({found.reason or 'not yet'})",
-                                         call="ResultsService.GetResults")
-            try:
-                maps_file = found.camera(camera).maps_file
-            except KeyError as error:
-                raise ChromosphereError(str(error.args[0]), call="ResultsService.GetResults") from None
+            maps_file = _convert.maps_file_of(self.results(session_id), session_id, camera)
         assembler = _convert.MapsAssembler(f"session {session_id}: {maps_file}")
         request = _convert.read_maps_request(session_id, maps_file, channels, chunk_bytes)
         try:
@@ -139,8 +132,7 @@ class Client:
                 label: str = "", photograph_file: str = "") -> Relit:
         """The maps relit under an illuminant (W57..B, D65, D50, A, "4000K", or a CSV in the session
         folder); files in a new folder of the session's products/."""
-        request = maps_pb2.RelightRequest(session_id=session_id, maps_file=maps_file, illuminant=illuminant,
-                                          label=label, photograph_file=photograph_file)
+        request = _convert.relight_request(session_id, maps_file, illuminant, label, photograph_file)
         return _convert.relit(self._call("MapsService.Relight", self._maps.Relight, request))
 
     def photographs(self, session_id: str, maps_file: str = "results/maps.exr") -> Photographs:

@@ -12,13 +12,19 @@
 // sum / (frames · full scale) in double, then float: units of full scale,
 // 0-1. Up to kMaxFramesPerSum frames of 16-bit samples fit.
 //
-// Thread rules: one thread at a time per object (the pipeline's storage
-// thread fills the daemon's; read it after FramePipeline::drain()).
+// Thread rules: a FrameSums, one thread at a time. A SessionFrameSums may be
+// filled by one thread while another reads it: add(), find(), contains() and
+// frames() lock; a FrameSums that find() returned may be read without the
+// lock once its step's frames are all in (no add reaches it any more: how
+// the on-line estimator reads the storage thread's sums, session_captures.hpp);
+// by_step_and_camera() only when no thread adds (after
+// FramePipeline::drain_storage()).
 
 #include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <mutex>
 #include <set>
 #include <span>
 #include <string>
@@ -67,22 +73,38 @@ class FrameSums {
 };
 
 // Every stored frame of a session, by (step, camera), and which storage
-// indices are in.
+// indices are in: the one sum of a session's frames (derived data and the
+// on-line estimator's captures both read it).
 class SessionFrameSums {
  public:
+  SessionFrameSums() = default;
+  // Moves the other's sums (no thread may use `other` meanwhile).
+  SessionFrameSums(SessionFrameSums&& other) noexcept;
+  SessionFrameSums& operator=(SessionFrameSums&& other) noexcept;
+
   // Adds the frame under (record.step, record.camera) and remembers
-  // record.index. Throws as FrameSums::add.
+  // record.index. Throws as FrameSums::add (nothing added then).
   void add(const FrameRecord& record, std::span<const std::uint8_t> samples);
-  bool contains(std::uint64_t index) const { return indices_.count(index) != 0; }
-  std::size_t frames() const { return indices_.size(); }
+  bool contains(std::uint64_t index) const;
+  std::size_t frames() const;
+  // Only while no thread adds.
   const std::map<std::pair<std::string, std::string>, FrameSums>& by_step_and_camera() const { return sums_; }
-  // Null when the step has no frame of that camera.
+  // Null when the step has no frame of that camera. The pointer stays valid
+  // as long as this object.
   const FrameSums* find(const std::string& step, const std::string& camera) const;
 
  private:
+  mutable std::mutex mutex_;
   std::map<std::pair<std::string, std::string>, FrameSums> sums_;
   std::set<std::uint64_t> indices_;
 };
+
+// Reads the session folder's frame records (journal.jsonl) in storage order
+// and calls `add` for each whose index `wanted` accepts; returns how many.
+// Throws std::invalid_argument naming the journal for an unreadable record.
+std::size_t for_each_stored_record(const std::filesystem::path& folder,
+                                   const std::function<bool(std::uint64_t index)>& wanted,
+                                   const std::function<void(const FrameRecord&)>& add);
 
 // Reads the session folder's stored frames (the journal's frame records and
 // their TIFFs) in storage order and calls `add` for each whose index `wanted`

@@ -24,9 +24,22 @@
 // subject captures are its own, and captures(camera) / plan_captures(camera)
 // never hold another camera's frame. cameras() lists them in the order their
 // first frame came; the overloads without a camera are the first camera's
-// (camera()). A camera's frames are summed per step exactly as they came (FrameSums,
-// frame_sums.hpp: the accumulator derived data is written from too), and the
-// mean is taken when the captures are made (each image carries its frame
+// (camera()).
+//
+// One sum: a camera's frames are summed per step exactly as they came, once,
+// in a SessionFrameSums (frame_sums.hpp: the accumulator derived data is
+// written from). The builder either owns it (add_frame with the samples:
+// `chromo estimate`, tests) or reads the one the storage thread fills
+// (constructed with stored_sums, add_summed_frame with the record alone:
+// chromod's on-line estimator, so a frame is summed once and a skipped frame
+// is caught up from its journal record, not its TIFF). Either way the
+// builder counts each step's frames and their illuminants itself, and reads
+// a step's sum only once all its frames are in (an incomplete step's image
+// is empty): the storage thread adds no more to it by then. A sum that holds
+// other than the frames the builder counted (the storage thread refused one)
+// makes captures() throw naming the step.
+//
+// The mean is taken when the captures are made (each image carries its frame
 // count and exposure; a step's frames must share one exposure, else
 // add_frame throws naming the step): BayerRG frames binned 2×2 (R,
 // mean of the two G, B per cell: half resolution, colours without
@@ -37,12 +50,14 @@
 // the LED library, with drive the levels the controller reported applied
 // (FrameRecord::led->drive), averaged over the step's frames.
 //
-// Thread rules: one thread at a time per builder.
+// Thread rules: one thread at a time per builder (the stored sums it reads
+// may be filled by another thread meanwhile: SessionFrameSums' rules).
 
 #include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <memory>
 #include <optional>
 #include <set>
 #include <span>
@@ -120,15 +135,28 @@ CaptureSources resolve_capture_sources(const std::string& led_library, const std
 
 class SessionCaptureBuilder {
  public:
-  SessionCaptureBuilder(const SessionPlan& plan, CaptureSources sources);
+  // stored_sums null: the builder sums the frames given to add_frame itself;
+  // else it reads that object's sums, which another thread fills with every
+  // frame before the builder is told of it (add_summed_frame).
+  SessionCaptureBuilder(const SessionPlan& plan, CaptureSources sources,
+                        std::shared_ptr<const SessionFrameSums> stored_sums = nullptr);
+  SessionCaptureBuilder(SessionCaptureBuilder&&) = default;
+  SessionCaptureBuilder& operator=(SessionCaptureBuilder&&) = default;
 
   // One frame: samples as the camera sent them (16-bit samples in host
   // order), described by its record (step, camera, geometry, pixel format, the
   // applied LED levels), added to its camera's sums. Throws
   // std::invalid_argument naming the step and camera for a frame that cannot
   // be used (mono, odd size, size change, unknown step, no LED levels on a
-  // lit step, an exposure unlike the step's other frames); nothing is added then.
+  // lit step, an exposure unlike the step's other frames); nothing is added
+  // then. std::logic_error on a builder reading stored sums.
   void add_frame(const FrameRecord& record, std::span<const std::uint8_t> samples);
+  // One frame whose samples the stored sums already hold: counted, its
+  // illuminant added; throws as add_frame (but for the size change, which
+  // captures() finds), std::logic_error on a builder without stored sums.
+  void add_summed_frame(const FrameRecord& record);
+  // The builder reads stored sums (add_summed_frame, not add_frame).
+  bool reads_stored_sums() const { return reads_stored_sums_; }
 
   // The cameras that delivered frames, in the order of their first frame.
   const std::vector<std::string>& cameras() const { return cameras_; }
@@ -164,19 +192,26 @@ class SessionCaptureBuilder {
   struct StepSum {
     std::string step;
     std::uint32_t expected = 0;
-    FrameSums frames;  // one camera's frames of the step
+    std::uint32_t frames = 0;  // one camera's frames of the step counted so far (their samples: sums_)
     IlluminantMean illuminant;  // of the step's frames
     double exposure_us = 0;  // of the step's frames (all alike)
   };
   // Keys: "dark", "white:d65", "subject:d65", "white:w57", ..., "linearity:d65" (a linearity white)
   using StepSums = std::map<std::string, StepSum>;
-  RgbImage mean_image(const StepSum& s) const;
+  // Checks the frame (throws as add_frame) and returns its step's sum of its camera, and its illuminant.
+  std::pair<StepSum*, spectral::Spectrum> checked_step(const FrameRecord& record, StepSums& fresh_camera);
+  // Counts a checked frame (its samples are in sums_ by now).
+  void count_frame(const FrameRecord& record, StepSum& s, const spectral::Spectrum& illuminant, StepSums& fresh_camera);
+  RgbImage mean_image(const std::string& camera, const StepSum& s) const;
   // The state's linearity white ("linearity:<state>", Step::linearity_of) once all its frames are in.
-  std::optional<RgbImage> linearity_white(const StepSums& steps, const std::string& state) const;
+  std::optional<RgbImage> linearity_white(const std::string& camera, const StepSums& steps, const std::string& state) const;
   // The camera's sums (the plan's empty ones for a camera without frames).
   const StepSums& sums_of(const std::string& camera) const;
 
   CaptureSources sources_;
+  std::shared_ptr<SessionFrameSums> own_sums_;     // the builder's own (no stored sums), else null
+  std::shared_ptr<const SessionFrameSums> sums_;   // own_sums_ or the stored sums
+  bool reads_stored_sums_ = false;
   StepSums plan_steps_;                        // the plan's steps, no frames
   std::map<std::string, StepSums> by_camera_;  // each camera's own sums
   std::vector<std::string> cameras_;

@@ -33,6 +33,7 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -85,6 +86,10 @@ class FrameConsumer {
     std::vector<std::string> cameras;
     // What the session is made with (session.json's provenance); the report repeats it.
     session::SessionProvenance provenance;
+    // The sums of the session's frames that the pipeline's storage thread
+    // fills (FramePipeline::Options::stored_sums), every frame added before
+    // consume() sees it; null: the consumer sums the samples itself.
+    std::shared_ptr<const session::SessionFrameSums> stored_sums;
   };
   struct SessionEnd {
     bool succeeded = false;  // the plan ran to its end (else results are not attempted)

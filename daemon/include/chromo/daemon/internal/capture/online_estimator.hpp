@@ -3,8 +3,10 @@
 // FrameConsumer (frame_pipeline.hpp).
 //
 // As a standard session's frames arrive (dark, the white reference and the
-// subject under D65', W57, W57+blue) it accumulates them
-// (session_captures.hpp). Once the dark and the three white references are
+// subject under D65', W57, W57+blue) it counts them into its captures
+// (session_captures.hpp), reading the samples from the sums the pipeline's
+// storage thread makes of every stored frame (SessionStart::stored_sums: a
+// frame is summed once; without them it sums the samples itself). Once the dark and the three white references are
 // in — before the subject is captured — it knows the measurement set
 // (illuminants from the LED library and the applied drive levels, noise from
 // the references) and builds or loads the forward table and the fast
@@ -101,6 +103,8 @@ class OnlineEstimator final : public FrameConsumer {
   nlohmann::json end_session(const SessionEnd& end) override;
 
  private:
+  // end_session's record (the builder still held).
+  nlohmann::json results_record(const SessionEnd& end);
   void estimate_now();
   bool every_camera_complete() const;
   void prepare_tables_of(const std::string& camera);
