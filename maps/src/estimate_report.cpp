@@ -21,6 +21,7 @@
 #include "chromo/maps/relit_table.hpp"
 #include "chromo/estimation/skin_model.hpp"
 #include "chromo/files/binary_cache.hpp"
+#include "chromo/maps/white_target_pixels.hpp"
 #include "delta_e_json.hpp"
 
 namespace chromo::maps {
@@ -33,13 +34,14 @@ double seconds_since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
-// Outside the camera's footprint of a white reference: no parameters (NaN), flag no_reference.
-void mark_no_reference(const session::MethodMeasurement& m, std::vector<estimation::PixelEstimate>& estimates,
-                       estimation::EstimateSummary& summary) {
-  if (m.no_reference.size() != estimates.size()) return;
+// Pixels that are not skin (`where`: outside the camera's footprint of a
+// white reference, or the white target itself): no parameters (NaN), `flag`.
+void mark_not_skin(std::span<const std::uint8_t> where, estimation::PixelFlag flag,
+                   std::vector<estimation::PixelEstimate>& estimates, estimation::EstimateSummary& summary) {
+  if (where.size() != estimates.size()) return;
   constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
   for (std::size_t i = 0; i < estimates.size(); ++i) {
-    if (!m.no_reference[i]) continue;
+    if (!where[i] || estimation::outside_the_skin(estimates[i].flag)) continue;
     estimation::PixelEstimate& e = estimates[i];
     --summary.flag_counts[static_cast<int>(e.flag)];
     if (e.order == 2) --summary.order2;
@@ -47,7 +49,7 @@ void mark_no_reference(const session::MethodMeasurement& m, std::vector<estimati
     e = estimation::PixelEstimate{};
     e.parameters = {kNaN, kNaN, kNaN, kNaN};
     e.residual = kNaN;
-    e.flag = estimation::PixelFlag::kNoReference;
+    e.flag = flag;
     ++summary.flag_counts[static_cast<int>(e.flag)];
   }
 }
@@ -177,7 +179,7 @@ std::string write_estimate_report(const fs::path& dir, const EstimateReport& rep
                                         float(static_cast<int>(e.flag)), e.sigma[0], e.sigma[1], e.sigma[2], e.sigma[3],
                                         e.ch_che_correlation};
     for (int c = 0; c < kMapChannels; ++c) maps.channels[c][i] = values[c];
-    hide[i] = e.flag == estimation::PixelFlag::kNoReference || !std::isfinite(e.parameters.cm) ? kPreviewOutsideField
+    hide[i] = estimation::outside_the_skin(e.flag) || !std::isfinite(e.parameters.cm) ? kPreviewOutsideField
               : e.flag != estimation::PixelFlag::kExplained && e.flag != estimation::PixelFlag::kSpecular ? kPreviewMasked
                                                                                                         : kPreviewShown;
     if (e.order > 0) residuals.push_back(e.residual);
@@ -590,7 +592,9 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
     neighbourhood = estimation::refine_with_neighbourhood(estimator, m.measured, m.width, m.height, estimates, result.summary,
                                               options.neighbourhood);
   const double neighbourhood_seconds = seconds_since(t);
-  mark_no_reference(m, estimates, result.summary);
+  mark_not_skin(m.no_reference, estimation::PixelFlag::kNoReference, estimates, result.summary);
+  mark_not_skin(white_target_pixels(m.measured, m.set, white_reflectance), estimation::PixelFlag::kWhiteTarget, estimates,
+                result.summary);
 
   t = std::chrono::steady_clock::now();
   RelitComparisonOptions relit_options;
