@@ -195,6 +195,13 @@ void add_estimate_command(CLI::App& app, int& exit_status) {
                   "(from the NIST forearm spectra, docs/estimation.md 'Real skin') or none (camera noise alone)")
       ->check(CLI::IsMember({"learned", "none"}))
       ->capture_default_str();
+  cmd->add_option("--prior", options->prior,
+                  "real-skin: where a plan has at most four channels (the method's), take the most probable parameters "
+                  "of real skin among those that explain a pixel (a prior learned from the NIST forearms' fits; lowers "
+                  "the relit error on real skin, raises it on skin unlike the forearms: docs/estimation.md 'A prior "
+                  "learned from real skin'); none (default): the data alone")
+      ->check(CLI::IsMember({"none", "real-skin"}))
+      ->capture_default_str();
   cmd->add_flag("--neighbourhood-flags,!--no-neighbourhood-flags", options->neighbourhood_flags,
                 "flag pixels from their neighbourhood (code 7: weak rims of flagged regions, part of a highlight; "
                 "the deviation is measured against the noise plus the skin's own local scatter, see "

@@ -3,6 +3,7 @@
 #include "session_estimate.hpp"
 
 #include "chromo/estimation/model_discrepancy.hpp"
+#include "chromo/estimation/parameter_prior.hpp"
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -42,6 +43,8 @@ estimation::EstimatorOptions estimator_options(const EstimateOptions& options) {
   eo.threads = options.threads;
   // The model's learned discrepancy on real skin (docs/estimation.md "Real skin"), or none.
   eo.discrepancy = options.discrepancy == "learned" ? estimation::ModelDiscrepancy::standard() : nullptr;
+  // The parameter prior of real skin (docs/estimation.md "A prior learned from real skin"), or none.
+  eo.prior = options.prior == "real-skin" ? estimation::ParameterPrior::standard() : nullptr;
   eo.cache_dir = options.cache_dir;  // the fast method's inverse table next to the forward table
   return eo;
 }

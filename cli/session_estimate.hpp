@@ -26,6 +26,7 @@ struct EstimateOptions {
   std::string method = "fast";
   std::string model = "auto";
   std::string discrepancy = "learned";  // the model's learned discrepancy on real skin, or "none"
+  std::string prior = "none";           // "real-skin": the parameter prior learned from the NIST forearms (≤ 4 channels)
   std::string cache_dir;
   int threads = 0;
   bool neighbourhood_flags = true;

@@ -6,4 +6,4 @@ set ylabel 'skin flagged (%)'
 set grid
 set key outside right
 set logscale x 2
-plot 'bench/results/real_skin.dat' index 0 using 1:2 with linespoints lw 2 title 'method learned', 'bench/results/real_skin.dat' index 1 using 1:2 with linespoints lw 2 title 'method today', 'bench/results/real_skin.dat' index 2 using 1:2 with linespoints lw 2 title 'six-leds learned', 'bench/results/real_skin.dat' index 3 using 1:2 with linespoints lw 2 title 'six-leds today'
+plot 'bench/results/real_skin.dat' index 0 using 1:2 with linespoints lw 2 title 'method learned', 'bench/results/real_skin.dat' index 1 using 1:2 with linespoints lw 2 title 'method prior x2', 'bench/results/real_skin.dat' index 2 using 1:2 with linespoints lw 2 title 'method today', 'bench/results/real_skin.dat' index 3 using 1:2 with linespoints lw 2 title 'six-leds learned', 'bench/results/real_skin.dat' index 4 using 1:2 with linespoints lw 2 title 'six-leds prior x2', 'bench/results/real_skin.dat' index 5 using 1:2 with linespoints lw 2 title 'six-leds today'

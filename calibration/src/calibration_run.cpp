@@ -36,6 +36,27 @@ std::string channel_fault_text(std::uint32_t faults) {
   return text;
 }
 
+// The LED's spectrum as it is switched on at `level`, its junction still
+// near the sphere's temperature. It warms while the light is integrated:
+// the sensor is read as the measurement starts and again as the reader
+// switches the light off for the dark, and the mean of the two recorded.
+LedSpectrumSample measure_cold(drivers::SpectrometerReader& reader, drivers::LedController& leds,
+                               const std::function<drivers::LedStatus()>& read_status, int led,
+                               const spectral::Spectrum& correction, double level) {
+  const double before_C = read_status().temperature_C[led];
+  std::optional<double> light_off_C;
+  const drivers::SpectrometerMeasurement m = reader.measure([&](bool on) {
+    if (!on && !light_off_C) light_off_C = read_status().temperature_C[led];
+    switch_led_output(leds, on);
+  });
+  LedSpectrumSample sample;
+  sample.drive_level = level;
+  sample.led_temperature_C = 0.5 * (before_C + light_off_C.value_or(before_C));
+  sample.integration_time_us = static_cast<double>(m.integration_time_us);
+  sample.spectrum = m.counts_per_s * correction;
+  return sample;
+}
+
 }  // namespace
 
 void switch_led_output(drivers::LedController& leds, bool on) {
@@ -173,9 +194,15 @@ CalibrationSummary CalibrationRun::run(const files::Progress& progress) {
         return status;
       };
 
-      report(fmt::format("{}: warm-up {:.1f} s", name, options_.warm_up_s));
+      report(fmt::format("{}: cold spectrum, then warm-up {:.1f} s", name, options_.warm_up_s));
       drive(options_.drive_levels.back());
-      sleep_s(options_.warm_up_s);
+      const auto switched_on = std::chrono::steady_clock::now();
+      const LedSpectrumSample cold =
+          measure_cold(reader, leds_, check_faults, led, correction_grid, options_.drive_levels.back());
+      ++summary.spectra_measured;
+      // The warm-up counts from switch-on: the cold spectrum is taken within it.
+      sleep_s(options_.warm_up_s -
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - switched_on).count());
       check_faults();
       ++step;
       for (int r = rungs - 1; r >= 0; --r) {
@@ -198,6 +225,7 @@ CalibrationSummary CalibrationRun::run(const files::Progress& progress) {
         sample.spectrum = m.counts_per_s * correction_grid;
         ++step;
       }
+      record.thermal = thermal_coefficients(cold, record.ladder.back());
       leds_.set_state(off_state());
     }
     leds_.set_output_enabled(false);

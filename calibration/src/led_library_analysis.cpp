@@ -67,4 +67,19 @@ LinearityReport check_linearity(const LedRecord& led) {
   return report;
 }
 
+std::optional<LedThermalRecord> thermal_coefficients(const LedSpectrumSample& cold, const LedSpectrumSample& warm) {
+  if (!cold.led_temperature_C || !warm.led_temperature_C) return std::nullopt;
+  const double rise_K = *warm.led_temperature_C - *cold.led_temperature_C;
+  const double cold_flux = cold.spectrum.integral(), warm_flux = warm.spectrum.integral();
+  if (!(rise_K >= kMinThermalRiseK) || !(cold_flux > 0) || !(warm_flux > 0)) return std::nullopt;
+  LedThermalRecord out;
+  out.drive_level = warm.drive_level;
+  out.cold_C = *cold.led_temperature_C;
+  out.warm_C = *warm.led_temperature_C;
+  out.flux_change_per_K = (1.0 - cold_flux / warm_flux) / rise_K;
+  out.centroid_shift_nm_per_K =
+      (centroid_wavelength_nm(warm.spectrum) - centroid_wavelength_nm(cold.spectrum)) / rise_K;
+  return out;
+}
+
 }  // namespace chromo::calibration

@@ -137,6 +137,12 @@ LedLibrary from_json(const json& root, const Reader& in) {
       s.spectrum = in.spectrum(in.field(ladder[r], rung, "spectrum"), rung + ".spectrum");
       led.ladder.push_back(s);
     }
+    if (const auto it = leds[k].find("thermal"); it != leds[k].end() && !it->is_null()) {
+      const std::string at = path + ".thermal";
+      auto value = [&](const char* key) { return in.number(in.field(*it, at, key), Reader::join(at, key)); };
+      led.thermal = LedThermalRecord{value("drive_level"), value("cold_C"), value("warm_C"), value("flux_change_per_K"),
+                                     value("centroid_shift_nm_per_K")};
+    }
   }
   if (const std::string error = validate(lib); !error.empty()) in.fail("leds", error);
   return lib;
@@ -205,6 +211,12 @@ std::string led_library_to_json(const LedLibrary& library) {
       ladder.push_back(rung);
     }
     record["ladder"] = ladder;
+    if (const auto& t = led.thermal)
+      record["thermal"] = {{"drive_level", t->drive_level},
+                           {"cold_C", t->cold_C},
+                           {"warm_C", t->warm_C},
+                           {"flux_change_per_K", t->flux_change_per_K},
+                           {"centroid_shift_nm_per_K", t->centroid_shift_nm_per_K}};
     leds.push_back(record);
   }
   root["leds"] = leds;

@@ -289,6 +289,9 @@ const std::vector<Key>& virtual_lab_keys() {
        }},
       number_key("patch_width_mm", 0, 10000, true, [](DaemonConfig& c) -> auto& { return c.virtual_lab.patch_width_mm; }),
       bool_key("polarisers", [](DaemonConfig& c) -> auto& { return c.virtual_lab.polarisers; }),
+      bool_key("subsurface", [](DaemonConfig& c) -> auto& { return c.virtual_lab.subsurface; }),
+      number_key("subsurface_blue_px", 0, 64, true, [](DaemonConfig& c) -> auto& { return c.virtual_lab.subsurface_blue_px; }),
+      number_key("subsurface_red_px", 0, 64, true, [](DaemonConfig& c) -> auto& { return c.virtual_lab.subsurface_red_px; }),
   };
   return keys;
 }

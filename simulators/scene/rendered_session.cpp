@@ -96,6 +96,7 @@ std::uint64_t cache_key(const RenderedSessionOptions& o, const std::vector<Scene
   if (o.linear_led_light) h.add(std::uint8_t{1});                 // (the lab's imperfections: keys
   if (o.cell_uniform_scene) h.add(std::uint8_t{2});               //  of the default lab as before)
   if (!o.scene_anomalies) h.add(std::uint8_t{3});
+  if (o.subsurface.on) h.add(std::uint8_t{4}), h.add(o.subsurface.sigma_blue_px), h.add(o.subsurface.sigma_red_px);
   for (const auto& w : weights) h.add(w.data(), sizeof(double) * w.size());
   for (double v : {camera.quantum_scale_e_per_us, camera.full_well_e, camera.read_noise_e, camera.gain_e_per_dn,
                    camera.black_level_dn})
@@ -341,6 +342,7 @@ bool RenderedSessionOptions::IsValid(std::string* error) const {
   if (cell_uniform_scene && (scene_w % 2 || scene_h % 2 || window_x % 2 || window_y % 2 || scene_w < 32 || scene_h < 32))
     return fail("cell_uniform_scene: the scene's size and the window's position must be even, the scene at least 32 per side");
   if (!scene_anomalies && polarised) return fail("scene_anomalies: false only on an unpolarised session");
+  if (std::string spread_error; subsurface.on && !subsurface.IsValid(&spread_error)) return fail(spread_error.c_str());
   if (linear_led_light && polarised) return fail("linear_led_light: only on an unpolarised session");
   if (!(subject_fill == 0 || (subject_fill > 0.05 && subject_fill < 0.99)))
     return fail("subject_fill: must be 0 (off) or in (0.05, 0.99)");
@@ -563,6 +565,7 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
   scene_options.threads = options.threads;
   scene_options.oily = options.oily;
   scene_options.oily.sigma_reflectance = out.surface_sigma;
+  scene_options.subsurface = options.subsurface;
   SkinSceneResponse scene =
       render_polarised_skin_scene(scene_options, weights, state_polarisation, sphere, options.band_rows);
   if (options.cell_uniform_scene) {  // each scene pixel onto its 2×2 sensor cell

@@ -52,6 +52,7 @@ struct SimArguments {
   std::string camera_sensitivity = "nikon_d5100";
   std::string cameras_file;  // JSON list of cameras; empty: one camera from the options above
   double patch_width_mm = 80;
+  simulators::SubsurfaceSpread subsurface;  // --subsurface: each wavelength of the skin blurred by σ(λ)
 };
 
 // The cameras to start: the --cameras list, or one from the single-camera options.
@@ -113,6 +114,7 @@ int run(const SimArguments& args) {
   simulators::SkinSceneOptions scene_options;
   scene_options.width = scene_options.height = args.scene_size;
   scene_options.seed = args.seed;
+  scene_options.subsurface = args.subsurface;
   if (!args.white_target)
     scene = std::make_shared<const simulators::Scene>(simulators::make_skin_scene(scene_options));
 
@@ -204,6 +206,14 @@ int main(int argc, char** argv) {
   app.add_flag("--polarisers", args.polarisers,
                "Polarised sphere: cross and parallel banks on all six LED types, an analyser on every camera "
                "(docs/polarisation.md)");
+  app.add_flag("--subsurface", args.subsurface.on,
+               "Subsurface spread in the skin's photographs: each wavelength of the albedo blurred by a Gaussian of "
+               "sigma from --subsurface-blue-px (<= 450 nm) to --subsurface-red-px (>= 700 nm), scene pixels, so "
+               "edges and texture soften more in red than in blue (docs/camera.md 'Scene')");
+  app.add_option("--subsurface-blue-px", args.subsurface.sigma_blue_px, "Subsurface spread sigma at <= 450 nm, scene pixels")
+      ->check(CLI::Range(0.01, 64.0))->capture_default_str();
+  app.add_option("--subsurface-red-px", args.subsurface.sigma_red_px, "Subsurface spread sigma at >= 700 nm, scene pixels")
+      ->check(CLI::Range(0.01, 64.0))->capture_default_str();
   app.add_option("--camera-address", args.camera_address,
                  "Loopback address of the camera simulator, 127.a.b.c (default: a free one in 127.77.0.0/16)")
       ->excludes(cameras);

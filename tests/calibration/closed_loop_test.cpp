@@ -52,9 +52,16 @@ TEST(ClosedLoop, RestoresTheTargetAfterFluxLossAndPeakShift) {
   {
     const ClosedLoopSummary clean =
         run_closed_loop(*m.connected.leds, *m.connected.spectrometer, m.summary.library, d65_target(), camera_d65_options());
-    // Without the faults the library's own weights meet the target at once.
+    // Without the faults the library's own weights come to the loop's
+    // tolerance (Δu'v' 0.0002) at once, give or take the spectrometer's
+    // noise: the library's spectra are the LEDs warm at full drive, and the
+    // mix drives them lower, so cooler and brighter (R +0.9 %/K, the
+    // library's `thermal`), which the solver does not model. Measured:
+    // 0.000191-0.000209 over noise draws, so one correction may follow.
     EXPECT_EQ(clean.termination, ClosedLoopTermination::kConverged) << clean.message;
-    EXPECT_EQ(clean.iterations.size(), 1u);
+    ASSERT_GE(clean.iterations.size(), 1u);
+    EXPECT_LE(clean.iterations.size(), 2u);
+    EXPECT_LE(clean.iterations.front().figures.delta_uv_prime, 0.00025);
   }
   for (std::size_t k = 0; k < s.iterations.size(); ++k)
     std::printf("iteration %zu: du'v' %.5f dE00 mean %.3f max %.3f rmse %.4f gain G %.3f\n", k + 1,

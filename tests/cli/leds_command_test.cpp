@@ -109,7 +109,7 @@ TEST_F(ChromoLeds, MeasureWritesTheLibraryWhereAsked) {
   const auto j = nlohmann::json::parse(r.output.substr(r.output.find("{\n")));
   EXPECT_EQ(j["termination"], "completed");
   EXPECT_EQ(j["library"], out.string());
-  EXPECT_EQ(j["spectra_measured"], 25);
+  EXPECT_EQ(j["spectra_measured"], 31);  // lamp; per LED its cold spectrum and four rungs
   EXPECT_TRUE(j["linearity_ok"].get<bool>());
   const auto lib = chromo::calibration::load_led_library(out);
   EXPECT_EQ(lib.instrument.spectrometer_model.empty(), false);

@@ -7,7 +7,9 @@
 // real_skin_bench's.)
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -80,6 +82,63 @@ TEST(RealSkinScene, StillSceneKeepsTheIdentityAndTheLearnedDiscrepancyKeepsSkin)
     for (std::size_t i = 0; i < flags.size(); ++i) bad += flags[i] == 0 && !(std::isfinite(sigma[i]) && sigma[i] > 0);
     EXPECT_EQ(bad, 0u) << name;
   }
+  fs::remove_all(dir);
+}
+
+// --prior real-skin (issue 37): on the method's four channels the estimate
+// takes real skin's most probable parameters among those that explain the
+// pixel, so within one subject's patch (one spectrum, ±3% texture) βm and
+// ln Ch scatter less than from the data alone; flags are the data's.
+TEST(RealSkinScene, PriorOfRealSkinSteadiesTheMethodsFourChannelEstimate) {
+  const fs::path dir = fresh("prior");
+  const Result made = run_chromo("make-real-skin-scene --out " + (dir / "scene").string() +
+                                 " --plan method --subjects 021-026 --patch 24 --seed 3");
+  ASSERT_EQ(made.exit_status, 0) << made.output;
+  for (const std::string prior : {"none", "real-skin"}) {
+    const Result r = run_chromo("estimate " + (dir / "scene" / "MEASUREMENT.json").string() + " --out " +
+                                (dir / prior).string() + " --threads 2 --prior " + prior);
+    ASSERT_EQ(r.exit_status, 0) << r.output;
+  }
+  const auto truth = chromo::files::read_exr(dir / "scene" / "truth.exr");
+  const auto none = chromo::files::read_exr(dir / "none" / "maps.exr");
+  const auto prior = chromo::files::read_exr(dir / "real-skin" / "maps.exr");
+  // Mean over subjects of the within-patch standard deviation of a map, on
+  // the skin both estimates explain.
+  auto scatter = [&](const chromo::files::FloatImage& maps, const std::string& name, bool log) {
+    const auto& spectrum = truth.channel("spectrum");
+    const auto& region = truth.channel("region");
+    double sum_sd = 0;
+    int subjects = 0;
+    for (int s = 0; s < 6; ++s) {
+      double sum = 0, sum_sq = 0;
+      int n = 0;
+      for (std::size_t i = 0; i < spectrum.size(); ++i) {
+        if (spectrum[i] != s || region[i] != 0 || none.channel("flags")[i] != 0 || prior.channel("flags")[i] != 0) continue;
+        const double v = log ? std::log(maps.channel(name)[i]) : maps.channel(name)[i];
+        sum += v, sum_sq += v * v, ++n;
+      }
+      if (n < 50) continue;
+      sum_sd += std::sqrt(std::max(0.0, sum_sq / n - (sum / n) * (sum / n)));
+      ++subjects;
+    }
+    EXPECT_GE(subjects, 5);
+    return sum_sd / subjects;
+  };
+  const double bm_none = scatter(none, "Bm", false), bm_prior = scatter(prior, "Bm", false);
+  const double ch_none = scatter(none, "Ch", true), ch_prior = scatter(prior, "Ch", true);
+  std::printf("within-patch sd: Bm %.3f -> %.3f, ln Ch %.3f -> %.3f\n", bm_none, bm_prior, ch_none, ch_prior);
+  EXPECT_LT(bm_prior, 0.7 * bm_none);
+  EXPECT_LT(ch_prior, ch_none);
+  // The flags are the data's: the same pixels flagged either way.
+  std::size_t differ = 0;
+  for (std::size_t i = 0; i < none.channel("flags").size(); ++i)
+    differ += (none.channel("flags")[i] != 0) != (prior.channel("flags")[i] != 0);
+  EXPECT_EQ(differ, 0u);
+  const Result bad = run_chromo("estimate " + (dir / "scene" / "MEASUREMENT.json").string() + " --out " +
+                                (dir / "bad").string() + " --prior forearm");
+  EXPECT_NE(bad.exit_status, 0) << bad.output;
+  EXPECT_NE(bad.output.find("--prior"), std::string::npos) << bad.output;
+  EXPECT_FALSE(fs::exists(dir / "bad"));
   fs::remove_all(dir);
 }
 

@@ -18,6 +18,7 @@
 #include <gtest/gtest.h>
 
 #include "chromo/daemon/config.hpp"
+#include "chromo/daemon/internal/devices/virtual_lab.hpp"
 #include "../support/fresh_directory.hpp"
 
 namespace chromo::daemon {
@@ -279,6 +280,21 @@ TEST(DaemonConfig, VirtualLabCamerasAreReadAndRefusedKeyByKey) {
                 .rfind("cfg: virtual_lab.cameras[0].pose: camera view: the patch is not wholly in front", 0),
             0u);
   EXPECT_EQ(refused({{"virtual_lab", {{"lenses", 1}}}}).rfind("cfg: virtual_lab: unknown key \"lenses\"", 0), 0u);
+}
+
+// Subsurface spread in the lab's skin photographs (issue 37): off by default,
+// read into the lab's scene options, a blue wider than the red refused.
+TEST(DaemonConfig, VirtualLabSubsurfaceSpreadIsReadAndABadWidthRefused) {
+  EXPECT_FALSE(virtual_lab_options(parse_config(nlohmann::json::object(), "cfg").virtual_lab).subsurface.on);
+  const DaemonConfig on = parse_config(
+      nlohmann::json::parse(R"({"virtual_lab": {"subsurface": true, "subsurface_blue_px": 1, "subsurface_red_px": 4}})"), "cfg");
+  const VirtualLabOptions lab = virtual_lab_options(on.virtual_lab);
+  EXPECT_TRUE(lab.subsurface.on);
+  EXPECT_EQ(lab.subsurface.sigma_blue_px, 1);
+  EXPECT_EQ(lab.subsurface.sigma_red_px, 4);
+  EXPECT_EQ(refused({{"virtual_lab", {{"subsurface", true}, {"subsurface_blue_px", 5}}}}),
+            "cfg: virtual_lab.subsurface_blue_px: must be in (0, subsurface_red_px], subsurface_red_px at most 64");
+  EXPECT_EQ(refused({{"virtual_lab", {{"subsurface_red_px", 0}}}}).rfind("cfg: virtual_lab.subsurface_red_px: 0", 0), 0u);
 }
 
 TEST(DaemonConfig, PerCameraSensitivitiesAreReadAndEachFileChecked) {

@@ -150,7 +150,9 @@ TEST(ChromoSim, BadArgumentsExitWithStatusTwo) {
                                         std::vector<std::string>{"--sensor-width", "5"},
                                         std::vector<std::string>{"--camera-address", "10.0.0.1"},
                                         std::vector<std::string>{"--no-such-option"},
-                                        std::vector<std::string>{"--cameras", "/no/such/cameras.json"}}) {
+                                        std::vector<std::string>{"--cameras", "/no/such/cameras.json"},
+                                        std::vector<std::string>{"--subsurface", "--subsurface-blue-px", "4",
+                                                                 "--subsurface-red-px", "2"}}) {
     ChromoSimProcess sim(args);
     sim.read_until("never printed");
     EXPECT_EQ(sim.stop_with(0), 2) << args[0];  // signal 0: just wait for the exit

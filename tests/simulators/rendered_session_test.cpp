@@ -11,6 +11,7 @@
 #include <array>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <unistd.h>
@@ -347,6 +348,42 @@ TEST(RenderedSession, ExposurePerCaptureAndFramesPerCaptureLowerTheNoiseFigures)
     EXPECT_NEAR(relative(f[c].noise) / relative(a[c].noise), 0.5, 0.08) << a[c].name;
   ASSERT_EQ(four.noisy.exposures.size(), 7u);
   EXPECT_EQ(four.noisy.exposures[1].frames, 4u);
+}
+
+// Subsurface spread as an option of the rendered session (issue 37): the
+// photographs soften, red (σ 2-3 px over its band) more than blue (σ 0.5-1
+// px), the truth maps stay the scene's parameters; a bad width is refused.
+// Detail = Σ of squared differences between horizontal neighbours of a
+// noise-free channel (D65'), kept = with the spread / without.
+TEST(RenderedSession, SubsurfaceSpreadSoftensRedMoreThanBlue) {
+  RenderedSessionOptions o = tiny_options();
+  o.subsurface.on = true;
+  const RenderedSession spread = render_session(o);
+  const RenderedSession& sharp = session();
+  ASSERT_EQ(spread.pixels(), sharp.pixels());
+  auto detail = [](const RenderedSession& s, int channel) {
+    double energy = 0;
+    for (int y = 0; y < s.height; ++y)
+      for (int x = 0; x + 1 < s.width; ++x) {
+        const std::size_t i = static_cast<std::size_t>(y) * s.width + x;
+        const double d = s.noise_free.measured[(i + 1) * 4 + channel] - s.noise_free.measured[i * 4 + channel];
+        energy += d * d;
+      }
+    return energy;
+  };
+  const double kept_red = detail(spread, 0) / detail(sharp, 0), kept_blue = detail(spread, 2) / detail(sharp, 2);
+  std::printf("fine detail kept in the photographs: R %.3f, B %.3f\n", kept_red, kept_blue);
+  EXPECT_LT(kept_red, 0.6);
+  EXPECT_LT(kept_red, 0.75 * kept_blue);
+  EXPECT_GT(kept_blue, 0.5);
+  for (std::size_t i = 0; i < sharp.pixels(); i += 7) {
+    ASSERT_EQ(spread.truth[i].cm, sharp.truth[i].cm) << i;
+    ASSERT_EQ(spread.truth[i].ch, sharp.truth[i].ch) << i;
+  }
+  o.subsurface.sigma_blue_px = 4, o.subsurface.sigma_red_px = 2;
+  std::string error;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("subsurface"), std::string::npos) << error;
 }
 
 }  // namespace

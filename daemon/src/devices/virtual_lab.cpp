@@ -29,6 +29,7 @@ struct VirtualLabSimulators::Impl {
     skin_options.seed = options.seed;
     skin_options.threads = options.scene_threads;
     skin_options.white_patch = options.skin_white_strip;
+    skin_options.subsurface = options.subsurface;
     skin = std::make_shared<const simulators::Scene>(simulators::make_skin_scene(skin_options));
     white = std::make_shared<const simulators::Scene>(
         simulators::make_white_target_scene(options.scene_size, options.scene_size));

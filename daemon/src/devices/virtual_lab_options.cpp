@@ -22,6 +22,8 @@ bool VirtualLabOptions::IsValid(std::string* error) const {
   if (cameras.empty()) return fail("cameras: the lab needs at least one camera");
   if (scene_size < 16 || scene_size > 2048) return fail("scene_size: must be in [16, 2048]");
   if (!(patch_width_mm > 0 && patch_width_mm <= 10000)) return fail("patch_width_mm: must be in (0, 10000]");
+  if (subsurface.on && !subsurface.IsValid(nullptr))
+    return fail("subsurface_blue_px: must be in (0, subsurface_red_px], subsurface_red_px at most 64");
   if (camera_serial.empty() || camera_serial.size() > 15)
     return fail("camera_serial: must be 1-15 characters (GigE Vision bootstrap)");
   std::set<std::string> names, addresses, serials;
@@ -97,6 +99,9 @@ VirtualLabOptions virtual_lab_options(const VirtualLabConfig& config) {
   for (const auto& camera : config.cameras) options.cameras.push_back(lab_camera(camera));
   options.patch_width_mm = config.patch_width_mm;
   options.polarisers = config.polarisers;
+  options.subsurface.on = config.subsurface;
+  options.subsurface.sigma_blue_px = config.subsurface_blue_px;
+  options.subsurface.sigma_red_px = config.subsurface_red_px;
   return options;
 }
 

@@ -84,7 +84,7 @@ struct CalibrationSummary {
   LedLibrary library;  // complete only when kCompleted
   std::array<LinearityReport, spectral::kLedTypeCount> linearity{};
   bool linearity_ok = false;
-  int spectra_measured = 0;  // lamp + ladder rungs
+  int spectra_measured = 0;  // lamp + per LED its cold spectrum and ladder rungs
   double elapsed_s = 0;
   bool IsLibraryUsable() const { return termination == CalibrationTermination::kCompleted; }
 };

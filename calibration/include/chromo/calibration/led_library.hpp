@@ -34,11 +34,29 @@ struct LedSpectrumSample {
   spectral::Spectrum spectrum;
 };
 
+// How an LED's light changes with its temperature (the controller's board /
+// junction sensor), from two spectra at one drive level: taken as the LED
+// is switched on (cold) and after its warm-up (warm). A session corrects a
+// capture whose LEDs ran at other temperatures than its white reference's
+// with it (docs/calibration.md "Thermal coefficients").
+struct LedThermalRecord {
+  double drive_level = 1.0;
+  double cold_C = 0;                      // mean of the sensor as the cold spectrum starts and as its light ends
+  double warm_C = 0;                      // the sensor before the warm spectrum (settled)
+  // Flux relative to the warm flux: Φ(T) = Φ_warm·(1 + flux_change_per_K·(T − warm_C)),
+  // i.e. (1 − ∫cold/∫warm)/(warm_C − cold_C); LEDs dim as they warm: < 0.
+  double flux_change_per_K = 0;
+  double centroid_shift_nm_per_K = 0;     // (centroid warm − centroid cold)/(warm_C − cold_C)
+};
+
 struct LedRecord {
   LedType type = LedType::kW57;
   std::string description;                 // part number, what it is
   double max_drive_level = 1.0;            // drive limit the solver must respect (0 < max ≤ 1)
   std::vector<LedSpectrumSample> ladder;   // strictly increasing drive_level, at least one rung
+  // Measured by a calibration run whose warm-up raised the sensor by at
+  // least kMinThermalRiseK; absent otherwise (and in nominal libraries).
+  std::optional<LedThermalRecord> thermal;
 
   // The spectrum per unit drive level: least-squares slope through the origin
   // of spectrum against drive over the ladder (Σ d·s / Σ d²). With one rung it

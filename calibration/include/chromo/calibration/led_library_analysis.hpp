@@ -38,6 +38,13 @@ struct LinearityReport {
 };
 LinearityReport check_linearity(const LedRecord& led);
 
+// The thermal coefficients of one LED from a cold and a warm spectrum at the
+// same drive level (both with led_temperature_C): nullopt when either has
+// no temperature or the warm one is less than kMinThermalRiseK warmer (too
+// little rise to tell a coefficient from the spectrometer's noise).
+inline constexpr double kMinThermalRiseK = 5.0;
+std::optional<LedThermalRecord> thermal_coefficients(const LedSpectrumSample& cold, const LedSpectrumSample& warm);
+
 // Wavelength of the maximum with a parabola through the three samples around
 // it (the grid step is 5 nm; this resolves drifts well below that).
 double peak_wavelength_nm(const spectral::Spectrum& spectrum);

@@ -118,6 +118,11 @@ struct VirtualLabConfig {
   std::vector<VirtualCameraConfig> cameras = {VirtualCameraConfig{}};  // default: cam0, 640x480 BayerRG12
   double patch_width_mm = 80;  // the skin patch's width, for posed cameras
   bool polarisers = false;     // polariser banks on all six LED types, analysers on the cameras (docs/polarisation.md)
+  // Subsurface spread in the skin's photographs (docs/config.md): each
+  // wavelength blurred by σ from subsurface_blue_px (≤ 450 nm) to
+  // subsurface_red_px (≥ 700 nm), scene pixels; off by default.
+  bool subsurface = false;
+  double subsurface_blue_px = 0.5, subsurface_red_px = 3.0;
 };
 
 struct DaemonConfig {

@@ -173,6 +173,13 @@ struct RenderedSessionOptions {
   // model's albedo under the vein, tattoo, marker, hair and highlight,
   // labelled as with them). Unpolarised only.
   bool scene_anomalies = true;
+  // Subsurface spread in the photographs (scene.hpp SubsurfaceSpread,
+  // subsurface_spread.hpp): each wavelength of the skin's albedo blurred by
+  // σ(λ), from sigma_blue_px at ≤ 450 nm to sigma_red_px at ≥ 700 nm (scene
+  // pixels), so edges and texture soften more in red than in blue; the truth
+  // maps are the scene's parameters, unblurred. Off by default (the session
+  // is then exactly the session without this option, cache key included).
+  SubsurfaceSpread subsurface;
 
   bool IsValid(std::string* error) const;
 };

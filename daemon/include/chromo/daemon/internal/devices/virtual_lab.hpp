@@ -50,6 +50,7 @@
 #include "chromo/daemon/internal/devices/device_set.hpp"
 #include "chromo/session/surface_factors.hpp"
 #include "chromo/simulators/camera/lab_cameras.hpp"
+#include "chromo/simulators/scene/scene.hpp"
 
 namespace chromo::simulators {
 class CalibrationLab;
@@ -85,6 +86,8 @@ struct VirtualLabOptions {
   // roughness, radians, of the skin's highlight lobe).
   bool polarisers = false;
   double polariser_roughness_rad = 0.3;
+  // Subsurface spread in the skin scene's photographs (SkinSceneOptions::subsurface); off by default.
+  simulators::SubsurfaceSpread subsurface;
 
   // Names the key: "cameras[1].sensor_width: ...".
   bool IsValid(std::string* error) const;
