@@ -222,6 +222,20 @@ const std::vector<Key>& estimation_keys() {
              return "[\"" + entry->first + "\"]: " + error;
          return std::string();
        }},
+      {"camera_field_width_mm",  // camera → the subject's width one frame row spans (the maps' scale bar)
+       [](const json& v, DaemonConfig& c) {
+         if (!v.is_object()) throw std::invalid_argument(shown(v) + " is not a JSON object (camera name: mm)");
+         std::map<std::string, double> widths;
+         for (auto item = v.begin(); item != v.end(); ++item) {
+           if (item.key().empty()) throw std::invalid_argument("a camera name is empty");
+           const double mm = item.value().is_number() ? item.value().get<double>() : std::nan("");
+           if (!(mm > 0 && mm <= 10000))
+             throw NestedError("[\"" + item.key() + "\"]: " + shown(item.value()) + " is not a width in (0, 10000] mm");
+           widths[item.key()] = mm;
+         }
+         c.estimation.camera_field_width_mm = std::move(widths);
+       },
+       [](const DaemonConfig&) { return std::string(); }},
       number_key("white_reflectance", 0, 1, true, [](DaemonConfig& c) -> auto& { return c.estimation.white_reflectance; }),
       string_key("films_extinction_ratio", [](DaemonConfig& c) -> auto& { return c.estimation.films_extinction_ratio; },
                  films_error),

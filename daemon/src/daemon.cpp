@@ -237,11 +237,9 @@ void Daemon::ensure_idle() const {
   if (operations_.any_active()) throw std::logic_error("another session or calibration is running");
 }
 
-session::OperationRecord Daemon::start_session(session::SessionPlan plan, const std::string& subject,
-                                               const SessionPeople& people) {
+void Daemon::check_plan_runs_here(const session::SessionPlan& plan) {
   std::string error;
   if (!plan.IsValid(&error)) throw std::invalid_argument("plan." + error);
-  if (subject.size() > session::kMaxTextBytes) throw std::invalid_argument("subject: longer than 4096 bytes");
   for (std::size_t i = 0; i < plan.steps.size(); ++i)
     if (plan.steps[i].illumination.kind == session::Illumination::Kind::kMix) {
       try {
@@ -250,7 +248,6 @@ session::OperationRecord Daemon::start_session(session::SessionPlan plan, const 
         throw std::invalid_argument("plan.steps[" + std::to_string(i) + "].mix: " + failure.what());
       }
     }
-  const session::SessionProvenance provenance = session_provenance(plan, people);
   const session::PlanHazard hazard = plan_hazard(plan);
   if (!hazard.within_limit())
     throw std::invalid_argument(hazard.describe() + ": beyond the limit, refused (hazard.limit_J_per_m2_sr, docs/config.md)");
@@ -285,6 +282,14 @@ session::OperationRecord Daemon::start_session(session::SessionPlan plan, const 
                                   " sequence states (one per frame and a resting state); controller \"" +
                                   led->config.name + "\" holds " + std::to_string(capacity));
   }
+}
+
+session::OperationRecord Daemon::start_session(session::SessionPlan plan, const std::string& subject,
+                                               const SessionPeople& people) {
+  if (subject.size() > session::kMaxTextBytes) throw std::invalid_argument("subject: longer than 4096 bytes");
+  check_plan_runs_here(plan);
+  const session::SessionProvenance provenance = session_provenance(plan, people);
+  const session::PlanHazard hazard = plan_hazard(plan);
 
   // Under the runner's lock, once nothing else runs: the folder, the first journal record, the operation.
   return runner_.start([&] {

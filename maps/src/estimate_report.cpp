@@ -21,6 +21,7 @@
 #include "chromo/maps/relit_table.hpp"
 #include "chromo/estimation/skin_model.hpp"
 #include "chromo/files/binary_cache.hpp"
+#include "chromo/maps/white_target_pixels.hpp"
 #include "delta_e_json.hpp"
 
 namespace chromo::maps {
@@ -33,13 +34,14 @@ double seconds_since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
-// Outside the camera's footprint of a white reference: no parameters (NaN), flag no_reference.
-void mark_no_reference(const session::MethodMeasurement& m, std::vector<estimation::PixelEstimate>& estimates,
-                       estimation::EstimateSummary& summary) {
-  if (m.no_reference.size() != estimates.size()) return;
+// Pixels that are not skin (`where`: outside the camera's footprint of a
+// white reference, or the white target itself): no parameters (NaN), `flag`.
+void mark_not_skin(std::span<const std::uint8_t> where, estimation::PixelFlag flag,
+                   std::vector<estimation::PixelEstimate>& estimates, estimation::EstimateSummary& summary) {
+  if (where.size() != estimates.size()) return;
   constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
   for (std::size_t i = 0; i < estimates.size(); ++i) {
-    if (!m.no_reference[i]) continue;
+    if (!where[i] || estimation::outside_the_skin(estimates[i].flag)) continue;
     estimation::PixelEstimate& e = estimates[i];
     --summary.flag_counts[static_cast<int>(e.flag)];
     if (e.order == 2) --summary.order2;
@@ -47,7 +49,7 @@ void mark_no_reference(const session::MethodMeasurement& m, std::vector<estimati
     e = estimation::PixelEstimate{};
     e.parameters = {kNaN, kNaN, kNaN, kNaN};
     e.residual = kNaN;
-    e.flag = estimation::PixelFlag::kNoReference;
+    e.flag = flag;
     ++summary.flag_counts[static_cast<int>(e.flag)];
   }
 }
@@ -189,7 +191,7 @@ ReportMaps report_maps(const EstimateReport& report) {
                                         float(static_cast<int>(e.flag)), e.sigma[0], e.sigma[1], e.sigma[2], e.sigma[3],
                                         e.ch_che_correlation};
     for (int c = 0; c < kMapChannels; ++c) maps.channels[c][i] = values[c];
-    out.hide[i] = e.flag == estimation::PixelFlag::kNoReference || !std::isfinite(e.parameters.cm) ? kPreviewOutsideField
+    out.hide[i] = estimation::outside_the_skin(e.flag) || !std::isfinite(e.parameters.cm) ? kPreviewOutsideField
                   : e.flag != estimation::PixelFlag::kExplained && e.flag != estimation::PixelFlag::kSpecular ? kPreviewMasked
                                                                                                             : kPreviewShown;
     if (e.order > 0) out.residuals.push_back(e.residual);
@@ -567,15 +569,15 @@ PolarisationOutputs polarisation_outputs(const session::MethodMeasurement& m, co
 }
 
 // The estimates of every pixel, the spatial pass over them, and the pixels
-// outside the white's footprint marked (result.summary, pixels_per_second set).
+// outside the white's footprint and on the white target marked (result.summary, pixels_per_second set).
 struct PixelEstimates {
   std::vector<estimation::PixelEstimate> estimates;
   estimation::NeighbourhoodSummary neighbourhood;
   double neighbourhood_seconds = 0;
 };
 PixelEstimates estimate_pixels(const session::MethodMeasurement& m, const estimation::Estimator& estimator,
-                               const MethodEstimationOptions& options, const files::Progress& progress,
-                               MethodEstimationResult& result) {
+                               double white_reflectance, const MethodEstimationOptions& options,
+                               const files::Progress& progress, MethodEstimationResult& result) {
   PixelEstimates out;
   out.estimates.resize(m.measured.size() / static_cast<std::size_t>(m.set.size()));
   result.summary = estimator.estimate(m.measured, out.estimates, progress);
@@ -587,7 +589,9 @@ PixelEstimates estimate_pixels(const session::MethodMeasurement& m, const estima
     out.neighbourhood = estimation::refine_with_neighbourhood(estimator, m.measured, m.width, m.height, out.estimates,
                                                               result.summary, options.neighbourhood);
   out.neighbourhood_seconds = seconds_since(t);
-  mark_no_reference(m, out.estimates, result.summary);
+  mark_not_skin(m.no_reference, estimation::PixelFlag::kNoReference, out.estimates, result.summary);
+  mark_not_skin(white_target_pixels(m.measured, m.set, white_reflectance), estimation::PixelFlag::kWhiteTarget,
+                out.estimates, result.summary);
   return out;
 }
 
@@ -676,7 +680,7 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
   const auto& table = tables.table;
   const estimation::Estimator& estimator = *tables.estimator;
   MethodEstimationResult result;
-  const PixelEstimates pixels = estimate_pixels(m, estimator, options, progress, result);
+  const PixelEstimates pixels = estimate_pixels(m, estimator, white_reflectance, options, progress, result);
 
   auto t = std::chrono::steady_clock::now();
   result.relit = relit_against_photographs(m, pixels.estimates, *table, camera, options);

@@ -84,7 +84,7 @@ ParameterMaps empty_maps(int width, int height) {
 
 bool measurable(estimation::PixelFlag flag) {
   return flag != estimation::PixelFlag::kNonFinite && flag != estimation::PixelFlag::kSaturated && flag != estimation::PixelFlag::kDark &&
-         flag != estimation::PixelFlag::kNoReference;
+         !estimation::outside_the_skin(flag);
 }
 
 // The augmented per-pixel fit (header): χ² of the measurement plus the prior

@@ -69,7 +69,7 @@ RegionStatistics region_statistics(const files::FloatImage& maps, const std::str
       const std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(maps.width) + static_cast<std::size_t>(x);
       const float v = values[i];
       const float flag = flags ? (*flags)[i] : 0.0f;
-      if (!std::isfinite(v) || flag == static_cast<float>(PixelFlag::kNoReference)) {
+      if (!std::isfinite(v) || (std::isfinite(flag) && outside_the_skin(static_cast<PixelFlag>(static_cast<int>(flag))))) {
         ++s.outside_field_pixels;
         continue;
       }

@@ -65,7 +65,8 @@ class PackageTest(unittest.TestCase):
             np.testing.assert_array_equal(maps[name], expected, err_msg=name)
         self.assertEqual(maps.unit("Cm"), "volume fraction")
         self.assertEqual(maps.flag_names[0], "explained")
-        self.assertEqual(len(maps.flag_names), 9)
+        self.assertEqual(len(maps.flag_names), 10)
+        self.assertEqual(maps.flag_names[9], "white_target")
         self.assertGreater(int(maps.explained().sum()), 0)
         # A subset, and small chunks: the same values.
         few = self.client.maps(SESSION, channels=["Ch", "flags"], chunk_bytes=65536)

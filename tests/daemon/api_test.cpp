@@ -201,6 +201,32 @@ TEST_F(ApiFixture, PreflightRefusesAFailedCheckUnlessOverriddenWithAReasonTheAud
   EXPECT_EQ(overridden.at("override_reason"), "dry run of the storage limit");
 }
 
+// The Sessions form's check before Start (issue 41): GetStandardPlan says why
+// StartSession would refuse the plan on this sphere, in StartSession's words,
+// and says nothing for a plan that starts.
+TEST_F(ApiFixture, GetStandardPlanSaysWhyStartSessionWouldRefuseThePlanHere) {
+  start();
+  auto sessions = pb::SessionService::NewStub(channel);
+  pb::GetStandardPlanRequest get;
+  get.set_polarised(pb::POLARISED_PLAN_ON);  // this lab's sphere has no polariser banks
+  pb::SessionPlan shown;
+  grpc::ClientContext c1, c2;
+  ASSERT_TRUE(sessions->GetStandardPlan(&c1, get, &shown).ok());
+  EXPECT_THAT(shown.start_refusal(), ::testing::HasSubstr("].polarisation: cross"));
+  EXPECT_THAT(shown.start_refusal(), ::testing::HasSubstr("has no polariser banks"));
+  pb::StartSessionRequest request;
+  request.set_standard(true);
+  request.set_polarised(pb::POLARISED_PLAN_ON);
+  pb::Operation out;
+  const grpc::Status refused = start_session(*channel, request, &out);
+  EXPECT_EQ(refused.error_code(), StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(refused.error_message(), shown.start_refusal());
+  get.set_polarised(pb::POLARISED_PLAN_OFF);
+  ASSERT_TRUE(sessions->GetStandardPlan(&c2, get, &shown).ok());
+  EXPECT_EQ(shown.start_refusal(), "");
+  EXPECT_TRUE(daemon->operations().list().empty()) << "a refused plan left an operation";
+}
+
 TEST_F(ApiFixture, UnixSocketCarriesTheConfiguredPermissions) {
   lab.config.unix_socket_mode = 0600;
   start();

@@ -18,6 +18,7 @@
 #include <gtest/gtest.h>
 
 #include "chromo/daemon/config.hpp"
+#include "chromo/daemon/devices.hpp"
 #include "chromo/daemon/internal/devices/virtual_lab.hpp"
 #include "../support/fresh_directory.hpp"
 
@@ -312,6 +313,27 @@ TEST(DaemonConfig, PerCameraSensitivitiesAreReadAndEachFileChecked) {
   EXPECT_EQ(refused({{"estimation", {{"camera_sensitivities", "builtin:nikon_d5100"}}}})
                 .rfind("cfg: estimation.camera_sensitivities: ", 0),
             0u);
+}
+
+// The maps' scale for a configured sphere's cameras (docs/maps.md "Scale
+// bar"): read per camera, each width checked, and kept over the virtual lab's.
+TEST(DaemonConfig, PerCameraFieldWidthsAreReadCheckedAndOverrideTheLabs) {
+  DaemonConfig config = parse_config(nlohmann::json::parse(R"({"estimation": {"camera_field_width_mm": {"cam0": 123.5}}})"), "cfg");
+  ASSERT_EQ(config.estimation.camera_field_width_mm.size(), 1u);
+  EXPECT_EQ(config.estimation.camera_field_width_mm.at("cam0"), 123.5);
+  for (const auto& bad : {nlohmann::json(0), nlohmann::json(-3), nlohmann::json(1e308), nlohmann::json("80"), nlohmann::json(nullptr)})
+    EXPECT_EQ(refused({{"estimation", {{"camera_field_width_mm", {{"cam0", bad}}}}}})
+                  .rfind("cfg: estimation.camera_field_width_mm[\"cam0\"]: " + bad.dump() + " is not a width in (0, 10000] mm", 0),
+              0u) << bad.dump();
+  EXPECT_EQ(refused({{"estimation", {{"camera_field_width_mm", 80}}}}).rfind("cfg: estimation.camera_field_width_mm: 80 is not a JSON object", 0),
+            0u);
+  {  // The virtual lab's cam0 (no pose: its 80 mm patch fills the rows) keeps the configured width.
+    const OpenedDevices opened = open_devices(config);
+    EXPECT_EQ(config.estimation.camera_field_width_mm.at("cam0"), 123.5);
+  }
+  DaemonConfig unconfigured = parse_config(nlohmann::json::object(), "cfg");
+  const OpenedDevices opened = open_devices(unconfigured);
+  EXPECT_EQ(unconfigured.estimation.camera_field_width_mm.at("cam0"), 80.0);
 }
 
 TEST(DaemonConfig, TheDefaultSocketAndRunFilesAreNotUnderTmp) {

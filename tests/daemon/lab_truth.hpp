@@ -21,6 +21,8 @@ struct MapsAgainstTruth {
   int width = 0, height = 0;  // the maps'
   std::size_t skin_pixels = 0, flagged = 0;
   std::map<int, std::size_t> flagged_by_code;  // the maps' flag value → skin pixels
+  std::size_t white_target_pixels = 0;          // the scene's white strip (eroded twice)
+  std::map<int, std::size_t> white_target_by_flag;  // the maps' flag value → its pixels
   maps::DeltaEStats relit;    // ΔE94 under D65 over the explained skin pixels
   maps::DeltaEStats relit_a;  // the same under CIE A
 };
@@ -41,8 +43,16 @@ inline MapsAgainstTruth maps_against_truth(const std::filesystem::path& maps_exr
   for (auto [from, to] : truth_maps) cv::resize(*from, *to, size, 0, 0, cv::INTER_LINEAR);
   cv::Mat skin = regions == static_cast<int>(simulators::SceneRegion::kSkin);
   cv::erode(skin, skin, cv::Mat(), cv::Point(-1, -1), 2);
+  cv::Mat white = regions == static_cast<int>(simulators::SceneRegion::kWhiteTarget);
+  cv::erode(white, white, cv::Mat(), cv::Point(-1, -1), 2);
   MapsAgainstTruth out;
   out.width = maps.width, out.height = maps.height;
+  for (int y = 0; y < maps.height; ++y)
+    for (int x = 0; x < maps.width; ++x)
+      if (white.at<std::uint8_t>(y, x)) {
+        ++out.white_target_pixels;
+        ++out.white_target_by_flag[static_cast<int>(maps.channel("flags")[static_cast<std::size_t>(y) * maps.width + x])];
+      }
   std::vector<estimation::SkinParameters> truth, estimate;
   for (int y = 0; y < maps.height; ++y)
     for (int x = 0; x < maps.width; ++x) {

@@ -391,7 +391,8 @@ TEST_F(MapsApi, RegionStatisticsAreTheFilesAndGetMapGivesUnitAndModelRange) {
   EXPECT_DOUBLE_EQ(map.model_min(), 0.001);
   EXPECT_DOUBLE_EQ(map.model_max(), 0.5);
   EXPECT_TRUE(map.log_scale());
-  ASSERT_EQ(map.flag_names_size(), 9);
+  ASSERT_EQ(map.flag_names_size(), 10);
+  EXPECT_EQ(map.flag_names(9), "white_target");
   EXPECT_EQ(map.flag_names(3), "dark");
   EXPECT_EQ(map.sigma_values_size(), 0);  // the file has no sigma_Cm
   std::vector<float> sigma(cm.size());

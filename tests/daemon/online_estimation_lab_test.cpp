@@ -8,6 +8,7 @@
 #include <fstream>
 
 #include "chromo/daemon/internal/api/api_conversions.hpp"
+#include "chromo/estimation/pixel_flags.hpp"
 #include "chromosphere/v1/estimation.pb.h"
 #include "lab_truth.hpp"
 #include "test_lab.hpp"
@@ -79,6 +80,21 @@ TEST(OnlineEstimationOnTheVirtualLab, CalibratedStandardSessionEndsInMapsThatMat
   // (whether the fix alone moved them over 1% was not measured).
   EXPECT_LT(static_cast<double>(flagged) / skin_pixels, 0.015);
   EXPECT_LT(relit.median, 1.3);
+  // The scene's white target strip is not skin: flagged white_target (no
+  // parameters), not unexplained_colour as before (issue 42).
+  std::cout << "white strip: " << against.white_target_pixels << " pixels, by flag:";
+  for (const auto& [code, count] : against.white_target_by_flag) std::cout << " " << code << ": " << count;
+  std::cout << "\n";
+  const auto strip_flagged = [&](estimation::PixelFlag flag) {
+    const auto found = against.white_target_by_flag.find(static_cast<int>(flag));
+    return found == against.white_target_by_flag.end() ? std::size_t{0} : found->second;
+  };
+  ASSERT_GT(against.white_target_pixels, 500u);
+  EXPECT_GE(static_cast<double>(strip_flagged(estimation::PixelFlag::kWhiteTarget)),
+            0.99 * static_cast<double>(against.white_target_pixels));
+  EXPECT_EQ(strip_flagged(estimation::PixelFlag::kUnexplainedColour), 0u);
+  EXPECT_EQ(summary["flag_counts"]["white_target"].get<std::size_t>(),
+            static_cast<std::size_t>(results.summary().flag_counts().at("white_target")));
 
   // Too long an exposure clips the white reference: no maps, and the record says why.
   auto clipped = daemon->start_session(testing::quick_standard_plan(1, 12000), "forearm");

@@ -12,6 +12,7 @@ import path from 'node:path';
 import assert from 'node:assert/strict';
 import { browserOrSkip, Chromod, waitUntil, callApi, runMain, wordsBrokenAcrossLines } from './harness.mjs';
 import { formatNumber } from '../../web/src/dom.js';
+import { diverging, viridis, percentileOfSorted } from '../../web/src/maps/colour_scale.js';
 
 const [chromod, webDir, screenshotDir] = process.argv.slice(2);
 mkdirSync(screenshotDir, { recursive: true });
@@ -267,6 +268,10 @@ async function comparisonChecks(page, afterId, beforeId) {
   assert.equal(await card.locator('.comparison-output').getAttribute('data-state'), 'ready',
     `comparison failed: ${await card.locator('.comparison-message').textContent()}`);
   time('comparison_ms', started);
+  // Both sessions' explorers below the difference map load on their own: once
+  // they have, the layout stands still for the pointer.
+  await waitUntil(page, () => document.querySelectorAll('.side-by-side .map-explorer[data-state="ready"]').length === 2, null, 60000,
+    'both sessions side by side');
   const shown = JSON.parse(await card.locator('.comparison-output').getAttribute('data-comparison'));
   assert.equal(shown.request.session_id, beforeId, 'the older session is before');
   assert.equal(shown.request.after_session_id, afterId);
@@ -287,18 +292,59 @@ async function comparisonChecks(page, afterId, beforeId) {
   const z = new Float32Array(Buffer.from(reply.z_f32, 'base64').buffer.slice(0));
   const difference = new Float32Array(Buffer.from(reply.difference_f32, 'base64').buffer.slice(0));
   const sigma = new Float32Array(Buffer.from(reply.sigma_f32, 'base64').buffer.slice(0));
-  const cell = z.findIndex((v, i) => Number.isFinite(v) && i % reply.map_width > reply.map_width / 3 && i > z.length / 3);
-  assert.ok(cell >= 0, 'no compared cell in the difference map');
-  const [cx, cy] = [cell % reply.map_width, Math.floor(cell / reply.map_width)];
+  const target = z.findIndex((v, i) => Number.isFinite(v) && i % reply.map_width > reply.map_width / 3 && i > z.length / 3);
+  assert.ok(target >= 0, 'no compared cell in the difference map');
   const canvas = card.locator('.difference-canvas');
   await canvas.scrollIntoViewIfNeeded();
   const box = await canvas.boundingBox();
-  await page.mouse.move(box.x + (cx + 0.5) * box.width / reply.map_width, box.y + (cy + 0.5) * box.height / reply.map_height);
+  // A cell is one CSS pixel here: the pointer goes to whole pixels, and the
+  // cell under it is the one those pixels fall in (as the page computes it).
+  const [px, py] = [Math.round(box.x + (target % reply.map_width + 0.5) * box.width / reply.map_width),
+    Math.round(box.y + (Math.floor(target / reply.map_width) + 0.5) * box.height / reply.map_height)];
+  const [cx, cy] = [Math.floor((px - box.x) / box.width * reply.map_width), Math.floor((py - box.y) / box.height * reply.map_height)];
+  const cell = cy * reply.map_width + cx;
+  assert.ok(Number.isFinite(z[cell]), `cell ${cx},${cy} is not compared`);
+  await page.mouse.move(px, py);
   const readout = card.locator('.difference-value');
   assert.equal(await readout.getAttribute('data-cell'), `${cx},${cy}`);
   assert.equal(Number(await readout.getAttribute('data-difference')), difference[cell], 'difference under the cursor');
   assert.equal(Number(await readout.getAttribute('data-sigma')), sigma[cell], 'its σ');
   assert.equal(Number(await readout.getAttribute('data-z')), z[cell], 'its z');
+  // The difference itself and its σ per pixel, each on its own scale (± or 0 to
+  // its 99th percentile over the compared pixels): the scale's ends and the
+  // colour of the cell under the cursor are CompareSessions' numbers.
+  for (const [layer, values, colourAt, symmetric] of [['difference', difference, diverging, true], ['sigma', sigma, viridis, false]]) {
+    await card.locator('select[name="difference_layer"]').selectOption(layer);
+    assert.equal(await canvas.getAttribute('data-layer'), layer);
+    const end = percentileOfSorted(Float64Array.from(Array.from(values).map((v) => (symmetric ? Math.abs(v) : v)).filter(Number.isFinite)).sort(), 99);
+    const [low, high] = (await card.locator('.comparison-output .difference-bar').getAttribute('data-range')).split(' ').map(Number);
+    assert.deepEqual([low, high], [symmetric ? -end : 0, end], `${layer} scale`);
+    const rgb = await canvas.evaluate((element, [x, y]) => [...element.getContext('2d').getImageData(x, y, 1, 1).data.slice(0, 3)],
+      [2 * cx + 1, 2 * cy + 1]);
+    assert.deepEqual(rgb, colourAt((values[cell] - low) / (high - low)), `${layer} colour at cell ${cx},${cy}`);
+    console.log(`difference map as ${layer}: scale ${low.toPrecision(3)} to ${high.toPrecision(3)}, cell (${cx}, ${cy}) ${values[cell]} drawn ${rgb}`);
+  }
+  await card.locator('select[name="difference_layer"]').selectOption('z');
+  // Both sessions side by side: an explorer each, showing its own session's
+  // map (the value under the cursor is GetMap's of that session), zoom
+  // linked between the two and not with the page's other explorers.
+  const sides = card.locator('.side-by-side .map-explorer');
+  for (const [i, id, file] of [[0, beforeId, shown.request.maps_file], [1, afterId, shown.request.after_maps_file]]) {
+    assert.equal(await card.locator('.side-by-side [data-session]').nth(i).getAttribute('data-session'), id);
+    const map = (await api('MapsService', 'GetMap', { session_id: id, maps_file: file, channel: 'Cm', max_width: 480 })).json;
+    const sideCanvas = sides.nth(i).locator('.map-canvas');
+    await sideCanvas.scrollIntoViewIfNeeded();
+    const sideBox = await sideCanvas.boundingBox();
+    await page.mouse.move(sideBox.x + sideBox.width / 2, sideBox.y + sideBox.height / 3);
+    const [mx, my] = (await sides.nth(i).locator('.map-value').getAttribute('data-cell')).split(',').map(Number);
+    assert.ok(Math.abs(mx - map.width / 2) <= 1 && Math.abs(my - map.height / 3) <= 1, `side ${i}: cell ${mx},${my} under the pointer`);
+    const value = await sides.nth(i).locator('.map-value').getAttribute('data-value');
+    assert.equal(Number(value), Math.fround(Number(map.values[my * map.width + mx])), `side ${i} (${id}): Cm at cell ${mx},${my}`);
+  }
+  await sides.nth(0).getByRole('button', { name: 'Zoom in' }).click();
+  assert.equal(await sides.nth(1).locator('.map-canvas').getAttribute('data-zoom'), '1.5', 'zoom linked between the two sessions');
+  assert.equal(await page.locator('.map-explorer .map-canvas').first().getAttribute('data-zoom'), '1', 'the page\'s own explorer moved too');
+  console.log('both sessions side by side: each explorer shows its own session\'s Cm (GetMap\'s), zoom linked between them');
   console.log(`before/after ${beforeId} → ${afterId}: ${reply.channel} median change ${reply.median_difference} ± ${reply.sigma_of_median} ` +
     `(z ${reply.z}, ${reply.significant ? 'changed' : 'unchanged'}), ${reply.significant_pixels} of ${reply.compared_pixels} pixels beyond ` +
     `${reply.threshold_sigma} sigma, warped ${reply.warped}: page equals CompareSessions; ${figures.comparison_ms} ms`);
@@ -464,19 +510,27 @@ async function main() {
   await page.getByRole('heading', { name: 'Start a session' }).waitFor();
   await page.getByRole('cell', { name: 'subject_d65' }).first().waitFor();
   // The plan's polarisation per step: this sphere has no polariser banks, so
-  // every lit step is unpolarised; the polarised plan can be shown, but
-  // starting it is refused naming the missing banks, and no session starts.
+  // every lit step is unpolarised; the polarised plan can be shown, but as
+  // soon as it is chosen the page says why chromod would refuse it (naming
+  // the missing banks, as StartSession does) and Start is disabled.
   const subjectRow = await page.locator('.plan tr').filter({ has: page.getByRole('cell', { name: 'subject_d65', exact: true }) })
     .first().locator('td').allTextContents();
   assert.ok(subjectRow.includes('unpolarised'), `subject_d65's row: ${subjectRow.join(' | ')}`);
   const sessionsBefore = (await api('SessionService', 'ListSessions', {})).json.sessions?.length ?? 0;
   await page.getByLabel('Polarisation', { exact: true }).selectOption('POLARISED_PLAN_ON');
   await page.getByRole('cell', { name: 'subject_d65_parallel', exact: true }).waitFor({ timeout: 10000 });
-  await pressOn(page, page.getByRole('button', { name: 'Start session' }), 'Enter');
-  await page.locator('.start-session ~ .message.error').filter({ hasText: /no polariser banks/ }).waitFor({ timeout: 10000 });
-  console.log(`polarised plan on an unpolarised sphere: "${await page.locator('.start-session ~ .message.error').textContent()}"`);
+  const refusal = page.locator('.start-session .plan-refusal');
+  await refusal.filter({ hasText: /has no polariser banks/ }).waitFor({ timeout: 10000 });
+  assert.ok(await page.getByRole('button', { name: 'Start session' }).isDisabled(), 'Start enabled for a plan chromod refuses');
+  const refused = await api('SessionService', 'StartSession', { standard: true, polarised: 'POLARISED_PLAN_ON' });
+  assert.equal(refused.status, 400);
+  assert.ok((await refusal.textContent()).endsWith(refused.json.error), `the page's reason "${await refusal.textContent()}", StartSession's "${refused.json.error}"`);
+  console.log(`polarised plan on an unpolarised sphere, on choosing it: "${await refusal.textContent()}"; Start disabled`);
+  await page.getByLabel('Subject', { exact: true }).press('Enter');  // a form's implicit submission sends nothing either
   assert.equal((await api('SessionService', 'ListSessions', {})).json.sessions?.length ?? 0, sessionsBefore, 'a refused session was listed');
   await page.getByLabel('Polarisation', { exact: true }).selectOption('POLARISED_PLAN_CONFIGURED');
+  await refusal.waitFor({ state: 'hidden', timeout: 10000 });
+  assert.ok(await page.getByRole('button', { name: 'Start session' }).isEnabled(), 'Start still disabled for a plan that runs');
   await page.getByRole('cell', { name: 'subject_d65_parallel', exact: true }).waitFor({ state: 'detached', timeout: 10000 });
   await page.getByRole('cell', { name: 'subject_d65' }).first().waitFor();
   await page.getByLabel('Subject', { exact: true }).fill('browser test forearm');

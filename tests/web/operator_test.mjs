@@ -101,16 +101,18 @@ async function main() {
 
   phase('calibration');
   // Problem 10: a polarised plan on this sphere without banks is refused as
-  // soon as it is chosen, and Start sends nothing.
+  // soon as it is chosen (chromod's reason), Start is disabled and sends nothing.
   await page.getByRole('link', { name: 'Sessions' }).click();
   let startRequests = 0;
   page.on('request', (request) => { if (request.url().endsWith('/api/SessionService/StartSession')) startRequests += 1; });
   await page.getByLabel('Polarisation', { exact: true }).selectOption('POLARISED_PLAN_ON');
-  await page.locator('.start-session ~ .message.error').filter({ hasText: /no polariser banks/ }).waitFor({ timeout: 10000 });
-  await page.getByRole('button', { name: 'Start session' }).click();
+  await page.locator('.start-session .plan-refusal').filter({ hasText: /has no polariser banks/ }).waitFor({ timeout: 10000 });
+  assert.ok(await page.getByRole('button', { name: 'Start session' }).isDisabled(), 'Start enabled for a refused plan');
+  await page.getByLabel('Subject', { exact: true }).press('Enter');
   assert.equal(startRequests, 0, 'a polarised plan on a sphere without banks was sent to chromod');
   await page.getByLabel('Polarisation', { exact: true }).selectOption('POLARISED_PLAN_CONFIGURED');
-  assert.equal(await page.locator('.start-session ~ .message.error').count(), 0);
+  await page.locator('.start-session .plan-refusal').waitFor({ state: 'hidden', timeout: 10000 });
+  assert.ok(await page.getByRole('button', { name: 'Start session' }).isEnabled());
 
   // Problem 2: the form is kept when the operator leaves Sessions and comes back.
   await page.getByLabel('Subject', { exact: true }).fill(SUBJECT);

@@ -102,7 +102,7 @@ export function contrastControls(onChange) {
     } else {
       items.push(swatch(MASKED_COLOUR, `masked by a flag (${counts.masked} cells)`));
     }
-    items.push(swatch(OUTSIDE_COLOUR, `outside the lit field (${counts.outside} cells)`));
+    items.push(swatch(OUTSIDE_COLOUR, `outside the lit field or the skin: the white target (${counts.outside} cells)`));
     legend.replaceChildren(...items);
   };
 

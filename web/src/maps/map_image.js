@@ -1,23 +1,26 @@
 // A loaded map drawn into an image at its own grid (one pixel per GetMap
 // cell): values in false colour between the contrast's ends, codes in
 // categorical colours, and the pixels without a value kept apart: masked by
-// a flag (grey) or outside the lit field (black: NaN or no_reference).
+// a flag (grey) or outside the lit field or the skin (black: NaN, no_reference
+// or white_target).
 import { viridis, position, CATEGORY_COLOURS, MASKED_COLOUR, OUTSIDE_COLOUR } from './colour_scale.js';
 
 export const NO_REFERENCE = 8;  // estimation/pixel_flags.hpp
+export const WHITE_TARGET = 9;  // the white target in the subject's frame: not skin
+const OUTSIDE_FLAGS = new Set([NO_REFERENCE, WHITE_TARGET]);
 const SKIN_FLAGS = new Set([0, 4]);  // explained, specular: the previews colour these
 
 export const isCategorical = (channel) => channel === 'flags' || channel === 'order';
 
 // What a cell is: 'value', 'masked' or 'outside' (flags: the flags map's cell, or null).
 export function cellKind(value, flag, categorical) {
-  if (!Number.isFinite(value) || flag === NO_REFERENCE) return 'outside';
+  if (!Number.isFinite(value) || OUTSIDE_FLAGS.has(flag)) return 'outside';
   if (!categorical && flag !== null && !SKIN_FLAGS.has(flag)) return 'masked';
   return 'value';
 }
 
 export function categoryColour(channel, code) {
-  if (channel === 'flags' && code === NO_REFERENCE) return OUTSIDE_COLOUR;
+  if (channel === 'flags' && OUTSIDE_FLAGS.has(code)) return OUTSIDE_COLOUR;
   return CATEGORY_COLOURS[((code % CATEGORY_COLOURS.length) + CATEGORY_COLOURS.length) % CATEGORY_COLOURS.length];
 }
 

@@ -118,31 +118,33 @@ export function mountSessions(container) {
   const preflight = preflightChecklist();
   const progress = operationView({ controls: true, onFinished: () => past.refresh() });
 
-  // A polarised plan on a sphere without polariser banks is refused here, before Start.
-  let sphereHasBanks = null;  // from ListDevices: the LED controller's info.polariser_banks
-  api.call('DeviceService', 'ListDevices', {}).then(({ devices = [] }) => {
-    const led = devices.find((device) => device.kind === 'DEVICE_KIND_LED_CONTROLLER');
-    if (led?.info?.polariser_banks) sphereHasBanks = led.info.polariser_banks === 'yes';
-    checkPolarised();
-  }, () => {});
-  const polarisedRefusal = () => (sphereHasBanks === false && polarised.value === 'POLARISED_PLAN_ON'
-    ? 'This sphere has no polariser banks: a cross-polarised session cannot run on it. Choose "unpolarised" or "as configured".' : '');
-  const checkPolarised = () => {
-    const refusal = polarisedRefusal();
-    if (refusal) message.error(refusal);
-    else if (message.element.dataset.polarised) message.clear();
-    if (refusal) message.element.dataset.polarised = 'refused';
-    else delete message.element.dataset.polarised;
+  // A plan this sphere cannot run (a polarised one without polariser banks,
+  // hardware timing beyond the controller's sequence, …) is refused as it is
+  // chosen: chromod's reason (GetStandardPlan's start_refusal, StartSession's
+  // own words) under the plan options, and Start disabled until it changes.
+  const startButton = h('button', { type: 'submit' }, 'Start session');
+  const refusal = h('p', { class: 'message error plan-refusal', role: 'alert', hidden: true });
+  const showRefusal = (text) => {
+    refusal.hidden = !text;
+    refusal.textContent = text ? `This plan cannot run on this sphere: ${text}` : '';
+    startButton.disabled = Boolean(text);
+    startButton.title = text ? 'Change the plan options: chromod would refuse this plan' : '';
   };
-  polarised.addEventListener('change', checkPolarised);
   const options = () => ({ timing: timing.value, exposure_us: Number(exposure.value), frames_per_camera: Number(frames.value),
     reference_frames: Number(referenceFrames.value), polarised: polarised.value,
     operator_prompts: prompts.checked, fixed_exposure: fixed.checked });
+  let planRequest = 0;  // only the newest request's plan is shown
   const showPlan = async () => {
+    const request = ++planRequest;
     try {
-      plan.replaceChildren(planTable(await api.call('SessionService', 'GetStandardPlan', options())));
+      const shown = await api.call('SessionService', 'GetStandardPlan', options());
+      if (request !== planRequest) return;
+      plan.replaceChildren(planTable(shown));
+      showRefusal(shown.start_refusal);
     } catch (error) {
+      if (request !== planRequest) return;
       plan.replaceChildren(h('p', { class: 'message error' }, humanError(error)));
+      showRefusal(humanError(error));
     }
   };
   keepForm([subject, operatorName, study, prompts, fixed, exposure, frames, referenceFrames, polarised, timing]);
@@ -155,12 +157,11 @@ export function mountSessions(container) {
       field('Timing', timing), field('Exposure (µs)', exposure), field('Frames per camera (0: configured)', frames),
       field('Frames per dark and white reference (0: configured)', referenceFrames), field('Polarisation', polarised),
       h('label', { class: 'check' }, prompts, ' Pause for "place white" and "place subject"'),
-      h('label', { class: 'check' }, fixed, ' One fixed exposure (no metering)')),
-    preflight.element,
-    h('button', { type: 'submit' }, 'Start session'));
+      h('label', { class: 'check' }, fixed, ' One fixed exposure (no metering)'), refusal),
+    preflight.element, startButton);
   form.addEventListener('submit', async (event) => {
     event.preventDefault();
-    if (polarisedRefusal()) return checkPolarised();
+    if (startButton.disabled) return;  // Enter in a field submits too
     message.clear();
     events.replaceChildren();
     try {

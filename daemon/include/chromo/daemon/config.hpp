@@ -54,8 +54,10 @@ struct EstimationConfig {
   // Per camera (device name → builtin:NAME or a CSV), overriding camera_sensitivity for that camera's maps.
   std::map<std::string, std::string> camera_sensitivities;
   // Camera → the subject's width one frame row spans, mm, where the geometry
-  // is known: the virtual lab fills it when it starts (open_devices); every
-  // session records it (provenance camera_field_width_mm) for the maps' scale bar.
+  // is known: configured (estimation.camera_field_width_mm, measured with a
+  // ruler: docs/config.md), else the virtual lab fills it for its cameras when
+  // it starts (open_devices); every session records it (provenance
+  // camera_field_width_mm) for the maps' scale bar.
   std::map<std::string, double> camera_field_width_mm;
   double white_reflectance = 0.99;  // ρ of the white reference target
   // The polariser films (docs/polarisation.md "What the estimator knows of

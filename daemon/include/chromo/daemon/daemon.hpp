@@ -88,6 +88,13 @@ class Daemon {
   // its session.json and its report.
   session::OperationRecord start_session(session::SessionPlan plan, const std::string& subject,
                                          const SessionPeople& people = {});
+  // Whether a session of `plan` could start on this sphere now (the checks
+  // start_session makes before anything runs: the plan's fields, its mixes'
+  // weights, the blue-light hazard limit, an LED controller and a camera,
+  // polariser banks for polarised steps, the controller's sequence capacity
+  // for hardware timing). Returns when it could; throws what start_session
+  // throws for them. Drives nothing.
+  void check_plan_runs_here(const session::SessionPlan& plan);
   // What a session of `plan` started now would be made with: the LED library
   // that lights its illuminants and its age, each mix's drive levels and
   // origin, camera sensitivities, white target, the estimator's version and

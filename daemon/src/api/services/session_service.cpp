@@ -47,7 +47,13 @@ class SessionServiceImpl final : public pb::SessionService::Service {
     return guard_(context, [&] {
       session::StandardPlanOptions options = daemon_.standard_plan_options();
       if (Status s = standard_plan_options_of(*request, &options); !s.ok()) return s;
-      to_proto(session::standard_plan(options), response);
+      const session::SessionPlan plan = session::standard_plan(options);
+      to_proto(plan, response);
+      try {
+        daemon_.check_plan_runs_here(plan);
+      } catch (const std::exception& refusal) {  // StartSession's refusal, shown before Start
+        response->set_start_refusal(refusal.what());
+      }
       return Status::OK;
     });
   }

@@ -3,7 +3,7 @@
 // summary.json "flag_counts"). 0: the model explains the pixel. Otherwise one
 // code saying why not, checked in this order (1-6 per pixel by Estimator, 7 by
 // the spatial second pass of spatial_flags.hpp, 8 where the measurement has
-// no white reference):
+// no white reference, 9 where the pixel is the white target itself):
 
 #include <cstdint>
 #include <string_view>
@@ -27,13 +27,23 @@ enum class PixelFlag : std::uint8_t {
   kNoReference = 8,          // outside the camera's footprint of the white reference (a posed camera
                              // sees the target in perspective): no albedo, parameters NaN
                              // (session/method_measurement.hpp, set after the estimate by maps/)
+  kWhiteTarget = 9,          // the white reference target in the subject's frame (the virtual lab's
+                             // strip): its albedo is the target's ρ in every channel within noise;
+                             // not skin, parameters NaN (maps/white_target_pixels.hpp, set after
+                             // the estimate by maps/)
 };
-inline constexpr int kPixelFlagCount = 9;
+inline constexpr int kPixelFlagCount = 10;
+
+// No skin at the pixel, so no parameters (NaN): outside the white reference's
+// footprint, or the white target itself. Views count it outside, not masked.
+constexpr bool outside_the_skin(PixelFlag flag) {
+  return flag == PixelFlag::kNoReference || flag == PixelFlag::kWhiteTarget;
+}
 
 constexpr std::string_view pixel_flag_name(PixelFlag flag) {
   constexpr std::string_view kNames[kPixelFlagCount] = {
       "explained", "non_finite", "saturated", "dark", "specular", "unexplained_absorber", "unexplained_colour",
-      "neighbourhood", "no_reference"};
+      "neighbourhood", "no_reference", "white_target"};
   return kNames[static_cast<int>(flag)];
 }
 
