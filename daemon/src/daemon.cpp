@@ -330,19 +330,7 @@ namespace {
 void journal_final_records(session::Journal& journal, const session::PipelineCounters& counters,
                            SequencerOutcome& outcome) {
   try {
-    journal.append({{"type", "counters"},
-                     {"received", counters.received},
-                     {"stored", counters.stored},
-                     {"estimated", counters.estimated},
-                     {"estimator_skipped", counters.estimator_skipped},
-                     {"lost", counters.lost},
-                     {"resent_packets", counters.resent_packets},
-                     {"lost_reasons", counters.lost_reasons},
-                     {"max_estimator_queue_depth", counters.max_estimator_queue_depth},
-                     {"estimator_read_back", counters.estimator_read_back},
-                     {"skipped_reasons", counters.skipped_reasons},
-                     {"mean_trigger_to_stored_ms", counters.mean_trigger_to_stored_ms},
-                     {"max_trigger_to_stored_ms", counters.max_trigger_to_stored_ms}});
+    journal.append(session::counters_record(counters));
     nlohmann::json final_state{{"type", "state"}, {"state", session::state_name(outcome.state)}};
     if (!outcome.error.empty()) final_state["error"] = outcome.error;
     journal.append(final_state);
@@ -509,19 +497,21 @@ std::optional<session::SessionInfo> Daemon::session(const std::string& id) const
 }
 
 namespace {
-// The table cache entries a session's results name (results/summary.json's
-// table.key and table.inverse_key) as cache file names; none when absent.
-std::set<std::string> cache_entries_of(const std::filesystem::path& folder) {
-  std::set<std::string> names;
+// A results summary.json as JSON; null when absent, unreadable or not JSON.
+nlohmann::json read_results_summary(const std::filesystem::path& file) {
   std::string text;
   try {
-    text = files::read_text_file(folder / "results" / "summary.json", "JSON");
+    text = files::read_text_file(file, "JSON");
   } catch (const std::exception&) {
-    return names;  // no results (or unreadable ones): no cache entry to name
+    return nullptr;  // no results (or unreadable ones): no cache entry to name
   }
   const auto summary = nlohmann::json::parse(text, nullptr, false);
-  if (summary.is_discarded() || !summary.is_object() || !summary.contains("table") || !summary["table"].is_object())
-    return names;
+  return summary.is_discarded() || !summary.is_object() ? nlohmann::json() : summary;
+}
+
+// The cache file names a summary's "table" names (table.key and table.inverse_key).
+void add_table_entries(const nlohmann::json& summary, std::set<std::string>& names) {
+  if (!summary.is_object() || !summary.contains("table") || !summary["table"].is_object()) return;
   const auto hex = [](const nlohmann::json& key) {
     const std::string text = key.is_string() ? key.get<std::string>() : std::string();
     return text.size() == 16 && text.find_first_not_of("0123456789abcdef") == std::string::npos ? text : std::string();
@@ -530,6 +520,23 @@ std::set<std::string> cache_entries_of(const std::filesystem::path& folder) {
   if (auto key = hex(table.value("key", nlohmann::json())); !key.empty()) names.insert("forward_table_" + key + ".bin");
   if (auto key = hex(table.value("inverse_key", nlohmann::json())); !key.empty())
     names.insert("inverse_table_" + key + ".bin");
+}
+
+// The table cache entries a session's results name, as cache file names:
+// results/summary.json's table, and for a several-camera session (whose
+// index has no top-level table) each camera's results/<folder>/summary.json's
+// (a "folder" that is not a plain name is not followed). None when absent.
+std::set<std::string> cache_entries_of(const std::filesystem::path& folder) {
+  std::set<std::string> names;
+  const nlohmann::json summary = read_results_summary(folder / "results" / "summary.json");
+  add_table_entries(summary, names);
+  if (!summary.is_object() || !summary.contains("cameras") || !summary["cameras"].is_array()) return names;
+  for (const auto& camera : summary["cameras"]) {
+    if (!camera.is_object() || !camera.contains("folder") || !camera["folder"].is_string()) continue;
+    const std::string name = camera["folder"].get<std::string>();
+    if (!session::is_valid_name(name) || name == "." || name == "..") continue;
+    add_table_entries(read_results_summary(folder / "results" / name / "summary.json"), names);
+  }
   return names;
 }
 }  // namespace

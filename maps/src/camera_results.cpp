@@ -1,5 +1,6 @@
 #include "chromo/maps/camera_results.hpp"
 
+#include "cameras_progress.hpp"
 #include "delta_e_json.hpp"
 
 #include <algorithm>
@@ -8,6 +9,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
+#include <thread>
 
 #include "chromo/estimation/pixel_flags.hpp"
 #include "chromo/files/binary_cache.hpp"
@@ -67,6 +69,61 @@ void mark_shared_tables(std::vector<CameraEstimate>& cameras) {
   }
 }
 
+namespace {
+
+// One camera of several into results_dir/<camera>: failed with its reason
+// where its captures cannot be estimated.
+CameraEstimate estimate_listed_camera(const SessionCamerasInput& input, const std::string& camera, std::size_t cameras,
+                                      const MethodEstimationOptions& options, const fs::path& results_dir,
+                                      const FileCommit& commit, const files::Progress& progress) {
+  CameraEstimate e;
+  e.camera = camera;
+  e.camera_sensitivity = input.builder->sensitivity_source(camera);
+  e.folder = camera;
+  try {
+    if (const auto refused = input.unusable.find(camera); refused != input.unusable.end())
+      throw std::invalid_argument(refused->second);
+    if (!usable_camera_folder_name(camera))
+      throw std::invalid_argument("camera name \"" + camera +
+                                  "\" cannot name its results folder (1-64 of A-Z a-z 0-9 _ . + -)");
+    e.result = estimate_camera(input, camera, options, camera_results_dir(results_dir, camera, cameras), commit, progress);
+    e.ok = true;
+  } catch (const std::invalid_argument& error) {
+    e.reason = error.what();
+  } catch (const session::RegistrationError& error) {
+    e.reason = error.what();
+  }
+  return e;
+}
+
+// Every camera of `names`, options.cameras_at_once at a time (0: all), each
+// on a thread of its own; the first other error is rethrown once all ended.
+std::vector<CameraEstimate> estimate_cameras_at_once(const SessionCamerasInput& input, const std::vector<std::string>& names,
+                                                     const MethodEstimationOptions& options, const fs::path& results_dir,
+                                                     const FileCommit& commit, const files::Progress& progress) {
+  std::vector<CameraEstimate> out(names.size());
+  std::vector<std::exception_ptr> errors(names.size());
+  detail::CamerasProgress shared(progress, names);
+  const std::size_t at_once = options.cameras_at_once > 0 ? static_cast<std::size_t>(options.cameras_at_once) : names.size();
+  for (std::size_t first = 0; first < names.size(); first += at_once) {
+    std::vector<std::thread> running;
+    for (std::size_t k = first; k < std::min(first + at_once, names.size()); ++k)
+      running.emplace_back([&, k] {
+        try {
+          out[k] = estimate_listed_camera(input, names[k], names.size(), options, results_dir, commit, shared.of_camera(k));
+        } catch (...) {
+          errors[k] = std::current_exception();
+        }
+      });
+    for (auto& thread : running) thread.join();
+  }
+  for (const auto& error : errors)
+    if (error) std::rethrow_exception(error);
+  return out;
+}
+
+}  // namespace
+
 std::vector<CameraEstimate> estimate_session_cameras(const SessionCamerasInput& input,
                                                      const MethodEstimationOptions& options, const fs::path& results_dir,
                                                      const FileCommit& commit, const files::Progress& progress) {
@@ -75,35 +132,18 @@ std::vector<CameraEstimate> estimate_session_cameras(const SessionCamerasInput& 
   for (const auto& [camera, reason] : input.unusable)
     if (std::find(names.begin(), names.end(), camera) == names.end()) names.push_back(camera);
   if (names.empty()) throw std::invalid_argument("no camera delivered a frame");
-  std::vector<CameraEstimate> out;
-  for (const std::string& camera : names) {
+  if (names.size() == 1) {  // the one-camera layout; errors go to the caller
+    const std::string& camera = names.front();
+    if (const auto refused = input.unusable.find(camera); refused != input.unusable.end())
+      throw std::invalid_argument(refused->second);
     CameraEstimate e;
     e.camera = camera;
     e.camera_sensitivity = input.builder->sensitivity_source(camera);
-    const auto refused = input.unusable.find(camera);
-    if (names.size() == 1) {  // the one-camera layout; errors go to the caller
-      if (refused != input.unusable.end()) throw std::invalid_argument(refused->second);
-      e.result = estimate_camera(input, camera, options, results_dir, commit, progress);
-      e.ok = true;
-      out.push_back(std::move(e));
-      return out;
-    }
-    e.folder = camera;
-    try {
-      if (refused != input.unusable.end()) throw std::invalid_argument(refused->second);
-      if (!usable_camera_folder_name(camera))
-        throw std::invalid_argument("camera name \"" + camera +
-                                    "\" cannot name its results folder (1-64 of A-Z a-z 0-9 _ . + -)");
-      e.result = estimate_camera(input, camera, options, camera_results_dir(results_dir, camera, names.size()), commit,
-                                 progress);
-      e.ok = true;
-    } catch (const std::invalid_argument& error) {
-      e.reason = error.what();
-    } catch (const session::RegistrationError& error) {
-      e.reason = error.what();
-    }
-    out.push_back(std::move(e));
+    e.result = estimate_camera(input, camera, options, results_dir, commit, progress);
+    e.ok = true;
+    return {std::move(e)};
   }
+  std::vector<CameraEstimate> out = estimate_cameras_at_once(input, names, options, results_dir, commit, progress);
   mark_shared_tables(out);
   add_common_views(out, results_dir, commit);
   const std::string index = camera_results_index_json(out, input.extra_json);

@@ -157,12 +157,25 @@ nlohmann::ordered_json uncertainty_summary(std::span<const estimation::PixelEsti
 
 }  // namespace
 
-std::string write_estimate_report(const fs::path& dir, const EstimateReport& report, const FileCommit& commit,
-                                  int writer_threads) {
-  const int threads = files::exr_writer_threads(writer_threads);
+namespace {
+
+// maps.exr's channels, which pixels the previews hide, and the fitted pixels' residuals (sorted).
+struct ReportMaps {
+  files::FloatImage maps;
+  std::vector<std::uint8_t> hide;
+  std::vector<double> residuals;
+  // The residual at quantile q (0 without fitted pixels).
+  double residual_quantile(double q) const {
+    return residuals.empty() ? 0.0
+                             : residuals[std::min(residuals.size() - 1, std::size_t(q * (residuals.size() - 1) + 0.5))];
+  }
+};
+
+ReportMaps report_maps(const EstimateReport& report) {
   const std::size_t pixels = static_cast<std::size_t>(report.width) * report.height;
   if (report.estimates.size() != pixels) throw std::invalid_argument("estimate report: estimates do not fill the image");
-  files::FloatImage maps;
+  ReportMaps out;
+  files::FloatImage& maps = out.maps;
   maps.width = report.width, maps.height = report.height;
   // The parameters, the fit, and each parameter's 1σ with the Ch-Che
   // correlation (estimator.hpp, PixelEstimate::sigma; docs/formats/measurement.md).
@@ -170,8 +183,7 @@ std::string write_estimate_report(const fs::path& dir, const EstimateReport& rep
                         "flags",    "sigma_Cm", "sigma_Ch", "sigma_Bm", "sigma_Che", "corr_Ch_Che"};
   constexpr int kMapChannels = 12;
   maps.channels.assign(kMapChannels, std::vector<float>(pixels));
-  std::vector<std::uint8_t> hide(pixels);
-  std::vector<double> residuals;
+  out.hide.resize(pixels);
   for (std::size_t i = 0; i < pixels; ++i) {
     const estimation::PixelEstimate& e = report.estimates[i];
     const float values[kMapChannels] = {float(e.parameters.cm), float(e.parameters.ch), float(e.parameters.bm),
@@ -179,24 +191,26 @@ std::string write_estimate_report(const fs::path& dir, const EstimateReport& rep
                                         float(static_cast<int>(e.flag)), e.sigma[0], e.sigma[1], e.sigma[2], e.sigma[3],
                                         e.ch_che_correlation};
     for (int c = 0; c < kMapChannels; ++c) maps.channels[c][i] = values[c];
-    hide[i] = estimation::outside_the_skin(e.flag) || !std::isfinite(e.parameters.cm) ? kPreviewOutsideField
-              : e.flag != estimation::PixelFlag::kExplained && e.flag != estimation::PixelFlag::kSpecular ? kPreviewMasked
-                                                                                                        : kPreviewShown;
-    if (e.order > 0) residuals.push_back(e.residual);
+    out.hide[i] = estimation::outside_the_skin(e.flag) || !std::isfinite(e.parameters.cm) ? kPreviewOutsideField
+                  : e.flag != estimation::PixelFlag::kExplained && e.flag != estimation::PixelFlag::kSpecular ? kPreviewMasked
+                                                                                                            : kPreviewShown;
+    if (e.order > 0) out.residuals.push_back(e.residual);
   }
   for (const auto& [name, values] : report.extra_channels) {
     if (values.size() != pixels) throw std::invalid_argument("estimate report: channel " + name + " does not fill the image");
     maps.channel_names.push_back(name);
     maps.channels.push_back(values);
   }
-  std::sort(residuals.begin(), residuals.end());
-  auto quantile = [&](double q) {
-    return residuals.empty() ? 0.0
-                             : residuals[std::min(residuals.size() - 1, std::size_t(q * (residuals.size() - 1) + 0.5))];
-  };
+  std::sort(out.residuals.begin(), out.residuals.end());
+  return out;
+}
+
+// summary.json's text: the report's figures, then extra_json's members.
+std::string report_summary_text(const EstimateReport& report, const ReportMaps& maps) {
+  const std::size_t pixels = maps.hide.size();
+  const std::vector<double>& residuals = maps.residuals;
   double residual_sum = 0;
   for (double r : residuals) residual_sum += r;
-
   nlohmann::ordered_json s;
   s["method"] = report.method;
   s["model"] = report.model;
@@ -211,8 +225,8 @@ std::string write_estimate_report(const fs::path& dir, const EstimateReport& rep
   s["pixels_per_second"] = report.summary.seconds > 0 ? static_cast<double>(pixels) / report.summary.seconds : 0.0;
   s["residual"] = {{"unit", "albedo RMS over channels"},
                    {"mean", residuals.empty() ? 0.0 : residual_sum / static_cast<double>(residuals.size())},
-                   {"median", quantile(0.5)},
-                   {"p95", quantile(0.95)},
+                   {"median", maps.residual_quantile(0.5)},
+                   {"p95", maps.residual_quantile(0.95)},
                    {"max", residuals.empty() ? 0.0 : residuals.back()}};
   s["order_counts"] = {{"2", report.summary.order2}, {"4", report.summary.order4}};
   s["uncertainty"] = uncertainty_summary(report.estimates);
@@ -223,11 +237,21 @@ std::string write_estimate_report(const fs::path& dir, const EstimateReport& rep
   const auto extra = nlohmann::ordered_json::parse(report.extra_json);
   if (!extra.is_object()) throw std::invalid_argument("estimate report: extra_json is not a JSON object");
   for (const auto& [key, value] : extra.items()) s[key] = value;
-  const std::string summary_text = s.dump(2) + "\n";
+  return s.dump(2) + "\n";
+}
 
-  // The previews are drawn and encoded on other threads while this one
-  // compresses maps.exr (itself on OpenEXR's pool); then each file is
-  // committed in turn from this thread.
+struct EncodedFile {
+  std::string file;
+  std::vector<std::uint8_t> bytes;
+};
+
+// The PNG previews (the parameters, residual, σ, flags, order), then the
+// report's extra PNGs. The previews are drawn and encoded on other threads
+// while this one compresses maps.exr (itself on OpenEXR's pool), which
+// `write_maps_exr` commits.
+std::vector<EncodedFile> encode_previews_while(const EstimateReport& report, const ReportMaps& report_maps, int threads,
+                                               const std::function<void()>& write_maps_exr) {
+  const files::FloatImage& maps = report_maps.maps;
   struct Preview {
     const char* file;
     int channel;
@@ -238,7 +262,7 @@ std::string write_estimate_report(const fs::path& dir, const EstimateReport& rep
   // The parameters over the subject's 1-99th percentile of the shown pixels
   // (the web view's default contrast), the model's range when nothing is shown.
   auto model_preview = [&](const char* file, int channel, const char* name) {
-    if (const auto subject = shown_percentile_range(maps.channels[channel], hide, 1, 99))
+    if (const auto subject = shown_percentile_range(maps.channels[channel], report_maps.hide, 1, 99))
       return Preview{file, channel, subject->first, subject->second, false, " p1-p99"};
     const ModelDisplayRange range = *model_display_range(name);
     return Preview{file, channel, range.low, range.high, range.log_scale, ""};
@@ -246,16 +270,12 @@ std::string write_estimate_report(const fs::path& dir, const EstimateReport& rep
   const std::vector<Preview> previews = {
       model_preview("cm.png", 0, "Cm"), model_preview("ch.png", 1, "Ch"), model_preview("bm.png", 2, "Bm"),
       model_preview("che.png", 3, "Che"),
-      Preview{"residual.png", 4, 0.0, std::max(quantile(0.99), 1e-6), false},
+      Preview{"residual.png", 4, 0.0, std::max(report_maps.residual_quantile(0.99), 1e-6), false},
       Preview{"sigma_cm.png", 7, 1e-4, 0.1, true},
       Preview{"sigma_ch.png", 8, 1e-4, 0.1, true}};
   std::vector<std::string> flag_names;
   for (int f = 0; f < estimation::kPixelFlagCount; ++f) flag_names.emplace_back(estimation::pixel_flag_name(static_cast<estimation::PixelFlag>(f)));
-  struct Encoded {
-    std::string file;
-    std::vector<std::uint8_t> bytes;
-  };
-  std::vector<Encoded> encoded(previews.size() + 2);
+  std::vector<EncodedFile> encoded(previews.size() + 2);
   for (const auto& [file, bytes] : report.extra_pngs) encoded.push_back({file, bytes});
   auto encode = [&](std::size_t i) {
     if (i >= previews.size() + 2) return;  // encoded already
@@ -263,7 +283,7 @@ std::string write_estimate_report(const fs::path& dir, const EstimateReport& rep
       const Preview& p = previews[i];
       const std::string& name = maps.channel_names[p.channel];
       encoded[i] = {p.file, encode_map_png(maps.channels[p.channel], report.width, report.height, p.low, p.high, p.log,
-                                           name + p.range_note + "\n" + map_channel_info(name).unit, hide,
+                                           name + p.range_note + "\n" + map_channel_info(name).unit, report_maps.hide,
                                            report.map_pixel_mm)};
     } else if (i == previews.size()) {
       encoded[i] = {"flags.png", encode_category_png(maps.channels[6], report.width, report.height, flag_names)};
@@ -276,33 +296,46 @@ std::string write_estimate_report(const fs::path& dir, const EstimateReport& rep
 #pragma omp parallel for schedule(dynamic) num_threads(std::max(1, threads - 1)) if (threads > 2)
     for (std::size_t i = 0; i < previews.size() + 2; ++i) encode(i);
   };
-  const files::ExrWriteOptions exr{threads};
   if (threads > 1) {
     auto previews_done = std::async(std::launch::async, encode_all);
     try {
-      commit(dir / "maps.exr", [&](const fs::path& t) { files::write_exr(t, maps, exr); });
+      write_maps_exr();
     } catch (...) {
       previews_done.wait();
       throw;
     }
     previews_done.get();
   } else {
-    commit(dir / "maps.exr", [&](const fs::path& t) { files::write_exr(t, maps, exr); });
+    write_maps_exr();
     for (std::size_t i = 0; i < previews.size() + 2; ++i) encode(i);
   }
-  // The same channels for Fiji, napari and Python (ome_tiff.hpp).
-  commit(dir / "maps.ome.tiff", [&](const fs::path& t) { write_maps_ome_tiff(t, maps, {0, threads}); });
-  for (const Encoded& e : encoded)
-    commit(dir / e.file, [&](const fs::path& t) {
-      std::ofstream out(t, std::ios::binary);
-      out.write(reinterpret_cast<const char*>(e.bytes.data()), static_cast<std::streamsize>(e.bytes.size()));
-      if (!out.flush()) throw std::runtime_error("cannot write " + t.string());
-    });
-  commit(dir / "summary.json", [&](const fs::path& t) {
-    std::ofstream out(t);
-    out << summary_text;
+  return encoded;
+}
+
+void commit_bytes(const FileCommit& commit, const fs::path& path, std::span<const std::uint8_t> bytes) {
+  commit(path, [&](const fs::path& t) {
+    std::ofstream out(t, std::ios::binary);
+    out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
     if (!out.flush()) throw std::runtime_error("cannot write " + t.string());
   });
+}
+
+}  // namespace
+
+std::string write_estimate_report(const fs::path& dir, const EstimateReport& report, const FileCommit& commit,
+                                  int writer_threads) {
+  const int threads = files::exr_writer_threads(writer_threads);
+  const ReportMaps maps = report_maps(report);
+  const std::string summary_text = report_summary_text(report, maps);
+  const files::ExrWriteOptions exr{threads};
+  const std::vector<EncodedFile> encoded = encode_previews_while(report, maps, threads, [&] {
+    commit(dir / "maps.exr", [&](const fs::path& t) { files::write_exr(t, maps.maps, exr); });
+  });
+  // The same channels for Fiji, napari and Python (ome_tiff.hpp).
+  commit(dir / "maps.ome.tiff", [&](const fs::path& t) { write_maps_ome_tiff(t, maps.maps, {0, threads}); });
+  for (const EncodedFile& e : encoded) commit_bytes(commit, dir / e.file, e.bytes);
+  commit_bytes(commit, dir / "summary.json",
+               {reinterpret_cast<const std::uint8_t*>(summary_text.data()), summary_text.size()});
   return summary_text;
 }
 
@@ -316,15 +349,17 @@ DeltaEStats block_mean_delta_e94(std::span<const std::size_t> included, std::spa
     Eigen::Vector3d photo = Eigen::Vector3d::Zero(), relit = Eigen::Vector3d::Zero();
     int cells = 0;
   };
-  std::map<std::pair<std::size_t, std::size_t>, Sums> blocks;
+  // Blocks row-major (a vector, not a map: 2.4 M look-ups at 5 MP); `included` ascends.
   const auto w = static_cast<std::size_t>(width), b = static_cast<std::size_t>(block);
+  const std::size_t columns = (w + b - 1) / b, rows = included.empty() ? 0 : included.back() / w / b + 1;
+  std::vector<Sums> blocks(rows * columns);
   for (std::size_t k = 0; k < included.size(); ++k) {
     if (!photographed[k].allFinite() || !reconstructed[k].allFinite()) continue;
-    Sums& sums = blocks[{included[k] / w / b, included[k] % w / b}];
+    Sums& sums = blocks[included[k] / w / b * columns + included[k] % w / b];
     sums.photo += photographed[k], sums.relit += reconstructed[k], ++sums.cells;
   }
   std::vector<Eigen::Vector3d> photo_means, relit_means;
-  for (const auto& [where, sums] : blocks)
+  for (const Sums& sums : blocks)
     if (2 * sums.cells >= block * block) {
       photo_means.push_back(sums.photo / sums.cells);
       relit_means.push_back(sums.relit / sums.cells);
@@ -354,7 +389,10 @@ std::vector<RelitComparison> compare_with_photographs(std::span<const estimation
   if (options.model == RelitModel::kTable && !photographs.empty()) {
     std::vector<spectral::Spectrum> illuminants;
     for (const auto& photo : photographs) illuminants.push_back(photo.illuminant);
-    const RelitTable table(camera, illuminants, options.grid, options.cache_dir, options.threads);
+    std::shared_ptr<const RelitTable> relit = options.prepared;
+    if (relit && relit->key() != RelitTable::cache_key(camera, illuminants, options.grid)) relit.reset();
+    if (!relit) relit = std::make_shared<const RelitTable>(camera, illuminants, options.grid, options.cache_dir, options.threads);
+    const RelitTable& table = *relit;
     std::vector<estimation::SkinParameters> parameters(included.size());
     for (std::size_t k = 0; k < included.size(); ++k) parameters[k] = estimates[included[k]].parameters;
     reconstructed = table.rgb(parameters, options.threads);
@@ -409,6 +447,15 @@ std::vector<RelitComparison> compare_with_photographs(std::span<const estimation
   return out;
 }
 
+namespace {
+
+// Where the session's tables are cached (options.cache_dir, else the default).
+std::filesystem::path table_cache_dir(const MethodEstimationOptions& options) {
+  return options.cache_dir.empty() ? estimation::ForwardTable::default_cache_dir() : options.cache_dir;
+}
+
+}  // namespace
+
 estimation::EstimatorOptions default_estimator_options() {
   estimation::EstimatorOptions options;
   options.discrepancy = estimation::ModelDiscrepancy::standard();
@@ -416,7 +463,8 @@ estimation::EstimatorOptions default_estimator_options() {
 }
 
 PreparedTables prepare_tables(const estimation::MeasurementSet& set, const MethodEstimationOptions& options,
-                              std::span<const PreparedTables* const> earlier) {
+                              std::span<const PreparedTables* const> earlier,
+                              std::span<const spectral::Spectrum> photograph_illuminants) {
   PreparedTables prepared;
   prepared.set = set;
   auto t = std::chrono::steady_clock::now();
@@ -425,8 +473,15 @@ PreparedTables prepare_tables(const estimation::MeasurementSet& set, const Metho
     if (other && other->table && other->table->key() == key) prepared.table = other->table;
   if (!prepared.table)
     prepared.table = estimation::ForwardTable::load_or_build(
-        set, options.grid, options.cache_dir.empty() ? estimation::ForwardTable::default_cache_dir() : options.cache_dir,
-        &prepared.table_rebuilt, options.estimator.threads);
+        set, options.grid, table_cache_dir(options), &prepared.table_rebuilt, options.estimator.threads);
+  if (options.relit_model == RelitModel::kTable && !photograph_illuminants.empty()) {
+    const std::uint64_t relit_key = RelitTable::cache_key(set.camera, photograph_illuminants, options.grid);
+    for (const PreparedTables* other : earlier)
+      if (other && other->relit && other->relit->key() == relit_key) prepared.relit = other->relit;
+    if (!prepared.relit)
+      prepared.relit = std::make_shared<const RelitTable>(set.camera, photograph_illuminants, options.grid,
+                                                          table_cache_dir(options), options.estimator.threads);
+  }
   prepared.table_seconds = seconds_since(t);
   t = std::chrono::steady_clock::now();
   estimation::EstimatorOptions estimator_options = options.estimator;
@@ -535,57 +590,62 @@ PolarisationOutputs polarisation_outputs(const session::MethodMeasurement& m, co
   return out;
 }
 
-// Everything after the measurement: tables, estimate, spatial pass, report.
-MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m, const spectral::CameraSensitivity& camera,
-                                            double white_reflectance, std::chrono::steady_clock::time_point start, double measurement_seconds,
-                                            const MethodEstimationOptions& options, const fs::path& out_dir,
-                                            const FileCommit& commit, const files::Progress& progress,
-                                            const std::string& extra_json, const PreparedTables* prepared) {
-  auto t = start;
-
-  // The tables: kept in memory since the references were in (the on-line
-  // estimator), else loaded from the disk cache or built.
-  const bool in_memory = prepared && same_measurement_set(prepared->set, m.set);
-  PreparedTables loaded;
-  if (!in_memory) loaded = prepare_tables(m.set, options);
-  const double table_seconds = in_memory ? 0.0 : loaded.table_seconds;
-  const double inverter_seconds = in_memory ? 0.0 : loaded.inverter_seconds;
-  const PreparedTables& tables = in_memory ? *prepared : loaded;
-  const bool rebuilt = in_memory ? false : loaded.table_rebuilt;
-  const auto& table = tables.table;
-  const estimation::Estimator& estimator = *tables.estimator;
-  std::vector<estimation::PixelEstimate> estimates(m.measured.size() / static_cast<std::size_t>(m.set.size()));
-  MethodEstimationResult result;
-  result.summary = estimator.estimate(m.measured, estimates, progress);
+// The estimates of every pixel, the spatial pass over them, and the pixels
+// outside the white's footprint and on the white target marked (result.summary, pixels_per_second set).
+struct PixelEstimates {
+  std::vector<estimation::PixelEstimate> estimates;
+  estimation::NeighbourhoodSummary neighbourhood;
+  double neighbourhood_seconds = 0;
+};
+PixelEstimates estimate_pixels(const session::MethodMeasurement& m, const estimation::Estimator& estimator,
+                               double white_reflectance, const MethodEstimationOptions& options,
+                               const files::Progress& progress, MethodEstimationResult& result) {
+  PixelEstimates out;
+  out.estimates.resize(m.measured.size() / static_cast<std::size_t>(m.set.size()));
+  result.summary = estimator.estimate(m.measured, out.estimates, progress);
   if (result.summary.cancelled) throw std::runtime_error("estimation cancelled");
   result.pixels_per_second =
-      result.summary.seconds > 0 ? static_cast<double>(estimates.size()) / result.summary.seconds : 0.0;
-  estimation::NeighbourhoodSummary neighbourhood;
-  t = std::chrono::steady_clock::now();
+      result.summary.seconds > 0 ? static_cast<double>(out.estimates.size()) / result.summary.seconds : 0.0;
+  const auto t = std::chrono::steady_clock::now();
   if (options.neighbourhood.flags || options.neighbourhood.pool_order)
-    neighbourhood = estimation::refine_with_neighbourhood(estimator, m.measured, m.width, m.height, estimates, result.summary,
-                                              options.neighbourhood);
-  const double neighbourhood_seconds = seconds_since(t);
-  mark_not_skin(m.no_reference, estimation::PixelFlag::kNoReference, estimates, result.summary);
-  mark_not_skin(white_target_pixels(m.measured, m.set, white_reflectance), estimation::PixelFlag::kWhiteTarget, estimates,
-                result.summary);
+    out.neighbourhood = estimation::refine_with_neighbourhood(estimator, m.measured, m.width, m.height, out.estimates,
+                                                              result.summary, options.neighbourhood);
+  out.neighbourhood_seconds = seconds_since(t);
+  mark_not_skin(m.no_reference, estimation::PixelFlag::kNoReference, out.estimates, result.summary);
+  mark_not_skin(white_target_pixels(m.measured, m.set, white_reflectance), estimation::PixelFlag::kWhiteTarget,
+                out.estimates, result.summary);
+  return out;
+}
 
-  t = std::chrono::steady_clock::now();
+// The relit comparison with the captured photographs.
+std::vector<RelitComparison> relit_against_photographs(const session::MethodMeasurement& m,
+                                                       std::span<const estimation::PixelEstimate> estimates,
+                                                       const estimation::ForwardTable& table,
+                                                       const spectral::CameraSensitivity& camera,
+                                                       const MethodEstimationOptions& options,
+                                                       std::shared_ptr<const RelitTable> prepared_relit) {
   RelitComparisonOptions relit_options;
   relit_options.model = options.relit_model;
-  relit_options.grid = table->grid();
-  relit_options.cache_dir = options.cache_dir.empty() ? estimation::ForwardTable::default_cache_dir() : options.cache_dir;
+  relit_options.grid = table.grid();
+  relit_options.cache_dir = table_cache_dir(options);
+  relit_options.prepared = prepared_relit;
   relit_options.threads = options.estimator.threads;
   relit_options.image_width = m.width;
-  result.relit = compare_with_photographs(estimates, m.photographs, camera, relit_options);
-  const double relit_seconds = seconds_since(t);
-  const PolarisationOutputs polarisation = polarisation_outputs(m, result.summary);
-  result.registration = m.registration;
-  result.table_key = table->key();
+  return compare_with_photographs(estimates, m.photographs, camera, relit_options);
+}
 
+// What summary.json says of the measurement beyond the maps: the table, the
+// registration, noise, SNR, the captures, the spatial pass and the relit ΔE94
+// (added to extra_json's members).
+nlohmann::ordered_json measurement_report(const session::MethodMeasurement& m, const estimation::Estimator& estimator,
+                                          const estimation::ForwardTable& table, bool rebuilt, bool in_memory,
+                                          const PixelEstimates& pixels, double white_reflectance,
+                                          const MethodEstimationOptions& options,
+                                          std::span<const RelitComparison> relit_comparisons,
+                                          const std::string& extra_json) {
   auto extra = nlohmann::ordered_json::parse(extra_json);
   if (!extra.is_object()) throw std::invalid_argument("extra_json is not a JSON object");
-  extra["table"] = {{"key", files::cache_key_hex(table->key())}, {"nodes", table->grid().node_count()}, {"rebuilt", rebuilt}, {"tables_in_memory", in_memory}};
+  extra["table"] = {{"key", files::cache_key_hex(table.key())}, {"nodes", table.grid().node_count()}, {"rebuilt", rebuilt}, {"tables_in_memory", in_memory}};
   // The fast inverter's inverse table in the cache, so deleting the session
   // can remove the entries only it used (docs/daemon.md).
   if (const auto* fast = dynamic_cast<const estimation::FastInverter*>(&estimator.inverter()))
@@ -599,7 +659,7 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
                      {"saturation_albedo", c.noise.saturation_albedo}};
   extra["noise"] = noise;
   nlohmann::ordered_json snr = nlohmann::ordered_json::object();
-  for (const auto& c : channel_snr(m.set, m.measured, estimates, white_reflectance))
+  for (const auto& c : channel_snr(m.set, m.measured, pixels.estimates, white_reflectance))
     snr[c.channel] = {{"white", c.white}, {"skin", c.skin}, {"skin_albedo", c.skin_albedo}, {"skin_pixels", c.skin_pixels}};
   extra["snr"] = snr;
   nlohmann::ordered_json exposures = nlohmann::ordered_json::array();
@@ -609,9 +669,9 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
   extra["saturated_pixels"] = m.saturated_pixels;
   extra["no_reference_pixels"] = m.no_reference_pixels;
   extra["neighbourhood"] = nlohmann::ordered_json::parse(
-      neighbourhood_report_json(options.neighbourhood.flags, options.neighbourhood.pool_order, neighbourhood));
+      neighbourhood_report_json(options.neighbourhood.flags, options.neighbourhood.pool_order, pixels.neighbourhood));
   nlohmann::ordered_json relit = nlohmann::ordered_json::object();
-  for (const auto& r : result.relit) relit[r.illuminant] = relit_comparison_json(r);
+  for (const auto& r : relit_comparisons) relit[r.illuminant] = relit_comparison_json(r);
   extra["relit_delta_e94"] = {
       {"against", m.polarised() ? "the captured cross-polarised photographs (camera RGB albedo → XYZ by the "
                                   "ColorChecker-fitted matrix per illuminant)"
@@ -626,18 +686,50 @@ MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m,
                       "model's floor) stays"},
       {"reconstruction", relit_model_name(options.relit_model)},
       {"by_illuminant", relit}};
+  return extra;
+}
+
+// Everything after the measurement: tables, estimate, spatial pass, report.
+MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m, const spectral::CameraSensitivity& camera,
+                                            double white_reflectance, std::chrono::steady_clock::time_point start, double measurement_seconds,
+                                            const MethodEstimationOptions& options, const fs::path& out_dir,
+                                            const FileCommit& commit, const files::Progress& progress,
+                                            const std::string& extra_json, const PreparedTables* prepared) {
+  // The tables: kept in memory since the references were in (the on-line
+  // estimator), else loaded from the disk cache or built.
+  const bool in_memory = prepared && same_measurement_set(prepared->set, m.set);
+  PreparedTables loaded;
+  // Another set (e.g. the subject's noise at a metered exposure): the
+  // prepared forward table still serves where its key is the set's (same
+  // camera and illuminants), and the inverse table it holds where its key is.
+  const PreparedTables* const earlier[] = {prepared};
+  if (!in_memory) loaded = prepare_tables(m.set, options, prepared ? std::span(earlier) : std::span<const PreparedTables* const>());
+  const PreparedTables& tables = in_memory ? *prepared : loaded;
+  const auto& table = tables.table;
+  const estimation::Estimator& estimator = *tables.estimator;
+  MethodEstimationResult result;
+  const PixelEstimates pixels = estimate_pixels(m, estimator, white_reflectance, options, progress, result);
+
+  auto t = std::chrono::steady_clock::now();
+  result.relit = relit_against_photographs(m, pixels.estimates, *table, camera, options, prepared ? prepared->relit : nullptr);
+  const double relit_seconds = seconds_since(t);
+  const PolarisationOutputs polarisation = polarisation_outputs(m, result.summary);
+  result.registration = m.registration;
+  result.table_key = table->key();
+  nlohmann::ordered_json extra = measurement_report(m, estimator, *table, !in_memory && loaded.table_rebuilt, in_memory,
+                                                    pixels, white_reflectance, options, result.relit, extra_json);
 
   EstimateReport report;
   report.method = result.inverter = std::string(estimator.inverter().name());
   report.model = std::string(estimation::model_name(options.estimator.model));
   report.width = m.width, report.height = m.height;
   for (const auto& c : m.set.channels) report.channel_names.push_back(c.name);
-  report.estimates = estimates;
+  report.estimates = pixels.estimates;
   report.summary = result.summary;
   report.timings_s = {{"measurement_and_registration", measurement_seconds},
-                      {"table", table_seconds},
-                      {"inverter_setup", inverter_seconds},
-                      {"neighbourhood", neighbourhood_seconds},
+                      {"table", in_memory ? 0.0 : loaded.table_seconds},
+                      {"inverter_setup", in_memory ? 0.0 : loaded.inverter_seconds},
+                      {"neighbourhood", pixels.neighbourhood_seconds},
                       {"relit_comparison", relit_seconds},
                       {"total_before_writing", seconds_since(start)}};
   extra["highlights"] = polarisation.summary;

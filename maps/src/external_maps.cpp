@@ -324,7 +324,11 @@ bool ImportOptions::IsValid(std::string* error) const {
   return true;
 }
 
-ImportResult import_external_maps(const ExternalMaps& external, const session::MeasurementFile& m, const ImportOptions& options) {
+namespace {
+
+// The measurement's photograph (images[0], with R, G and B), once the options and sizes are checked.
+const session::MeasurementImage& checked_import(const ExternalMaps& external, const session::MeasurementFile& m,
+                                                const ImportOptions& options) {
   std::string error;
   if (!options.IsValid(&error)) throw std::invalid_argument(error);
   if (external.width != m.width || external.height != m.height)
@@ -338,57 +342,52 @@ ImportResult import_external_maps(const ExternalMaps& external, const session::M
     if (std::find(photo.channels.begin(), photo.channels.end(), c) == photo.channels.end())
       throw std::invalid_argument("measurement: images[0] (" + photo.name +
                                   ") must list channels R, G and B: it is the photograph of the comparison");
-  const estimation::MeasurementSet set = m.measurement_set();
-  set.validate();
-  const std::vector<float> measured = m.pixel_major();
-  const std::size_t pixels = static_cast<std::size_t>(m.width) * m.height;
-  const int channels = set.size();
-  auto table = estimation::ForwardTable::load_or_build(set, {},
-                                           options.cache_dir.empty() ? estimation::ForwardTable::default_cache_dir() : options.cache_dir,
-                                           nullptr, options.threads);
-  ImportResult result;
+  return photo;
+}
 
-  // 4D search, and the 2D inversion the mapping is fitted to.
-  auto t = std::chrono::steady_clock::now();
-  estimation::EstimatorOptions eo;
-  eo.method = options.search_4d, eo.model = estimation::ModelChoice::k4d, eo.threads = options.threads;
-  std::vector<estimation::PixelEstimate> fit4(pixels), fit2(pixels);
-  estimation::Estimator(table, set, eo).estimate(measured, fit4);
-  result.seconds_4d = seconds_since(t);
-  t = std::chrono::steady_clock::now();
-  eo.method = estimation::InverterMethod::k2d, eo.model = estimation::ModelChoice::k2d;
-  const estimation::Estimator estimator_2d(table, set, eo);
-  estimator_2d.estimate(measured, fit2);
-
-  // The compared pixels, their measurement and the estimator's weights
-  // (camera noise + the table's model error).
-  const double sigma_model = estimation::EstimatorOptions{}.model_sigma_relative;
-  result.compared.assign(pixels, 0);
+// The compared pixels (measurable in the 4D fit, finite imported values):
+// where they are, the imported values, the 2D inversion's log10 Cm and Ch,
+// and the measurement with the estimator's weights (camera noise + the
+// table's model error), `channels` per pixel.
+struct ComparedPixels {
   std::vector<std::size_t> where;
   std::vector<double> melanin, hemoglobin, log_cm, log_ch, values, weights;
-  for (std::size_t i = 0; i < pixels; ++i) {
+};
+ComparedPixels compared_pixels(const ExternalMaps& external, const estimation::MeasurementSet& set,
+                               std::span<const float> measured, std::span<const estimation::PixelEstimate> fit4,
+                               std::span<const estimation::PixelEstimate> fit2, std::vector<std::uint8_t>& compared) {
+  const int channels = set.size();
+  const double sigma_model = estimation::EstimatorOptions{}.model_sigma_relative;
+  compared.assign(fit4.size(), 0);
+  ComparedPixels out;
+  for (std::size_t i = 0; i < fit4.size(); ++i) {
     if (!measurable(fit4[i].flag) || !std::isfinite(external.melanin[i]) || !std::isfinite(external.hemoglobin[i]))
       continue;
-    result.compared[i] = 1;
-    where.push_back(i);
-    melanin.push_back(external.melanin[i]), hemoglobin.push_back(external.hemoglobin[i]);
-    log_cm.push_back(std::log10(fit2[i].parameters.cm)), log_ch.push_back(std::log10(fit2[i].parameters.ch));
+    compared[i] = 1;
+    out.where.push_back(i);
+    out.melanin.push_back(external.melanin[i]), out.hemoglobin.push_back(external.hemoglobin[i]);
+    out.log_cm.push_back(std::log10(fit2[i].parameters.cm)), out.log_ch.push_back(std::log10(fit2[i].parameters.ch));
     for (int c = 0; c < channels; ++c) {
       const double a = measured[i * channels + c];
-      values.push_back(a);
-      weights.push_back(1.0 / std::sqrt(set.channels[c].noise.variance(a) + std::pow(sigma_model * std::max(a, 0.0), 2)));
+      out.values.push_back(a);
+      out.weights.push_back(1.0 / std::sqrt(set.channels[c].noise.variance(a) + std::pow(sigma_model * std::max(a, 0.0), 2)));
     }
   }
-  // Start: isotonic regression on the per-pixel 2D inversion; then the bins'
-  // values refitted to the measurement's χ² in the 2D model (two rounds, each
-  // axis with the other's current mapping).
+  return out;
+}
+
+// The two mappings: isotonic regression on the per-pixel 2D inversion; then
+// the bins' values refitted to the measurement's χ² in the 2D model (two
+// rounds, each axis with the other's current mapping).
+void fit_mappings(const ComparedPixels& p, const estimation::ForwardTable& table, int channels,
+                  const ImportOptions& options, ImportResult& result) {
   try {
-    result.cm_mapping = fit_monotone_mapping(melanin, log_cm, options.mapping_bins, options.direction);
+    result.cm_mapping = fit_monotone_mapping(p.melanin, p.log_cm, options.mapping_bins, options.direction);
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument(std::string("melanin: ") + e.what());
   }
   try {
-    result.ch_mapping = fit_monotone_mapping(hemoglobin, log_ch, options.mapping_bins, options.direction);
+    result.ch_mapping = fit_monotone_mapping(p.hemoglobin, p.log_ch, options.mapping_bins, options.direction);
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument(std::string("hemoglobin: ") + e.what());
   }
@@ -399,28 +398,33 @@ ImportResult import_external_maps(const ExternalMaps& external, const session::M
     return out;
   };
   auto chi2_2d = [&](std::size_t item, double log_cm_value, double log_ch_value) {
-    estimation::ChannelBuffer<double> predicted(table->channels());
-    table->predict(table->to_grid({std::pow(10.0, log_cm_value), std::pow(10.0, log_ch_value), 0.7, 0.0}), predicted);
+    estimation::ChannelBuffer<double> predicted(table.channels());
+    table.predict(table.to_grid({std::pow(10.0, log_cm_value), std::pow(10.0, log_ch_value), 0.7, 0.0}), predicted);
     double sum = 0;
     for (int c = 0; c < channels; ++c)
-      sum += std::pow((predicted[c] - values[item * channels + c]) * weights[item * channels + c], 2);
+      sum += std::pow((predicted[c] - p.values[item * channels + c]) * p.weights[item * channels + c], 2);
     return 25.0 * std::log1p(sum / 25.0);  // robust: see the header
   };
   for (int round = 0; round < 2; ++round) {
-    result.ch_mapping = fit_monotone_mapping_to_loss(hemoglobin, options.mapping_bins, candidates(estimation::kChRange),
+    result.ch_mapping = fit_monotone_mapping_to_loss(p.hemoglobin, options.mapping_bins, candidates(estimation::kChRange),
                                                      [&](std::size_t item, double v) {
-                                                       return chi2_2d(item, result.cm_mapping.log10_at(melanin[item]), v);
+                                                       return chi2_2d(item, result.cm_mapping.log10_at(p.melanin[item]), v);
                                                      }, options.direction);
-    result.cm_mapping = fit_monotone_mapping_to_loss(melanin, options.mapping_bins, candidates(estimation::kCmRange),
+    result.cm_mapping = fit_monotone_mapping_to_loss(p.melanin, options.mapping_bins, candidates(estimation::kCmRange),
                                                      [&](std::size_t item, double v) {
-                                                       return chi2_2d(item, v, result.ch_mapping.log10_at(hemoglobin[item]));
+                                                       return chi2_2d(item, v, result.ch_mapping.log10_at(p.hemoglobin[item]));
                                                      }, options.direction);
   }
+}
 
-  result.mapped_2d = {"2D mapping", empty_maps(m.width, m.height), {}, {}, {}};
-  result.augmented = {"augmented", empty_maps(m.width, m.height), {}, {}, {}};
-  result.search_4d = {"4D search", empty_maps(m.width, m.height), {}, {}, {}};
-  for (std::size_t i = 0; i < pixels; ++i) {
+// The 4D search's maps as fitted, and the 2D mapping's: the mapped imported
+// values where compared, flag 1 (or the 4D flag) elsewhere.
+void fill_4d_and_mapped(const ExternalMaps& external, std::span<const estimation::PixelEstimate> fit4, int width,
+                        int height, ImportResult& result) {
+  result.mapped_2d = {"2D mapping", empty_maps(width, height), {}, {}, {}};
+  result.augmented = {"augmented", empty_maps(width, height), {}, {}, {}};
+  result.search_4d = {"4D search", empty_maps(width, height), {}, {}, {}};
+  for (std::size_t i = 0; i < fit4.size(); ++i) {
     const float flag = static_cast<float>(static_cast<int>(fit4[i].flag));
     result.search_4d.maps.flags[i] = flag;
     set_pixel(result.search_4d.maps, i, fit4[i].parameters);
@@ -433,22 +437,26 @@ ImportResult import_external_maps(const ExternalMaps& external, const session::M
                                 0.7, 0.0};
     set_pixel(result.mapped_2d.maps, i, mapped);
   }
-  result.seconds_2d = seconds_since(t);
+}
 
-  // Augmented: the prior fit per pixel.
-  t = std::chrono::steady_clock::now();
-  const PriorFit prior_fit(*table, options.prior_sigma_log10, options.augment_iterations);
-  const long long n = static_cast<long long>(where.size());
+// Augmented: the prior fit per compared pixel, starting from the 2D mapping.
+void fit_augmented(const ComparedPixels& p, const estimation::ForwardTable& table, int channels,
+                   const ImportOptions& options, ImportResult& result) {
+  const PriorFit prior_fit(table, options.prior_sigma_log10, options.augment_iterations);
+  const long long n = static_cast<long long>(p.where.size());
 #pragma omp parallel for schedule(dynamic, 256) num_threads(options.threads > 0 ? options.threads : omp_get_max_threads())
   for (long long item = 0; item < n; ++item) {
-    const std::size_t i = where[item];
-    const estimation::GridPoint prior = table->to_grid(parameters_at(result.mapped_2d.maps, i));
+    const std::size_t i = p.where[item];
+    const estimation::GridPoint prior = table.to_grid(parameters_at(result.mapped_2d.maps, i));
     set_pixel(result.augmented.maps, i,
-              table->from_grid(prior_fit.fit(&values[item * channels], &weights[item * channels], prior[0], prior[1])));
+              table.from_grid(prior_fit.fit(&p.values[item * channels], &p.weights[item * channels], prior[0], prior[1])));
   }
-  result.seconds_augmented = seconds_since(t);
+}
 
-  // Comparison against the photograph.
+// Each method's reconstruction under the photograph's illuminant and its ΔE94 against the photograph.
+void compare_with_photograph(const session::MeasurementImage& photo, const session::MeasurementFile& m,
+                             const ImportOptions& options, ImportResult& result) {
+  const std::size_t pixels = static_cast<std::size_t>(m.width) * m.height;
   result.photograph_name = photo.name;
   result.photograph_rgb.resize(3 * pixels);
   for (int c = 0; c < 3; ++c) {
@@ -474,6 +482,43 @@ ImportResult import_external_maps(const ExternalMaps& external, const session::M
         finite.push_back(method->delta_e94[i]);
     method->stats = delta_e_stats(std::move(finite));
   }
+}
+
+}  // namespace
+
+ImportResult import_external_maps(const ExternalMaps& external, const session::MeasurementFile& m, const ImportOptions& options) {
+  const session::MeasurementImage& photo = checked_import(external, m, options);
+  const estimation::MeasurementSet set = m.measurement_set();
+  set.validate();
+  const std::vector<float> measured = m.pixel_major();
+  const std::size_t pixels = static_cast<std::size_t>(m.width) * m.height;
+  const int channels = set.size();
+  auto table = estimation::ForwardTable::load_or_build(set, {},
+                                           options.cache_dir.empty() ? estimation::ForwardTable::default_cache_dir() : options.cache_dir,
+                                           nullptr, options.threads);
+  ImportResult result;
+
+  // 4D search, and the 2D inversion the mapping is fitted to.
+  auto t = std::chrono::steady_clock::now();
+  estimation::EstimatorOptions eo;
+  eo.method = options.search_4d, eo.model = estimation::ModelChoice::k4d, eo.threads = options.threads;
+  std::vector<estimation::PixelEstimate> fit4(pixels), fit2(pixels);
+  estimation::Estimator(table, set, eo).estimate(measured, fit4);
+  result.seconds_4d = seconds_since(t);
+  t = std::chrono::steady_clock::now();
+  eo.method = estimation::InverterMethod::k2d, eo.model = estimation::ModelChoice::k2d;
+  const estimation::Estimator estimator_2d(table, set, eo);
+  estimator_2d.estimate(measured, fit2);
+  const ComparedPixels compared = compared_pixels(external, set, measured, fit4, fit2, result.compared);
+  fit_mappings(compared, *table, channels, options, result);
+  fill_4d_and_mapped(external, fit4, m.width, m.height, result);
+  result.seconds_2d = seconds_since(t);
+
+  t = std::chrono::steady_clock::now();
+  fit_augmented(compared, *table, channels, options, result);
+  result.seconds_augmented = seconds_since(t);
+
+  compare_with_photograph(photo, m, options, result);
   return result;
 }
 

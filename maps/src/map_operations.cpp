@@ -198,18 +198,16 @@ RelightSummary relight_to_files(const RelightOptions& options) {
 
 // ---------------------------------------------------------------- flush
 
-FlushSummary flush_to_files(const FlushOptions& options) {
-  LoadedMaps loaded = load_maps(options.maps);
-  ParameterMaps& maps = loaded.maps;
-  const NamedSpectrum illuminant = illuminant_field(options.illuminant);
-  check_out(options.out);
+namespace {
+
+// The flush's mask (0-1 per pixel, feathered) from its one shape, once the options are checked.
+cv::Mat checked_flush_mask(const FlushOptions& options, int w, int h) {
   const int shapes = int(options.ellipse.has_value()) + int(options.polygon.has_value()) + int(!options.mask.empty());
   if (shapes != 1) throw field_error("mask", "give exactly one of ellipse, polygon or a mask file");
   if (!(options.feather_px >= 0) || !std::isfinite(options.feather_px)) throw field_error("feather_px", "must be ≥ 0");
   for (const auto& [name, s] : {std::pair{"scale.cm", options.scale.cm}, std::pair{"scale.ch", options.scale.ch},
                                 std::pair{"scale.bm", options.scale.bm}, std::pair{"scale.che", options.scale.che}})
     if (!(s > 0) || !std::isfinite(s)) throw field_error(name, "must be a finite factor > 0");
-  const int w = maps.width, h = maps.height;
   cv::Mat mask;
   try {
     if (options.ellipse) mask = ellipse_mask(w, h, *options.ellipse, options.feather_px);
@@ -225,13 +223,18 @@ FlushSummary flush_to_files(const FlushOptions& options) {
     }
   }
   if (cv::countNonZero(mask) == 0) throw field_error("mask", "selects no pixel of the " + std::to_string(w) + "x" + std::to_string(h) + " maps");
+  return mask;
+}
 
-  const ParameterMaps before = maps;
-  FlushSummary summary;
-  summary.illuminant = illuminant.name;
-  summary.edit = scale_parameters(maps, mask, options.scale);
-
-  // Relight both through XYZ: sRGB previews and the ΔE94 of the change.
+// The maps before and after the edit relit through XYZ: linear sRGB of both,
+// and the ΔE94 of the change per pixel (NaN where the maps relight nothing).
+struct FlushRelit {
+  std::vector<float> srgb_before, srgb_after;
+  std::vector<double> change;
+  std::vector<std::uint8_t> valid;
+};
+FlushRelit relight_before_and_after(const ParameterMaps& before, const ParameterMaps& after,
+                                    const NamedSpectrum& illuminant, int threads) {
   spectral::CameraWeights xyz_weights;
   for (int k = 0; k < spectral::kGridSize; ++k) {
     spectral::Spectrum impulse;
@@ -240,21 +243,87 @@ FlushSummary flush_to_files(const FlushOptions& options) {
     xyz_weights(0, k) = x.X, xyz_weights(1, k) = x.Y, xyz_weights(2, k) = x.Z;
   }
   const spectral::Xyz white = spectral::white_point(illuminant.spectrum);
-  const RelitImage xyz_before = relight(before, xyz_weights, options.threads);
-  const RelitImage xyz_after = relight(maps, xyz_weights, options.threads);
-  const std::size_t pixels = static_cast<std::size_t>(w) * h;
-  std::vector<float> srgb_before(3 * pixels), srgb_after(3 * pixels);
-  std::vector<double> change(pixels, std::numeric_limits<double>::quiet_NaN()), touched;
+  const RelitImage xyz_before = relight(before, xyz_weights, threads);
+  const RelitImage xyz_after = relight(after, xyz_weights, threads);
+  const std::size_t pixels = static_cast<std::size_t>(before.width) * before.height;
+  FlushRelit out{std::vector<float>(3 * pixels), std::vector<float>(3 * pixels),
+                 std::vector<double>(pixels, std::numeric_limits<double>::quiet_NaN()), xyz_before.valid};
   for (std::size_t i = 0; i < pixels; ++i) {
     if (!xyz_before.valid[i]) continue;
     const spectral::Xyz a{xyz_before.rgb[3 * i], xyz_before.rgb[3 * i + 1], xyz_before.rgb[3 * i + 2]};
     const spectral::Xyz b{xyz_after.rgb[3 * i], xyz_after.rgb[3 * i + 1], xyz_after.rgb[3 * i + 2]};
     const spectral::Rgb ra = spectral::linear_srgb_from_xyz(a, white), rb = spectral::linear_srgb_from_xyz(b, white);
-    srgb_before[3 * i] = ra.r, srgb_before[3 * i + 1] = ra.g, srgb_before[3 * i + 2] = ra.b;
-    srgb_after[3 * i] = rb.r, srgb_after[3 * i + 1] = rb.g, srgb_after[3 * i + 2] = rb.b;
-    change[i] = spectral::delta_e94(spectral::lab_from_xyz(a, white), spectral::lab_from_xyz(b, white));
-    if (mask.ptr<float>()[i] > 0 && maps.flags[i] == 0.0f) touched.push_back(change[i]);
+    out.srgb_before[3 * i] = ra.r, out.srgb_before[3 * i + 1] = ra.g, out.srgb_before[3 * i + 2] = ra.b;
+    out.srgb_after[3 * i] = rb.r, out.srgb_after[3 * i + 1] = rb.g, out.srgb_after[3 * i + 2] = rb.b;
+    out.change[i] = spectral::delta_e94(spectral::lab_from_xyz(a, white), spectral::lab_from_xyz(b, white));
   }
+  return out;
+}
+
+// flush.json's text.
+std::string flush_json(const FlushOptions& options, const FlushSummary& summary) {
+  ordered_json j;
+  j["maps"] = options.maps.string();
+  j["illuminant"] = summary.illuminant;
+  j["scale"] = {{"cm", options.scale.cm}, {"ch", options.scale.ch}, {"bm", options.scale.bm}, {"che", options.scale.che}};
+  j["feather_px"] = options.feather_px;
+  j["pixels_touched"] = summary.edit.pixels_touched;
+  j["values_clamped"] = summary.edit.values_clamped;
+  j["clamped_share"] = summary.edit.clamped_share;
+  j["clamped"] = {{"cm", summary.edit.clamped_cm}, {"ch", summary.edit.clamped_ch}, {"bm", summary.edit.clamped_bm},
+                  {"che", summary.edit.clamped_che}};
+  j["change_delta_e94"] = delta_e_stats_json(summary.change_delta_e94);
+  return j.dump(2) + "\n";
+}
+
+// The PNGs of a flush: the mask, before, after, and the panel of before,
+// after with the mask's outline, and the change's ΔE94.
+struct FlushPictures {
+  cv::Mat mask8, before, after, panel;
+};
+FlushPictures flush_pictures(const FlushOptions& options, const FlushSummary& summary, const cv::Mat& mask,
+                             const FlushRelit& relit, int w, int h) {
+  std::string factors;
+  for (const auto& [name, factor] : {std::pair{"Cm", options.scale.cm}, std::pair{"Ch", options.scale.ch},
+                                     std::pair{"Bm", options.scale.bm}, std::pair{"Che", options.scale.che}})
+    if (factor != 1.0) factors += std::string(factors.empty() ? "" : " ") + name + " x" + number(factor);
+  FlushPictures out;
+  out.before = srgb_preview(relit.srgb_before, w, h, relit.valid);
+  out.after = srgb_preview(relit.srgb_after, w, h, relit.valid);
+  mask.convertTo(out.mask8, CV_8U, 255.0);
+  cv::Mat hard;
+  cv::threshold(out.mask8, hard, 127, 255, cv::THRESH_BINARY);
+  std::vector<std::vector<cv::Point>> outline;
+  cv::findContours(hard, outline, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  cv::Mat after_outlined = out.after.clone();
+  cv::drawContours(after_outlined, outline, -1, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+  out.panel = side_by_side(
+      {{"before (" + summary.illuminant + ")", out.before},
+       {"after (mask outline)", after_outlined},
+       {"dE94 of the change", heat_map_with_bar(relit.change, w, h, std::max(1.0, summary.change_delta_e94.max), "dE94")}},
+      factors + "; clamped " + number(100 * summary.edit.clamped_share, 1) + "%; change dE94 " +
+          stats_caption(summary.change_delta_e94));
+  return out;
+}
+
+}  // namespace
+
+FlushSummary flush_to_files(const FlushOptions& options) {
+  LoadedMaps loaded = load_maps(options.maps);
+  ParameterMaps& maps = loaded.maps;
+  const NamedSpectrum illuminant = illuminant_field(options.illuminant);
+  check_out(options.out);
+  const int w = maps.width, h = maps.height;
+  const cv::Mat mask = checked_flush_mask(options, w, h);
+
+  const ParameterMaps before = maps;
+  FlushSummary summary;
+  summary.illuminant = illuminant.name;
+  summary.edit = scale_parameters(maps, mask, options.scale);
+  const FlushRelit relit = relight_before_and_after(before, maps, illuminant, options.threads);
+  std::vector<double> touched;
+  for (std::size_t i = 0; i < relit.change.size(); ++i)
+    if (relit.valid[i] && mask.ptr<float>()[i] > 0 && maps.flags[i] == 0.0f) touched.push_back(relit.change[i]);
   summary.change_delta_e94 = delta_e_stats(touched);
 
   files::FloatImage edited = loaded.image;
@@ -265,46 +334,15 @@ FlushSummary flush_to_files(const FlushOptions& options) {
     if (name == "Bm") edited.channels[c] = maps.bm;
     if (name == "Che") edited.channels[c] = maps.che;
   }
-  ordered_json j;
-  j["maps"] = options.maps.string();
-  j["illuminant"] = illuminant.name;
-  j["scale"] = {{"cm", options.scale.cm}, {"ch", options.scale.ch}, {"bm", options.scale.bm}, {"che", options.scale.che}};
-  j["feather_px"] = options.feather_px;
-  j["pixels_touched"] = summary.edit.pixels_touched;
-  j["values_clamped"] = summary.edit.values_clamped;
-  j["clamped_share"] = summary.edit.clamped_share;
-  j["clamped"] = {{"cm", summary.edit.clamped_cm}, {"ch", summary.edit.clamped_ch}, {"bm", summary.edit.clamped_bm},
-                  {"che", summary.edit.clamped_che}};
-  j["change_delta_e94"] = delta_e_stats_json(summary.change_delta_e94);
-  summary.json = j.dump(2) + "\n";
-
-  std::string factors;
-  for (const auto& [name, factor] : {std::pair{"Cm", options.scale.cm}, std::pair{"Ch", options.scale.ch},
-                                     std::pair{"Bm", options.scale.bm}, std::pair{"Che", options.scale.che}})
-    if (factor != 1.0) factors += std::string(factors.empty() ? "" : " ") + name + " x" + number(factor);
-  const std::vector<std::uint8_t> valid = xyz_before.valid;
-  cv::Mat after_preview = srgb_preview(srgb_after, w, h, valid);
-  cv::Mat mask8;
-  mask.convertTo(mask8, CV_8U, 255.0);
-  cv::Mat hard;
-  cv::threshold(mask8, hard, 127, 255, cv::THRESH_BINARY);
-  std::vector<std::vector<cv::Point>> outline;
-  cv::findContours(hard, outline, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
-  cv::Mat after_outlined = after_preview.clone();
-  cv::drawContours(after_outlined, outline, -1, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
-  const cv::Mat panel = side_by_side(
-      {{"before (" + illuminant.name + ")", srgb_preview(srgb_before, w, h, valid)},
-       {"after (mask outline)", after_outlined},
-       {"dE94 of the change", heat_map_with_bar(change, w, h, std::max(1.0, summary.change_delta_e94.max), "dE94")}},
-      factors + "; clamped " + number(100 * summary.edit.clamped_share, 1) + "%; change dE94 " +
-          stats_caption(summary.change_delta_e94));
+  summary.json = flush_json(options, summary);
+  const FlushPictures pictures = flush_pictures(options, summary, mask, relit, w, h);
 
   files::OutputBatch files(options.out);
   files::write_exr(files.temporary("maps.exr"), edited);
-  write_png(files.temporary("mask.png").string(), mask8);
-  write_png(files.temporary("before.png").string(), srgb_preview(srgb_before, w, h, valid));
-  write_png(files.temporary("after.png").string(), after_preview);
-  write_png(files.temporary("panel.png").string(), panel);
+  write_png(files.temporary("mask.png").string(), pictures.mask8);
+  write_png(files.temporary("before.png").string(), pictures.before);
+  write_png(files.temporary("after.png").string(), pictures.after);
+  write_png(files.temporary("panel.png").string(), pictures.panel);
   files.write_text("flush.json", summary.json);
   summary.files = files.commit();
   return summary;

@@ -7,15 +7,30 @@
 
 namespace chromo::maps {
 
-RelitTable::RelitTable(const spectral::CameraSensitivity& camera, std::span<const spectral::Spectrum> illuminants,
-                       const estimation::TableGrid& grid, const std::filesystem::path& cache_dir, int threads)
-    : illuminants_(illuminants.size()) {
+namespace {
+
+// Three channels (camera R, G, B) per illuminant.
+estimation::MeasurementSet relit_set(const spectral::CameraSensitivity& camera, std::span<const spectral::Spectrum> illuminants) {
   if (illuminants.empty()) throw std::invalid_argument("relit table: no illuminant");
   estimation::MeasurementSet set;
   set.camera = camera;
   for (std::size_t i = 0; i < illuminants.size(); ++i)
     for (int c = 0; c < 3; ++c)
       set.channels.push_back({"illuminant" + std::to_string(i) + "." + "RGB"[c], illuminants[i], c, {}});
+  return set;
+}
+
+}  // namespace
+
+std::uint64_t RelitTable::cache_key(const spectral::CameraSensitivity& camera,
+                                    std::span<const spectral::Spectrum> illuminants, const estimation::TableGrid& grid) {
+  return estimation::ForwardTable::cache_key(relit_set(camera, illuminants), grid);
+}
+
+RelitTable::RelitTable(const spectral::CameraSensitivity& camera, std::span<const spectral::Spectrum> illuminants,
+                       const estimation::TableGrid& grid, const std::filesystem::path& cache_dir, int threads)
+    : illuminants_(illuminants.size()) {
+  const estimation::MeasurementSet set = relit_set(camera, illuminants);
   if (cache_dir.empty()) {
     table_ = std::make_shared<const estimation::ForwardTable>(estimation::ForwardTable::build(set, grid, threads));
   } else {

@@ -113,8 +113,9 @@ Reference reference_of(const IlluminatedCapture& capture, const RgbImage& dark) 
     auto& ws = out.white_signal[c];
     ws.resize(n);
     std::size_t clipped = 0;
+    const double scale = capture.white_signal_scale[c];
     for (std::size_t i = 0; i < n; ++i) {
-      ws[i] = w[i] - d[i];
+      ws[i] = scale == 1.0 ? w[i] - d[i] : static_cast<float>((w[i] - d[i]) * scale);
       if (w[i] >= kRawSaturated) ++clipped;
     }
     if (clipped > n / 1000)
@@ -124,7 +125,7 @@ Reference reference_of(const IlluminatedCapture& capture, const RgbImage& dark) 
     // Over the camera's footprint of the target only: a posed camera sees
     // it in perspective, dark around it.
     out.white_mean[c] = mean_of(ws, interior);
-    out.white_variance[c] = flat_noise_variance(w, dark.width, dark.height, interior);
+    out.white_variance[c] = flat_noise_variance(w, dark.width, dark.height, interior) * scale * scale;
     if (!(out.white_mean[c] > 1e-3))
       throw std::invalid_argument("white reference under " + capture.name + ": channel " + kChannelNames[c] +
                                   " is no brighter than the dark capture (white − dark = " +

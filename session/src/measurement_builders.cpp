@@ -137,6 +137,16 @@ MethodMeasurement build_plan_measurement(const PlanCaptures& captures, const Reg
 
 estimation::MeasurementSet method_set_from_references(const MethodCaptures& captures) { return references_of(captures).set; }
 
+std::vector<spectral::Spectrum> photograph_illuminants(const MethodCaptures& captures) {
+  return {captures.broadband.illuminant, captures.base.illuminant, captures.with_blue.illuminant};
+}
+
+std::vector<spectral::Spectrum> photograph_illuminants(const PlanCaptures& captures) {
+  std::vector<spectral::Spectrum> out;
+  for (const IlluminatedCapture& capture : captures.captures) out.push_back(capture.illuminant);
+  return out;
+}
+
 MethodMeasurement build_method_measurement(const MethodCaptures& captures, const RegistrationOptions& options) {
   References references = references_of(captures);
   const RgbImage& dark = captures.dark;

@@ -19,40 +19,44 @@ namespace chromo::session {
 
 namespace {
 
+// A white's and its subject's frames together: the capture's illuminant
+// (exactly the white's alone where the subject's levels are the same).
+spectral::Spectrum both_illuminants(IlluminantMean white, const IlluminantMean& subject) {
+  return (white += subject).mean();
+}
+
 const char* const kMixes[3] = {"d65", "w57", "w57+blue"};
 const char* const kParallelD65 = "d65:parallel";  // illumination_state of a D65' parallel step
 
 // The white reference as the subject's light would have lit it. Both are
 // taken under one mix, but the LEDs' junctions are at other temperatures
-// for each (the frames record theirs, the library has each LED's flux per
-// kelvin), so each channel of white − dark is scaled by
-// ∫S_c·E_subject / ∫S_c·E_white, and the capture's illuminant is the
-// subject's. Without a difference (no thermal record, or records of before
-// per-trigger temperatures) the capture is left as it was: the mean light
-// of both.
-void put_white_under_subject_light(IlluminatedCapture& capture, const RgbImage& dark,
-                                   const spectral::CameraSensitivity& camera, const spectral::Spectrum& white_light,
-                                   const spectral::Spectrum& subject_light) {
-  std::array<double, 3> ratio{};
+// for each (the frames record theirs, the library has each LED's flux and
+// centroid per kelvin), or the controller applied other levels to the
+// subject, so the white's signal above the dark in channel c
+// is to be scaled by ∫S_c·E_subject / ∫S_c·E_white (IlluminatedCapture::
+// white_signal_scale, applied where the albedo is formed, after the
+// white's saturation check). The capture's illuminant is then the white's,
+// the light the tables prepared during capture were made for (the albedo
+// is the subject's response to its own light, normalised as the model
+// normalises the white's: equal for a flat albedo, a second-order
+// difference otherwise). Without a difference (no thermal record, or
+// records of before per-trigger temperatures), and before the subject's
+// frames are in (the references alone), the capture is left as it was.
+void put_white_under_subject_light(IlluminatedCapture& capture, const spectral::CameraSensitivity& camera,
+                                   const spectral::Spectrum& white_light, const spectral::Spectrum& subject_light) {
+  if (!(subject_light.integral() > 0) || !(white_light.integral() > 0)) return;  // no subject frames yet
   bool differs = false;
+  std::array<double, 3> scale{1.0, 1.0, 1.0};
   for (int c = 0; c < 3; ++c) {
     const double white_signal = (camera.rgb[c] * white_light).integral();
-    ratio[c] = white_signal > 0 ? (camera.rgb[c] * subject_light).integral() / white_signal : 1.0;
-    differs = differs || ratio[c] != 1.0;
+    scale[c] = white_signal > 0 ? (camera.rgb[c] * subject_light).integral() / white_signal : 1.0;
+    differs = differs || scale[c] != 1.0;
   }
   if (!differs) return;
-  capture.illuminant = subject_light;
-  for (int c = 0; c < 3; ++c) {
-    auto& white = capture.white.planes[c];
-    const auto& black = dark.planes[c];
-    for (std::size_t i = 0; i < white.size() && i < black.size(); ++i)
-      white[i] = static_cast<float>(black[i] + (white[i] - black[i]) * ratio[c]);
-  }
+  capture.white_signal_scale = scale;
+  capture.illuminant = white_light;
 }
 
-spectral::Spectrum mean_light(const spectral::Spectrum& illuminant_sum, std::uint32_t frames) {
-  return illuminant_sum / static_cast<double>(std::max(1u, frames));
-}
 
 }  // namespace
 
@@ -153,7 +157,7 @@ void SessionCaptureBuilder::count_frame(const FrameRecord& record, StepSum& s, c
                                         StepSums& fresh_camera) {
   ++s.frames;
   s.exposure_us = record.exposure_us;
-  s.illuminant_sum += illuminant;
+  s.illuminant.add(illuminant);
   if (!by_camera_.count(record.camera)) {  // the camera's first frame: its own sums from the plan's
     by_camera_.emplace(record.camera, std::move(fresh_camera));
     cameras_.push_back(record.camera);
@@ -249,10 +253,8 @@ PlanCaptures SessionCaptureBuilder::plan_captures(const std::string& camera) con
     capture.white = mean_image(camera, white);
     capture.subject = mean_image(camera, subject);
     capture.white_linearity = linearity_white(camera, steps, state.key);
-    capture.illuminant = (white.illuminant_sum + subject.illuminant_sum) /
-                         static_cast<double>(std::max(1u, white.frames + subject.frames));
-    put_white_under_subject_light(capture, c.dark, c.camera, mean_light(white.illuminant_sum, white.frames),
-                                  mean_light(subject.illuminant_sum, subject.frames));
+    capture.illuminant = both_illuminants(white.illuminant, subject.illuminant);
+    put_white_under_subject_light(capture, c.camera, white.illuminant.mean(), subject.illuminant.mean());
     c.captures.push_back(std::move(capture));
   }
   return c;
@@ -280,10 +282,8 @@ MethodCaptures SessionCaptureBuilder::captures(const std::string& camera) const 
     target->subject = mean_image(camera, subject);
     target->white_linearity = linearity_white(camera, steps, mix);
     // The illuminant as the sphere emitted it for both captures (white and subject).
-    target->illuminant = (white.illuminant_sum + subject.illuminant_sum) / static_cast<double>(
-                                                                               std::max(1u, white.frames + subject.frames));
-    put_white_under_subject_light(*target, c.dark, c.camera, mean_light(white.illuminant_sum, white.frames),
-                                  mean_light(subject.illuminant_sum, subject.frames));
+    target->illuminant = both_illuminants(white.illuminant, subject.illuminant);
+    put_white_under_subject_light(*target, c.camera, white.illuminant.mean(), subject.illuminant.mean());
   }
   return c;
 }

@@ -158,16 +158,12 @@ SessionInfo SessionStore::read_session(const std::filesystem::path& folder) cons
       int index = record.value("index", -1);
       if (index >= 0 && index < static_cast<int>(info.steps.size())) info.steps[static_cast<std::size_t>(index)].completed = true;
     } else if (type == "counters") {
-      info.record.counters.estimated = record.value("estimated", 0ull);
-      info.record.counters.estimator_skipped = record.value("estimator_skipped", 0ull);
-      info.record.counters.resent_packets = record.value("resent_packets", 0ull);
-      info.record.counters.max_estimator_queue_depth = record.value("max_estimator_queue_depth", 0ull);
-      info.record.counters.estimator_read_back = record.value("estimator_read_back", 0ull);
-      const auto skipped = record.value("skipped_reasons", nlohmann::json::object());
-      for (const auto& [reason, count] : skipped.items())
-        info.record.counters.skipped_reasons[reason] = count.get<std::uint64_t>();
-      info.record.counters.mean_trigger_to_stored_ms = record.value("mean_trigger_to_stored_ms", 0.0);
-      info.record.counters.max_trigger_to_stored_ms = record.value("max_trigger_to_stored_ms", 0.0);
+      // received, stored and lost are counted from the frame records themselves.
+      PipelineCounters recorded = counters_from_record(record);
+      PipelineCounters& counters = info.record.counters;
+      recorded.received = counters.received, recorded.stored = counters.stored, recorded.lost = counters.lost;
+      recorded.lost_reasons = std::move(counters.lost_reasons);
+      counters = std::move(recorded);
     } else if (type == "results") {
       info.results = std::move(record);
     }

@@ -812,9 +812,15 @@ TEST_F(ApiFixture, ASessionIsDeletedWithItsOwnCacheEntriesAndTheAuditLogSaysWho)
   // Its table (named by its results) and another session's.
   std::filesystem::create_directories(folder / "results");
   std::filesystem::create_directories(lab.directory / "cache");
-  // Its forward table aa and inverse table cc; the other session's bb and dd
-  // stay.
+  // Its forward table aa and inverse table cc, named as a several-camera
+  // session names them (an index without a top-level table; each camera's
+  // own summary.json, a folder that is no plain name not followed); the
+  // other session's bb and dd stay.
+  std::filesystem::create_directories(folder / "results" / "cam0");
   std::ofstream(folder / "results" / "summary.json")
+      << R"({"cameras": [{"name": "cam0", "state": "ok", "folder": "cam0"}, {"name": "cam1", "state": "failed"},
+                         {"name": "x", "state": "ok", "folder": "../../other/results"}, {"folder": 7}]})";
+  std::ofstream(folder / "results" / "cam0" / "summary.json")
       << R"({"table": {"key": "00000000000000aa", "inverse_key": "00000000000000cc"}})";
   std::filesystem::create_directories(lab.config.sessions_dir / "other" / "results");
   std::ofstream(lab.config.sessions_dir / "other" / "results" / "summary.json")

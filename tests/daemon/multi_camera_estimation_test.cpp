@@ -10,6 +10,7 @@
 // published.
 #include <opencv2/imgproc.hpp>
 
+#include <atomic>
 #include <cmath>
 #include <fstream>
 
@@ -303,17 +304,39 @@ TEST(MultiCameraEstimation, TwoPosedCamerasGetTheirOwnMapsThatMatchTheirPoses) {
     fs::create_directories(path.parent_path());
     produce(path);
   };
-  const auto offline_cameras = maps::estimate_session_cameras({&builder, nullptr, "{}", {}}, options, offline, commit);
-  ASSERT_EQ(offline_cameras.size(), 2u);
-  for (int k = 0; k < 2; ++k) {
-    ASSERT_TRUE(offline_cameras[k].ok) << offline_cameras[k].reason;
-    const auto again = files::read_exr(offline / offline_cameras[k].camera / "maps.exr");
-    for (const char* channel : {"Cm", "Ch", "Bm", "Che", "flags"}) {
-      const auto &x = again.channel(channel), &y = maps[k].channel(channel);
-      ASSERT_EQ(x.size(), y.size());
-      std::size_t differ = 0;
-      for (std::size_t i = 0; i < x.size(); ++i) differ += !(x[i] == y[i] || (std::isnan(x[i]) && std::isnan(y[i])));
-      EXPECT_EQ(differ, 0u) << offline_cameras[k].camera << " " << channel;
+  // Both cameras at once (the default, as the daemon ran), then one after another: the same maps.
+  for (const int at_once : {0, 1}) {
+    SCOPED_TRACE("cameras at once " + std::to_string(at_once));
+    options.cameras_at_once = at_once;
+    const fs::path offline_run = offline / std::to_string(at_once);
+    // files::Progress's contract: one call at a time, fractions never decreasing, ending at 1.
+    std::atomic<int> inside{0};
+    int overlapping_calls = 0, decreasing = 0;
+    double last = 0;
+    files::Progress progress;
+    progress.on_progress = [&](double fraction, const std::string&) {
+      overlapping_calls += inside.fetch_add(1) != 0;
+      decreasing += fraction < last;
+      last = fraction;
+      inside.fetch_sub(1);
+    };
+    const auto offline_cameras =
+        maps::estimate_session_cameras({&builder, nullptr, "{}", {}}, options, offline_run, commit, progress);
+    EXPECT_EQ(overlapping_calls, 0);
+    EXPECT_EQ(decreasing, 0);
+    EXPECT_DOUBLE_EQ(last, 1.0);
+    ASSERT_EQ(offline_cameras.size(), 2u);
+    for (int k = 0; k < 2; ++k) {
+      ASSERT_TRUE(offline_cameras[k].ok) << offline_cameras[k].reason;
+      EXPECT_EQ(offline_cameras[k].camera, k == 0 ? "cam0" : "side");
+      const auto again = files::read_exr(offline_run / offline_cameras[k].camera / "maps.exr");
+      for (const char* channel : {"Cm", "Ch", "Bm", "Che", "flags"}) {
+        const auto &x = again.channel(channel), &y = maps[k].channel(channel);
+        ASSERT_EQ(x.size(), y.size());
+        std::size_t differ = 0;
+        for (std::size_t i = 0; i < x.size(); ++i) differ += !(x[i] == y[i] || (std::isnan(x[i]) && std::isnan(y[i])));
+        EXPECT_EQ(differ, 0u) << offline_cameras[k].camera << " " << channel;
+      }
     }
   }
 }

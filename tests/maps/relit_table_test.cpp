@@ -93,6 +93,42 @@ TEST(RelitTable, IsCachedLikeTheForwardTable) {
   fs::remove_all(cache);
 }
 
+// A table made earlier (chromod prepares it during capture) serves the
+// comparison of the photographs it was made for, and only those: with a table
+// of other lights the comparison makes its own, so the statistics are those
+// of a comparison without one either way.
+TEST(RelitTable, APreparedTableServesOnlyThePhotographsItWasMadeFor) {
+  const auto illuminants = lights();
+  std::vector<estimation::PixelEstimate> estimates(64);
+  for (std::size_t i = 0; i < estimates.size(); ++i) {
+    estimates[i].parameters = {0.02 + 0.003 * static_cast<double>(i), 0.01 + 0.001 * static_cast<double>(i % 7), 0.6, 0.01};
+    estimates[i].flag = estimation::PixelFlag::kExplained;
+  }
+  std::vector<session::Photograph> photographs;
+  for (std::size_t k = 0; k < illuminants.size(); ++k) {
+    session::Photograph photo{"light " + std::to_string(k), illuminants[k], {}, std::nullopt};
+    for (std::size_t i = 0; i < estimates.size(); ++i)
+      photo.rgb.push_back(Eigen::Vector3d(0.3, 0.2, 0.1) * (1 + 0.01 * static_cast<double>(i + k)));
+    photographs.push_back(std::move(photo));
+  }
+  RelitComparisonOptions options;
+  options.threads = 2;
+  const auto own = compare_with_photographs(estimates, photographs, camera(), options);
+  std::vector<spectral::Spectrum> other_lights(illuminants.rbegin(), illuminants.rend());
+  for (const bool same_lights : {true, false}) {
+    options.prepared =
+        std::make_shared<const RelitTable>(camera(), same_lights ? illuminants : other_lights, options.grid, fs::path(), 2);
+    EXPECT_EQ(options.prepared->key() == RelitTable::cache_key(camera(), illuminants, options.grid), same_lights);
+    const auto with_prepared = compare_with_photographs(estimates, photographs, camera(), options);
+    ASSERT_EQ(with_prepared.size(), own.size());
+    for (std::size_t k = 0; k < own.size(); ++k) {
+      EXPECT_EQ(with_prepared[k].delta_e94.pixels, 64u);
+      EXPECT_EQ(with_prepared[k].delta_e94.mean, own[k].delta_e94.mean) << own[k].illuminant;
+      EXPECT_EQ(with_prepared[k].delta_e94.p95, own[k].delta_e94.p95) << own[k].illuminant;
+    }
+  }
+}
+
 // A tiny lab session estimated twice on the same tables: as before (exact
 // relit comparison, files on one thread) and with the defaults.
 // The maps are the same pixels and the previews the same bytes; the relit

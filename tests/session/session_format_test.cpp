@@ -10,6 +10,7 @@
 #include "../support/session_sample.hpp"
 #include "chromo/calibration/led_library_io.hpp"
 #include "chromo/maps/estimate_report.hpp"
+#include "chromo/session/operation_record.hpp"
 #include "chromo/session/session_captures.hpp"
 #include "chromo/session/session_store.hpp"
 
@@ -22,6 +23,42 @@ namespace fs = std::filesystem;
 // the built-in camera, ρ_white 0.99.
 CaptureSources sample_sources() {
   return resolve_capture_sources((testing::kSessionFormatOneSample / "results" / "led_library.json").string(), "builtin:nikon_d5100", 0.99);
+}
+
+// The end-of-session counters: one pair writes and reads the journal's
+// record, so a field the daemon writes is one SessionStore reads back.
+TEST(CountersRecord, RoundTripsEveryRecordedFieldAndNamesABadOne) {
+  PipelineCounters c;
+  c.received = 41, c.stored = 40, c.estimated = 38, c.estimator_skipped = 2, c.lost = 1, c.resent_packets = 77;
+  c.lost_reasons = {{"timeout", 1}};
+  c.skipped_reasons = {{"queue_full", 2}};
+  c.max_estimator_queue_depth = 8, c.estimator_read_back = 2;
+  c.mean_trigger_to_stored_ms = 12.5, c.max_trigger_to_stored_ms = 80.25;
+  c.estimator_queue_depth = 3, c.storage_cpu_ms = 9;  // live only: not recorded
+  const nlohmann::json record = counters_record(c);
+  EXPECT_EQ(record["type"], "counters");
+  EXPECT_FALSE(record.contains("storage_cpu_ms"));
+  const PipelineCounters back = counters_from_record(nlohmann::json::parse(record.dump()));
+  EXPECT_EQ(back.received, 41u);
+  EXPECT_EQ(back.stored, 40u);
+  EXPECT_EQ(back.estimated, 38u);
+  EXPECT_EQ(back.estimator_skipped, 2u);
+  EXPECT_EQ(back.lost, 1u);
+  EXPECT_EQ(back.resent_packets, 77u);
+  EXPECT_EQ(back.lost_reasons, c.lost_reasons);
+  EXPECT_EQ(back.skipped_reasons, c.skipped_reasons);
+  EXPECT_EQ(back.max_estimator_queue_depth, 8u);
+  EXPECT_EQ(back.estimator_read_back, 2u);
+  EXPECT_EQ(back.mean_trigger_to_stored_ms, 12.5);
+  EXPECT_EQ(back.max_trigger_to_stored_ms, 80.25);
+  EXPECT_EQ(back.estimator_queue_depth, 0u);
+  EXPECT_EQ(counters_from_record({{"type", "counters"}}).estimated, 0u);  // an older journal's record
+  try {
+    counters_from_record({{"type", "counters"}, {"estimated", "many"}});
+    ADD_FAILURE() << "a count that is text was read";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("\"estimated\""), std::string::npos) << e.what();
+  }
 }
 
 TEST(SessionFormat, FormatOneFolderReadsBackWithItsPlanAndFrames) {

@@ -41,6 +41,7 @@
 #include "chromo/estimation/estimator.hpp"
 #include "chromo/session/method_measurement.hpp"
 #include "chromo/maps/reconstruction.hpp"
+#include "chromo/maps/relit_table.hpp"
 #include "chromo/estimation/spatial_flags.hpp"
 
 namespace chromo::maps {
@@ -128,6 +129,10 @@ struct RelitComparisonOptions {
   int threads = 0;  // 0 = all cores
   int image_width = 0;   // the estimates' row length, for the block means (0: none)
   int block_cells = 8;   // a block's side, cells
+  // kTable: a table made earlier (prepare_tables, during capture), used
+  // where its key is the photographs' (RelitTable::cache_key); else one is
+  // loaded or built.
+  std::shared_ptr<const RelitTable> prepared;
 };
 // Over explained pixels (flag kExplained) with a finite photograph.
 std::vector<RelitComparison> compare_with_photographs(std::span<const estimation::PixelEstimate> estimates,
@@ -162,6 +167,10 @@ struct MethodEstimationOptions {
   RelitModel relit_model = RelitModel::kTable;
   // The report's files (write_estimate_report): 0 = all cores, 1 = one after another on one thread.
   int writer_threads = 0;
+  // A session's cameras estimated at once (estimate_session_cameras), each on
+  // a thread of its own beside its estimate's threads: 0 = all, 1 = one
+  // after another. The maps are the same either way.
+  int cameras_at_once = 0;
   // The subject's width one frame row spans, mm (0: unknown; the session's
   // provenance camera_field_width_mm): the maps' pixel size is this over the
   // maps' width, summary.json's "map_pixel_mm", and the previews' scale bar.
@@ -205,15 +214,22 @@ struct PreparedTables {
   estimation::MeasurementSet set;
   std::shared_ptr<const estimation::ForwardTable> table;
   std::shared_ptr<const estimation::Estimator> estimator;
+  // The relit comparison's table of the photographs' illuminants (kTable;
+  // null when prepare_tables was given none).
+  std::shared_ptr<const RelitTable> relit;
   bool table_rebuilt = false;  // the forward table was not in the disk cache
-  double table_seconds = 0;     // loading or building the forward table
+  double table_seconds = 0;     // loading or building the forward table (and the relit table)
   double inverter_seconds = 0;  // setting up the inverter (the fast one loads or builds its inverse table)
 };
 // earlier: tables prepared for other cameras of the session; one whose
 // forward table has this set's cache key (the same sensitivity and
-// illuminants) lends it, shared in memory instead of loaded again.
+// illuminants) lends it, shared in memory instead of loaded again; likewise
+// its relit table. photograph_illuminants (session::photograph_illuminants of
+// the captures; empty: none): the relit comparison's table is made too
+// (options.relit_model kTable).
 PreparedTables prepare_tables(const estimation::MeasurementSet& set, const MethodEstimationOptions& options,
-                              std::span<const PreparedTables* const> earlier = {});
+                              std::span<const PreparedTables* const> earlier = {},
+                              std::span<const spectral::Spectrum> photograph_illuminants = {});
 
 // Every number the tables depend on is equal (camera, channels, illuminants, noise).
 bool same_measurement_set(const estimation::MeasurementSet& a, const estimation::MeasurementSet& b);

@@ -17,6 +17,7 @@
 // Thread rules: immutable after construction; rgb() from any thread.
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <span>
@@ -34,6 +35,12 @@ class RelitTable {
   // no illuminant or an illuminant a camera channel sees nothing under.
   RelitTable(const spectral::CameraSensitivity& camera, std::span<const spectral::Spectrum> illuminants,
              const estimation::TableGrid& grid, const std::filesystem::path& cache_dir, int threads = 0);
+
+  // The cache key of the table these arguments make (a table made earlier,
+  // e.g. during capture, serves a comparison whose key equals its key()).
+  static std::uint64_t cache_key(const spectral::CameraSensitivity& camera,
+                                 std::span<const spectral::Spectrum> illuminants, const estimation::TableGrid& grid);
+  std::uint64_t key() const { return table_->key(); }
 
   std::size_t illuminants() const { return illuminants_; }
   // Camera RGB of `p` under each illuminant: out[i] for illuminant i.

@@ -94,6 +94,11 @@ struct IlluminatedCapture {
   // at another exposure than its white: the linearity check, below). Absent:
   // the camera's linearity in exposure is assumed (ExposureLinearity::checked false).
   std::optional<RgbImage> white_linearity;
+  // The white's signal above the dark is multiplied by this per channel
+  // (R, G, B) where the albedo is formed: ∫S_c·E_subject / ∫S_c·E_white when
+  // the LEDs ran at other temperatures for the subject than for the white
+  // (session_captures.cpp, docs/calibration.md "The thermal model"); 1 else.
+  std::array<double, 3> white_signal_scale{1.0, 1.0, 1.0};
 };
 
 // Exposure per capture (docs/daemon.md "Subject exposure"): a subject
@@ -306,5 +311,11 @@ estimation::MeasurementSet plan_set_from_references(const PlanCaptures& captures
 // captures: known before the subject is captured, so a streaming caller can
 // build the forward table early. Equal to build_method_measurement(...).set.
 estimation::MeasurementSet method_set_from_references(const MethodCaptures& captures);
+
+// The illuminants of the photographs the builders make (MethodMeasurement::
+// photographs, in order), known from the white references as the set is: a
+// streaming caller prepares the relit comparison's table early.
+std::vector<spectral::Spectrum> photograph_illuminants(const MethodCaptures& captures);
+std::vector<spectral::Spectrum> photograph_illuminants(const PlanCaptures& captures);
 
 }  // namespace chromo::session

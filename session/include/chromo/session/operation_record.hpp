@@ -10,6 +10,8 @@
 #include <optional>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 namespace chromo::session {
 
 // What the frame pipeline counted for one session (daemon/internal/capture/frame_pipeline.hpp).
@@ -22,6 +24,14 @@ struct PipelineCounters {
   // from storage after skipping them (set by the daemon after end_session).
   std::uint64_t estimator_queue_depth = 0, max_estimator_queue_depth = 0, estimator_read_back = 0;
 };
+
+// The journal's {"type": "counters"} record of a session's end
+// (docs/formats/session.md) and back: the pair the daemon writes and
+// SessionStore reads. The live-only fields (estimator_queue_depth, the CPU
+// times) are not recorded. from_json: absent fields are 0 (an older
+// journal); a field of the wrong type throws std::invalid_argument naming it.
+nlohmann::json counters_record(const PipelineCounters& counters);
+PipelineCounters counters_from_record(const nlohmann::json& record);
 
 enum class OperationKind { kSession, kCalibration };
 enum class OperationState { kPending, kRunning, kPaused, kSucceeded, kFailed, kCancelled, kInterrupted };

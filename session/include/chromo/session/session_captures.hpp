@@ -66,6 +66,7 @@
 
 #include "chromo/calibration/led_library.hpp"
 #include "chromo/session/frame_sums.hpp"
+#include "chromo/session/illuminant_mean.hpp"
 #include "chromo/session/session_plan.hpp"
 #include "chromo/session/session_provenance.hpp"
 #include "chromo/session/method_measurement.hpp"
@@ -192,7 +193,7 @@ class SessionCaptureBuilder {
     std::string step;
     std::uint32_t expected = 0;
     std::uint32_t frames = 0;  // one camera's frames of the step counted so far (their samples: sums_)
-    spectral::Spectrum illuminant_sum;
+    IlluminantMean illuminant;  // of the step's frames
     double exposure_us = 0;  // of the step's frames (all alike)
   };
   // Keys: "dark", "white:d65", "subject:d65", "white:w57", ..., "linearity:d65" (a linearity white)
