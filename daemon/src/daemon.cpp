@@ -266,8 +266,8 @@ void Daemon::check_plan_runs_here(const session::SessionPlan& plan) {
         throw std::invalid_argument("plan.steps[" + std::to_string(i) + "].polarisation: " +
                                     drivers::polarisation_name(plan.steps[i].polarisation) + ", but LED controller \"" +
                                     led->config.name +
-                                    "\" has no polariser banks (docs/polarisation.md; the standard plan: "
-                                    "capture.polarised_plan \"auto\" or \"off\", or `chromo session run --polarised off`)");
+                                    "\" has no polariser banks: choose the unpolarised plan (docs/polarisation.md; the "
+                                    "standard plan's default: capture.polarised_plan \"auto\" or \"off\")");
   }
   if (plan.timing == session::Timing::kHardware && led->device) {
     // The controller holds the whole sequence: a resting state plus one state per frame.

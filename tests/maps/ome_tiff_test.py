@@ -103,10 +103,11 @@ class OmeTiffTest(unittest.TestCase):
             self.assertEqual(notes["flag:0"], "explained")
             self.assertEqual(notes["flag:4"], "specular")
             self.assertEqual(notes["flag:8"], "no_reference")
+            self.assertEqual(notes["flag:9"], "white_target")
             data = tif.asarray()
         np.testing.assert_array_equal(data, values)
         flags = data[names.index("flags")]
-        self.assertTrue(set(np.unique(flags)).issubset(set(range(9))))
+        self.assertTrue(set(np.unique(flags)).issubset(set(range(10))))  # codes 0-9, 9 the white target
 
         # The frames: one stack, each plane equal to its frame file, with its exposure and illumination.
         journal = [json.loads(line) for line in (self.session / "journal.jsonl").read_text().splitlines() if line.strip()]
