@@ -38,15 +38,12 @@ spectral::Spectrum LedRecord::spectrum_at(double temperature_C) const {
   const std::optional<double> reference_C = ladder_temperature_C();
   if (!thermal || !reference_C || !std::isfinite(temperature_C)) return reference;
   const double shift_nm = thermal->centroid_shift_nm_per_K * (temperature_C - *reference_C);
-  spectral::Spectrum out;
-  for (int i = 0; i < spectral::kGridSize; ++i) {  // the emission at λ is the reference's at λ − shift
-    const double at = (spectral::grid_wavelength_nm(i) - shift_nm - spectral::kGridStartNm) / spectral::kGridStepNm;
-    const int below = static_cast<int>(std::floor(at));
-    const double t = at - below;
-    const double a = below >= 0 && below < spectral::kGridSize ? reference[below] : 0.0;
-    const double b = below + 1 >= 0 && below + 1 < spectral::kGridSize ? reference[below + 1] : 0.0;
-    out[i] = a + t * (b - a);
-  }
+  // The emission at λ is the reference's at λ − shift: the reference's
+  // samples placed at grid + shift, read back on the grid.
+  std::vector<double> shifted_nm(spectral::kGridSize);
+  for (int i = 0; i < spectral::kGridSize; ++i) shifted_nm[i] = spectral::grid_wavelength_nm(i) + shift_nm;
+  const spectral::Spectrum out = spectral::resample_to_grid(shifted_nm, reference.to_vector(), "LED spectrum at temperature",
+                                                            spectral::OutsideRange::kZero);
   return out * flux_factor_at(temperature_C);
 }
 
