@@ -9,6 +9,7 @@
 #include <set>
 
 #include <stdexcept>
+#include <thread>
 
 #include "chromo/estimation/forward_table.hpp"
 #include "chromo/files/bounded_read.hpp"
@@ -451,35 +452,45 @@ OperationRunner::Outcome Daemon::run_session(RunningOperation& running, const se
       outcome = {session::OperationState::kFailed, error.what()};
     }
     // Every frame is stored, so the sums are complete: derived data is
-    // written while the on-line estimator may still be estimating the maps.
+    // written in the background (its own threads at the lowest priority)
+    // while the on-line estimator makes the maps, which come first on the
+    // cores; the results record does not wait for it.
     pipeline.drain_storage();
     stored_sums_error = pipeline.stored_sums_error();
+    std::jthread derived;  // joined before the final records, or on the way out of an exception
+    std::string derived_error;
     if (outcome.state == session::OperationState::kSucceeded) {
       operations_.update(id, [](session::OperationRecord& r) { r.message = "writing derived data"; });
-      try {
-        if (!stored_sums_error.empty()) throw std::runtime_error(stored_sums_error);
-        session::write_derived_data(folder, plan, *stored_sums, config_.estimation.white_reflectance, *journal, &budget_);
-      } catch (const std::exception& error) {
-        outcome = {session::OperationState::kFailed, std::string("derived data: ") + error.what()};
-      }
+      derived = std::jthread([&] {
+        try {
+          if (!stored_sums_error.empty()) throw std::runtime_error(stored_sums_error);
+          session::write_derived_data(folder, plan, *stored_sums, config_.estimation.white_reflectance, *journal,
+                                      &budget_, {.background = true});
+        } catch (const std::exception& error) {
+          derived_error = std::string("derived data: ") + error.what();
+        }
+      });
     }
     pipeline.drain();
     counters = pipeline.counters();
-  }
-  if (estimator_) {
-    // The maps: catches up on skipped frames, estimates if not done yet, and
-    // says whether results are available (before the final state record).
-    nlohmann::json results = estimator_->end_session({outcome.state == session::OperationState::kSucceeded});
-    if (!results.is_null()) {
-      counters.estimator_read_back = results.value("frames_read_back", std::uint64_t{0});
-      try {
-        journal->append(results);
-      } catch (const std::exception& error) {
-        outcome = {session::OperationState::kFailed, std::string("results record: ") + error.what()};
+    if (estimator_) {
+      // The maps: catches up on skipped frames, estimates if not done yet, and
+      // says whether results are available (before the final state record).
+      nlohmann::json results = estimator_->end_session({outcome.state == session::OperationState::kSucceeded});
+      if (!results.is_null()) {
+        counters.estimator_read_back = results.value("frames_read_back", std::uint64_t{0});
+        try {
+          journal->append(results);
+        } catch (const std::exception& error) {
+          outcome = {session::OperationState::kFailed, std::string("results record: ") + error.what()};
+        }
+        log_event("session " + id + ": results " + results.value("state", "") +
+                  (results.contains("reason") ? ": " + results.value("reason", "") : ""));
       }
-      log_event("session " + id + ": results " + results.value("state", "") +
-                (results.contains("reason") ? ": " + results.value("reason", "") : ""));
     }
+    if (derived.joinable()) derived.join();
+    if (!derived_error.empty() && outcome.state == session::OperationState::kSucceeded)
+      outcome = {session::OperationState::kFailed, derived_error};
   }
   journal_final_records(*journal, counters, outcome);
   // The runner's final update: "done" or the state's name, with the counters.
