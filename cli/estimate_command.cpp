@@ -88,7 +88,7 @@ int run_estimate(const EstimateOptions& options) {
   auto t = std::chrono::steady_clock::now();
   nlohmann::ordered_json registration;
   try {
-    registration = nlohmann::ordered_json::parse(maps::registration_report_json(session::register_images(m)));
+    registration = maps::registration_report(session::register_images(m));
   } catch (const session::RegistrationError& e) {
     std::cerr << "chromo estimate: " << e.what() << "\n";
     return kExitBadInput;
@@ -156,8 +156,8 @@ int run_estimate(const EstimateOptions& options) {
                                           {"nodes", table->grid().node_count()},
                                           {"rebuilt", rebuilt}}},
                                {"registration", registration},
-                               {"neighbourhood", nlohmann::ordered_json::parse(maps::neighbourhood_report_json(
-                                                     options.neighbourhood_flags, options.order_pooling, neighbourhood))}};
+                               {"neighbourhood", maps::neighbourhood_report(options.neighbourhood_flags,
+                                                                            options.order_pooling, neighbourhood)}};
   report.extra_json = extra.dump();
   try {
     files::OutputBatch files(options.out);
