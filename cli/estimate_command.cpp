@@ -128,16 +128,15 @@ int run_estimate(const EstimateOptions& options) {
   const double inverter_setup_seconds = seconds_since(t);
   std::vector<estimation::PixelEstimate> out(pixels);
   estimation::EstimateSummary summary = estimator.estimate(measured, out);
-  estimation::NeighbourhoodSummary neighbourhood;
-  double neighbourhood_seconds = 0;
-  if (options.neighbourhood_flags || options.order_pooling) {
-    estimation::NeighbourhoodOptions no;
-    no.flags = options.neighbourhood_flags;
-    no.pool_order = options.order_pooling;
-    t = std::chrono::steady_clock::now();
-    neighbourhood = estimation::refine_with_neighbourhood(estimator, measured, m.width, m.height, out, summary, no);
-    neighbourhood_seconds = seconds_since(t);
-  }
+  // The spatial pass, with the multi-pixel estimate when --skin-denoise on.
+  const std::optional<estimation::SkinDenoiseOptions> skin_denoise = skin_denoise_options(options);
+  estimation::NeighbourhoodOptions no;
+  no.flags = options.neighbourhood_flags;
+  no.pool_order = options.order_pooling;
+  const estimation::SpatialPass pass =
+      estimation::spatial_pass(estimator, measured, m.width, m.height, out, summary, no, skin_denoise);
+  const estimation::NeighbourhoodSummary& neighbourhood = pass.neighbourhood;
+  const double neighbourhood_seconds = pass.neighbourhood_seconds;
 
   maps::EstimateReport report;
   report.method = std::string(estimator.inverter().name());  // the inverter that ran
@@ -157,7 +156,8 @@ int run_estimate(const EstimateOptions& options) {
                                           {"rebuilt", rebuilt}}},
                                {"registration", registration},
                                {"neighbourhood", maps::neighbourhood_report(options.neighbourhood_flags,
-                                                                            options.order_pooling, neighbourhood)}};
+                                                                            options.order_pooling, neighbourhood)},
+                               {"skin_denoise", maps::skin_denoise_report(skin_denoise, pass.skin_refit ? &*pass.skin_refit : nullptr)}};
   report.extra_json = extra.dump();
   try {
     files::OutputBatch files(options.out);
@@ -209,6 +209,12 @@ void add_estimate_command(CLI::App& app, int& exit_status) {
   cmd->add_flag("!--no-order-pooling", options->order_pooling,
                 "with --model auto, decide the order per pixel only (default: the likelihood-ratio statistic pooled "
                 "over 7×7 windows)");
+  cmd->add_option("--skin-denoise", options->skin_denoise,
+                  "on: the multi-pixel estimate before the spatial pass (each explained pixel's colour averaged with "
+                  "its 11×11 neighbours' that agree within the noise, its brightness kept, then fitted again; flags "
+                  "unchanged: docs/estimation.md 'Relighting past the model'); off: per pixel only")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->capture_default_str();
   cmd->add_option("--cache-dir", options->cache_dir, "table cache (default $CHROMO_CACHE_DIR or ~/.cache/chromosphere)");
   cmd->add_option("--threads", options->threads, "threads (0 = all cores)")->capture_default_str();
   cmd->add_option("--led-library", options->led_library,

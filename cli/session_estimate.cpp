@@ -49,6 +49,12 @@ estimation::EstimatorOptions estimator_options(const EstimateOptions& options) {
   return eo;
 }
 
+std::optional<estimation::SkinDenoiseOptions> skin_denoise_options(const EstimateOptions& options) {
+  // CLI11 has checked the value against on and off.
+  if (options.skin_denoise == "on") return estimation::SkinDenoiseOptions{};
+  return std::nullopt;
+}
+
 SessionEstimate estimate_stored_session(const EstimateOptions& options, const std::string& source) {
   SessionEstimate outcome;
   const fs::path folder = options.input;
@@ -84,6 +90,7 @@ SessionEstimate estimate_stored_session(const EstimateOptions& options, const st
   eo.estimator = estimator_options(options);
   eo.neighbourhood.flags = options.neighbourhood_flags;
   eo.neighbourhood.pool_order = options.order_pooling;
+  eo.skin_denoise = skin_denoise_options(options);
   if (!options.cache_dir.empty()) eo.cache_dir = options.cache_dir;
   nlohmann::ordered_json extra{{"session", fs::absolute(folder).string()},
                                {"source", source},

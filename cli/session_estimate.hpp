@@ -11,10 +11,12 @@
 
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "chromo/estimation/estimator.hpp"
+#include "chromo/estimation/skin_denoise.hpp"
 #include "chromo/maps/camera_results.hpp"
 
 namespace chromo::cli {
@@ -31,6 +33,7 @@ struct EstimateOptions {
   int threads = 0;
   bool neighbourhood_flags = true;
   bool order_pooling = true;
+  std::string skin_denoise = "off";     // "on": the multi-pixel estimate (estimation/skin_refit.hpp) before the spatial pass
   // Session folders only.
   std::string led_library;  // empty: <session>/results/led_library.json, else as chromod (newest measured, nominal)
   std::string camera = "builtin:nikon_d5100";
@@ -39,6 +42,8 @@ struct EstimateOptions {
 };
 
 estimation::EstimatorOptions estimator_options(const EstimateOptions& options);
+// --skin-denoise as the maps' option: the multi-pixel estimate's defaults when "on", empty when "off".
+std::optional<estimation::SkinDenoiseOptions> skin_denoise_options(const EstimateOptions& options);
 // --camera-of's NAME=SPEC entries as a map; std::invalid_argument naming a malformed one.
 std::map<std::string, std::string> parse_camera_of(const std::vector<std::string>& entries);
 

@@ -39,6 +39,7 @@ session::SessionProvenance Daemon::session_provenance(const session::SessionPlan
   provenance.estimator_options = {{"method", config_.estimation.method},
                                   {"model", config_.estimation.model},
                                   {"discrepancy", config_.estimation.discrepancy},
+                                  {"skin_denoise", config_.estimation.skin_denoise},
                                   {"films_extinction_ratio", config_.estimation.films_extinction_ratio}};
   return provenance;
 }

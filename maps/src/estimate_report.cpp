@@ -84,6 +84,20 @@ nlohmann::ordered_json registration_report(std::span<const session::Registration
   return out;
 }
 
+nlohmann::ordered_json skin_denoise_report(const std::optional<estimation::SkinDenoiseOptions>& options,
+                                           const estimation::SkinRefit* refit) {
+  nlohmann::ordered_json r{{"enabled", options.has_value()}};
+  if (!options) return r;
+  r["radius_px"] = options->radius_px;
+  r["agreement_quantile"] = options->agreement_quantile;
+  if (refit) {
+    r["refitted_pixels"] = refit->refitted;
+    r["mean_pixels_averaged"] = refit->mean_joined;
+    r["seconds"] = refit->seconds;
+  }
+  return r;
+}
+
 nlohmann::ordered_json neighbourhood_report(bool flags, bool order_pooling,
                                             const estimation::NeighbourhoodSummary& summary) {
   return nlohmann::ordered_json{{"flags", flags},
@@ -596,6 +610,7 @@ struct PixelEstimates {
   std::vector<estimation::PixelEstimate> estimates;
   estimation::NeighbourhoodSummary neighbourhood;
   double neighbourhood_seconds = 0;
+  std::optional<estimation::SkinRefit> skin_refit;  // options.skin_denoise set: the multi-pixel estimate
 };
 PixelEstimates estimate_pixels(const session::MethodMeasurement& m, const estimation::Estimator& estimator,
                                double white_reflectance, const MethodEstimationOptions& options,
@@ -610,11 +625,12 @@ PixelEstimates estimate_pixels(const session::MethodMeasurement& m, const estima
   if (result.summary.cancelled) throw std::runtime_error("estimation cancelled");
   result.pixels_per_second =
       result.summary.seconds > 0 ? static_cast<double>(out.estimates.size()) / result.summary.seconds : 0.0;
-  const auto t = std::chrono::steady_clock::now();
-  if (options.neighbourhood.flags || options.neighbourhood.pool_order)
-    out.neighbourhood = estimation::refine_with_neighbourhood(estimator, m.measured, m.width, m.height, out.estimates,
-                                                              result.summary, options.neighbourhood);
-  out.neighbourhood_seconds = seconds_since(t);
+  // The spatial pass, with the multi-pixel estimate when options.skin_denoise.
+  estimation::SpatialPass pass = estimation::spatial_pass(estimator, m.measured, m.width, m.height, out.estimates,
+                                                          result.summary, options.neighbourhood, options.skin_denoise);
+  out.neighbourhood = pass.neighbourhood;
+  out.neighbourhood_seconds = pass.neighbourhood_seconds;
+  out.skin_refit = std::move(pass.skin_refit);
   mark_not_skin(m.no_reference, estimation::PixelFlag::kNoReference, out.estimates, result.summary);
   return out;
 }
@@ -672,6 +688,7 @@ nlohmann::ordered_json measurement_report(const session::MethodMeasurement& m, c
   extra["no_reference_pixels"] = m.no_reference_pixels;
   extra["neighbourhood"] =
       neighbourhood_report(options.neighbourhood.flags, options.neighbourhood.pool_order, pixels.neighbourhood);
+  extra["skin_denoise"] = skin_denoise_report(options.skin_denoise, pixels.skin_refit ? &*pixels.skin_refit : nullptr);
   nlohmann::ordered_json relit = nlohmann::ordered_json::object();
   for (const auto& r : relit_comparisons) relit[r.illuminant] = relit_comparison_json(r);
   extra["relit_delta_e94"] = {

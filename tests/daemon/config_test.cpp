@@ -169,6 +169,7 @@ TEST(DaemonConfig, RefusesEveryProbeOfIssue19NamingTheKey) {
        "cfg: estimation.camera_sensitivity: /no/such/camera.csv: no such file"},
       {{{"estimation", {{"camera_sensitivity", "builtin:no_such_camera"}}}}, "cfg: estimation.camera_sensitivity: "},
       {{{"estimation", {{"threads", -1}}}}, "cfg: estimation.threads: -1 is outside [0, 256]"},
+      {{{"estimation", {{"skin_denoise", "yes"}}}}, "cfg: estimation.skin_denoise: \"yes\" is not on or off"},
       {{{"estimation", {{"white_reflectance", 0}}}}, "cfg: estimation.white_reflectance: 0 is outside (0"},
       {{{"estimation", {{"cache_limit_bytes", 10}}}}, "cfg: estimation.cache_limit_bytes: 10 is outside"},
       {{{"estimation", {{"led_library", "/no/such/library.json"}}}},
@@ -285,6 +286,12 @@ TEST(DaemonConfig, VirtualLabCamerasAreReadAndRefusedKeyByKey) {
 
 // Subsurface spread in the lab's skin photographs (issue 37): off by default,
 // read into the lab's scene options, a blue wider than the red refused.
+TEST(DaemonConfig, SkinDenoiseIsReadOffByDefault) {
+  EXPECT_EQ(parse_config(nlohmann::json::object(), "cfg").estimation.skin_denoise, "off");
+  EXPECT_EQ(parse_config(nlohmann::json::parse(R"({"estimation": {"skin_denoise": "on"}})"), "cfg").estimation.skin_denoise,
+            "on");
+}
+
 TEST(DaemonConfig, VirtualLabSubsurfaceSpreadIsReadAndABadWidthRefused) {
   EXPECT_FALSE(virtual_lab_options(parse_config(nlohmann::json::object(), "cfg").virtual_lab).subsurface.on);
   const DaemonConfig on = parse_config(

@@ -30,6 +30,8 @@ std::unique_ptr<OnlineEstimator> make_online_estimator(const EstimationConfig& c
   e.model = estimation::parse_model_name(config.model).value_or(estimation::ModelChoice::kAuto);
   e.threads = config.threads;
   e.discrepancy = config.discrepancy == "none" ? nullptr : estimation::ModelDiscrepancy::standard();
+  // The multi-pixel estimate (estimation.skin_denoise, checked on or off by config.cpp).
+  if (config.skin_denoise == "on") options.estimation.skin_denoise = estimation::SkinDenoiseOptions{};
   options.estimation.cache_dir = config.cache_dir;
   options.sources = [config, daemon_led_library, daemon_state_libraries, devices_films] {
     std::string library = config.led_library;

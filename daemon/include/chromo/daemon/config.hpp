@@ -49,6 +49,9 @@ struct EstimationConfig {
   // The skin model's shortfall on real skin added to the noise (docs/estimation.md
   // "Real skin"): "learned" (from the NIST forearm spectra) or "none".
   std::string discrepancy = "learned";
+  // The multi-pixel estimate before the spatial pass (docs/estimation.md
+  // "Relighting past the model"): "on" or "off".
+  std::string skin_denoise = "off";
   std::string led_library;       // LED library file; empty = newest measured one, else the nominal one
   std::string camera_sensitivity = "builtin:nikon_d5100";  // or a CSV wavelength_nm,R,G,B
   // Per camera (device name → builtin:NAME or a CSV), overriding camera_sensitivity for that camera's maps.

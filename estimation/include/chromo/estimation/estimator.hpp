@@ -219,6 +219,7 @@ class Estimator {
   const EstimatorOptions& options() const { return options_; }
   const Inverter& inverter() const { return *inverter_; }
   const ForwardTable& table() const { return *table_; }
+  const MeasurementSet& measurement_set() const { return set_; }
 
   // One pixel (channels() values), with the options' model or a given one.
   PixelEstimate estimate_pixel(const float* measured) const { return estimate_pixel(measured, options_.model); }

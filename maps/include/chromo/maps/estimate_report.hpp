@@ -45,6 +45,7 @@
 #include "chromo/maps/reconstruction.hpp"
 #include "chromo/maps/relit_table.hpp"
 #include "chromo/estimation/spatial_flags.hpp"
+#include "chromo/estimation/skin_refit.hpp"
 
 namespace chromo::maps {
 
@@ -151,6 +152,11 @@ nlohmann::ordered_json registration_report(std::span<const session::Registration
 nlohmann::ordered_json neighbourhood_report(bool flags, bool order_pooling,
                                             const estimation::NeighbourhoodSummary& summary);
 
+// summary.json's "skin_denoise": whether the multi-pixel estimate ran
+// (options empty: off), its options and, when it ran, what it re-fitted.
+nlohmann::ordered_json skin_denoise_report(const std::optional<estimation::SkinDenoiseOptions>& options,
+                                           const estimation::SkinRefit* refit);
+
 // The estimator options a session's estimation starts from: EstimatorOptions'
 // defaults with the model's learned discrepancy on real skin
 // (estimation::ModelDiscrepancy::standard(), docs/estimation.md "Real skin").
@@ -163,6 +169,10 @@ struct MethodEstimationOptions {
   // estimate` by default: neighbourhood flags (code 7) and the model order
   // pooled over 7×7 windows (model auto). Neither part: no second pass.
   estimation::NeighbourhoodOptions neighbourhood;
+  // The multi-pixel estimate between the per-pixel pass and the spatial pass
+  // (estimation/skin_refit.hpp; `chromo estimate --skin-denoise`, chromod's
+  // estimation.skin_denoise); empty: off, the maps are the per-pixel pass's.
+  std::optional<estimation::SkinDenoiseOptions> skin_denoise;
   estimation::TableGrid grid;
   std::filesystem::path cache_dir; // forward (and, unless estimator.cache_dir, inverse) tables; empty: default
   session::RegistrationOptions registration;
