@@ -146,7 +146,7 @@ Result run(const Case& c, std::uint64_t seed, int sensor_width, int sensor_heigh
 // The advisor's description of a lab plan at f frames per capture: standard
 // → "method", multispectral → "multispectral", multispectral+method → the
 // six LEDs alone then the method's three mixes, every capture's R, G, B
-// (what session::build_plan_measurement gives the estimator).
+// (what session::build_measurement gives the estimator).
 planning::PlanDescription advisor_plan_of(const std::string& lab_plan, int frames,
                                           const calibration::LedLibrary& library) {
   const std::string suffix = "@" + std::to_string(frames);

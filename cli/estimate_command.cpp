@@ -4,7 +4,7 @@
 // (maps/estimate_report.hpp). Everything is read and checked before
 // anything is written; outputs are written under temporary names and renamed
 // into place at the end (OutputBatch). A session folder goes through the
-// daemon's own SessionCaptureBuilder and estimate_method_captures(), so the
+// daemon's own SessionCaptureBuilder and estimate_captures(), so the
 // maps equal the on-line estimator's for the same frames and LED library.
 #include <fmt/format.h>
 #include <fmt/ranges.h>
