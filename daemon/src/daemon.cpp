@@ -9,6 +9,7 @@
 #include <set>
 
 #include <stdexcept>
+#include <thread>
 
 #include "chromo/estimation/forward_table.hpp"
 #include "chromo/files/bounded_read.hpp"
@@ -299,10 +300,9 @@ session::OperationRecord Daemon::start_session(session::SessionPlan plan, const 
     auto created = store_.create(plan, subject, devices, &provenance);
     const std::uint64_t expected = plan.frames_per_camera_total() * devices_.cameras.size();
     created.journal->append({{"type", "session_started"}, {"expected_frames", expected}});
-    nlohmann::json hazard_record = hazard.to_json();
-    hazard_record["type"] = "blue_light_hazard";
-    hazard_record["exposures"] = "planned (metered steps: their first guess; checked again once metered)";
-    created.journal->append(hazard_record);
+    const auto hazard_record = std::make_shared<session::HazardRecord>();
+    created.journal->append(
+        hazard_record->record(hazard, "planned (metered steps: their first guess; checked again once metered)"));
 
     session::OperationRecord record;
     record.id = created.id;
@@ -316,8 +316,9 @@ session::OperationRecord Daemon::start_session(session::SessionPlan plan, const 
     record.study = people.study;
     record.operator_name = people.operator_name;
     std::shared_ptr<session::Journal> journal(std::move(created.journal));
-    return OperationRunner::Start{record, [this, plan, provenance, journal, folder = created.folder](RunningOperation& running) {
-                                    return run_session(running, plan, provenance, journal, folder);
+    return OperationRunner::Start{record, [this, plan, provenance, journal, hazard_record,
+                                           folder = created.folder](RunningOperation& running) {
+                                    return run_session(running, plan, provenance, {journal, hazard_record}, folder);
                                   }};
   });
 }
@@ -348,7 +349,8 @@ void journal_final_records(session::Journal& journal, const session::PipelineCou
 // metering's first guess, the blue-light hazard check). Stops the live
 // view's free runs: the cameras are the session's now.
 SequencerContext Daemon::sequencer_context(RunningOperation& running, const session::SessionPlan& plan,
-                                           const std::shared_ptr<session::Journal>& journal, FramePipeline& pipeline) {
+                                           const SessionRecords& records, FramePipeline& pipeline) {
+  const std::shared_ptr<session::Journal>& journal = records.journal;
   const std::string& id = running.id();
   SequencerContext context;
   context.id = id;
@@ -380,12 +382,9 @@ SequencerContext Daemon::sequencer_context(RunningOperation& running, const sess
   } catch (const std::exception&) {
     // No library or camera data: metering starts from the plan's exposure each time.
   }
-  context.check_hazard = [this, plan, journal](const std::map<std::string, double>& exposures) {
+  context.check_hazard = [this, plan, journal, hazard = records.hazard](const std::map<std::string, double>& exposures) {
     const session::PlanHazard metered = plan_hazard(plan, exposures);
-    nlohmann::json record = metered.to_json();
-    record["type"] = "blue_light_hazard";
-    record["exposures"] = "metered";
-    journal->append(record);
+    journal->append(hazard->record(metered, "metered"));
     return metered.within_limit() ? std::string()
                                   : metered.describe() + ": beyond the limit with the metered exposures, refused "
                                                          "before the subject's first frame (hazard.limit_J_per_m2_sr)";
@@ -397,8 +396,8 @@ SequencerContext Daemon::sequencer_context(RunningOperation& running, const sess
 
 OperationRunner::Outcome Daemon::run_session(RunningOperation& running, const session::SessionPlan& plan,
                                              const session::SessionProvenance& provenance,
-                                             const std::shared_ptr<session::Journal>& journal,
-                                             const std::filesystem::path& folder) {
+                                             const SessionRecords& records, const std::filesystem::path& folder) {
+  const std::shared_ptr<session::Journal>& journal = records.journal;
   const std::string& id = running.id();
   SequencerOutcome outcome;
   session::PipelineCounters counters;
@@ -422,7 +421,7 @@ OperationRunner::Outcome Daemon::run_session(RunningOperation& running, const se
                                    r.message = message + " " + std::to_string(static_cast<int>(fraction * 100)) + "%";
                                    r.eta_seconds = -1;  // the capture's estimate says nothing of the maps' time
                                  });
-                               }, {}}, cameras, provenance, stored_sums});
+                               }, {}}, cameras, provenance, stored_sums, records.hazard});
   }
   std::string stored_sums_error;
   {
@@ -443,7 +442,7 @@ OperationRunner::Outcome Daemon::run_session(RunningOperation& running, const se
                     std::to_string(config_.estimator_queue_frames) + " frames is full; " + std::to_string(skipped) +
                     " frames skipped so far, read back from storage at the end; storage is not delayed)");
         });
-    SequencerContext context = sequencer_context(running, plan, journal, pipeline);
+    SequencerContext context = sequencer_context(running, plan, records, pipeline);
     try {
       journal->append({{"type", "state"}, {"state", "running"}});
       outcome = run_sequence(context);
@@ -451,35 +450,45 @@ OperationRunner::Outcome Daemon::run_session(RunningOperation& running, const se
       outcome = {session::OperationState::kFailed, error.what()};
     }
     // Every frame is stored, so the sums are complete: derived data is
-    // written while the on-line estimator may still be estimating the maps.
+    // written in the background (its own threads at the lowest priority)
+    // while the on-line estimator makes the maps, which come first on the
+    // cores; the results record does not wait for it.
     pipeline.drain_storage();
     stored_sums_error = pipeline.stored_sums_error();
+    std::jthread derived;  // joined before the final records, or on the way out of an exception
+    std::string derived_error;
     if (outcome.state == session::OperationState::kSucceeded) {
       operations_.update(id, [](session::OperationRecord& r) { r.message = "writing derived data"; });
-      try {
-        if (!stored_sums_error.empty()) throw std::runtime_error(stored_sums_error);
-        session::write_derived_data(folder, plan, *stored_sums, config_.estimation.white_reflectance, *journal, &budget_);
-      } catch (const std::exception& error) {
-        outcome = {session::OperationState::kFailed, std::string("derived data: ") + error.what()};
-      }
+      derived = std::jthread([&] {
+        try {
+          if (!stored_sums_error.empty()) throw std::runtime_error(stored_sums_error);
+          session::write_derived_data(folder, plan, *stored_sums, config_.estimation.white_reflectance, *journal,
+                                      &budget_, {.background = true});
+        } catch (const std::exception& error) {
+          derived_error = std::string("derived data: ") + error.what();
+        }
+      });
     }
     pipeline.drain();
     counters = pipeline.counters();
-  }
-  if (estimator_) {
-    // The maps: catches up on skipped frames, estimates if not done yet, and
-    // says whether results are available (before the final state record).
-    nlohmann::json results = estimator_->end_session({outcome.state == session::OperationState::kSucceeded});
-    if (!results.is_null()) {
-      counters.estimator_read_back = results.value("frames_read_back", std::uint64_t{0});
-      try {
-        journal->append(results);
-      } catch (const std::exception& error) {
-        outcome = {session::OperationState::kFailed, std::string("results record: ") + error.what()};
+    if (estimator_) {
+      // The maps: catches up on skipped frames, estimates if not done yet, and
+      // says whether results are available (before the final state record).
+      nlohmann::json results = estimator_->end_session({outcome.state == session::OperationState::kSucceeded});
+      if (!results.is_null()) {
+        counters.estimator_read_back = results.value("frames_read_back", std::uint64_t{0});
+        try {
+          journal->append(results);
+        } catch (const std::exception& error) {
+          outcome = {session::OperationState::kFailed, std::string("results record: ") + error.what()};
+        }
+        log_event("session " + id + ": results " + results.value("state", "") +
+                  (results.contains("reason") ? ": " + results.value("reason", "") : ""));
       }
-      log_event("session " + id + ": results " + results.value("state", "") +
-                (results.contains("reason") ? ": " + results.value("reason", "") : ""));
     }
+    if (derived.joinable()) derived.join();
+    if (!derived_error.empty() && outcome.state == session::OperationState::kSucceeded)
+      outcome = {session::OperationState::kFailed, derived_error};
   }
   journal_final_records(*journal, counters, outcome);
   // The runner's final update: "done" or the state's name, with the counters.
@@ -496,51 +505,6 @@ std::optional<session::SessionInfo> Daemon::session(const std::string& id) const
   return info;
 }
 
-namespace {
-// A results summary.json as JSON; null when absent, unreadable or not JSON.
-nlohmann::json read_results_summary(const std::filesystem::path& file) {
-  std::string text;
-  try {
-    text = files::read_text_file(file, "JSON");
-  } catch (const std::exception&) {
-    return nullptr;  // no results (or unreadable ones): no cache entry to name
-  }
-  const auto summary = nlohmann::json::parse(text, nullptr, false);
-  return summary.is_discarded() || !summary.is_object() ? nlohmann::json() : summary;
-}
-
-// The cache file names a summary's "table" names (table.key and table.inverse_key).
-void add_table_entries(const nlohmann::json& summary, std::set<std::string>& names) {
-  if (!summary.is_object() || !summary.contains("table") || !summary["table"].is_object()) return;
-  const auto hex = [](const nlohmann::json& key) {
-    const std::string text = key.is_string() ? key.get<std::string>() : std::string();
-    return text.size() == 16 && text.find_first_not_of("0123456789abcdef") == std::string::npos ? text : std::string();
-  };
-  const auto& table = summary["table"];
-  if (auto key = hex(table.value("key", nlohmann::json())); !key.empty()) names.insert("forward_table_" + key + ".bin");
-  if (auto key = hex(table.value("inverse_key", nlohmann::json())); !key.empty())
-    names.insert("inverse_table_" + key + ".bin");
-}
-
-// The table cache entries a session's results name, as cache file names:
-// results/summary.json's table, and for a several-camera session (whose
-// index has no top-level table) each camera's results/<folder>/summary.json's
-// (a "folder" that is not a plain name is not followed). None when absent.
-std::set<std::string> cache_entries_of(const std::filesystem::path& folder) {
-  std::set<std::string> names;
-  const nlohmann::json summary = read_results_summary(folder / "results" / "summary.json");
-  add_table_entries(summary, names);
-  if (!summary.is_object() || !summary.contains("cameras") || !summary["cameras"].is_array()) return names;
-  for (const auto& camera : summary["cameras"]) {
-    if (!camera.is_object() || !camera.contains("folder") || !camera["folder"].is_string()) continue;
-    const std::string name = camera["folder"].get<std::string>();
-    if (!session::is_valid_name(name) || name == "." || name == "..") continue;
-    add_table_entries(read_results_summary(folder / "results" / name / "summary.json"), names);
-  }
-  return names;
-}
-}  // namespace
-
 Daemon::DeletedSession Daemon::delete_session(const std::string& id) {
   namespace fs = std::filesystem;
   std::lock_guard lock(delete_mutex_);
@@ -554,14 +518,12 @@ Daemon::DeletedSession Daemon::delete_session(const std::string& id) {
   DeletedSession deleted;
   // Cache entries: this session's forward and inverse tables, unless another
   // session's results name the same entry.
-  std::set<std::string> only_here = cache_entries_of(folder);
-  for (const auto& entry : fs::directory_iterator(store_.root()))
-    if (entry.is_directory() && entry.path().filename() != id)
-      for (const auto& name : cache_entries_of(entry.path())) only_here.erase(name);
+  const std::set<std::string> only_here = table_references_.named_only_by(store_.root(), folder);
   for (const auto& entry : fs::recursive_directory_iterator(folder))
     if (entry.is_regular_file()) ++deleted.files, deleted.bytes += entry.file_size();
   operations_.remove(id);
   fs::remove_all(folder);
+  table_references_.forget(folder);
   files::fsync_directory(store_.root());
   const fs::path cache = config_.estimation.cache_dir.empty() ? estimation::ForwardTable::default_cache_dir()
                                                                : fs::path(config_.estimation.cache_dir);

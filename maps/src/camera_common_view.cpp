@@ -50,11 +50,11 @@ void add_common_views(std::vector<CameraEstimate>& cameras, const fs::path& resu
   }
 }
 
-std::string common_view_entry_json(const CameraCommonView& view, const std::string& path_prefix) {
+nlohmann::ordered_json common_view_entry(const CameraCommonView& view, const std::string& path_prefix) {
   nlohmann::ordered_json out{{"reference", view.reference}};
   if (!view.reason.empty()) {
     out["reason"] = view.reason;
-    return out.dump();
+    return out;
   }
   out["file"] = path_prefix + view.file;
   nlohmann::ordered_json h = nlohmann::ordered_json::array();
@@ -63,7 +63,7 @@ std::string common_view_entry_json(const CameraCommonView& view, const std::stri
   out["residual_px"] = view.mapping.residual_px;
   out["max_residual_px"] = view.mapping.max_residual_px;
   out["outline_cells"] = view.mapping.outline_cells;
-  return out.dump();
+  return out;
 }
 
 }  // namespace chromo::maps

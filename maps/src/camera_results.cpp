@@ -153,11 +153,11 @@ std::vector<CameraEstimate> estimate_session_cameras(const SessionCamerasInput& 
   return out;
 }
 
-std::string camera_entry_json(const CameraEstimate& camera, const std::string& path_prefix) {
+nlohmann::ordered_json camera_entry(const CameraEstimate& camera, const std::string& path_prefix) {
   nlohmann::ordered_json entry{{"name", camera.camera}, {"state", camera.ok ? "ok" : "failed"}};
   if (!camera.ok) {
     entry["reason"] = camera.reason;
-    return entry.dump();
+    return entry;
   }
   const std::string folder = path_prefix + (camera.folder.empty() ? "" : camera.folder + "/");
   const auto& r = *camera.result;
@@ -180,14 +180,14 @@ std::string camera_entry_json(const CameraEstimate& camera, const std::string& p
   entry["relit_delta_e94"] = relit;
   entry["highlights"] = {{"detection", r.highlight_detection}, {"pixels", r.highlight_pixels}};
   if (r.map_pixel_mm > 0) entry["map_pixel_mm"] = r.map_pixel_mm;
-  if (camera.common_view) entry["common_view"] = nlohmann::ordered_json::parse(common_view_entry_json(*camera.common_view, path_prefix));
-  return entry.dump();
+  if (camera.common_view) entry["common_view"] = common_view_entry(*camera.common_view, path_prefix);
+  return entry;
 }
 
 std::string camera_results_index_json(const std::vector<CameraEstimate>& cameras, const std::string& extra_json) {
   auto index = parse_object(extra_json, "extra_json");
   index["cameras"] = nlohmann::ordered_json::array();
-  for (const auto& camera : cameras) index["cameras"].push_back(nlohmann::ordered_json::parse(camera_entry_json(camera)));
+  for (const auto& camera : cameras) index["cameras"].push_back(camera_entry(camera));
   return index.dump(2) + "\n";
 }
 

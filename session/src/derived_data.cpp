@@ -9,6 +9,9 @@
 #include <map>
 #include <thread>
 
+#include <sys/resource.h>
+#include <unistd.h>
+
 #include "chromo/files/float_image.hpp"
 #include "chromo/session/albedo.hpp"
 #include "chromo/session/frame_files.hpp"
@@ -117,14 +120,21 @@ void add_albedo_files(const SessionPlan& plan, const SessionFrameSums& sums, dou
   }
 }
 
+// Lowers the calling thread's CPU priority to the lowest (nice 19; Linux
+// threads have a priority of their own). Unprivileged it cannot be raised
+// again, so only threads made for the work call it. A refusal leaves the
+// priority as it was: the files are the same, only sooner.
+void lower_this_threads_priority() { setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), 19); }
+
 // The files on `threads` workers, each file's blocks compressed on the
 // worker's own thread: whole files in parallel need no pool and keep every
-// core busy with the channel arithmetic too. Returns each file's failure
+// core busy with the channel arithmetic too (in the background every worker
+// is a new thread at the lowest priority). Returns each file's failure
 // (null where written); no new file is started once one failed.
 std::vector<std::exception_ptr> write_files(const std::filesystem::path& folder, const std::vector<DerivedFile>& outputs,
                                             files::StorageBudget* budget, const DerivedDataOptions& options) {
   const int threads = std::min<int>(files::exr_writer_threads(options.threads), static_cast<int>(outputs.size()));
-  const files::ExrWriteOptions exr{threads > 1 ? 1 : files::exr_writer_threads(options.threads), options.zip_level};
+  const files::ExrWriteOptions exr{threads > 1 || options.background ? 1 : files::exr_writer_threads(options.threads), options.zip_level};
   std::vector<std::exception_ptr> failed(outputs.size());
   std::atomic<std::size_t> next{0};
   std::atomic<bool> stop{false};
@@ -140,8 +150,15 @@ std::vector<std::exception_ptr> write_files(const std::filesystem::path& folder,
     }
   };
   std::vector<std::thread> workers;
-  for (int t = 1; t < threads; ++t) workers.emplace_back(work);
-  work();
+  if (options.background) {
+    for (int t = 0; t < threads; ++t) workers.emplace_back([&] {
+        lower_this_threads_priority();
+        work();
+      });
+  } else {
+    for (int t = 1; t < threads; ++t) workers.emplace_back(work);
+    work();
+  }
   for (auto& w : workers) w.join();
   return failed;
 }

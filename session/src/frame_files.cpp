@@ -22,6 +22,11 @@ using TiffPtr = std::unique_ptr<TIFF, TiffCloser>;
 
 void write_frame_tiff(const std::filesystem::path& path, const FrameRecord& record,
                       std::span<const std::uint8_t> samples, files::StorageBudget* budget) {
+  write_frame_tiff(path, record, to_json(record), samples, budget);
+}
+
+void write_frame_tiff(const std::filesystem::path& path, const FrameRecord& record, const nlohmann::json& record_json,
+                      std::span<const std::uint8_t> samples, files::StorageBudget* budget) {
   const auto& format = drivers::pixel_format_info(record.pixel_format);
   const int bits = format.significant_bits;
   const int container_bits = 8 * format.bytes_per_sample;
@@ -31,7 +36,7 @@ void write_frame_tiff(const std::filesystem::path& path, const FrameRecord& reco
     throw std::invalid_argument("frame " + std::to_string(record.sequence) + ": " + std::to_string(samples.size()) +
                                 " bytes do not make a " + std::to_string(record.width) + "x" +
                                 std::to_string(record.height) + " " + std::string(format.name) + " image");
-  const std::string description = to_json(record).dump();
+  const std::string description = record_json.dump();
   files::commit_file_durably(path, budget, [&](const std::filesystem::path& temporary) {
     TiffPtr tiff(TIFFOpen(temporary.c_str(), "w"));
     if (!tiff) throw std::runtime_error("libtiff could not create " + temporary.string());

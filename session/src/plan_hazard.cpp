@@ -83,15 +83,39 @@ PlanHazard plan_blue_light_hazard(const SessionPlan& plan, const StepLevels& lev
   return out;
 }
 
+namespace {
+constexpr const char* kHazardRecordType = "blue_light_hazard";
+
+// A hazard journal record as summary.json reports it: without "type" and
+// "t", in the journal's (sorted) key order; null stays null.
+nlohmann::ordered_json reported_hazard(nlohmann::json record) {
+  if (record.is_object()) {
+    record.erase("type");
+    record.erase("t");
+  }
+  return nlohmann::ordered_json(record);
+}
+}  // namespace
+
 nlohmann::ordered_json recorded_blue_light_hazard(const std::filesystem::path& journal_path) {
   nlohmann::json last;
   for (const nlohmann::json& record : read_journal(journal_path).records)
-    if (const auto type = record.find("type"); type != record.end() && *type == "blue_light_hazard") last = record;
-  if (last.is_object()) {
-    last.erase("type");
-    last.erase("t");
-  }
-  return nlohmann::ordered_json::parse(last.dump());  // summary.json is an ordered object
+    if (const auto type = record.find("type"); type != record.end() && *type == kHazardRecordType) last = record;
+  return reported_hazard(std::move(last));
+}
+
+nlohmann::json HazardRecord::record(const PlanHazard& hazard, const std::string& exposures) {
+  nlohmann::json record = hazard.to_json();
+  record["type"] = kHazardRecordType;
+  record["exposures"] = exposures;
+  std::lock_guard lock(mutex_);
+  latest_ = record;
+  return record;
+}
+
+nlohmann::ordered_json HazardRecord::latest() const {
+  std::lock_guard lock(mutex_);
+  return reported_hazard(latest_);
 }
 
 }  // namespace chromo::session

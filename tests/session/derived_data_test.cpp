@@ -1,13 +1,21 @@
 // Derived data written one file after another and on several threads
 // (derived_data.hpp, DerivedDataOptions): the same files, pixels and journal
-// records, and a bad setting refused before anything is written; its albedo
+// records (in the background too, on threads at the lowest priority), and a
+// bad setting refused before anything is written; its albedo
 // is the estimator's (albedo.hpp), the subject's exposure ratio included.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstring>
 #include <map>
+#include <sstream>
+#include <atomic>
+#include <chrono>
 #include <fstream>
+#include <thread>
+
+#include <sys/resource.h>
+#include <unistd.h>
 
 #include "../support/fresh_directory.hpp"
 #include "chromo/files/float_image.hpp"
@@ -64,7 +72,8 @@ TEST(DerivedData, EveryThreadCountWritesTheSameFilesAndRecordsInTheSameOrder) {
   const fs::path root = testing::fresh_directory("derived-threads");
   std::vector<std::vector<nlohmann::json>> records;
   int variant = 0;
-  for (const DerivedDataOptions options : {DerivedDataOptions{1, -1}, DerivedDataOptions{0, -1}, DerivedDataOptions{3, 1}}) {
+  for (const DerivedDataOptions options : {DerivedDataOptions{1, -1}, DerivedDataOptions{0, -1}, DerivedDataOptions{3, 1},
+                                           DerivedDataOptions{2, -1, true}}) {
     const fs::path folder = root / std::to_string(variant++);
     fs::create_directories(folder);
     {
@@ -76,10 +85,11 @@ TEST(DerivedData, EveryThreadCountWritesTheSameFilesAndRecordsInTheSameOrder) {
   ASSERT_EQ(records[0].size(), 7u * 2 + 3 * 2);  // a mean per step and camera, an albedo per mix and camera
   EXPECT_EQ(records[1], records[0]);
   EXPECT_EQ(records[2], records[0]);
+  EXPECT_EQ(records[3], records[0]);  // in the background
   for (const auto& record : records[0]) {
     const std::string file = record["file"];
     const auto first = files::read_exr(root / "0" / file);
-    for (const char* other : {"1", "2"}) {
+    for (const char* other : {"1", "2", "3"}) {
       const auto read = files::read_exr(root / other / file);
       ASSERT_EQ(read.channel_names, first.channel_names) << file;
       for (std::size_t c = 0; c < read.channels.size(); ++c)
@@ -93,6 +103,52 @@ TEST(DerivedData, EveryThreadCountWritesTheSameFilesAndRecordsInTheSameOrder) {
   EXPECT_THROW(write_derived_data(bad, plan, sums, 0.99, journal, nullptr, {-1, -1}), std::invalid_argument);
   EXPECT_FALSE(fs::exists(bad / "derived"));
   fs::remove_all(root);
+}
+
+// The nice value of each of this process's threads but the caller's, from /proc/self/task/<tid>/stat
+// (field 19, after the command name's closing parenthesis).
+std::vector<int> other_threads_nice(pid_t caller) {
+  std::vector<int> nice;
+  for (const auto& task : fs::directory_iterator("/proc/self/task")) {
+    if (task.path().filename() == std::to_string(caller)) continue;
+    std::ifstream in(task.path() / "stat");
+    std::string stat((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const auto close = stat.rfind(')');
+    if (close == std::string::npos) continue;
+    std::istringstream fields(stat.substr(close + 2));
+    std::string field;
+    for (int f = 3; f <= 19 && fields >> field; ++f)
+      if (f == 19) nice.push_back(std::stoi(field));
+  }
+  return nice;
+}
+
+// In the background the files are made by threads at nice 19 (seen in
+// /proc while they work) and the caller's own priority is what it was.
+TEST(DerivedData, InTheBackgroundTheWorkersRunAtTheLowestPriorityAndTheCallerKeepsItsOwn) {
+  const SessionPlan plan = standard_plan();
+  const SessionFrameSums sums = sums_of(plan, 48, 32);
+  const fs::path folder = testing::fresh_directory("derived-background");
+  const pid_t caller = gettid();
+  const int caller_nice = getpriority(PRIO_PROCESS, static_cast<id_t>(caller));
+  std::atomic<bool> writing{true};
+  int highest_nice_seen = -21;
+  std::thread watcher([&] {
+    while (writing) {
+      for (int nice : other_threads_nice(caller)) highest_nice_seen = std::max(highest_nice_seen, nice);
+      std::this_thread::sleep_for(std::chrono::microseconds(500));  // the workers get the cores between looks
+    }
+  });
+  {
+    Journal journal(folder / "journal.jsonl", nullptr);
+    write_derived_data(folder, plan, sums, 0.99, journal, nullptr, {1, -1, true});
+  }
+  writing = false;
+  watcher.join();
+  EXPECT_EQ(highest_nice_seen, 19);
+  EXPECT_EQ(getpriority(PRIO_PROCESS, static_cast<id_t>(caller)), caller_nice);
+  EXPECT_EQ(derived_records(folder / "journal.jsonl").size(), 7u * 2 + 3 * 2);
+  fs::remove_all(folder);
 }
 
 // A write that fails (the storage budget is full) is thrown after the files

@@ -126,8 +126,9 @@ void FramePipeline::storage_loop() {
       captured.record.file = stored.file;
       try {
         std::filesystem::create_directories(folder_ / relative.parent_path());
-        session::write_frame_tiff(folder_ / relative, captured.record, captured.samples, budget_);
-        journal_.append(session::to_json(captured.record));
+        nlohmann::json record_json = session::to_json(captured.record);  // the TIFF's description and the journal's line
+        session::write_frame_tiff(folder_ / relative, captured.record, record_json, captured.samples, budget_);
+        journal_.append(std::move(record_json));
       } catch (const std::exception& failure) {
         error = failure.what();
       }

@@ -143,7 +143,8 @@ void OnlineEstimator::estimate_now() {
                                {"table_prepared_during_capture_s",
                                 table_prepare_seconds_.size() == 1 ? nlohmann::ordered_json(table_prepare_seconds_.begin()->second)
                                                                    : prepare_seconds},
-                               {"blue_light_hazard", session::recorded_blue_light_hazard(session_.folder / "journal.jsonl")}};
+                               {"blue_light_hazard", session_.blue_light_hazard ? session_.blue_light_hazard->latest()
+                                                                                : nlohmann::ordered_json()}};
   if (session_.provenance.recorded) extra["provenance"] = session::to_json(session_.provenance);
   const std::filesystem::path results = session_.folder / "results";
   std::filesystem::create_directories(results);
@@ -198,7 +199,7 @@ nlohmann::json OnlineEstimator::results_record(const SessionEnd& end) {
   nlohmann::json cameras = nlohmann::json::array();
   std::string reasons;
   for (const auto& camera : cameras_) {
-    cameras.push_back(nlohmann::json::parse(maps::camera_entry_json(camera, "results/")));
+    cameras.push_back(nlohmann::json(maps::camera_entry(camera, "results/")));
     if (camera.ok && !first_ok) first_ok = &camera;
     if (!camera.ok) reasons += (reasons.empty() ? "" : "; ") + camera.camera + ": " + camera.reason;
   }
@@ -209,7 +210,7 @@ nlohmann::json OnlineEstimator::results_record(const SessionEnd& end) {
   }
   const auto& r = *first_ok->result;
   // Its flag counts and relit ΔE94 as its index entry has them.
-  const auto first_entry = nlohmann::json::parse(maps::camera_entry_json(*first_ok));
+  const nlohmann::json first_entry = maps::camera_entry(*first_ok);
   // The headline numbers are the first estimated camera's; "cameras" lists every camera.
   const std::string first_folder = first_ok->folder.empty() ? "results/" : "results/" + first_ok->folder + "/";
   return {{"type", "results"},

@@ -26,6 +26,7 @@
 #include "chromo/files/durable_file.hpp"
 #include "chromo/daemon/internal/operations/operation_runner.hpp"
 #include "chromo/daemon/internal/operations/operations.hpp"
+#include "chromo/daemon/internal/operations/table_cache_references.hpp"
 #include "chromo/daemon/internal/capture/frame_pipeline.hpp"
 #include "chromo/daemon/internal/capture/preview_hub.hpp"
 #include "chromo/daemon/internal/capture/white_balance.hpp"
@@ -142,13 +143,19 @@ class Daemon {
   drivers::DriveLevels configured_mix(const std::string& mix) const;
   // The work of a session operation: the sequencer, the pipeline, derived
   // data and the on-line estimator's results, and the journal's last records.
+  // What a running session records: its journal, and the latest blue-light
+  // hazard record kept typed for the estimator's report.
+  struct SessionRecords {
+    std::shared_ptr<session::Journal> journal;
+    std::shared_ptr<session::HazardRecord> hazard;
+  };
   OperationRunner::Outcome run_session(RunningOperation& running, const session::SessionPlan& plan,
-                                       const session::SessionProvenance& provenance,
-                                       const std::shared_ptr<session::Journal>& journal, const std::filesystem::path& folder);
+                                       const session::SessionProvenance& provenance, const SessionRecords& records,
+                                       const std::filesystem::path& folder);
 
   // The sequencer's context for one session (daemon.cpp).
   SequencerContext sequencer_context(RunningOperation& running, const session::SessionPlan& plan,
-                                     const std::shared_ptr<session::Journal>& journal, FramePipeline& pipeline);
+                                     const SessionRecords& records, FramePipeline& pipeline);
 
   // The LED library and camera sensitivity the estimator would use (resolve_capture_sources).
   session::CaptureSources light_sources() const;
@@ -168,6 +175,7 @@ class Daemon {
   OperationRunner runner_{operations_};
   std::unique_ptr<Calibrations> calibrations_;
   std::mutex delete_mutex_;
+  TableCacheReferences table_references_;  // under delete_mutex_
 };
 
 }  // namespace chromo::daemon

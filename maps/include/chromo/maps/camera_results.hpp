@@ -32,6 +32,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "chromo/maps/common_view.hpp"
 #include "chromo/maps/estimate_report.hpp"
 #include "chromo/session/session_captures.hpp"
@@ -102,7 +104,7 @@ void add_common_views(std::vector<CameraEstimate>& cameras, const std::filesyste
                       const FileCommit& commit);
 
 // A camera entry's "common_view" object (below), file prefixed by path_prefix.
-std::string common_view_entry_json(const CameraCommonView& view, const std::string& path_prefix = "");
+nlohmann::ordered_json common_view_entry(const CameraCommonView& view, const std::string& path_prefix = "");
 
 // results/summary.json of a session with several cameras:
 //   {...extra, "cameras": [{"name", "state": "ok"|"failed", "reason" (failed),
@@ -114,9 +116,10 @@ std::string common_view_entry_json(const CameraCommonView& view, const std::stri
 //    "outline_cells"} or {"reference", "reason"}}]}
 std::string camera_results_index_json(const std::vector<CameraEstimate>& cameras, const std::string& extra_json = "{}");
 
-// One camera's key figures as a JSON object (the index's entry; chromod's
-// results record carries the same array, paths prefixed by path_prefix).
-std::string camera_entry_json(const CameraEstimate& camera, const std::string& path_prefix = "");
+// One camera's key figures as the index's entry (a JSON value for the file
+// edge: the index, and chromod's journal results record, which carries the
+// same array with paths prefixed by path_prefix).
+nlohmann::ordered_json camera_entry(const CameraEstimate& camera, const std::string& path_prefix = "");
 
 // The forward-table key each camera shares: camera name of the first camera
 // with the same key, for every later camera with it.

@@ -29,10 +29,15 @@ namespace chromo::session {
 // its worker's thread (0 = one per core; 1 = one after another on the
 // caller's thread), ZIP at zip_level (files::ExrWriteOptions; -1 = OpenEXR's
 // default). Every setting writes the same pixels; only the bytes of the
-// deflate stream depend on the level.
+// deflate stream depend on the level. background: the files are made on
+// worker threads of their own at the lowest CPU priority (nice 19, per
+// thread on Linux), so that the process's other work (chromod's maps after
+// the last frame) comes first and these take the cores it leaves; the
+// caller's thread keeps its priority.
 struct DerivedDataOptions {
   int threads = 0;
   int zip_level = -1;
+  bool background = false;
 };
 
 // Writes into folder/derived/ and appends to `journal` (the records in the

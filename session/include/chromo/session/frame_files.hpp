@@ -15,6 +15,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "chromo/files/durable_file.hpp"
 #include "chromo/files/float_image.hpp"
 #include "chromo/session/frame_record.hpp"
@@ -26,6 +28,10 @@ namespace chromo::session {
 // Throws std::invalid_argument when samples.size() does not match the record's
 // geometry and format.
 void write_frame_tiff(const std::filesystem::path& path, const FrameRecord& record,
+                      std::span<const std::uint8_t> samples, files::StorageBudget* budget);
+// The same with the record's journal JSON already made (to_json(record)), so
+// a caller that also journals the record builds it once.
+void write_frame_tiff(const std::filesystem::path& path, const FrameRecord& record, const nlohmann::json& record_json,
                       std::span<const std::uint8_t> samples, files::StorageBudget* budget);
 
 struct TiffImage {

@@ -26,11 +26,12 @@
 // and the sequencer checks the dose again with the metered exposures before
 // the first subject step.
 //
-// Thread rules: pure functions.
+// Thread rules: pure functions, but for HazardRecord (its own lock).
 
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -89,5 +90,25 @@ PlanHazard plan_blue_light_hazard(const SessionPlan& plan, const StepLevels& lev
 // Throws files::InputFileError naming the path when the journal cannot be
 // read (not a regular file, beyond the journal size cap).
 nlohmann::ordered_json recorded_blue_light_hazard(const std::filesystem::path& journal_path);
+
+// The blue-light hazard a running session has recorded: the planned dose at
+// its start, then the metered one once its whites are metered (each also a
+// journal record). The daemon's session thread records; the on-line
+// estimator reads the latest for summary.json, so nothing re-reads the
+// journal the process is writing. Thread rules: any thread (own lock).
+class HazardRecord {
+ public:
+  // Keeps `hazard` as the latest and returns its journal record: the
+  // hazard's JSON with "type": "blue_light_hazard" and "exposures".
+  nlohmann::json record(const PlanHazard& hazard, const std::string& exposures);
+  // The latest as summary.json reports it (its journal record without
+  // "type" and "t", as recorded_blue_light_hazard reads it back); null when
+  // none was recorded.
+  nlohmann::ordered_json latest() const;
+
+ private:
+  mutable std::mutex mutex_;
+  nlohmann::json latest_;
+};
 
 }  // namespace chromo::session

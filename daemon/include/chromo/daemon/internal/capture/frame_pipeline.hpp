@@ -47,6 +47,7 @@
 #include "chromo/session/session_plan.hpp"
 #include "chromo/session/session_provenance.hpp"
 #include "chromo/session/operation_record.hpp"
+#include "chromo/session/plan_hazard.hpp"
 #include "chromo/drivers/camera.hpp"
 #include "chromo/files/progress.hpp"
 
@@ -90,6 +91,9 @@ class FrameConsumer {
     // fills (FramePipeline::Options::stored_sums), every frame added before
     // consume() sees it; null: the consumer sums the samples itself.
     std::shared_ptr<const session::SessionFrameSums> stored_sums;
+    // The session's latest blue-light hazard record (the planned one, then
+    // the metered one), which its report repeats; null: none recorded.
+    std::shared_ptr<const session::HazardRecord> blue_light_hazard;
   };
   struct SessionEnd {
     bool succeeded = false;  // the plan ran to its end (else results are not attempted)

@@ -39,7 +39,7 @@
 //    "pixels_per_second", "estimate_seconds", "frames_read_back",
 //    "flag_counts": {...}, "relit_delta_e94": {"D65'": {"mean", "median", "p95"}, ...},
 //    "camera": the camera of these headline numbers (the first estimated),
-//    "cameras": [every camera's entry, maps::camera_entry_json with paths under results/]}
+//    "cameras": [every camera's entry, maps::camera_entry with paths under results/]}
 // (several cameras: maps_file is the first estimated camera's, report_file the index)
 // or {"type": "results", "state": "unavailable", "reason": "..."} (not the
 // method's plan, mono frames, unusable references, a write that failed).
