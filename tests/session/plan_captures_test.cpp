@@ -15,6 +15,7 @@
 #include "chromo/session/method_measurement.hpp"
 #include "chromo/session/session_captures.hpp"
 #include "chromo/session/session_plan.hpp"
+#include "chromo/spectral/cie.hpp"
 #include "chromo/spectral/lab_illuminants.hpp"
 
 namespace chromo::session {
