@@ -51,10 +51,12 @@
 #include <CLI/CLI.hpp>
 
 #include "chart.hpp"
+#include "chromo/estimation/discrepancy_posterior.hpp"
 #include "chromo/estimation/estimator.hpp"
 #include "chromo/estimation/forward_table.hpp"
 #include "chromo/estimation/model_discrepancy.hpp"
 #include "chromo/estimation/parameter_prior.hpp"
+#include "chromo/estimation/skin_denoise.hpp"
 #include "chromo/estimation/skin_model.hpp"
 #include "chromo/estimation/spectrum_fit.hpp"
 #include "chromo/simulators/scene/synthetic.hpp"
@@ -120,6 +122,13 @@ struct Run {
   double flagged[simulators::kSyntheticKindCount] = {};
   double de_d65 = 0, de_a = 0, order4 = 0;
   double floor_d65 = 0, floor_a = 0;  // real skin: the 4D full-spectrum fit's own relit ΔE94 on the same pixels
+  double de_d65_disc = 0, de_a_disc = 0;  // the same pixels relit as model + posterior discrepancy (discrepancy_posterior.hpp, zero-mean prior)
+  double de_d65_disc_mean = 0, de_a_disc_mean = 0;  // the same with the prior μ_d, Σ_d
+  // The same pixels after the multi-pixel estimate (skin_denoise.hpp, then the estimator again): model, and model + discrepancy.
+  double de_d65_dn = 0, de_a_dn = 0, de_d65_dn_disc = 0, de_a_dn_disc = 0;
+  double joined = 0;  // mean pixels averaged per denoised pixel
+  // Real skin: the texture kept, the slope of relit Y (D65) on the truth's Y within each held-out patch, mean over patches.
+  double texture_slope = 0, texture_slope_dn_disc = 0;
   double de_all = 0;  // relit ΔE94 (mean of D65 and A) over every skin pixel, flagged ones too (their fit as it stands)
   double within_2sigma[4] = {}, median_ratio[4] = {};
   double within_2sigma_log_ch = 0;  // |ln(Ch/Ch_ref)| ≤ 2σ_Ch/Ch: the same σ read as relative (log) spread
@@ -130,7 +139,9 @@ struct Run {
 Run evaluate(const RealSkinPlan& plan, const simulators::SyntheticFrame& frame, const std::vector<float>& measured,
              const std::vector<spectral::Spectrum>& spectra, const std::vector<Reference>& references,
              std::shared_ptr<const estimation::ModelDiscrepancy> discrepancy,
-             std::shared_ptr<const estimation::ParameterPrior> prior, int prior_max_channels) {
+             std::shared_ptr<const estimation::ParameterPrior> prior, int prior_max_channels,
+             const estimation::DiscrepancyPosterior& posterior, const estimation::DiscrepancyPosterior& posterior_mean,
+             int width, const estimation::SkinDenoiseOptions& denoise_options) {
   estimation::EstimatorOptions options;
   options.threads = 2;
   options.prior_max_channels = prior_max_channels;
@@ -139,7 +150,34 @@ Run evaluate(const RealSkinPlan& plan, const simulators::SyntheticFrame& frame, 
   const estimation::Estimator estimator(plan.table, plan.set, options);
   std::vector<estimation::PixelEstimate> e(frame.pixels());
   estimator.estimate(measured, e);
+  std::vector<std::uint8_t> skin_like(frame.pixels());
+  for (std::size_t i = 0; i < frame.pixels(); ++i) skin_like[i] = e[i].flag == estimation::PixelFlag::kExplained;
+  const int height = static_cast<int>(frame.pixels() / width);
+  const estimation::DenoisedChannels denoised =
+      estimation::denoise_skin_channels(measured, width, height, plan.set, skin_like, denoise_options);
+  std::vector<estimation::PixelEstimate> e_dn(frame.pixels());
+  estimator.estimate(denoised.values, e_dn);
   static const estimation::SkinModel model;
+  const Eigen::MatrixXd weights = plan.set.weights();
+  // The posterior discrepancy of pixel i fitted as `fitted` from channel values `values`, whose
+  // camera noise is the set's divided by `averaged` (pixels averaged into them).
+  auto posterior_with = [&](const estimation::DiscrepancyPosterior& posterior, const spectral::Spectrum& fitted,
+                            std::span<const float> values, std::size_t i, int averaged) {
+    const int channels = plan.set.size();
+    std::vector<double> residual(channels), variance(channels);
+    const Eigen::VectorXd predicted = weights * fitted.values().matrix();
+    for (int c = 0; c < channels; ++c) {
+      const double measured_c = values[i * channels + c];
+      residual[c] = measured_c - predicted(c);
+      variance[c] = plan.set.channels[c].noise.variance(measured_c) / averaged +
+                    std::pow(options.model_sigma_relative * std::max(measured_c, 0.0), 2);
+    }
+    return posterior.mean(residual, variance);
+  };
+  auto posterior_of = [&](const spectral::Spectrum& fitted, std::span<const float> values, std::size_t i, int averaged) {
+    return posterior_with(posterior, fitted, values, i, averaged);
+  };
+  std::vector<std::array<double, 7>> texture(spectra.size(), std::array<double, 7>{});  // n, Σy, Σy², Σŷ, Σyŷ (model), Σŷ, Σyŷ (denoised + discrepancy)
   const bool real = !frame.spectrum_index.empty();
   std::size_t count[simulators::kSyntheticKindCount] = {}, flagged[simulators::kSyntheticKindCount] = {};
   Run r;
@@ -168,6 +206,30 @@ Run evaluate(const RealSkinPlan& plan, const simulators::SyntheticFrame& frame, 
     const spectral::Spectrum truth = real ? spectral::Spectrum(spectra[frame.spectrum_index[i]].values() * frame.skin_scale[i])
                                           : model.albedo(frame.truth[i]);
     const spectral::Spectrum fitted = model.albedo(e[i].parameters);
+    const spectral::Spectrum relit = fitted + posterior_of(fitted, measured, i, 1);
+    r.de_d65_disc += spectral::delta_e94(lab_under(truth, spectral::illuminant_d65()), lab_under(relit, spectral::illuminant_d65()));
+    r.de_a_disc += spectral::delta_e94(lab_under(truth, spectral::illuminant_a()), lab_under(relit, spectral::illuminant_a()));
+    const spectral::Spectrum relit_mean = fitted + posterior_with(posterior_mean, fitted, measured, i, 1);
+    r.de_d65_disc_mean += spectral::delta_e94(lab_under(truth, spectral::illuminant_d65()), lab_under(relit_mean, spectral::illuminant_d65()));
+    r.de_a_disc_mean += spectral::delta_e94(lab_under(truth, spectral::illuminant_a()), lab_under(relit_mean, spectral::illuminant_a()));
+    {
+      const bool refitted = std::isfinite(e_dn[i].parameters.cm) && std::isfinite(e_dn[i].parameters.ch);
+      const spectral::Spectrum fitted_dn = refitted ? model.albedo(e_dn[i].parameters) : fitted;
+      const spectral::Spectrum relit_dn = fitted_dn + posterior_of(fitted_dn, denoised.values, i, std::max<int>(denoised.joined[i], 1));
+      r.de_d65_dn += spectral::delta_e94(lab_under(truth, spectral::illuminant_d65()), lab_under(fitted_dn, spectral::illuminant_d65()));
+      r.de_a_dn += spectral::delta_e94(lab_under(truth, spectral::illuminant_a()), lab_under(fitted_dn, spectral::illuminant_a()));
+      r.de_d65_dn_disc += spectral::delta_e94(lab_under(truth, spectral::illuminant_d65()), lab_under(relit_dn, spectral::illuminant_d65()));
+      r.de_a_dn_disc += spectral::delta_e94(lab_under(truth, spectral::illuminant_a()), lab_under(relit_dn, spectral::illuminant_a()));
+      r.joined += denoised.joined[i];
+      if (real) {
+        auto& t = texture[frame.spectrum_index[i]];
+        const double y_true = spectral::xyz_of_reflectance(truth, spectral::illuminant_d65()).Y;
+        const double y_model = spectral::xyz_of_reflectance(fitted, spectral::illuminant_d65()).Y;
+        const double y_dn = spectral::xyz_of_reflectance(relit_dn, spectral::illuminant_d65()).Y;
+        t[0] += 1, t[1] += y_true, t[2] += y_true * y_true, t[3] += y_model, t[4] += y_true * y_model, t[5] += y_dn,
+            t[6] += y_true * y_dn;
+      }
+    }
     r.de_d65 += spectral::delta_e94(lab_under(truth, spectral::illuminant_d65()), lab_under(fitted, spectral::illuminant_d65()));
     r.de_a += spectral::delta_e94(lab_under(truth, spectral::illuminant_a()), lab_under(fitted, spectral::illuminant_a()));
     const estimation::SkinParameters ref = real ? references[frame.spectrum_index[i]](frame.skin_scale[i]) : frame.truth[i];
@@ -192,6 +254,21 @@ Run evaluate(const RealSkinPlan& plan, const simulators::SyntheticFrame& frame, 
   if (skin_fitted) r.de_all /= skin_fitted;
   if (r.explained_skin) {
     r.de_d65 /= r.explained_skin, r.de_a /= r.explained_skin;
+    r.de_d65_disc /= r.explained_skin, r.de_a_disc /= r.explained_skin;
+    r.de_d65_disc_mean /= r.explained_skin, r.de_a_disc_mean /= r.explained_skin;
+    r.de_d65_dn /= r.explained_skin, r.de_a_dn /= r.explained_skin;
+    r.de_d65_dn_disc /= r.explained_skin, r.de_a_dn_disc /= r.explained_skin;
+    r.joined /= r.explained_skin;
+    int patches = 0;
+    for (const auto& t : texture) {
+      if (t[0] < 3) continue;
+      const double var = t[2] / t[0] - std::pow(t[1] / t[0], 2);
+      if (!(var > 0)) continue;
+      r.texture_slope += (t[4] / t[0] - t[1] / t[0] * t[3] / t[0]) / var;
+      r.texture_slope_dn_disc += (t[6] / t[0] - t[1] / t[0] * t[5] / t[0]) / var;
+      ++patches;
+    }
+    if (patches) r.texture_slope /= patches, r.texture_slope_dn_disc /= patches;
     r.floor_d65 /= r.explained_skin, r.floor_a /= r.explained_skin;
     r.order4 = double(order4) / r.explained_skin;
     r.within_2sigma_log_ch = double(within_log_ch) / r.explained_skin;
@@ -231,10 +308,14 @@ int run(int argc, char** argv) {
       ->check(CLI::Range(1, 64));
   std::vector<std::string> plan_names{"method", "six-leds"};
   app.add_option("--plans", plan_names, "plans to run (method, six-leds)")->delimiter(',');
+  estimation::SkinDenoiseOptions denoise;
+  app.add_option("--denoise-radius", denoise.radius_px, "the multi-pixel estimate's window radius (px)")->capture_default_str();
+  app.add_option("--denoise-quantile", denoise.agreement_quantile, "the multi-pixel estimate's agreement quantile")
+      ->capture_default_str();
   app.add_option("--out", out, "output directory");
   CLI11_PARSE(app, argc, argv);
   for (double s : noise_scales)
-    if (!(s > 0)) throw std::invalid_argument("--noise-scales: every scale must be > 0");
+    if (!(s >= 0)) throw std::invalid_argument("--noise-scales: every scale must be >= 0 (0: noise-free, declared so)");
 
   const auto& all_spectra = estimation::nist_forearm_spectra();
   const auto& all_residuals = estimation::nist_forearm_residuals();
@@ -265,6 +346,13 @@ int run(int argc, char** argv) {
       else train.push_back(all_residuals[i]);
     }
     const auto learned = std::make_shared<const estimation::ModelDiscrepancy>(estimation::ModelDiscrepancy::learn(train));
+    // By plan, learned from the training folds only: zero-mean prior, and μ_d with Σ_d.
+    std::map<std::string, estimation::DiscrepancyPosterior> posteriors, posteriors_mean;
+    for (const RealSkinPlan& plan : plan_list) {
+      posteriors.emplace(plan.name, estimation::DiscrepancyPosterior(*learned, plan.set));
+      posteriors_mean.emplace(plan.name, estimation::DiscrepancyPosterior(*learned, plan.set,
+                                                                           estimation::DiscrepancyPrior::kMeanAndCovariance));
+    }
     std::vector<estimation::SkinParameters> train_fits;
     for (std::size_t i = 0; i < all_spectra.size(); ++i)
       if (static_cast<int>(i % kFolds) != fold) train_fits.push_back(all_references[i].at[1]);
@@ -295,7 +383,8 @@ int run(int argc, char** argv) {
             for (const std::string statistic : kStatistics)
               rows.push_back({test_names, plan.name, scene, statistic, scale, seed, fold,
                               evaluate(declared, frame, noisy, test, references, statistic == "today" ? nullptr : learned,
-                                       priors.contains(statistic) ? priors.at(statistic) : nullptr, prior_max_channels)});
+                                       priors.contains(statistic) ? priors.at(statistic) : nullptr, prior_max_channels,
+                                       posteriors.at(plan.name), posteriors_mean.at(plan.name), patch, denoise)});
           }
     std::fprintf(stderr, "fold %d of %d done\n", fold + 1, kFolds);
   }
@@ -366,6 +455,9 @@ int run(int argc, char** argv) {
           const auto de_d65 = spread([](const Run& r) { return r.de_d65; });
           const auto de_a = spread([](const Run& r) { return r.de_a; });
           const auto de_all = spread([](const Run& r) { return r.de_all; });
+          const auto de_disc = spread([](const Run& r) { return (r.de_d65_disc + r.de_a_disc) / 2; });
+          const auto de_d65_disc = spread([](const Run& r) { return r.de_d65_disc; });
+          const auto de_a_disc = spread([](const Run& r) { return r.de_a_disc; });
           const auto ord = spread([](const Run& r) { return r.order4; });
           std::array<double, 4> in2s{}, med{};
           for (int p = 0; p < 4; ++p) {
@@ -381,7 +473,25 @@ int run(int argc, char** argv) {
                       "full-spectrum fit on the unflagged pixels %s\n",
                       plan.name.c_str(), scene.c_str(), statistic.c_str(), scale, text(de_d65, 1).c_str(),
                       text(de_a, 1).c_str(), text(de_all, 1).c_str(), text(floor, 1).c_str());
+          const auto de_disc_mean = spread([](const Run& r) { return (r.de_d65_disc_mean + r.de_a_disc_mean) / 2; });
+          std::printf("%-8s %-5s %-7s %5.2f    relit model+discrepancy (posterior, same pixels), zero-mean prior: mean(D65,A) "
+                      "%s; D65 %s, A %s; prior mu_d, Sigma_d: %s\n",
+                      plan.name.c_str(), scene.c_str(), statistic.c_str(), scale, text(de_disc, 1).c_str(),
+                      text(de_d65_disc, 1).c_str(), text(de_a_disc, 1).c_str(), text(de_disc_mean, 1).c_str());
+          const auto de_dn = spread([](const Run& r) { return (r.de_d65_dn + r.de_a_dn) / 2; });
+          const auto de_dn_disc = spread([](const Run& r) { return (r.de_d65_dn_disc + r.de_a_dn_disc) / 2; });
+          const auto joined = spread([](const Run& r) { return r.joined; });
+          const auto slope = spread([](const Run& r) { return r.texture_slope; });
+          const auto slope_dn = spread([](const Run& r) { return r.texture_slope_dn_disc; });
+          std::printf("%-8s %-5s %-7s %5.2f    multi-pixel estimate (%s px averaged): model %s, model+discrepancy %s; "
+                      "texture kept (slope of relit Y on true Y) %s -> %s\n",
+                      plan.name.c_str(), scene.c_str(), statistic.c_str(), scale, text(joined, 1).c_str(),
+                      text(de_dn, 1).c_str(), text(de_dn_disc, 1).c_str(), text(slope, 1).c_str(), text(slope_dn, 1).c_str());
           relit_curves[plan.name + " " + scene + " " + statistic].emplace_back(scale, de[0]);
+          if (statistic == "learned")
+            relit_curves[plan.name + " " + scene + " learned, multi-pixel, model+discrepancy"].emplace_back(scale, de_dn_disc[0]);
+          if (statistic == "learned")
+            relit_curves[plan.name + " " + scene + " learned, model+discrepancy"].emplace_back(scale, de_disc[0]);
           if (scene == "real" && statistic == "learned") relit_curves[plan.name + " 4D full-spectrum fit (floor)"].emplace_back(scale, floor[0]);
           if (scene == "real") curves[plan.name + " " + statistic].emplace_back(scale, 100 * skin[0]);
         }

@@ -96,7 +96,7 @@ int load_measurement(const EstimateOptions& options, LoadedMeasurement& loaded) 
   // Register every further image to images[0] on the first channel both use.
   const auto t = std::chrono::steady_clock::now();
   try {
-    loaded.registration = nlohmann::ordered_json::parse(maps::registration_report_json(session::register_images(m)));
+    loaded.registration = maps::registration_report(session::register_images(m));
   } catch (const session::RegistrationError& e) {
     std::cerr << "chromo estimate: " << e.what() << "\n";
     return kExitBadInput;
@@ -176,8 +176,8 @@ int run_estimate(const EstimateOptions& options) {
                                           {"nodes", table->grid().node_count()},
                                           {"rebuilt", rebuilt}}},
                                {"registration", loaded.registration},
-                               {"neighbourhood", nlohmann::ordered_json::parse(maps::neighbourhood_report_json(
-                                                     options.neighbourhood_flags, options.order_pooling, neighbourhood))}};
+                               {"neighbourhood", maps::neighbourhood_report(options.neighbourhood_flags,
+                                                                            options.order_pooling, neighbourhood)}};
   report.extra_json = extra.dump();
   try {
     files::OutputBatch files(options.out);

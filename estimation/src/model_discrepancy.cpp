@@ -74,6 +74,35 @@ const std::vector<SpectrumResidual>& nist_forearm_residuals() {
   return residuals;
 }
 
+namespace {
+
+// The rows of u (one residual each) as a covariance "about zero", shrunk
+// towards its diagonal with Schäfer and Strimmer's λ* (target "correlations
+// 0", variances kept). Returns the matrix and writes λ* to shrinkage.
+Eigen::MatrixXd shrunk_second_moment(const Eigen::MatrixXd& u, double& shrinkage) {
+  const int n = static_cast<int>(u.rows()), K = static_cast<int>(u.cols());
+  Eigen::VectorXd scale(K);
+  for (int k = 0; k < K; ++k) scale(k) = std::sqrt(std::max(u.col(k).squaredNorm() / n, 1e-30));
+  const Eigen::MatrixXd z = u * scale.cwiseInverse().asDiagonal();
+  const Eigen::MatrixXd r = z.transpose() * z / n;  // "correlation" (unit diagonal)
+  // Var(r_ij) estimated from the products w_kij = z_ki z_kj over the subjects.
+  double variance_sum = 0, square_sum = 0;
+  for (int i = 0; i < K; ++i) {
+    for (int j = i + 1; j < K; ++j) {
+      const Eigen::ArrayXd w = z.col(i).array() * z.col(j).array();
+      const double mean = w.mean();
+      variance_sum += (w - mean).square().sum() / (static_cast<double>(n) * (n - 1));
+      square_sum += r(i, j) * r(i, j);
+    }
+  }
+  shrinkage = square_sum > 0 ? std::clamp(variance_sum / square_sum, 0.0, 1.0) : 1.0;
+  Eigen::MatrixXd shrunk = (1 - shrinkage) * r;
+  shrunk.diagonal().setOnes();
+  return scale.asDiagonal() * shrunk * scale.asDiagonal();
+}
+
+}  // namespace
+
 ModelDiscrepancy ModelDiscrepancy::learn(std::span<const SpectrumResidual> residuals) {
   const int n = static_cast<int>(residuals.size());
   if (n < 3) throw std::invalid_argument("model discrepancy: at least 3 residual spectra are needed, got " + std::to_string(n));
@@ -86,26 +115,13 @@ ModelDiscrepancy ModelDiscrepancy::learn(std::span<const SpectrumResidual> resid
     d.mean_fitted_ += residuals[i].fitted;
   }
   d.mean_fitted_ /= n;
-  // Second moment about zero, standardised per wavelength.
-  Eigen::VectorXd scale(K);
-  for (int k = 0; k < K; ++k) scale(k) = std::sqrt(std::max(u.col(k).squaredNorm() / n, 1e-30));
-  const Eigen::MatrixXd z = u * scale.cwiseInverse().asDiagonal();
-  const Eigen::MatrixXd r = z.transpose() * z / n;  // "correlation" (unit diagonal)
-  // Schäfer-Strimmer λ* for the target "correlations 0": Σ Var(r_ij) / Σ r_ij² over i ≠ j,
-  // Var(r_ij) estimated from the products w_kij = z_ki z_kj over the subjects.
-  double variance_sum = 0, square_sum = 0;
-  for (int i = 0; i < K; ++i) {
-    for (int j = i + 1; j < K; ++j) {
-      const Eigen::ArrayXd w = z.col(i).array() * z.col(j).array();
-      const double mean = w.mean();
-      variance_sum += (w - mean).square().sum() / (static_cast<double>(n) * (n - 1));
-      square_sum += r(i, j) * r(i, j);
-    }
-  }
-  d.shrinkage_ = square_sum > 0 ? std::clamp(variance_sum / square_sum, 0.0, 1.0) : 1.0;
-  Eigen::MatrixXd shrunk = (1 - d.shrinkage_) * r;
-  shrunk.diagonal().setOnes();
-  d.covariance_ = scale.asDiagonal() * shrunk * scale.asDiagonal();
+  d.covariance_ = shrunk_second_moment(u, d.shrinkage_);
+  const Eigen::RowVectorXd mean = u.colwise().mean();
+  for (int k = 0; k < K; ++k) d.mean_residual_[k] = mean(k);
+  const Eigen::MatrixXd centred = u.rowwise() - mean;
+  double centred_shrinkage = 0;
+  // n/(n−1): the unbiased covariance about the sample mean.
+  d.centred_covariance_ = shrunk_second_moment(centred, centred_shrinkage) * (static_cast<double>(n) / (n - 1));
   d.subjects_ = n;
   return d;
 }

@@ -63,7 +63,7 @@ std::vector<int> skipped_levels(std::uint32_t mask) {
 
 }  // namespace
 
-std::string registration_report_json(std::span<const session::RegistrationReport> registration) {
+nlohmann::ordered_json registration_report(std::span<const session::RegistrationReport> registration) {
   nlohmann::ordered_json out = nlohmann::ordered_json::array();
   for (const auto& r : registration)
     out.push_back({{"image", r.image},
@@ -81,18 +81,18 @@ std::string registration_report_json(std::span<const session::RegistrationReport
                    {"method", session::registration_method_name(r.result.method)},
                    {"translation_sigma_px", r.result.translation_sigma_px},
                    {"residual_method", session::registration_method_name(r.result.residual_method)}});
-  return out.dump();
+  return out;
 }
 
-std::string neighbourhood_report_json(bool flags, bool order_pooling, const estimation::NeighbourhoodSummary& summary) {
+nlohmann::ordered_json neighbourhood_report(bool flags, bool order_pooling,
+                                            const estimation::NeighbourhoodSummary& summary) {
   return nlohmann::ordered_json{{"flags", flags},
                                 {"order_pooling", order_pooling},
                                 {"flagged_touching_flagged_regions", summary.flagged_touching},
                                 {"flagged_enclosed", summary.flagged_holes},
                                 {"block_px", summary.block_px},
                                 {"order_changed_to_4", summary.order_to_4},
-                                {"order_changed_to_2", summary.order_to_2}}
-      .dump();
+                                {"order_changed_to_2", summary.order_to_2}};
 }
 
 std::vector<ChannelSnr> channel_snr(const estimation::MeasurementSet& set, std::span<const float> measured,
@@ -650,7 +650,7 @@ nlohmann::ordered_json measurement_report(const session::Measurement& m, const e
   // can remove the entries only it used (docs/daemon.md).
   if (const auto* fast = dynamic_cast<const estimation::FastInverter*>(&estimator.inverter()))
     extra["table"]["inverse_key"] = files::cache_key_hex(fast->inverse_table().key());
-  extra["registration"] = nlohmann::ordered_json::parse(registration_report_json(m.registration));
+  extra["registration"] = registration_report(m.registration);
   nlohmann::ordered_json noise = nlohmann::ordered_json::object();
   for (const auto& c : m.set.channels)
     noise[c.name] = {{"read_sigma", c.noise.read_sigma},
@@ -668,8 +668,8 @@ nlohmann::ordered_json measurement_report(const session::Measurement& m, const e
   extra["captures"] = exposures;
   extra["saturated_pixels"] = m.saturated_pixels;
   extra["no_reference_pixels"] = m.no_reference_pixels;
-  extra["neighbourhood"] = nlohmann::ordered_json::parse(
-      neighbourhood_report_json(options.neighbourhood.flags, options.neighbourhood.pool_order, pixels.neighbourhood));
+  extra["neighbourhood"] =
+      neighbourhood_report(options.neighbourhood.flags, options.neighbourhood.pool_order, pixels.neighbourhood);
   nlohmann::ordered_json relit = nlohmann::ordered_json::object();
   for (const auto& r : relit_comparisons) relit[r.illuminant] = relit_comparison_json(r);
   extra["relit_delta_e94"] = {

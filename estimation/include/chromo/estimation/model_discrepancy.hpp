@@ -88,9 +88,16 @@ class ModelDiscrepancy {
   const Eigen::MatrixXd& covariance() const { return covariance_; }  // Σ_r, 81 × 81
   spectral::Spectrum sigma() const;                                  // √diag(Σ_r), albedo units
   const spectral::Spectrum& mean_fitted() const { return mean_fitted_; }  // the fits' mean, for reports
+  // μ_d: the residuals' mean spectrum (albedo units); and Σ_d, their covariance
+  // about μ_d, shrunk the same way (81 × 81): the Gaussian the relit layer's
+  // posterior discrepancy uses (discrepancy_posterior.hpp). The χ² keeps Σ_r.
+  const spectral::Spectrum& mean_residual() const { return mean_residual_; }
+  const Eigen::MatrixXd& centred_covariance() const { return centred_covariance_; }
 
  private:
   Eigen::MatrixXd covariance_;
+  Eigen::MatrixXd centred_covariance_;
+  spectral::Spectrum mean_residual_ = spectral::Spectrum::constant(0);
   spectral::Spectrum mean_fitted_;
   int subjects_ = 0;
   double shrinkage_ = 0;

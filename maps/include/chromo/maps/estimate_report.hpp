@@ -38,6 +38,8 @@
 #include <utility>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "chromo/estimation/estimator.hpp"
 #include "chromo/session/method_measurement.hpp"
 #include "chromo/maps/reconstruction.hpp"
@@ -140,12 +142,14 @@ std::vector<RelitComparison> compare_with_photographs(std::span<const estimation
                                                       const spectral::CameraSensitivity& camera,
                                                       const RelitComparisonOptions& options = {});
 
-// summary.json's "neighbourhood" object (JSON text): which parts of the
-// spatial second pass ran (spatial_flags.hpp) and what they changed.
-// summary.json's "registration": one object per registered capture.
-std::string registration_report_json(std::span<const session::RegistrationReport> registration);
+// summary.json's "registration": one object per registered capture (a JSON
+// value for the report's file edge).
+nlohmann::ordered_json registration_report(std::span<const session::RegistrationReport> registration);
 
-std::string neighbourhood_report_json(bool flags, bool order_pooling, const estimation::NeighbourhoodSummary& summary);
+// summary.json's "neighbourhood" object: which parts of the spatial second
+// pass ran (spatial_flags.hpp) and what they changed.
+nlohmann::ordered_json neighbourhood_report(bool flags, bool order_pooling,
+                                            const estimation::NeighbourhoodSummary& summary);
 
 // The estimator options a session's estimation starts from: EstimatorOptions'
 // defaults with the model's learned discrepancy on real skin
