@@ -56,6 +56,7 @@ struct Row {
   int frames = 1, fold = 0;
   std::array<double, 4> noise_only{}, with_discrepancy{}, measured{};
   double de_noise_only = 0, de_with_discrepancy = 0, de_measured = 0;
+  double bound_share = 0;  // the measured fits with a parameter on a bound of the box
 };
 
 int run(int argc, char** argv) {
@@ -76,6 +77,21 @@ int run(int argc, char** argv) {
   std::vector<estimation::SkinParameters> references(spectra.size());
 #pragma omp parallel for schedule(dynamic)
   for (std::size_t i = 0; i < spectra.size(); ++i) references[i] = estimation::fit_spectrum(spectra[i].albedo).parameters;
+  // How many references sit on a bound of the box, per parameter (the measured fits are clipped there, the
+  // prediction is not).
+  {
+    int on[4] = {};
+    for (const auto& r : references) {
+      const double v[4] = {r.cm, r.ch, r.bm, r.che};
+      const estimation::ParameterRange* ranges[4] = {&estimation::kCmRange, &estimation::kChRange, &estimation::kBmRange,
+                                                     &estimation::kCheRange};
+      for (int p = 0; p < 4; ++p)
+        on[p] += std::abs(v[p] - ranges[p]->min) < 1e-3 * (ranges[p]->max - ranges[p]->min) ||
+                 std::abs(v[p] - ranges[p]->max) < 1e-3 * (ranges[p]->max - ranges[p]->min);
+    }
+    std::printf("references within 0.1%% of the box's width of a bound: Cm %d, Ch %d, Bm %d, Che %d of %zu\n", on[0], on[1],
+                on[2], on[3], references.size());
+  }
 
   std::vector<Row> rows;
   for (int fold = 0; fold < kFolds; ++fold) {
@@ -107,6 +123,7 @@ int run(int argc, char** argv) {
         row.measured = as_array(measured.rms_error);
         row.de_noise_only = noise_only.delta_e94_mean, row.de_with_discrepancy = with.delta_e94_mean;
         row.de_measured = measured.delta_e94_mean;
+        row.bound_share = measured.bound_share;
         rows.push_back(row);
       }
     std::fprintf(stderr, "fold %d of %d done\n", fold + 1, kFolds);
@@ -131,7 +148,8 @@ int run(int argc, char** argv) {
       std::printf(" %8.5f/%8.5f/%8.5f ", r.noise_only[p], r.with_discrepancy[p], r.measured[p]);
       csv << "," << r.noise_only[p] << "," << r.with_discrepancy[p] << "," << r.measured[p];
     }
-    std::printf(" %6.3f/%6.3f/%6.3f\n", r.de_noise_only, r.de_with_discrepancy, r.de_measured);
+    std::printf(" %6.3f/%6.3f/%6.3f  on a bound %4.1f%%\n", r.de_noise_only, r.de_with_discrepancy, r.de_measured,
+                100 * r.bound_share);
     csv << "," << r.de_noise_only << "," << r.de_with_discrepancy << "," << r.de_measured << "\n";
   }
 

@@ -400,14 +400,40 @@ Fit Estimator::specular_fit(const double* measured, const double* weight, const 
   return best;
 }
 
-EstimateSummary Estimator::estimate_tile(std::span<const float> measured, std::span<PixelEstimate> out) const {
+namespace {
+
+void check_not_fitted(const CellsNotFitted& not_fitted, std::size_t cells) {
+  if (!not_fitted.where.empty() && not_fitted.where.size() != cells)
+    throw std::invalid_argument("estimate: " + std::to_string(not_fitted.where.size()) + " cells not to fit for " +
+                                std::to_string(cells) + " cells");
+  if (!outside_the_skin(not_fitted.flag))
+    throw std::invalid_argument("estimate: cells not fitted take a flag outside the skin, not " +
+                                std::string(pixel_flag_name(not_fitted.flag)));
+}
+
+// A cell that is not skin: its flag, no parameters (NaN), no order.
+PixelEstimate not_skin_estimate(PixelFlag flag) {
+  constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+  PixelEstimate e;
+  e.parameters = {kNaN, kNaN, kNaN, kNaN};
+  e.residual = kNaN;
+  e.flag = flag;
+  return e;
+}
+
+}  // namespace
+
+EstimateSummary Estimator::estimate_tile(std::span<const float> measured, std::span<PixelEstimate> out,
+                                         CellsNotFitted not_fitted) const {
   if (measured.size() != out.size() * static_cast<std::size_t>(channels()))
     throw std::invalid_argument("estimate_tile: " + std::to_string(measured.size()) + " values for " +
                                 std::to_string(out.size()) + " pixels of " + std::to_string(channels()) + " channels");
+  check_not_fitted(not_fitted, out.size());
   EstimateSummary s;
   s.pixels = s.processed = out.size();
   for (std::size_t i = 0; i < out.size(); ++i) {
-    out[i] = estimate_pixel(measured.data() + i * channels());
+    out[i] = !not_fitted.where.empty() && not_fitted.where[i] ? not_skin_estimate(not_fitted.flag)
+                                                             : estimate_pixel(measured.data() + i * channels());
     ++s.flag_counts[static_cast<int>(out[i].flag)];
     if (out[i].order == 2) ++s.order2;
     if (out[i].order == 4) ++s.order4;
@@ -416,9 +442,10 @@ EstimateSummary Estimator::estimate_tile(std::span<const float> measured, std::s
 }
 
 EstimateSummary Estimator::estimate(std::span<const float> measured, std::span<PixelEstimate> out,
-                                    const files::Progress& progress) const {
+                                    const files::Progress& progress, CellsNotFitted not_fitted) const {
   if (measured.size() != out.size() * static_cast<std::size_t>(channels()))
     throw std::invalid_argument("estimate: measurement size does not match the output size");
+  check_not_fitted(not_fitted, out.size());
   const auto start = std::chrono::steady_clock::now();
   const std::size_t tile = static_cast<std::size_t>(options_.tile_pixels);
   const std::ptrdiff_t tiles = static_cast<std::ptrdiff_t>((out.size() + tile - 1) / tile);
@@ -439,7 +466,10 @@ EstimateSummary Estimator::estimate(std::span<const float> measured, std::span<P
     }
     const std::size_t first = static_cast<std::size_t>(t) * tile;
     const std::size_t count = std::min(tile, out.size() - first);
-    EstimateSummary s = estimate_tile(measured.subspan(first * channels(), count * channels()), out.subspan(first, count));
+    CellsNotFitted tile_not_fitted = not_fitted;
+    if (!not_fitted.where.empty()) tile_not_fitted.where = not_fitted.where.subspan(first, count);
+    EstimateSummary s = estimate_tile(measured.subspan(first * channels(), count * channels()), out.subspan(first, count),
+                                      tile_not_fitted);
     s.pixels = 0;
     std::lock_guard lock(mutex);
     total.merge(s);

@@ -602,7 +602,11 @@ PixelEstimates estimate_pixels(const session::Measurement& m, const estimation::
                                const files::Progress& progress, MethodEstimationResult& result) {
   PixelEstimates out;
   out.estimates.resize(m.measured.size() / static_cast<std::size_t>(m.set.size()));
-  result.summary = estimator.estimate(m.measured, out.estimates, progress);
+  // The white target is known before the fit: its cells are marked, not fitted
+  // (a white is far outside the skin's gamut: each took the search path and
+  // the specular scan, several times a skin cell's cost, to be flagged).
+  const std::vector<std::uint8_t> white_target = white_target_pixels(m.measured, m.set, white_reflectance);
+  result.summary = estimator.estimate(m.measured, out.estimates, progress, {white_target, estimation::PixelFlag::kWhiteTarget});
   if (result.summary.cancelled) throw std::runtime_error("estimation cancelled");
   result.pixels_per_second =
       result.summary.seconds > 0 ? static_cast<double>(out.estimates.size()) / result.summary.seconds : 0.0;
@@ -612,8 +616,6 @@ PixelEstimates estimate_pixels(const session::Measurement& m, const estimation::
                                                               result.summary, options.neighbourhood);
   out.neighbourhood_seconds = seconds_since(t);
   mark_not_skin(m.no_reference, estimation::PixelFlag::kNoReference, out.estimates, result.summary);
-  mark_not_skin(white_target_pixels(m.measured, m.set, white_reflectance), estimation::PixelFlag::kWhiteTarget,
-                out.estimates, result.summary);
   return out;
 }
 

@@ -315,6 +315,44 @@ TEST(Estimator, TilesMatchTheWholeImageAndCancelStops) {
   EXPECT_THROW(estimator.estimate_tile(std::span(f.noisy).first(10), tile), std::invalid_argument);
 }
 
+// Cells marked not to fit (the white target, known before the fit) get the
+// flag and no parameters, are counted under it, and leave every other cell
+// as the estimate without the mark; a mark of the wrong size or with a skin
+// flag is refused.
+TEST(Estimator, CellsNotToFitGetTheirFlagAndLeaveTheOthersAsTheyWere) {
+  MeasurementSet set = testing::method_set();
+  const simulators::SyntheticFrame f = simulators::make_synthetic_frame(set, in_gamut_skin(600, 1.0));
+  EstimatorOptions options;
+  options.tile_pixels = 100;
+  const Estimator estimator(testing::method_table(), set, options);
+  std::vector<PixelEstimate> all(f.pixels()), marked(f.pixels());
+  std::vector<std::uint8_t> white(f.pixels(), 0);
+  for (std::size_t i = 0; i < white.size(); i += 7) white[i] = 1;  // across tiles
+  estimator.estimate(f.noisy, all);
+  const EstimateSummary s = estimator.estimate(f.noisy, marked, {}, {white, PixelFlag::kWhiteTarget});
+  std::size_t white_cells = 0, explained = 0;
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    if (white[i]) {
+      ++white_cells;
+      EXPECT_EQ(marked[i].flag, PixelFlag::kWhiteTarget) << i;
+      EXPECT_TRUE(std::isnan(marked[i].parameters.cm) && std::isnan(marked[i].residual)) << i;
+      EXPECT_EQ(marked[i].order, 0) << i;
+      continue;
+    }
+    EXPECT_EQ(marked[i].flag, all[i].flag) << i;
+    EXPECT_EQ(marked[i].parameters.cm, all[i].parameters.cm) << i;
+    EXPECT_EQ(marked[i].sigma[1], all[i].sigma[1]) << i;
+    explained += marked[i].flag == PixelFlag::kExplained;
+  }
+  EXPECT_EQ(white_cells, 86u);
+  EXPECT_EQ(s.flag_counts[static_cast<int>(PixelFlag::kWhiteTarget)], white_cells);
+  EXPECT_EQ(s.flag_counts[static_cast<int>(PixelFlag::kExplained)], explained);
+  EXPECT_EQ(s.order2 + s.order4, f.pixels() - white_cells);
+  const std::vector<std::uint8_t> short_mark(f.pixels() - 1, 0);
+  EXPECT_THROW(estimator.estimate(f.noisy, marked, {}, {short_mark, PixelFlag::kWhiteTarget}), std::invalid_argument);
+  EXPECT_THROW(estimator.estimate(f.noisy, marked, {}, {white, PixelFlag::kSpecular}), std::invalid_argument);
+}
+
 TEST(Estimator, OptionsAreValidated) {
   EstimatorOptions o;
   std::string error;

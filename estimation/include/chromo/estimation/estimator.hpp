@@ -131,6 +131,14 @@ struct PixelEstimate {
   static constexpr float kNoSigma = std::numeric_limits<float>::quiet_NaN();
 };
 
+// Cells known before the fit not to be skin (the white target): where
+// `where` is nonzero the cell gets `flag` (one outside_the_skin()), NaN
+// parameters and residual, and no fit; empty: every cell is fitted.
+struct CellsNotFitted {
+  std::span<const std::uint8_t> where;
+  PixelFlag flag = PixelFlag::kWhiteTarget;
+};
+
 struct EstimatorOptions {
   InverterMethod method = InverterMethod::kFast;
   ModelChoice model = ModelChoice::kAuto;
@@ -215,11 +223,13 @@ class Estimator {
   // One pixel (channels() values), with the options' model or a given one.
   PixelEstimate estimate_pixel(const float* measured) const { return estimate_pixel(measured, options_.model); }
   PixelEstimate estimate_pixel(const float* measured, ModelChoice model) const;
-  // measured.size() == out.size() · channels(); std::invalid_argument otherwise.
-  EstimateSummary estimate_tile(std::span<const float> measured, std::span<PixelEstimate> out) const;
+  // measured.size() == out.size() · channels() and not_fitted.where empty or
+  // out.size() long; std::invalid_argument otherwise.
+  EstimateSummary estimate_tile(std::span<const float> measured, std::span<PixelEstimate> out,
+                                CellsNotFitted not_fitted = {}) const;
   // The whole image on options().threads threads, tile by tile.
   EstimateSummary estimate(std::span<const float> measured, std::span<PixelEstimate> out,
-                           const files::Progress& progress = {}) const;
+                           const files::Progress& progress = {}, CellsNotFitted not_fitted = {}) const;
 
   // Predicted measurement of parameters through the table (for residual maps).
   void predict(const SkinParameters& p, double* out) const;
