@@ -284,12 +284,22 @@ TEST(Estimator, APixelOnlyTheFourDFitExplainsKeepsOrderFour) {
   EXPECT_GE(between, 3);
 }
 
-TEST(Estimator, TilesMatchTheWholeImageAndCancelStops) {
+// 600 cells of noisy in-gamut skin and an estimator of 100-cell tiles.
+struct TiledSkin {
+  static EstimatorOptions tiles_of_100() {
+    EstimatorOptions options;
+    options.tile_pixels = 100;
+    return options;
+  }
   MeasurementSet set = testing::method_set();
-  const simulators::SyntheticFrame f = simulators::make_synthetic_frame(set, in_gamut_skin(600, 1.0));
-  EstimatorOptions options;
-  options.tile_pixels = 100;
-  const Estimator estimator(testing::method_table(), set, options);
+  simulators::SyntheticFrame f = simulators::make_synthetic_frame(set, in_gamut_skin(600, 1.0));
+  Estimator estimator{testing::method_table(), set, tiles_of_100()};
+};
+
+TEST(Estimator, TilesMatchTheWholeImageAndCancelStops) {
+  const TiledSkin skin;
+  const simulators::SyntheticFrame& f = skin.f;
+  const Estimator& estimator = skin.estimator;
   std::vector<PixelEstimate> whole(f.pixels()), tile(100);
   std::size_t progress_calls = 0;
   double last_fraction = 0;
@@ -320,11 +330,9 @@ TEST(Estimator, TilesMatchTheWholeImageAndCancelStops) {
 // as the estimate without the mark; a mark of the wrong size or with a skin
 // flag is refused.
 TEST(Estimator, CellsNotToFitGetTheirFlagAndLeaveTheOthersAsTheyWere) {
-  MeasurementSet set = testing::method_set();
-  const simulators::SyntheticFrame f = simulators::make_synthetic_frame(set, in_gamut_skin(600, 1.0));
-  EstimatorOptions options;
-  options.tile_pixels = 100;
-  const Estimator estimator(testing::method_table(), set, options);
+  const TiledSkin skin;
+  const simulators::SyntheticFrame& f = skin.f;
+  const Estimator& estimator = skin.estimator;
   std::vector<PixelEstimate> all(f.pixels()), marked(f.pixels());
   std::vector<std::uint8_t> white(f.pixels(), 0);
   for (std::size_t i = 0; i < white.size(); i += 7) white[i] = 1;  // across tiles
