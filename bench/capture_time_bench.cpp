@@ -144,16 +144,16 @@ Result run(const Case& c, std::uint64_t seed, int sensor_width, int sensor_heigh
 }
 
 // The advisor's description of a lab plan at f frames per capture: standard
-// → "method", multispectral → "multispectral", multispectral+method → the
+// → "standard", multispectral → "multispectral", multispectral+method → the
 // six LEDs alone then the method's three mixes, every capture's R, G, B
-// (what session::build_plan_measurement gives the estimator).
+// (what session::build_measurement gives the estimator).
 planning::PlanDescription advisor_plan_of(const std::string& lab_plan, int frames,
                                           const calibration::LedLibrary& library) {
   const std::string suffix = "@" + std::to_string(frames);
-  if (lab_plan == "standard") return planning::builtin_plan("method" + suffix, library);
+  if (lab_plan == "standard") return planning::builtin_plan("standard" + suffix, library);
   if (lab_plan == "multispectral") return planning::builtin_plan("multispectral" + suffix, library);
   planning::PlanDescription both = planning::builtin_plan("multispectral" + suffix, library);
-  const planning::PlanDescription method = planning::builtin_plan("method" + suffix, library);
+  const planning::PlanDescription method = planning::builtin_plan("standard" + suffix, library);
   both.name = lab_plan + suffix;
   for (planning::PlannedCapture c : method.captures) {
     c.name += "-mix";  // "W57" is an LED type's capture too

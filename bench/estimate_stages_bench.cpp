@@ -9,7 +9,7 @@
 // the sensor's size (default 2448x2048 BayerRG12, binned 2x2 to 1224x1024
 // cells; simulators/scene/rendered_session.hpp, not cached: the cache keeps
 // no photographs), its tables prepared as chromod's on-line estimator does
-// during capture (maps::prepare_tables), then maps::estimate_method_measurement
+// during capture (maps::prepare_tables), then maps::estimate_measurement
 // twice on the same measurement and tables:
 //   before  the relit comparison by the exact model per pixel, the report's
 //           files one after another with OpenEXR unthreaded (the code before
@@ -123,7 +123,7 @@ Run run_estimate(const simulators::RenderedSession& lab, const maps::PreparedTab
   const auto t = std::chrono::steady_clock::now();
   const CpuClock cpu;
   Run run;
-  run.result = maps::estimate_method_measurement(lab.noisy, lab.noisy.set.camera, 0.99, 0, options, dir, direct_commit(),
+  run.result = maps::estimate_measurement(lab.noisy, lab.noisy.set.camera, 0.99, 0, options, dir, direct_commit(),
                                                  {}, "{}", &tables);
   run.total = seconds_since(t);
   run.cpu = cpu.seconds();
@@ -273,14 +273,12 @@ ChainRun run_chain(const std::string& plan, double megapixels, std::uint64_t see
     session::RegistrationOptions registration;
     registration.threads = registration_threads;
     const auto t0 = std::chrono::steady_clock::now();
-    session::MethodMeasurement m = plan == "standard"
-                                       ? session::build_method_measurement(lab.noisy_captures->captures(), registration)
-                                       : session::build_plan_measurement(lab.noisy_captures->plan_captures(), registration);
+    session::Measurement m = session::build_measurement(lab.noisy_captures->captures(), registration);
     seconds = seconds_since(t0);
     return m;
   };
-  const session::MethodMeasurement serial = measure(1, run.stage_s["measurement_registration_one_by_one"]);
-  const session::MethodMeasurement concurrent = measure(0, run.stage_s["measurement_and_registration"]);
+  const session::Measurement serial = measure(1, run.stage_s["measurement_registration_one_by_one"]);
+  const session::Measurement concurrent = measure(0, run.stage_s["measurement_and_registration"]);
   run.same_measurement = serial.measured.size() == concurrent.measured.size() &&
                          std::memcmp(serial.measured.data(), concurrent.measured.data(),
                                      serial.measured.size() * sizeof(float)) == 0 &&

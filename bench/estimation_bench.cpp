@@ -607,7 +607,7 @@ LabFrames render_lab(BenchRun& run) {
   simulators::RenderedSession lab = simulators::render_session(ro);
   const double render_s = seconds_since(t), render_cpu_s = render_cpu.seconds();
   std::printf("virtual lab: %dx%d BayerRG12 sensor -> %dx%d measurement (2x2 binning); %s %.1f s wall, %.1f s CPU; "
-              "its render: scene %.1f s, camera + capture builder %.1f s, session::build_method_measurement %.1f s (wall); "
+              "its render: scene %.1f s, camera + capture builder %.1f s, session::build_measurement %.1f s (wall); "
               "exposure %.0f us\n",
               scene_width, scene_height, lab.width, lab.height, lab.loaded_from_cache ? "loaded from the cache in" : "rendered in",
               render_s, render_cpu_s, lab.scene_seconds, lab.camera_seconds, lab.measurement_seconds, lab.exposure_us);
@@ -674,7 +674,7 @@ void diagnose_lab(BenchRun& run, const LabFrames& frames) {
   const auto& skin = frames.skin;
   const FastInverter fast(lab_table, fs::path{}, fast_options_for(lab.noisy.set));
   for (const bool noisy : {false, true}) {
-    const session::MethodMeasurement& m = noisy ? lab.noisy : lab.noise_free;
+    const session::Measurement& m = noisy ? lab.noisy : lab.noise_free;
     std::vector<float> measured;
     for (std::size_t i : skin) measured.insert(measured.end(), m.measured.begin() + i * 4, m.measured.begin() + i * 4 + 4);
     report[std::string("diagnose_paths_lab_") + (noisy ? "noisy" : "noise_free")] =
@@ -710,7 +710,7 @@ void run_lab_methods(BenchRun& run, const LabFrames& frames) {
   const double lab_floor = report["lab_noise_floor_de94"].get<double>();
   const std::size_t stride = std::max<std::size_t>(1, skin.size() / std::max(exhaustive_pixels, 1));
   for (const bool noisy : {false, true}) {
-    const session::MethodMeasurement& m = noisy ? lab.noisy : lab.noise_free;
+    const session::Measurement& m = noisy ? lab.noisy : lab.noise_free;
     for (const MethodConfig& c : kMethodConfigs) {
       EstimatorOptions eo;
       eo.method = c.method;

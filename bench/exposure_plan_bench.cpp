@@ -19,7 +19,7 @@
 // reference too), the whites metered to --white-fill of full scale. Per plan and scene seed: the
 // blue-only channel's relative noise on the white beside D65' B's (predicted
 // from the camera model's shot and read noise; measured: the estimator's
-// noise figure, which session::build_method_measurement estimates from the
+// noise figure, which session::build_measurement estimates from the
 // dark and white frames), and the fast inverter's relit ΔE94 against the
 // truth on the skin cells (six LEDs + D65), 4D model and auto model, noisy
 // frames; then the spread over the seeds.

@@ -86,7 +86,7 @@ struct Cells {
   std::vector<SkinParameters> truth;
   bench::Relit relit;
 };
-Cells lab_cells(const simulators::RenderedSession& lab, const session::MethodMeasurement& m, const std::vector<std::size_t>& skin,
+Cells lab_cells(const simulators::RenderedSession& lab, const session::Measurement& m, const std::vector<std::size_t>& skin,
                 const bench::Relit& skin_relit, std::size_t step, bool whole_frame) {
   Cells c;
   if (whole_frame) c.measured = m.measured;
@@ -129,7 +129,7 @@ Row run(const std::shared_ptr<const ForwardTable>& table, const MeasurementSet& 
 // --whole-frame: the default fast 4D Estimator's CPU time per cell of each
 // scene region, one thread (thread CPU time): which cells a frame's time goes to.
 void print_region_costs(const std::shared_ptr<const ForwardTable>& table, const simulators::RenderedSession& lab,
-                        const session::MethodMeasurement& m, const char* noise) {
+                        const session::Measurement& m, const char* noise) {
   EstimatorOptions eo;
   eo.method = InverterMethod::kFast, eo.model = ModelChoice::k4d, eo.threads = 1;
   const Estimator estimator(table, m.set, eo);
@@ -201,7 +201,7 @@ static int bench_main(int argc, char** argv) {
   csv << "# budget noise cells_per_second cpu_us_per_cell de94_relit_mean de94_d65 d65_minus_exhaustive "
          "flagged_share mean_chi2\n";
   for (const bool noisy : {false, true}) {
-    const session::MethodMeasurement& m = noisy ? lab.noisy : lab.noise_free;
+    const session::Measurement& m = noisy ? lab.noisy : lab.noise_free;
     const char* noise = noisy ? "noisy" : "noise-free";
     EstimatorOptions exhaustive;
     exhaustive.method = InverterMethod::kExhaustive, exhaustive.model = ModelChoice::k4d, exhaustive.threads = 2;

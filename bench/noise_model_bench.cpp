@@ -2,7 +2,7 @@
 // The virtual lab's standard session (rendered_session.hpp) is rendered with
 // and without noise from the same scene; on skin cells the difference is
 // exactly the capture chain's noise. Per channel it is compared with the
-// noise model build_method_measurement estimated from the dark and white
+// noise model build_measurement estimated from the dark and white
 // frames (measurement.hpp: σ² = read² + shot·a + white·a²):
 //
 //   ratio = mean over skin cells of (noisy − noise-free)² / mean of σ²(noise-free)

@@ -43,13 +43,13 @@ struct NamedPlan {
 
 std::vector<NamedPlan> bench_plans(const calibration::LedLibrary& library) {
   std::vector<NamedPlan> plans;
-  plans.push_back({"method@1", planning::builtin_plan("method", library)});
-  plans.push_back({"method@4", planning::builtin_plan("method@4", library)});
-  planning::PlanDescription poor = planning::builtin_plan("method-blue", library);
+  plans.push_back({"standard@1", planning::builtin_plan("standard", library)});
+  plans.push_back({"standard@4", planning::builtin_plan("standard@4", library)});
+  planning::PlanDescription poor = planning::builtin_plan("standard-blue", library);
   poor.captures[1].white_fill = 0.05;
   poor.name = "blue-at-5%";
   plans.push_back({"blue-at-5%", poor});
-  plans.push_back({"blue-at-85%", planning::builtin_plan("method-blue", library)});
+  plans.push_back({"blue-at-85%", planning::builtin_plan("standard-blue", library)});
   plans.push_back({"multispectral@1", planning::builtin_plan("multispectral", library)});
   plans.push_back({"multispectral@4", planning::builtin_plan("multispectral@4", library)});
   return plans;

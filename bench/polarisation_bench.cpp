@@ -3,7 +3,7 @@
 // (simulators/scene/rendered_session.hpp with polarised = true and oily
 // regions of 1-20σ of the surface map's noise), over held-out scene seeds
 // and the films' extinction ratio at 550 nm (1:50 ... 1:1000), measured as
-// chromod measures it (SessionCaptureBuilder, build_method_measurement: the
+// chromod measures it (SessionCaptureBuilder, build_measurement: the
 // surface map from D65' parallel − cross) and estimated by the fast 4D
 // inverter from the cross-polarised captures. Per seed and ratio:
 //   - the optical highlight flag (estimation/highlight_flags.hpp) rate per

@@ -4,7 +4,7 @@
 // (maps/estimate_report.hpp). Everything is read and checked before
 // anything is written; outputs are written under temporary names and renamed
 // into place at the end (OutputBatch). A session folder goes through the
-// daemon's own SessionCaptureBuilder and estimate_method_captures(), so the
+// daemon's own SessionCaptureBuilder and estimate_captures(), so the
 // maps equal the on-line estimator's for the same frames and LED library.
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -68,46 +68,66 @@ int run_estimate_session(const EstimateOptions& options) {
   return kExitOk;
 }
 
-int run_estimate(const EstimateOptions& options) {
-  const auto start = std::chrono::steady_clock::now();
-  auto seconds_since = [](auto t) { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count(); };
-  // Not throwing: a path that cannot be looked at (a loop of links) is a
-  // file the bounded reader then refuses, naming it (exit 2).
-  std::error_code unreadable;
-  if (fs::is_directory(options.input, unreadable)) return run_estimate_session(options);
+double seconds_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+// A MEASUREMENT.json read, its images registered and its measurement set checked.
+struct LoadedMeasurement {
   session::MeasurementFile m;
+  nlohmann::ordered_json registration;
+  estimation::MeasurementSet set;
+  double load_seconds = 0, registration_seconds = 0;
+};
+
+// Reads options.input into `loaded`: kExitOk, or kExitBadInput said on
+// stderr (the file, a registration, the set).
+int load_measurement(const EstimateOptions& options, LoadedMeasurement& loaded) {
+  const auto start = std::chrono::steady_clock::now();
+  session::MeasurementFile& m = loaded.m;
   try {
     m = session::read_measurement_file(options.input);
   } catch (const session::MeasurementFileError& e) {
     std::cerr << "chromo estimate: " << e.what() << "\n";
     return kExitBadInput;
   }
-  const double load_seconds = seconds_since(start);
+  loaded.load_seconds = seconds_since(start);
 
   // Register every further image to images[0] on the first channel both use.
-  auto t = std::chrono::steady_clock::now();
-  nlohmann::ordered_json registration;
+  const auto t = std::chrono::steady_clock::now();
   try {
-    registration = maps::registration_report(session::register_images(m));
+    loaded.registration = maps::registration_report(session::register_images(m));
   } catch (const session::RegistrationError& e) {
     std::cerr << "chromo estimate: " << e.what() << "\n";
     return kExitBadInput;
   }
-  const double registration_seconds = seconds_since(t);
+  loaded.registration_seconds = seconds_since(t);
 
   // Measurement set and the pixel-major measurement vector.
-  estimation::MeasurementSet set = m.measurement_set();
+  loaded.set = m.measurement_set();
   try {
-    set.validate();
+    loaded.set.validate();
   } catch (const std::invalid_argument& e) {
     std::cerr << "chromo estimate: measurement set: " << e.what() << "\n";
     return kExitBadInput;
   }
+  return kExitOk;
+}
+
+int run_estimate(const EstimateOptions& options) {
+  // Not throwing: a path that cannot be looked at (a loop of links) is a
+  // file the bounded reader then refuses, naming it (exit 2).
+  std::error_code unreadable;
+  if (fs::is_directory(options.input, unreadable)) return run_estimate_session(options);
+  LoadedMeasurement loaded;
+  if (const int status = load_measurement(options, loaded); status != kExitOk) return status;
+  const session::MeasurementFile& m = loaded.m;
+  const estimation::MeasurementSet& set = loaded.set;
   const std::size_t pixels = static_cast<std::size_t>(m.width) * m.height;
   const int channels = set.size();
   const std::vector<float> measured = m.pixel_major();
 
-  t = std::chrono::steady_clock::now();
+  auto t = std::chrono::steady_clock::now();
   bool rebuilt = false;
   std::shared_ptr<const estimation::ForwardTable> table;
   try {
@@ -145,8 +165,8 @@ int run_estimate(const EstimateOptions& options) {
   for (const auto& c : set.channels) report.channel_names.push_back(c.name);
   report.estimates = out;
   report.summary = summary;
-  report.timings_s = {{"load", load_seconds},
-                      {"registration", registration_seconds},
+  report.timings_s = {{"load", loaded.load_seconds},
+                      {"registration", loaded.registration_seconds},
                       {"table", table_seconds},
                       {"inverter_setup", inverter_setup_seconds},
                       {"neighbourhood", neighbourhood_seconds}};
@@ -154,7 +174,7 @@ int run_estimate(const EstimateOptions& options) {
                                {"table", {{"key", fmt::format("{:016x}", table->key())},
                                           {"nodes", table->grid().node_count()},
                                           {"rebuilt", rebuilt}}},
-                               {"registration", registration},
+                               {"registration", loaded.registration},
                                {"neighbourhood", maps::neighbourhood_report(options.neighbourhood_flags,
                                                                             options.order_pooling, neighbourhood)},
                                {"skin_denoise", maps::skin_denoise_report(skin_denoise, pass.skin_refit ? &*pass.skin_refit : nullptr)}};

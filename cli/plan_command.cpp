@@ -4,9 +4,12 @@
 // and a chart of accuracy against capture time.
 #include <fmt/format.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
+#include <vector>
 #include <nlohmann/json.hpp>
 
 #include "chromo/calibration/led_library.hpp"
@@ -57,15 +60,18 @@ planning::PlanDescription load_plan(const std::string& argument, const calibrati
   return planning::builtin_plan(argument, library);
 }
 
-int run_plan_compare(const PlanCompareOptions& o) {
-  // Capture times need a library in the camera model's irradiance units: the
-  // virtual lab's true LEDs are; the nominal library's spectra are relative
-  // (radiant flux 1 per white COB), so its exposures are only relative.
-  const calibration::LedLibrary library = o.library == "lab"       ? simulators::lab_led_library()
-                                          : o.library == "nominal" ? calibration::nominal_led_library()
-                                                                   : calibration::load_led_library(o.library);
-  planning::CameraNoise camera;
-  camera.sensitivity = spectral::builtin_camera(o.camera);
+// The LED library plan compare models: capture times need a library in the
+// camera model's irradiance units: the virtual lab's true LEDs are; the
+// nominal library's spectra are relative (radiant flux 1 per white COB), so
+// its exposures are only relative.
+calibration::LedLibrary advisor_library(const PlanCompareOptions& o) {
+  return o.library == "lab"       ? simulators::lab_led_library()
+         : o.library == "nominal" ? calibration::nominal_led_library()
+                                  : calibration::load_led_library(o.library);
+}
+
+// The advisor's options from the command line; std::invalid_argument naming the option.
+planning::AdvisorOptions advisor_options(const PlanCompareOptions& o) {
   planning::AdvisorOptions options;
   if (o.population == "interior") options.population = planning::interior_population();
   else if (o.population != "skin") throw std::invalid_argument("--population: must be 'skin' or 'interior'");
@@ -75,88 +81,117 @@ int run_plan_compare(const PlanCompareOptions& o) {
   if (o.discrepancy == "learned") options.discrepancy = estimation::ModelDiscrepancy::standard();
   else if (o.discrepancy != "none") throw std::invalid_argument("--discrepancy: must be 'learned' or 'none'");
   if (std::string error; !options.IsValid(&error)) throw std::invalid_argument("--skins/--threads: " + error);
+  return options;
+}
+
+struct PlanComparison {
+  std::vector<planning::PlanPrediction> predictions;
+  std::vector<std::optional<planning::MonteCarloCheck>> checks;  // per plan; empty without --mc-draws
+};
+
+void print_comparison_json(const PlanCompareOptions& o, const PlanComparison& compared) {
+  const auto& predictions = compared.predictions;
+  const auto& checks = compared.checks;
+  nlohmann::ordered_json out = nlohmann::ordered_json::array();
+  for (std::size_t i = 0; i < predictions.size(); ++i) {
+    const auto& p = predictions[i];
+    nlohmann::ordered_json row{{"plan", p.plan}, {"channels", p.channels}, {"subject_s", p.time.subject_s},
+                               {"reference_s", p.time.reference_s},
+                               {"sigma", {{"cm", p.sigma.cm}, {"ch", p.sigma.ch}, {"bm", p.sigma.bm}, {"che", p.sigma.che}}},
+                               {"illuminants", p.illuminants}, {"predicted_delta_e94", p.delta_e94},
+                               {"predicted_delta_e94_mean", p.delta_e94_mean}, {"skins", p.skins},
+                               {"discrepancy", o.discrepancy}};
+    if (checks[i]) {
+      const auto& c = *checks[i];
+      row["monte_carlo"] = {{"delta_e94", c.delta_e94}, {"delta_e94_mean", c.delta_e94_mean}, {"ratio", c.ratio},
+                            {"bound_share", c.bound_share}, {"fits", c.fits}, {"failed_fits", c.failed_fits}};
+    }
+    out.push_back(row);
+  }
+  std::cout << out.dump(2) << "\n";
+}
+
+void print_comparison_table(const PlanCompareOptions& o, const planning::AdvisorOptions& options,
+                            const PlanComparison& compared) {
+  const auto& predictions = compared.predictions;
+  const auto& checks = compared.checks;
+  fmt::print("# plan advisor: {} skins ({} population, seed {}), camera {}, library {}, discrepancy {}\n",
+             options.population.count, o.population, o.seed, o.camera, o.library, o.discrepancy);
+  fmt::print("# σ: Cramér-Rao RMS over the skins; ΔE94: predicted mean relit ΔE94; MC: Monte Carlo fits' mean, "
+             "ratio = predicted/MC, bound = share of fits on a range edge\n");
+  fmt::print("{:<18} {:>3} {:>9} {:>9} {:>8} {:>8} {:>7} {:>7}", "plan", "ch", "subject_s", "refs_s", "σCm", "σCh",
+             "σβm", "σChe");
+  for (const std::string& name : predictions.front().illuminants) fmt::print(" {:>6}", name);
+  fmt::print(" {:>6} {:>6} {:>6} {:>6}\n", "mean", "MC", "ratio", "bound");
+  for (std::size_t i = 0; i < predictions.size(); ++i) {
+    const auto& p = predictions[i];
+    fmt::print("{:<18} {:>3} {:>9.3f} {:>9.3f} {:>8.5f} {:>8.5f} {:>7.4f} {:>7.4f}", p.plan, p.channels.size(),
+               p.time.subject_s, p.time.reference_s, p.sigma.cm, p.sigma.ch, p.sigma.bm, p.sigma.che);
+    for (double d : p.delta_e94) fmt::print(" {:>6.3f}", d);
+    fmt::print(" {:>6.3f}", p.delta_e94_mean);
+    if (checks[i]) fmt::print(" {:>6.3f} {:>6.2f} {:>6.2f}\n", checks[i]->delta_e94_mean, checks[i]->ratio, checks[i]->bound_share);
+    else fmt::print(" {:>6} {:>6} {:>6}\n", "-", "-", "-");
+  }
+}
+
+// The chart of accuracy against capture time (o.chart, its data beside it as
+// CSV); false (said on stderr) when gnuplot could not draw it.
+bool write_comparison_chart(const PlanCompareOptions& o, const PlanComparison& compared) {
+  const auto& predictions = compared.predictions;
+  const auto& checks = compared.checks;
+  const std::filesystem::path png(o.chart);
+  std::filesystem::path csv = png;
+  csv.replace_extension(".csv");
+  {
+    std::ofstream out(csv);
+    out << "plan,subject_s,predicted_delta_e94,monte_carlo_delta_e94\n";
+    for (std::size_t i = 0; i < predictions.size(); ++i)
+      out << predictions[i].plan << "," << predictions[i].time.subject_s << "," << predictions[i].delta_e94_mean << ","
+          << (checks[i] ? checks[i]->delta_e94_mean : std::nan("")) << "\n";
+    if (!out) throw std::runtime_error(csv.string() + ": cannot be written");
+  }
+  files::GnuplotChart chart;
+  chart.png = png;
+  chart.commands = fmt::format(
+      "set datafile separator ','\nset key top right\nset grid\n"
+      "set title 'Plan advisor: predicted relit {{/Symbol D}}E94 (mean over D65, A, six LEDs) vs capture time'\n"
+      "set xlabel 'subject capture time (s)'\nset ylabel 'mean relit {{/Symbol D}}E94'\nset logscale x\n"
+      "plot '{0}' every ::1 using 2:3 with points pt 7 ps 1.5 title 'predicted (Fisher)', "
+      "'{0}' every ::1 using 2:4 with points pt 6 ps 2 title 'Monte Carlo fits', "
+      "'{0}' every ::1 using 2:3:1 with labels noenhanced offset 0,1 notitle\n",
+      csv.string());
+  if (const std::string error = files::draw_chart(chart); !error.empty()) {
+    std::cerr << "chromo plan compare: chart: " << error << "\n";
+    return false;
+  }
+  if (!o.json) fmt::print("# chart: {} (data {})\n", png.string(), csv.string());
+  return true;
+}
+
+int run_plan_compare(const PlanCompareOptions& o) {
+  const calibration::LedLibrary library = advisor_library(o);
+  planning::CameraNoise camera;
+  camera.sensitivity = spectral::builtin_camera(o.camera);
+  const planning::AdvisorOptions options = advisor_options(o);
   planning::MonteCarloOptions mc;
   mc.draws_per_skin = std::max(1, o.mc_draws);
   const std::vector<std::string> names =
-      o.plans.empty() ? std::vector<std::string>{"method", "method@4", "method-blue", "multispectral", "multispectral@4"}
+      o.plans.empty() ? std::vector<std::string>{"standard", "standard@4", "standard-blue", "multispectral", "multispectral@4"}
                       : o.plans;
   std::vector<planning::PlanDescription> plans;
   for (const std::string& name : names) plans.push_back(load_plan(name, library));  // all checked before any work
 
-  std::vector<planning::PlanPrediction> predictions;
-  std::vector<std::optional<planning::MonteCarloCheck>> checks;
+  PlanComparison compared;
   for (const auto& plan : plans) {
-    predictions.push_back(planning::predict_plan(plan, library, camera, options));
-    if (o.mc_draws > 0) checks.push_back(planning::monte_carlo_check(plan, library, camera, options, mc, predictions.back()));
-    else checks.emplace_back();
+    compared.predictions.push_back(planning::predict_plan(plan, library, camera, options));
+    if (o.mc_draws > 0)
+      compared.checks.push_back(planning::monte_carlo_check(plan, library, camera, options, mc, compared.predictions.back()));
+    else
+      compared.checks.emplace_back();
   }
-
-  if (o.json) {
-    nlohmann::ordered_json out = nlohmann::ordered_json::array();
-    for (std::size_t i = 0; i < plans.size(); ++i) {
-      const auto& p = predictions[i];
-      nlohmann::ordered_json row{{"plan", p.plan}, {"channels", p.channels}, {"subject_s", p.time.subject_s},
-                                 {"reference_s", p.time.reference_s},
-                                 {"sigma", {{"cm", p.sigma.cm}, {"ch", p.sigma.ch}, {"bm", p.sigma.bm}, {"che", p.sigma.che}}},
-                                 {"illuminants", p.illuminants}, {"predicted_delta_e94", p.delta_e94},
-                                 {"predicted_delta_e94_mean", p.delta_e94_mean}, {"skins", p.skins},
-                                 {"discrepancy", o.discrepancy}};
-      if (checks[i]) {
-        const auto& c = *checks[i];
-        row["monte_carlo"] = {{"delta_e94", c.delta_e94}, {"delta_e94_mean", c.delta_e94_mean}, {"ratio", c.ratio},
-                              {"bound_share", c.bound_share}, {"fits", c.fits}, {"failed_fits", c.failed_fits}};
-      }
-      out.push_back(row);
-    }
-    std::cout << out.dump(2) << "\n";
-  } else {
-    fmt::print("# plan advisor: {} skins ({} population, seed {}), camera {}, library {}, discrepancy {}\n",
-               options.population.count, o.population, o.seed, o.camera, o.library, o.discrepancy);
-    fmt::print("# σ: Cramér-Rao RMS over the skins; ΔE94: predicted mean relit ΔE94; MC: Monte Carlo fits' mean, "
-               "ratio = predicted/MC, bound = share of fits on a range edge\n");
-    fmt::print("{:<18} {:>3} {:>9} {:>9} {:>8} {:>8} {:>7} {:>7}", "plan", "ch", "subject_s", "refs_s", "σCm", "σCh",
-               "σβm", "σChe");
-    for (const std::string& name : predictions.front().illuminants) fmt::print(" {:>6}", name);
-    fmt::print(" {:>6} {:>6} {:>6} {:>6}\n", "mean", "MC", "ratio", "bound");
-    for (std::size_t i = 0; i < plans.size(); ++i) {
-      const auto& p = predictions[i];
-      fmt::print("{:<18} {:>3} {:>9.3f} {:>9.3f} {:>8.5f} {:>8.5f} {:>7.4f} {:>7.4f}", p.plan, p.channels.size(),
-                 p.time.subject_s, p.time.reference_s, p.sigma.cm, p.sigma.ch, p.sigma.bm, p.sigma.che);
-      for (double d : p.delta_e94) fmt::print(" {:>6.3f}", d);
-      fmt::print(" {:>6.3f}", p.delta_e94_mean);
-      if (checks[i]) fmt::print(" {:>6.3f} {:>6.2f} {:>6.2f}\n", checks[i]->delta_e94_mean, checks[i]->ratio, checks[i]->bound_share);
-      else fmt::print(" {:>6} {:>6} {:>6}\n", "-", "-", "-");
-    }
-  }
-
-  if (!o.chart.empty()) {
-    const std::filesystem::path png(o.chart);
-    std::filesystem::path csv = png;
-    csv.replace_extension(".csv");
-    {
-      std::ofstream out(csv);
-      out << "plan,subject_s,predicted_delta_e94,monte_carlo_delta_e94\n";
-      for (std::size_t i = 0; i < plans.size(); ++i)
-        out << predictions[i].plan << "," << predictions[i].time.subject_s << "," << predictions[i].delta_e94_mean << ","
-            << (checks[i] ? checks[i]->delta_e94_mean : std::nan("")) << "\n";
-      if (!out) throw std::runtime_error(csv.string() + ": cannot be written");
-    }
-    files::GnuplotChart chart;
-    chart.png = png;
-    chart.commands = fmt::format(
-        "set datafile separator ','\nset key top right\nset grid\n"
-        "set title 'Plan advisor: predicted relit {{/Symbol D}}E94 (mean over D65, A, six LEDs) vs capture time'\n"
-        "set xlabel 'subject capture time (s)'\nset ylabel 'mean relit {{/Symbol D}}E94'\nset logscale x\n"
-        "plot '{0}' every ::1 using 2:3 with points pt 7 ps 1.5 title 'predicted (Fisher)', "
-        "'{0}' every ::1 using 2:4 with points pt 6 ps 2 title 'Monte Carlo fits', "
-        "'{0}' every ::1 using 2:3:1 with labels noenhanced offset 0,1 notitle\n",
-        csv.string());
-    if (const std::string error = files::draw_chart(chart); !error.empty()) {
-      std::cerr << "chromo plan compare: chart: " << error << "\n";
-      return kExitFailure;
-    }
-    if (!o.json) fmt::print("# chart: {} (data {})\n", png.string(), csv.string());
-  }
+  if (o.json) print_comparison_json(o, compared);
+  else print_comparison_table(o, options, compared);
+  if (!o.chart.empty() && !write_comparison_chart(o, compared)) return kExitFailure;
   return kExitOk;
 }
 
@@ -167,10 +202,10 @@ void add_plan_command(CLI::App& app, int& exit_status) {
   plan->require_subcommand(1);
   auto options = std::make_shared<PlanCompareOptions>();
   auto* compare = plan->add_subcommand(
-      "compare", "predicted parameter σ, relit ΔE94 and capture time of plans (built-in names: method, method-blue, "
+      "compare", "predicted parameter σ, relit ΔE94 and capture time of plans (built-in names: standard, standard-blue, "
                  "multispectral, d65, w57, w40, w27 and each broadband +blue (the seed's broadband study), each "
                  "optionally @N frames; or plan JSON files)");
-  compare->add_option("plans", options->plans, "plans (default: method method@4 method-blue multispectral multispectral@4)");
+  compare->add_option("plans", options->plans, "plans (default: standard standard@4 standard-blue multispectral multispectral@4)");
   compare->add_option("--library", options->library,
                       "lab (the virtual lab's true LEDs, in the camera model's units), nominal, or an LED library JSON")
       ->capture_default_str();

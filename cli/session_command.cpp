@@ -236,12 +236,53 @@ int watch_operation(const DaemonConnection& daemon, const std::string& id) {
   return last.state() == pb::OPERATION_STATE_SUCCEEDED ? kExitOk : kExitFailure;
 }
 
-void add_session_command(CLI::App& app, int& exit_status) {
-  auto* session = app.add_subcommand("session", "capture sessions on chromod");
-  session->require_subcommand(1);
-  auto options = std::make_shared<SessionOptions>();
+namespace {
 
-  auto* run_command = session->add_subcommand("run", "start a session (the standard one unless --plan) and follow it");
+// `session list`: one line per session known to the daemon, newest first.
+void list_sessions(const SessionOptions& options, int& exit_status) {
+  DaemonConnection daemon(options.address);
+  pb::ListSessionsResponse response;
+  auto status = pb::SessionService::NewStub(daemon.channel())->ListSessions(daemon.context().get(), {}, &response);
+  if (!status.ok()) {
+    exit_status = report_failure("session list", status);
+    return;
+  }
+  // One line per session; subject and study (cut at 24 characters) tell them apart.
+  auto cell = [](const std::string& text) {
+    if (text.empty()) return std::string("-");
+    if (text.size() <= 24) return text;
+    std::size_t cut = 23;
+    while (cut > 0 && (static_cast<unsigned char>(text[cut]) & 0xC0) == 0x80) --cut;  // not inside a UTF-8 character
+    return text.substr(0, cut) + "…";
+  };
+  std::cout << fmt::format("{:<40} {:<12} {:>6}  {:<24} {:<24} {:<24} {}\n", "id", "state", "frames", "subject",
+                           "study", "operator", "folder");
+  for (const auto& s : response.sessions())
+    std::cout << fmt::format("{:<40} {:<12} {:>6}  {:<24} {:<24} {:<24} {}\n", s.id(),
+                             state_text(s.operation().state()), s.operation().counters().stored(), cell(s.subject()),
+                             cell(s.study()), cell(s.operator_name()), s.folder());
+}
+
+// `session delete`: a finished session's folder and the cache entries only it used.
+void delete_session(const SessionOptions& options, int& exit_status) {
+  DaemonConnection daemon(options.address);
+  pb::DeleteSessionRequest request;
+  request.set_id(options.id);
+  pb::DeleteSessionResponse response;
+  auto status = pb::SessionService::NewStub(daemon.channel())->DeleteSession(daemon.context().get(), request, &response);
+  if (!status.ok()) {
+    exit_status = report_failure("session delete", status);
+    return;
+  }
+  std::cout << fmt::format("session {} deleted: {} files, {} bytes", response.id(), response.files_removed(),
+                           response.bytes_removed());
+  for (const auto& entry : response.cache_entries_removed()) std::cout << ", cache " << entry;
+  std::cout << "\n";
+}
+
+// `session run` and its options (the standard plan's unless --plan).
+void add_run_command(CLI::App& session, const std::shared_ptr<SessionOptions>& options, int& exit_status) {
+  auto* run_command = session.add_subcommand("run", "start a session (the standard one unless --plan) and follow it");
   add_daemon_options(*run_command, options->address);
   run_command->add_option("--plan", options->plan_file, "a built-in plan (standard, multispectral, multispectral+method; see `chromo session plans`) or a plan file (JSON, docs/formats/session.md \"plan\")");
   run_command->add_option("--subject", options->subject, "free text stored with the session");
@@ -274,6 +315,36 @@ void add_session_command(CLI::App& app, int& exit_status) {
       ->capture_default_str();
   run_command->add_flag("--detach", options->detach, "print the id and return at once");
   run_command->callback([&exit_status, options] { run(*options, exit_status); });
+}
+
+// `session cancel`, `pause`, `resume`: one control request each.
+void add_control_commands(CLI::App& session, const std::shared_ptr<SessionOptions>& options, int& exit_status) {
+  auto add_control = [&](const char* verb, const char* help, auto call, auto request_tag) {
+    auto* command = session.add_subcommand(verb, help);
+    add_daemon_options(*command, options->address);
+    command->add_option("id", options->id, "session id")->required();
+    command->callback([&exit_status, options, verb, call] {
+      control<typename decltype(request_tag)::type>(*options, exit_status, verb, call);
+    });
+  };
+  add_control("cancel", "abandon the step in progress; stored frames stay; LEDs off",
+              [](auto& stub, auto* context, const auto& request, auto* out) { return stub.CancelOperation(context, request, out); },
+              std::type_identity<pb::CancelOperationRequest>{});
+  add_control("pause", "finish the current step, then wait",
+              [](auto& stub, auto* context, const auto& request, auto* out) { return stub.PauseOperation(context, request, out); },
+              std::type_identity<pb::PauseOperationRequest>{});
+  add_control("resume", "continue a paused session (retries a step a device interrupted)",
+              [](auto& stub, auto* context, const auto& request, auto* out) { return stub.ResumeOperation(context, request, out); },
+              std::type_identity<pb::ResumeOperationRequest>{});
+}
+
+}  // namespace
+
+void add_session_command(CLI::App& app, int& exit_status) {
+  auto* session = app.add_subcommand("session", "capture sessions on chromod");
+  session->require_subcommand(1);
+  auto options = std::make_shared<SessionOptions>();
+  add_run_command(*session, options, exit_status);
 
   auto* plans_command = session->add_subcommand(
       "plans", "the built-in plans and plan files: captures, channels, capture time (no daemon needed)");
@@ -290,29 +361,7 @@ void add_session_command(CLI::App& app, int& exit_status) {
 
   auto* list = session->add_subcommand("list", "sessions known to the daemon, newest first");
   add_daemon_options(*list, options->address);
-  list->callback([&exit_status, options] {
-    DaemonConnection daemon(options->address);
-    pb::ListSessionsResponse response;
-    auto status = pb::SessionService::NewStub(daemon.channel())->ListSessions(daemon.context().get(), {}, &response);
-    if (!status.ok()) {
-      exit_status = report_failure("session list", status);
-      return;
-    }
-    // One line per session; subject and study (cut at 24 characters) tell them apart.
-    auto cell = [](const std::string& text) {
-      if (text.empty()) return std::string("-");
-      if (text.size() <= 24) return text;
-      std::size_t cut = 23;
-      while (cut > 0 && (static_cast<unsigned char>(text[cut]) & 0xC0) == 0x80) --cut;  // not inside a UTF-8 character
-      return text.substr(0, cut) + "…";
-    };
-    std::cout << fmt::format("{:<40} {:<12} {:>6}  {:<24} {:<24} {:<24} {}\n", "id", "state", "frames", "subject",
-                             "study", "operator", "folder");
-    for (const auto& s : response.sessions())
-      std::cout << fmt::format("{:<40} {:<12} {:>6}  {:<24} {:<24} {:<24} {}\n", s.id(),
-                               state_text(s.operation().state()), s.operation().counters().stored(), cell(s.subject()),
-                               cell(s.study()), cell(s.operator_name()), s.folder());
-  });
+  list->callback([&exit_status, options] { list_sessions(*options, exit_status); });
 
   auto* show_command = session->add_subcommand("show", "a session's state, steps and (with --frames) every frame");
   add_daemon_options(*show_command, options->address);
@@ -324,39 +373,9 @@ void add_session_command(CLI::App& app, int& exit_status) {
       "delete", "delete a finished session: its folder (frames, results, products) and the cache entries only it used");
   add_daemon_options(*delete_command, options->address);
   delete_command->add_option("id", options->id, "session id")->required();
-  delete_command->callback([&exit_status, options] {
-    DaemonConnection daemon(options->address);
-    pb::DeleteSessionRequest request;
-    request.set_id(options->id);
-    pb::DeleteSessionResponse response;
-    auto status = pb::SessionService::NewStub(daemon.channel())->DeleteSession(daemon.context().get(), request, &response);
-    if (!status.ok()) {
-      exit_status = report_failure("session delete", status);
-      return;
-    }
-    std::cout << fmt::format("session {} deleted: {} files, {} bytes", response.id(), response.files_removed(),
-                             response.bytes_removed());
-    for (const auto& entry : response.cache_entries_removed()) std::cout << ", cache " << entry;
-    std::cout << "\n";
-  });
+  delete_command->callback([&exit_status, options] { delete_session(*options, exit_status); });
 
-  auto add_control = [&](const char* verb, const char* help, auto call, auto request_tag) {
-    auto* command = session->add_subcommand(verb, help);
-    add_daemon_options(*command, options->address);
-    command->add_option("id", options->id, "session id")->required();
-    command->callback([&exit_status, options, verb, call] {
-      control<typename decltype(request_tag)::type>(*options, exit_status, verb, call);
-    });
-  };
-  add_control("cancel", "abandon the step in progress; stored frames stay; LEDs off",
-              [](auto& stub, auto* context, const auto& request, auto* out) { return stub.CancelOperation(context, request, out); },
-              std::type_identity<pb::CancelOperationRequest>{});
-  add_control("pause", "finish the current step, then wait",
-              [](auto& stub, auto* context, const auto& request, auto* out) { return stub.PauseOperation(context, request, out); },
-              std::type_identity<pb::PauseOperationRequest>{});
-  add_control("resume", "continue a paused session (retries a step a device interrupted)",
-              [](auto& stub, auto* context, const auto& request, auto* out) { return stub.ResumeOperation(context, request, out); },
-              std::type_identity<pb::ResumeOperationRequest>{});
+  add_control_commands(*session, options, exit_status);
 }
 
 }  // namespace chromo::cli

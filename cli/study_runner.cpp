@@ -92,6 +92,70 @@ std::string session_state(const Study& study, const std::string& name, const std
   return "pending";
 }
 
+namespace {
+
+// Waits while the study is held (DIR/hold), the task saying so.
+void wait_while_held(const Study& study, TaskRecord& task, const std::string& name, const RunnerOptions& options,
+                     std::ostream& log) {
+  std::error_code error;
+  if (!fs::exists(hold_file(study.dir), error)) return;
+  task.json["state"] = "held";
+  task.json["current"] = nullptr;
+  task.save();
+  log << "study: held before " << name << " (" << hold_file(study.dir).string() << ")\n" << std::flush;
+  while (fs::exists(hold_file(study.dir), error))
+    std::this_thread::sleep_for(std::chrono::duration<double>(options.hold_poll_seconds));
+  task.json["state"] = "running";
+}
+
+// Estimates one session into work_dir and, when it succeeded, moves the maps
+// to final_dir (record's "cameras" filled); a region mask that cannot be used
+// is bad input, anything else thrown an internal failure.
+SessionEstimate estimate_session_maps(const Study& study, const ManifestSession& session, const RunnerOptions& options,
+                                      const fs::path& work_dir, const fs::path& final_dir, nlohmann::ordered_json& record) {
+  SessionEstimate outcome;
+  EstimateOptions eo = study.options;
+  eo.input = session.folder.string();
+  eo.out = work_dir.string();
+  eo.threads = options.threads;
+  eo.cache_dir = options.cache_dir;
+  try {
+    outcome = estimate_stored_session(eo, "chromo study");
+    if (outcome.exit_status == kExitOk) {
+      record["cameras"] = camera_rows(work_dir, outcome.cameras, session.folder, study.regions);
+      fs::remove_all(final_dir);
+      fs::rename(work_dir, final_dir);
+      files::fsync_directory(work_dir.parent_path());
+    }
+  } catch (const std::invalid_argument& e) {  // a region mask that cannot be used
+    outcome.exit_status = kExitBadInput;
+    outcome.errors.push_back(e.what());
+  } catch (const std::exception& e) {
+    outcome.exit_status = kExitFailure;
+    outcome.errors.push_back(std::string("internal error: ") + e.what());
+  }
+  return outcome;
+}
+
+// The record's outcome fields (state, exit status, errors, time and memory), written durably; its errors joined.
+std::string finish_record(const Study& study, const std::string& name, const SessionEstimate& outcome,
+                          std::chrono::steady_clock::time_point start, double cpu_start, nlohmann::ordered_json& record) {
+  std::string errors;
+  for (const auto& line : outcome.errors) errors += (errors.empty() ? "" : "; ") + line;
+  record["state"] = outcome.exit_status == kExitOk ? "done" : "failed";
+  record["exit_status"] = outcome.exit_status;
+  record["error"] = errors;
+  record["seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  record["cpu_seconds"] = cpu_seconds() - cpu_start;
+  record["max_rss_mb"] = max_rss_mb();
+  record["finished"] = utc_now();
+  if (!record.contains("cameras")) record["cameras"] = nlohmann::ordered_json::array();
+  write_json_durably(record_file(study.dir, name), record);
+  return errors;
+}
+
+}  // namespace
+
 RunCounts run_sessions(const Study& study, const std::vector<std::string>& names, const RunnerOptions& options,
                        std::ostream& log) {
   RunCounts counts;
@@ -109,17 +173,7 @@ RunCounts run_sessions(const Study& study, const std::vector<std::string>& names
   for (const std::string& name : names) {
     const ManifestSession* session = study.find(name);
     if (!session) throw std::invalid_argument("the study has no session \"" + name + "\"");
-    // Wait while the study is held (DIR/hold).
-    std::error_code error;
-    if (fs::exists(hold_file(study.dir), error)) {
-      task.json["state"] = "held";
-      task.json["current"] = nullptr;
-      task.save();
-      log << "study: held before " << name << " (" << hold_file(study.dir).string() << ")\n" << std::flush;
-      while (fs::exists(hold_file(study.dir), error))
-        std::this_thread::sleep_for(std::chrono::duration<double>(options.hold_poll_seconds));
-      task.json["state"] = "running";
-    }
+    wait_while_held(study, task, name, options, log);
     const auto start = std::chrono::steady_clock::now();
     const double cpu_start = cpu_seconds();
     nlohmann::ordered_json record{{"format", "chromosphere-study-record/1"}, {"session", name},
@@ -155,39 +209,11 @@ RunCounts run_sessions(const Study& study, const std::vector<std::string>& names
       outcome.exit_status = kExitBadInput;
       outcome.errors.push_back(hash_error);
     } else {
-      EstimateOptions eo = study.options;
-      eo.input = session->folder.string();
-      eo.out = work_dir.string();
-      eo.threads = options.threads;
-      eo.cache_dir = options.cache_dir;
-      try {
-        outcome = estimate_stored_session(eo, "chromo study");
-        if (outcome.exit_status == kExitOk) {
-          record["cameras"] = camera_rows(work_dir, outcome.cameras, session->folder, study.regions);
-          fs::remove_all(final_dir);
-          fs::rename(work_dir, final_dir);
-          files::fsync_directory(sessions_dir);
-        }
-      } catch (const std::invalid_argument& e) {  // a region mask that cannot be used
-        outcome.exit_status = kExitBadInput;
-        outcome.errors.push_back(e.what());
-      } catch (const std::exception& e) {
-        outcome.exit_status = kExitFailure;
-        outcome.errors.push_back(std::string("internal error: ") + e.what());
-      }
+      outcome = estimate_session_maps(study, *session, options, work_dir, final_dir, record);
     }
+    std::error_code error;
     fs::remove_all(work_dir, error);
-    std::string errors;
-    for (const auto& line : outcome.errors) errors += (errors.empty() ? "" : "; ") + line;
-    record["state"] = outcome.exit_status == kExitOk ? "done" : "failed";
-    record["exit_status"] = outcome.exit_status;
-    record["error"] = errors;
-    record["seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    record["cpu_seconds"] = cpu_seconds() - cpu_start;
-    record["max_rss_mb"] = max_rss_mb();
-    record["finished"] = utc_now();
-    if (!record.contains("cameras")) record["cameras"] = nlohmann::ordered_json::array();
-    write_json_durably(record_file(study.dir, name), record);
+    const std::string errors = finish_record(study, name, outcome, start, cpu_start, record);
     ++counts.estimated;
     if (outcome.exit_status == kExitOk) ++counts.done;
     else ++counts.failed;

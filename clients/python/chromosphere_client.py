@@ -178,7 +178,7 @@ class Client:
 
     def compare_plans(self, plans, skins=0, seed=0, interior_population=False, monte_carlo_draws=0, timeout=120):
         """The plan advisor on the daemon's LED library and camera (docs/plan-advisor.md): for each plan
-        (a built-in name such as "method", "multispectral@4", or a planning_pb2.PlanDescription) its
+        (a built-in name such as "standard", "multispectral@4", or a planning_pb2.PlanDescription) its
         capture time, σ per parameter, predicted relit ΔE94 per illuminant and, with monte_carlo_draws,
         the Monte Carlo check. Returns ComparePlansResponse; a bad plan raises grpc.RpcError
         INVALID_ARGUMENT naming the field."""

@@ -40,9 +40,7 @@ MethodEstimationResult estimate_camera(const SessionCamerasInput& input, const s
     if (auto found = input.prepared->find(camera); found != input.prepared->end()) prepared = &found->second;
   MethodEstimationOptions own = options;
   if (const auto known = input.field_width_mm.find(camera); known != input.field_width_mm.end()) own.field_width_mm = known->second;
-  if (builder.is_method_plan())
-    return estimate_method_captures(builder.captures(camera), own, dir, commit, progress, extra.dump(), prepared);
-  return estimate_plan_captures(builder.plan_captures(camera), own, dir, commit, progress, extra.dump(), prepared);
+  return estimate_captures(builder.captures(camera), own, dir, commit, progress, extra.dump(), prepared);
 }
 
 }  // namespace

@@ -530,7 +530,7 @@ namespace {
 // every session, so panels compare: the sheen 0.028 at 28%), and the photograph plus S in every channel (the
 // subsurface and surface layers together: what an unpolarised camera sees).
 constexpr double kPanelSurfaceMax = 0.1;
-std::vector<std::uint8_t> encode_polarisation_panel(const session::MethodMeasurement& m) {
+std::vector<std::uint8_t> encode_polarisation_panel(const session::Measurement& m) {
   const std::size_t n = m.surface.size();
   std::vector<float> diffuse(3 * n), combined(3 * n);
   const session::Photograph& cross = m.photographs.front();
@@ -556,7 +556,7 @@ struct PolarisationOutputs {
   std::vector<std::uint8_t> panel;
 };
 
-PolarisationOutputs polarisation_outputs(const session::MethodMeasurement& m, const estimation::EstimateSummary& summary) {
+PolarisationOutputs polarisation_outputs(const session::Measurement& m, const estimation::EstimateSummary& summary) {
   PolarisationOutputs out;
   if (!m.polarised()) {
     out.summary = {{"detection", "heuristic"},
@@ -584,8 +584,8 @@ PolarisationOutputs polarisation_outputs(const session::MethodMeasurement& m, co
                            "captures, and the flags channel is unchanged"}};
   if (const auto& correction = m.surface_correction) {
     nlohmann::ordered_json cross_factor;
-    const char* captures[] = {"D65'", "W57", "W57+blue"};
-    for (int k = 0; k < 3; ++k) cross_factor[captures[k]] = correction->cross_factor[k];
+    for (std::size_t k = 0; k < correction->cross_factor.size() && k < m.photographs.size(); ++k)
+      cross_factor[m.photographs[k].name] = correction->cross_factor[k];  // per capture, by its name
     out.summary["surface_correction"] = {
         {"films", correction->source},
         {"parallel_minus_cross", correction->parallel_minus_cross},
@@ -612,7 +612,7 @@ struct PixelEstimates {
   double neighbourhood_seconds = 0;
   std::optional<estimation::SkinRefit> skin_refit;  // options.skin_denoise set: the multi-pixel estimate
 };
-PixelEstimates estimate_pixels(const session::MethodMeasurement& m, const estimation::Estimator& estimator,
+PixelEstimates estimate_pixels(const session::Measurement& m, const estimation::Estimator& estimator,
                                double white_reflectance, const MethodEstimationOptions& options,
                                const files::Progress& progress, MethodEstimationResult& result) {
   PixelEstimates out;
@@ -636,7 +636,7 @@ PixelEstimates estimate_pixels(const session::MethodMeasurement& m, const estima
 }
 
 // The relit comparison with the captured photographs.
-std::vector<RelitComparison> relit_against_photographs(const session::MethodMeasurement& m,
+std::vector<RelitComparison> relit_against_photographs(const session::Measurement& m,
                                                        std::span<const estimation::PixelEstimate> estimates,
                                                        const estimation::ForwardTable& table,
                                                        const spectral::CameraSensitivity& camera,
@@ -655,7 +655,7 @@ std::vector<RelitComparison> relit_against_photographs(const session::MethodMeas
 // What summary.json says of the measurement beyond the maps: the table, the
 // registration, noise, SNR, the captures, the spatial pass and the relit ΔE94
 // (added to extra_json's members).
-nlohmann::ordered_json measurement_report(const session::MethodMeasurement& m, const estimation::Estimator& estimator,
+nlohmann::ordered_json measurement_report(const session::Measurement& m, const estimation::Estimator& estimator,
                                           const estimation::ForwardTable& table, bool rebuilt, bool in_memory,
                                           const PixelEstimates& pixels, double white_reflectance,
                                           const MethodEstimationOptions& options,
@@ -709,11 +709,12 @@ nlohmann::ordered_json measurement_report(const session::MethodMeasurement& m, c
 }
 
 // Everything after the measurement: tables, estimate, spatial pass, report.
-MethodEstimationResult estimate_measurement(const session::MethodMeasurement& m, const spectral::CameraSensitivity& camera,
-                                            double white_reflectance, std::chrono::steady_clock::time_point start, double measurement_seconds,
-                                            const MethodEstimationOptions& options, const fs::path& out_dir,
-                                            const FileCommit& commit, const files::Progress& progress,
-                                            const std::string& extra_json, const PreparedTables* prepared) {
+MethodEstimationResult estimate_and_report(const session::Measurement& m, const spectral::CameraSensitivity& camera,
+                                           double white_reflectance, std::chrono::steady_clock::time_point start,
+                                           double measurement_seconds, const MethodEstimationOptions& options,
+                                           const fs::path& out_dir, const FileCommit& commit,
+                                           const files::Progress& progress, const std::string& extra_json,
+                                           const PreparedTables* prepared) {
   // The tables: kept in memory since the references were in (the on-line
   // estimator), else loaded from the disk cache or built.
   const bool in_memory = prepared && same_measurement_set(prepared->set, m.set);
@@ -778,7 +779,7 @@ double MethodEstimationResult::seconds(const std::string& stage) const {
   return 0;
 }
 
-MethodEstimationResult estimate_method_measurement(const session::MethodMeasurement& measurement,
+MethodEstimationResult estimate_measurement(const session::Measurement& measurement,
                                                    const spectral::CameraSensitivity& camera, double white_reflectance,
                                                    double measurement_seconds, const MethodEstimationOptions& options,
                                                    const fs::path& out_dir, const FileCommit& commit,
@@ -787,28 +788,17 @@ MethodEstimationResult estimate_method_measurement(const session::MethodMeasurem
   const auto start = std::chrono::steady_clock::now() -
                      std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                          std::chrono::duration<double>(measurement_seconds));
-  return estimate_measurement(measurement, camera, white_reflectance, start, measurement_seconds, options, out_dir,
+  return estimate_and_report(measurement, camera, white_reflectance, start, measurement_seconds, options, out_dir,
                               commit, progress, extra_json, prepared);
 }
 
-MethodEstimationResult estimate_method_captures(const session::MethodCaptures& captures, const MethodEstimationOptions& options,
-                                                const fs::path& out_dir, const FileCommit& commit,
-                                                const files::Progress& progress, const std::string& extra_json,
-                                                const PreparedTables* prepared) {
+MethodEstimationResult estimate_captures(const session::Captures& captures, const MethodEstimationOptions& options,
+                                         const fs::path& out_dir, const FileCommit& commit, const files::Progress& progress,
+                                         const std::string& extra_json, const PreparedTables* prepared) {
   const auto start = std::chrono::steady_clock::now();
-  const session::MethodMeasurement m = session::build_method_measurement(captures, options.registration);
-  return estimate_measurement(m, captures.camera, captures.white_reflectance, start, seconds_since(start), options, out_dir, commit, progress,
-                              extra_json, prepared);
-}
-
-MethodEstimationResult estimate_plan_captures(const session::PlanCaptures& captures, const MethodEstimationOptions& options,
-                                              const fs::path& out_dir, const FileCommit& commit,
-                                              const files::Progress& progress, const std::string& extra_json,
-                                              const PreparedTables* prepared) {
-  const auto start = std::chrono::steady_clock::now();
-  const session::MethodMeasurement m = session::build_plan_measurement(captures, options.registration);
-  return estimate_measurement(m, captures.camera, captures.white_reflectance, start, seconds_since(start), options, out_dir, commit, progress,
-                              extra_json, prepared);
+  const session::Measurement m = session::build_measurement(captures, options.registration);
+  return estimate_and_report(m, captures.camera, captures.white_reflectance, start, seconds_since(start), options,
+                             out_dir, commit, progress, extra_json, prepared);
 }
 
 }  // namespace chromo::maps

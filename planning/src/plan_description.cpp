@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <optional>
 #include <set>
 #include <stdexcept>
@@ -115,9 +116,13 @@ bool PlanDescription::IsValid(std::string* error) const {
   return true;
 }
 
+namespace {
+const std::map<std::string, std::string> kOldPlanNames = {{"method", "standard"}, {"method-blue", "standard-blue"}};
+}  // namespace
+
 std::vector<std::string> builtin_plan_names() {
-  return {"method", "standard", "method-blue", "multispectral", "d65",      "w57",      "w40",
-          "w27",    "d65+blue",    "w57+blue",      "w40+blue", "w27+blue"};
+  return {"standard", "standard-blue", "multispectral", "d65",      "w57",      "w40",
+          "w27",      "d65+blue",      "w57+blue",      "w40+blue", "w27+blue"};
 }
 
 PlanDescription builtin_plan(const std::string& full_name, const calibration::LedLibrary& library) {
@@ -146,13 +151,15 @@ PlanDescription builtin_plan(const std::string& full_name, const calibration::Le
     drive[spectral::led_type_index(type)] = 1.0;
     return drive;
   };
+  // The names `chromo plan compare` used before the standard plan had one
+  // name everywhere (issue 36), still read: a study's or a script's.
+  if (const auto old = kOldPlanNames.find(name); old != kOldPlanNames.end()) name = old->second;
   PlanDescription plan;
-  plan.name = full_name;
-  if (name == "standard") name = "method";  // the session commands' name of the method's plan (issue 41)
-  if (name == "method") {
+  plan.name = name + full_name.substr(std::min(full_name.find('@'), full_name.size()));  // the "@N" as given
+  if (name == "standard") {
     plan.captures = {{"D65'", mix("d65")}, {"W57", mix("w57")}, {"W57+blue", mix("w57+blue")}};
     plan.channels = {{"D65'", 0, ""}, {"D65'", 1, ""}, {"D65'", 2, ""}, {"W57+blue", 2, "W57"}};
-  } else if (name == "method-blue") {
+  } else if (name == "standard-blue") {
     plan.captures = {{"D65'", mix("d65")}, {"blue", alone(spectral::LedType::kBlue)}};
     plan.channels = {{"D65'", 0, ""}, {"D65'", 1, ""}, {"D65'", 2, ""}, {"blue", 2, ""}};
   } else if (name == "multispectral") {

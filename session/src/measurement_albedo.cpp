@@ -181,7 +181,7 @@ Normalised normalise(const IlluminatedCapture& capture, const Reference& referen
 }
 
 // Pixels outside the footprint of any white reference the measurement uses.
-void mark_no_reference(MethodMeasurement& m, const std::vector<const Reference*>& references) {
+void mark_no_reference(Measurement& m, const std::vector<const Reference*>& references) {
   m.no_reference.assign(static_cast<std::size_t>(m.width) * m.height, 0);
   for (const Reference* reference : references)
     for (std::size_t i = 0; i < m.no_reference.size(); ++i)

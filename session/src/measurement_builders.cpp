@@ -1,9 +1,9 @@
 // The measurement builders: a session's captures → the albedo measurement
 // an inverter is given (method_measurement.hpp). The white references and
 // albedo are measurement_albedo.cpp's, the noise model measurement_noise.cpp's,
-// the polarised surface correction measurement_surface.cpp's; here, what the
-// method and any plan share (registration onto the first capture,
-// photographs, exposures, saturation) and the two builders.
+// the polarised surface correction measurement_surface.cpp's; here the one
+// builder: registration onto the first capture, photographs, the recipe's
+// channels, saturation, exposures.
 #include "chromo/session/method_measurement.hpp"
 
 #include <algorithm>
@@ -66,8 +66,8 @@ Photograph photograph_of(const IlluminatedCapture& capture, const Normalised& al
   return photo;
 }
 
-// A capture's white and subject exposures in MethodMeasurement::exposures.
-void add_exposures(MethodMeasurement& m, const IlluminatedCapture& capture) {
+// A capture's white and subject exposures in Measurement::exposures.
+void add_exposures(Measurement& m, const IlluminatedCapture& capture) {
   m.exposures.push_back({"white " + capture.name, capture.white.exposure_us, capture.white.frames});
   m.exposures.push_back({"subject " + capture.name, capture.subject.exposure_us, capture.subject.frames});
 }
@@ -75,126 +75,106 @@ void add_exposures(MethodMeasurement& m, const IlluminatedCapture& capture) {
 // A pixel with a raw subject value at full scale: counted, and each finite
 // channel of `measured` (m.set.size() values) raised to at least its
 // saturation albedo (the estimator then flags it kSaturated).
-void mark_saturated(MethodMeasurement& m, float* measured) {
+void mark_saturated(Measurement& m, float* measured) {
   ++m.saturated_pixels;
   for (int c = 0; c < m.set.size(); ++c)
     if (std::isfinite(measured[c]))
       measured[c] = std::max(measured[c], static_cast<float>(m.set.channels[c].noise.saturation_albedo));
 }
 
-}  // namespace
-
-estimation::MeasurementSet plan_set_from_references(const PlanCaptures& captures) {
-  return plan_references_of(captures).set;
+// The recipe's channels at pixel i into `out` (one value per channel); a
+// difference channel as the albedos weighted by their whites' signals.
+void form_channels(const std::vector<ChannelRecipe>& channels, const References& references,
+                   const std::vector<Normalised>& normalised, std::size_t i, float* out) {
+  for (std::size_t j = 0; j < channels.size(); ++j) {
+    const ChannelRecipe& recipe = channels[j];
+    const int c = recipe.camera_channel;
+    const float a = normalised[recipe.capture].albedo[c][i];
+    if (!recipe.less) {
+      out[j] = a;
+      continue;
+    }
+    const double s = references.less_scale[j];
+    const float wa = references.references[recipe.capture].white_signal[c][i];
+    const float wb_raw = references.references[*recipe.less].white_signal[c][i];
+    const float wb = s == 1 ? wb_raw : static_cast<float>(s * wb_raw);
+    const float difference = wa - wb;
+    out[j] = difference > 1e-3f ? (a * wa - normalised[*recipe.less].albedo[c][i] * wb) / difference : kNaN;
+  }
 }
 
-MethodMeasurement build_plan_measurement(const PlanCaptures& captures, const RegistrationOptions& options) {
-  PlanReferences references = plan_references_of(captures);
-  const RgbImage& dark = captures.dark;
-  const double rho = captures.white_reflectance;
-  const int width = dark.width, height = dark.height;
-  const std::size_t n = dark.pixels();
-  std::vector<Normalised> normalised;
-  for (std::size_t k = 0; k < captures.captures.size(); ++k)
-    normalised.push_back(normalise(captures.captures[k], references.references[k], dark, rho));
-
-  MethodMeasurement m;
-  m.width = width, m.height = height;
-  m.set = std::move(references.set);
-  m.linearity = std::move(references.linearity);
-  // Each capture on its white's brightest channel against the first, the captures at once.
+// Each capture after the first on the recipe's registration channel (else
+// its white's brightest) against the first, the captures at once.
+std::vector<RegistrationReport> register_captures(const Captures& captures, const References& references,
+                                                  std::vector<Normalised>& normalised, const RegistrationOptions& options) {
   std::vector<MovingCapture> moving;
   for (std::size_t k = 1; k < normalised.size(); ++k) {
     const Reference& reference = references.references[k];
-    const int channel = static_cast<int>(std::max_element(reference.white_mean.begin(), reference.white_mean.end()) -
-                                         reference.white_mean.begin());
+    const int channel = captures.recipe.registration_channel.value_or(
+        static_cast<int>(std::max_element(reference.white_mean.begin(), reference.white_mean.end()) -
+                         reference.white_mean.begin()));
     moving.push_back({&normalised[k], channel, captures.captures[k].name});
   }
-  m.registration = register_onto(normalised.front(), captures.captures.front().name, moving, width, height, options);
-  std::vector<const Reference*> used;
-  for (const Reference& reference : references.references) used.push_back(&reference);
-  mark_no_reference(m, used);
-  const int channels = m.set.size();
-  m.measured.resize(n * channels);
-  for (std::size_t i = 0; i < n; ++i) {
-    float* out = &m.measured[i * channels];
-    bool saturated = false;
-    for (std::size_t k = 0; k < normalised.size(); ++k) {
-      for (int c = 0; c < 3; ++c) out[k * 3 + c] = normalised[k].albedo[c][i];
-      saturated = saturated || normalised[k].saturated[i];
-    }
-    if (saturated) mark_saturated(m, out);
-  }
-  for (std::size_t k = 0; k < normalised.size(); ++k) {
-    std::array<estimation::ChannelNoise, 3> noise;
-    for (int c = 0; c < 3; ++c) noise[c] = m.set.channels[3 * k + c].noise;
-    m.photographs.push_back(photograph_of(captures.captures[k], normalised[k], noise));
-  }
-  m.exposures.push_back({"dark", dark.exposure_us, dark.frames});
-  for (const IlluminatedCapture& capture : captures.captures) add_exposures(m, capture);
-  return m;
+  return register_onto(normalised.front(), captures.captures.front().name, moving, captures.dark.width,
+                       captures.dark.height, options);
 }
 
-estimation::MeasurementSet method_set_from_references(const MethodCaptures& captures) { return references_of(captures).set; }
+}  // namespace
 
-std::vector<spectral::Spectrum> photograph_illuminants(const MethodCaptures& captures) {
-  return {captures.broadband.illuminant, captures.base.illuminant, captures.with_blue.illuminant};
+MeasurementRecipe standard_recipe() {
+  MeasurementRecipe recipe;
+  for (int c = 0; c < 3; ++c) recipe.channels.push_back({0, c, std::nullopt, {}});  // D65' R, G, B
+  recipe.channels.push_back({2, 2, std::size_t{1}, "blue"});                        // W57+blue − W57, B
+  recipe.registration_channel = 1;                                                  // G
+  return recipe;
 }
 
-std::vector<spectral::Spectrum> photograph_illuminants(const PlanCaptures& captures) {
+estimation::MeasurementSet measurement_set_from_references(const Captures& captures) {
+  return references_of(captures).set;
+}
+
+std::vector<spectral::Spectrum> photograph_illuminants(const Captures& captures) {
   std::vector<spectral::Spectrum> out;
   for (const IlluminatedCapture& capture : captures.captures) out.push_back(capture.illuminant);
   return out;
 }
 
-MethodMeasurement build_method_measurement(const MethodCaptures& captures, const RegistrationOptions& options) {
-  References references = references_of(captures);
+Measurement build_measurement(const Captures& captures, const RegistrationOptions& options) {
+  const References references = references_of(captures);
+  const std::vector<ChannelRecipe> channels = recipe_channels(captures);
   const RgbImage& dark = captures.dark;
   const double rho = captures.white_reflectance;
-  const int width = dark.width, height = dark.height;
   const std::size_t n = dark.pixels();
-  Normalised broadband = normalise(captures.broadband, references.broadband, dark, rho);
-  Normalised base = normalise(captures.base, references.base, dark, rho);
-  Normalised with_blue = normalise(captures.with_blue, references.with_blue, dark, rho);
+  std::vector<Normalised> normalised;
+  for (std::size_t k = 0; k < captures.captures.size(); ++k)
+    normalised.push_back(normalise(captures.captures[k], references.references[k], dark, rho));
 
-  MethodMeasurement m;
-  m.width = width, m.height = height;
-  m.set = std::move(references.set);
-  m.linearity = std::move(references.linearity);
-  // Register W57 and W57+blue to D65' on the G albedo (both at once), warp all their planes.
-  m.registration = register_onto(broadband, captures.broadband.name,
-                                 {{&base, 1, captures.base.name}, {&with_blue, 1, captures.with_blue.name}}, width,
-                                 height, options);
-
-  mark_no_reference(m, {&references.broadband, &references.base, &references.with_blue});
+  Measurement m;
+  m.width = dark.width, m.height = dark.height;
+  m.set = references.set;
+  m.linearity = references.linearity;
+  m.registration = register_captures(captures, references, normalised, options);
+  std::vector<const Reference*> used;
+  for (const Reference& reference : references.references) used.push_back(&reference);
+  mark_no_reference(m, used);
   // The photographs (what the relit comparison is against) as captured.
-  const std::pair<const Normalised*, const IlluminatedCapture*> photographed[] = {
-      {&broadband, &captures.broadband}, {&base, &captures.base}, {&with_blue, &captures.with_blue}};
-  for (std::size_t p = 0; p < std::size(photographed); ++p) {
-    const auto& [k, capture] = photographed[p];
-    m.photographs.push_back(photograph_of(*capture, *k, references.capture_noise[p]));
+  for (std::size_t k = 0; k < normalised.size(); ++k)
+    m.photographs.push_back(photograph_of(captures.captures[k], normalised[k], references.capture_noise[k]));
+  if (captures.parallel) {
+    const auto parallel_saturated = add_surface_map(m, captures, references, normalised.front());
+    if (captures.surface_factors) remove_surface_light(m, captures, parallel_saturated, normalised);
   }
-  if (captures.broadband_parallel) {
-    const auto parallel_saturated = add_surface_map(m, captures, references, broadband);
-    if (captures.surface_factors) remove_surface_light(m, captures, parallel_saturated, {&broadband, &base, &with_blue});
-  }
-  const int channels = m.set.size();
-  m.measured.resize(n * channels);
+  const int width = m.set.size();
+  m.measured.resize(n * width);
   for (std::size_t i = 0; i < n; ++i) {
-    float* out = &m.measured[i * channels];
-    for (int c = 0; c < 3; ++c) out[c] = broadband.albedo[c][i];
-    const float wm = references.with_blue.white_signal[2][i];
-    const float wb = references.base_to_mix == 1 ? references.base.white_signal[2][i]
-                                                 : static_cast<float>(references.base_to_mix * references.base.white_signal[2][i]);
-    const float difference = wm - wb;
-    out[3] = difference > 1e-3f ? (with_blue.albedo[2][i] * wm - base.albedo[2][i] * wb) / difference : kNaN;
-    if (broadband.saturated[i] || base.saturated[i] || with_blue.saturated[i]) mark_saturated(m, out);
+    float* out = &m.measured[i * width];
+    form_channels(channels, references, normalised, i, out);
+    if (std::any_of(normalised.begin(), normalised.end(), [i](const Normalised& k) { return k.saturated[i] != 0; }))
+      mark_saturated(m, out);
   }
-
   m.exposures.push_back({"dark", dark.exposure_us, dark.frames});
-  for (const IlluminatedCapture* capture : {&captures.broadband, &captures.base, &captures.with_blue})
-    add_exposures(m, *capture);
-  if (const auto& parallel = captures.broadband_parallel) add_exposures(m, *parallel);
+  for (const IlluminatedCapture& capture : captures.captures) add_exposures(m, capture);
+  if (const auto& parallel = captures.parallel) add_exposures(m, *parallel);
   return m;
 }
 

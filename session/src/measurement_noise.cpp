@@ -1,7 +1,8 @@
 // The noise model and measurement set of a measurement's captures
 // (method_measurement.hpp "Noise"): each channel's read, shot and white
-// noise from the dark and white references, the method's blue-only
-// channel, any plan's three channels per capture, and the exposure checks.
+// noise from the dark and white references, for the recipe's channels (a
+// capture's albedo, or a difference: the standard plan's blue-only), and the
+// exposure checks.
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -49,106 +50,119 @@ estimation::ChannelNoise capture_noise(double W, double R, double S, double V_w,
   return noise;
 }
 
-}  // namespace
+// The per-frame noise of the dark (measurement_noise's R, V_d) per channel.
+struct DarkNoise {
+  std::array<double, 3> variance{}, mean{}, read_variance{};
+};
 
-References references_of(const MethodCaptures& captures) {
-  const RgbImage& dark = captures.dark;
-  check_image(dark, dark, "dark capture");
-  const double rho = captures.white_reflectance;
-  if (!(rho > 0 && rho <= 1)) throw std::invalid_argument("white_reflectance: must be in (0, 1]");
-  References r;
-  for (const auto* capture : {&captures.broadband, &captures.base, &captures.with_blue})
-    r.linearity.push_back(check_subject_exposure(*capture, dark, captures.linearity_tolerance));
-  r.broadband = reference_of(captures.broadband, dark), r.base = reference_of(captures.base, dark);
-  r.with_blue = reference_of(captures.with_blue, dark);
-  const double t_mix = captures.with_blue.white.exposure_us, t_base = captures.base.white.exposure_us;
-  if (t_mix > 0 && t_base > 0) r.base_to_mix = t_mix / t_base;
-  const double s = r.base_to_mix;
-  std::array<double, 3> dark_variance{}, dark_mean{}, read_variance{};
+DarkNoise dark_noise(const RgbImage& dark) {
+  DarkNoise d;
   for (int c = 0; c < 3; ++c) {
-    dark_variance[c] = flat_noise_variance(dark.planes[c], dark.width, dark.height);
-    dark_mean[c] = mean_of(dark.planes[c]);
-    read_variance[c] = dark_variance[c] * frames_of(dark);  // one frame's
+    d.variance[c] = flat_noise_variance(dark.planes[c], dark.width, dark.height);
+    d.mean[c] = mean_of(dark.planes[c]);
+    d.read_variance[c] = d.variance[c] * frames_of(dark);  // one frame's
   }
-  // One frame's shot variance of capture k's white in channel c.
-  auto white_shot = [&](const Reference& k, const IlluminatedCapture& capture, int c) {
-    return std::max(k.white_variance[c] * frames_of(capture.white) - read_variance[c], 0.0);
-  };
-  auto albedo_noise = [&](const Reference& k, const IlluminatedCapture& capture, int c) {
-    return capture_noise(k.white_mean[c], read_variance[c], white_shot(k, capture, c), k.white_variance[c],
-                         dark_variance[c], frames_of(capture.subject), subject_gain(capture), rho, dark_mean[c]);
-  };
-  const double D = r.with_blue.white_mean[2] - s * r.base.white_mean[2];
-  if (!(D > 1e-3))
-    throw std::invalid_argument("W57+blue − W57: the white reference's B channel gains " + std::to_string(D) +
-                                " of full scale; the blue-only response needs more blue in the W57+blue mix");
-  r.set.camera = captures.camera;
-  for (int c = 0; c < 3; ++c) {
-    r.capture_noise[0][c] = albedo_noise(r.broadband, captures.broadband, c);
-    r.capture_noise[1][c] = albedo_noise(r.base, captures.base, c);
-    r.capture_noise[2][c] = albedo_noise(r.with_blue, captures.with_blue, c);
-    r.set.channels.push_back({"D65'." + std::string(kChannelNames[c]), captures.broadband.illuminant, c,
-                              r.capture_noise[0][c]});
-  }
-  spectral::Spectrum blue_illuminant = captures.with_blue.illuminant - captures.base.illuminant;
-  blue_illuminant = spectral::Spectrum(blue_illuminant.values().max(0.0));
-  estimation::ChannelNoise blue_noise;
-  // blue = ρ·(subject_mix − s·subject_W57)/(D per pixel), each subject at g
-  // times its white's exposure: the subjects' read noise, their shot noise at
-  // the blue albedo a (skin's B albedo under W57 and under W57+blue taken as
-  // a: they are the same channel), the two whites' noise relative to D
-  // (a²). The dark cancels at s = 1 (the standard plans); at s ≠ 1 its small
-  // share is left out.
-  const double R = read_variance[2];
-  const double g_mix = subject_gain(captures.with_blue), g_base = subject_gain(captures.base);
-  const double N_mix = frames_of(captures.with_blue.subject), N_base = frames_of(captures.base.subject);
-  blue_noise.read_sigma = std::max(rho * std::sqrt(R / (N_mix * g_mix * g_mix) + s * s * R / (N_base * g_base * g_base)) / D, 1e-5);
-  blue_noise.shot_coefficient = rho *
-                                (white_shot(r.with_blue, captures.with_blue, 2) / (N_mix * g_mix) +
-                                 s * s * white_shot(r.base, captures.base, 2) / (N_base * g_base)) /
-                                (D * D);
-  blue_noise.white_coefficient = (r.with_blue.white_variance[2] + s * s * r.base.white_variance[2]) / (D * D);
-  blue_noise.saturation_albedo = rho * (1.0 - dark_mean[2]) / (std::max(g_mix, g_base) * D);
-  r.set.channels.push_back({"blue.B", blue_illuminant, 2, blue_noise});
-  r.set.validate();
-  if (captures.broadband_parallel) {
-    r.linearity.push_back(check_subject_exposure(*captures.broadband_parallel, dark, captures.linearity_tolerance));
-    r.parallel = reference_of(*captures.broadband_parallel, dark);
-    r.parallel_green_noise = albedo_noise(*r.parallel, *captures.broadband_parallel, 1);
-  }
-  return r;
+  return d;
 }
 
-PlanReferences plan_references_of(const PlanCaptures& captures) {
+// One frame's shot variance of a capture's white in channel c.
+double white_shot(const Reference& k, const IlluminatedCapture& capture, const DarkNoise& dark, int c) {
+  return std::max(k.white_variance[c] * frames_of(capture.white) - dark.read_variance[c], 0.0);
+}
+
+// A capture's albedo noise in channel c (capture_noise above).
+estimation::ChannelNoise albedo_noise(const Reference& k, const IlluminatedCapture& capture, const DarkNoise& dark, int c,
+                                      double rho) {
+  return capture_noise(k.white_mean[c], dark.read_variance[c], white_shot(k, capture, dark, c), k.white_variance[c],
+                       dark.variance[c], frames_of(capture.subject), subject_gain(capture), rho, dark.mean[c]);
+}
+
+// A difference channel (ChannelRecipe::less): a = ρ·(subject_a − s·subject_b)/(D
+// per pixel), each subject at g times its white's exposure, s = t_a/t_b of
+// the whites: the subjects' read noise, their shot noise at the difference's
+// albedo a (skin's albedo under both taken as a: they are the same camera
+// channel), the two whites' noise relative to D (a²). The dark cancels at
+// s = 1 (the standard plans); at s ≠ 1 its small share is left out.
+estimation::MeasurementChannel difference_channel(const ChannelRecipe& recipe, const Captures& captures,
+                                                  const References& r, const DarkNoise& dark, double s) {
+  const IlluminatedCapture &a = captures.captures[recipe.capture], &b = captures.captures[*recipe.less];
+  const Reference &ka = r.references[recipe.capture], &kb = r.references[*recipe.less];
+  const int c = recipe.camera_channel;
+  const double D = ka.white_mean[c] - s * kb.white_mean[c];
+  if (!(D > 1e-3))
+    throw std::invalid_argument(a.name + " − " + b.name + ": the white reference's " + kChannelNames[c] + " channel gains " +
+                                std::to_string(D) + " of full scale; the " + recipe.name + "-only response needs more " +
+                                recipe.name + " in the " + a.name + " mix");
+  const double rho = captures.white_reflectance, R = dark.read_variance[c];
+  const double g_a = subject_gain(a), g_b = subject_gain(b);
+  const double N_a = frames_of(a.subject), N_b = frames_of(b.subject);
+  estimation::ChannelNoise noise;
+  noise.read_sigma = std::max(rho * std::sqrt(R / (N_a * g_a * g_a) + s * s * R / (N_b * g_b * g_b)) / D, 1e-5);
+  noise.shot_coefficient =
+      rho * (white_shot(ka, a, dark, c) / (N_a * g_a) + s * s * white_shot(kb, b, dark, c) / (N_b * g_b)) / (D * D);
+  noise.white_coefficient = (ka.white_variance[c] + s * s * kb.white_variance[c]) / (D * D);
+  noise.saturation_albedo = rho * (1.0 - dark.mean[c]) / (std::max(g_a, g_b) * D);
+  spectral::Spectrum illuminant = a.illuminant - b.illuminant;
+  illuminant = spectral::Spectrum(illuminant.values().max(0.0));
+  return {recipe.name + "." + kChannelNames[c], illuminant, c, noise};
+}
+
+}  // namespace
+
+std::vector<ChannelRecipe> recipe_channels(const Captures& captures) {
+  const std::size_t n = captures.captures.size();
+  if (captures.recipe.channels.empty()) {
+    std::vector<ChannelRecipe> every;
+    for (std::size_t k = 0; k < n; ++k)
+      for (int c = 0; c < 3; ++c) every.push_back({k, c, std::nullopt, {}});
+    return every;
+  }
+  for (std::size_t j = 0; j < captures.recipe.channels.size(); ++j) {
+    const ChannelRecipe& recipe = captures.recipe.channels[j];
+    if (recipe.capture >= n || (recipe.less && *recipe.less >= n) || recipe.camera_channel < 0 || recipe.camera_channel > 2)
+      throw std::invalid_argument("measurement recipe channel " + std::to_string(j) + ": names capture " +
+                                  std::to_string(recipe.capture) + " channel " + std::to_string(recipe.camera_channel) +
+                                  " of " + std::to_string(n) + " captures with R, G, B");
+  }
+  return captures.recipe.channels;
+}
+
+References references_of(const Captures& captures) {
   const RgbImage& dark = captures.dark;
   check_image(dark, dark, "dark capture");
   const double rho = captures.white_reflectance;
   if (!(rho > 0 && rho <= 1)) throw std::invalid_argument("white_reflectance: must be in (0, 1]");
   if (captures.captures.empty()) throw std::invalid_argument("the plan has no capture of the subject");
-  PlanReferences r;
-  // The method's noise model (references_of), per capture: one frame's read
-  // variance from the averaged dark, the subject's read and shot noise
-  // divided by its own frame count, the white's as averaged.
-  std::array<double, 3> read_variance{}, dark_variance{}, dark_mean{};
-  for (int c = 0; c < 3; ++c) {
-    dark_variance[c] = flat_noise_variance(dark.planes[c], dark.width, dark.height);
-    read_variance[c] = dark_variance[c] * frames_of(dark);
-    dark_mean[c] = mean_of(dark.planes[c]);
+  const std::vector<ChannelRecipe> channels = recipe_channels(captures);
+  References r;
+  for (const IlluminatedCapture& capture : captures.captures)
+    r.linearity.push_back(check_subject_exposure(capture, dark, captures.linearity_tolerance));
+  for (const IlluminatedCapture& capture : captures.captures) r.references.push_back(reference_of(capture, dark));
+  const DarkNoise noise = dark_noise(dark);
+  for (std::size_t k = 0; k < captures.captures.size(); ++k) {
+    auto& capture_noise = r.capture_noise.emplace_back();
+    for (int c = 0; c < 3; ++c) capture_noise[c] = albedo_noise(r.references[k], captures.captures[k], noise, c, rho);
   }
   r.set.camera = captures.camera;
-  for (const IlluminatedCapture& capture : captures.captures) {
-    r.linearity.push_back(check_subject_exposure(capture, dark, captures.linearity_tolerance));
-    r.references.push_back(reference_of(capture, dark));
-    const Reference& k = r.references.back();
-    for (int c = 0; c < 3; ++c) {
-      const double R = read_variance[c];
-      const double white_shot = std::max(k.white_variance[c] * frames_of(capture.white) - R, 0.0);  // one frame's
-      r.set.channels.push_back({capture.name + "." + kChannelNames[c], capture.illuminant, c,
-                                capture_noise(k.white_mean[c], R, white_shot, k.white_variance[c], dark_variance[c],
-                                              frames_of(capture.subject), subject_gain(capture), rho, dark_mean[c])});
+  for (const ChannelRecipe& recipe : channels) {
+    const IlluminatedCapture& capture = captures.captures[recipe.capture];
+    double s = 1;
+    if (!recipe.less) {
+      r.set.channels.push_back({capture.name + "." + kChannelNames[recipe.camera_channel], capture.illuminant,
+                                recipe.camera_channel, r.capture_noise[recipe.capture][recipe.camera_channel]});
+    } else {
+      const double t_a = capture.white.exposure_us, t_b = captures.captures[*recipe.less].white.exposure_us;
+      if (t_a > 0 && t_b > 0) s = t_a / t_b;
+      r.set.channels.push_back(difference_channel(recipe, captures, r, noise, s));
     }
+    r.less_scale.push_back(s);
   }
   r.set.validate();
+  if (const auto& parallel = captures.parallel) {
+    r.linearity.push_back(check_subject_exposure(*parallel, dark, captures.linearity_tolerance));
+    r.parallel = reference_of(*parallel, dark);
+    r.parallel_green_noise = albedo_noise(*r.parallel, *parallel, noise, 1, rho);
+  }
   return r;
 }
 

@@ -69,32 +69,27 @@ std::vector<float> unclipped_for_registration(const std::vector<float>& plane, c
                                               int width, int height);
 
 // Pixels outside the footprint of any white reference the measurement uses
-// (MethodMeasurement::no_reference).
-void mark_no_reference(MethodMeasurement& m, const std::vector<const Reference*>& references);
+// (Measurement::no_reference).
+void mark_no_reference(Measurement& m, const std::vector<const Reference*>& references);
 
 struct References {
-  Reference broadband, base, with_blue;
-  std::optional<Reference> parallel;             // D65' parallel's white
+  std::vector<Reference> references;  // per capture
+  // Each capture's R, G, B albedo noise (its albedo channels' and photograph's).
+  std::vector<std::array<estimation::ChannelNoise, 3>> capture_noise;
+  std::optional<Reference> parallel;              // the parallel capture's white
   estimation::ChannelNoise parallel_green_noise;  // its G albedo's noise
-  // Each capture's R, G, B albedo noise (the photographs'): D65', W57, W57+blue.
-  std::array<std::array<estimation::ChannelNoise, 3>, 3> capture_noise;
-  estimation::MeasurementSet set;
-  double base_to_mix = 1;  // s = t_mix / t_W57: the W57 capture's signals on the mix's exposure
-  std::vector<ExposureLinearity> linearity;  // per capture
+  estimation::MeasurementSet set;                 // the recipe's channels
+  // Per recipe channel: s = t_capture / t_less of the whites (a difference
+  // channel's `less` signals on its capture's exposure); 1 for albedo channels.
+  std::vector<double> less_scale;
+  std::vector<ExposureLinearity> linearity;  // per capture, the parallel one last
 };
 
-// The method's references and measurement set (D65', W57, W57+blue, the
-// blue-only channel, and D65' parallel when captured), with the noise model
-// of method_measurement.hpp (measurement_noise.cpp).
-References references_of(const MethodCaptures& captures);
+// The captures' references and measurement set (the recipe's channels, with
+// the noise model of method_measurement.hpp: measurement_noise.cpp).
+References references_of(const Captures& captures);
 
-struct PlanReferences {
-  std::vector<Reference> references;
-  std::vector<ExposureLinearity> linearity;  // per capture
-  estimation::MeasurementSet set;
-};
-
-// Any plan's references and measurement set: three channels per capture.
-PlanReferences plan_references_of(const PlanCaptures& captures);
+// The recipe's channels (the default's spelled out: R, G, B of every capture).
+std::vector<ChannelRecipe> recipe_channels(const Captures& captures);
 
 }  // namespace chromo::session::measurement

@@ -9,9 +9,9 @@
 
 namespace chromo::session::measurement {
 
-std::array<std::vector<std::uint8_t>, 3> add_surface_map(MethodMeasurement& m, const MethodCaptures& captures,
+std::array<std::vector<std::uint8_t>, 3> add_surface_map(Measurement& m, const Captures& captures,
                                                          const References& references, const Normalised& cross) {
-  const IlluminatedCapture& capture = *captures.broadband_parallel;
+  const IlluminatedCapture& capture = *captures.parallel;
   const Normalised parallel = normalise(capture, *references.parallel, captures.dark, captures.white_reflectance);
   std::array<double, 3> divisor{2, 2, 2};  // c_parallel − c_cross of ideal films
   if (const auto& factors = captures.surface_factors) {
@@ -19,7 +19,7 @@ std::array<std::vector<std::uint8_t>, 3> add_surface_map(MethodMeasurement& m, c
     correction.source = factors->source;
     for (int c = 0; c < 3; ++c) {
       divisor[c] = channel_surface_factor(factors->parallel, captures.camera, capture.illuminant, c) -
-                   channel_surface_factor(factors->cross, captures.camera, captures.broadband.illuminant, c);
+                   channel_surface_factor(factors->cross, captures.camera, captures.captures.front().illuminant, c);
       if (!(divisor[c] > 0.05))
         throw std::invalid_argument("surface factors (" + factors->source + "): the parallel capture keeps " +
                                     std::to_string(divisor[c]) + " more of the surface light than the cross one in channel " +
@@ -41,7 +41,7 @@ std::array<std::vector<std::uint8_t>, 3> add_surface_map(MethodMeasurement& m, c
         (*maps[c])[i] = static_cast<float>((p[i] - x[i]) / divisor[c]);
     }
   }
-  const estimation::ChannelNoise& cross_noise = m.set.channels[1].noise;
+  const estimation::ChannelNoise& cross_noise = references.capture_noise.front()[1];  // the cross capture's G
   m.surface_sigma.assign(n, kNaN);
   for (std::size_t i = 0; i < n; ++i) {
     if (!std::isfinite(m.surface[i])) continue;
@@ -68,17 +68,18 @@ double median_of_finite(const std::vector<float>& values) {
 
 }  // namespace
 
-void remove_surface_light(MethodMeasurement& m, const MethodCaptures& captures,
+void remove_surface_light(Measurement& m, const Captures& captures,
                           const std::array<std::vector<std::uint8_t>, 3>& parallel_saturated,
-                          const std::array<Normalised*, 3>& cross_captures) {
+                          std::vector<Normalised>& cross_captures) {
   auto& correction = *m.surface_correction;
   const SurfaceFactors& factors = *captures.surface_factors;
-  const std::array<const IlluminatedCapture*, 3> capture_of{&captures.broadband, &captures.base, &captures.with_blue};
   const std::array<const std::vector<float>*, 3> maps{&m.surface_red, &m.surface, &m.surface_blue};
+  correction.cross_factor.resize(captures.captures.size());
   for (int c = 0; c < 3; ++c) {
     correction.sheen_reference[c] = std::min(median_of_finite(*maps[c]), estimation::kSheenAtNormal);
-    for (int k = 0; k < 3; ++k)
-      correction.cross_factor[k][c] = channel_surface_factor(factors.cross, captures.camera, capture_of[k]->illuminant, c);
+    for (std::size_t k = 0; k < captures.captures.size(); ++k)
+      correction.cross_factor[k][c] =
+          channel_surface_factor(factors.cross, captures.camera, captures.captures[k].illuminant, c);
   }
   const std::size_t n = m.surface.size();
   for (std::size_t i = 0; i < n; ++i) {
@@ -89,8 +90,8 @@ void remove_surface_light(MethodMeasurement& m, const MethodCaptures& captures,
     for (int c = 0; c < 3; ++c) {
       const double surface = parallel_saturated[c][i] || !std::isfinite((*maps[c])[i]) ? g : (*maps[c])[i];
       const double excess = surface - correction.sheen_reference[c];
-      for (int k = 0; k < 3; ++k) {
-        float& a = cross_captures[k]->albedo[c][i];
+      for (std::size_t k = 0; k < cross_captures.size(); ++k) {
+        float& a = cross_captures[k].albedo[c][i];
         if (std::isfinite(a)) a -= static_cast<float>(correction.cross_factor[k][c] * excess);
       }
     }

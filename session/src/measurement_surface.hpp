@@ -1,9 +1,9 @@
 #pragma once
-// The polarised surface correction of the method's measurement
-// (method_measurement.hpp, MethodMeasurement::surface and
-// surface_correction): the surface maps from D65' parallel against the cross
-// D65', and the surface light they keep taken out of the cross captures'
-// albedo. Internal to session/; pure functions.
+// The polarised surface correction of a measurement whose captures hold a
+// parallel one (method_measurement.hpp, Captures::parallel, Measurement::
+// surface and surface_correction): the surface maps from the parallel
+// capture (D65' parallel) against the first, cross one (D65'), and the
+// surface light they keep taken out of the cross captures' albedo. Internal to session/; pure functions.
 
 #include <array>
 #include <cstdint>
@@ -13,7 +13,7 @@
 
 namespace chromo::session::measurement {
 
-// MethodMeasurement::surface (G), surface_red, surface_blue and
+// Measurement::surface (G), surface_red, surface_blue and
 // surface_sigma from D65' parallel against the cross D65', pixel by pixel on
 // the same grid: not registered. The parallel capture is taken right after
 // the cross one (the plan puts it there), and ECC between the two is driven
@@ -22,16 +22,16 @@ namespace chromo::session::measurement {
 // do more harm than the subject's motion between two consecutive captures.
 // Returns, per channel, where the parallel capture is saturated (its S is a
 // lower bound there).
-std::array<std::vector<std::uint8_t>, 3> add_surface_map(MethodMeasurement& m, const MethodCaptures& captures,
+std::array<std::vector<std::uint8_t>, 3> add_surface_map(Measurement& m, const Captures& captures,
                                                          const References& references, const Normalised& cross);
 
-// The cross captures' albedo (D65', and W57 and W57+blue on its grid) less
+// The cross captures' albedo (every capture: D65', and W57 and W57+blue on its grid) less
 // the surface light they keep above the sheen's: c_cross,k,c·(S_c − F_c)
 // where S_G stands out (SurfaceCorrection). Where the parallel capture is saturated
 // in a channel its S_c is a lower bound: that channel takes S_G instead (the
 // surface reflection is flat in wavelength to about 1% for η = 1.4).
-void remove_surface_light(MethodMeasurement& m, const MethodCaptures& captures,
+void remove_surface_light(Measurement& m, const Captures& captures,
                           const std::array<std::vector<std::uint8_t>, 3>& parallel_saturated,
-                          const std::array<Normalised*, 3>& cross_captures);
+                          std::vector<Normalised>& cross_captures);
 
 }  // namespace chromo::session::measurement

@@ -99,8 +99,8 @@ SessionCaptureBuilder::SessionCaptureBuilder(const SessionPlan& plan, CaptureSou
     throw std::invalid_argument("the plan cannot be estimated: no step for" + missing);
   // The method's three mixes, and on a polarised sphere D65' parallel besides.
   const bool parallel = plan_steps_.count(std::string("subject:") + kParallelD65) > 0;
-  method_plan_ = states_.size() == (parallel ? 4u : 3u);
-  for (const char* mix : kMixes) method_plan_ = method_plan_ && plan_steps_.count(std::string("subject:") + mix);
+  standard_plan_ = states_.size() == (parallel ? 4u : 3u);
+  for (const char* mix : kMixes) standard_plan_ = standard_plan_ && plan_steps_.count(std::string("subject:") + mix);
 }
 
 const std::string& SessionCaptureBuilder::camera() const {
@@ -238,52 +238,39 @@ std::optional<RgbImage> SessionCaptureBuilder::linearity_white(const std::string
   return mean_image(camera, found->second);
 }
 
-PlanCaptures SessionCaptureBuilder::plan_captures(const std::string& camera) const {
-  if (!references_complete(camera)) throw std::logic_error("captures of camera \"" + camera + "\": missing " + missing(camera));
-  const StepSums& steps = sums_of(camera);
-  PlanCaptures c;
-  c.camera = sources_.sensitivity_of(camera).sensitivity;
-  c.white_reflectance = sources_.white_reflectance;
-  c.dark = mean_image(camera, steps.at("dark"));
-  for (const State& state : states_) {
-    const StepSum& white = steps.at("white:" + state.key);
-    const StepSum& subject = steps.at("subject:" + state.key);
-    IlluminatedCapture capture;
-    capture.name = state.capture_name;
-    capture.white = mean_image(camera, white);
-    capture.subject = mean_image(camera, subject);
-    capture.white_linearity = linearity_white(camera, steps, state.key);
-    capture.illuminant = both_illuminants(white.illuminant, subject.illuminant);
-    put_white_under_subject_light(capture, c.camera, white.illuminant.mean(), subject.illuminant.mean());
-    c.captures.push_back(std::move(capture));
-  }
-  return c;
+IlluminatedCapture SessionCaptureBuilder::capture_of(const std::string& camera, const StepSums& steps,
+                                                    const std::string& state, const std::string& name) const {
+  const StepSum& white = steps.at("white:" + state);
+  const StepSum& subject = steps.at("subject:" + state);
+  IlluminatedCapture capture;
+  capture.name = name;
+  capture.white = mean_image(camera, white);
+  capture.subject = mean_image(camera, subject);
+  capture.white_linearity = linearity_white(camera, steps, state);
+  // The illuminant as the sphere emitted it for both captures (white and subject).
+  capture.illuminant = both_illuminants(white.illuminant, subject.illuminant);
+  put_white_under_subject_light(capture, sources_.sensitivity_of(camera).sensitivity, white.illuminant.mean(),
+                                subject.illuminant.mean());
+  return capture;
 }
 
-MethodCaptures SessionCaptureBuilder::captures(const std::string& camera) const {
-  if (!method_plan_)
-    throw std::invalid_argument("the plan is not the method's standard session (subjects under exactly d65, w57 and "
-                                "w57+blue); use plan_captures()");
+Captures SessionCaptureBuilder::captures(const std::string& camera) const {
   if (!references_complete(camera)) throw std::logic_error("captures of camera \"" + camera + "\": missing " + missing(camera));
   const StepSums& steps = sums_of(camera);
-  MethodCaptures c;
+  Captures c;
   c.camera = sources_.sensitivity_of(camera).sensitivity;
   c.white_reflectance = sources_.white_reflectance;
   c.dark = mean_image(camera, steps.at("dark"));
-  std::vector<std::pair<IlluminatedCapture*, const char*>> targets = {
-      {&c.broadband, "d65"}, {&c.base, "w57"}, {&c.with_blue, "w57+blue"}};
-  if (steps.count(std::string("subject:") + kParallelD65)) targets.emplace_back(&c.broadband_parallel.emplace(), kParallelD65);
-  if (c.broadband_parallel) c.surface_factors = sources_.surface_factors;
-  for (const auto& [target, mix] : targets) {
-    const StepSum& white = steps.at(std::string("white:") + mix);
-    const StepSum& subject = steps.at(std::string("subject:") + mix);
-    target->name = capture_name({mix, mix});  // "D65' parallel" for d65:parallel
-    target->white = mean_image(camera, white);
-    target->subject = mean_image(camera, subject);
-    target->white_linearity = linearity_white(camera, steps, mix);
-    // The illuminant as the sphere emitted it for both captures (white and subject).
-    target->illuminant = both_illuminants(white.illuminant, subject.illuminant);
-    put_white_under_subject_light(*target, c.camera, white.illuminant.mean(), subject.illuminant.mean());
+  if (!standard_plan_) {
+    for (const State& state : states_) c.captures.push_back(capture_of(camera, steps, state.key, state.capture_name));
+    return c;
+  }
+  // The standard plan: D65', W57, W57+blue in the recipe's order, and D65' parallel apart.
+  for (const char* mix : kMixes) c.captures.push_back(capture_of(camera, steps, mix, capture_name({mix, mix})));
+  c.recipe = standard_recipe();
+  if (steps.count(std::string("subject:") + kParallelD65)) {
+    c.parallel = capture_of(camera, steps, kParallelD65, capture_name({kParallelD65, kParallelD65}));  // "D65' parallel"
+    c.surface_factors = sources_.surface_factors;
   }
   return c;
 }
@@ -392,19 +379,8 @@ SessionCaptureBuilder read_stored_session(const std::filesystem::path& folder, c
   return builder;
 }
 
-MethodCaptures read_session_captures(const std::filesystem::path& folder, const CaptureSources& sources) {
-  const SessionCaptureBuilder builder = stored_session_builder(folder, sources);
-  if (!builder.is_method_plan())
-    throw std::invalid_argument(folder.string() + ": the session's plan is not the method's standard session");
-  return builder.captures();
-}
-
-StoredSessionCaptures read_any_session_captures(const std::filesystem::path& folder, const CaptureSources& sources) {
-  const SessionCaptureBuilder builder = stored_session_builder(folder, sources);
-  StoredSessionCaptures out;
-  if (builder.is_method_plan()) out.method = builder.captures();
-  else out.plan = builder.plan_captures();
-  return out;
+Captures read_session_captures(const std::filesystem::path& folder, const CaptureSources& sources) {
+  return stored_session_builder(folder, sources).captures();
 }
 
 CameraSensitivitySource CaptureSources::sensitivity_of(const std::string& camera_name) const {

@@ -128,7 +128,7 @@ spectral::Spectrum get_spectrum(files::CacheReader& r) {
   return s;
 }
 
-void put_measurement(files::CacheWriter& w, const session::MethodMeasurement& m) {
+void put_measurement(files::CacheWriter& w, const session::Measurement& m) {
   put_string(w, m.set.camera.name);
   for (const auto& c : m.set.camera.rgb) put_spectrum(w, c);
   w.put<std::uint32_t>(static_cast<std::uint32_t>(m.set.channels.size()));
@@ -150,8 +150,8 @@ void put_measurement(files::CacheWriter& w, const session::MethodMeasurement& m)
   for (const auto& e : m.exposures) put_string(w, e.capture), w.put(e.exposure_us), w.put(e.frames);
 }
 
-session::MethodMeasurement get_measurement(files::CacheReader& r) {
-  session::MethodMeasurement m;
+session::Measurement get_measurement(files::CacheReader& r) {
+  session::Measurement m;
   m.set.camera.name = get_string(r);
   for (auto& c : m.set.camera.rgb) c = get_spectrum(r);
   const auto channels = r.get<std::uint32_t>();
@@ -180,7 +180,7 @@ session::MethodMeasurement get_measurement(files::CacheReader& r) {
   const auto exposures = r.get<std::uint32_t>();
   if (exposures > 4096) throw std::runtime_error("bad exposure count");
   for (std::uint32_t k = 0; k < exposures; ++k) {
-    session::MethodMeasurement::CaptureExposure e;
+    session::Measurement::CaptureExposure e;
     e.capture = get_string(r);
     e.exposure_us = r.get<double>();
     e.frames = r.get<std::uint32_t>();
@@ -241,7 +241,7 @@ void store_cached(const std::filesystem::path& file, std::uint64_t key, const Re
 // (sensor coordinates s = 2m + 0.5 of a 2×2 cell's centre).
 // moved_states: the states whose subject captures were registered, in the
 // measurement's report order (every state after the plan's first).
-std::vector<CaptureMotion> capture_motion(const session::MethodMeasurement& m,
+std::vector<CaptureMotion> capture_motion(const session::Measurement& m,
                                           const std::map<std::string, std::pair<double, SubjectPose>>& poses,
                                           const std::vector<std::string>& moved_states, int sensor_width,
                                           int sensor_height) {
@@ -409,13 +409,13 @@ void meter_subjects(const RenderedSessionOptions& options, const CameraModel& ca
 // Each scaled white's linearity check: the white at t_white / g (one noisy frame).
 void add_linearity_whites(const CameraModel& camera, const std::vector<cv::Vec3f>& white_response,
                           const std::map<std::string, int>& state_of_step, const session::SessionPlan& plan,
-                          session::MethodCaptures& method) {
-  for (session::IlluminatedCapture* capture : {&method.broadband, &method.base, &method.with_blue}) {
+                          session::Captures& standard) {
+  const char* const white_steps[] = {"white_d65", "white_w57", "white_w57+blue"};  // the captures' order
+  for (std::size_t k = 0; k < std::size(white_steps); ++k) {
+    session::IlluminatedCapture* capture = &standard.captures.at(k);
     const double t_white = capture->white.exposure_us, t_subject = capture->subject.exposure_us;
     if (!(t_white > 0) || std::abs(t_subject - t_white) <= 1e-6 * t_white) continue;
-    const std::string white_step = capture == &method.broadband ? "white_d65"
-                                   : capture == &method.base    ? "white_w57"
-                                                                : "white_w57+blue";
+    const std::string white_step = white_steps[k];
     const std::size_t s = static_cast<std::size_t>(
         std::find_if(plan.steps.begin(), plan.steps.end(), [&](const session::Step& x) { return x.name == white_step; }) -
         plan.steps.begin());
@@ -634,16 +634,16 @@ RenderedSession render_session(const RenderedSessionOptions& options) {
     return builder;
   };
   auto measurement = [&](const session::SessionCaptureBuilder& builder) {
-    if (!standard) return session::build_plan_measurement(builder.plan_captures());
-    session::MethodCaptures method = builder.captures();
+    session::Captures captures = builder.captures();
+    if (!standard) return session::build_measurement(captures);
     if (sphere && options.estimator_knows_films)
-      method.surface_factors = session::SurfaceFactors{
+      captures.surface_factors = session::SurfaceFactors{
           surface_factor_in_albedo(drivers::Polarisation::kCross, sphere->light_film, sphere->analyser_film, sphere->cross_leak),
           surface_factor_in_albedo(drivers::Polarisation::kParallel, sphere->light_film, sphere->analyser_film, sphere->cross_leak),
           "the rendered session's films (PolariserFilm, 1:" + std::to_string(options.extinction_ratio_550nm) +
               " at 550 nm, design view)"};
-    if (options.subject_fill > 0) add_linearity_whites(camera, white_response, state_of_step, plan, method);
-    return session::build_method_measurement(method);
+    if (options.subject_fill > 0) add_linearity_whites(camera, white_response, state_of_step, plan, captures);
+    return session::build_measurement(captures);
   };
   start = Clock::now();
   session::SessionCaptureBuilder noisy_captures = captures(true);

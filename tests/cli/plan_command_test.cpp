@@ -29,12 +29,12 @@ TEST(ChromoPlan, ComparesBuiltinsAndAPlanFile) {
       {"name": "W57", "drive": {"W57": 1}}, {"name": "blue", "drive": {"B": 1}, "frames": 4}],
       "channels": [{"capture": "W57", "camera_channel": "R"}, {"capture": "W57", "camera_channel": "G"},
                    {"capture": "W57", "camera_channel": "B"}, {"capture": "blue", "camera_channel": "B"}]})";
-  const Result r = run_chromo("plan compare method multispectral " + (dir / "blue.json").string() +
+  const Result r = run_chromo("plan compare standard multispectral " + (dir / "blue.json").string() +
                               " --skins 8 --mc-draws 1 --json --chart " + (dir / "plans.png").string());
   ASSERT_EQ(r.exit_status, 0) << r.output;
   const auto j = nlohmann::json::parse(r.output);
   ASSERT_EQ(j.size(), 3u);
-  EXPECT_EQ(j[0]["plan"], "method");
+  EXPECT_EQ(j[0]["plan"], "standard");
   EXPECT_EQ(j[1]["channels"].size(), 18u);
   EXPECT_EQ(j[2]["plan"], "blue-direct");
   for (const auto& plan : j) {
@@ -50,14 +50,16 @@ TEST(ChromoPlan, ComparesBuiltinsAndAPlanFile) {
 }
 
 // The seed's broadband study plans by name (issue 38).
-// Issue 41, problem 9: the session commands' name of the method's plan,
-// "standard", is the same plan in plan compare (its older name "method" too).
+// Issue 41, problem 9, and issue 36: the method's plan has one name,
+// "standard", in the session commands and plan compare; its older plan
+// compare name "method" is still read, as the same plan under the new name.
 TEST(ChromoPlan, StandardIsTheMethodsPlanAsInTheSessionCommands) {
   const Result r = run_chromo("plan compare standard method --skins 4 --mc-draws 1 --json --chart ''");
   ASSERT_EQ(r.exit_status, 0) << r.output;
   const auto j = nlohmann::json::parse(r.output);
   ASSERT_EQ(j.size(), 2u);
   EXPECT_EQ(j[0]["plan"], "standard");
+  EXPECT_EQ(j[1]["plan"], "standard");
   EXPECT_EQ(j[0]["channels"], j[1]["channels"]);
   EXPECT_EQ(j[0]["predicted_delta_e94"], j[1]["predicted_delta_e94"]);
 }

@@ -181,8 +181,8 @@ class PackageTest(unittest.TestCase):
         self.assertIsInstance(relit, chromosphere.Relit)
         self.assertGreater(relit.relit_pixels, 0)
         self.assertTrue(relit.out_dir.startswith("products/relight-"))
-        advice = self.client.compare_plans(["method"], skins=4)
-        self.assertEqual(advice[0].plan, "method")
+        advice = self.client.compare_plans(["standard"], skins=4)
+        self.assertEqual(advice[0].plan, "standard")
         self.assertGreater(advice[0].predicted_delta_e94_mean, 0)
         self.assertIn("D65", advice[0].predicted_delta_e94)
 

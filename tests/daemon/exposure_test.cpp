@@ -234,7 +234,7 @@ struct MeteredRun {
   std::vector<nlohmann::json> subject_metered;
   nlohmann::json results;  // the session's results record
   nlohmann::json summary;  // results/summary.json (when estimated)
-  std::optional<session::MethodMeasurement> measurement;
+  std::optional<session::Measurement> measurement;
   fs::path folder;
 };
 
@@ -259,7 +259,7 @@ MeteredRun run_standard(Daemon& daemon, double subject_fill) {
   const std::string library = daemon.calibrations().library_path();
   if (!library.empty() && fs::exists(library)) {
     const auto sources = session::resolve_capture_sources(library, "builtin:nikon_d5100", 0.99);
-    run.measurement = session::build_method_measurement(session::read_session_captures(run.folder, sources));
+    run.measurement = session::build_measurement(session::read_session_captures(run.folder, sources));
   }
   return run;
 }
@@ -277,7 +277,7 @@ struct CommonAlbedo {
   std::array<double, 4> one{}, metered{};
   std::size_t cells = 0;
 };
-CommonAlbedo common_albedo(const session::MethodMeasurement& a, const session::MethodMeasurement& b) {
+CommonAlbedo common_albedo(const session::Measurement& a, const session::Measurement& b) {
   CommonAlbedo out;
   if (a.measured.size() != b.measured.size()) return out;
   for (std::size_t i = 0; i < a.measured.size() / 4; ++i) {

@@ -50,7 +50,7 @@ pb::PlanDescription blue_direct() {
 
 TEST_F(PlanApi, AdvisesBuiltinAndDescribedPlans) {
   pb::ComparePlansRequest request;
-  request.add_plans()->set_builtin("method");
+  request.add_plans()->set_builtin("standard");
   *request.add_plans()->mutable_description() = blue_direct();
   request.set_skins(8);
   request.set_monte_carlo_draws(2);
@@ -59,7 +59,7 @@ TEST_F(PlanApi, AdvisesBuiltinAndDescribedPlans) {
   ASSERT_TRUE(status.ok()) << status.error_message();
   ASSERT_EQ(response.plans_size(), 2);
   const pb::PlanAdvice& method = response.plans(0);
-  EXPECT_EQ(method.plan(), "method");
+  EXPECT_EQ(method.plan(), "standard");
   EXPECT_EQ(method.channels_size(), 4);
   EXPECT_EQ(method.illuminants_size(), 8);
   EXPECT_EQ(method.predicted_delta_e94_size(), 8);
@@ -103,7 +103,7 @@ TEST_F(PlanApi, BadPlansAreRefusedNamingTheField) {
   request.add_plans();  // neither builtin nor description
   EXPECT_EQ(refused(request), "plans[0].plan: required (builtin or description)");
   request.clear_plans();
-  request.add_plans()->set_builtin("method");
+  request.add_plans()->set_builtin("standard");
   request.set_skins(2001);
   EXPECT_EQ(refused(request), "skins: at most 2000");
   request.set_skins(2000);

@@ -1,7 +1,7 @@
 // A polarised session end to end (issue 23 parts 3 and 5): the standard plan
 // polarised, rendered in process (rendered_session.hpp: render_polarised_skin
 // with 1:200 films, oily regions of 1-20σ), measured by the daemon's capture
-// builder and build_method_measurement (the surface map from D65' parallel −
+// builder and build_measurement (the surface map from D65' parallel −
 // cross), estimated and written (maps.exr surface and highlight channels,
 // polarisation.png, summary.json "highlights"). The unpolarised session
 // keeps its outputs and says highlights are found heuristically.
@@ -48,7 +48,7 @@ const simulators::RenderedSession& polarised_session() {
 
 TEST(PolarisedEstimate, TheSurfaceMapIsTheSheenOnSkinAndTheSurfaceLayerUnderHighlights) {
   const simulators::RenderedSession& lab = polarised_session();
-  const session::MethodMeasurement& m = lab.noisy;
+  const session::Measurement& m = lab.noisy;
   ASSERT_TRUE(m.polarised());
   ASSERT_EQ(m.surface.size(), lab.pixels());
   EXPECT_EQ(m.exposures.back().capture, "subject D65' parallel");
@@ -160,7 +160,7 @@ TEST(PolarisedEstimate, MapsCarryTheSurfaceAndTheOpticalHighlightFlagAndThePanel
   const FileCommit commit = [](const fs::path& path, const std::function<void(const fs::path&)>& produce) { produce(path); };
   fs::create_directories(out / "polarised");
   const auto result =
-      estimate_method_measurement(lab.noisy, lab.noisy.set.camera, 0.99, 0, options, out / "polarised", commit);
+      estimate_measurement(lab.noisy, lab.noisy.set.camera, 0.99, 0, options, out / "polarised", commit);
   const files::FloatImage maps = files::read_exr(out / "polarised" / "maps.exr");
   const auto at = [&](const std::string& name) {
     const auto found = std::find(maps.channel_names.begin(), maps.channel_names.end(), name);
@@ -207,7 +207,7 @@ TEST(PolarisedEstimate, AnUnpolarisedSessionIsAsBeforeAndSaysHighlightsAreHeuris
   options.cache_dir = fs::temp_directory_path() / "chromo-test-forward-tables";
   const fs::path out = testing::fresh_directory("unpolarised-estimate");
   const FileCommit commit = [](const fs::path& path, const std::function<void(const fs::path&)>& produce) { produce(path); };
-  const auto result = estimate_method_measurement(lab.noisy, lab.noisy.set.camera, 0.99, 0, options, out, commit);
+  const auto result = estimate_measurement(lab.noisy, lab.noisy.set.camera, 0.99, 0, options, out, commit);
   const files::FloatImage maps = files::read_exr(out / "maps.exr");
   // (read back in EXR's alphabetical order)
   EXPECT_EQ(maps.channel_names, (std::vector<std::string>{"Bm", "Ch", "Che", "Cm", "corr_Ch_Che", "flags", "order", "residual",

@@ -148,9 +148,9 @@ TEST(RelitTable, EstimateWithTheDefaultsMatchesTheExactOneThreadPath) {
   const FileCommit commit = [](const fs::path& path, const std::function<void(const fs::path&)>& produce) { produce(path); };
   fs::create_directories(out / "before");
   fs::create_directories(out / "after");
-  const auto b = estimate_method_measurement(lab.noisy, lab.noisy.set.camera, 0.99, 0, before, out / "before", commit, {},
+  const auto b = estimate_measurement(lab.noisy, lab.noisy.set.camera, 0.99, 0, before, out / "before", commit, {},
                                              "{}", &tables);
-  const auto a = estimate_method_measurement(lab.noisy, lab.noisy.set.camera, 0.99, 0, after, out / "after", commit, {},
+  const auto a = estimate_measurement(lab.noisy, lab.noisy.set.camera, 0.99, 0, after, out / "after", commit, {},
                                              "{}", &tables);
 
   const files::FloatImage mb = files::read_exr(out / "before" / "maps.exr"), ma = files::read_exr(out / "after" / "maps.exr");

@@ -44,7 +44,7 @@ TEST(PlanAdvisor, CameraDefaultsAreTheVirtualLabCamera) {
 TEST(PlanAdvisor, ExposurePutsTheWhiteAtItsFillInTheLabCamera) {
   // The advisor's exposure for each capture, read out by the virtual lab's
   // camera model, gives the white's brightest channel white_fill of full scale.
-  const PlanDescription plan = builtin_plan("method", library());
+  const PlanDescription plan = builtin_plan("standard", library());
   const CaptureTime time = capture_time(plan, library(), CameraNoise{});
   const simulators::CameraModel camera{simulators::CameraModelOptions{}};
   std::array<spectral::Spectrum, spectral::kLedTypeCount> per_drive;
@@ -63,7 +63,7 @@ TEST(PlanAdvisor, ExposurePutsTheWhiteAtItsFillInTheLabCamera) {
 TEST(PlanAdvisor, CovarianceMatchesSimulatedFrames) {
   // The first-order covariance against 6000 simulated measurements of one
   // skin, the method's difference channel included.
-  const PlanDescription plan = builtin_plan("method", library());
+  const PlanDescription plan = builtin_plan("standard", library());
   const estimation::SkinParameters skin{0.05, 0.04, 0.6, 0.03};
   const ChannelStatistics stats = channel_statistics(plan, library(), CameraNoise{}, skin);
   const int n = static_cast<int>(stats.value.size());
@@ -81,7 +81,7 @@ TEST(PlanAdvisor, CovarianceMatchesSimulatedFrames) {
 }
 
 TEST(PlanAdvisor, FisherPredictionAgreesWithMonteCarloOnInteriorSkin) {
-  for (const char* name : {"method", "multispectral"}) {
+  for (const char* name : {"standard", "multispectral"}) {
     const PlanDescription plan = builtin_plan(name, library());
     const AdvisorOptions options = small_interior(24);
     const PlanPrediction prediction = predict_plan(plan, library(), CameraNoise{}, options);
@@ -104,8 +104,8 @@ TEST(PlanAdvisor, FisherPredictionAgreesWithMonteCarloOnInteriorSkin) {
 }
 
 TEST(PlanAdvisor, MoreFramesReduceSigmaBySquareRootOfFrames) {
-  PlanDescription one = builtin_plan("method", library());
-  PlanDescription four = builtin_plan("method@4", library());
+  PlanDescription one = builtin_plan("standard", library());
+  PlanDescription four = builtin_plan("standard@4", library());
   one.dark_frames = 1, four.dark_frames = 4;  // every raw quantity averaged 4×
   AdvisorOptions options = small_interior(16);
   options.box_prior = false;  // the box's information is the one thing that does not scale with frames
@@ -134,7 +134,7 @@ TEST(PlanAdvisor, TheDiscrepancyFloorsSigmaSoChannelsOutrankFrames) {
     out.with_discrepancy = predict_plan(plan, library(), CameraNoise{}, options);
     return out;
   };
-  const Pair m16 = predict("method@16"), m256 = predict("method@256"), ms4 = predict("multispectral@4");
+  const Pair m16 = predict("standard@16"), m256 = predict("standard@256"), ms4 = predict("multispectral@4");
   // Measured: σ_Cm method@256 / method@16 0.57 on the camera noise, 0.93 with the discrepancy.
   EXPECT_LT(m256.noise_only.sigma.cm / m16.noise_only.sigma.cm, 0.65);
   EXPECT_GT(m256.with_discrepancy.sigma.cm / m16.with_discrepancy.sigma.cm, 0.85);
@@ -191,7 +191,7 @@ std::vector<estimation::SkinParameters> skins_on_table_grid(double offset) {
 }
 
 TEST(PlanAdvisor, TableInterpolationErrorIsZeroOnTheNodesAndNotBetween) {
-  const PlanDescription method = builtin_plan("method", library());
+  const PlanDescription method = builtin_plan("standard", library());
   const std::vector<double> on = table_interpolation_error(method, library(), CameraNoise{}, skins_on_table_grid(0.0), 2);
   const std::vector<double> between = table_interpolation_error(method, library(), CameraNoise{}, skins_on_table_grid(0.5), 2);
   ASSERT_EQ(on.size(), 6u * 4u);
@@ -203,7 +203,7 @@ TEST(PlanAdvisor, TableInterpolationErrorIsZeroOnTheNodesAndNotBetween) {
 }
 
 TEST(PlanAdvisor, TableBiasIsNothingOnTheNodesAndSmallBetween) {
-  const PlanDescription method = builtin_plan("method", library());
+  const PlanDescription method = builtin_plan("standard", library());
   AdvisorOptions options = small_interior(1);
   for (double offset : {0.0, 0.5}) {
     options.population.skins = skins_on_table_grid(offset);
@@ -235,7 +235,7 @@ TEST(PlanAdvisor, GivenSkinsAreThePopulationAndBadOnesAreNamed) {
 
 TEST(PlanAdvisor, MultispectralPredictsLowerErrorThanTheMethodUnderA) {
   const AdvisorOptions options = small_interior(16);
-  const PlanPrediction method = predict_plan(builtin_plan("method", library()), library(), CameraNoise{}, options);
+  const PlanPrediction method = predict_plan(builtin_plan("standard", library()), library(), CameraNoise{}, options);
   const PlanPrediction multi = predict_plan(builtin_plan("multispectral", library()), library(), CameraNoise{}, options);
   ASSERT_EQ(method.illuminants[1], "A");
   EXPECT_LT(multi.delta_e94[1], method.delta_e94[1]);
@@ -245,30 +245,39 @@ TEST(PlanAdvisor, MultispectralPredictsLowerErrorThanTheMethodUnderA) {
 }
 
 TEST(PlanAdvisor, BadPlansAreRefusedNamingTheField) {
-  PlanDescription plan = builtin_plan("method", library());
+  PlanDescription plan = builtin_plan("standard", library());
   std::string error;
   plan.captures[1].white_fill = 1.5;
   EXPECT_FALSE(plan.IsValid(&error));
   EXPECT_EQ(error, "captures[1].white_fill: must be in (0, 1]");
   EXPECT_THROW(predict_plan(plan, library(), CameraNoise{}), std::invalid_argument);
-  plan = builtin_plan("method", library());
+  plan = builtin_plan("standard", library());
   plan.channels[3].minus = "W56";
   EXPECT_FALSE(plan.IsValid(&error));
   EXPECT_EQ(error, "channels[3].minus: no capture named 'W56'");
-  plan = builtin_plan("method", library());
+  plan = builtin_plan("standard", library());
   plan.captures[0].drive = {};
   EXPECT_FALSE(plan.IsValid(&error));
   EXPECT_EQ(error, "captures[0].drive: at least one LED type must be on");
-  plan = builtin_plan("method", library());
+  plan = builtin_plan("standard", library());
   plan.captures[2].frames = 0;
   EXPECT_FALSE(plan.IsValid(&error));
   EXPECT_EQ(error, "captures[2].frames: must be 1-1000");
-  EXPECT_THROW(builtin_plan("method@0", library()), std::invalid_argument);
+  EXPECT_THROW(builtin_plan("standard@0", library()), std::invalid_argument);
   EXPECT_THROW(builtin_plan("hyperspectral", library()), std::invalid_argument);
+  // The names plan compare used before one name per plan are read as the new ones, named so.
+  const PlanDescription old = builtin_plan("method@2", library()), renamed = builtin_plan("standard@2", library());
+  EXPECT_EQ(old.name, "standard@2");
+  ASSERT_EQ(old.captures.size(), renamed.captures.size());
+  EXPECT_EQ(old.captures[2].drive, renamed.captures[2].drive);
+  EXPECT_EQ(old.captures[0].frames, 2);
+  EXPECT_EQ(builtin_plan("method-blue", library()).name, "standard-blue");
+  const std::vector<std::string> names = builtin_plan_names();
+  EXPECT_EQ(std::count(names.begin(), names.end(), "method"), 0);
 
   // A channel whose white sees nothing: R under the blue LED minus itself is refused above;
   // W57 − W57+blue in B is negative.
-  plan = builtin_plan("method", library());
+  plan = builtin_plan("standard", library());
   plan.channels[3] = {"W57", 2, "W57+blue"};
   try {
     predict_plan(plan, library(), CameraNoise{});
@@ -279,18 +288,18 @@ TEST(PlanAdvisor, BadPlansAreRefusedNamingTheField) {
   CameraNoise camera;
   camera.adc_bits = 40;
   try {
-    predict_plan(builtin_plan("method", library()), library(), camera);
+    predict_plan(builtin_plan("standard", library()), library(), camera);
     ADD_FAILURE() << "a 40-bit camera passed";
   } catch (const std::invalid_argument& e) {
     EXPECT_EQ(std::string(e.what()), "camera: adc_bits: must be 8-16");
   }
   AdvisorOptions options;
   options.population.low.cm = 0.0;
-  EXPECT_THROW(predict_plan(builtin_plan("method", library()), library(), CameraNoise{}, options), std::invalid_argument);
+  EXPECT_THROW(predict_plan(builtin_plan("standard", library()), library(), CameraNoise{}, options), std::invalid_argument);
 }
 
 TEST(PlanAdvisor, JsonFormRoundTripsAndNamesBadFields) {
-  const PlanDescription method = builtin_plan("method", library());
+  const PlanDescription method = builtin_plan("standard", library());
   const PlanDescription back = plan_from_json(to_json(method));
   ASSERT_EQ(back.captures.size(), 3u);
   EXPECT_EQ(back.channels.size(), 4u);

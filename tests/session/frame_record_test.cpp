@@ -235,13 +235,13 @@ TEST(FrameSums, LiveAndReadBackGiveTheSameSumsCapturesAndDerivedData) {
     EXPECT_EQ(read->sums(), sums.sums()) << key.first << " " << key.second;
   }
 
-  const MethodCaptures live_captures = live_builder.captures();
-  const MethodCaptures read_captures = read_session_captures(created.folder, sources);
+  const Captures live_captures = live_builder.captures();
+  const Captures read_captures = read_session_captures(created.folder, sources);
   EXPECT_EQ(read_captures.dark.width, 8);
-  const std::pair<const IlluminatedCapture*, const IlluminatedCapture*> pairs[] = {
-      {&live_captures.broadband, &read_captures.broadband},
-      {&live_captures.base, &read_captures.base},
-      {&live_captures.with_blue, &read_captures.with_blue}};
+  ASSERT_EQ(live_captures.captures.size(), 3u);
+  ASSERT_EQ(read_captures.captures.size(), 3u);
+  std::vector<std::pair<const IlluminatedCapture*, const IlluminatedCapture*>> pairs;
+  for (std::size_t k = 0; k < 3; ++k) pairs.emplace_back(&live_captures.captures[k], &read_captures.captures[k]);
   for (int c = 0; c < 3; ++c) EXPECT_EQ(live_captures.dark.planes[c], read_captures.dark.planes[c]);
   for (const auto& [a, b] : pairs) {
     for (int c = 0; c < 3; ++c) {

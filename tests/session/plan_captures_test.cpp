@@ -15,6 +15,7 @@
 #include "chromo/session/method_measurement.hpp"
 #include "chromo/session/session_captures.hpp"
 #include "chromo/session/session_plan.hpp"
+#include "chromo/spectral/cie.hpp"
 #include "chromo/spectral/lab_illuminants.hpp"
 
 namespace chromo::session {
@@ -119,16 +120,16 @@ TEST(PlanCaptureBuilder, PairsWhitesAndSubjectsByIllumination) {
   CaptureSources sources;
   sources.camera = spectral::builtin_camera("nikon_d5100");
   const SessionCaptureBuilder multispectral(multispectral_plan(), sources);
-  EXPECT_FALSE(multispectral.is_method_plan());
-  EXPECT_TRUE(SessionCaptureBuilder(standard_plan(), sources).is_method_plan());
-  EXPECT_FALSE(SessionCaptureBuilder(multispectral_plan({}, true), sources).is_method_plan());
+  EXPECT_FALSE(multispectral.is_standard_plan());
+  EXPECT_TRUE(SessionCaptureBuilder(standard_plan(), sources).is_standard_plan());
+  EXPECT_FALSE(SessionCaptureBuilder(multispectral_plan({}, true), sources).is_standard_plan());
   // The polarised standard plan is the method's (cross) plus D65' parallel, which
-  // captures() returns as broadband_parallel; a parallel capture of another mix is not.
-  EXPECT_TRUE(SessionCaptureBuilder(standard_plan({.polarised = true}), sources).is_method_plan());
+  // captures() returns as Captures::parallel; a parallel capture of another mix is not.
+  EXPECT_TRUE(SessionCaptureBuilder(standard_plan({.polarised = true}), sources).is_standard_plan());
   SessionPlan w57_parallel = standard_plan({.polarised = true});
   for (Step& step : w57_parallel.steps)
     if (step.name.ends_with("_d65_parallel")) step.illumination.mix = "w57";
-  EXPECT_FALSE(SessionCaptureBuilder(w57_parallel, sources).is_method_plan());
+  EXPECT_FALSE(SessionCaptureBuilder(w57_parallel, sources).is_standard_plan());
   // A subject without its white, a white without its subject, an unlit subject: refused, named.
   SessionPlan plan = multispectral_plan();
   plan.steps.erase(plan.steps.begin() + 2);  // white_W40
@@ -146,7 +147,7 @@ TEST(PlanCaptureBuilder, PairsWhitesAndSubjectsByIllumination) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find(plan.steps[8].name), std::string::npos) << e.what();
   }
-  EXPECT_THROW(multispectral.captures(), std::invalid_argument);  // not the method's session
+  EXPECT_THROW(multispectral.captures(), std::logic_error);  // no frames yet
 }
 
 // One camera's frame of a step: every sample `value` (of full scale 4095 for
@@ -231,7 +232,7 @@ TEST(PlanCaptureBuilder, KeepsEachCameraApartUnderAnyPlan) {
     std::size_t dark = 0;
     while (plan.steps[dark].role != StepRole::kDark) ++dark;
     for (const std::string camera : {"a", "b"}) {
-      const PlanCaptures captures = builder.plan_captures(camera);
+      const Captures captures = builder.captures(camera);
       const bool is_a = camera == "a";
       const double full = is_a ? 4095 : 255;
       auto value = [&](std::size_t k) { return (is_a ? value_a(k) : value_b(k)) / full; };
@@ -255,12 +256,13 @@ TEST(PlanCaptureBuilder, KeepsEachCameraApartUnderAnyPlan) {
         EXPECT_EQ(capture.white.width, is_a ? 4 : 5);
       }
     }
-    if (builder.is_method_plan()) {
-      EXPECT_FLOAT_EQ(builder.captures().broadband.subject.planes[0][0],
-                      builder.captures("a").broadband.subject.planes[0][0]);
-      EXPECT_EQ(builder.captures("b").broadband.subject.width, 5);
-    }
-    EXPECT_THROW(builder.plan_captures("c"), std::logic_error);
+    // The standard plan's captures carry its recipe (D65', W57, W57+blue in that order), any other the default.
+    EXPECT_EQ(builder.captures().recipe.channels.size(), builder.is_standard_plan() ? 4u : 0u);
+    EXPECT_EQ(builder.captures("a").captures.front().name, builder.is_standard_plan() ? "D65'" : "W57");
+    EXPECT_FLOAT_EQ(builder.captures().captures[0].subject.planes[0][0],
+                    builder.captures("a").captures[0].subject.planes[0][0]);
+    EXPECT_EQ(builder.captures("b").captures[0].subject.width, 5);
+    EXPECT_THROW(builder.captures("c"), std::logic_error);
   }
 }
 
@@ -294,7 +296,7 @@ TEST(PlanCaptureBuilder, AWhiteTakenWarmerIsPutUnderTheSubjectsLight) {
       for (std::uint32_t n = 0; n < step.frames_per_camera; ++n) builder.add_frame(f.record, f.samples);
     }
     const double gain = at_trigger ? 1.0 + -0.004 * (40.0 - 60.0) : 1.0;
-    const PlanCaptures captures = builder.plan_captures("a");
+    const Captures captures = builder.captures("a");
     for (const IlluminatedCapture& capture : captures.captures) {
       std::size_t white = 0;
       spectral::Spectrum subject_light;
@@ -357,11 +359,11 @@ TEST(PlanCaptureBuilder, IlluminantFromTheReferencesIsTheEstimatesWhenTheLevelsA
   add_steps(false, "a", 1.0);
   add_steps(false, "b", 1.0);
   ASSERT_TRUE(builder.references_complete("a"));
-  const estimation::MeasurementSet from_references = method_set_from_references(builder.captures("a"));
+  const estimation::MeasurementSet from_references = measurement_set_from_references(builder.captures("a"));
   add_steps(true, "a", 1.0);
   add_steps(true, "b", 0.9);  // camera b's D65' subject under 10% less light
   ASSERT_TRUE(builder.complete("a"));
-  const estimation::MeasurementSet at_the_end = method_set_from_references(builder.captures("a"));
+  const estimation::MeasurementSet at_the_end = measurement_set_from_references(builder.captures("a"));
   ASSERT_EQ(from_references.channels.size(), at_the_end.channels.size());
   for (std::size_t c = 0; c < at_the_end.channels.size(); ++c) {
     const auto &x = from_references.channels[c], &y = at_the_end.channels[c];
@@ -369,7 +371,7 @@ TEST(PlanCaptureBuilder, IlluminantFromTheReferencesIsTheEstimatesWhenTheLevelsA
     EXPECT_EQ(x.noise.read_sigma, y.noise.read_sigma) << x.name;
     EXPECT_EQ(x.noise.shot_coefficient, y.noise.shot_coefficient) << x.name;
   }
-  const IlluminatedCapture same = builder.captures("a").broadband, moved = builder.captures("b").broadband;
+  const IlluminatedCapture same = builder.captures("a").captures[0], moved = builder.captures("b").captures[0];
   // Camera b's subject under 0.9 of its white's light: the capture keeps the
   // white's light, and the white's signal is scaled by 0.9 where the albedo
   // is formed (the subject's albedo is then its response to its own light).
@@ -408,15 +410,16 @@ TEST(PlanCaptureBuilder, ReadsTheStoredSumsAsItsOwnSum) {
         reading_lacking.add_summed_frame(f.record);
         if (k + 1 == plan.steps.size() && n == 0 && f.record.camera == "a") {
           // The last step has half its frames: its image stays empty until the sum is whole.
-          EXPECT_EQ(reading.captures("a").with_blue.subject.width, 0);
-          EXPECT_TRUE(reading.captures("a").with_blue.subject.planes[0].empty());
-          EXPECT_EQ(reading.captures("a").with_blue.white.width, 4);
+          EXPECT_EQ(reading.captures("a").captures[2].subject.width, 0);
+          EXPECT_TRUE(reading.captures("a").captures[2].subject.planes[0].empty());
+          EXPECT_EQ(reading.captures("a").captures[2].white.width, 4);
         }
       }
   for (const std::string camera : {"a", "b"}) {
     SCOPED_TRACE(camera);
-    const MethodCaptures a = own.captures(camera), b = reading.captures(camera);
-    for (const auto& [x, y] : {std::pair{&a.broadband, &b.broadband}, {&a.base, &b.base}, {&a.with_blue, &b.with_blue}}) {
+    const Captures a = own.captures(camera), b = reading.captures(camera);
+    for (const auto& [x, y] : {std::pair{&a.captures[0], &b.captures[0]}, {&a.captures[1], &b.captures[1]},
+                               {&a.captures[2], &b.captures[2]}}) {
       EXPECT_EQ(y->subject.frames, 2u);
       for (int c = 0; c < 3; ++c) {
         EXPECT_EQ(x->subject.planes[c], y->subject.planes[c]);
@@ -447,7 +450,7 @@ RgbImage flat(int width, int height, std::array<float, 3> value) {
 // each capture against its own white; the set's channels carry each capture's
 // illuminant, in plan order.
 TEST(PlanMeasurement, EveryCaptureIsNormalisedByItsOwnWhite) {
-  PlanCaptures captures;
+  Captures captures;
   captures.camera = spectral::builtin_camera("nikon_d5100");
   captures.white_reflectance = 0.9;
   const int w = 24, h = 16;
@@ -470,12 +473,12 @@ TEST(PlanMeasurement, EveryCaptureIsNormalisedByItsOwnWhite) {
     captures.captures.push_back(c);
   }
   RegistrationOptions registration;
-  const MethodMeasurement m = build_plan_measurement(captures, registration);
+  const Measurement m = build_measurement(captures, registration);
   ASSERT_EQ(m.set.size(), 18);
   {  // A white's signal scaled (the LEDs' temperatures, white_signal_scale): its capture's albedo divided by it.
-    PlanCaptures scaled = captures;
+    Captures scaled = captures;
     scaled.captures[1].white_signal_scale = {1.25, 1.1, 1.0};
-    const MethodMeasurement s = build_plan_measurement(scaled, registration);
+    const Measurement s = build_measurement(scaled, registration);
     for (std::size_t pixel = 0; pixel < 5; ++pixel)
       for (int ch = 0; ch < 3; ++ch) {
         EXPECT_NEAR(s.measured[pixel * 18 + 3 + ch] * scaled.captures[1].white_signal_scale[ch],
@@ -498,10 +501,63 @@ TEST(PlanMeasurement, EveryCaptureIsNormalisedByItsOwnWhite) {
       EXPECT_NEAR(m.measured[pixel * 18 + 3 * k + 2], 0.9 * 0.5 * t, 1e-5);
     }
   }
-  EXPECT_EQ(plan_set_from_references(captures).size(), 18);
+  EXPECT_EQ(measurement_set_from_references(captures).size(), 18);
   // No capture: refused.
   captures.captures.clear();
-  EXPECT_THROW(build_plan_measurement(captures), std::invalid_argument);
+  EXPECT_THROW(build_measurement(captures), std::invalid_argument);
+}
+
+// One route: the standard plan's channels are a recipe over the same
+// captures. Its D65' channels are the default recipe's first three values
+// exactly, its blue channel the white-weighted difference of the W57+blue
+// and W57 albedos in B, the photographs the same; a recipe naming a capture
+// the captures lack is refused, named.
+TEST(PlanMeasurement, TheStandardRecipeIsARecipeOverTheSameCaptures) {
+  Captures captures;
+  captures.camera = spectral::builtin_camera("nikon_d5100");
+  const int w = 20, h = 12;
+  captures.dark = flat(w, h, {0.02f, 0.02f, 0.02f});
+  const spectral::Spectrum w57 = spectral::led_spectrum(spectral::LedType::kW57);
+  const std::pair<const char*, spectral::Spectrum> lights[] = {
+      {"D65'", spectral::illuminant_d65()}, {"W57", w57}, {"W57+blue", w57 + spectral::led_spectrum(spectral::LedType::kBlue)}};
+  for (int k = 0; k < 3; ++k) {
+    IlluminatedCapture c;
+    c.name = lights[k].first;
+    c.illuminant = lights[k].second;
+    c.white = flat(w, h, {0.5f, 0.55f, k == 2 ? 0.75f : 0.4f});
+    c.subject = flat(w, h, {0, 0, 0});
+    for (int i = 0; i < w * h; ++i)
+      for (int ch = 0; ch < 3; ++ch)
+        c.subject.planes[ch][i] = 0.02f + (c.white.planes[ch][0] - 0.02f) * (0.3f + 0.01f * ((i * 7 + ch) % 13));
+    captures.captures.push_back(c);
+  }
+  const Measurement every = build_measurement(captures);
+  Captures standard = captures;
+  standard.recipe = standard_recipe();
+  const Measurement m = build_measurement(standard);
+  ASSERT_EQ(every.set.size(), 9);
+  ASSERT_EQ(m.set.size(), 4);
+  EXPECT_EQ(m.set.channels[3].name, "blue.B");
+  EXPECT_EQ(m.registration.size(), 2u);
+  EXPECT_EQ(m.registration[0].channel, "G");
+  const float w_mix = 0.75f - 0.02f, w_base = 0.4f - 0.02f;
+  for (int i = 0; i < w * h; ++i) {
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_EQ(m.measured[i * 4 + c], every.measured[i * 9 + c]) << i;
+      EXPECT_EQ(m.set.channels[c].noise.read_sigma, every.set.channels[c].noise.read_sigma);
+    }
+    const float blue = (every.measured[i * 9 + 8] * w_mix - every.measured[i * 9 + 5] * w_base) / (w_mix - w_base);
+    EXPECT_NEAR(m.measured[i * 4 + 3], blue, 1e-5) << i;
+  }
+  ASSERT_EQ(m.photographs.size(), 3u);
+  for (std::size_t k = 0; k < 3; ++k) EXPECT_EQ(m.photographs[k].rgb, every.photographs[k].rgb) << k;
+  standard.recipe.channels.push_back({5, 1, std::nullopt, {}});
+  try {
+    build_measurement(standard);
+    ADD_FAILURE() << "a recipe naming a sixth capture was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("recipe channel 4"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -39,13 +39,15 @@ RgbImage image(std::array<double, 3> level, const cv::Mat& footprint, std::mt199
   return out;
 }
 
-MethodCaptures captures(const cv::Mat& footprint, std::uint32_t seed) {
+Captures captures(const cv::Mat& footprint, std::uint32_t seed) {
   std::mt19937 random(seed);
-  MethodCaptures c;
+  Captures c;
   c.camera = spectral::builtin_camera("nikon_d5100");
   c.dark = image({0, 0, 0}, footprint, random);
   const std::array<double, 3> whites[3] = {{0.5, 0.5, 0.5}, {0.5, 0.5, 0.3}, {0.5, 0.5, 0.6}};
-  IlluminatedCapture* targets[3] = {&c.broadband, &c.base, &c.with_blue};
+  c.recipe = standard_recipe();
+  c.captures.resize(3);
+  IlluminatedCapture* targets[3] = {&c.captures[0], &c.captures[1], &c.captures[2]};
   const char* names[3] = {"D65'", "W57", "W57+blue"};
   for (int k = 0; k < 3; ++k) {
     targets[k]->name = names[k];
@@ -65,7 +67,7 @@ TEST(ReferenceFootprint, APosedCamerasWhiteMeanAndNoiseComeFromItsFootprintOnly)
   const double area = cv::countNonZero(quad);
 
   const RgbImage dark = captures(quad, 1).dark;
-  const ReferenceFootprint footprint = white_reference_footprint(captures(quad, 1).broadband.white, dark);
+  const ReferenceFootprint footprint = white_reference_footprint(captures(quad, 1).captures[0].white, dark);
   EXPECT_EQ(static_cast<double>(footprint.inside_pixels), area);
   std::size_t interior = 0;
   for (auto v : footprint.interior) interior += v;
@@ -73,8 +75,8 @@ TEST(ReferenceFootprint, APosedCamerasWhiteMeanAndNoiseComeFromItsFootprintOnly)
   EXPECT_GT(static_cast<double>(interior), 0.9 * area);
 
   // The noise model of the posed camera is the framed camera's.
-  const auto posed = method_set_from_references(captures(quad, 2));
-  const auto framed = method_set_from_references(captures(cv::Mat(), 2));
+  const auto posed = measurement_set_from_references(captures(quad, 2));
+  const auto framed = measurement_set_from_references(captures(cv::Mat(), 2));
   ASSERT_EQ(posed.channels.size(), framed.channels.size());
   for (std::size_t k = 0; k < posed.channels.size(); ++k) {
     EXPECT_NEAR(posed.channels[k].noise.read_sigma / framed.channels[k].noise.read_sigma, 1.0, 0.05)
@@ -84,7 +86,7 @@ TEST(ReferenceFootprint, APosedCamerasWhiteMeanAndNoiseComeFromItsFootprintOnly)
   }
 
   // No albedo outside the footprint; the albedo inside.
-  const MethodMeasurement m = build_method_measurement(captures(quad, 3));
+  const Measurement m = build_measurement(captures(quad, 3));
   EXPECT_EQ(static_cast<double>(m.no_reference_pixels), static_cast<double>(m.width) * m.height - area);
   std::size_t finite_outside = 0;
   std::vector<float> inside_r;
@@ -97,7 +99,7 @@ TEST(ReferenceFootprint, APosedCamerasWhiteMeanAndNoiseComeFromItsFootprintOnly)
   EXPECT_NEAR(inside_r[inside_r.size() / 2], 0.99 * 0.5, 0.03);
 
   // A framed camera has every pixel inside and none without reference.
-  const MethodMeasurement whole = build_method_measurement(captures(cv::Mat(), 4));
+  const Measurement whole = build_measurement(captures(cv::Mat(), 4));
   EXPECT_EQ(whole.no_reference_pixels, 0u);
 }
 

@@ -81,20 +81,20 @@ TEST(SessionFormat, FormatOneFolderReadsBackWithItsPlanAndFrames) {
 }
 
 TEST(SessionFormat, FormatOneFolderGivesTheCapturesAndEstimates) {
-  const MethodCaptures captures = read_session_captures(testing::kSessionFormatOneSample, sample_sources());
+  const Captures captures = read_session_captures(testing::kSessionFormatOneSample, sample_sources());
   // BayerRG12 192×144 binned 2×2.
   EXPECT_EQ(captures.dark.width, 96);
   EXPECT_EQ(captures.dark.height, 72);
-  EXPECT_EQ(captures.broadband.subject.width, 96);
+  EXPECT_EQ(captures.captures[0].subject.width, 96);
   // The white reference is brighter than the dark in every channel.
   for (int c = 0; c < 3; ++c)
-    EXPECT_GT(captures.broadband.white.planes[c][0], captures.dark.planes[c][0] + 0.01) << c;
+    EXPECT_GT(captures.captures[0].white.planes[c][0], captures.dark.planes[c][0] + 0.01) << c;
 
   const fs::path out = testing::fresh_directory("session-format-estimate");
   maps::MethodEstimationOptions options;
   options.estimator.threads = 2;
   options.cache_dir = fs::temp_directory_path() / "chromo-test-forward-tables";
-  const auto result = maps::estimate_method_captures(
+  const auto result = maps::estimate_captures(
       captures, options, out,
       [](const fs::path& path, const std::function<void(const fs::path&)>& produce) { produce(path); });
   EXPECT_EQ(result.summary.pixels, 96u * 72u);

@@ -71,15 +71,19 @@ std::array<double, 3> channel_factors(const spectral::Spectrum& factor, const sp
           channel_surface_factor(factor, camera, illuminant, 2)};
 }
 
-MethodCaptures polarised_captures(bool clip_parallel_red = false) {
-  MethodCaptures c;
+Captures polarised_captures(bool clip_parallel_red = false) {
+  Captures c;
   c.camera = spectral::builtin_camera("nikon_d5100");
   c.white_reflectance = kRho;
   c.dark = flat_image({kDarkLevel, kDarkLevel, kDarkLevel});
   const SurfaceFactors factors = surface_factors_of_extinction(film_extinction(), "test films");
   const spectral::Spectrum w57 = spectral::led_spectrum(spectral::LedType::kW57);
+  c.recipe = standard_recipe();
+  c.captures.resize(3);
   const std::pair<IlluminatedCapture*, spectral::Spectrum> cross[] = {
-      {&c.broadband, spectral::illuminant_d65()}, {&c.base, w57}, {&c.with_blue, w57 + spectral::led_spectrum(spectral::LedType::kBlue)}};
+      {&c.captures[0], spectral::illuminant_d65()},
+      {&c.captures[1], w57},
+      {&c.captures[2], w57 + spectral::led_spectrum(spectral::LedType::kBlue)}};
   const char* names[] = {"D65'", "W57", "W57+blue"};
   for (int k = 0; k < 3; ++k) {
     auto& [capture, illuminant] = cross[k];
@@ -90,7 +94,7 @@ MethodCaptures polarised_captures(bool clip_parallel_red = false) {
     capture->white = flat_image({kDarkLevel + white_signal[0], kDarkLevel + white_signal[1], kDarkLevel + white_signal[2]});
     capture->subject = subject(channel_factors(factors.cross, c.camera, illuminant), white_signal);
   }
-  IlluminatedCapture& parallel = c.broadband_parallel.emplace(c.broadband);
+  IlluminatedCapture& parallel = c.parallel.emplace(c.captures[0]);
   parallel.name = "D65' parallel";
   parallel.subject = subject(channel_factors(factors.parallel, c.camera, parallel.illuminant), kWhiteSignal, clip_parallel_red);
   return c;
@@ -125,10 +129,10 @@ TEST(SurfaceFactors, IdenticalFilmsCrossedExactlyFollowTheClosedForms) {
 }
 
 TEST(SurfaceCorrection, SurfaceMapsAreTheSurfaceLayerInEveryChannelAndCrossCapturesTheDiffuse) {
-  MethodCaptures captures = polarised_captures();
-  const MethodMeasurement before = build_method_measurement(captures);  // the films unknown
+  Captures captures = polarised_captures();
+  const Measurement before = build_measurement(captures);  // the films unknown
   captures.surface_factors = surface_factors_of_extinction(film_extinction(), "test films");
-  const MethodMeasurement m = build_method_measurement(captures);
+  const Measurement m = build_measurement(captures);
   ASSERT_TRUE(m.surface_correction);
   EXPECT_EQ(m.surface_correction->source, "test films");
   ASSERT_EQ(m.surface_red.size(), m.surface.size());
@@ -168,14 +172,14 @@ TEST(SurfaceCorrection, SurfaceMapsAreTheSurfaceLayerInEveryChannelAndCrossCaptu
 }
 
 TEST(SurfaceCorrection, ASaturatedParallelChannelTakesTheGreenSurfaceMap) {
-  MethodCaptures captures = polarised_captures(true);
+  Captures captures = polarised_captures(true);
   captures.surface_factors = surface_factors_of_extinction(film_extinction(), "test films");
-  const MethodMeasurement m = build_method_measurement(captures);
+  const Measurement m = build_measurement(captures);
   std::size_t clipped = 0;
   for (int y = 1; y < kHigh - 1; ++y)
     for (int x = 1; x < kWide - 1; ++x) {
       const std::size_t i = static_cast<std::size_t>(y) * kWide + x;
-      if (captures.broadband_parallel->subject.planes[0][i] < 0.999f) continue;
+      if (captures.parallel->subject.planes[0][i] < 0.999f) continue;
       ++clipped;
       EXPECT_LT(m.surface_red[i], surface_at(x, y) - 0.01);  // a lower bound there
       EXPECT_NEAR(m.measured[i * 4 + 0],
@@ -186,10 +190,10 @@ TEST(SurfaceCorrection, ASaturatedParallelChannelTakesTheGreenSurfaceMap) {
 }
 
 TEST(SurfaceCorrection, FilmsThatDoNotPolariseAreRefused) {
-  MethodCaptures captures = polarised_captures();
+  Captures captures = polarised_captures();
   captures.surface_factors = surface_factors_of_extinction(spectral::Spectrum::constant(1.0), "no films");
   try {
-    build_method_measurement(captures);
+    build_measurement(captures);
     ADD_FAILURE() << "films of extinction 1:1 were accepted";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("no films"), std::string::npos) << e.what();

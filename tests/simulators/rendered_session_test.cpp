@@ -2,7 +2,7 @@
 // estimation bench measures on: a tiny sensor (128×96 → 64×48 after the
 // binning; a window of the 5-MP scene) through the whole chain (true LEDs,
 // skin scene, camera model,
-// session::SessionCaptureBuilder, session::build_method_measurement), then the fast 4D
+// session::SessionCaptureBuilder, session::build_measurement), then the fast 4D
 // inverter on its own table. Noise-free in-gamut skin must come back to the
 // scene's truth, so the bench's frames cannot silently go wrong.
 #include <gtest/gtest.h>
@@ -63,12 +63,12 @@ TEST(RenderedSession, CellAddedReflectionFollowsTheWindow) {
   EXPECT_LT(r[0], centre);
 }
 
-TEST(RenderedSession, IsTheBinnedMethodMeasurementWithTruthPerCell) {
+TEST(RenderedSession, IsTheBinnedStandardMeasurementWithTruthPerCell) {
   const RenderedSession& s = session();
   EXPECT_EQ(s.width, 64);
   EXPECT_EQ(s.height, 48);
   ASSERT_EQ(s.pixels(), 64u * 48u);
-  for (const session::MethodMeasurement* m : {&s.noisy, &s.noise_free}) {
+  for (const session::Measurement* m : {&s.noisy, &s.noise_free}) {
     EXPECT_EQ(m->width, 64);
     EXPECT_EQ(m->height, 48);
     for (const auto& r : m->registration) EXPECT_FALSE(r.warped) << r.image << " moved " << r.motion_px << " px";

@@ -97,15 +97,9 @@ void OnlineEstimator::prepare_tables_of(const std::string& camera) {
   std::vector<const maps::PreparedTables*> earlier;
   for (const auto& [name, tables] : prepared_) earlier.push_back(&tables);
   // The relit comparison's table too: the photographs' illuminants are the whites'.
-  if (builder_->is_method_plan()) {
-    const session::MethodCaptures captures = builder_->captures(camera);
-    prepared_[camera] = maps::prepare_tables(session::method_set_from_references(captures), options_.estimation, earlier,
-                                             session::photograph_illuminants(captures));
-  } else {
-    const session::PlanCaptures captures = builder_->plan_captures(camera);
-    prepared_[camera] = maps::prepare_tables(session::plan_set_from_references(captures), options_.estimation, earlier,
-                                             session::photograph_illuminants(captures));
-  }
+  const session::Captures captures = builder_->captures(camera);
+  prepared_[camera] = maps::prepare_tables(session::measurement_set_from_references(captures), options_.estimation, earlier,
+                                           session::photograph_illuminants(captures));
   table_prepare_seconds_[camera] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 

@@ -1,7 +1,7 @@
 #pragma once
 // The optical highlight flag (docs/polarisation.md, "Estimation outputs";
 // docs/estimation.md): where a polarised session's surface map S (the
-// surface layer in albedo units, session::MethodMeasurement::surface)
+// surface layer in albedo units, session::Measurement::surface)
 // exceeds the skin's own Fresnel sheen by more than its noise allows.
 //
 // An INFORMATION flag: it changes no parameter and no pixel flag. The
@@ -13,7 +13,7 @@
 // — the measured sheen already carries the films' extinction shortfall
 // ((ER − 1)²/(ER + 1)², 0.98 at 1:200) and a view's leak, and the cap keeps
 // a face that is oily over most of its pixels from raising its own
-// reference. With z_i = (S_i − F_ref)/σ_i (σ_i: MethodMeasurement::surface_sigma),
+// reference. With z_i = (S_i − F_ref)/σ_i (σ_i: Measurement::surface_sigma),
 // a pixel is flagged when
 //   z_i ≥ pixel_sigmas (2)   and   Σ_j (S_j − F_ref) / √(Σ_j σ_j²) ≥ window_sigmas (3)
 // over its 3×3 window's finite pixels: the window's evidence keeps lone

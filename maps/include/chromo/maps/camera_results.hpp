@@ -5,8 +5,8 @@
 //
 // Every camera that delivered frames is estimated from its own frames only
 // (session::SessionCaptureBuilder keeps cameras apart: its own dark, white
-// references, noise and exposures) with estimate_method_captures() (the
-// method's standard session) or estimate_plan_captures() (any other plan).
+// references, noise and exposures) with estimate_captures(), whatever the
+// plan (its recipe rides on the captures).
 //
 // Layout of results/ (docs/maps.md "Several cameras"):
 //  - one camera: the report's files directly in results/ (maps.exr,
@@ -87,7 +87,7 @@ struct SessionCamerasInput {
 
 // Estimates every camera of input.builder (in cameras() order) into
 // results_dir as above; with several cameras also writes the index. Throws
-// as estimate_method_captures() when the session has one camera, or when no
+// as estimate_captures() when the session has one camera, or when no
 // camera has frames (std::invalid_argument).
 std::vector<CameraEstimate> estimate_session_cameras(const SessionCamerasInput& input,
                                                      const MethodEstimationOptions& options,

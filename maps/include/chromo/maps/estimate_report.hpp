@@ -17,8 +17,8 @@
 // durable (chromod: temp + fsync + rename + fsync-dir, files/durable_file.hpp;
 // the CLI: every file to a temporary name first, all renamed at the end).
 //
-// estimate_method_captures() is the whole estimation of a standard session's
-// captures (method_measurement.hpp → forward table from the disk cache →
+// estimate_captures() is the whole estimation of any plan's captures
+// (method_measurement.hpp's one builder → forward table from the disk cache →
 // estimation::Estimator tile by tile on options.threads → the spatial second pass →
 // relit ΔE94 against the captured photographs (the reconstruction from a
 // RelitTable by default) → the folder above); the daemon and `chromo estimate
@@ -217,7 +217,7 @@ struct MethodEstimationResult {
 
 // The forward table and the inverter of one measurement set, made before the
 // subject is captured (the on-line estimator, from the dark and white
-// references) and kept in memory until the estimate: estimate_method_captures()
+// references) and kept in memory until the estimate: estimate_captures()
 // uses them instead of reloading both tables from the disk cache when the
 // captures' set is the same (same_measurement_set). prepare_tables() fills
 // the disk cache as load_or_build() does, so `chromo estimate SESSION_DIR`
@@ -255,31 +255,19 @@ bool same_measurement_set(const estimation::MeasurementSet& a, const estimation:
 // "inverter_setup" as 0 and "tables_in_memory": true in its "table" object.
 // Throws std::invalid_argument / session::RegistrationError for unusable captures
 // (nothing written), std::runtime_error for failed writes.
-MethodEstimationResult estimate_method_captures(const session::MethodCaptures& captures, const MethodEstimationOptions& options,
-                                                const std::filesystem::path& out_dir, const FileCommit& commit,
-                                                const files::Progress& progress = {},
-                                                const std::string& extra_json = "{}",
-                                                const PreparedTables* prepared = nullptr);
+MethodEstimationResult estimate_captures(const session::Captures& captures, const MethodEstimationOptions& options,
+                                         const std::filesystem::path& out_dir, const FileCommit& commit,
+                                         const files::Progress& progress = {}, const std::string& extra_json = "{}",
+                                         const PreparedTables* prepared = nullptr);
 
-// What estimate_method_captures does once the measurement is made (a
-// measurement built elsewhere: the benches' rendered sessions); its
-// timings_s start with measurement_seconds.
-MethodEstimationResult estimate_method_measurement(const session::MethodMeasurement& measurement,
-                                                   const spectral::CameraSensitivity& camera, double white_reflectance,
-                                                   double measurement_seconds, const MethodEstimationOptions& options,
-                                                   const std::filesystem::path& out_dir, const FileCommit& commit,
-                                                   const files::Progress& progress = {},
-                                                   const std::string& extra_json = "{}",
-                                                   const PreparedTables* prepared = nullptr);
-
-// The same for the captures of any plan (session::PlanCaptures: the
-// multispectral plans, an operator's): session::build_plan_measurement (3
-// channels per capture), then the same tables, estimate, spatial pass and
-// report; relit ΔE94 against every capture's photograph.
-MethodEstimationResult estimate_plan_captures(const session::PlanCaptures& captures, const MethodEstimationOptions& options,
-                                              const std::filesystem::path& out_dir, const FileCommit& commit,
-                                              const files::Progress& progress = {},
-                                              const std::string& extra_json = "{}",
-                                              const PreparedTables* prepared = nullptr);
+// What estimate_captures does once the measurement is made (a measurement
+// built elsewhere: the benches' rendered sessions); its timings_s start
+// with measurement_seconds.
+MethodEstimationResult estimate_measurement(const session::Measurement& measurement,
+                                            const spectral::CameraSensitivity& camera, double white_reflectance,
+                                            double measurement_seconds, const MethodEstimationOptions& options,
+                                            const std::filesystem::path& out_dir, const FileCommit& commit,
+                                            const files::Progress& progress = {}, const std::string& extra_json = "{}",
+                                            const PreparedTables* prepared = nullptr);
 
 }  // namespace chromo::maps

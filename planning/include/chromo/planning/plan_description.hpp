@@ -73,9 +73,10 @@ inline constexpr int kMaxPlannedFrames = 1000;
 // The built-in plans, their mixes solved from `library` with the session mix
 // solver (calibration::solve_session_mix, objective "camera") as a session
 // would get them:
-//   "method"          D65', W57, W57+blue; channels D65'.R, G, B and
-//                     (W57+blue − W57).B (the seed method's four)
-//   "method-blue"     D65' and the blue LED alone; channels D65'.R, G, B and
+//   "standard"        D65', W57, W57+blue; channels D65'.R, G, B and
+//                     (W57+blue − W57).B (the seed method's four: the
+//                     sessions' standard plan)
+//   "standard-blue"   D65' and the blue LED alone; channels D65'.R, G, B and
 //                     blue.B (the blue channel well exposed)
 //   "multispectral"   each LED type alone at full drive; 18 channels
 //   "d65"             D65' alone; R, G, B
@@ -86,7 +87,9 @@ inline constexpr int kMaxPlannedFrames = 1000;
 //                     w57+blue solve; channels R, G, B of the broadband and
 //                     (broadband+blue − broadband).B (the seed's broadband
 //                     study, docs/estimation.md "The seed's broadband study")
-// A suffix "@N" (e.g. "method@4") sets every capture's frames to N.
+// A suffix "@N" (e.g. "standard@4") sets every capture's frames to N. The
+// names used before one name per plan, "method" and "method-blue", are read
+// as "standard" and "standard-blue" (the plan's name is then the new one).
 // std::invalid_argument naming the plan for an unknown name.
 PlanDescription builtin_plan(const std::string& name, const calibration::LedLibrary& library);
 std::vector<std::string> builtin_plan_names();

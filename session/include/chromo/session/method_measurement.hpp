@@ -1,11 +1,13 @@
 #pragma once
-// The method's captures of one subject → the estimator's input.
+// A plan's captures of one subject → the estimator's input: one route for
+// every plan, the plan's recipe (MeasurementRecipe, below) saying which
+// channels are formed.
 //
 // A standard session (docs/daemon.md) captures, with one camera: a dark frame,
 // then the white reference target and the subject, each under D65' (the
-// broadband D65 metamer), W57 alone and W57+blue. build_method_measurement()
-// turns the (mean) images of those seven captures into the measurement of the
-// seed method, pixel by pixel:
+// broadband D65 metamer), W57 alone and W57+blue. build_measurement() with
+// standard_recipe() turns the (mean) images of those seven captures into the
+// measurement of the seed method, pixel by pixel:
 //
 //   albedo_k,c  = ρ_white · (subject_k,c − dark_c) / (white_k,c − dark_c)     k = each illumination, c = R, G, B
 //   measured    = (albedo_D65',R, albedo_D65',G, albedo_D65',B, blue)
@@ -26,7 +28,7 @@
 // Footprint: a white reference's mean and noise are taken over the camera's
 // footprint of the target only (white_reference_footprint below); outside
 // the footprint of any white a pixel uses, its albedo is NaN and it is
-// listed in MethodMeasurement::no_reference.
+// listed in Measurement::no_reference.
 //
 // Noise (measurement.hpp's model), estimated from the captures themselves:
 // the per-pixel noise variance of the dark and of each white image is half
@@ -136,7 +138,7 @@ ExposureLinearity check_exposure_linearity(const IlluminatedCapture& capture, co
 // is highest) at `fill` of full scale, the camera taken as linear above the
 // dark: g = (fill − dark) / (level − dark), clamped to [1, max_ratio] (never
 // shorter than the white's, at most max_ratio longer). Pixels above the
-// percentile may clip: build_method_measurement flags a pixel saturated where
+// percentile may clip: build_measurement flags a pixel saturated where
 // any raw subject value reaches 0.999 of full scale, whatever the exposure.
 // Pixels outside `mask` (when given: e.g. the white's footprint) are not counted.
 struct SubjectMetering {
@@ -157,23 +159,55 @@ double subject_exposure_ratio(double level, double dark, double fill, double max
 SubjectMeteringResult meter_subject_exposure(const RgbImage& subject, const RgbImage& dark, const SubjectMetering& options,
                                              const std::vector<std::uint8_t>& mask = {});
 
-struct MethodCaptures {
+// How one channel of a measurement is formed from the captures
+// (MeasurementRecipe): the albedo of capture `capture` in camera channel
+// `camera_channel`, named "<capture's name>.<R|G|B>"; or, with `less`, a
+// difference channel (the method's blue-only one, above): capture's albedo
+// less capture `less`'s, each weighted by its white's signal in that camera
+// channel (s = t_capture/t_less of their whites), named "<name>.<R|G|B>",
+// its illuminant capture's − less's (negative parts 0). Refused (naming both
+// captures) where the whites' difference is ≤ 0.001 of full scale.
+struct ChannelRecipe {
+  std::size_t capture = 0;
+  int camera_channel = 0;  // R, G, B
+  std::optional<std::size_t> less;
+  std::string name;  // a difference channel's ("blue")
+};
+
+// What a plan measures of its captures: its channels, and the camera channel
+// on which each capture after the first is registered to the first.
+struct MeasurementRecipe {
+  std::vector<ChannelRecipe> channels;      // empty: R, G, B of every capture, in order
+  std::optional<int> registration_channel;  // none: the moving capture's white's brightest channel
+};
+
+// The standard plan's recipe (the method's), for the captures D65', W57,
+// W57+blue in that order: D65' R, G, B and blue.B = W57+blue − W57, every
+// capture registered on G.
+MeasurementRecipe standard_recipe();
+
+// The captures of any plan (session_plan.hpp: the standard plan, the
+// multispectral one, an operator's) and what is measured of them: the dark
+// and, per illumination state that has a subject step, its white reference
+// and the subject, in plan order (the standard plan: D65', W57, W57+blue).
+// Every capture is photographed (Measurement::photographs).
+struct Captures {
   spectral::CameraSensitivity camera;
   double white_reflectance = 0.99;  // ρ_white of the reference target
   double linearity_tolerance = kDefaultLinearityTolerance;
   RgbImage dark;
-  IlluminatedCapture broadband;     // D65'
-  IlluminatedCapture base;          // W57 alone
-  IlluminatedCapture with_blue;     // W57+blue
-  // A polarised sphere's plan (standard_plan({.polarised = true})): the
-  // three captures above are cross-polarised and this is D65' parallel (its
-  // own white). Absent on an unpolarised sphere.
-  std::optional<IlluminatedCapture> broadband_parallel;
+  std::vector<IlluminatedCapture> captures;
+  MeasurementRecipe recipe;
+  // A polarised sphere's standard plan (standard_plan({.polarised = true})):
+  // the captures above are cross-polarised and this is the first one's
+  // light parallel-polarised (its own white): the surface maps are made from
+  // it (Measurement::surface). Absent on an unpolarised sphere.
+  std::optional<IlluminatedCapture> parallel;
   // What the cross and parallel captures keep of the surface reflection
   // (surface_factors.hpp: the films as the estimator knows them). With a
   // parallel capture and these, the surface maps are corrected for the
   // films' extinction and the cross captures for the surface light they
-  // still hold (MethodMeasurement::surface_correction); without them the
+  // still hold (Measurement::surface_correction); without them the
   // surface map is (parallel − cross)/2 of G, uncorrected, as before.
   std::optional<SurfaceFactors> surface_factors;
 };
@@ -200,25 +234,25 @@ struct Photograph {
 inline constexpr double kSurfaceCorrectionSigmas = 3.0;
 
 // What a polarised measurement's surface correction used
-// (MethodMeasurement::surface_correction). At namespace scope: clang rejects
+// (Measurement::surface_correction). At namespace scope: clang rejects
 // std::optional::emplace() of a nested struct with member initialisers.
 struct SurfaceCorrection {
   std::string source;                       // SurfaceFactors::source
   std::array<double, 3> parallel_minus_cross{};  // c_parallel,c − c_cross,c of D65' (the surface maps' divisor)
-  std::array<std::array<double, 3>, 3> cross_factor{};  // c_cross,c of D65', W57, W57+blue
+  std::vector<std::array<double, 3>> cross_factor;  // c_cross,c per capture (D65', W57, W57+blue)
   std::array<double, 3> sheen_reference{};  // per channel: median of S_c, capped at F(0°)
   std::size_t corrected_pixels = 0;         // where S_c itself was subtracted
 };
 
-struct MethodMeasurement {
-  estimation::MeasurementSet set;   // D65'.R, D65'.G, D65'.B, blue.B
+struct Measurement {
+  estimation::MeasurementSet set;   // the recipe's channels (the standard plan: D65'.R, D65'.G, D65'.B, blue.B)
   int width = 0, height = 0;
   std::vector<float> measured;  // pixel-major, set.size() values per pixel
   std::vector<RegistrationReport> registration;
-  std::vector<Photograph> photographs;  // D65', W57, W57+blue
+  std::vector<Photograph> photographs;  // one per capture (D65', W57, W57+blue)
   std::size_t saturated_pixels = 0;     // pixels with a raw subject value at full scale
   // Each capture's exposure and frame count, in the order dark, then white
-  // and subject under D65', W57, W57+blue ("white D65'", "subject W57", ...).
+  // and subject of each capture, the parallel one last ("white D65'", "subject W57", ...).
   struct CaptureExposure {
     std::string capture;
     double exposure_us = 0;
@@ -230,7 +264,7 @@ struct MethodMeasurement {
   std::vector<ExposureLinearity> linearity;
   // 1 where the pixel is outside the camera's footprint of a white reference
   // it needs (white_reference_footprint): no albedo there (the estimator's
-  // maps are NaN and flagged no_reference, maps::estimate_method_captures).
+  // maps are NaN and flagged no_reference, maps::estimate_captures).
   std::vector<std::uint8_t> no_reference;
   std::size_t no_reference_pixels = 0;
   // With a D65' parallel capture (docs/polarisation.md, "Estimation
@@ -239,7 +273,7 @@ struct MethodMeasurement {
   // measurement_surface.hpp says why) and the cross D65' albedo,
   //   S_c = (a_parallel,c − a_cross,c) / (c_parallel,c − c_cross,c)
   // with the channel's surface factors (surface_factors.hpp) when
-  // MethodCaptures::surface_factors is given: the surface layer in albedo
+  // Captures::surface_factors is given: the surface layer in albedo
   // units, corrected for the films' extinction; without them the divisor is
   // 2 (the ideal films'), so S is (ER − 1)²/(ER + 1)² of the surface layer
   // (2% short at 1:200). `surface` is G (the highlight flag's, with its σ
@@ -278,44 +312,23 @@ struct ReferenceFootprint {
 };
 ReferenceFootprint white_reference_footprint(const RgbImage& white, const RgbImage& dark);
 
-MethodMeasurement build_method_measurement(const MethodCaptures& captures, const RegistrationOptions& options = {});
-
-// The captures of any plan (session_plan.hpp: the method's, the
-// multispectral one, an operator's): the dark and, per illumination state
-// that has a subject step, its white reference and the subject, in plan
-// order.
-struct PlanCaptures {
-  spectral::CameraSensitivity camera;
-  double white_reflectance = 0.99;
-  double linearity_tolerance = kDefaultLinearityTolerance;
-  RgbImage dark;
-  std::vector<IlluminatedCapture> captures;
-};
-
-// Any plan's measurement: R, G and B albedo of every capture against its own
-// white (the formula above per capture; channel names "<capture>.R", ...),
-// 3 × captures channels, each with the noise estimated from its dark and
-// white exactly as for the method's D65' channels. Every capture after the
-// first is registered to the first (ECC on the camera channel with the most
-// white signal in the moving capture, the same channel of the first) and
-// warped when it moved, as above. No difference channel is formed: a plan
-// that lights the blue LED alone measures it directly. photographs: one per
-// capture. Errors as build_method_measurement (naming the capture); fewer
-// than one capture is std::invalid_argument.
-MethodMeasurement build_plan_measurement(const PlanCaptures& captures, const RegistrationOptions& options = {});
-
-// Its measurement set alone, from the dark and white captures.
-estimation::MeasurementSet plan_set_from_references(const PlanCaptures& captures);
+// The captures → their measurement: each capture's albedo against its own
+// white (the formula above), every capture after the first registered to
+// the first (ECC on the recipe's registration channel, the same channel of
+// the first) and warped when it moved, the recipe's channels formed on the
+// first capture's grid, the noise of each from the dark and white captures;
+// the surface maps when a parallel capture is present. Errors as above,
+// naming the capture; no capture is std::invalid_argument.
+Measurement build_measurement(const Captures& captures, const RegistrationOptions& options = {});
 
 // The measurement set alone (illuminants and noise), from the dark and white
 // captures: known before the subject is captured, so a streaming caller can
-// build the forward table early. Equal to build_method_measurement(...).set.
-estimation::MeasurementSet method_set_from_references(const MethodCaptures& captures);
+// build the forward table early. Equal to build_measurement(...).set.
+estimation::MeasurementSet measurement_set_from_references(const Captures& captures);
 
-// The illuminants of the photographs the builders make (MethodMeasurement::
+// The illuminants of the photographs the builder makes (Measurement::
 // photographs, in order), known from the white references as the set is: a
 // streaming caller prepares the relit comparison's table early.
-std::vector<spectral::Spectrum> photograph_illuminants(const MethodCaptures& captures);
-std::vector<spectral::Spectrum> photograph_illuminants(const PlanCaptures& captures);
+std::vector<spectral::Spectrum> photograph_illuminants(const Captures& captures);
 
 }  // namespace chromo::session

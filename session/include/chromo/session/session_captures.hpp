@@ -1,6 +1,5 @@
 #pragma once
-// Frames of a standard session → the estimator's captures
-// (session/method_measurement.hpp). The one place where session frames
+// Frames of a session → the estimator's captures (session/method_measurement.hpp). The one place where session frames
 // become a measurement: the on-line estimator feeds frames as they arrive,
 // `chromo estimate SESSION_DIR` feeds the stored ones (read_session_captures),
 // so both give bit-identical captures for the same frames (a TIFF holds the
@@ -14,15 +13,17 @@
 // A plan without a dark, with a subject state that has no white (or a white
 // no subject), with an unlit white or subject step, or with a state twice, is
 // refused: the constructor throws std::invalid_argument saying what is
-// missing. The method's standard session (subjects under exactly d65, w57
-// and w57+blue: is_method_plan()) gives MethodCaptures (captures()); any
-// plan gives PlanCaptures (plan_captures(): the multispectral plans, an
-// operator's).
+// missing. Every plan gives Captures (captures()), in plan order with
+// the default recipe (R, G, B of every capture: the multispectral plans, an
+// operator's); the standard plan (subjects under exactly d65, w57 and
+// w57+blue, and d65:parallel on a polarised sphere: is_standard_plan())
+// gives D65', W57, W57+blue in that order with standard_recipe(), D65'
+// parallel as Captures::parallel with the sources' surface factors.
 //
 // Cameras: every camera's frames are kept apart, under any plan: each camera
 // has its own sums per step, so its dark, white references, exposures and
-// subject captures are its own, and captures(camera) / plan_captures(camera)
-// never hold another camera's frame. cameras() lists them in the order their
+// subject captures are its own, and captures(camera) never holds another
+// camera's frame. cameras() lists them in the order their
 // first frame came; the overloads without a camera are the first camera's
 // (camera()).
 //
@@ -177,16 +178,14 @@ class SessionCaptureBuilder {
   // Where the camera's spectral sensitivity came from (CaptureSources::camera_source).
   std::string sensitivity_source(const std::string& camera) const;
 
-  // The plan's subjects are under exactly the method's three mixes.
-  bool is_method_plan() const { return method_plan_; }
+  // The plan's subjects are under exactly the standard plan's three mixes
+  // (and D65' parallel on a polarised sphere): its captures carry standard_recipe().
+  bool is_standard_plan() const { return standard_plan_; }
 
-  // The camera's captures (its frames only). Throw std::logic_error unless
-  // references_complete(camera) (subjects then empty); captures()
-  // std::invalid_argument unless is_method_plan().
-  MethodCaptures captures(const std::string& camera) const;
-  PlanCaptures plan_captures(const std::string& camera) const;
-  MethodCaptures captures() const { return captures(camera()); }
-  PlanCaptures plan_captures() const { return plan_captures(camera()); }
+  // The camera's captures (its frames only), as the header says. Throws
+  // std::logic_error unless references_complete(camera) (subjects then empty).
+  Captures captures(const std::string& camera) const;
+  Captures captures() const { return captures(camera()); }
 
  private:
   struct StepSum {
@@ -203,6 +202,9 @@ class SessionCaptureBuilder {
   // Counts a checked frame (its samples are in sums_ by now).
   void count_frame(const FrameRecord& record, StepSum& s, const spectral::Spectrum& illuminant, StepSums& fresh_camera);
   RgbImage mean_image(const std::string& camera, const StepSum& s) const;
+  // The camera's capture of an illumination state (its white, subject, linearity white, illuminant).
+  IlluminatedCapture capture_of(const std::string& camera, const StepSums& steps, const std::string& state,
+                                const std::string& name) const;
   // The state's linearity white ("linearity:<state>", Step::linearity_of) once all its frames are in.
   std::optional<RgbImage> linearity_white(const std::string& camera, const StepSums& steps, const std::string& state) const;
   // The camera's sums (the plan's empty ones for a camera without frames).
@@ -223,7 +225,7 @@ class SessionCaptureBuilder {
     std::string subject_step;
   };
   std::vector<State> states_;
-  bool method_plan_ = false;
+  bool standard_plan_ = false;
 };
 
 // Adds the session folder's stored frames (journal frame records, TIFFs)
@@ -251,10 +253,10 @@ SessionPlan read_session_plan(const std::filesystem::path& folder);
 SessionProvenance read_session_provenance(const std::filesystem::path& folder);
 
 // The stored frames of a session folder's first camera (its journal's frame
-// records, TIFFs) through a SessionCaptureBuilder. Throws std::invalid_argument naming the
-// folder and what is wrong (not a session, not the method's plan, frames
-// missing, unreadable TIFF).
-MethodCaptures read_session_captures(const std::filesystem::path& folder, const CaptureSources& sources);
+// records, TIFFs) through a SessionCaptureBuilder, any plan. Throws
+// std::invalid_argument naming the folder and what is wrong (not a session,
+// frames missing, unreadable TIFF).
+Captures read_session_captures(const std::filesystem::path& folder, const CaptureSources& sources);
 
 // Every camera's stored frames of a session folder in one builder (the
 // per-camera estimation, maps/camera_results.hpp). Throws
@@ -266,13 +268,5 @@ MethodCaptures read_session_captures(const std::filesystem::path& folder, const 
 // camera its refused frame is thrown).
 SessionCaptureBuilder read_stored_session(const std::filesystem::path& folder, const CaptureSources& sources,
                                           std::map<std::string, std::string>* unusable = nullptr);
-
-// The stored frames of any estimable session: `method` set for the method's
-// standard session, `plan` for any other plan (errors as above).
-struct StoredSessionCaptures {
-  std::optional<MethodCaptures> method;
-  std::optional<PlanCaptures> plan;
-};
-StoredSessionCaptures read_any_session_captures(const std::filesystem::path& folder, const CaptureSources& sources);
 
 }  // namespace chromo::session

@@ -123,7 +123,7 @@ SessionPlan standard_plan(const StandardPlanOptions& options = {});
 // The built-in multispectral plan ("multispectral"): dark; then for each of
 // the six LED types alone at full drive (weights: that type 1, the others
 // 0) its white reference and the subject. 6 illumination states × R, G, B =
-// 18 channels for the estimator (build_plan_measurement). With
+// 18 channels for the estimator (build_measurement). With
 // with_method_states (plan "multispectral+method") the method's three mixes
 // (d65, w57, w57+blue) follow, each with its white: 9 states, 27 channels.
 // Steps: all white references first, then the subjects (the subject holds

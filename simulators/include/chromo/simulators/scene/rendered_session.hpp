@@ -32,8 +32,8 @@
 //                 encoding; steps of 1/16 DN);
 //   captures      session::SessionCaptureBuilder (2×2 Bayer binning, illuminants from
 //                 the library and the applied drive levels), then
-//                 session::build_method_measurement (albedo against the white
-//                 reference, the blue-only channel, registration, the noise
+//                 session::build_measurement (albedo against the white
+//                 reference, the standard recipe's blue-only channel, registration, the noise
 //                 estimated from the dark and white frames).
 //
 // The measurement is half the sensor's size per side (the binning). Truth
@@ -80,8 +80,8 @@ struct RenderedSessionOptions {
   // "multispectral+method": their illumination states (the method's mixes
   // solved as above, the LED types alone at full drive), each step at its own
   // exposure (its state's brightest white channel at white_fill; the dark at
-  // the longest), the captures through SessionCaptureBuilder::plan_captures
-  // and session::build_plan_measurement (3 channels per capture).
+  // the longest), the captures through SessionCaptureBuilder::captures
+  // and session::build_measurement (3 channels per capture: the plans' recipe).
   std::string plan = "standard";
   double white_fill = 0.85;  // expected DN of the brightest white channel / full scale
   // Exposure per capture (session_plan.hpp's standard plan with
@@ -121,7 +121,7 @@ struct RenderedSessionOptions {
   // weights (true LED emission × camera sensitivity), the exposure, the
   // camera model's constants, a probe of the scene generator and skin model
   // (a 16×16 scene of this seed) and kRenderedSessionVersion (bump it when
-  // the capture path — binning, session::build_method_measurement — or the
+  // the capture path — binning, session::build_measurement — or the
   // payload's encoding changes). A 5-MP session is 82 MB; the file is a
   // files/binary_cache.hpp cache (magic "CHRSESS1"), written durably; a
   // damaged file is re-rendered.
@@ -145,7 +145,7 @@ struct RenderedSessionOptions {
   // solved on it. Plan "standard" only; the cache is not used.
   bool polarised = false;
   double extinction_ratio_550nm = 200;  // 1-100000
-  // The estimator is given the films (MethodCaptures::surface_factors from
+  // The estimator is given the films (Captures::surface_factors from
   // surface_factor_in_albedo at the design view): surface maps corrected for
   // the extinction, cross captures for their surface light. false: the
   // measurement as without that knowledge (the bench's "before" column).
@@ -215,7 +215,7 @@ inline constexpr std::uint8_t kMixedCell = 255;  // a 2×2 cell whose sites have
 
 struct RenderedSession {
   int width = 0, height = 0;                       // the measurement's (sensor / 2)
-  session::MethodMeasurement noisy, noise_free;  // noise_free empty unless options.noise_free
+  session::Measurement noisy, noise_free;  // noise_free empty unless options.noise_free
   std::vector<estimation::SkinParameters> truth;   // per measurement pixel
   std::vector<std::uint8_t> region;                // SceneRegion per pixel, or kMixedCell
   calibration::LedLibrary library;
