@@ -124,7 +124,7 @@ Run run_estimate(const simulators::RenderedSession& lab, const maps::PreparedTab
   const CpuClock cpu;
   Run run;
   run.result = maps::estimate_measurement(lab.noisy, lab.noisy.set.camera, 0.99, 0, options, dir, direct_commit(),
-                                                 {}, "{}", &tables);
+                                                 {}, {}, &tables);
   run.total = seconds_since(t);
   run.cpu = cpu.seconds();
   return run;

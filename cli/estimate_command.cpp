@@ -178,7 +178,7 @@ int run_estimate(const EstimateOptions& options) {
                                {"neighbourhood", maps::neighbourhood_report(options.neighbourhood_flags,
                                                                             options.order_pooling, neighbourhood)},
                                {"skin_denoise", maps::skin_denoise_report(skin_denoise, pass.skin_refit ? &*pass.skin_refit : nullptr)}};
-  report.extra_json = extra.dump();
+  report.extra = std::move(extra);
   try {
     files::OutputBatch files(options.out);
     maps::write_estimate_report(options.out, report, stage_in(files));

@@ -114,7 +114,7 @@ SessionEstimate estimate_stored_session(const EstimateOptions& options, const st
     };
     try {
       outcome.cameras =
-          maps::estimate_session_cameras({&*builder, nullptr, extra.dump(), unusable, field_width_mm}, eo, options.out, commit);
+          maps::estimate_session_cameras({&*builder, nullptr, extra, unusable, field_width_mm}, eo, options.out, commit);
     } catch (const std::invalid_argument& e) {
       return fail(kExitBadInput, folder.string() + ": " + e.what());
     } catch (const session::RegistrationError& e) {

@@ -9,7 +9,6 @@
 #include <vector>
 
 #include "chromo/estimation/model_discrepancy.hpp"
-#include "chromo/estimation/spectrum_fit.hpp"
 
 namespace chromo::estimation {
 
@@ -53,17 +52,6 @@ ParameterPrior ParameterPrior::learn(std::span<const SkinParameters> fits, doubl
   prior.covariance_ = widened.asDiagonal() * shrunk * widened.asDiagonal();
   prior.information_ = prior.covariance_.inverse();
   return prior;
-}
-
-std::shared_ptr<const ParameterPrior> ParameterPrior::standard() {
-  static const std::shared_ptr<const ParameterPrior> learned = [] {
-    const auto& spectra = nist_forearm_spectra();
-    std::vector<SkinParameters> fits(spectra.size());
-#pragma omp parallel for schedule(dynamic)
-    for (std::size_t i = 0; i < spectra.size(); ++i) fits[i] = fit_spectrum(spectra[i].albedo).parameters;
-    return std::make_shared<const ParameterPrior>(learn(fits));
-  }();
-  return learned;
 }
 
 double ParameterPrior::penalty(const SkinParameters& p) const {

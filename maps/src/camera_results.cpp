@@ -2,6 +2,7 @@
 
 #include "cameras_progress.hpp"
 #include "delta_e_json.hpp"
+#include "report_extras.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -20,19 +21,13 @@ namespace fs = std::filesystem;
 
 namespace {
 
-nlohmann::ordered_json parse_object(const std::string& text, const char* what) {
-  auto json = nlohmann::ordered_json::parse(text);
-  if (!json.is_object()) throw std::invalid_argument(std::string(what) + " is not a JSON object");
-  return json;
-}
-
 // One camera's estimation into `dir` (its name added to summary.json).
 MethodEstimationResult estimate_camera(const SessionCamerasInput& input, const std::string& camera,
                                        const MethodEstimationOptions& options, const fs::path& dir,
                                        const FileCommit& commit, const files::Progress& progress) {
   const session::SessionCaptureBuilder& builder = *input.builder;
   if (!builder.complete(camera)) throw std::invalid_argument("frames missing: " + builder.missing(camera));
-  auto extra = parse_object(input.extra_json, "extra_json");
+  nlohmann::ordered_json extra = report_extras(input.extra, "extra");
   extra["camera"] = camera;
   extra["camera_sensitivity"] = builder.sensitivity_source(camera);
   const PreparedTables* prepared = nullptr;
@@ -40,7 +35,7 @@ MethodEstimationResult estimate_camera(const SessionCamerasInput& input, const s
     if (auto found = input.prepared->find(camera); found != input.prepared->end()) prepared = &found->second;
   MethodEstimationOptions own = options;
   if (const auto known = input.field_width_mm.find(camera); known != input.field_width_mm.end()) own.field_width_mm = known->second;
-  return estimate_captures(builder.captures(camera), own, dir, commit, progress, extra.dump(), prepared);
+  return estimate_captures(builder.captures(camera), own, dir, commit, progress, extra, prepared);
 }
 
 }  // namespace
@@ -144,7 +139,7 @@ std::vector<CameraEstimate> estimate_session_cameras(const SessionCamerasInput& 
   std::vector<CameraEstimate> out = estimate_cameras_at_once(input, names, options, results_dir, commit, progress);
   mark_shared_tables(out);
   add_common_views(out, results_dir, commit);
-  const std::string index = camera_results_index_json(out, input.extra_json);
+  const std::string index = camera_results_index_json(out, input.extra);
   commit(results_dir / "summary.json", [&](const fs::path& temporary) {
     std::ofstream out(temporary);
     out << index;
@@ -184,8 +179,8 @@ nlohmann::ordered_json camera_entry(const CameraEstimate& camera, const std::str
   return entry;
 }
 
-std::string camera_results_index_json(const std::vector<CameraEstimate>& cameras, const std::string& extra_json) {
-  auto index = parse_object(extra_json, "extra_json");
+std::string camera_results_index_json(const std::vector<CameraEstimate>& cameras, const nlohmann::ordered_json& extra) {
+  nlohmann::ordered_json index = report_extras(extra, "extra");
   index["cameras"] = nlohmann::ordered_json::array();
   for (const auto& camera : cameras) index["cameras"].push_back(camera_entry(camera));
   return index.dump(2) + "\n";

@@ -1,5 +1,7 @@
 #include "chromo/maps/estimate_report.hpp"
 
+#include "report_extras.hpp"
+
 #include "chromo/estimation/inverter.hpp"
 
 #include <algorithm>
@@ -219,7 +221,7 @@ ReportMaps report_maps(const EstimateReport& report) {
   return out;
 }
 
-// summary.json's text: the report's figures, then extra_json's members.
+// summary.json's text: the report's figures, then extra's members.
 std::string report_summary_text(const EstimateReport& report, const ReportMaps& maps) {
   const std::size_t pixels = maps.hide.size();
   const std::vector<double>& residuals = maps.residuals;
@@ -248,8 +250,7 @@ std::string report_summary_text(const EstimateReport& report, const ReportMaps& 
   for (int f = 0; f < estimation::kPixelFlagCount; ++f)
     flags[std::string(estimation::pixel_flag_name(static_cast<estimation::PixelFlag>(f)))] = report.summary.flag_counts[f];
   s["flag_counts"] = flags;
-  const auto extra = nlohmann::ordered_json::parse(report.extra_json);
-  if (!extra.is_object()) throw std::invalid_argument("estimate report: extra_json is not a JSON object");
+  const nlohmann::ordered_json extra = report_extras(report.extra, "estimate report: extra");
   for (const auto& [key, value] : extra.items()) s[key] = value;
   return s.dump(2) + "\n";
 }
@@ -654,15 +655,14 @@ std::vector<RelitComparison> relit_against_photographs(const session::Measuremen
 
 // What summary.json says of the measurement beyond the maps: the table, the
 // registration, noise, SNR, the captures, the spatial pass and the relit ΔE94
-// (added to extra_json's members).
+// (added to extra's members).
 nlohmann::ordered_json measurement_report(const session::Measurement& m, const estimation::Estimator& estimator,
                                           const estimation::ForwardTable& table, bool rebuilt, bool in_memory,
                                           const PixelEstimates& pixels, double white_reflectance,
                                           const MethodEstimationOptions& options,
                                           std::span<const RelitComparison> relit_comparisons,
-                                          const std::string& extra_json) {
-  auto extra = nlohmann::ordered_json::parse(extra_json);
-  if (!extra.is_object()) throw std::invalid_argument("extra_json is not a JSON object");
+                                          const nlohmann::ordered_json& caller_extra) {
+  nlohmann::ordered_json extra = report_extras(caller_extra, "extra");
   extra["table"] = {{"key", files::cache_key_hex(table.key())}, {"nodes", table.grid().node_count()}, {"rebuilt", rebuilt}, {"tables_in_memory", in_memory}};
   // The fast inverter's inverse table in the cache, so deleting the session
   // can remove the entries only it used (docs/daemon.md).
@@ -713,7 +713,7 @@ MethodEstimationResult estimate_and_report(const session::Measurement& m, const 
                                            double white_reflectance, std::chrono::steady_clock::time_point start,
                                            double measurement_seconds, const MethodEstimationOptions& options,
                                            const fs::path& out_dir, const FileCommit& commit,
-                                           const files::Progress& progress, const std::string& extra_json,
+                                           const files::Progress& progress, const nlohmann::ordered_json& caller_extra,
                                            const PreparedTables* prepared) {
   // The tables: kept in memory since the references were in (the on-line
   // estimator), else loaded from the disk cache or built.
@@ -737,7 +737,7 @@ MethodEstimationResult estimate_and_report(const session::Measurement& m, const 
   result.registration = m.registration;
   result.table_key = table->key();
   nlohmann::ordered_json extra = measurement_report(m, estimator, *table, !in_memory && loaded.table_rebuilt, in_memory,
-                                                    pixels, white_reflectance, options, result.relit, extra_json);
+                                                    pixels, white_reflectance, options, result.relit, caller_extra);
 
   EstimateReport report;
   report.method = result.inverter = std::string(estimator.inverter().name());
@@ -760,7 +760,7 @@ MethodEstimationResult estimate_and_report(const session::Measurement& m, const 
     result.map_pixel_mm = report.map_pixel_mm = options.field_width_mm / m.width;
     extra["map_pixel_mm"] = report.map_pixel_mm;
   }
-  report.extra_json = extra.dump();
+  report.extra = std::move(extra);
   report.extra_channels = polarisation.channels;
   if (!polarisation.panel.empty()) report.extra_pngs.emplace_back("polarisation.png", polarisation.panel);
   const auto writing = std::chrono::steady_clock::now();
@@ -783,22 +783,22 @@ MethodEstimationResult estimate_measurement(const session::Measurement& measurem
                                                    const spectral::CameraSensitivity& camera, double white_reflectance,
                                                    double measurement_seconds, const MethodEstimationOptions& options,
                                                    const fs::path& out_dir, const FileCommit& commit,
-                                                   const files::Progress& progress, const std::string& extra_json,
+                                                   const files::Progress& progress, const nlohmann::ordered_json& extra,
                                                    const PreparedTables* prepared) {
   const auto start = std::chrono::steady_clock::now() -
                      std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                          std::chrono::duration<double>(measurement_seconds));
   return estimate_and_report(measurement, camera, white_reflectance, start, measurement_seconds, options, out_dir,
-                              commit, progress, extra_json, prepared);
+                              commit, progress, extra, prepared);
 }
 
 MethodEstimationResult estimate_captures(const session::Captures& captures, const MethodEstimationOptions& options,
                                          const fs::path& out_dir, const FileCommit& commit, const files::Progress& progress,
-                                         const std::string& extra_json, const PreparedTables* prepared) {
+                                         const nlohmann::ordered_json& extra, const PreparedTables* prepared) {
   const auto start = std::chrono::steady_clock::now();
   const session::Measurement m = session::build_measurement(captures, options.registration);
   return estimate_and_report(m, captures.camera, captures.white_reflectance, start, seconds_since(start), options,
-                             out_dir, commit, progress, extra_json, prepared);
+                             out_dir, commit, progress, extra, prepared);
 }
 
 }  // namespace chromo::maps

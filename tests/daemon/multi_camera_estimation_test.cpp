@@ -325,7 +325,7 @@ TEST(MultiCameraEstimation, TwoPosedCamerasGetTheirOwnMapsThatMatchTheirPoses) {
       inside.fetch_sub(1);
     };
     const auto offline_cameras =
-        maps::estimate_session_cameras({&builder, nullptr, "{}", {}}, options, offline_run, commit, progress);
+        maps::estimate_session_cameras({&builder, nullptr, {}, {}}, options, offline_run, commit, progress);
     EXPECT_EQ(overlapping_calls, 0);
     EXPECT_EQ(decreasing, 0);
     EXPECT_DOUBLE_EQ(last, 1.0);

@@ -149,9 +149,9 @@ TEST(RelitTable, EstimateWithTheDefaultsMatchesTheExactOneThreadPath) {
   fs::create_directories(out / "before");
   fs::create_directories(out / "after");
   const auto b = estimate_measurement(lab.noisy, lab.noisy.set.camera, 0.99, 0, before, out / "before", commit, {},
-                                             "{}", &tables);
+                                             {}, &tables);
   const auto a = estimate_measurement(lab.noisy, lab.noisy.set.camera, 0.99, 0, after, out / "after", commit, {},
-                                             "{}", &tables);
+                                             {}, &tables);
 
   const files::FloatImage mb = files::read_exr(out / "before" / "maps.exr"), ma = files::read_exr(out / "after" / "maps.exr");
   ASSERT_EQ(ma.channel_names, mb.channel_names);

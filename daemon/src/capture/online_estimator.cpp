@@ -163,7 +163,7 @@ void OnlineEstimator::estimate_now() {
     files::commit_file_durably(path, options_.budget, produce);
   };
   // The method's session, or any other plan (multispectral, an operator's), every camera.
-  cameras_ = maps::estimate_session_cameras({builder_.get(), &prepared_, extra.dump(), camera_errors_,
+  cameras_ = maps::estimate_session_cameras({builder_.get(), &prepared_, extra, camera_errors_,
                                              session_.provenance.camera_field_width_mm},
                                             options_.estimation, results, commit, session_.progress);
   prepared_.clear();  // the tables' memory goes back before the next session

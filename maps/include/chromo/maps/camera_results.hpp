@@ -76,7 +76,7 @@ struct CameraEstimate {
 struct SessionCamerasInput {
   const session::SessionCaptureBuilder* builder = nullptr;  // every camera complete
   std::map<std::string, PreparedTables> const* prepared = nullptr;
-  std::string extra_json = "{}";  // added to each camera's summary.json and to the index
+  nlohmann::ordered_json extra;  // members added to each camera's summary.json and to the index (null: none)
   // Cameras whose frames the builder refused (camera → the first reason):
   // listed failed with it, in or beside the builder's cameras.
   std::map<std::string, std::string> unusable;
@@ -114,7 +114,8 @@ nlohmann::ordered_json common_view_entry(const CameraCommonView& view, const std
 //    "common_view": {"reference", "file", "homography" (9, row-major, camera
 //    cell → reference cell), "residual_px", "max_residual_px",
 //    "outline_cells"} or {"reference", "reason"}}]}
-std::string camera_results_index_json(const std::vector<CameraEstimate>& cameras, const std::string& extra_json = "{}");
+std::string camera_results_index_json(const std::vector<CameraEstimate>& cameras,
+                                      const nlohmann::ordered_json& extra = {});
 
 // One camera's key figures as the index's entry (a JSON value for the file
 // edge: the index, and chromod's journal results record, which carries the

@@ -60,7 +60,7 @@ struct EstimateReport {
   std::span<const estimation::PixelEstimate> estimates;
   estimation::EstimateSummary summary;
   std::vector<std::pair<std::string, double>> timings_s;  // in order; "estimate" is summary.seconds
-  std::string extra_json = "{}";  // a JSON object whose members are added to summary.json
+  nlohmann::ordered_json extra;  // members added to summary.json (an object; null: none)
   // Channels after "flags" in maps.exr (a polarised session's "surface" and
   // "highlight", docs/maps.md), width × height each.
   std::vector<std::pair<std::string, std::vector<float>>> extra_channels;
@@ -248,7 +248,8 @@ PreparedTables prepare_tables(const estimation::MeasurementSet& set, const Metho
 // Every number the tables depend on is equal (camera, channels, illuminants, noise).
 bool same_measurement_set(const estimation::MeasurementSet& a, const estimation::MeasurementSet& b);
 
-// extra_json: members added to summary.json (e.g. the session id and source).
+// extra: members added to summary.json (a JSON object; null: none; anything
+// else throws std::invalid_argument) (e.g. the session id and source).
 // prepared (optional): tables made earlier for the captures' measurement set;
 // used when same_measurement_set, otherwise the tables are loaded or built as
 // without them. summary.json's timings_s then shows "table" and
@@ -257,7 +258,7 @@ bool same_measurement_set(const estimation::MeasurementSet& a, const estimation:
 // (nothing written), std::runtime_error for failed writes.
 MethodEstimationResult estimate_captures(const session::Captures& captures, const MethodEstimationOptions& options,
                                          const std::filesystem::path& out_dir, const FileCommit& commit,
-                                         const files::Progress& progress = {}, const std::string& extra_json = "{}",
+                                         const files::Progress& progress = {}, const nlohmann::ordered_json& extra = {},
                                          const PreparedTables* prepared = nullptr);
 
 // What estimate_captures does once the measurement is made (a measurement
@@ -267,7 +268,7 @@ MethodEstimationResult estimate_measurement(const session::Measurement& measurem
                                             const spectral::CameraSensitivity& camera, double white_reflectance,
                                             double measurement_seconds, const MethodEstimationOptions& options,
                                             const std::filesystem::path& out_dir, const FileCommit& commit,
-                                            const files::Progress& progress = {}, const std::string& extra_json = "{}",
+                                            const files::Progress& progress = {}, const nlohmann::ordered_json& extra = {},
                                             const PreparedTables* prepared = nullptr);
 
 }  // namespace chromo::maps
