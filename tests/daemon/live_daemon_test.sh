@@ -71,7 +71,7 @@ import grpc
 from chromosphere_client import Client
 from chromosphere.v1 import planning_pb2
 client = Client('unix:$work/s.sock')
-response = client.compare_plans(['method', 'multispectral@4'], skins=8, monte_carlo_draws=1)
+response = client.compare_plans(['standard', 'multispectral@4'], skins=8, monte_carlo_draws=1)
 for advice in response.plans:
     print('plan', advice.plan, len(advice.channels), round(advice.predicted_delta_e94_mean, 3), advice.fits)
 bad = planning_pb2.PlanDescription(name='bad', captures=[planning_pb2.PlannedCapture(name='a', white_fill=0.5)])
@@ -80,7 +80,7 @@ try:
 except grpc.RpcError as error:
     print('refused', error.code().name, error.details())
 " >"$work/out" 2>&1 || fail "compare_plans exited $?"
-    grep -Eq "^plan method 4 [0-9.]+ 8$" "$work/out" || fail "no advice for the method"
+    grep -Eq "^plan standard 4 [0-9.]+ 8$" "$work/out" || fail "no advice for the standard plan"
     grep -Eq "^plan multispectral@4 18 [0-9.]+ 8$" "$work/out" || fail "no advice for multispectral@4"
     grep -q "^refused INVALID_ARGUMENT plans\[0\].description.captures\[0\].drive: at least one LED type must be on$" "$work/out" ||
       fail "a bad plan was not refused naming the field"
