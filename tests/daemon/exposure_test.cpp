@@ -177,7 +177,7 @@ TEST(ExposurePerCapture, MeteredSessionPutsEachWhiteAtTheTargetShareAndNFramesDi
   EXPECT_TRUE(found) << summary.at("captures").dump();
 
   // summary.json: the blue-light dose with the metered exposures (the
-  // journal's last hazard record), which depends on them.
+  // session's last hazard record, as its journal has it), which depends on them.
   const auto& hazard = summary.at("blue_light_hazard");
   EXPECT_EQ(hazard.at("exposures"), "metered");
   EXPECT_EQ(hazard.at("plan"), "standard");
