@@ -5,6 +5,7 @@
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
 #include <ImfOutputFile.h>
+#include <ImfStringAttribute.h>
 #include <ImfThreading.h>
 
 #include <algorithm>
@@ -28,6 +29,17 @@ const std::vector<float>& FloatImage::channel(const std::string& name) const {
   for (const auto& n : channel_names) have += (have.empty() ? "" : ", ") + n;
   throw ImageError("image has no channel '" + name + "' (it has " + have + ")");
 }
+
+const std::string* FloatImage::attribute(const std::string& name) const {
+  for (const auto& [key, value] : attributes)
+    if (key == name) return &value;
+  return nullptr;
+}
+
+namespace {
+// The header attributes FloatImage carries: string-typed, named "chromo.*".
+bool carried_attribute(const std::string& name) { return name.rfind("chromo.", 0) == 0; }
+}  // namespace
 
 namespace {
 
@@ -204,6 +216,9 @@ FloatImage read_exr(const std::filesystem::path& path) {
     const std::size_t pixels = static_cast<std::size_t>(image.width) * image.height;
     for (auto it = file.header().channels().begin(); it != file.header().channels().end(); ++it)
       image.channel_names.push_back(it.name());
+    for (auto it = file.header().begin(); it != file.header().end(); ++it)
+      if (const auto* text = dynamic_cast<const Imf::StringAttribute*>(&it.attribute()); text && carried_attribute(it.name()))
+        image.attributes.emplace_back(it.name(), text->value());
     // The 64-MP cap bounds one channel; this bounds them all together before
     // any pixel memory: at most kMaxImageValues floats (1 GiB).
     if (pixels * image.channel_names.size() > kMaxImageValues)
@@ -266,6 +281,10 @@ void write_exr(const std::filesystem::path& path, const FloatImage& image, const
     header.compression() = Imf::ZIP_COMPRESSION;
     if (options.zip_level >= 0) header.zipCompressionLevel() = options.zip_level;
     for (const auto& name : image.channel_names) header.channels().insert(name, Imf::Channel(Imf::FLOAT));
+    for (const auto& [name, value] : image.attributes) {
+      if (!carried_attribute(name)) throw std::invalid_argument("attribute '" + name + "' is not named chromo.*");
+      header.insert(name, Imf::StringAttribute(value));
+    }
     // One thread: the caller's alone (no pool task), as before threading.
     if (threads > 1) ensure_exr_pool(threads);
     Imf::OutputFile file(path.c_str(), header, threads > 1 ? threads : 0);

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace chromo::files {
@@ -21,7 +22,12 @@ struct FloatImage {
   int width = 0, height = 0;
   std::vector<std::string> channel_names;
   std::vector<std::vector<float>> channels;  // width × height each, row-major
+  // String attributes of the header whose names start with "chromo." (e.g.
+  // maps.exr's "chromo.discrepancy_basis"): read_exr reads them, write_exr
+  // writes them; other attributes are neither read nor written.
+  std::vector<std::pair<std::string, std::string>> attributes{};
   const std::vector<float>& channel(const std::string& name) const;  // ImageError if absent
+  const std::string* attribute(const std::string& name) const;       // nullptr if absent
 };
 
 // Checks an OpenEXR file before any library reads it: a regular file within
