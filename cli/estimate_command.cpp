@@ -156,6 +156,9 @@ int run_estimate(const EstimateOptions& options) {
   const estimation::SpatialPass pass =
       estimation::spatial_pass(estimator, measured, m.width, m.height, out, summary, no, skin_denoise);
   const estimation::NeighbourhoodSummary& neighbourhood = pass.neighbourhood;
+  // The relit layer "model + discrepancy" (--discrepancy-layer; maps/discrepancy_layer.hpp).
+  const std::optional<maps::DiscrepancyLayer> layer = maps::estimate_discrepancy_layer(
+      estimator, measured, out, pass.skin_refit ? &*pass.skin_refit : nullptr, discrepancy_layer_terms(options));
   const double neighbourhood_seconds = pass.neighbourhood_seconds;
 
   maps::EstimateReport report;
@@ -165,6 +168,7 @@ int run_estimate(const EstimateOptions& options) {
   for (const auto& c : set.channels) report.channel_names.push_back(c.name);
   report.estimates = out;
   report.summary = summary;
+  report.discrepancy_layer = layer ? &*layer : nullptr;
   report.timings_s = {{"load", loaded.load_seconds},
                       {"registration", loaded.registration_seconds},
                       {"table", table_seconds},
@@ -177,7 +181,8 @@ int run_estimate(const EstimateOptions& options) {
                                {"registration", loaded.registration},
                                {"neighbourhood", maps::neighbourhood_report(options.neighbourhood_flags,
                                                                             options.order_pooling, neighbourhood)},
-                               {"skin_denoise", maps::skin_denoise_report(skin_denoise, pass.skin_refit ? &*pass.skin_refit : nullptr)}};
+                               {"skin_denoise", maps::skin_denoise_report(skin_denoise, pass.skin_refit ? &*pass.skin_refit : nullptr)},
+                               {"discrepancy_layer", maps::discrepancy_layer_report(report.discrepancy_layer)}};
   report.extra = std::move(extra);
   try {
     files::OutputBatch files(options.out);
@@ -233,6 +238,13 @@ void add_estimate_command(CLI::App& app, int& exit_status) {
                   "on: the multi-pixel estimate before the spatial pass (each explained pixel's colour averaged with "
                   "its 11×11 neighbours' that agree within the noise, its brightness kept, then fitted again; flags "
                   "unchanged: docs/estimation.md 'Relighting past the model'); off: per pixel only")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->capture_default_str();
+  cmd->add_option("--discrepancy-layer", options->discrepancy_layer,
+                  "on: store each explained pixel's posterior discrepancy (the learned discrepancy's estimate of what "
+                  "the model missed, from the pixel's residual) in the maps, so every relighting adds it (nothing where "
+                  "the fit left no residual; needs --discrepancy learned: docs/estimation.md 'Relighting past the "
+                  "model'); off: the maps relight with the model alone")
       ->check(CLI::IsMember({"on", "off"}))
       ->capture_default_str();
   cmd->add_option("--cache-dir", options->cache_dir, "table cache (default $CHROMO_CACHE_DIR or ~/.cache/chromosphere)");

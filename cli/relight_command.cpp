@@ -34,11 +34,18 @@ void add_relight_command(CLI::App& app, int& exit_status) {
   cmd->add_option("--camera", options->camera, "the photograph's camera: builtin:<name> or a CSV")->capture_default_str();
   cmd->add_option("--heat-max", options->heat_map_max, "ΔE94 at the top of the colour bar (0 = the p95 clamped to 1-5)");
   cmd->add_option("--threads", options->threads, "threads (0 = all cores)");
-  cmd->callback([options, &exit_status] {
+  auto layer = std::make_shared<std::string>("on");
+  cmd->add_option("--discrepancy-layer", *layer,
+                  "on: add the maps' posterior discrepancy where they carry one (chromo estimate --discrepancy-layer "
+                  "on); off: the model alone")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->capture_default_str();
+  cmd->callback([options, layer, &exit_status] {
+    options->discrepancy_layer = *layer == "on";
     exit_status = run_map_operation("relight", [&] {
       const auto s = maps::relight_to_files(*options);
-      fmt::print("{}x{} maps relit under {}: {} pixels → {}\n", s.width, s.height, s.illuminant, s.relit_pixels,
-                 options->out.string());
+      fmt::print("{}x{} maps relit under {} ({}): {} pixels → {}\n", s.width, s.height, s.illuminant,
+                 s.discrepancy_layer ? "model + discrepancy" : "model", s.relit_pixels, options->out.string());
       if (s.compared)
         fmt::print("ΔE94 photograph vs reconstruction: mean {:.3f} median {:.3f} p95 {:.3f} ({} pixels)\n",
                    s.photo_delta_e94.mean, s.photo_delta_e94.median, s.photo_delta_e94.p95, s.photo_delta_e94.pixels);

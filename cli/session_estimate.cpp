@@ -55,6 +55,11 @@ std::optional<estimation::SkinDenoiseOptions> skin_denoise_options(const Estimat
   return std::nullopt;
 }
 
+int discrepancy_layer_terms(const EstimateOptions& options) {
+  // CLI11 has checked the value against on and off.
+  return options.discrepancy_layer == "on" ? maps::kDiscrepancyLayerTerms : 0;
+}
+
 SessionEstimate estimate_stored_session(const EstimateOptions& options, const std::string& source) {
   SessionEstimate outcome;
   const fs::path folder = options.input;
@@ -91,6 +96,7 @@ SessionEstimate estimate_stored_session(const EstimateOptions& options, const st
   eo.neighbourhood.flags = options.neighbourhood_flags;
   eo.neighbourhood.pool_order = options.order_pooling;
   eo.skin_denoise = skin_denoise_options(options);
+  eo.discrepancy_layer_terms = discrepancy_layer_terms(options);
   if (!options.cache_dir.empty()) eo.cache_dir = options.cache_dir;
   nlohmann::ordered_json extra{{"session", fs::absolute(folder).string()},
                                {"source", source},

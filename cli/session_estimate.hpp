@@ -34,6 +34,7 @@ struct EstimateOptions {
   bool neighbourhood_flags = true;
   bool order_pooling = true;
   std::string skin_denoise = "off";     // "on": the multi-pixel estimate (estimation/skin_refit.hpp) before the spatial pass
+  std::string discrepancy_layer = "on"; // "off": the maps carry no posterior discrepancy (maps/discrepancy_layer.hpp)
   // Session folders only.
   std::string led_library;  // empty: <session>/results/led_library.json, else as chromod (newest measured, nominal)
   std::string camera = "builtin:nikon_d5100";
@@ -44,6 +45,8 @@ struct EstimateOptions {
 estimation::EstimatorOptions estimator_options(const EstimateOptions& options);
 // --skin-denoise as the maps' option: the multi-pixel estimate's defaults when "on", empty when "off".
 std::optional<estimation::SkinDenoiseOptions> skin_denoise_options(const EstimateOptions& options);
+// --discrepancy-layer as the maps' option: the layer's terms when "on", 0 when "off".
+int discrepancy_layer_terms(const EstimateOptions& options);
 // --camera-of's NAME=SPEC entries as a map; std::invalid_argument naming a malformed one.
 std::map<std::string, std::string> parse_camera_of(const std::vector<std::string>& entries);
 

@@ -168,12 +168,14 @@ class Client:
             }
         return cameras
 
-    def relight(self, maps_file, illuminant, label="", photograph_file="", session_id="", timeout=120):
+    def relight(self, maps_file, illuminant, label="", photograph_file="", session_id="", timeout=120,
+                model_only=False):
         """Relit albedo (and a panel against the photograph) in a new folder of the daemon's; returns
         RelightResponse, whose out_dir and files are relative to the session folder (or the daemon's
-        maps_dir without session_id). maps_file and photograph_file are relative to the same folder."""
+        maps_dir without session_id). maps_file and photograph_file are relative to the same folder.
+        The maps' posterior discrepancy (their relit layer) is added unless model_only."""
         request = maps_pb2.RelightRequest(session_id=session_id, maps_file=maps_file, illuminant=illuminant,
-                                          label=label, photograph_file=photograph_file)
+                                          label=label, photograph_file=photograph_file, model_only=model_only)
         return self.maps.Relight(request, timeout=timeout)
 
     def compare_plans(self, plans, skins=0, seed=0, interior_population=False, monte_carlo_draws=0, timeout=120):

@@ -102,6 +102,8 @@ bool DaemonConfig::IsValid(std::string* error) const {
     return fail("estimation.discrepancy: \"" + estimation.discrepancy + "\" is not learned or none");
   if (estimation.skin_denoise != "on" && estimation.skin_denoise != "off")
     return fail("estimation.skin_denoise: \"" + estimation.skin_denoise + "\" is not on or off");
+  if (estimation.discrepancy_layer != "on" && estimation.discrepancy_layer != "off")
+    return fail("estimation.discrepancy_layer: \"" + estimation.discrepancy_layer + "\" is not on or off");
   if (!(estimation.white_reflectance > 0 && estimation.white_reflectance <= 1))
     return fail("estimation.white_reflectance: must be in (0, 1]");
   if (estimation.threads < 0 || estimation.threads > 256) return fail("estimation.threads: must be in [0, 256]");
@@ -202,6 +204,8 @@ const std::vector<Key>& estimation_keys() {
                    return v == "learned" || v == "none" ? std::string() : "\"" + v + "\" is not learned or none";
                  }),
       string_key("skin_denoise", [](DaemonConfig& c) -> auto& { return c.estimation.skin_denoise; },
+                 [](const std::string& v) { return v == "on" || v == "off" ? std::string() : "\"" + v + "\" is not on or off"; }),
+      string_key("discrepancy_layer", [](DaemonConfig& c) -> auto& { return c.estimation.discrepancy_layer; },
                  [](const std::string& v) { return v == "on" || v == "off" ? std::string() : "\"" + v + "\" is not on or off"; }),
       string_key("led_library", [](DaemonConfig& c) -> auto& { return c.estimation.led_library; }, led_library_error),
       string_key("camera_sensitivity", [](DaemonConfig& c) -> auto& { return c.estimation.camera_sensitivity; },

@@ -26,6 +26,7 @@ SkinRefit refit_denoised_skin(const Estimator& estimator, std::span<const float>
   // Only the explained pixels are fitted again; the others' results are not used.
   estimator.estimate(denoised.values, refit, {}, {not_refitted, PixelFlag::kWhiteTarget});
   SkinRefit out;
+  out.averaged.assign(pixels, 1);
   const int channels = estimator.channels();
   std::size_t joined = 0;
   for (std::size_t i = 0; i < pixels; ++i) {
@@ -42,6 +43,7 @@ SkinRefit refit_denoised_skin(const Estimator& estimator, std::span<const float>
     estimates[i] = refit[i];
     ++out.refitted;
     joined += denoised.joined[i];
+    out.averaged[i] = std::max<std::uint16_t>(denoised.joined[i], 1);
   }
   out.values = std::move(denoised.values);
   out.mean_joined = out.refitted ? static_cast<double>(joined) / static_cast<double>(out.refitted) : 0.0;

@@ -217,6 +217,11 @@ ReportMaps report_maps(const EstimateReport& report) {
     maps.channel_names.push_back(name);
     maps.channels.push_back(values);
   }
+  if (const DiscrepancyLayer* layer = report.discrepancy_layer) {
+    for (const auto& plane : layer->coefficients)
+      if (plane.size() != pixels) throw std::invalid_argument("estimate report: the discrepancy layer does not fill the image");
+    add_discrepancy_layer(maps, *layer);
+  }
   std::sort(out.residuals.begin(), out.residuals.end());
   return out;
 }
@@ -429,6 +434,18 @@ std::vector<RelitComparison> compare_with_photographs(std::span<const estimation
         for (std::size_t k = begin; k < end; ++k) reconstructed[p][k] = weights[p] * albedo[k - begin].values().matrix();
     }
   }
+  if (const DiscrepancyLayer* layer = options.discrepancy) {
+    // The relit layer: each pixel's posterior discrepancy B c through the camera under the photograph's light.
+    Eigen::VectorXd c(layer->basis.terms());
+    for (std::size_t p = 0; p < photographs.size(); ++p) {
+      const Eigen::Matrix<double, 3, Eigen::Dynamic> seen =
+          projected_basis(layer->basis, spectral::camera_weights(camera, photographs[p].illuminant));
+      for (std::size_t k = 0; k < included.size(); ++k) {
+        layer->at(included[k], c.data());
+        reconstructed[p][k] += seen * c;
+      }
+    }
+  }
   std::vector<RelitComparison> out;
   std::vector<Eigen::Vector3d> photographed(included.size());
   auto finite_rms = [](const std::vector<double>& values, std::vector<double>* finite) {
@@ -612,6 +629,7 @@ struct PixelEstimates {
   estimation::NeighbourhoodSummary neighbourhood;
   double neighbourhood_seconds = 0;
   std::optional<estimation::SkinRefit> skin_refit;  // options.skin_denoise set: the multi-pixel estimate
+  std::optional<DiscrepancyLayer> discrepancy_layer;  // the relit layer (options.discrepancy_layer_terms > 0)
 };
 PixelEstimates estimate_pixels(const session::Measurement& m, const estimation::Estimator& estimator,
                                double white_reflectance, const MethodEstimationOptions& options,
@@ -633,12 +651,16 @@ PixelEstimates estimate_pixels(const session::Measurement& m, const estimation::
   out.neighbourhood_seconds = pass.neighbourhood_seconds;
   out.skin_refit = std::move(pass.skin_refit);
   mark_not_skin(m.no_reference, estimation::PixelFlag::kNoReference, out.estimates, result.summary);
+  out.discrepancy_layer = estimate_discrepancy_layer(estimator, m.measured, out.estimates,
+                                                     out.skin_refit ? &*out.skin_refit : nullptr,
+                                                     options.discrepancy_layer_terms);
   return out;
 }
 
 // The relit comparison with the captured photographs.
 std::vector<RelitComparison> relit_against_photographs(const session::Measurement& m,
                                                        std::span<const estimation::PixelEstimate> estimates,
+                                                       const DiscrepancyLayer* discrepancy_layer,
                                                        const estimation::ForwardTable& table,
                                                        const spectral::CameraSensitivity& camera,
                                                        const MethodEstimationOptions& options,
@@ -650,6 +672,7 @@ std::vector<RelitComparison> relit_against_photographs(const session::Measuremen
   relit_options.prepared = prepared_relit;
   relit_options.threads = options.estimator.threads;
   relit_options.image_width = m.width;
+  relit_options.discrepancy = discrepancy_layer;
   return compare_with_photographs(estimates, m.photographs, camera, relit_options);
 }
 
@@ -689,6 +712,8 @@ nlohmann::ordered_json measurement_report(const session::Measurement& m, const e
   extra["neighbourhood"] =
       neighbourhood_report(options.neighbourhood.flags, options.neighbourhood.pool_order, pixels.neighbourhood);
   extra["skin_denoise"] = skin_denoise_report(options.skin_denoise, pixels.skin_refit ? &*pixels.skin_refit : nullptr);
+  const DiscrepancyLayer* layer = pixels.discrepancy_layer ? &*pixels.discrepancy_layer : nullptr;
+  extra["discrepancy_layer"] = discrepancy_layer_report(layer);
   nlohmann::ordered_json relit = nlohmann::ordered_json::object();
   for (const auto& r : relit_comparisons) relit[r.illuminant] = relit_comparison_json(r);
   extra["relit_delta_e94"] = {
@@ -704,6 +729,7 @@ nlohmann::ordered_json measurement_report(const session::Measurement& m, const e
                       "camera RGB, explained cells): the noise averages out, a systematic error (the light, the "
                       "model's floor) stays"},
       {"reconstruction", relit_model_name(options.relit_model)},
+      {"layers", layer ? "model + discrepancy (the maps' discrepancy layer added)" : "model"},
       {"by_illuminant", relit}};
   return extra;
 }
@@ -731,7 +757,8 @@ MethodEstimationResult estimate_and_report(const session::Measurement& m, const 
   const PixelEstimates pixels = estimate_pixels(m, estimator, white_reflectance, options, progress, result);
 
   auto t = std::chrono::steady_clock::now();
-  result.relit = relit_against_photographs(m, pixels.estimates, *table, camera, options, prepared ? prepared->relit : nullptr);
+  const DiscrepancyLayer* layer = pixels.discrepancy_layer ? &*pixels.discrepancy_layer : nullptr;
+  result.relit = relit_against_photographs(m, pixels.estimates, layer, *table, camera, options, prepared ? prepared->relit : nullptr);
   const double relit_seconds = seconds_since(t);
   const PolarisationOutputs polarisation = polarisation_outputs(m, result.summary);
   result.registration = m.registration;
@@ -746,6 +773,7 @@ MethodEstimationResult estimate_and_report(const session::Measurement& m, const 
   for (const auto& c : m.set.channels) report.channel_names.push_back(c.name);
   report.estimates = pixels.estimates;
   report.summary = result.summary;
+  report.discrepancy_layer = layer;
   report.timings_s = {{"measurement_and_registration", measurement_seconds},
                       {"table", in_memory ? 0.0 : loaded.table_seconds},
                       {"inverter_setup", in_memory ? 0.0 : loaded.inverter_seconds},

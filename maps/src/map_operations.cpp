@@ -105,7 +105,9 @@ files::FloatImage maps_image(const ParameterMaps& maps) {
 // ---------------------------------------------------------------- relight
 
 RelightSummary relight_to_files(const RelightOptions& options) {
-  const LoadedMaps loaded = load_maps(options.maps);
+  LoadedMaps loaded = load_maps(options.maps);
+  const bool layer_stored = loaded.maps.discrepancy.has_value();
+  if (!options.discrepancy_layer) loaded.maps.discrepancy.reset();  // the model alone
   const ParameterMaps& maps = loaded.maps;
   const NamedSpectrum illuminant = illuminant_field(options.illuminant);
   check_out(options.out);
@@ -137,6 +139,7 @@ RelightSummary relight_to_files(const RelightOptions& options) {
   RelightSummary summary;
   summary.illuminant = illuminant.name;
   summary.width = w, summary.height = h;
+  summary.discrepancy_layer = maps.discrepancy.has_value();
   const RelitImage relit = relight(maps, linear_srgb_weights(illuminant.spectrum), options.threads);
   summary.relit_pixels = static_cast<std::size_t>(std::count(relit.valid.begin(), relit.valid.end(), 1));
   files::FloatImage exr = rgb_image(relit.rgb, w, h);
@@ -150,6 +153,9 @@ RelightSummary relight_to_files(const RelightOptions& options) {
   j["width"] = w, j["height"] = h;
   j["relit_pixels"] = summary.relit_pixels;
   j["colour_space"] = "linear sRGB (relit.exr), encoded sRGB (relit.png); white albedo = 1";
+  j["discrepancy_layer"] = summary.discrepancy_layer ? "model + discrepancy (the maps' posterior discrepancy added)"
+                           : layer_stored            ? "model alone (the maps' discrepancy layer turned off)"
+                                                     : "model alone (the maps carry no discrepancy layer)";
 
   files::OutputBatch files(options.out);
   files::write_exr(files.temporary("relit.exr"), exr);

@@ -104,6 +104,9 @@ MapChannelInfo map_channel_info(const std::string& name) {
       {"highlight", {"albedo", "specular highlight from the polarised captures (information only)"}},
       {"corr_Ch_Che", {"correlation", "correlation of Ch and Che in the fit's covariance (near +-1: the data cannot separate them)"}},
   };
+  if (name.rfind("discrepancy_", 0) == 0)
+    return {name, "albedo", "coefficient of the pixel's posterior discrepancy on basis spectrum b" + name.substr(12) +
+                                " (annotation chromo.discrepancy_basis); relit albedo = model + sum_k c_k b_k"};
   if (const auto it = known.find(name); it != known.end()) return {name, it->second.first, it->second.second};
   if (name.rfind("sigma_", 0) == 0) {
     const MapChannelInfo of = map_channel_info(name.substr(6));
@@ -130,6 +133,8 @@ std::string maps_ome_xml(const files::FloatImage& maps, const OmeTiffOptions& op
     image.annotation.emplace_back(fmt::format("flag:{}", f),
                                   std::string(estimation::pixel_flag_name(static_cast<estimation::PixelFlag>(f))));
   image.annotation.emplace_back("source", "chromosphere estimate (docs/maps.md)");
+  // maps.exr's header attributes (the discrepancy layer's basis), under their own names.
+  for (const auto& [name, value] : maps.attributes) image.annotation.emplace_back(name, value);
   return ome_xml(image);
 }
 

@@ -158,7 +158,13 @@ ParameterMaps read_parameter_maps(const std::filesystem::path& maps_exr) {
       throw std::runtime_error(maps_exr.string() + ": no channel '" + name + "' (expected Cm, Ch, Bm, Che, flags)");
     }
   };
-  return {image.width, image.height, channel("Cm"), channel("Ch"), channel("Bm"), channel("Che"), channel("flags")};
+  ParameterMaps maps{image.width, image.height, channel("Cm"), channel("Ch"), channel("Bm"), channel("Che"), channel("flags")};
+  try {
+    maps.discrepancy = read_discrepancy_layer(image, maps_exr.string());
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error(e.what());
+  }
+  return maps;
 }
 
 std::vector<std::uint32_t> nearest_entry_indices(const ProfileTable& table, const ParameterMaps& maps) {

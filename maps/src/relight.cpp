@@ -88,6 +88,11 @@ RelitImage relight(const ParameterMaps& maps, const spectral::CameraWeights& wei
   std::vector<estimation::SkinParameters> block;
   std::vector<std::size_t> where;
   std::vector<spectral::Spectrum> albedo;
+  // The relit layer "model + discrepancy" (discrepancy_layer.hpp): B c seen through the weights.
+  const DiscrepancyLayer* layer = maps.discrepancy ? &*maps.discrepancy : nullptr;
+  const Eigen::Matrix<double, 3, Eigen::Dynamic> seen = layer ? projected_basis(layer->basis, weights)
+                                                               : Eigen::Matrix<double, 3, Eigen::Dynamic>(3, 0);
+  Eigen::VectorXd c(seen.cols());
   for (std::size_t start = 0; start < pixels; start += kBlock) {
     block.clear(), where.clear();
     for (std::size_t i = start; i < std::min(pixels, start + kBlock); ++i)
@@ -95,7 +100,11 @@ RelitImage relight(const ParameterMaps& maps, const spectral::CameraWeights& wei
     albedo.resize(block.size());
     model.albedo_batch(block, albedo, threads);
     for (std::size_t k = 0; k < block.size(); ++k) {
-      const Eigen::Vector3d rgb = weights * albedo[k].values().matrix();
+      Eigen::Vector3d rgb = weights * albedo[k].values().matrix();
+      if (layer) {
+        layer->at(where[k], c.data());
+        rgb += seen * c;
+      }
       for (int c = 0; c < 3; ++c) out.rgb[3 * where[k] + c] = static_cast<float>(rgb[c]);
       out.valid[where[k]] = 1;
     }

@@ -7,6 +7,7 @@
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
 #include <ImfOutputFile.h>
+#include <ImfStringAttribute.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <sys/wait.h>
@@ -124,7 +125,11 @@ TEST_F(EstimateCommand, WritesMapsPreviewsAndSummary) {
   std::vector<std::string> names;
   for (auto it = file.header().channels().begin(); it != file.header().channels().end(); ++it) names.push_back(it.name());
   EXPECT_THAT(names, ::testing::UnorderedElementsAre("Cm", "Ch", "Bm", "Che", "residual", "order", "flags", "sigma_Cm",
-                                                     "sigma_Ch", "sigma_Bm", "sigma_Che", "corr_Ch_Che"));
+                                                     "sigma_Ch", "sigma_Bm", "sigma_Che", "corr_Ch_Che", "discrepancy_0",
+                                                     "discrepancy_1", "discrepancy_2", "discrepancy_3", "discrepancy_4",
+                                                     "discrepancy_5"));
+  EXPECT_EQ(s["discrepancy_layer"]["enabled"], true);  // the relit layer, its basis in the header (discrepancy_layer.hpp)
+  EXPECT_NE(file.header().findTypedAttribute<Imf::StringAttribute>("chromo.discrepancy_basis"), nullptr);
   std::vector<float> cm(kWidth * kHeight), flags(kWidth * kHeight);
   Imf::FrameBuffer frame;
   frame.insert("Cm", Imf::Slice(Imf::FLOAT, (char*)cm.data(), sizeof(float), sizeof(float) * kWidth));

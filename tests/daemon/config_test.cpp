@@ -170,6 +170,7 @@ TEST(DaemonConfig, RefusesEveryProbeOfIssue19NamingTheKey) {
       {{{"estimation", {{"camera_sensitivity", "builtin:no_such_camera"}}}}, "cfg: estimation.camera_sensitivity: "},
       {{{"estimation", {{"threads", -1}}}}, "cfg: estimation.threads: -1 is outside [0, 256]"},
       {{{"estimation", {{"skin_denoise", "yes"}}}}, "cfg: estimation.skin_denoise: \"yes\" is not on or off"},
+      {{{"estimation", {{"discrepancy_layer", "yes"}}}}, "cfg: estimation.discrepancy_layer: \"yes\" is not on or off"},
       {{{"estimation", {{"white_reflectance", 0}}}}, "cfg: estimation.white_reflectance: 0 is outside (0"},
       {{{"estimation", {{"cache_limit_bytes", 10}}}}, "cfg: estimation.cache_limit_bytes: 10 is outside"},
       {{{"estimation", {{"led_library", "/no/such/library.json"}}}},
@@ -290,6 +291,13 @@ TEST(DaemonConfig, SkinDenoiseIsReadOffByDefault) {
   EXPECT_EQ(parse_config(nlohmann::json::object(), "cfg").estimation.skin_denoise, "off");
   EXPECT_EQ(parse_config(nlohmann::json::parse(R"({"estimation": {"skin_denoise": "on"}})"), "cfg").estimation.skin_denoise,
             "on");
+}
+
+TEST(DaemonConfig, DiscrepancyLayerIsReadOnByDefault) {
+  EXPECT_EQ(parse_config(nlohmann::json::object(), "cfg").estimation.discrepancy_layer, "on");
+  EXPECT_EQ(parse_config(nlohmann::json::parse(R"({"estimation": {"discrepancy_layer": "off"}})"), "cfg")
+                .estimation.discrepancy_layer,
+            "off");
 }
 
 TEST(DaemonConfig, VirtualLabSubsurfaceSpreadIsReadAndABadWidthRefused) {

@@ -210,11 +210,17 @@ TEST(PolarisedEstimate, AnUnpolarisedSessionIsAsBeforeAndSaysHighlightsAreHeuris
   const auto result = estimate_measurement(lab.noisy, lab.noisy.set.camera, 0.99, 0, options, out, commit);
   const files::FloatImage maps = files::read_exr(out / "maps.exr");
   // (read back in EXR's alphabetical order)
-  EXPECT_EQ(maps.channel_names, (std::vector<std::string>{"Bm", "Ch", "Che", "Cm", "corr_Ch_Che", "flags", "order", "residual",
-                                                          "sigma_Bm", "sigma_Ch", "sigma_Che", "sigma_Cm"}));
+  EXPECT_EQ(maps.channel_names, (std::vector<std::string>{"Bm", "Ch", "Che", "Cm", "corr_Ch_Che", "discrepancy_0",
+                                                          "discrepancy_1", "discrepancy_2", "discrepancy_3", "discrepancy_4",
+                                                          "discrepancy_5", "flags", "order", "residual", "sigma_Bm",
+                                                          "sigma_Ch", "sigma_Che", "sigma_Cm"}));
   EXPECT_FALSE(fs::exists(out / "polarisation.png"));
   const auto summary = nlohmann::json::parse(result.summary_json);
   EXPECT_EQ(summary["highlights"]["detection"], "heuristic");
+  // The relit layer is in the maps and in the relit comparison (discrepancy_layer.hpp).
+  EXPECT_EQ(summary["discrepancy_layer"]["enabled"], true);
+  EXPECT_GT(summary["discrepancy_layer"]["pixels"].get<double>(), 0);
+  EXPECT_EQ(summary["relit_delta_e94"]["layers"], "model + discrepancy (the maps' discrepancy layer added)");
   // Oily regions need the polarised session (their unit is its surface map's σ).
   o.oily.count = 3;
   EXPECT_THROW(simulators::render_session(o), std::invalid_argument);

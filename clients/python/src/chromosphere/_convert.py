@@ -92,9 +92,9 @@ def maps_file_of(found: Results, session_id: str, camera: Optional[str]) -> str:
 
 
 def relight_request(session_id: str, maps_file: str, illuminant: str, label: str,
-                    photograph_file: str) -> maps_pb2.RelightRequest:
+                    photograph_file: str, model_only: bool = False) -> maps_pb2.RelightRequest:
     return maps_pb2.RelightRequest(session_id=session_id, maps_file=maps_file, illuminant=illuminant, label=label,
-                                   photograph_file=photograph_file)
+                                   photograph_file=photograph_file, model_only=model_only)
 
 
 def read_maps_request(session_id: str, maps_file: str, channels: Optional[Sequence[str]],

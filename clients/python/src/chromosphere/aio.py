@@ -99,8 +99,8 @@ class AsyncClient:
         return assembler.result()
 
     async def relight(self, session_id: str, illuminant: str, *, maps_file: str = "results/maps.exr",
-                      label: str = "", photograph_file: str = "") -> Relit:
-        request = _convert.relight_request(session_id, maps_file, illuminant, label, photograph_file)
+                      label: str = "", photograph_file: str = "", model_only: bool = False) -> Relit:
+        request = _convert.relight_request(session_id, maps_file, illuminant, label, photograph_file, model_only)
         return _convert.relit(await self._call("MapsService.Relight", self._maps.Relight, request))
 
     async def photographs(self, session_id: str, maps_file: str = "results/maps.exr") -> Photographs:

@@ -129,10 +129,12 @@ class Client:
         return assembler.result()
 
     def relight(self, session_id: str, illuminant: str, *, maps_file: str = "results/maps.exr",
-                label: str = "", photograph_file: str = "") -> Relit:
+                label: str = "", photograph_file: str = "", model_only: bool = False) -> Relit:
         """The maps relit under an illuminant (W57..B, D65, D50, A, "4000K", or a CSV in the session
-        folder); files in a new folder of the session's products/."""
-        request = _convert.relight_request(session_id, maps_file, illuminant, label, photograph_file)
+        folder); files in a new folder of the session's products/. The maps' posterior discrepancy
+        (their relit layer, where they carry one) is added unless model_only; the summary's
+        "discrepancy_layer" says which."""
+        request = _convert.relight_request(session_id, maps_file, illuminant, label, photograph_file, model_only)
         return _convert.relit(self._call("MapsService.Relight", self._maps.Relight, request))
 
     def photographs(self, session_id: str, maps_file: str = "results/maps.exr") -> Photographs:

@@ -52,6 +52,9 @@ struct EstimationConfig {
   // The multi-pixel estimate before the spatial pass (docs/estimation.md
   // "Relighting past the model"): "on" or "off".
   std::string skin_denoise = "off";
+  // The relit layer "model + discrepancy" in the maps (maps/discrepancy_layer.hpp;
+  // docs/estimation.md "Relighting past the model"): "on" or "off".
+  std::string discrepancy_layer = "on";
   std::string led_library;       // LED library file; empty = newest measured one, else the nominal one
   std::string camera_sensitivity = "builtin:nikon_d5100";  // or a CSV wavelength_nm,R,G,B
   // Per camera (device name → builtin:NAME or a CSV), overriding camera_sensitivity for that camera's maps.

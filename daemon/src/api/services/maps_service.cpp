@@ -164,6 +164,7 @@ class MapsServiceImpl final : public pb::MapsService::Service {
       }
       o.out = files.output("relight", request->label());
       o.heat_map_max = request->heat_map_max();
+      o.discrepancy_layer = !request->model_only();
       const auto s = maps::relight_to_files(o);
       response->set_illuminant(s.illuminant);
       response->set_width(s.width), response->set_height(s.height);

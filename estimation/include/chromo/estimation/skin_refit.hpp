@@ -10,6 +10,7 @@
 // estimator's threads.
 
 #include <cstddef>
+#include <cstdint>
 #include <optional>
 #include <span>
 #include <vector>
@@ -24,6 +25,10 @@ struct SkinRefit {
   // The channel values the chain goes on with (the spatial pass re-fits from
   // them): the denoised values where a pixel was re-fitted, the measured ones elsewhere.
   std::vector<float> values;
+  // Per pixel the pixels averaged into `values` (1 where not re-fitted): their
+  // noise is the channel's over this (the relit layer's posterior discrepancy
+  // weighs the residual with it, maps/discrepancy_layer.hpp).
+  std::vector<std::uint16_t> averaged;
   std::size_t refitted = 0;  // pixels whose estimate was replaced by the fit of their denoised channels
   double mean_joined = 0;    // pixels averaged per re-fitted pixel (1: none agreed with it)
   double seconds = 0;        // the denoising and the re-fit, wall

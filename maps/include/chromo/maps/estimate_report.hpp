@@ -3,7 +3,8 @@
 // (MEASUREMENT.json or a stored session) and by chromod's on-line estimator:
 //
 //   maps.exr      FLOAT channels Cm, Ch, Bm, Che, residual, order, flags (pixel_flags.hpp);
-//                 a polarised session adds surface and highlight (docs/maps.md)
+//                 a polarised session adds surface and highlight (docs/maps.md);
+//                 the relit layer adds discrepancy_<k> and its basis (discrepancy_layer.hpp)
 //   maps.ome.tiff the same channels as float32 OME-TIFF, names and units in its
 //                 OME-XML (ome_tiff.hpp), for Fiji, napari and Python
 //   polarisation.png  a polarised session's panel diffuse | surface | combined
@@ -42,6 +43,7 @@
 
 #include "chromo/estimation/estimator.hpp"
 #include "chromo/session/method_measurement.hpp"
+#include "chromo/maps/discrepancy_layer.hpp"
 #include "chromo/maps/reconstruction.hpp"
 #include "chromo/maps/relit_table.hpp"
 #include "chromo/estimation/spatial_flags.hpp"
@@ -67,6 +69,9 @@ struct EstimateReport {
   double map_pixel_mm = 0;  // one map pixel's width on the subject (0: unknown): the previews' scale bar
   // Further PNG files written after the previews (name, encoded bytes).
   std::vector<std::pair<std::string, std::vector<std::uint8_t>>> extra_pngs;
+  // The relit layer "model + discrepancy" (null: none): its channels and basis
+  // go into maps.exr and maps.ome.tiff after every other channel.
+  const DiscrepancyLayer* discrepancy_layer = nullptr;
 };
 
 // Each measurement channel's signal-to-noise ratio by its noise model
@@ -136,6 +141,9 @@ struct RelitComparisonOptions {
   // where its key is the photographs' (RelitTable::cache_key); else one is
   // loaded or built.
   std::shared_ptr<const RelitTable> prepared;
+  // The relit layer (null: the model alone): each pixel's reconstruction
+  // gains its posterior discrepancy, as every relighting of the maps does.
+  const DiscrepancyLayer* discrepancy = nullptr;
 };
 // Over explained pixels (flag kExplained) with a finite photograph.
 std::vector<RelitComparison> compare_with_photographs(std::span<const estimation::PixelEstimate> estimates,
@@ -157,6 +165,18 @@ nlohmann::ordered_json neighbourhood_report(bool flags, bool order_pooling,
 nlohmann::ordered_json skin_denoise_report(const std::optional<estimation::SkinDenoiseOptions>& options,
                                            const estimation::SkinRefit* refit);
 
+// summary.json's "discrepancy_layer": whether the maps carry the relit layer
+// (layer null: off), its terms, the pixels given one and its seconds.
+nlohmann::ordered_json discrepancy_layer_report(const DiscrepancyLayer* layer);
+
+// The relit layer of an estimate chain's result (discrepancy_layer.hpp) when
+// terms > 0 and the estimator has a discrepancy, else empty: over the values
+// the estimates were fitted to (the multi-pixel estimate's where it ran).
+std::optional<DiscrepancyLayer> estimate_discrepancy_layer(const estimation::Estimator& estimator,
+                                                           std::span<const float> measured,
+                                                           std::span<const estimation::PixelEstimate> estimates,
+                                                           const estimation::SkinRefit* refit, int terms);
+
 // The estimator options a session's estimation starts from: EstimatorOptions'
 // defaults with the model's learned discrepancy on real skin
 // (estimation::ModelDiscrepancy::standard(), docs/estimation.md "Real skin").
@@ -173,6 +193,12 @@ struct MethodEstimationOptions {
   // (estimation/skin_refit.hpp; `chromo estimate --skin-denoise`, chromod's
   // estimation.skin_denoise); empty: off, the maps are the per-pixel pass's.
   std::optional<estimation::SkinDenoiseOptions> skin_denoise;
+  // The relit layer "model + discrepancy" (discrepancy_layer.hpp; `chromo
+  // estimate --discrepancy-layer`, chromod's estimation.discrepancy_layer):
+  // each explained pixel's posterior discrepancy stored in the maps and added
+  // by the relit comparison and every later relighting; 0 terms: off. Needs
+  // estimator.discrepancy (none: no layer).
+  int discrepancy_layer_terms = kDiscrepancyLayerTerms;
   estimation::TableGrid grid;
   std::filesystem::path cache_dir; // forward (and, unless estimator.cache_dir, inverse) tables; empty: default
   session::RegistrationOptions registration;

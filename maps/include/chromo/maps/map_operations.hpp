@@ -39,12 +39,16 @@ struct RelightOptions {
   std::string camera = "builtin:nikon_d5100";  // the photograph's camera: builtin:<name> or a CSV
   double heat_map_max = 0;           // ΔE94 at the top of the colour bar; 0 = the p95 clamped to [1, 5]
   int threads = 0;
+  // Add the maps' posterior discrepancy where they carry one (the relit layer
+  // "model + discrepancy", discrepancy_layer.hpp); false: the model alone.
+  bool discrepancy_layer = true;
 };
 struct RelightSummary {
   std::string illuminant;
   int width = 0, height = 0;
   std::size_t relit_pixels = 0;
   bool compared = false;             // a photograph was given
+  bool discrepancy_layer = false;    // the maps' discrepancy layer was added
   DeltaEStats photo_delta_e94;
   std::vector<std::filesystem::path> files;
   std::string json;

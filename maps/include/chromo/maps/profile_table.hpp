@@ -10,11 +10,13 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "chromo/files/output_batch.hpp"
 #include "chromo/files/progress.hpp"
+#include "chromo/maps/discrepancy_layer.hpp"
 #include "chromo/maps/radial_profile.hpp"
 
 namespace chromo::maps {
@@ -56,12 +58,15 @@ ProfileTable build_profile_table(const RadialProfileModel& model, const ProfileT
 void write_profile_table(files::OutputBatch& files, const ProfileTable& table);
 
 // estimation::Estimator maps as `chromo estimate` writes them (maps.exr: float channels
-// Cm, Ch, Bm, Che and flags).
+// Cm, Ch, Bm, Che and flags), and the relit layer "model + discrepancy" where
+// the maps carry it (discrepancy_layer.hpp; maps written before it have none).
 struct ParameterMaps {
   int width = 0, height = 0;
   std::vector<float> cm, ch, bm, che, flags;
+  std::optional<DiscrepancyLayer> discrepancy{};
 };
-// Throws std::runtime_error naming the file and what is missing.
+// Throws std::runtime_error naming the file and what is missing or malformed
+// (a discrepancy layer without its basis, or a basis that does not match it).
 ParameterMaps read_parameter_maps(const std::filesystem::path& maps_exr);
 
 inline constexpr std::uint32_t kNoProfileEntry = 0xFFFFFFFFu;

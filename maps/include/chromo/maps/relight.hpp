@@ -59,9 +59,12 @@ struct RelitImage {
   std::vector<std::uint8_t> valid;   // 1 = relit
 };
 
-// The forward model's albedo of every relightable pixel projected with
-// `weights` (3 × 81: linear_srgb_weights(), or a camera's camera_weights()).
-// Exact model (no table), in blocks, on `threads` threads (0 = all cores).
+// The forward model's albedo of every relightable pixel, plus its posterior
+// discrepancy where maps.discrepancy holds one (the relit layer "model +
+// discrepancy", discrepancy_layer.hpp; reset it to relight the model alone),
+// projected with `weights` (3 × 81: linear_srgb_weights(), or a camera's
+// camera_weights()). Exact model (no table), in blocks, on `threads` threads
+// (0 = all cores).
 RelitImage relight(const ParameterMaps& maps, const spectral::CameraWeights& weights,
                    int threads = 0);
 
