@@ -127,7 +127,7 @@ TEST(DiscrepancyLayer, EveryRelightingOfStoredMapsAddsItAndOldMapsRelightAsBefor
   DiscrepancyLayer layer;
   layer.basis = discrepancy_basis(*estimation::ModelDiscrepancy::standard(), 3);
   layer.coefficients.assign(3, std::vector<float>(6, 0.0f));
-  layer.coefficients[0][0] = 0.02f, layer.coefficients[2][0] = -0.01f;
+  layer.coefficients[0][0] = 0.08f, layer.coefficients[2][0] = -0.04f;
   files::FloatImage image{3, 2, {"Cm", "Ch", "Bm", "Che", "flags"}, {plain.cm, plain.ch, plain.bm, plain.che, plain.flags}};
   add_discrepancy_layer(image, layer);
   files::write_exr(dir / "maps.exr", image);
@@ -139,7 +139,7 @@ TEST(DiscrepancyLayer, EveryRelightingOfStoredMapsAddsItAndOldMapsRelightAsBefor
   EXPECT_FALSE(read_parameter_maps(dir / "old.exr").discrepancy.has_value());
   const spectral::CameraWeights srgb = linear_srgb_weights(spectral::illuminant_a());
   const RelitImage with = relight(stored, srgb, 1), without = relight(plain, srgb, 1);
-  const Eigen::Vector3d added = srgb * layer.basis.spectra * Eigen::Vector3d(0.02, 0.0, -0.01);
+  const Eigen::Vector3d added = srgb * layer.basis.spectra * Eigen::Vector3d(0.08, 0.0, -0.04);
   for (int c = 0; c < 3; ++c) {
     EXPECT_NEAR(with.rgb[c], without.rgb[c] + added(c), 1e-5);
     EXPECT_FLOAT_EQ(with.rgb[3 + c], without.rgb[3 + c]);  // a zero coefficient adds nothing
