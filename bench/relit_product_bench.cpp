@@ -1,0 +1,317 @@
+// The relit layers measured through the product (issue 37): real-skin scenes
+// of held-out NIST subjects (and scenes of model-rendered skin in the same
+// layout) written by `chromo make-real-skin-scene`'s library, estimated by
+// `chromo estimate MEASUREMENT.json`'s chain (registration, forward table from
+// the disk cache, the estimator with the learned discrepancy and, optionally,
+// the real-skin prior, the spatial pass with or without the multi-pixel
+// estimate, the relit layer), written as maps.exr by the product's report
+// writer, then relit from the stored maps.exr by the product's relight()
+// under D65 and A, with and without the maps' discrepancy layer.
+//
+// Held out: folds by subject index (subject i in fold i mod 5); the
+// discrepancy and the prior of a fold are learned from its 40 training
+// subjects only (the product's standard ones are learned from all 50), the
+// scene holds its 10 test subjects as patches (±3% texture, ink and marker).
+// Model scenes: 10 patches of the model's own albedo (parameters drawn from
+// the synthetic scenes' box, no texture), same camera, noise and fold's
+// statistics. Scored: relit ΔE94 against the truth spectrum (× its texture
+// scale), mean of D65 and A, over unflagged pixels at least 2 px inside their
+// patch (skin_mask.png); skin flagged and ink / marker caught.
+//
+//   relit_product_bench [--seeds 1,2] [--folds 0,1,2,3,4] [--plans method,six-leds] [--patch 32]
+//                       [--noise-scale 1] [--prior-widen 1] [--terms 6] [--out bench/results/relit_product]
+//
+// Writes DIR/relit_product.csv (one row per run) and DIR/relit_product.png
+// (mean relit ΔE94 per configuration, layer off and on).
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <unistd.h>
+
+#include "chart.hpp"
+#include "clocks.hpp"
+#include "guarded_main.hpp"
+#include "seed_spread.hpp"
+#include "chromo/estimation/parameter_prior.hpp"
+#include "chromo/estimation/skin_model.hpp"
+#include "chromo/estimation/spectrum_fit.hpp"
+#include "chromo/maps/estimate_report.hpp"
+#include "chromo/maps/relight.hpp"
+#include "chromo/session/measurement_file.hpp"
+#include "chromo/simulators/scene/real_skin_scene.hpp"
+#include "chromo/simulators/scene/synthetic.hpp"
+#include "chromo/spectral/cie.hpp"
+#include "chromo/spectral/delta_e.hpp"
+#include "chromo/spectral/lab_illuminants.hpp"
+
+namespace chromo::bench {
+namespace {
+
+namespace fs = std::filesystem;
+constexpr int kFolds = 5;
+
+// What one configuration runs with.
+struct Config {
+  std::string plan, scene;  // "method" / "six-leds"; "real" / "model"
+  bool prior = false, denoise = false;
+  std::string name() const {
+    return plan + (prior ? "+prior" : "") + " " + scene + (denoise ? " denoise-on" : " denoise-off");
+  }
+};
+
+struct Score {
+  double de[2] = {}, de_d65[2] = {}, de_a[2] = {};  // [layer off, on]: relit ΔE94 over the scored pixels
+  double skin_flagged = 0, ink_caught = 0, marker_caught = 0, seconds = 0;
+  std::size_t scored = 0, layer_pixels = 0;
+};
+
+// 3 × 81 weights giving XYZ of an albedo under the illuminant (relight()'s weights).
+spectral::CameraWeights xyz_weights(const spectral::Spectrum& illuminant) {
+  spectral::CameraWeights w;
+  for (int k = 0; k < spectral::kGridSize; ++k) {
+    spectral::Spectrum impulse;
+    impulse[k] = 1.0;
+    const spectral::Xyz x = spectral::xyz_of_reflectance(impulse, illuminant);
+    w(0, k) = x.X, w(1, k) = x.Y, w(2, k) = x.Z;
+  }
+  return w;
+}
+
+// The stored maps relit by the product (relight() from read_parameter_maps) against the scene's truth.
+Score score(const fs::path& maps_exr, const fs::path& scene, const std::vector<spectral::Spectrum>& spectra) {
+  const maps::ParameterMaps stored = maps::read_parameter_maps(maps_exr);
+  const files::FloatImage truth = files::read_exr(scene / "truth.exr");
+  const cv::Mat mask = cv::imread((scene / "skin_mask.png").string(), cv::IMREAD_GRAYSCALE);
+  const auto& index = truth.channel("spectrum");
+  const auto& scale = truth.channel("scale");
+  const auto& region = truth.channel("region");
+  const std::size_t pixels = index.size();
+  Score s;
+  s.layer_pixels = stored.discrepancy ? stored.discrepancy->pixels : 0;
+  std::size_t skin = 0, counts[3] = {}, flagged[3] = {};
+  for (std::size_t i = 0; i < pixels; ++i) {
+    const bool is_flagged = stored.flags[i] != 0.0f;
+    const int r = static_cast<int>(region[i]);
+    if (r >= 0 && r < 3) ++counts[r], flagged[r] += is_flagged;
+    if (mask.data[i] == 0) continue;
+    ++skin;
+    s.skin_flagged += is_flagged;
+  }
+  s.skin_flagged = skin ? s.skin_flagged / skin : 0;
+  s.ink_caught = counts[1] ? double(flagged[1]) / counts[1] : 0;
+  s.marker_caught = counts[2] ? double(flagged[2]) / counts[2] : 0;
+  for (int layer = 0; layer < 2; ++layer) {
+    maps::ParameterMaps m = stored;
+    if (!layer) m.discrepancy.reset();
+    for (int l = 0; l < 2; ++l) {
+      const spectral::Spectrum& light = l == 0 ? spectral::illuminant_d65() : spectral::illuminant_a();
+      const spectral::Xyz white = spectral::white_point(light);
+      const maps::RelitImage relit = maps::relight(m, xyz_weights(light), 2);
+      double sum = 0;
+      std::size_t n = 0;
+      for (std::size_t i = 0; i < pixels; ++i) {
+        if (mask.data[i] == 0 || stored.flags[i] != 0.0f || !relit.valid[i]) continue;
+        const spectral::Spectrum t(spectra[static_cast<std::size_t>(index[i])].values() * scale[i]);
+        const spectral::Xyz x{relit.rgb[3 * i], relit.rgb[3 * i + 1], relit.rgb[3 * i + 2]};
+        sum += spectral::delta_e94(spectral::lab_from_xyz(spectral::xyz_of_reflectance(t, light), white),
+                                   spectral::lab_from_xyz(x, white));
+        ++n;
+      }
+      (l == 0 ? s.de_d65 : s.de_a)[layer] = n ? sum / n : 0;
+      s.scored = n;
+    }
+    s.de[layer] = 0.5 * (s.de_d65[layer] + s.de_a[layer]);
+  }
+  return s;
+}
+
+// `chromo estimate MEASUREMENT.json`'s chain (cli/estimate_command.cpp) with the fold's statistics, maps.exr into `out`.
+void estimate_scene(const fs::path& scene, const fs::path& out, const fs::path& cache,
+                    std::shared_ptr<const estimation::ModelDiscrepancy> discrepancy,
+                    std::shared_ptr<const estimation::ParameterPrior> prior, bool denoise, int terms) {
+  session::MeasurementFile m = session::read_measurement_file(scene / "MEASUREMENT.json");
+  session::register_images(m);
+  const estimation::MeasurementSet set = m.measurement_set();
+  const std::vector<float> measured = m.pixel_major();
+  const auto table = estimation::ForwardTable::load_or_build(set, {}, cache, nullptr, 2);
+  estimation::EstimatorOptions eo = maps::default_estimator_options();
+  eo.threads = 2;
+  eo.discrepancy = std::move(discrepancy);
+  eo.prior = std::move(prior);
+  eo.cache_dir = cache.string();
+  eo.order_rule = estimation::EstimatorOptions::OrderRule::kLikelihoodRatio;  // pooled order, as the CLI
+  const estimation::Estimator estimator(table, set, eo);
+  std::vector<estimation::PixelEstimate> estimates(static_cast<std::size_t>(m.width) * m.height);
+  estimation::EstimateSummary summary = estimator.estimate(measured, estimates);
+  const std::optional<estimation::SkinDenoiseOptions> skin_denoise =
+      denoise ? std::optional(estimation::SkinDenoiseOptions{}) : std::nullopt;
+  const estimation::SpatialPass pass =
+      estimation::spatial_pass(estimator, measured, m.width, m.height, estimates, summary, {}, skin_denoise);
+  const std::optional<maps::DiscrepancyLayer> layer = maps::estimate_discrepancy_layer(
+      estimator, measured, estimates, pass.skin_refit ? &*pass.skin_refit : nullptr, terms);
+  maps::EstimateReport report;
+  report.method = std::string(estimator.inverter().name());
+  report.model = "auto";
+  report.width = m.width, report.height = m.height;
+  for (const auto& c : set.channels) report.channel_names.push_back(c.name);
+  report.estimates = estimates;
+  report.summary = summary;
+  report.discrepancy_layer = layer ? &*layer : nullptr;
+  fs::create_directories(out);
+  maps::write_estimate_report(out, report, [](const fs::path& path, const std::function<void(const fs::path&)>& produce) {
+    produce(path);
+  }, 1);
+}
+
+// The fold's training statistics: the discrepancy and the prior (widened) from its 40 training subjects.
+struct FoldStatistics {
+  std::shared_ptr<const estimation::ModelDiscrepancy> discrepancy;
+  std::shared_ptr<const estimation::ParameterPrior> prior;
+  std::vector<estimation::NamedSpectrum> test;
+};
+FoldStatistics fold_statistics(int fold, const std::vector<estimation::SkinParameters>& fits, double widen) {
+  const auto& spectra = estimation::nist_forearm_spectra();
+  const auto& residuals = estimation::nist_forearm_residuals();
+  std::vector<estimation::SpectrumResidual> train;
+  std::vector<estimation::SkinParameters> train_fits;
+  FoldStatistics out;
+  for (std::size_t i = 0; i < spectra.size(); ++i) {
+    if (static_cast<int>(i % kFolds) == fold) {
+      out.test.push_back(spectra[i]);
+    } else {
+      train.push_back(residuals[i]);
+      train_fits.push_back(fits[i]);
+    }
+  }
+  out.discrepancy = std::make_shared<const estimation::ModelDiscrepancy>(estimation::ModelDiscrepancy::learn(train));
+  out.prior = std::make_shared<const estimation::ParameterPrior>(estimation::ParameterPrior::learn(train_fits, widen));
+  return out;
+}
+
+// Ten patches of the model's own albedo, parameters drawn from the synthetic scenes' box.
+std::vector<estimation::NamedSpectrum> model_spectra(std::uint64_t seed) {
+  static const estimation::SkinModel model;
+  const simulators::SyntheticOptions box;
+  std::vector<estimation::NamedSpectrum> out;
+  for (const auto& p : simulators::random_skin_parameters(10, box.low, box.high, seed))
+    out.push_back({"model", model.albedo(p)});
+  return out;
+}
+
+struct Row {
+  Config config;
+  int fold;
+  std::uint64_t seed;
+  Score s;
+};
+
+void print_spread(const std::vector<Row>& rows, const std::vector<Config>& configs, std::vector<Bar>& bars) {
+  std::printf("\nspread over folds x seeds, mean [min, max] (load average now %.2f):\n", load_average());
+  std::printf("%-36s %-24s %-24s %-22s %-8s %-8s\n", "configuration", "relit dE94 model", "model + discrepancy",
+              "skin flagged %", "ink %", "marker %");
+  for (const Config& c : configs) {
+    std::vector<Row> of;
+    for (const Row& r : rows)
+      if (r.config.name() == c.name()) of.push_back(r);
+    if (of.empty()) continue;
+    const Spread off = spread(of, [](const Row& r) { return r.s.de[0]; });
+    const Spread on = spread(of, [](const Row& r) { return r.s.de[1]; });
+    const Spread fl = spread(of, [](const Row& r) { return 100 * r.s.skin_flagged; });
+    const Spread ink = spread(of, [](const Row& r) { return 100 * r.s.ink_caught; });
+    const Spread marker = spread(of, [](const Row& r) { return 100 * r.s.marker_caught; });
+    std::printf("%-36s %.3f [%.3f, %.3f]     %.3f [%.3f, %.3f]     %.2f [%.2f, %.2f]     %-8.1f %-8.1f\n",
+                c.name().c_str(), off.mean, off.lo, off.hi, on.mean, on.lo, on.hi, fl.mean, fl.lo, fl.hi, ink.mean,
+                marker.mean);
+    bars.push_back({c.name() + " model", off.mean});
+    bars.push_back({c.name() + " +disc", on.mean});
+  }
+}
+
+int run(int argc, char** argv) {
+  CLI::App app{"the relit layers through the product's estimate chain and relight, held-out real skin and model skin"};
+  std::vector<std::uint64_t> seeds{1, 2};
+  std::vector<int> folds{0, 1, 2, 3, 4};
+  std::vector<std::string> plans{"method", "six-leds"};
+  int patch = 32, terms = maps::kDiscrepancyLayerTerms;
+  double noise_scale = 1, widen = 1;
+  fs::path out = "bench/results/relit_product";
+  app.add_option("--seeds", seeds, "scene seeds")->delimiter(',');
+  app.add_option("--folds", folds, "folds (0-4) to run")->delimiter(',')->check(CLI::Range(0, kFolds - 1));
+  app.add_option("--plans", plans, "method and/or six-leds")->delimiter(',');
+  app.add_option("--patch", patch, "patch side per subject (px)")->check(CLI::Range(8, 512));
+  app.add_option("--noise-scale", noise_scale, "camera noise x four frames of a 40,000 e- sensor")->check(CLI::Range(0.0, 16.0));
+  app.add_option("--prior-widen", widen, "the real-skin prior's widening (the product's --prior real-skin: 1)")
+      ->check(CLI::Range(1.0, 10.0));
+  app.add_option("--terms", terms, "the relit layer's basis size")->check(CLI::Range(1, 81));
+  app.add_option("--out", out, "results folder");
+  CLI11_PARSE(app, argc, argv);
+
+  std::printf("relit_product_bench: patch %d px, noise x%g, prior widen %g, %d terms, load average %.2f\n", patch,
+              noise_scale, widen, terms, load_average());
+  const auto& all = estimation::nist_forearm_spectra();
+  std::vector<estimation::SkinParameters> fits(all.size());
+#pragma omp parallel for schedule(dynamic)
+  for (std::size_t i = 0; i < all.size(); ++i) fits[i] = estimation::fit_spectrum(all[i].albedo).parameters;
+  std::vector<Config> configs;
+  for (const std::string& plan : plans)
+    for (const char* scene : {"real", "model"})
+      for (const bool prior : plan == "method" ? std::vector<bool>{false, true} : std::vector<bool>{false})
+        for (const bool denoise : {false, true}) configs.push_back({plan, scene, prior, denoise});
+  const fs::path scratch = fs::temp_directory_path() / ("relit_product_bench-" + std::to_string(::getpid()));
+  const fs::path cache = estimation::ForwardTable::default_cache_dir();
+  fs::create_directories(out);
+  std::ofstream csv(out / "relit_product.csv");
+  csv << "plan,scene,prior,denoise,fold,seed,relit_model,relit_model_disc,d65_model,d65_disc,a_model,a_disc,skin_flagged,"
+         "ink_caught,marker_caught,scored_pixels,layer_pixels,seconds,load_average\n";
+  std::vector<Row> rows;
+  for (const int fold : folds) {
+    const FoldStatistics stats = fold_statistics(fold, fits, widen);
+    for (const std::uint64_t seed : seeds)
+      for (const Config& c : configs) {
+        simulators::RealSkinSceneOptions o;
+        o.spectra = c.scene == "real" ? stats.test : model_spectra(seed * 100 + static_cast<std::uint64_t>(fold));
+        o.texture_relative = c.scene == "real" ? 0.03 : 0.0;
+        o.patch_px = patch, o.plan = c.plan, o.noise_scale = noise_scale, o.seed = seed * 100 + static_cast<std::uint64_t>(fold);
+        o.threads = 2;
+        const fs::path scene = scratch / "scene", maps_dir = scratch / "maps";
+        fs::remove_all(scratch);
+        simulators::write_real_skin_scene(scene, o);
+        const auto start = std::chrono::steady_clock::now();
+        estimate_scene(scene, maps_dir, cache, stats.discrepancy, c.prior ? stats.prior : nullptr, c.denoise, terms);
+        std::vector<spectral::Spectrum> truth;
+        for (const auto& n : o.spectra) truth.push_back(n.albedo);
+        Row row{c, fold, seed, score(maps_dir / "maps.exr", scene, truth)};
+        row.s.seconds = seconds_since(start);
+        std::printf("%-36s fold %d seed %llu: relit %.3f -> %.3f (D65 %.3f -> %.3f, A %.3f -> %.3f), skin flagged %.2f%%, "
+                    "ink %.1f%%, marker %.1f%%, %zu px scored, %.1f s\n",
+                    c.name().c_str(), fold, static_cast<unsigned long long>(seed), row.s.de[0], row.s.de[1],
+                    row.s.de_d65[0], row.s.de_d65[1], row.s.de_a[0], row.s.de_a[1], 100 * row.s.skin_flagged,
+                    100 * row.s.ink_caught, 100 * row.s.marker_caught, row.s.scored, row.s.seconds);
+        std::fflush(stdout);
+        csv << c.plan << "," << c.scene << "," << c.prior << "," << c.denoise << "," << fold << "," << seed << ","
+            << row.s.de[0] << "," << row.s.de[1] << "," << row.s.de_d65[0] << "," << row.s.de_d65[1] << ","
+            << row.s.de_a[0] << "," << row.s.de_a[1] << "," << row.s.skin_flagged << "," << row.s.ink_caught << ","
+            << row.s.marker_caught << "," << row.s.scored << "," << row.s.layer_pixels << "," << row.s.seconds << ","
+            << load_average() << std::endl;
+        rows.push_back(row);
+      }
+  }
+  fs::remove_all(scratch);
+  std::vector<Bar> bars;
+  print_spread(rows, configs, bars);
+  write_bar_chart(out / "relit_product.png", "relit dE94 (mean of D65, A) through the product: model vs model + discrepancy",
+                  "relit dE94, unflagged patch-interior pixels", bars);
+  return 0;
+}
+
+}  // namespace
+}  // namespace chromo::bench
+
+int main(int argc, char** argv) { return chromo::bench::guarded_main("relit_product_bench", chromo::bench::run, argc, argv); }
