@@ -33,9 +33,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "chromo/estimation/discrepancy_scale.hpp"
 #include "chromo/estimation/estimator.hpp"
-#include "chromo/estimation/model_discrepancy.hpp"
 #include "chromo/estimation/forward_table.hpp"
 #include "chromo/estimation/spatial_flags.hpp"
 #include "chromo/files/gnuplot_chart.hpp"
@@ -72,10 +70,6 @@ struct SeedResult {
 
 // The auto model's appearance factor k (--order-factor; the default's unless given).
 double order_factor = estimation::EstimatorOptions{}.order_appearance_factor;
-// --discrepancy learned: the model's learned discrepancy on real skin, as the
-// product's default (none here unless asked: the bench's history is without);
-// --discrepancy-scale frame: then the frame's scale of it (discrepancy_scale.hpp).
-bool learned_discrepancy = false, frame_scale = false;
 
 // One configuration on one measurement: per pixel, then the spatial pass.
 std::vector<estimation::PixelEstimate> estimate(std::shared_ptr<const estimation::ForwardTable> table,
@@ -89,12 +83,7 @@ std::vector<estimation::PixelEstimate> estimate(std::shared_ptr<const estimation
                                   : estimation::ModelChoice::kAuto;
   // As the daemon and `chromo estimate` do: with the pooled order, the per-pixel rule is the likelihood ratio.
   if (config == kAuto) options.order_rule = estimation::EstimatorOptions::OrderRule::kLikelihoodRatio;
-  if (learned_discrepancy) options.discrepancy = estimation::ModelDiscrepancy::standard();
-  const estimation::Estimator base(table, set, options);
-  const estimation::FrameEstimator framed =
-      frame_scale ? estimation::frame_estimator(base, measured) : estimation::FrameEstimator{base, {}};
-  const estimation::Estimator& estimator = framed.estimator;
-  if (framed.scale.scale > 1) std::fprintf(stderr, "  discrepancy scale %.3g (weight of the frame's term %.3g)\n", framed.scale.scale, framed.scale.weight);
+  const estimation::Estimator estimator(table, set, options);
   std::vector<estimation::PixelEstimate> e(measured.size() / static_cast<std::size_t>(set.size()));
   estimation::EstimateSummary summary = estimator.estimate(measured, e);
   estimation::NeighbourhoodOptions no;
@@ -238,13 +227,6 @@ int run(int argc, char** argv) {
   bool tuning_only = false;
   app.add_option("--order-factor", order_factor, "the auto model's appearance factor k (tuning)");
   app.add_flag("--tuning-only", tuning_only, "the tuning seed alone (for --order-factor sweeps)");
-  std::string discrepancy = "none", discrepancy_scale = "off";
-  app.add_option("--discrepancy", discrepancy, "learned: the model's learned discrepancy (the product's default); none")
-      ->check(CLI::IsMember({"learned", "none"}))
-      ->capture_default_str();
-  app.add_option("--discrepancy-scale", discrepancy_scale, "frame: the frame's scale of the learned discrepancy; off")
-      ->check(CLI::IsMember({"frame", "off"}))
-      ->capture_default_str();
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -255,9 +237,6 @@ int run(int argc, char** argv) {
                  static_cast<unsigned long long>(kTuningSeed));
     return 2;
   }
-  learned_discrepancy = discrepancy == "learned";
-  frame_scale = discrepancy_scale == "frame";
-  std::printf("discrepancy %s, scale %s; ", discrepancy.c_str(), discrepancy_scale.c_str());
   std::printf("plan %s: ", plan_name.c_str());
   std::printf("fast inverter on %dx%d-sensor lab sessions (%dx%d cells); auto = the default (spatial pass with "
               "the pooled likelihood-ratio order); no-pool = the appearance order rule per pixel, k = %.3g\n",
