@@ -9,9 +9,9 @@
 // told at the frame level instead: the frame's own common residual joins the
 // discrepancy and the report says so. Measured (docs/estimation.md): it
 // clears subject_006's skin (six LEDs: 72% flagged -> 0.3%) but its ink
-// passes too (61% caught -> 4%), so the products keep it off by default
-// (`chromo estimate --discrepancy-scale frame`, chromod's
-// estimation.discrepancy_scale).
+// passes too (61% caught -> 4%), so the products do not use it (their
+// wiring, off by default, is on branch flags37-wiring, not landed);
+// real_skin_bench measures it.
 //
 // The statistic. From the frame, up to sample_pixels pixels evenly strided
 // (cells not fitted, non-finite, saturated and dark ones left out) are
