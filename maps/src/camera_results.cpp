@@ -133,12 +133,15 @@ std::vector<CameraEstimate> estimate_session_cameras(const SessionCamerasInput& 
     e.camera = camera;
     e.camera_sensitivity = input.builder->sensitivity_source(camera);
     e.result = estimate_camera(input, camera, options, results_dir, commit, progress);
+    e.result->maps.reset();  // no common view of one camera
     e.ok = true;
     return {std::move(e)};
   }
   std::vector<CameraEstimate> out = estimate_cameras_at_once(input, names, options, results_dir, commit, progress);
   mark_shared_tables(out);
   add_common_views(out, results_dir, commit);
+  for (auto& camera : out)
+    if (camera.result) camera.result->maps.reset();  // the maps' memory back before the next session
   const std::string index = camera_results_index_json(out, input.extra);
   commit(results_dir / "summary.json", [&](const fs::path& temporary) {
     std::ofstream out(temporary);

@@ -338,9 +338,9 @@ void commit_bytes(const FileCommit& commit, const fs::path& path, std::span<cons
 }  // namespace
 
 std::string write_estimate_report(const fs::path& dir, const EstimateReport& report, const FileCommit& commit,
-                                  int writer_threads) {
+                                  int writer_threads, std::shared_ptr<const files::FloatImage>* maps_written) {
   const int threads = files::exr_writer_threads(writer_threads);
-  const ReportMaps maps = report_maps(report);
+  ReportMaps maps = report_maps(report);
   const std::string summary_text = report_summary_text(report, maps);
   const files::ExrWriteOptions exr{threads};
   const std::vector<EncodedFile> encoded = encode_previews_while(report, maps, threads, [&] {
@@ -351,6 +351,7 @@ std::string write_estimate_report(const fs::path& dir, const EstimateReport& rep
   for (const EncodedFile& e : encoded) commit_bytes(commit, dir / e.file, e.bytes);
   commit_bytes(commit, dir / "summary.json",
                {reinterpret_cast<const std::uint8_t*>(summary_text.data()), summary_text.size()});
+  if (maps_written) *maps_written = std::make_shared<const files::FloatImage>(std::move(maps.maps));
   return summary_text;
 }
 
@@ -764,7 +765,7 @@ MethodEstimationResult estimate_and_report(const session::Measurement& m, const 
   report.extra_channels = polarisation.channels;
   if (!polarisation.panel.empty()) report.extra_pngs.emplace_back("polarisation.png", polarisation.panel);
   const auto writing = std::chrono::steady_clock::now();
-  result.summary_json = write_estimate_report(out_dir, report, commit, options.writer_threads);
+  result.summary_json = write_estimate_report(out_dir, report, commit, options.writer_threads, &result.maps);
   result.timings_s = report.timings_s;
   result.timings_s.insert(result.timings_s.begin() + 3, std::pair<std::string, double>("estimate", result.summary.seconds));
   result.timings_s.emplace_back("writing", seconds_since(writing));

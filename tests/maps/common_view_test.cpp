@@ -7,7 +7,13 @@
 
 #include <cmath>
 
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <memory>
+
 #include "chromo/estimation/pixel_flags.hpp"
+#include "chromo/maps/camera_results.hpp"
 #include "chromo/maps/common_view.hpp"
 
 namespace chromo::maps {
@@ -76,6 +82,61 @@ TEST(CommonView, ATargetNotWhollyInViewIsRefusedNamingTheMaps) {
   auto none = flags_inside({{30, 20}, {130, 20}, {130, 100}, {30, 100}});
   std::fill(none.channels[1].begin(), none.channels[1].end(), kOutside);
   EXPECT_THROW(find_target_outline(none, "x"), std::invalid_argument);
+}
+
+// Two cameras' estimates whose maps.exr are written under `dir` (their
+// channels in the report's order, not the file's) and kept in memory.
+std::vector<CameraEstimate> two_cameras_written(const std::filesystem::path& dir) {
+  const std::vector<std::vector<cv::Point2f>> quads = {{{30.3f, 20.6f}, {131.2f, 25.1f}, {127.4f, 98.2f}, {34.1f, 95.7f}},
+                                                       {{20.8f, 15.2f}, {110.5f, 22.9f}, {118.3f, 103.4f}, {25.6f, 90.1f}}};
+  std::vector<CameraEstimate> cameras(2);
+  for (int k = 0; k < 2; ++k) {
+    files::FloatImage maps = flags_inside(quads[k]);
+    std::swap(maps.channel_names[0], maps.channel_names[1]), std::swap(maps.channels[0], maps.channels[1]);
+    CameraEstimate& camera = cameras[k];
+    camera.camera = camera.folder = "cam" + std::to_string(k);
+    camera.ok = true;
+    std::filesystem::create_directories(dir / camera.folder);
+    files::write_exr(dir / camera.folder / "maps.exr", maps);
+    camera.result.emplace();
+    camera.result->maps = std::make_shared<const files::FloatImage>(std::move(maps));
+  }
+  return cameras;
+}
+
+std::string file_bytes(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+TEST(CommonView, TheMapsInMemoryGiveTheCommonViewTheFilesGiveByteForByte) {
+  const std::filesystem::path dir = std::filesystem::path(testing::TempDir()) / "common_view_in_memory";
+  std::filesystem::remove_all(dir);
+  const FileCommit commit = [](const std::filesystem::path& path,
+                               const std::function<void(const std::filesystem::path&)>& produce) { produce(path); };
+  std::vector<CameraEstimate> from_memory = two_cameras_written(dir / "memory"), from_files = two_cameras_written(dir / "files");
+  for (auto& camera : from_files) camera.result->maps.reset();
+  add_common_views(from_memory, dir / "memory", commit);
+  add_common_views(from_files, dir / "files", commit);
+  ASSERT_TRUE(from_memory[1].common_view && from_files[1].common_view);
+  ASSERT_EQ(from_memory[1].common_view->reason, "");
+  EXPECT_EQ(from_memory[1].common_view->mapping.to_reference, from_files[1].common_view->mapping.to_reference);
+  const std::string memory_file = file_bytes(dir / "memory" / "cam1" / "common_view.exr");
+  EXPECT_GT(memory_file.size(), 1000u);
+  EXPECT_EQ(memory_file, file_bytes(dir / "files" / "cam1" / "common_view.exr"));
+}
+
+TEST(CommonView, AMapsFileNotInPlaceGivesNoCommonViewEvenWithTheMapsInMemory) {
+  // chromo estimate stages its files until the end: no common view there, as before.
+  const std::filesystem::path dir = std::filesystem::path(testing::TempDir()) / "common_view_staged";
+  std::filesystem::remove_all(dir);
+  std::vector<CameraEstimate> cameras = two_cameras_written(dir);
+  std::filesystem::remove(dir / "cam0" / "maps.exr");
+  add_common_views(cameras, dir, [](const std::filesystem::path& path,
+                                    const std::function<void(const std::filesystem::path&)>& produce) { produce(path); });
+  ASSERT_TRUE(cameras[1].common_view);
+  EXPECT_NE(cameras[1].common_view->reason.find("maps.exr"), std::string::npos) << cameras[1].common_view->reason;
+  EXPECT_FALSE(std::filesystem::exists(dir / "cam1" / "common_view.exr"));
 }
 
 }  // namespace

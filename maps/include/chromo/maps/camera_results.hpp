@@ -95,7 +95,8 @@ std::vector<CameraEstimate> estimate_session_cameras(const SessionCamerasInput& 
                                                      const files::Progress& progress = {});
 
 // Adds every ok camera's common view (several cameras with maps): reads
-// each camera's maps.exr under results_dir, finds the white target's outline,
+// each camera's maps.exr under results_dir (from the estimate's copy in
+// memory, MethodEstimationResult::maps, where the file is in place), finds the white target's outline,
 // maps it onto the reference camera's and writes common_view.exr through
 // `commit`. A camera whose outline cannot be found gets its reason (and the
 // reference's own failure gives every camera that reason); nothing throws

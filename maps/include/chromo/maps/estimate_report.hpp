@@ -40,6 +40,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "chromo/files/float_image.hpp"
 #include "chromo/estimation/estimator.hpp"
 #include "chromo/session/method_measurement.hpp"
 #include "chromo/maps/reconstruction.hpp"
@@ -87,8 +88,11 @@ std::vector<ChannelSnr> channel_snr(const estimation::MeasurementSet& set, std::
 // are drawn and PNG-encoded in parallel while maps.exr is compressed on
 // OpenEXR's pool (files::ExrWriteOptions); `commit` is still called for one
 // file at a time, from the calling thread, in the order listed above.
+// maps_written (optional): set to maps.exr's channels as written (the
+// common view reads them from memory instead of decoding the file again).
 std::string write_estimate_report(const std::filesystem::path& dir, const EstimateReport& report,
-                                  const FileCommit& commit, int writer_threads = 0);
+                                  const FileCommit& commit, int writer_threads = 0,
+                                  std::shared_ptr<const files::FloatImage>* maps_written = nullptr);
 
 // ΔE94 of the reconstruction against one captured photograph.
 struct RelitComparison {
@@ -213,6 +217,9 @@ struct MethodEstimationResult {
   // (the report's files), which summary.json cannot hold.
   std::vector<std::pair<std::string, double>> timings_s;
   double seconds(const std::string& stage) const;  // 0 when absent
+  // maps.exr's channels as written (its report's order), for the common
+  // view of several cameras; estimate_session_cameras releases them after it.
+  std::shared_ptr<const files::FloatImage> maps;
 };
 
 // The forward table and the inverter of one measurement set, made before the
