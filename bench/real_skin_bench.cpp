@@ -74,6 +74,7 @@
 #include "chromo/spectral/delta_e.hpp"
 #include "chromo/spectral/lab_illuminants.hpp"
 #include "guarded_main.hpp"
+#include "frame_scale.hpp"
 #include "real_skin_camera.hpp"
 
 namespace chromo::bench {
@@ -82,15 +83,17 @@ namespace {
 using simulators::SyntheticKind;
 constexpr int kFolds = 5;
 // today: camera noise only; learned: + the discrepancy of the fold's training
-// subjects; "prior xW": + the parameter prior learned from their 4D fits,
-// widened W× (parameter_prior.hpp), one per --prior-widen.
-std::vector<std::string> statistics(const std::vector<double>& widen) {
-  std::vector<std::string> out{"today", "learned"};
-  for (double w : widen) {
-    char name[32];
-    std::snprintf(name, sizeof name, "prior x%g", w);
-    out.push_back(name);
-  }
+// subjects; "subj-s": learned, scaled per held-out subject's frame by the
+// frame statistic (estimation/discrepancy_scale.hpp, frame_scale.hpp);
+// "frame-s": the same statistic over the whole scene (the old one-frame
+// layout); "disc xS": learned × S on every pixel, one per --forced-scales;
+// "prior xW": + the parameter prior learned from their 4D fits, widened W×
+// (parameter_prior.hpp), one per --prior-widen.
+std::vector<std::string> statistics(const std::vector<double>& widen, const std::vector<double>& forced) {
+  std::vector<std::string> out{"today", "learned", "subj-s", "frame-s"};
+  char name[32];
+  for (double f : forced) std::snprintf(name, sizeof name, "disc x%g", f), out.push_back(name);
+  for (double w : widen) std::snprintf(name, sizeof name, "prior x%g", w), out.push_back(name);
   return out;
 }
 
@@ -143,6 +146,7 @@ struct Run {
   double within_2sigma_log_ch = 0;  // |ln(Ch/Ch_ref)| ≤ 2σ_Ch/Ch: the same σ read as relative (log) spread
   std::size_t explained_skin = 0;
   std::vector<double> flagged_per_spectrum;  // real skin: each held-out spectrum's flagged share
+  std::vector<double> scales, weights;       // each part's frame scale and its own term's weight (frame_scale.hpp)
 };
 
 Run evaluate(const RealSkinPlan& plan, const simulators::SyntheticFrame& frame, const std::vector<float>& measured,
@@ -150,22 +154,24 @@ Run evaluate(const RealSkinPlan& plan, const simulators::SyntheticFrame& frame, 
              std::shared_ptr<const estimation::ModelDiscrepancy> discrepancy,
              std::shared_ptr<const estimation::ParameterPrior> prior, int prior_max_channels,
              const estimation::DiscrepancyPosterior& posterior, const estimation::DiscrepancyPosterior& posterior_mean,
-             int width, const estimation::SkinDenoiseOptions& denoise_options) {
+             int width, const estimation::SkinDenoiseOptions& denoise_options, const FrameScaleMode& scale_mode) {
   estimation::EstimatorOptions options;
   options.threads = 2;
+  options.tile_pixels = 256;  // both threads on one subject's patch too
   options.prior_max_channels = prior_max_channels;
   options.discrepancy = std::move(discrepancy);
   options.prior = std::move(prior);
   const estimation::Estimator estimator(plan.table, plan.set, options);
+  const std::vector<ScaledPart> parts = scaled_parts(estimator, measured, scale_mode, static_cast<std::size_t>(width));
   std::vector<estimation::PixelEstimate> e(frame.pixels());
-  estimator.estimate(measured, e);
+  estimate_parts(parts, measured, e);
   std::vector<std::uint8_t> skin_like(frame.pixels());
   for (std::size_t i = 0; i < frame.pixels(); ++i) skin_like[i] = e[i].flag == estimation::PixelFlag::kExplained;
   const int height = static_cast<int>(frame.pixels() / width);
   const estimation::DenoisedChannels denoised =
       estimation::denoise_skin_channels(measured, width, height, plan.set, skin_like, denoise_options);
   std::vector<estimation::PixelEstimate> e_dn(frame.pixels());
-  estimator.estimate(denoised.values, e_dn);
+  estimate_parts(parts, denoised.values, e_dn);
   static const estimation::SkinModel model;
   const Eigen::MatrixXd weights = plan.set.weights();
   // The posterior discrepancy of pixel i fitted as `fitted` from channel values `values`, whose
@@ -190,6 +196,7 @@ Run evaluate(const RealSkinPlan& plan, const simulators::SyntheticFrame& frame, 
   const bool real = !frame.spectrum_index.empty();
   std::size_t count[simulators::kSyntheticKindCount] = {}, flagged[simulators::kSyntheticKindCount] = {};
   Run r;
+  for (const ScaledPart& p : parts) r.scales.push_back(p.scale), r.weights.push_back(p.weight);
   std::vector<double> ratios[4];
   std::size_t within[4] = {}, within_log_ch = 0, order4 = 0, skin_fitted = 0;
   std::vector<std::size_t> per_count(spectra.size()), per_flagged(spectra.size());
@@ -321,6 +328,15 @@ int run(int argc, char** argv) {
   app.add_option("--denoise-radius", denoise.radius_px, "the multi-pixel estimate's window radius (px)")->capture_default_str();
   app.add_option("--denoise-quantile", denoise.agreement_quantile, "the multi-pixel estimate's agreement quantile")
       ->capture_default_str();
+  std::vector<double> forced_scales;
+  app.add_option("--forced-scales", forced_scales, "learned discrepancy x S on every pixel, one statistic each (the ink check)")
+      ->delimiter(',');
+  FrameScaleMode subject_scale{FrameScaleMode::kPerSubject}, frame_scale{FrameScaleMode::kOneFrame};
+  app.add_option("--max-weight", subject_scale.options.max_weight, "the bound of the frame term's weight")->capture_default_str();
+  std::vector<std::string> only_statistics;
+  app.add_option("--statistics", only_statistics, "run only these statistics (default all)")->delimiter(',');
+  bool loso = false;
+  app.add_flag("--loso", loso, "print the training subjects' leave-one-subject-out frame scales per fold, plan and noise");
   app.add_option("--out", out, "output directory");
   CLI11_PARSE(app, argc, argv);
   for (double s : noise_scales)
@@ -330,7 +346,25 @@ int run(int argc, char** argv) {
   const auto& all_residuals = estimation::nist_forearm_residuals();
   for (double w : prior_widen)
     if (!(w >= 1)) throw std::invalid_argument("--prior-widen: every factor must be >= 1");
-  const std::vector<std::string> kStatistics = statistics(prior_widen);
+  for (double f : forced_scales)
+    if (!(f > 0)) throw std::invalid_argument("--forced-scales: every scale must be > 0");
+  if (!(subject_scale.options.max_weight >= 0)) throw std::invalid_argument("--max-weight must be >= 0");
+  frame_scale.options = subject_scale.options;
+  std::vector<std::string> kStatistics;
+  for (const std::string& name : statistics(prior_widen, forced_scales))
+    if (only_statistics.empty() || std::find(only_statistics.begin(), only_statistics.end(), name) != only_statistics.end())
+      kStatistics.push_back(name);
+  if (kStatistics.empty()) throw std::invalid_argument("--statistics: none of the statistics named");
+  auto scale_mode_of = [&](const std::string& statistic) {
+    if (statistic == "subj-s") return subject_scale;
+    if (statistic == "frame-s") return frame_scale;
+    for (double f : forced_scales) {
+      char name[32];
+      std::snprintf(name, sizeof name, "disc x%g", f);
+      if (statistic == name) return FrameScaleMode{FrameScaleMode::kFixed, f, {}};
+    }
+    return FrameScaleMode{};
+  };
   std::vector<RealSkinPlan> plan_list;
   for (RealSkinPlan& p : plans())
     if (std::find(plan_names.begin(), plan_names.end(), p.name) != plan_names.end()) plan_list.push_back(std::move(p));
@@ -366,9 +400,37 @@ int run(int argc, char** argv) {
     for (std::size_t i = 0; i < all_spectra.size(); ++i)
       if (static_cast<int>(i % kFolds) != fold) train_fits.push_back(all_references[i].at[1]);
     std::map<std::string, std::shared_ptr<const estimation::ParameterPrior>> priors;  // by statistic
-    for (std::size_t k = 0; k < prior_widen.size(); ++k)
-      priors[kStatistics[2 + k]] =
-          std::make_shared<const estimation::ParameterPrior>(estimation::ParameterPrior::learn(train_fits, prior_widen[k]));
+    for (double w : prior_widen) {
+      char name[32];
+      std::snprintf(name, sizeof name, "prior x%g", w);
+      priors[name] = std::make_shared<const estimation::ParameterPrior>(estimation::ParameterPrior::learn(train_fits, w));
+    }
+    if (loso)
+      for (const RealSkinPlan& plan : plan_list)
+        for (double scale : noise_scales) {
+          estimation::MeasurementSet set = plan.set;
+          simulators::set_exposure_noise(set, real_skin_camera_noise(scale));
+          estimation::EstimatorOptions eo;
+          eo.threads = 2;
+          eo.discrepancy = learned;
+          const estimation::Estimator base(plan.table, set, eo);
+          std::vector<spectral::Spectrum> train_spectra;
+          std::vector<std::string> train_names;
+          for (std::size_t i = 0; i < all_spectra.size(); ++i)
+            if (static_cast<int>(i % kFolds) != fold) train_spectra.push_back(all_spectra[i].albedo), train_names.push_back(all_spectra[i].name);
+          const auto loo = leave_one_out_scales(base, set, train, train_spectra, patch, seeds.front());
+          std::vector<std::size_t> order(loo.size());
+          for (std::size_t k = 0; k < loo.size(); ++k) order[k] = k;
+          std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return loo[a].first > loo[b].first; });
+          std::printf("loso fold %d %-8s noise %.2f: scale (weight) largest %.3g (%.3g, %s), %.3g (%.3g, %s), %.3g (%.3g, %s); "
+                      "median %.3g; >1: %zu of %zu\n",
+                      fold, plan.name.c_str(), scale, loo[order[0]].first, loo[order[0]].second, train_names[order[0]].c_str(),
+                      loo[order[1]].first, loo[order[1]].second, train_names[order[1]].c_str(), loo[order[2]].first,
+                      loo[order[2]].second, train_names[order[2]].c_str(), loo[order[loo.size() / 2]].first,
+                      static_cast<std::size_t>(std::count_if(loo.begin(), loo.end(), [](const auto& v) { return v.first > 1; })),
+                      loo.size());
+          std::fflush(stdout);
+        }
     for (const RealSkinPlan& plan : plan_list)
       for (double scale : noise_scales)
         for (std::uint64_t seed : seeds)
@@ -393,7 +455,8 @@ int run(int argc, char** argv) {
               rows.push_back({test_names, plan.name, scene, statistic, scale, seed, fold,
                               evaluate(declared, frame, noisy, test, references, statistic == "today" ? nullptr : learned,
                                        priors.contains(statistic) ? priors.at(statistic) : nullptr, prior_max_channels,
-                                       posteriors.at(plan.name), posteriors_mean.at(plan.name), patch, denoise)});
+                                       posteriors.at(plan.name), posteriors_mean.at(plan.name), patch, denoise,
+                                       scale_mode_of(statistic))});
           }
     std::fprintf(stderr, "fold %d of %d done\n", fold + 1, kFolds);
   }
@@ -432,6 +495,15 @@ int run(int argc, char** argv) {
         std::printf("  %-8s %-7s noise %.2f seed %llu fold %d: %s %.1f%%\n", row.plan.c_str(), row.statistic.c_str(),
                     row.noise_scale, static_cast<unsigned long long>(row.seed), row.fold, row.subjects[p].c_str(),
                     100 * row.r.flagged_per_spectrum[p]);
+
+  std::printf("\nframe scales above 1 (subj-s: per held-out subject; frame-s: the whole scene), scale (weight of the frame's own term):\n");
+  for (const Row& row : rows)
+    for (std::size_t p = 0; p < row.r.scales.size(); ++p)
+      if (row.r.scales[p] > 1 && (row.statistic == "subj-s" || row.statistic == "frame-s"))
+        std::printf("  %-8s %-5s %-7s noise %.2f seed %llu fold %d: %s %.3g (%.3g)\n", row.plan.c_str(), row.scene.c_str(),
+                    row.statistic.c_str(), row.noise_scale, static_cast<unsigned long long>(row.seed), row.fold,
+                    row.statistic == "frame-s" ? "scene" : row.scene == "real" ? row.subjects[p].c_str() : ("part " + std::to_string(p)).c_str(),
+                    row.r.scales[p], row.r.weights[p]);
 
   std::printf("\nspread over %d folds x %zu seeds, mean [min, max]:\n", kFolds, seeds.size());
   std::printf("%-8s %-5s %-7s %5s  %-22s %-22s %-22s %-22s %-8s %-8s %-8s %-8s %-6s %-6s %-8s\n", "plan", "scene", "stat",

@@ -1,20 +1,28 @@
-// Registration of a still subject (issues 37 and 39): real-skin scenes
-// (`chromo make-real-skin-scene`'s: held-out NIST forearms 041-050 as
-// textured patches with ink and marker, four frames of a 40,000 e⁻ sensor),
-// whose captures did not move, registered as `chromo estimate` registers a
+// Registration of a still subject, and of one moved by a known sub-pixel
+// shift (issues 37 and 39): real-skin scenes (`chromo make-real-skin-scene`'s:
+// NIST forearms as textured patches with ink and marker), rendered noise-free,
+// every capture after the first moved by t · (0.8, 0.6) px (t = 0: still),
+// then the declared noise of four frames of a 40,000 e⁻ sensor added
+// (still_scene_captures.hpp), registered as `chromo estimate` registers a
 // MEASUREMENT.json (session::register_images), side by side in one run:
-//   before: every pyramid level, the warp and the full-resolution residual
-//           check (RegistrationOptions::decide_still_at_coarse_level = false);
-//   after:  the still subject decided on the coarse levels (the default).
-// Per plan (method, six-leds) and seed: the wall time of registering every
-// image, the captures warped, the largest corner motion found, and the
-// pixels left non-finite (what the estimator flags non_finite); then the
-// spread (mean [min, max]) over the seeds.
+//   before: ECC on the channel as it is (RegistrationSignal::kIntensity);
+//   after:  ECC on the channel less its local mean (kLessLocalMean, the default).
+// Per plan, subject set, seed and motion: the wall time of registering every
+// image, the captures warped, the largest corner motion found, the largest
+// corner error of what was applied (the identity when not warped) against
+// the true motion, the largest registration noise, and the pixels left
+// non-finite; then the spread (mean [min, max]) over subject sets and seeds.
 //
-//   still_registration_bench [--seeds 1,2,3] [--patch 128] [--plans method,six-leds] [--out DIR] [--no-chart]
+// --cause: why a still scene moves (before): the six-LED scene of subjects
+// 041-050, seed 1, still, and the same scene without its ink and marker, with
+// one subject's spectrum in every patch (no colour edges between patches),
+// and both: each capture's shift, rotation and corner motion.
 //
-// Writes DIR/still_registration.csv and DIR/still_registration.png (mean
-// registration seconds per plan, before and after; DIR: bench/results).
+//   still_registration_bench [--seeds 1,2,3] [--subjects 041-050,021-030,001-010] [--patch 128]
+//                            [--plans method,six-leds] [--motions 0,0.2,0.4,1] [--sigma 8] [--cause] [--out DIR] [--no-chart]
+//
+// Writes DIR/still_registration.csv and DIR/still_registration.png (largest
+// corner error per plan and motion, before and after; DIR: bench/results).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -23,6 +31,7 @@
 #include <fstream>
 #include <map>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -32,20 +41,22 @@
 #include "clocks.hpp"
 #include "guarded_main.hpp"
 #include "seed_spread.hpp"
-#include "chromo/session/measurement_file.hpp"
+#include "still_scene_captures.hpp"
 #include "chromo/simulators/scene/real_skin_scene.hpp"
 
 namespace chromo::bench {
 namespace {
 
 namespace fs = std::filesystem;
+using session::RegistrationSignal;
 
 struct Run {
-  std::string plan, variant;
+  std::string plan, subjects, variant;
   std::uint64_t seed = 0;
-  double seconds = 0, largest_motion_px = 0;
-  int warped = 0;
-  std::size_t non_finite_pixels = 0, pixels = 0;
+  double motion_px = 0;
+  double seconds = 0, largest_found_px = 0, largest_error_px = 0, largest_noise_px = 0;
+  int warped = 0, captures = 0;
+  std::size_t non_finite_pixels = 0;
 };
 
 // Pixels with any non-finite channel in the measurement as registered.
@@ -59,78 +70,153 @@ std::size_t non_finite_pixels(const session::MeasurementFile& m) {
   return count;
 }
 
-Run register_scene(const fs::path& json, const std::string& plan, std::uint64_t seed, bool decide_still) {
-  session::MeasurementFile m = session::read_measurement_file(json);
+const char* variant_name(RegistrationSignal s) { return s == RegistrationSignal::kIntensity ? "before" : "after"; }
+
+double g_local_mean_sigma_px = session::RegistrationOptions{}.local_mean_sigma_px;  // --sigma
+
+Run register_captures(session::MeasurementFile m, RegistrationSignal signal, double tx, double ty) {
   session::RegistrationOptions options;
-  options.decide_still_at_coarse_level = decide_still;
-  Run run{plan, decide_still ? "after" : "before", seed};
+  options.signal = signal;
+  options.local_mean_sigma_px = g_local_mean_sigma_px;
+  Run run;
+  run.variant = variant_name(signal);
   const auto start = std::chrono::steady_clock::now();
   const std::vector<session::RegistrationReport> reports = session::register_images(m, options);
   run.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  for (const auto& r : reports) run.warped += r.warped, run.largest_motion_px = std::max(run.largest_motion_px, r.motion_px);
+  for (const auto& r : reports) {
+    run.warped += r.warped, ++run.captures;
+    run.largest_found_px = std::max(run.largest_found_px, r.motion_px);
+    run.largest_error_px = std::max(run.largest_error_px, corner_error_px(r, m.width, m.height, tx, ty));
+    run.largest_noise_px = std::max(run.largest_noise_px, r.result.motion_noise_px);
+  }
   run.non_finite_pixels = non_finite_pixels(m);
-  run.pixels = static_cast<std::size_t>(m.width) * m.height;
   return run;
 }
 
+// The scene's noise-free MEASUREMENT.json, read back.
+session::MeasurementFile clean_scene(const fs::path& dir, simulators::RealSkinSceneOptions scene) {
+  scene.noise_scale = 0;
+  simulators::write_real_skin_scene(dir, scene);
+  session::MeasurementFile m = session::read_measurement_file(dir / "MEASUREMENT.json");
+  fs::remove_all(dir);
+  return m;
+}
+
+// --cause: each capture's registration of a still six-LED scene and of the same without its edges.
+void print_cause(const fs::path& scratch, int patch_px) {
+  std::printf("\ncause: six LEDs, subjects 041-050, seed 1, still, patch %d px; per capture: shift x, y (px), "
+              "rotation (°), corner motion (px), warped\n", patch_px);
+  struct Variant {
+    const char* name;
+    bool anomalies, one_subject;
+  };
+  for (const Variant v : {Variant{"as made", true, false}, Variant{"no ink, no marker", false, false},
+                          Variant{"one subject in every patch", true, true},
+                          Variant{"one subject, no ink, no marker", false, true}}) {
+    simulators::RealSkinSceneOptions scene;
+    scene.spectra = simulators::nist_subjects("041-050");
+    if (v.one_subject) std::fill(scene.spectra.begin(), scene.spectra.end(), scene.spectra.front());
+    scene.patch_px = patch_px, scene.plan = "six-leds", scene.seed = 1, scene.anomalies = v.anomalies;
+    const session::MeasurementFile clean = clean_scene(scratch / "cause", scene);
+    for (const RegistrationSignal signal : {RegistrationSignal::kIntensity, RegistrationSignal::kLessLocalMean}) {
+      session::MeasurementFile m = moved_noisy_captures(clean, 0, 0, 1);
+      session::RegistrationOptions options;
+      options.signal = signal;
+      options.local_mean_sigma_px = g_local_mean_sigma_px;
+      std::printf("  %-31s %-6s", v.name, variant_name(signal));
+      for (const auto& r : session::register_images(m, options))
+        std::printf(" | %s on %s %+.3f %+.3f %+.4f° %.3f%s", r.image.c_str(), r.channel.c_str(), r.result.shift_x_px,
+                    r.result.shift_y_px, r.result.rotation_deg, r.motion_px, r.warped ? " W" : "");
+      std::printf("\n");
+    }
+  }
+}
+
+void print_spread(const std::vector<std::string>& plans, const std::vector<double>& motions,
+                  std::map<std::tuple<std::string, double, std::string>, std::vector<Run>>& runs, std::vector<Bar>& bars) {
+  for (const std::string& plan : plans)
+    for (const double t : motions)
+      for (const char* variant : {"before", "after"}) {
+        const std::vector<Run>& rows = runs[{plan, t, variant}];
+        if (rows.empty()) continue;
+        const Spread s = spread(rows, [](const Run& r) { return r.seconds; });
+        const Spread w = spread(rows, [](const Run& r) { return double(r.warped); });
+        const Spread f = spread(rows, [](const Run& r) { return r.largest_found_px; });
+        const Spread e = spread(rows, [](const Run& r) { return r.largest_error_px; });
+        const Spread nf = spread(rows, [](const Run& r) { return double(r.non_finite_pixels); });
+        std::printf("  %-8s t %.1f %-6s warped %.2f [%.0f, %.0f] of %d; found %.3f [%.3f, %.3f] px; error %.3f [%.3f, %.3f] px; "
+                    "non-finite %.0f [%.0f, %.0f]; %.3f [%.3f, %.3f] s\n",
+                    plan.c_str(), t, variant, w.mean, w.lo, w.hi, rows.front().captures, f.mean, f.lo, f.hi, e.mean, e.lo,
+                    e.hi, nf.mean, nf.lo, nf.hi, s.mean, s.lo, s.hi);
+        char label[64];
+        std::snprintf(label, sizeof label, "%s t=%.1f %s", plan.c_str(), t, variant);
+        bars.push_back({label, e.mean});
+      }
+}
+
 int bench_main(int argc, char** argv) {
-  CLI::App app{"registration of a still subject, before and after the coarse decision"};
+  CLI::App app{"registration of a still real-skin scene and of known motions, before and after the local-mean signal"};
   std::vector<std::uint64_t> seeds{1, 2, 3};
-  std::vector<std::string> plans{"method", "six-leds"};
+  std::vector<std::string> plans{"method", "six-leds"}, subject_sets{"041-050", "021-030", "001-010"};
+  std::vector<double> motions{0, 0.2, 0.4, 1.0};
   int patch_px = 128;
   fs::path out = "bench/results";
-  bool no_chart = false;
-  app.add_option("--seeds", seeds, "scene seeds")->delimiter(',');
+  bool no_chart = false, cause = false;
+  app.add_option("--seeds", seeds, "scene and noise seeds")->delimiter(',');
   app.add_option("--plans", plans, "method and/or six-leds")->delimiter(',');
-  app.add_option("--patch", patch_px, "pixels per subject's patch (10 patches, 5 a row)")->check(CLI::Range(8, 2000));
+  app.add_option("--subjects", subject_sets, "NIST subject sets, one scene each (10 patches, 5 a row)")->delimiter(',');
+  app.add_option("--motions", motions, "shifts t of every capture after the first, px (along (0.8, 0.6))")->delimiter(',');
+  app.add_option("--patch", patch_px, "pixels per subject's patch")->check(CLI::Range(8, 512));
+  app.add_option("--sigma", g_local_mean_sigma_px, "after: the local mean's σ, px at each pyramid level")
+      ->check(CLI::Range(0.5, 100.0));
+  app.add_flag("--cause", cause, "also: why a still scene moved before");
   app.add_option("--out", out, "results folder");
   app.add_flag("--no-chart", no_chart, "no PNG");
   CLI11_PARSE(app, argc, argv);
 
   const fs::path scratch = fs::temp_directory_path() / ("still_registration_bench-" + std::to_string(::getpid()));
-  std::printf("still_registration_bench: patch %d px, load average %.2f\n", patch_px, load_average());
+  std::printf("still_registration_bench: patch %d px, local mean σ %.1f px, load average %.2f\n", patch_px,
+              g_local_mean_sigma_px, load_average());
   fs::create_directories(out);
   std::ofstream csv(out / "still_registration.csv");
-  csv << "plan,variant,seed,pixels,seconds,warped,largest_motion_px,non_finite_pixels,load_average\n";
-  std::map<std::pair<std::string, std::string>, std::vector<Run>> runs;
+  csv << "plan,subjects,seed,motion_px,variant,seconds,captures,warped,largest_found_px,largest_error_px,"
+         "largest_noise_px,non_finite_pixels,load_average\n";
+  std::map<std::tuple<std::string, double, std::string>, std::vector<Run>> runs;
   for (const std::string& plan : plans)
-    for (const std::uint64_t seed : seeds) {
-      simulators::RealSkinSceneOptions scene;
-      scene.spectra = simulators::nist_subjects("041-050");
-      scene.patch_px = patch_px, scene.plan = plan, scene.seed = seed;
-      const fs::path dir = scratch / (plan + "-" + std::to_string(seed));
-      simulators::write_real_skin_scene(dir, scene);
-      for (const bool decide_still : {false, true}) {  // before, after
-        const Run r = register_scene(dir / "MEASUREMENT.json", plan, seed, decide_still);
-        std::printf("%-9s seed %llu %-6s %zu px: %.3f s, %d warped, largest motion %.3f px, %zu non-finite px\n",
-                    plan.c_str(), static_cast<unsigned long long>(seed), r.variant.c_str(), r.pixels, r.seconds, r.warped,
-                    r.largest_motion_px, r.non_finite_pixels);
-        csv << plan << "," << r.variant << "," << seed << "," << r.pixels << "," << r.seconds << "," << r.warped << ","
-            << r.largest_motion_px << "," << r.non_finite_pixels << "," << load_average() << std::endl;
-        runs[{plan, r.variant}].push_back(r);
+    for (const std::string& subjects : subject_sets)
+      for (const std::uint64_t seed : seeds) {
+        simulators::RealSkinSceneOptions scene;
+        scene.spectra = simulators::nist_subjects(subjects);
+        scene.patch_px = patch_px, scene.plan = plan, scene.seed = seed;
+        const session::MeasurementFile clean = clean_scene(scratch / "scene", scene);
+        for (const double t : motions) {
+          const double tx = 0.8 * t, ty = 0.6 * t;
+          const session::MeasurementFile captures = moved_noisy_captures(clean, tx, ty, seed);
+          for (const RegistrationSignal signal : {RegistrationSignal::kIntensity, RegistrationSignal::kLessLocalMean}) {
+            Run r = register_captures(captures, signal, tx, ty);
+            r.plan = plan, r.subjects = subjects, r.seed = seed, r.motion_px = t;
+            std::printf("%-8s %s seed %llu t %.1f %-6s: %.3f s, %d/%d warped, found %.3f px, error %.3f px, noise %.4f px, "
+                        "%zu non-finite px\n",
+                        plan.c_str(), subjects.c_str(), static_cast<unsigned long long>(seed), t, r.variant.c_str(),
+                        r.seconds, r.warped, r.captures, r.largest_found_px, r.largest_error_px, r.largest_noise_px,
+                        r.non_finite_pixels);
+            csv << plan << "," << subjects << "," << seed << "," << t << "," << r.variant << "," << r.seconds << ","
+                << r.captures << "," << r.warped << "," << r.largest_found_px << "," << r.largest_error_px << ","
+                << r.largest_noise_px << "," << r.non_finite_pixels << "," << load_average() << std::endl;
+            runs[{plan, t, r.variant}].push_back(r);
+          }
+        }
       }
-      fs::remove_all(dir);
-    }
-  fs::remove_all(scratch);
-
-  std::printf("\nspread over %zu seed(s), mean [min, max] (load average now %.2f):\n", seeds.size(), load_average());
+  std::printf("\nspread over %zu subject set(s) × %zu seed(s), mean [min, max] (load average now %.2f):\n",
+              subject_sets.size(), seeds.size(), load_average());
   std::vector<Bar> bars;
-  for (const std::string& plan : plans)
-    for (const char* variant : {"before", "after"}) {
-      const std::vector<Run>& rows = runs[{plan, variant}];
-      const Spread s = spread(rows, [](const Run& r) { return r.seconds; });
-      const Spread w = spread(rows, [](const Run& r) { return double(r.warped); });
-      const Spread nf = spread(rows, [](const Run& r) { return double(r.non_finite_pixels); });
-      const Spread mo = spread(rows, [](const Run& r) { return r.largest_motion_px; });
-      std::printf("  %-9s %-6s registration %.3f [%.3f, %.3f] s; warped %.1f [%.0f, %.0f]; largest motion %.3f [%.3f, %.3f] px; "
-                  "non-finite px %.1f [%.0f, %.0f]\n",
-                  plan.c_str(), variant, s.mean, s.lo, s.hi, w.mean, w.lo, w.hi, mo.mean, mo.lo, mo.hi, nf.mean, nf.lo, nf.hi);
-      bars.push_back({plan + " " + variant, s.mean});
-    }
+  print_spread(plans, motions, runs, bars);
+  if (cause) print_cause(scratch, patch_px);
+  fs::remove_all(scratch);
   std::printf("\nwrote %s\n", (out / "still_registration.csv").c_str());
   if (!no_chart)
-    write_bar_chart(out / "still_registration.png", "registration of a still real-skin scene (mean over seeds)",
-                    "wall seconds", bars);
+    write_bar_chart(out / "still_registration.png", "registration error of the applied warp, real-skin scenes (mean)",
+                    "largest corner error, px", bars);
   return 0;
 }
 

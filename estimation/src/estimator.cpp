@@ -171,6 +171,29 @@ Estimator::Estimator(std::shared_ptr<const ForwardTable> table, MeasurementSet s
   order_threshold_ = std::min(c, 4) > 2 ? chi_squared_quantile(1 - options_.order_significance, std::min(c, 4) - 2) : 0;
 }
 
+Estimator Estimator::with_discrepancy_scale(double scale) const { return with_discrepancy(options_.discrepancy, scale); }
+
+Estimator Estimator::with_discrepancy(std::shared_ptr<const ModelDiscrepancy> discrepancy, double scale) const {
+  if (!(scale > 0) || !std::isfinite(scale))
+    throw std::invalid_argument("estimator: the discrepancy scale must be finite and > 0, not " + std::to_string(scale));
+  Estimator copy = *this;
+  copy.options_.discrepancy = std::move(discrepancy);
+  copy.discrepancy_scale_ = scale;
+  copy.discrepancy_ = copy.options_.discrepancy ? Eigen::MatrixXd(copy.options_.discrepancy->channel_covariance(set_) * scale)
+                                                : Eigen::MatrixXd();
+  return copy;
+}
+
+Estimator Estimator::with_added_discrepancy(const Eigen::MatrixXd& covariance) const {
+  const int c = channels();
+  if (covariance.rows() != c || covariance.cols() != c || !covariance.allFinite())
+    throw std::invalid_argument("estimator: an added discrepancy must be a finite " + std::to_string(c) + " x " +
+                                std::to_string(c) + " matrix");
+  Estimator copy = *this;
+  copy.discrepancy_ = discrepancy_.size() > 0 ? Eigen::MatrixXd(discrepancy_ + covariance) : covariance;
+  return copy;
+}
+
 std::vector<double> Estimator::reference_sigma() const {
   const int c_count = channels();
   std::vector<double> mean(c_count, 0.0);

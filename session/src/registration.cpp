@@ -6,10 +6,13 @@
 #include <thread>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <Eigen/Dense>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 #include <string>
+
+#include "registration_signal.hpp"
 
 namespace chromo::session {
 
@@ -150,10 +153,16 @@ double motion_noise_px(const cv::Mat& ref_full, const cv::Mat& warped_full, cons
   return scale * std::sqrt(squares / (blocks * (blocks - 1)));
 }
 
+// Pixels of an image that are finite (255) or not (0).
+cv::Mat finite_mask(const std::vector<float>& image, int width, int height) {
+  cv::Mat mask(height, width, CV_8U);
+  for (int i = 0; i < width * height; ++i) mask.at<unsigned char>(i) = std::isfinite(image[i]) ? 255 : 0;
+  return mask;
+}
+
 // Pixels of the moving image that take part: finite ones, away from holes.
 cv::Mat moving_mask(const std::vector<float>& moving, int width, int height) {
-  cv::Mat mask(height, width, CV_8U);
-  for (int i = 0; i < width * height; ++i) mask.at<unsigned char>(i) = std::isfinite(moving[i]) ? 255 : 0;
+  cv::Mat mask = finite_mask(moving, width, height);
   cv::erode(mask, mask, cv::Mat(), cv::Point(-1, -1), 3);  // image gradients near a hole are not the scene's
   return mask;
 }
@@ -162,19 +171,42 @@ cv::Mat moving_mask(const std::vector<float>& moving, int width, int height) {
 
 namespace {
 
-// The images' pyramids, level 0 the full frame (ECC's mask with them).
+// The images' pyramids, level 0 the full frame (ECC's mask with them), and
+// the signal ECC registers on at each level (RegistrationOptions::signal).
 struct Pyramids {
   std::vector<cv::Mat> ref, mov, mask;
+  std::vector<cv::Mat> ref_signal, mov_signal;
 };
 
-Pyramids pyramids_of(const cv::Mat& ref, const cv::Mat& mov, const cv::Mat& mask, int levels) {
-  Pyramids p{{ref}, {mov}, {mask}};
-  for (int l = 1; l < levels && std::min(p.ref.back().cols, p.ref.back().rows) >= 64; ++l) {
-    cv::Mat r, m, k;
+// The signal of one image (either of the pair) at one level: itself, or
+// itself less its local mean over its pixels that are not holes (wrap() made
+// their value 0; moving_mask() marks them, eroded).
+cv::Mat signal_of(const cv::Mat& image, const cv::Mat& valid, const RegistrationOptions& options) {
+  if (options.signal == RegistrationSignal::kIntensity) return image;
+  return registration_detail::less_local_mean(image, valid, options.local_mean_sigma_px);
+}
+
+// `with_signal`: also the signal at every level (the still decision's), else none.
+Pyramids pyramids_of(const cv::Mat& ref, const cv::Mat& mov, const cv::Mat& mask, const cv::Mat& ref_valid,
+                     const RegistrationOptions& options, bool with_signal) {
+  if (options.signal == RegistrationSignal::kLessLocalMean &&
+      !(options.local_mean_sigma_px > 0 && options.local_mean_sigma_px <= 1000))
+    throw RegistrationError("registration: local_mean_sigma_px must be in (0, 1000] px, got " +
+                            std::to_string(options.local_mean_sigma_px));
+  Pyramids p{{ref}, {mov}, {mask}, {}, {}};
+  std::vector<cv::Mat> ref_valid_levels{ref_valid};
+  for (int l = 1; l < options.pyramid_levels && std::min(p.ref.back().cols, p.ref.back().rows) >= 64; ++l) {
+    cv::Mat r, m, k, v;
     cv::pyrDown(p.ref.back(), r), cv::pyrDown(p.mov.back(), m);
     cv::resize(p.mask.back(), k, m.size(), 0, 0, cv::INTER_NEAREST);
     cv::erode(k, k, cv::Mat());  // pyrDown smears the border into the masked pixels
-    p.ref.push_back(r), p.mov.push_back(m), p.mask.push_back(k);
+    cv::resize(ref_valid_levels.back(), v, r.size(), 0, 0, cv::INTER_NEAREST);
+    cv::erode(v, v, cv::Mat());
+    p.ref.push_back(r), p.mov.push_back(m), p.mask.push_back(k), ref_valid_levels.push_back(v);
+  }
+  for (std::size_t l = 0; with_signal && l < p.ref.size(); ++l) {
+    p.ref_signal.push_back(signal_of(p.ref[l], ref_valid_levels[l], options));
+    p.mov_signal.push_back(signal_of(p.mov[l], p.mask[l], options));
   }
   return p;
 }
@@ -185,12 +217,14 @@ Pyramids pyramids_of(const cv::Mat& ref, const cv::Mat& mov, const cv::Mat& mask
 // converge (a posed view's small footprint leaves little texture there) is
 // skipped, its bit set in `skipped`: the finer levels start from the warp
 // found so far. Level 0 must converge: its cv::Exception is rethrown.
+// `on_signal`: ECC on the pyramids' signal (the still decision), else on the images as they are.
 void ecc_levels(const Pyramids& p, int coarsest, int finest, const RegistrationOptions& options, cv::Mat& warp,
-                double& correlation, std::uint32_t& skipped) {
+                double& correlation, std::uint32_t& skipped, bool on_signal = false) {
   for (int level = coarsest; level >= finest; --level) {
     const cv::Mat before = warp.clone();
     try {
-      correlation = cv::findTransformECC(p.ref[level], p.mov[level], warp, cv::MOTION_EUCLIDEAN,
+      correlation = cv::findTransformECC(on_signal ? p.ref_signal[level] : p.ref[level],
+                                         on_signal ? p.mov_signal[level] : p.mov[level], warp, cv::MOTION_EUCLIDEAN,
                                          cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS,
                                                           options.max_iterations, options.epsilon),
                                          p.mask[level], 5);
@@ -250,7 +284,7 @@ RegistrationResult estimate_registration(const std::vector<float>& reference, co
                                          int width, int height, const RegistrationOptions& options) {
   // ECC ignores moving-image pixels that are not finite (e.g. outside a warp).
   const Pyramids p = pyramids_of(wrap(reference, width, height), wrap(moving, width, height),
-                                 moving_mask(moving, width, height), options.pyramid_levels);
+                                 moving_mask(moving, width, height), finite_mask(reference, width, height), options, false);
   return finish_registration(p, coarsest_level(p), options, cv::Mat::eye(2, 3, CV_32F), 0, 0);
 }
 
@@ -309,31 +343,50 @@ double residual_corner_px(const std::vector<float>& reference, const std::vector
 
 }  // namespace
 
+namespace {
+
+// The still decision (RegistrationOptions::decide_still_at_coarse_level):
+// ECC on the coarse levels of the signal (RegistrationOptions::signal), the
+// noise of the unwarped pair's signal; the coarse result when its motion is
+// not significant (not warped: its residual_motion_px the motion found),
+// nothing otherwise. `warp`, `correlation`, `skipped`: the coarse levels'
+// answer when the signal is the images themselves (the full path goes on
+// from it), else left as they were (the full path starts afresh).
+std::optional<RegistrationResult> decide_still(const Pyramids& p, const cv::Mat& mask, const RegistrationOptions& options,
+                                               cv::Mat& warp, double& correlation, std::uint32_t& skipped) {
+  const int coarsest = coarsest_level(p), width = p.ref[0].cols, height = p.ref[0].rows;
+  const bool on_signal = options.signal != RegistrationSignal::kIntensity;
+  cv::Mat coarse_warp = warp.clone();
+  double coarse_correlation = correlation;
+  std::uint32_t coarse_skipped = skipped;
+  ecc_levels(p, coarsest, 1, options, coarse_warp, coarse_correlation, coarse_skipped, on_signal);
+  if (!on_signal) warp = coarse_warp, correlation = coarse_correlation, skipped = coarse_skipped;
+  const bool converged_somewhere = coarse_skipped != ((1u << (coarsest + 1)) - 2);
+  RegistrationResult coarse = from_warp(coarse_warp, coarse_correlation);
+  coarse.skipped_levels = coarse_skipped;
+  if (!converged_somewhere || !is_plausible(coarse, width, height)) return std::nullopt;
+  coarse.motion_noise_px = motion_noise_px(p.ref_signal[0], p.mov_signal[0], mask);
+  const double motion = corner_displacement_px(coarse, width, height);
+  if (!std::isfinite(coarse.motion_noise_px) || motion_is_significant(coarse, motion)) return std::nullopt;
+  coarse.residual_motion_px = motion;  // not warped: what remains is the motion found
+  return coarse;
+}
+
+}  // namespace
+
 RegistrationResult register_channel(const std::vector<float>& reference, const std::vector<float>& moving, int width,
                                     int height, const RegistrationOptions& options) {
   const cv::Mat ref = wrap(reference, width, height), mov = wrap(moving, width, height);
-  const cv::Mat mask = moving_mask(moving, width, height);
-  const Pyramids p = pyramids_of(ref, mov, mask, options.pyramid_levels);
+  const cv::Mat mask = moving_mask(moving, width, height), ref_valid = finite_mask(reference, width, height);
+  const Pyramids p = pyramids_of(ref, mov, mask, ref_valid, options, options.decide_still_at_coarse_level);
   cv::Mat warp = cv::Mat::eye(2, 3, CV_32F);
   double correlation = 0;
   std::uint32_t skipped = 0;
   int coarsest = coarsest_level(p);
   if (options.decide_still_at_coarse_level && coarsest > 0) {
-    // A still subject (header: decide_still_at_coarse_level): the coarse
-    // levels' motion against the noise of the unwarped pair.
-    ecc_levels(p, coarsest, 1, options, warp, correlation, skipped);
-    const bool converged_somewhere = skipped != ((1u << (coarsest + 1)) - 2);
-    RegistrationResult coarse = from_warp(warp, correlation);
-    coarse.skipped_levels = skipped;
-    if (converged_somewhere && is_plausible(coarse, width, height)) {
-      coarse.motion_noise_px = motion_noise_px(ref, mov, mask);
-      const double motion = corner_displacement_px(coarse, width, height);
-      if (std::isfinite(coarse.motion_noise_px) && !motion_is_significant(coarse, motion)) {
-        coarse.residual_motion_px = motion;  // not warped: what remains is the motion found
-        return coarse;
-      }
-    }
-    coarsest = 0;  // level 0 goes on from the coarse levels' warp
+    if (auto still = decide_still(p, mask, options, warp, correlation, skipped)) return *still;
+    // Moved: the images as they are, every level as without the decision.
+    if (options.signal == RegistrationSignal::kIntensity) coarsest = 0;  // level 0 goes on from the coarse warp
   }
   RegistrationResult r = finish_registration(p, coarsest, options, warp, correlation, skipped);
   const std::vector<float> warped = warp_channel(moving, width, height, r);

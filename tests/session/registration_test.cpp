@@ -181,3 +181,22 @@ TEST(Registration, AStillSceneIsDecidedAtTheCoarseLevelsAndAMovedOneAsBefore) {
 
 }  // namespace
 }  // namespace chromo::session
+
+namespace chromo::session {
+namespace {
+
+TEST(Registration, ABadLocalMeanWidthIsRefusedNamingIt) {
+  const std::vector<float> reference = noisy_render(0, 0, 1);
+  RegistrationOptions options;
+  options.signal = RegistrationSignal::kLessLocalMean;
+  options.local_mean_sigma_px = 0;
+  try {
+    register_channel(reference, reference, kWidth, kHeight, options);
+    ADD_FAILURE() << "σ 0 was taken";
+  } catch (const RegistrationError& e) {
+    EXPECT_NE(std::string(e.what()).find("local_mean_sigma_px"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace chromo::session

@@ -217,6 +217,25 @@ class Estimator {
 
   int channels() const { return set_.size(); }
   const EstimatorOptions& options() const { return options_; }
+
+  // A copy of this estimator whose learned discrepancy is Σ_disc × scale
+  // (discrepancy_scale.hpp: one frame's skin outside the learned range),
+  // sharing the tables and the inverter (no table is loaded or built; the
+  // subspace inverter keeps its whitening reference, each fit weighs the
+  // pixel with its own Σ). scale must be finite and > 0
+  // (std::invalid_argument); 1 gives the same numbers as this estimator.
+  Estimator with_discrepancy_scale(double scale) const;
+  // The same with another learned discrepancy (null: none), times scale:
+  // the bench's leave-one-subject-out statistics reuse one estimator.
+  Estimator with_discrepancy(std::shared_ptr<const ModelDiscrepancy> discrepancy, double scale = 1) const;
+  // A copy whose channel discrepancy is this one's plus `covariance` (C × C,
+  // symmetric positive semi-definite: one frame's own term,
+  // discrepancy_scale.hpp), sharing the tables and the inverter as above.
+  // A wrong size or a non-finite value: std::invalid_argument.
+  Estimator with_added_discrepancy(const Eigen::MatrixXd& covariance) const;
+  // Σ_disc × discrepancy_scale() in the set's channels (C × C); empty without a discrepancy.
+  const Eigen::MatrixXd& discrepancy_covariance() const { return discrepancy_; }
+  double discrepancy_scale() const { return discrepancy_scale_; }
   const Inverter& inverter() const { return *inverter_; }
   const ForwardTable& table() const { return *table_; }
   const MeasurementSet& measurement_set() const { return set_; }
@@ -243,8 +262,7 @@ class Estimator {
   std::shared_ptr<const ForwardTable> table_;
   MeasurementSet set_;
   EstimatorOptions options_;
-  std::unique_ptr<Inverter> inverter_;
-  std::unique_ptr<Inverter> inverter_2d_;
+  std::shared_ptr<const Inverter> inverter_;  // shared by the copies with_discrepancy_scale() makes
   std::shared_ptr<const AppearanceTable> appearance_;  // the auto model's appearance rule; null otherwise
   double order_threshold_ = 0;                          // kLikelihoodRatio: the χ²₂ − χ²₄ quantile
   // The pixel's Σ (step 2) and the 4D parameter covariance at its fit (PixelEstimate::sigma).
@@ -269,7 +287,8 @@ class Estimator {
   bool two_d_suffices(const ChannelBuffer<double>& measured, const Fit& fit4, double chi2_4, const Fit& fit2,
                       double chi2_2) const;
   double flag_threshold_[5] = {};  // by free parameters (index 2 and 4)
-  Eigen::MatrixXd discrepancy_;    // Σ_disc in the set's channels; empty without a discrepancy
+  Eigen::MatrixXd discrepancy_;    // Σ_disc × discrepancy_scale_ in the set's channels; empty without a discrepancy
+  double discrepancy_scale_ = 1;
   std::shared_ptr<const detail::GridPrior> grid_prior_;  // step 4b's prior in grid units; null: none
 };
 

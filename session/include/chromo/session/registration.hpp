@@ -48,7 +48,22 @@ inline const char* registration_method_name(RegistrationMethod m) {
   return m == RegistrationMethod::kTranslation ? "translation" : "ECC";
 }
 
+// What the still decision (RegistrationOptions::decide_still_at_coarse_level)
+// registers on: the channel as it is (the default), or the channel less its
+// local mean (Gaussian, local_mean_sigma_px at each pyramid level). A still
+// real-skin scene whose ink and marker change contrast between the LEDs pulls
+// ECC on the channel as it is (0.355 px on the six LEDs); less its local mean
+// it does not (src/registration_signal.hpp says why; docs/estimation.md
+// "Registration of a still scene" has the figures). Not the default: on a
+// smooth, featureless view (the polarised cross capture) the coarse levels of
+// the signal find too little of a real 0.5 px motion and call it still
+// (Registration.AFeaturelessView... fails with it). A capture found moved is
+// registered on the channel as it is, every level, as without the decision.
+enum class RegistrationSignal : std::uint8_t { kIntensity = 0, kLessLocalMean = 1 };
+
 struct RegistrationOptions {
+  RegistrationSignal signal = RegistrationSignal::kIntensity;
+  double local_mean_sigma_px = 8;  // in (0, 1000] px; see RegistrationSignal
   int max_iterations = 200;
   double epsilon = 1e-6;
   int pyramid_levels = 3;  // coarse-to-fine: handles shifts of tens of pixels
@@ -58,14 +73,15 @@ struct RegistrationOptions {
   // 12-14 on 2 shared cores: estimate_stages_bench --chain; docs/estimation.md).
   int threads = 1;
   // register_channel: decide a still subject before the full-resolution
-  // work. ECC on the coarse pyramid levels only (≥ 1), and the registration
-  // noise (motion_noise_px) on the unwarped pair; when that coarse motion is
-  // not significant (motion_is_significant), the result is the coarse warp,
-  // which callers then do not warp, its residual_motion_px that motion (no
-  // warp leaves it), and level-0 ECC, the warp and the residual check are
-  // skipped. Otherwise level 0 goes on from the coarse warp: the result is
-  // bit for bit that of false (test Registration.AStillSceneIsDecidedAt...).
-  // false: every level, the warp and the residual check, as before.
+  // work. ECC on the coarse pyramid levels only (≥ 1) of `signal`, and the
+  // registration noise (motion_noise_px) of the unwarped pair's signal; when
+  // that coarse motion is not significant (motion_is_significant), the
+  // result is the coarse warp, which callers then do not warp, its
+  // residual_motion_px that motion (no warp leaves it), and level-0 ECC, the
+  // warp and the residual check are skipped. Otherwise the result is bit for
+  // bit that of false (test Registration.AStillSceneIsDecidedAt...; with
+  // signal kIntensity level 0 goes on from the coarse warp).
+  // false: every level on the channel as it is, the warp and the residual check.
   bool decide_still_at_coarse_level = true;
 };
 
