@@ -15,6 +15,7 @@
 #include "chromo/estimation/forward_table.hpp"
 #include "chromo/estimation/model_discrepancy.hpp"
 #include "chromo/simulators/scene/synthetic.hpp"
+#include "six_led_noisy_set.hpp"
 #include "chromo/spectral/camera.hpp"
 #include "chromo/spectral/lab_illuminants.hpp"
 
@@ -33,12 +34,7 @@ struct Plan {
 const Plan& plan() {
   static const Plan p = [] {
     Plan out;
-    std::vector<std::pair<std::string, spectral::Spectrum>> leds;
-    for (auto type : spectral::kAllLedTypes) leds.emplace_back(std::string(spectral::led_type_name(type)), spectral::led_spectrum(type));
-    out.set = simulators::capture_measurement_set(spectral::builtin_camera("nikon_d5100"), leds);
-    simulators::CameraNoiseModel noise;
-    noise.electrons_at_full_scale = 160000, noise.read_noise_electrons = 12;
-    simulators::set_exposure_noise(out.set, noise);
+    out.set = test::six_led_noisy_set();
     out.table = std::make_shared<const ForwardTable>(ForwardTable::build(out.set, TableGrid{}, 2));
     std::vector<SpectrumResidual> train;
     for (std::size_t i = 0; i < nist_forearm_residuals().size(); ++i)

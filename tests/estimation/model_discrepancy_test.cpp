@@ -14,6 +14,7 @@
 #include "chromo/estimation/estimator.hpp"
 #include "chromo/estimation/forward_table.hpp"
 #include "chromo/simulators/scene/synthetic.hpp"
+#include "six_led_noisy_set.hpp"
 #include "chromo/spectral/camera.hpp"
 #include "chromo/spectral/lab_illuminants.hpp"
 
@@ -77,12 +78,7 @@ struct HeldOut {
 const HeldOut& held_out() {
   static const HeldOut h = [] {
     HeldOut out;
-    std::vector<std::pair<std::string, spectral::Spectrum>> leds;
-    for (auto type : spectral::kAllLedTypes) leds.emplace_back(std::string(spectral::led_type_name(type)), spectral::led_spectrum(type));
-    out.set = simulators::capture_measurement_set(spectral::builtin_camera("nikon_d5100"), leds);
-    simulators::CameraNoiseModel noise;
-    noise.electrons_at_full_scale = 160000, noise.read_noise_electrons = 12;
-    simulators::set_exposure_noise(out.set, noise);
+    out.set = test::six_led_noisy_set();
     out.table = std::make_shared<const ForwardTable>(ForwardTable::build(out.set, TableGrid{}, 2));
     std::vector<SpectrumResidual> train;
     for (std::size_t i = 0; i < nist_forearm_residuals().size(); ++i)
