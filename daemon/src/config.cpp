@@ -205,6 +205,8 @@ const std::vector<Key>& estimation_keys() {
                  }),
       string_key("skin_denoise", [](DaemonConfig& c) -> auto& { return c.estimation.skin_denoise; },
                  [](const std::string& v) { return v == "on" || v == "off" ? std::string() : "\"" + v + "\" is not on or off"; }),
+      string_key("local_bias", [](DaemonConfig& c) -> auto& { return c.estimation.local_bias; },
+                 [](const std::string& v) { return v == "on" || v == "off" ? std::string() : "\"" + v + "\" is not on or off"; }),
       string_key("discrepancy_layer", [](DaemonConfig& c) -> auto& { return c.estimation.discrepancy_layer; },
                  [](const std::string& v) { return v == "on" || v == "off" ? std::string() : "\"" + v + "\" is not on or off"; }),
       string_key("led_library", [](DaemonConfig& c) -> auto& { return c.estimation.led_library; }, led_library_error),

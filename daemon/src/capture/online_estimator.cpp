@@ -32,6 +32,8 @@ std::unique_ptr<OnlineEstimator> make_online_estimator(const EstimationConfig& c
   e.discrepancy = config.discrepancy == "none" ? nullptr : estimation::ModelDiscrepancy::standard();
   // The multi-pixel estimate (estimation.skin_denoise, checked on or off by config.cpp).
   if (config.skin_denoise == "on") options.estimation.skin_denoise = estimation::SkinDenoiseOptions{};
+  // The local-bias flag rule (estimation.local_bias, checked on or off by config.cpp).
+  options.estimation.neighbourhood.local_bias.enabled = config.local_bias == "on";
   // The relit layer (estimation.discrepancy_layer, checked on or off by config.cpp).
   options.estimation.discrepancy_layer_terms = config.discrepancy_layer == "on" ? maps::kDiscrepancyLayerTerms : 0;
   options.estimation.cache_dir = config.cache_dir;
