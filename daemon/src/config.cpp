@@ -102,6 +102,8 @@ bool DaemonConfig::IsValid(std::string* error) const {
     return fail("estimation.discrepancy: \"" + estimation.discrepancy + "\" is not learned or none");
   if (estimation.skin_denoise != "on" && estimation.skin_denoise != "off")
     return fail("estimation.skin_denoise: \"" + estimation.skin_denoise + "\" is not on or off");
+  if (estimation.local_bias != "on" && estimation.local_bias != "off")
+    return fail("estimation.local_bias: \"" + estimation.local_bias + "\" is not on or off");
   if (estimation.discrepancy_layer != "on" && estimation.discrepancy_layer != "off")
     return fail("estimation.discrepancy_layer: \"" + estimation.discrepancy_layer + "\" is not on or off");
   if (!(estimation.white_reflectance > 0 && estimation.white_reflectance <= 1))
