@@ -51,6 +51,9 @@
 // spatial pass, without and with the table set-up) against issue 39's
 // targets (the method ≥ 3, six LEDs ≥ 1). Writes DIR/estimate_chain.{csv,png}
 // and DIR/estimate_chain_growth.png (wall seconds against sensor MP).
+//
+// --exr-levels MAPS.exr [--levels 1,...] [--pairs N] (issue 39, speed39b):
+// that file written at ZIP level 4 and each level in turn (exr_level_pairs.hpp).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -67,6 +70,7 @@
 #include <unistd.h>
 
 #include "chart.hpp"
+#include "exr_level_pairs.hpp"
 #include "guarded_main.hpp"
 #include "clocks.hpp"
 #include "chromo/estimation/skin_model.hpp"
@@ -399,7 +403,14 @@ int bench_main(int argc, char** argv) {
   app.add_flag("--chain", chain, "the whole chain per stage, per plan and sensor size (issue 39)");
   app.add_option("--plans", plans, "--chain: built-in plans")->delimiter(',');
   app.add_option("--megapixels", megapixels, "--chain: sensor sizes in MP")->delimiter(',');
+  fs::path exr_levels_file;
+  std::vector<int> exr_levels = {1};
+  int pairs = 3;
+  app.add_option("--exr-levels", exr_levels_file, "a stored maps.exr: written at ZIP level 4 and --levels in turn");
+  app.add_option("--levels", exr_levels, "--exr-levels: the ZIP levels against 4")->delimiter(',');
+  app.add_option("--pairs", pairs, "--exr-levels: A B pairs")->check(CLI::Range(1, 50));
   CLI11_PARSE(app, argc, argv);
+  if (!exr_levels_file.empty()) return exr_level_pairs_main(exr_levels_file, exr_levels, pairs, threads);
   if (chain) return chain_main(plans, megapixels, seeds, threads, out, no_chart);
   if (sensor.size() == 2) sensor_width = sensor[0], sensor_height = sensor[1];
 

@@ -10,6 +10,7 @@
 //                                      [--baseline FILE] [--methods fast,2d,exhaustive,scene]
 //                                      [--scene-size W H] [--frame-cache DIR | --no-frame-cache]
 //                                      [--speed-only] [--diagnose | --diagnose-only]
+//                                      [--timing-grid CM CH BM CHE]
 //
 // Synthetic: a 256×192 frame (49,152 pixels) for the fast and 2D inverters,
 // the exhaustive search on a fixed subsample of its first --exhaustive-pixels
@@ -36,6 +37,10 @@
 // process CPU time per pixel (both threads), steadier on a shared machine.
 // Writes DIR/estimation_bench.json, *.csv and two PNG charts (gnuplot), DIR
 // defaults to bench/results.
+// --timing-grid: the table grid whose forward and inverse tables are timed
+// (default the full 41×41×21×21 grid, which the methods always use; the
+// ctest smoke times an 11×11×11×11 one so that its two inverse-table builds
+// take seconds, not ~45 s).
 // --baseline FILE: the estimation_speed_accuracy.csv of another build's run
 // (e.g. the previous version of the inverters, run just before on the same
 // machine): its points go on the speed/accuracy chart next to this run's,
@@ -307,6 +312,10 @@ struct Options {
   int scene_width = 2592, scene_height = 1944;
   bool speed_only = false, diagnose = false, diagnose_only = false;
   fs::path frame_cache = ForwardTable::default_cache_dir();
+  // The grid whose forward and inverse tables measure_tables times (the full
+  // grid by default; the ctest smoke times a coarse one: the two inverse-table
+  // builds on the full grid were ~45 s of its ~48).
+  TableGrid timing_grid;
   bool selects(const std::string& name) const { return methods.find(name) != std::string::npos; }
 };
 
@@ -339,20 +348,22 @@ struct LabFrames {
 std::shared_ptr<const ForwardTable> measure_tables(BenchRun& run) {
   auto& report = run.report;
   MeasurementSet set = method_set();
+  const TableGrid& grid = run.options.timing_grid;
   auto t = std::chrono::steady_clock::now();
-  auto table = std::make_shared<const ForwardTable>(ForwardTable::build(set, TableGrid{}, 2));
+  auto table = std::make_shared<const ForwardTable>(ForwardTable::build(set, grid, 2));
   const double build_s = seconds_since(t);
   const fs::path cache = fs::temp_directory_path() / "chromo_bench_cache";
   fs::remove_all(cache);
-  ForwardTable::load_or_build(set, TableGrid{}, cache, nullptr, 2);
+  ForwardTable::load_or_build(set, grid, cache, nullptr, 2);
   t = std::chrono::steady_clock::now();
   bool rebuilt = true;
-  ForwardTable::load_or_build(set, TableGrid{}, cache, &rebuilt, 2);
+  ForwardTable::load_or_build(set, grid, cache, &rebuilt, 2);
   const double load_s = seconds_since(t);
   fs::remove_all(cache);
-  std::printf("table: %zu nodes, build %.3f s on 2 threads (target <= 2 s), cache load %.3f s (rebuilt=%d)\n",
-              TableGrid{}.node_count(), build_s, load_s, rebuilt);
-  report["table"] = {{"nodes", TableGrid{}.node_count()}, {"build_s", build_s}, {"cache_load_s", load_s}};
+  std::printf("table: %zu nodes (%dx%dx%dx%d), build %.3f s on 2 threads (target <= 2 s on the full grid), cache load "
+              "%.3f s (rebuilt=%d)\n",
+              grid.node_count(), grid.cm_nodes, grid.ch_nodes, grid.bm_nodes, grid.che_nodes, build_s, load_s, rebuilt);
+  report["table"] = {{"nodes", grid.node_count()}, {"build_s", build_s}, {"cache_load_s", load_s}};
   {
     // The fast inverter's inverse table: build (2 threads) and write, then a
     // load from the file (another directory: the process-wide registry only
@@ -394,7 +405,9 @@ std::shared_ptr<const ForwardTable> measure_tables(BenchRun& run) {
     fs::remove_all(copy);
     fs::remove_all(cache);
   }
-  return table;
+  // The methods run on the full grid's table whatever grid was timed.
+  if (grid.node_count() == TableGrid{}.node_count()) return table;
+  return std::make_shared<const ForwardTable>(ForwardTable::build(set, TableGrid{}, 2));
 }
 
 // Interpolation error of the grid in colour (XYZ table under D65 vs direct model).
@@ -936,7 +949,8 @@ std::vector<BaselineRun> compare_with_baseline(BenchRun& run) {
   return old_runs;
 }
 
-// Failure behaviour 1: error against noise level (fast 4D, 2D; exhaustive on 1,000 pixels).
+// Failure behaviour 1: error against noise level (fast 4D, 2D; exhaustive on 1,000 pixels, or on
+// --exhaustive-pixels if fewer: the smoke's 40).
 void measure_error_vs_noise(const BenchRun& run) {
   const fs::path& out = run.options.out;
   const auto& table = run.table;
@@ -962,7 +976,8 @@ void measure_error_vs_noise(const BenchRun& run) {
       eo.method = m;
       eo.model = m == InverterMethod::k2d ? ModelChoice::k2d : ModelChoice::k4d;
       eo.threads = 2;
-      const std::size_t n = m == InverterMethod::kExhaustive ? 1000 : f.pixels();
+      const std::size_t n =
+          m == InverterMethod::kExhaustive ? std::min<std::size_t>(1000, run.exhaustive_pixels) : f.pixels();
       std::vector<PixelEstimate> e(n);
       Estimator(table, s, eo).estimate(std::span(f.noisy).first(n * 4), e);
       const Relit truth = relight(std::span(f.truth).first(n));
@@ -974,7 +989,8 @@ void measure_error_vs_noise(const BenchRun& run) {
 
 // Failure behaviour 2: distance outside the gamut. In-gamut pixels pushed
 // out by scaling the blue-only channel by (1 + d): share flagged, and the
-// relit error of those left unflagged.
+// relit error of those left unflagged (exhaustive on 500 pixels, or on
+// --exhaustive-pixels if fewer).
 void measure_error_vs_gamut(const BenchRun& run) {
   const fs::path& out = run.options.out;
   const auto& table = run.table;
@@ -996,7 +1012,8 @@ void measure_error_vs_gamut(const BenchRun& run) {
         eo.method = m;
         eo.model = ModelChoice::k4d;
         eo.threads = 2;
-        const std::size_t n = m == InverterMethod::kExhaustive ? 500 : f.pixels();
+        const std::size_t n =
+            m == InverterMethod::kExhaustive ? std::min<std::size_t>(500, run.exhaustive_pixels) : f.pixels();
         std::vector<PixelEstimate> e(n);
         const EstimateSummary sum = Estimator(table, s, eo).estimate(std::span(pushed).first(n * 4), e);
         gamut_csv << " " << 1.0 - double(sum.flag_counts[0]) / n;
@@ -1147,6 +1164,9 @@ static int bench_main(int argc, char** argv) {
   app.add_option("--baseline", options.baseline, "another build's estimation_speed_accuracy.csv");
   app.add_option("--methods", options.methods, "fast,2d,exhaustive,scene (which runs)");
   app.add_option("--scene-size", scene_size, "the virtual lab's sensor, W H")->expected(2);
+  std::vector<int> timing_grid;
+  app.add_option("--timing-grid", timing_grid, "the table grid the table builds are timed on, Cm Ch Bm Che nodes")
+      ->expected(4);
   auto* cache = app.add_option("--frame-cache", options.frame_cache, "the rendered session's cache directory");
   app.add_flag("--no-frame-cache", no_frame_cache, "render the session, cache nothing")->excludes(cache);
   app.add_flag("--speed-only", options.speed_only, "no interpolation check, no failure sections");
@@ -1162,6 +1182,13 @@ static int bench_main(int argc, char** argv) {
   if (pixels_option) options.width = *pixels_option, options.height = 1;
   if (full) options.width = 2592, options.height = 1944;
   if (!scene_size.empty()) options.scene_width = scene_size[0], options.scene_height = scene_size[1];
+  if (!timing_grid.empty()) {
+    options.timing_grid = {timing_grid[0], timing_grid[1], timing_grid[2], timing_grid[3]};
+    if (std::string error; !options.timing_grid.IsValid(&error)) {
+      std::fprintf(stderr, "estimation_bench: --timing-grid: %s\n", error.c_str());
+      return 2;
+    }
+  }
   if (no_frame_cache) options.frame_cache.clear();
   if (options.diagnose_only) options.diagnose = true;
 

@@ -23,6 +23,7 @@
 //
 // Writes DIR/relit_product.csv (one row per run) and DIR/relit_product.png
 // (mean relit ΔE94 per configuration, layer off and on).
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -60,15 +61,18 @@ constexpr int kFolds = 5;
 // What one configuration runs with.
 struct Config {
   std::string plan, scene;  // "method" / "six-leds"; "real" / "model"
-  bool prior = false, denoise = false;
+  bool prior = false, denoise = false, local_bias = false;
   std::string name() const {
-    return plan + (prior ? "+prior" : "") + " " + scene + (denoise ? " denoise-on" : " denoise-off");
+    return plan + (prior ? "+prior" : "") + " " + scene + (denoise ? " denoise-on" : " denoise-off") +
+           (local_bias ? " bias-on" : "");
   }
 };
 
 struct Score {
   double de[2] = {}, de_d65[2] = {}, de_a[2] = {};  // [layer off, on]: relit ΔE94 over the scored pixels
   double skin_flagged = 0, ink_caught = 0, marker_caught = 0, seconds = 0;
+  double skin_pixel_flagged = 0, skin_neighbourhood_flagged = 0;  // skin flagged by the per-pixel pass (1-6) / by code 7
+  double skin_006_flagged = -1, ink_006_caught = -1;                // on subject_006's patch when the scene holds it (else -1)
   std::size_t scored = 0, layer_pixels = 0;
 };
 
@@ -85,7 +89,8 @@ spectral::CameraWeights xyz_weights(const spectral::Spectrum& illuminant) {
 }
 
 // The stored maps relit by the product (relight() from read_parameter_maps) against the scene's truth.
-Score score(const fs::path& maps_exr, const fs::path& scene, const std::vector<spectral::Spectrum>& spectra) {
+Score score(const fs::path& maps_exr, const fs::path& scene, const std::vector<spectral::Spectrum>& spectra,
+            int subject_006) {
   const maps::ParameterMaps stored = maps::read_parameter_maps(maps_exr);
   const files::FloatImage truth = files::read_exr(scene / "truth.exr");
   const cv::Mat mask = cv::imread((scene / "skin_mask.png").string(), cv::IMREAD_GRAYSCALE);
@@ -95,16 +100,24 @@ Score score(const fs::path& maps_exr, const fs::path& scene, const std::vector<s
   const std::size_t pixels = index.size();
   Score s;
   s.layer_pixels = stored.discrepancy ? stored.discrepancy->pixels : 0;
-  std::size_t skin = 0, counts[3] = {}, flagged[3] = {};
+  std::size_t skin = 0, counts[3] = {}, flagged[3] = {}, skin6 = 0, skin6_flagged = 0, ink6 = 0, ink6_caught = 0;
   for (std::size_t i = 0; i < pixels; ++i) {
     const bool is_flagged = stored.flags[i] != 0.0f;
     const int r = static_cast<int>(region[i]);
+    const bool on_006 = static_cast<int>(index[i]) == subject_006;
     if (r >= 0 && r < 3) ++counts[r], flagged[r] += is_flagged;
+    if (r == 1 && on_006) ++ink6, ink6_caught += is_flagged;
     if (mask.data[i] == 0) continue;
     ++skin;
     s.skin_flagged += is_flagged;
+    s.skin_neighbourhood_flagged += stored.flags[i] == static_cast<float>(estimation::PixelFlag::kNeighbourhood);
+    if (on_006) ++skin6, skin6_flagged += is_flagged;
   }
+  s.skin_pixel_flagged = skin ? (s.skin_flagged - s.skin_neighbourhood_flagged) / skin : 0;
+  s.skin_neighbourhood_flagged = skin ? s.skin_neighbourhood_flagged / skin : 0;
   s.skin_flagged = skin ? s.skin_flagged / skin : 0;
+  if (skin6) s.skin_006_flagged = double(skin6_flagged) / skin6;
+  if (ink6) s.ink_006_caught = double(ink6_caught) / ink6;
   s.ink_caught = counts[1] ? double(flagged[1]) / counts[1] : 0;
   s.marker_caught = counts[2] ? double(flagged[2]) / counts[2] : 0;
   for (int layer = 0; layer < 2; ++layer) {
@@ -135,7 +148,8 @@ Score score(const fs::path& maps_exr, const fs::path& scene, const std::vector<s
 // `chromo estimate MEASUREMENT.json`'s chain (cli/estimate_command.cpp) with the fold's statistics, maps.exr into `out`.
 void estimate_scene(const fs::path& scene, const fs::path& out, const fs::path& cache,
                     std::shared_ptr<const estimation::ModelDiscrepancy> discrepancy,
-                    std::shared_ptr<const estimation::ParameterPrior> prior, bool denoise, int terms) {
+                    std::shared_ptr<const estimation::ParameterPrior> prior, bool denoise, int terms,
+                    const estimation::LocalBiasOptions& local_bias) {
   session::MeasurementFile m = session::read_measurement_file(scene / "MEASUREMENT.json");
   session::register_images(m);
   const estimation::MeasurementSet set = m.measurement_set();
@@ -150,10 +164,12 @@ void estimate_scene(const fs::path& scene, const fs::path& out, const fs::path& 
   const estimation::Estimator estimator(table, set, eo);
   std::vector<estimation::PixelEstimate> estimates(static_cast<std::size_t>(m.width) * m.height);
   estimation::EstimateSummary summary = estimator.estimate(measured, estimates);
+  estimation::NeighbourhoodOptions neighbourhood;
+  neighbourhood.local_bias = local_bias;
   const std::optional<estimation::SkinDenoiseOptions> skin_denoise =
       denoise ? std::optional(estimation::SkinDenoiseOptions{}) : std::nullopt;
   const estimation::SpatialPass pass =
-      estimation::spatial_pass(estimator, measured, m.width, m.height, estimates, summary, {}, skin_denoise);
+      estimation::spatial_pass(estimator, measured, m.width, m.height, estimates, summary, neighbourhood, skin_denoise);
   const std::optional<maps::DiscrepancyLayer> layer = maps::estimate_discrepancy_layer(
       estimator, measured, estimates, pass.skin_refit ? &*pass.skin_refit : nullptr, terms);
   maps::EstimateReport report;
@@ -212,10 +228,12 @@ struct Row {
   Score s;
 };
 
-void print_spread(const std::vector<Row>& rows, const std::vector<Config>& configs, std::vector<Bar>& bars) {
+void print_spread(const std::vector<Row>& rows, const std::vector<Config>& configs, std::vector<Bar>& bars,
+                  std::vector<LineSeries>& flags_chart) {
   std::printf("\nspread over folds x seeds, mean [min, max] (load average now %.2f):\n", load_average());
-  std::printf("%-36s %-24s %-24s %-22s %-8s %-8s\n", "configuration", "relit dE94 model", "model + discrepancy",
-              "skin flagged %", "ink %", "marker %");
+  std::printf("%-44s %-22s %-22s %-22s %-14s %-14s %-20s %-20s %-10s %-10s\n", "configuration", "relit dE94 model",
+              "model + discrepancy", "skin flagged %", "per-pixel %", "code 7 %", "ink %", "marker %", "006 skin %",
+              "006 ink %");
   for (const Config& c : configs) {
     std::vector<Row> of;
     for (const Row& r : rows)
@@ -224,13 +242,30 @@ void print_spread(const std::vector<Row>& rows, const std::vector<Config>& confi
     const Spread off = spread(of, [](const Row& r) { return r.s.de[0]; });
     const Spread on = spread(of, [](const Row& r) { return r.s.de[1]; });
     const Spread fl = spread(of, [](const Row& r) { return 100 * r.s.skin_flagged; });
+    const Spread px = spread(of, [](const Row& r) { return 100 * r.s.skin_pixel_flagged; });
+    const Spread nb = spread(of, [](const Row& r) { return 100 * r.s.skin_neighbourhood_flagged; });
     const Spread ink = spread(of, [](const Row& r) { return 100 * r.s.ink_caught; });
     const Spread marker = spread(of, [](const Row& r) { return 100 * r.s.marker_caught; });
-    std::printf("%-36s %.3f [%.3f, %.3f]     %.3f [%.3f, %.3f]     %.2f [%.2f, %.2f]     %-8.1f %-8.1f\n",
-                c.name().c_str(), off.mean, off.lo, off.hi, on.mean, on.lo, on.hi, fl.mean, fl.lo, fl.hi, ink.mean,
-                marker.mean);
+    std::vector<Row> with_006;
+    for (const Row& r : of)
+      if (r.s.skin_006_flagged >= 0) with_006.push_back(r);
+    Spread s6{-1, -1, -1}, i6{-1, -1, -1};
+    if (!with_006.empty()) {
+      s6 = spread(with_006, [](const Row& r) { return 100 * r.s.skin_006_flagged; });
+      i6 = spread(with_006, [](const Row& r) { return 100 * std::max(r.s.ink_006_caught, 0.0); });
+    }
+    std::printf("%-44s %.3f [%.3f, %.3f]   %.3f [%.3f, %.3f]   %.2f [%.2f, %.2f]   %.2f [%.2f]   %.2f [%.2f]   "
+                "%.1f [%.1f, %.1f]   %.1f [%.1f, %.1f]   %-10.1f %-10.1f\n",
+                c.name().c_str(), off.mean, off.lo, off.hi, on.mean, on.lo, on.hi, fl.mean, fl.lo, fl.hi, px.mean, px.hi,
+                nb.mean, nb.hi, ink.mean, ink.lo, ink.hi, marker.mean, marker.lo, marker.hi, s6.mean, i6.mean);
     bars.push_back({c.name() + " model", off.mean});
     bars.push_back({c.name() + " +disc", on.mean});
+    Config base = c;
+    base.local_bias = false;
+    const std::string series = base.name();
+    auto it = std::find_if(flags_chart.begin(), flags_chart.end(), [&](const LineSeries& l) { return l.title == series; });
+    if (it == flags_chart.end()) it = flags_chart.insert(flags_chart.end(), LineSeries{series, {}});
+    it->points.push_back({fl.mean, std::min(ink.mean, marker.mean)});
   }
 }
 
@@ -242,6 +277,10 @@ int run(int argc, char** argv) {
   int patch = 32, terms = maps::kDiscrepancyLayerTerms;
   double noise_scale = 1, widen = 1;
   fs::path out = "bench/results/relit_product";
+  std::vector<std::string> denoise_runs{"off", "on"}, bias_runs{"off"};
+  bool priors = true;
+  estimation::LocalBiasOptions bias;
+  bias.enabled = true;
   app.add_option("--seeds", seeds, "scene seeds")->delimiter(',');
   app.add_option("--folds", folds, "folds (0-4) to run")->delimiter(',')->check(CLI::Range(0, kFolds - 1));
   app.add_option("--plans", plans, "method and/or six-leds")->delimiter(',');
@@ -251,10 +290,17 @@ int run(int argc, char** argv) {
       ->check(CLI::Range(1.0, 10.0));
   app.add_option("--terms", terms, "the relit layer's basis size")->check(CLI::Range(1, 81));
   app.add_option("--out", out, "results folder");
+  app.add_option("--denoise", denoise_runs, "the multi-pixel estimate: off and/or on")->delimiter(',');
+  app.add_option("--local-bias", bias_runs, "the local-bias flag rule (local_bias.hpp): off and/or on")->delimiter(',');
+  app.add_option("--priors", priors, "also the method's plan with the real-skin prior (1) or not (0)");
+  app.add_option("--bias-window", bias.window_px, "local bias: the reference's window (px)");
+  app.add_option("--bias-tile", bias.tile_px, "local bias: tile (px)");
+  app.add_option("--bias-cap", bias.max_bias_factor, "local bias: cap, x the flag threshold");
   CLI11_PARSE(app, argc, argv);
 
-  std::printf("relit_product_bench: patch %d px, noise x%g, prior widen %g, %d terms, load average %.2f\n", patch,
-              noise_scale, widen, terms, load_average());
+  std::printf("relit_product_bench: patch %d px, noise x%g, prior widen %g, %d terms, local bias window %d px tile %d px "
+              "cap %g, load average %.2f\n", patch, noise_scale, widen, terms, bias.window_px, bias.tile_px,
+              bias.max_bias_factor, load_average());
   const auto& all = estimation::nist_forearm_spectra();
   std::vector<estimation::SkinParameters> fits(all.size());
 #pragma omp parallel for schedule(dynamic)
@@ -262,14 +308,15 @@ int run(int argc, char** argv) {
   std::vector<Config> configs;
   for (const std::string& plan : plans)
     for (const char* scene : {"real", "model"})
-      for (const bool prior : plan == "method" ? std::vector<bool>{false, true} : std::vector<bool>{false})
-        for (const bool denoise : {false, true}) configs.push_back({plan, scene, prior, denoise});
+      for (const bool prior : plan == "method" && priors ? std::vector<bool>{false, true} : std::vector<bool>{false})
+        for (const std::string& denoise : denoise_runs)
+          for (const std::string& b : bias_runs) configs.push_back({plan, scene, prior, denoise == "on", b == "on"});
   const fs::path scratch = fs::temp_directory_path() / ("relit_product_bench-" + std::to_string(::getpid()));
   const fs::path cache = estimation::ForwardTable::default_cache_dir();
   fs::create_directories(out);
   std::ofstream csv(out / "relit_product.csv");
-  csv << "plan,scene,prior,denoise,fold,seed,relit_model,relit_model_disc,d65_model,d65_disc,a_model,a_disc,skin_flagged,"
-         "ink_caught,marker_caught,scored_pixels,layer_pixels,seconds,load_average\n";
+  csv << "plan,scene,prior,denoise,local_bias,fold,seed,relit_model,relit_model_disc,d65_model,d65_disc,a_model,a_disc,skin_flagged,"
+         "skin_pixel_flagged,skin_neighbourhood_flagged,skin_006_flagged,ink_006_caught,ink_caught,marker_caught,scored_pixels,layer_pixels,seconds,load_average\n";
   std::vector<Row> rows;
   for (const int fold : folds) {
     const FoldStatistics stats = fold_statistics(fold, fits, widen);
@@ -284,20 +331,30 @@ int run(int argc, char** argv) {
         fs::remove_all(scratch);
         simulators::write_real_skin_scene(scene, o);
         const auto start = std::chrono::steady_clock::now();
-        estimate_scene(scene, maps_dir, cache, stats.discrepancy, c.prior ? stats.prior : nullptr, c.denoise, terms);
+        estimation::LocalBiasOptions run_bias = bias;
+        run_bias.enabled = c.local_bias;
+        estimate_scene(scene, maps_dir, cache, stats.discrepancy, c.prior ? stats.prior : nullptr, c.denoise, terms,
+                       run_bias);
         std::vector<spectral::Spectrum> truth;
-        for (const auto& n : o.spectra) truth.push_back(n.albedo);
-        Row row{c, fold, seed, score(maps_dir / "maps.exr", scene, truth)};
+        int subject_006 = -1;
+        for (const auto& n : o.spectra) {
+          if (c.scene == "real" && n.name.find("006") != std::string::npos) subject_006 = static_cast<int>(truth.size());
+          truth.push_back(n.albedo);
+        }
+        Row row{c, fold, seed, score(maps_dir / "maps.exr", scene, truth, subject_006)};
         row.s.seconds = seconds_since(start);
         std::printf("%-36s fold %d seed %llu: relit %.3f -> %.3f (D65 %.3f -> %.3f, A %.3f -> %.3f), skin flagged %.2f%%, "
-                    "ink %.1f%%, marker %.1f%%, %zu px scored, %.1f s\n",
+                    "(per pixel %.2f%%, code 7 %.2f%%), ink %.1f%%, marker %.1f%%, 006 skin %.1f%% ink %.1f%%, %zu px scored, %.1f s\n",
                     c.name().c_str(), fold, static_cast<unsigned long long>(seed), row.s.de[0], row.s.de[1],
                     row.s.de_d65[0], row.s.de_d65[1], row.s.de_a[0], row.s.de_a[1], 100 * row.s.skin_flagged,
-                    100 * row.s.ink_caught, 100 * row.s.marker_caught, row.s.scored, row.s.seconds);
+                    100 * row.s.skin_pixel_flagged, 100 * row.s.skin_neighbourhood_flagged, 100 * row.s.ink_caught, 100 * row.s.marker_caught,
+                    100 * row.s.skin_006_flagged, 100 * row.s.ink_006_caught, row.s.scored, row.s.seconds);
         std::fflush(stdout);
-        csv << c.plan << "," << c.scene << "," << c.prior << "," << c.denoise << "," << fold << "," << seed << ","
+        csv << c.plan << "," << c.scene << "," << c.prior << "," << c.denoise << "," << c.local_bias << "," << fold << "," << seed << ","
             << row.s.de[0] << "," << row.s.de[1] << "," << row.s.de_d65[0] << "," << row.s.de_d65[1] << ","
-            << row.s.de_a[0] << "," << row.s.de_a[1] << "," << row.s.skin_flagged << "," << row.s.ink_caught << ","
+            << row.s.de_a[0] << "," << row.s.de_a[1] << "," << row.s.skin_flagged << "," << row.s.skin_pixel_flagged << ","
+            << row.s.skin_neighbourhood_flagged << "," << row.s.skin_006_flagged << "," << row.s.ink_006_caught << ","
+            << row.s.ink_caught << ","
             << row.s.marker_caught << "," << row.s.scored << "," << row.s.layer_pixels << "," << row.s.seconds << ","
             << load_average() << std::endl;
         rows.push_back(row);
@@ -305,7 +362,10 @@ int run(int argc, char** argv) {
   }
   fs::remove_all(scratch);
   std::vector<Bar> bars;
-  print_spread(rows, configs, bars);
+  std::vector<LineSeries> flags_chart;
+  print_spread(rows, configs, bars, flags_chart);
+  write_line_chart(out / "relit_product_flags.png", "skin flagged vs ink/marker caught (the lower), local bias off -> on",
+                   "real or model skin flagged, %", "ink / marker caught (the lower), %", flags_chart);
   write_bar_chart(out / "relit_product.png", "relit dE94 (mean of D65, A) through the product: model vs model + discrepancy",
                   "relit dE94, unflagged patch-interior pixels", bars);
   return 0;

@@ -153,6 +153,7 @@ int run_estimate(const EstimateOptions& options) {
   estimation::NeighbourhoodOptions no;
   no.flags = options.neighbourhood_flags;
   no.pool_order = options.order_pooling;
+  no.local_bias.enabled = options.local_bias == "on";
   const estimation::SpatialPass pass =
       estimation::spatial_pass(estimator, measured, m.width, m.height, out, summary, no, skin_denoise);
   const estimation::NeighbourhoodSummary& neighbourhood = pass.neighbourhood;
@@ -238,6 +239,13 @@ void add_estimate_command(CLI::App& app, int& exit_status) {
                   "on: the multi-pixel estimate before the spatial pass (each explained pixel's colour averaged with "
                   "its 11×11 neighbours' that agree within the noise, its brightness kept, then fitted again; flags "
                   "unchanged: docs/estimation.md 'Relighting past the model'); off: per pixel only")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->capture_default_str();
+  cmd->add_option("--local-bias", options->local_bias,
+                  "on: before the neighbourhood flags, a pixel flagged 5/6 is judged against the median residual of "
+                  "the explained skin around it (40 px), capped at one flag threshold, so a subject outside the "
+                  "model's learned range is not flagged whole (docs/estimation.md 'A subject's shortfall as a local "
+                  "bias'); off (default): per-pixel flags as they are")
       ->check(CLI::IsMember({"on", "off"}))
       ->capture_default_str();
   cmd->add_option("--discrepancy-layer", options->discrepancy_layer,

@@ -96,6 +96,7 @@ SessionEstimate estimate_stored_session(const EstimateOptions& options, const st
   eo.neighbourhood.flags = options.neighbourhood_flags;
   eo.neighbourhood.pool_order = options.order_pooling;
   eo.skin_denoise = skin_denoise_options(options);
+  eo.neighbourhood.local_bias.enabled = options.local_bias == "on";
   eo.discrepancy_layer_terms = discrepancy_layer_terms(options);
   if (!options.cache_dir.empty()) eo.cache_dir = options.cache_dir;
   nlohmann::ordered_json extra{{"session", fs::absolute(folder).string()},

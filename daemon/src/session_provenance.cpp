@@ -40,6 +40,7 @@ session::SessionProvenance Daemon::session_provenance(const session::SessionPlan
                                   {"model", config_.estimation.model},
                                   {"discrepancy", config_.estimation.discrepancy},
                                   {"skin_denoise", config_.estimation.skin_denoise},
+                                  {"local_bias", config_.estimation.local_bias},
                                   {"discrepancy_layer", config_.estimation.discrepancy_layer},
                                   {"films_extinction_ratio", config_.estimation.films_extinction_ratio}};
   return provenance;

@@ -56,6 +56,11 @@ SpatialPass spatial_pass(const Estimator& estimator, std::span<const float> meas
                          const NeighbourhoodOptions& neighbourhood,
                          const std::optional<SkinDenoiseOptions>& skin_denoise) {
   SpatialPass out;
+  if (neighbourhood.local_bias.enabled) {
+    std::string error;
+    if (!neighbourhood.IsValid(&error)) throw std::invalid_argument("neighbourhood options: " + error);
+    out.local_bias = clear_local_bias(estimator, measured, width, height, estimates, summary, neighbourhood.local_bias);
+  }
   auto timed_refine = [&](std::span<const float> values, const NeighbourhoodOptions& parts) {
     const auto start = std::chrono::steady_clock::now();
     const NeighbourhoodSummary s = refine_with_neighbourhood(estimator, values, width, height, estimates, summary, parts);

@@ -36,7 +36,7 @@ bool NeighbourhoodOptions::IsValid(std::string* error) const {
   if (order_window_px < 1 || order_window_px > 63) return fail("order_window_px must be 1-63");
   if (block_px < 0 || block_px > 64) return fail("block_px must be 0 (from the image size) or 1-64");
   if (reference_width_px < 16) return fail("reference_width_px must be >= 16");
-  return true;
+  return local_bias.IsValid(error);
 }
 
 void detail::check_neighbourhood_sizes(const Estimator& estimator, std::span<const float> measured, int width,

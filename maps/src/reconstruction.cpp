@@ -92,39 +92,72 @@ Eigen::Matrix3d camera_to_xyz_matrix(const spectral::CameraSensitivity& camera, 
   return rtr.ldlt().solve(rtx).transpose();
 }
 
-std::vector<double> photo_delta_e94_map(std::span<const Eigen::Vector3d> photograph,
-                                        std::span<const Eigen::Vector3d> reconstruction,
-                                        const spectral::CameraSensitivity& camera, const spectral::Spectrum& illuminant) {
-  if (photograph.size() != reconstruction.size()) throw std::invalid_argument("photo_delta_e94: image sizes differ");
+std::vector<spectral::Lab> photo_lab_map(std::span<const Eigen::Vector3d> rgb, const spectral::CameraSensitivity& camera,
+                                         const spectral::Spectrum& illuminant) {
   const Eigen::Matrix3d m = camera_to_xyz_matrix(camera, illuminant);
   const spectral::Xyz white = spectral::white_point(illuminant);
-  auto lab = [&](const Eigen::Vector3d& rgb) {
-    const Eigen::Vector3d x = m * rgb;
-    return spectral::lab_from_xyz({x[0], x[1], x[2]}, white);
-  };
-  std::vector<double> de(photograph.size(), std::numeric_limits<double>::quiet_NaN());
-  const auto count = static_cast<std::ptrdiff_t>(photograph.size());
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  std::vector<spectral::Lab> lab(rgb.size(), spectral::Lab{kNaN, kNaN, kNaN});
+  const auto count = static_cast<std::ptrdiff_t>(rgb.size());
   // Pixels are independent: on every core for a large image.
 #pragma omp parallel for schedule(static) if (count > 65536)
   for (std::ptrdiff_t k = 0; k < count; ++k) {
     const auto i = static_cast<std::size_t>(k);
-    if (photograph[i].allFinite() && reconstruction[i].allFinite())
-      de[i] = spectral::delta_e94(lab(photograph[i]), lab(reconstruction[i]));
+    if (!rgb[i].allFinite()) continue;
+    const Eigen::Vector3d x = m * rgb[i];
+    lab[i] = spectral::lab_from_xyz({x[0], x[1], x[2]}, white);
+  }
+  return lab;
+}
+
+std::vector<double> delta_e94_map(std::span<const spectral::Lab> reference, std::span<const spectral::Lab> sample) {
+  if (reference.size() != sample.size()) throw std::invalid_argument("delta_e94_map: image sizes differ");
+  std::vector<double> de(reference.size(), std::numeric_limits<double>::quiet_NaN());
+  const auto count = static_cast<std::ptrdiff_t>(reference.size());
+#pragma omp parallel for schedule(static) if (count > 65536)
+  for (std::ptrdiff_t k = 0; k < count; ++k) {
+    const auto i = static_cast<std::size_t>(k);
+    if (!std::isnan(reference[i].L) && !std::isnan(sample[i].L)) de[i] = spectral::delta_e94(reference[i], sample[i]);
   }
   return de;
 }
 
-std::vector<double> photograph_noise_delta_e94_map(std::span<const Eigen::Vector3d> photograph,
-                                                   const std::array<estimation::ChannelNoise, 3>& noise,
-                                                   const spectral::CameraSensitivity& camera,
-                                                   const spectral::Spectrum& illuminant, std::uint64_t seed) {
-  // One draw per pixel and channel, in pixel order (serial: the same seed gives the same draw on any core count).
+std::vector<double> photo_delta_e94_map(std::span<const Eigen::Vector3d> photograph,
+                                        std::span<const Eigen::Vector3d> reconstruction,
+                                        const spectral::CameraSensitivity& camera, const spectral::Spectrum& illuminant) {
+  if (photograph.size() != reconstruction.size()) throw std::invalid_argument("photo_delta_e94: image sizes differ");
+  return delta_e94_map(photo_lab_map(photograph, camera, illuminant), photo_lab_map(reconstruction, camera, illuminant));
+}
+
+namespace {
+// The photograph with one draw of its noise model per pixel and channel, in
+// pixel order (serial: the same seed gives the same draw on any core count).
+std::vector<Eigen::Vector3d> noisy_copy(std::span<const Eigen::Vector3d> photograph,
+                                        const std::array<estimation::ChannelNoise, 3>& noise, std::uint64_t seed) {
   std::mt19937_64 random(seed);
   std::normal_distribution<double> normal;
   std::vector<Eigen::Vector3d> noisy(photograph.begin(), photograph.end());
   for (auto& rgb : noisy)
     for (int c = 0; c < 3; ++c) rgb[c] += std::sqrt(noise[static_cast<std::size_t>(c)].variance(rgb[c])) * normal(random);
-  return photo_delta_e94_map(photograph, noisy, camera, illuminant);
+  return noisy;
+}
+}  // namespace
+
+std::vector<double> photograph_noise_delta_e94_map(std::span<const Eigen::Vector3d> photograph,
+                                                   const std::array<estimation::ChannelNoise, 3>& noise,
+                                                   const spectral::CameraSensitivity& camera,
+                                                   const spectral::Spectrum& illuminant, std::uint64_t seed) {
+  return photo_delta_e94_map(photograph, noisy_copy(photograph, noise, seed), camera, illuminant);
+}
+
+std::vector<double> photograph_noise_delta_e94_map(std::span<const Eigen::Vector3d> photograph,
+                                                   std::span<const spectral::Lab> photograph_lab,
+                                                   const std::array<estimation::ChannelNoise, 3>& noise,
+                                                   const spectral::CameraSensitivity& camera,
+                                                   const spectral::Spectrum& illuminant, std::uint64_t seed) {
+  if (photograph_lab.size() != photograph.size())
+    throw std::invalid_argument("photograph_noise_delta_e94_map: the photograph's Lab is not the photograph's size");
+  return delta_e94_map(photograph_lab, photo_lab_map(noisy_copy(photograph, noise, seed), camera, illuminant));
 }
 
 DeltaEStats photo_delta_e94(std::span<const Eigen::Vector3d> photograph, std::span<const Eigen::Vector3d> reconstruction,

@@ -12,6 +12,7 @@
 #include <opencv2/video/tracking.hpp>
 #include <string>
 
+#include "photometric_mask.hpp"
 #include "registration_signal.hpp"
 
 namespace chromo::session {
@@ -323,53 +324,110 @@ double corner_displacement_px(const RegistrationResult& r, int width, int height
   return largest;
 }
 
+
 namespace {
 
-// Corner displacement of the remaining transform found by the residual check.
-double residual_corner_px(const std::vector<float>& reference, const std::vector<float>& warped, int width, int height,
-                          const RegistrationResult& r, const RegistrationOptions& options, RegistrationMethod& method) {
-  RegistrationOptions check = options;
-  check.pyramid_levels = 1;
-  // The residual by the method that found the warp (ECC would wander on the
-  // featureless view that sent it to the fallback).
-  const RegistrationResult rest =
-      r.method == RegistrationMethod::kTranslation
-          ? translation_fallback(wrap(reference, width, height), wrap(warped, width, height),
-                                 moving_mask(warped, width, height), "the residual check")
-          : estimate_registration(reference, warped, width, height, check);
-  method = rest.method;
-  return corner_displacement_px(rest, width, height);
+// The coarse levels' answer (ECC from the identity down to level 1, the
+// warp in the pixels of level 0).
+struct Coarse {
+  cv::Mat warp = cv::Mat::eye(2, 3, CV_32F);
+  double correlation = 0;
+  std::uint32_t skipped = 0;
+};
+
+Coarse coarse_levels(const Pyramids& p, const RegistrationOptions& options, bool on_signal) {
+  Coarse c;
+  ecc_levels(p, coarsest_level(p), 1, options, c.warp, c.correlation, c.skipped, on_signal);
+  return c;
 }
 
-}  // namespace
+// The robust round's mask: the moving capture's pixels that follow one gain
+// and offset against the reference (photometric_mask.hpp), within p.mask[0],
+// the reference resampled by the identity or by `warp` (the coarse levels'
+// answer), whichever leaves the smaller departures (a still pair is aligned
+// by the identity, however far the outliers pulled the coarse levels; a moved
+// pair by the coarse warp); p.mask rebuilt from it at every level as
+// pyramids_of builds it. Returns the share left out (0: p.mask unchanged).
+double exclude_photometric_outliers(Pyramids& p, const cv::Mat& ref_valid, const cv::Mat& warp) {
+  registration_detail::PhotometricMask best;
+  best.departure_scale = std::numeric_limits<double>::infinity();
+  for (const cv::Mat& w : {cv::Mat(cv::Mat::eye(2, 3, CV_32F)), warp}) {
+    cv::Mat ref_on_moving, ref_valid_on_moving;
+    cv::warpAffine(p.ref[0], ref_on_moving, w, p.ref[0].size(), cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+    cv::warpAffine(ref_valid, ref_valid_on_moving, w, p.ref[0].size(), cv::INTER_NEAREST, cv::BORDER_CONSTANT, 0);
+    registration_detail::PhotometricMask found =
+        registration_detail::photometric_consistency_mask(ref_on_moving, p.mov[0], p.mask[0] & ref_valid_on_moving);
+    if (found.departure_scale < best.departure_scale) best = std::move(found);
+  }
+  if (best.outlier_share == 0) return 0;
+  p.mask[0] = p.mask[0] & best.consistent;
+  // At each coarser level the outliers' edges reach farther: pyrDown's and
+  // ECC's own 5-tap smoothing (2 px of that level each side) blur them into
+  // their neighbours, so the margin grows by 3 px of each level.
+  const cv::Mat margin = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(7, 7));
+  for (std::size_t l = 1; l < p.mask.size(); ++l) {
+    cv::resize(p.mask[l - 1], p.mask[l], p.mov[l].size(), 0, 0, cv::INTER_NEAREST);
+    cv::erode(p.mask[l], p.mask[l], margin);
+  }
+  return best.outlier_share;
+}
 
-namespace {
+// The moving capture's mask on the reference's grid (the pixel x of the
+// reference is the moving capture's warp · x), for the checks on the warped capture.
+cv::Mat mask_on_reference(const cv::Mat& moving_mask_px, const RegistrationResult& r) {
+  cv::Mat warp(2, 3, CV_32F), out;
+  for (int i = 0; i < 2; ++i)
+    for (int j = 0; j < 3; ++j) warp.at<float>(i, j) = static_cast<float>(r.warp[i][j]);
+  cv::warpAffine(moving_mask_px, out, warp, moving_mask_px.size(), cv::INTER_NEAREST | cv::WARP_INVERSE_MAP,
+                 cv::BORDER_CONSTANT, 0);
+  return out;
+}
 
 // The still decision (RegistrationOptions::decide_still_at_coarse_level):
-// ECC on the coarse levels of the signal (RegistrationOptions::signal), the
-// noise of the unwarped pair's signal; the coarse result when its motion is
-// not significant (not warped: its residual_motion_px the motion found),
-// nothing otherwise. `warp`, `correlation`, `skipped`: the coarse levels'
-// answer when the signal is the images themselves (the full path goes on
-// from it), else left as they were (the full path starts afresh).
-std::optional<RegistrationResult> decide_still(const Pyramids& p, const cv::Mat& mask, const RegistrationOptions& options,
-                                               cv::Mat& warp, double& correlation, std::uint32_t& skipped) {
-  const int coarsest = coarsest_level(p), width = p.ref[0].cols, height = p.ref[0].rows;
+// the coarse levels' answer (`coarse`, on the images; or, with the signal
+// RegistrationOptions::signal, ECC on its coarse levels here), the noise of
+// the unwarped pair's signal within p.mask; the coarse result when its
+// motion is not significant (not warped: its residual_motion_px the motion
+// found), nothing otherwise.
+std::optional<RegistrationResult> decide_still(const Pyramids& p, const RegistrationOptions& options, const Coarse& coarse_found) {
+  const int width = p.ref[0].cols, height = p.ref[0].rows;
   const bool on_signal = options.signal != RegistrationSignal::kIntensity;
-  cv::Mat coarse_warp = warp.clone();
-  double coarse_correlation = correlation;
-  std::uint32_t coarse_skipped = skipped;
-  ecc_levels(p, coarsest, 1, options, coarse_warp, coarse_correlation, coarse_skipped, on_signal);
-  if (!on_signal) warp = coarse_warp, correlation = coarse_correlation, skipped = coarse_skipped;
-  const bool converged_somewhere = coarse_skipped != ((1u << (coarsest + 1)) - 2);
-  RegistrationResult coarse = from_warp(coarse_warp, coarse_correlation);
-  coarse.skipped_levels = coarse_skipped;
+  const Coarse c = on_signal ? coarse_levels(p, options, true) : coarse_found;
+  const int coarsest = coarsest_level(p);
+  const bool converged_somewhere = c.skipped != ((1u << (coarsest + 1)) - 2);
+  RegistrationResult coarse = from_warp(c.warp, c.correlation);
+  coarse.skipped_levels = c.skipped;
   if (!converged_somewhere || !is_plausible(coarse, width, height)) return std::nullopt;
-  coarse.motion_noise_px = motion_noise_px(p.ref_signal[0], p.mov_signal[0], mask);
+  coarse.motion_noise_px = motion_noise_px(p.ref_signal[0], p.mov_signal[0], p.mask[0]);
   const double motion = corner_displacement_px(coarse, width, height);
   if (!std::isfinite(coarse.motion_noise_px) || motion_is_significant(coarse, motion)) return std::nullopt;
   coarse.residual_motion_px = motion;  // not warped: what remains is the motion found
   return coarse;
+}
+
+// The residual check and the noise on the warped capture; after a robust
+// round (`robust_mask` not empty: the moving capture's) within that mask
+// carried onto the reference's grid.
+void check_warped(const cv::Mat& ref, const cv::Mat& ref_valid, const std::vector<float>& moving, const cv::Mat& robust_mask,
+                  int width, int height, const RegistrationOptions& options, RegistrationResult& r) {
+  const std::vector<float> warped = warp_channel(moving, width, height, r);
+  const cv::Mat warped_image = wrap(warped, width, height);
+  cv::Mat mask = moving_mask(warped, width, height);
+  if (!robust_mask.empty()) mask &= mask_on_reference(robust_mask, r);
+  RegistrationResult rest;
+  if (r.method == RegistrationMethod::kTranslation) {
+    // The residual by the method that found the warp (ECC would wander on
+    // the featureless view that sent it to the fallback).
+    rest = translation_fallback(ref, warped_image, mask, "the residual check");
+  } else {
+    RegistrationOptions check = options;
+    check.pyramid_levels = 1;
+    const Pyramids level0 = pyramids_of(ref, warped_image, mask, ref_valid, check, false);
+    rest = finish_registration(level0, 0, check, cv::Mat::eye(2, 3, CV_32F), 0, 0);
+  }
+  r.residual_method = rest.method;
+  r.residual_motion_px = corner_displacement_px(rest, width, height);
+  r.motion_noise_px = motion_noise_px(ref, warped_image, mask);
 }
 
 }  // namespace
@@ -377,21 +435,30 @@ std::optional<RegistrationResult> decide_still(const Pyramids& p, const cv::Mat&
 RegistrationResult register_channel(const std::vector<float>& reference, const std::vector<float>& moving, int width,
                                     int height, const RegistrationOptions& options) {
   const cv::Mat ref = wrap(reference, width, height), mov = wrap(moving, width, height);
-  const cv::Mat mask = moving_mask(moving, width, height), ref_valid = finite_mask(reference, width, height);
-  const Pyramids p = pyramids_of(ref, mov, mask, ref_valid, options, options.decide_still_at_coarse_level);
-  cv::Mat warp = cv::Mat::eye(2, 3, CV_32F);
-  double correlation = 0;
-  std::uint32_t skipped = 0;
+  const cv::Mat ref_valid = finite_mask(reference, width, height);
+  Pyramids p = pyramids_of(ref, mov, moving_mask(moving, width, height), ref_valid, options,
+                           options.decide_still_at_coarse_level);
+  Coarse c;
+  double outlier_share = 0;
   int coarsest = coarsest_level(p);
-  if (options.decide_still_at_coarse_level && coarsest > 0) {
-    if (auto still = decide_still(p, mask, options, warp, correlation, skipped)) return *still;
-    // Moved: the images as they are, every level as without the decision.
-    if (options.signal == RegistrationSignal::kIntensity) coarsest = 0;  // level 0 goes on from the coarse warp
+  if (coarsest > 0 && options.signal == RegistrationSignal::kIntensity) {
+    // The coarse levels, then the robust round: where some regions do not
+    // follow the captures' one gain (ink, marker), they are left out and the
+    // coarse levels run again from the identity; level 0 goes on from them.
+    c = coarse_levels(p, options, false);
+    if (options.exclude_photometric_outliers && (outlier_share = exclude_photometric_outliers(p, ref_valid, c.warp)) > 0)
+      c = coarse_levels(p, options, false);
+    coarsest = 0;
   }
-  RegistrationResult r = finish_registration(p, coarsest, options, warp, correlation, skipped);
-  const std::vector<float> warped = warp_channel(moving, width, height, r);
-  r.residual_motion_px = residual_corner_px(reference, warped, width, height, r, options, r.residual_method);
-  r.motion_noise_px = motion_noise_px(ref, wrap(warped, width, height), moving_mask(warped, width, height));
+  if (options.decide_still_at_coarse_level && coarsest_level(p) > 0)
+    if (auto still = decide_still(p, options, c)) {
+      still->photometric_outlier_share = outlier_share;
+      return *still;
+    }
+  // Moved: the images as they are; with the signal every level afresh.
+  RegistrationResult r = finish_registration(p, coarsest, options, c.warp, c.correlation, c.skipped);
+  r.photometric_outlier_share = outlier_share;
+  check_warped(ref, ref_valid, moving, outlier_share > 0 ? p.mask[0] : cv::Mat(), width, height, options, r);
   return r;
 }
 

@@ -170,6 +170,7 @@ TEST(DaemonConfig, RefusesEveryProbeOfIssue19NamingTheKey) {
       {{{"estimation", {{"camera_sensitivity", "builtin:no_such_camera"}}}}, "cfg: estimation.camera_sensitivity: "},
       {{{"estimation", {{"threads", -1}}}}, "cfg: estimation.threads: -1 is outside [0, 256]"},
       {{{"estimation", {{"skin_denoise", "yes"}}}}, "cfg: estimation.skin_denoise: \"yes\" is not on or off"},
+      {{{"estimation", {{"local_bias", "yes"}}}}, "cfg: estimation.local_bias: \"yes\" is not on or off"},
       {{{"estimation", {{"discrepancy_layer", "yes"}}}}, "cfg: estimation.discrepancy_layer: \"yes\" is not on or off"},
       {{{"estimation", {{"white_reflectance", 0}}}}, "cfg: estimation.white_reflectance: 0 is outside (0"},
       {{{"estimation", {{"cache_limit_bytes", 10}}}}, "cfg: estimation.cache_limit_bytes: 10 is outside"},

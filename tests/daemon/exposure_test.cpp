@@ -12,6 +12,9 @@
 #include <cstdio>
 #include <optional>
 #include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
 
 #include "chromo/session/journal.hpp"
 #include "chromo/session/method_measurement.hpp"
@@ -332,6 +335,116 @@ struct Spread {
 
 }  // namespace subject_metering
 
+// What one seed's lab gave (the spreads over seeds are printed from these).
+struct SeedFigures {
+  bool complete = false;  // every assertion before the figures ran
+  double g_d65 = 0, g_blue = 0, relit_one = 0, relit_metered = 0, noise_one = 0, noise_metered = 0;
+  double blue_albedo_change = 0;
+  std::vector<double> linearity_deviation;
+  std::string printed;
+};
+
+std::string format(const char* pattern, auto... values) {
+  char line[512];
+  std::snprintf(line, sizeof line, pattern, values...);
+  return line;
+}
+
+// One seed: the calibrated lab, a session at the whites' exposures and a
+// metered one, and the checks of the test below on them.
+void check_metered_seed(std::uint64_t seed, SeedFigures& f) {
+  using namespace subject_metering;
+  SCOPED_TRACE("seed " + std::to_string(seed));
+  TestLab lab = calibrated_lab("subject-metered-" + std::to_string(seed), seed, true);
+  auto daemon = lab.daemon();
+  const auto calibrated = testing::run_quick_calibration(*daemon);
+  ASSERT_EQ(calibrated.state, session::OperationState::kSucceeded) << calibrated.error;
+  const MeteredRun one = run_standard(*daemon, 0);
+  const MeteredRun metered = run_standard(*daemon, kSubjectFill);
+  EXPECT_TRUE(one.subject_metered.empty());
+  ASSERT_EQ(metered.subject_metered.size(), 2u);  // D65' and W57+blue; W57 takes W57+blue's
+  for (const auto& r : metered.subject_metered) {
+    const double g = r.value("exposure_ratio", 0.0);
+    EXPECT_GE(g, 1.0) << r.dump();
+    EXPECT_LT(g, 8.0) << r.dump();  // not capped
+    EXPECT_FALSE(r.value("capped", true)) << r.dump();
+    EXPECT_NEAR(r.value("exposure_us", 0.0), metered.exposure_us.at(r.value("step", "")), 1e-6) << r.dump();
+    EXPECT_NEAR(r.value("white_exposure_us", 0.0) * g, r.value("exposure_us", 0.0), 1e-6) << r.dump();
+    EXPECT_LT(r.value("white_like_share", 1.0), 0.2) << r.dump();  // the strip (1/10 of the width) and the highlight
+  }
+  const double d65 = ratio_of(metered, "subject_d65"), blue = ratio_of(metered, "subject_w57+blue");
+  f.g_d65 = d65, f.g_blue = blue;
+  const auto& e = metered.exposure_us;
+  EXPECT_NEAR(e.at("subject_d65") / e.at("white_d65"), d65, 1e-9);
+  EXPECT_NEAR(e.at("subject_w57+blue") / e.at("white_w57+blue"), blue, 1e-9);
+  EXPECT_NEAR(e.at("subject_w57") / e.at("white_w57"), blue, 1e-9);
+  for (const auto* run : {&one, &metered})
+    EXPECT_NEAR(run->exposure_us.at("white_d65"), one.exposure_us.at("white_d65"),
+                0.1 * one.exposure_us.at("white_d65"));  // the whites metered alike
+  for (const auto& [step, t] : one.exposure_us)
+    if (step.rfind("subject", 0) == 0) EXPECT_NEAR(t, one.exposure_us.at("white" + step.substr(7)), 1e-9) << step;
+
+  // The report: estimated, its captures at the frames' exposures, the noise figure with g.
+  for (const auto* run : {&one, &metered}) {
+    ASSERT_EQ(run->results.value("state", ""), "available") << run->results.dump();
+    ASSERT_TRUE(run->summary.is_object());
+    ASSERT_TRUE(run->measurement);
+  }
+  std::size_t reported = 0;
+  for (const auto& capture : metered.summary["captures"]) {
+    const std::string name = capture.value("capture", "");
+    for (auto [report, step] : {std::pair{"subject D65'", "subject_d65"}, {"subject W57", "subject_w57"},
+                                {"subject W57+blue", "subject_w57+blue"}})
+      if (name == report) {
+        EXPECT_NEAR(capture.value("exposure_us", 0.0), e.at(step), 1e-6) << name;
+        ++reported;
+      }
+  }
+  EXPECT_EQ(reported, 3u) << metered.summary["captures"].dump();
+  // The blue-only noise on skin falls by more than 1/g (read-limited) allows and, with the subject's
+  // shot noise (1/√g) and the white's 4 frames (which g does not reduce), to about half (measured 0.487).
+  f.noise_one = blue_relative_noise(one), f.noise_metered = blue_relative_noise(metered);
+  ASSERT_GT(f.noise_one, 0.0);
+  const double noise_ratio = f.noise_metered / f.noise_one;
+  EXPECT_GT(noise_ratio, 1.0 / blue);
+  EXPECT_LT(noise_ratio, 0.55);
+
+  // The linearity whites after the subjects, at each white's exposure ÷ g, and the check they make.
+  EXPECT_NEAR(e.at("white_d65_linearity"), e.at("white_d65") / d65, 1e-6 * e.at("white_d65"));
+  EXPECT_NEAR(e.at("white_w57+blue_linearity"), e.at("white_w57+blue") / blue, 1e-6 * e.at("white_w57+blue"));
+  EXPECT_NEAR(e.at("white_w57_linearity"), e.at("white_w57") / blue, 1e-6 * e.at("white_w57"));
+  ASSERT_EQ(metered.measurement->linearity.size(), 3u);
+  for (const auto& linearity : metered.measurement->linearity) {
+    EXPECT_TRUE(linearity.checked) << linearity.capture;
+    EXPECT_LT(std::abs(linearity.deviation), 0.02) << linearity.capture;
+    f.linearity_deviation.push_back(linearity.deviation);
+  }
+  for (const auto& linearity : one.measurement->linearity) EXPECT_FALSE(linearity.checked) << linearity.capture;
+
+  // The albedo where neither session clips: the white scaled by g gives what the white at the subject's exposure gives.
+  const CommonAlbedo albedo = common_albedo(*one.measurement, *metered.measurement);
+  ASSERT_GT(albedo.cells, one.measurement->measured.size() / 4 / 2);
+  for (std::size_t c = 0; c < 3; ++c)
+    EXPECT_NEAR(albedo.metered[c] / albedo.one[c], 1.0, 0.01) << "channel " << c;
+  f.blue_albedo_change = albedo.metered[3] / albedo.one[3] - 1;
+  f.printed += format("seed %llu: g D65' %.3f W57+blue %.3f; mean albedo (one exposure → metered) R %.4f→%.4f G %.4f→%.4f "
+              "B %.4f→%.4f blue-only %.4f→%.4f over %zu cells\n",
+              static_cast<unsigned long long>(seed), d65, blue, albedo.one[0], albedo.metered[0], albedo.one[1],
+              albedo.metered[1], albedo.one[2], albedo.metered[2], albedo.one[3], albedo.metered[3], albedo.cells);
+
+  const auto truth_one = testing::maps_against_truth(one.folder / "results" / "maps.exr", lab.lab_options);
+  const auto truth_metered = testing::maps_against_truth(metered.folder / "results" / "maps.exr", lab.lab_options);
+  f.relit_one = truth_one.relit.mean, f.relit_metered = truth_metered.relit.mean;
+  // More skin flagged when metered (measured 7-10% against 1-4%: the W57+blue registration's false
+  // 0.2 px shift, docs/daemon.md "Subject exposure"); bounded here so that it cannot grow unseen.
+  EXPECT_LT(static_cast<double>(truth_metered.flagged) / truth_metered.skin_pixels, 0.12);
+  f.printed += format("seed %llu: relit ΔE94 vs truth (D65, mean) %.3f → %.3f; flagged skin %zu → %zu of %zu; blue-only "
+              "relative noise %.4f → %.4f\n",
+              static_cast<unsigned long long>(seed), truth_one.relit.mean, truth_metered.relit.mean, truth_one.flagged,
+              truth_metered.flagged, truth_one.skin_pixels, f.noise_one, f.noise_metered);
+  f.complete = true;
+}
+
 // Subject exposure metering on the live path (capture.subject_fill), on the
 // calibrated virtual lab over three scene and noise seeds: the sequencer
 // meters D65' and W57+blue on the subject, the frames record g times their
@@ -340,99 +453,25 @@ struct Spread {
 // the session whose subjects are at their whites' exposures, the blue-only
 // channel's noise falls by about g, and the maps' relit ΔE94 against the
 // lab's truth is printed (docs/daemon.md "Subject exposure": the measured
-// numbers).
+// numbers). The three seeds' labs run at once, each on its own simulators,
+// loopback address and folder: most of a seed's time waits on the LED lab's
+// clock and the captures (86 s one after the other at load 2-3).
 TEST(ExposurePerCapture, SubjectMeteringTakesEachSubjectLongerKeepsItsAlbedoAndCutsTheBlueNoise) {
   using namespace subject_metering;
+  std::array<SeedFigures, 3> figures;
+  std::vector<std::thread> labs;
+  for (std::uint64_t seed : {1, 2, 3}) labs.emplace_back([&figures, seed] { check_metered_seed(seed, figures[seed - 1]); });
+  for (auto& lab : labs) lab.join();
   Spread g_d65, g_blue, relit_one, relit_metered, noise_one, noise_metered, blue_albedo_change, linearity_deviation;
-  for (std::uint64_t seed : {1, 2, 3}) {
-    SCOPED_TRACE("seed " + std::to_string(seed));
-    TestLab lab = calibrated_lab("subject-metered-" + std::to_string(seed), seed, true);
-    auto daemon = lab.daemon();
-    const auto calibrated = testing::run_quick_calibration(*daemon);
-    ASSERT_EQ(calibrated.state, session::OperationState::kSucceeded) << calibrated.error;
-    const MeteredRun one = run_standard(*daemon, 0);
-    const MeteredRun metered = run_standard(*daemon, kSubjectFill);
-    EXPECT_TRUE(one.subject_metered.empty());
-    ASSERT_EQ(metered.subject_metered.size(), 2u);  // D65' and W57+blue; W57 takes W57+blue's
-    for (const auto& r : metered.subject_metered) {
-      const double g = r.value("exposure_ratio", 0.0);
-      EXPECT_GE(g, 1.0) << r.dump();
-      EXPECT_LT(g, 8.0) << r.dump();  // not capped
-      EXPECT_FALSE(r.value("capped", true)) << r.dump();
-      EXPECT_NEAR(r.value("exposure_us", 0.0), metered.exposure_us.at(r.value("step", "")), 1e-6) << r.dump();
-      EXPECT_NEAR(r.value("white_exposure_us", 0.0) * g, r.value("exposure_us", 0.0), 1e-6) << r.dump();
-      EXPECT_LT(r.value("white_like_share", 1.0), 0.2) << r.dump();  // the strip (1/10 of the width) and the highlight
-    }
-    const double d65 = ratio_of(metered, "subject_d65"), blue = ratio_of(metered, "subject_w57+blue");
-    g_d65.values.push_back(d65), g_blue.values.push_back(blue);
-    const auto& e = metered.exposure_us;
-    EXPECT_NEAR(e.at("subject_d65") / e.at("white_d65"), d65, 1e-9);
-    EXPECT_NEAR(e.at("subject_w57+blue") / e.at("white_w57+blue"), blue, 1e-9);
-    EXPECT_NEAR(e.at("subject_w57") / e.at("white_w57"), blue, 1e-9);
-    for (const auto* run : {&one, &metered})
-      EXPECT_NEAR(run->exposure_us.at("white_d65"), one.exposure_us.at("white_d65"),
-                  0.1 * one.exposure_us.at("white_d65"));  // the whites metered alike
-    for (const auto& [step, t] : one.exposure_us)
-      if (step.rfind("subject", 0) == 0) EXPECT_NEAR(t, one.exposure_us.at("white" + step.substr(7)), 1e-9) << step;
-
-    // The report: estimated, its captures at the frames' exposures, the noise figure with g.
-    for (const auto* run : {&one, &metered}) {
-      ASSERT_EQ(run->results.value("state", ""), "available") << run->results.dump();
-      ASSERT_TRUE(run->summary.is_object());
-      ASSERT_TRUE(run->measurement);
-    }
-    std::size_t reported = 0;
-    for (const auto& capture : metered.summary["captures"]) {
-      const std::string name = capture.value("capture", "");
-      for (auto [report, step] : {std::pair{"subject D65'", "subject_d65"}, {"subject W57", "subject_w57"},
-                                  {"subject W57+blue", "subject_w57+blue"}})
-        if (name == report) {
-          EXPECT_NEAR(capture.value("exposure_us", 0.0), e.at(step), 1e-6) << name;
-          ++reported;
-        }
-    }
-    EXPECT_EQ(reported, 3u) << metered.summary["captures"].dump();
-    // The blue-only noise on skin falls by more than 1/g (read-limited) allows and, with the subject's
-    // shot noise (1/√g) and the white's 4 frames (which g does not reduce), to about half (measured 0.487).
-    noise_one.values.push_back(blue_relative_noise(one)), noise_metered.values.push_back(blue_relative_noise(metered));
-    ASSERT_GT(noise_one.values.back(), 0.0);
-    const double noise_ratio = noise_metered.values.back() / noise_one.values.back();
-    EXPECT_GT(noise_ratio, 1.0 / blue);
-    EXPECT_LT(noise_ratio, 0.55);
-
-    // The linearity whites after the subjects, at each white's exposure ÷ g, and the check they make.
-    EXPECT_NEAR(e.at("white_d65_linearity"), e.at("white_d65") / d65, 1e-6 * e.at("white_d65"));
-    EXPECT_NEAR(e.at("white_w57+blue_linearity"), e.at("white_w57+blue") / blue, 1e-6 * e.at("white_w57+blue"));
-    EXPECT_NEAR(e.at("white_w57_linearity"), e.at("white_w57") / blue, 1e-6 * e.at("white_w57"));
-    ASSERT_EQ(metered.measurement->linearity.size(), 3u);
-    for (const auto& linearity : metered.measurement->linearity) {
-      EXPECT_TRUE(linearity.checked) << linearity.capture;
-      EXPECT_LT(std::abs(linearity.deviation), 0.02) << linearity.capture;
-      linearity_deviation.values.push_back(linearity.deviation);
-    }
-    for (const auto& linearity : one.measurement->linearity) EXPECT_FALSE(linearity.checked) << linearity.capture;
-
-    // The albedo where neither session clips: the white scaled by g gives what the white at the subject's exposure gives.
-    const CommonAlbedo albedo = common_albedo(*one.measurement, *metered.measurement);
-    ASSERT_GT(albedo.cells, one.measurement->measured.size() / 4 / 2);
-    for (std::size_t c = 0; c < 3; ++c)
-      EXPECT_NEAR(albedo.metered[c] / albedo.one[c], 1.0, 0.01) << "channel " << c;
-    blue_albedo_change.values.push_back(albedo.metered[3] / albedo.one[3] - 1);
-    std::printf("seed %llu: g D65' %.3f W57+blue %.3f; mean albedo (one exposure → metered) R %.4f→%.4f G %.4f→%.4f "
-                "B %.4f→%.4f blue-only %.4f→%.4f over %zu cells\n",
-                static_cast<unsigned long long>(seed), d65, blue, albedo.one[0], albedo.metered[0], albedo.one[1],
-                albedo.metered[1], albedo.one[2], albedo.metered[2], albedo.one[3], albedo.metered[3], albedo.cells);
-
-    const auto truth_one = testing::maps_against_truth(one.folder / "results" / "maps.exr", lab.lab_options);
-    const auto truth_metered = testing::maps_against_truth(metered.folder / "results" / "maps.exr", lab.lab_options);
-    relit_one.values.push_back(truth_one.relit.mean), relit_metered.values.push_back(truth_metered.relit.mean);
-    // More skin flagged when metered (measured 7-10% against 1-4%: the W57+blue registration's false
-    // 0.2 px shift, docs/daemon.md "Subject exposure"); bounded here so that it cannot grow unseen.
-    EXPECT_LT(static_cast<double>(truth_metered.flagged) / truth_metered.skin_pixels, 0.12);
-    std::printf("seed %llu: relit ΔE94 vs truth (D65, mean) %.3f → %.3f; flagged skin %zu → %zu of %zu; blue-only "
-                "relative noise %.4f → %.4f\n",
-                static_cast<unsigned long long>(seed), truth_one.relit.mean, truth_metered.relit.mean, truth_one.flagged,
-                truth_metered.flagged, truth_one.skin_pixels, noise_one.values.back(), noise_metered.values.back());
+  for (const SeedFigures& f : figures) {
+    std::fputs(f.printed.c_str(), stdout);
+    if (!f.complete) return;  // its failure is reported; the spreads need every seed
+    g_d65.values.push_back(f.g_d65), g_blue.values.push_back(f.g_blue);
+    relit_one.values.push_back(f.relit_one), relit_metered.values.push_back(f.relit_metered);
+    noise_one.values.push_back(f.noise_one), noise_metered.values.push_back(f.noise_metered);
+    blue_albedo_change.values.push_back(f.blue_albedo_change);
+    linearity_deviation.values.insert(linearity_deviation.values.end(), f.linearity_deviation.begin(),
+                                      f.linearity_deviation.end());
   }
   EXPECT_LT(relit_metered.mean(), relit_one.mean());  // measured 0.551 against 0.800
   std::printf("subject metering (fill %.2f) over seeds 1-3, mean [min, max]: g D65' %s, W57+blue %s; relit ΔE94 vs "

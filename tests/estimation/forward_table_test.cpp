@@ -22,7 +22,7 @@ namespace {
 
 TEST(ForwardTable, NodesEqualTheDirectModel) {
   const MeasurementSet set = testing::method_set();
-  const auto table = testing::method_table();
+  const auto table = testing::built_method_table();
   const Eigen::MatrixXd w = set.weights();
   const SkinModel model;
   for (const auto& [i_cm, i_ch, i_bm, i_che] : {std::array{0, 0, 0, 0}, std::array{40, 40, 20, 20},
@@ -129,7 +129,7 @@ TEST(ForwardTable, InterpolationErrorUnderD65IsBelowTwoHundredthsDeltaE94) {
 }
 
 TEST(ForwardTable, JacobianMatchesFiniteDifferences) {
-  const auto table = testing::method_table();
+  const auto table = testing::built_method_table();
   const GridPoint x{12.3, 20.7, 5.4, 3.2};
   std::vector<double> v(table->channels()), jac(table->channels() * 4);
   table->predict(x, v.data(), jac.data());

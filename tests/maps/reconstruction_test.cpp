@@ -2,7 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
 #include <memory>
+#include <random>
 
 #include "chromo/spectral/lab_illuminants.hpp"
 #include "chromo/simulators/scene/synthetic.hpp"
@@ -59,6 +62,57 @@ TEST(Reconstruction, PhotographComparisonIsZeroForTheTruthAndGrowsWithError) {
   for (std::size_t i = 0; i < truth.size(); ++i) half[i] = i % 2 == 0;
   EXPECT_EQ(photo_delta_e94(photo, photo, camera, w57, std::span<const bool>(half.get(), truth.size())).pixels,
             truth.size() / 2);
+}
+
+
+// The relit comparison converts each photograph to Lab once (photo_lab_map)
+// and compares it with the reconstruction and with its own noisy copy: the
+// same ΔE94 bit for bit as converting both sides of each pair, computed here
+// pixel by pixel from the matrix, the white and the same draws; NaN where a
+// side is not finite. Over 65,536 pixels so the maps run on every core.
+TEST(Reconstruction, ThePhotographsLabOnceGivesTheSameFiguresBitForBit) {
+  const spectral::CameraSensitivity camera = spectral::builtin_camera("nikon_d5100");
+  const spectral::Spectrum& w57 = spectral::led_spectrum(spectral::LedType::kW57);
+  const auto skin = simulators::random_skin_parameters(300, {0.005, 0.005, 0, 0}, {0.3, 0.2, 1, 0.1}, 6);
+  auto wrong = skin;
+  for (estimation::SkinParameters& p : wrong) p.ch *= 1.3;
+  const auto a = relit_camera_rgb(skin, camera, w57), b = relit_camera_rgb(wrong, camera, w57);
+  std::vector<Eigen::Vector3d> photo, relit;
+  for (std::size_t k = 0; photo.size() < 70000; k = (k + 1) % a.size()) photo.push_back(a[k]), relit.push_back(b[k]);
+  photo[5][1] = std::numeric_limits<double>::quiet_NaN();
+  relit[7][0] = std::numeric_limits<double>::infinity();
+  const std::array<estimation::ChannelNoise, 3> noise{estimation::ChannelNoise{0.01, 0.0002, 1.5, 0},
+                                                      estimation::ChannelNoise{0.01, 0.0002, 1.5, 0},
+                                                      estimation::ChannelNoise{0.01, 0.0002, 1.5, 0}};
+  const Eigen::Matrix3d m = camera_to_xyz_matrix(camera, w57);
+  const spectral::Xyz white = spectral::white_point(w57);
+  auto lab = [&](const Eigen::Vector3d& rgb) {
+    const Eigen::Vector3d x = m * rgb;
+    return spectral::lab_from_xyz({x[0], x[1], x[2]}, white);
+  };
+  std::mt19937_64 random(3);
+  std::normal_distribution<double> normal;
+  const std::vector<spectral::Lab> photo_lab = photo_lab_map(photo, camera, w57);
+  const std::vector<double> compared = delta_e94_map(photo_lab, photo_lab_map(relit, camera, w57));
+  const std::vector<double> noisy = photograph_noise_delta_e94_map(photo, photo_lab, noise, camera, w57, 3);
+  const std::vector<double> noisy_again = photograph_noise_delta_e94_map(photo, noise, camera, w57, 3);
+  ASSERT_EQ(noisy.size(), noisy_again.size());
+  for (std::size_t i = 0; i < noisy.size(); ++i)
+    ASSERT_TRUE(noisy[i] == noisy_again[i] || (std::isnan(noisy[i]) && std::isnan(noisy_again[i]))) << i;
+  for (std::size_t i = 0; i < photo.size(); ++i) {
+    Eigen::Vector3d drawn = photo[i];
+    for (int c = 0; c < 3; ++c) drawn[c] += std::sqrt(noise[static_cast<std::size_t>(c)].variance(drawn[c])) * normal(random);
+    if (i == 5 || i == 7) {
+      EXPECT_TRUE(std::isnan(compared[i])) << i;
+      if (i == 5) EXPECT_TRUE(std::isnan(noisy[i]));
+      continue;
+    }
+    ASSERT_EQ(compared[i], spectral::delta_e94(lab(photo[i]), lab(relit[i]))) << i;
+    ASSERT_EQ(noisy[i], spectral::delta_e94(lab(photo[i]), lab(drawn))) << i;
+  }
+  EXPECT_THROW(photograph_noise_delta_e94_map(photo, std::span(photo_lab).first(3), noise, camera, w57),
+               std::invalid_argument);
+  EXPECT_THROW(delta_e94_map(photo_lab, std::span(photo_lab).first(3)), std::invalid_argument);
 }
 
 }  // namespace

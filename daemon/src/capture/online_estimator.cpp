@@ -5,6 +5,7 @@
 #include <chrono>
 
 #include "chromo/calibration/led_library_io.hpp"
+#include "chromo/estimation/forward_table.hpp"
 #include "chromo/session/plan_hazard.hpp"
 #include "chromo/spectral/table.hpp"
 
@@ -32,6 +33,8 @@ std::unique_ptr<OnlineEstimator> make_online_estimator(const EstimationConfig& c
   e.discrepancy = config.discrepancy == "none" ? nullptr : estimation::ModelDiscrepancy::standard();
   // The multi-pixel estimate (estimation.skin_denoise, checked on or off by config.cpp).
   if (config.skin_denoise == "on") options.estimation.skin_denoise = estimation::SkinDenoiseOptions{};
+  // The local-bias flag rule (estimation.local_bias, checked on or off by config.cpp).
+  options.estimation.neighbourhood.local_bias.enabled = config.local_bias == "on";
   // The relit layer (estimation.discrepancy_layer, checked on or off by config.cpp).
   options.estimation.discrepancy_layer_terms = config.discrepancy_layer == "on" ? maps::kDiscrepancyLayerTerms : 0;
   options.estimation.cache_dir = config.cache_dir;
@@ -67,6 +70,7 @@ void OnlineEstimator::begin_session(const SessionStart& start) {
   error_.clear();
   camera_errors_.clear();
   table_prepare_seconds_.clear();
+  preparations_.wait_all();  // an earlier session's, if it ended before its estimate
   prepared_.clear();
   cameras_.clear();
   estimated_ = false;
@@ -89,20 +93,25 @@ bool OnlineEstimator::every_camera_complete() const {
 }
 
 void OnlineEstimator::prepare_tables_of(const std::string& camera) {
-  // The subject is not captured yet: build (or load) the tables now. Kept
-  // in memory until the estimate (it uses them when the subject's frames
-  // leave the measurement set unchanged, as they do when the controller
-  // applied the same levels), and left in the disk cache for `chromo
-  // estimate SESSION_DIR`. A camera with another camera's sensitivity and
-  // illuminants shares that camera's forward table.
-  const auto t = std::chrono::steady_clock::now();
-  std::vector<const maps::PreparedTables*> earlier;
-  for (const auto& [name, tables] : prepared_) earlier.push_back(&tables);
-  // The relit comparison's table too: the photographs' illuminants are the whites'.
-  const session::Captures captures = builder_->captures(camera);
-  prepared_[camera] = maps::prepare_tables(session::measurement_set_from_references(captures), options_.estimation, earlier,
-                                           session::photograph_illuminants(captures));
-  table_prepare_seconds_[camera] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+  // The subject is not captured yet: build (or load) the tables now, on a
+  // thread of the camera's own (TablePreparations), while this thread takes
+  // the subject's frames. Kept in memory until the estimate (it uses them
+  // when the subject's frames leave the measurement set unchanged, as they
+  // do when the controller applied the same levels), and left in the disk
+  // cache for `chromo estimate SESSION_DIR`. A camera with another camera's
+  // sensitivity and illuminants shares that camera's forward table.
+  auto captures = std::make_shared<const session::Captures>(builder_->captures(camera));
+  auto set = std::make_shared<std::optional<estimation::MeasurementSet>>();
+  const maps::MethodEstimationOptions options = options_.estimation;
+  preparations_.start(camera, {[captures, set, grid = options.grid] {
+                                 *set = session::measurement_set_from_references(*captures);
+                                 return estimation::ForwardTable::cache_key(**set, grid);
+                               },
+                               [captures, set, options](std::span<const maps::PreparedTables* const> earlier) {
+                                 // The relit comparison's table too: the photographs' illuminants are the whites'.
+                                 return maps::prepare_tables(**set, options, earlier,
+                                                             session::photograph_illuminants(*captures));
+                               }});
 }
 
 void OnlineEstimator::consume(const CapturedFrame& captured, const StoredFrame& stored) {
@@ -120,10 +129,7 @@ void OnlineEstimator::consume(const CapturedFrame& captured, const StoredFrame& 
     return;
   }
   try {
-    if (!prepared_.count(camera) && !table_prepare_seconds_.count(camera) && builder_->references_complete(camera)) {
-      table_prepare_seconds_[camera] = 0;  // tried once
-      prepare_tables_of(camera);
-    }
+    if (!preparations_.started(camera) && builder_->references_complete(camera)) prepare_tables_of(camera);
   } catch (const std::exception&) {
     // The estimate names what is wrong with this camera's references.
   }
@@ -136,6 +142,10 @@ void OnlineEstimator::consume(const CapturedFrame& captured, const StoredFrame& 
 
 void OnlineEstimator::estimate_now() {
   estimated_ = true;
+  // The tables being prepared since each camera's references (usually ready by now).
+  TablePreparations::Ready ready = preparations_.wait_all();
+  prepared_ = std::move(ready.tables);
+  table_prepare_seconds_ = std::move(ready.seconds);
   nlohmann::ordered_json prepare_seconds = nlohmann::ordered_json::object();
   for (const auto& [camera, seconds] : table_prepare_seconds_) prepare_seconds[camera] = seconds;
   nlohmann::ordered_json extra{{"session_id", session_.id},

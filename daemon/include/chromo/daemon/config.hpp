@@ -52,6 +52,10 @@ struct EstimationConfig {
   // The multi-pixel estimate before the spatial pass (docs/estimation.md
   // "Relighting past the model"): "on" or "off".
   std::string skin_denoise = "off";
+  // A skin's systematic shortfall judged as a local bias before the
+  // neighbourhood flags (estimation/local_bias.hpp; docs/estimation.md
+  // "A subject's shortfall as a local bias"): "on" or "off".
+  std::string local_bias = "off";
   // The relit layer "model + discrepancy" in the maps (maps/discrepancy_layer.hpp;
   // docs/estimation.md "Relighting past the model"): "on" or "off".
   std::string discrepancy_layer = "on";

@@ -47,11 +47,14 @@ SkinRefit refit_denoised_skin(const Estimator& estimator, std::span<const float>
 
 struct SpatialPass {
   NeighbourhoodSummary neighbourhood;
+  std::optional<LocalBiasSummary> local_bias;  // neighbourhood.local_bias.enabled: the local-bias rule ran first
   std::optional<SkinRefit> skin_refit;  // skin_denoise given: the multi-pixel estimate
   double neighbourhood_seconds = 0;     // the neighbourhood flags and the order pooling, wall
 };
 
-// The estimate chain after the per-pixel pass. skin_denoise empty: exactly
+// The estimate chain after the per-pixel pass. With
+// neighbourhood.local_bias.enabled, clear_local_bias() first (flags 5/6 of a
+// skin's systematic shortfall cleared; local_bias.hpp). skin_denoise empty: exactly
 // refine_with_neighbourhood(measured) when either of its parts is on (the
 // per-pixel maps). Given: the neighbourhood flags on the measured channels,
 // then refit_denoised_skin(), then the order pooling on the channels it

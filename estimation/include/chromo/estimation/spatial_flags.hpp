@@ -110,6 +110,7 @@
 #include <string>
 
 #include "chromo/estimation/estimator.hpp"
+#include "chromo/estimation/local_bias.hpp"
 
 namespace chromo::estimation {
 
@@ -139,6 +140,9 @@ struct NeighbourhoodOptions {
   // refine_with_neighbourhood(): which of the two parts to run.
   bool flags = true;
   bool pool_order = true;
+  // spatial_pass() (skin_refit.hpp): first, a skin's systematic shortfall
+  // taken as a local bias (local_bias.hpp); off by default.
+  LocalBiasOptions local_bias;
   bool IsValid(std::string* error) const;
 };
 

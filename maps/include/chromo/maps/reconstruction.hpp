@@ -54,6 +54,17 @@ std::vector<double> photo_delta_e94_map(std::span<const Eigen::Vector3d> photogr
                                         std::span<const Eigen::Vector3d> reconstruction,
                                         const spectral::CameraSensitivity& camera, const spectral::Spectrum& illuminant);
 
+// The CIELAB of each camera RGB (white = 1) under `illuminant`
+// (camera_to_xyz_matrix and the illuminant's white), every core for a large
+// image; all three NaN where the RGB is not finite. What photo_delta_e94_map
+// converts, made once where several comparisons share a photograph.
+std::vector<spectral::Lab> photo_lab_map(std::span<const Eigen::Vector3d> rgb, const spectral::CameraSensitivity& camera,
+                                         const spectral::Spectrum& illuminant);
+
+// Per pixel ΔE94 of `sample` against `reference` (photo_lab_map's); NaN
+// where either is NaN. Sizes differ: std::invalid_argument.
+std::vector<double> delta_e94_map(std::span<const spectral::Lab> reference, std::span<const spectral::Lab> sample);
+
 // What a photograph's own noise alone gives in a comparison against it: per
 // pixel, ΔE94 of the photograph against itself with one draw of its noise
 // model added (σ_c² = noise[c].variance(albedo_c); normal draws from `seed`,
@@ -61,6 +72,14 @@ std::vector<double> photo_delta_e94_map(std::span<const Eigen::Vector3d> photogr
 // error still differs from a photograph by this much; NaN where the pixel is
 // not finite.
 std::vector<double> photograph_noise_delta_e94_map(std::span<const Eigen::Vector3d> photograph,
+                                                   const std::array<estimation::ChannelNoise, 3>& noise,
+                                                   const spectral::CameraSensitivity& camera,
+                                                   const spectral::Spectrum& illuminant, std::uint64_t seed = 1);
+
+// The same with the photograph's Lab given (photo_lab_map of it, same
+// size): the same figures bit for bit, without converting the photograph again.
+std::vector<double> photograph_noise_delta_e94_map(std::span<const Eigen::Vector3d> photograph,
+                                                   std::span<const spectral::Lab> photograph_lab,
                                                    const std::array<estimation::ChannelNoise, 3>& noise,
                                                    const spectral::CameraSensitivity& camera,
                                                    const spectral::Spectrum& illuminant, std::uint64_t seed = 1);

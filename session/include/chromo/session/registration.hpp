@@ -83,6 +83,19 @@ struct RegistrationOptions {
   // signal kIntensity level 0 goes on from the coarse warp).
   // false: every level on the channel as it is, the warp and the residual check.
   bool decide_still_at_coarse_level = true;
+  // register_channel's robust round (signal kIntensity, images of ≥ 2
+  // pyramid levels): after the coarse levels, the moving capture's pixels
+  // whose ratio to the reference departs from the captures' one gain (ink,
+  // marker, highlights: src/photometric_mask.hpp; the reference aligned by
+  // the identity or the coarse warp, whichever departs less) are left out of
+  // every level, with a margin, the coarse levels run again from the
+  // identity, and the still decision, level 0, the residual check and the
+  // noise use that mask. A pair without such pixels is registered exactly as
+  // without the round. Opt-in (false by default): on the real-skin benches it
+  // halves the still six-LED scene's pull and the error on a known 0.4 px
+  // motion, but still warps one of five still captures and is slower
+  // (docs/estimation.md "A robust round", still37b).
+  bool exclude_photometric_outliers = false;
 };
 
 struct RegistrationResult {
@@ -101,6 +114,10 @@ struct RegistrationResult {
   // The registration's own noise: the standard error of the shift from its
   // spread between blocks of the frame (register_channel; 0 until measured).
   double motion_noise_px = 0;
+  // The robust round (register_channel): the share of the moving capture's
+  // pixels left out as not following one gain and offset (0: none, the
+  // registration is that of one round).
+  double photometric_outlier_share = 0;
 };
 
 // The fallback's acceptance: three standard errors of the translation.

@@ -210,7 +210,8 @@ struct CaptureMotion {
 // 9: ChannelNoise::white_coefficient (the noise model's white term, in a²).
 // 10: a still subject decided on the coarse pyramid levels (RegistrationOptions::
 //     decide_still_at_coarse_level): its residual_motion_px is the motion found.
-inline constexpr std::uint32_t kRenderedSessionVersion = 10;
+// 11: RegistrationResult::photometric_outlier_share (the opt-in robust round).
+inline constexpr std::uint32_t kRenderedSessionVersion = 11;
 inline constexpr std::uint8_t kMixedCell = 255;  // a 2×2 cell whose sites have different regions
 
 struct RenderedSession {

@@ -15,7 +15,9 @@
 // by the estimate itself, with no table reload.
 // Every camera is estimated from its own frames (the capture builder keeps
 // them apart; each camera's tables are prepared once its own references are
-// in, shared in memory between cameras with the same sensitivity). When
+// in, on a thread of the camera's own so that this thread keeps taking the
+// subject's frames (TablePreparations; shared in memory between cameras with
+// the same sensitivity and illuminants). When
 // every camera of the session (SessionStart::cameras) has all its frames,
 // or at the end of the session when that list is empty, it estimates every
 // camera tile by tile on options.estimation.estimator.threads threads (0 =
@@ -62,6 +64,7 @@
 #include "chromo/daemon/config.hpp"
 #include "chromo/files/durable_file.hpp"
 #include "chromo/daemon/internal/capture/frame_pipeline.hpp"
+#include "chromo/daemon/internal/capture/table_preparations.hpp"
 #include "chromo/session/session_captures.hpp"
 #include "chromo/session/surface_factors.hpp"
 #include "chromo/maps/camera_results.hpp"
@@ -117,8 +120,9 @@ class OnlineEstimator final : public FrameConsumer {
   std::set<std::uint64_t> consumed_;      // storage indices already added
   std::string error_;                     // first reason this session cannot be estimated
   std::map<std::string, std::string> camera_errors_;  // a camera's unusable frame (several cameras)
-  std::map<std::string, double> table_prepare_seconds_;       // per camera, once its references were in
-  std::map<std::string, maps::PreparedTables> prepared_;  // per camera, from the references until the estimate
+  std::map<std::string, double> table_prepare_seconds_;  // per camera: its references → its tables (at the estimate)
+  std::map<std::string, maps::PreparedTables> prepared_;  // per camera, from the preparations until the estimate's end
+  TablePreparations preparations_;                       // each camera's, on its own thread, from its references on
   std::vector<maps::CameraEstimate> cameras_;
   bool estimated_ = false;
   std::size_t read_back_ = 0;
