@@ -147,7 +147,8 @@ std::vector<double> photograph_noise_delta_e94_map(std::span<const Eigen::Vector
                                                    const std::array<estimation::ChannelNoise, 3>& noise,
                                                    const spectral::CameraSensitivity& camera,
                                                    const spectral::Spectrum& illuminant, std::uint64_t seed) {
-  return photo_delta_e94_map(photograph, noisy_copy(photograph, noise, seed), camera, illuminant);
+  return photograph_noise_delta_e94_map(photograph, photo_lab_map(photograph, camera, illuminant), noise, camera,
+                                        illuminant, seed);
 }
 
 std::vector<double> photograph_noise_delta_e94_map(std::span<const Eigen::Vector3d> photograph,
