@@ -78,10 +78,13 @@ std::size_t non_finite_pixels(const session::MeasurementFile& m) {
 
 double g_local_mean_sigma_px = session::RegistrationOptions{}.local_mean_sigma_px;  // --sigma
 
-// The registration options of a variant: "before", "after" (the default) or "local-mean".
+// The registration options of a variant: "before" (one round, no tile
+// consensus: the default until still37c), "after" (the default: the tile
+// consensus), "robust" (before + the opt-in robust round) or "local-mean".
 session::RegistrationOptions variant_options(const std::string& variant) {
   session::RegistrationOptions options;
-  if (variant == "after") options.exclude_photometric_outliers = true;
+  if (variant != "after") options.tile_consensus = false;
+  if (variant == "robust") options.exclude_photometric_outliers = true;
   if (variant == "local-mean") {
     options.exclude_photometric_outliers = false;
     options.signal = RegistrationSignal::kLessLocalMean;
@@ -175,7 +178,7 @@ int bench_main(int argc, char** argv) {
   std::vector<double> motions{0, 0.2, 0.4, 1.0};
   int patch_px = 128;
   fs::path out = "bench/results";
-  bool no_chart = false, cause = false, signal_trial = false;
+  bool no_chart = false, cause = false, signal_trial = false, robust_trial = false;
   app.add_option("--seeds", seeds, "scene and noise seeds")->delimiter(',');
   app.add_option("--plans", plans, "method and/or six-leds")->delimiter(',');
   app.add_option("--subjects", subject_sets, "NIST subject sets, one scene each (10 patches, 5 a row)")->delimiter(',');
@@ -185,12 +188,14 @@ int bench_main(int argc, char** argv) {
       ->check(CLI::Range(0.5, 100.0));
   app.add_flag("--cause", cause, "also: why a still scene moved before");
   app.add_flag("--signal-trial", signal_trial, "also: the still decision on the channel less its local mean");
+  app.add_flag("--robust-trial", robust_trial, "also: the opt-in robust round (exclude_photometric_outliers)");
   app.add_option("--out", out, "results folder");
   app.add_flag("--no-chart", no_chart, "no PNG");
   CLI11_PARSE(app, argc, argv);
 
   const fs::path scratch = fs::temp_directory_path() / ("still_registration_bench-" + std::to_string(::getpid()));
   std::vector<std::string> variants{"before", "after"};
+  if (robust_trial) variants.push_back("robust");
   if (signal_trial) variants.push_back("local-mean");
   std::printf("still_registration_bench: patch %d px, load average %.2f\n", patch_px, load_average());
   fs::create_directories(out);
