@@ -5,10 +5,13 @@
 // then the declared noise of four frames of a 40,000 e⁻ sensor added
 // (still_scene_captures.hpp), registered as `chromo estimate` registers a
 // MEASUREMENT.json (session::register_images), side by side in one run:
-//   before: the default, one round on every pixel;
-//   after:  the robust round (RegistrationOptions::exclude_photometric_outliers,
-//           opt-in) leaves out the pixels whose ratio between the captures
-//           departs from their one gain (ink, marker).
+//   before: ECC alone (RegistrationOptions::tile_consensus off: the default
+//           until still37c), one round on every pixel;
+//   after:  the default, the tile consensus deciding still or moved and
+//           checking ECC's warp (src/tile_motion.hpp);
+//   --robust-trial: also the opt-in robust round without the tiles
+//           (exclude_photometric_outliers: the pixels whose ratio between the
+//           captures departs from their one gain left out), as "robust";
 //   --signal-trial: also the opt-in still decision on the channel less its
 //           local mean (RegistrationSignal::kLessLocalMean, --sigma), as "local-mean".
 // Per plan, subject set, seed and motion: the wall time of registering every
@@ -24,11 +27,11 @@
 // and both: each capture's shift, rotation and corner motion.
 //
 //   still_registration_bench [--seeds 1,2,3] [--subjects 041-050,021-030,001-010] [--patch 128]
-//                            [--plans method,six-leds] [--motions 0,0.2,0.4,1] [--sigma 8] [--signal-trial] [--cause]
+//                            [--plans method,six-leds] [--motions 0,0.2,0.4,1] [--sigma 8] [--robust-trial] [--signal-trial] [--cause]
 //                            [--out DIR] [--no-chart]
 //
 // Writes DIR/still_registration.csv and DIR/still_registration.png (largest
-// corner error per plan and motion, before and after; DIR: bench/results).
+// corner error per plan, motion and variant; DIR: bench/results).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -172,7 +175,7 @@ void print_spread(const std::vector<std::string>& plans, const std::vector<doubl
 }
 
 int bench_main(int argc, char** argv) {
-  CLI::App app{"registration of a still real-skin scene and of known motions, before and after the robust round"};
+  CLI::App app{"registration of a still real-skin scene and of known motions, ECC alone and with the tile consensus"};
   std::vector<std::uint64_t> seeds{1, 2, 3};
   std::vector<std::string> plans{"method", "six-leds"}, subject_sets{"041-050", "021-030", "001-010"};
   std::vector<double> motions{0, 0.2, 0.4, 1.0};

@@ -95,7 +95,8 @@ struct RegistrationOptions {
   // without the round. Opt-in (false by default): on the real-skin benches it
   // halves the still six-LED scene's pull and the error on a known 0.4 px
   // motion, but still warps one of five still captures and is slower
-  // (docs/estimation.md "A robust round", still37b).
+  // (docs/estimation.md "A robust round", still37b; measured with
+  // tile_consensus off, which the tile consensus now makes unnecessary).
   bool exclude_photometric_outliers = false;
   // register_channel's motion statistic (on by default; src/tile_motion.hpp):
   // after the coarse levels, the translation of each ~48 px tile (its own
@@ -103,14 +104,16 @@ struct RegistrationOptions {
   // disagreeing tiles left out, and its noise from the kept tiles' spread
   // about the fit (motion_noise_px). Captures under different LEDs pull ECC
   // where ink, marker or subjects change contrast, but each tile its own way;
-  // a subject's motion moves every tile alike. Where at least 8 tiles measure:
-  // a motion not significant against that noise (motion_is_significant) is
-  // the still decision (not warped, level 0 skipped, whatever
-  // decide_still_at_coarse_level says about ECC's coarse motion); a moved
-  // capture is registered by ECC as before, and its warp replaced by the
+  // a subject's motion moves every tile alike. Used where at least 8 tiles
+  // measure and ECC's coarse levels found a plausible motion (else, a
+  // featureless view: as without it). With decide_still_at_coarse_level, a
+  // tiles' motion not significant against that noise (motion_is_significant)
+  // is the still decision in place of the block rule (method kTiles, not
+  // warped, level 0 skipped). A moved capture is registered by ECC as
+  // before, and ECC's warp (not the translation fallback's) replaced by the
   // tiles' (method kTiles) where the two differ at a corner by more than
-  // kMotionSignificance of that noise. Fewer tiles (a featureless view): as
-  // without it. docs/estimation.md "Registration of a still scene by tiles".
+  // max(kWarpThresholdPx, kMotionSignificance × that noise). docs/estimation.md
+  // "Registration of a still scene by tiles" (still37c) has the figures.
   bool tile_consensus = true;
 };
 
