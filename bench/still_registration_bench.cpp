@@ -27,7 +27,7 @@
 // and both: each capture's shift, rotation and corner motion.
 //
 //   still_registration_bench [--seeds 1,2,3] [--subjects 041-050,021-030,001-010] [--patch 128]
-//                            [--plans method,six-leds] [--motions 0,0.2,0.4,1] [--sigma 8] [--robust-trial] [--signal-trial] [--cause]
+//                            [--plans method,six-leds] [--motions 0,0.2,0.4,1] [--sigma 8] [--variants before,after] [--robust-trial] [--signal-trial] [--cause]
 //                            [--out DIR] [--no-chart]
 //
 // Writes DIR/still_registration.csv and DIR/still_registration.png (largest
@@ -182,6 +182,7 @@ int bench_main(int argc, char** argv) {
   int patch_px = 128;
   fs::path out = "bench/results";
   bool no_chart = false, cause = false, signal_trial = false, robust_trial = false;
+  std::vector<std::string> variants{"before", "after"};
   app.add_option("--seeds", seeds, "scene and noise seeds")->delimiter(',');
   app.add_option("--plans", plans, "method and/or six-leds")->delimiter(',');
   app.add_option("--subjects", subject_sets, "NIST subject sets, one scene each (10 patches, 5 a row)")->delimiter(',');
@@ -191,13 +192,14 @@ int bench_main(int argc, char** argv) {
       ->check(CLI::Range(0.5, 100.0));
   app.add_flag("--cause", cause, "also: why a still scene moved before");
   app.add_flag("--signal-trial", signal_trial, "also: the still decision on the channel less its local mean");
+  app.add_option("--variants", variants, "before and/or after (one alone: its CPU time by /usr/bin/time)")
+      ->delimiter(',')->check(CLI::IsMember({"before", "after"}));
   app.add_flag("--robust-trial", robust_trial, "also: the opt-in robust round (exclude_photometric_outliers)");
   app.add_option("--out", out, "results folder");
   app.add_flag("--no-chart", no_chart, "no PNG");
   CLI11_PARSE(app, argc, argv);
 
   const fs::path scratch = fs::temp_directory_path() / ("still_registration_bench-" + std::to_string(::getpid()));
-  std::vector<std::string> variants{"before", "after"};
   if (robust_trial) variants.push_back("robust");
   if (signal_trial) variants.push_back("local-mean");
   std::printf("still_registration_bench: patch %d px, load average %.2f\n", patch_px, load_average());
