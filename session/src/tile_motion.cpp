@@ -44,7 +44,8 @@ WorkingPair working_pair(const cv::Mat& ref, const cv::Mat& ref_valid, const cv:
 
 std::vector<TileVote> tile_votes(const WorkingPair& w) {
   std::vector<TileVote> votes;
-  const int nx = std::max(1, w.ref.cols / kTileSidePx), ny = std::max(1, w.ref.rows / kTileSidePx);
+  const int side = std::clamp(std::min(w.ref.cols, w.ref.rows) / 4, kSmallestTileSidePx, kTileSidePx);
+  const int nx = std::max(1, w.ref.cols / side), ny = std::max(1, w.ref.rows / side);
   for (int by = 0; by < ny; ++by)
     for (int bx = 0; bx < nx; ++bx) {
       const cv::Rect tile(bx * w.ref.cols / nx, by * w.ref.rows / ny, w.ref.cols / nx, w.ref.rows / ny);

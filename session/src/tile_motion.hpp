@@ -18,9 +18,12 @@
 
 namespace chromo::session::registration_detail {
 
-// Tile side at the working level (px): the frame is measured at a pyramid
-// level of at most ~1.2 MP, as the block noise is.
+// Tile side at the working level (px): a quarter of the frame's shorter
+// side, within [kSmallestTileSidePx, kTileSidePx] (at least 4 tiles across a
+// small frame: a 160 × 64 px scene gets 16 px tiles). The frame is measured
+// at a pyramid level of at most ~1.2 MP, as the block noise is.
 inline constexpr int kTileSidePx = 48;
+inline constexpr int kSmallestTileSidePx = 16;
 // Fewer measured tiles than this: no consensus (a featureless or tiny view).
 inline constexpr int kMinimumTiles = 8;
 // A tile whose translation departs from the fit by more than this many of the
@@ -38,7 +41,7 @@ struct TileMotion {
 // grid, non-zero where it is data (a tile's pixel takes part where both are,
 // the moving mask resampled by `base_warp`). base_warp: 2×3 CV_32F, the starting alignment (the identity, or
 // the coarse pyramid levels' warp); the tiles measure what remains after it
-// (sub-pixel to a few px). Each tile: translation_least_squares (own gain and
+// (sub-pixel to a few px). Each tile (side as above): translation_least_squares (own gain and
 // offset, 5 steps), voting when 3σ ≤ kTranslationFallbackUncertaintyPx. The
 // fit: t(x) = T + θ·(−(y − c_y), x − c_x) about the frame's centre c, least
 // squares over the kept tiles (outliers left out in up to 5 rounds; if more

@@ -99,7 +99,7 @@ struct RegistrationOptions {
   // tile_consensus off, which the tile consensus now makes unnecessary).
   bool exclude_photometric_outliers = false;
   // register_channel's motion statistic (on by default; src/tile_motion.hpp):
-  // after the coarse levels, the translation of each ~48 px tile (its own
+  // after the coarse levels, the translation of each tile (16-48 px, its own
   // gain and offset), a shift and rotation fitted to them with the
   // disagreeing tiles left out, and its noise from the kept tiles' spread
   // about the fit (motion_noise_px). Captures under different LEDs pull ECC
