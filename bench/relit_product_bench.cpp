@@ -33,6 +33,7 @@
 #include <vector>
 
 #include <CLI/CLI.hpp>
+#include <Eigen/Cholesky>
 #include <opencv2/imgcodecs.hpp>
 #include <unistd.h>
 
@@ -40,6 +41,7 @@
 #include "clocks.hpp"
 #include "guarded_main.hpp"
 #include "seed_spread.hpp"
+#include "chromo/estimation/discrepancy_calibration.hpp"
 #include "chromo/estimation/parameter_prior.hpp"
 #include "chromo/estimation/skin_model.hpp"
 #include "chromo/estimation/spectrum_fit.hpp"
@@ -146,12 +148,28 @@ Score score(const fs::path& maps_exr, const fs::path& scene, const std::vector<s
 }
 
 // `chromo estimate MEASUREMENT.json`'s chain (cli/estimate_command.cpp) with the fold's statistics, maps.exr into `out`.
-void estimate_scene(const fs::path& scene, const fs::path& out, const fs::path& cache,
+// What the per-subject diagnostic needs from one estimate.
+struct EstimateRun {
+  std::vector<estimation::PixelEstimate> estimates;
+  double threshold[5] = {};  // flag threshold by free parameters (2, 4)
+  Eigen::MatrixXd discrepancy_channels;  // Σ_disc in the plan's channels
+  Eigen::MatrixXd weights;               // the plan's camera weights W (C × 81)
+  std::vector<session::RegistrationReport> registration;
+  estimation::DiscrepancyCalibration calibration;
+};
+
+EstimateRun estimate_scene(const fs::path& scene, const fs::path& out, const fs::path& cache,
                     std::shared_ptr<const estimation::ModelDiscrepancy> discrepancy,
                     std::shared_ptr<const estimation::ParameterPrior> prior, bool denoise, int terms,
-                    const estimation::LocalBiasOptions& local_bias) {
+                    const estimation::LocalBiasOptions& local_bias, const std::string& registration_mode,
+                           double calibration_quantile) {
   session::MeasurementFile m = session::read_measurement_file(scene / "MEASUREMENT.json");
-  session::register_images(m);
+  std::vector<session::RegistrationReport> registration;
+  if (registration_mode != "none") {
+    session::RegistrationOptions ro;
+    ro.exclude_photometric_outliers = registration_mode == "robust";
+    registration = session::register_images(m, ro);
+  }
   const estimation::MeasurementSet set = m.measurement_set();
   const std::vector<float> measured = m.pixel_major();
   const auto table = estimation::ForwardTable::load_or_build(set, {}, cache, nullptr, 2);
@@ -161,7 +179,15 @@ void estimate_scene(const fs::path& scene, const fs::path& out, const fs::path& 
   eo.prior = std::move(prior);
   eo.cache_dir = cache.string();
   eo.order_rule = estimation::EstimatorOptions::OrderRule::kLikelihoodRatio;  // pooled order, as the CLI
-  const estimation::Estimator estimator(table, set, eo);
+  estimation::DiscrepancyCalibration calibration;
+  if (eo.discrepancy) {
+    estimation::DiscrepancyCalibrationOptions co;
+    if (calibration_quantile > 0) co.quantile = calibration_quantile;
+    calibration = estimation::calibrate_discrepancy_scale(*eo.discrepancy, set.weights(), co);
+  }
+  const estimation::Estimator unscaled(table, set, eo);
+  const estimation::Estimator estimator =
+      calibration_quantile > 0 ? unscaled.with_discrepancy_scale(calibration.scale) : unscaled;
   std::vector<estimation::PixelEstimate> estimates(static_cast<std::size_t>(m.width) * m.height);
   estimation::EstimateSummary summary = estimator.estimate(measured, estimates);
   estimation::NeighbourhoodOptions neighbourhood;
@@ -184,6 +210,52 @@ void estimate_scene(const fs::path& scene, const fs::path& out, const fs::path& 
   maps::write_estimate_report(out, report, [](const fs::path& path, const std::function<void(const fs::path&)>& produce) {
     produce(path);
   }, 1);
+  EstimateRun run{estimates, {}, {}, set.weights(), registration};
+  run.threshold[2] = estimator.flag_threshold(2), run.threshold[4] = estimator.flag_threshold(4);
+  if (eo.discrepancy) run.discrepancy_channels = eo.discrepancy->channel_covariance(set);
+  run.calibration = calibration;
+  return run;
+}
+
+// Per held-out subject: the share of its patch's skin flagged per pixel (1-6) and by code 7, the median χ² over its
+// flag threshold, and D² = rᵀ Σ_disc⁻¹ r of its noise-free residual (r = W·(spectrum − its 4D fit)) under the fold's
+// discrepancy, against χ²(C − 4)'s 0.999 quantile.
+void print_subjects(const EstimateRun& run, const fs::path& scene, const std::vector<estimation::NamedSpectrum>& spectra) {
+  const files::FloatImage truth = files::read_exr(scene / "truth.exr");
+  const cv::Mat mask = cv::imread((scene / "skin_mask.png").string(), cv::IMREAD_GRAYSCALE);
+  const auto& index = truth.channel("spectrum");
+  const auto& residuals = estimation::nist_forearm_residuals();
+  if (run.calibration.held_out_d2.size())
+    std::printf("    nested CV: held-out D2 quantile %.1f vs chi2(C) quantile %.1f -> scale %.2f; max %.1f, median %.1f\n",
+                run.calibration.held_out_quantile, run.calibration.expected_quantile, run.calibration.scale,
+                *std::max_element(run.calibration.held_out_d2.begin(), run.calibration.held_out_d2.end()),
+                [&] { auto v = run.calibration.held_out_d2; std::sort(v.begin(), v.end()); return v[v.size() / 2]; }());
+  for (const auto& r : run.registration)
+    std::printf("    registration %s -> %s: motion %.3f px (noise %.3f px), %s\n", r.image.c_str(), r.reference.c_str(),
+                r.motion_px, r.result.motion_noise_px, r.warped ? "WARPED" : "identity");
+  for (std::size_t j = 0; j < spectra.size(); ++j) {
+    std::vector<double> ratio;
+    std::size_t n = 0, per_pixel = 0, code7 = 0;
+    for (std::size_t i = 0; i < index.size(); ++i) {
+      if (mask.data[i] == 0 || static_cast<std::size_t>(index[i]) != j) continue;
+      const auto& e = run.estimates[i];
+      ++n;
+      const int flag = static_cast<int>(e.flag);
+      per_pixel += flag >= 1 && flag <= 6;
+      code7 += e.flag == estimation::PixelFlag::kNeighbourhood;
+      if (e.order) ratio.push_back(e.chi2 / run.threshold[e.order == 2 ? 2 : 4]);
+    }
+    std::sort(ratio.begin(), ratio.end());
+    double d2 = -1;
+    for (const auto& r : residuals)
+      if (r.name == spectra[j].name && run.discrepancy_channels.size() > 0) {
+        const Eigen::VectorXd rc = run.weights * r.residual.values().matrix();
+        d2 = rc.dot(run.discrepancy_channels.ldlt().solve(rc));
+      }
+    std::printf("    %-12s per pixel %5.1f%% code 7 %5.1f%%, median chi2/threshold %.2f, D2 %.1f (threshold %.1f)\n",
+                spectra[j].name.c_str(), n ? 100.0 * per_pixel / n : 0, n ? 100.0 * code7 / n : 0,
+                ratio.empty() ? 0 : ratio[ratio.size() / 2], d2, run.threshold[4]);
+  }
 }
 
 // The fold's training statistics: the discrepancy and the prior (widened) from its 40 training subjects.
@@ -278,7 +350,9 @@ int run(int argc, char** argv) {
   double noise_scale = 1, widen = 1;
   fs::path out = "bench/results/relit_product";
   std::vector<std::string> denoise_runs{"off", "on"}, bias_runs{"off"};
-  bool priors = true;
+  bool priors = true, per_subject = false;
+  std::string registration_mode = "default";
+  double calibration_quantile = 0;
   estimation::LocalBiasOptions bias;
   bias.enabled = true;
   app.add_option("--seeds", seeds, "scene seeds")->delimiter(',');
@@ -296,11 +370,18 @@ int run(int argc, char** argv) {
   app.add_option("--bias-window", bias.window_px, "local bias: the reference's window (px)");
   app.add_option("--bias-tile", bias.tile_px, "local bias: tile (px)");
   app.add_option("--bias-cap", bias.max_bias_factor, "local bias: cap, x the flag threshold");
+  app.add_flag("--per-subject", per_subject, "print each held-out subject's flags, chi2 and discrepancy D2");
+  app.add_option("--registration", registration_mode, "default, robust (exclude_photometric_outliers) or none")
+      ->check(CLI::IsMember({"default", "robust", "none"}));
+  app.add_option("--calibration-quantile", calibration_quantile,
+                 "scale the fold's discrepancy by its nested-CV calibration at this quantile (0: off)")
+      ->check(CLI::Range(0.0, 0.999));
   CLI11_PARSE(app, argc, argv);
 
   std::printf("relit_product_bench: patch %d px, noise x%g, prior widen %g, %d terms, local bias window %d px tile %d px "
-              "cap %g, load average %.2f\n", patch, noise_scale, widen, terms, bias.window_px, bias.tile_px,
-              bias.max_bias_factor, load_average());
+              "cap %g, registration %s, discrepancy calibration quantile %g (0: off), load average %.2f\n", patch, noise_scale,
+              widen, terms, bias.window_px, bias.tile_px, bias.max_bias_factor, registration_mode.c_str(), calibration_quantile,
+              load_average());
   const auto& all = estimation::nist_forearm_spectra();
   std::vector<estimation::SkinParameters> fits(all.size());
 #pragma omp parallel for schedule(dynamic)
@@ -333,8 +414,9 @@ int run(int argc, char** argv) {
         const auto start = std::chrono::steady_clock::now();
         estimation::LocalBiasOptions run_bias = bias;
         run_bias.enabled = c.local_bias;
-        estimate_scene(scene, maps_dir, cache, stats.discrepancy, c.prior ? stats.prior : nullptr, c.denoise, terms,
-                       run_bias);
+        const EstimateRun est = estimate_scene(scene, maps_dir, cache, stats.discrepancy, c.prior ? stats.prior : nullptr,
+                                               c.denoise, terms, run_bias, registration_mode,
+                                               calibration_quantile);
         std::vector<spectral::Spectrum> truth;
         int subject_006 = -1;
         for (const auto& n : o.spectra) {
@@ -349,6 +431,7 @@ int run(int argc, char** argv) {
                     row.s.de_d65[0], row.s.de_d65[1], row.s.de_a[0], row.s.de_a[1], 100 * row.s.skin_flagged,
                     100 * row.s.skin_pixel_flagged, 100 * row.s.skin_neighbourhood_flagged, 100 * row.s.ink_caught, 100 * row.s.marker_caught,
                     100 * row.s.skin_006_flagged, 100 * row.s.ink_006_caught, row.s.scored, row.s.seconds);
+        if (per_subject && c.scene == "real") print_subjects(est, scene, o.spectra);
         std::fflush(stdout);
         csv << c.plan << "," << c.scene << "," << c.prior << "," << c.denoise << "," << c.local_bias << "," << fold << "," << seed << ","
             << row.s.de[0] << "," << row.s.de[1] << "," << row.s.de_d65[0] << "," << row.s.de_d65[1] << ","

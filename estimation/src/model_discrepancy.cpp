@@ -123,6 +123,7 @@ ModelDiscrepancy ModelDiscrepancy::learn(std::span<const SpectrumResidual> resid
   // n/(n−1): the unbiased covariance about the sample mean.
   d.centred_covariance_ = shrunk_second_moment(centred, centred_shrinkage) * (static_cast<double>(n) / (n - 1));
   d.subjects_ = n;
+  d.residuals_ = std::move(u);
   return d;
 }
 

@@ -93,8 +93,12 @@ class ModelDiscrepancy {
   // posterior discrepancy uses (discrepancy_posterior.hpp). The χ² keeps Σ_r.
   const spectral::Spectrum& mean_residual() const { return mean_residual_; }
   const Eigen::MatrixXd& centred_covariance() const { return centred_covariance_; }
+  // The training residuals r_i, one row per subject (subjects() × 81, albedo
+  // units): what discrepancy_calibration.hpp's nested cross-validation splits.
+  const Eigen::MatrixXd& training_residuals() const { return residuals_; }
 
  private:
+  Eigen::MatrixXd residuals_;
   Eigen::MatrixXd covariance_;
   Eigen::MatrixXd centred_covariance_;
   spectral::Spectrum mean_residual_ = spectral::Spectrum::constant(0);
