@@ -353,6 +353,7 @@ int run(int argc, char** argv) {
   bool priors = true, per_subject = false;
   std::string registration_mode = "default";
   double calibration_quantile = 0;
+  bool anomalies = true;
   estimation::LocalBiasOptions bias;
   bias.enabled = true;
   app.add_option("--seeds", seeds, "scene seeds")->delimiter(',');
@@ -376,6 +377,7 @@ int run(int argc, char** argv) {
   app.add_option("--calibration-quantile", calibration_quantile,
                  "scale the fold's discrepancy by its nested-CV calibration at this quantile (0: off)")
       ->check(CLI::Range(0.0, 0.999));
+  app.add_option("--anomalies", anomalies, "the scenes' ink disc and marker stroke (1) or plain skin (0)");
   CLI11_PARSE(app, argc, argv);
 
   std::printf("relit_product_bench: patch %d px, noise x%g, prior widen %g, %d terms, local bias window %d px tile %d px "
@@ -408,6 +410,7 @@ int run(int argc, char** argv) {
         o.texture_relative = c.scene == "real" ? 0.03 : 0.0;
         o.patch_px = patch, o.plan = c.plan, o.noise_scale = noise_scale, o.seed = seed * 100 + static_cast<std::uint64_t>(fold);
         o.threads = 2;
+        o.anomalies = anomalies;
         const fs::path scene = scratch / "scene", maps_dir = scratch / "maps";
         fs::remove_all(scratch);
         simulators::write_real_skin_scene(scene, o);
