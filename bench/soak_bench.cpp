@@ -11,8 +11,11 @@
 // descriptors back to the warm-up's counts), writes the rows as CSV and a
 // chart (files::draw_chart) into --results.
 //
-//   soak_bench [--sessions 100] [--warmup 10] [--work DIR] [--results DIR] [--check]
+//   soak_bench [--sessions 100] [--warmup 10] [--sensor 640x480] [--work DIR] [--results DIR] [--check]
 //
+// --sensor: the virtual lab camera's frame (default 640x480, chromod's own
+// default camera); the ctest soaks at 320x240 (a quarter of the pixels to
+// capture and estimate per session).
 // --check: exit status 1 when a target is missed (the ctest, 10 sessions).
 // chromod's virtual-lab camera binds a loopback address of its own: no lock.
 #include <fcntl.h>
@@ -141,14 +144,23 @@ int main(int argc, char** argv) {
   int sessions = 100, warmup = 10;
   std::string chromod = CHROMOD, work = "soak-work", results_dir = CHROMO_BENCH_RESULTS;
   bool check = false, keep = false;
+  std::string sensor = "640x480";
   app.add_option("--sessions", sessions, "sessions in all (after the warm-up's)")->check(CLI::Range(2, 100000));
   app.add_option("--warmup", warmup, "sessions before the reference figures")->check(CLI::Range(1, 100000));
   app.add_option("--chromod", chromod, "the chromod to run");
   app.add_option("--work", work, "folder for chromod's runtime files, sessions and table cache (emptied first)");
   app.add_option("--results", results_dir, "where soak_bench.csv and soak_bench.png go");
+  app.add_option("--sensor", sensor, "the virtual lab camera's frame, WIDTHxHEIGHT (16-4096 each)");
   app.add_flag("--check", check, "exit 1 when a target is missed");
   app.add_flag("--keep", keep, "keep the work folder");
   CLI11_PARSE(app, argc, argv);
+  int sensor_width = 0, sensor_height = 0;
+  if (char x = 0; std::sscanf(sensor.c_str(), "%d%c%d", &sensor_width, &x, &sensor_height) != 3 || x != 'x' ||
+                  sensor_width < 16 || sensor_width > 4096 || sensor_height < 16 || sensor_height > 4096) {
+    std::fprintf(stderr, "soak_bench: --sensor \"%s\": expected WIDTHxHEIGHT, each 16-4096 (e.g. 640x480)\n",
+                 sensor.c_str());
+    return 2;
+  }
   if (warmup >= sessions) {
     std::fprintf(stderr, "soak_bench: --warmup (%d) must be below --sessions (%d)\n", warmup, sessions);
     return 2;
@@ -162,7 +174,8 @@ int main(int argc, char** argv) {
   std::ofstream(work_dir / "chromod.json")
       << "{\"runtime_dir\": \"" << (work_dir / "run").string() << "\", \"sessions_dir\": \""
       << (work_dir / "sessions").string() << "\", \"estimation\": {\"cache_dir\": \"" << (work_dir / "cache").string()
-      << "\"}}\n";
+      << "\"}, \"virtual_lab\": {\"cameras\": [{\"name\": \"cam0\", \"sensor_width\": " << sensor_width
+      << ", \"sensor_height\": " << sensor_height << "}]}}\n";
 
   const pid_t pid = spawn_chromod(chromod, work_dir);
   auto stop = [&](int signal) {
@@ -232,8 +245,8 @@ int main(int argc, char** argv) {
            << "set ylabel 'VmRSS (MB)'\nset y2label 'threads, open files'\nset ytics nomirror\nset y2tics\n"
            << "set yrange [0:*]\nset y2range [0:*]\nset arrow from " << warmup << ", graph 0 to " << warmup
            << ", graph 1 nohead dt 2\n"
-           << "set title 'chromod soak: " << sessions << " standard sessions on the virtual lab (warm-up " << warmup
-           << ")'\n"
+           << "set title 'chromod soak: " << sessions << " standard " << sensor
+           << " sessions on the virtual lab (warm-up " << warmup << ")'\n"
            << "plot '" << csv.string() << "' using 1:2 skip 1 with linespoints title 'VmRSS (MB)' axes x1y1, \\\n"
            << "     '' using 1:3 skip 1 with lines title 'threads' axes x1y2, \\\n"
            << "     '' using 1:4 skip 1 with lines title 'open files' axes x1y2\n";

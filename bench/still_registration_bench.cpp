@@ -5,10 +5,13 @@
 // then the declared noise of four frames of a 40,000 e⁻ sensor added
 // (still_scene_captures.hpp), registered as `chromo estimate` registers a
 // MEASUREMENT.json (session::register_images), side by side in one run:
-//   before: the default, one round on every pixel;
-//   after:  the robust round (RegistrationOptions::exclude_photometric_outliers,
-//           opt-in) leaves out the pixels whose ratio between the captures
-//           departs from their one gain (ink, marker).
+//   before: ECC alone (RegistrationOptions::tile_consensus off: the default
+//           until still37c), one round on every pixel;
+//   after:  the default, the tile consensus deciding still or moved and
+//           checking ECC's warp (src/tile_motion.hpp);
+//   --robust-trial: also the opt-in robust round without the tiles
+//           (exclude_photometric_outliers: the pixels whose ratio between the
+//           captures departs from their one gain left out), as "robust";
 //   --signal-trial: also the opt-in still decision on the channel less its
 //           local mean (RegistrationSignal::kLessLocalMean, --sigma), as "local-mean".
 // Per plan, subject set, seed and motion: the wall time of registering every
@@ -24,11 +27,11 @@
 // and both: each capture's shift, rotation and corner motion.
 //
 //   still_registration_bench [--seeds 1,2,3] [--subjects 041-050,021-030,001-010] [--patch 128]
-//                            [--plans method,six-leds] [--motions 0,0.2,0.4,1] [--sigma 8] [--signal-trial] [--cause]
+//                            [--plans method,six-leds] [--motions 0,0.2,0.4,1] [--sigma 8] [--variants before,after] [--robust-trial] [--signal-trial] [--cause]
 //                            [--out DIR] [--no-chart]
 //
 // Writes DIR/still_registration.csv and DIR/still_registration.png (largest
-// corner error per plan and motion, before and after; DIR: bench/results).
+// corner error per plan, motion and variant; DIR: bench/results).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -78,10 +81,13 @@ std::size_t non_finite_pixels(const session::MeasurementFile& m) {
 
 double g_local_mean_sigma_px = session::RegistrationOptions{}.local_mean_sigma_px;  // --sigma
 
-// The registration options of a variant: "before", "after" (the default) or "local-mean".
+// The registration options of a variant: "before" (one round, no tile
+// consensus: the default until still37c), "after" (the default: the tile
+// consensus), "robust" (before + the opt-in robust round) or "local-mean".
 session::RegistrationOptions variant_options(const std::string& variant) {
   session::RegistrationOptions options;
-  if (variant == "after") options.exclude_photometric_outliers = true;
+  if (variant != "after") options.tile_consensus = false;
+  if (variant == "robust") options.exclude_photometric_outliers = true;
   if (variant == "local-mean") {
     options.exclude_photometric_outliers = false;
     options.signal = RegistrationSignal::kLessLocalMean;
@@ -169,13 +175,14 @@ void print_spread(const std::vector<std::string>& plans, const std::vector<doubl
 }
 
 int bench_main(int argc, char** argv) {
-  CLI::App app{"registration of a still real-skin scene and of known motions, before and after the robust round"};
+  CLI::App app{"registration of a still real-skin scene and of known motions, ECC alone and with the tile consensus"};
   std::vector<std::uint64_t> seeds{1, 2, 3};
   std::vector<std::string> plans{"method", "six-leds"}, subject_sets{"041-050", "021-030", "001-010"};
   std::vector<double> motions{0, 0.2, 0.4, 1.0};
   int patch_px = 128;
   fs::path out = "bench/results";
-  bool no_chart = false, cause = false, signal_trial = false;
+  bool no_chart = false, cause = false, signal_trial = false, robust_trial = false;
+  std::vector<std::string> variants{"before", "after"};
   app.add_option("--seeds", seeds, "scene and noise seeds")->delimiter(',');
   app.add_option("--plans", plans, "method and/or six-leds")->delimiter(',');
   app.add_option("--subjects", subject_sets, "NIST subject sets, one scene each (10 patches, 5 a row)")->delimiter(',');
@@ -185,12 +192,15 @@ int bench_main(int argc, char** argv) {
       ->check(CLI::Range(0.5, 100.0));
   app.add_flag("--cause", cause, "also: why a still scene moved before");
   app.add_flag("--signal-trial", signal_trial, "also: the still decision on the channel less its local mean");
+  app.add_option("--variants", variants, "before and/or after (one alone: its CPU time by /usr/bin/time)")
+      ->delimiter(',')->check(CLI::IsMember({"before", "after"}));
+  app.add_flag("--robust-trial", robust_trial, "also: the opt-in robust round (exclude_photometric_outliers)");
   app.add_option("--out", out, "results folder");
   app.add_flag("--no-chart", no_chart, "no PNG");
   CLI11_PARSE(app, argc, argv);
 
   const fs::path scratch = fs::temp_directory_path() / ("still_registration_bench-" + std::to_string(::getpid()));
-  std::vector<std::string> variants{"before", "after"};
+  if (robust_trial) variants.push_back("robust");
   if (signal_trial) variants.push_back("local-mean");
   std::printf("still_registration_bench: patch %d px, load average %.2f\n", patch_px, load_average());
   fs::create_directories(out);

@@ -1,7 +1,7 @@
 set terminal pngcairo size 900,500 font 'DejaVu Sans,10'
 set output 'bench/results/still_registration.png'
-set title 'registration of a still real-skin scene (mean over seeds)'
-set ylabel 'wall seconds'
+set title 'registration error of the applied warp, real-skin scenes (mean)'
+set ylabel 'largest corner error, px'
 set style fill solid 0.8 border -1
 set boxwidth 0.6
 set grid ytics

@@ -20,6 +20,10 @@ void check_neighbourhood_sizes(const Estimator& estimator, std::span<const float
 cv::Mat kernel(double sigma, int power);
 // src filtered with kx along x and ky along y (CV_32F, zero outside the image).
 cv::Mat filter(const cv::Mat& src, const cv::Mat& kx, const cv::Mat& ky);
+// The same filter's two passes one at a time: filter(src, kx, ky) ==
+// filter_y(filter_x(src, kx), ky) bit for bit (a pass along x shared by several ky).
+cv::Mat filter_x(const cv::Mat& src, const cv::Mat& kx);
+cv::Mat filter_y(const cv::Mat& src, const cv::Mat& ky);
 // Per channel, the local quadratic fit (normalised convolution of order 2:
 // weighted least squares on 1, u, v, u², uv, v² with Gaussian weights σ) of
 // the values where `good` is 1, evaluated at every pixel; NaN where the

@@ -13,11 +13,16 @@
 #include <string>
 
 #include "photometric_mask.hpp"
+#include "tile_motion.hpp"
+#include "translation_fit.hpp"
 #include "registration_signal.hpp"
 
 namespace chromo::session {
 
 namespace {
+
+using registration_detail::TranslationFit;
+using registration_detail::translation_least_squares;
 
 cv::Mat wrap(const std::vector<float>& v, int width, int height) {
   if (width <= 0 || height <= 0 || v.size() != static_cast<std::size_t>(width) * height)
@@ -53,48 +58,6 @@ double overlap_fraction(const RegistrationResult& r, int width, int height) {
       inside += mx >= 0 && mx <= width - 1 && my >= 0 && my <= height - 1;
     }
   return total ? static_cast<double>(inside) / static_cast<double>(total) : 0.0;
-}
-
-// Gauss-Newton on moving(x + t) ≈ a·reference(x) + b over the mask: t, a,
-// b by linear least squares per iteration (moving resampled at x + t, its
-// gradient by central differences), then the standard error of t from the
-// residual. Border pixels (one each side) and masked ones are left out.
-struct TranslationFit {
-  double tx = 0, ty = 0, sigma_x = INFINITY, sigma_y = INFINITY;
-  bool solved = false;  // at least one step was taken
-};
-
-TranslationFit translation_least_squares(const cv::Mat& ref, const cv::Mat& mov, const cv::Mat& mask, int max_iterations) {
-  TranslationFit fit;
-  for (int iteration = 0; iteration < max_iterations; ++iteration) {
-    cv::Mat shifted;
-    const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, fit.tx, 0, 1, fit.ty);
-    cv::warpAffine(mov, shifted, shift, mov.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
-    cv::Mat gx, gy;
-    cv::Sobel(shifted, gx, CV_64F, 1, 0, 1, 0.5), cv::Sobel(shifted, gy, CV_64F, 0, 1, 1, 0.5);
-    Eigen::Matrix4d normal = Eigen::Matrix4d::Zero();
-    Eigen::Vector4d right = Eigen::Vector4d::Zero();
-    std::size_t n = 0;
-    const auto each = [&](auto&& use) {
-      for (int y = 1; y + 1 < ref.rows; ++y)
-        for (int x = 1; x + 1 < ref.cols; ++x)
-          if (mask.at<unsigned char>(y, x))
-            use(Eigen::Vector4d(gx.at<double>(y, x), gy.at<double>(y, x), -ref.at<float>(y, x), -1.0),
-                -static_cast<double>(shifted.at<float>(y, x)));
-    };
-    each([&](const Eigen::Vector4d& row, double target) { normal += row * row.transpose(), right += row * target, ++n; });
-    if (n < 100) break;
-    const Eigen::Vector4d step = normal.ldlt().solve(right);
-    if (!step.allFinite()) break;
-    double squares = 0;
-    each([&](const Eigen::Vector4d& row, double target) { squares += (row.dot(step) - target) * (row.dot(step) - target); });
-    const Eigen::Matrix4d covariance = normal.inverse() * (squares / static_cast<double>(n - 4));
-    fit.sigma_x = std::sqrt(covariance(0, 0)), fit.sigma_y = std::sqrt(covariance(1, 1));
-    fit.tx += step[0], fit.ty += step[1];
-    fit.solved = true;
-    if (std::hypot(step[0], step[1]) < 1e-4) break;
-  }
-  return fit;
 }
 
 RegistrationResult translation_fallback(const cv::Mat& ref, const cv::Mat& mov, const cv::Mat& mask,
@@ -430,6 +393,67 @@ void check_warped(const cv::Mat& ref, const cv::Mat& ref_valid, const std::vecto
   r.motion_noise_px = motion_noise_px(ref, warped_image, mask);
 }
 
+// Whether the coarse levels found a subject's motion: ECC converged at one
+// of them at least, to a plausible warp. Where not (a featureless view, on
+// which ECC wanders and each tile's translation is a guess), the tiles are not asked.
+bool coarse_is_a_motion(const Pyramids& p, const Coarse& c) {
+  const int coarsest = coarsest_level(p);
+  if (coarsest == 0) return true;  // no coarse level: the tiles from the identity
+  const bool converged_somewhere = c.skipped != ((1u << (coarsest + 1)) - 2);
+  return converged_somewhere && is_plausible(from_warp(c.warp, c.correlation), p.ref[0].cols, p.ref[0].rows);
+}
+
+// The tile consensus (RegistrationOptions::tile_consensus) from the
+// identity, and from the coarse warp where that moves a corner by more than
+// 1 px (beyond a tile's reach from the identity): whichever has the smaller noise.
+registration_detail::TileMotion consensus_of_tiles(const Pyramids& p, const cv::Mat& ref_valid, const cv::Mat& coarse_warp) {
+  const cv::Mat identity = cv::Mat::eye(2, 3, CV_32F);
+  registration_detail::TileMotion best = registration_detail::tile_motion(p.ref[0], ref_valid, p.mov[0], p.mask[0], identity);
+  if (corner_displacement_px(from_warp(coarse_warp, 0), p.ref[0].cols, p.ref[0].rows) > 1.0) {
+    registration_detail::TileMotion from_coarse =
+        registration_detail::tile_motion(p.ref[0], ref_valid, p.mov[0], p.mask[0], coarse_warp);
+    if (from_coarse.measured && (!best.measured || from_coarse.noise_px < best.noise_px)) best = std::move(from_coarse);
+  }
+  return best;
+}
+
+RegistrationResult tiles_result(const registration_detail::TileMotion& tiles, RegistrationResult r) {
+  const RegistrationResult t = from_warp(tiles.warp, r.correlation);
+  std::copy(&t.warp[0][0], &t.warp[0][0] + 6, &r.warp[0][0]);
+  r.shift_x_px = t.shift_x_px, r.shift_y_px = t.shift_y_px, r.rotation_deg = t.rotation_deg;
+  r.tiles_measured = tiles.tiles_measured, r.tiles_kept = tiles.tiles_kept;
+  return r;
+}
+
+// The still decision by tiles: their motion is not significant against their noise.
+std::optional<RegistrationResult> still_by_tiles(const registration_detail::TileMotion& tiles, const Coarse& c, int width,
+                                                 int height) {
+  RegistrationResult r = tiles_result(tiles, RegistrationResult{});
+  r.method = RegistrationMethod::kTiles, r.skipped_levels = c.skipped, r.correlation = c.correlation;
+  r.motion_noise_px = tiles.noise_px;
+  const double motion = corner_displacement_px(r, width, height);
+  if (motion_is_significant(r, motion)) return std::nullopt;
+  r.residual_motion_px = motion;  // not warped: what remains is the motion found
+  return r;
+}
+
+// ECC's warp where it agrees with the tiles' (within kMotionSignificance of
+// their noise, or kWarpThresholdPx, at every corner), else the tiles'.
+RegistrationResult agreed_with_tiles(const RegistrationResult& r, const registration_detail::TileMotion& tiles, int width,
+                                     int height) {
+  const RegistrationResult t = tiles_result(tiles, r);
+  double apart = 0;
+  for (double x : {0.0, width - 1.0})
+    for (double y : {0.0, height - 1.0})
+      apart = std::max(apart, std::hypot(r.warp[0][0] * x + r.warp[0][1] * y + r.warp[0][2] - (t.warp[0][0] * x + t.warp[0][1] * y + t.warp[0][2]),
+                                         r.warp[1][0] * x + r.warp[1][1] * y + r.warp[1][2] - (t.warp[1][0] * x + t.warp[1][1] * y + t.warp[1][2])));
+  const bool departs = apart > std::max(kWarpThresholdPx, kMotionSignificance * tiles.noise_px);
+  RegistrationResult kept = departs ? t : r;
+  if (departs) kept.method = RegistrationMethod::kTiles;
+  kept.tiles_measured = tiles.tiles_measured, kept.tiles_kept = tiles.tiles_kept;
+  return kept;
+}
+
 }  // namespace
 
 RegistrationResult register_channel(const std::vector<float>& reference, const std::vector<float>& moving, int width,
@@ -450,15 +474,28 @@ RegistrationResult register_channel(const std::vector<float>& reference, const s
       c = coarse_levels(p, options, false);
     coarsest = 0;
   }
-  if (options.decide_still_at_coarse_level && coarsest_level(p) > 0)
+  std::optional<registration_detail::TileMotion> tiles;
+  if (options.tile_consensus && coarse_is_a_motion(p, c)) {
+    tiles = consensus_of_tiles(p, ref_valid, c.warp);
+    if (!tiles->measured) tiles.reset();
+  }
+  if (tiles && options.decide_still_at_coarse_level) {
+    if (auto still = still_by_tiles(*tiles, c, width, height)) {
+      still->photometric_outlier_share = outlier_share;
+      return *still;
+    }
+  } else if (options.decide_still_at_coarse_level && coarsest_level(p) > 0) {
     if (auto still = decide_still(p, options, c)) {
       still->photometric_outlier_share = outlier_share;
       return *still;
     }
+  }
   // Moved: the images as they are; with the signal every level afresh.
   RegistrationResult r = finish_registration(p, coarsest, options, c.warp, c.correlation, c.skipped);
+  if (tiles && r.method == RegistrationMethod::kEcc) r = agreed_with_tiles(r, *tiles, width, height);
   r.photometric_outlier_share = outlier_share;
   check_warped(ref, ref_valid, moving, outlier_share > 0 ? p.mask[0] : cv::Mat(), width, height, options, r);
+  if (tiles) r.motion_noise_px = tiles->noise_px;
   return r;
 }
 

@@ -535,6 +535,21 @@ async function main() {
   await page.getByRole('cell', { name: 'subject_d65' }).first().waitFor();
   await page.getByLabel('Subject', { exact: true }).fill('browser test forearm');
   await page.getByLabel('Exposure (µs)', { exact: true }).fill('10000');
+  // One interaction: Refresh the list, until its answer is drawn (ms).
+  const refreshMs = async () => {
+    const clicked = performance.now();
+    const answered = page.waitForResponse((reply) => reply.url().endsWith('/api/SessionService/ListSessions'));
+    await pressOn(page, page.getByRole('button', { name: 'Refresh the list' }), 'Enter');
+    await answered;
+    await page.evaluate(() => new Promise((resolve) => requestAnimationFrame(() => resolve())));
+    return performance.now() - clicked;
+  };
+  // The same interaction with nothing estimating, on this machine at this
+  // moment: the basis of the bound below, so that a machine loaded by other
+  // tests (the suite runs this test beside them) widens it.
+  const idle = [];
+  for (let i = 0; i < 3; ++i) idle.push(await refreshMs());
+  idle.sort((a, b) => a - b);
   started = performance.now();
   await pressOn(page, page.getByRole('button', { name: 'Start session' }), 'Enter');
   await page.getByText(/session .* started/).waitFor();
@@ -545,12 +560,8 @@ async function main() {
     if (!['OPERATION_STATE_RUNNING', 'OPERATION_STATE_PENDING'].includes(state)) break;
     const operation = await api('OperationService', 'GetOperation', { id: sessionId });
     const estimating = Number(operation.json.counters?.estimated ?? 0) > 0;
-    const clicked = performance.now();
-    const answered = page.waitForResponse((reply) => reply.url().endsWith('/api/SessionService/ListSessions'));
-    await pressOn(page, page.getByRole('button', { name: 'Refresh the list' }), 'Enter');
-    await answered;
-    await page.evaluate(() => new Promise((resolve) => requestAnimationFrame(() => resolve())));
-    if (estimating) latencies.push(performance.now() - clicked);
+    const ms = await refreshMs();
+    if (estimating) latencies.push(ms);
     await page.waitForTimeout(500);
   }
   time('session_ms', started);
@@ -559,9 +570,14 @@ async function main() {
   latencies.sort((a, b) => a - b);
   if (latencies.length) {
     figures.interaction_during_estimation_ms = { count: latencies.length, median: Math.round(latencies[latencies.length >> 1]),
-      max: Math.round(latencies.at(-1)) };
+      max: Math.round(latencies.at(-1)), idle_median: Math.round(idle[1]) };
     console.log(`interactions during estimation: ${JSON.stringify(figures.interaction_during_estimation_ms)} ms (target 200 ms)`);
-    assert.ok(latencies.at(-1) < 2000, `an interaction during estimation took ${latencies.at(-1)} ms`);
+    // 2 s, or 10x the idle interaction on a machine slow enough to need more:
+    // an estimator holding the daemon's web threads shows as seconds (a stage
+    // of the 640x480 estimate), beyond either.
+    const boundMs = Math.max(2000, 10 * idle[1]);
+    assert.ok(latencies.at(-1) < boundMs,
+      `an interaction during estimation took ${Math.round(latencies.at(-1))} ms (bound ${Math.round(boundMs)} ms: 2 s or 10x the idle ${Math.round(idle[1])} ms)`);
   }
   await page.getByRole('link', { name: `Results of ${sessionId}` }).waitFor();
   await page.screenshot({ path: path.join(screenshotDir, 'sessions.png'), fullPage: true });

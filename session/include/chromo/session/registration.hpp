@@ -40,12 +40,13 @@ class RegistrationError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// How a registration was found: ECC, or the translation fallback above.
-// One byte, so RegistrationResult stays trivially copyable (cached by the
-// rendered session, files/binary_cache.hpp).
-enum class RegistrationMethod : std::uint8_t { kEcc = 0, kTranslation = 1 };
+// How a registration was found: ECC, the translation fallback above, or the
+// consensus of tiles (RegistrationOptions::tile_consensus: where ECC's warp
+// departs from it significantly). One byte, so RegistrationResult stays
+// trivially copyable (cached by the rendered session, files/binary_cache.hpp).
+enum class RegistrationMethod : std::uint8_t { kEcc = 0, kTranslation = 1, kTiles = 2 };
 inline const char* registration_method_name(RegistrationMethod m) {
-  return m == RegistrationMethod::kTranslation ? "translation" : "ECC";
+  return m == RegistrationMethod::kTranslation ? "translation" : m == RegistrationMethod::kTiles ? "tiles" : "ECC";
 }
 
 // What the still decision (RegistrationOptions::decide_still_at_coarse_level)
@@ -94,8 +95,26 @@ struct RegistrationOptions {
   // without the round. Opt-in (false by default): on the real-skin benches it
   // halves the still six-LED scene's pull and the error on a known 0.4 px
   // motion, but still warps one of five still captures and is slower
-  // (docs/estimation.md "A robust round", still37b).
+  // (docs/estimation.md "A robust round", still37b; measured with
+  // tile_consensus off, which the tile consensus now makes unnecessary).
   bool exclude_photometric_outliers = false;
+  // register_channel's motion statistic (on by default; src/tile_motion.hpp):
+  // after the coarse levels, the translation of each tile (16-48 px, its own
+  // gain and offset), a shift and rotation fitted to them with the
+  // disagreeing tiles left out, and its noise from the kept tiles' spread
+  // about the fit (motion_noise_px). Captures under different LEDs pull ECC
+  // where ink, marker or subjects change contrast, but each tile its own way;
+  // a subject's motion moves every tile alike. Used where at least 8 tiles
+  // measure and ECC's coarse levels found a plausible motion (else, a
+  // featureless view: as without it). With decide_still_at_coarse_level, a
+  // tiles' motion not significant against that noise (motion_is_significant)
+  // is the still decision in place of the block rule (method kTiles, not
+  // warped, level 0 skipped). A moved capture is registered by ECC as
+  // before, and ECC's warp (not the translation fallback's) replaced by the
+  // tiles' (method kTiles) where the two differ at a corner by more than
+  // max(kWarpThresholdPx, kMotionSignificance × that noise). docs/estimation.md
+  // "Registration of a still scene by tiles" (still37c) has the figures.
+  bool tile_consensus = true;
 };
 
 struct RegistrationResult {
@@ -111,9 +130,13 @@ struct RegistrationResult {
   // there (an aligned featureless pair is where ECC fails most).
   RegistrationMethod residual_method = RegistrationMethod::kEcc;
   double translation_sigma_px = 0;        // the fallback's larger standard error of the shift (0 for ECC)
-  // The registration's own noise: the standard error of the shift from its
-  // spread between blocks of the frame (register_channel; 0 until measured).
+  // The registration's own noise (register_channel; 0 until measured): with
+  // the tile consensus measured, its standard error at the worst corner;
+  // otherwise the standard error of the shift from its spread between blocks of the frame.
   double motion_noise_px = 0;
+  // The tile consensus (RegistrationOptions::tile_consensus): tiles that
+  // measured their translation, and those kept in the fit (0, 0: not run).
+  std::int32_t tiles_measured = 0, tiles_kept = 0;
   // The robust round (register_channel): the share of the moving capture's
   // pixels left out as not following one gain and offset (0: none, the
   // registration is that of one round).
