@@ -33,7 +33,7 @@
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
+#include "bench_cli.hpp"
 
 #include "chart.hpp"
 #include "chromo/calibration/led_library.hpp"

@@ -38,7 +38,7 @@
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
+#include "bench_cli.hpp"
 
 #include "chart.hpp"
 #include "noise_declaration.hpp"

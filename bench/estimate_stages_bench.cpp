@@ -66,7 +66,7 @@
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
+#include "bench_cli.hpp"
 #include <unistd.h>
 
 #include "chart.hpp"

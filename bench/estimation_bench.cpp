@@ -56,7 +56,7 @@
 #include <fstream>
 #include <map>
 #include <optional>
-#include <CLI/CLI.hpp>
+#include "bench_cli.hpp"
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>

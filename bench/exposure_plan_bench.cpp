@@ -37,7 +37,7 @@
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
+#include "bench_cli.hpp"
 
 #include "chromo/estimation/estimator.hpp"
 #include "chromo/estimation/forward_table.hpp"

@@ -30,7 +30,7 @@
 #include <iostream>
 #include <chrono>
 
-#include <CLI/CLI.hpp>
+#include "bench_cli.hpp"
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>

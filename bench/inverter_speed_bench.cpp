@@ -36,7 +36,7 @@
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
+#include "bench_cli.hpp"
 
 #include "chart.hpp"
 #include "chromo/estimation/estimator.hpp"

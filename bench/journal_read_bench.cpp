@@ -23,7 +23,7 @@
 #include <fstream>
 #include <string>
 
-#include <CLI/CLI.hpp>
+#include "bench_cli.hpp"
 
 #include "chart.hpp"
 #include "chromo/session/journal.hpp"

@@ -35,7 +35,7 @@
 //
 // Writes OUT/lab_floor.csv (per seed), OUT/lab_floor.png (fast 4D, mean
 // over seeds, per configuration).
-#include <CLI/CLI.hpp>
+#include "bench_cli.hpp"
 
 #include <algorithm>
 #include <cmath>

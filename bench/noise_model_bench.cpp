@@ -21,7 +21,7 @@
 // subject frame, 4 reference frames), one reference frame, and 4 subject
 // frames. Writes OUT/noise_model.csv and OUT/noise_model.png (the ratio per
 // channel, mean over seeds, per configuration).
-#include <CLI/CLI.hpp>
+#include "bench_cli.hpp"
 
 #include <array>
 #include <cmath>

@@ -18,7 +18,7 @@
 // against time since the reference capture.
 //
 // usage: plan_advisor_bench [--skins N] [--draws N] [--out DIR]
-#include <CLI/CLI.hpp>
+#include "bench_cli.hpp"
 #include <fmt/format.h>
 
 #include <algorithm>

@@ -17,7 +17,7 @@
 // Targets at 1:200 (issue 23): ≥ 95% flagged at ≥ 4σ, ≤ 1% of skin, ΔE94
 // ratio ≤ 1.2, |bias| ≤ 5%. Prints its table, writes
 // results/polarisation.csv and results/polarisation.png.
-#include <CLI/CLI.hpp>
+#include "bench_cli.hpp"
 
 #include <algorithm>
 #include <cmath>

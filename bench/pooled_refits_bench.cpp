@@ -25,7 +25,7 @@
 #include <thread>
 #include <vector>
 
-#include <CLI/CLI.hpp>
+#include "bench_cli.hpp"
 
 #include "chart.hpp"
 #include "clocks.hpp"

@@ -29,7 +29,7 @@
 #include <fstream>
 #include <thread>
 
-#include <CLI/CLI.hpp>
+#include "bench_cli.hpp"
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>

@@ -32,7 +32,7 @@
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
+#include "bench_cli.hpp"
 #include <Eigen/Cholesky>
 #include <opencv2/imgcodecs.hpp>
 #include <unistd.h>

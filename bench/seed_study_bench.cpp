@@ -48,7 +48,7 @@
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
+#include "bench_cli.hpp"
 #include <Eigen/Dense>
 
 #include "chart.hpp"

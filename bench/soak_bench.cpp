@@ -33,7 +33,7 @@
 #include <thread>
 #include <vector>
 
-#include <CLI/CLI.hpp>
+#include "bench_cli.hpp"
 #include <grpcpp/grpcpp.h>
 
 #include "chromo/files/gnuplot_chart.hpp"

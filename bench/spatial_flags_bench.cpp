@@ -28,7 +28,7 @@
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
+#include "bench_cli.hpp"
 
 #include "guarded_main.hpp"
 #include "chromo/simulators/scene/rendered_session.hpp"

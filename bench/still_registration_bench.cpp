@@ -43,7 +43,7 @@
 #include <tuple>
 #include <vector>
 
-#include <CLI/CLI.hpp>
+#include "bench_cli.hpp"
 #include <unistd.h>
 
 #include "chart.hpp"

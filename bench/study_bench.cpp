@@ -17,7 +17,7 @@
 // so every run loads the same tables. Wall clock from `chromo study run`'s
 // start to its end (hashing, submission, Slurm's scheduling, the estimates,
 // the table); the records' seconds per session and peak RSS.
-#include <CLI/CLI.hpp>
+#include "bench_cli.hpp"
 #include <fmt/format.h>
 
 #include <chrono>

@@ -26,7 +26,7 @@
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
+#include "bench_cli.hpp"
 #include <Eigen/Cholesky>
 
 #include "chart.hpp"
