@@ -5,9 +5,9 @@
 // then the declared noise of four frames of a 40,000 e⁻ sensor added
 // (still_scene_captures.hpp), registered as `chromo estimate` registers a
 // MEASUREMENT.json (session::register_images), side by side in one run:
-//   before: ECC alone (RegistrationOptions::tile_consensus off: the default
-//           until still37c), one round on every pixel;
-//   after:  the default, the tile consensus deciding still or moved and
+//   before: the default, ECC alone (RegistrationOptions::tile_consensus off),
+//           one round on every pixel;
+//   after:  the opt-in tile consensus deciding still or moved and
 //           checking ECC's warp (src/tile_motion.hpp);
 //   --robust-trial: also the opt-in robust round without the tiles
 //           (exclude_photometric_outliers: the pixels whose ratio between the
@@ -81,12 +81,11 @@ std::size_t non_finite_pixels(const session::MeasurementFile& m) {
 
 double g_local_mean_sigma_px = session::RegistrationOptions{}.local_mean_sigma_px;  // --sigma
 
-// The registration options of a variant: "before" (one round, no tile
-// consensus: the default until still37c), "after" (the default: the tile
-// consensus), "robust" (before + the opt-in robust round) or "local-mean".
+// The registration options of a variant: "before" (the default: one round,
+// no tile consensus), "after" (the opt-in tile consensus), "robust" (before + the opt-in robust round) or "local-mean".
 session::RegistrationOptions variant_options(const std::string& variant) {
   session::RegistrationOptions options;
-  if (variant != "after") options.tile_consensus = false;
+  options.tile_consensus = variant == "after";
   if (variant == "robust") options.exclude_photometric_outliers = true;
   if (variant == "local-mean") {
     options.exclude_photometric_outliers = false;

@@ -1,7 +1,7 @@
 // Registration of a still scene whose ink and marker change contrast from one
 // capture to the other (issue 37 item 4). ECC alone on every pixel (the
-// tile consensus off) is pulled by whole pixels. By default the tile
-// consensus (RegistrationOptions::tile_consensus) decides: each tile's own
+// default, tile consensus off) is pulled by whole pixels. With the opt-in tile
+// consensus (RegistrationOptions::tile_consensus) the tiles decide: each tile's own
 // translation, the disagreeing ones left out, so a still subject keeps the
 // identity and a known sub-pixel motion is found as on skin alone. The
 // opt-in robust round (exclude_photometric_outliers, without the tiles)
@@ -71,6 +71,12 @@ RegistrationOptions ecc_alone() {
   return options;
 }
 
+RegistrationOptions tiles() {
+  RegistrationOptions options;
+  options.tile_consensus = true;
+  return options;
+}
+
 RegistrationOptions robust() {
   RegistrationOptions options = ecc_alone();
   options.exclude_photometric_outliers = true;
@@ -90,7 +96,7 @@ double corner_error_px(const RegistrationResult& r, double tx, double ty) {
 TEST(RegistrationInk, AStillSceneWhoseInkChangesContrastKeepsTheIdentity) {
   const std::vector<float> reference = reference_capture(), still = other_capture(0, 0);
   const RegistrationResult alone = register_channel(reference, still, kWidth, kHeight, ecc_alone());
-  const RegistrationResult r = register_channel(reference, still, kWidth, kHeight);
+  const RegistrationResult r = register_channel(reference, still, kWidth, kHeight, tiles());
   const RegistrationResult rr = register_channel(reference, still, kWidth, kHeight, robust());
   const double motion_alone = corner_displacement_px(alone, kWidth, kHeight), motion = corner_displacement_px(r, kWidth, kHeight),
                motion_robust = corner_displacement_px(rr, kWidth, kHeight);
@@ -100,7 +106,7 @@ TEST(RegistrationInk, AStillSceneWhoseInkChangesContrastKeepsTheIdentity) {
   EXPECT_TRUE(motion_is_significant(alone, motion_alone));  // the pull
   EXPECT_EQ(alone.photometric_outlier_share, 0.0);
   EXPECT_EQ(alone.tiles_measured, 0);
-  // The default: the tiles' motion is not significant, not warped.
+  // With the tiles: their motion is not significant, not warped.
   EXPECT_FALSE(motion_is_significant(r, motion));
   EXPECT_LT(motion, kWarpThresholdPx);
   EXPECT_EQ(r.method, RegistrationMethod::kTiles);
@@ -117,8 +123,8 @@ TEST(RegistrationInk, AStillSceneWhoseInkChangesContrastKeepsTheIdentity) {
 TEST(RegistrationInk, AKnownSubPixelMotionIsFoundDespiteTheInk) {
   const std::vector<float> reference = reference_capture(), moved = other_capture(0.32, 0.24);  // 0.4 px
   const RegistrationResult alone = register_channel(reference, moved, kWidth, kHeight, ecc_alone());
-  const RegistrationResult r = register_channel(reference, moved, kWidth, kHeight);
-  std::printf("moved 0.4 px: ECC alone corner error %.3f px; default (%s) shift (%.3f, %.3f) px, rotation %.4f°, corner "
+  const RegistrationResult r = register_channel(reference, moved, kWidth, kHeight, tiles());
+  std::printf("moved 0.4 px: ECC alone corner error %.3f px; tiles (%s) shift (%.3f, %.3f) px, rotation %.4f°, corner "
               "error %.3f px, noise %.4f px\n", corner_error_px(alone, 0.32, 0.24), registration_method_name(r.method),
               r.shift_x_px, r.shift_y_px, r.rotation_deg, corner_error_px(r, 0.32, 0.24), r.motion_noise_px);
   EXPECT_GT(corner_error_px(alone, 0.32, 0.24), 1.0);

@@ -98,7 +98,7 @@ struct RegistrationOptions {
   // (docs/estimation.md "A robust round", still37b; measured with
   // tile_consensus off, which the tile consensus now makes unnecessary).
   bool exclude_photometric_outliers = false;
-  // register_channel's motion statistic (on by default; src/tile_motion.hpp):
+  // register_channel's motion statistic (opt-in, off by default; src/tile_motion.hpp):
   // after the coarse levels, the translation of each tile (16-48 px, its own
   // gain and offset), a shift and rotation fitted to them with the
   // disagreeing tiles left out, and its noise from the kept tiles' spread
@@ -114,7 +114,12 @@ struct RegistrationOptions {
   // tiles' (method kTiles) where the two differ at a corner by more than
   // max(kWarpThresholdPx, kMotionSignificance × that noise). docs/estimation.md
   // "Registration of a still scene by tiles" (still37c) has the figures.
-  bool tile_consensus = true;
+  // Off by default: from the identity, tiles of a subject that drifted 2+ px
+  // and grew (SubjectMotion.RegistrationErrorIsReported..., a magnified
+  // rendered session) agree on no motion, so the capture would be called
+  // still (0.05 px found); the choice between the identity's and the coarse
+  // warp's tiles needs a rule that knows when the identity is out of reach.
+  bool tile_consensus = false;
 };
 
 struct RegistrationResult {
