@@ -442,11 +442,11 @@ std::optional<RegistrationResult> still_by_tiles(const registration_detail::Tile
 RegistrationResult agreed_with_tiles(const RegistrationResult& r, const registration_detail::TileMotion& tiles, int width,
                                      int height) {
   const RegistrationResult t = tiles_result(tiles, r);
-  double apart = 0;
-  for (double x : {0.0, width - 1.0})
-    for (double y : {0.0, height - 1.0})
-      apart = std::max(apart, std::hypot(r.warp[0][0] * x + r.warp[0][1] * y + r.warp[0][2] - (t.warp[0][0] * x + t.warp[0][1] * y + t.warp[0][2]),
-                                         r.warp[1][0] * x + r.warp[1][1] * y + r.warp[1][2] - (t.warp[1][0] * x + t.warp[1][1] * y + t.warp[1][2])));
+  // The two warps' largest distance at a corner: the displacement of r − t + identity.
+  RegistrationResult difference;
+  for (int i = 0; i < 2; ++i)
+    for (int j = 0; j < 3; ++j) difference.warp[i][j] = r.warp[i][j] - t.warp[i][j] + (i == j ? 1.0 : 0.0);
+  const double apart = corner_displacement_px(difference, width, height);
   const bool departs = apart > std::max(kWarpThresholdPx, kMotionSignificance * tiles.noise_px);
   RegistrationResult kept = departs ? t : r;
   if (departs) kept.method = RegistrationMethod::kTiles;
