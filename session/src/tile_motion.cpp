@@ -51,7 +51,8 @@ std::vector<TileVote> tile_votes(const WorkingPair& w) {
       const cv::Rect tile(bx * w.ref.cols / nx, by * w.ref.rows / ny, w.ref.cols / nx, w.ref.rows / ny);
       if (tile.width < 8 || tile.height < 8) continue;
       const TranslationFit fit = translation_least_squares(w.ref(tile), w.aligned(tile), w.valid(tile), 5);
-      const bool measured = fit.solved && 3 * std::max(fit.sigma_x, fit.sigma_y) <= kTranslationFallbackUncertaintyPx;
+      const bool measured = fit.solved && 3 * std::max(fit.sigma_x, fit.sigma_y) <= kTranslationFallbackUncertaintyPx &&
+                            fit.gradient_snr >= kMinimumTileGradientSnr;
       if (!measured || !std::isfinite(fit.tx) || !std::isfinite(fit.ty)) continue;
       const Eigen::Vector2d centre(tile.x + 0.5 * (tile.width - 1), tile.y + 0.5 * (tile.height - 1));
       votes.push_back({w.scale * centre, w.scale * Eigen::Vector2d(fit.tx, fit.ty)});

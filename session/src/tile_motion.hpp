@@ -24,11 +24,29 @@ namespace chromo::session::registration_detail {
 // at a pyramid level of at most ~1.2 MP, as the block noise is.
 inline constexpr int kTileSidePx = 48;
 inline constexpr int kSmallestTileSidePx = 16;
+// A tile measures its translation only where its texture stands this far
+// above the noise in the gradients (TranslationFit::gradient_snr): where the
+// noise is comparable to the texture, the gradient least squares is pulled
+// toward its start (errors in the regressors: by about 1 / (1 + snr), half
+// the motion at snr 1), so such tiles would agree on no motion. 4: pulled by
+// at most ~20%. A tile on the edge of ink whose contrast changes between the
+// captures has a large residual, so a low snr too: it is not measured.
+// Measured (still37d): on the rendered session's smooth skin
+// (tests/simulators/subject_motion_test, 128 × 96 px) most tiles have snr ≈ 1,
+// so too few measure and ECC decides as without the tiles (with every tile,
+// a 0.5 px motion was called still and a 5 px drift kept the coarse warp's
+// 1.2 px error); on the real-skin bench scenes the median tile's is 36
+// (method, subjects 041-050, seed 1; 2 of 65 below 3). 9 (within 10%) also
+// passes the motion test but measures none of the ink test's tiles.
+inline constexpr double kMinimumTileGradientSnr = 4.0;
 // Fewer measured tiles than this: no consensus (a featureless or tiny view).
 inline constexpr int kMinimumTiles = 8;
 // A tile whose translation departs from the fit by more than this many of the
 // tiles' robust spread (per axis, from their residuals' median length) is left out.
 inline constexpr double kTileOutlierSpreads = 3.5;
+// registration.cpp: the tiles start from the identity while ECC's coarse warp
+// moves every image corner by at most this (px), else from the coarse warp.
+inline constexpr double kTilesFromIdentityReachPx = 1.0;
 
 struct TileMotion {
   bool measured = false;  // at least kMinimumTiles tiles measured their translation
@@ -42,7 +60,8 @@ struct TileMotion {
 // the moving mask resampled by `base_warp`). base_warp: 2×3 CV_32F, the starting alignment (the identity, or
 // the coarse pyramid levels' warp); the tiles measure what remains after it
 // (sub-pixel to a few px). Each tile (side as above): translation_least_squares (own gain and
-// offset, 5 steps), voting when 3σ ≤ kTranslationFallbackUncertaintyPx. The
+// offset, 5 steps), voting when 3σ ≤ kTranslationFallbackUncertaintyPx and
+// its gradient_snr ≥ kMinimumTileGradientSnr. The
 // fit: t(x) = T + θ·(−(y − c_y), x − c_x) about the frame's centre c, least
 // squares over the kept tiles (outliers left out in up to 5 rounds; if more
 // than half would go, none is left out). Noise: the kept tiles' residual

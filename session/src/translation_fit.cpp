@@ -1,5 +1,6 @@
 #include "translation_fit.hpp"
 
+#include <algorithm>
 #include <cstddef>
 
 #include <Eigen/Dense>
@@ -31,8 +32,12 @@ TranslationFit translation_least_squares(const cv::Mat& ref, const cv::Mat& mov,
     if (!step.allFinite()) break;
     double squares = 0;
     each([&](const Eigen::Vector4d& row, double target) { squares += (row.dot(step) - target) * (row.dot(step) - target); });
-    const Eigen::Matrix4d covariance = normal.inverse() * (squares / static_cast<double>(n - 4));
+    const double residual_variance = squares / static_cast<double>(n - 4);
+    const Eigen::Matrix4d covariance = normal.inverse() * residual_variance;
     fit.sigma_x = std::sqrt(covariance(0, 0)), fit.sigma_y = std::sqrt(covariance(1, 1));
+    const double gradient_power = 0.5 * (normal(0, 0) + normal(1, 1)) / static_cast<double>(n);
+    const double noise_power = std::max(residual_variance / 4, 1e-30);
+    fit.gradient_snr = std::max(0.0, gradient_power - noise_power) / noise_power;
     fit.tx += step[0], fit.ty += step[1];
     fit.solved = true;
     if (std::hypot(step[0], step[1]) < 1e-4) break;

@@ -12,6 +12,13 @@ struct TranslationFit {
   double tx = 0, ty = 0;                    // px: moving(x + t) ≈ a·reference(x) + b
   double sigma_x = INFINITY, sigma_y = INFINITY;  // standard errors of t, px (pixels taken as independent)
   bool solved = false;                      // at least one step was taken
+  // The mean squared gradient (per axis) of the resampled moving image over
+  // the noise's share of it (the residual variance / 4: central differences
+  // of two pixels' noise at half weight, the residual holding both images'
+  // noise): the texture's signal-to-noise in the gradients the fit uses. The
+  // estimate keeps only about snr / (1 + snr) of the motion from its start
+  // where the noise is comparable to the texture (errors in the regressors).
+  double gradient_snr = 0;
 };
 
 // Gauss-Newton on moving(x + t) ≈ a·reference(x) + b over the mask: t, a,
