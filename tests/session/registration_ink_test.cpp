@@ -1,7 +1,7 @@
 // Registration of a still scene whose ink and marker change contrast from one
-// capture to the other (issue 37 item 4). ECC alone on every pixel (the
-// default, tile consensus off) is pulled by whole pixels. With the opt-in tile
-// consensus (RegistrationOptions::tile_consensus) the tiles decide: each tile's own
+// capture to the other (issue 37 item 4). ECC alone on every pixel (tile
+// consensus off) is pulled by whole pixels. With the tile consensus
+// (RegistrationOptions::tile_consensus, the default) the tiles decide: each tile's own
 // translation, the disagreeing ones left out, so a still subject keeps the
 // identity and a known sub-pixel motion is found as on skin alone. The
 // opt-in robust round (exclude_photometric_outliers, without the tiles)
@@ -111,8 +111,11 @@ TEST(RegistrationInk, AStillSceneWhoseInkChangesContrastKeepsTheIdentity) {
   EXPECT_LT(motion, kWarpThresholdPx);
   EXPECT_EQ(r.method, RegistrationMethod::kTiles);
   EXPECT_GE(r.tiles_measured, 8);
-  EXPECT_GE(2 * r.tiles_kept, r.tiles_measured);  // the tiles on the disc's and the stroke's edges left out
-  EXPECT_LT(r.tiles_kept, r.tiles_measured);
+  // The tiles on the disc's and the stroke's edges: not measured (their
+  // mismatch makes their gradients' signal-to-noise low) or left out; of the
+  // frame's 20 tiles, 11 are kept.
+  EXPECT_GE(2 * r.tiles_kept, r.tiles_measured);
+  EXPECT_LE(r.tiles_kept, 15);
   // The robust round leaves ink and marker out instead.
   EXPECT_FALSE(motion_is_significant(rr, motion_robust));
   EXPECT_LT(motion_robust, kWarpThresholdPx);
