@@ -17,6 +17,7 @@ namespace {
 // One tile's measured translation, full-resolution px, at its centre.
 struct TileVote {
   Eigen::Vector2d centre, shift;
+  bool textured = false;  // gradient_snr ≥ kMinimumTileGradientSnr
 };
 
 // The moving capture resampled onto the reference's grid by `warp`, both
@@ -51,11 +52,10 @@ std::vector<TileVote> tile_votes(const WorkingPair& w) {
       const cv::Rect tile(bx * w.ref.cols / nx, by * w.ref.rows / ny, w.ref.cols / nx, w.ref.rows / ny);
       if (tile.width < 8 || tile.height < 8) continue;
       const TranslationFit fit = translation_least_squares(w.ref(tile), w.aligned(tile), w.valid(tile), 5);
-      const bool measured = fit.solved && 3 * std::max(fit.sigma_x, fit.sigma_y) <= kTranslationFallbackUncertaintyPx &&
-                            fit.gradient_snr >= kMinimumTileGradientSnr;
+      const bool measured = fit.solved && 3 * std::max(fit.sigma_x, fit.sigma_y) <= kTranslationFallbackUncertaintyPx;
       if (!measured || !std::isfinite(fit.tx) || !std::isfinite(fit.ty)) continue;
       const Eigen::Vector2d centre(tile.x + 0.5 * (tile.width - 1), tile.y + 0.5 * (tile.height - 1));
-      votes.push_back({w.scale * centre, w.scale * Eigen::Vector2d(fit.tx, fit.ty)});
+      votes.push_back({w.scale * centre, w.scale * Eigen::Vector2d(fit.tx, fit.ty), fit.gradient_snr >= kMinimumTileGradientSnr});
     }
   return votes;
 }
@@ -123,6 +123,9 @@ TileMotion tile_motion(const cv::Mat& ref, const cv::Mat& ref_valid, const cv::M
   const std::vector<TileVote> votes = tile_votes(working_pair(ref, ref_valid, mov, mov_valid, base_warp));
   result.tiles_measured = static_cast<int>(votes.size());
   if (result.tiles_measured < kMinimumTiles) return result;
+  // Too smooth a view: most tiles' translations pulled toward the start.
+  const auto textured = std::count_if(votes.begin(), votes.end(), [](const TileVote& v) { return v.textured; });
+  if (2 * textured < static_cast<long>(votes.size())) return result;
   const Eigen::Vector2d centre(0.5 * (ref.cols - 1), 0.5 * (ref.rows - 1));
   const std::vector<bool> kept = kept_tiles(votes, centre);
   const Fit f = fit_kept(votes, kept, centre);

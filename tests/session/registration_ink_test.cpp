@@ -111,11 +111,8 @@ TEST(RegistrationInk, AStillSceneWhoseInkChangesContrastKeepsTheIdentity) {
   EXPECT_LT(motion, kWarpThresholdPx);
   EXPECT_EQ(r.method, RegistrationMethod::kTiles);
   EXPECT_GE(r.tiles_measured, 8);
-  // The tiles on the disc's and the stroke's edges: not measured (their
-  // mismatch makes their gradients' signal-to-noise low) or left out; of the
-  // frame's 20 tiles, 11 are kept.
-  EXPECT_GE(2 * r.tiles_kept, r.tiles_measured);
-  EXPECT_LE(r.tiles_kept, 15);
+  EXPECT_GE(2 * r.tiles_kept, r.tiles_measured);  // the tiles on the disc's and the stroke's edges left out
+  EXPECT_LT(r.tiles_kept, r.tiles_measured);
   // The robust round leaves ink and marker out instead.
   EXPECT_FALSE(motion_is_significant(rr, motion_robust));
   EXPECT_LT(motion_robust, kWarpThresholdPx);
