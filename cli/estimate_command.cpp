@@ -96,7 +96,7 @@ int load_measurement(const EstimateOptions& options, LoadedMeasurement& loaded) 
   // Register every further image to images[0] on the first channel both use.
   const auto t = std::chrono::steady_clock::now();
   try {
-    loaded.registration = maps::registration_report(session::register_images(m));
+    loaded.registration = maps::registration_report(session::register_images(m, registration_options(options)));
   } catch (const session::RegistrationError& e) {
     std::cerr << "chromo estimate: " << e.what() << "\n";
     return kExitBadInput;
@@ -180,6 +180,7 @@ int run_estimate(const EstimateOptions& options) {
                                           {"nodes", table->grid().node_count()},
                                           {"rebuilt", rebuilt}}},
                                {"registration", loaded.registration},
+                               {"registration_tiles", options.registration_tiles},
                                {"neighbourhood", maps::neighbourhood_report(options.neighbourhood_flags,
                                                                             options.order_pooling, neighbourhood)},
                                {"skin_denoise", maps::skin_denoise_report(skin_denoise, pass.skin_refit ? &*pass.skin_refit : nullptr)},
@@ -239,6 +240,14 @@ void add_estimate_command(CLI::App& app, int& exit_status) {
                   "on: the multi-pixel estimate before the spatial pass (each explained pixel's colour averaged with "
                   "its 11×11 neighbours' that agree within the noise, its brightness kept, then fitted again; flags "
                   "unchanged: docs/estimation.md 'Relighting past the model'); off: per pixel only")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->capture_default_str();
+  cmd->add_option("--registration-tiles", options->registration_tiles,
+                  "on (default): a capture is warped only when the consensus of its tiles (each tile's own "
+                  "translation, the disagreeing ones left out) finds motion significant against their spread, and "
+                  "ECC's warp is checked against theirs, so a still subject keeps the identity where ink or marker "
+                  "change contrast between the LEDs; off: ECC alone (docs/estimation.md 'Registration of a still "
+                  "scene by tiles')")
       ->check(CLI::IsMember({"on", "off"}))
       ->capture_default_str();
   cmd->add_option("--local-bias", options->local_bias,

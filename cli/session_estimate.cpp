@@ -55,6 +55,13 @@ std::optional<estimation::SkinDenoiseOptions> skin_denoise_options(const Estimat
   return std::nullopt;
 }
 
+session::RegistrationOptions registration_options(const EstimateOptions& options) {
+  // CLI11 has checked the value against on and off.
+  session::RegistrationOptions registration;
+  registration.tile_consensus = options.registration_tiles == "on";
+  return registration;
+}
+
 int discrepancy_layer_terms(const EstimateOptions& options) {
   // CLI11 has checked the value against on and off.
   return options.discrepancy_layer == "on" ? maps::kDiscrepancyLayerTerms : 0;
@@ -96,6 +103,7 @@ SessionEstimate estimate_stored_session(const EstimateOptions& options, const st
   eo.neighbourhood.flags = options.neighbourhood_flags;
   eo.neighbourhood.pool_order = options.order_pooling;
   eo.skin_denoise = skin_denoise_options(options);
+  eo.registration = registration_options(options);
   eo.neighbourhood.local_bias.enabled = options.local_bias == "on";
   eo.discrepancy_layer_terms = discrepancy_layer_terms(options);
   if (!options.cache_dir.empty()) eo.cache_dir = options.cache_dir;

@@ -18,6 +18,7 @@
 #include "chromo/estimation/estimator.hpp"
 #include "chromo/estimation/skin_denoise.hpp"
 #include "chromo/maps/camera_results.hpp"
+#include "chromo/session/registration.hpp"
 
 namespace chromo::cli {
 
@@ -36,6 +37,7 @@ struct EstimateOptions {
   std::string skin_denoise = "off";     // "on": the multi-pixel estimate (estimation/skin_refit.hpp) before the spatial pass
   std::string local_bias = "off";       // "on": a skin's systematic shortfall taken as a local bias (estimation/local_bias.hpp)
   std::string discrepancy_layer = "on"; // "off": the maps carry no posterior discrepancy (maps/discrepancy_layer.hpp)
+  std::string registration_tiles = "on"; // "off": ECC alone decides still or moved (session RegistrationOptions::tile_consensus)
   // Session folders only.
   std::string led_library;  // empty: <session>/results/led_library.json, else as chromod (newest measured, nominal)
   std::string camera = "builtin:nikon_d5100";
@@ -48,6 +50,8 @@ estimation::EstimatorOptions estimator_options(const EstimateOptions& options);
 std::optional<estimation::SkinDenoiseOptions> skin_denoise_options(const EstimateOptions& options);
 // --discrepancy-layer as the maps' option: the layer's terms when "on", 0 when "off".
 int discrepancy_layer_terms(const EstimateOptions& options);
+// --registration-tiles as the registration's options: the tile consensus on or off, the rest the defaults.
+session::RegistrationOptions registration_options(const EstimateOptions& options);
 // --camera-of's NAME=SPEC entries as a map; std::invalid_argument naming a malformed one.
 std::map<std::string, std::string> parse_camera_of(const std::vector<std::string>& entries);
 

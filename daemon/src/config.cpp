@@ -102,6 +102,8 @@ bool DaemonConfig::IsValid(std::string* error) const {
     return fail("estimation.discrepancy: \"" + estimation.discrepancy + "\" is not learned or none");
   if (estimation.skin_denoise != "on" && estimation.skin_denoise != "off")
     return fail("estimation.skin_denoise: \"" + estimation.skin_denoise + "\" is not on or off");
+  if (estimation.registration_tiles != "on" && estimation.registration_tiles != "off")
+    return fail("estimation.registration_tiles: \"" + estimation.registration_tiles + "\" is not on or off");
   if (estimation.local_bias != "on" && estimation.local_bias != "off")
     return fail("estimation.local_bias: \"" + estimation.local_bias + "\" is not on or off");
   if (estimation.discrepancy_layer != "on" && estimation.discrepancy_layer != "off")
@@ -206,6 +208,8 @@ const std::vector<Key>& estimation_keys() {
                    return v == "learned" || v == "none" ? std::string() : "\"" + v + "\" is not learned or none";
                  }),
       string_key("skin_denoise", [](DaemonConfig& c) -> auto& { return c.estimation.skin_denoise; },
+                 [](const std::string& v) { return v == "on" || v == "off" ? std::string() : "\"" + v + "\" is not on or off"; }),
+      string_key("registration_tiles", [](DaemonConfig& c) -> auto& { return c.estimation.registration_tiles; },
                  [](const std::string& v) { return v == "on" || v == "off" ? std::string() : "\"" + v + "\" is not on or off"; }),
       string_key("local_bias", [](DaemonConfig& c) -> auto& { return c.estimation.local_bias; },
                  [](const std::string& v) { return v == "on" || v == "off" ? std::string() : "\"" + v + "\" is not on or off"; }),

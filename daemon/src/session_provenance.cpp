@@ -41,6 +41,7 @@ session::SessionProvenance Daemon::session_provenance(const session::SessionPlan
                                   {"discrepancy", config_.estimation.discrepancy},
                                   {"skin_denoise", config_.estimation.skin_denoise},
                                   {"local_bias", config_.estimation.local_bias},
+                                  {"registration_tiles", config_.estimation.registration_tiles},
                                   {"discrepancy_layer", config_.estimation.discrepancy_layer},
                                   {"films_extinction_ratio", config_.estimation.films_extinction_ratio}};
   return provenance;

@@ -702,6 +702,7 @@ nlohmann::ordered_json measurement_report(const session::Measurement& m, const e
   if (const auto* fast = dynamic_cast<const estimation::FastInverter*>(&estimator.inverter()))
     extra["table"]["inverse_key"] = files::cache_key_hex(fast->inverse_table().key());
   extra["registration"] = registration_report(m.registration);
+  extra["registration_tiles"] = options.registration.tile_consensus ? "on" : "off";
   nlohmann::ordered_json noise = nlohmann::ordered_json::object();
   for (const auto& c : m.set.channels)
     noise[c.name] = {{"read_sigma", c.noise.read_sigma},

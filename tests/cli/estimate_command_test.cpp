@@ -118,6 +118,7 @@ TEST_F(EstimateCommand, WritesMapsPreviewsAndSummary) {
   ASSERT_EQ(s["registration"].size(), 1u);
   EXPECT_NEAR(s["registration"][0]["shift_x_px"].get<double>(), 3.0, 0.3);  // blue(x + 3) = broadband(x)
   EXPECT_LT(s["registration"][0]["residual_motion_px"].get<double>(), 0.5);
+  EXPECT_EQ(s["registration_tiles"], "on");  // the tile consensus by default, recorded
   EXPECT_TRUE(s["flag_counts"].contains("unexplained_colour"));
 
   // maps.exr: the seven float channels and the σ maps; Cm recovered inside the image.

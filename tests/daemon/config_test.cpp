@@ -171,6 +171,7 @@ TEST(DaemonConfig, RefusesEveryProbeOfIssue19NamingTheKey) {
       {{{"estimation", {{"threads", -1}}}}, "cfg: estimation.threads: -1 is outside [0, 256]"},
       {{{"estimation", {{"skin_denoise", "yes"}}}}, "cfg: estimation.skin_denoise: \"yes\" is not on or off"},
       {{{"estimation", {{"local_bias", "yes"}}}}, "cfg: estimation.local_bias: \"yes\" is not on or off"},
+      {{{"estimation", {{"registration_tiles", "yes"}}}}, "cfg: estimation.registration_tiles: \"yes\" is not on or off"},
       {{{"estimation", {{"discrepancy_layer", "yes"}}}}, "cfg: estimation.discrepancy_layer: \"yes\" is not on or off"},
       {{{"estimation", {{"white_reflectance", 0}}}}, "cfg: estimation.white_reflectance: 0 is outside (0"},
       {{{"estimation", {{"cache_limit_bytes", 10}}}}, "cfg: estimation.cache_limit_bytes: 10 is outside"},
@@ -292,6 +293,13 @@ TEST(DaemonConfig, SkinDenoiseIsReadOffByDefault) {
   EXPECT_EQ(parse_config(nlohmann::json::object(), "cfg").estimation.skin_denoise, "off");
   EXPECT_EQ(parse_config(nlohmann::json::parse(R"({"estimation": {"skin_denoise": "on"}})"), "cfg").estimation.skin_denoise,
             "on");
+}
+
+TEST(DaemonConfig, RegistrationTilesIsReadOnByDefault) {
+  EXPECT_EQ(parse_config(nlohmann::json::object(), "cfg").estimation.registration_tiles, "on");
+  EXPECT_EQ(parse_config(nlohmann::json::parse(R"({"estimation": {"registration_tiles": "off"}})"), "cfg")
+                .estimation.registration_tiles,
+            "off");
 }
 
 TEST(DaemonConfig, DiscrepancyLayerIsReadOnByDefault) {

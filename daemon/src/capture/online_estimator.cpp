@@ -33,6 +33,8 @@ std::unique_ptr<OnlineEstimator> make_online_estimator(const EstimationConfig& c
   e.discrepancy = config.discrepancy == "none" ? nullptr : estimation::ModelDiscrepancy::standard();
   // The multi-pixel estimate (estimation.skin_denoise, checked on or off by config.cpp).
   if (config.skin_denoise == "on") options.estimation.skin_denoise = estimation::SkinDenoiseOptions{};
+  // The registration's tile consensus (estimation.registration_tiles, checked on or off by config.cpp).
+  options.estimation.registration.tile_consensus = config.registration_tiles == "on";
   // The local-bias flag rule (estimation.local_bias, checked on or off by config.cpp).
   options.estimation.neighbourhood.local_bias.enabled = config.local_bias == "on";
   // The relit layer (estimation.discrepancy_layer, checked on or off by config.cpp).

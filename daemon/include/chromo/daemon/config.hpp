@@ -56,6 +56,9 @@ struct EstimationConfig {
   // neighbourhood flags (estimation/local_bias.hpp; docs/estimation.md
   // "A subject's shortfall as a local bias"): "on" or "off".
   std::string local_bias = "off";
+  // The registration's tile consensus (session RegistrationOptions::tile_consensus;
+  // docs/estimation.md "Registration of a still scene by tiles"): "on" or "off".
+  std::string registration_tiles = "on";
   // The relit layer "model + discrepancy" in the maps (maps/discrepancy_layer.hpp;
   // docs/estimation.md "Relighting past the model"): "on" or "off".
   std::string discrepancy_layer = "on";
