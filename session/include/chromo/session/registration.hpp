@@ -98,28 +98,29 @@ struct RegistrationOptions {
   // (docs/estimation.md "A robust round", still37b; measured with
   // tile_consensus off, which the tile consensus now makes unnecessary).
   bool exclude_photometric_outliers = false;
-  // register_channel's motion statistic (opt-in, off by default; src/tile_motion.hpp):
+  // register_channel's motion statistic (on by default; src/tile_motion.hpp):
   // after the coarse levels, the translation of each tile (16-48 px, its own
-  // gain and offset), a shift and rotation fitted to them with the
+  // gain and offset; half of them at least with a texture 4× above the noise
+  // in their gradients, else no consensus), a shift and rotation fitted to them with the
   // disagreeing tiles left out, and its noise from the kept tiles' spread
   // about the fit (motion_noise_px). Captures under different LEDs pull ECC
   // where ink, marker or subjects change contrast, but each tile its own way;
-  // a subject's motion moves every tile alike. Used where at least 8 tiles
-  // measure and ECC's coarse levels found a plausible motion (else, a
-  // featureless view: as without it). With decide_still_at_coarse_level, a
-  // tiles' motion not significant against that noise (motion_is_significant)
-  // is the still decision in place of the block rule (method kTiles, not
-  // warped, level 0 skipped). A moved capture is registered by ECC as
-  // before, and ECC's warp (not the translation fallback's) replaced by the
-  // tiles' (method kTiles) where the two differ at a corner by more than
-  // max(kWarpThresholdPx, kMotionSignificance × that noise). docs/estimation.md
-  // "Registration of a still scene by tiles" (still37c) has the figures.
-  // Off by default: from the identity, tiles of a subject that drifted 2+ px
-  // and grew (SubjectMotion.RegistrationErrorIsReported..., a magnified
-  // rendered session) agree on no motion, so the capture would be called
-  // still (0.05 px found); the choice between the identity's and the coarse
-  // warp's tiles needs a rule that knows when the identity is out of reach.
-  bool tile_consensus = false;
+  // a subject's motion moves every tile alike. The tiles start from the
+  // identity, and also from ECC's coarse warp where that moves a corner by
+  // more than 1 px; the start whose fit has the smaller noise is kept. Used
+  // where at least 8 tiles measure and ECC's coarse levels found a plausible
+  // motion (else, a featureless or smooth view: as without it). With
+  // decide_still_at_coarse_level, a tiles' motion not significant against
+  // that noise (motion_is_significant) is the still decision in place of the
+  // block rule (method kTiles, not warped, level 0 skipped). A moved capture
+  // is registered by ECC as before, and ECC's warp (not the translation
+  // fallback's) replaced by the tiles' (method kTiles) where the two differ
+  // at a corner by more than max(kWarpThresholdPx, kMotionSignificance × that
+  // noise). false: ECC alone with the block noise (`chromo estimate
+  // --registration-tiles off`, chromod's estimation.registration_tiles).
+  // docs/estimation.md "Registration of a still scene by tiles" (still37c,
+  // still37d) has the figures.
+  bool tile_consensus = true;
 };
 
 struct RegistrationResult {

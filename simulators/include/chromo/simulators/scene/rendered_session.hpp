@@ -211,7 +211,9 @@ struct CaptureMotion {
 // 10: a still subject decided on the coarse pyramid levels (RegistrationOptions::
 //     decide_still_at_coarse_level): its residual_motion_px is the motion found.
 // 11: RegistrationResult::photometric_outlier_share (the opt-in robust round).
-inline constexpr std::uint32_t kRenderedSessionVersion = 11;
+// 12: the registration's tile consensus on by default (RegistrationOptions::
+//     tile_consensus): a still capture keeps the identity more often.
+inline constexpr std::uint32_t kRenderedSessionVersion = 12;
 inline constexpr std::uint8_t kMixedCell = 255;  // a 2×2 cell whose sites have different regions
 
 struct RenderedSession {
