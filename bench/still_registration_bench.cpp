@@ -5,9 +5,9 @@
 // then the declared noise of four frames of a 40,000 e⁻ sensor added
 // (still_scene_captures.hpp), registered as `chromo estimate` registers a
 // MEASUREMENT.json (session::register_images), side by side in one run:
-//   before: the default, ECC alone (RegistrationOptions::tile_consensus off),
-//           one round on every pixel;
-//   after:  the opt-in tile consensus deciding still or moved and
+//   before: ECC alone (RegistrationOptions::tile_consensus off, the default
+//           until still37d), one round on every pixel;
+//   after:  the tile consensus (the default since still37d) deciding still or moved and
 //           checking ECC's warp (src/tile_motion.hpp);
 //   --robust-trial: also the opt-in robust round without the tiles
 //           (exclude_photometric_outliers: the pixels whose ratio between the
