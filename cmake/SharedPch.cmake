@@ -4,8 +4,9 @@
 #   An object library whose only source is an empty anchor: it compiles the
 #   headers once into a precompiled header (GCC's .gch) that every target
 #   given to chromo_use_shared_pch() reuses. LIBRARIES give the headers'
-#   include directories; OPTIONS are the users' own compile options (the
-#   header must be compiled with the flags it is used with).
+#   include directories; OPTIONS are compile options the header and every
+#   user get alike (-pthread: the targets that link gRPC compile with it,
+#   which defines _REENTRANT, and GCC refuses a header precompiled without).
 # chromo_use_shared_pch(TARGET NAME)
 #   TARGET includes NAME's header first in each of its (unity) sources.
 #   TARGET must compile with the same flags as NAME: the same build type,
@@ -25,13 +26,15 @@ function(chromo_shared_pch name)
   target_link_libraries(${name} PRIVATE ${ARG_LIBRARIES})
   target_compile_options(${name} PRIVATE ${ARG_OPTIONS})
   target_precompile_headers(${name} PRIVATE ${ARG_HEADERS})
-  set_target_properties(${name} PROPERTIES CHROMO_PCH_LIBRARIES "${ARG_LIBRARIES}")
+  set_target_properties(${name} PROPERTIES CHROMO_PCH_LIBRARIES "${ARG_LIBRARIES}" CHROMO_PCH_OPTIONS "${ARG_OPTIONS}")
   chromo_pch_ccache_launcher(${name})
 endfunction()
 
 function(chromo_use_shared_pch target name)
   get_target_property(libraries ${name} CHROMO_PCH_LIBRARIES)
+  get_target_property(options ${name} CHROMO_PCH_OPTIONS)
   target_link_libraries(${target} PRIVATE ${libraries})
+  target_compile_options(${target} PRIVATE ${options})
   target_precompile_headers(${target} REUSE_FROM ${name})
   chromo_pch_ccache_launcher(${target})
 endfunction()
