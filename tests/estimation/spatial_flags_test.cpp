@@ -15,6 +15,7 @@
 #include <random>
 
 #include "chromo/estimation/model_discrepancy.hpp"
+#include "chromo/estimation/skin_refit.hpp"
 #include "chromo/simulators/scene/synthetic.hpp"
 #include "estimation_fixture.hpp"
 #include "lab_scene.hpp"
@@ -115,6 +116,41 @@ TEST(PoolModelOrder, StoredOtherOrderFitsEqualTheRefitsBitForBit) {
   EXPECT_THROW(estimator.estimate_from_fit(frame.noisy.data(), OtherOrderFit{}), std::invalid_argument);
   EXPECT_THROW(pool_model_order(estimator, frame.noisy, side, side, switched, {}, std::span(other).first(3)),
                std::invalid_argument);
+}
+
+// With the multi-pixel estimate (spatial_pass with skin_denoise) the pooled
+// order runs on the denoised channels: the re-fit's other-order fits replace
+// the first pass's where its estimate does, and the chain's estimates equal
+// those without stored fits bit for bit.
+TEST(PoolModelOrder, StoredFitsFollowTheMultiPixelRefit) {
+  simulators::SyntheticOptions o = skin_box(0.06);
+  o.low.cm = 0.04;
+  o.low.ch = 0.02, o.high.ch = 0.03;
+  o.low.bm = o.high.bm = 0.7;
+  o.low.che = o.high.che = 0.0;
+  const int side = 40;
+  o.pixels = side * side;
+  MeasurementSet set = testing::method_set();
+  const simulators::SyntheticFrame frame = simulators::make_synthetic_frame(set, o);
+  const Estimator estimator(testing::method_table(), set, EstimatorOptions{});
+  std::vector<PixelEstimate> refitted(frame.pixels());
+  std::vector<OtherOrderFit> other(frame.pixels());
+  EstimateSummary summary_a = estimator.estimate(frame.noisy, refitted, {}, {}, other);
+  std::vector<PixelEstimate> switched = refitted;
+  EstimateSummary summary_b = summary_a;
+  NeighbourhoodOptions pool_only;
+  pool_only.flags = false;
+  const SpatialPass a = spatial_pass(estimator, frame.noisy, side, side, refitted, summary_a, pool_only, SkinDenoiseOptions{});
+  const SpatialPass b =
+      spatial_pass(estimator, frame.noisy, side, side, switched, summary_b, pool_only, SkinDenoiseOptions{}, other);
+  ASSERT_TRUE(a.skin_refit && b.skin_refit);
+  EXPECT_GT(a.skin_refit->refitted, frame.pixels() / 2);
+  EXPECT_GT(a.skin_refit->mean_joined, 2.0);
+  ASSERT_GT(a.neighbourhood.order_to_2 + a.neighbourhood.order_to_4, 20u);
+  EXPECT_EQ(a.neighbourhood.order_to_2, b.neighbourhood.order_to_2);
+  EXPECT_EQ(a.neighbourhood.order_to_4, b.neighbourhood.order_to_4);
+  EXPECT_EQ(summary_a.order2, summary_b.order2);
+  EXPECT_EQ(different_estimates(refitted, switched), 0u);
 }
 
 // The pooled order's refits on one thread and on two give the same
