@@ -36,7 +36,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -96,7 +95,6 @@ bool quick = false;  // --quick
 
 struct Estimate {
   std::vector<estimation::PixelEstimate> e;
-  std::vector<std::uint8_t> flags_pass;  // DIAG: flags after the flags-only pass
   double seconds = 0, denoise_seconds = 0;
 };
 
@@ -120,14 +118,6 @@ Estimate estimate(std::shared_ptr<const estimation::ForwardTable> table,
   estimation::EstimateSummary summary = estimator.estimate(measured, r.e);
   estimation::NeighbourhoodOptions no;
   no.pool_order = config == kAuto;
-  if (config == kAuto && std::getenv("FLAG_STEPS")) {
-    std::vector<estimation::PixelEstimate> copy = r.e;
-    estimation::EstimateSummary s2 = summary;
-    estimation::NeighbourhoodOptions f = no;
-    f.pool_order = false;
-    estimation::refine_with_neighbourhood(estimator, measured, width, height, copy, s2, f);
-    for (const auto& p : copy) r.flags_pass.push_back(static_cast<std::uint8_t>(p.flag));
-  }
   // skin_denoise empty: exactly refine_with_neighbourhood() (skin_refit.hpp).
   const estimation::SpatialPass pass =
       estimation::spatial_pass(estimator, measured, width, height, r.e, summary, no, skin_denoise);
@@ -144,22 +134,6 @@ ConfigResult score(const simulators::RenderedSession& lab, const Relit& truth, c
   r.de_a = relit_under_a(lab.truth, e, skin);
   r.seconds = estimated.seconds, r.denoise_seconds = estimated.denoise_seconds;
   std::size_t flagged[kRegions] = {}, cells[kRegions] = {}, order4 = 0, explained_skin = 0;
-  if (!estimated.flags_pass.empty()) {
-    std::size_t added[kRegions] = {}, removed[kRegions] = {}, codes[kRegions][16] = {};
-    for (std::size_t i = 0; i < lab.pixels(); ++i) {
-      if (lab.region[i] >= kRegions) continue;
-      const bool before = estimated.flags_pass[i] == 0, after = e[i].flag == estimation::PixelFlag::kExplained;
-      if (before && !after) ++added[lab.region[i]], ++codes[lab.region[i]][static_cast<int>(e[i].flag)];
-      if (!before && after) ++removed[lab.region[i]];
-    }
-    std::fprintf(stderr, "DIAG pooling flag changes:");
-    for (int k = 0; k < kRegions; ++k) {
-      std::fprintf(stderr, " %s +%zu -%zu (", simulators::region_name(static_cast<simulators::SceneRegion>(k)), added[k], removed[k]);
-      for (int c = 0; c < 16; ++c) if (codes[k][c]) std::fprintf(stderr, "c%d:%zu ", c, codes[k][c]);
-      std::fprintf(stderr, ")");
-    }
-    std::fprintf(stderr, "\n");
-  }
   for (std::size_t i = 0; i < lab.pixels(); ++i) {
     if (lab.region[i] >= kRegions) continue;  // white target, mixed cells
     ++cells[lab.region[i]];
