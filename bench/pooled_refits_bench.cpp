@@ -13,7 +13,11 @@
 // share of the cores whatever its thread count), their ratios per pair, and whether the two gave the same estimates
 // bit for bit; the flags' own time once for comparison. Prints mean
 // [min, max] over the pairs, writes
-// DIR/pooled_refits.{csv,png} (--out, default bench/results).
+// DIR/pooled_refits.{csv,png} (--out, default bench/results;
+// pooled_refits_stored.{csv,png} with --stored-fits).
+// --stored-fits: A is the refits and B the first pass's other-order fits
+// (OtherOrderFit, no second inversion), both on --threads; the per-pixel
+// pass is then timed once without and once with storing them.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -97,14 +101,15 @@ struct Timed {
 };
 
 Timed pool(const estimation::Estimator& estimator, const simulators::RenderedSession& lab,
-           const std::vector<PixelEstimate>& flagged, const estimation::NeighbourhoodOptions& options) {
+           const std::vector<PixelEstimate>& flagged, const estimation::NeighbourhoodOptions& options,
+           std::span<const estimation::OtherOrderFit> other = {}) {
   Timed t;
   t.estimates = flagged;
   const auto start = std::chrono::steady_clock::now();
   const ElapsedClock<process_cpu_seconds> cpu;
   const auto threads_before = cpu_seconds_by_thread();
   t.summary = estimation::pool_model_order(estimator, lab.noisy.measured, lab.noisy.width, lab.noisy.height,
-                                           t.estimates, options);
+                                           t.estimates, options, other);
   t.wall_s = seconds_since(start);
   t.cpu_s = cpu.seconds();
   t.busiest_thread_s = busiest_thread_s(threads_before, cpu_seconds_by_thread());
@@ -124,12 +129,18 @@ int bench_main(int argc, char** argv) {
   app.add_option("--repeats", repeats, "pairs (one thread, then --threads)")->check(CLI::Range(1, 20));
   app.add_option("--threads", threads, "the parallel run's estimator threads (0: all cores)")->check(CLI::Range(0, 64));
   app.add_option("--out", out, "folder for pooled_refits.{csv,png}");
+  bool stored_fits = false;
+  app.add_flag("--stored-fits", stored_fits, "A: refits, B: the first pass's other-order fits, both on --threads");
   CLI11_PARSE(app, argc, argv);
+  const char* a_name = stored_fits ? "refits" : "one thread";
+  const char* b_name = stored_fits ? "stored fits" : "parallel";
 
   fs::create_directories(out);
-  std::ofstream csv(out / "pooled_refits.csv");
-  csv << "plan,cells,refits,pair,one_thread_wall_s,parallel_wall_s,one_thread_cpu_s,parallel_cpu_s,"
-         "one_thread_busiest_thread_s,parallel_busiest_thread_s,same_bits\n";
+  const std::string stem = stored_fits ? "pooled_refits_stored" : "pooled_refits";
+  std::ofstream csv(out / (stem + ".csv"));
+  const std::string a_key = stored_fits ? "refits" : "one_thread", b_key = stored_fits ? "stored_fits" : "parallel";
+  csv << "plan,cells,refits,pair," << a_key << "_wall_s," << b_key << "_wall_s," << a_key << "_cpu_s," << b_key
+      << "_cpu_s," << a_key << "_busiest_thread_s," << b_key << "_busiest_thread_s,same_bits\n";
   std::vector<Bar> bars;
   bool all_same = true;
   for (const std::string& plan : plans) {
@@ -146,7 +157,21 @@ int bench_main(int argc, char** argv) {
     const estimation::Estimator one_thread(tables.table, lab.noisy.set, one);
     const estimation::Estimator& parallel = *tables.estimator;
     std::vector<PixelEstimate> flagged(lab.pixels());
-    parallel.estimate(lab.noisy.measured, flagged);
+    std::vector<estimation::OtherOrderFit> other(stored_fits ? lab.pixels() : 0);
+    if (stored_fits) {  // the per-pixel pass without, then with, the other-order fits
+      const ElapsedClock<process_cpu_seconds> without_cpu;
+      parallel.estimate(lab.noisy.measured, flagged);
+      const double without_s = without_cpu.seconds();
+      const ElapsedClock<process_cpu_seconds> with_cpu;
+      std::vector<PixelEstimate> with(lab.pixels());
+      parallel.estimate(lab.noisy.measured, with, {}, {}, other);
+      const double with_s = with_cpu.seconds();
+      std::printf("%s: the per-pixel pass %.3f s CPU without storing the other-order fits, %.3f s with (x%.2f); "
+                  "same estimates: %s\n", plan.c_str(), without_s, with_s, with_s / without_s,
+                  same_bits(flagged, with) ? "yes" : "NO");
+    } else {
+      parallel.estimate(lab.noisy.measured, flagged);
+    }
     const auto flags_start = std::chrono::steady_clock::now();
     const ElapsedClock<process_cpu_seconds> flags_cpu;
     estimation::refine_flags_with_neighbourhood(parallel, lab.noisy.measured, lab.noisy.width, lab.noisy.height,
@@ -157,8 +182,8 @@ int bench_main(int argc, char** argv) {
     std::vector<double> one_wall, parallel_wall, ratio_wall, ratio_cpu, ratio_busiest;
     std::size_t refits = 0;
     for (int pair = 0; pair < repeats; ++pair) {
-      const Timed a = pool(one_thread, lab, flagged, options.neighbourhood);
-      const Timed b = pool(parallel, lab, flagged, options.neighbourhood);
+      const Timed a = pool(stored_fits ? parallel : one_thread, lab, flagged, options.neighbourhood);
+      const Timed b = pool(parallel, lab, flagged, options.neighbourhood, other);
       const bool same = same_bits(a.estimates, b.estimates) && a.summary.order_to_4 == b.summary.order_to_4 &&
                         a.summary.order_to_2 == b.summary.order_to_2;
       all_same = all_same && same;
@@ -166,25 +191,27 @@ int bench_main(int argc, char** argv) {
       one_wall.push_back(a.wall_s), parallel_wall.push_back(b.wall_s);
       ratio_wall.push_back(a.wall_s / b.wall_s), ratio_cpu.push_back(a.cpu_s / b.cpu_s);
       ratio_busiest.push_back(a.busiest_thread_s / b.busiest_thread_s);
-      std::printf("  pair %d: one thread %.3f s wall (%.3f CPU, busiest thread %.3f), parallel %.3f s wall (%.3f CPU, "
-                  "busiest thread %.3f): x%.2f wall, x%.2f busiest thread; %s\n",
-                  pair + 1, a.wall_s, a.cpu_s, a.busiest_thread_s, b.wall_s, b.cpu_s, b.busiest_thread_s,
-                  a.wall_s / b.wall_s, a.busiest_thread_s / b.busiest_thread_s,
+      std::printf("  pair %d: %s %.3f s wall (%.3f CPU, busiest thread %.3f), %s %.3f s wall (%.3f CPU, "
+                  "busiest thread %.3f): x%.2f wall, x%.2f busiest thread, x%.2f CPU; %s\n",
+                  pair + 1, a_name, a.wall_s, a.cpu_s, a.busiest_thread_s, b_name, b.wall_s, b.cpu_s, b.busiest_thread_s,
+                  a.wall_s / b.wall_s, a.busiest_thread_s / b.busiest_thread_s, a.cpu_s / b.cpu_s,
                   same ? "same estimates bit for bit" : "ESTIMATES DIFFER");
       csv << plan << "," << lab.pixels() << "," << refits << "," << pair + 1 << "," << a.wall_s << "," << b.wall_s << ","
           << a.cpu_s << "," << b.cpu_s << "," << a.busiest_thread_s << "," << b.busiest_thread_s << "," << same << "\n";
     }
-    std::printf("  refits %zu (pixels whose window changed their order); wall s one thread %s, parallel %s; "
-                "one thread / parallel: wall x%s, CPU x%s, busiest thread x%s\n",
-                refits, spread_text(one_wall).c_str(), spread_text(parallel_wall).c_str(),
-                spread_text(ratio_wall, "%.2f").c_str(), spread_text(ratio_cpu, "%.2f").c_str(),
-                spread_text(ratio_busiest, "%.2f").c_str());
+    std::printf("  refits %zu (pixels whose window changed their order); wall s %s %s, %s %s; "
+                "%s / %s: wall x%s, CPU x%s, busiest thread x%s; load average %.2f\n",
+                refits, a_name, spread_text(one_wall).c_str(), b_name, spread_text(parallel_wall).c_str(), a_name,
+                b_name, spread_text(ratio_wall, "%.2f").c_str(), spread_text(ratio_cpu, "%.2f").c_str(),
+                spread_text(ratio_busiest, "%.2f").c_str(), load_average());
     auto mean = [](const std::vector<double>& v) { return spread(v, [](double x) { return x; }).mean; };
-    bars.push_back({plan + " one thread", mean(one_wall)});
-    bars.push_back({plan + " parallel", mean(parallel_wall)});
+    bars.push_back({plan + " " + a_name, mean(one_wall)});
+    bars.push_back({plan + " " + b_name, mean(parallel_wall)});
   }
-  std::printf("load average now %.2f; wrote %s\n", load_average(), (out / "pooled_refits.csv").c_str());
-  write_bar_chart(out / "pooled_refits.png", "pooled-order refits at 5 MP: one thread against all cores (wall s, mean of pairs)",
+  std::printf("load average now %.2f; wrote %s\n", load_average(), (out / (stem + ".csv")).c_str());
+  write_bar_chart(out / (stem + ".png"),
+                  stored_fits ? "pooled order at 5 MP: refits against the stored fits of the first pass (wall s, mean of pairs)"
+                              : "pooled-order refits at 5 MP: one thread against all cores (wall s, mean of pairs)",
                   "wall seconds", bars);
   return all_same ? 0 : 1;
 }

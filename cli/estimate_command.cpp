@@ -147,7 +147,10 @@ int run_estimate(const EstimateOptions& options) {
   const estimation::Estimator estimator(table, set, eo);
   const double inverter_setup_seconds = seconds_since(t);
   std::vector<estimation::PixelEstimate> out(pixels);
-  estimation::EstimateSummary summary = estimator.estimate(measured, out);
+  // The auto model's other-order fits, for the pooled order (same maps, no refits).
+  std::vector<estimation::OtherOrderFit> other(
+      options.order_pooling && estimator.options().model == estimation::ModelChoice::kAuto ? pixels : 0);
+  estimation::EstimateSummary summary = estimator.estimate(measured, out, {}, {}, other);
   // The spatial pass, with the multi-pixel estimate when --skin-denoise on.
   const std::optional<estimation::SkinDenoiseOptions> skin_denoise = skin_denoise_options(options);
   estimation::NeighbourhoodOptions no;
@@ -155,7 +158,7 @@ int run_estimate(const EstimateOptions& options) {
   no.pool_order = options.order_pooling;
   no.local_bias.enabled = options.local_bias == "on";
   const estimation::SpatialPass pass =
-      estimation::spatial_pass(estimator, measured, m.width, m.height, out, summary, no, skin_denoise);
+      estimation::spatial_pass(estimator, measured, m.width, m.height, out, summary, no, skin_denoise, other);
   const estimation::NeighbourhoodSummary& neighbourhood = pass.neighbourhood;
   // The relit layer "model + discrepancy" (--discrepancy-layer; maps/discrepancy_layer.hpp).
   const std::optional<maps::DiscrepancyLayer> layer = maps::estimate_discrepancy_layer(
@@ -239,7 +242,7 @@ void add_estimate_command(CLI::App& app, int& exit_status) {
   cmd->add_option("--skin-denoise", options->skin_denoise,
                   "on: the multi-pixel estimate before the spatial pass (each explained pixel's colour averaged with "
                   "its 11×11 neighbours' that agree within the noise, its brightness kept, then fitted again; flags "
-                  "unchanged: docs/estimation.md 'Relighting past the model'); off: per pixel only")
+                  "unchanged: docs/estimation.md 'Relighting past the model'; the default); off: per pixel only")
       ->check(CLI::IsMember({"on", "off"}))
       ->capture_default_str();
   cmd->add_option("--registration-tiles", options->registration_tiles,

@@ -274,20 +274,16 @@ bool Estimator::two_d_suffices(const ChannelBuffer<double>& measured, const Fit&
   return detail::appearance_difference(*appearance_, at4, fit2.x) <= options_.order_appearance_factor * uncertainty;
 }
 
-PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const {
-  if (model == ModelChoice::kAuto && options_.method != InverterMethod::k2d && !appearance_ &&
-      options_.order_rule == EstimatorOptions::OrderRule::kAppearance)
-    throw std::logic_error("estimate_pixel: the auto model needs an Estimator built with model auto (its appearance table)");
+std::optional<PixelEstimate> Estimator::screen_pixel(const float* m, double* measured, double* variance) const {
   PixelEstimate out;
   const int c_count = channels();
-  ChannelBuffer<double> measured(c_count), weight(c_count), variance(c_count);
-  bool dark = true;
   for (int c = 0; c < c_count; ++c) {
     if (!std::isfinite(m[c])) {
       out.flag = PixelFlag::kNonFinite;
       return out;
     }
   }
+  bool dark = true;
   for (int c = 0; c < c_count; ++c) {
     if (m[c] >= set_.channels[c].noise.saturation_albedo) {
       out.flag = PixelFlag::kSaturated;
@@ -301,32 +297,49 @@ PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const
     out.flag = PixelFlag::kDark;
     return out;
   }
+  return std::nullopt;
+}
+
+void Estimator::fit_weights(const double* variance, double* weight) const {
+  const bool generalised = discrepancy_.size() > 0;
+  for (int c = 0; c < channels(); ++c) weight[c] = 1 / std::sqrt(variance[c] + (generalised ? discrepancy_(c, c) : 0.0));
+}
+
+double Estimator::fit_chi2(const Fit& f, double s, const double* measured,
+                           const detail::PixelCovariance& covariance) const {
+  if (discrepancy_.size() == 0) return f.chi2;  // bit for bit the inverter's statistic
+  const int c_count = channels();
+  ChannelBuffer<double> residual(c_count);
+  if (f.has_prediction && c_count == Fit::kPredictedChannels) std::copy_n(f.predicted, c_count, residual.data());
+  else table_->predict(f.x, residual);
+  for (int c = 0; c < c_count; ++c) residual[c] = measured[c] - s - residual[c];
+  return covariance.chi2(residual.data());
+}
+
+PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model, OtherOrderFit* other) const {
+  if (model == ModelChoice::kAuto && options_.method != InverterMethod::k2d && !appearance_ &&
+      options_.order_rule == EstimatorOptions::OrderRule::kAppearance)
+    throw std::logic_error("estimate_pixel: the auto model needs an Estimator built with model auto (its appearance table)");
+  if (other) *other = OtherOrderFit{};
+  const int c_count = channels();
+  ChannelBuffer<double> measured(c_count), weight(c_count), variance(c_count);
+  if (std::optional<PixelEstimate> screened = screen_pixel(m, measured, variance)) return *screened;
   // Step 2: the pixel's Σ; the fits weigh each channel by 1/√Σ_cc.
   const detail::PixelCovariance covariance(variance.data(), discrepancy_, c_count);
-  const bool generalised = discrepancy_.size() > 0;
-  for (int c = 0; c < c_count; ++c) weight[c] = 1 / std::sqrt(variance[c] + (generalised ? discrepancy_(c, c) : 0.0));
-  ChannelBuffer<double> residual(c_count);
-  // χ² of a fit of measured − s: the inverter's own weighted sum without a
-  // discrepancy (bit for bit today's statistic), rᵀ Σ⁻¹ r with one.
-  auto chi2_of = [&](const Fit& f, double s) {
-    if (!generalised) return f.chi2;
-    if (f.has_prediction && c_count == Fit::kPredictedChannels) std::copy_n(f.predicted, c_count, residual.data());
-    else table_->predict(f.x, residual);
-    for (int c = 0; c < c_count; ++c) residual[c] = measured[c] - s - residual[c];
-    return covariance.chi2(residual.data());
-  };
+  fit_weights(variance, weight);
+  PixelEstimate out;
   const Inverter& inv = *inverter_;
   Fit chosen, fit4;
   double chosen_chi2 = 0;
   int order = 4;
   if (model == ModelChoice::k2d || options_.method == InverterMethod::k2d) {
     chosen = inv.fit(measured, weight, 2);
-    chosen_chi2 = chi2_of(chosen, 0);
+    chosen_chi2 = fit_chi2(chosen, 0, measured, covariance);
     fit4.x = chosen.x;  // the specular test's first start
     order = 2;
   } else {
     chosen = fit4 = inv.fit(measured, weight, 4);
-    chosen_chi2 = chi2_of(fit4, 0);
+    chosen_chi2 = fit_chi2(fit4, 0, measured, covariance);
     const double chi2_4 = chosen_chi2;
     // A pixel this far outside the 4D gamut is outside its 2D slice too
     // (χ²₂ ≥ χ²₄): the 2D fit (the search path, for such a pixel) is skipped
@@ -334,15 +347,39 @@ PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const
     const bool hopeless = chi2_4 > kHopelessChi2Factor * flag_threshold_[2];
     if (model == ModelChoice::kAuto && !hopeless) {
       const Fit fit2 = inv.fit(measured, weight, 2);
-      const double chi2_2 = chi2_of(fit2, 0);
+      const double chi2_2 = fit_chi2(fit2, 0, measured, covariance);
       out.order_statistic = static_cast<float>(std::max(chi2_2 - chi2_4, 0.0));
       // A pixel only the 4D fit explains keeps order 4 under either rule: a
       // pixel one order explains is not flagged for the rule picking the other.
       const bool only_4d_explains = chi2_2 > flag_threshold_[2] && chi2_4 <= flag_threshold_[4];
       if (!only_4d_explains && two_d_suffices(measured, fit4, chi2_4, fit2, chi2_2))
         chosen = fit2, chosen_chi2 = chi2_2, order = 2;
+      if (other) *other = order == 2 ? OtherOrderFit{fit4, chi2_4, 4} : OtherOrderFit{fit2, chi2_2, 2};
     }
   }
+  finish_pixel(measured, weight, covariance, chosen, chosen_chi2, order, fit4.x, out);
+  return out;
+}
+
+PixelEstimate Estimator::estimate_from_fit(const float* m, const OtherOrderFit& other) const {
+  if (other.order != 2 && other.order != 4)
+    throw std::invalid_argument("estimate_from_fit: a stored fit of order 2 or 4, not " + std::to_string(other.order));
+  const int c_count = channels();
+  ChannelBuffer<double> measured(c_count), weight(c_count), variance(c_count);
+  if (std::optional<PixelEstimate> screened = screen_pixel(m, measured, variance)) return *screened;
+  const detail::PixelCovariance covariance(variance.data(), discrepancy_, c_count);
+  fit_weights(variance, weight);
+  PixelEstimate out;
+  // As estimate_pixel with the stored order's model: its specular test starts
+  // from the fit itself at either order.
+  finish_pixel(measured, weight, covariance, other.fit, other.chi2, other.order, other.fit.x, out);
+  return out;
+}
+
+void Estimator::finish_pixel(const double* measured, const double* weight, const detail::PixelCovariance& covariance,
+                             const Fit& chosen, double chosen_chi2, int order, const GridPoint& specular_start,
+                             PixelEstimate& out) const {
+  const int c_count = channels();
   out.order = static_cast<std::uint8_t>(order);
   out.parameters = table_->from_grid(chosen.x);
   out.chi2 = static_cast<float>(chosen_chi2);
@@ -367,17 +404,19 @@ PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const
   out.residual = static_cast<float>(std::sqrt(sum / c_count));
   if (chosen_chi2 <= flag_threshold_[order]) {
     if (grid_prior_ && order == 4) {  // step 4b
-      const detail::PriorFit map = detail::prior_fit(*table_, covariance, *grid_prior_, measured.data(), chosen.x);
+      const detail::PriorFit map = detail::prior_fit(*table_, covariance, *grid_prior_, measured, chosen.x);
       out.parameters = table_->from_grid(map.x);
       if (options_.uncertainty) set_uncertainty(covariance, map.x, out, nullptr, grid_prior_.get());
-      return out;
+      return;
     }
     if (options_.uncertainty) set_uncertainty(covariance, chosen.x, out, jacobian_at_chosen);
-    return out;
+    return;
   }
 
   // Not explained: is it skin under a white surface reflection?
-  const Fit specular = specular_fit(measured, weight, fit4.x, chi2_of);
+  const Fit specular = specular_fit(measured, weight, specular_start, [&](const Fit& f, double s) {
+    return fit_chi2(f, s, measured, covariance);
+  });
   const double specular_chi2 = specular.chi2;
   if (specular_chi2 <= flag_threshold_[4]) {
     out.flag = PixelFlag::kSpecular;
@@ -385,11 +424,10 @@ PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model) const
     out.parameters = table_->from_grid(specular.x);
     out.chi2 = static_cast<float>(specular_chi2);
     if (options_.uncertainty) set_uncertainty(covariance, specular.x, out);
-    return out;
+    return;
   }
   out.flag = darker_everywhere ? PixelFlag::kUnexplainedAbsorber : PixelFlag::kUnexplainedColour;
   if (options_.uncertainty) set_uncertainty(covariance, chosen.x, out, jacobian_at_chosen);
-  return out;
 }
 
 Fit Estimator::specular_fit(const double* measured, const double* weight, const GridPoint& start,
@@ -434,6 +472,12 @@ void check_not_fitted(const CellsNotFitted& not_fitted, std::size_t cells) {
                                 std::string(pixel_flag_name(not_fitted.flag)));
 }
 
+void check_other(std::span<const OtherOrderFit> other, std::size_t cells) {
+  if (!other.empty() && other.size() != cells)
+    throw std::invalid_argument("estimate: " + std::to_string(other.size()) + " other-order fits for " +
+                                std::to_string(cells) + " cells");
+}
+
 // A cell that is not skin: its flag, no parameters (NaN), no order.
 PixelEstimate not_skin_estimate(PixelFlag flag) {
   constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
@@ -447,16 +491,20 @@ PixelEstimate not_skin_estimate(PixelFlag flag) {
 }  // namespace
 
 EstimateSummary Estimator::estimate_tile(std::span<const float> measured, std::span<PixelEstimate> out,
-                                         CellsNotFitted not_fitted) const {
+                                         CellsNotFitted not_fitted, std::span<OtherOrderFit> other) const {
   if (measured.size() != out.size() * static_cast<std::size_t>(channels()))
     throw std::invalid_argument("estimate_tile: " + std::to_string(measured.size()) + " values for " +
                                 std::to_string(out.size()) + " pixels of " + std::to_string(channels()) + " channels");
   check_not_fitted(not_fitted, out.size());
+  check_other(other, out.size());
   EstimateSummary s;
   s.pixels = s.processed = out.size();
   for (std::size_t i = 0; i < out.size(); ++i) {
-    out[i] = !not_fitted.where.empty() && not_fitted.where[i] ? not_skin_estimate(not_fitted.flag)
-                                                             : estimate_pixel(measured.data() + i * channels());
+    OtherOrderFit* other_fit = other.empty() ? nullptr : &other[i];
+    if (other_fit) *other_fit = OtherOrderFit{};
+    out[i] = !not_fitted.where.empty() && not_fitted.where[i]
+                 ? not_skin_estimate(not_fitted.flag)
+                 : estimate_pixel(measured.data() + i * channels(), options_.model, other_fit);
     ++s.flag_counts[static_cast<int>(out[i].flag)];
     if (out[i].order == 2) ++s.order2;
     if (out[i].order == 4) ++s.order4;
@@ -465,10 +513,12 @@ EstimateSummary Estimator::estimate_tile(std::span<const float> measured, std::s
 }
 
 EstimateSummary Estimator::estimate(std::span<const float> measured, std::span<PixelEstimate> out,
-                                    const files::Progress& progress, CellsNotFitted not_fitted) const {
+                                    const files::Progress& progress, CellsNotFitted not_fitted,
+                                    std::span<OtherOrderFit> other) const {
   if (measured.size() != out.size() * static_cast<std::size_t>(channels()))
     throw std::invalid_argument("estimate: measurement size does not match the output size");
   check_not_fitted(not_fitted, out.size());
+  check_other(other, out.size());
   const auto start = std::chrono::steady_clock::now();
   const std::size_t tile = static_cast<std::size_t>(options_.tile_pixels);
   const std::ptrdiff_t tiles = static_cast<std::ptrdiff_t>((out.size() + tile - 1) / tile);
@@ -492,7 +542,7 @@ EstimateSummary Estimator::estimate(std::span<const float> measured, std::span<P
     CellsNotFitted tile_not_fitted = not_fitted;
     if (!not_fitted.where.empty()) tile_not_fitted.where = not_fitted.where.subspan(first, count);
     EstimateSummary s = estimate_tile(measured.subspan(first * channels(), count * channels()), out.subspan(first, count),
-                                      tile_not_fitted);
+                                      tile_not_fitted, other.empty() ? other : other.subspan(first, count));
     s.pixels = 0;
     std::lock_guard lock(mutex);
     total.merge(s);

@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "chromo/estimation/spatial_flags.hpp"
@@ -14,8 +16,11 @@ namespace chromo::estimation {
 
 NeighbourhoodSummary pool_model_order(const Estimator& estimator, std::span<const float> measured, int width,
                                       int height, std::span<PixelEstimate> estimates,
-                                      const NeighbourhoodOptions& options) {
+                                      const NeighbourhoodOptions& options, std::span<const OtherOrderFit> other) {
   detail::check_neighbourhood_sizes(estimator, measured, width, height, estimates, options);
+  if (!other.empty() && other.size() != estimates.size())
+    throw std::invalid_argument("pool_model_order: " + std::to_string(other.size()) + " other-order fits for " +
+                                std::to_string(estimates.size()) + " estimates");
   NeighbourhoodSummary summary;
   if (estimator.options().model != ModelChoice::kAuto || estimator.channels() < 3) return summary;
   const int channels = estimator.channels();
@@ -55,8 +60,15 @@ NeighbourhoodSummary pool_model_order(const Estimator& estimator, std::span<cons
   for (std::ptrdiff_t i = 0; i < refits; ++i) {
     PixelEstimate& e = estimates[moved[i]];
     const bool to_order_4 = e.order == 2;  // moved: the window decided the other order
-    PixelEstimate refit = estimator.estimate_pixel(measured.data() + moved[i] * channels,
-                                                   to_order_4 ? ModelChoice::k4d : ModelChoice::k2d);
+    const float* m = measured.data() + moved[i] * channels;
+    // The first pass's fit of that order where it kept one (the same fit a
+    // refit would make), else a refit.
+    const OtherOrderFit* stored =
+        !other.empty() && other[moved[i]].order == (to_order_4 ? 4 : 2) ? &other[moved[i]] : nullptr;
+    // A 2D fit above the 2D threshold leaves the pixel unexplained: it stays 4.
+    if (stored && !to_order_4 && !(stored->chi2 <= estimator.flag_threshold(2))) continue;
+    PixelEstimate refit = stored ? estimator.estimate_from_fit(m, *stored)
+                                 : estimator.estimate_pixel(m, to_order_4 ? ModelChoice::k4d : ModelChoice::k2d);
     if (!to_order_4 && refit.flag != PixelFlag::kExplained) continue;  // the 2D model does not explain it alone
     refit.order_statistic = e.order_statistic;
     e = refit;

@@ -500,11 +500,12 @@ NeighbourhoodSummary refine_flags_with_neighbourhood(const Estimator& estimator,
 
 NeighbourhoodSummary refine_with_neighbourhood(const Estimator& estimator, std::span<const float> measured, int width,
                                                int height, std::span<PixelEstimate> estimates, EstimateSummary& summary,
-                                               const NeighbourhoodOptions& options) {
+                                               const NeighbourhoodOptions& options,
+                                               std::span<const OtherOrderFit> other) {
   NeighbourhoodSummary s;
   if (options.flags) s = refine_flags_with_neighbourhood(estimator, measured, width, height, estimates, options);
   if (options.pool_order) {
-    const NeighbourhoodSummary order = pool_model_order(estimator, measured, width, height, estimates, options);
+    const NeighbourhoodSummary order = pool_model_order(estimator, measured, width, height, estimates, options, other);
     s.order_to_2 = order.order_to_2, s.order_to_4 = order.order_to_4;
   }
   std::fill(std::begin(summary.flag_counts), std::end(summary.flag_counts), 0);

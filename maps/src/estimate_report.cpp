@@ -650,13 +650,21 @@ PixelEstimates estimate_pixels(const session::Measurement& m, const estimation::
   // (a white is far outside the skin's gamut: each took the search path and
   // the specular scan, several times a skin cell's cost, to be flagged).
   const std::vector<std::uint8_t> white_target = white_target_pixels(m.measured, m.set, white_reflectance);
-  result.summary = estimator.estimate(m.measured, out.estimates, progress, {white_target, estimation::PixelFlag::kWhiteTarget});
+  // The auto model's fit of the order each pixel did not take, for the pooled
+  // order to switch to instead of fitting again (same maps bit for bit).
+  std::vector<estimation::OtherOrderFit> other(
+      options.neighbourhood.pool_order && estimator.options().model == estimation::ModelChoice::kAuto
+          ? out.estimates.size()
+          : 0);
+  result.summary = estimator.estimate(m.measured, out.estimates, progress,
+                                      {white_target, estimation::PixelFlag::kWhiteTarget}, other);
   if (result.summary.cancelled) throw std::runtime_error("estimation cancelled");
   result.pixels_per_second =
       result.summary.seconds > 0 ? static_cast<double>(out.estimates.size()) / result.summary.seconds : 0.0;
   // The spatial pass, with the multi-pixel estimate when options.skin_denoise.
   estimation::SpatialPass pass = estimation::spatial_pass(estimator, m.measured, m.width, m.height, out.estimates,
-                                                          result.summary, options.neighbourhood, options.skin_denoise);
+                                                          result.summary, options.neighbourhood, options.skin_denoise,
+                                                          other);
   out.neighbourhood = pass.neighbourhood;
   out.neighbourhood_seconds = pass.neighbourhood_seconds;
   out.skin_refit = std::move(pass.skin_refit);

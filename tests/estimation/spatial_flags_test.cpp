@@ -14,6 +14,8 @@
 #include <limits>
 #include <random>
 
+#include "chromo/estimation/model_discrepancy.hpp"
+#include "chromo/estimation/skin_refit.hpp"
 #include "chromo/simulators/scene/synthetic.hpp"
 #include "estimation_fixture.hpp"
 #include "lab_scene.hpp"
@@ -68,6 +70,89 @@ TEST(PoolModelOrder, TwoDSceneKeepsOrderTwoOnNinetyFivePercent) {
   EXPECT_LE(s.after, 0.05);
 }
 
+// Pixels whose estimates differ in any field, bit for bit (NaN σ equal to NaN σ).
+std::size_t different_estimates(const std::vector<PixelEstimate>& a, const std::vector<PixelEstimate>& b) {
+  std::size_t different = 0;
+  for (std::size_t p = 0; p < a.size(); ++p) {
+    const PixelEstimate &x = a[p], &y = b[p];
+    different += std::memcmp(&x.parameters, &y.parameters, sizeof x.parameters) != 0 || x.order != y.order ||
+                 x.flag != y.flag || std::memcmp(&x.residual, &y.residual, sizeof(float)) != 0 ||
+                 std::memcmp(&x.chi2, &y.chi2, sizeof(float)) != 0 ||
+                 std::memcmp(&x.order_statistic, &y.order_statistic, sizeof(float)) != 0 ||
+                 std::memcmp(x.sigma, y.sigma, sizeof x.sigma) != 0 ||
+                 std::memcmp(&x.ch_che_correlation, &y.ch_che_correlation, sizeof(float)) != 0;
+  }
+  return different;
+}
+
+// The first pass's other-order fits (OtherOrderFit) give the pooled order the
+// same estimates as its refits, bit for bit, both ways (to 4 and to 2, the
+// 2D scene of the test below with the learned discrepancy, whose χ² is the
+// generalised one); a stored fit of the wrong order is refused.
+TEST(PoolModelOrder, StoredOtherOrderFitsEqualTheRefitsBitForBit) {
+  simulators::SyntheticOptions o = skin_box(0.3);
+  o.low.bm = o.high.bm = 0.7;
+  o.low.che = o.high.che = 0.0;
+  const int side = 48;
+  o.pixels = side * side;
+  MeasurementSet set = testing::method_set();
+  const simulators::SyntheticFrame frame = simulators::make_synthetic_frame(set, o);
+  EstimatorOptions options;
+  options.discrepancy = ModelDiscrepancy::standard();
+  const Estimator estimator(testing::method_table(), set, options);
+  std::vector<PixelEstimate> refitted(frame.pixels());
+  std::vector<OtherOrderFit> other(frame.pixels());
+  estimator.estimate(frame.noisy, refitted, {}, {}, other);
+  std::size_t stored = 0;
+  for (const OtherOrderFit& f : other) stored += f.order != 0;
+  EXPECT_GT(stored, frame.pixels() / 2);
+  std::vector<PixelEstimate> switched = refitted;
+  const NeighbourhoodSummary a = pool_model_order(estimator, frame.noisy, side, side, refitted);
+  const NeighbourhoodSummary b = pool_model_order(estimator, frame.noisy, side, side, switched, {}, other);
+  ASSERT_GT(a.order_to_2, 20u);
+  EXPECT_EQ(a.order_to_4, b.order_to_4);
+  EXPECT_EQ(a.order_to_2, b.order_to_2);
+  EXPECT_EQ(different_estimates(refitted, switched), 0u);
+  EXPECT_THROW(estimator.estimate_from_fit(frame.noisy.data(), OtherOrderFit{}), std::invalid_argument);
+  EXPECT_THROW(pool_model_order(estimator, frame.noisy, side, side, switched, {}, std::span(other).first(3)),
+               std::invalid_argument);
+}
+
+// With the multi-pixel estimate (spatial_pass with skin_denoise) the pooled
+// order runs on the denoised channels: the re-fit's other-order fits replace
+// the first pass's where its estimate does, and the chain's estimates equal
+// those without stored fits bit for bit.
+TEST(PoolModelOrder, StoredFitsFollowTheMultiPixelRefit) {
+  simulators::SyntheticOptions o = skin_box(0.06);
+  o.low.cm = 0.04;
+  o.low.ch = 0.02, o.high.ch = 0.03;
+  o.low.bm = o.high.bm = 0.7;
+  o.low.che = o.high.che = 0.0;
+  const int side = 40;
+  o.pixels = side * side;
+  MeasurementSet set = testing::method_set();
+  const simulators::SyntheticFrame frame = simulators::make_synthetic_frame(set, o);
+  const Estimator estimator(testing::method_table(), set, EstimatorOptions{});
+  std::vector<PixelEstimate> refitted(frame.pixels());
+  std::vector<OtherOrderFit> other(frame.pixels());
+  EstimateSummary summary_a = estimator.estimate(frame.noisy, refitted, {}, {}, other);
+  std::vector<PixelEstimate> switched = refitted;
+  EstimateSummary summary_b = summary_a;
+  NeighbourhoodOptions pool_only;
+  pool_only.flags = false;
+  const SpatialPass a = spatial_pass(estimator, frame.noisy, side, side, refitted, summary_a, pool_only, SkinDenoiseOptions{});
+  const SpatialPass b =
+      spatial_pass(estimator, frame.noisy, side, side, switched, summary_b, pool_only, SkinDenoiseOptions{}, other);
+  ASSERT_TRUE(a.skin_refit && b.skin_refit);
+  EXPECT_GT(a.skin_refit->refitted, frame.pixels() / 2);
+  EXPECT_GT(a.skin_refit->mean_joined, 2.0);
+  ASSERT_GT(a.neighbourhood.order_to_2 + a.neighbourhood.order_to_4, 20u);
+  EXPECT_EQ(a.neighbourhood.order_to_2, b.neighbourhood.order_to_2);
+  EXPECT_EQ(a.neighbourhood.order_to_4, b.neighbourhood.order_to_4);
+  EXPECT_EQ(summary_a.order2, summary_b.order2);
+  EXPECT_EQ(different_estimates(refitted, switched), 0u);
+}
+
 // The pooled order's refits on one thread and on two give the same
 // estimates bit for bit (a 2D scene of which a quarter of the pixels chose
 // 4 alone, so that hundreds are refitted in 2D: the parallel loop runs above
@@ -93,17 +178,7 @@ TEST(PoolModelOrder, RefitsOnTwoThreadsEqualOneThreadBitForBit) {
   ASSERT_GT(sa.order_to_4 + sa.order_to_2, 256u);
   EXPECT_EQ(sa.order_to_4, sb.order_to_4);
   EXPECT_EQ(sa.order_to_2, sb.order_to_2);
-  std::size_t different = 0;
-  for (std::size_t p = 0; p < a.size(); ++p) {
-    const PixelEstimate &x = a[p], &y = b[p];
-    different += std::memcmp(&x.parameters, &y.parameters, sizeof x.parameters) != 0 || x.order != y.order ||
-                 x.flag != y.flag || std::memcmp(&x.residual, &y.residual, sizeof(float)) != 0 ||
-                 std::memcmp(&x.chi2, &y.chi2, sizeof(float)) != 0 ||
-                 std::memcmp(&x.order_statistic, &y.order_statistic, sizeof(float)) != 0 ||
-                 std::memcmp(x.sigma, y.sigma, sizeof x.sigma) != 0 ||
-                 std::memcmp(&x.ch_che_correlation, &y.ch_che_correlation, sizeof(float)) != 0;
-  }
-  EXPECT_EQ(different, 0u);
+  EXPECT_EQ(different_estimates(a, b), 0u);
 }
 
 using simulators::SceneRegion;

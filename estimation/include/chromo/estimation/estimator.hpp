@@ -131,6 +131,17 @@ struct PixelEstimate {
   static constexpr float kNoSigma = std::numeric_limits<float>::quiet_NaN();
 };
 
+// The auto model's fit at the order a pixel did not take (estimate()'s
+// optional output), kept so that the spatial pass's pooled order switches a
+// pixel to it (Estimator::estimate_from_fit) instead of fitting it again: the
+// same inverter call on the same values, so the same estimate bit for bit.
+// order 0: none (the pixel was not fitted at both orders).
+struct OtherOrderFit {
+  Fit fit;
+  double chi2 = 0;  // the fit's χ² as PixelEstimate::chi2 weighs it (with the discrepancy)
+  std::uint8_t order = 0;
+};
+
 // Cells known before the fit not to be skin (the white target): where
 // `where` is nonzero the cell gets `flag` (one outside_the_skin()), NaN
 // parameters and residual, and no fit; empty: every cell is fitted.
@@ -242,14 +253,25 @@ class Estimator {
 
   // One pixel (channels() values), with the options' model or a given one.
   PixelEstimate estimate_pixel(const float* measured) const { return estimate_pixel(measured, options_.model); }
-  PixelEstimate estimate_pixel(const float* measured, ModelChoice model) const;
-  // measured.size() == out.size() · channels() and not_fitted.where empty or
-  // out.size() long; std::invalid_argument otherwise.
+  PixelEstimate estimate_pixel(const float* measured, ModelChoice model) const {
+    return estimate_pixel(measured, model, nullptr);
+  }
+  // The same; with model kAuto and `other` given, *other is set to the fit
+  // of the order not taken (order 0 where there is none).
+  PixelEstimate estimate_pixel(const float* measured, ModelChoice model, OtherOrderFit* other) const;
+  // estimate_pixel(measured, other.order == 4 ? k4d : k2d) bit for bit, from
+  // a fit estimate_pixel stored for these same measured values (other.order
+  // 2 or 4, else std::invalid_argument); no inversion.
+  PixelEstimate estimate_from_fit(const float* measured, const OtherOrderFit& other) const;
+  // measured.size() == out.size() · channels(), not_fitted.where empty or
+  // out.size() long, other empty or out.size() long (each pixel's
+  // OtherOrderFit); std::invalid_argument otherwise.
   EstimateSummary estimate_tile(std::span<const float> measured, std::span<PixelEstimate> out,
-                                CellsNotFitted not_fitted = {}) const;
+                                CellsNotFitted not_fitted = {}, std::span<OtherOrderFit> other = {}) const;
   // The whole image on options().threads threads, tile by tile.
   EstimateSummary estimate(std::span<const float> measured, std::span<PixelEstimate> out,
-                           const files::Progress& progress = {}, CellsNotFitted not_fitted = {}) const;
+                           const files::Progress& progress = {}, CellsNotFitted not_fitted = {},
+                           std::span<OtherOrderFit> other = {}) const;
 
   // Predicted measurement of parameters through the table (for residual maps).
   void predict(const SkinParameters& p, double* out) const;
@@ -283,6 +305,19 @@ class Estimator {
   // chi2: the χ² of a fit of (measured − s) as the flag test computes it.
   Fit specular_fit(const double* measured, const double* weight, const GridPoint& start,
                    const std::function<double(const Fit&, double s)>& chi2) const;
+  // Steps 1-2 of a pixel: its flag before fitting (non-finite, saturated,
+  // dark; returned) or its values and fit variances (std::nullopt).
+  std::optional<PixelEstimate> screen_pixel(const float* m, double* measured, double* variance) const;
+  // The fit weights 1/√Σ_cc of the pixel's Σ.
+  void fit_weights(const double* variance, double* weight) const;
+  // χ² of a fit of measured − s: the inverter's own weighted sum without a
+  // discrepancy, rᵀ Σ⁻¹ r with one.
+  double fit_chi2(const Fit& f, double s, const double* measured, const detail::PixelCovariance& covariance) const;
+  // Steps 4-5 from the chosen fit: parameters, residual, σ, and for a pixel
+  // the fit leaves unexplained the specular test from specular_start.
+  void finish_pixel(const double* measured, const double* weight, const detail::PixelCovariance& covariance,
+                    const Fit& chosen, double chosen_chi2, int order, const GridPoint& specular_start,
+                    PixelEstimate& out) const;
   // Step 3's rule (EstimatorOptions::order_rule): may the pixel take the 2D fit?
   bool two_d_suffices(const ChannelBuffer<double>& measured, const Fit& fit4, double chi2_4, const Fit& fit2,
                       double chi2_2) const;

@@ -39,11 +39,13 @@ struct SkinRefit {
 // flag kExplained whose denoised channels are again explained gets the new
 // fit (parameters, order, χ², σ); its flag stays kExplained; every other pixel
 // is left as it was (a re-fit that would flag keeps the first fit).
-// summary's order counts follow the replaced orders. Throws
-// std::invalid_argument naming the problem (sizes, options out of range).
+// summary's order counts follow the replaced orders. other: empty, or the
+// per-pixel pass's OtherOrderFit per pixel, replaced with the re-fit's where
+// the estimate is (so that it stays the fit of the values the chain goes on
+// with). Throws std::invalid_argument naming the problem (sizes, options out of range).
 SkinRefit refit_denoised_skin(const Estimator& estimator, std::span<const float> measured, int width, int height,
                               std::span<PixelEstimate> estimates, EstimateSummary& summary,
-                              const SkinDenoiseOptions& options = {});
+                              const SkinDenoiseOptions& options = {}, std::span<OtherOrderFit> other = {});
 
 struct SpatialPass {
   NeighbourhoodSummary neighbourhood;
@@ -58,10 +60,13 @@ struct SpatialPass {
 // refine_with_neighbourhood(measured) when either of its parts is on (the
 // per-pixel maps). Given: the neighbourhood flags on the measured channels,
 // then refit_denoised_skin(), then the order pooling on the channels it
-// returns (values kept in skin_refit). Throws as the two functions do.
+// returns (values kept in skin_refit). other: empty, or the per-pixel pass's
+// OtherOrderFit per pixel (Estimator::estimate's), which the order pooling
+// switches to instead of fitting again (same maps bit for bit; updated by the
+// multi-pixel estimate's re-fit). Throws as the two functions do.
 SpatialPass spatial_pass(const Estimator& estimator, std::span<const float> measured, int width, int height,
                          std::span<PixelEstimate> estimates, EstimateSummary& summary,
                          const NeighbourhoodOptions& neighbourhood,
-                         const std::optional<SkinDenoiseOptions>& skin_denoise);
+                         const std::optional<SkinDenoiseOptions>& skin_denoise, std::span<OtherOrderFit> other = {});
 
 }  // namespace chromo::estimation

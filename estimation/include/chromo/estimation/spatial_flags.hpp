@@ -96,7 +96,10 @@
 // window decides 2 but chose 4 is refitted in 2D unless its own 2D fit is not
 // explained (then it stays 4). The refits run on the estimator's threads
 // (EstimatorOptions::threads, 0 = all cores); the result does not depend on
-// their number.
+// their number. Given `other` (the first pass's OtherOrderFit per pixel, for
+// the same measured values), a pixel whose stored fit is of the decided order
+// takes it (Estimator::estimate_from_fit) instead of a refit: the same
+// estimates bit for bit, without a second inversion.
 //
 // Cost (CPU, shared machine): 1.4-1.9 s at 256 px, 7.3-7.7 s at 512 px
 // (block 1); the 5-MP session 1.7 s on 260×195 blocks (was 19-25 s on its
@@ -168,9 +171,12 @@ NeighbourhoodSummary refine_flags_with_neighbourhood(const Estimator& estimator,
 // are recounted from estimates.
 NeighbourhoodSummary refine_with_neighbourhood(const Estimator& estimator, std::span<const float> measured, int width,
                                                int height, std::span<PixelEstimate> estimates, EstimateSummary& summary,
-                                               const NeighbourhoodOptions& options = {});
+                                               const NeighbourhoodOptions& options = {},
+                                               std::span<const OtherOrderFit> other = {});
+// other: empty, or one per estimate (std::invalid_argument otherwise).
 NeighbourhoodSummary pool_model_order(const Estimator& estimator, std::span<const float> measured, int width,
                                       int height, std::span<PixelEstimate> estimates,
-                                      const NeighbourhoodOptions& options = {});
+                                      const NeighbourhoodOptions& options = {},
+                                      std::span<const OtherOrderFit> other = {});
 
 }  // namespace chromo::estimation
