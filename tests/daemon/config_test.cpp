@@ -309,11 +309,21 @@ TEST(DaemonConfig, SkinDenoiseIsOnByDefaultAndRecordedInTheProvenance) {
   fs::remove_all(directory);
 }
 
-TEST(DaemonConfig, RegistrationTilesIsReadOnByDefault) {
-  EXPECT_EQ(parse_config(nlohmann::json::object(), "cfg").estimation.registration_tiles, "on");
+TEST(DaemonConfig, RegistrationTilesIsOnByDefaultAndRecordedInTheProvenance) {
+  const DaemonConfig defaults = parse_config(nlohmann::json::object(), "cfg");
+  EXPECT_EQ(defaults.estimation.registration_tiles, "on");
   EXPECT_EQ(parse_config(nlohmann::json::parse(R"({"estimation": {"registration_tiles": "off"}})"), "cfg")
                 .estimation.registration_tiles,
             "off");
+  const fs::path directory = chromo::testing::fresh_directory("config_registration_tiles");
+  DaemonConfig config = defaults;
+  config.sessions_dir = directory;
+  config.estimation.enabled = false;  // no estimator to prepare: the provenance alone
+  const Daemon daemon(config, DeviceSet{});
+  const auto options = daemon.session_provenance(session::SessionPlan{}, {}).estimator_options;
+  ASSERT_EQ(options.count("registration_tiles"), 1u);
+  EXPECT_EQ(options.at("registration_tiles"), "on");
+  fs::remove_all(directory);
 }
 
 TEST(DaemonConfig, DiscrepancyLayerIsReadOnByDefault) {
