@@ -16,8 +16,9 @@
 //                         [--order-factor K] [--tuning-only] [--skin-denoise off|on]
 //                         [--discrepancy none|learned] [--quick]
 //
-// --skin-denoise on: the multi-pixel estimate in every configuration's
-// spatial pass (estimation/skin_refit.hpp, as chromod's estimation.skin_denoise);
+// --skin-denoise on (the default, as chromod's estimation.skin_denoise): the
+// multi-pixel estimate in every configuration's spatial pass
+// (estimation/skin_refit.hpp); off: the per-pixel chain's maps;
 // --discrepancy learned: the learned discrepancy of real skin in the
 // estimator (chromod's default; none: the camera noise alone, this bench's
 // earlier figures). Also printed: relit ΔE94 under D65 and CIE A and their
@@ -283,8 +284,8 @@ int run(int argc, char** argv) {
   bool tuning_seeds = false;
   app.add_flag("--tuning-seeds", tuning_seeds,
                "the spread over the tuning seeds 1-5 instead of --seeds (for choosing defaults; never tune on 11-13)");
-  std::string denoise = "off", discrepancy_name = "none";
-  app.add_option("--skin-denoise", denoise, "the multi-pixel estimate in the spatial pass")
+  std::string denoise = "on", discrepancy_name = "none";
+  app.add_option("--skin-denoise", denoise, "the multi-pixel estimate in the spatial pass (default on, as chromod)")
       ->check(CLI::IsMember({"off", "on"}));
   app.add_option("--discrepancy", discrepancy_name, "the estimator's learned discrepancy of real skin")
       ->check(CLI::IsMember({"none", "learned"}));

@@ -349,7 +349,7 @@ int run(int argc, char** argv) {
   int patch = 32, terms = maps::kDiscrepancyLayerTerms;
   double noise_scale = 1, widen = 1;
   fs::path out = "bench/results/relit_product";
-  std::vector<std::string> denoise_runs{"off", "on"}, bias_runs{"off"};
+  std::vector<std::string> denoise_runs{"on"}, bias_runs{"off"};  // the product's defaults
   bool priors = true, per_subject = false;
   std::string registration_mode = "default";
   double calibration_quantile = 0;
@@ -365,7 +365,7 @@ int run(int argc, char** argv) {
       ->check(CLI::Range(1.0, 10.0));
   app.add_option("--terms", terms, "the relit layer's basis size")->check(CLI::Range(1, 81));
   app.add_option("--out", out, "results folder");
-  app.add_option("--denoise", denoise_runs, "the multi-pixel estimate: off and/or on")->delimiter(',');
+  app.add_option("--denoise", denoise_runs, "the multi-pixel estimate: off and/or on (default on, as chromod and chromo estimate)")->delimiter(',');
   app.add_option("--local-bias", bias_runs, "the local-bias flag rule (local_bias.hpp): off and/or on")->delimiter(',');
   app.add_option("--priors", priors, "also the method's plan with the real-skin prior (1) or not (0)");
   app.add_option("--bias-window", bias.window_px, "local bias: the reference's window (px)");

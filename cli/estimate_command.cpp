@@ -241,7 +241,7 @@ void add_estimate_command(CLI::App& app, int& exit_status) {
   cmd->add_option("--skin-denoise", options->skin_denoise,
                   "on: the multi-pixel estimate before the spatial pass (each explained pixel's colour averaged with "
                   "its 11×11 neighbours' that agree within the noise, its brightness kept, then fitted again; flags "
-                  "unchanged: docs/estimation.md 'Relighting past the model'); off: per pixel only")
+                  "unchanged: docs/estimation.md 'Relighting past the model'; the default); off: per pixel only")
       ->check(CLI::IsMember({"on", "off"}))
       ->capture_default_str();
   cmd->add_option("--local-bias", options->local_bias,

@@ -33,7 +33,7 @@ struct EstimateOptions {
   int threads = 0;
   bool neighbourhood_flags = true;
   bool order_pooling = true;
-  std::string skin_denoise = "off";     // "on": the multi-pixel estimate (estimation/skin_refit.hpp) before the spatial pass
+  std::string skin_denoise = "on";      // "off": no multi-pixel estimate (estimation/skin_refit.hpp) before the spatial pass
   std::string local_bias = "off";       // "on": a skin's systematic shortfall taken as a local bias (estimation/local_bias.hpp)
   std::string discrepancy_layer = "on"; // "off": the maps carry no posterior discrepancy (maps/discrepancy_layer.hpp)
   // Session folders only.

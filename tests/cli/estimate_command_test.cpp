@@ -128,6 +128,7 @@ TEST_F(EstimateCommand, WritesMapsPreviewsAndSummary) {
                                                      "sigma_Ch", "sigma_Bm", "sigma_Che", "corr_Ch_Che", "discrepancy_0",
                                                      "discrepancy_1", "discrepancy_2", "discrepancy_3", "discrepancy_4",
                                                      "discrepancy_5"));
+  EXPECT_EQ(s["skin_denoise"]["enabled"], true);  // the multi-pixel estimate, on by default
   EXPECT_EQ(s["discrepancy_layer"]["enabled"], true);  // the relit layer, its basis in the header (discrepancy_layer.hpp)
   EXPECT_NE(file.header().findTypedAttribute<Imf::StringAttribute>("chromo.discrepancy_basis"), nullptr);
   std::vector<float> cm(kWidth * kHeight), flags(kWidth * kHeight);
@@ -137,19 +138,25 @@ TEST_F(EstimateCommand, WritesMapsPreviewsAndSummary) {
   file.setFrameBuffer(frame);
   file.readPixels(0, kHeight - 1);
   // Away from the border the blue capture's warp leaves (NaN → flagged):
-  // everything explained, Cm within 20% everywhere and 5% on average (Cm
-  // trades against βm at low melanin).
+  // everything explained, Cm within 25% everywhere and 5% on average (Cm
+  // trades against βm at low melanin). With the multi-pixel estimate (the
+  // default since 8 Dec 2026) the worst pixel is 21.3% off, the mean 3.95%;
+  // per pixel only (--skin-denoise off) 16.4% and 2.22%: this scene is
+  // noise-free and its Cm curves within the 11-px window, so averaging the
+  // neighbours' colour shapes within the declared noise bends the extremes.
   int checked = 0;
-  double relative_sum = 0;
+  double relative_sum = 0, relative_max = 0;
   for (int y = 10; y < kHeight - 10; ++y)
     for (int x = 10; x < kWidth - 10; ++x) {
       const int i = y * kWidth + x;
+      relative_max = std::max(relative_max, std::abs(cm[i] - truth[i].cm) / truth[i].cm);
       EXPECT_EQ(flags[i], 0.0f) << x << "," << y;
-      EXPECT_NEAR(cm[i], truth[i].cm, 0.2 * truth[i].cm) << x << "," << y;
+      EXPECT_NEAR(cm[i], truth[i].cm, 0.25 * truth[i].cm) << x << "," << y;
       relative_sum += std::abs(cm[i] - truth[i].cm) / truth[i].cm;
       ++checked;
     }
   EXPECT_GT(checked, 1000);
+  std::printf("Cm relative error inside: mean %.4f, max %.4f\n", relative_sum / checked, relative_max);
   EXPECT_LT(relative_sum / checked, 0.05);
 }
 

@@ -18,6 +18,7 @@
 #include <gtest/gtest.h>
 
 #include "chromo/daemon/config.hpp"
+#include "chromo/daemon/daemon.hpp"
 #include "chromo/daemon/devices.hpp"
 #include "chromo/daemon/internal/devices/virtual_lab.hpp"
 #include "../support/fresh_directory.hpp"
@@ -286,12 +287,25 @@ TEST(DaemonConfig, VirtualLabCamerasAreReadAndRefusedKeyByKey) {
   EXPECT_EQ(refused({{"virtual_lab", {{"lenses", 1}}}}).rfind("cfg: virtual_lab: unknown key \"lenses\"", 0), 0u);
 }
 
-// Subsurface spread in the lab's skin photographs (issue 37): off by default,
-// read into the lab's scene options, a blue wider than the red refused.
-TEST(DaemonConfig, SkinDenoiseIsReadOffByDefault) {
-  EXPECT_EQ(parse_config(nlohmann::json::object(), "cfg").estimation.skin_denoise, "off");
-  EXPECT_EQ(parse_config(nlohmann::json::parse(R"({"estimation": {"skin_denoise": "on"}})"), "cfg").estimation.skin_denoise,
-            "on");
+// The multi-pixel estimate (issue 37) is on by default, "off" is read, and a
+// session's provenance records the setting the estimator runs with.
+TEST(DaemonConfig, SkinDenoiseIsOnByDefaultAndRecordedInTheProvenance) {
+  const DaemonConfig defaults = parse_config(nlohmann::json::object(), "cfg");
+  EXPECT_EQ(defaults.estimation.skin_denoise, "on");
+  EXPECT_EQ(parse_config(nlohmann::json::parse(R"({"estimation": {"skin_denoise": "off"}})"), "cfg").estimation.skin_denoise,
+            "off");
+  const fs::path directory = chromo::testing::fresh_directory("config_skin_denoise");
+  for (const std::string setting : {"on", "off"}) {
+    DaemonConfig config = defaults;
+    config.sessions_dir = directory / setting;
+    config.estimation.enabled = false;  // no estimator to prepare: the provenance alone
+    config.estimation.skin_denoise = setting;
+    const Daemon daemon(config, DeviceSet{});
+    const auto options = daemon.session_provenance(session::SessionPlan{}, {}).estimator_options;
+    ASSERT_EQ(options.count("skin_denoise"), 1u);
+    EXPECT_EQ(options.at("skin_denoise"), setting);
+  }
+  fs::remove_all(directory);
 }
 
 TEST(DaemonConfig, DiscrepancyLayerIsReadOnByDefault) {
@@ -301,6 +315,8 @@ TEST(DaemonConfig, DiscrepancyLayerIsReadOnByDefault) {
             "off");
 }
 
+// Subsurface spread in the lab's skin photographs (issue 37): off by default,
+// read into the lab's scene options, a blue wider than the red refused.
 TEST(DaemonConfig, VirtualLabSubsurfaceSpreadIsReadAndABadWidthRefused) {
   EXPECT_FALSE(virtual_lab_options(parse_config(nlohmann::json::object(), "cfg").virtual_lab).subsurface.on);
   const DaemonConfig on = parse_config(

@@ -303,6 +303,8 @@ TEST(MultiCameraEstimation, TwoPosedCamerasGetTheirOwnMapsThatMatchTheirPoses) {
   maps::MethodEstimationOptions options;
   options.cache_dir = lab.config.estimation.cache_dir;
   options.estimator.threads = 2;
+  // The multi-pixel estimate as chromod runs it (estimation.skin_denoise, on by default).
+  if (lab.config.estimation.skin_denoise == "on") options.skin_denoise = estimation::SkinDenoiseOptions{};
   const fs::path offline = lab.directory / "offline";
   const maps::FileCommit commit = [](const fs::path& path, const std::function<void(const fs::path&)>& produce) {
     fs::create_directories(path.parent_path());

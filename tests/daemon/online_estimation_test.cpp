@@ -156,6 +156,8 @@ struct Fixture : ::testing::Test {
     OnlineEstimatorOptions options;
     options.estimation.cache_dir = cache_dir();
     options.estimation.estimator.threads = 2;
+    // The multi-pixel estimate, as chromod (estimation.skin_denoise) and `chromo estimate` run it by default.
+    options.estimation.skin_denoise = estimation::SkinDenoiseOptions{};
     options.sources = [] {
       return session::resolve_capture_sources(library_file.string(), "builtin:nikon_d5100", simulators::kWhiteTargetReflectance);
     };

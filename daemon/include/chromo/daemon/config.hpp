@@ -51,7 +51,7 @@ struct EstimationConfig {
   std::string discrepancy = "learned";
   // The multi-pixel estimate before the spatial pass (docs/estimation.md
   // "Relighting past the model"): "on" or "off".
-  std::string skin_denoise = "off";
+  std::string skin_denoise = "on";
   // A skin's systematic shortfall judged as a local bias before the
   // neighbourhood flags (estimation/local_bias.hpp; docs/estimation.md
   // "A subject's shortfall as a local bias"): "on" or "off".
