@@ -274,7 +274,8 @@ bool Estimator::two_d_suffices(const ChannelBuffer<double>& measured, const Fit&
   return detail::appearance_difference(*appearance_, at4, fit2.x) <= options_.order_appearance_factor * uncertainty;
 }
 
-std::optional<PixelEstimate> Estimator::screen_pixel(const float* m, double* measured, double* variance) const {
+std::optional<PixelEstimate> Estimator::screen_pixel(const float* m, double* measured, double* variance,
+                                                     double* weight) const {
   PixelEstimate out;
   const int c_count = channels();
   for (int c = 0; c < c_count; ++c) {
@@ -297,12 +298,10 @@ std::optional<PixelEstimate> Estimator::screen_pixel(const float* m, double* mea
     out.flag = PixelFlag::kDark;
     return out;
   }
-  return std::nullopt;
-}
-
-void Estimator::fit_weights(const double* variance, double* weight) const {
+  // Step 2's fit weights: each channel by 1/√Σ_cc of the pixel's Σ.
   const bool generalised = discrepancy_.size() > 0;
-  for (int c = 0; c < channels(); ++c) weight[c] = 1 / std::sqrt(variance[c] + (generalised ? discrepancy_(c, c) : 0.0));
+  for (int c = 0; c < c_count; ++c) weight[c] = 1 / std::sqrt(variance[c] + (generalised ? discrepancy_(c, c) : 0.0));
+  return std::nullopt;
 }
 
 double Estimator::fit_chi2(const Fit& f, double s, const double* measured,
@@ -323,10 +322,9 @@ PixelEstimate Estimator::estimate_pixel(const float* m, ModelChoice model, Other
   if (other) *other = OtherOrderFit{};
   const int c_count = channels();
   ChannelBuffer<double> measured(c_count), weight(c_count), variance(c_count);
-  if (std::optional<PixelEstimate> screened = screen_pixel(m, measured, variance)) return *screened;
+  if (std::optional<PixelEstimate> screened = screen_pixel(m, measured, variance, weight)) return *screened;
   // Step 2: the pixel's Σ; the fits weigh each channel by 1/√Σ_cc.
   const detail::PixelCovariance covariance(variance.data(), discrepancy_, c_count);
-  fit_weights(variance, weight);
   PixelEstimate out;
   const Inverter& inv = *inverter_;
   Fit chosen, fit4;
@@ -366,9 +364,8 @@ PixelEstimate Estimator::estimate_from_fit(const float* m, const OtherOrderFit& 
     throw std::invalid_argument("estimate_from_fit: a stored fit of order 2 or 4, not " + std::to_string(other.order));
   const int c_count = channels();
   ChannelBuffer<double> measured(c_count), weight(c_count), variance(c_count);
-  if (std::optional<PixelEstimate> screened = screen_pixel(m, measured, variance)) return *screened;
+  if (std::optional<PixelEstimate> screened = screen_pixel(m, measured, variance, weight)) return *screened;
   const detail::PixelCovariance covariance(variance.data(), discrepancy_, c_count);
-  fit_weights(variance, weight);
   PixelEstimate out;
   // As estimate_pixel with the stored order's model: its specular test starts
   // from the fit itself at either order.

@@ -306,10 +306,9 @@ class Estimator {
   Fit specular_fit(const double* measured, const double* weight, const GridPoint& start,
                    const std::function<double(const Fit&, double s)>& chi2) const;
   // Steps 1-2 of a pixel: its flag before fitting (non-finite, saturated,
-  // dark; returned) or its values and fit variances (std::nullopt).
-  std::optional<PixelEstimate> screen_pixel(const float* m, double* measured, double* variance) const;
-  // The fit weights 1/√Σ_cc of the pixel's Σ.
-  void fit_weights(const double* variance, double* weight) const;
+  // dark; returned) or its values, fit variances and fit weights 1/√Σ_cc of
+  // its Σ (std::nullopt).
+  std::optional<PixelEstimate> screen_pixel(const float* m, double* measured, double* variance, double* weight) const;
   // χ² of a fit of measured − s: the inverter's own weighted sum without a
   // discrepancy, rᵀ Σ⁻¹ r with one.
   double fit_chi2(const Fit& f, double s, const double* measured, const detail::PixelCovariance& covariance) const;
